@@ -1,0 +1,79 @@
+"""Shared plumbing of the benchmarks: medians over repeats and result files with their provenance.
+
+Every benchmark writes ``bench/results/<name>.json`` through :func:`write_results`, which adds the
+machine, the versions, the date and the git commit, so results from different runs are comparable.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import statistics
+import subprocess
+import time
+from importlib import metadata
+from pathlib import Path
+from typing import Any, Callable
+
+from telethermo.atomic import write_json_atomic
+
+RESULTS_DIR = Path(__file__).resolve().parent / "results"
+
+
+def provenance() -> dict[str, Any]:
+    """Machine, versions, date and commit of this run."""
+    def version(pkg: str) -> str:
+        try:
+            return metadata.version(pkg)
+        except metadata.PackageNotFoundError:
+            return "not installed"
+
+    try:
+        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
+                                cwd=Path(__file__).resolve().parent, timeout=10).stdout.strip() or "unknown"
+        dirty = bool(subprocess.run(["git", "status", "--porcelain"], capture_output=True, text=True,
+                                    cwd=Path(__file__).resolve().parent, timeout=10).stdout.strip())
+    except (OSError, subprocess.SubprocessError):
+        commit, dirty = "unknown", False
+    return {
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "commit": commit,
+        "dirty_tree": dirty,
+        "machine": {
+            "platform": platform.platform(),
+            "processor": platform.machine(),
+            "cpus": os.cpu_count(),
+            "python": platform.python_version(),
+        },
+        "versions": {p: version(p) for p in ("telethermo", "numpy", "scipy", "python-can", "canopen")},
+    }
+
+
+def write_results(name: str, data: dict[str, Any], *, results_dir: Path | None = None) -> Path:
+    """Write ``data`` plus provenance to ``<results_dir>/<name>.json`` atomically; return the path."""
+    out = dict(data)
+    out["provenance"] = provenance()
+    return write_json_atomic((results_dir or RESULTS_DIR) / f"{name}.json", out)
+
+
+def median_time_s(fn: Callable[[], Any], *, repeats: int = 5, warmup: int = 1) -> float:
+    """Median wall time of ``fn()`` over ``repeats`` runs after ``warmup`` runs, s."""
+    for _ in range(warmup):
+        fn()
+    times = []
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def print_table(headers: list[str], rows: list[list[Any]]) -> str:
+    """Print (and return) a plain-text table with right-aligned columns."""
+    cells = [[h for h in headers]] + [[f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows]
+    widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
+    lines = ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in cells]
+    lines.insert(1, "  ".join("-" * w for w in widths))
+    text = "\n".join(lines)
+    print(text)
+    return text

@@ -1,0 +1,54 @@
+"""Data types of the control core's step-function contract (DESIGN.md §2).
+
+The control core is pure: ``telethermo.control.core.step(sample, peer, params, state) -> StepResult``.
+The same function runs offline (telethermo.session) and inside the CANopen nodes (nodes/): a node
+fills :class:`PeerValues` from its RPDO1 and the heartbeat consumer, calls ``step`` on every SYNC,
+applies ``StepResult.current_A`` to the rig and sends ``StepResult.out`` in its TPDO1.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum, IntEnum
+
+
+class Role(str, Enum):
+    """Which side a controller runs on."""
+
+    MASTER = "master"  # thermal display under the operator's finger; estimates T_f, tracks T_o
+    SLAVE = "slave"    # robotic thermal probe; estimates T_o, tracks T_f
+
+
+class Mode(IntEnum):
+    """Operating mode; the integer is the value of the mode object in the object dictionary."""
+
+    IDLE = 0          # current 0 (through the envelope's ramp), estimates still computed and sent
+    TELEPRESENCE = 1  # bilateral coupling (guiatni eq. 34/35)
+    RENDER = 2        # virtual material rendering, master alone (yamamoto)
+    IDENTIFY = 3      # excitation (PRBS) for model identification; envelope still active
+
+
+@dataclass(frozen=True, slots=True)
+class PeerValues:
+    """What a controller receives from its peer each cycle (RPDO1) plus the link state.
+
+    Attributes:
+        estimate_C: the peer's estimate: T_o (object, from the slave) on the master, T_f (finger,
+            from the master) on the slave, °C. May be NaN/inf/absurd: the core must cope.
+        flux_W: the peer's measured heat flux through its sensor, W (rig sign convention).
+        fresh: True if a new value arrived for this cycle; False if the core is re-using an old one.
+        alive: False once the node has declared the peer lost (heartbeat timeout or missing PDOs):
+            the safety envelope then ramps to neutral and cuts current.
+    """
+
+    estimate_C: float
+    flux_W: float
+    fresh: bool = True
+    alive: bool = True
+
+
+@dataclass(frozen=True, slots=True)
+class Outgoing:
+    """What a controller sends to its peer each cycle (TPDO1): REAL32 on the bus."""
+
+    estimate_C: float
+    flux_W: float
