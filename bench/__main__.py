@@ -1,0 +1,47 @@
+"""``python -m bench [--quick] [--only NAME ...]``: run every benchmark, write bench/results/*.json,
+then refresh the generated table in docs/benchmarks.md.
+
+Each benchmark is a module ``bench.<name>_bench`` exposing ``run(quick: bool) -> dict`` that prints
+its own table and writes ``bench/results/<name>.json`` (through bench.common.write_results).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+import time
+import traceback
+
+from bench.common import RESULTS_DIR
+from bench.report import refresh_docs
+
+SUITE = ["sim", "identify", "control", "nodes"]
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="short runs for CI that still measure something real")
+    ap.add_argument("--only", nargs="+", choices=SUITE, help="run only these benchmarks")
+    args = ap.parse_args(argv)
+    failed = []
+    for name in args.only or SUITE:
+        print(f"\n===== bench {name} ({'quick' if args.quick else 'full'}) =====", flush=True)
+        t0 = time.perf_counter()
+        try:
+            mod = importlib.import_module(f"bench.{name}_bench")
+            mod.run(quick=args.quick)
+        except Exception:  # one broken benchmark must not hide the others' results
+            traceback.print_exc()
+            failed.append(name)
+        print(f"----- bench {name}: {time.perf_counter() - t0:.1f} s", flush=True)
+    path = refresh_docs(RESULTS_DIR)
+    print(f"\nresults in {RESULTS_DIR}; table refreshed in {path}")
+    if failed:
+        print(f"FAILED benchmarks: {', '.join(failed)}", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
