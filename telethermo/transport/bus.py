@@ -1,0 +1,165 @@
+"""The bus factory: a python-can bus chosen by configuration, never hard-coded (DESIGN.md §5).
+
+Supported by name (any other python-can interface works through ``options``):
+
+- ``socketcan``: a Linux SocketCAN interface (``vcan0``, ``can0``); the bitrate of a real ``can0``
+  is set by ``ip link``, not here.
+- ``virtual``: python-can's in-process bus (threads of one process only).
+- ``socketcand``: python-can's socketcand client (``tcp_tune=True``) against a socketcand server,
+  e.g. our loopback hub (``telethermo-hub``) for two processes on a kernel without CAN.
+
+A transport is written either as a table (network settings file, ``[transport]``)::
+
+    [transport]
+    interface = "socketcand"
+    channel = "vcan0"
+    host = "127.0.0.1"
+    port = 29536
+
+or as one string (command-line override ``--bus``)::
+
+    socketcan:vcan0    virtual:tt    socketcand://127.0.0.1:29536/vcan0    pcan:PCAN_USBBUS1
+"""
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass, field, replace
+from typing import Any, Mapping
+
+import can
+
+#: Bitrate of the telethermo network, bit/s (DESIGN.md §4); used for bus-load figures too.
+DEFAULT_BITRATE = 1_000_000
+
+_KNOWN_KEYS = {"interface", "channel", "host", "port", "bitrate", "options"}
+
+
+class TransportError(ValueError):
+    """A transport description that cannot be used; the message names the source and the field."""
+
+
+@dataclass(frozen=True)
+class TransportSettings:
+    """Which python-can bus to open.
+
+    Attributes:
+        interface: python-can interface name ("socketcan", "virtual", "socketcand", "pcan", ...).
+        channel: the interface's channel ("vcan0", "can0", a virtual bus name, ...).
+        bitrate: nominal bitrate, bit/s (passed to interfaces that take one).
+        host: socketcand server address (socketcand only).
+        port: socketcand server TCP port (socketcand only).
+        options: further keyword arguments for ``can.Bus`` (interface specific).
+    """
+
+    interface: str
+    channel: str
+    bitrate: int = DEFAULT_BITRATE
+    host: str | None = None
+    port: int | None = None
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+    def describe(self) -> str:
+        """The one-string form (see module docstring)."""
+        if self.interface == "socketcand":
+            return f"socketcand://{self.host}:{self.port}/{self.channel}"
+        return f"{self.interface}:{self.channel}"
+
+    def with_overrides(self, **changes: Any) -> "TransportSettings":
+        return replace(self, **changes)
+
+
+def _fail(source: str, fieldname: str, problem: str) -> TransportError:
+    return TransportError(f"{source}: transport.{fieldname}: {problem}")
+
+
+def validate(settings: TransportSettings, source: str = "transport") -> TransportSettings:
+    """Check ``settings``; raise :class:`TransportError` naming ``source`` and the field."""
+    if not isinstance(settings.interface, str) or not settings.interface:
+        raise _fail(source, "interface", f"expected a python-can interface name, got {settings.interface!r}")
+    if not isinstance(settings.channel, str) or not settings.channel:
+        raise _fail(source, "channel", f"expected a channel name such as 'vcan0', got {settings.channel!r}")
+    if not isinstance(settings.bitrate, int) or isinstance(settings.bitrate, bool) or not (
+            10_000 <= settings.bitrate <= 8_000_000):
+        raise _fail(source, "bitrate", f"expected an integer 10000..8000000 bit/s, got {settings.bitrate!r}")
+    if settings.interface == "socketcand":
+        if not isinstance(settings.host, str) or not settings.host:
+            raise _fail(source, "host", "socketcand needs the server address, e.g. '127.0.0.1'")
+        if not isinstance(settings.port, int) or isinstance(settings.port, bool) or not (1 <= settings.port <= 65535):
+            raise _fail(source, "port", f"socketcand needs the server TCP port 1..65535, got {settings.port!r}")
+    if not isinstance(settings.options, Mapping):
+        raise _fail(source, "options", "expected a table of extra can.Bus arguments")
+    return settings
+
+
+def settings_from_mapping(table: Mapping[str, Any], source: str = "transport") -> TransportSettings:
+    """Build settings from a ``[transport]`` table (e.g. of bus_config/network.toml)."""
+    if not isinstance(table, Mapping):
+        raise TransportError(f"{source}: transport: expected a table, got {type(table).__name__}")
+    unknown = set(table) - _KNOWN_KEYS
+    if unknown:
+        raise _fail(source, sorted(unknown)[0], f"unknown field; expected one of {sorted(_KNOWN_KEYS)}")
+    for key in ("interface", "channel"):
+        if key not in table:
+            raise _fail(source, key, "missing")
+    settings = TransportSettings(
+        interface=table["interface"], channel=table["channel"],
+        bitrate=table.get("bitrate", DEFAULT_BITRATE), host=table.get("host"), port=table.get("port"),
+        options=dict(table.get("options", {})) if isinstance(table.get("options", {}), Mapping) else table["options"],
+    )
+    return validate(settings, source)
+
+
+def parse_bus_string(text: str, *, bitrate: int = DEFAULT_BITRATE, source: str = "--bus") -> TransportSettings:
+    """Parse ``INTERFACE:CHANNEL`` or ``socketcand://HOST:PORT/CHANNEL`` (see module docstring)."""
+    text = text.strip()
+    if text.startswith("socketcand://"):
+        rest = text[len("socketcand://"):]
+        hostport, sep, channel = rest.partition("/")
+        host, colon, port_text = hostport.rpartition(":")
+        if not sep or not colon or not channel:
+            raise TransportError(f"{source}: {text!r}: expected socketcand://HOST:PORT/CHANNEL")
+        host = host.strip("[]")
+        try:
+            port = int(port_text)
+        except ValueError:
+            raise TransportError(f"{source}: {text!r}: port {port_text!r} is not an integer") from None
+        return validate(TransportSettings("socketcand", channel, bitrate, host=host, port=port),
+                        f"{source} {text!r}")
+    interface, colon, channel = text.partition(":")
+    if not colon or not interface or not channel:
+        raise TransportError(f"{source}: {text!r}: expected INTERFACE:CHANNEL (e.g. socketcan:vcan0) "
+                             "or socketcand://HOST:PORT/CHANNEL")
+    return validate(TransportSettings(interface, channel, bitrate), f"{source} {text!r}")
+
+
+def open_bus(settings: TransportSettings) -> can.BusABC:
+    """Open the python-can bus ``settings`` describe. The caller shuts it down."""
+    validate(settings)
+    kwargs: dict[str, Any] = dict(settings.options)
+    if settings.interface == "socketcan":
+        return can.Bus(interface="socketcan", channel=settings.channel, **kwargs)
+    if settings.interface == "virtual":
+        kwargs.setdefault("receive_own_messages", False)
+        return can.Bus(interface="virtual", channel=settings.channel, **kwargs)
+    if settings.interface == "socketcand":
+        kwargs.setdefault("tcp_tune", os.name != "nt")
+        return can.Bus(interface="socketcand", channel=settings.channel, host=settings.host,
+                       port=settings.port, **kwargs)
+    return can.Bus(interface=settings.interface, channel=settings.channel, bitrate=settings.bitrate, **kwargs)
+
+
+def frame_bits(dlc: int, *, extended: bool = False) -> int:
+    """Bits a classic CAN data frame of ``dlc`` bytes occupies on the wire, worst-case stuffing.
+
+    11-bit ID: 47 + 8·dlc bits before stuffing (SOF..EOF and 3 bits interframe space), of which
+    34 + 8·dlc are subject to stuffing (one stuff bit per 4 at worst). 29-bit ID: 67 + 8·dlc, 54 + 8·dlc.
+    """
+    if not 0 <= dlc <= 8:
+        raise ValueError(f"dlc {dlc}: expected 0..8")
+    fixed, stuffable = (67, 54) if extended else (47, 34)
+    return fixed + 8 * dlc + (stuffable + 8 * dlc - 1) // 4
+
+
+def bus_load(frames_per_s: Mapping[int, float], bitrate: int = DEFAULT_BITRATE) -> float:
+    """Fraction of the bus time used by classic 11-bit frames: ``{dlc: frames/s}`` at ``bitrate`` bit/s."""
+    return sum(rate * frame_bits(dlc) for dlc, rate in frames_per_s.items()) / bitrate
