@@ -1,0 +1,95 @@
+"""The link to the peer node: its latest RPDO1 values and whether it is alive, as the control core
+sees them each cycle (:class:`telethermo.control.types.PeerValues`).
+
+The peer is *lost* when the heartbeat consumer (0x1016) reports a timeout, or when its TPDO1 has
+been missing for more than ``max_missed_cycles`` consecutive cycles; it is back when its heartbeat
+is seen again and a fresh PDO arrives. Thread-safe: the bus's receive thread writes, the cycle reads.
+"""
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+
+from telethermo.control.types import PeerValues
+
+
+@dataclass
+class PeerCounters:
+    """What the link counted (exposed in the log and the node's status)."""
+
+    pdos: int = 0
+    missed_cycles: int = 0
+    losses: int = 0
+    returns: int = 0
+    non_finite: int = 0
+
+
+class PeerLink:
+    """Latest peer values + link state.
+
+    Args:
+        max_missed_cycles: consecutive cycles without a fresh PDO after which the peer counts as
+            lost (even if its heartbeat still comes).
+    """
+
+    def __init__(self, max_missed_cycles: int = 10) -> None:
+        if max_missed_cycles < 1:
+            raise ValueError(f"max_missed_cycles {max_missed_cycles}: expected >= 1")
+        self.max_missed_cycles = max_missed_cycles
+        self._lock = threading.Lock()
+        self._estimate_C = math.nan
+        self._flux_W = math.nan
+        self._ever = False
+        self._fresh = False
+        self._missed = 0
+        self._hb_ok = True
+        self._alive_reported = True
+        self.counters = PeerCounters()
+
+    def on_pdo(self, estimate_C: float, flux_W: float) -> None:
+        """The peer's TPDO1 arrived (values as decoded from REAL32: may be NaN, the core copes)."""
+        with self._lock:
+            self._estimate_C, self._flux_W = estimate_C, flux_W
+            self._ever = True
+            self._fresh = True
+            self.counters.pdos += 1
+            if not (math.isfinite(estimate_C) and math.isfinite(flux_W)):
+                self.counters.non_finite += 1
+
+    def on_heartbeat_timeout(self) -> None:
+        with self._lock:
+            self._hb_ok = False
+
+    def on_heartbeat(self) -> None:
+        """A heartbeat of the peer was seen (any NMT state)."""
+        with self._lock:
+            self._hb_ok = True
+
+    @property
+    def alive(self) -> bool:
+        with self._lock:
+            return self._alive_locked()
+
+    def _alive_locked(self) -> bool:
+        return self._hb_ok and self._ever and self._missed <= self.max_missed_cycles
+
+    def take(self) -> PeerValues | None:
+        """The values for this cycle (None until the peer's first PDO); marks them consumed."""
+        with self._lock:
+            if self._fresh:
+                self._missed = 0
+            elif self._ever:
+                self._missed += 1
+                self.counters.missed_cycles += 1
+            alive = self._alive_locked()
+            if alive != self._alive_reported:
+                if alive:
+                    self.counters.returns += 1
+                else:
+                    self.counters.losses += 1
+                self._alive_reported = alive
+            if not self._ever:
+                return None
+            fresh, self._fresh = self._fresh, False
+            return PeerValues(estimate_C=self._estimate_C, flux_W=self._flux_W, fresh=fresh, alive=alive)

@@ -1,0 +1,32 @@
+"""The streaming CSV recorder: exact values back, atomic appearance."""
+from __future__ import annotations
+
+import csv
+import math
+
+import pytest
+
+from nodes.recorder import CsvRecorder
+
+
+def test_rows_round_trip_exactly_and_appear_only_on_close(tmp_path):
+    path = tmp_path / "rec" / "master.csv"
+    rec = CsvRecorder(path, ["k", "t_s", "T_C", "contact"], flush_every=2)
+    values = [(k, k * 0.01, 30.0 + 1 / 3 * k, k % 2 == 0) for k in range(5)]
+    for v in values:
+        rec.write(dict(zip(rec.columns, v)))
+    rec.write([5, 0.05, math.nan, False])
+    assert not path.exists()
+    rec.close()
+    rows = list(csv.DictReader(path.open()))
+    assert [float(r["T_C"]) for r in rows[:5]] == [v[2] for v in values]
+    assert math.isnan(float(rows[5]["T_C"])) and rows[0]["contact"] == "1"
+    assert list(tmp_path.joinpath("rec").iterdir()) == [path]
+
+
+def test_wrong_row_length_names_the_file(tmp_path):
+    rec = CsvRecorder(tmp_path / "x.csv", ["a", "b"])
+    with pytest.raises(ValueError, match="x.csv: row has 1 values, expected 2"):
+        rec.write([1])
+    rec.abort()
+    assert list(tmp_path.iterdir()) == []
