@@ -8,11 +8,13 @@ Supported by name (any other python-can interface works through ``options``):
 - ``socketcand``: python-can's socketcand client (``tcp_tune=True``) against a socketcand server,
   e.g. our loopback hub (``telethermo-hub``) for two processes on a kernel without CAN.
 
-A transport is written either as a table (network settings file, ``[transport]``)::
+A transport is written either as a table (the ``[bus]`` table of the network settings file; ``host`` and ``port`` may
+also sit at its top level)::
 
-    [transport]
+    [bus]
     interface = "socketcand"
     channel = "vcan0"
+    [bus.options]
     host = "127.0.0.1"
     port = 29536
 
@@ -69,7 +71,7 @@ class TransportSettings:
 
 
 def _fail(source: str, fieldname: str, problem: str) -> TransportError:
-    return TransportError(f"{source}: transport.{fieldname}: {problem}")
+    return TransportError(f"{source}: bus.{fieldname}: {problem}")
 
 
 def validate(settings: TransportSettings, source: str = "transport") -> TransportSettings:
@@ -92,20 +94,25 @@ def validate(settings: TransportSettings, source: str = "transport") -> Transpor
 
 
 def settings_from_mapping(table: Mapping[str, Any], source: str = "transport") -> TransportSettings:
-    """Build settings from a ``[transport]`` table (e.g. of bus_config/network.toml)."""
+    """Build settings from a ``[bus]`` table (e.g. of bus_config/network.toml)."""
     if not isinstance(table, Mapping):
-        raise TransportError(f"{source}: transport: expected a table, got {type(table).__name__}")
+        raise TransportError(f"{source}: bus: expected a table, got {type(table).__name__}")
     unknown = set(table) - _KNOWN_KEYS
     if unknown:
         raise _fail(source, sorted(unknown)[0], f"unknown field; expected one of {sorted(_KNOWN_KEYS)}")
     for key in ("interface", "channel"):
         if key not in table:
             raise _fail(source, key, "missing")
-    settings = TransportSettings(
-        interface=table["interface"], channel=table["channel"],
-        bitrate=table.get("bitrate", DEFAULT_BITRATE), host=table.get("host"), port=table.get("port"),
-        options=dict(table.get("options", {})) if isinstance(table.get("options", {}), Mapping) else table["options"],
-    )
+    options = table.get("options", {})
+    if not isinstance(options, Mapping):
+        raise _fail(source, "options", "expected a table of extra can.Bus arguments")
+    options = dict(options)
+    # socketcand's server address may sit at the top level or among the can.Bus options
+    host = table.get("host", options.pop("host", None))
+    port = table.get("port", options.pop("port", None))
+    settings = TransportSettings(interface=table["interface"], channel=table["channel"],
+                                 bitrate=table.get("bitrate", DEFAULT_BITRATE), host=host, port=port,
+                                 options=options)
     return validate(settings, source)
 
 

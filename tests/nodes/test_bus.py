@@ -6,7 +6,7 @@ import pytest
 
 from telethermo.transport.bus import (TransportError, TransportSettings, bus_load, frame_bits, open_bus,
                                       parse_bus_string, settings_from_mapping)
-from telethermo.transport.hub import HubThread
+from telethermo.bus.hub import HubThread
 
 
 def test_parse_strings():
@@ -22,7 +22,7 @@ def test_parse_strings():
     ("vcan0", "INTERFACE:CHANNEL"),
     ("socketcand://127.0.0.1/vcan0", "HOST:PORT"),
     ("socketcand://127.0.0.1:x/vcan0", "not an integer"),
-    ("socketcand://127.0.0.1:70000/vcan0", "transport.port"),
+    ("socketcand://127.0.0.1:70000/vcan0", "bus.port"),
 ])
 def test_bad_strings_name_the_problem(text, fragment):
     with pytest.raises(TransportError, match=fragment) as info:
@@ -31,14 +31,17 @@ def test_bad_strings_name_the_problem(text, fragment):
 
 
 def test_table_errors_name_file_and_field():
-    with pytest.raises(TransportError, match=r"network.toml: transport.channel: missing"):
+    with pytest.raises(TransportError, match=r"network.toml: bus.channel: missing"):
         settings_from_mapping({"interface": "socketcan"}, "network.toml")
-    with pytest.raises(TransportError, match=r"network.toml: transport.bitrate: expected an integer"):
+    with pytest.raises(TransportError, match=r"network.toml: bus.bitrate: expected an integer"):
         settings_from_mapping({"interface": "socketcan", "channel": "vcan0", "bitrate": "fast"}, "network.toml")
-    with pytest.raises(TransportError, match=r"network.toml: transport.hots: unknown field"):
+    with pytest.raises(TransportError, match=r"network.toml: bus.hots: unknown field"):
         settings_from_mapping({"interface": "socketcan", "channel": "vcan0", "hots": "x"}, "network.toml")
-    with pytest.raises(TransportError, match=r"transport.host: socketcand needs"):
+    with pytest.raises(TransportError, match=r"bus.host: socketcand needs"):
         settings_from_mapping({"interface": "socketcand", "channel": "vcan0", "port": 1}, "network.toml")
+    s = settings_from_mapping({"interface": "socketcand", "channel": "vcan0",
+                               "options": {"host": "127.0.0.1", "port": 29536, "tcp_tune": True}}, "network.toml")
+    assert (s.host, s.port, dict(s.options)) == ("127.0.0.1", 29536, {"tcp_tune": True})
 
 
 def _exchange(a: can.BusABC, b: can.BusABC) -> None:

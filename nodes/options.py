@@ -1,0 +1,129 @@
+"""Command line of the node programs (``telethermo-master``, ``telethermo-slave``).
+
+Both programs take the same options; only the defaults differ (node-ID, SYNC production, mode).
+Values not given on the command line come from the network settings file (bus_config/network.toml).
+"""
+from __future__ import annotations
+
+import argparse
+from dataclasses import dataclass
+from pathlib import Path
+
+from telethermo.control.types import Mode, Role
+
+MODE_NAMES = {"idle": Mode.IDLE, "telepresence": Mode.TELEPRESENCE, "render": Mode.RENDER, "identify": Mode.IDENTIFY}
+
+
+class OptionError(ValueError):
+    """A bad option or file; the message names it and says what was expected (exit 2)."""
+
+
+@dataclass(frozen=True)
+class NodeOptions:
+    """What one node process runs.
+
+    Attributes:
+        role: master or slave.
+        node_id: CANopen node-ID 1..127 (None: from the network settings).
+        network: network settings file (None: the packaged bus_config/network.toml).
+        bus: transport override, ``INTERFACE:CHANNEL`` or ``socketcand://HOST:PORT/CHANNEL``.
+        scene: scene file of a simulated rig (lockstep by default).
+        rig: ``module:factory`` of a hardware rig driver (real time).
+        model: identified model file (None: the packaged sim_tem.json).
+        mode: initial mode (changeable by SDO on object 0x2500).
+        record: CSV file for this node's signals (None: no recording).
+        timing: "lockstep" (SYNC k+1 after every node's cycle-k PDO) or "realtime" (wall clock).
+        produce_sync: this node is the SYNC producer (and the NMT master of the pair).
+        cycles: SYNC producer: stop after this many cycles (None: the scene's duration; 0: until stopped).
+        seed: seed of the simulated rig's noise (None: the scene's).
+        wait_peer_s: SYNC producer: wait this long for the peer's boot before starting anyway, s.
+        progress_every: print ``progress K N`` every this many cycles (0: never).
+        verbose: log at INFO level.
+    """
+
+    role: Role
+    node_id: int | None = None
+    network: Path | None = None
+    bus: str | None = None
+    scene: Path | None = None
+    rig: str | None = None
+    model: Path | None = None
+    mode: Mode = Mode.TELEPRESENCE
+    record: Path | None = None
+    timing: str | None = None
+    produce_sync: bool = False
+    cycles: int | None = None
+    seed: int | None = None
+    wait_peer_s: float = 30.0
+    progress_every: int = 0
+    log: Path | None = None
+    verbose: bool = False
+
+
+def build_parser(role: Role) -> argparse.ArgumentParser:
+    other = "slave" if role is Role.MASTER else "master"
+    what = ("thermal display under the operator's finger; produces SYNC by default"
+            if role is Role.MASTER else "robotic thermal probe; follows the master's SYNC by default")
+    p = argparse.ArgumentParser(
+        prog=f"telethermo-{role.value}",
+        description=f"The telethermo {role.value} CANopen node ({what}). On each SYNC: read the rig, run the "
+                    f"control core, apply the current, send TPDO1 (estimate, heat flux) to the {other}. "
+                    "SIGINT/SIGTERM stop it cleanly (current to zero, last heartbeat, recording flushed).",
+        epilog="exit codes: 0 ok, 1 runtime failure, 2 bad option or file, 130 interrupted")
+    p.add_argument("--node-id", type=int, help="CANopen node-ID 1..127 (default: from the network settings)")
+    p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
+    p.add_argument("--bus", help="transport override: INTERFACE:CHANNEL (socketcan:vcan0, virtual:tt, pcan:...) "
+                                 "or socketcand://HOST:PORT/CHANNEL (our hub)")
+    rig = p.add_mutually_exclusive_group(required=True)
+    rig.add_argument("--scene", type=Path, help="scene file (TOML): simulated rig")
+    rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY() returns a telethermo.rig.Rig")
+    p.add_argument("--model", type=Path, help="identified model file (default: packaged sim_tem.json)")
+    p.add_argument("--mode", choices=list(MODE_NAMES), default=None,
+                   help="initial mode (default: telepresence); object 0x2500 changes it by SDO")
+    p.add_argument("--record", type=Path, help="write this node's signals to this CSV file")
+    p.add_argument("--timing", choices=["lockstep", "realtime"],
+                   help="lockstep (default with --scene) or realtime (default with --rig)")
+    sync = p.add_mutually_exclusive_group()
+    sync.add_argument("--sync", dest="produce_sync", action="store_true", default=None,
+                      help="produce SYNC (default for the master)")
+    sync.add_argument("--no-sync", dest="produce_sync", action="store_false", help="do not produce SYNC")
+    p.add_argument("--cycles", type=int, help="SYNC producer: stop after N cycles (default: the scene's "
+                                              "duration; 0 = until SIGINT/SIGTERM)")
+    p.add_argument("--seed", type=int, help="noise seed of the simulated rig")
+    p.add_argument("--wait-peer", type=float, default=30.0, metavar="S",
+                   help="SYNC producer: wait up to S s for the peer's boot-up before starting (default 30)")
+    p.add_argument("--progress", type=int, default=0, metavar="K", help="print 'progress k n' every K cycles")
+    p.add_argument("--log", type=Path, help="also write the log to this file")
+    p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
+    return p
+
+
+def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
+    """Validate the parsed arguments (files exist, ranges) into :class:`NodeOptions`."""
+    def existing(path: Path | None, what: str) -> Path | None:
+        if path is not None and not path.is_file():
+            raise OptionError(f"{what} {str(path)!r}: no such file")
+        return path
+
+    if args.node_id is not None and not 1 <= args.node_id <= 127:
+        raise OptionError(f"--node-id {args.node_id}: expected 1..127")
+    if args.cycles is not None and args.cycles < 0:
+        raise OptionError(f"--cycles {args.cycles}: expected >= 0")
+    if args.rig is not None and ":" not in args.rig:
+        raise OptionError(f"--rig {args.rig!r}: expected MODULE:FACTORY")
+    if not args.wait_peer >= 0:
+        raise OptionError(f"--wait-peer {args.wait_peer}: expected >= 0 s")
+    produce_sync = args.produce_sync if args.produce_sync is not None else role is Role.MASTER
+    timing = args.timing or ("lockstep" if args.scene is not None else "realtime")
+    if timing == "lockstep" and args.scene is None:
+        raise OptionError("--timing lockstep needs a simulated rig (--scene): hardware runs in real time")
+    mode = MODE_NAMES[args.mode] if args.mode else (Mode.TELEPRESENCE)
+    if mode is Mode.RENDER and role is Role.SLAVE:
+        raise OptionError("--mode render: virtual rendering runs on the master alone")
+    if args.record is not None and args.record.exists() and args.record.is_dir():
+        raise OptionError(f"--record {str(args.record)!r}: is a directory, expected a CSV file path")
+    return NodeOptions(
+        role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
+        scene=existing(args.scene, "--scene"), rig=args.rig, model=existing(args.model, "--model"), mode=mode,
+        record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
+        wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), log=args.log, verbose=args.verbose)
