@@ -6,7 +6,7 @@ import pytest
 
 from telethermo.transport.bus import (TransportError, TransportSettings, bus_load, frame_bits, open_bus,
                                       parse_bus_string, settings_from_mapping)
-from telethermo.bus.hub import HubThread
+from telethermo.transport.hub import HubThread
 
 
 def test_parse_strings():
