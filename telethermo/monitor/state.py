@@ -1,0 +1,551 @@
+"""The monitor's state machine: frames in, per-node state, bus statistics and events out.
+
+:class:`Monitor` is pure in the sense that matters: it never reads a clock or touches a bus. Every
+frame brings its own timestamp (:meth:`Monitor.feed`) and the caller says what time it is when no
+frame arrives (:meth:`Monitor.tick`, for heartbeat timeouts and rates on a silent bus). The same
+object therefore serves a live bus, a replay at recorded speed and a replay as fast as possible.
+"""
+from __future__ import annotations
+
+import math
+import statistics
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+from . import cia301
+from . import decoder as dec
+from .busload import message_length_bits
+from .events import ERROR, INFO, WARN, Event, EventLog
+from .pdo import PdoDef, PdoMap, PdoValue, _var, decode_pdo, format_value
+from .sdo import SdoChannel, SdoTransfer
+
+
+@dataclass(frozen=True)
+class NodeInfo:
+    """What the monitor knows of a node before it sees it: its name and object dictionary."""
+
+    name: str
+    od: Any = None  # canopen.ObjectDictionary (from the node's EDS) or None
+
+
+@dataclass
+class MonitorConfig:
+    """Settings of one monitor.
+
+    Attributes:
+        nodes: node-ID -> NodeInfo (name, EDS object dictionary); unknown nodes are still decoded.
+        bitrate_bps: the bus bitrate, bit/s (for the bus load).
+        sync_period_s: nominal SYNC period, s; a SYNC interval longer than
+            ``sync_period_s * (1 + late_tolerance)`` is a late cycle. None: no late-cycle count (lockstep).
+        late_tolerance: fraction of the period a SYNC may be late before the cycle counts as late.
+        window_s: window of frames/s and bus load, s.
+        heartbeat_timeout_factor: without a consumer time (0x1016) for a node, its heartbeat times out
+            after this many producer periods (0x1017).
+    """
+
+    nodes: dict[int, NodeInfo] = field(default_factory=dict)
+    bitrate_bps: int = 1_000_000
+    sync_period_s: float | None = None
+    late_tolerance: float = 0.5
+    window_s: float = 1.0
+    heartbeat_timeout_factor: float = 1.5
+
+
+@dataclass
+class SdoRecord:
+    """A finished SDO transfer with what the EDS says about the object."""
+
+    transfer: SdoTransfer
+    name: str
+    value: Any
+    unit: str
+
+    def text(self) -> str:
+        tr = self.transfer
+        arrow = "write" if tr.direction == "download" else "read" if tr.direction == "upload" else tr.direction
+        where = f"0x{tr.index:04X}:{tr.subindex:02X} {self.name}".rstrip()
+        if tr.status == "ok":
+            return f"{arrow} {where} = {format_value(self.value, self.unit)} ({tr.mode})"
+        if tr.status == "aborted":
+            return f"{arrow} {where} ABORT 0x{tr.abort_code:08X} {tr.abort_text} (by {tr.aborted_by})"
+        return f"{arrow} {where} ERROR {tr.problem}"
+
+    def to_json(self) -> dict[str, Any]:
+        out = self.transfer.to_json()
+        v = self.value
+        if isinstance(v, (bytes, bytearray)):
+            v = bytes(v).hex()
+        elif isinstance(v, float) and not math.isfinite(v):
+            v = str(v)
+        out.update(type="sdo", name=self.name, value=v, unit=self.unit, text=self.text())
+        return out
+
+
+@dataclass
+class NodeState:
+    """Everything the monitor learnt about one node."""
+
+    node: int
+    name: str = ""
+    nmt_state: str = cia301.NMT_UNKNOWN
+    heartbeats: int = 0
+    boot_ups: int = 0
+    last_hb_t: float | None = None
+    hb_period_min_s: float | None = None
+    hb_period_max_s: float | None = None
+    hb_period_last_s: float | None = None
+    producer_time_s: float | None = None      # 0x1017 of the node
+    consumer_time_s: float | None = None      # the shortest 0x1016 entry watching it
+    hb_lost: bool = False
+    hb_losses: int = 0
+    nmt_pending: str | None = None            # an NMT command was seen, heartbeat not yet confirming
+    reset_pending: bool = False
+    after_boot: bool = False
+    last_emcy: dict[str, Any] | None = None
+    last_emcy_t: float | None = None
+    emcys: int = 0
+    error_register: int | None = None
+    sdo: SdoChannel | None = None
+    sdo_transfers: deque = field(default_factory=lambda: deque(maxlen=8))
+    sdo_ok: int = 0
+    sdo_aborts: int = 0
+    pdo_frames: dict[str, int] = field(default_factory=dict)
+
+    @property
+    def hb_timeout_s(self) -> float | None:
+        """Time without heartbeat after which the node counts as lost, s."""
+        if self.consumer_time_s:
+            return self.consumer_time_s
+        if self.producer_time_s:
+            return self.producer_time_s * self._factor
+        return None
+
+    _factor: float = 1.5
+
+    def to_json(self) -> dict[str, Any]:
+        return {"node": self.node, "name": self.name, "nmt_state": self.nmt_state, "heartbeats": self.heartbeats,
+                "boot_ups": self.boot_ups, "hb_period_min_s": self.hb_period_min_s,
+                "hb_period_max_s": self.hb_period_max_s, "hb_period_last_s": self.hb_period_last_s,
+                "producer_time_s": self.producer_time_s, "consumer_time_s": self.consumer_time_s,
+                "hb_timeout_s": self.hb_timeout_s, "hb_lost": self.hb_lost, "hb_losses": self.hb_losses,
+                "last_emcy": self.last_emcy, "emcys": self.emcys, "error_register": self.error_register,
+                "sdo_ok": self.sdo_ok, "sdo_aborts": self.sdo_aborts,
+                "last_sdo": [r.to_json() for r in self.sdo_transfers][-1:],
+                "pdo_frames": dict(self.pdo_frames)}
+
+
+@dataclass
+class PdoState:
+    """Last values of one PDO as seen on the bus."""
+
+    pdef: PdoDef
+    count: int = 0
+    last_t: float | None = None
+    values: list[PdoValue] = field(default_factory=list)
+    missing: int = 0
+    missing_streak: int = 0
+    armed: bool = False
+
+
+@dataclass
+class BusStats:
+    """Bus-wide figures for the status bar."""
+
+    frames: int = 0
+    bits: int = 0
+    error_frames: int = 0
+    unknown_frames: int = 0
+    malformed: int = 0
+    syncs: int = 0
+    sync_counter: int | None = None
+    sync_counter_errors: int = 0
+    sync_intervals_s: deque = field(default_factory=lambda: deque(maxlen=500))
+    late_cycles: int = 0
+    missed_pdos: int = 0
+    frames_per_s: float = 0.0
+    bus_load: float = 0.0   # fraction of the bitrate
+    t_first: float | None = None
+    t_last: float | None = None
+
+    def sync_summary(self) -> dict[str, float | None]:
+        """Mean SYNC period, its standard deviation (jitter), min and max over the last 500, s."""
+        iv = list(self.sync_intervals_s)
+        if not iv:
+            return {"period_s": None, "jitter_s": None, "min_s": None, "max_s": None}
+        return {"period_s": statistics.fmean(iv), "jitter_s": statistics.pstdev(iv) if len(iv) > 1 else 0.0,
+                "min_s": min(iv), "max_s": max(iv)}
+
+
+class Monitor:
+    """Decode frames and keep the state of the bus (see the module docstring)."""
+
+    def __init__(self, config: MonitorConfig | None = None) -> None:
+        self.config = config or MonitorConfig()
+        self.nodes: dict[int, NodeState] = {}
+        self.stats = BusStats()
+        self.log = EventLog()
+        self.pdo_map = PdoMap({n: info.od for n, info in self.config.nodes.items() if info.od is not None})
+        self.pdos: dict[tuple[int, str, int], PdoState] = {}
+        self._window: deque[tuple[float, int]] = deque()
+        self._last_sync_t: float | None = None
+        self._sync_cob = cia301.COB_SYNC
+        for n, info in self.config.nodes.items():
+            self._node(n).name = info.name
+        self._load_heartbeat_config()
+
+    # -- set-up ----------------------------------------------------------------------------------
+    def _node(self, n: int) -> NodeState:
+        st = self.nodes.get(n)
+        if st is None:
+            info = self.config.nodes.get(n)
+            st = NodeState(n, name=info.name if info else "", sdo=SdoChannel(n))
+            st._factor = self.config.heartbeat_timeout_factor
+            self.nodes[n] = st
+        return st
+
+    def _od(self, n: int | None):
+        info = self.config.nodes.get(n) if n is not None else None
+        return info.od if info else None
+
+    def _load_heartbeat_config(self) -> None:
+        for n, info in self.config.nodes.items():
+            if info.od is None:
+                continue
+            v = _var(info.od, 0x1017, 0)
+            if v is not None and isinstance(v.default, int) and v.default > 0:
+                self._node(n).producer_time_s = v.default / 1000.0
+            if 0x1016 in info.od:
+                obj = info.od[0x1016]
+                for sub in range(1, 128):
+                    try:
+                        var = obj[sub]
+                    except (KeyError, TypeError):
+                        break
+                    self._set_consumer(var.default if isinstance(var.default, int) else 0)
+            v = _var(info.od, 0x1005, 0)
+            if v is not None and isinstance(v.default, int) and v.default:
+                self._sync_cob = v.default & 0x7FF
+
+    def _set_consumer(self, raw: int) -> None:
+        watched, ms = (raw >> 16) & 0x7F, raw & 0xFFFF
+        if watched and ms:
+            st = self._node(watched)
+            t = ms / 1000.0
+            st.consumer_time_s = t if st.consumer_time_s is None else min(st.consumer_time_s, t)
+
+    # -- input -----------------------------------------------------------------------------------
+    def feed(self, msg) -> tuple[dec.Frame, list[Event]]:
+        """Decode one python-can message and update the state; the decoded frame and new events."""
+        t = float(msg.timestamp or 0.0)
+        data = bytes(msg.data or b"")
+        events: list[Event] = []
+        self._account(t, msg, events)
+        kind, node = dec.classify(msg.arbitration_id, extended=bool(msg.is_extended_id),
+                                  remote=bool(msg.is_remote_frame), error=bool(msg.is_error_frame),
+                                  sync_cob_id=self._sync_cob, pdo_cob_ids=self.pdo_map.table)
+        frame = dec.Frame(t, msg.arbitration_id, data, kind, node)
+        handler = getattr(self, f"_on_{kind.lower()}")
+        handler(frame, events)
+        events += self._check_timeouts(t)
+        self.log.add(events)
+        return frame, events
+
+    def tick(self, now_s: float) -> list[Event]:
+        """Advance the monitor's idea of time with no frame (live view refresh); new events."""
+        events = self._check_timeouts(now_s)
+        self._update_rates(now_s)
+        self.log.add(events)
+        return events
+
+    # -- bookkeeping -----------------------------------------------------------------------------
+    def _account(self, t: float, msg, events: list[Event]) -> None:
+        s = self.stats
+        bits = message_length_bits(msg)
+        s.frames += 1
+        s.bits += bits
+        if s.t_first is None:
+            s.t_first = t
+        s.t_last = t
+        self._window.append((t, bits))
+        self._update_rates(t)
+
+    def _update_rates(self, now: float) -> None:
+        s, w = self.stats, self.config.window_s
+        while self._window and self._window[0][0] <= now - w:
+            self._window.popleft()
+        if s.t_first is None:
+            return
+        span = min(w, max(now - s.t_first, 0.0))
+        if span <= 0:
+            return
+        s.frames_per_s = len(self._window) / span
+        s.bus_load = sum(b for _, b in self._window) / (self.config.bitrate_bps * span)
+
+    def _check_timeouts(self, now: float) -> list[Event]:
+        out = []
+        for st in self.nodes.values():
+            to = st.hb_timeout_s
+            if st.last_hb_t is None or to is None or st.hb_lost:
+                continue
+            if now - st.last_hb_t > to:
+                st.hb_lost = True
+                st.hb_losses += 1
+                out.append(Event(now, ERROR, "heartbeat_lost", st.node,
+                                 f"node {st.node} {st.name}: heartbeat lost (none for {now - st.last_hb_t:.3f} s "
+                                 f"> timeout {to:.3f} s)".replace(" :", ":"),
+                                 {"silence_s": now - st.last_hb_t, "timeout_s": to}))
+        return out
+
+    # -- per service -----------------------------------------------------------------------------
+    def _on_error_frame(self, f: dec.Frame, ev: list[Event]) -> None:
+        self.stats.error_frames += 1
+        f.text = "error frame"
+        ev.append(Event(f.t_s, WARN, "error_frame", None, "CAN error frame", {"data": f.data.hex()}))
+
+    def _on_unknown(self, f: dec.Frame, ev: list[Event]) -> None:
+        self.stats.unknown_frames += 1
+        f.text = f"unknown COB-ID 0x{f.cob_id:03X} [{len(f.data)}] {f.data.hex(' ')}"
+
+    def _malformed(self, f: dec.Frame, ev: list[Event], text: str) -> None:
+        self.stats.malformed += 1
+        ev.append(Event(f.t_s, WARN, "malformed", f.node, f"{f.kind} 0x{f.cob_id:03X}: {text}",
+                        {"data": f.data.hex()}))
+
+    def _on_lss(self, f: dec.Frame, ev: list[Event]) -> None:
+        f.text = f"LSS {'master' if f.cob_id == cia301.COB_LSS_RX else 'slave'} cs 0x{f.data[:1].hex() or '--'}"
+
+    def _on_nmt(self, f: dec.Frame, ev: list[Event]) -> None:
+        f.fields = dec.decode_nmt(f.data)
+        if "error" in f.fields:
+            f.text = f"NMT {f.fields['error']}"
+            self._malformed(f, ev, f.fields["error"])
+            return
+        target = f.fields["target"]
+        f.node = target
+        who = "all nodes" if target == 0 else f"node {target}"
+        f.text = f"NMT {f.fields['command_name']} -> {who}"
+        targets = list(self.nodes) if target == 0 else [target]
+        for n in targets:
+            st = self._node(n)
+            st.nmt_pending = f.fields["target_state"]
+            if f.fields["command"] in (0x81, 0x82):
+                st.reset_pending = True
+                self.pdo_map.reset_node(n)
+        for p in self.pdos.values():
+            if target in (0, p.pdef.node):
+                p.armed = False
+        ev.append(Event(f.t_s, INFO, "nmt", target, f.text, dict(f.fields)))
+
+    def _on_sync(self, f: dec.Frame, ev: list[Event]) -> None:
+        f.fields = dec.decode_sync(f.data)
+        s = self.stats
+        s.syncs += 1
+        c = f.fields["counter"]
+        f.text = "SYNC" + (f" #{c}" if c is not None else "")
+        if "error" in f.fields:
+            self._malformed(f, ev, f.fields["error"])
+        if c is not None and s.sync_counter is not None and c != s.sync_counter + 1 and c != 1:
+            s.sync_counter_errors += 1
+            ev.append(Event(f.t_s, WARN, "sync_counter", None,
+                            f"SYNC counter jumped {s.sync_counter} -> {c}", {"previous": s.sync_counter, "counter": c}))
+        s.sync_counter = c
+        if self._last_sync_t is not None:
+            dt = f.t_s - self._last_sync_t
+            s.sync_intervals_s.append(dt)
+            f.fields["interval_s"] = dt
+            per = self.config.sync_period_s
+            if per and dt > per * (1.0 + self.config.late_tolerance):
+                s.late_cycles += 1
+                ev.append(Event(f.t_s, WARN, "late_cycle", None,
+                                f"late cycle: SYNC after {dt * 1e3:.2f} ms (period {per * 1e3:.2f} ms)",
+                                {"interval_s": dt, "period_s": per}))
+        self._last_sync_t = f.t_s
+        # PDOs on every SYNC (transmission type 1) from OPERATIONAL nodes must have come in between
+        for p in self.pdos.values():
+            if p.armed:
+                p.missing += 1
+                p.missing_streak += 1
+                s.missed_pdos += 1
+                if p.missing_streak == 1:
+                    ev.append(Event(f.t_s, WARN, "pdo_missing", p.pdef.node,
+                                    f"node {p.pdef.node} {p.pdef.label} (0x{p.pdef.cob_id:03X}) missing in a SYNC cycle",
+                                    {"cob_id": p.pdef.cob_id}))
+            p.armed = False
+        for pdef in self.pdo_map.table.values():
+            if pdef.direction == "TPDO" and pdef.valid and pdef.transmission_type == 1:
+                st = self.nodes.get(pdef.node)
+                if st is not None and st.nmt_state == "OPERATIONAL" and st.nmt_pending is None and not st.hb_lost:
+                    self._pdo_state(pdef).armed = True
+
+    def _pdo_state(self, pdef: PdoDef) -> PdoState:
+        key = (pdef.node, pdef.direction, pdef.number)
+        p = self.pdos.get(key)
+        if p is None or p.pdef != pdef:
+            old = p
+            p = PdoState(pdef)
+            if old is not None:
+                p.count, p.missing = old.count, old.missing
+            self.pdos[key] = p
+        return p
+
+    def _on_emcy(self, f: dec.Frame, ev: list[Event]) -> None:
+        f.fields = dec.decode_emcy(f.data)
+        f.text = dec.describe_emcy(f.fields)
+        if "code" not in f.fields:
+            self._malformed(f, ev, f.fields["error"])
+            return
+        st = self._node(f.node)
+        st.emcys += 1
+        st.last_emcy, st.last_emcy_t = dict(f.fields), f.t_s
+        st.error_register = f.fields["register"]
+        if f.fields["reset"]:
+            ev.append(Event(f.t_s, INFO, "emcy_reset", f.node, f"node {f.node}: {f.text}", dict(f.fields)))
+        else:
+            ev.append(Event(f.t_s, ERROR, "emcy", f.node, f"node {f.node}: {f.text}", dict(f.fields)))
+
+    def _on_time(self, f: dec.Frame, ev: list[Event]) -> None:
+        f.fields = dec.decode_time(f.data)
+        if "error" in f.fields:
+            f.text = f"TIME {f.fields['error']}"
+            self._malformed(f, ev, f.fields["error"])
+        else:
+            f.text = f"TIME {f.fields['iso']}"
+
+    def _on_node_guard(self, f: dec.Frame, ev: list[Event]) -> None:
+        f.text = f"node guarding request -> node {f.node}"
+
+    def _on_heartbeat(self, f: dec.Frame, ev: list[Event]) -> None:
+        f.fields = dec.decode_heartbeat(f.data)
+        if "error" in f.fields:
+            f.text = f"heartbeat {f.fields['error']}"
+            self._malformed(f, ev, f.fields["error"])
+            return
+        st = self._node(f.node)
+        new = f.fields["state_name"]
+        f.text = f"{'boot-up' if f.fields['boot_up'] else 'heartbeat ' + new} node {f.node}"
+        st.heartbeats += 1
+        if f.fields["boot_up"]:
+            st.boot_ups += 1
+            if st.nmt_state == cia301.NMT_UNKNOWN or st.reset_pending:
+                ev.append(Event(f.t_s, INFO, "boot_up", f.node, f"node {f.node} {st.name}: boot-up".replace(" :", ":")))
+            else:
+                ev.append(Event(f.t_s, WARN, "boot_up", f.node,
+                                f"node {f.node} {st.name}: unexpected boot-up (was {st.nmt_state})".replace(" :", ":")))
+            st.reset_pending = False
+            self.pdo_map.reset_node(f.node)
+            st.after_boot = True     # boot-up -> first heartbeat is not a heartbeat period
+        elif st.last_hb_t is not None and not st.after_boot:
+            dt = f.t_s - st.last_hb_t
+            st.hb_period_last_s = dt
+            st.hb_period_min_s = dt if st.hb_period_min_s is None else min(st.hb_period_min_s, dt)
+            st.hb_period_max_s = dt if st.hb_period_max_s is None else max(st.hb_period_max_s, dt)
+        else:
+            st.after_boot = False
+        if st.hb_lost:
+            st.hb_lost = False
+            ev.append(Event(f.t_s, INFO, "heartbeat_back", f.node, f"node {f.node} {st.name}: heartbeat back"
+                            .replace(" :", ":")))
+        if new != st.nmt_state and not f.fields["boot_up"]:
+            ev.append(Event(f.t_s, INFO, "nmt_state", f.node,
+                            f"node {f.node} {st.name}: {st.nmt_state} -> {new}".replace(" :", ":"),
+                            {"from": st.nmt_state, "to": new}))
+        st.nmt_state = new
+        st.last_hb_t = f.t_s
+        st.nmt_pending = None
+
+    def _on_pdo(self, f: dec.Frame, ev: list[Event]) -> None:
+        pdef = self.pdo_map.lookup(f.cob_id)
+        if pdef is None:
+            base = f.cob_id & 0x780
+            label = (f"TPDO{cia301.DEFAULT_TPDO_BASE.index(base) + 1}" if base in cia301.DEFAULT_TPDO_BASE else
+                     f"RPDO{cia301.DEFAULT_RPDO_BASE.index(base) + 1}" if base in cia301.DEFAULT_RPDO_BASE else "PDO")
+            f.fields = {"mapping": None, "guess": label}
+            f.text = f"{label}? node {f.node} (no mapping known) {f.data.hex(' ')}"
+            return
+        f.node = pdef.node
+        values, err = decode_pdo(pdef, f.data)
+        st = self._node(pdef.node)
+        st.pdo_frames[pdef.label] = st.pdo_frames.get(pdef.label, 0) + 1
+        p = self._pdo_state(pdef)
+        p.count += 1
+        p.last_t = f.t_s
+        p.values = values
+        p.armed = False
+        p.missing_streak = 0
+        f.fields = {"pdo": pdef.label, "producer" if pdef.direction == "TPDO" else "consumer": pdef.node,
+                    "values": [v.to_json() for v in values]}
+        f.text = f"{pdef.label} node {pdef.node}: " + ", ".join(
+            f"{v.name}={format_value(v.value, v.unit)}" for v in values)
+        if err:
+            f.fields["error"] = err
+            ev.append(Event(f.t_s, WARN, "pdo_length", pdef.node, err, {"cob_id": f.cob_id}))
+
+    def _on_sdo_req(self, f: dec.Frame, ev: list[Event]) -> None:
+        self._sdo(f, ev, client=True)
+
+    def _on_sdo_resp(self, f: dec.Frame, ev: list[Event]) -> None:
+        self._sdo(f, ev, client=False)
+
+    def _sdo(self, f: dec.Frame, ev: list[Event], *, client: bool) -> None:
+        st = self._node(f.node)
+        step = st.sdo.request(f.t_s, f.data) if client else st.sdo.response(f.t_s, f.data)
+        f.text = f"SDO {'req' if client else 'resp'} node {f.node}: {step.text}"
+        f.fields = {"step": step.text}
+        if step.done is not None:
+            rec = self._record(step.done)
+            st.sdo_transfers.append(rec)
+            f.fields["transfer"] = rec.to_json()
+            tr = step.done
+            if tr.status == "ok":
+                st.sdo_ok += 1
+                self._observe_config(f, tr, ev)
+            elif tr.status == "aborted":
+                st.sdo_aborts += 1
+                ev.append(Event(f.t_s, WARN, "sdo_abort", f.node, f"node {f.node} SDO {rec.text()}", rec.to_json()))
+            else:
+                ev.append(Event(f.t_s, WARN, "sdo_error", f.node, f"node {f.node} SDO {rec.text()}", rec.to_json()))
+        elif step.problem:
+            ev.append(Event(f.t_s, WARN, "sdo_error", f.node, f"node {f.node} SDO {step.problem}", {}))
+
+    def _record(self, tr: SdoTransfer) -> SdoRecord:
+        var = _var(self._od(tr.node), tr.index, tr.subindex) if self._od(tr.node) is not None else None
+        name, unit, value = "", "", tr.data
+        if var is not None:
+            name, unit = var.qualname, var.unit or ""
+            if tr.status == "ok":
+                try:
+                    value = var.decode_raw(tr.data)
+                except Exception:  # a length mismatch is shown as raw bytes, never a crash
+                    value = tr.data
+        return SdoRecord(tr, name, value, unit)
+
+    def _observe_config(self, f: dec.Frame, tr: SdoTransfer, ev: list[Event]) -> None:
+        change = self.pdo_map.observe_sdo(tr.node, tr.index, tr.subindex, tr.data)
+        if change:
+            ev.append(Event(f.t_s, INFO, "pdo_remap", tr.node, change,
+                            {"index": tr.index, "subindex": tr.subindex, "data": tr.data.hex()}))
+        if tr.direction != "download" or not tr.data:
+            return
+        raw = int.from_bytes(tr.data[:4], "little")
+        if tr.index == 0x1017 and tr.subindex == 0:
+            self._node(tr.node).producer_time_s = raw / 1000.0 if raw else None
+        elif tr.index == 0x1016 and tr.subindex >= 1:
+            self._set_consumer(raw)
+        elif tr.index == 0x1005 and tr.subindex == 0 and raw:
+            self._sync_cob = raw & 0x7FF
+
+    # -- output ----------------------------------------------------------------------------------
+    def snapshot(self) -> dict[str, Any]:
+        """The whole state as JSON-able data (for --json and tests)."""
+        s = self.stats
+        return {"type": "status", "t_s": s.t_last, "frames": s.frames, "frames_per_s": s.frames_per_s,
+                "bus_load_pct": 100.0 * s.bus_load, "bitrate_bps": self.config.bitrate_bps,
+                "error_frames": s.error_frames, "unknown_frames": s.unknown_frames, "malformed": s.malformed,
+                "syncs": s.syncs, "sync_counter": s.sync_counter, "sync_counter_errors": s.sync_counter_errors,
+                "sync": s.sync_summary(), "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
+                "events": dict(self.log.counts),
+                "nodes": [st.to_json() for _, st in sorted(self.nodes.items())],
+                "pdos": [{"node": p.pdef.node, "pdo": p.pdef.label, "cob_id": p.pdef.cob_id, "count": p.count,
+                          "missing": p.missing, "values": [v.to_json() for v in p.values]}
+                         for _, p in sorted(self.pdos.items())]}
