@@ -1,0 +1,458 @@
+"""The control core: one pure step function per SYNC (DESIGN.md §2), the same offline and in a node.
+
+    params = CoreParams(role=Role.MASTER, mode=Mode.TELEPRESENCE, period_s=0.01, ...)
+    state = init_state(params, predictor_or_model, first_sample)
+    res = step(sample, peer, params, state)   # res.current_A, res.out, res.state, res.status
+
+Per step (guiatni eq. 30-35, yamamoto §III):
+
+1. advance the TEM model with the measured current -> T_pred (if a predictor is given);
+2. estimate the contact-side temperature (:mod:`telethermo.control.estimators`): the master's
+   estimate is the finger's T_f, the slave's the object's T_o; detect contact from the flux;
+3. the mode gives the requested setpoint and the feed-forward:
+   TELEPRESENCE: setpoint = the peer's estimate, feed-forward = -kQ·Q_peer (the pad delivers the
+   mirror of the flux the peer's contact draws: eq. 34/35 with the rig sign convention, so kQ > 0);
+   RENDER: T_pad0 (eq. 7) until contact is detected, then T_contact (eq. 1); IDLE: current ramps to
+   0; IDENTIFY: a PRBS current of ``identify_amplitude_A``;
+4. the safety envelope (:mod:`telethermo.control.safety`) judges the sample and the peer, ramps and
+   clamps the setpoint; a bad peer value is replaced by the ramp to neutral before it can reach the
+   PI;
+5. PI + feed-forward with anti-windup including the feed-forward (:mod:`telethermo.control.pi`),
+   bumpless on every change of mode or setpoint source;
+6. the envelope limits the current (cut, surface guard, |I| <= 0.8·Imax).
+
+``step`` is pure: the same (sample, peer, params, state) give the same result. The predictor is the
+only stateful object; its state is carried in :class:`CoreState` through ``snapshot()``/``restore()``
+when the predictor offers them (``telethermo.ident``'s does, and :class:`NarmaFreeRun` below); a
+predictor without them makes a state single-use (re-using an old state raises).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, replace
+from enum import Enum
+from typing import Any
+
+from telethermo.control import safety as sf
+from telethermo.control.contact import ContactParams, ContactState, contact_step
+from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
+from telethermo.control.pi import PIComponents, PIGains, PIState, bumpless, pi_step
+from telethermo.control.rendering import contact_temperature, pad_preset_temperature
+from telethermo.control.types import Mode, Outgoing, PeerValues, Role
+from telethermo.rig import RigSample
+
+#: Thermal resistance of the default heat-flux sensor between its two faces, K/W: 0.42 mm thick
+#: (guiatni §4.1), 15 × 15 mm, effective conductivity ≈ 0.5 W/(m·K) (polyimide-laminated
+#: thermopile): R = e/(k·S) ≈ 3.7 K/W. Identify it per rig (see docs/control.md) when known better.
+DEFAULT_R_SENSOR_K_PER_W = 0.42e-3 / (0.5 * 0.015 * 0.015)
+
+
+class Feedback(str, Enum):
+    """What the PI compares with the setpoint."""
+
+    ESTIMATE = "estimate"  # the own contact-side estimate (the pad surface the finger/object touches)
+    MODEL = "model"        # the model's T_pred (guiatni eq. 34/35 taken literally)
+
+
+class RenderPhase(str, Enum):
+    """Where virtual rendering is."""
+
+    PRESET = "preset"    # no contact: pad held at T_pad0 (eq. 7)
+    CONTACT = "contact"  # contact detected: pad held at T_contact (eq. 1)
+
+
+@dataclass(frozen=True, slots=True)
+class RenderSettings:
+    """What the master renders with no slave (yamamoto).
+
+    Attributes:
+        beta_object: relative effusivity of the virtual object (β = b/b_finger).
+        T_object0_C: the virtual object's initial temperature, °C.
+        beta_pad: the pad's effective β for this user (from :func:`calibrate_finger`).
+        T_finger0_C: the finger's initial surface temperature, °C.
+        hold_current_on_contact: calibration touch: on contact hold the current instead of
+            switching the command (the pad responds naturally; see ``calibrate_finger``).
+        material: name, for the records.
+    """
+
+    beta_object: float
+    T_object0_C: float
+    beta_pad: float = 2.23
+    T_finger0_C: float = 33.0
+    hold_current_on_contact: bool = False
+    material: str = ""
+
+    def __post_init__(self) -> None:
+        for name in ("beta_object", "beta_pad"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+                raise ValueError(f"RenderSettings.{name}: expected a finite number > 0, got {v!r}")
+        for name in ("T_object0_C", "T_finger0_C"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and -20 <= v <= 90):
+                raise ValueError(f"RenderSettings.{name}: expected a temperature in [-20, 90] °C, got {v!r}")
+
+    @property
+    def T_pad0_C(self) -> float:
+        """Pad pre-set temperature (eq. 7), °C."""
+        return pad_preset_temperature(self.T_finger0_C, self.T_object0_C, self.beta_object, self.beta_pad)
+
+    @property
+    def T_contact_C(self) -> float:
+        """Contact temperature to render (eq. 1 with relative effusivities), °C."""
+        return contact_temperature(self.T_finger0_C, 1.0, self.T_object0_C, self.beta_object)
+
+
+def _finite_number(owner: str, name: str, v: Any, *, lo: float | None = None, hi: float | None = None,
+                   lo_open: bool = False) -> None:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        raise ValueError(f"{owner}.{name}: expected a finite number, got {v!r}")
+    if lo is not None and (v <= lo if lo_open else v < lo):
+        raise ValueError(f"{owner}.{name}: expected {'>' if lo_open else '>='} {lo}, got {v!r}")
+    if hi is not None and v > hi:
+        raise ValueError(f"{owner}.{name}: expected <= {hi}, got {v!r}")
+
+
+@dataclass(frozen=True, slots=True)
+class CoreParams:
+    """Everything a controller is configured with. Frozen; validated on construction.
+
+    Attributes:
+        role: MASTER (display, estimates T_f, tracks T_o) or SLAVE (probe, estimates T_o, tracks T_f).
+        mode: :class:`Mode`.
+        period_s: control period, s.
+        kp_A_per_C, ki_A_per_C_s: PI gains on the temperature error (A/°C, A/(°C·s)).
+        kQ_A_per_W: heat-flux feed-forward gain, A/W: u_ff = -kQ·Q_peer (see module docstring).
+        estimator: :class:`Estimator` (FLUX default; MODEL = the paper's eq. 30/31).
+        feedback: :class:`Feedback`: what the PI controls.
+        R_sensor_K_per_W: thermal resistance of the heat-flux sensor, K/W (flux estimator).
+        fused_weight: weight of the model estimate in FUSED.
+        safety: :class:`telethermo.control.safety.SafetyLimits`.
+        render: :class:`RenderSettings` (required in RENDER mode).
+        contact: :class:`telethermo.control.contact.ContactParams`.
+        idle_ramp_A_per_s: how fast IDLE brings the current to 0, A/s.
+        identify_amplitude_A: PRBS amplitude in IDENTIFY mode, A; identify_hold: samples per bit.
+    """
+
+    role: Role
+    mode: Mode = Mode.TELEPRESENCE
+    period_s: float = 0.01
+    kp_A_per_C: float = 0.4
+    ki_A_per_C_s: float = 2.0
+    kQ_A_per_W: float = 0.0
+    estimator: Estimator = Estimator.FLUX
+    feedback: Feedback = Feedback.ESTIMATE
+    R_sensor_K_per_W: float = DEFAULT_R_SENSOR_K_PER_W
+    fused_weight: float = 0.5
+    safety: sf.SafetyLimits = field(default_factory=sf.SafetyLimits)
+    render: RenderSettings | None = None
+    contact: ContactParams = field(default_factory=ContactParams)
+    idle_ramp_A_per_s: float = 4.0
+    identify_amplitude_A: float = 0.5
+    identify_hold: int = 1
+
+    def __post_init__(self) -> None:
+        o = "CoreParams"
+        try:
+            object.__setattr__(self, "role", Role(self.role))
+            object.__setattr__(self, "mode", Mode(self.mode))
+            object.__setattr__(self, "estimator", Estimator(self.estimator))
+            object.__setattr__(self, "feedback", Feedback(self.feedback))
+        except ValueError as exc:
+            raise ValueError(f"{o}: {exc}") from exc
+        _finite_number(o, "period_s", self.period_s, lo=0.0, hi=1.0, lo_open=True)
+        _finite_number(o, "kp_A_per_C", self.kp_A_per_C, lo=0.0, hi=100.0)
+        _finite_number(o, "ki_A_per_C_s", self.ki_A_per_C_s, lo=0.0, hi=1000.0)
+        _finite_number(o, "kQ_A_per_W", self.kQ_A_per_W, lo=-100.0, hi=100.0)
+        _finite_number(o, "R_sensor_K_per_W", self.R_sensor_K_per_W, lo=0.0, hi=1000.0)
+        _finite_number(o, "fused_weight", self.fused_weight, lo=0.0, hi=1.0)
+        _finite_number(o, "idle_ramp_A_per_s", self.idle_ramp_A_per_s, lo=0.0, lo_open=True)
+        _finite_number(o, "identify_amplitude_A", self.identify_amplitude_A, lo=0.0)
+        if not isinstance(self.identify_hold, int) or self.identify_hold < 1:
+            raise ValueError(f"{o}.identify_hold: expected an int >= 1, got {self.identify_hold!r}")
+        if not isinstance(self.safety, sf.SafetyLimits):
+            raise ValueError(f"{o}.safety: expected SafetyLimits, got {type(self.safety).__name__}")
+        if self.mode is Mode.RENDER and self.render is None:
+            raise ValueError(f"{o}.render: RENDER mode needs RenderSettings")
+        if self.mode is Mode.RENDER and self.role is not Role.MASTER:
+            raise ValueError(f"{o}.mode: RENDER runs on the master only")
+
+    @property
+    def gains(self) -> PIGains:
+        return PIGains(self.kp_A_per_C, self.ki_A_per_C_s)
+
+
+# ---------------------------------------------------------------------------------------------
+# predictor cell: carries a stateful predictor through pure steps
+
+
+class _PredictorCell:
+    """Holds the predictor and which state-tick it is at (private to this module)."""
+
+    __slots__ = ("predictor", "tick", "can_snapshot")
+
+    def __init__(self, predictor: TemperaturePredictor) -> None:
+        self.predictor = predictor
+        self.tick = 0
+        self.can_snapshot = callable(getattr(predictor, "snapshot", None)) and \
+            callable(getattr(predictor, "restore", None))
+
+
+@dataclass(frozen=True, slots=True)
+class CoreState:
+    """Everything ``step`` remembers. Treat as opaque; fields are for introspection and tests.
+
+    Attributes:
+        k: steps taken. t_s: time of the last sample, s.
+        env: safety envelope state. pi: PI integrator. contact: contact detector state.
+        u_prev_A: the current commanded by the previous step, A.
+        source: key of the setpoint source of the previous step (mode, phase) for bumpless switching.
+        render_phase: :class:`RenderPhase` (RENDER mode).
+        T_pred_C: the last model prediction, °C (NaN without a model).
+        prbs: LFSR register for IDENTIFY.
+    """
+
+    k: int
+    t_s: float
+    env: sf.EnvelopeState
+    pi: PIState
+    contact: ContactState
+    u_prev_A: float
+    source: tuple
+    render_phase: RenderPhase
+    T_pred_C: float
+    prbs: int
+    pred_tick: int = 0
+    pred_snapshot: Any = None
+    cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
+
+
+@dataclass(frozen=True, slots=True)
+class StepStatus:
+    """What happened in one step (for the node's status/EMCY objects and the recordings).
+
+    Attributes:
+        safety: :class:`telethermo.control.safety.EnvelopeStatus` (state, trips, new_trips,
+            error_register, limits_active; ``.emcy_codes`` / ``.new_emcy_codes``).
+        requested_setpoint_C: what the mode asked for, °C (NaN if nothing, e.g. a bad peer).
+        setpoint_C: after the envelope, °C.
+        feedback_C: what the PI compared with the setpoint, °C.
+        T_pred_C: model prediction, °C (NaN without a model).
+        estimate_C: the estimate sent to the peer, °C; estimate_model_C, estimate_flux_C: both kinds.
+        contact: contact detected from the signals.
+        render_phase: RENDER phase (PRESET/CONTACT) or None.
+        pi: :class:`telethermo.control.pi.PIComponents`.
+        current_requested_A: the controller's output before the envelope's current limits, A.
+    """
+
+    safety: sf.EnvelopeStatus
+    requested_setpoint_C: float
+    setpoint_C: float
+    feedback_C: float
+    T_pred_C: float
+    estimate_C: float
+    estimate_model_C: float
+    estimate_flux_C: float
+    contact: bool
+    render_phase: RenderPhase | None
+    pi: PIComponents
+    current_requested_A: float
+
+    # convenience for the node layer
+    @property
+    def safety_state(self) -> sf.SafetyState:
+        return self.safety.state
+
+    @property
+    def trips(self) -> tuple[sf.Trip, ...]:
+        return self.safety.trips
+
+    @property
+    def new_emcy_codes(self) -> tuple[int, ...]:
+        return self.safety.new_emcy_codes
+
+    @property
+    def error_register(self) -> int:
+        return self.safety.error_register
+
+
+@dataclass(frozen=True, slots=True)
+class StepResult:
+    """Output of :func:`step`: apply ``current_A``, send ``out`` (TPDO1), keep ``state``."""
+
+    current_A: float
+    out: Outgoing
+    state: CoreState
+    status: StepStatus
+
+
+def _as_predictor(predictor_or_model: Any, T0_C: float) -> TemperaturePredictor | None:
+    """A predictor from a predictor, a model with ``.temperature.predictor(T0_C=...)`` or None."""
+    if predictor_or_model is None:
+        return None
+    if isinstance(predictor_or_model, TemperaturePredictor):
+        predictor_or_model.reset(T0_C)
+        return predictor_or_model
+    temp = getattr(predictor_or_model, "temperature", None)
+    if temp is not None and callable(getattr(temp, "predictor", None)):
+        return temp.predictor(T0_C=T0_C)
+    if callable(getattr(predictor_or_model, "predictor", None)):
+        return predictor_or_model.predictor(T0_C=T0_C)
+    raise TypeError("init_state: expected a TemperaturePredictor (step/reset), a model with "
+                    f".temperature.predictor(T0_C=...), or None; got {type(predictor_or_model).__name__}")
+
+
+def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSample) -> CoreState:
+    """Initial state from the first sample (the pad assumed at rest at ``first_sample.T_sensor_C``).
+
+    ``predictor_or_model``: a :class:`TemperaturePredictor`, a model (``telethermo.ident.TemModel``)
+    or None (only with the FLUX estimator and ESTIMATE feedback).
+    """
+    if predictor_or_model is None and (params.estimator is not Estimator.FLUX or params.feedback is Feedback.MODEL):
+        raise ValueError(f"init_state: estimator {params.estimator.value!r} / feedback {params.feedback.value!r} "
+                         "needs a TEM model (predictor_or_model is None)")
+    T0 = first_sample.T_sensor_C if math.isfinite(first_sample.T_sensor_C) else params.safety.neutral_C
+    pred = _as_predictor(predictor_or_model, T0)
+    cell = _PredictorCell(pred) if pred is not None else None
+    snap = pred.snapshot() if cell is not None and cell.can_snapshot else None
+    return CoreState(k=0, t_s=first_sample.t_s, env=sf.EnvelopeState(), pi=PIState(0.0), contact=ContactState(),
+                     u_prev_A=0.0, source=(), render_phase=RenderPhase.PRESET, T_pred_C=T0 if pred else math.nan,
+                     prbs=0x5A5A, pred_tick=0, pred_snapshot=snap, cell=cell)
+
+
+def _predict(state: CoreState, current_A: float) -> tuple[float, int, Any]:
+    cell = state.cell
+    if cell is None:
+        return math.nan, state.pred_tick, None
+    if cell.tick != state.pred_tick:
+        if not cell.can_snapshot:
+            raise RuntimeError("control.core.step: this CoreState was already used and its predictor cannot be "
+                               "restored (give the predictor snapshot()/restore(), or use each state once)")
+        cell.predictor.restore(state.pred_snapshot)
+    T = float(cell.predictor.step(current_A if math.isfinite(current_A) else 0.0))
+    cell.tick = state.pred_tick + 1
+    snap = cell.predictor.snapshot() if cell.can_snapshot else None
+    return T, cell.tick, snap
+
+
+def _prbs_next(reg: int) -> int:
+    """16-bit maximal-length Fibonacci LFSR (taps 16, 14, 13, 11)."""
+    bit = ((reg >> 0) ^ (reg >> 2) ^ (reg >> 3) ^ (reg >> 5)) & 1
+    return (reg >> 1) | (bit << 15)
+
+
+def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> StepResult:
+    """One control step (pure). See the module docstring for the sequence."""
+    dt = params.period_s
+    lim = params.safety
+    I_lim = lim.I_limit_A
+
+    # 1. model prediction with the measured current (what really flowed)
+    T_pred, tick, snap = _predict(state, sample.current_A)
+
+    # 2. estimates, credible surface band, contact
+    Ts, Q = sample.T_sensor_C, sample.Q_W
+    e_flux = estimate_flux(Ts, Q, params.R_sensor_K_per_W)
+    e_model = estimate_model(Ts, T_pred) if math.isfinite(T_pred) else math.nan
+    if params.estimator is Estimator.FLUX:
+        est = e_flux
+    elif params.estimator is Estimator.MODEL:
+        est = e_model
+    else:
+        w = params.fused_weight
+        est = w * e_model + (1.0 - w) * e_flux
+    cands = (Ts, e_flux, est)
+    if all(math.isfinite(c) for c in cands):
+        s_hi, s_lo = max(cands), min(cands)
+    else:
+        s_hi = s_lo = math.nan
+    cst = contact_step(params.contact, state.contact, Q, sample.contact, dt)
+
+    # 3. what the mode asks for
+    mode = params.mode
+    peer_required = mode is Mode.TELEPRESENCE
+    peer_alive = peer is not None and bool(peer.alive)
+    peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
+    ff = 0.0
+    phase = state.render_phase
+    hold_current = False
+    if mode is Mode.TELEPRESENCE:
+        if peer_alive and peer_ok:
+            req = peer.estimate_C
+            ff = -params.kQ_A_per_W * peer.flux_W
+        else:
+            req = math.nan
+        source = (mode,)
+    elif mode is Mode.RENDER:
+        rs = params.render
+        phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
+        req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
+        hold_current = rs.hold_current_on_contact and phase is RenderPhase.CONTACT
+        source = (mode, phase)
+    else:  # IDLE, IDENTIFY: the setpoint follows the surface (keeps the envelope's ramp bumpless)
+        req = 0.5 * (s_hi + s_lo)
+        source = (mode,)
+
+    # 4. envelope on setpoint; bumpless re-seed of the ramp at the render contact switch
+    env_in = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, s_hi, s_lo, T_pred,
+                              peer_required, peer_alive, peer_ok)
+    env0 = state.env
+    switched = source != state.source
+    if switched and mode is Mode.RENDER and phase is RenderPhase.CONTACT and math.isfinite(est):
+        env0 = replace(env0, setpoint_C=min(max(est, lim.T_min_C), lim.T_max_C))
+    sp, env, env_active, new_trips = sf.envelope_step(lim, env0, env_in, req, dt)
+
+    # 5. controller
+    y = T_pred if params.feedback is Feedback.MODEL else est
+    err = sp - y
+    gains = params.gains
+    pi_st = state.pi
+    if switched or env.cut:
+        pi_st = bumpless(gains, state.u_prev_A if not env.cut else 0.0, err, ff, -I_lim, I_lim)
+    if mode is Mode.IDLE:
+        stepA = params.idle_ramp_A_per_s * dt
+        u_req = min(max(0.0, state.u_prev_A - stepA), state.u_prev_A + stepA) if math.isfinite(state.u_prev_A) else 0.0
+        comps = PIComponents(0.0, 0.0, 0.0, u_req, u_req, False)
+        new_prbs = state.prbs
+    elif mode is Mode.IDENTIFY:
+        new_prbs = _prbs_next(state.prbs) if state.k % params.identify_hold == 0 else state.prbs
+        u_req = params.identify_amplitude_A * (1.0 if new_prbs & 1 else -1.0)
+        comps = PIComponents(0.0, 0.0, 0.0, u_req, u_req, False)
+    elif hold_current:
+        u_req = state.u_prev_A
+        comps = PIComponents(0.0, pi_st.integral_A, 0.0, u_req, u_req, False)
+        new_prbs = state.prbs
+    else:
+        u_req, pi_st, comps = pi_step(gains, pi_st, err, ff, dt, -I_lim, I_lim)
+        new_prbs = state.prbs
+
+    # 6. envelope on current
+    current, cur_active = sf.limit_current(lim, env, u_req, s_hi, s_lo)
+    if current != u_req:
+        # the envelope overrode the controller: keep the integrator consistent (no windup behind it)
+        pi_st = bumpless(gains, current, err, ff, -I_lim, I_lim)
+
+    active = env_active + tuple(a for a in cur_active if a not in env_active)
+    status_env = sf.summarize(env, new_trips, active)
+    new_state = CoreState(k=state.k + 1, t_s=sample.t_s, env=env, pi=pi_st, contact=cst, u_prev_A=current,
+                          source=source, render_phase=phase, T_pred_C=T_pred, prbs=new_prbs, pred_tick=tick,
+                          pred_snapshot=snap, cell=state.cell)
+    status = StepStatus(safety=status_env, requested_setpoint_C=req, setpoint_C=sp, feedback_C=y, T_pred_C=T_pred,
+                        estimate_C=est, estimate_model_C=e_model, estimate_flux_C=e_flux, contact=cst.contact,
+                        render_phase=phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req)
+    return StepResult(current_A=current, out=Outgoing(estimate_C=est, flux_W=Q), state=new_state, status=status)
+
+
+def clear_faults(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> CoreState:
+    """Operator's fault reset: clear the latched trips whose condition is gone (see safety.clear_trips)."""
+    Ts, Q = sample.T_sensor_C, sample.Q_W
+    e_flux = estimate_flux(Ts, Q, params.R_sensor_K_per_W)
+    cands = (Ts, e_flux)
+    s_hi, s_lo = (max(cands), min(cands)) if all(math.isfinite(c) for c in cands) else (math.nan, math.nan)
+    lim = params.safety
+    peer_alive = peer is not None and bool(peer.alive)
+    peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
+    inp = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, s_hi, s_lo, state.T_pred_C,
+                           params.mode is Mode.TELEPRESENCE, peer_alive, peer_ok)
+    env = sf.clear_trips(lim, state.env, inp)
+    return replace(state, env=env, source=())

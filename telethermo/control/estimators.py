@@ -1,0 +1,63 @@
+"""Contact-temperature estimators: what the finger (master) or the object (slave) sees (guiatni §4).
+
+The heat-flux sensor (thickness e, thermocouple at its mid-plane) sits between the TEM plate
+(temperature T_1) and the contact (T_2). With a linear profile across the thin sensor (eq. 26-29):
+
+- **model** estimator, the paper's (eq. 28/30/31): ``T_2 = 2·T_sensor - T_pred``, where T_pred is
+  the TEM plate temperature predicted from the drive current by the identified NARMA model (eq. 32);
+- **flux** estimator (eq. 29): ``T_2 = T_sensor - Q·R_sensor/2`` with R_sensor = e/(k·S) the
+  sensor's thermal resistance, K/W, and Q > 0 out of the pad (rig sign convention);
+- **fused**: ``w·model + (1 - w)·flux``.
+
+The predictor is anything with ``step(current_A) -> T_pred_C`` and ``reset(T_C)``
+(:class:`TemperaturePredictor`), e.g. ``telethermo.ident``'s streaming free-run predictor.
+"""
+from __future__ import annotations
+
+from enum import Enum
+from typing import Protocol, runtime_checkable
+
+
+class Estimator(str, Enum):
+    """Which contact-temperature estimate a controller uses and sends."""
+
+    MODEL = "model"   # guiatni eq. 30/31: 2·T_sensor - T_pred
+    FLUX = "flux"     # eq. 29: T_sensor - Q·R_sensor/2
+    FUSED = "fused"   # w·model + (1 - w)·flux
+
+
+@runtime_checkable
+class TemperaturePredictor(Protocol):
+    """A streaming free-run model of the TEM plate temperature from the drive current."""
+
+    def step(self, current_A: float) -> float:
+        """Advance one sample with ``current_A`` (A) applied; return the predicted T_pred, °C."""
+        ...
+
+    def reset(self, T_C: float) -> None:
+        """Restart the free run from a steady state at ``T_C`` (°C)."""
+        ...
+
+
+def estimate_model(T_sensor_C: float, T_pred_C: float) -> float:
+    """Contact-side temperature from the mid-plane sensor and the predicted plate, °C (eq. 28)."""
+    return 2.0 * T_sensor_C - T_pred_C
+
+
+def estimate_flux(T_sensor_C: float, Q_W: float, R_sensor_K_per_W: float) -> float:
+    """Contact-side temperature from the mid-plane sensor and the flux through it, °C (eq. 29).
+
+    Q_W > 0 flows from the TEM towards the contact, so the contact side is colder by Q·R/2.
+    """
+    return T_sensor_C - 0.5 * Q_W * R_sensor_K_per_W
+
+
+def estimate(kind: Estimator, T_sensor_C: float, Q_W: float, T_pred_C: float, R_sensor_K_per_W: float,
+             fused_weight: float = 0.5) -> float:
+    """The estimate of ``kind``, °C. ``fused_weight`` is the weight of the model estimate."""
+    if kind is Estimator.FLUX:
+        return estimate_flux(T_sensor_C, Q_W, R_sensor_K_per_W)
+    if kind is Estimator.MODEL:
+        return estimate_model(T_sensor_C, T_pred_C)
+    return fused_weight * estimate_model(T_sensor_C, T_pred_C) + \
+        (1.0 - fused_weight) * estimate_flux(T_sensor_C, Q_W, R_sensor_K_per_W)

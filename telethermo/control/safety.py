@@ -1,0 +1,483 @@
+"""The safety envelope: an independent layer below every controller (DESIGN.md §6).
+
+A person's skin is on the display. Whatever a controller asks, :func:`envelope_step` decides the
+setpoint the controller may track and :func:`limit_current` decides the current that reaches the
+TEM. Both are pure functions of (limits, envelope state, measurements, request).
+
+What the envelope enforces (defaults in :class:`SafetyLimits`):
+
+- **setpoint clamp** to [T_min_C, T_max_C] = [15, 43] °C (only narrower unless ``research=True``);
+- **ramp limit** on the setpoint (°C/s), separately for rises and drops;
+- **time at temperature**: after ``hot_time_limit_s`` continuously above ``hot_C`` (41 °C) the
+  setpoint is capped below ``hot_C`` (trip TIME_AT_TEMPERATURE);
+- **surface guard**: when the pad surface (the highest/lowest of the sensor and the estimates) is
+  within ``guard_C`` of a clamp the current may only drive it back inside (no heating near 43 °C,
+  no cooling near 15 °C); beyond the clamp + ``surface_trip_margin_C`` the current is cut (trip);
+- **current limit** |I| <= current_fraction·I_max_A (0.8·Imax);
+- **heat-sink trip** at ``sink_trip_C`` (55 °C): current cut;
+- **sensor plausibility**: NaN/inf, open thermocouple (a reading at or beyond ``open_tc_C``),
+  out of the plausible range, absurd heat flux, model-vs-sensor mismatch held for
+  ``mismatch_time_s``: current cut;
+- **peer**: lost (heartbeat/PDO timeout) or non-finite/absurd values: the setpoint ramps to
+  ``neutral_C`` (32 °C) and then the current is cut. A bad peer value never reaches the command.
+
+Every trip has a CiA 301 emergency error code (:data:`EMCY_CODES`) and the bits it sets in the
+error register 0x1001 (:data:`ERROR_REGISTER_BITS`). Trips latch: they stay active until
+:func:`clear_trips` is called while their condition is gone (an operator's fault reset). The
+status lists ``new_trips`` (raised in this very step: send one EMCY each) and ``cleared_trips``
+(send the "error reset" EMCY 0x0000 when ``trips`` becomes empty).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from enum import Enum, IntEnum
+
+# ---------------------------------------------------------------------------------------------
+# trips, EMCY codes and error-register bits
+
+
+class Trip(str, Enum):
+    """Why the envelope intervened (latched until cleared)."""
+
+    SENSOR_INVALID = "sensor_invalid"          # NaN/inf temperature, flux, sink or current reading
+    OPEN_THERMOCOUPLE = "open_thermocouple"    # reading at the ADC rail (open circuit)
+    SENSOR_RANGE = "sensor_range"              # implausible temperature or flux
+    MODEL_MISMATCH = "model_mismatch"          # |T_sensor - T_pred| too large for too long
+    SURFACE_HIGH = "surface_high"              # pad surface above T_max_C + margin
+    SURFACE_LOW = "surface_low"                # pad surface below T_min_C - margin
+    TIME_AT_TEMPERATURE = "time_at_temperature"  # too long above hot_C
+    HEAT_SINK = "heat_sink"                    # heat sink above sink_trip_C
+    OVERCURRENT = "overcurrent"                # measured current above the hardware limit
+    PEER_LOST = "peer_lost"                    # heartbeat / PDO timeout reported by the node
+    PEER_INVALID = "peer_invalid"              # NaN/inf/absurd peer estimate or flux
+
+
+class ErrorRegisterBit(IntEnum):
+    """Bits of the CiA 301 error register (object 0x1001)."""
+
+    GENERIC = 0x01
+    CURRENT = 0x02
+    VOLTAGE = 0x04
+    TEMPERATURE = 0x08
+    COMMUNICATION = 0x10
+    DEVICE_PROFILE = 0x20
+    MANUFACTURER = 0x80
+
+
+#: CiA 301 emergency error code of each trip (Table 21 classes: 0x2xxx current, 0x42xx device
+#: temperature, 0x50xx device hardware, 0x8130 life guard / heartbeat error, 0x82xx protocol).
+EMCY_CODES: dict[Trip, int] = {
+    Trip.SENSOR_INVALID: 0x5010,
+    Trip.OPEN_THERMOCOUPLE: 0x5011,
+    Trip.SENSOR_RANGE: 0x5012,
+    Trip.MODEL_MISMATCH: 0x5013,
+    Trip.SURFACE_HIGH: 0x4210,
+    Trip.SURFACE_LOW: 0x4220,
+    Trip.TIME_AT_TEMPERATURE: 0x4211,
+    Trip.HEAT_SINK: 0x4230,
+    Trip.OVERCURRENT: 0x2310,
+    Trip.PEER_LOST: 0x8130,
+    Trip.PEER_INVALID: 0x8210,
+}
+
+#: Error-register bits each trip sets (GENERIC is always set while any trip is active).
+ERROR_REGISTER_BITS: dict[Trip, int] = {
+    Trip.SENSOR_INVALID: ErrorRegisterBit.MANUFACTURER,
+    Trip.OPEN_THERMOCOUPLE: ErrorRegisterBit.MANUFACTURER,
+    Trip.SENSOR_RANGE: ErrorRegisterBit.MANUFACTURER,
+    Trip.MODEL_MISMATCH: ErrorRegisterBit.MANUFACTURER,
+    Trip.SURFACE_HIGH: ErrorRegisterBit.TEMPERATURE,
+    Trip.SURFACE_LOW: ErrorRegisterBit.TEMPERATURE,
+    Trip.TIME_AT_TEMPERATURE: ErrorRegisterBit.TEMPERATURE,
+    Trip.HEAT_SINK: ErrorRegisterBit.TEMPERATURE,
+    Trip.OVERCURRENT: ErrorRegisterBit.CURRENT,
+    Trip.PEER_LOST: ErrorRegisterBit.COMMUNICATION,
+    Trip.PEER_INVALID: ErrorRegisterBit.COMMUNICATION,
+}
+
+#: Trips after which the current is cut at once (the measurement cannot be trusted or the hardware
+#: is at risk). The other trips ramp the setpoint (peer) or cap it (time at temperature).
+CUT_TRIPS = frozenset({Trip.SENSOR_INVALID, Trip.OPEN_THERMOCOUPLE, Trip.SENSOR_RANGE, Trip.MODEL_MISMATCH,
+                       Trip.SURFACE_HIGH, Trip.SURFACE_LOW, Trip.HEAT_SINK, Trip.OVERCURRENT})
+PEER_TRIPS = frozenset({Trip.PEER_LOST, Trip.PEER_INVALID})
+
+
+def error_register(trips: frozenset[Trip] | tuple[Trip, ...]) -> int:
+    """Value of object 0x1001 for the active ``trips`` (0 when none)."""
+    reg = 0
+    for t in trips:
+        reg |= ERROR_REGISTER_BITS[t] | ErrorRegisterBit.GENERIC
+    return reg
+
+
+class SafetyState(IntEnum):
+    """Summary of the envelope's state (the integer is what a node puts in its status object)."""
+
+    OK = 0               # nothing limits the controller
+    LIMITING = 1         # a clamp, ramp, guard or the current limit is active this step
+    RAMP_TO_NEUTRAL = 2  # peer lost/invalid: setpoint ramping to neutral_C
+    CUT = 3              # current cut (latched trip or neutral reached after peer loss)
+
+
+# ---------------------------------------------------------------------------------------------
+# limits
+
+DEFAULT_T_MIN_C = 15.0
+DEFAULT_T_MAX_C = 43.0
+
+
+@dataclass(frozen=True, slots=True)
+class SafetyLimits:
+    """Limits of the envelope. Validated on construction (ValueError naming the field).
+
+    Attributes:
+        I_max_A: hardware current limit of the TEM drive, A.
+        current_fraction: the envelope allows |I| <= current_fraction·I_max_A (<= 0.8 unless research).
+        T_min_C, T_max_C: setpoint and surface clamp, °C (within [15, 43] unless research).
+        ramp_up_C_per_s, ramp_down_C_per_s: setpoint rate limits, °C/s.
+        hot_C: time-at-temperature threshold, °C; hot_time_limit_s: allowed continuous time above, s.
+        guard_C: band inside each clamp in which the current may only push the surface back, °C.
+        surface_trip_margin_C: surface beyond a clamp by more than this trips (current cut), °C.
+        sink_trip_C: heat-sink trip, °C.
+        sensor_min_C, sensor_max_C: plausible thermocouple range, °C; open_tc_C: reading at or
+            beyond which the thermocouple counts as open, °C; Q_abs_max_W: plausible |flux|, W.
+        mismatch_C, mismatch_time_s: model-vs-sensor mismatch trip, °C and s held.
+        neutral_C: where the setpoint ramps on peer loss, °C; neutral_tol_C: how close counts as
+            reached before the current is cut, °C; neutral_timeout_s: cut anyway after this long, s.
+        peer_T_min_C, peer_T_max_C, peer_Q_abs_max_W: plausible peer values (beyond: PEER_INVALID).
+        research: allow limits wider than the defaults (a deliberate research flag).
+    """
+
+    I_max_A: float = 2.0
+    current_fraction: float = 0.8
+    T_min_C: float = DEFAULT_T_MIN_C
+    T_max_C: float = DEFAULT_T_MAX_C
+    ramp_up_C_per_s: float = 5.0
+    ramp_down_C_per_s: float = 5.0
+    hot_C: float = 41.0
+    hot_time_limit_s: float = 30.0
+    guard_C: float = 0.5
+    surface_trip_margin_C: float = 2.0
+    sink_trip_C: float = 55.0
+    sensor_min_C: float = -20.0
+    sensor_max_C: float = 90.0
+    open_tc_C: float = 500.0
+    Q_abs_max_W: float = 30.0
+    mismatch_C: float = 12.0
+    mismatch_time_s: float = 1.0
+    neutral_C: float = 32.0
+    neutral_tol_C: float = 0.3
+    neutral_timeout_s: float = 5.0
+    peer_T_min_C: float = -20.0
+    peer_T_max_C: float = 90.0
+    peer_Q_abs_max_W: float = 30.0
+    research: bool = False
+
+    def __post_init__(self) -> None:
+        for name in self.__dataclass_fields__:
+            v = getattr(self, name)
+            if name != "research" and not (isinstance(v, (int, float)) and math.isfinite(v)):
+                raise ValueError(f"SafetyLimits.{name}: expected a finite number, got {v!r}")
+        positive = ("I_max_A", "current_fraction", "ramp_up_C_per_s", "ramp_down_C_per_s", "hot_time_limit_s",
+                    "Q_abs_max_W", "mismatch_C", "mismatch_time_s", "neutral_tol_C", "neutral_timeout_s",
+                    "peer_Q_abs_max_W")
+        for name in positive:
+            if getattr(self, name) <= 0:
+                raise ValueError(f"SafetyLimits.{name}: expected > 0, got {getattr(self, name)!r}")
+        if self.guard_C < 0 or self.surface_trip_margin_C < 0:
+            raise ValueError("SafetyLimits.guard_C/surface_trip_margin_C: expected >= 0")
+        if not self.T_min_C < self.T_max_C:
+            raise ValueError(f"SafetyLimits.T_min_C/T_max_C: expected T_min_C < T_max_C, got "
+                             f"{self.T_min_C} and {self.T_max_C}")
+        if not self.T_min_C + 2 * self.guard_C < self.T_max_C:
+            raise ValueError("SafetyLimits.guard_C: the two guard bands overlap")
+        if not self.T_min_C <= self.neutral_C <= self.T_max_C:
+            raise ValueError(f"SafetyLimits.neutral_C: expected within [T_min_C, T_max_C], got {self.neutral_C}")
+        if not self.sensor_min_C < self.sensor_max_C < self.open_tc_C:
+            raise ValueError("SafetyLimits.sensor_min_C/sensor_max_C/open_tc_C: expected min < max < open_tc_C")
+        if not self.research:
+            if self.current_fraction > 0.8:
+                raise ValueError(f"SafetyLimits.current_fraction: expected <= 0.8 (research=False), got "
+                                 f"{self.current_fraction}")
+            if self.T_min_C < DEFAULT_T_MIN_C or self.T_max_C > DEFAULT_T_MAX_C:
+                raise ValueError(f"SafetyLimits.T_min_C/T_max_C: expected within [{DEFAULT_T_MIN_C}, "
+                                 f"{DEFAULT_T_MAX_C}] °C (narrower only unless research=True), got "
+                                 f"[{self.T_min_C}, {self.T_max_C}]")
+            if self.sink_trip_C > 55.0:
+                raise ValueError(f"SafetyLimits.sink_trip_C: expected <= 55 °C (research=False), got {self.sink_trip_C}")
+        elif self.current_fraction > 1.0:
+            raise ValueError(f"SafetyLimits.current_fraction: expected <= 1, got {self.current_fraction}")
+
+    @property
+    def I_limit_A(self) -> float:
+        """Largest |current| the envelope lets through, A."""
+        return self.current_fraction * self.I_max_A
+
+
+# ---------------------------------------------------------------------------------------------
+# state and status
+
+
+@dataclass(frozen=True, slots=True)
+class EnvelopeState:
+    """What the envelope remembers between steps.
+
+    Attributes:
+        setpoint_C: the ramped setpoint of the previous step, °C (None before the first step).
+        trips: latched trips.
+        hot_time_s: continuous time the surface has spent above hot_C, s.
+        mismatch_time_s: continuous time the model-vs-sensor mismatch has been exceeded, s.
+        neutral_time_s: time since the peer trip started the ramp to neutral, s.
+        cut: current cut (latched with the trips that caused it).
+    """
+
+    setpoint_C: float | None = None
+    trips: frozenset[Trip] = frozenset()
+    hot_time_s: float = 0.0
+    mismatch_time_s: float = 0.0
+    neutral_time_s: float = 0.0
+    cut: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class EnvelopeStatus:
+    """What the envelope did this step (for the node's EMCY/status objects and the recordings).
+
+    Attributes:
+        state: summary (:class:`SafetyState`).
+        trips: active (latched) trips, sorted by name.
+        new_trips: trips raised in this step (send one EMCY each, code ``EMCY_CODES[t]``).
+        error_register: value for object 0x1001.
+        limits_active: names of the limits that acted this step (subset of "setpoint_clamp",
+            "ramp", "hot_cap", "guard", "current_limit", "neutral_ramp", "cut").
+    """
+
+    state: SafetyState
+    trips: tuple[Trip, ...]
+    new_trips: tuple[Trip, ...]
+    error_register: int
+    limits_active: tuple[str, ...]
+
+    @property
+    def emcy_codes(self) -> tuple[int, ...]:
+        """CiA 301 error codes of the active trips."""
+        return tuple(EMCY_CODES[t] for t in self.trips)
+
+    @property
+    def new_emcy_codes(self) -> tuple[int, ...]:
+        """CiA 301 error codes to send now (one EMCY per trip raised in this step)."""
+        return tuple(EMCY_CODES[t] for t in self.new_trips)
+
+
+def _finite(*xs: float) -> bool:
+    return all(math.isfinite(x) for x in xs)
+
+
+def check_sample(limits: SafetyLimits, T_sensor_C: float, Q_W: float, T_sink_C: float,
+                 current_A: float) -> set[Trip]:
+    """Plausibility trips of one rig sample (pure)."""
+    trips: set[Trip] = set()
+    if not _finite(T_sensor_C, Q_W, T_sink_C, current_A):
+        trips.add(Trip.SENSOR_INVALID)
+        return trips
+    if abs(T_sensor_C) >= limits.open_tc_C or abs(T_sink_C) >= limits.open_tc_C:
+        trips.add(Trip.OPEN_THERMOCOUPLE)
+    elif not (limits.sensor_min_C <= T_sensor_C <= limits.sensor_max_C
+              and limits.sensor_min_C <= T_sink_C <= limits.sensor_max_C):
+        trips.add(Trip.SENSOR_RANGE)
+    if abs(Q_W) > limits.Q_abs_max_W:
+        trips.add(Trip.SENSOR_RANGE)
+    if T_sink_C >= limits.sink_trip_C and Trip.OPEN_THERMOCOUPLE not in trips:
+        trips.add(Trip.HEAT_SINK)
+    if abs(current_A) > 1.05 * limits.I_max_A:
+        trips.add(Trip.OVERCURRENT)
+    return trips
+
+
+def peer_valid(limits: SafetyLimits, estimate_C: float, flux_W: float) -> bool:
+    """True if the peer's values are finite and plausible."""
+    return (_finite(estimate_C, flux_W) and limits.peer_T_min_C <= estimate_C <= limits.peer_T_max_C
+            and abs(flux_W) <= limits.peer_Q_abs_max_W)
+
+
+@dataclass(frozen=True, slots=True)
+class EnvelopeInput:
+    """The measurements the envelope judges in one step.
+
+    Attributes:
+        T_sensor_C, Q_W, T_sink_C, current_meas_A: the rig sample.
+        surface_hi_C, surface_lo_C: highest and lowest credible pad-surface temperature, °C
+            (max/min of the sensor and the estimates); NaN if unknown.
+        T_pred_C: the model's prediction, °C (NaN: no mismatch check).
+        peer_required: the mode needs a peer (telepresence).
+        peer_alive, peer_ok: the node's link state; the peer's values are finite and plausible.
+    """
+
+    T_sensor_C: float
+    Q_W: float
+    T_sink_C: float
+    current_meas_A: float
+    surface_hi_C: float
+    surface_lo_C: float
+    T_pred_C: float
+    peer_required: bool
+    peer_alive: bool
+    peer_ok: bool
+
+
+def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput, requested_C: float,
+                  dt_s: float) -> tuple[float, EnvelopeState, tuple[str, ...], frozenset[Trip]]:
+    """Judge one step: raise trips, ramp/clamp the requested setpoint.
+
+    Returns ``(setpoint_C, new_state, limits_active, new_trips)``. The setpoint is always finite and
+    inside [T_min_C, T_max_C], even if ``requested_C`` is NaN (then the previous setpoint is held).
+    """
+    active: list[str] = []
+    raised = set(check_sample(limits, inp.T_sensor_C, inp.Q_W, inp.T_sink_C, inp.current_meas_A))
+
+    # surface beyond the clamps (by more than the margin): cut
+    if math.isfinite(inp.surface_hi_C) and inp.surface_hi_C > limits.T_max_C + limits.surface_trip_margin_C:
+        raised.add(Trip.SURFACE_HIGH)
+    if math.isfinite(inp.surface_lo_C) and inp.surface_lo_C < limits.T_min_C - limits.surface_trip_margin_C:
+        raised.add(Trip.SURFACE_LOW)
+
+    # model vs sensor mismatch, held for mismatch_time_s
+    mismatch_time = state.mismatch_time_s
+    if math.isfinite(inp.T_pred_C) and math.isfinite(inp.T_sensor_C) \
+            and abs(inp.T_pred_C - inp.T_sensor_C) > limits.mismatch_C:
+        mismatch_time += dt_s
+        if mismatch_time >= limits.mismatch_time_s:
+            raised.add(Trip.MODEL_MISMATCH)
+    else:
+        mismatch_time = 0.0
+
+    # time at temperature
+    hot_time = state.hot_time_s
+    if math.isfinite(inp.surface_hi_C) and inp.surface_hi_C > limits.hot_C:
+        hot_time += dt_s
+        if hot_time >= limits.hot_time_limit_s:
+            raised.add(Trip.TIME_AT_TEMPERATURE)
+    else:
+        hot_time = 0.0
+
+    # peer
+    if inp.peer_required:
+        if not inp.peer_alive:
+            raised.add(Trip.PEER_LOST)
+        elif not inp.peer_ok:
+            raised.add(Trip.PEER_INVALID)
+
+    new_trips = frozenset(raised) - state.trips
+    trips = state.trips | frozenset(raised)
+
+    # the setpoint: start from the previous ramped value (or the credible surface at start)
+    prev = state.setpoint_C
+    if prev is None or not math.isfinite(prev):
+        mid = 0.5 * (inp.surface_hi_C + inp.surface_lo_C)
+        prev = mid if math.isfinite(mid) else limits.neutral_C
+        prev = min(max(prev, limits.T_min_C), limits.T_max_C)
+
+    target = requested_C if math.isfinite(requested_C) else prev
+    neutral_time = state.neutral_time_s
+    peer_trip = bool(trips & PEER_TRIPS)
+    if peer_trip:
+        target = limits.neutral_C
+        neutral_time += dt_s
+        active.append("neutral_ramp")
+    else:
+        neutral_time = 0.0
+    if Trip.TIME_AT_TEMPERATURE in trips and target > limits.hot_C - 1.0:
+        target = limits.hot_C - 1.0
+        active.append("hot_cap")
+    clamped = min(max(target, limits.T_min_C), limits.T_max_C)
+    if clamped != target:
+        active.append("setpoint_clamp")
+    up, down = limits.ramp_up_C_per_s * dt_s, limits.ramp_down_C_per_s * dt_s
+    sp = min(max(clamped, prev - down), prev + up)
+    if sp != clamped:
+        active.append("ramp")
+
+    cut = state.cut or bool(trips & CUT_TRIPS)
+    if peer_trip and not cut:
+        if abs(sp - limits.neutral_C) <= limits.neutral_tol_C or neutral_time >= limits.neutral_timeout_s:
+            cut = True
+    if cut:
+        active.append("cut")
+    new_state = EnvelopeState(setpoint_C=sp, trips=trips, hot_time_s=hot_time, mismatch_time_s=mismatch_time,
+                              neutral_time_s=neutral_time, cut=cut)
+    return sp, new_state, tuple(active), new_trips
+
+
+def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float, surface_hi_C: float,
+                  surface_lo_C: float) -> tuple[float, tuple[str, ...]]:
+    """The current that may reach the TEM, A, and the limits that acted.
+
+    NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
+    within ``guard_C`` of T_min_C only heating (I >= 0). Then |I| <= I_limit_A.
+    """
+    active: list[str] = []
+    if state.cut:
+        return 0.0, ("cut",)
+    if not math.isfinite(requested_A):
+        return 0.0, ("cut",)
+    i = requested_A
+    hi_ok = math.isfinite(surface_hi_C)
+    lo_ok = math.isfinite(surface_lo_C)
+    if not (hi_ok and lo_ok):
+        return 0.0, ("cut",)
+    if surface_hi_C >= limits.T_max_C - limits.guard_C and i > 0.0:
+        i = 0.0
+        active.append("guard")
+    if surface_lo_C <= limits.T_min_C + limits.guard_C and i < 0.0:
+        i = 0.0
+        active.append("guard")
+    lim = limits.I_limit_A
+    if i > lim:
+        i = lim
+        active.append("current_limit")
+    elif i < -lim:
+        i = -lim
+        active.append("current_limit")
+    return i, tuple(active)
+
+
+def clear_trips(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput) -> EnvelopeState:
+    """Operator's fault reset: drop the latched trips whose condition is gone now.
+
+    The cut is released only when no cut-trip remains and the peer is fine; the ramped setpoint
+    restarts from the credible surface temperature (bumpless).
+    """
+    still = set(check_sample(limits, inp.T_sensor_C, inp.Q_W, inp.T_sink_C, inp.current_meas_A))
+    if math.isfinite(inp.surface_hi_C) and inp.surface_hi_C > limits.T_max_C + limits.surface_trip_margin_C:
+        still.add(Trip.SURFACE_HIGH)
+    if math.isfinite(inp.surface_lo_C) and inp.surface_lo_C < limits.T_min_C - limits.surface_trip_margin_C:
+        still.add(Trip.SURFACE_LOW)
+    if Trip.TIME_AT_TEMPERATURE in state.trips and math.isfinite(inp.surface_hi_C) \
+            and inp.surface_hi_C > limits.hot_C - 1.0:
+        still.add(Trip.TIME_AT_TEMPERATURE)
+    if inp.peer_required and not inp.peer_alive:
+        still.add(Trip.PEER_LOST)
+    elif inp.peer_required and not inp.peer_ok:
+        still.add(Trip.PEER_INVALID)
+    trips = state.trips & frozenset(still)
+    cut = bool(trips & (CUT_TRIPS | PEER_TRIPS))
+    mid = 0.5 * (inp.surface_hi_C + inp.surface_lo_C)
+    sp = min(max(mid, limits.T_min_C), limits.T_max_C) if math.isfinite(mid) else state.setpoint_C
+    return replace(state, trips=trips, cut=cut, setpoint_C=sp, mismatch_time_s=0.0, neutral_time_s=0.0,
+                   hot_time_s=0.0 if Trip.TIME_AT_TEMPERATURE not in trips else state.hot_time_s)
+
+
+def summarize(state: EnvelopeState, new_trips: frozenset[Trip], limits_active: tuple[str, ...]) -> EnvelopeStatus:
+    """Build the step's :class:`EnvelopeStatus`."""
+    trips = tuple(sorted(state.trips, key=lambda t: t.value))
+    if state.cut:
+        s = SafetyState.CUT
+    elif state.trips & PEER_TRIPS:
+        s = SafetyState.RAMP_TO_NEUTRAL
+    elif limits_active or state.trips:
+        s = SafetyState.LIMITING
+    else:
+        s = SafetyState.OK
+    return EnvelopeStatus(state=s, trips=trips, new_trips=tuple(sorted(new_trips, key=lambda t: t.value)),
+                          error_register=error_register(state.trips), limits_active=limits_active)

@@ -1,0 +1,142 @@
+"""The safety envelope as a pure function: trips, EMCY codes, ramps, guards, peer loss."""
+import math
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from telethermo.control import safety as sf
+
+L = sf.SafetyLimits(I_max_A=2.0)
+
+
+def inp(T=33.0, Q=0.0, sink=26.0, I=0.0, hi=None, lo=None, Tp=math.nan, req=False, alive=True, ok=True):
+    hi = T if hi is None else hi
+    lo = T if lo is None else lo
+    return sf.EnvelopeInput(T, Q, sink, I, hi, lo, Tp, req, alive, ok)
+
+
+def run(limits, state, i, req, n, dt=0.01):
+    out = []
+    for _ in range(n):
+        sp, state, act, new = sf.envelope_step(limits, state, i, req, dt)
+        out.append((sp, act, new))
+    return state, out
+
+
+def test_limits_validation_names_the_field():
+    with pytest.raises(ValueError, match=r"SafetyLimits.T_min_C/T_max_C: expected within \[15.0, 43.0\]"):
+        sf.SafetyLimits(T_max_C=45.0)
+    with pytest.raises(ValueError, match="current_fraction: expected <= 0.8"):
+        sf.SafetyLimits(current_fraction=0.9)
+    with pytest.raises(ValueError, match="I_max_A: expected a finite number"):
+        sf.SafetyLimits(I_max_A=math.nan)
+    assert sf.SafetyLimits(T_max_C=45.0, research=True).T_max_C == 45.0
+    assert sf.SafetyLimits(T_min_C=20.0, T_max_C=40.0).T_max_C == 40.0  # narrower is fine
+
+
+def test_every_trip_has_a_cia301_code_and_register_bits():
+    for t in sf.Trip:
+        code = sf.EMCY_CODES[t]
+        assert 0x1000 <= code <= 0xFFFF and code >> 12 in (0x2, 0x4, 0x5, 0x8)
+        reg = sf.error_register(frozenset({t}))
+        assert reg & sf.ErrorRegisterBit.GENERIC
+    assert sf.EMCY_CODES[sf.Trip.PEER_LOST] == 0x8130  # CiA 301 life guard / heartbeat error
+    assert sf.error_register(frozenset({sf.Trip.HEAT_SINK})) == 0x09
+    assert sf.error_register(frozenset({sf.Trip.PEER_LOST})) == 0x11
+    assert sf.error_register(frozenset()) == 0
+
+
+def test_setpoint_clamped_and_ramped_both_ways():
+    st0 = sf.EnvelopeState(setpoint_C=33.0)
+    s, out = run(L, st0, inp(), 60.0, 300)
+    sps = [o[0] for o in out]
+    assert max(sps) == pytest.approx(43.0)
+    steps = [b - a for a, b in zip([33.0] + sps, sps)]
+    assert max(steps) <= 5.0 * 0.01 + 1e-12
+    assert sps[199] == pytest.approx(43.0) and sps[198] < 43.0  # 10 °C at 5 °C/s = 2 s
+    s, out = run(L, s, inp(), -100.0, 600)
+    assert out[-1][0] == pytest.approx(15.0)
+    assert min(b - a for a, b in zip([o[0] for o in out][:-1], [o[0] for o in out][1:])) >= -0.05 - 1e-12
+
+
+def test_nan_request_holds_the_setpoint():
+    s, out = run(L, sf.EnvelopeState(setpoint_C=30.0), inp(), math.nan, 10)
+    assert all(o[0] == 30.0 for o in out)
+
+
+@pytest.mark.parametrize("kw,trip", [
+    (dict(T=math.nan), sf.Trip.SENSOR_INVALID),
+    (dict(Q=math.inf), sf.Trip.SENSOR_INVALID),
+    (dict(T=1370.0), sf.Trip.OPEN_THERMOCOUPLE),
+    (dict(T=95.0), sf.Trip.SENSOR_RANGE),
+    (dict(Q=40.0), sf.Trip.SENSOR_RANGE),
+    (dict(sink=56.0), sf.Trip.HEAT_SINK),
+    (dict(I=2.5), sf.Trip.OVERCURRENT),
+    (dict(hi=45.5), sf.Trip.SURFACE_HIGH),
+    (dict(lo=12.5), sf.Trip.SURFACE_LOW),
+])
+def test_cut_trips_cut_at_once_latch_and_report_once(kw, trip):
+    s, out = run(L, sf.EnvelopeState(setpoint_C=33.0), inp(**kw), 33.0, 1)
+    assert trip in s.trips and s.cut
+    assert out[0][2] == frozenset({trip}) or trip in out[0][2]
+    assert sf.limit_current(L, s, 1.0, 33.0, 33.0) == (0.0, ("cut",))
+    # latched: a good sample does not release it, and the trip is not "new" again
+    s2, out2 = run(L, s, inp(), 33.0, 5)
+    assert trip in s2.trips and s2.cut and all(not o[2] for o in out2)
+    # operator reset with the condition gone releases it
+    s3 = sf.clear_trips(L, s2, inp())
+    assert not s3.trips and not s3.cut
+    # ... but not while the condition persists
+    s4 = sf.clear_trips(L, s2, inp(**kw))
+    assert trip in s4.trips
+
+
+def test_mismatch_needs_to_persist():
+    i = inp(T=33.0, Tp=20.0)  # 13 °C apart > 12 °C
+    s, _ = run(L, sf.EnvelopeState(setpoint_C=33.0), i, 33.0, 99)
+    assert sf.Trip.MODEL_MISMATCH not in s.trips
+    s, _ = run(L, s, i, 33.0, 1)
+    assert sf.Trip.MODEL_MISMATCH in s.trips and s.cut
+
+
+def test_time_at_temperature_caps_setpoint_below_hot():
+    lim = sf.SafetyLimits(hot_time_limit_s=1.0)
+    s, out = run(lim, sf.EnvelopeState(setpoint_C=42.0), inp(T=42.0), 42.5, 99)
+    assert sf.Trip.TIME_AT_TEMPERATURE not in s.trips and out[-1][0] == pytest.approx(42.5)
+    s, out = run(lim, s, inp(T=42.0), 42.5, 200)
+    assert sf.Trip.TIME_AT_TEMPERATURE in s.trips and not s.cut
+    assert out[-1][0] == pytest.approx(40.0)
+
+
+@pytest.mark.parametrize("alive,ok,trip", [(False, True, sf.Trip.PEER_LOST), (True, False, sf.Trip.PEER_INVALID)])
+def test_peer_trouble_ramps_to_neutral_then_cuts(alive, ok, trip):
+    s, out = run(L, sf.EnvelopeState(setpoint_C=25.0), inp(req=True, alive=alive, ok=ok), 20.0, 1)
+    assert trip in s.trips and not s.cut and out[0][0] == pytest.approx(25.05)
+    s, out = run(L, s, inp(req=True, alive=alive, ok=ok), 20.0, 400)
+    sps = [o[0] for o in out]
+    assert all(b >= a - 1e-12 for a, b in zip(sps, sps[1:]))  # monotone towards 32 °C, never 20
+    assert s.cut and abs(sps[-1] - 32.0) <= 0.3
+    i, _ = sf.limit_current(L, s, 1.2, 32.0, 32.0)
+    assert i == 0.0
+    s2 = sf.summarize(s, frozenset(), ("cut",))
+    assert s2.state is sf.SafetyState.CUT and s2.emcy_codes == (sf.EMCY_CODES[trip],)
+
+
+def test_peer_validity():
+    assert sf.peer_valid(L, 30.0, 1.0)
+    for e, q in ((math.nan, 0.0), (math.inf, 0.0), (30.0, -math.inf), (1e6, 0.0), (-300.0, 0.0), (30.0, 1e4)):
+        assert not sf.peer_valid(L, e, q)
+
+
+@settings(max_examples=400, deadline=None)
+@given(req=st.floats(allow_nan=True, allow_infinity=True), hi=st.floats(-50, 100), span=st.floats(0, 5),
+       I=st.floats(allow_nan=True, allow_infinity=True))
+def test_limit_current_never_exceeds_limit_nor_pushes_outward(req, hi, span, I):
+    lo = hi - span
+    s = sf.EnvelopeState(setpoint_C=33.0)
+    i, _ = sf.limit_current(L, s, I, hi, lo)
+    assert math.isfinite(i) and abs(i) <= L.I_limit_A
+    if hi >= L.T_max_C - L.guard_C:
+        assert i <= 0.0
+    if lo <= L.T_min_C + L.guard_C:
+        assert i >= 0.0
