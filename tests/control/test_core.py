@@ -1,0 +1,161 @@
+"""The step function's contract, without a plant: purity, peer handling, modes, bumpless switching."""
+import dataclasses
+import math
+
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from telethermo.control.core import CoreParams, Feedback, RenderPhase, RenderSettings, init_state, step
+from telethermo.control.estimators import Estimator
+from telethermo.control.safety import EMCY_CODES, SafetyState, Trip
+from telethermo.control.types import Mode, PeerValues, Role
+from telethermo.rig import RigSample
+
+
+def S(t=0.0, T=33.0, Q=0.0, I=0.0, contact=False, sink=26.0):
+    return RigSample(t, T, Q, I, contact, sink)
+
+
+P = CoreParams(role=Role.MASTER, kp_A_per_C=0.5, ki_A_per_C_s=2.0, kQ_A_per_W=0.3)
+
+
+def test_params_validation_names_the_field():
+    with pytest.raises(ValueError, match=r"CoreParams.period_s: expected > 0.0"):
+        CoreParams(role=Role.MASTER, period_s=0.0)
+    with pytest.raises(ValueError, match="CoreParams.kp_A_per_C: expected a finite number"):
+        CoreParams(role=Role.SLAVE, kp_A_per_C=math.nan)
+    with pytest.raises(ValueError, match="CoreParams.render: RENDER mode needs RenderSettings"):
+        CoreParams(role=Role.MASTER, mode=Mode.RENDER)
+    with pytest.raises(ValueError, match="RENDER runs on the master only"):
+        CoreParams(role=Role.SLAVE, mode=Mode.RENDER, render=RenderSettings(0.74, 25.0))
+    with pytest.raises(ValueError, match="needs a TEM model"):
+        init_state(CoreParams(role=Role.MASTER, estimator=Estimator.MODEL), None, S())
+
+
+def test_step_is_pure():
+    st0 = init_state(P, None, S())
+    a = step(S(T=32.0, Q=0.2), PeerValues(29.0, 0.4), P, st0)
+    b = step(S(T=32.0, Q=0.2), PeerValues(29.0, 0.4), P, st0)
+    assert a == b
+    assert st0 == init_state(P, None, S())
+
+
+def test_flux_estimate_and_feedforward_sign():
+    st0 = init_state(P, None, S())
+    r = step(S(T=30.0, Q=0.5), PeerValues(30.0, 0.8), P, st0)
+    assert r.status.estimate_C == pytest.approx(30.0 - 0.5 * P.R_sensor_K_per_W / 2)
+    assert r.out.estimate_C == r.status.estimate_C and r.out.flux_W == 0.5
+    # the peer's contact draws 0.8 W out of its pad: this pad must absorb heat -> cooling feed-forward
+    assert r.status.pi.ff_A == pytest.approx(-0.3 * 0.8)
+
+
+@pytest.mark.parametrize("bad", [math.nan, math.inf, -math.inf, 1e9, -1e9, 500.0])
+def test_bad_peer_never_reaches_the_command(bad):
+    st0 = init_state(P, None, S())
+    good = step(S(), PeerValues(33.0, 0.0), P, st0)
+    for pv in (PeerValues(bad, 0.0), PeerValues(33.0, bad)):
+        r = step(S(t=0.01), pv, P, good.state)
+        assert Trip.PEER_INVALID in r.status.trips
+        assert r.status.new_emcy_codes == (EMCY_CODES[Trip.PEER_INVALID],)
+        assert math.isfinite(r.current_A) and abs(r.current_A) <= P.safety.I_limit_A
+        assert r.status.safety_state is SafetyState.RAMP_TO_NEUTRAL
+        assert r.status.pi.ff_A == 0.0
+        assert math.isfinite(r.status.setpoint_C) and 15.0 <= r.status.setpoint_C <= 43.0
+
+
+def test_peer_lost_ramps_to_neutral_then_cuts():
+    st = init_state(P, None, S(T=28.0))
+    r = step(S(T=28.0), PeerValues(28.0, 0.0), P, st)
+    sps = []
+    for k in range(1, 200):
+        r = step(S(t=0.01 * k, T=28.0), PeerValues(28.0, 0.0, alive=False), P, r.state)
+        sps.append(r.status.setpoint_C)
+        if r.status.safety_state is SafetyState.CUT:
+            break
+    assert r.current_A == 0.0 and abs(sps[-1] - 32.0) <= 0.3
+    assert all(b - a <= 0.05 + 1e-9 for a, b in zip(sps, sps[1:]))
+    assert r.status.error_register == 0x11
+
+
+def test_no_peer_in_telepresence_is_peer_lost():
+    r = step(S(), None, P, init_state(P, None, S()))
+    assert Trip.PEER_LOST in r.status.trips
+
+
+def test_nan_sensor_cuts_current_immediately():
+    st0 = init_state(P, None, S())
+    r = step(S(), PeerValues(20.0, 2.0), P, st0)
+    r = step(S(t=0.01, T=math.nan), PeerValues(20.0, 2.0), P, r.state)
+    assert r.current_A == 0.0 and Trip.SENSOR_INVALID in r.status.trips
+    assert r.status.safety_state is SafetyState.CUT
+
+
+def test_mode_switch_is_bumpless():
+    st0 = init_state(P, None, S())
+    r = None
+    s = st0
+    for k in range(100):
+        r = step(S(t=0.01 * k, T=31.0), PeerValues(30.0, 0.3), P, s)
+        s = r.state
+    u_before = r.current_A
+    assert abs(u_before) > 0.05
+    P2 = dataclasses.replace(P, mode=Mode.RENDER, render=RenderSettings(beta_object=0.74, T_object0_C=25.0))
+    r2 = step(S(t=1.0, T=31.0), None, P2, s)
+    # the first step in the new mode starts from the previous current (only one integration step away)
+    assert abs(r2.current_A - u_before) <= P.ki_A_per_C_s * abs(r2.status.setpoint_C - 31.0) * 0.01 + 1e-9
+    # gain change: integral kept in A, output continuous up to the proportional change
+    P3 = dataclasses.replace(P, ki_A_per_C_s=10.0)
+    r3 = step(S(t=1.0, T=31.0), PeerValues(30.0, 0.3), P3, s)
+    assert abs(r3.current_A - u_before) < 0.02
+
+
+def test_idle_ramps_current_to_zero():
+    s = init_state(P, None, S())
+    r = step(S(T=31.0), PeerValues(25.0, 0.0), P, s)
+    for k in range(50):
+        r = step(S(t=0.01 * k, T=31.0), PeerValues(25.0, 0.0), P, r.state)
+    u0 = r.current_A
+    assert u0 < -0.5
+    P2 = dataclasses.replace(P, mode=Mode.IDLE, idle_ramp_A_per_s=4.0)
+    us = []
+    for k in range(100):
+        r = step(S(t=1 + 0.01 * k, T=31.0), None, P2, r.state)
+        us.append(r.current_A)
+    assert us[0] == pytest.approx(u0 + 0.04)
+    assert us[-1] == 0.0 and all(b >= a for a, b in zip(us, us[1:]))
+
+
+def test_render_preset_then_contact_switch():
+    rs = RenderSettings(beta_object=5.6, T_object0_C=25.0, beta_pad=2.23, T_finger0_C=33.0)
+    Pm = CoreParams(role=Role.MASTER, mode=Mode.RENDER, render=rs, safety=dataclasses.replace(P.safety))
+    s = init_state(Pm, None, S(T=rs.T_pad0_C))
+    r = step(S(T=rs.T_pad0_C), None, Pm, s)
+    assert r.status.render_phase is RenderPhase.PRESET and r.status.requested_setpoint_C == pytest.approx(rs.T_pad0_C)
+    # the finger touches: the pad surface jumps to ~T_contact and ~1.5 W flows into the pad
+    r = step(S(t=0.01, T=rs.T_contact_C - 0.3, Q=-1.5), None, Pm, r.state)
+    assert r.status.contact and r.status.render_phase is RenderPhase.CONTACT
+    assert r.status.requested_setpoint_C == pytest.approx(rs.T_contact_C)
+    # the ramp restarted from the measured surface, not from T_pad0 (bumpless)
+    assert abs(r.status.setpoint_C - r.status.estimate_C) <= 0.05 + 1e-9
+
+
+@settings(max_examples=300, deadline=None)
+@given(T=st.floats(allow_nan=True, allow_infinity=True), Q=st.floats(allow_nan=True, allow_infinity=True),
+       sink=st.floats(allow_nan=True, allow_infinity=True), pe=st.floats(allow_nan=True, allow_infinity=True),
+       pq=st.floats(allow_nan=True, allow_infinity=True), alive=st.booleans(),
+       kp=st.floats(0, 100), ki=st.floats(0, 1000), kq=st.floats(-100, 100),
+       mode=st.sampled_from([Mode.TELEPRESENCE, Mode.IDLE, Mode.IDENTIFY]))
+def test_any_input_gives_a_bounded_finite_current(T, Q, sink, pe, pq, alive, kp, ki, kq, mode):
+    p = CoreParams(role=Role.SLAVE, mode=mode, kp_A_per_C=kp, ki_A_per_C_s=ki, kQ_A_per_W=kq)
+    s = init_state(p, None, S())
+    r = step(S(), PeerValues(33.0, 0.0), p, s)
+    r = step(S(t=0.01, T=T, Q=Q, sink=sink), PeerValues(pe, pq, alive=alive), p, r.state)
+    assert math.isfinite(r.current_A) and abs(r.current_A) <= p.safety.I_limit_A
+    assert 15.0 <= r.status.setpoint_C <= 43.0
+    surf = [T, T - Q * p.R_sensor_K_per_W / 2]
+    if not all(math.isfinite(x) for x in surf):
+        assert r.current_A == 0.0
+    elif max(surf) >= 42.5:
+        assert r.current_A <= 0.0
+    elif min(surf) <= 15.5:
+        assert r.current_A >= 0.0
