@@ -1,0 +1,77 @@
+"""Real CANopen nodes for the monitor's tests: canopen LocalNodes built from bus_config's EDS files
+(the servers), canopen RemoteNodes (the clients) and a sniffer, all on one python-can virtual bus."""
+from __future__ import annotations
+
+import itertools
+import time
+from pathlib import Path
+
+import can
+import canopen
+import pytest
+from canopen.objectdictionary import import_od
+
+import bus_config
+from telethermo.monitor.state import MonitorConfig, NodeInfo
+
+EDS_DIR = Path(bus_config.__file__).resolve().parent
+MASTER_EDS, SLAVE_EDS = EDS_DIR / "master.eds", EDS_DIR / "slave.eds"
+_channels = itertools.count()
+
+
+def monitor_config(**kw) -> MonitorConfig:
+    """Monitor settings knowing both nodes by their real EDS."""
+    return MonitorConfig(nodes={1: NodeInfo("master", import_od(str(MASTER_EDS), 1)),
+                                2: NodeInfo("slave", import_od(str(SLAVE_EDS), 2))}, **kw)
+
+
+class Collector(can.Listener):
+    def __init__(self) -> None:
+        self.messages: list[can.Message] = []
+
+    def on_message_received(self, msg: can.Message) -> None:
+        self.messages.append(msg)
+
+
+class CanopenBench:
+    """Servers (LocalNode 1 master, 2 slave), clients (RemoteNode 1, 2) and a sniffer on one bus."""
+
+    def __init__(self, extra_listeners=()) -> None:
+        ch = f"tt-monitor-test-{next(_channels)}-{time.monotonic_ns()}"
+        self.sniffer_bus = can.Bus(interface="virtual", channel=ch)
+        self.collector = Collector()
+        self.sniffer = can.Notifier(self.sniffer_bus, [self.collector, *extra_listeners], timeout=0.05)
+        self.server = canopen.Network()
+        self.server.connect(interface="virtual", channel=ch)
+        self.client = canopen.Network()
+        self.client.connect(interface="virtual", channel=ch)
+        self.master = canopen.LocalNode(1, str(MASTER_EDS))
+        self.slave = canopen.LocalNode(2, str(SLAVE_EDS))
+        self.server.add_node(self.master)
+        self.server.add_node(self.slave)
+        self.r_master = self.client.add_node(1, str(MASTER_EDS))
+        self.r_slave = self.client.add_node(2, str(SLAVE_EDS))
+
+    def wait_frames(self, n: int, timeout_s: float = 5.0) -> list[can.Message]:
+        """Wait until the sniffer has ``n`` frames (the virtual bus is asynchronous)."""
+        deadline = time.monotonic() + timeout_s
+        while len(self.collector.messages) < n and time.monotonic() < deadline:
+            time.sleep(0.005)
+        return list(self.collector.messages)
+
+    def close(self) -> None:
+        for node in (self.master, self.slave):
+            node.nmt.stop_heartbeat()
+        self.client.disconnect()
+        self.server.disconnect()
+        self.sniffer.stop()
+        self.sniffer_bus.shutdown()
+
+
+@pytest.fixture
+def canbus():
+    b = CanopenBench()
+    try:
+        yield b
+    finally:
+        b.close()
