@@ -42,9 +42,9 @@ from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.rig import RigSample
 
 #: Thermal resistance of the default heat-flux sensor between its two faces, K/W: 0.42 mm thick
-#: (guiatni §4.1), 15 × 15 mm, effective conductivity ≈ 0.5 W/(m·K) (polyimide-laminated
-#: thermopile): R = e/(k·S) ≈ 3.7 K/W. Identify it per rig (see docs/control.md) when known better.
-DEFAULT_R_SENSOR_K_PER_W = 0.42e-3 / (0.5 * 0.015 * 0.015)
+#: (guiatni §4.1), 15 × 15 mm, effective conductivity 2.0 W/(m·K) (the design value of the sensor with
+#: copper cover plates, sim/data/materials.toml [flux_sensor]): R = e/(k·S) ≈ 0.93 K/W.
+DEFAULT_R_SENSOR_K_PER_W = 0.42e-3 / (2.0 * 0.015 * 0.015)
 
 
 class Feedback(str, Enum):
