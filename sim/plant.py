@@ -1,0 +1,144 @@
+"""The thermal plant of one rig, and a body that can be detached from it.
+
+A rig's chain (front to back): ambient —R_sink— heat sink — grease — TEM sink plate —K— TEM pad plate — grease
+— flux sensor (graded cells, thermocouple in the middle cell) — contact resistance R''(F)/A — body (finger
+layers / object slab) — body back (core at 37 °C / adiabatic / ambient air); with nothing touching, the
+sensor's top face loses h_air·A to ambient. Each contact state is a separate linear system integrated
+exactly (sim.expint); a body not touching the rig is a separate system (front face in air) advanced lazily,
+in one exact step, when it is next needed.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim import bodies as B
+from sim.chain import ADIABATIC, Boundary, System, assemble
+from sim.contact import contact_resistance_m2K_W
+from sim.expint import Modal
+from sim.materials import material
+from sim.tem import RigParams
+from sim.touch import BodySpec
+
+
+@dataclass(frozen=True, slots=True)
+class GridSettings:
+    """Spatial resolution: first cell = √(a·t_min)/cells_per_length, geometric growth ``ratio``."""
+
+    t_min_s: float = 0.01
+    ratio: float = 1.3
+    cells_per_length: float = 4.0
+
+
+class Body:
+    """A finger or object slab with its own state; it lives inside a rig's system while touching."""
+
+    def __init__(self, spec: BodySpec, area_m2: float, ambient_C: float, h_air_W_m2K: float, grid: GridSettings,
+                 lumped: bool = False) -> None:
+        self.spec, self.area_m2, self.ambient_C = spec, area_m2, ambient_C
+        self.lumped = lumped
+        if spec.kind == "finger":
+            fp = spec.finger or B.FingerParams()
+            self.segment = B.finger_segment(fp, area_m2, grid.t_min_s, grid.ratio, grid.cells_per_length)
+            self.back = Boundary(math.inf, fp.core_C)
+            self.surface_material = fp.surface_material
+        else:
+            mat = material(spec.material)
+            self.surface_material = mat
+            if lumped:
+                self.segment = B.lump(spec.name, mat.rho_c_J_m3K * spec.thickness_m * area_m2)
+            else:
+                self.segment = B.slab(spec.name, mat, spec.thickness_m, area_m2, grid.t_min_s, grid.ratio,
+                                      grid.cells_per_length)
+            self.back = ADIABATIC if spec.back == "adiabatic" else Boundary(h_air_W_m2K * area_m2, ambient_C)
+        self.air = Boundary(h_air_W_m2K * area_m2, ambient_C)
+        self.system = assemble([self.segment], [], self.air, self.back)
+        self._modal: Modal | None = None
+        self._steps: dict[float, tuple] = {}
+        if spec.kind == "finger":
+            x0 = self.system.steady_state()
+        else:
+            x0 = np.full(self.segment.n, float(spec.T0_C))
+        self.x = np.append(x0, 0.0)          # [cells, E_out (J)]
+        self.t_s = 0.0
+        self.attached = False
+
+    @property
+    def n(self) -> int:
+        return self.segment.n
+
+    def stored_J(self) -> float:
+        return float(self.segment.C_J_K @ self.x[: self.n])
+
+    def surface_C(self) -> float:
+        """Front-face temperature while detached (in air), °C."""
+        f, f0 = self.system.face_functional(0, "front")
+        return float(f @ self.x[: self.n] + f0)
+
+    def advance_detached(self, t_s: float, cache: bool = False) -> None:
+        """Bring the detached body to time t_s (one exact step)."""
+        dt = t_s - self.t_s
+        if dt <= 0:
+            return
+        if self._modal is None:
+            self._modal = Modal(self.system)
+        key = round(dt, 12)
+        mats = self._steps.get(key) if cache else None
+        if mats is None:
+            Phi, c, _, _ = self._modal.step_matrices(dt)
+            mats = (Phi, c)
+            if cache:
+                self._steps[key] = mats
+        Phi, c = mats
+        self.x = Phi @ self.x + c
+        self.t_s = t_s
+
+
+class Config:
+    """One contact state of a rig: the assembled system, its modal form, probes and cached step matrices."""
+
+    def __init__(self, params: RigParams, sensor: B.Segment, ambient_C: float, body: Body | None, force_N: float):
+        A = params.area_m2
+        tem = params.tem
+        segs = [B.lump("sink", params.sink_C_J_K), B.lump("plate_s", tem.plate_C_J_K),
+                B.lump("plate_p", tem.plate_C_J_K), sensor]
+        links = [1.0 / params.G_sink_plate_W_K, 1.0 / tem.K_W_K, 1.0 / params.G_plate_sensor_W_K]
+        if body is not None:
+            segs.append(body.segment)
+            links.append(contact_resistance_m2K_W(force_N, params.R_at_1N_m2K_W, params.F_perfect_N) / A)
+            back = body.back
+        else:
+            back = Boundary(params.h_air_W_m2K * A, ambient_C)
+        self.system: System = assemble(segs, links, Boundary(1.0 / params.sink_R_K_W, ambient_C), back)
+        self.body = body
+        self.n = self.system.n
+        self.i_sink, self.i_s, self.i_p = 0, 1, 2
+        self.sensor_slice = slice(3, 3 + sensor.n)
+        self.i_mid = 3 + sensor.n // 2
+        self.modal = Modal(self.system, (self.i_s, self.i_p))
+        # Q through the sensor = k·S·(T_bottom − T_top)/e = thickness-mean of the flux, W
+        fb, fb0 = self.system.face_functional(3, "front")
+        ft, ft0 = self.system.face_functional(3, "back")
+        sens_mat = material(params.sensor_material)
+        kSe = sens_mat.lambda_W_mK * A / params.sensor_thickness_m
+        self.q_f, self.q_f0 = kSe * (fb - ft), kSe * (fb0 - ft0)
+        if body is not None:
+            self.surf_f, self.surf_f0 = self.system.face_functional(4, "front")
+        else:
+            self.surf_f, self.surf_f0 = None, math.nan
+        self.top_f, self.top_f0 = ft, ft0       # top face of the sensor (what a body touches), °C
+        self._steps: dict[float, tuple] = {}
+
+    def step(self, dt_s: float) -> tuple:
+        """Cached step matrices for dt (plus the 2×2 plate rows of B1)."""
+        key = round(dt_s, 12)
+        m = self._steps.get(key)
+        if m is None:
+            Phi, c, B0, B1 = self.modal.step_matrices(dt_s)
+            m = (Phi, c, B0, B1, float(B1[1, 0]), float(B1[1, 1]), float(B1[2, 0]), float(B1[2, 1]))
+            if len(self._steps) > 64:
+                self._steps.clear()
+            self._steps[key] = m
+        return m

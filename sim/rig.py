@@ -1,0 +1,237 @@
+"""A simulated rig: the plant of sim.plant behind the project's rig interface (telethermo.rig.SimulatedRig)."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from sim.bodies import Segment, uniform
+from sim.materials import material
+from sim.measurement import Channel, NoiseParams
+from sim.plant import Body, Config, GridSettings
+from sim.tem import KELVIN, RigParams
+from telethermo.rig import RigSample
+
+_SNAP_S = 1e-9
+
+
+@dataclass(frozen=True, slots=True)
+class RigTruth:
+    """The simulator's ground truth at the rig's current time (what no controller can see).
+
+    Attributes:
+        t_s: time, s.
+        T_pad_C: TEM pad-side plate, °C.
+        T_surface_C: surface of what touches the pad (finger skin / object face), °C; NaN when nothing does.
+        T_sensor_true_C: flux sensor mid-plane (the thermocouple) before noise and filter, °C.
+        Q_true_W: heat flow through the sensor towards the contact (thickness mean), W.
+        T_sink_C: heat sink, °C.
+        touching: name of the body touching the pad, or None.
+        force_N: contact force, N.
+        T_contact_face_C: top face of the flux sensor (the pad surface a body touches), °C.
+        current_A: drive current, A.
+    """
+
+    t_s: float
+    T_pad_C: float
+    T_surface_C: float
+    T_sensor_true_C: float
+    Q_true_W: float
+    T_sink_C: float
+    touching: str | None
+    force_N: float
+    T_contact_face_C: float = math.nan
+    current_A: float = 0.0
+
+
+class SimRig:
+    """One simulated rig (master display or slave probe); implements telethermo.rig.SimulatedRig.
+
+    Time advances only in :meth:`advance`; contact make/break inside a step is honoured exactly (the step is
+    split at the event). :meth:`read` returns the sample taken at the end of the last advance.
+    """
+
+    def __init__(self, params: RigParams, bodies: dict[str, Body], schedule, *, ambient_C: float, period_s: float,
+                 noise: NoiseParams, seed: int | None, name: str = "rig", prune: bool = True,
+                 pruning: list[str] | None = None) -> None:
+        self.name = name
+        self.params = params
+        self.period_s = float(period_s)
+        self.I_max_A = float(params.tem.I_max_A)
+        self.ambient_C = float(ambient_C)
+        self.bodies = bodies
+        self.schedule = schedule
+        self.prune = prune
+        self._pruning = list(pruning or [])
+        self.sensor: Segment = uniform("sensor", material(params.sensor_material), params.sensor_thickness_m,
+                                       params.area_m2, params.sensor_cells)
+        self._configs: dict[tuple, Config] = {}
+        tem = params.tem
+        self._alpha, self._R, self._tau = tem.alpha_V_K, tem.R_ohm, tem.tau_V_K
+        self.t_s = 0.0
+        self.I = 0.0
+        self.E_el_J = 0.0
+        self._touch = None
+        cfg = self._config(None)
+        self.cfg = cfg
+        self.x = np.append(np.full(cfg.n, self.ambient_C), 0.0)
+        self._stored0 = self._stored_total()
+        fs = 1.0 / self.period_s
+        rng = np.random.default_rng(seed)
+        on = noise.enabled
+        self._chT = Channel(noise.T_sigma_C if on else 0.0, noise.T_lsb_C, noise.cutoff_Hz, fs, rng)
+        self._chQ = Channel(noise.Q_sigma_W if on else 0.0, noise.Q_lsb_W, noise.cutoff_Hz, fs, rng)
+        self._switch()
+        self._next_event = self.schedule.next_event_after(self.t_s)
+        self._stored0 = self._stored_total()
+        self._sample()
+
+    # ---- configuration -------------------------------------------------------------------------------
+    def _config(self, touch) -> Config:
+        key = (touch.body, touch.force_N) if touch is not None else None
+        cfg = self._configs.get(key)
+        if cfg is None:
+            body = self.bodies[touch.body] if touch is not None else None
+            cfg = Config(self.params, self.sensor, self.ambient_C, body, touch.force_N if touch else 0.0)
+            self._configs[key] = cfg
+        return cfg
+
+    def _switch(self) -> None:
+        """Re-assemble for the contact state at the current time (detach / attach bodies)."""
+        touch = self.schedule.at(self.t_s + _SNAP_S)
+        if touch == self._touch:
+            return
+        old, x = self.cfg, self.x
+        base = 3 + self.sensor.n
+        E_out = x[-1]
+        if old.body is not None:
+            b = old.body
+            b.x[: b.n] = x[base: base + b.n]
+            b.t_s = self.t_s
+            b.attached = False
+        new = self._config(touch)
+        parts = [x[:base]]
+        if new.body is not None:
+            b = new.body
+            b.advance_detached(self.t_s)
+            parts.append(b.x[: b.n])
+            b.attached = True
+        parts.append([E_out])
+        self.x = np.concatenate(parts)
+        self.cfg = new
+        self._touch = touch
+
+    # ---- rig interface -------------------------------------------------------------------------------
+    def apply_current(self, current_A: float) -> None:
+        """Command the drive current, A; the drive clips it to ±I_max_A (NaN is refused: treated as 0)."""
+        c = float(current_A)
+        if not math.isfinite(c):
+            c = 0.0
+        self.I = max(-self.I_max_A, min(self.I_max_A, c))
+
+    def read(self) -> RigSample:
+        return self._last
+
+    def advance(self, dt_s: float) -> None:
+        """Integrate the plant by dt_s seconds holding the current, then take one sample."""
+        if not dt_s > 0:
+            raise ValueError(f"advance: dt_s must be > 0, got {dt_s!r}")
+        t_end = self.t_s + dt_s
+        while self.t_s < t_end - _SNAP_S:
+            t_ev = self._next_event
+            if t_ev < t_end - _SNAP_S:
+                self._integrate(t_ev - self.t_s)
+                self.t_s = t_ev
+            else:
+                self._integrate(t_end - self.t_s)
+                self.t_s = t_end
+            if abs(self.t_s - t_ev) <= _SNAP_S or self.t_s > t_ev:
+                self._switch()
+                self._next_event = self.schedule.next_event_after(self.t_s + _SNAP_S)
+        if not self.prune:
+            for b in self.bodies.values():
+                if not b.attached:
+                    b.advance_detached(self.t_s, cache=True)
+        self._sample()
+
+    def _integrate(self, dt: float) -> None:
+        Phi, c, B0, B1, b10, b11, b20, b21 = self.cfg.step(dt)
+        x = self.x
+        I = self.I
+        if I == 0.0:
+            self.x = Phi @ x + c
+            return
+        aI = self._alpha * I
+        hT = 0.5 * self._tau * I
+        J = 0.5 * self._R * I * I
+        U00, U01, w0 = -aI + hT, -hT, -aI * KELVIN + J
+        U10, U11, w1 = -hT, aI + hT, aI * KELVIN + J
+        Ts, Tp = x[1], x[2]
+        u0 = U00 * Ts + U01 * Tp + w0
+        u1 = U10 * Ts + U11 * Tp + w1
+        y = Phi @ x + c + B0[:, 0] * u0 + B0[:, 1] * u1
+        r0 = y[1] + b10 * w0 + b11 * w1
+        r1 = y[2] + b20 * w0 + b21 * w1
+        m00 = 1.0 - (b10 * U00 + b11 * U10)
+        m01 = -(b10 * U01 + b11 * U11)
+        m10 = -(b20 * U00 + b21 * U10)
+        m11 = 1.0 - (b20 * U01 + b21 * U11)
+        det = m00 * m11 - m01 * m10
+        Ts1 = (r0 * m11 - m01 * r1) / det
+        Tp1 = (m00 * r1 - m10 * r0) / det
+        v0 = U00 * Ts1 + U01 * Tp1 + w0
+        v1 = U10 * Ts1 + U11 * Tp1 + w1
+        self.x = y + B1[:, 0] * v0 + B1[:, 1] * v1
+        self.E_el_J += 0.5 * dt * (u0 + u1 + v0 + v1)
+
+    def _sample(self) -> None:
+        cfg, x = self.cfg, self.x
+        T_true = float(x[cfg.i_mid])
+        Q_true = float(cfg.q_f @ x[: cfg.n] + cfg.q_f0)
+        touch = self._touch
+        force = touch.force_N if touch is not None else 0.0
+        self._last = RigSample(t_s=self.t_s, T_sensor_C=self._chT(T_true), Q_W=self._chQ(Q_true),
+                               current_A=self.I, contact=force > self.params.detect_threshold_N,
+                               T_sink_C=float(x[0]), force_N=force)
+
+    # ---- truth and introspection -----------------------------------------------------------------
+    def truth(self) -> RigTruth:
+        """Ground truth at the current time."""
+        cfg, x = self.cfg, self.x
+        n = cfg.n
+        touch = self._touch
+        surf = float(cfg.surf_f @ x[:n] + cfg.surf_f0) if cfg.surf_f is not None else math.nan
+        return RigTruth(t_s=self.t_s, T_pad_C=float(x[cfg.i_p]), T_surface_C=surf,
+                        T_sensor_true_C=float(x[cfg.i_mid]), Q_true_W=float(cfg.q_f @ x[:n] + cfg.q_f0),
+                        T_sink_C=float(x[0]), touching=touch.body if touch else None,
+                        force_N=touch.force_N if touch else 0.0,
+                        T_contact_face_C=float(cfg.top_f @ x[:n] + cfg.top_f0), current_A=self.I)
+
+    def pruning_report(self) -> list[str]:
+        """What the compiled scene skipped, and why."""
+        return list(self._pruning)
+
+    def _stored_total(self) -> float:
+        s = float(self.cfg.system.C @ self.x[: self.cfg.n])
+        for b in self.bodies.values():
+            if not b.attached:
+                s += b.stored_J()
+        return s
+
+    def energy_balance(self) -> dict[str, float]:
+        """Energy since t = 0, J: electrical input, heat out to reservoirs (ambient, blood, core), change of the
+        stored heat, and the residual in − out − stored (all bodies of this rig included; detached bodies are
+        first brought to the current time)."""
+        for b in self.bodies.values():
+            if not b.attached:
+                b.advance_detached(self.t_s)
+        out = float(self.x[-1]) + sum(float(b.x[-1]) for b in self.bodies.values())
+        stored = self._stored_total() - self._stored0
+        return {"E_in_J": self.E_el_J, "E_out_J": out, "dE_stored_J": stored,
+                "residual_J": self.E_el_J - out - stored}
+
+    def profile(self) -> dict[str, np.ndarray]:
+        """Cell temperatures of the current chain, °C, by segment name (for plots and checks)."""
+        sysm = self.cfg.system
+        return {sg.name: self.x[o: o + sg.n].copy() for sg, o in zip(sysm.segments, sysm.offsets)}

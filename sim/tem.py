@@ -1,0 +1,169 @@
+"""Thermo-electric module (TEM) and the hardware parameters of one rig.
+
+The TEM is lumped (guiatni §2.1): two ceramic plates (sink side ``s``, pad side ``p``) joined by the pellets'
+conductance K. With the project's sign convention (current_A > 0 heats the pad plate), the heat delivered to
+each plate by the electrical effects is (temperatures in K inside the Peltier term):
+
+    u_p = +α·I·T_p + ½·R·I² + ½·τ·I·(T_p − T_s)      (pad plate)
+    u_s = −α·I·T_s + ½·R·I² − ½·τ·I·(T_p − T_s)      (sink plate)
+
+plus the conduction K·(T_s − T_p) between the plates. This is guiatni eq. 1–6: Peltier α·T·I (eq. 1) at each
+junction with opposite signs, Joule R·I² (eq. 3) split half to each side, conduction (eq. 4), and the Thomson
+term (eq. 2) integrated over the pellet, τ·I·ΔT/2 on each side with the sign of eq. 5/6's "±": "+" when I > 0
+(pad is the hot side), "−" when I < 0. The electrical power is u_s + u_p = α·I·(T_p − T_s) + R·I².
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+
+from sim.errors import SceneError
+
+KELVIN = 273.15
+DATA_DIR = Path(__file__).resolve().parent / "data"
+TEM_FILE = DATA_DIR / "tem_15x15.toml"
+
+
+@dataclass(frozen=True, slots=True)
+class TEMParams:
+    """Lumped TEM parameters (whole module).
+
+    Attributes:
+        alpha_V_K: Seebeck coefficient, V/K.
+        R_ohm: electrical resistance, Ω.
+        K_W_K: thermal conductance between the plates, W/K.
+        tau_V_K: Thomson coefficient integrated over the pellets, V/K (sign: see module docstring).
+        plate_C_J_K: heat capacity of each plate, J/K.
+        I_max_A: datasheet Imax, A (the drive's hard limit).
+    """
+
+    alpha_V_K: float
+    R_ohm: float
+    K_W_K: float
+    tau_V_K: float
+    plate_C_J_K: float
+    I_max_A: float
+
+    @staticmethod
+    def from_datasheet(Imax_A: float, Vmax_V: float, dTmax_K: float, Th_C: float, *, tau_V_K: float = 0.0,
+                       plate_C_J_K: float = 0.62) -> "TEMParams":
+        """Derive α, R, K from the datasheet ratings Imax, Vmax, ΔTmax at hot side Th (°C).
+
+        Standard derivation (ideal module, Qc = 0 at ΔTmax): α = Vmax/Th, R = (Th − ΔTmax)·Vmax/(Th·Imax),
+        K = (Th − ΔTmax)·Vmax·Imax/(2·Th·ΔTmax), with Th in K.
+        """
+        Th = Th_C + KELVIN
+        alpha = Vmax_V / Th
+        R = (Th - dTmax_K) * Vmax_V / (Th * Imax_A)
+        K = (Th - dTmax_K) * Vmax_V * Imax_A / (2.0 * Th * dTmax_K)
+        return TEMParams(alpha, R, K, tau_V_K, plate_C_J_K, Imax_A)
+
+    def Qmax_W(self, Th_C: float) -> float:
+        """Cooling capacity at ΔT = 0 and I = Imax implied by the derived parameters, W."""
+        return self.alpha_V_K * (Th_C + KELVIN) * self.I_max_A - 0.5 * self.R_ohm * self.I_max_A ** 2
+
+    def plate_heat_W(self, I_A: float, T_s_C: float, T_p_C: float) -> tuple[float, float]:
+        """Electrical heat (Peltier + Joule + Thomson) delivered to the (sink, pad) plates, W."""
+        th = 0.5 * self.tau_V_K * I_A * (T_p_C - T_s_C)
+        joule = 0.5 * self.R_ohm * I_A * I_A
+        return (-self.alpha_V_K * I_A * (T_s_C + KELVIN) + joule - th,
+                self.alpha_V_K * I_A * (T_p_C + KELVIN) + joule + th)
+
+
+def guiatni_capacities_W(p: TEMParams, I_A: float, T_hot_C: float, T_cold_C: float) -> tuple[float, float]:
+    """Steady-state heating capacity P_h (eq. 6) and cooling capacity P_c (eq. 5), W, for |I|.
+
+    P_c = α·T_c·|I| ± τ·|I|·ΔT/2 − ½·R·I² − K·ΔT ;  P_h = α·T_h·|I| ± τ·|I|·ΔT/2 + ½·R·I² − K·ΔT,
+    ΔT = T_h − T_c; "±" is "+" when the pad is driven hot (I > 0) and "−" otherwise (module docstring).
+    """
+    i = abs(I_A)
+    dT = T_hot_C - T_cold_C
+    sgn = 1.0 if I_A > 0 else -1.0
+    th = sgn * 0.5 * p.tau_V_K * i * dT
+    Pc = p.alpha_V_K * (T_cold_C + KELVIN) * i + th - 0.5 * p.R_ohm * i * i - p.K_W_K * dT
+    Ph = p.alpha_V_K * (T_hot_C + KELVIN) * i + th + 0.5 * p.R_ohm * i * i - p.K_W_K * dT
+    return Ph, Pc
+
+
+@dataclass(frozen=True, slots=True)
+class RigParams:
+    """Hardware of one rig: TEM, heat sink, grease joints, flux sensor, contact law, air loss.
+
+    Attributes:
+        tem: the module.
+        side_m: side of the square pad / contact area, m.
+        sink_R_K_W: heat sink to ambient resistance, K/W.
+        sink_C_J_K: heat sink heat capacity, J/K.
+        G_sink_plate_W_K, G_plate_sensor_W_K: grease joints, W/K.
+        sensor_thickness_m: heat-flux sensor thickness, m.
+        sensor_material: name in the materials table.
+        sensor_cells: grid cells across the sensor (odd).
+        R_at_1N_m2K_W, F_perfect_N: contact law (see :func:`sim.contact.contact_resistance_m2K_W`).
+        detect_threshold_N: the contact detector fires above this force, N.
+        h_air_W_m2K: loss of a free surface to ambient, W/(m²·K).
+    """
+
+    tem: TEMParams
+    side_m: float = 0.015
+    sink_R_K_W: float = 0.6
+    sink_C_J_K: float = 40.0
+    G_sink_plate_W_K: float = 10.0
+    G_plate_sensor_W_K: float = 20.0
+    sensor_thickness_m: float = 0.42e-3
+    sensor_material: str = "flux_sensor"
+    sensor_cells: int = 5
+    R_at_1N_m2K_W: float = 5e-4
+    F_perfect_N: float = 6.0
+    detect_threshold_N: float = 0.3
+    h_air_W_m2K: float = 15.0
+
+    @property
+    def area_m2(self) -> float:
+        """Contact / sensor area, m²."""
+        return self.side_m * self.side_m
+
+    def with_(self, **kw) -> "RigParams":
+        """A copy with some fields replaced."""
+        return replace(self, **kw)
+
+
+def _num(raw: dict, path: Path, section: str, key: str, positive: bool = True) -> float:
+    v = raw.get(section, {}).get(key)
+    if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) or (positive and v <= 0):
+        raise SceneError(path, f"{section}.{key}", "a positive number" if positive else "a number", v)
+    return float(v)
+
+
+def load_rig_params(path: str | Path | None = None) -> RigParams:
+    """Read a TEM/rig parameter file (default ``sim/data/tem_15x15.toml``)."""
+    path = Path(path or TEM_FILE)
+    with open(path, "rb") as fh:
+        try:
+            raw = tomllib.load(fh)
+        except tomllib.TOMLDecodeError as exc:
+            raise SceneError(path, "<toml>", f"valid TOML ({exc})") from None
+    tem = TEMParams.from_datasheet(
+        _num(raw, path, "datasheet", "Imax_A"), _num(raw, path, "datasheet", "Vmax_V"),
+        _num(raw, path, "datasheet", "dTmax_K"), _num(raw, path, "datasheet", "Th_C", positive=False),
+        tau_V_K=_num(raw, path, "module", "thomson_V_K", positive=False),
+        plate_C_J_K=_num(raw, path, "module", "plate_C_J_K"))
+    cells = raw.get("sensor", {}).get("cells", 5)
+    if not isinstance(cells, int) or cells < 1 or cells % 2 == 0:
+        raise SceneError(path, "sensor.cells", "an odd positive integer", cells)
+    return RigParams(
+        tem=tem,
+        side_m=_num(raw, path, "module", "side_mm") * 1e-3,
+        sink_R_K_W=_num(raw, path, "sink", "R_K_W"),
+        sink_C_J_K=_num(raw, path, "sink", "C_J_K"),
+        G_sink_plate_W_K=_num(raw, path, "sink", "G_sink_plate_W_K"),
+        G_plate_sensor_W_K=_num(raw, path, "sink", "G_plate_sensor_W_K"),
+        sensor_thickness_m=_num(raw, path, "sensor", "thickness_mm") * 1e-3,
+        sensor_material=str(raw.get("sensor", {}).get("material", "flux_sensor")),
+        sensor_cells=cells,
+        R_at_1N_m2K_W=_num(raw, path, "contact", "R_at_1N_m2K_W"),
+        F_perfect_N=_num(raw, path, "contact", "F_perfect_N"),
+        detect_threshold_N=_num(raw, path, "contact", "detect_threshold_N"),
+        h_air_W_m2K=_num(raw, path, "contact", "h_air_W_m2K"),
+    )
