@@ -1,0 +1,20 @@
+"""The CANopen device layer: CiA 301 behaviour over canopen.LocalNode (DESIGN.md §4).
+
+Modules: :mod:`.device` (the Device: NMT, SDO checks, heartbeat, PDO, EMCY), :mod:`.sync` (SYNC
+producer), :mod:`.pdo`, :mod:`.emcy`, :mod:`.scheduler` (one timer thread per device),
+:mod:`.eds_info` (limits, units and names from the EDS text), :mod:`.netconfig` (network.toml),
+:mod:`.settings` (power-on overrides). See docs/canopen.md.
+"""
+from telethermo.canopen_dev.device import (
+    Device, DeviceStats, NmtCommand, NmtState, OdWriteError, PeerEvent, RpdoEvent, SyncTick, WriteEvent,
+)
+from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
+from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, load_network
+from telethermo.canopen_dev.settings import DeviceSettings
+from telethermo.canopen_dev.sync import SyncProducer
+
+__all__ = [
+    "Device", "DeviceStats", "NmtCommand", "NmtState", "OdWriteError", "PeerEvent", "RpdoEvent", "SyncTick",
+    "WriteEvent", "EdsError", "EdsInfo", "VarInfo", "NetworkConfig", "NetworkConfigError", "load_network",
+    "DeviceSettings", "SyncProducer",
+]

@@ -1,0 +1,68 @@
+"""Fixtures for the device-layer tests: each test gets its own python-can ``virtual`` channel.
+
+The device under test runs on one canopen.Network; the client side is a second canopen.Network
+(RemoteNode, SDO client, NMT master, EMCY consumer: canopen's code, not ours) or a raw python-can
+bus on the same channel.
+"""
+from __future__ import annotations
+
+import contextlib
+import uuid
+
+import can
+import canopen
+import pytest
+
+from bus_config import path
+from telethermo.canopen_dev import Device, DeviceSettings
+
+NODE_IDS = {"master": 1, "slave": 2}
+
+
+class Lab:
+    """Devices and clients on one virtual channel; everything is closed at the end of the test."""
+
+    def __init__(self, stack: contextlib.ExitStack):
+        self.channel = f"tt-{uuid.uuid4().hex[:10]}"
+        self._stack = stack
+
+    def network(self) -> canopen.Network:
+        net = canopen.Network()
+        net.NOTIFIER_CYCLE = 0.05  # the notifier thread notices shutdown within 50 ms
+        net.connect(interface="virtual", channel=self.channel)
+        self._stack.callback(net.disconnect)
+        return net
+
+    def device(self, role: str = "master", *, start: bool = True, node_id: int | None = None,
+               settings: DeviceSettings | None = None) -> Device:
+        dev = Device(self.network(), node_id or NODE_IDS[role], path(f"{role}.eds"), settings=settings)
+        self._stack.callback(dev.close)
+        if start:
+            dev.start()
+        return dev
+
+    def client(self, role: str = "master", node_id: int | None = None) -> canopen.RemoteNode:
+        net = self.network()
+        return net.add_node(node_id or NODE_IDS[role], str(path(f"{role}.eds")))
+
+    def raw_bus(self) -> can.BusABC:
+        bus = can.Bus(interface="virtual", channel=self.channel)
+        self._stack.callback(bus.shutdown)
+        return bus
+
+
+@pytest.fixture
+def lab():
+    with contextlib.ExitStack() as stack:
+        yield Lab(stack)
+
+
+def recv_until(bus: can.BusABC, predicate, timeout: float = 2.0) -> can.Message | None:
+    """First frame on ``bus`` for which ``predicate(msg)`` holds, or None after ``timeout`` s."""
+    import time
+    end = time.monotonic() + timeout
+    while (left := end - time.monotonic()) > 0:
+        msg = bus.recv(left)
+        if msg is not None and predicate(msg):
+            return msg
+    return None

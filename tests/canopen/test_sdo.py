@@ -1,0 +1,99 @@
+"""SDO server of the device against canopen's SDO client: by name and index, range aborts with the
+exact CiA 301 codes, the value left unchanged, read-only and unknown objects refused."""
+from __future__ import annotations
+
+import math
+
+import pytest
+from canopen import SdoAbortedError
+
+from telethermo.canopen_dev import OdWriteError
+
+
+def abort_code(fn) -> int:
+    with pytest.raises(SdoAbortedError) as exc:
+        fn()
+    return exc.value.code
+
+
+def test_read_and_write_by_name_and_by_index(lab):
+    dev = lab.device("master")
+    node = lab.client("master")
+    assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)
+    node.sdo["kp_A_per_C"].raw = 2.25
+    assert dev.read("kp_A_per_C") == 2.25
+    assert node.sdo[0x2200].raw == 2.25
+    node.sdo[0x2500].raw = 1  # mode by index
+    assert dev.read("mode") == 1 and node.sdo["mode"].raw == 1
+    node.sdo["theta"][7].raw = -0.125  # an ARRAY entry
+    assert dev.read("theta7") == -0.125
+    assert node.sdo["Identity object"]["Product code"].raw == 1
+    assert node.sdo[0x1008].raw == "telethermo master"  # segmented upload
+
+
+@pytest.mark.parametrize("name, value, code", [
+    ("T_max_C", 43.5, 0x06090031),         # REAL32 above HighLimit (a limit canopen itself drops)
+    ("T_max_C", 14.0, 0x06090032),         # below LowLimit
+    ("T_min_C", math.nan, 0x06090030),     # NaN: no place in any range
+    ("kp_A_per_C", 20.5, 0x06090031),
+    ("ramp_limit_C_per_s", 0.0, 0x06090032),
+    ("mode", 4, 0x06090031),               # UNSIGNED8 with range 0..3
+    ("peer_pdo_miss_limit", 0, 0x06090032),
+    ("Synchronous counter overflow value", 1, 0x06090030),   # 1 is not a valid overflow
+    ("Synchronous counter overflow value", 241, 0x06090031),
+])
+def test_out_of_range_write_is_aborted_with_the_exact_code_and_leaves_the_value(lab, name, value, code):
+    dev = lab.device("slave")
+    node = lab.client("slave")
+    before = node.sdo[name].raw
+
+    def write():
+        node.sdo[name].raw = value
+
+    assert abort_code(write) == code
+    assert node.sdo[name].raw == before
+    assert dev.read(name) == before
+
+
+def test_boundaries_are_accepted(lab):
+    lab.device("master")
+    node = lab.client("master")
+    for name, value in (("T_max_C", 43.0), ("T_max_C", 15.0), ("mode", 3), ("mode", 0)):
+        node.sdo[name].raw = value
+        assert node.sdo[name].raw == value
+
+
+def test_read_only_unknown_and_wrong_length_are_refused(lab):
+    dev = lab.device("master")
+    node = lab.client("master")
+
+    def write_ro():
+        node.sdo["T_sensor_C"].raw = 30.0
+
+    assert abort_code(write_ro) == 0x06010002
+    assert abort_code(lambda: node.sdo.upload(0x2FFF, 0)) == 0x06020000
+    assert abort_code(lambda: node.sdo.download(0x2200, 0, b"\x00\x00")) == 0x06070010  # 2 bytes to a REAL32
+    assert dev.read("kp_A_per_C") == pytest.approx(0.5)
+
+
+def test_local_writes_are_range_checked_too(lab):
+    dev = lab.device("master")
+    with pytest.raises(OdWriteError) as exc:
+        dev.write("T_max_C", 50.0)
+    assert exc.value.code == 0x06090031 and dev.read("T_max_C") == 43.0
+    with pytest.raises(OdWriteError) as exc:
+        dev.write("Synchronous counter overflow value", 1)  # communication objects: the SDO rules
+    assert exc.value.code == 0x06090030 and dev.read("Synchronous counter overflow value") == 240
+    dev.write("T_sensor_C", math.nan)  # measurements have no range: NaN must reach the envelope
+    assert math.isnan(dev.read("T_sensor_C"))
+
+
+def test_write_listener_sees_accepted_writes_only(lab):
+    dev = lab.device("master")
+    seen = []
+    dev.add_write_listener(lambda ev: seen.append((ev.index, ev.subindex, ev.value)))
+    node = lab.client("master")
+    node.sdo["ki_A_per_C_s"].raw = 1.5
+    with pytest.raises(SdoAbortedError):
+        node.sdo["ki_A_per_C_s"].raw = 99.0
+    assert seen == [(0x2201, 0, 1.5)]
