@@ -44,7 +44,7 @@ class PeerLink:
         self._fresh = False
         self._missed = 0
         self._hb_ok = True
-        self._alive_reported = True
+        self._alive_reported: bool | None = None  # None until the first PDO
         self.counters = PeerCounters()
 
     def on_pdo(self, estimate_C: float, flux_W: float) -> None:
@@ -82,14 +82,14 @@ class PeerLink:
             elif self._ever:
                 self._missed += 1
                 self.counters.missed_cycles += 1
+            if not self._ever:
+                return None
             alive = self._alive_locked()
-            if alive != self._alive_reported:
+            if self._alive_reported is not None and alive != self._alive_reported:
                 if alive:
                     self.counters.returns += 1
                 else:
                     self.counters.losses += 1
-                self._alive_reported = alive
-            if not self._ever:
-                return None
+            self._alive_reported = alive
             fresh, self._fresh = self._fresh, False
             return PeerValues(estimate_C=self._estimate_C, flux_W=self._flux_W, fresh=fresh, alive=alive)

@@ -1,0 +1,116 @@
+"""The body of ``telethermo-master`` and ``telethermo-slave``: options -> network settings -> rig ->
+device -> run until done or signalled -> clean stop.
+
+Exit codes: 0 ok (including a stop by SIGINT/SIGTERM), 1 runtime failure, 2 bad option or file.
+A SYNC producer prints ``progress K N`` lines on stdout when asked (``--progress``); the summary of
+the run is logged at exit.
+"""
+from __future__ import annotations
+
+import logging
+import signal
+import sys
+
+from telethermo.control.types import Role
+
+from nodes.options import OptionError, build_parser, options_from_args
+
+EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
+
+
+def _setup_logging(role: Role, verbose: bool, log_path) -> None:
+    fmt = f"%(asctime)s telethermo-{role.value} %(levelname)s %(message)s"
+    handlers: list[logging.Handler] = [logging.StreamHandler(sys.stderr)]
+    handlers[0].setLevel(logging.INFO if verbose else logging.WARNING)
+    if log_path is not None:
+        log_path.parent.mkdir(parents=True, exist_ok=True)
+        fh = logging.FileHandler(log_path, mode="a", encoding="utf-8")
+        fh.setLevel(logging.INFO)
+        handlers.append(fh)
+    logging.basicConfig(level=logging.INFO, format=fmt, handlers=handlers, force=True)
+
+
+def run_node(role: Role, argv: list[str] | None = None) -> int:
+    args = build_parser(role).parse_args(argv)
+    prog = f"telethermo-{role.value}"
+    try:
+        opts = options_from_args(role, args)
+    except OptionError as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+    _setup_logging(role, opts.verbose, opts.log)
+    log = logging.getLogger("telethermo.node")
+
+    # heavy imports after the argument check (``--help`` and usage errors stay fast)
+    from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
+    from telethermo.transport.bus import TransportError, parse_bus_string, settings_from_mapping
+
+    from nodes.parts import build_parts
+    from nodes.recorder import CsvRecorder
+    from nodes.runtime import NodeRuntime
+
+    try:
+        net = load_network(opts.network)
+        if opts.bus:
+            transport = parse_bus_string(opts.bus, bitrate=net.bus.bitrate)
+        else:
+            transport = settings_from_mapping(
+                {"interface": net.bus.interface, "channel": net.bus.channel, "bitrate": net.bus.bitrate,
+                 "options": dict(net.bus.options)}, str(net.path))
+        node_id = opts.node_id or net.node(role.value).node_id
+        parts = build_parts(opts, period_s=net.sync.period_s)
+    except (OptionError, NetworkConfigError, TransportError) as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+    recorder = None
+    if opts.record is not None:
+        import json
+
+        from telethermo.session.recording import COLUMNS, MAGIC
+        p = "m_" if role is Role.MASTER else "s_"
+        columns = ["t_s"] + [c for c in COLUMNS if c.startswith(p)]
+        meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
+                    node_id=node_id, timing=opts.timing, transport=opts.bus or net.bus.interface)
+        recorder = CsvRecorder(opts.record, columns,
+                               comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
+
+    lockstep = opts.timing == "lockstep"
+    rt = NodeRuntime(role, node_id, net, transport, parts, mode=opts.mode, lockstep=lockstep,
+                     produce_sync=opts.produce_sync, recorder=recorder)
+    reason = ["finished"]
+
+    def on_signal(signum, _frame):
+        reason[0] = signal.Signals(signum).name
+        rt.stop_event.set()
+
+    signal.signal(signal.SIGTERM, on_signal)
+    signal.signal(signal.SIGINT, on_signal)
+    code = EXIT_OK
+    try:
+        try:
+            rt.start()
+        except Exception as exc:  # the bus cannot be opened, the hub is not there, ...
+            print(f"{prog}: error: cannot start node {node_id} on {transport.describe()}: {exc}", file=sys.stderr)
+            code = EXIT_FAIL
+            return code
+        if opts.produce_sync:
+            if not rt.wait_for_peer(opts.wait_peer_s):
+                if not rt.stop_event.is_set():
+                    log.warning("peer %d not seen within %g s: starting anyway", rt.peer_id, opts.wait_peer_s)
+            cycles = opts.cycles if opts.cycles is not None else (parts.cycles or 0)
+
+            def progress(k: int, n: int) -> None:
+                print(f"progress {k} {n}", flush=True)
+
+            done = rt.run_producer(cycles, progress_every=opts.progress_every, progress=progress)
+            log.info("SYNC producer: %d of %d cycles run", done, cycles)
+        else:
+            while not rt.stop_event.wait(0.5):
+                pass
+        if rt.stats.cycle_errors:
+            code = EXIT_FAIL
+    finally:
+        rt.stop(reason[0])
+    return code
+

@@ -1,0 +1,15 @@
+"""``telethermo-master``: the master CANopen node program (see nodes/main.py and docs/nodes.md)."""
+from __future__ import annotations
+
+import sys
+
+from telethermo.control.types import Role
+
+
+def main(argv: list[str] | None = None) -> int:
+    from nodes.main import run_node
+    return run_node(Role.MASTER, argv)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

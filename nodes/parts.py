@@ -1,0 +1,107 @@
+"""What one node runs, built from its options: the rig, the controller parameters, the model, and
+the recording's meta. The only module of nodes/ that knows the simulator.
+
+Built exactly as the offline runner (telethermo.session.runner) builds them, so that a two-process
+session and an offline session of the same scene give the same trajectories up to REAL32 rounding:
+the same rigs (``sim.build_rig(scene, role, seed)``; seeds master 0, slave 1 by default), the same
+default parameters (``telethermo.control.defaults.default_params``), the same cycle-0 peer values.
+"""
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from dataclasses import dataclass
+from typing import Any, Callable
+
+from telethermo.control.core import CoreParams
+from telethermo.control.defaults import default_params
+from telethermo.control.types import Mode, Role
+from telethermo.rig import Rig
+
+from nodes.options import NodeOptions, OptionError
+
+#: default noise seeds, as the offline runner's default (seed=0: master 0, slave 1)
+DEFAULT_SEEDS = {Role.MASTER: 0, Role.SLAVE: 1}
+
+
+@dataclass
+class NodeParts:
+    """A node's rig and controller configuration.
+
+    Attributes:
+        rig: the rig (a simulated one advances only when asked).
+        simulated: the rig has ``advance`` (lockstep possible).
+        params_for: mode -> :class:`CoreParams` (raises ValueError for a mode this node cannot run).
+        model: TEM model or None (the FLUX estimator needs none).
+        period_s: control period, s.
+        cycles: cycles of the scene's duration (None for hardware).
+        meta: descriptive keys for the recording.
+        truth: simulated rig's ground truth (None for hardware).
+    """
+
+    rig: Rig
+    simulated: bool
+    params_for: Callable[[Mode], CoreParams]
+    model: Any
+    period_s: float
+    cycles: int | None
+    meta: dict[str, Any]
+    truth: Callable[[], Any] | None
+
+
+def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
+    """Rig, parameters and model of ``opts``; ``period_s`` is the network's SYNC period, s."""
+    model = None
+    if opts.model is not None:
+        from telethermo.ident import load_model
+        try:
+            model = load_model(opts.model)
+        except ValueError as exc:  # ModelFileError names the file and the field
+            raise OptionError(str(exc)) from None
+    meta: dict[str, Any] = {"role": opts.role.value}
+    render = None
+    if opts.scene is not None:
+        import sim
+        try:
+            scene = sim.load_scene(opts.scene)
+        except ValueError as exc:  # SceneError names the file and the field
+            raise OptionError(str(exc)) from None
+        seed = opts.seed if opts.seed is not None else DEFAULT_SEEDS[opts.role]
+        rig = sim.build_rig(scene, opts.role.value, seed=seed)
+        if abs(rig.period_s - period_s) > 1e-12:
+            raise OptionError(f"--scene {str(opts.scene)!r}: period_s = {rig.period_s} s but the network's SYNC "
+                              f"period is {period_s} s (network settings [sync] period_s); they must agree")
+        cycles = int(round(scene.duration_s / rig.period_s))
+        meta.update(scene=getattr(scene, "name", str(opts.scene)), seed=seed)
+        truth = rig.truth
+        if opts.role is Role.MASTER:
+            try:
+                from telethermo.session.runner import _render_touches
+                touches = _render_touches(scene)
+                render = touches[0]["settings"] if touches else None
+            except (ImportError, AttributeError, ValueError, KeyError):
+                render = None
+    else:
+        module, _, factory = opts.rig.partition(":")
+        try:
+            rig = getattr(importlib.import_module(module), factory)()
+        except (ImportError, AttributeError) as exc:
+            raise OptionError(f"--rig {opts.rig!r}: cannot load the rig factory: {exc}") from None
+        cycles = None
+        truth = None
+        meta.update(rig=opts.rig)
+    simulated = callable(getattr(rig, "advance", None))
+    if opts.timing == "lockstep" and not simulated:
+        raise OptionError("--timing lockstep: this rig cannot advance on request (hardware runs in real time)")
+
+    base = default_params(opts.role, period_s=period_s)
+    base = dataclasses.replace(base, safety=dataclasses.replace(base.safety, I_max_A=float(rig.I_max_A)))
+
+    def params_for(mode: Mode) -> CoreParams:
+        if mode is Mode.RENDER:
+            return dataclasses.replace(base, mode=mode, render=render)  # ValueError without render settings
+        return dataclasses.replace(base, mode=mode)
+
+    params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC
+    return NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,
+                     cycles=cycles, meta=meta, truth=truth)

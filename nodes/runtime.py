@@ -1,0 +1,320 @@
+"""The node runtime shared by the master and the slave: a CANopen device (telethermo.canopen_dev)
+on a python-can bus, a rig, the control core, the peer link and the recording.
+
+On each SYNC (the device's SYNC handler, which runs before the synchronous TPDOs are built):
+
+1. a simulated rig advances by one period (the previous cycle's current held), then is read;
+2. the peer values are the RPDO1 committed at this SYNC (the peer's TPDO1 of the previous cycle,
+   REAL32), or, in cycle 0, ``initial_peer`` as in the offline runner;
+3. the control core steps; the current goes to the rig; estimate and flux go into the OD so that
+   TPDO1 carries them at this very SYNC; new trips raise EMCYs, the recording gets a row.
+
+Peer loss (heartbeat timeout, or more than ``peer_pdo_miss_limit`` cycles without its PDO) makes the
+core's peer values ``alive=False``: the envelope ramps to neutral and cuts, EMCY 0x8130. When the peer
+is back (fresh PDOs, heartbeat seen) and only peer trips are latched, the node clears them
+(``clear_faults``): the core resumes bumplessly. Other trips stay latched for the operator.
+
+The SYNC producer (master by default) also runs the schedule: lockstep (SYNC k+1 only after the
+peer's PDO of cycle k, or after a timeout when the peer is silent) or real time (wall clock, late
+cycles counted in 0x2703 and the log). It is the NMT master of the pair: it starts every node that
+reports a boot-up or a pre-operational heartbeat.
+"""
+from __future__ import annotations
+
+import dataclasses
+import logging
+import threading
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import canopen
+
+from telethermo.canopen_dev.device import Device, NmtCommand, NmtState, PeerEvent, SyncTick, WriteEvent
+from telethermo.canopen_dev.netconfig import NetworkConfig
+from telethermo.canopen_dev.sync import SyncProducer
+from telethermo.control import safety as sf
+from telethermo.control.core import CoreState, clear_faults, init_state, initial_peer, step
+from telethermo.control.types import Mode, Role
+from telethermo.transport.bus import TransportSettings, open_bus
+
+from nodes.parts import NodeParts
+from nodes.peer import PeerLink
+from nodes.recorder import CsvRecorder
+from nodes.schedule import RealtimeTicker
+
+log = logging.getLogger("telethermo.node")
+
+MODE_INDEX = 0x2500
+GAIN_FIELDS = {0x2200: "kp_A_per_C", 0x2201: "ki_A_per_C_s", 0x2202: "kQ_A_per_W"}
+PEER_MISS_INDEX = 0x2408
+
+
+@dataclass
+class RuntimeStats:
+    """What a node counted (printed at exit, partly in the OD)."""
+
+    cycles: int = 0
+    late_cycles: int = 0
+    lockstep_timeouts: int = 0
+    emcy_raised: int = 0
+    peer_resumes: int = 0
+    nmt_starts_sent: int = 0
+    cycle_errors: int = 0
+    latencies_s: list[float] = field(default_factory=list)
+
+
+class NodeRuntime:
+    """One node process's machinery. ``start()``, then ``run_producer(...)`` or ``wait()``, then ``stop()``."""
+
+    def __init__(self, role: Role, node_id: int, net: NetworkConfig, transport: TransportSettings,
+                 parts: NodeParts, *, mode: Mode, lockstep: bool, produce_sync: bool,
+                 recorder: CsvRecorder | None = None, record_latency: bool = False) -> None:
+        self.role = role
+        self.prefix = "m" if role is Role.MASTER else "s"
+        self.node_id = node_id
+        self.net = net
+        self.transport = transport
+        self.parts = parts
+        self.mode = mode
+        self.params = parts.params_for(mode)
+        self.lockstep = lockstep
+        self.produce_sync = produce_sync
+        self.recorder = recorder
+        self.record_latency = record_latency
+        self.peer_id = net.peer(role.value).node_id
+        self.stats = RuntimeStats()
+        self.stop_event = threading.Event()
+        self._state: CoreState | None = None
+        self._advance_pending = False
+        self._last_sync_wall: float | None = None
+        self._sync_sent_at = 0.0
+        self.network: canopen.Network | None = None
+        self.device: Device | None = None
+        self.sync: SyncProducer | None = None
+        self.peer = PeerLink()
+
+    # ------------------------------------------------------------------ life cycle
+    def start(self) -> None:
+        """Open the bus, power the device on (boot-up, heartbeat), install the handlers."""
+        bus = open_bus(self.transport)
+        self.network = canopen.Network(bus)
+        self.network.connect()
+        settings = dataclasses.replace(self.net.device_settings(self.role.value), sync_producer=self.produce_sync)
+        eds = self.net.node(self.role.value).eds
+        dev = Device(self.network, self.node_id, eds, settings=settings)
+        self.device = dev
+        dev.add_sync_handler(self._on_sync)
+        dev.add_peer_listener(self._on_peer)
+        dev.add_write_listener(self._on_write)
+        dev.add_nmt_listener(self._on_nmt)
+        self._od_writers()
+        self.peer = PeerLink(max_missed_cycles=int(dev.read(PEER_MISS_INDEX)))
+        dev.write(MODE_INDEX, int(self.mode))
+        dev.write(0x2704, bool(self.lockstep), check=False)
+        if self.produce_sync:
+            self.sync = SyncProducer(dev)
+        dev.start()
+        log.info("node %d (%s) on %s: pre-operational, heartbeat every %d ms, peer %d watched for %d ms",
+                 self.node_id, self.role.value, self.transport.describe(), self.net.heartbeat.producer_ms,
+                 self.peer_id, self.net.heartbeat.consumer_ms)
+
+    def _od_writers(self) -> None:
+        d = self.device
+        self._w = {name: d.writer(name) for name in (
+            "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "force_N", "estimate_C", "T_pred_C",
+            "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles")}
+        self._r_peer_est = d.reader("peer_estimate_C")
+        self._r_peer_q = d.reader("peer_Q_W")
+
+    def stop(self, reason: str = "stop") -> None:
+        """Current to zero, last heartbeat, recording closed, bus released. Idempotent."""
+        self.stop_event.set()
+        dev = self.device
+        try:
+            if dev is not None:
+                with dev._lock:  # no SYNC handler runs while we cut the current
+                    self._safe_current()
+                    self._w["current_A"](0.0)
+                    dev.send_heartbeat_now()
+            else:
+                self._safe_current()
+        finally:
+            if self.recorder is not None and not self.recorder.closed:
+                self.recorder.close()
+            if dev is not None:
+                dev.close()
+            if self.network is not None:
+                try:
+                    self.network.disconnect()
+                except Exception as exc:  # the bus may already be gone (hub ended)
+                    log.warning("disconnect: %s", exc)
+            log.info("node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s",
+                     self.node_id, reason, self.stats.cycles, self.stats.late_cycles, self.stats.lockstep_timeouts,
+                     self.stats.emcy_raised, self.peer.counters)
+
+    def _safe_current(self) -> None:
+        try:
+            self.parts.rig.apply_current(0.0)
+        except Exception:
+            log.exception("could not set the rig's current to 0 A")
+
+    # ------------------------------------------------------------------ callbacks
+    def _on_peer(self, ev: PeerEvent) -> None:
+        if ev.node_id != self.peer_id:
+            return
+        if ev.kind == "lost":
+            self.peer.on_heartbeat_timeout()
+            log.warning("peer %d lost (no heartbeat for %d ms)", ev.node_id, self.net.heartbeat.consumer_ms)
+        else:
+            self.peer.on_heartbeat()
+            if ev.kind == "back":
+                log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
+        # the NMT master starts a peer that (re)booted or sits in pre-operational
+        if self.produce_sync and ev.state in (0, int(NmtState.PRE_OPERATIONAL)) and not self.stop_event.is_set():
+            self.device.nmt_command(NmtCommand.START, ev.node_id)
+            self.stats.nmt_starts_sent += 1
+
+    def _on_write(self, ev: WriteEvent) -> None:
+        if ev.index == MODE_INDEX:
+            try:
+                mode = Mode(int(ev.value))
+                params = self.parts.params_for(mode)
+            except ValueError as exc:
+                log.error("mode %s refused: %s; staying in %s", ev.value, exc, self.mode.name)
+                self.device.write(MODE_INDEX, int(self.mode), check=False)
+                return
+            self.mode, self.params = mode, params
+            log.info("mode -> %s", mode.name)
+        elif ev.index in GAIN_FIELDS:
+            self.params = dataclasses.replace(self.params, **{GAIN_FIELDS[ev.index]: float(ev.value)})
+            log.info("%s -> %g", GAIN_FIELDS[ev.index], ev.value)
+        elif ev.index == PEER_MISS_INDEX:
+            self.peer.max_missed_cycles = int(ev.value)
+
+    def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
+        log.info("NMT %s -> %s", old.name, new.name)
+        if new is not NmtState.OPERATIONAL:
+            # no control outside OPERATIONAL: the drive holds no current
+            self._safe_current()
+
+    # ------------------------------------------------------------------ the cycle
+    def _on_sync(self, tick: SyncTick) -> None:
+        if not tick.operational or self.stop_event.is_set():
+            return
+        try:
+            self._cycle(tick)
+        except Exception:
+            self.stats.cycle_errors += 1
+            log.exception("cycle %d failed: current set to 0 A", self.stats.cycles)
+            self._safe_current()
+            raise
+
+    def _cycle(self, tick: SyncTick) -> None:
+        now = time.monotonic()
+        if not self.produce_sync and not self.lockstep:
+            last = self._last_sync_wall
+            if last is not None and now - last > 1.5 * self.parts.period_s:
+                self.stats.late_cycles += 1
+            self._last_sync_wall = now
+        rig = self.parts.rig
+        if self._advance_pending:
+            rig.advance(self.parts.period_s)
+        sample = rig.read()
+        if 1 in tick.fresh_rpdos:
+            self.peer.on_pdo(self._r_peer_est(), self._r_peer_q())
+        peer = self.peer.take()
+        if self._state is None:
+            self._state = init_state(self.params, self.parts.model, sample)
+            if peer is None:
+                peer = initial_peer(sample)
+        state = self._state
+        if peer is not None and peer.alive and peer.fresh and state.env.trips \
+                and state.env.trips <= sf.PEER_TRIPS:
+            state = clear_faults(sample, peer, self.params, state)
+            cleared = set(self._state.env.trips) - set(state.env.trips)
+            for trip in cleared:
+                self.device.clear_emcy(sf.EMCY_CODES[trip])
+            if cleared:
+                self.stats.peer_resumes += 1
+                log.warning("peer values back: cleared %s, resuming", ", ".join(t.value for t in cleared))
+        res = step(sample, peer, self.params, state)
+        self._state = res.state
+        rig.apply_current(res.current_A)
+        self._advance_pending = self.parts.simulated
+        st = res.status
+        w = self._w
+        w["estimate_C"](res.out.estimate_C)
+        w["Q_W"](res.out.flux_W)
+        w["T_sensor_C"](sample.T_sensor_C)
+        w["current_A"](res.current_A)
+        w["T_sink_C"](sample.T_sink_C)
+        w["contact"](bool(sample.contact))
+        w["force_N"](sample.force_N)
+        w["T_pred_C"](st.T_pred_C)
+        w["T_cmd_C"](st.setpoint_C)
+        w["safety_state"](int(st.safety.state))
+        self.stats.cycles += 1
+        w["cycle_counter"](self.stats.cycles & 0xFFFFFFFF)
+        w["late_cycles"](self.stats.late_cycles & 0xFFFFFFFF)
+        for trip in st.safety.new_trips:
+            code = sf.EMCY_CODES[trip]
+            w["last_trip_code"](code)
+            self.device.raise_emcy(code)
+            self.stats.emcy_raised += 1
+            log.warning("cycle %d: trip %s (EMCY 0x%04X)", self.stats.cycles - 1, trip.value, code)
+        if self.recorder is not None:
+            self._record(sample, res, peer)
+        if self.record_latency and not self.produce_sync:
+            self.stats.latencies_s.append(time.monotonic() - now)
+
+    def _record(self, sample, res, peer) -> None:
+        from telethermo.session.runner import _side_row, _truth_row
+        row = {"t_s": sample.t_s}
+        row.update(_side_row(self.prefix, sample, res, peer))
+        if self.parts.truth is not None:
+            row.update(_truth_row(self.prefix, self.parts.rig))
+        self.recorder.write(row)
+
+    # ------------------------------------------------------------------ SYNC producer
+    def wait_for_peer(self, timeout_s: float) -> bool:
+        """Wait until the peer's heartbeat is seen (it is started by NMT when it is)."""
+        deadline = time.monotonic() + timeout_s
+        while not self.stop_event.is_set() and time.monotonic() < deadline:
+            if self.device.peer_status(self.peer_id) == "alive":
+                return True
+            self.stop_event.wait(0.01)
+        return False
+
+    def run_producer(self, cycles: int, *, progress_every: int = 0, progress=None) -> int:
+        """Start all nodes (NMT) and run ``cycles`` SYNC cycles (0 = until stopped); return cycles run."""
+        dev, sync = self.device, self.sync
+        assert dev is not None and sync is not None
+        dev.nmt_command(NmtCommand.START, 0)
+        period = self.parts.period_s
+        hb_timeout = self.net.heartbeat.consumer_ms * 1e-3 or 1.0
+        ticker = None if self.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
+        k = 0
+        while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
+            if dev.state is not NmtState.OPERATIONAL:
+                # stopped or pre-operational by an NMT command from elsewhere: no SYNC cycles of ours
+                self.stop_event.wait(period)
+                continue
+            if ticker is not None:
+                late, lateness = ticker.wait_next()
+                if late:
+                    self.stats.late_cycles = ticker.stats.late_cycles
+                    log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
+            n0 = dev.rpdo_count(1)
+            self._sync_sent_at = time.monotonic()
+            sync.transmit()
+            k += 1
+            if self.lockstep:
+                alive = dev.peer_status(self.peer_id) == "alive"
+                if not dev.wait_rpdo(1, after=n0, timeout=hb_timeout if alive else period):
+                    self.stats.lockstep_timeouts += 1
+                elif self.record_latency:
+                    self.stats.latencies_s.append(time.monotonic() - self._sync_sent_at)
+            if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
+                progress(k, cycles)
+        return k
