@@ -1,0 +1,74 @@
+"""Merging the two nodes' recordings into one session recording (telethermo.session.recording
+format), so that ``compute_figures`` gives the same figures as for an offline session.
+
+Each node records its own side (``m_*`` or ``s_*`` columns, with ``t_s``). The rows are matched by
+cycle: both simulated rigs start at t = 0 and advance one period per SYNC, so row k of both files
+has the same ``t_s`` (checked). The direct-touch reference (``ref_*``) and the scene's contacts are
+added from the scene, as the offline runner does: the reference is physics only, no controller.
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from telethermo.session.recording import COLUMNS, TEXT_COLUMNS, Recording, RecordingError, read_recording_csv
+
+
+class MergeError(ValueError):
+    """The two recordings do not belong together (names the files and what differs)."""
+
+
+def merge_recordings(master_csv: str | Path, slave_csv: str | Path | None, *, scene: Any = None,
+                     reference: bool = True) -> Recording:
+    """One recording from the master's and (optionally) the slave's files, plus the scene's reference.
+
+    Rows are cut to the shorter file (a node stopped a cycle earlier). ``scene``: a loaded scene or a
+    path (None: no reference columns and no contacts in the meta).
+    """
+    m = read_recording_csv(master_csv)
+    s = read_recording_csv(slave_csv) if slave_csv is not None else None
+    n = len(m) if s is None else min(len(m), len(s))
+    t = m.col("t_s")[:n]
+    if s is not None:
+        ts = s.col("t_s")[:n]
+        bad = np.flatnonzero(np.abs(t - ts) > 1e-9)
+        if bad.size:
+            k = int(bad[0])
+            raise MergeError(f"{master_csv} and {slave_csv}: row {k}: t_s {t[k]} s vs {ts[k]} s "
+                             "(the rigs are not in lockstep)")
+    meta = {k: v for k, v in m.meta.items() if k not in ("role", "node_id", "seed")}
+    meta["seeds"] = {"master": m.meta.get("seed"), **({"slave": s.meta.get("seed")} if s is not None else {})}
+    meta["mode"] = m.meta.get("mode", "telepresence")
+    cols: dict[str, Any] = {"t_s": t}
+    for rec in (m, s):
+        if rec is None:
+            continue
+        for c, v in rec.columns.items():
+            if c != "t_s":
+                cols[c] = list(v[:n]) if c in TEXT_COLUMNS else np.asarray(v[:n], dtype=float)
+    if scene is not None:
+        import sim
+        sc = sim.load_scene(scene) if isinstance(scene, (str, Path)) else scene
+        from telethermo.session.runner import _contacts, _ref_row
+        meta["contacts"] = _contacts(sc, "slave" if meta["mode"] == "telepresence" else "master")
+        if reference:
+            ref = sim.build_reference(sc)
+            period = float(meta.get("period_s") or sc.period_s)
+            rows = []
+            for _ in range(n):
+                rows.append(_ref_row(ref))
+                ref.advance(period)
+            for c in ("ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"):
+                cols[c] = np.asarray([r[c] for r in rows], dtype=float)
+    for c in COLUMNS:  # the documented column set, NaN/empty where a side is absent
+        if c not in cols:
+            cols[c] = [""] * n if c in TEXT_COLUMNS else np.full(n, math.nan)
+    ordered = {c: cols[c] for c in COLUMNS}
+    ordered.update({c: v for c, v in cols.items() if c not in ordered})
+    return Recording(meta=meta, columns=ordered)
+
+
+__all__ = ["merge_recordings", "MergeError", "RecordingError"]

@@ -1,0 +1,190 @@
+"""``telethermo session``: a telepresence session of the two node processes with simulated rigs.
+
+    telethermo session --scene sim/scenes/probe_touches_al_steel_wood.toml --out out/session
+
+Starts our socketcand hub when no real bus is given (``--bus socketcan:vcan0`` uses a real one),
+then the slave and the master node programs as separate processes with the scene; shows progress;
+Ctrl-C stops everything cleanly (master, slave, hub: each node cuts its current and closes its
+recording). Then it merges the two recordings (plus the scene's direct-touch reference), prints the
+figures (the same as the offline runner's) and writes into ``--out``: ``recording.csv``,
+``summary.json``, ``session.png``, and each node's ``master.csv``/``slave.csv`` and logs.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import signal
+import sys
+import time
+from pathlib import Path
+
+from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("session", help="run a two-node telepresence session (simulated rigs) and report its figures",
+                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--scene", required=True, type=Path, help="scene file (TOML) or a shipped scene's name")
+    p.add_argument("--out", type=Path, default=Path("out/session"), help="output folder (default out/session)")
+    p.add_argument("--bus", help="a real bus for both nodes (e.g. socketcan:vcan0); default: our loopback hub")
+    p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
+    p.add_argument("--model", type=Path, help="identified TEM model file for both nodes (default: none; the flux "
+                                              "estimator needs none)")
+    p.add_argument("--timing", choices=["lockstep", "realtime"], default="lockstep",
+                   help="lockstep (default: as fast as the two processes go) or realtime (wall clock)")
+    p.add_argument("--duration", type=float, metavar="S", help="run S seconds of scene time (default: the scene's)")
+    p.add_argument("--seed", type=int, default=0, help="noise seed (master; the slave gets seed+1; default 0)")
+    p.add_argument("--no-plot", action="store_true", help="do not write session.png")
+    p.add_argument("--quiet", action="store_true", help="no progress display")
+    p.set_defaults(func=run)
+
+
+def _interrupt(signum, frame) -> None:
+    """SIGTERM stops a session as Ctrl-C does (children stopped in order, figures of what ran)."""
+    raise KeyboardInterrupt
+
+
+def _resolve_scene(arg: Path):
+    import sim
+    try:
+        return sim.load_scene(arg)
+    except ValueError as exc:  # SceneError: names the file and the field
+        raise UserError(str(exc)) from None
+
+
+def run(args: argparse.Namespace) -> int:
+    from nodes.launch import LaunchError, NodePair, PairConfig
+
+    scene = _resolve_scene(args.scene)
+    scene_path = Path(getattr(scene, "path", args.scene))
+    if args.network is not None and not args.network.is_file():
+        raise UserError(f"--network {str(args.network)!r}: no such file")
+    if args.model is not None and not args.model.is_file():
+        raise UserError(f"--model {str(args.model)!r}: no such file")
+    if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
+        raise UserError(f"--duration {args.duration}: expected a number of seconds > 0")
+    if args.bus:
+        from telethermo.transport.bus import TransportError, parse_bus_string
+        try:
+            parse_bus_string(args.bus)
+        except TransportError as exc:
+            raise UserError(str(exc)) from None
+    duration = args.duration if args.duration is not None else scene.duration_s
+    cycles = int(round(duration / scene.period_s))
+    out = args.out
+    out.mkdir(parents=True, exist_ok=True)
+    cfg = PairConfig(scene=scene_path, out_dir=out, bus=args.bus, network=args.network, model=args.model,
+                     timing=args.timing, cycles=cycles, seed=args.seed, progress_every=max(1, cycles // 100))
+    pair = NodePair(cfg)
+    interrupted = False
+    t0 = time.monotonic()
+    old_int = signal.getsignal(signal.SIGINT)
+    signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        try:
+            pair.start()
+        except LaunchError as exc:
+            print(f"telethermo session: error: {exc}", file=sys.stderr)
+            return EXIT_FAIL
+        where = pair.bus if args.bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
+        if not args.quiet:
+            print(f"session {scene.name}: {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, on {where}",
+                  file=sys.stderr)
+        while pair.master.poll() is None:
+            time.sleep(0.2)
+            if not args.quiet:
+                k, n = pair.progress
+                rate = k / max(1e-9, time.monotonic() - t0)
+                print(f"\r  cycle {k}/{n or cycles}  ({100 * k / max(1, cycles):5.1f} %, {rate:,.0f} cycles/s)",
+                      end="", file=sys.stderr, flush=True)
+            if pair.slave.poll() is not None and pair.master.poll() is None:
+                print(f"\ntelethermo session: the slave process ended (exit {pair.slave.returncode}); "
+                      f"see {pair.log('slave')}", file=sys.stderr)
+                break
+    except KeyboardInterrupt:
+        interrupted = True
+        if not args.quiet:
+            print("\n  interrupted: stopping master, slave and hub", file=sys.stderr)
+    finally:
+        codes = pair.stop()
+        signal.signal(signal.SIGINT, old_int)
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    wall = time.monotonic() - t0
+    if not args.quiet:
+        print("", file=sys.stderr)
+    failed = {r: c for r, c in codes.items() if r in ("master", "slave") and c not in (0, None)}
+    if failed:
+        print(f"telethermo session: node exit codes {failed}; logs in {out}", file=sys.stderr)
+    return _report(pair, scene, out, wall, cycles, plot=not args.no_plot,
+                   code=EXIT_INTERRUPTED if interrupted else (EXIT_FAIL if failed else EXIT_OK))
+
+
+def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, code: int) -> int:
+    from nodes.merge import MergeError, merge_recordings
+    from telethermo.atomic import write_json_atomic
+    from telethermo.session.figures import compute_figures
+    from telethermo.session.recording import RecordingError, write_recording_csv
+
+    m, s = pair.recording("master"), pair.recording("slave")
+    if not m.is_file() or not s.is_file():
+        print(f"telethermo session: no recordings in {out} (see the logs there)", file=sys.stderr)
+        return code or EXIT_FAIL
+    try:
+        rec = merge_recordings(m, s, scene=scene)
+    except (MergeError, RecordingError) as exc:
+        print(f"telethermo session: error: {exc}", file=sys.stderr)
+        return code or EXIT_FAIL
+    figures = compute_figures(rec)
+    figures["run"] = {"transport": pair.bus.split("://")[0] if pair.bus else None, "wall_time_s": wall_s,
+                      "cycles": len(rec), "cycles_requested": cycles,
+                      "cycles_per_s": len(rec) / wall_s if wall_s > 0 else None, "complete": len(rec) == cycles}
+    write_recording_csv(out / "recording.csv", rec)
+    write_json_atomic(out / "summary.json", figures)
+    if plot:
+        try:
+            from telethermo.session.plot import write_session_png
+            write_session_png(out / "session.png", rec)
+        except ImportError as exc:  # matplotlib is the optional 'plot' extra
+            print(f"telethermo session: no plot ({exc})", file=sys.stderr)
+    print_summary(figures)
+    print(f"\nwritten: {out / 'recording.csv'}, {out / 'summary.json'}" + (f", {out / 'session.png'}" if plot else ""))
+    return code
+
+
+def print_summary(fig: dict) -> None:
+    """The figures as a table (telepresence: transparency per touch, tracking, discrimination, safety)."""
+    def f(x, unit=""):
+        return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3f}{unit}"
+
+    run = fig.get("run", {})
+    print(f"session {fig.get('scene')}: {fig.get('n_steps')} cycles ({fig.get('duration_s', 0):.2f} s of scene time) "
+          f"in {run.get('wall_time_s', 0):.1f} s wall ({run.get('cycles_per_s') or 0:,.0f} cycles/s)")
+    tr = fig.get("transparency")
+    if tr:
+        rows = [["touch", "object", "t_on s", "early |e| mean °C", "early |e| max °C", "late |e| mean °C",
+                 "rendered °C", "reference °C"]]
+        for i, p in enumerate(tr["per_contact"], 1):
+            rows.append([str(i), p["object"], f(p["t_on_s"]), f(p["early_T"]["mean_abs"]), f(p["early_T"]["max_abs"]),
+                         f(p["late_T"]["mean_abs"]), f(p["rendered_early_C"]), f(p["reference_early_C"])])
+        _table(rows)
+        print(f"transparency: early mean {f(tr['early_mean_error_C'], ' °C')}, max {f(tr['early_max_error_C'], ' °C')}; "
+              f"late mean {f(tr['late_mean_error_C'], ' °C')}; flux early mean {f(tr['early_mean_flux_error_W'], ' W')}")
+    trk = fig.get("tracking")
+    if trk:
+        print(f"tracking RMS in steady contact: master {f(trk.get('master_rms_C'), ' °C')}, "
+              f"slave {f(trk.get('slave_rms_C'), ' °C')}")
+    d = fig.get("discrimination")
+    if d:
+        print(f"discrimination: order kept {d['order_kept']} ({' < '.join(d['rendered_order_coldest_first'])}), "
+              f"min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
+    sfy = fig.get("safety", {})
+    if sfy:
+        print(f"safety: {sfy.get('n_trips', 0)} trips; time cut {sfy.get('time_cut_s')}")
+
+
+def _table(rows: list[list[str]]) -> None:
+    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
+    for j, r in enumerate(rows):
+        print("  ".join(c.rjust(w) for c, w in zip(r, widths)))
+        if j == 0:
+            print("  ".join("-" * w for w in widths))
