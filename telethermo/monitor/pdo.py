@@ -70,7 +70,7 @@ class PdoValue:
         return {"name": self.name, "value": v, "unit": self.unit, "index": self.index, "subindex": self.subindex}
 
 
-def _var(od, index: int, sub: int):
+def od_var(od, index: int, sub: int):
     try:
         obj = od[index]
     except KeyError:
@@ -83,8 +83,8 @@ def _var(od, index: int, sub: int):
         return None
 
 
-def _default(od, index: int, sub: int) -> int | None:
-    var = _var(od, index, sub)
+def od_value(od, index: int, sub: int) -> int | None:
+    var = od_var(od, index, sub)
     if var is None:
         return None
     v = var.value if var.value is not None else var.default
@@ -116,7 +116,7 @@ class PdoMap:
                         continue
                     obj = od[index]
                     for sub in (range(0, 9) if base in (TPDO_COMM, RPDO_COMM) else range(0, 65)):
-                        v = _default(od, index, sub) if not isinstance(obj, od_mod.ODVariable) else None
+                        v = od_value(od, index, sub) if not isinstance(obj, od_mod.ODVariable) else None
                         if v is not None:
                             vals[(index, sub)] = v
         self._values[node] = vals
@@ -155,7 +155,7 @@ class PdoMap:
                     for i in range(1, min(count, 64) + 1):
                         m = vals.get((mapping + n, i), 0)
                         index, sub, bits = m >> 16, (m >> 8) & 0xFF, m & 0xFF
-                        var = _var(od, index, sub) if od is not None else None
+                        var = od_var(od, index, sub) if od is not None else None
                         if var is None:
                             name = f"dummy{bits}" if index < 0x20 else f"0x{index:04X}:{sub:02X}"
                         else:

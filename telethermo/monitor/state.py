@@ -17,7 +17,7 @@ from . import cia301
 from . import decoder as dec
 from .busload import message_length_bits
 from .events import ERROR, INFO, WARN, Event, EventLog
-from .pdo import PdoDef, PdoMap, PdoValue, _var, decode_pdo, format_value
+from .pdo import PdoDef, PdoMap, PdoValue, od_value as _value, od_var as _var, decode_pdo, format_value
 from .sdo import SdoChannel, SdoTransfer
 
 
@@ -66,7 +66,9 @@ class SdoRecord:
         arrow = "write" if tr.direction == "download" else "read" if tr.direction == "upload" else tr.direction
         where = f"0x{tr.index:04X}:{tr.subindex:02X} {self.name}".rstrip()
         if tr.status == "ok":
-            return f"{arrow} {where} = {format_value(self.value, self.unit)} ({tr.mode})"
+            shown = (f"0x{self.value:X}" if isinstance(self.value, int) and not isinstance(self.value, bool)
+                     and 0x1000 <= tr.index < 0x2000 else format_value(self.value, self.unit))
+            return f"{arrow} {where} = {shown} ({tr.mode})"
         if tr.status == "aborted":
             return f"{arrow} {where} ABORT 0x{tr.abort_code:08X} {tr.abort_text} (by {tr.aborted_by})"
         return f"{arrow} {where} ERROR {tr.problem}"
@@ -105,6 +107,7 @@ class NodeState:
     last_emcy: dict[str, Any] | None = None
     last_emcy_t: float | None = None
     emcys: int = 0
+    emcy_active: bool = False                 # the last EMCY was an error, not a reset (0x0000)
     error_register: int | None = None
     sdo: SdoChannel | None = None
     sdo_transfers: deque = field(default_factory=lambda: deque(maxlen=8))
@@ -129,7 +132,8 @@ class NodeState:
                 "hb_period_max_s": self.hb_period_max_s, "hb_period_last_s": self.hb_period_last_s,
                 "producer_time_s": self.producer_time_s, "consumer_time_s": self.consumer_time_s,
                 "hb_timeout_s": self.hb_timeout_s, "hb_lost": self.hb_lost, "hb_losses": self.hb_losses,
-                "last_emcy": self.last_emcy, "emcys": self.emcys, "error_register": self.error_register,
+                "last_emcy": self.last_emcy, "last_emcy_t_s": self.last_emcy_t, "emcy_active": self.emcy_active,
+                "emcys": self.emcys, "error_register": self.error_register,
                 "sdo_ok": self.sdo_ok, "sdo_aborts": self.sdo_aborts,
                 "last_sdo": [r.to_json() for r in self.sdo_transfers][-1:],
                 "pdo_frames": dict(self.pdo_frames)}
@@ -212,9 +216,9 @@ class Monitor:
         for n, info in self.config.nodes.items():
             if info.od is None:
                 continue
-            v = _var(info.od, 0x1017, 0)
-            if v is not None and isinstance(v.default, int) and v.default > 0:
-                self._node(n).producer_time_s = v.default / 1000.0
+            v = _value(info.od, 0x1017, 0)
+            if v:
+                self._node(n).producer_time_s = v / 1000.0
             if 0x1016 in info.od:
                 obj = info.od[0x1016]
                 for sub in range(1, 128):
@@ -222,10 +226,10 @@ class Monitor:
                         var = obj[sub]
                     except (KeyError, TypeError):
                         break
-                    self._set_consumer(var.default if isinstance(var.default, int) else 0)
-            v = _var(info.od, 0x1005, 0)
-            if v is not None and isinstance(v.default, int) and v.default:
-                self._sync_cob = v.default & 0x7FF
+                    self._set_consumer(_value(info.od, 0x1016, sub) or 0)
+            v = _value(info.od, 0x1005, 0)
+            if v:
+                self._sync_cob = v & 0x7FF
 
     def _set_consumer(self, raw: int) -> None:
         watched, ms = (raw >> 16) & 0x7F, raw & 0xFFFF
@@ -397,8 +401,10 @@ class Monitor:
             return
         st = self._node(f.node)
         st.emcys += 1
-        st.last_emcy, st.last_emcy_t = dict(f.fields), f.t_s
         st.error_register = f.fields["register"]
+        st.emcy_active = not f.fields["reset"]
+        if not f.fields["reset"]:
+            st.last_emcy, st.last_emcy_t = dict(f.fields), f.t_s
         if f.fields["reset"]:
             ev.append(Event(f.t_s, INFO, "emcy_reset", f.node, f"node {f.node}: {f.text}", dict(f.fields)))
         else:
@@ -494,6 +500,7 @@ class Monitor:
         f.fields = {"step": step.text}
         if step.done is not None:
             rec = self._record(step.done)
+            f.text += f" | {rec.text()}"
             st.sdo_transfers.append(rec)
             f.fields["transfer"] = rec.to_json()
             tr = step.done

@@ -113,7 +113,8 @@ def test_recorded_trace_every_frame_type_every_field(tmp_path, ext):
     assert e["register"] == 0x09 and e["register_bits"] == ["generic", "temperature"]
     assert e["manufacturer"] == "0102030405" and not e["reset"]
     assert emcys[1].fields["code"] == 0 and emcys[1].fields["reset"]
-    assert mon.nodes[1].emcys == 2 and mon.nodes[1].last_emcy["code"] == 0
+    assert mon.nodes[1].emcys == 2 and mon.nodes[1].last_emcy["code"] == 0x4210   # the last error...
+    assert not mon.nodes[1].emcy_active and mon.nodes[1].error_register == 0        # ...since reset
 
     # TIME: days since 1984 and ms after midnight of the stamp the producer was given
     (tf,) = [f for f in frames if f.kind == dec.TIME]

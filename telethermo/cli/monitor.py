@@ -1,0 +1,104 @@
+"""``telethermo monitor``: the CANopen bus monitor, live on any python-can bus or replaying a log."""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from telethermo.cli import common
+from telethermo.cli.main import UserError
+from telethermo.monitor.replay import Pacer, ReplayError, live, paced, read_log
+from telethermo.monitor.run import run_curses, run_lines
+from telethermo.monitor.state import Monitor
+from telethermo.monitor.view import ViewState
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser(
+        "monitor", help="watch the CANopen bus (live or a recorded log)",
+        description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
+                    "transfers (one state machine per node), PDOs by the EDS mapping and by remapping seen on "
+                    "the bus, SYNC period/jitter, bus load, events. Curses view by default; --json or --lines "
+                    "for scripts.")
+    common.add_bus_options(p)
+    p.add_argument("--replay", metavar="LOG", help="replay a python-can log (.log .asc .blf .csv .trc) instead of a live bus")
+    p.add_argument("--speed", type=float, default=None, metavar="X",
+                   help="replay speed: 1 = as recorded, 0 = as fast as possible "
+                        "(default 1 in the view, 0 with --json/--lines)")
+    out = p.add_mutually_exclusive_group()
+    out.add_argument("--json", action="store_true", help="JSON lines (frames, events, status) on stdout")
+    out.add_argument("--lines", action="store_true", help="plain text lines on stdout")
+    p.add_argument("--no-frames", action="store_true", help="with --json/--lines: events and status only")
+    p.add_argument("--status-every", type=float, default=1.0, metavar="S",
+                   help="with --json/--lines: a status line every S s of bus time (0: only at the end)")
+    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (live)")
+    p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
+    p.add_argument("--sync-period", type=float, metavar="S",
+                   help="nominal SYNC period for late cycles, s (default: the network file's, unless lockstep)")
+    p.add_argument("--bitrate", type=int, metavar="BIT_S", help="bitrate for the bus load (default: the network file's)")
+    p.set_defaults(func=run)
+
+
+@common.failures
+def run(args: argparse.Namespace) -> int:
+    try:
+        return _run(args)
+    except BrokenPipeError:       # the reader went away (| head): not an error
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
+
+
+def _run(args: argparse.Namespace) -> int:
+    if args.speed is not None and args.speed < 0:
+        raise UserError(f"--speed: expected a number >= 0, got {args.speed}")
+    if args.duration is not None and args.duration <= 0:
+        raise UserError(f"--duration: expected a positive number of seconds, got {args.duration}")
+    if args.count is not None and args.count <= 0:
+        raise UserError(f"--count: expected a positive number of frames, got {args.count}")
+    net = common.network(args)
+    mon = Monitor(common.monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period))
+    scripted = args.json or args.lines
+    bus = None
+    deadline = time.monotonic() + args.duration if args.duration else None
+    until = (lambda: time.monotonic() >= deadline) if deadline else None
+    try:
+        if args.replay:
+            try:
+                msgs = read_log(args.replay)
+            except ReplayError as exc:
+                raise UserError(str(exc)) from None
+            speed = args.speed if args.speed is not None else (0.0 if scripted else 1.0)
+            source, desc, mode, now = msgs, args.replay, f"REPLAY x{speed:g}" if speed else "REPLAY (max speed)", None
+        else:
+            bus, ts = common.open_can(args, net)
+            source, desc, mode, now = live(bus), ts.describe(), "LIVE", time.time
+            speed = 0.0
+        try:
+            if scripted:
+                src = paced(source, speed=speed) if args.replay else source
+                run_lines(src, mon, sys.stdout, as_json=args.json, frames=not args.no_frames,
+                          status_every_s=args.status_every, max_frames=args.count, until=until, now=now)
+            else:
+                if not sys.stdout.isatty():
+                    raise UserError("the view needs a terminal; use --json or --lines for scripts")
+                import curses
+                vs = ViewState(source=desc, mode=mode)
+                counter = {"n": 0}
+
+                def limited():
+                    for m in source:
+                        if m is not None:
+                            counter["n"] += 1
+                        yield m
+                        if args.count and counter["n"] >= args.count:
+                            return
+
+                curses.wrapper(run_curses, limited(), mon, vs, pacer=Pacer(speed) if args.replay else None,
+                               now=now, until=until)
+        except ReplayError as exc:
+            raise common.Failure(str(exc)) from None
+    finally:
+        if bus is not None:
+            bus.shutdown()
+    return 0

@@ -1,0 +1,131 @@
+"""The monitor's loops: plain line / JSON-line output for scripts, and the curses view."""
+from __future__ import annotations
+
+import json
+import math
+import time
+from typing import Any, Callable, Iterable, TextIO
+
+import can
+
+from .replay import Pacer
+from .state import Monitor
+from .view import CursesView, ViewState, fmt_time
+
+
+def _clean(obj: Any) -> Any:
+    """JSON has no NaN/inf/bytes: make them strings."""
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return str(obj)
+    if isinstance(obj, (bytes, bytearray)):
+        return bytes(obj).hex()
+    if isinstance(obj, dict):
+        return {k: _clean(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_clean(v) for v in obj]
+    return obj
+
+
+def dumps(obj: dict) -> str:
+    return json.dumps(_clean(obj), allow_nan=False, separators=(",", ":"))
+
+
+def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *, as_json: bool,
+              frames: bool = True, status_every_s: float = 1.0, max_frames: int | None = None,
+              until: Callable[[], bool] | None = None, now: Callable[[], float] | None = None) -> int:
+    """Print decoded frames (if ``frames``), events and a status line every ``status_every_s`` of bus
+    time; a final status at the end. ``source`` yields None when a live bus is idle; ``now`` then
+    gives the bus clock for heartbeat timeouts. Returns the number of frames processed."""
+    n = 0
+    next_status: float | None = None
+
+    def emit_status() -> None:
+        snap = mon.snapshot()
+        if as_json:
+            out.write(dumps(snap) + "\n")
+        else:
+            sy = snap["sync"]
+            nodes = "  ".join(f"{x['node']}:{x['name'] or '?'}={x['nmt_state']}" for x in snap["nodes"])
+            sync = f"SYNC {sy['period_s'] * 1e3:.2f}±{sy['jitter_s'] * 1e3:.2f} ms" if sy["period_s"] else "SYNC --"
+            out.write(f"{fmt_time(snap['t_s'])} STATUS frames/s {snap['frames_per_s']:.0f} load "
+                      f"{snap['bus_load_pct']:.1f}% {sync} late {snap['late_cycles']} missed {snap['missed_pdos']} "
+                      f"err {snap['error_frames']} | {nodes}\n")
+
+    for msg in source:
+        if until is not None and until():
+            break
+        if msg is None:
+            if now is not None:
+                evs = mon.tick(now())
+                for e in evs:
+                    out.write(dumps(e.to_json()) + "\n" if as_json else
+                              f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
+            out.flush()
+            continue
+        frame, evs = mon.feed(msg)
+        n += 1
+        if frames:
+            out.write(dumps(frame.to_json()) + "\n" if as_json else
+                      f"{fmt_time(frame.t_s)} {frame.kind:10s} 0x{frame.cob_id:03X} [{len(frame.data)}] "
+                      f"{frame.data.hex(' '):23s} {frame.text}\n")
+        for e in evs:
+            out.write(dumps(e.to_json()) + "\n" if as_json else f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
+        if status_every_s > 0:
+            if next_status is None:
+                next_status = frame.t_s + status_every_s
+            elif frame.t_s >= next_status:
+                emit_status()
+                next_status = frame.t_s + status_every_s
+        if max_frames is not None and n >= max_frames:
+            break
+    emit_status()
+    out.flush()
+    return n
+
+
+def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: ViewState, *,
+               pacer: Pacer | None = None, now: Callable[[], float] | None = None,
+               refresh_s: float = 0.2, until: Callable[[], bool] | None = None) -> int:
+    """The live view. ``pacer`` paces a replay (pausing stops it); for a live bus ``now`` gives the
+    time for ticks and a pause only freezes the screen. Returns the number of frames decoded."""
+    view = CursesView(stdscr, vs)
+    it = iter(source)
+    n = 0
+    last_draw = 0.0
+    pending: can.Message | None = None
+    while True:
+        t = time.monotonic()
+        if t - last_draw >= refresh_s or vs.done:
+            if not view.handle_keys(mon):
+                return n
+            if now is not None:
+                mon.tick(now())
+            if not vs.paused:
+                view.draw(mon)
+            elif vs.paused and view.prev and "[PAUSED]" not in view.prev[0]:
+                view.draw(mon)
+            last_draw = t
+        if until is not None and until():
+            return n
+        if vs.done:
+            time.sleep(refresh_s)
+            continue
+        if pacer is not None and vs.paused:
+            time.sleep(min(refresh_s, 0.05))
+            pacer.shift(min(refresh_s, 0.05))
+            continue
+        if pending is None:
+            try:
+                pending = next(it)
+            except StopIteration:
+                vs.done = True
+                continue
+        if pending is not None and pacer is not None:
+            wait = pacer.wait_s(pending)
+            if wait > 0:
+                time.sleep(min(wait, refresh_s / 2))
+                continue
+        if pending is not None:
+            mon.feed(pending)
+            n += 1
+        pending = None

@@ -1,0 +1,197 @@
+"""The monitor's terminal view: a pure screen renderer and a curses loop around it.
+
+:func:`render_lines` turns the monitor state into the lines of one screen (testable without a
+terminal). :class:`CursesView` writes only the lines that changed since the last refresh (and lets
+curses' own screen diffing send the minimum), so the view does not flicker. Keys: ``p`` pause /
+resume (the monitor keeps decoding; a replay waits), ``f`` filter the event log (text, ``node=N``,
+``warn``/``error``; empty clears), ``c`` clear the event log, ``q`` quit.
+"""
+from __future__ import annotations
+
+import datetime as _dt
+from dataclasses import dataclass
+
+from .events import ERROR, WARN, Event
+from .pdo import format_value
+from .state import Monitor
+
+
+def fmt_time(t: float | None) -> str:
+    """Bus time for a person: UTC time of day for epoch stamps, seconds otherwise."""
+    if t is None:
+        return "--"
+    if t > 1e9:
+        return _dt.datetime.fromtimestamp(t, _dt.timezone.utc).strftime("%H:%M:%S.%f")[:-3]
+    return f"{t:10.3f}s"
+
+
+def _ms(v: float | None, width: int = 5, digits: int = 0) -> str:
+    return f"{v * 1e3:{width}.{digits}f}" if v is not None else " " * (width - 2) + "--"
+
+
+def event_matches(ev: Event, filt: str) -> bool:
+    """The filter language: words that must all match; ``node=N``; ``warn`` = WARN or worse."""
+    for word in filt.lower().split():
+        if word.startswith("node="):
+            if str(ev.node) != word[5:]:
+                return False
+        elif word in ("warn", "warning"):
+            if ev.severity not in (WARN, ERROR):
+                return False
+        elif word == "error":
+            if ev.severity != ERROR:
+                return False
+        elif word not in f"{ev.kind} {ev.severity} {ev.text}".lower():
+            return False
+    return True
+
+
+@dataclass
+class ViewState:
+    """What the view shows besides the monitor: the source, pause and the filter."""
+
+    source: str = ""
+    mode: str = "LIVE"
+    paused: bool = False
+    filter: str = ""
+    done: bool = False
+
+
+def render_lines(mon: Monitor, vs: ViewState, width: int, height: int) -> list[str]:
+    """The lines of one screen, each at most ``width`` characters, exactly ``height`` lines."""
+    s = mon.stats
+    sync = s.sync_summary()
+    lines: list[str] = []
+    flags = ("  [PAUSED]" if vs.paused else "") + ("  [END OF LOG]" if vs.done else "")
+    lines.append(f"telethermo monitor | {vs.source} | {mon.config.bitrate_bps / 1000:g} kbit/s | {vs.mode}{flags}")
+    sync_txt = (f"SYNC {sync['period_s'] * 1e3:.2f} ms ±{sync['jitter_s'] * 1e3:.2f} "
+                f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] #{s.sync_counter if s.sync_counter is not None else '-'}"
+                if sync["period_s"] is not None else "SYNC --")
+    lines.append(f"frames/s {s.frames_per_s:7.0f}  load {100 * s.bus_load:5.1f}%  {sync_txt}  "
+                 f"late {s.late_cycles}  missed PDO {s.missed_pdos}  err frames {s.error_frames}  "
+                 f"frames {s.frames}  W{mon.log.counts[WARN]} E{mon.log.counts[ERROR]}")
+    lines.append("")
+    lines.append("NODE NAME     NMT              HB ms last/min/max  timeout   boot SDO ok/abort  last EMCY")
+    for n, st in sorted(mon.nodes.items()):
+        to = st.hb_timeout_s
+        if st.last_hb_t is None:
+            tstate = "never"
+        else:
+            tstate = "LOST" if st.hb_lost else "ok"
+        to_txt = f"{tstate}({to * 1e3:.0f})" if to else tstate
+        emcy = "-"
+        if st.last_emcy:
+            e = st.last_emcy
+            emcy = (f"0x{e['code']:04X} {e['code_text']} reg 0x{e['register']:02X} @{fmt_time(st.last_emcy_t)}"
+                    + ("" if st.emcy_active else " (reset)"))
+        lines.append(f"{n:4d} {st.name[:8]:8s} {st.nmt_state:16s} {_ms(st.hb_period_last_s)}/{_ms(st.hb_period_min_s)}/"
+                     f"{_ms(st.hb_period_max_s)}  {to_txt:9s} {st.boot_ups:4d} {st.sdo_ok:6d}/{st.sdo_aborts:<5d} {emcy}")
+    lines.append("")
+    lines.append("PDO")
+    for key, p in sorted(mon.pdos.items()):
+        vals = "  ".join(f"{v.name}={format_value(v.value, v.unit)}" for v in p.values)
+        name = mon.nodes[p.pdef.node].name if p.pdef.node in mon.nodes else ""
+        lines.append(f"  0x{p.pdef.cob_id:03X} {p.pdef.label:6s} {name[:8]:8s} n={p.count:<7d} miss={p.missing:<4d} {vals}")
+    lines.append("")
+    lines.append("SDO (last transfer per node)")
+    for n, st in sorted(mon.nodes.items()):
+        if st.sdo_transfers:
+            r = st.sdo_transfers[-1]
+            lines.append(f"  {n:3d} {fmt_time(r.transfer.t_end_s)} {r.text()}")
+    lines.append("")
+    head = f"EVENTS (filter: {vs.filter})" if vs.filter else "EVENTS"
+    lines.append(head)
+    footer = "[p] pause  [f] filter  [c] clear events  [q] quit"
+    room = max(0, height - len(lines) - 1)
+    evs = mon.log.last(room, predicate=(lambda e: event_matches(e, vs.filter)) if vs.filter else None) if room else []
+    for e in evs:
+        lines.append(f"  {fmt_time(e.t_s)} {e.severity:5s} {e.text}")
+    lines = lines[: max(0, height - 1)]
+    lines += [""] * (height - 1 - len(lines))
+    lines.append(footer)
+    return [ln[:width] for ln in lines]
+
+
+class CursesView:
+    """Draws :func:`render_lines` in a curses window, rewriting only the lines that changed."""
+
+    def __init__(self, stdscr, vs: ViewState) -> None:
+        import curses
+        self.curses = curses
+        self.scr = stdscr
+        self.vs = vs
+        self.prev: list[str] = []
+        curses.curs_set(0)
+        stdscr.nodelay(True)
+        stdscr.keypad(True)
+        if curses.has_colors():
+            curses.start_color()
+            curses.use_default_colors()
+            curses.init_pair(1, curses.COLOR_YELLOW, -1)
+            curses.init_pair(2, curses.COLOR_RED, -1)
+            curses.init_pair(3, curses.COLOR_CYAN, -1)
+
+    def _attr(self, row: int, line: str) -> int:
+        c = self.curses
+        if not c.has_colors():
+            return c.A_BOLD if row < 2 else 0
+        if row < 2:
+            return c.A_BOLD | c.color_pair(3)
+        if " ERROR " in line or " LOST" in line:
+            return c.color_pair(2)
+        if " WARN " in line:
+            return c.color_pair(1)
+        return 0
+
+    def draw(self, mon: Monitor) -> None:
+        h, w = self.scr.getmaxyx()
+        lines = render_lines(mon, self.vs, max(1, w - 1), h)
+        if len(self.prev) != len(lines):
+            self.scr.erase()
+            self.prev = [""] * len(lines)
+        for row, line in enumerate(lines):
+            if line != self.prev[row]:
+                try:
+                    self.scr.addstr(row, 0, line, self._attr(row, line))
+                    self.scr.clrtoeol()
+                except self.curses.error:
+                    pass  # writing the bottom-right cell; harmless
+        self.prev = lines
+        self.scr.noutrefresh()
+        self.curses.doupdate()
+
+    def prompt(self, label: str) -> str:
+        """Read a line at the bottom (blocking, echoed), for the filter."""
+        c = self.curses
+        h, w = self.scr.getmaxyx()
+        self.scr.nodelay(False)
+        c.echo()
+        c.curs_set(1)
+        try:
+            self.scr.addstr(h - 1, 0, label[: w - 1])
+            self.scr.clrtoeol()
+            raw = self.scr.getstr(h - 1, min(len(label), w - 2), 60)
+        finally:
+            c.noecho()
+            c.curs_set(0)
+            self.scr.nodelay(True)
+            self.prev = []
+        return raw.decode("utf-8", "replace").strip()
+
+    def handle_keys(self, mon: Monitor) -> bool:
+        """Process pending keys; False when the user asked to quit."""
+        while True:
+            k = self.scr.getch()
+            if k == -1:
+                return True
+            ch = chr(k) if 0 <= k < 256 else ""
+            if ch in ("q", "Q"):
+                return False
+            if ch in ("p", "P", " "):
+                self.vs.paused = not self.vs.paused
+            elif ch in ("f", "F", "/"):
+                self.vs.filter = self.prompt("filter (text, node=N, warn, error; empty = none): ")
+            elif ch in ("c", "C"):
+                mon.log.events.clear()
+            elif k == self.curses.KEY_RESIZE:
+                self.prev = []
