@@ -211,9 +211,11 @@ def communication_objects(role: str) -> list[Obj]:
         V(0x1014, _uint("COB-ID EMCY", UNSIGNED32, "ro", "$NODEID+0x80")),
         V(0x1015, _uint("Inhibit time EMCY", UNSIGNED16, "rw", 10, 0, 0xFFFF, description="100 us units")),
         Obj(0x1016, "Consumer heartbeat time", object_type=0x8, subs={
-            0: _uint("Highest sub-index supported", UNSIGNED8, "const", 1),
+            0: _uint("Highest sub-index supported", UNSIGNED8, "const", 2),
             1: _uint("Consumer heartbeat time 1", UNSIGNED32, "rw", (peer << 16) | 250,
-                     description="bits 16-23 node-ID, bits 0-15 time in ms")}),
+                     description="the peer: bits 16-23 node-ID, bits 0-15 time in ms"),
+            2: _uint("Consumer heartbeat time 2", UNSIGNED32, "rw", 0,
+                     description="spare (0 = unused): bits 16-23 node-ID, bits 0-15 time in ms")}),
         V(0x1017, _uint("Producer heartbeat time", UNSIGNED16, "rw", 100, 0, 0xFFFF, description="ms")),
         Obj(0x1018, "Identity object", object_type=0x9, subs={
             0: _uint("Highest sub-index supported", UNSIGNED8, "const", 4),

@@ -163,6 +163,13 @@ class _Node(canopen.LocalNode):
             raise SdoAbortedError(ABORT_LENGTH)
         self._device._sdo_write(obj, bytes(data))
 
+    def _find_object(self, index: int, subindex: int):
+        obj = super()._find_object(index, subindex)
+        # canopen invents ARRAY entries past the last one and ignores the sub-index of a VAR
+        if obj.subindex != subindex or (index, subindex) not in self._device.info.vars:
+            raise SdoAbortedError(0x06090011)
+        return obj
+
 
 class _FrameWatch(can.Listener):
     """Counts frames whose COB-ID belongs to no service of the network's nodes."""

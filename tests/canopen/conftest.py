@@ -7,6 +7,7 @@ bus on the same channel.
 from __future__ import annotations
 
 import contextlib
+import time
 import uuid
 
 import can
@@ -51,18 +52,18 @@ class Lab:
         return bus
 
 
+    @staticmethod
+    def recv_until(bus: can.BusABC, predicate, timeout: float = 2.0) -> can.Message | None:
+        """First frame on ``bus`` for which ``predicate(msg)`` holds, or None after ``timeout`` s."""
+        end = time.monotonic() + timeout
+        while (left := end - time.monotonic()) > 0:
+            msg = bus.recv(left)
+            if msg is not None and predicate(msg):
+                return msg
+        return None
+
+
 @pytest.fixture
 def lab():
     with contextlib.ExitStack() as stack:
         yield Lab(stack)
-
-
-def recv_until(bus: can.BusABC, predicate, timeout: float = 2.0) -> can.Message | None:
-    """First frame on ``bus`` for which ``predicate(msg)`` holds, or None after ``timeout`` s."""
-    import time
-    end = time.monotonic() + timeout
-    while (left := end - time.monotonic()) > 0:
-        msg = bus.recv(left)
-        if msg is not None and predicate(msg):
-            return msg
-    return None
