@@ -72,6 +72,26 @@ class DirectTouch:
         self._x: np.ndarray | None = None
         self._switch()
         self._next = schedule.next_event_after(self.t_s + _SNAP_S)
+        self._stored0 = self._stored()
+
+    def _stored(self) -> float:
+        s = 0.0
+        if self._pair is not None:
+            s += self._pair.system.stored_J(self._x)
+        for b in (self.finger, *self.objects.values()):
+            if self._pair is None or (b is not self._pair.finger and b is not self._pair.obj):
+                b.advance_detached(self.t_s)
+                s += b.stored_J()
+        return s
+
+    def energy_balance(self) -> dict[str, float]:
+        """Heat out of the finger + objects to reservoirs (core, blood, air), change of stored heat, and the
+        residual out + stored (no electrical input here), J, since t = 0."""
+        stored = self._stored() - self._stored0
+        out = sum(float(b.x[-1]) for b in (self.finger, *self.objects.values()))
+        if self._pair is not None:
+            out += float(self._x[-1])
+        return {"E_out_J": out, "dE_stored_J": stored, "residual_J": -out - stored}
 
     @property
     def touching(self) -> str | None:
