@@ -424,7 +424,8 @@ class NarmaPredictor:
 
 def fit_narma(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders = NarmaOrders(),
               period_s: float = 0.01, T_ref_C: float | None = None, check_stability: bool = True,
-              validation: tuple[np.ndarray, np.ndarray] | None = None) -> NarmaModel:
+              validation: tuple[np.ndarray, np.ndarray] | None = None, method: str = "ls",
+              max_nfev: int = 60) -> NarmaModel:
     """Fit a NARMA model (eq. 10) by batch least squares (eq. 17) on RMS-scaled columns (QR/SVD, never
     the normal equations).
 
@@ -440,6 +441,10 @@ def fit_narma(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders = N
             :func:`telethermo.ident.stability.check_stability`.
         validation: optional held-out ``(current_A, T_C)`` record; its errors go into ``metrics``
             with the prefix ``heldout_``.
+        method: ``"ls"``: batch least squares (eq. 17, equation error: minimises the one-step error);
+            ``"oe"``: then refine by output error (:func:`refine_output_error`: minimises the free-run
+            error, what the estimator uses; removes the bias LS has with coloured sensor noise).
+        max_nfev: iteration budget of the output-error refinement.
 
     Returns:
         the fitted :class:`NarmaModel` with metrics ``rms_one_step_C``, ``free_run_max_C``, ... .
@@ -457,18 +462,20 @@ def fit_narma(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders = N
         nz = np.flatnonzero(I != 0.0)
         lead = int(nz[0]) if nz.size else len(I)
         T_ref_C = float(np.mean(T[:lead + 1])) if lead > 0 else float(T[0])
+    if method not in ("ls", "oe"):
+        raise ValueError(f"method must be 'ls' or 'oe', got {method!r}")
     Phi, y = narma_regressors(I, T - T_ref_C, orders)
     theta, diag = solve_scaled_lstsq(Phi, y)
-    resid = y - Phi @ theta
     model = NarmaModel(orders=orders, theta=theta, period_s=float(period_s), T_ref_C=float(T_ref_C),
                        current_range_A=(float(I.min()), float(I.max())), T_range_C=(float(T.min()), float(T.max())),
                        metrics={}, data_sha256=data_sha256(I, T))
-    metrics: dict[str, Any] = {
-        "n_samples": int(len(I)),
-        "rank": diag["rank"],
-        "cond_scaled": diag["cond_scaled"],
-        "rms_one_step_C": float(np.sqrt(np.mean(resid ** 2))),
-    }
+    metrics: dict[str, Any] = {"n_samples": int(len(I)), "rank": diag["rank"], "cond_scaled": diag["cond_scaled"],
+                               "method": method}
+    if method == "oe":
+        model, oe = refine_output_error(model, current_A=I, T_C=T, max_nfev=max_nfev)
+        metrics.update(oe)
+    resid = y - Phi @ model.theta
+    metrics["rms_one_step_C"] = float(np.sqrt(np.mean(resid ** 2)))
     if check_stability:
         from telethermo.ident.stability import check_stability as _check
         rep = _check(model)
@@ -482,3 +489,73 @@ def fit_narma(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders = N
         metrics.update({f"heldout_{k}": v for k, v in ev.items()})
     object.__setattr__(model, "metrics", metrics)
     return model
+
+
+def free_run_sensitivity(model: NarmaModel, *, current_A: np.ndarray, T_C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Free run from the record's first ``orders.lag`` temperatures and its Jacobian ∂T̂/∂θ.
+
+    The free run T̂(t) = Σ_i α_i(t)·T̂(t-i) + u(t) is linear in θ given its own past, so
+    ∂T̂(t)/∂θ = φ̂(t) + Σ_i α_i(t)·∂T̂(t-i)/∂θ (φ̂: the regressors built from T̂). Returns (T̂ in °C,
+    J of shape (N, d)); rows of non-finite runs are left as computed (callers check).
+    """
+    o = model.orders
+    I = model.clamp_current(np.asarray(current_A, dtype=float))
+    T = np.asarray(T_C, dtype=float)
+    L, N, n = o.lag, len(I), o.n
+    fr = model.free_run(current_A=I, T0_C=T[:L])
+    if not np.all(np.isfinite(fr)):
+        return fr, np.full((N, o.d), np.nan)
+    Phi, _ = narma_regressors(I, fr - model.T_ref_C, o)
+    alpha = model.ar_coefficients(I).T
+    J = np.zeros((N, o.d))
+    a = [alpha[i] for i in range(n)]
+    with np.errstate(over="ignore", invalid="ignore"):
+        for t in range(L, N):
+            row = Phi[t - L].copy()
+            for i in range(n):
+                row += a[i][t - i - 1] * J[t - i - 1]
+            J[t] = row
+    return fr, J
+
+
+def refine_output_error(model: NarmaModel, *, current_A: np.ndarray, T_C: np.ndarray,
+                        max_nfev: int = 60) -> tuple[NarmaModel, dict[str, Any]]:
+    """Refine θ to minimise the free-run (simulation) error on a record (Levenberg-Marquardt with the
+    exact Jacobian of :func:`free_run_sensitivity`, on RMS-scaled parameters), starting from ``model``.
+
+    A trial θ whose free run diverges gets a large residual (the step is refused). Returns the refined
+    model (or the start model if the refinement did not lower the free-run error) and its diagnostics
+    ``oe_rms_before_C``, ``oe_rms_after_C``, ``oe_nfev``.
+    """
+    import scipy.optimize
+
+    o = model.orders
+    I = model.clamp_current(_as_1d("current_A", current_A))
+    T = _as_1d("T_C", T_C)
+    L = o.lag
+    Phi, _ = narma_regressors(I, T - model.T_ref_C, o)
+    sc = np.sqrt(np.mean(Phi * Phi, axis=0))
+    sc[sc == 0] = 1.0
+    penalty = np.full(len(T) - L, 1e3)
+    cache: dict[str, np.ndarray] = {}
+
+    def make(x: np.ndarray) -> NarmaModel:
+        return NarmaModel(orders=o, theta=x / sc, period_s=model.period_s, T_ref_C=model.T_ref_C,
+                          current_range_A=model.current_range_A, T_range_C=model.T_range_C,
+                          data_sha256=model.data_sha256)
+
+    def resid(x: np.ndarray) -> np.ndarray:
+        fr, J = free_run_sensitivity(make(x), current_A=I, T_C=T)
+        if not (np.all(np.isfinite(fr)) and np.all(np.isfinite(J))):
+            cache["J"] = np.zeros((len(T) - L, o.d))
+            return penalty
+        cache["J"] = J[L:] / sc
+        return (fr - T)[L:]
+
+    x0 = model.theta * sc
+    r0 = resid(x0)
+    rms0 = float(np.sqrt(np.mean(r0 ** 2)))
+    sol = scipy.optimize.least_squares(resid, x0, jac=lambda x: cache["J"], method="lm", max_nfev=max_nfev)
+    rms1 = float(np.sqrt(np.mean(sol.fun ** 2)))
+    best = make(sol.x) if rms1 < rms0 else model
+    return best, {"oe_rms_before_C": rms0, "oe_rms_after_C": min(rms0, rms1), "oe_nfev": int(sol.nfev)}

@@ -1,0 +1,145 @@
+"""``telethermo identify``: run the identification experiment on a simulated rig, fit, validate, write the model.
+
+    telethermo identify --out model.json                          # default simulated free pad
+    telethermo identify --scene free_pad_identification --orders 4,4,1,1 --samples 10000 --out m.json
+
+Prints a report (held-out worst-case free-run error, flux error, stability verdict) and writes the model
+file atomically. An unstable model is refused: nothing is written and the exit code is 1.
+Live nodes are not supported yet (the experiment needs a node's SYNC clock).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError
+
+DEFAULT_ORDERS = "4,4,1,1"
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("identify", help="identify a TEM model (NARMA temperature + heat-flux) on a simulated rig",
+                       description="Run a PRBS identification experiment on a simulated rig whose pad touches "
+                                   "nothing, fit the NARMA temperature model (guiatni eq. 10) and the heat-flux "
+                                   "model (eq. 12), validate on a held-out PRBS, check stability, write the model.")
+    src = p.add_mutually_exclusive_group()
+    src.add_argument("--rig", choices=["sim"], default="sim",
+                     help="'sim': the default simulated free pad (sim.free_pad_rig)")
+    src.add_argument("--scene", metavar="NAME_OR_TOML",
+                     help="use the master rig of this scene (its pad must touch nothing)")
+    p.add_argument("--samples", type=int, default=10_000, help="training PRBS length, samples (default 10000)")
+    p.add_argument("--validation", type=int, default=None, help="held-out PRBS length, samples (default samples/2)")
+    p.add_argument("--orders", default=DEFAULT_ORDERS, metavar="n,m,p,q",
+                   help=f"NARMA orders (default {DEFAULT_ORDERS}: what the simulated rig's data justify; "
+                        "guiatni used 3,3,3,3)")
+    p.add_argument("--method", choices=["oe", "ls"], default="oe",
+                   help="oe: least squares then output-error refinement (default); ls: least squares only")
+    p.add_argument("--seed", type=int, default=0, help="PRBS seed (training seed, validation seed+1) and sim noise seed")
+    p.add_argument("--period-s", type=float, default=0.01, help="sample period for --rig sim, s (default 0.01)")
+    p.add_argument("--ambient-C", type=float, default=25.0, help="ambient temperature for --rig sim, °C")
+    p.add_argument("--out", required=True, metavar="MODEL.json", help="model file to write")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=run)
+
+
+class ProgressBar:
+    """A one-line progress bar on a stream (stderr)."""
+
+    def __init__(self, label: str, stream=sys.stderr, width: int = 40) -> None:
+        self.label, self.stream, self.width = label, stream, width
+        self.t0 = time.perf_counter()
+        self._last = -1
+
+    def __call__(self, done: int, total: int) -> None:
+        frac = done / total if total else 1.0
+        pct = int(frac * 100)
+        if pct == self._last and done < total:
+            return
+        self._last = pct
+        fill = int(frac * self.width)
+        self.stream.write(f"\r{self.label} [{'#' * fill}{'.' * (self.width - fill)}] {pct:3d}% "
+                          f"{done}/{total} samples {time.perf_counter() - self.t0:5.1f} s")
+        if done >= total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def _build_rig(args: argparse.Namespace):
+    import sim
+
+    if args.scene:
+        try:
+            scene = sim.load_scene(args.scene)
+            rig = sim.build_rig(scene, "master", seed=args.seed)
+        except (ValueError, OSError) as exc:
+            raise UserError(str(exc)) from None
+        touches = getattr(getattr(rig, "schedule", None), "touches", ())
+        if touches:
+            raise UserError(f"scene {args.scene}: the master pad touches {touches[0].body!r} at "
+                            f"{touches[0].start_s} s; identification needs a pad that touches nothing")
+        return rig, {"rig": "scene", "scene": str(args.scene)}
+    if not (args.period_s > 0):
+        raise UserError(f"--period-s must be > 0, got {args.period_s}")
+    rig = sim.free_pad_rig(period_s=args.period_s, ambient_C=args.ambient_C, seed=args.seed, noise=True)
+    return rig, {"rig": "sim.free_pad_rig", "period_s": args.period_s, "ambient_C": args.ambient_C}
+
+
+def run(args: argparse.Namespace) -> int:
+    from telethermo.ident import NarmaOrders, UnstableModelError, save_model
+    from telethermo.ident.experiment import identify_rig
+
+    try:
+        orders = NarmaOrders.parse(args.orders)
+    except ValueError as exc:
+        raise UserError(f"--orders: {exc}") from None
+    if args.samples < 4 * orders.d + 200:
+        raise UserError(f"--samples must be at least {4 * orders.d + 200} for orders {args.orders}, got {args.samples}")
+    if args.validation is not None and args.validation < 100:
+        raise UserError(f"--validation must be at least 100 samples, got {args.validation}")
+    out = Path(args.out)
+    if out.exists() and out.is_dir():
+        raise UserError(f"--out {out}: is a directory; expected a file name")
+    rig, meta = _build_rig(args)
+    bar = None if args.quiet else ProgressBar("identify: experiment")
+
+    def fitting_notice(done: int, total: int) -> None:
+        if bar is not None:
+            bar(done, total)
+            if done >= total:
+                print("identify: fitting (least squares, output-error refinement, stability check) ...",
+                      file=sys.stderr, flush=True)
+
+    try:
+        tem, rep = identify_rig(rig, n_samples=args.samples, n_validation=args.validation, orders=orders,
+                                seed=args.seed, progress=fitting_notice, method=args.method, meta=meta)
+    except UnstableModelError as exc:
+        print(f"telethermo identify: {exc}; no model written", file=sys.stderr)
+        return EXIT_FAIL
+    print_report(rep)
+    if not rep["stable"]:
+        print(f"telethermo identify: model refused ({rep['stability_reason']}); no model written", file=sys.stderr)
+        return EXIT_FAIL
+    save_model(out, tem)
+    print(f"model written: {out}")
+    return EXIT_OK
+
+
+def print_report(rep: dict) -> None:
+    o = rep["orders"]
+    lines = [
+        f"orders n,m,p,q            {o['n']},{o['m']},{o['p']},{o['q']}  (fit: {rep['fit_method']})",
+        f"samples                   {rep['n_train']} training + {rep['n_validation']} held-out at {rep['period_s']} s",
+        f"reference temperature     {rep['T_ref_C']:.3f} °C",
+        f"held-out free run         worst {rep['heldout_free_run_max_C']:.4f} °C, rms {rep['heldout_free_run_rms_C']:.4f} °C",
+        f"held-out one-step         worst {rep['heldout_one_step_max_C']:.4f} °C",
+        f"heat flux (held-out)      worst {rep['flux_heldout_max_W']:.4f} W, rms {rep['flux_heldout_rms_W']:.4f} W"
+        f"{' (with current terms)' if rep['flux_with_current'] else ''}",
+        f"stability                 {'stable' if rep['stable'] else 'UNSTABLE: ' + rep['stability_reason']}, "
+        f"max local pole |z| = {rep['max_pole_modulus']:.6f}",
+        f"safety guard              {rep['guard_interventions']} interventions; T {rep['T_range_C'][0]:.2f}.."
+        f"{rep['T_range_C'][1]:.2f} °C, I {rep['current_range_A'][0]:+.2f}..{rep['current_range_A'][1]:+.2f} A",
+        f"time                      experiment {rep['experiment_wall_s']:.2f} s, fit {rep['fit_wall_s']:.2f} s",
+    ]
+    print("\n".join(lines))

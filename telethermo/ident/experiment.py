@@ -1,0 +1,219 @@
+"""The identification experiment on a rig: PRBS excitation, recording, fit, held-out validation.
+
+Protocol of :func:`identify_rig` (guiatni §3.3, on a pad that touches nothing, so that the sensor
+temperature is the pad temperature up to the tiny air flux):
+
+1. ``rest_samples`` at zero current: the reference (ambient) temperature T_ref_C of the model.
+2. ``n_samples`` of training PRBS (variable amplitude, seed ``seed``).
+3. ``n_validation`` of held-out PRBS (seed ``seed + 1``: a different sequence, never used to fit).
+
+The temperature model (eq. 10) and the heat-flux model (eq. 12) are fitted on 1+2. The held-out error
+is that of the model **free-running from the start of the experiment** (at rest) through training into
+validation, taken on the validation samples only: the way a node runs the predictor, with its errors
+accumulated over the whole record, not re-initialised from measurements.
+
+Safety: the commanded current is limited to ``current_limit_fraction`` x the rig's I_max_A, and a guard
+flips its sign whenever the sensor temperature comes within ``margin_C`` of the safety envelope
+[T_min_C, T_max_C] (DESIGN.md §6) and the current would push it further; every intervention is
+counted in the report. The data stay valid for identification: the model is fitted on the currents
+actually commanded.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any, Callable
+
+import numpy as np
+
+from telethermo.ident.flux import fit_flux_arma
+from telethermo.ident.modelfile import TemModel
+from telethermo.ident.narma import NarmaOrders, fit_narma
+from telethermo.ident.prbs import prbs
+from telethermo.ident.stability import check_stability
+from telethermo.rig import Rig
+
+Progress = Callable[[int, int], None]
+
+
+@dataclass(frozen=True)
+class ExperimentSettings:
+    """Settings of the identification experiment (defaults: guiatni §3.3 at 10 ms, on our default rig).
+
+    Attributes:
+        rest_samples: samples at zero current before the PRBS (reference temperature).
+        amplitude_A: range of the PRBS bit amplitudes, A.
+        hold_samples: PRBS clock divider, samples per bit.
+        current_limit_fraction: |I| <= this x rig.I_max_A (safety envelope: 0.8).
+        T_min_C, T_max_C: safety envelope of the pad, °C; margin_C: guard distance to it, °C.
+        flux_orders: (n, m) of the heat-flux ARMA model (eq. 12).
+        flux_with_current: give the flux model the current terms (see telethermo.ident.flux).
+    """
+
+    rest_samples: int = 200
+    amplitude_A: tuple[float, float] = (0.1, 1.0)
+    hold_samples: int = 25
+    current_limit_fraction: float = 0.8
+    T_min_C: float = 15.0
+    T_max_C: float = 43.0
+    margin_C: float = 1.0
+    flux_orders: tuple[int, int] = (3, 3)
+    flux_with_current: bool = True
+
+
+@dataclass
+class Record:
+    """What an experiment recorded, one row per sample (arrays of equal length).
+
+    ``current_A[k]`` is the current commanded right after sample k (held until sample k+1);
+    ``T_C``, ``Q_W``, ``T_sink_C`` are the rig's sample k; ``Q_true_W`` the simulator's true flux (NaN on
+    hardware).
+    """
+
+    t_s: np.ndarray
+    current_A: np.ndarray
+    T_C: np.ndarray
+    Q_W: np.ndarray
+    T_sink_C: np.ndarray
+    Q_true_W: np.ndarray
+    guard_interventions: int = 0
+
+
+def run_excitation(rig: Rig, current_A: np.ndarray, *, settings: ExperimentSettings = ExperimentSettings(),
+                   progress: Progress | None = None, progress_offset: int = 0, progress_total: int | None = None
+                   ) -> Record:
+    """Apply ``current_A`` to ``rig`` sample by sample (through the safety guard) and record.
+
+    A simulated rig (one with ``advance``) is advanced by one period per sample; a hardware rig is
+    expected to advance by itself (not supported here yet: this needs a node's SYNC clock).
+    """
+    if not hasattr(rig, "advance"):
+        raise TypeError("run_excitation drives simulated rigs (rig.advance); live nodes are not supported yet")
+    u = np.asarray(current_A, dtype=float)
+    N = len(u)
+    dt = float(rig.period_s)
+    I_lim = settings.current_limit_fraction * float(rig.I_max_A)
+    hi, lo = settings.T_max_C - settings.margin_C, settings.T_min_C + settings.margin_C
+    truth = getattr(rig, "truth", None)
+    t_s, I_out, T, Q, Ts, Qt = (np.empty(N) for _ in range(6))
+    guard = 0
+    total = progress_total if progress_total is not None else N
+    step = max(1, total // 200)
+    for k in range(N):
+        s = rig.read()
+        i = min(max(float(u[k]), -I_lim), I_lim)
+        if (s.T_sensor_C > hi and i > 0.0) or (s.T_sensor_C < lo and i < 0.0) or not math.isfinite(s.T_sensor_C):
+            i = -i if math.isfinite(s.T_sensor_C) else 0.0
+            guard += 1
+        rig.apply_current(i)
+        t_s[k], I_out[k], T[k], Q[k], Ts[k] = s.t_s, i, s.T_sensor_C, s.Q_W, s.T_sink_C
+        Qt[k] = truth().Q_true_W if truth is not None else math.nan
+        rig.advance(dt)
+        if progress is not None and (k % step == 0 or k == N - 1):
+            progress(progress_offset + k + 1, total)
+    return Record(t_s, I_out, T, Q, Ts, Qt, guard)
+
+
+def _concat(records: list[Record]) -> Record:
+    return Record(*(np.concatenate([getattr(r, f) for r in records]) for f in
+                    ("t_s", "current_A", "T_C", "Q_W", "T_sink_C", "Q_true_W")),
+                  guard_interventions=sum(r.guard_interventions for r in records))
+
+
+def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = NarmaOrders(), seed: int = 0,
+                 progress: Progress | None = None, n_validation: int | None = None,
+                 settings: ExperimentSettings = ExperimentSettings(), meta: dict[str, Any] | None = None,
+                 method: str = "oe") -> tuple[TemModel, dict[str, Any]]:
+    """Run the identification experiment on ``rig`` (see the module docstring) and fit the models.
+
+    Args:
+        rig: a simulated rig (``sim.free_pad_rig()``) whose pad touches nothing.
+        n_samples: training PRBS length, samples (guiatni: M = 10,000 at 10 ms).
+        orders: NARMA orders.
+        seed: PRBS seed (training ``seed``, validation ``seed + 1``).
+        progress: called as ``progress(done, total)`` while the experiment runs.
+        n_validation: held-out PRBS length, samples (default n_samples // 2).
+        settings: experiment settings.
+        meta: extra provenance for the model file.
+        method: NARMA fit: ``"oe"`` (least squares, then output-error refinement; default) or ``"ls"``.
+
+    Returns:
+        ``(TemModel, report)``; ``report`` holds the held-out free-run errors (°C), flux errors (W), the
+        stability verdict, guard interventions and timings.
+
+    Raises:
+        telethermo.ident.narma.UnstableModelError: the fitted model is unstable (refused).
+    """
+    if n_validation is None:
+        n_validation = max(n_samples // 2, 1)
+    if n_samples < 1 or n_validation < 1:
+        raise ValueError(f"n_samples and n_validation must be >= 1, got {n_samples}, {n_validation}")
+    total = settings.rest_samples + n_samples + n_validation
+    u_train = prbs(n_samples, amplitude_A=settings.amplitude_A, hold_samples=settings.hold_samples, seed=seed)
+    u_val = prbs(n_validation, amplitude_A=settings.amplitude_A, hold_samples=settings.hold_samples, seed=seed + 1)
+    t0 = time.perf_counter()
+    rest = run_excitation(rig, np.zeros(settings.rest_samples), settings=settings, progress=progress,
+                          progress_total=total)
+    train = run_excitation(rig, u_train, settings=settings, progress=progress,
+                           progress_offset=settings.rest_samples, progress_total=total)
+    val = run_excitation(rig, u_val, settings=settings, progress=progress,
+                         progress_offset=settings.rest_samples + n_samples, progress_total=total)
+    t_experiment = time.perf_counter() - t0
+    fit_rec = _concat([rest, train])
+    allrec = _concat([rest, train, val])
+    n_fit = len(fit_rec.T_C)
+    T_ref = float(np.mean(rest.T_C)) if settings.rest_samples else float(train.T_C[0])
+
+    t1 = time.perf_counter()
+    model = fit_narma(current_A=fit_rec.current_A, T_C=fit_rec.T_C, orders=orders, period_s=float(rig.period_s),
+                      T_ref_C=T_ref, method=method)
+    t_fit = time.perf_counter() - t1
+    fr = model.free_run(current_A=allrec.current_A, T0_C=T_ref)
+    e_val = (fr - allrec.T_C)[n_fit:]
+    os_ = model.predict_one_step(current_A=allrec.current_A, T_C=allrec.T_C)
+    e_os = (os_ - allrec.T_C)[n_fit:]
+    stab = check_stability(model)
+    metrics = dict(model.metrics)
+    metrics.update({
+        "heldout_free_run_max_C": float(np.max(np.abs(e_val))),
+        "heldout_free_run_rms_C": float(np.sqrt(np.mean(e_val ** 2))),
+        "heldout_one_step_max_C": float(np.max(np.abs(e_os))),
+        "heldout_one_step_rms_C": float(np.sqrt(np.mean(e_os ** 2))),
+        "heldout_samples": int(n_validation),
+    })
+    object.__setattr__(model, "metrics", metrics)
+
+    fn, fm = settings.flux_orders
+    t2 = time.perf_counter()
+    flux = fit_flux_arma(T_C=fit_rec.T_C, Q_W=fit_rec.Q_W, n=fn, m=fm, period_s=float(rig.period_s), T_ref_C=T_ref,
+                         current_A=fit_rec.current_A if settings.flux_with_current else None)
+    t_flux = time.perf_counter() - t2
+    fe = flux.errors(T_C=allrec.T_C, Q_W=allrec.Q_W, current_A=allrec.current_A, start=n_fit)
+    fmetrics = dict(flux.metrics)
+    fmetrics.update({"heldout_free_run_max_W": fe["free_run_max_W"], "heldout_free_run_rms_W": fe["free_run_rms_W"]})
+    object.__setattr__(flux, "metrics", fmetrics)
+
+    report: dict[str, Any] = {
+        "orders": orders.as_dict(), "period_s": float(rig.period_s), "seed": int(seed),
+        "n_train": int(n_samples), "n_validation": int(n_validation), "rest_samples": settings.rest_samples,
+        "T_ref_C": T_ref,
+        "heldout_free_run_max_C": metrics["heldout_free_run_max_C"],
+        "heldout_free_run_rms_C": metrics["heldout_free_run_rms_C"],
+        "heldout_one_step_max_C": metrics["heldout_one_step_max_C"],
+        "train_one_step_rms_C": metrics["rms_one_step_C"],
+        "flux_heldout_max_W": fmetrics["heldout_free_run_max_W"],
+        "flux_heldout_rms_W": fmetrics["heldout_free_run_rms_W"],
+        "flux_with_current": flux.with_current,
+        "stable": stab.stable, "stability_reason": stab.reason, "max_pole_modulus": stab.max_pole_modulus,
+        "stability_free_run_max_dev_C": stab.free_run_max_dev_C,
+        "guard_interventions": allrec.guard_interventions,
+        "current_range_A": list(model.current_range_A), "T_range_C": [float(allrec.T_C.min()), float(allrec.T_C.max())],
+        "experiment_wall_s": t_experiment, "fit_wall_s": t_fit, "flux_fit_wall_s": t_flux,
+        "fit_method": method,
+        "settings": asdict(settings),
+    }
+    tem_meta = {"source": "telethermo.ident.experiment.identify_rig", "seed": int(seed),
+                "n_train": int(n_samples), "n_validation": int(n_validation), "settings": asdict(settings)}
+    tem_meta.update(meta or {})
+    return TemModel(temperature=model, flux=flux, capacity=None, meta=tem_meta), report
