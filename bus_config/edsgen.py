@@ -200,7 +200,7 @@ def communication_objects(role: str) -> list[Obj]:
         V(0x1000, _uint("Device type", UNSIGNED32, "ro", 0, description="no device profile")),
         V(0x1001, _uint("Error register", UNSIGNED8, "ro", 0, pdo=True)),
         Obj(0x1003, "Pre-defined error field", object_type=0x8, subs={
-            0: _uint("Number of errors", UNSIGNED8, "rw", 0, 0, 0, description="write 0 to clear the history"),
+            0: _uint("Number of errors", UNSIGNED8, "rw", 0, description="write 0 to clear the history (other values: abort 0x06090030)"),
             **{i: _uint(f"Standard error field {i}", UNSIGNED32, "ro", 0) for i in range(1, 9)}}),
         V(0x1005, _uint("COB-ID SYNC", UNSIGNED32, "rw", 0x40000080 if role == "master" else 0x80,
                         description="bit 30 set: this node produces SYNC")),

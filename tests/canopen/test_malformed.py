@@ -1,0 +1,101 @@
+"""Malformed traffic is counted and ignored; callbacks that raise never stop the device."""
+from __future__ import annotations
+
+import random
+import struct
+
+import can
+
+from telethermo.canopen_dev import DeviceSettings, NmtCommand, SyncProducer
+
+PAIR = DeviceSettings(known_node_ids=(1, 2))  # the network: nodes 1 and 2 only
+
+
+def barrier(node) -> None:
+    node.sdo["mode"].raw
+
+
+def test_wrong_dlc_rpdo_is_counted_ignored_and_reported_by_emcy(lab):
+    dev = lab.device("master")
+    node = lab.client("master")
+    bus = lab.raw_bus()
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    for payload in (struct.pack("<f", 40.0), struct.pack("<fh", 40.0, 1)):  # 4 and 6 bytes, 8 mapped
+        bus.send(can.Message(arbitration_id=0x182, data=payload, is_extended_id=False))
+    node.network.sync.transmit(1)
+    barrier(node)
+    assert node.sdo["malformed_frames"].raw == 2
+    assert dev.read("peer_estimate_C") == 0.0
+    assert node.sdo["Pre-defined error field"][1].raw == 0x8210
+    bus.send(can.Message(arbitration_id=0x182, data=struct.pack("<ff", 30.0, 0.5), is_extended_id=False))
+    node.network.sync.transmit(2)
+    barrier(node)
+    assert dev.read("peer_estimate_C") == 30.0
+    assert node.sdo["Error register"].raw == 0  # the length error is over once a good PDO arrives
+
+
+def test_unknown_cob_ids_and_bad_service_frames_are_counted(lab):
+    dev = lab.device("master", settings=PAIR)
+    node = lab.client("master")
+    bus = lab.raw_bus()
+    for cob, data, ext in ((0x7F0, b"\x01", False), (0x1ABCDEF, b"\x00" * 8, True), (0x123, b"", False),
+                           (0x185, b"\x00" * 8, False)):  # node 5 is not on this network
+        bus.send(can.Message(arbitration_id=cob, data=data, is_extended_id=ext))
+    bus.send(can.Message(arbitration_id=0x000, data=b"\x01", is_extended_id=False))        # NMT, 1 byte
+    bus.send(can.Message(arbitration_id=0x080, data=b"\x01\x02\x03", is_extended_id=False))  # SYNC, 3 bytes
+    bus.send(can.Message(arbitration_id=0x702, data=b"\x05\x00", is_extended_id=False))      # heartbeat, 2 bytes
+    bus.send(can.Message(arbitration_id=0x601, data=b"\x40\x00\x10", is_extended_id=False))  # SDO, 3 bytes
+    barrier(node)
+    assert node.sdo["unknown_cobid_frames"].raw == 4
+    assert node.sdo["malformed_frames"].raw == 4
+    assert dev.state.name == "PRE_OPERATIONAL" and dev.stats.sync_count == 0
+
+
+def test_a_burst_of_garbage_leaves_the_device_working(lab):
+    dev = lab.device("master", settings=PAIR)
+    node = lab.client("master")
+    node.tpdo.read(from_od=True)
+    bus = lab.raw_bus()
+    rng = random.Random(5)
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    sent_bad = 0
+    for _ in range(2000):
+        cob = rng.choice([0x182, 0x080, 0x000, 0x702, 0x7F5, 0x3FF])
+        n = rng.randrange(0, 9)
+        if (cob == 0x182 and n == 8) or (cob == 0x080 and n <= 1) or (cob == 0x000 and n == 2) or (cob == 0x702 and n == 1):
+            n = {0x182: 3, 0x080: 2, 0x000: 3, 0x702: 0}[cob]  # keep every frame of the burst malformed
+        bus.send(can.Message(arbitration_id=cob, data=bytes(rng.randrange(256) for _ in range(n)), is_extended_id=False))
+        sent_bad += cob in (0x182, 0x080, 0x000, 0x702)
+    barrier(node)
+    assert dev.stats.malformed_frames == sent_bad
+    assert dev.stats.unknown_cobid_frames == 2000 - sent_bad
+    dev.write("estimate_C", 31.0)
+    node.network.sync.transmit(1)
+    assert node.tpdo[1].wait_for_reception(2.0) is not None and node.tpdo[1]["estimate_C"].raw == 31.0
+    assert node.sdo["kp_A_per_C"].raw == 0.5
+
+
+def test_raising_callbacks_are_counted_and_do_not_stop_the_device(lab):
+    master, slave = lab.device("master"), lab.device("slave")
+
+    def bad(*_):
+        raise RuntimeError("application bug")
+
+    for dev in (master, slave):
+        dev.add_sync_handler(bad)
+        dev.add_rpdo_listener(bad)
+        dev.add_nmt_listener(bad)
+    node = lab.client("master")
+    node.tpdo.read(from_od=True)
+    master.nmt_command(NmtCommand.START, 0)
+    sync = SyncProducer(master)
+    for _ in range(5):
+        n = master.rpdo_count(1)
+        sync.transmit()
+        assert master.wait_rpdo(1, after=n, timeout=3.0)  # slave still answers every SYNC
+    barrier(node)
+    assert master.rpdo_count(1) == 5 and slave.rpdo_count(1) == 5
+    assert node.sdo["callback_errors"].raw == master.stats.callback_errors == 1 + 5 + 5  # nmt + sync + rpdo
+    assert node.sdo["kp_A_per_C"].raw == 0.5

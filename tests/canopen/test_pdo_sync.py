@@ -1,0 +1,224 @@
+"""PDOs and SYNC: TPDOs on SYNC with the OD's values (counted transmission types), RPDOs into the OD
+at the next SYNC, the SYNC counter and the producer's own tick, and PDO configuration by canopen's
+own PDO client (dynamic mapping)."""
+from __future__ import annotations
+
+import struct
+import threading
+
+import can
+import pytest
+from canopen import SdoAbortedError
+
+from telethermo.canopen_dev import DeviceSettings, NmtCommand, SyncProducer
+
+
+def drain(bus) -> list[can.Message]:
+    out = []
+    while (m := bus.recv(0)) is not None:
+        out.append(m)
+    return out
+
+
+def barrier(node) -> None:
+    """An SDO round trip: the device handles frames in order, so everything sent before was handled
+    and everything it sent in reply to those frames is already on the bus."""
+    node.sdo["mode"].raw
+
+
+def test_tpdo1_on_every_sync_carries_the_od_values(lab):
+    dev = lab.device("master")
+    node = lab.client("master")
+    node.tpdo.read(from_od=True)
+    dev.nmt_command(NmtCommand.START, 1)
+    dev.write("estimate_C", 33.25)
+    dev.write("Q_W", -0.125)
+    node.network.sync.transmit(1)
+    assert node.tpdo[1].wait_for_reception(2.0) is not None
+    assert node.tpdo[1]["estimate_C"].raw == 33.25 and node.tpdo[1]["Q_W"].raw == -0.125
+    dev.write("estimate_C", 20.5)
+    node.network.sync.transmit(2)
+    assert node.tpdo[1].wait_for_reception(2.0) is not None
+    assert node.tpdo[1]["estimate_C"].raw == 20.5
+
+
+def test_transmission_types_are_counted(lab):
+    """TPDO1 (type 1) on every SYNC, status TPDOs 2..4 (type 10) on every 10th."""
+    lab.device("slave")
+    node = lab.client("slave")
+    bus = lab.raw_bus()
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    drain(bus)
+    for k in range(1, 36):
+        node.network.sync.transmit(k)
+    barrier(node)
+    frames = drain(bus)
+    count = {cob: sum(1 for m in frames if m.arbitration_id == cob) for cob in (0x182, 0x282, 0x382, 0x482)}
+    assert count == {0x182: 35, 0x282: 3, 0x382: 3, 0x482: 3}
+
+
+def test_sync_start_value_delays_the_first_transmission(lab):
+    lab.device("slave")
+    node = lab.client("slave")
+    node.sdo["TPDO2 communication parameter"]["SYNC start value"].raw = 7
+    bus = lab.raw_bus()
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    drain(bus)
+    seen = []
+    for k in range(1, 31):
+        node.network.sync.transmit(k)
+        barrier(node)
+        if any(m.arbitration_id == 0x282 for m in drain(bus)):
+            seen.append(k)
+    assert seen == [7, 17, 27]
+
+
+def test_sync_counter_wraps_at_0x1019_and_the_producer_ticks_itself(lab):
+    dev = lab.device("master")
+    node = lab.client("master")
+    node.sdo["Synchronous counter overflow value"].raw = 5
+    ticks = []
+    dev.add_sync_handler(lambda t: ticks.append(t.counter))
+    bus = lab.raw_bus()
+    sync = SyncProducer(dev)
+    dev.nmt_command(NmtCommand.START, 0)
+    for _ in range(12):
+        sync.transmit()
+    frames = [m for m in drain(bus) if m.arbitration_id in (0x80, 0x181)]
+    counters = [m.data[0] for m in frames if m.arbitration_id == 0x80]
+    assert counters == [1, 2, 3, 4, 5, 1, 2, 3, 4, 5, 1, 2]
+    assert ticks == counters  # the producer's own device saw every SYNC it sent
+    assert [m.arbitration_id for m in frames] == [0x80, 0x181] * 12  # own TPDO1 after each SYNC
+    node.sdo["Synchronous counter overflow value"].raw = 0
+    sync.transmit()
+    assert [m.dlc for m in drain(bus) if m.arbitration_id == 0x80] == [0]
+
+
+def test_only_the_configured_producer_may_send_sync(lab):
+    slave = lab.device("slave")
+    with pytest.raises(RuntimeError, match="not the SYNC producer"):
+        SyncProducer(slave).transmit()
+
+
+def test_rpdo_reaches_the_od_at_the_next_sync(lab):
+    dev = lab.device("master")
+    events = []
+    dev.add_rpdo_listener(events.append)
+    node = lab.client("master")
+    peer = node.network.add_node(2, str(__import__("bus_config").path("slave.eds")))
+    peer.tpdo.read(from_od=True)  # canopen's PDO class produces the slave's TPDO1 frame for us
+    node.nmt.state = "OPERATIONAL"
+    node.network.sync.transmit(1)
+    barrier(node)
+    peer.tpdo[1]["estimate_C"].raw = 34.5
+    peer.tpdo[1]["Q_W"].raw = 0.75
+    peer.tpdo[1].transmit()
+    barrier(node)
+    assert node.sdo["peer_estimate_C"].raw == 0.0  # synchronous RPDO: not before the next SYNC
+    assert [(e.number, e.values, e.sync_counter) for e in events] == [(1, {"peer_estimate_C": 34.5, "peer_Q_W": 0.75}, 1)]
+    node.network.sync.transmit(2)
+    barrier(node)
+    assert node.sdo["peer_estimate_C"].raw == 34.5 and node.sdo["peer_Q_W"].raw == 0.75
+    assert dev.read("rpdo_count") == 1
+
+
+def test_rpdo_ignored_outside_operational(lab):
+    dev = lab.device("master")
+    bus = lab.raw_bus()
+    node = lab.client("master")
+    bus.send(can.Message(arbitration_id=0x182, data=struct.pack("<ff", 40.0, 1.0), is_extended_id=False))
+    node.network.sync.transmit(1)
+    barrier(node)
+    assert dev.read("peer_estimate_C") == 0.0 and dev.stats.rpdo_ignored == 1
+
+
+def test_two_devices_exchange_in_lockstep(lab):
+    """Both sides write peer+1 on each SYNC: after n cycles both hold n (each sees the other's
+    value of the previous cycle, committed at the SYNC)."""
+    master, slave = lab.device("master"), lab.device("slave")
+    for dev in (master, slave):
+        w, r = dev.writer("estimate_C"), dev.reader("peer_estimate_C")
+        dev.add_sync_handler(lambda tick, w=w, r=r: w(r() + 1.0))
+    fresh = []
+    slave.add_sync_handler(lambda tick: fresh.append(tick.fresh_rpdos))
+    master.nmt_command(NmtCommand.START, 0)
+    sync = SyncProducer(master)
+    for _ in range(200):
+        n = master.rpdo_count(1)
+        sync.transmit()
+        assert master.wait_rpdo(1, after=n, timeout=5.0)
+    assert master.read("estimate_C") == 200.0 and slave.read("estimate_C") == 200.0
+    assert fresh[0] == () and all(f == (1,) for f in fresh[1:])
+
+
+def test_pdo_reconfiguration_with_canopens_pdo_client(lab):
+    """canopen's RemoteNode PDO save(): disable, set type/timer, remap, enable."""
+    dev = lab.device("master")
+    node = lab.client("master")
+    node.tpdo.read()  # over SDO
+    tp3 = node.tpdo[3]
+    tp3.clear()
+    tp3.add_variable("T_sink_C")
+    tp3.add_variable("cycle_counter")
+    tp3.trans_type = 1
+    tp3.save()
+    dev.write("T_sink_C", 41.5)
+    dev.write("cycle_counter", 77)
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    node.network.sync.transmit(1)
+    assert tp3.wait_for_reception(2.0) is not None
+    assert tp3["T_sink_C"].raw == 41.5 and tp3["cycle_counter"].raw == 77
+
+
+def test_event_driven_tpdo_with_event_timer(lab):
+    dev = lab.device("master")
+    node = lab.client("master")
+    node.tpdo.read()
+    tp2 = node.tpdo[2]
+    tp2.trans_type = 255
+    tp2.event_timer = 20
+    tp2.save()
+    got = threading.Event()
+    stamps = []
+
+    def on_pdo(m):
+        stamps.append(m.timestamp)
+        if len(stamps) >= 4:
+            got.set()
+
+    tp2.add_callback(on_pdo)
+    dev.nmt_command(NmtCommand.START, 0)
+    assert got.wait(3.0)  # sent by the event timer, no SYNC at all
+    dev.write("T_sensor_C", 36.0)
+    dev.trigger_tpdo(2)
+    assert tp2.wait_for_reception(2.0) is not None and tp2["T_sensor_C"].raw == 36.0
+
+
+def test_mapping_rules(lab):
+    lab.device("master")
+    node = lab.client("master")
+    mapping = node.sdo["TPDO3 mapping parameter"]
+    node.sdo["TPDO3 communication parameter"]["COB-ID used by TPDO"].raw = 0x80000000 | 0x381
+    mapping[0].raw = 0
+    with pytest.raises(SdoAbortedError) as exc:
+        mapping[1].raw = (0x2200 << 16) | 32  # kp_A_per_C is not PDO-mappable
+    assert exc.value.code == 0x06040041
+    with pytest.raises(SdoAbortedError) as exc:
+        mapping[1].raw = (0x2000 << 16) | 16  # a REAL32 mapped with 16 bits
+    assert exc.value.code == 0x06040041
+    for i, idx in enumerate((0x2000, 0x2001, 0x2002), 1):
+        mapping[i].raw = (idx << 16) | 32
+    with pytest.raises(SdoAbortedError) as exc:
+        mapping[0].raw = 3  # 96 bits > 64
+    assert exc.value.code == 0x06040042
+    mapping[0].raw = 2
+    assert mapping[0].raw == 2
+    with pytest.raises(SdoAbortedError) as exc:  # a valid PDO's COB-ID cannot change
+        node.sdo["TPDO1 communication parameter"]["COB-ID used by TPDO"].raw = 0x1F1
+    assert exc.value.code == 0x06090030
+    with pytest.raises(SdoAbortedError) as exc:
+        node.sdo["TPDO1 communication parameter"]["Transmission type"].raw = 250  # reserved
+    assert exc.value.code == 0x06090030
