@@ -289,12 +289,41 @@ def render(role: str) -> str:
     return "\n".join(out)
 
 
+def markdown_table(role: str = "master") -> str:
+    """The object dictionary as a Markdown table (for docs/canopen.md)."""
+    types = {BOOLEAN: "BOOLEAN", UNSIGNED8: "U8", UNSIGNED16: "U16", UNSIGNED32: "U32", REAL32: "REAL32",
+             VISIBLE_STRING: "STRING", INTEGER16: "I16"}
+    rows = ["| index | sub | name | type | access | default | range | unit | PDO |",
+            "|---|---|---|---|---|---|---|---|---|"]
+
+    def row(index, sub, var):
+        rng = f"{var.low} .. {var.high}" if var.low is not None else ""
+        rows.append(f"| 0x{index:04X} | {sub} | {var.name} | {types.get(var.data_type, hex(var.data_type))} | "
+                    f"{var.access} | {var.default} | {rng} | {var.unit} | {'yes' if var.pdo else ''} |")
+
+    for o in communication_objects(role) + manufacturer_objects():
+        if o.var is not None:
+            row(o.index, 0, o.var)
+        elif o.index in (0x2310, 0x2311):
+            first, last = o.subs[1], o.subs[len(o.subs) - 1]
+            rows.append(f"| 0x{o.index:04X} | 1..{len(o.subs) - 1} | {o.name}: {first.name}..{last.name} | REAL32 | "
+                        f"{first.access} | {first.default} | {first.low} .. {first.high} | | |")
+        else:
+            for sub, var in o.subs.items():
+                row(o.index, sub, var)
+    return "\n".join(rows)
+
+
 def main(argv: list[str] | None = None) -> int:
     from telethermo.atomic import write_text_atomic
 
     parser = argparse.ArgumentParser(description="Generate bus_config/master.eds and slave.eds.")
     parser.add_argument("--check", action="store_true", help="only compare; exit 1 if a file differs")
+    parser.add_argument("--table", metavar="ROLE", help="print the object dictionary of ROLE as Markdown")
     args = parser.parse_args(argv)
+    if args.table:
+        print(markdown_table(args.table))
+        return 0
     stale = []
     for role in NODE_IDS:
         target = Path(_path(f"{role}.eds"))

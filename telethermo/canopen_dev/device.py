@@ -237,6 +237,7 @@ class Device:
         self._consumers: dict[int, float] = {}       # peer node-ID -> timeout s
         self._peer_status: dict[int, str] = {}       # "unknown" / "alive" / "lost"
         self._peer_state: dict[int, int | None] = {}
+        self._peer_seen: dict[int, float] = {}
         self._hb_subs: list[tuple[int, Callable]] = []
         # PDO plans
         self.tpdos: dict[int, pdo_mod.PdoPlan] = {}
@@ -277,13 +278,16 @@ class Device:
 
     def close(self) -> None:
         """Stop timers and leave the network (no more frames from this device)."""
+        self._running = False
+        self._scheduler.stop()  # outside the lock: a running job may be waiting for it
         with self._lock:
-            self._running = False
-            self._scheduler.stop()
             self._unsubscribe_pdos()
             self._unsubscribe_heartbeats()
             if self._sync_sub:
-                self.network.unsubscribe(*self._sync_sub)
+                try:
+                    self.network.unsubscribe(*self._sync_sub)
+                except (KeyError, ValueError):
+                    pass
                 self._sync_sub = None
             for cob, cb in ((0, self._on_nmt_frame), (self.node.sdo.rx_cobid, self._on_sdo_frame)):
                 try:
@@ -813,37 +817,42 @@ class Device:
         if len(data) != 1:
             self.stats.malformed_frames += 1
             return
-        if not self._running or self._state == NmtState.INITIALISING:
-            return
         state = data[0] & 0x7F
-        timeout = self._consumers.get(peer)
-        if timeout is None:
-            return
-        prev = self._peer_status.get(peer, "unknown")
-        self._peer_status[peer] = "alive"
-        self._peer_state[peer] = state
-        self._scheduler.set(f"hbc{peer}", self.clock() + timeout, functools.partial(self._on_heartbeat_timeout, peer))
         events = []
-        if prev == "lost":
-            events.append(PeerEvent(peer, "back", state))
-            if not any(s == "lost" for s in self._peer_status.values()) and emcy_mod.EMCY_HEARTBEAT in self._emcy.active:
-                self.clear_emcy(emcy_mod.EMCY_HEARTBEAT)
-        elif prev == "unknown":
-            events.append(PeerEvent(peer, "seen", state))
-        if state == 0:
-            events.append(PeerEvent(peer, "bootup", state))
-        if prev != "alive":
-            self._set_peer_alive()
+        with self._lock:
+            timeout = self._consumers.get(peer)
+            if not self._running or self._state == NmtState.INITIALISING or timeout is None:
+                return
+            prev = self._peer_status.get(peer, "unknown")
+            self._peer_status[peer] = "alive"
+            self._peer_state[peer] = state
+            self._peer_seen[peer] = now = self.clock()
+            self._scheduler.set(f"hbc{peer}", now + timeout,
+                                functools.partial(self._on_heartbeat_timeout, peer))
+            if prev == "lost":
+                events.append(PeerEvent(peer, "back", state))
+                if (not any(s == "lost" for s in self._peer_status.values())
+                        and emcy_mod.EMCY_HEARTBEAT in self._emcy.active):
+                    self.clear_emcy(emcy_mod.EMCY_HEARTBEAT)
+            elif prev == "unknown":
+                events.append(PeerEvent(peer, "seen", state))
+            if state == 0:
+                events.append(PeerEvent(peer, "bootup", state))
+            if prev != "alive":
+                self._set_peer_alive()
         for ev in events:
             self._call(self._peer_listeners, ev)
 
     def _on_heartbeat_timeout(self, peer: int) -> None:
-        if not self._running or self._peer_status.get(peer) != "alive":
-            return
-        self._peer_status[peer] = "lost"
-        self.stats.peer_losses += 1
-        self._set_peer_alive()
-        self.raise_emcy(emcy_mod.EMCY_HEARTBEAT, data=bytes([peer]))
+        with self._lock:
+            if not self._running or self._peer_status.get(peer) != "alive":
+                return
+            if self.clock() - self._peer_seen.get(peer, -1e18) < self._consumers.get(peer, 0.0):
+                return  # a heartbeat came while this job was due: it re-armed the deadline
+            self._peer_status[peer] = "lost"
+            self.stats.peer_losses += 1
+            self._set_peer_alive()
+            self.raise_emcy(emcy_mod.EMCY_HEARTBEAT, data=bytes([peer]))
         self._call(self._peer_listeners, PeerEvent(peer, "lost", None))
 
     def _set_peer_alive(self) -> None:
