@@ -123,6 +123,12 @@ class CoreParams:
         period_s: control period, s.
         kp_A_per_C, ki_A_per_C_s: PI gains on the temperature error (A/°C, A/(°C·s)).
         kQ_A_per_W: heat-flux feed-forward gain, A/W: u_ff = -kQ·Q_peer (see module docstring).
+        kpQ_A_per_W, kiQ_A_per_W_s: heat-flux tracking loop (0 = off): the pad's own flux Q is driven
+            towards the mirror of the peer's, -Q_peer (telepresence), sharing the PI's integrator.
+            On the master this makes the display a flux source (the finger feels the flux the
+            object draws), the slave stays a temperature source (see docs/control.md).
+        kQ_render_A_per_W: RENDER mode's disturbance feed-forward on the pad's own flux, A/W:
+            u_ff = +kQ_render·Q (the finger draws heat out of the pad -> more current).
         estimator: :class:`Estimator` (FLUX default; MODEL = the paper's eq. 30/31).
         feedback: :class:`Feedback`: what the PI controls.
         R_sensor_K_per_W: thermal resistance of the heat-flux sensor, K/W (flux estimator).
@@ -140,6 +146,9 @@ class CoreParams:
     kp_A_per_C: float = 0.4
     ki_A_per_C_s: float = 2.0
     kQ_A_per_W: float = 0.0
+    kpQ_A_per_W: float = 0.0
+    kiQ_A_per_W_s: float = 0.0
+    kQ_render_A_per_W: float = 0.3
     estimator: Estimator = Estimator.FLUX
     feedback: Feedback = Feedback.ESTIMATE
     R_sensor_K_per_W: float = DEFAULT_R_SENSOR_K_PER_W
@@ -164,6 +173,9 @@ class CoreParams:
         _finite_number(o, "kp_A_per_C", self.kp_A_per_C, lo=0.0, hi=100.0)
         _finite_number(o, "ki_A_per_C_s", self.ki_A_per_C_s, lo=0.0, hi=1000.0)
         _finite_number(o, "kQ_A_per_W", self.kQ_A_per_W, lo=-100.0, hi=100.0)
+        _finite_number(o, "kpQ_A_per_W", self.kpQ_A_per_W, lo=0.0, hi=100.0)
+        _finite_number(o, "kQ_render_A_per_W", self.kQ_render_A_per_W, lo=-100.0, hi=100.0)
+        _finite_number(o, "kiQ_A_per_W_s", self.kiQ_A_per_W_s, lo=0.0, hi=1000.0)
         _finite_number(o, "R_sensor_K_per_W", self.R_sensor_K_per_W, lo=0.0, hi=1000.0)
         _finite_number(o, "fused_weight", self.fused_weight, lo=0.0, hi=1.0)
         _finite_number(o, "idle_ramp_A_per_s", self.idle_ramp_A_per_s, lo=0.0, lo_open=True)
@@ -180,6 +192,12 @@ class CoreParams:
     @property
     def gains(self) -> PIGains:
         return PIGains(self.kp_A_per_C, self.ki_A_per_C_s)
+
+    @property
+    def flux_gains(self) -> PIGains | None:
+        if self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0:
+            return None
+        return PIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -361,12 +379,14 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     else:
         w = params.fused_weight
         est = w * e_model + (1.0 - w) * e_flux
-    cands = (Ts, e_flux, est)
+    # credible band of the pad stack's temperatures: both faces of the sensor (the plate-side face
+    # runs ahead of the surface while the TEM heats or cools hard) and the estimate in use
+    cands = (Ts, e_flux, Ts + 0.5 * Q * params.R_sensor_K_per_W, est)
     if all(math.isfinite(c) for c in cands):
         s_hi, s_lo = max(cands), min(cands)
     else:
         s_hi = s_lo = math.nan
-    cst = contact_step(params.contact, state.contact, Q, sample.contact, dt)
+    cst = contact_step(params.contact, state.contact, Q, sample.contact, dt, Ts)
 
     # 3. what the mode asks for
     mode = params.mode
@@ -374,12 +394,14 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     peer_alive = peer is not None and bool(peer.alive)
     peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
     ff = 0.0
+    eQ = 0.0
     phase = state.render_phase
     hold_current = False
     if mode is Mode.TELEPRESENCE:
         if peer_alive and peer_ok:
             req = peer.estimate_C
             ff = -params.kQ_A_per_W * peer.flux_W
+            eQ = -peer.flux_W - Q
         else:
             req = math.nan
         source = (mode,)
@@ -388,6 +410,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
         req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
         hold_current = rs.hold_current_on_contact and phase is RenderPhase.CONTACT
+        ff = params.kQ_render_A_per_W * Q if phase is RenderPhase.CONTACT else 0.0
         source = (mode, phase)
     else:  # IDLE, IDENTIFY: the setpoint follows the surface (keeps the envelope's ramp bumpless)
         req = 0.5 * (s_hi + s_lo)
@@ -406,9 +429,11 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     y = T_pred if params.feedback is Feedback.MODEL else est
     err = sp - y
     gains = params.gains
+    fg = params.flux_gains if mode is Mode.TELEPRESENCE else None
     pi_st = state.pi
     if switched or env.cut:
-        pi_st = bumpless(gains, state.u_prev_A if not env.cut else 0.0, err, ff, -I_lim, I_lim)
+        pi_st = bumpless(gains, state.u_prev_A if not env.cut else 0.0, err, ff, -I_lim, I_lim,
+                         flux_error_W=eQ, flux_gains=fg)
     if mode is Mode.IDLE:
         stepA = params.idle_ramp_A_per_s * dt
         u_req = min(max(0.0, state.u_prev_A - stepA), state.u_prev_A + stepA) if math.isfinite(state.u_prev_A) else 0.0
@@ -423,14 +448,14 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         comps = PIComponents(0.0, pi_st.integral_A, 0.0, u_req, u_req, False)
         new_prbs = state.prbs
     else:
-        u_req, pi_st, comps = pi_step(gains, pi_st, err, ff, dt, -I_lim, I_lim)
+        u_req, pi_st, comps = pi_step(gains, pi_st, err, ff, dt, -I_lim, I_lim, flux_error_W=eQ, flux_gains=fg)
         new_prbs = state.prbs
 
     # 6. envelope on current
     current, cur_active = sf.limit_current(lim, env, u_req, s_hi, s_lo)
     if current != u_req:
         # the envelope overrode the controller: keep the integrator consistent (no windup behind it)
-        pi_st = bumpless(gains, current, err, ff, -I_lim, I_lim)
+        pi_st = bumpless(gains, current, err, ff, -I_lim, I_lim, flux_error_W=eQ, flux_gains=fg)
 
     active = env_active + tuple(a for a in cur_active if a not in env_active)
     status_env = sf.summarize(env, new_trips, active)
@@ -456,3 +481,12 @@ def clear_faults(sample: RigSample, peer: PeerValues | None, params: CoreParams,
                            params.mode is Mode.TELEPRESENCE, peer_alive, peer_ok)
     env = sf.clear_trips(lim, state.env, inp)
     return replace(state, env=env, source=())
+
+
+def initial_peer(first_sample: RigSample) -> PeerValues:
+    """Peer values for cycle 0, before any PDO arrived: the own first T_sensor and 0 W, not fresh.
+
+    Both the offline session and the nodes use this, so the two paths start identically.
+    """
+    T = first_sample.T_sensor_C if math.isfinite(first_sample.T_sensor_C) else math.nan
+    return PeerValues(estimate_C=T, flux_W=0.0, fresh=False, alive=True)

@@ -68,10 +68,13 @@ def _clip(x: float, lo: float, hi: float) -> float:
 
 
 def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: float,
-            u_min_A: float, u_max_A: float) -> tuple[float, PIState, PIComponents]:
+            u_min_A: float, u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: PIGains | None = None
+            ) -> tuple[float, PIState, PIComponents]:
     """One PI + feed-forward step. Returns ``(u_A, new_state, components)``.
 
-    Non-finite ``error_C`` or ``ff_A`` are treated as 0 (the safety envelope trips on their causes);
+    ``flux_gains`` (kp in A/W, ki in A/(W·s), carried in the same :class:`PIGains` fields) add a
+    heat-flux tracking loop on ``flux_error_W`` sharing the integrator and the anti-windup.
+    Non-finite errors or ``ff_A`` are treated as 0 (the safety envelope trips on their causes);
     the integrator then holds. ``u_min_A < u_max_A`` is required.
     """
     if not math.isfinite(error_C):
@@ -79,7 +82,11 @@ def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: f
     if not math.isfinite(ff_A):
         ff_A = 0.0
     p = gains.kp_A_per_C * error_C
-    i = state.integral_A + gains.ki_A_per_C_s * error_C * dt_s
+    di = gains.ki_A_per_C_s * error_C
+    if flux_gains is not None and math.isfinite(flux_error_W):
+        p += flux_gains.kp_A_per_C * flux_error_W
+        di += flux_gains.ki_A_per_C_s * flux_error_W
+    i = state.integral_A + di * dt_s
     # anti-windup including the feed-forward
     i = _clip(i, u_min_A - p - ff_A, u_max_A - p - ff_A)
     i = _clip(i, u_min_A, u_max_A)
@@ -89,11 +96,14 @@ def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: f
 
 
 def bumpless(gains: PIGains, u_prev_A: float, error_C: float, ff_A: float, u_min_A: float,
-             u_max_A: float) -> PIState:
+             u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: PIGains | None = None) -> PIState:
     """Integrator that makes ``kp·error + I + ff`` equal the previous output ``u_prev_A`` (clamped)."""
     if not math.isfinite(u_prev_A):
         u_prev_A = 0.0
     e = error_C if math.isfinite(error_C) else 0.0
     f = ff_A if math.isfinite(ff_A) else 0.0
-    i = u_prev_A - gains.kp_A_per_C * e - f
+    p = gains.kp_A_per_C * e
+    if flux_gains is not None and math.isfinite(flux_error_W):
+        p += flux_gains.kp_A_per_C * flux_error_W
+    i = u_prev_A - p - f
     return PIState(_clip(i, u_min_A, u_max_A))

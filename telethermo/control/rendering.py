@@ -112,24 +112,28 @@ class FingerCalibration:
     n_touches: int
 
 
-def calibrate_finger(T_pad0_C, T_contact_C, T_finger0_C: float | None = None) -> FingerCalibration:
+def calibrate_finger(T_pad0_C, T_contact_C, T_finger0_C=None) -> FingerCalibration:
     """Fit β_pad (and T_finger0 unless given) from touches of the pad pre-set at ``T_pad0_C``.
 
     Eq. 1 for each touch: T_c = (T_f0 + β_pad·T_p0)/(1 + β_pad) = a + k·T_p0 with
     k = β_pad/(1 + β_pad), a = T_f0/(1 + β_pad). Two or more touches at different T_pad0 give
-    both (least squares); with ``T_finger0_C`` known, one touch is enough.
+    both (least squares); with ``T_finger0_C`` known (one value, or one per touch as a radiation
+    thermometer gives), one touch is enough.
     """
     p = np.atleast_1d(np.asarray(T_pad0_C, float))
     c = np.atleast_1d(np.asarray(T_contact_C, float))
     if p.shape != c.shape or p.size == 0 or not (np.isfinite(p).all() and np.isfinite(c).all()):
         raise ValueError("calibrate_finger: T_pad0_C and T_contact_C must be equal-length finite sequences")
     if T_finger0_C is not None:
-        # k·(T_p0 - T_f0) = T_c - T_f0 : least squares through the known point
-        x, y = p - T_finger0_C, c - T_finger0_C
+        f = np.broadcast_to(np.asarray(T_finger0_C, float), p.shape)
+        if not np.isfinite(f).all():
+            raise ValueError("calibrate_finger: T_finger0_C must be finite")
+        # k·(T_p0 - T_f0) = T_c - T_f0 : least squares through the known points
+        x, y = p - f, c - f
         if float(x @ x) < 1e-9:
             raise ValueError("calibrate_finger: pad pre-set equal to the finger temperature: no information")
         k = float(x @ y) / float(x @ x)
-        a = T_finger0_C * (1 - k)
+        a = float(np.mean(f)) * (1 - k)
     else:
         if p.size < 2 or float(np.ptp(p)) < 0.5:
             raise ValueError("calibrate_finger: need >= 2 touches with pre-sets >= 0.5 °C apart "
@@ -141,7 +145,10 @@ def calibrate_finger(T_pad0_C, T_contact_C, T_finger0_C: float | None = None) ->
         raise ValueError(f"calibrate_finger: fitted slope {k:.3f} outside (0, 1): touches inconsistent with eq. 1")
     beta = k / (1.0 - k)
     T_f0 = a / (1.0 - k)
-    res = float(np.sqrt(np.mean((a + k * p - c) ** 2)))
+    if T_finger0_C is not None:
+        res = float(np.sqrt(np.mean((f + k * (p - f) - c) ** 2)))
+    else:
+        res = float(np.sqrt(np.mean((a + k * p - c) ** 2)))
     return FingerCalibration(beta_pad=beta, T_finger0_C=T_f0, residual_C=res, n_touches=int(p.size))
 
 

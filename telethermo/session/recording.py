@@ -39,6 +39,7 @@ X_new_trips                trips raised in this step ("peer_lost|...")
 X_true_surface_C    °C     truth: the contact-side surface (master: the finger's skin on the pad)
 X_true_Q_W          W      truth: heat flux through the contact, > 0 out of the pad
 X_true_touching     0/1    truth: something touches the pad (scene schedule)
+m_true_finger_C     °C     truth: the operator's skin on the master, touching or not (in air between)
 ref_T_contact_C     °C     truth: direct-touch reference, the finger's surface on the object
 ref_Q_into_finger_W W      truth: heat flux into the finger in the reference (< 0: the finger loses heat)
 ref_touching        0/1    truth: the reference finger touches the object
@@ -71,7 +72,7 @@ SIDE_NUMERIC = ["T_sensor_C", "Q_W", "T_sink_C", "current_A", "target_C", "setpo
                 "T_pred_C", "peer_estimate_C", "peer_flux_W", "contact", "safety_state", "error_register",
                 "true_surface_C", "true_Q_W", "true_touching"]
 SIDE_TEXT = ["limits", "new_trips"]
-REF_NUMERIC = ["ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"]
+REF_NUMERIC = ["m_true_finger_C", "ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"]
 TEXT_COLUMNS = frozenset(f"{p}_{c}" for p in ("m", "s") for c in SIDE_TEXT)
 COLUMNS = (["t_s"] + [f"{p}_{c}" for p in ("m", "s") for c in SIDE_NUMERIC + SIDE_TEXT] + REF_NUMERIC)
 

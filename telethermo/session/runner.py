@@ -1,0 +1,302 @@
+"""Offline session: scene + both controllers + both simulated rigs + the direct-touch reference, lockstep.
+
+    from telethermo.session import run_offline_session, write_session
+    res = run_offline_session("probe_touches_al_steel_wood")
+    write_session("out/session", res)            # recording.csv, summary.json, session.png (atomic)
+
+One step k (what the two nodes do on SYNC k, see docs/control.md "exchange timing"):
+
+1. each rig is read: sample_k (time t_k);
+2. each controller steps with the peer values *sent in cycle k-1* (TPDO1 of the previous SYNC; in
+   cycle 0, :func:`telethermo.control.core.initial_peer`), optionally rounded to REAL32;
+3. each rig gets its current and every simulation (both rigs, the reference) advances by one period.
+
+Render sessions (``mode="render"``): the master alone renders the virtual materials of the scene's
+touches (yamamoto), the reference is the finger touching the real material.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from telethermo.atomic import write_json_atomic
+from telethermo.control.core import CoreParams, RenderSettings, StepResult, init_state, initial_peer, step
+from telethermo.control.defaults import default_params
+from telethermo.control.types import Mode, PeerValues, Role
+from telethermo.session.figures import compute_figures
+from telethermo.session.plot import write_session_png
+from telethermo.session.recording import Recording, RecordingBuilder, write_recording_csv
+
+ROUNDINGS = ("none", "real32")
+
+
+def round_real32(x: float) -> float:
+    """The value a REAL32 PDO carries (IEEE 754 single, round to nearest)."""
+    return float(np.float32(x))
+
+
+@dataclass
+class SessionResult:
+    """A finished session: the recording and its figures."""
+
+    recording: Recording
+    figures: dict[str, Any]
+
+
+def _side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[str, Any]:
+    s = res.status
+    return {
+        f"{p}_T_sensor_C": sample.T_sensor_C, f"{p}_Q_W": sample.Q_W, f"{p}_T_sink_C": sample.T_sink_C,
+        f"{p}_current_A": res.current_A, f"{p}_target_C": s.requested_setpoint_C, f"{p}_setpoint_C": s.setpoint_C,
+        f"{p}_feedback_C": s.feedback_C, f"{p}_estimate_C": s.estimate_C, f"{p}_T_pred_C": s.T_pred_C,
+        f"{p}_peer_estimate_C": peer.estimate_C if peer is not None else math.nan,
+        f"{p}_peer_flux_W": peer.flux_W if peer is not None else math.nan,
+        f"{p}_contact": float(s.contact), f"{p}_safety_state": int(s.safety.state),
+        f"{p}_error_register": s.safety.error_register,
+        f"{p}_limits": "|".join(s.safety.limits_active), f"{p}_new_trips": "|".join(t.value for t in s.safety.new_trips),
+    }
+
+
+def _truth_row(p: str, rig) -> dict[str, Any]:
+    tr = rig.truth()
+    row = {f"{p}_true_surface_C": tr.T_surface_C, f"{p}_true_Q_W": tr.Q_true_W,
+           f"{p}_true_touching": float(tr.touching is not None)}
+    if p == "m":
+        row["m_true_finger_C"] = _finger_skin_C(rig, tr)
+    return row
+
+
+def _finger_skin_C(rig, tr) -> float:
+    """Truth: the operator's skin temperature on the master, touching or not (in air between touches)."""
+    if tr.touching == "finger":
+        return tr.T_surface_C
+    body = getattr(rig, "bodies", {}).get("finger")
+    if body is None:
+        return math.nan
+    body.advance_detached(rig.t_s)
+    return float(body.surface_C())
+
+
+def _ref_row(ref) -> dict[str, Any]:
+    return {"ref_T_contact_C": ref.T_contact_C if ref.touching else math.nan,
+            "ref_Q_into_finger_W": -ref.Q_finger_W if ref.touching else math.nan,
+            "ref_touching": float(bool(ref.touching))}
+
+
+def _load_model(model: Any) -> Any:
+    if model is None or not isinstance(model, (str, os.PathLike)):
+        return model
+    from telethermo.ident import load_model
+    return load_model(model)
+
+
+def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, slave_params: CoreParams | None = None,
+                        master_model: Any = None, slave_model: Any = None, duration_s: float | None = None,
+                        rounding: str = "none", seed: int | None = 0, mode: str | None = None,
+                        render_options: dict[str, Any] | None = None) -> SessionResult:
+    """Run a scene offline and return the recording and its figures.
+
+    ``scene``: a name or path (``sim.load_scene``) or a loaded scene. ``*_params``: controller
+    parameters (default: :func:`telethermo.control.defaults.default_params` for the scene's period).
+    ``*_model``: a TEM model, a model file path, a predictor, or None (FLUX estimator needs none).
+    ``rounding``: "none" or "real32" (exchanged values rounded as REAL32 PDOs carry them).
+    ``mode``: "telepresence" or "render" (default: render for a "virtual" scene).
+    ``render_options``: ``beta_pad`` (the calibrated pad β), ``T_finger0_C``, ``finger_thermometer``,
+    ``thermometer_lead_s`` (see :func:`_run_render`).
+    """
+    import sim
+
+    if rounding not in ROUNDINGS:
+        raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
+    sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
+    if mode is None:
+        mode = "render" if sc.kind == "virtual" else "telepresence"
+    if mode not in ("telepresence", "render"):
+        raise ValueError(f"run_offline_session: mode: expected 'telepresence' or 'render', got {mode!r}")
+    rig_m = sim.build_rig(sc, "master", seed=seed)
+    period = rig_m.period_s
+    T_end = float(duration_s if duration_s is not None else sc.duration_s)
+    n_steps = int(round(T_end / period))
+    rnd = round_real32 if rounding == "real32" else (lambda x: x)
+    ref = sim.build_reference(sc)
+
+    if mode == "render":
+        return _run_render(sc, rig_m, ref, master_params, _load_model(master_model), n_steps, period, rounding,
+                           **(render_options or {}))
+
+    rig_s = sim.build_rig(sc, "slave", seed=None if seed is None else seed + 1)
+    if rig_s.period_s != period:
+        raise ValueError(f"run_offline_session: the rigs' periods differ ({period} s vs {rig_s.period_s} s)")
+    pm = master_params or default_params(Role.MASTER, period_s=period)
+    ps = slave_params or default_params(Role.SLAVE, period_s=period)
+    for name, p in (("master_params", pm), ("slave_params", ps)):
+        if abs(p.period_s - period) > 1e-12:
+            raise ValueError(f"run_offline_session: {name}.period_s = {p.period_s} s but the rig runs at {period} s")
+    pm, ps = _with_rig_limits(pm, rig_m), _with_rig_limits(ps, rig_s)
+    sm0, ss0 = rig_m.read(), rig_s.read()
+    st_m = init_state(pm, _load_model(master_model), sm0)
+    st_s = init_state(ps, _load_model(slave_model), ss0)
+    peer_m, peer_s = initial_peer(sm0), initial_peer(ss0)
+
+    meta = {"scene": getattr(sc, "name", str(scene)), "period_s": period, "mode": "telepresence",
+            "rounding": rounding, "seed": seed, "contacts": _contacts(sc, "slave"),
+            "master_params": _params_meta(pm), "slave_params": _params_meta(ps)}
+    b = RecordingBuilder(meta)
+    for _k in range(n_steps):
+        sm, ss = rig_m.read(), rig_s.read()
+        rm = step(sm, peer_m, pm, st_m)
+        rs = step(ss, peer_s, ps, st_s)
+        row = {"t_s": sm.t_s}
+        row.update(_side_row("m", sm, rm, peer_m))
+        row.update(_side_row("s", ss, rs, peer_s))
+        row.update(_truth_row("m", rig_m))
+        row.update(_truth_row("s", rig_s))
+        row.update(_ref_row(ref))
+        b.add(row)
+        st_m, st_s = rm.state, rs.state
+        # values sent in this cycle, received by the peer in the next one
+        peer_m = PeerValues(rnd(rs.out.estimate_C), rnd(rs.out.flux_W))
+        peer_s = PeerValues(rnd(rm.out.estimate_C), rnd(rm.out.flux_W))
+        rig_m.apply_current(rm.current_A)
+        rig_s.apply_current(rs.current_A)
+        rig_m.advance(period)
+        rig_s.advance(period)
+        ref.advance(period)
+    rec = b.build()
+    return SessionResult(rec, compute_figures(rec))
+
+
+def _set_finger0(touch: dict[str, Any], T_f0: float) -> None:
+    rs = dataclasses.replace(touch["settings"], T_finger0_C=T_f0)
+    touch.update(settings=rs, T_finger0_C=T_f0, T_contact_C=rs.T_contact_C, T_pad0_C=rs.T_pad0_C)
+
+
+def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, beta_pad: float = 2.23,
+                T_finger0_C: float = 34.0, finger_thermometer: bool = True,
+                thermometer_lead_s: float = 1.0, calibration_presets_C: list[float] | None = None) -> SessionResult:
+    """Master alone renders each touch's virtual material (settings from the scene's touches).
+
+    ``finger_thermometer``: read the finger's skin temperature ``thermometer_lead_s`` before each
+    touch, as yamamoto's radiation thermometer does (else ``T_finger0_C`` for every touch).
+    ``calibration_presets_C``: calibration session instead: touch i pre-sets the pad at
+    ``calibration_presets_C[i]`` and holds the current during the touch (see session.calibration).
+    """
+    touches = _render_touches(sc, beta_pad=beta_pad, T_finger0_C=T_finger0_C)
+    if calibration_presets_C is not None:
+        if len(calibration_presets_C) < len(touches):
+            raise ValueError(f"calibration_presets_C: expected {len(touches)} pre-sets (one per touch of "
+                             f"{sc.name}), got {len(calibration_presets_C)}")
+        for t, T in zip(touches, calibration_presets_C):
+            # rendering the pad's own material at T pre-sets the pad at T (eq. 7 with beta_obj = beta_pad)
+            rs = RenderSettings(beta_object=beta_pad, T_object0_C=float(T), beta_pad=beta_pad,
+                                T_finger0_C=T_finger0_C, hold_current_on_contact=True, material="calibration")
+            t.update(material="calibration", beta=beta_pad, T_object0_C=float(T), settings=rs,
+                     T_contact_C=rs.T_contact_C, T_pad0_C=rs.T_pad0_C)
+    base = params or default_params(Role.MASTER, period_s=period, mode=Mode.RENDER,
+                                    render=touches[0]["settings"] if touches else None)
+    base = _with_rig_limits(base, rig_m)
+    s0 = rig_m.read()
+    state = init_state(dataclasses.replace(base, mode=Mode.RENDER, render=touches[0]["settings"]), model, s0)
+    meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "render", "rounding": rounding,
+            "contacts": _contacts(sc, "master"), "finger_thermometer": finger_thermometer,
+            "master_params": _params_meta(base)}
+    b = RecordingBuilder(meta)
+    idx = 0
+    measured = set()
+    for _k in range(n_steps):
+        smp = rig_m.read()
+        # the next touch's material is selected once the previous touch has ended (the session's script)
+        while idx + 1 < len(touches) and smp.t_s >= touches[idx]["t_off_s"] + 0.5 * period:
+            idx += 1
+        if (finger_thermometer and touches and idx not in measured
+                and smp.t_s >= touches[idx]["t_on_s"] - thermometer_lead_s - 1e-9):
+            # yamamoto's radiation thermometer: the finger's skin temperature, read before the touch
+            T_f0 = _finger_skin_C(rig_m, rig_m.truth())
+            if math.isfinite(T_f0):
+                _set_finger0(touches[idx], T_f0)
+            measured.add(idx)
+        p = dataclasses.replace(base, mode=Mode.RENDER, render=touches[idx]["settings"]) if touches else base
+        r = step(smp, None, p, state)
+        row = {"t_s": smp.t_s}
+        row.update(_side_row("m", smp, r, None))
+        row.update(_truth_row("m", rig_m))
+        row.update(_ref_row(ref))
+        b.add(row)
+        state = r.state
+        rig_m.apply_current(r.current_A)
+        rig_m.advance(period)
+        ref.advance(period)
+    rec = b.build()
+    rec.meta["render"] = [{k: v for k, v in t.items() if k != "settings"} for t in touches]
+    return SessionResult(rec, compute_figures(rec))
+
+
+def _with_rig_limits(p: CoreParams, rig) -> CoreParams:
+    """The envelope's current limit follows the rig's hardware limit (0.8·I_max of *this* rig)."""
+    if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
+        p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
+    return p
+
+
+def _contacts(sc, side: str) -> list[dict[str, Any]]:
+    """The scene's touches of the probe (slave) or of the display (master, render scenes)."""
+    out = []
+    if side == "slave":
+        for t in sc.slave_contacts:
+            out.append({"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.body})
+    else:
+        for t in sc.master_contacts:
+            if t.render is not None:
+                out.append({"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.render})
+    return out
+
+
+def _render_touches(sc, table: dict[str, float] | None = None, *, beta_pad: float = 2.23,
+                    T_finger0_C: float = 33.0) -> list[dict[str, Any]]:
+    """Render settings of each touch of a virtual scene (β from the rendering table)."""
+    from telethermo.control.rendering import load_render_table
+    table = table or load_render_table()
+    out = []
+    for t in sc.master_contacts:
+        if t.render is None:
+            continue
+        if t.render not in table:
+            raise ValueError(f"scene {sc.name}: render material {t.render!r} not in the rendering table "
+                             f"(known: {', '.join(sorted(table))})")
+        spec = sc.objects.get(t.render)
+        T_o = float(spec.T0_C) if spec is not None else float(sc.ambient_C)
+        rs = RenderSettings(beta_object=table[t.render], T_object0_C=T_o, beta_pad=beta_pad,
+                            T_finger0_C=T_finger0_C, material=t.render)
+        out.append({"material": t.render, "beta": table[t.render], "t_on_s": t.start_s, "t_off_s": t.end_s,
+                    "T_contact_C": rs.T_contact_C, "T_pad0_C": rs.T_pad0_C, "T_finger0_C": T_finger0_C,
+                    "T_object0_C": T_o, "settings": rs})
+    return out
+
+
+def _params_meta(p: CoreParams) -> dict[str, Any]:
+    d = {}
+    for f in dataclasses.fields(p):
+        v = getattr(p, f.name)
+        if f.name in ("safety", "contact", "render"):
+            d[f.name] = dataclasses.asdict(v) if v is not None else None
+            if d[f.name]:
+                d[f.name] = {k: (x.value if hasattr(x, "value") else x) for k, x in d[f.name].items()}
+        else:
+            d[f.name] = v.value if hasattr(v, "value") else v
+    return d
+
+
+def write_session(out_dir: str | os.PathLike, result: SessionResult, *, png: bool = True) -> dict[str, Path]:
+    """Write ``recording.csv``, ``summary.json`` and ``session.png`` into ``out_dir`` (atomically)."""
+    out = Path(out_dir)
+    paths = {"csv": write_recording_csv(out / "recording.csv", result.recording),
+             "json": write_json_atomic(out / "summary.json", result.figures)}
+    if png:
+        paths["png"] = write_session_png(out / "session.png", result.recording)
+    return paths
