@@ -307,7 +307,10 @@ class NodeRuntime:
                     log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
             n0 = dev.rpdo_count(1)
             self._sync_sent_at = time.monotonic()
-            sync.transmit()
+            # Hold the device lock from sending SYNC k until our own SYNC k is processed: a fast peer's
+            # TPDO k could otherwise be committed as an RPDO of SYNC k (one cycle early) instead of k+1.
+            with dev._lock:
+                sync.transmit()
             k += 1
             if self.lockstep:
                 alive = dev.peer_status(self.peer_id) == "alive"
