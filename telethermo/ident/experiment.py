@@ -27,9 +27,10 @@ from typing import Any, Callable
 
 import numpy as np
 
+from telethermo.ident.capacity import CapacityModel, fit_capacity
 from telethermo.ident.flux import fit_flux_arma
 from telethermo.ident.modelfile import TemModel
-from telethermo.ident.narma import NarmaOrders, fit_narma
+from telethermo.ident.narma import NarmaModel, NarmaOrders, fit_narma
 from telethermo.ident.prbs import prbs
 from telethermo.ident.stability import check_stability
 from telethermo.rig import Rig
@@ -49,6 +50,13 @@ class ExperimentSettings:
         T_min_C, T_max_C: safety envelope of the pad, °C; margin_C: guard distance to it, °C.
         flux_orders: (n, m) of the heat-flux ARMA model (eq. 12).
         flux_with_current: give the flux model the current terms (see telethermo.ident.flux).
+        capacity_points: N steady states for the capacity model (guiatni: 14).
+        capacity_current_span_A: the currents are spread over this span (guiatni: ±1.5 A) **clipped to
+            the currents whose steady state stays inside the safety envelope** (see
+            :func:`capacity_currents`), A.
+        settle_s, settle_step_s: settling time per steady state and the step it is advanced by, s
+            (a simulated rig may take long steps: its integrator is exact for a held current).
+        average_samples: samples averaged (at the rig's period) per steady state.
     """
 
     rest_samples: int = 200
@@ -60,6 +68,11 @@ class ExperimentSettings:
     margin_C: float = 1.0
     flux_orders: tuple[int, int] = (3, 3)
     flux_with_current: bool = True
+    capacity_points: int = 14
+    capacity_current_span_A: tuple[float, float] = (-1.5, 1.5)
+    settle_s: float = 2000.0
+    settle_step_s: float = 50.0
+    average_samples: int = 300
 
 
 @dataclass
@@ -124,7 +137,7 @@ def _concat(records: list[Record]) -> Record:
 def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = NarmaOrders(), seed: int = 0,
                  progress: Progress | None = None, n_validation: int | None = None,
                  settings: ExperimentSettings = ExperimentSettings(), meta: dict[str, Any] | None = None,
-                 method: str = "oe") -> tuple[TemModel, dict[str, Any]]:
+                 method: str = "oe", capacity: bool = False) -> tuple[TemModel, dict[str, Any]]:
     """Run the identification experiment on ``rig`` (see the module docstring) and fit the models.
 
     Args:
@@ -137,6 +150,7 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         settings: experiment settings.
         meta: extra provenance for the model file.
         method: NARMA fit: ``"oe"`` (least squares, then output-error refinement; default) or ``"ls"``.
+        capacity: also run the capacity experiment (:func:`identify_capacity`) after the dynamic one.
 
     Returns:
         ``(TemModel, report)``; ``report`` holds the held-out free-run errors (°C), flux errors (W), the
@@ -213,7 +227,110 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         "fit_method": method,
         "settings": asdict(settings),
     }
+    cap = None
+    if capacity:
+        cap, ss = identify_capacity(rig, model, settings=settings)
+        report.update({"capacity_points": len(ss.current_A), "capacity_current_range_A": [float(ss.current_A.min()),
+                       float(ss.current_A.max())], "capacity_rms_W": cap.metrics["rms_W"],
+                       "capacity_max_abs_W": cap.metrics["max_abs_W"], "capacity_skipped_A": ss.skipped})
     tem_meta = {"source": "telethermo.ident.experiment.identify_rig", "seed": int(seed),
                 "n_train": int(n_samples), "n_validation": int(n_validation), "settings": asdict(settings)}
     tem_meta.update(meta or {})
-    return TemModel(temperature=model, flux=flux, capacity=None, meta=tem_meta), report
+    return TemModel(temperature=model, flux=flux, capacity=cap, meta=tem_meta), report
+
+
+def capacity_currents(model: NarmaModel, *, settings: ExperimentSettings = ExperimentSettings(),
+                      I_max_A: float = math.inf) -> np.ndarray:
+    """The N currents of the capacity experiment, A: evenly spread over the widest interval around 0 inside
+    ``settings.capacity_current_span_A`` and ±current_limit_fraction·I_max_A whose steady state, as predicted
+    by the identified temperature model, stays inside the safety envelope with its margin (then 10 %
+    back from that edge).
+
+    (On a pad in air ±1.5 A would settle far outside [15, 43] °C: 167 °C at +1.5 A on the default
+    simulated rig.) Raises ValueError if no interval around 0 is safe.
+    """
+    lo_span, hi_span = settings.capacity_current_span_A
+    lim = settings.current_limit_fraction * I_max_A
+    lo_span, hi_span = max(lo_span, -lim), min(hi_span, lim)
+    t_lo, t_hi = settings.T_min_C + settings.margin_C, settings.T_max_C - settings.margin_C
+    grid_hi = np.linspace(0.0, hi_span, 301)
+    grid_lo = np.linspace(0.0, lo_span, 301)
+
+    def reach(grid: np.ndarray) -> float:
+        Tss = model.steady_state_C(grid)
+        ok = (Tss >= t_lo) & (Tss <= t_hi) & np.isfinite(Tss)
+        if not ok[0]:
+            raise ValueError(f"the rest temperature {float(Tss[0]):.2f} °C is outside the envelope [{t_lo}, {t_hi}] °C")
+        bad = np.flatnonzero(~ok)
+        return float(grid[bad[0] - 1]) if bad.size else float(grid[-1])
+
+    # 10 % back from the predicted edge: the model's steady state is an extrapolation in T
+    return np.linspace(0.9 * reach(grid_lo), 0.9 * reach(grid_hi), settings.capacity_points)
+
+
+@dataclass
+class SteadyStates:
+    """Steady states of a rig: current (A), sensor temperature (°C), heat flux (W), sink temperature (°C) and,
+    on a simulated rig, the true flux (W); ``skipped`` lists currents dropped by the safety guard."""
+
+    current_A: np.ndarray
+    T_C: np.ndarray
+    Q_W: np.ndarray
+    T_sink_C: np.ndarray
+    Q_true_W: np.ndarray
+    skipped: list[float] = field(default_factory=list)
+
+
+def steady_state_points(rig: Rig, currents_A: np.ndarray, *, settings: ExperimentSettings = ExperimentSettings(),
+                        progress: Progress | None = None) -> SteadyStates:
+    """Hold each current until steady state (``settle_s``), then average ``average_samples`` samples.
+
+    The safety guard checks the sensor temperature after every settling step; a current whose
+    settling leaves the envelope (with margin) is cut to 0 and skipped (listed in ``skipped``).
+    """
+    if not hasattr(rig, "advance"):
+        raise TypeError("steady_state_points drives simulated rigs (rig.advance)")
+    lo, hi = settings.T_min_C + settings.margin_C, settings.T_max_C - settings.margin_C
+    truth = getattr(rig, "truth", None)
+    rows, skipped = [], []
+    n_steps = max(1, int(math.ceil(settings.settle_s / settings.settle_step_s)))
+    for idx, I in enumerate(np.asarray(currents_A, dtype=float)):
+        rig.apply_current(float(I))
+        safe = True
+        for _ in range(n_steps):
+            rig.advance(settings.settle_s / n_steps)
+            T = rig.read().T_sensor_C
+            if not (lo <= T <= hi):
+                safe = False
+                break
+        if not safe:
+            rig.apply_current(0.0)
+            skipped.append(float(I))
+            for _ in range(n_steps):
+                rig.advance(settings.settle_s / n_steps)
+            continue
+        acc = np.zeros(4)
+        for _ in range(settings.average_samples):
+            rig.advance(float(rig.period_s))
+            smp = rig.read()
+            acc += (smp.T_sensor_C, smp.Q_W, smp.T_sink_C, truth().Q_true_W if truth is not None else math.nan)
+        rows.append((float(I), *(acc / settings.average_samples)))
+        if progress is not None:
+            progress(idx + 1, len(currents_A))
+    rig.apply_current(0.0)
+    arr = np.array(rows, dtype=float).reshape(-1, 5)
+    return SteadyStates(arr[:, 0], arr[:, 1], arr[:, 2], arr[:, 3], arr[:, 4], skipped)
+
+
+def identify_capacity(rig: Rig, model: NarmaModel, *, settings: ExperimentSettings = ExperimentSettings(),
+                      progress: Progress | None = None) -> tuple[CapacityModel, SteadyStates]:
+    """The capacity experiment (guiatni §3.2): N steady states at currents from :func:`capacity_currents`,
+    then eq. 13 fitted by least squares. P = the measured heat out of the pad (Q_W)."""
+    currents = capacity_currents(model, settings=settings, I_max_A=float(rig.I_max_A))
+    ss = steady_state_points(rig, currents, settings=settings, progress=progress)
+    cap = fit_capacity(current_A=ss.current_A, T_C=ss.T_C, P_W=ss.Q_W)
+    m = dict(cap.metrics)
+    m.update({"skipped_currents_A": ss.skipped, "settle_s": settings.settle_s,
+              "average_samples": settings.average_samples})
+    object.__setattr__(cap, "metrics", m)
+    return cap, ss
