@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.grid import first_cell_m, graded_widths
+from sim.grid import first_cell_m, graded_widths, symmetric_graded_widths
 from sim.materials import Material, material
 
 # Blood (benali-khoudja eq. 3: conducto-convective exchange with blood; Pennes perfusion term)
@@ -91,9 +91,19 @@ def slab(name: str, mat: Material, thickness_m: float, area_m2: float, t_min_s: 
 
 
 def uniform(name: str, mat: Material, thickness_m: float, area_m2: float, cells: int) -> Segment:
-    """A homogeneous slab with ``cells`` equal cells (the flux sensor)."""
+    """A homogeneous slab with ``cells`` equal cells."""
     layers = [(mat, thickness_m, 0.0)]
     return layered(name, layers, area_m2, [np.full(cells, thickness_m / cells)])
+
+
+def sensor_segment(name: str, mat: Material, thickness_m: float, area_m2: float, t_min_s: float,
+                   ratio: float = 1.3, cells_per_length: float = 4.0, cells: int = 0) -> Segment:
+    """The flux sensor: ``cells`` equal cells (odd), or (cells = 0) graded from both faces with the same
+    diffusion scaling as the bodies it touches, so that a make/break is right from its first instant."""
+    if cells:
+        return uniform(name, mat, thickness_m, area_m2, cells)
+    ws = symmetric_graded_widths(thickness_m, first_cell_m(mat.diffusivity_m2_s, t_min_s, cells_per_length), ratio)
+    return layered(name, [(mat, thickness_m, 0.0)], area_m2, [ws])
 
 
 @dataclass(frozen=True)

@@ -89,7 +89,8 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
     if not touches:
         report.append(f"{role}: pad touches nothing: air only")
     return SimRig(params, bodies, Schedule(touches), ambient_C=scene.ambient_C, period_s=scene.period_s,
-                  noise=np_, seed=scene.seed if seed is None else seed, name=role, prune=prune, pruning=report)
+                  noise=np_, seed=scene.seed if seed is None else seed, name=role, prune=prune, pruning=report,
+                  grid=grid)
 
 
 def free_pad_rig(period_s: float = 0.01, ambient_C: float = 25.0, seed: int | None = 0, noise: bool = True,

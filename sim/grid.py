@@ -36,3 +36,15 @@ def graded_widths(thickness_m: float, dx0_m: float, ratio: float = 1.3) -> np.nd
     else:
         widths.append(rem)
     return np.array(widths)
+
+
+def symmetric_graded_widths(thickness_m: float, dx0_m: float, ratio: float = 1.3) -> np.ndarray:
+    """Odd number of cells, graded from BOTH faces towards a centre cell whose centre is the mid-plane.
+
+    Used for the flux sensor: fine cells at both faces (contact transients), a node at the thermocouple.
+    """
+    half = graded_widths(thickness_m / 2.0, dx0_m, ratio)
+    if len(half) == 1:
+        return np.array([thickness_m])
+    centre = 2.0 * half[-1]
+    return np.concatenate([half[:-1], [centre], half[:-1][::-1]])

@@ -75,16 +75,23 @@ class Biquad:
 class Channel:
     """One measured signal: true value -> + noise -> quantised -> filtered."""
 
-    __slots__ = ("sigma", "lsb", "filt", "rng")
+    __slots__ = ("sigma", "lsb", "filt", "rng", "_buf", "_i")
+    BLOCK = 1024
 
     def __init__(self, sigma: float, lsb: float, cutoff_Hz: float, fs_Hz: float, rng: np.random.Generator) -> None:
         self.sigma, self.lsb, self.rng = sigma, lsb, rng
         self.filt = Biquad(cutoff_Hz, fs_Hz) if cutoff_Hz > 0 else None
+        self._buf: list[float] = []
+        self._i = 0
 
     def __call__(self, true_value: float) -> float:
         v = true_value
         if self.sigma:
-            v += self.sigma * self.rng.standard_normal()
+            if self._i >= len(self._buf):                # draw normals in blocks (same stream for a seed)
+                self._buf = (self.sigma * self.rng.standard_normal(self.BLOCK)).tolist()
+                self._i = 0
+            v += self._buf[self._i]
+            self._i += 1
         if self.lsb:
             v = self.lsb * round(v / self.lsb)
         return self.filt(v) if self.filt is not None else v

@@ -124,6 +124,7 @@ class Config:
         sens_mat = material(params.sensor_material)
         kSe = sens_mat.lambda_W_mK * A / params.sensor_thickness_m
         self.q_f, self.q_f0 = kSe * (fb - ft), kSe * (fb0 - ft0)
+        self.q_full = np.append(self.q_f, 0.0)          # acts on the augmented state [x, E_out]
         if body is not None:
             self.surf_f, self.surf_f0 = self.system.face_functional(4, "front")
         else:
@@ -132,12 +133,18 @@ class Config:
         self._steps: dict[float, tuple] = {}
 
     def step(self, dt_s: float) -> tuple:
-        """Cached step matrices for dt (plus the 2×2 plate rows of B1)."""
+        """Cached step matrices for dt: (Phi, c, Bcat, scalars of the two plate rows).
+
+        x' = Phi·x + Bcat·[1, u_s,n, u_p,n, u_s,n+1, u_p,n+1] with Bcat = [c | B0 | B1] (sim.expint).
+        """
         key = round(dt_s, 12)
         m = self._steps.get(key)
         if m is None:
             Phi, c, B0, B1 = self.modal.step_matrices(dt_s)
-            m = (Phi, c, B0, B1, float(B1[1, 0]), float(B1[1, 1]), float(B1[2, 0]), float(B1[2, 1]))
+            Bcat = np.column_stack([c, B0, B1])
+            rows = tuple(float(v) for v in (c[1], B0[1, 0], B0[1, 1], B1[1, 0], B1[1, 1],
+                                            c[2], B0[2, 0], B0[2, 1], B1[2, 0], B1[2, 1]))
+            m = (Phi, c, Bcat, rows)
             if len(self._steps) > 64:
                 self._steps.clear()
             self._steps[key] = m

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.bodies import Segment, uniform
+from sim.bodies import Segment, sensor_segment
 from sim.materials import material
 from sim.measurement import Channel, NoiseParams
 from sim.plant import Body, Config, GridSettings
@@ -54,7 +54,7 @@ class SimRig:
 
     def __init__(self, params: RigParams, bodies: dict[str, Body], schedule, *, ambient_C: float, period_s: float,
                  noise: NoiseParams, seed: int | None, name: str = "rig", prune: bool = True,
-                 pruning: list[str] | None = None) -> None:
+                 pruning: list[str] | None = None, grid: GridSettings | None = None) -> None:
         self.name = name
         self.params = params
         self.period_s = float(period_s)
@@ -64,8 +64,11 @@ class SimRig:
         self.schedule = schedule
         self.prune = prune
         self._pruning = list(pruning or [])
-        self.sensor: Segment = uniform("sensor", material(params.sensor_material), params.sensor_thickness_m,
-                                       params.area_m2, params.sensor_cells)
+        grid = grid or GridSettings(t_min_s=self.period_s)
+        self.grid = grid
+        self.sensor: Segment = sensor_segment("sensor", material(params.sensor_material), params.sensor_thickness_m,
+                                              params.area_m2, grid.t_min_s, grid.ratio, grid.cells_per_length,
+                                              params.sensor_cells)
         self._configs: dict[tuple, Config] = {}
         tem = params.tem
         self._alpha, self._R, self._tau = tem.alpha_V_K, tem.R_ohm, tem.tau_V_K
@@ -138,6 +141,9 @@ class SimRig:
         if not dt_s > 0:
             raise ValueError(f"advance: dt_s must be > 0, got {dt_s!r}")
         t_end = self.t_s + dt_s
+        if self._next_event > t_end + _SNAP_S:        # common case: no make/break in this step
+            self._integrate(dt_s)
+            self.t_s = t_end
         while self.t_s < t_end - _SNAP_S:
             t_ev = self._next_event
             if t_ev < t_end - _SNAP_S:
@@ -156,23 +162,27 @@ class SimRig:
         self._sample()
 
     def _integrate(self, dt: float) -> None:
-        Phi, c, B0, B1, b10, b11, b20, b21 = self.cfg.step(dt)
+        Phi, c, Bcat, rows = self.cfg.step(dt)
         x = self.x
         I = self.I
+        y = Phi @ x
         if I == 0.0:
-            self.x = Phi @ x + c
+            y += c
+            self.x = y
             return
+        c1, a10, a11, b10, b11, c2, a20, a21, b20, b21 = rows
         aI = self._alpha * I
         hT = 0.5 * self._tau * I
         J = 0.5 * self._R * I * I
+        # plate heats u = U·[T_s, T_p] + w (sim.tem docstring), T in °C (Kelvin offset in w)
         U00, U01, w0 = -aI + hT, -hT, -aI * KELVIN + J
         U10, U11, w1 = -hT, aI + hT, aI * KELVIN + J
-        Ts, Tp = x[1], x[2]
+        Ts, Tp = float(x[1]), float(x[2])
         u0 = U00 * Ts + U01 * Tp + w0
         u1 = U10 * Ts + U11 * Tp + w1
-        y = Phi @ x + c + B0[:, 0] * u0 + B0[:, 1] * u1
-        r0 = y[1] + b10 * w0 + b11 * w1
-        r1 = y[2] + b20 * w0 + b21 * w1
+        # plate temperatures at the end of the step: p' = P·y_n + P·B1·(U·p' + w)  (2×2, solved exactly)
+        r0 = float(y[1]) + c1 + a10 * u0 + a11 * u1 + b10 * w0 + b11 * w1
+        r1 = float(y[2]) + c2 + a20 * u0 + a21 * u1 + b20 * w0 + b21 * w1
         m00 = 1.0 - (b10 * U00 + b11 * U10)
         m01 = -(b10 * U01 + b11 * U11)
         m10 = -(b20 * U00 + b21 * U10)
@@ -182,13 +192,14 @@ class SimRig:
         Tp1 = (m00 * r1 - m10 * r0) / det
         v0 = U00 * Ts1 + U01 * Tp1 + w0
         v1 = U10 * Ts1 + U11 * Tp1 + w1
-        self.x = y + B1[:, 0] * v0 + B1[:, 1] * v1
+        y += Bcat @ np.array((1.0, u0, u1, v0, v1))
+        self.x = y
         self.E_el_J += 0.5 * dt * (u0 + u1 + v0 + v1)
 
     def _sample(self) -> None:
         cfg, x = self.cfg, self.x
         T_true = float(x[cfg.i_mid])
-        Q_true = float(cfg.q_f @ x[: cfg.n] + cfg.q_f0)
+        Q_true = float(cfg.q_full @ x) + cfg.q_f0
         touch = self._touch
         force = touch.force_N if touch is not None else 0.0
         self._last = RigSample(t_s=self.t_s, T_sensor_C=self._chT(T_true), Q_W=self._chQ(Q_true),

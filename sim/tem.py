@@ -99,7 +99,7 @@ class RigParams:
         G_sink_plate_W_K, G_plate_sensor_W_K: grease joints, W/K.
         sensor_thickness_m: heat-flux sensor thickness, m.
         sensor_material: name in the materials table.
-        sensor_cells: grid cells across the sensor (odd).
+        sensor_cells: grid cells across the sensor (odd), or 0: graded from both faces (default).
         R_at_1N_m2K_W, F_perfect_N: contact law (see :func:`sim.contact.contact_resistance_m2K_W`).
         detect_threshold_N: the contact detector fires above this force, N.
         h_air_W_m2K: loss of a free surface to ambient, W/(m²·K).
@@ -113,7 +113,7 @@ class RigParams:
     G_plate_sensor_W_K: float = 20.0
     sensor_thickness_m: float = 0.42e-3
     sensor_material: str = "flux_sensor"
-    sensor_cells: int = 5
+    sensor_cells: int = 0
     R_at_1N_m2K_W: float = 5e-4
     F_perfect_N: float = 6.0
     detect_threshold_N: float = 0.3
@@ -149,9 +149,9 @@ def load_rig_params(path: str | Path | None = None) -> RigParams:
         _num(raw, path, "datasheet", "dTmax_K"), _num(raw, path, "datasheet", "Th_C", positive=False),
         tau_V_K=_num(raw, path, "module", "thomson_V_K", positive=False),
         plate_C_J_K=_num(raw, path, "module", "plate_C_J_K"))
-    cells = raw.get("sensor", {}).get("cells", 5)
-    if not isinstance(cells, int) or cells < 1 or cells % 2 == 0:
-        raise SceneError(path, "sensor.cells", "an odd positive integer", cells)
+    cells = raw.get("sensor", {}).get("cells", 0)
+    if not isinstance(cells, int) or isinstance(cells, bool) or cells < 0 or (cells and cells % 2 == 0):
+        raise SceneError(path, "sensor.cells", "0 (graded) or an odd positive integer", cells)
     return RigParams(
         tem=tem,
         side_m=_num(raw, path, "module", "side_mm") * 1e-3,

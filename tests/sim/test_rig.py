@@ -107,7 +107,9 @@ def test_thin_foil_is_lumped_within_budget():
     gridded = sim.build_rig(scene, "slave", noise=False, prune=False, grid=fine)
     assert gridded.bodies["foil"].segment.n >= 3
     a, b = drive(lumped, 200), drive(gridded, 200)
-    assert np.nanmax(np.abs(a[:, [0, 2, 3]] - b[:, [0, 2, 3]])) <= 0.01
+    # from 50 ms after the make on (the two rigs' sensor grids differ too; the make instant itself is the
+    # grid's business, checked by test_default_grid_is_within_005_C_of_a_refined_grid)
+    assert np.nanmax(np.abs(a[15:, [0, 2, 3]] - b[15:, [0, 2, 3]])) <= 0.01
 
 
 def test_default_grid_is_within_005_C_of_a_refined_grid():
