@@ -298,16 +298,22 @@ OD_HEADER = ("format_version", "n", "m", "p", "q", "period_s", "T_ref_C", "I_min
 
 
 def narma_to_od_values(model: NarmaModel) -> list[float]:
-    """The temperature model as a flat list of numbers for a node's object dictionary (REAL32 array):
-    ``[format_version, n, m, p, q, period_s, T_ref_C, I_min_A, I_max_A, θ_1..θ_d]``."""
+    """The temperature model as a flat list of numbers for a node's object dictionary:
+    ``[format_version, n, m, p, q, period_s, T_ref_C, I_min_A, I_max_A, θ_1..θ_d]``.
+
+    Store θ as **REAL64** (CANopen data type 0x0011), not REAL32: at 10 ms the AR coefficients of a TEM
+    model nearly cancel (1 - Σα ≈ 2e-8 for the shipped model, whose slowest pole is the heat sink's,
+    0.9996), far below REAL32's resolution of ~5e-7 on coefficients of magnitude ~4; REAL32 rounding
+    makes such a model unstable (:func:`narma_from_od_values` then refuses it)."""
     o = model.orders
     return [float(FORMAT_VERSION), float(o.n), float(o.m), float(o.p), float(o.q), model.period_s, model.T_ref_C,
             model.current_range_A[0], model.current_range_A[1], *map(float, model.theta)]
 
 
-def narma_from_od_values(values: list[float] | np.ndarray, *, source: str = "object dictionary") -> NarmaModel:
-    """Inverse of :func:`narma_to_od_values` (values may have been rounded to REAL32); validated like a
-    file: raises :class:`ModelFileError` with ``source`` as the file name."""
+def narma_from_od_values(values: list[float] | np.ndarray, *, source: str = "object dictionary",
+                         check_stability: bool = True) -> NarmaModel:
+    """Inverse of :func:`narma_to_od_values`; validated like a file, stability included: raises
+    :class:`ModelFileError` with ``source`` as the file name."""
     v = [float(x) for x in values]
     h = len(OD_HEADER)
     if len(v) < h:
@@ -326,10 +332,16 @@ def narma_from_od_values(values: list[float] | np.ndarray, *, source: str = "obj
     if len(v) != h + o.d:
         raise ModelFileError(source, "theta", f"{o.d} values for orders {o.as_dict()}", f"{len(v) - h}")
     try:
-        return NarmaModel(orders=o, theta=np.array(v[h:]), period_s=v[5], T_ref_C=v[6],
-                          current_range_A=(v[7], v[8]), T_range_C=(v[6], v[6]))
+        model = NarmaModel(orders=o, theta=np.array(v[h:]), period_s=v[5], T_ref_C=v[6],
+                           current_range_A=(v[7], v[8]), T_range_C=(v[6], v[6]))
     except ValueError as exc:
         raise ModelFileError(source, "", "a valid model", str(exc)) from None
+    if check_stability:
+        from telethermo.ident.stability import check_stability as _check
+        rep = _check(model)
+        if not rep.stable:
+            raise ModelFileError(source, "theta", "a stable model (REAL64 values, see narma_to_od_values)", rep.reason)
+    return model
 
 
 def round_to_real32(values: list[float]) -> list[float]:
