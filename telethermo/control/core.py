@@ -72,6 +72,9 @@ class RenderSettings:
         T_finger0_C: the finger's initial surface temperature, °C.
         hold_current_on_contact: calibration touch: on contact hold the current instead of
             switching the command (the pad responds naturally; see ``calibrate_finger``).
+        settle_s: after the detected touch the current is held this long, s, while the filtered
+            measurements catch up with the skin's natural jump (≈ 2 × the filter's group delay);
+            then the PI resumes, bumpless, on T_contact.
         material: name, for the records.
     """
 
@@ -80,6 +83,7 @@ class RenderSettings:
     beta_pad: float = 2.23
     T_finger0_C: float = 33.0
     hold_current_on_contact: bool = False
+    settle_s: float = 0.1
     material: str = ""
 
     def __post_init__(self) -> None:
@@ -87,6 +91,8 @@ class RenderSettings:
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
                 raise ValueError(f"RenderSettings.{name}: expected a finite number > 0, got {v!r}")
+        if not (isinstance(self.settle_s, (int, float)) and 0 <= self.settle_s <= 2.0):
+            raise ValueError(f"RenderSettings.settle_s: expected a time in [0, 2] s, got {self.settle_s!r}")
         for name in ("T_object0_C", "T_finger0_C"):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and math.isfinite(v) and -20 <= v <= 90):
@@ -148,7 +154,7 @@ class CoreParams:
     kQ_A_per_W: float = 0.0
     kpQ_A_per_W: float = 0.0
     kiQ_A_per_W_s: float = 0.0
-    kQ_render_A_per_W: float = 0.3
+    kQ_render_A_per_W: float = 0.0
     estimator: Estimator = Estimator.FLUX
     feedback: Feedback = Feedback.ESTIMATE
     R_sensor_K_per_W: float = DEFAULT_R_SENSOR_K_PER_W
@@ -409,9 +415,10 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         rs = params.render
         phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
         req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
-        hold_current = rs.hold_current_on_contact and phase is RenderPhase.CONTACT
+        settling = phase is RenderPhase.CONTACT and cst.since_s < rs.settle_s - 1e-12
+        hold_current = phase is RenderPhase.CONTACT and (rs.hold_current_on_contact or settling)
         ff = params.kQ_render_A_per_W * Q if phase is RenderPhase.CONTACT else 0.0
-        source = (mode, phase)
+        source = (mode, phase, settling)
     else:  # IDLE, IDENTIFY: the setpoint follows the surface (keeps the envelope's ramp bumpless)
         req = 0.5 * (s_hi + s_lo)
         source = (mode,)
@@ -421,8 +428,16 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
                               peer_required, peer_alive, peer_ok)
     env0 = state.env
     switched = source != state.source
-    if switched and mode is Mode.RENDER and phase is RenderPhase.CONTACT and math.isfinite(est):
-        env0 = replace(env0, setpoint_C=min(max(est, lim.T_min_C), lim.T_max_C))
+    if switched and mode is Mode.RENDER and phase is RenderPhase.CONTACT and source[2]:
+        # yamamoto's command switch: at the touch the skin (at T_finger0) and the pad (at T_pad0) meet
+        # at T_contact, which lies between the two by eq. 3/7: the setpoint jumps there without the
+        # ramp (the jump is the natural contact, not a drive). Otherwise restart from the surface.
+        rs = params.render
+        lo_c, hi_c = sorted((rs.T_pad0_C, rs.T_finger0_C))
+        T_c = rs.T_contact_C
+        seed = T_c if lo_c - 1e-9 <= T_c <= hi_c + 1e-9 else est
+        if math.isfinite(seed):
+            env0 = replace(env0, setpoint_C=min(max(seed, lim.T_min_C), lim.T_max_C))
     sp, env, env_active, new_trips = sf.envelope_step(lim, env0, env_in, req, dt)
 
     # 5. controller

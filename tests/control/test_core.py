@@ -127,16 +127,28 @@ def test_idle_ramps_current_to_zero():
 
 def test_render_preset_then_contact_switch():
     rs = RenderSettings(beta_object=5.6, T_object0_C=25.0, beta_pad=2.23, T_finger0_C=33.0)
-    Pm = CoreParams(role=Role.MASTER, mode=Mode.RENDER, render=rs, safety=dataclasses.replace(P.safety))
-    s = init_state(Pm, None, S(T=rs.T_pad0_C))
-    r = step(S(T=rs.T_pad0_C), None, Pm, s)
+    Pm = CoreParams(role=Role.MASTER, mode=Mode.RENDER, render=rs, kp_A_per_C=0.7, ki_A_per_C_s=1.0)
+    s = init_state(Pm, None, S(T=rs.T_pad0_C + 0.5))
+    r = step(S(T=rs.T_pad0_C + 0.5), None, Pm, s)
+    for k in range(1, 30):
+        r = step(S(t=0.01 * k, T=rs.T_pad0_C + 0.5), None, Pm, r.state)
     assert r.status.render_phase is RenderPhase.PRESET and r.status.requested_setpoint_C == pytest.approx(rs.T_pad0_C)
-    # the finger touches: the pad surface jumps to ~T_contact and ~1.5 W flows into the pad
-    r = step(S(t=0.01, T=rs.T_contact_C - 0.3, Q=-1.5), None, Pm, r.state)
+    u_pre = r.current_A
+    assert u_pre < 0  # pad above its pre-set: cooling
+    # the finger touches: ~1.5 W flows into the pad (measured), the filtered sensor still near T_pad0
+    r = step(S(t=0.3, T=rs.T_pad0_C + 0.6, Q=-1.5), None, Pm, r.state)
     assert r.status.contact and r.status.render_phase is RenderPhase.CONTACT
-    assert r.status.requested_setpoint_C == pytest.approx(rs.T_contact_C)
-    # the ramp restarted from the measured surface, not from T_pad0 (bumpless)
-    assert abs(r.status.setpoint_C - r.status.estimate_C) <= 0.05 + 1e-9
+    # yamamoto's command switch: T_contact at once (it lies between T_pad0 and T_finger0), no ramp
+    assert r.status.setpoint_C == pytest.approx(rs.T_contact_C)
+    assert rs.T_pad0_C < rs.T_contact_C < rs.T_finger0_C
+    # the current is held while the filtered measurements settle (settle_s = 0.1 s)
+    held = [r.current_A]
+    for k in range(1, 15):
+        r = step(S(t=0.3 + 0.01 * k, T=rs.T_contact_C - 0.5, Q=0.0), None, Pm, r.state)
+        held.append(r.current_A)
+    assert held[:10] == [u_pre] * 10
+    # then the PI resumes bumplessly towards T_contact (surface 0.5 °C below: heating grows)
+    assert held[10] == pytest.approx(u_pre, abs=0.02) and held[-1] > held[10]
 
 
 @settings(max_examples=300, deadline=None)
