@@ -64,9 +64,11 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
         raise ValueError(f"build_rig: role must be 'master' or 'slave', got {role!r}")
     if role not in scene.rigs:
         raise SceneError(scene.path, "scene.kind", f"a scene with a {role} rig ('telepresence')", scene.kind)
-    grid = grid or GridSettings(t_min_s=scene.period_s)
-    params = scene.rig_params
     report: list[str] = []
+    if grid is None:
+        grid, preset, err = GridSettings.for_tolerance(scene.tolerance_C, scene.period_s)
+        report.append(f"{role}: grid '{preset}' (measured error {err} °C for tolerance {scene.tolerance_C} °C)")
+    params = scene.rig_params
     finger = BodySpec("finger", kind="finger", finger=scene.finger)
     if role == "master":
         touches = scene.master_contacts

@@ -31,6 +31,28 @@ class GridSettings:
     ratio: float = 1.3
     cells_per_length: float = 4.0
 
+    @staticmethod
+    def for_tolerance(tolerance_C: float, period_s: float) -> tuple["GridSettings", str, float]:
+        """The coarsest preset whose measured error is within ``tolerance_C``: (grid, preset name, error °C).
+
+        The errors are those measured by bench/sim_bench.py (max over both rigs of the probe scene, 10 ms,
+        against a refined reference); they scale with the temperature contrasts of a scene, so they are a
+        guide, not a guarantee. Below the finest preset's error, the finest preset is returned.
+        """
+        for name, (t_fac, ratio, cpl, err) in GRID_PRESETS.items():
+            if err <= tolerance_C:
+                return GridSettings(t_min_s=period_s * t_fac, ratio=ratio, cells_per_length=cpl), name, err
+        t_fac, ratio, cpl, err = GRID_PRESETS["fine"]
+        return GridSettings(t_min_s=period_s * t_fac, ratio=ratio, cells_per_length=cpl), "fine", err
+
+
+GRID_PRESETS = {
+    # name: (t_min / period, growth ratio, cells per diffusion length, measured max error °C)
+    "coarse": (5.0, 1.5, 2.0, 0.11),
+    "default": (1.0, 1.3, 4.0, 0.031),
+    "fine": (0.25, 1.2, 6.0, 0.0062),
+}
+
 
 class Body:
     """A finger or object slab with its own state; it lives inside a rig's system while touching."""

@@ -153,7 +153,7 @@ class DirectTouch:
 
 def build_reference(scene: Scene, *, grid: GridSettings | None = None) -> DirectTouch:
     """The direct-touch truth of a scene (see module docstring)."""
-    grid = grid or GridSettings(t_min_s=scene.period_s)
+    grid = grid or GridSettings.for_tolerance(scene.tolerance_C, scene.period_s)[0]
     if scene.kind == "telepresence":
         schedule = Schedule(scene.slave_contacts)
         objects = dict(scene.objects)

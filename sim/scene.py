@@ -38,6 +38,9 @@ Format (all times s, temperatures °C, forces N, lengths mm)::
     Q_sigma_W = 0.002
     cutoff_Hz = 5.0
 
+    [numerics]                     # optional: error tolerance that picks the grid (sim.GridSettings.for_tolerance)
+    tolerance_C = 0.05
+
     [record]                       # optional: what a runner should record
     signals = ["T_sensor_C", "Q_W", "current_A"]
     every_s = 0.01
@@ -83,6 +86,7 @@ class Scene:
     record_every_s: float
     rig_params: RigParams
     description: str = ""
+    tolerance_C: float = 0.05
 
     @property
     def rigs(self) -> tuple[str, ...]:
@@ -244,10 +248,14 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
             raise SceneError(path, "record.signals", f"names among {', '.join(RECORDABLE)}", s)
     every = r.num(rec, "every_s", "record.", default=period, lo=period, hi=duration)
 
+    num = r.table(raw, "numerics")
+    tolerance = r.num(num, "tolerance_C", "numerics.", default=0.05, lo=0.0, hi=10.0, lo_open=True)
+
     return Scene(name=name, path=str(path), kind=kind, duration_s=duration, period_s=period, ambient_C=ambient,
                  finger=finger, objects=objects, master_contacts=master, slave_contacts=slave, noise=noise,
                  seed=seed, record_signals=tuple(signals), record_every_s=every,
-                 rig_params=rig_params or load_rig_params(), description=str(sc.get("description", "")))
+                 rig_params=rig_params or load_rig_params(), description=str(sc.get("description", "")),
+                 tolerance_C=tolerance)
 
 
 def load_scene(path_or_name: str | Path) -> Scene:

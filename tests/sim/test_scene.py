@@ -98,3 +98,14 @@ def test_virtual_scene_refuses_slave_contacts(tmp_path):
     p = write(tmp_path, BASE.replace('kind = "telepresence"', 'kind = "virtual"'))
     with pytest.raises(SceneError, match="slave.contacts"):
         sim.load_scene(p)
+
+
+def test_tolerance_picks_the_grid(tmp_path):
+    base = BASE.replace("duration_s = 10.0", "duration_s = 10.0\nperiod_s = 0.01")
+    for tol, preset in ((0.2, "coarse"), (0.05, "default"), (0.01, "fine"), (0.001, "fine")):
+        p = write(tmp_path, base + f"\n[numerics]\ntolerance_C = {tol}\n")
+        rig = sim.build_rig(sim.load_scene(p), "slave")
+        assert any(f"grid '{preset}'" in r for r in rig.pruning_report())
+    p = write(tmp_path, base + "\n[numerics]\ntolerance_C = -1\n")
+    with pytest.raises(SceneError, match="numerics.tolerance_C"):
+        sim.load_scene(p)
