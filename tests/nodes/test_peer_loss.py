@@ -1,0 +1,109 @@
+"""Kill the slave process mid-session: the master detects the heartbeat loss, ramps to neutral, cuts,
+raises EMCY 0x8130; restart the slave: the session resumes (error reset EMCY, bumpless current).
+Observed from a third client on the hub (python-can's socketcand client) and from the master's recording."""
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import can
+import numpy as np
+import pytest
+
+from nodes.launch import NodePair, PairConfig, wait_for
+from telethermo.session.recording import read_recording_csv
+
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+MISS_LIMIT = 10          # 0x2408 peer_pdo_miss_limit default
+HB_PRODUCER_MS, HB_CONSUMER_MS = 100, 250   # bus_config/network.toml
+RAMP_C_PER_S, PERIOD_S, NEUTRAL_C = 5.0, 0.01, 32.0
+
+
+class Observer:
+    """Every frame on the hub, in order (a bus monitor no node knows about)."""
+
+    def __init__(self, port: int) -> None:
+        self.bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="telethermo", tcp_tune=True)
+        self.frames: list[tuple[int, bytes]] = []
+        self._stop = threading.Event()
+        self._t = threading.Thread(target=self._run, daemon=True)
+        self._t.start()
+
+    def _run(self) -> None:
+        while not self._stop.is_set():
+            m = self.bus.recv(0.1)
+            if m is not None:
+                self.frames.append((m.arbitration_id, bytes(m.data)))
+
+    def emcy(self, node_id: int, code: int) -> list[int]:
+        """Positions of EMCY frames of ``node_id`` with error ``code``."""
+        return [i for i, (cob, d) in enumerate(list(self.frames))
+                if cob == 0x80 + node_id and len(d) == 8 and int.from_bytes(d[:2], "little") == code]
+
+    def close(self) -> None:
+        self._stop.set()
+        self._t.join(5)
+        self.bus.shutdown()
+
+
+@pytest.fixture
+def session(tmp_path):
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, cycles=0, seed=0, progress_every=10))
+    pair.start()
+    obs = Observer(pair.hub.port)
+    yield pair, obs
+    obs.close()
+    pair.stop()
+
+
+def test_slave_killed_then_restarted(session, tmp_path):
+    pair, obs = session
+    assert wait_for(lambda: pair.progress[0] >= 150, 120), "session did not start"
+    pair.slave.kill()                         # SIGKILL: no goodbye from the slave
+    pair.slave.wait()
+    killed_at = len(obs.frames)
+    assert wait_for(lambda: obs.emcy(1, 0x8130), 30), "no EMCY 0x8130 from the master"
+    k_lost = pair.progress[0]
+    # the master keeps cycling (paced by the SYNC period while the peer is gone): ramp to neutral, then cut
+    assert wait_for(lambda: pair.progress[0] >= k_lost + 300, 120)
+    pair.start_slave()
+    assert wait_for(lambda: obs.emcy(1, 0x0000), 60), "no error-reset EMCY after the slave came back"
+    k_back = pair.progress[0]
+    assert wait_for(lambda: pair.progress[0] >= k_back + 100, 120)
+    codes = pair.stop()
+    assert codes["master"] == 0
+    frames = list(obs.frames)
+
+    # -- detection within the configured consumer time, measured in the master's own heartbeats
+    last_slave_hb = max(i for i, (cob, _) in enumerate(frames[:killed_at + 1]) if cob == 0x702)
+    emcy_at = obs.emcy(1, 0x8130)[0]
+    assert emcy_at > last_slave_hb
+    master_hbs = sum(1 for cob, _ in frames[last_slave_hb:emcy_at] if cob == 0x701)
+    assert master_hbs <= HB_CONSUMER_MS // HB_PRODUCER_MS + 2
+    reg = frames[emcy_at][1][2]
+    assert reg & 0x10, "error register: communication bit"
+
+    # -- the master's recording: trip within the miss limit, ramp to neutral, cut, resume
+    rec = read_recording_csv(tmp_path / "master.csv")
+    trips = rec.text("m_new_trips")
+    k_trip = next(k for k, t in enumerate(trips) if "peer_lost" in t)
+    peer = rec.col("m_peer_estimate_C")
+    fresh = np.flatnonzero(np.diff(peer[:k_trip + 1]) != 0) + 1
+    assert k_trip - fresh[-1] <= MISS_LIMIT + 2
+    state = rec.col("m_safety_state")
+    sp, cur = rec.col("m_setpoint_C"), rec.col("m_current_A")
+    k_resume = k_trip + next(i for i, s in enumerate(state[k_trip:]) if s < 2)
+    lost = slice(k_trip, k_resume)
+    assert np.all(state[lost] >= 2)                           # RAMP_TO_NEUTRAL or CUT throughout
+    assert np.all(np.abs(np.diff(sp[lost])) <= RAMP_C_PER_S * PERIOD_S + 1e-9)
+    assert np.all(np.abs(sp[lost] - NEUTRAL_C) <= np.abs(sp[k_trip - 1] - NEUTRAL_C) + 1e-9)
+    cut = np.flatnonzero(state[lost] == 3)
+    assert cut.size, "current never cut after the ramp to neutral"
+    assert np.all(cur[k_trip:k_resume][cut[0]:] == 0.0)
+    assert abs(sp[k_trip + cut[0]] - NEUTRAL_C) <= 0.3 + 1e-9 or cut[0] >= 500  # neutral reached (or timeout)
+    # resumed: no trip latched, fresh peer values again, current starts from the cut value without a jump
+    after = slice(k_resume, len(rec))
+    assert np.all(state[after] < 2)
+    assert np.count_nonzero(np.diff(peer[after])) > 0.9 * (len(rec) - k_resume - 1)
+    assert abs(cur[k_resume]) <= 0.05
+    assert np.max(np.abs(np.diff(cur[k_resume:k_resume + 50]))) <= 0.1
