@@ -110,8 +110,14 @@ def _mapping(index: int, sub: int, bits: int) -> int:
     return (index << 16) | (sub << 8) | bits
 
 
-def manufacturer_objects() -> list[Obj]:
+# power-on gains per role (A/degC, A/(degC*s), A/W): the control core's defaults for telepresence at
+# 10 ms (telethermo/control/defaults.py; a test keeps the two equal)
+GAINS = {"master": (1.0, 1.0, 0.15), "slave": (2.0, 4.0, 0.15)}
+
+
+def manufacturer_objects(role: str = "master") -> list[Obj]:
     """0x2000..: measurements, estimates, gains, model, safety, mode, rendering, status, diagnostics."""
+    kp, ki, kq = GAINS[role]
     V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
     ro_pdo = dict(pdo=True)
     objs = [
@@ -130,9 +136,9 @@ def manufacturer_objects() -> list[Obj]:
         V(0x2103, _real("peer_estimate_C", "rww", 0.0, pdo=True, description="peer's estimate, received in RPDO1")),
         V(0x2104, _real("peer_Q_W", "rww", 0.0, pdo=True, description="peer's heat flux, received in RPDO1")),
         # -- controller (eq. 33-35)
-        V(0x2200, _real("kp_A_per_C", "rw", 0.5, 0.0, 20.0, description="proportional gain")),
-        V(0x2201, _real("ki_A_per_C_s", "rw", 0.1, 0.0, 20.0, description="integral gain")),
-        V(0x2202, _real("kQ_A_per_W", "rw", 0.0, -20.0, 20.0, description="heat-flux feed-forward gain (peer's flux)")),
+        V(0x2200, _real("kp_A_per_C", "rw", kp, 0.0, 20.0, description="proportional gain")),
+        V(0x2201, _real("ki_A_per_C_s", "rw", ki, 0.0, 20.0, description="integral gain")),
+        V(0x2202, _real("kQ_A_per_W", "rw", kq, -20.0, 20.0, description="heat-flux feed-forward gain (peer's flux)")),
         V(0x2203, _uint("estimator", UNSIGNED8, "rw", 0, 0, 2,
                         description="0 NARMA model (eq. 30/31), 1 flux (T_sensor - Q*R_sensor/2), 2 fused")),
         # -- model parameters (NARMA eq. 10, flux ARMA eq. 12)
@@ -159,12 +165,12 @@ def manufacturer_objects() -> list[Obj]:
         V(0x2401, _real("T_max_C", "rw", 43.0, 15.0, 43.0, description="highest surface setpoint")),
         V(0x2402, _real("ramp_limit_C_per_s", "rw", 5.0, 0.01, 5.0, description="setpoint ramp limit")),
         V(0x2403, _real("hot_threshold_C", "rw", 41.0, 30.0, 43.0, description="time-at-temperature threshold")),
-        V(0x2404, _real("hot_time_limit_s", "rw", 60.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
-        V(0x2405, _real("current_limit_A", "rw", 2.4, 0.0, 10.0, description="current limit (<= 0.8 Imax of the rig)")),
+        V(0x2404, _real("hot_time_limit_s", "rw", 30.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
+        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit (<= 0.8 Imax of the rig; 0.8 x 2 A)")),
         V(0x2406, _real("sink_trip_C", "rw", 55.0, 20.0, 55.0, description="heat-sink trip temperature")),
         V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss")),
         V(0x2408, _uint("peer_pdo_miss_limit", UNSIGNED16, "rw", 10, 1, 1000, description="missed peer PDOs (cycles) before peer loss")),
-        V(0x2409, _real("mismatch_limit_C", "rw", 5.0, 0.1, 20.0, description="model-vs-sensor plausibility limit")),
+        V(0x2409, _real("mismatch_limit_C", "rw", 12.0, 0.1, 20.0, description="model-vs-sensor plausibility limit")),
         # -- mode (telethermo.control.types.Mode)
         V(0x2500, _uint("mode", UNSIGNED8, "rw", 0, 0, 3, pdo=True, description="0 idle, 1 telepresence, 2 render, 3 identify")),
         # -- virtual rendering (yamamoto eq. 5/7)
@@ -175,7 +181,8 @@ def manufacturer_objects() -> list[Obj]:
         V(0x2603, _real("finger_T0_C", "rw", 33.0, 20.0, 40.0, description="initial finger temperature")),
         V(0x2604, _real("pad_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the pad")),
         # -- status (written by the node)
-        V(0x2700, _uint("safety_state", UNSIGNED8, "ro", 0, **ro_pdo, description="safety envelope state code")),
+        V(0x2700, _uint("safety_state", UNSIGNED8, "ro", 0, **ro_pdo,
+                        description="0 ok, 1 limiting, 2 ramp to neutral, 3 current cut")),
         V(0x2701, _uint("last_trip_code", UNSIGNED16, "ro", 0, **ro_pdo, description="EMCY code of the last trip (0 none)")),
         V(0x2702, _uint("cycle_counter", UNSIGNED32, "ro", 0, **ro_pdo, description="control cycles run")),
         V(0x2703, _uint("late_cycles", UNSIGNED32, "ro", 0, **ro_pdo, description="real-time cycles that missed their slot")),
@@ -259,7 +266,7 @@ def render(role: str) -> str:
     """The EDS text of ``role`` ("master" or "slave")."""
     if role not in NODE_IDS:
         raise ValueError(f"role must be one of {sorted(NODE_IDS)}, got {role!r}")
-    comm, manu = communication_objects(role), manufacturer_objects()
+    comm, manu = communication_objects(role), manufacturer_objects(role)
     mandatory = [o for o in comm if o.index in (0x1000, 0x1001, 0x1018)]
     optional = [o for o in comm if o not in mandatory]
     out = [
@@ -301,7 +308,7 @@ def markdown_table(role: str = "master") -> str:
         rows.append(f"| 0x{index:04X} | {sub} | {var.name} | {types.get(var.data_type, hex(var.data_type))} | "
                     f"{var.access} | {var.default} | {rng} | {var.unit} | {'yes' if var.pdo else ''} |")
 
-    for o in communication_objects(role) + manufacturer_objects():
+    for o in communication_objects(role) + manufacturer_objects(role):
         if o.var is not None:
             row(o.index, 0, o.var)
         elif o.index in (0x2310, 0x2311):

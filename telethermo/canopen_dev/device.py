@@ -271,10 +271,15 @@ class Device:
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
-        """Power on: INITIALISING → boot-up → PRE-OPERATIONAL, heartbeat producer running."""
+        """Power on: INITIALISING → boot-up → PRE-OPERATIONAL, heartbeat producer running.
+
+        The power-on values were installed by the constructor; what the program wrote into the OD
+        between the constructor and ``start()`` (its configuration) is kept. An NMT reset node later
+        restores the power-on values (listen with ``add_nmt_listener`` to re-apply a configuration).
+        """
         with self._lock:
             self._running = True
-            self._boot(whole=True, command=None)
+            self._boot(whole=None, command=None)
 
     def close(self) -> None:
         """Stop timers and leave the network (no more frames from this device)."""
@@ -445,12 +450,16 @@ class Device:
             if which(index):
                 self.store.setdefault(index, {})[sub] = data
 
-    def _boot(self, *, whole: bool, command: int | None) -> None:
+    def _boot(self, *, whole: bool | None, command: int | None) -> None:
+        """INITIALISING → boot-up → PRE-OPERATIONAL. ``whole``: True reset node (every object back to
+        its power-on value), False reset communication (0x1000..0x1FFF), None power-on (keep the OD)."""
         old = self._state
         self._state = NmtState.INITIALISING
         self.node.nmt._state = 0
         self._scheduler.cancel("hb")
-        if whole:
+        if whole is None:
+            pass
+        elif whole:
             self._install_defaults(lambda index: True)
             self._emcy = emcy_mod.EmcyState()
         else:
@@ -462,8 +471,10 @@ class Device:
         self._reconfigure_pdos()
         self._reconfigure_heartbeat_consumers()
         self._resubscribe_sync()
+        if old is not NmtState.INITIALISING:
+            self._call(self._nmt_listeners, old, NmtState.INITIALISING, command)
         self._send(0x700 + self.node_id, b"\x00")  # boot-up
-        self._set_state(NmtState.PRE_OPERATIONAL, command, old=old)
+        self._set_state(NmtState.PRE_OPERATIONAL, command, old=NmtState.INITIALISING)
         self._arm_heartbeat(first=True)
 
     # ------------------------------------------------------------------ NMT

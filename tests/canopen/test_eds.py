@@ -116,3 +116,25 @@ def test_real32_limit_check_codes():
     # a REAL32 just above the limit after rounding is still refused
     above = struct.unpack("<f", struct.pack("<f", 43.0001))[0]
     assert info.check(v, above) == 0x06090031
+
+
+@pytest.mark.parametrize("role", ROLES)
+def test_power_on_values_match_the_control_cores_defaults(role):
+    """The EDS defaults a fresh node boots with are the control core's own defaults."""
+    from telethermo.control.defaults import GAINS
+    from telethermo.control.estimators import Estimator
+    from telethermo.control.safety import SafetyState
+    from telethermo.control.types import Mode, Role
+
+    from telethermo.control.safety import SafetyLimits
+
+    info = EdsInfo(path(f"{role}.eds"))
+    for name in ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"):
+        assert float(info.get(name).default) == GAINS[Role(role)][name], name
+    sp = SafetyLimits()
+    assert float(info.get("hot_time_limit_s").default) == sp.hot_time_limit_s
+    assert float(info.get("sink_trip_C").default) == sp.sink_trip_C
+    assert float(info.get("current_limit_A").default) == pytest.approx(sp.current_fraction * sp.I_max_A)
+    assert info.get("mode").high == max(Mode) and info.get("mode").low == min(Mode)
+    assert info.get("estimator").high == len(Estimator) - 1
+    assert "3 current cut" in info.get("safety_state").description and max(SafetyState) == 3

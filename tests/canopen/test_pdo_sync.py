@@ -94,6 +94,12 @@ def test_sync_counter_wraps_at_0x1019_and_the_producer_ticks_itself(lab):
     node.sdo["Synchronous counter overflow value"].raw = 0
     sync.transmit()
     assert [m.dlc for m in drain(bus) if m.arbitration_id == 0x80] == [0]
+    node.sdo["Synchronous counter overflow value"].raw = 5
+    sync.transmit()
+    sync.transmit()
+    dev.nmt_command(NmtCommand.RESET_COMMUNICATION, 1)  # 0x1019 back to 240, counter restarts at 1
+    sync.transmit()
+    assert [m.data[0] for m in drain(bus) if m.arbitration_id == 0x80] == [3, 4, 1]
 
 
 def test_only_the_configured_producer_may_send_sync(lab):
