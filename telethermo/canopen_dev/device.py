@@ -354,8 +354,14 @@ class Device:
             try:
                 fn(*args)
             except Exception:  # a callback must never kill the receive thread
-                self.stats.callback_errors += 1
-                logger.exception("node %d: callback %r failed", self.node_id, fn)
+                self._callback_failed(fn)
+
+    def _callback_failed(self, fn) -> None:
+        """Count a failed callback; log the first 5 with their traceback, then every 1000th."""
+        self.stats.callback_errors += 1
+        n = self.stats.callback_errors
+        if n <= 5 or n % 1000 == 0:
+            logger.exception("node %d: callback %r failed (%d so far)", self.node_id, fn, n)
 
     # ------------------------------------------------------------------ OD access (local)
     def _slot(self, key) -> tuple[int, int, Any, VarInfo | None]:
@@ -755,8 +761,7 @@ class Device:
                 try:
                     fn(tick)
                 except Exception:
-                    self.stats.callback_errors += 1
-                    logger.exception("node %d: SYNC handler failed", self.node_id)
+                    self._callback_failed(fn)
             if self._state is NmtState.OPERATIONAL:
                 for tp in self._sync_tpdos:
                     if tp.trans_type == 0:
