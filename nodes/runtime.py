@@ -76,7 +76,7 @@ class NodeRuntime:
         self.net = net
         self.transport = transport
         self.parts = parts
-        self.mode = mode
+        self.mode = self.configured_mode = mode
         self.params = parts.params_for(mode)
         self.lockstep = lockstep
         self.produce_sync = produce_sync
@@ -193,10 +193,17 @@ class NodeRuntime:
             self.peer.max_missed_cycles = int(ev.value)
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
-        log.info("NMT %s -> %s", old.name, new.name)
+        log.info("NMT %s -> %s%s", old.name, new.name, f" (command 0x{command:02X})" if command else "")
         if new is not NmtState.OPERATIONAL:
             # no control outside OPERATIONAL: the drive holds no current
             self._safe_current()
+        if command == NmtCommand.RESET_NODE and self.device is not None:
+            # reset application: this program's power-on values, a fresh controller and peer link
+            self.mode, self.params = self.configured_mode, self.parts.params_for(self.configured_mode)
+            self.device.write(MODE_INDEX, int(self.mode))
+            self.device.write(0x2704, bool(self.lockstep), check=False)
+            self._state = None
+            self.peer = PeerLink(max_missed_cycles=int(self.device.read(PEER_MISS_INDEX)))
 
     # ------------------------------------------------------------------ the cycle
     def _on_sync(self, tick: SyncTick) -> None:

@@ -1,0 +1,180 @@
+"""The slave node program alone, driven from this test process as NMT master and SYNC producer with
+canopen's own client (RemoteNode SDO, raw frames): NMT states gate the PDOs, SDO works where it
+must, reset gives a boot-up, malformed traffic is counted and ignored, NaN in a PDO trips the
+envelope (EMCY) and never reaches the current."""
+from __future__ import annotations
+
+import math
+import struct
+import subprocess
+import threading
+from pathlib import Path
+
+import can
+import canopen
+import pytest
+
+from bus_config import path as bus_config_path
+from nodes.launch import node_command, stop_process, wait_for
+from telethermo.transport.hub import HubThread
+
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+SLAVE = 2
+
+
+class Frames(can.Listener):
+    def __init__(self) -> None:
+        self.frames: list[tuple[int, bytes]] = []
+        self.lock = threading.Lock()
+
+    def on_message_received(self, msg: can.Message) -> None:
+        with self.lock:
+            self.frames.append((msg.arbitration_id, bytes(msg.data)))
+
+    def mark(self) -> int:
+        with self.lock:
+            return len(self.frames)
+
+    def since(self, mark: int, cob: int | None = None) -> list[tuple[int, bytes]]:
+        with self.lock:
+            return [(c, d) for c, d in self.frames[mark:] if cob is None or c == cob]
+
+
+@pytest.fixture
+def slave(tmp_path):
+    with HubThread() as hub:
+        bus_text = f"socketcand://127.0.0.1:{hub.port}/telethermo"
+        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
+                                      channel="telethermo", tcp_tune=True))
+        net.connect()
+        frames = Frames()
+        net.notifier.add_listener(frames)
+        proc = subprocess.Popen(node_command("slave", "--bus", bus_text, "--scene", str(SCENE), "--log",
+                                             str(tmp_path / "slave.log")),
+                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        remote = canopen.RemoteNode(SLAVE, str(bus_config_path("slave.eds")))
+        net.add_node(remote)
+        try:
+            assert wait_for(lambda: (0x702, b"\x00") in frames.since(0), 60), "no boot-up"
+            yield net, remote, frames, proc
+        finally:
+            code = stop_process(proc)
+            net.disconnect()
+            assert code == 0, proc.stderr.read().decode()
+
+
+def sync(net, counter=1):
+    net.send_message(0x80, bytes([counter]))
+
+
+def sdo_fence(remote) -> None:
+    """An SDO round trip: every frame the slave sent for what we sent before is now in (ordered bus)."""
+    remote.sdo.upload(0x1000, 0)
+
+
+def reaches_state(frames, mark, state: int) -> bool:
+    """A heartbeat of the slave with NMT ``state`` arrives after ``mark`` (one sent just before the
+    command may still report the old state)."""
+    return wait_for(lambda: (0x702, bytes([state])) in frames.since(mark, 0x702), 10)
+
+
+def test_nmt_gates_pdos_and_sdo(slave):
+    net, remote, frames, _ = slave
+    # PRE-OPERATIONAL after boot: SDO works, SYNC gives no PDO
+    assert remote.sdo["mode"].raw == 1          # telepresence (the program's default)
+    m = frames.mark()
+    sync(net)
+    sdo_fence(remote)
+    assert not frames.since(m, 0x182)
+    # OPERATIONAL: TPDO1 on every SYNC
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x01, SLAVE]))
+    assert reaches_state(frames, m0, 5)
+    m = frames.mark()
+    for c in range(1, 4):
+        sync(net, c)
+    sdo_fence(remote)
+    tpdos = frames.since(m, 0x182)
+    assert len(tpdos) == 3 and all(len(d) == 8 for _, d in tpdos)
+    assert remote.sdo["cycle_counter"].raw == 3
+    # STOPPED: no PDO and no SDO; NMT still obeyed
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x02, SLAVE]))
+    assert reaches_state(frames, m0, 4)
+    m = m0 = frames.mark()
+    sync(net, 4)
+    net.send_message(0, bytes([0x80, SLAVE]))    # enter pre-operational
+    sdo_fence(remote)                           # answered in PRE-OPERATIONAL only
+    assert not frames.since(m, 0x182)
+    assert reaches_state(frames, m0, 127)
+    # PRE-OPERATIONAL: SDO read and write (range-checked), no PDO
+    remote.sdo["mode"].raw = 0
+    assert remote.sdo["mode"].raw == 0
+    with pytest.raises(canopen.SdoAbortedError) as info:
+        remote.sdo["mode"].raw = 9
+    assert info.value.code in (0x06090030, 0x06090031)
+    m = frames.mark()
+    sync(net, 5)
+    sdo_fence(remote)
+    assert not frames.since(m, 0x182)
+    assert remote.sdo["cycle_counter"].raw == 3  # no control cycle ran outside OPERATIONAL
+    # reset node: boot-up, then PRE-OPERATIONAL heartbeats, objects back to their power-on values
+    m = frames.mark()
+    net.send_message(0, bytes([0x81, SLAVE]))
+    assert wait_for(lambda: (0x702, b"\x00") in frames.since(m), 10)
+    boot = m + frames.since(m).index((0x702, b"\x00"))
+    assert reaches_state(frames, boot + 1, 127)
+    assert remote.sdo["mode"].raw == 1          # the program's power-on mode again (was set to 0 above)
+    assert remote.sdo["cycle_counter"].raw == 0
+
+
+def test_malformed_traffic_is_counted_and_ignored(slave):
+    net, remote, frames, _ = slave
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x01, SLAVE]))
+    assert reaches_state(frames, m0, 5)
+    malformed0 = remote.sdo["malformed_frames"].raw
+    unknown0 = remote.sdo["unknown_cobid_frames"].raw
+    m = frames.mark()
+    net.send_message(0x181, b"\x00\x00\x80")           # RPDO1 with 3 bytes instead of 8
+    net.send_message(0x80, b"\x01\x02")                # SYNC with 2 bytes
+    for i in range(300):                               # a burst of frames nobody on this network owns
+        net.send_message(0x555, bytes([i & 0xFF]))
+    net.send_message(0x1ABCDE, b"\x01")                # an extended identifier
+    sync(net, 7)
+    sdo_fence(remote)
+    assert remote.sdo["malformed_frames"].raw - malformed0 == 2
+    assert remote.sdo["unknown_cobid_frames"].raw - unknown0 == 301
+    assert len(frames.since(m, 0x182)) == 1            # the node still answers the good SYNC
+    emcy = [d for _, d in frames.since(m, 0x82)]
+    assert any(int.from_bytes(d[:2], "little") == 0x8210 for d in emcy)  # PDO length error
+
+
+def test_nan_in_a_pdo_trips_the_envelope_not_the_current(slave):
+    net, remote, frames, _ = slave
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x01, SLAVE]))
+    assert reaches_state(frames, m0, 5)
+    T = 28.0
+    for c in range(1, 31):                             # a healthy peer: RPDO1 before each SYNC
+        net.send_message(0x181, struct.pack("<ff", T, 0.1))
+        sync(net, c)
+    sdo_fence(remote)
+    assert remote.sdo["safety_state"].raw in (0, 1)
+    assert remote.sdo["peer_estimate_C"].raw == pytest.approx(T)
+    m = frames.mark()
+    for c in range(31, 41):
+        net.send_message(0x181, struct.pack("<ff", math.nan, 0.1))
+        sync(net, c)
+    sdo_fence(remote)
+    assert math.isnan(remote.sdo["peer_estimate_C"].raw)   # the NaN reached the object dictionary ...
+    emcy = [int.from_bytes(d[:2], "little") for _, d in frames.since(m, 0x82) if len(d) == 8]
+    assert 0x8210 in emcy                                # ... and tripped the envelope (PEER_INVALID)
+    assert remote.sdo["last_trip_code"].raw == 0x8210
+    assert remote.sdo["safety_state"].raw in (2, 3)      # ramp to neutral / cut
+    current = remote.sdo["current_A"].raw
+    assert math.isfinite(current) and abs(current) <= 0.8 * 2.0 * 1.5
+    cmd = remote.sdo["T_cmd_C"].raw
+    assert math.isfinite(cmd) and 15.0 <= cmd <= 43.0
+    est = [struct.unpack("<ff", d)[0] for _, d in frames.since(m, 0x182)]
+    assert len(est) == 10 and all(math.isfinite(e) for e in est)
