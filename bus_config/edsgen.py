@@ -166,7 +166,7 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2402, _real("ramp_limit_C_per_s", "rw", 5.0, 0.01, 5.0, description="setpoint ramp limit")),
         V(0x2403, _real("hot_threshold_C", "rw", 41.0, 30.0, 43.0, description="time-at-temperature threshold")),
         V(0x2404, _real("hot_time_limit_s", "rw", 30.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
-        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit (<= 0.8 Imax of the rig; 0.8 x 2 A)")),
+        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit (<= 0.8 Imax of the rig, here 0.8 x 2 A)")),
         V(0x2406, _real("sink_trip_C", "rw", 55.0, 20.0, 55.0, description="heat-sink trip temperature")),
         V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss")),
         V(0x2408, _uint("peer_pdo_miss_limit", UNSIGNED16, "rw", 10, 1, 1000, description="missed peer PDOs (cycles) before peer loss")),
@@ -249,6 +249,9 @@ def communication_objects(role: str) -> list[Obj]:
 
 
 def _var_lines(section: str, var: Var) -> list[str]:
+    for text in (var.name, var.description, var.default):
+        if ";" in text or "\n" in text:  # ';' starts an inline comment in canopen's EDS parser
+            raise ValueError(f"[{section}]: ';' or a line break in {text!r} would be cut by EDS parsers")
     lines = [f"[{section}]", f"ParameterName={var.name}", "ObjectType=0x7", f"DataType=0x{var.data_type:04X}",
              f"AccessType={var.access}", f"DefaultValue={var.default}", f"PDOMapping={int(var.pdo)}"]
     if var.low is not None:
@@ -280,7 +283,7 @@ def render(role: str) -> str:
         "GroupMessaging=0", "NrOfRXPDO=1", "NrOfTXPDO=4", "LSS_Supported=0", "",
         "[DummyUsage]", *[f"Dummy{i:04d}=0" for i in range(1, 8)], "",
         "[Comments]", "Lines=2", "Line1=Manufacturer object names end in their unit (_C degC, _W, _A, _s, ...).",
-        "Line2=REAL32 LowLimit/HighLimit are decimals; SDO writes outside them abort 0x06090030/31/32.", "",
+        "Line2=REAL32 LowLimit/HighLimit are decimals, SDO writes outside them abort 0x06090030/31/32.", "",
     ]
     for title, objs in (("MandatoryObjects", mandatory), ("OptionalObjects", optional), ("ManufacturerObjects", manu)):
         out += [f"[{title}]", f"SupportedObjects={len(objs)}"]

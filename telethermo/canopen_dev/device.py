@@ -622,6 +622,8 @@ class Device:
         self._unsubscribe_pdos()
         for plan in list(self.tpdos.values()) + list(self.rpdos.values()):
             pdo_mod.compile_plan(plan, self.store, self.node)
+            if plan.tx and 1 <= plan.trans_type <= 240:
+                plan.countdown = min(plan.countdown, plan.trans_type) if plan.countdown > 0 else plan.trans_type
         self._sync_tpdos = [p for p in self.tpdos.values() if p.valid and p.trans_type <= 240]
         self._sync_rpdos = [p for p in self.rpdos.values() if p.valid and p.trans_type <= 240]
         self._known_cobids = set(self._known_base)
