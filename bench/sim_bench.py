@@ -72,6 +72,23 @@ def run_sim(scene, *, grid: GridSettings | None = None, substeps: int = 1, prune
     return out
 
 
+def paired_ratio(slow, fast, repeats: int) -> tuple[float, float, float]:
+    """Median over interleaved pairs of time(slow)/time(fast), and the median times (s): interleaving makes
+    the ratio robust to the load of a shared machine drifting during the run."""
+    ratios, ts, tf = [], [], []
+    slow(), fast()                                   # warm-up
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        slow()
+        t1 = time.perf_counter()
+        fast()
+        t2 = time.perf_counter()
+        ts.append(t1 - t0)
+        tf.append(t2 - t1)
+        ratios.append((t1 - t0) / (t2 - t1))
+    return statistics.median(ratios), statistics.median(ts), statistics.median(tf)
+
+
 def max_err(a: np.ndarray, b: np.ndarray) -> float:
     d = np.abs(a - b)
     return float(np.nanmax(d))
@@ -152,13 +169,13 @@ def run(quick: bool = False) -> dict:
     default = table["default/1"]
     # the per-call run without building (what a long session sees) for information
     # ---- pruning
-    t_unpruned = median_time_s(lambda: run_sim(scene, prune=False, record=False), repeats=repeats)
+    pruning_speedup, t_unpruned, t_pruned = paired_ratio(lambda: run_sim(scene, prune=False, record=False),
+                                                         lambda: run_sim(scene, record=False), repeats)
     unpruned = run_sim(scene, prune=False)
     pruned = run_sim(scene)
-    pruning_speedup = t_unpruned / default["wall_s"]
     pruning_err = max_err(pruned, unpruned)
     print_table(["variant", "wall s", "max |Δ| vs other °C"],
-                [["pruned (default)", default["wall_s"], pruning_err], ["unpruned", t_unpruned, pruning_err]])
+                [["pruned (default)", t_pruned, pruning_err], ["unpruned", t_unpruned, pruning_err]])
     # ---- solve_ivp BDF baseline
     bdf_dur = 2.0 if quick else DURATION_S
     nb = int(round(bdf_dur / scene.period_s))
@@ -167,19 +184,20 @@ def run(quick: bool = False) -> dict:
     our_err_b = max_err(ours_b, ref_b)
     t_ours_b = median_time_s(lambda: run_sim(scene, duration_s=bdf_dur, record=False), repeats=repeats)
     bdf_rows, bdf = [], []
+    bdf_repeats = 1 if quick else 3
     for rtol in (1e-3, 1e-4, 1e-5, 1e-6):
         atol = rtol * 1e-2
-        t0 = time.perf_counter()
         res = run_bdf(scene, rtol, atol, bdf_dur)
-        tb = time.perf_counter() - t0
         e = max_err(res, ref_b)
-        bdf.append({"rtol": rtol, "atol": atol, "wall_s": tb, "max_error_C": e})
-        bdf_rows.append([f"BDF rtol={rtol:g}", tb, e, tb / t_ours_b])
+        ratio, tb, _ = paired_ratio(lambda: run_bdf(scene, rtol, atol, bdf_dur),
+                                    lambda: run_sim(scene, duration_s=bdf_dur, record=False), bdf_repeats)
+        bdf.append({"rtol": rtol, "atol": atol, "wall_s": tb, "max_error_C": e, "time_ratio_vs_sim": ratio})
+        bdf_rows.append([f"BDF rtol={rtol:g}", tb, e, ratio])
     bdf_rows.append(["sim (default)", t_ours_b, our_err_b, 1.0])
     print_table(["integrator", f"wall s ({bdf_dur:g} s scene)", "max error °C", "time / sim's"], bdf_rows)
     eligible = [b for b in bdf if b["max_error_C"] <= 1.1 * our_err_b]
     chosen = max(eligible, key=lambda b: b["rtol"]) if eligible else min(bdf, key=lambda b: b["max_error_C"])
-    speedup = chosen["wall_s"] / t_ours_b
+    speedup = chosen["time_ratio_vs_sim"]
     result = {
         "scene": SCENE, "duration_s": DURATION_S, "period_s": scene.period_s, "rigs": 2, "quick": quick,
         "realtime_factor": default["realtime_factor"],
