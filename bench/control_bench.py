@@ -1,0 +1,174 @@
+"""Control core benchmark: error against run time (the Pareto table of issue 4).
+
+Each row runs the guiatni §5.3 scene (sim/scenes/probe_touches_al_steel_wood) offline with both
+controllers, both simulated rigs and the direct-touch reference, and reports:
+
+- ``run_s``: median wall time of the whole offline session over repeats (sim + both controllers), s;
+- ``step_us``: median cost of one controller ``step()`` (replaying the row's recorded samples), µs;
+- ``early_C`` / ``late_C``: transparency, mean |error| 0.1–1 s / 1–3 s after contact, °C;
+- ``tracking_rms_C``: steady-contact tracking RMS of both sides, °C; ``flux_early_W``.
+
+Axes: control period (1, 2, 5, 10, 20 ms; flux estimator), estimator (flux / the paper's model /
+fused), NARMA model order (model estimator), REAL32 rounding of the exchanged values. Rows on the
+Pareto front of (run_s, early_C) are marked.
+
+    python -m bench.control_bench [--quick]
+
+writes bench/results/control.json (keys: rows, pareto, default, transparency_early_mean_error_C,
+transparency_late_mean_error_C, tracking_rms_C, step_us_default, ...).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import statistics
+import time
+from typing import Any
+
+from bench.common import median_time_s, print_table, write_results
+from telethermo.control.core import init_state, initial_peer, step
+from telethermo.control.defaults import default_params
+from telethermo.control.estimators import Estimator
+from telethermo.control.types import PeerValues, Role
+from telethermo.rig import RigSample
+
+SCENE = "probe_touches_al_steel_wood"
+PERIODS_MS = (1, 2, 5, 10, 20)
+
+
+def _scene(period_s: float):
+    import sim
+    sc = sim.load_scene(SCENE)
+    return dataclasses.replace(sc, period_s=period_s) if abs(sc.period_s - period_s) > 1e-12 else sc
+
+
+def _step_cost_us(rec, pm, ps, model_m, model_s, n_max: int = 3000) -> float:
+    """Median µs per step() call, replaying the recorded samples of both sides (controller only)."""
+    n = min(len(rec), n_max)
+    cols = {c: rec.col(c) for c in ("t_s", "m_T_sensor_C", "m_Q_W", "m_current_A", "m_T_sink_C",
+                                      "s_T_sensor_C", "s_Q_W", "s_current_A", "s_T_sink_C",
+                                      "m_peer_estimate_C", "m_peer_flux_W", "s_peer_estimate_C", "s_peer_flux_W")}
+    samples = []
+    for k in range(n):
+        sm = RigSample(cols["t_s"][k], cols["m_T_sensor_C"][k], cols["m_Q_W"][k], cols["m_current_A"][k], True,
+                       cols["m_T_sink_C"][k])
+        ss = RigSample(cols["t_s"][k], cols["s_T_sensor_C"][k], cols["s_Q_W"][k], cols["s_current_A"][k], False,
+                       cols["s_T_sink_C"][k])
+        samples.append((sm, ss, PeerValues(cols["m_peer_estimate_C"][k], cols["m_peer_flux_W"][k]),
+                        PeerValues(cols["s_peer_estimate_C"][k], cols["s_peer_flux_W"][k])))
+
+    def replay():
+        a = init_state(pm, model_m, samples[0][0])
+        b = init_state(ps, model_s, samples[0][1])
+        for sm, ss, pv_m, pv_s in samples:
+            a = step(sm, pv_m, pm, a).state
+            b = step(ss, pv_s, ps, b).state
+
+    t = median_time_s(replay, repeats=3, warmup=1)
+    return t / (2 * n) * 1e6
+
+
+def run_row(name: str, *, period_s: float = 0.01, estimator: Estimator = Estimator.FLUX, model: Any = None,
+            rounding: str = "none", duration_s: float | None = None, repeats: int = 3) -> dict[str, Any]:
+    """One configuration: median session time over ``repeats`` and its figures."""
+    from telethermo.session import run_offline_session
+    sc = _scene(period_s)
+    pm = default_params(Role.MASTER, period_s=period_s, estimator=estimator)
+    ps = default_params(Role.SLAVE, period_s=period_s, estimator=estimator)
+    times, res = [], None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        res = run_offline_session(sc, master_params=pm, slave_params=ps, master_model=model, slave_model=model,
+                                  duration_s=duration_s, rounding=rounding)
+        times.append(time.perf_counter() - t0)
+    f = res.figures
+    tr = f["transparency"]
+    rig_limits = dataclasses.replace(pm.safety, I_max_A=3.0)
+    step_us = _step_cost_us(res.recording, dataclasses.replace(pm, safety=rig_limits),
+                            dataclasses.replace(ps, safety=rig_limits), model, model)
+    return {
+        "name": name, "period_ms": round(period_s * 1e3, 6), "estimator": estimator.value,
+        "model_order": _order(model), "rounding": rounding, "run_s": statistics.median(times),
+        "step_us": step_us, "early_C": tr["early_mean_error_C"], "late_C": tr["late_mean_error_C"],
+        "early_max_C": tr["early_max_error_C"], "flux_early_W": tr["early_mean_flux_error_W"],
+        "tracking_rms_C": f["tracking"]["rms_C"], "order_kept": f["discrimination"]["order_kept"],
+        "trips": f["safety"]["n_trips"], "duration_s": f["duration_s"], "repeats": repeats,
+    }
+
+
+def _order(model: Any) -> str | None:
+    if model is None:
+        return None
+    o = model.temperature.orders
+    return f"n{o.n} m{o.m} p{o.p} q{o.q}"
+
+
+def _models(quick: bool) -> list[Any]:
+    """The shipped model and, unless quick, models of other orders identified on the free pad."""
+    import sim
+    from telethermo.ident import NarmaOrders, default_model_path, load_model
+    from telethermo.ident.experiment import identify_rig
+    out = [load_model(default_model_path())]
+    if not quick:
+        for o in ((1, 1, 0, 0), (2, 2, 1, 1), (3, 3, 3, 3)):
+            try:
+                m, _rep = identify_rig(sim.free_pad_rig(period_s=0.01), n_samples=10_000, orders=NarmaOrders(*o))
+                out.append(m)
+            except Exception as exc:  # an unstable fit is refused by ident: report, do not hide
+                print(f"model order {o}: not identified ({exc})")
+    return out
+
+
+def pareto(rows: list[dict[str, Any]], x: str = "run_s", y: str = "early_C") -> list[str]:
+    """Names of the rows no other row beats on both ``x`` and ``y`` (lower is better)."""
+    front = []
+    for r in rows:
+        if not any((o[x] <= r[x] and o[y] <= r[y]) and (o[x] < r[x] or o[y] < r[y]) for o in rows):
+            front.append(r["name"])
+    return front
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    """Run the benchmark; return the result dict (also written to bench/results/control.json)."""
+    duration = 16.0 if quick else None
+    reps = 1 if quick else 3
+    rows = []
+    for ms in PERIODS_MS:
+        rows.append(run_row(f"period {ms} ms, flux", period_s=ms / 1000, duration_s=duration,
+                            repeats=1 if (ms < 5 and not quick) else reps))
+    for m in _models(quick):
+        for est in (Estimator.MODEL, Estimator.FUSED):
+            rows.append(run_row(f"10 ms, {est.value}, {_order(m)}", estimator=est, model=m, duration_s=duration,
+                                repeats=reps))
+    rows.append(run_row("10 ms, flux, REAL32", rounding="real32", duration_s=duration, repeats=reps))
+    front = pareto(rows)
+    for r in rows:
+        r["pareto"] = r["name"] in front
+    print_table(["config", "run s", "step µs", "early °C", "late °C", "flux W", "track °C", "order", "trips", "pareto"],
+                [[r["name"], r["run_s"], r["step_us"], r["early_C"], r["late_C"], r["flux_early_W"],
+                  r["tracking_rms_C"], r["order_kept"], r["trips"], "*" if r["pareto"] else ""] for r in rows])
+    default = next(r for r in rows if r["name"] == "period 10 ms, flux")
+    out = {
+        "scene": SCENE, "quick": quick, "rows": rows, "pareto": front, "default": default["name"],
+        "transparency_early_mean_error_C": default["early_C"],
+        "transparency_late_mean_error_C": default["late_C"],
+        "tracking_rms_C": default["tracking_rms_C"],
+        "flux_early_mean_error_W": default["flux_early_W"],
+        "step_us_default": default["step_us"],
+        "lockstep_cycles_per_s_controller_only": 1e6 / (2 * default["step_us"]),
+        "targets": {"transparency_early_mean_error_C": 0.5, "tracking_rms_C": 0.1},
+    }
+    write_results("control", out)
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="16 s of the scene, 1 repeat, shipped model only")
+    args = ap.parse_args(argv)
+    run(quick=args.quick)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
