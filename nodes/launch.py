@@ -143,6 +143,8 @@ class NodePair:
         self.progress: tuple[int, int] = (0, 0)
         self._progress_lock = threading.Lock()
         self._master_lines: list[str] = []
+        self.result: dict | None = None
+        """The master's ``result {json}`` line (cycles, wall time, late cycles, latencies)."""
         self._reader: threading.Thread | None = None
 
     @property
@@ -201,6 +203,9 @@ class NodePair:
             if len(parts) == 3 and parts[0] == "progress":
                 with self._progress_lock:
                     self.progress = (int(parts[1]), int(parts[2]))
+            elif line.startswith("result "):
+                import json
+                self.result = json.loads(line[len("result "):])
             else:
                 self._master_lines.append(line.rstrip("\n"))
 

@@ -7,9 +7,11 @@ the run is logged at exit.
 """
 from __future__ import annotations
 
+import json
 import logging
 import signal
 import sys
+import time
 
 from telethermo.control.types import Role
 
@@ -65,8 +67,6 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 
     recorder = None
     if opts.record is not None:
-        import json
-
         from telethermo.session.recording import COLUMNS, MAGIC
         p = "m_" if role is Role.MASTER else "s_"
         columns = ["t_s"] + [c for c in COLUMNS if c.startswith(p)]
@@ -103,8 +103,11 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
             def progress(k: int, n: int) -> None:
                 print(f"progress {k} {n}", flush=True)
 
+            t0 = time.perf_counter()
             done = rt.run_producer(cycles, progress_every=opts.progress_every, progress=progress)
-            log.info("SYNC producer: %d of %d cycles run", done, cycles)
+            wall = time.perf_counter() - t0
+            log.info("SYNC producer: %d of %d cycles run in %.3f s", done, cycles, wall)
+            print("result " + json.dumps(run_result(rt, done, wall)), flush=True)
         else:
             while not rt.stop_event.wait(0.5):
                 pass
@@ -114,3 +117,20 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         rt.stop(reason[0])
     return code
 
+
+
+def run_result(rt, cycles: int, wall_s: float) -> dict:
+    """The SYNC producer's machine-readable summary (one ``result {json}`` line on stdout)."""
+    import numpy as np
+
+    def pct(xs, q):
+        return float(np.percentile(np.asarray(xs) * 1e3, q)) if xs else None
+
+    s = rt.stats
+    return {"cycles": cycles, "wall_s": wall_s, "cycles_per_s": cycles / wall_s if wall_s > 0 else None,
+            "timing": "lockstep" if rt.lockstep else "realtime", "period_s": rt.parts.period_s,
+            "late_cycles": s.late_cycles, "lockstep_timeouts": s.lockstep_timeouts,
+            "sync_to_tpdo_ms_p50": pct(s.latencies_s, 50), "sync_to_tpdo_ms_p99": pct(s.latencies_s, 99),
+            "sync_to_tpdo_n": len(s.latencies_s),
+            "cycle_ms_p50": pct(s.cycle_s, 50), "cycle_ms_p99": pct(s.cycle_s, 99),
+            "emcy_raised": s.emcy_raised, "peer": rt.peer.counters.__dict__}

@@ -48,6 +48,7 @@ log = logging.getLogger("telethermo.node")
 MODE_INDEX = 0x2500
 GAIN_FIELDS = {0x2200: "kp_A_per_C", 0x2201: "ki_A_per_C_s", 0x2202: "kQ_A_per_W"}
 PEER_MISS_INDEX = 0x2408
+MAX_TIMING_SAMPLES = 1_000_000
 
 
 @dataclass
@@ -62,6 +63,9 @@ class RuntimeStats:
     nmt_starts_sent: int = 0
     cycle_errors: int = 0
     latencies_s: list[float] = field(default_factory=list)
+    """SYNC producer: SYNC sent -> first peer TPDO1 received, s (one per cycle with a PDO)."""
+    cycle_s: list[float] = field(default_factory=list)
+    """Wall time of this node's own control cycle (SYNC handler), s."""
 
 
 class NodeRuntime:
@@ -69,7 +73,7 @@ class NodeRuntime:
 
     def __init__(self, role: Role, node_id: int, net: NetworkConfig, transport: TransportSettings,
                  parts: NodeParts, *, mode: Mode, lockstep: bool, produce_sync: bool,
-                 recorder: CsvRecorder | None = None, record_latency: bool = False) -> None:
+                 recorder: CsvRecorder | None = None, record_timing: bool = True) -> None:
         self.role = role
         self.prefix = "m" if role is Role.MASTER else "s"
         self.node_id = node_id
@@ -81,7 +85,8 @@ class NodeRuntime:
         self.lockstep = lockstep
         self.produce_sync = produce_sync
         self.recorder = recorder
-        self.record_latency = record_latency
+        self.record_timing = record_timing
+        self._waiting_first_rpdo = False
         self.peer_id = net.peer(role.value).node_id
         self.stats = RuntimeStats()
         self.stop_event = threading.Event()
@@ -105,6 +110,8 @@ class NodeRuntime:
         dev = Device(self.network, self.node_id, eds, settings=settings)
         self.device = dev
         dev.add_sync_handler(self._on_sync)
+        if self.produce_sync and self.record_timing:
+            dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
         dev.add_write_listener(self._on_write)
         dev.add_nmt_listener(self._on_nmt)
@@ -174,6 +181,12 @@ class NodeRuntime:
         if self.produce_sync and ev.state in (0, int(NmtState.PRE_OPERATIONAL)) and not self.stop_event.is_set():
             self.device.nmt_command(NmtCommand.START, ev.node_id)
             self.stats.nmt_starts_sent += 1
+
+    def _on_rpdo(self, ev) -> None:
+        if ev.number == 1 and self._waiting_first_rpdo:
+            self._waiting_first_rpdo = False
+            if len(self.stats.latencies_s) < MAX_TIMING_SAMPLES:
+                self.stats.latencies_s.append(time.monotonic() - self._sync_sent_at)
 
     def _on_write(self, ev: WriteEvent) -> None:
         if ev.index == MODE_INDEX:
@@ -272,8 +285,8 @@ class NodeRuntime:
             log.warning("cycle %d: trip %s (EMCY 0x%04X)", self.stats.cycles - 1, trip.value, code)
         if self.recorder is not None:
             self._record(sample, res, peer)
-        if self.record_latency and not self.produce_sync:
-            self.stats.latencies_s.append(time.monotonic() - now)
+        if self.record_timing and len(self.stats.cycle_s) < MAX_TIMING_SAMPLES:
+            self.stats.cycle_s.append(time.monotonic() - now)
 
     def _record(self, sample, res, peer) -> None:
         from telethermo.session.runner import _side_row, _truth_row
@@ -314,6 +327,7 @@ class NodeRuntime:
                     log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
             n0 = dev.rpdo_count(1)
             self._sync_sent_at = time.monotonic()
+            self._waiting_first_rpdo = True
             # Hold the device lock from sending SYNC k until our own SYNC k is processed: a fast peer's
             # TPDO k could otherwise be committed as an RPDO of SYNC k (one cycle early) instead of k+1.
             with dev._lock:
@@ -323,8 +337,6 @@ class NodeRuntime:
                 alive = dev.peer_status(self.peer_id) == "alive"
                 if not dev.wait_rpdo(1, after=n0, timeout=hb_timeout if alive else period):
                     self.stats.lockstep_timeouts += 1
-                elif self.record_latency:
-                    self.stats.latencies_s.append(time.monotonic() - self._sync_sent_at)
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)
         return k

@@ -137,7 +137,8 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
     figures = compute_figures(rec)
     figures["run"] = {"transport": pair.bus.split("://")[0] if pair.bus else None, "wall_time_s": wall_s,
                       "cycles": len(rec), "cycles_requested": cycles,
-                      "cycles_per_s": len(rec) / wall_s if wall_s > 0 else None, "complete": len(rec) == cycles}
+                      "cycles_per_s": len(rec) / wall_s if wall_s > 0 else None, "complete": len(rec) == cycles,
+                      "master": pair.result}
     write_recording_csv(out / "recording.csv", rec)
     write_json_atomic(out / "summary.json", figures)
     if plot:
@@ -158,7 +159,12 @@ def print_summary(fig: dict) -> None:
 
     run = fig.get("run", {})
     print(f"session {fig.get('scene')}: {fig.get('n_steps')} cycles ({fig.get('duration_s', 0):.2f} s of scene time) "
-          f"in {run.get('wall_time_s', 0):.1f} s wall ({run.get('cycles_per_s') or 0:,.0f} cycles/s)")
+          f"in {run.get('wall_time_s', 0):.1f} s wall, start-up included")
+    res = run.get("master") or {}
+    if res.get("cycles_per_s"):
+        print(f"SYNC producer ({res['timing']}): {res['cycles_per_s']:,.0f} cycles/s, {res['late_cycles']} late, "
+              f"{res['lockstep_timeouts']} lockstep timeouts, SYNC->TPDO p50 {f(res.get('sync_to_tpdo_ms_p50'), ' ms')}"
+              f" p99 {f(res.get('sync_to_tpdo_ms_p99'), ' ms')}")
     tr = fig.get("transparency")
     if tr:
         rows = [["touch", "object", "t_on s", "early |e| mean °C", "early |e| max °C", "late |e| mean °C",
