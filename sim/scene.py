@@ -104,6 +104,12 @@ class _R:
     def __init__(self, path: str) -> None:
         self.path = path
 
+    def known(self, raw: dict, allowed: tuple[str, ...], prefix: str) -> None:
+        """Refuse unknown keys (a typo must not be silently ignored)."""
+        for key in raw:
+            if key not in allowed:
+                raise SceneError(self.path, prefix + key, f"a known field ({', '.join(allowed)})")
+
     def table(self, raw: dict, key: str, prefix: str = "", required: bool = False) -> dict:
         v = raw.get(key)
         if v is None:
@@ -145,6 +151,8 @@ def _contacts(r: _R, raw: list, prefix: str, duration: float, objects: dict, kin
         p = f"{prefix}[{k}]."
         if not isinstance(c, dict):
             raise SceneError(r.path, prefix + f"[{k}]", "a table", c)
+        r.known(c, ("start_s", "end_s", "force_N", "render", "object") if is_master
+                else ("start_s", "end_s", "force_N", "object"), p)
         start = r.num(c, "start_s", p, lo=0.0, hi=duration)
         end = r.num(c, "end_s", p, lo=0.0, hi=math.inf)
         if not end > start:
@@ -174,7 +182,9 @@ def _contacts(r: _R, raw: list, prefix: str, duration: float, objects: dict, kin
 def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Scene:
     """Validate a scene given as a dict (as read from TOML); ``path`` names it in errors."""
     r = _R(path)
+    r.known(raw, ("scene", "finger", "objects", "master", "slave", "noise", "record", "numerics"), "")
     sc = r.table(raw, "scene", required=True)
+    r.known(sc, ("name", "kind", "description", "duration_s", "period_s", "ambient_C"), "scene.")
     name = r.string(sc, "name", "scene.", default=Path(path).stem)
     kind = r.string(sc, "kind", "scene.", default="telepresence", choices=KINDS)
     duration = r.num(sc, "duration_s", "scene.", lo=0.0, hi=1e6, lo_open=True)
@@ -184,6 +194,7 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
     known = set(mats)
 
     fr = r.table(raw, "finger")
+    r.known(fr, ("layers", "T_blood_C", "core_C"), "finger.")
     defaults = FingerParams()
     layers = defaults.layers
     if "layers" in fr:
@@ -210,6 +221,7 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
         p = f"objects.{oname}."
         if not isinstance(o, dict):
             raise SceneError(path, f"objects.{oname}", "a table", o)
+        r.known(o, ("material", "thickness_mm", "T0_C", "back"), p)
         if oname == "finger":
             raise SceneError(path, f"objects.{oname}", "an object name other than 'finger' (reserved)")
         mat = r.string(o, "material", p)
@@ -221,13 +233,18 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
                                   back=r.string(o, "back", p, default="adiabatic", choices=("adiabatic", "ambient")))
 
     mr = r.table(raw, "master")
+    r.known(mr, ("contacts",), "master.")
     master = _contacts(r, mr.get("contacts", []), "master.contacts", duration, objects, kind, True, known)
     sr = r.table(raw, "slave")
+    r.known(sr, ("contacts",), "slave.")
     if kind == "virtual" and sr.get("contacts"):
         raise SceneError(path, "slave.contacts", "no slave contacts in a 'virtual' scene (master only)")
     slave = _contacts(r, sr.get("contacts", []), "slave.contacts", duration, objects, kind, False, known)
 
     nz = r.table(raw, "noise")
+    r.known(nz, ("seed", "T_sigma_C", "Q_sigma_W", "T_lsb_C", "Q_lsb_W", "cutoff_Hz", "enabled"), "noise.")
+    if not isinstance(nz.get("enabled", True), bool):
+        raise SceneError(path, "noise.enabled", "true or false", nz.get("enabled"))
     d = NoiseParams()
     noise = NoiseParams(T_sigma_C=r.num(nz, "T_sigma_C", "noise.", default=d.T_sigma_C, lo=0.0, hi=5.0),
                         Q_sigma_W=r.num(nz, "Q_sigma_W", "noise.", default=d.Q_sigma_W, lo=0.0, hi=5.0),
@@ -240,6 +257,7 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
         raise SceneError(path, "noise.seed", "a non-negative integer", seed)
 
     rec = r.table(raw, "record")
+    r.known(rec, ("signals", "every_s"), "record.")
     signals = rec.get("signals", ["T_sensor_C", "Q_W", "current_A", "contact"])
     if not isinstance(signals, list) or not all(isinstance(s, str) for s in signals):
         raise SceneError(path, "record.signals", "an array of signal names", signals)
@@ -249,6 +267,7 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
     every = r.num(rec, "every_s", "record.", default=period, lo=period, hi=duration)
 
     num = r.table(raw, "numerics")
+    r.known(num, ("tolerance_C",), "numerics.")
     tolerance = r.num(num, "tolerance_C", "numerics.", default=0.05, lo=0.0, hi=10.0, lo_open=True)
 
     return Scene(name=name, path=str(path), kind=kind, duration_s=duration, period_s=period, ambient_C=ambient,

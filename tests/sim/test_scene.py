@@ -70,7 +70,8 @@ force_N = 6.0
     (('object = "al"', 'object = "cu"'), "slave.contacts[0].object", "one of the scene's objects"),
     (("end_s = 4.0", "end_s = 0.5"), "slave.contacts[0].end_s", "a time after start_s"),
     (("force_N = 6.0", "force_N = 0.0"), "slave.contacts[0].force_N", "a number in"),
-    (("[scene]", "[scenery]"), "scene", "a table"),
+    (("[scene]", "[scenery]"), "scenery", "a known field"),
+    (("[scene]", "[scene]\nname = 3"), "scene.name", "a non-empty string"),
 ])
 def test_malformed_scene_names_file_field_and_expectation(tmp_path, mutation, field, expected):
     p = write(tmp_path, BASE.replace(*mutation))
@@ -109,3 +110,15 @@ def test_tolerance_picks_the_grid(tmp_path):
     p = write(tmp_path, base + "\n[numerics]\ntolerance_C = -1\n")
     with pytest.raises(SceneError, match="numerics.tolerance_C"):
         sim.load_scene(p)
+
+
+@pytest.mark.parametrize("mutation, field", [
+    (("duration_s = 10.0", "duration_s = 10.0\nduraton = 3"), "scene.duraton"),
+    (("thickness_mm = 10.0", "thickness_mm = 10.0\nthickness = 3"), "objects.al.thickness"),
+    (("force_N = 6.0", "force_N = 6.0\nforce = 3"), "slave.contacts[0].force"),
+])
+def test_unknown_fields_are_refused_not_ignored(tmp_path, mutation, field):
+    p = write(tmp_path, BASE.replace(*mutation))
+    with pytest.raises(SceneError) as ei:
+        sim.load_scene(p)
+    assert f"'{field}'" in str(ei.value) and "a known field" in str(ei.value)
