@@ -28,7 +28,20 @@ def scenes(draw):
         slave.append((round(t, 3), round(t + d, 3), draw(st.sampled_from(sorted(objects))), draw(st.floats(0.1, 12.0))))
         t = round(t + d, 3) + 0.001
     duration = max(t, 0.5) + 0.2
-    master = [(0.0, duration, "finger", draw(st.floats(0.5, 10.0)))] if draw(st.booleans()) else []
+    mode = draw(st.sampled_from(["always", "none", "intermittent"]))
+    if mode == "always":
+        master = [(0.0, duration, "finger", draw(st.floats(0.5, 10.0)))]
+    elif mode == "none":
+        master = []
+    else:                                   # the finger lifts and touches again (attach/detach of the finger)
+        master, tm = [], 0.0
+        while True:
+            tm += draw(st.floats(0.0, 0.3))
+            d = draw(st.floats(0.013, 0.4))
+            if tm + d > duration:
+                break
+            master.append((round(tm, 3), round(tm + d, 3), "finger", draw(st.floats(0.1, 12.0))))
+            tm = round(tm + d, 3) + 0.001
     ambient = draw(st.floats(15.0, 35.0))
     period = draw(st.sampled_from([0.001, 0.005, 0.01, 0.02]))
     return make_scene(master=master, slave=slave, objects=objects, kind="telepresence", duration=duration,

@@ -148,3 +148,34 @@ def test_master_finger_and_slave_object_heat_flow_signs():
     assert m.read().Q_W < 0                                 # warm finger on a 25 °C pad: heat into the pad
     assert s.read().Q_W > 0                                 # 25 °C pad on 20 °C aluminium: heat out of the pad
     assert m.read().contact and s.read().contact
+
+
+def test_finger_starts_at_its_own_steady_state():
+    scene = make_scene(slave=[(50.0, 51.0, "al", 8.0)], objects=AL, duration=60.0)
+    ref = sim.build_reference(scene)
+    T0 = ref.T_contact_C
+    assert 32.0 <= T0 <= 34.0
+    for _ in range(20):
+        ref.advance(2.0)                     # 40 s in air: nothing moves
+    assert ref.T_contact_C == pytest.approx(T0, abs=1e-9)
+
+
+def test_perfusion_rewarms_the_finger_after_a_cold_touch():
+    """Pennes perfusion (blood at 37 °C) brings the skin back faster than conduction alone."""
+    from sim.bodies import FingerParams
+    cold = {"al": {"material": "aluminium", "thickness_mm": 20.0, "T0_C": 10.0}}
+    base = FingerParams()
+    still = FingerParams(layers=tuple((m, t, 0.0) for m, t, _ in base.layers))
+    recovered = {}
+    for label, fp in (("perfused", base), ("bloodless", still)):
+        scene = make_scene(slave=[(1.0, 6.0, "al", 8.0)], objects=cold, duration=30.0)
+        scene = __import__("dataclasses").replace(scene, finger=fp)
+        ref = sim.build_reference(scene)
+        T0 = ref.T_contact_C
+        while ref.t_s < 6.0 - 1e-9:
+            ref.advance(0.05)
+        T_release = ref.T_contact_C
+        while ref.t_s < 25.0 - 1e-9:
+            ref.advance(0.05)
+        recovered[label] = (ref.T_contact_C - T_release) / (T0 - T_release)   # fraction of the deficit made up
+    assert 0.0 < recovered["bloodless"] < recovered["perfused"] < 1.0
