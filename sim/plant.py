@@ -153,12 +153,15 @@ class Config:
             self.surf_f, self.surf_f0 = None, math.nan
         self.top_f, self.top_f0 = ft, ft0       # top face of the sensor (what a body touches), °C
         self._steps: dict[float, tuple] = {}
+        self._last_dt, self._last_m = math.nan, None
 
     def step(self, dt_s: float) -> tuple:
         """Cached step matrices for dt: (Phi, c, Bcat, scalars of the two plate rows).
 
         x' = Phi·x + Bcat·[1, u_s,n, u_p,n, u_s,n+1, u_p,n+1] with Bcat = [c | B0 | B1] (sim.expint).
         """
+        if dt_s == self._last_dt:
+            return self._last_m
         key = round(dt_s, 12)
         m = self._steps.get(key)
         if m is None:
@@ -170,4 +173,5 @@ class Config:
             if len(self._steps) > 64:
                 self._steps.clear()
             self._steps[key] = m
+        self._last_dt, self._last_m = dt_s, m
         return m

@@ -76,6 +76,7 @@ class SimRig:
         self.I = 0.0
         self.E_el_J = 0.0
         self._touch = None
+        self._force, self._contact = 0.0, False
         cfg = self._config(None)
         self.cfg = cfg
         self.x = np.append(np.full(cfg.n, self.ambient_C), 0.0)
@@ -124,6 +125,8 @@ class SimRig:
         self.x = np.concatenate(parts)
         self.cfg = new
         self._touch = touch
+        self._force = touch.force_N if touch is not None else 0.0
+        self._contact = self._force > self.params.detect_threshold_N
 
     # ---- rig interface -------------------------------------------------------------------------------
     def apply_current(self, current_A: float) -> None:
@@ -177,12 +180,12 @@ class SimRig:
         # plate heats u = U·[T_s, T_p] + w (sim.tem docstring), T in °C (Kelvin offset in w)
         U00, U01, w0 = -aI + hT, -hT, -aI * KELVIN + J
         U10, U11, w1 = -hT, aI + hT, aI * KELVIN + J
-        Ts, Tp = float(x[1]), float(x[2])
+        Ts, Tp = x.item(1), x.item(2)
         u0 = U00 * Ts + U01 * Tp + w0
         u1 = U10 * Ts + U11 * Tp + w1
         # plate temperatures at the end of the step: p' = P·y_n + P·B1·(U·p' + w)  (2×2, solved exactly)
-        r0 = float(y[1]) + c1 + a10 * u0 + a11 * u1 + b10 * w0 + b11 * w1
-        r1 = float(y[2]) + c2 + a20 * u0 + a21 * u1 + b20 * w0 + b21 * w1
+        r0 = y.item(1) + c1 + a10 * u0 + a11 * u1 + b10 * w0 + b11 * w1
+        r1 = y.item(2) + c2 + a20 * u0 + a21 * u1 + b20 * w0 + b21 * w1
         m00 = 1.0 - (b10 * U00 + b11 * U10)
         m01 = -(b10 * U01 + b11 * U11)
         m10 = -(b20 * U00 + b21 * U10)
@@ -198,13 +201,9 @@ class SimRig:
 
     def _sample(self) -> None:
         cfg, x = self.cfg, self.x
-        T_true = float(x[cfg.i_mid])
-        Q_true = float(cfg.q_full @ x) + cfg.q_f0
-        touch = self._touch
-        force = touch.force_N if touch is not None else 0.0
-        self._last = RigSample(t_s=self.t_s, T_sensor_C=self._chT(T_true), Q_W=self._chQ(Q_true),
-                               current_A=self.I, contact=force > self.params.detect_threshold_N,
-                               T_sink_C=float(x[0]), force_N=force)
+        self._last = RigSample(t_s=self.t_s, T_sensor_C=self._chT(x.item(cfg.i_mid)),
+                               Q_W=self._chQ(float(cfg.q_full @ x) + cfg.q_f0), current_A=self.I,
+                               contact=self._contact, T_sink_C=x.item(0), force_N=self._force)
 
     # ---- truth and introspection -----------------------------------------------------------------
     def truth(self) -> RigTruth:
