@@ -8,7 +8,7 @@ per-cell perfusion conductances to blood (Pennes). Positions are depths from the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 

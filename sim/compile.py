@@ -11,7 +11,7 @@ from sim.plant import Body, GridSettings
 from sim.rig import SimRig
 from sim.scene import Scene
 from sim.tem import RigParams, load_rig_params
-from sim.touch import BodySpec, Schedule, Touch
+from sim.touch import BodySpec, Schedule
 
 LUMP_BUDGET_C = 0.01
 """A slab is lumped only when the estimated internal non-uniformity at the first sample is below this, °C."""

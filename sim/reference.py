@@ -7,14 +7,13 @@ touches the finger is in air (its surface relaxes towards its steady state).
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from sim.bodies import FingerParams
 from sim.chain import assemble
 from sim.contact import contact_resistance_m2K_W
 from sim.expint import Modal
+from sim.pair import reversed_segment
 from sim.plant import Body, GridSettings
 from sim.scene import Scene
 from sim.tem import RigParams
@@ -29,14 +28,9 @@ class _Pair:
     def __init__(self, finger: Body, obj: Body, force_N: float, params: RigParams) -> None:
         A = params.area_m2
         R = contact_resistance_m2K_W(force_N, params.R_at_1N_m2K_W, params.F_perfect_N) / A
-        # chain: finger core (back) ... finger surface | object front ... object back; finger is reversed:
-        # we keep both bodies' own orientation by assembling [object, finger] with the object reversed? Simpler:
-        # assemble finger-first with the finger segment reversed so its surface faces the object.
-        from sim.bodies import Segment
+        # chain: finger core ... finger surface | object front ... object back (the finger seen from its back)
         fs = finger.segment
-        rev = Segment(fs.name, fs.C_J_K[::-1].copy(), fs.G_int_W_K[::-1].copy(), fs.G_back_W_K, fs.G_front_W_K,
-                      fs.G_perf_W_K[::-1].copy(), fs.x_m[::-1].copy(), fs.T_blood_C)
-        self.system = assemble([rev, obj.segment], [R], finger.back, obj.back)
+        self.system = assemble([reversed_segment(fs), obj.segment], [R], finger.back, obj.back)
         self.modal = Modal(self.system)
         self.nf, self.no = fs.n, obj.segment.n
         self.surf_f, self.surf_f0 = self.system.face_functional(0, "back")
@@ -158,7 +152,6 @@ def build_reference(scene: Scene, *, grid: GridSettings | None = None) -> Direct
         schedule = Schedule(scene.slave_contacts)
         objects = dict(scene.objects)
     else:
-        from sim.materials import materials as _mats
         touches, objects = [], dict(scene.objects)
         for t in scene.master_contacts:
             if t.render is None:

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import bisect
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from sim.bodies import FingerParams
 

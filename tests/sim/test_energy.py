@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 import sim
-from sim.tem import KELVIN
 
 
 def prbs(rng, n, hold=20, amp=1.5):
