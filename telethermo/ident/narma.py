@@ -320,17 +320,21 @@ class NarmaModel:
         """A streaming free-run predictor for a node, starting at rest at ``T0_C`` (see :class:`NarmaPredictor`)."""
         return NarmaPredictor(self, T0_C, T_ref_C=T_ref_C)
 
-    def errors(self, *, current_A: np.ndarray, T_C: np.ndarray, warmup: int | None = None) -> dict[str, float]:
+    def errors(self, *, current_A: np.ndarray, T_C: np.ndarray, warmup: int | None = None,
+               T0_C: float | None = None) -> dict[str, float]:
         """Free-run and one-step errors of this model on a record, °C.
 
-        The free run starts from the record's first ``orders.lag`` samples; errors are taken from
-        sample ``warmup`` (default: the lag) on. Keys: ``free_run_max_C``, ``free_run_rms_C``,
+        The free run starts at rest at the record's first sample (the record should start at rest;
+        ``T0_C`` overrides it, e.g. with the known rest temperature). Not from the first ``lag``
+        samples copied as history: a TEM model at 10 ms has AR coefficients that nearly cancel
+        (1 - Σα ~ 1e-8), and the noise in a copied history excites its slow modes with an enormous
+        gain. Errors are taken from sample ``warmup`` (default: the lag) on. Keys: ``free_run_max_C``, ``free_run_rms_C``,
         ``one_step_max_C``, ``one_step_rms_C``.
         """
         T = _as_1d("T_C", T_C)
         L = self.orders.lag
         w = L if warmup is None else max(int(warmup), L)
-        fr = self.free_run(current_A=current_A, T0_C=T[:L])
+        fr = self.free_run(current_A=current_A, T0_C=float(T[0]) if T0_C is None else float(T0_C))
         os_ = self.predict_one_step(current_A=current_A, T_C=T)
         efr, eos = (fr - T)[w:], (os_ - T)[w:]
         if efr.size == 0:
@@ -492,7 +496,8 @@ def fit_narma(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders = N
 
 
 def free_run_sensitivity(model: NarmaModel, *, current_A: np.ndarray, T_C: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Free run from the record's first ``orders.lag`` temperatures and its Jacobian ∂T̂/∂θ.
+    """Free run from rest at the record's first temperature (see :meth:`NarmaModel.errors`) and its
+    Jacobian ∂T̂/∂θ.
 
     The free run T̂(t) = Σ_i α_i(t)·T̂(t-i) + u(t) is linear in θ given its own past, so
     ∂T̂(t)/∂θ = φ̂(t) + Σ_i α_i(t)·∂T̂(t-i)/∂θ (φ̂: the regressors built from T̂). Returns (T̂ in °C,
@@ -502,7 +507,7 @@ def free_run_sensitivity(model: NarmaModel, *, current_A: np.ndarray, T_C: np.nd
     I = model.clamp_current(np.asarray(current_A, dtype=float))
     T = np.asarray(T_C, dtype=float)
     L, N, n = o.lag, len(I), o.n
-    fr = model.free_run(current_A=I, T0_C=T[:L])
+    fr = model.free_run(current_A=I, T0_C=float(T[0]))
     if not np.all(np.isfinite(fr)):
         return fr, np.full((N, o.d), np.nan)
     Phi, _ = narma_regressors(I, fr - model.T_ref_C, o)
