@@ -220,11 +220,73 @@ def run(quick: bool = False) -> dict:
     return result
 
 
+def plot(result: dict, out_dir: str) -> list[str]:
+    """PNG figures (needs matplotlib, the 'plot' extra): error against wall time per simulated second for the
+    grid/step settings and the solve_ivp baseline; and the probe scene's first 10 s (truth of both rigs with
+    the direct-touch reference, no controller: open-loop currents)."""
+    import os
+
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(out_dir, exist_ok=True)
+    paths = []
+    fig, ax = plt.subplots(figsize=(6, 4))
+    for name, row in result["settings"].items():
+        ax.loglog(row["wall_per_sim_s"], row["max_error_C"], "o", label=f"sim {name}")
+    w = result["solve_ivp_equal_error"]["window_s"]
+    for b in result["solve_ivp"]:
+        ax.loglog(b["wall_s"] / w, b["max_error_C"], "s", mfc="none", label=f"BDF rtol {b['rtol']:g}")
+    ax.axhline(0.05, ls=":", c="k")
+    ax.set_xlabel("wall time per simulated second, s (two rigs)")
+    ax.set_ylabel("max error vs refined reference, °C")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    paths.append(os.path.join(out_dir, "sim_error_vs_time.png"))
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+
+    scene = scene_10s()
+    rigs = [sim.build_rig(scene, r) for r in ("master", "slave")]
+    ref = sim.build_reference(scene)
+    n = int(round(DURATION_S / scene.period_s))
+    I = currents(n, scene.period_s)
+    rows = []
+    for k in range(n):
+        for j, rig in enumerate(rigs):
+            rig.apply_current(I[k] if j == 0 else -I[k])
+            rig.advance(scene.period_s)
+        ref.advance(scene.period_s)
+        tm, ts = rigs[0].truth(), rigs[1].truth()
+        rows.append((tm.t_s, rigs[0].read().T_sensor_C, tm.T_surface_C, rigs[1].read().T_sensor_C, ts.T_surface_C,
+                     ref.T_contact_C))
+    a = np.array(rows)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for col, lab in ((1, "master T_sensor (measured)"), (2, "master finger surface (truth)"),
+                     (3, "slave T_sensor (measured)"), (4, "slave object surface (truth)"),
+                     (5, "reference: finger touching directly")):
+        ax.plot(a[:, 0], a[:, col], lw=1, label=lab)
+    ax.set_xlabel("t, s")
+    ax.set_ylabel("°C")
+    ax.set_title(f"{SCENE}, open-loop ±1.5 A (no controller)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    paths.append(os.path.join(out_dir, "sim_probe_scene.png"))
+    fig.savefig(paths[-1], dpi=120)
+    plt.close(fig)
+    return paths
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.sim_bench", description=__doc__.split("\n")[0])
     ap.add_argument("--quick", action="store_true", help="shorter baseline window and fewer repeats (< 30 s)")
+    ap.add_argument("--plot", metavar="DIR", help="also write PNG figures into DIR (needs matplotlib)")
     args = ap.parse_args(argv)
-    run(quick=args.quick)
+    result = run(quick=args.quick)
+    if args.plot:
+        for p in plot(result, args.plot):
+            print(f"wrote {p}")
     return 0
 
 
