@@ -39,6 +39,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="PRBS seed (training seed, validation seed+1) and sim noise seed")
     p.add_argument("--period-s", type=float, default=0.01, help="sample period for --rig sim, s (default 0.01)")
     p.add_argument("--ambient-C", type=float, default=25.0, help="ambient temperature for --rig sim, °C")
+    p.add_argument("--no-capacity", action="store_true",
+                   help="skip the steady-state capacity experiment (eq. 13; 14 steady states inside the envelope)")
+    p.add_argument("--plot", metavar="PNG", help="also plot measured vs predicted (held-out) and the capacity fit")
     p.add_argument("--out", required=True, metavar="MODEL.json", help="model file to write")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
@@ -113,7 +116,8 @@ def run(args: argparse.Namespace) -> int:
 
     try:
         tem, rep = identify_rig(rig, n_samples=args.samples, n_validation=args.validation, orders=orders,
-                                seed=args.seed, progress=fitting_notice, method=args.method, meta=meta)
+                                seed=args.seed, progress=fitting_notice, method=args.method, meta=meta,
+                                capacity=not args.no_capacity, keep_record=bool(args.plot))
     except UnstableModelError as exc:
         print(f"telethermo identify: {exc}; no model written", file=sys.stderr)
         return EXIT_FAIL
@@ -123,6 +127,10 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_FAIL
     save_model(out, tem)
     print(f"model written: {out}")
+    if args.plot:
+        from telethermo.ident.plots import plot_identification
+
+        print(f"plot written: {plot_identification(args.plot, tem, rep)}")
     return EXIT_OK
 
 
@@ -142,4 +150,8 @@ def print_report(rep: dict) -> None:
         f"{rep['T_range_C'][1]:.2f} °C, I {rep['current_range_A'][0]:+.2f}..{rep['current_range_A'][1]:+.2f} A",
         f"time                      experiment {rep['experiment_wall_s']:.2f} s, fit {rep['fit_wall_s']:.2f} s",
     ]
+    if "capacity_points" in rep:
+        lines.append(f"capacity (eq. 13)         {rep['capacity_points']} steady states, I "
+                     f"{rep['capacity_current_range_A'][0]:+.3f}..{rep['capacity_current_range_A'][1]:+.3f} A, "
+                     f"fit residual max {rep['capacity_max_abs_W']:.2e} W")
     print("\n".join(lines))

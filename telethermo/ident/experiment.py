@@ -137,7 +137,8 @@ def _concat(records: list[Record]) -> Record:
 def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = NarmaOrders(), seed: int = 0,
                  progress: Progress | None = None, n_validation: int | None = None,
                  settings: ExperimentSettings = ExperimentSettings(), meta: dict[str, Any] | None = None,
-                 method: str = "oe", capacity: bool = False) -> tuple[TemModel, dict[str, Any]]:
+                 method: str = "oe", capacity: bool = False, keep_record: bool = False
+                 ) -> tuple[TemModel, dict[str, Any]]:
     """Run the identification experiment on ``rig`` (see the module docstring) and fit the models.
 
     Args:
@@ -151,6 +152,7 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         meta: extra provenance for the model file.
         method: NARMA fit: ``"oe"`` (least squares, then output-error refinement; default) or ``"ls"``.
         capacity: also run the capacity experiment (:func:`identify_capacity`) after the dynamic one.
+        keep_record: put the recorded data and predictions in ``report["record"]`` (for plots).
 
     Returns:
         ``(TemModel, report)``; ``report`` holds the held-out free-run errors (°C), flux errors (W), the
@@ -227,9 +229,15 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         "fit_method": method,
         "settings": asdict(settings),
     }
+    if keep_record:
+        report["record"] = {"t_s": allrec.t_s, "current_A": allrec.current_A, "T_C": allrec.T_C, "Q_W": allrec.Q_W,
+                            "T_pred_C": fr, "Q_pred_W": flux.free_run(T_C=allrec.T_C, current_A=allrec.current_A),
+                            "n_fit": n_fit}
     cap = None
     if capacity:
         cap, ss = identify_capacity(rig, model, settings=settings)
+        if keep_record:
+            report["steady_states"] = ss
         report.update({"capacity_points": len(ss.current_A), "capacity_current_range_A": [float(ss.current_A.min()),
                        float(ss.current_A.max())], "capacity_rms_W": cap.metrics["rms_W"],
                        "capacity_max_abs_W": cap.metrics["max_abs_W"], "capacity_skipped_A": ss.skipped})
