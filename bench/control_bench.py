@@ -119,6 +119,43 @@ def _models(quick: bool) -> list[Any]:
     return out
 
 
+def oracle_bound(duration_s: float | None = None, kp_A_per_C: float = 5.0, ki_A_per_C_s: float = 20.0) -> dict[str, Any]:
+    """What the display's TEM can do at best: an *oracle* PI on the master that sees the true skin
+    temperature and the direct-touch reference (no filter, no delay, no bilateral loop), with the
+    envelope's current limit (0.8·I_max). Its early-phase error is a hardware bound, not a controller."""
+    import numpy as np
+
+    import sim
+    from telethermo.session.figures import EARLY_S, LATE_S
+    sc = _scene(0.01)
+    rig = sim.build_rig(sc, "master", seed=0)
+    ref = sim.build_reference(sc)
+    lim = 0.8 * rig.I_max_A
+    n = int(round((duration_s or sc.duration_s) / rig.period_s))
+    integ, rows = 0.0, []
+    for _ in range(n):
+        tr = rig.truth()
+        e = ref.T_contact_C - tr.T_surface_C
+        integ = max(-lim, min(lim, integ + ki_A_per_C_s * e * rig.period_s))
+        rig.apply_current(max(-lim, min(lim, kp_A_per_C * e + integ)))
+        rows.append((tr.t_s, tr.T_surface_C, ref.T_contact_C))
+        rig.advance(rig.period_s)
+        ref.advance(rig.period_s)
+    R = np.array(rows)
+    per = []
+    for c in sc.slave_contacts:
+        if c.start_s + 1.0 > R[-1, 0]:
+            continue
+        out = {"object": c.body, "t_on_s": c.start_s}
+        for key, (a, b) in (("early_C", EARLY_S), ("late_C", LATE_S)):
+            m = (R[:, 0] >= c.start_s + a - 1e-9) & (R[:, 0] < min(c.start_s + b, c.end_s) - 1e-9)
+            out[key] = float(np.mean(np.abs(R[m, 1] - R[m, 2])))
+        per.append(out)
+    return {"per_contact": per, "early_mean_error_C": float(np.mean([p["early_C"] for p in per])),
+            "late_mean_error_C": float(np.mean([p["late_C"] for p in per])),
+            "note": "master alone, true skin temperature and reference known, |I| <= 0.8 Imax"}
+
+
 def pareto(rows: list[dict[str, Any]], x: str = "run_s", y: str = "early_C") -> list[str]:
     """Names of the rows no other row beats on both ``x`` and ``y`` (lower is better)."""
     front = []
@@ -147,6 +184,10 @@ def run(quick: bool = False) -> dict[str, Any]:
     print_table(["config", "run s", "step µs", "early °C", "late °C", "flux W", "track °C", "order", "trips", "pareto"],
                 [[r["name"], r["run_s"], r["step_us"], r["early_C"], r["late_C"], r["flux_early_W"],
                   r["tracking_rms_C"], r["order_kept"], r["trips"], "*" if r["pareto"] else ""] for r in rows])
+    oracle = oracle_bound(duration)
+    print("oracle bound (truth, no filter, no delay): early %.3f °C, late %.3f °C; per touch early: %s" % (
+        oracle["early_mean_error_C"], oracle["late_mean_error_C"],
+        ", ".join(f"{p['object']} {p['early_C']:.2f}" for p in oracle["per_contact"])))
     default = next(r for r in rows if r["name"] == "period 10 ms, flux")
     out = {
         "scene": SCENE, "quick": quick, "rows": rows, "pareto": front, "default": default["name"],
@@ -157,6 +198,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         "step_us_default": default["step_us"],
         "lockstep_cycles_per_s_controller_only": 1e6 / (2 * default["step_us"]),
         "targets": {"transparency_early_mean_error_C": 0.5, "tracking_rms_C": 0.1},
+        "oracle_bound": oracle,
     }
     write_results("control", out)
     return out

@@ -165,6 +165,8 @@ class CoreParams:
     idle_ramp_A_per_s: float = 4.0
     identify_amplitude_A: float = 0.5
     identify_hold: int = 1
+    _gains: Any = field(default=None, init=False, repr=False, compare=False)
+    _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         o = "CoreParams"
@@ -194,16 +196,21 @@ class CoreParams:
             raise ValueError(f"{o}.render: RENDER mode needs RenderSettings")
         if self.mode is Mode.RENDER and self.role is not Role.MASTER:
             raise ValueError(f"{o}.mode: RENDER runs on the master only")
+        # built once: step() runs every SYNC
+        object.__setattr__(self, "_gains", PIGains(self.kp_A_per_C, self.ki_A_per_C_s))
+        fg = None if (self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0) else \
+            PIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
+        object.__setattr__(self, "_flux_gains", fg)
 
     @property
     def gains(self) -> PIGains:
-        return PIGains(self.kp_A_per_C, self.ki_A_per_C_s)
+        """Temperature PI gains."""
+        return self._gains
 
     @property
     def flux_gains(self) -> PIGains | None:
-        if self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0:
-            return None
-        return PIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
+        """Heat-flux loop gains (kp in A/W, ki in A/(W·s)), None when off."""
+        return self._flux_gains
 
 
 # ---------------------------------------------------------------------------------------------

@@ -271,7 +271,11 @@ class EnvelopeStatus:
 
 
 def _finite(*xs: float) -> bool:
-    return all(math.isfinite(x) for x in xs)
+    isf = math.isfinite
+    for x in xs:
+        if not isf(x):
+            return False
+    return True
 
 
 def check_sample(limits: SafetyLimits, T_sensor_C: float, Q_W: float, T_sink_C: float,

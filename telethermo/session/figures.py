@@ -31,6 +31,7 @@ from telethermo.session.recording import Recording
 
 EARLY_S = (0.1, 1.0)
 LATE_S = (1.0, 3.0)
+PRE_S = 0.5  # the skin vs the reference finger in air, over the last 0.5 s before each touch
 COLD_THRESHOLD_C = 0.7  # the finger's cold-detection threshold (issue 4)
 
 
@@ -146,9 +147,11 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
     per = []
     for c in contacts:
         e, l = _window(t, c, EARLY_S), _window(t, c, LATE_S)
+        pre = (t >= c["t_on_s"] - PRE_S - 1e-9) & (t < c["t_on_s"] - 1e-9)
         per.append({
             "object": c["object"], "t_on_s": c["t_on_s"], "t_off_s": c["t_off_s"],
             "early_T": _err_stats(surf[e] - ref[e]), "late_T": _err_stats(surf[l] - ref[l]),
+            "pre_T": _err_stats(surf[pre] - ref[pre]),
             "early_Q": _err_stats(q_m[e] - q_ref[e]), "late_Q": _err_stats(q_m[l] - q_ref[l]),
             "rendered_early_C": _nanmean(surf[e]), "reference_early_C": _nanmean(ref[e]),
         })
@@ -161,6 +164,7 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
 
     out["transparency"] = {
         "early_mean_error_C": agg("early_T", "mean_abs"), "early_max_error_C": agg("early_T", "max_abs"),
+        "pre_contact_mean_error_C": agg("pre_T", "mean_abs"),
         "late_mean_error_C": agg("late_T", "mean_abs"), "late_max_error_C": agg("late_T", "max_abs"),
         "early_mean_flux_error_W": agg("early_Q", "mean_abs"), "early_max_flux_error_W": agg("early_Q", "max_abs"),
         "late_mean_flux_error_W": agg("late_Q", "mean_abs"), "late_max_flux_error_W": agg("late_Q", "max_abs"),

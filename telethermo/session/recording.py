@@ -40,8 +40,8 @@ X_true_surface_C    °C     truth: the contact-side surface (master: the finger'
 X_true_Q_W          W      truth: heat flux through the contact, > 0 out of the pad
 X_true_touching     0/1    truth: something touches the pad (scene schedule)
 m_true_finger_C     °C     truth: the operator's skin on the master, touching or not (in air between)
-ref_T_contact_C     °C     truth: direct-touch reference, the finger's surface on the object
-ref_Q_into_finger_W W      truth: heat flux into the finger in the reference (< 0: the finger loses heat)
+ref_T_contact_C     °C     truth: direct-touch reference, the finger's skin (on the object, or in air)
+ref_Q_into_finger_W W      truth: heat flux into the finger in the reference (< 0: loses heat; 0 in air)
 ref_touching        0/1    truth: the reference finger touches the object
 =================== ====== ==========================================================================
 

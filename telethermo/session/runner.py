@@ -84,8 +84,8 @@ def _finger_skin_C(rig, tr) -> float:
 
 
 def _ref_row(ref) -> dict[str, Any]:
-    return {"ref_T_contact_C": ref.T_contact_C if ref.touching else math.nan,
-            "ref_Q_into_finger_W": -ref.Q_finger_W if ref.touching else math.nan,
+    return {"ref_T_contact_C": ref.T_contact_C,   # the reference finger's skin, touching or in air
+            "ref_Q_into_finger_W": -ref.Q_finger_W if ref.touching else 0.0,
             "ref_touching": float(bool(ref.touching))}
 
 
@@ -300,3 +300,11 @@ def write_session(out_dir: str | os.PathLike, result: SessionResult, *, png: boo
     if png:
         paths["png"] = write_session_png(out / "session.png", result.recording)
     return paths
+
+
+# Public names of the row builders and the render-touch settings: the node session (nodes/) records
+# its rows and builds its render settings with these, so both paths write the same columns.
+side_row = _side_row
+truth_row = _truth_row
+ref_row = _ref_row
+render_touches = _render_touches
