@@ -171,3 +171,34 @@ def test_any_input_gives_a_bounded_finite_current(T, Q, sink, pe, pq, alive, kp,
         assert r.current_A <= 0.0
     elif min(surf) <= 15.5:
         assert r.current_A >= 0.0
+
+
+def test_identify_mode_prbs_within_envelope():
+    p = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify_amplitude_A=0.6, identify_hold=3)
+    r = step(S(), None, p, init_state(p, None, S()))
+    us = [r.current_A]
+    for k in range(1, 300):
+        r = step(S(t=0.01 * k), None, p, r.state)
+        us.append(r.current_A)
+    assert set(us) == {0.6, -0.6}
+    # bits held for identify_hold samples, both levels present in similar amounts
+    runs = [len(list(g)) for _, g in __import__("itertools").groupby(us)]
+    assert min(runs[1:-1]) >= 3 and all(n % 3 == 0 for n in runs[1:-1])
+    assert 0.35 < us.count(0.6) / len(us) < 0.65
+    # near the top clamp only cooling passes, even in IDENTIFY
+    r = step(S(t=3.0, T=42.8), None, p, r.state)
+    assert r.current_A <= 0.0
+
+
+def test_clear_faults_releases_a_gone_trip_and_restarts_bumpless():
+    s = init_state(P, None, S())
+    r = step(S(), PeerValues(33.0, 0.0), P, s)
+    r = step(S(t=0.01, sink=60.0), PeerValues(33.0, 0.0), P, r.state)
+    assert Trip.HEAT_SINK in r.status.trips and r.current_A == 0.0
+    from telethermo.control.core import clear_faults
+    still = clear_faults(S(t=0.02, sink=60.0), PeerValues(33.0, 0.0), P, r.state)
+    assert Trip.HEAT_SINK in still.env.trips and still.env.cut
+    ok = clear_faults(S(t=0.02, sink=30.0), PeerValues(33.0, 0.0), P, r.state)
+    assert not ok.env.trips and not ok.env.cut
+    r2 = step(S(t=0.03, sink=30.0), PeerValues(33.0, 0.0), P, ok)
+    assert r2.status.safety_state in (SafetyState.OK, SafetyState.LIMITING) and abs(r2.current_A) < 0.05
