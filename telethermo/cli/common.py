@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import functools
+import logging
 import math
 import struct
 import sys
@@ -97,6 +98,8 @@ def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, 
 def canopen_network(args: argparse.Namespace, net: NetworkConfig) -> Iterator[canopen.Network]:
     """A canopen Network on the configured bus, disconnected on exit."""
     bus, _ = open_can(args, net)
+    # the commands report SDO failures themselves, in one line; canopen would log them again
+    logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)
     nw = canopen.Network(bus)
     nw.notifier = can.Notifier(bus, nw.listeners, 0.1)
     try:
@@ -185,7 +188,7 @@ def abort_text(code: int) -> str:
 def remote(nw: canopen.Network, target: Target, timeout_s: float = 1.0) -> canopen.RemoteNode:
     node = canopen.RemoteNode(target.node_id, str(target.eds))
     node.sdo.RESPONSE_TIMEOUT = timeout_s
-    node.sdo.MAX_RETRIES = 0
+    node.sdo.MAX_RETRIES = 1   # canopen counts attempts: 1 = no retry (0 would retry forever)
     nw.add_node(node)
     return node
 
@@ -284,3 +287,48 @@ def fmt(value: Any, info: VarInfo) -> str:
     else:
         txt = str(value)
     return f"{txt} {info.unit}".rstrip()
+
+
+# --- heartbeats -------------------------------------------------------------------------------------
+class HeartbeatWatch(can.Listener):
+    """Every heartbeat / boot-up on the bus: node-ID -> (last state byte, time, count, boot-ups)."""
+
+    def __init__(self) -> None:
+        import threading
+        self.cond = threading.Condition()
+        self.last: dict[int, tuple[int, float]] = {}
+        self.boot_ups: dict[int, int] = {}
+        self.count: dict[int, int] = {}
+
+    def on_message_received(self, msg: can.Message) -> None:
+        cob = msg.arbitration_id
+        if msg.is_extended_id or msg.is_remote_frame or not 0x701 <= cob <= 0x77F or len(msg.data) != 1:
+            return
+        n = cob - 0x700
+        with self.cond:
+            self.last[n] = (msg.data[0] & 0x7F, msg.timestamp)
+            self.count[n] = self.count.get(n, 0) + 1
+            if msg.data[0] == 0:
+                self.boot_ups[n] = self.boot_ups.get(n, 0) + 1
+            self.cond.notify_all()
+
+    def wait_for(self, pred: Callable[[], bool], timeout_s: float) -> bool:
+        with self.cond:
+            return self.cond.wait_for(pred, timeout_s)
+
+    def state_name(self, node_id: int) -> str:
+        from telethermo.monitor.cia301 import NMT_UNKNOWN, nmt_state_name
+        with self.cond:
+            s = self.last.get(node_id)
+        return nmt_state_name(s[0]) if s else NMT_UNKNOWN
+
+
+def watch_heartbeats(nw: canopen.Network) -> HeartbeatWatch:
+    w = HeartbeatWatch()
+    nw.notifier.add_listener(w)
+    return w
+
+
+def heartbeat_wait_s(net: NetworkConfig) -> float:
+    """How long to listen to be sure to hear every live node's heartbeat once, s."""
+    return max(0.05, 2.5 * net.heartbeat.producer_ms / 1000.0)

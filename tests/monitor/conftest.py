@@ -42,9 +42,10 @@ class CanopenBench:
         self.collector = Collector()
         self.sniffer = can.Notifier(self.sniffer_bus, [self.collector, *extra_listeners], timeout=0.05)
         self.server = canopen.Network()
-        self.server.connect(interface="virtual", channel=ch)
         self.client = canopen.Network()
-        self.client.connect(interface="virtual", channel=ch)
+        for nw in (self.server, self.client):
+            nw.NOTIFIER_CYCLE = 0.05      # quick shutdown
+            nw.connect(interface="virtual", channel=ch)
         self.master = canopen.LocalNode(1, str(MASTER_EDS))
         self.slave = canopen.LocalNode(2, str(SLAVE_EDS))
         self.server.add_node(self.master)

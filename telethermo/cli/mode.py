@@ -1,0 +1,81 @@
+"""``telethermo mode``: telepresence | render <material> | idle."""
+from __future__ import annotations
+
+import argparse
+
+from telethermo.cli import common
+from telethermo.cli.main import UserError
+from telethermo.control.rendering import load_render_table
+from telethermo.control.types import Mode
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("mode", help="switch the nodes: telepresence | render MATERIAL | idle",
+                              description="telepresence: both nodes couple bilaterally (guiatni eq. 34/35). "
+                                          "render MATERIAL: the master renders a virtual material alone "
+                                          "(yamamoto eq. 7; β from the rendering table, or --beta). idle: "
+                                          "current to zero through the safety envelope's ramp.")
+    common.add_bus_options(p)
+    p.add_argument("mode", choices=["telepresence", "render", "idle"])
+    p.add_argument("material", nargs="?", help="render only: a material of the rendering table (e.g. wood, brass)")
+    p.add_argument("--beta", type=float, help="render: relative effusivity β of a custom material instead")
+    p.add_argument("--object-temp", type=float, metavar="C", help="render: object's initial temperature, °C")
+    p.add_argument("--table", metavar="TOML", help="rendering table (default: telethermo/data/render_materials.toml)")
+    p.set_defaults(func=run)
+
+
+def _material(args) -> tuple[str, float]:
+    if args.beta is not None:
+        if args.material:
+            raise UserError("give a MATERIAL or --beta, not both")
+        return "custom", args.beta
+    if not args.material:
+        raise UserError("render needs a MATERIAL (or --beta)")
+    try:
+        table = load_render_table(args.table)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
+    key = args.material.lower()
+    if key not in table:
+        raise UserError(f"unknown material {args.material!r}; the rendering table has {', '.join(sorted(table))}")
+    return key, table[key]
+
+
+@common.failures
+def run(args: argparse.Namespace) -> int:
+    net = common.network(args)
+    if args.mode != "render" and (args.material or args.beta is not None or args.object_temp is not None):
+        raise UserError(f"{args.mode} takes no material, --beta or --object-temp")
+    writes: list[tuple[common.Target, str, object]] = []
+    if args.mode == "render":
+        name, beta = _material(args)
+        master = common.resolve_node(net, "master")
+        for key, value in (("material_code", 0), ("material_beta", beta)) + (
+                (("object_T0_C", args.object_temp),) if args.object_temp is not None else ()):
+            writes.append((master, key, value))
+        writes.append((master, "mode", int(Mode.RENDER)))
+        desc = f"render {name} (β = {beta:g})"
+    else:
+        mode = Mode.TELEPRESENCE if args.mode == "telepresence" else Mode.IDLE
+        # the slave first: the master starts driving the operator's pad last
+        for t in sorted(common.node_targets(net), key=lambda t: t.role != "slave"):
+            writes.append((t, "mode", int(mode)))
+        desc = args.mode
+    # check every value locally before sending anything
+    planned = []
+    for t, key, value in writes:
+        info = common.lookup(t, key)
+        common.check_range(info, value)
+        planned.append((t, info, value))
+    with common.canopen_network(args, net) as nw:
+        nodes = {}
+        for t, info, value in planned:
+            if t.node_id not in nodes:
+                nodes[t.node_id] = common.remote(nw, t, args.timeout)
+            node = nodes[t.node_id]
+            common.sdo_write(node, t, info, value)
+        for t in {t.node_id: t for t, _, _ in planned}.values():
+            back = common.sdo_read(nodes[t.node_id], t, common.lookup(t, "mode"))
+            print(f"{t.role} (node {t.node_id}): mode {Mode(back).name.lower() if back in Mode._value2member_map_ else back}")
+    print(f"mode: {desc}")
+    return 0

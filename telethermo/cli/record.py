@@ -1,0 +1,66 @@
+"""``telethermo record``: record the bus to a python-can log (.log .asc .blf) plus a decoded CSV."""
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+from telethermo.cli import common
+from telethermo.cli.main import UserError
+from telethermo.monitor.record import Recorder, RecordError, check_log_path
+from telethermo.monitor.state import Monitor
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("record", help="record the bus to a .log/.asc/.blf file plus a decoded CSV",
+                              description="Record every frame to a python-can log file, the format chosen "
+                                          "by the extension (.log candump, .asc Vector ASC, .blf Vector BLF), "
+                                          "and the decoded frames to a CSV beside it. Stops after --duration "
+                                          "or --count, or on Ctrl-C; the files are complete in every case.")
+    common.add_bus_options(p)
+    p.add_argument("out", metavar="FILE", help="log file: .log, .asc or .blf")
+    p.add_argument("--csv", metavar="CSV", help="decoded CSV (default: FILE with .csv)")
+    p.add_argument("--no-csv", action="store_true", help="no decoded CSV")
+    p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
+    p.set_defaults(func=run)
+
+
+@common.failures
+def run(args: argparse.Namespace) -> int:
+    try:
+        log = check_log_path(args.out)
+    except RecordError as exc:
+        raise UserError(str(exc)) from None
+    if args.duration is not None and args.duration <= 0:
+        raise UserError(f"--duration: expected a positive number of seconds, got {args.duration}")
+    if args.count is not None and args.count <= 0:
+        raise UserError(f"--count: expected a positive number of frames, got {args.count}")
+    csv = None if args.no_csv else Path(args.csv) if args.csv else log.with_suffix(".csv")
+    if csv is not None and csv.resolve() == log.resolve():
+        raise UserError(f"--csv {csv}: must differ from the log file")
+    net = common.network(args)
+    mon = Monitor(common.monitor_config(net))
+    bus, ts = common.open_can(args, net)
+    rec = Recorder(log, csv, mon)
+    interrupted = False
+    try:
+        deadline = time.monotonic() + args.duration if args.duration else None
+        print(f"recording {ts.describe()} to {log}" + (f" and {csv}" if csv else "") + " (Ctrl-C stops)",
+              file=sys.stderr)
+        while True:
+            if deadline is not None and time.monotonic() >= deadline:
+                break
+            msg = bus.recv(0.1 if deadline is None else max(0.0, min(0.1, deadline - time.monotonic())))
+            if msg is not None:
+                rec.on_message_received(msg)
+                if args.count and rec.frames >= args.count:
+                    break
+    except KeyboardInterrupt:
+        interrupted = True          # keep what was recorded
+    finally:
+        n = rec.stop()
+        bus.shutdown()
+    print(f"recorded {n} frames to {log}" + (f" and {csv}" if csv else ""))
+    return 130 if interrupted else 0

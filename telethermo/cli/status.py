@@ -1,0 +1,97 @@
+"""``telethermo status``: what each node is doing, read by SDO (and its NMT state from the heartbeat)."""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from telethermo.cli import common
+from telethermo.monitor.cia301 import emcy_code_text, error_register_names
+
+MODES = {0: "idle", 1: "telepresence", 2: "render", 3: "identify"}
+SAFETY = {0: "ok", 1: "limiting", 2: "ramp to neutral", 3: "current cut"}
+
+#: (label, EDS key) read from each node, in display order
+FIELDS = (
+    ("mode", "mode"), ("T_sensor", "T_sensor_C"), ("T_sink", "T_sink_C"), ("estimate", "estimate_C"),
+    ("T_pred", "T_pred_C"), ("T_cmd", "T_cmd_C"), ("peer estimate", "peer_estimate_C"), ("flux", "Q_W"),
+    ("peer flux", "peer_Q_W"), ("current", "current_A"), ("contact", "contact"), ("safety", "safety_state"),
+    ("last trip", "last_trip_code"), ("cycles", "cycle_counter"), ("late cycles", "late_cycles"),
+    ("lockstep", "lockstep"), ("peer alive", "peer_alive"), ("error register", "0x1001"),
+    ("last EMCY", "0x1003sub1"),
+)
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("status", help="mode, temperatures, estimates, flux, current, safety of each node",
+                              description="Read each node's state by SDO: mode, temperatures, estimates, heat "
+                                          "flux, current, safety state, late cycles, last EMCY; NMT state from "
+                                          "its heartbeat. Exit 1 if a node does not answer.")
+    common.add_bus_options(p)
+    p.add_argument("nodes", nargs="*", metavar="NODE", help="master, slave or a node-ID (default: all)")
+    p.add_argument("--json", action="store_true", help="one JSON document on stdout")
+    p.set_defaults(func=run)
+
+
+def _pretty(key: str, value, info) -> str:
+    if value is None:
+        return "-"
+    if key == "mode":
+        return f"{MODES.get(value, '?')} ({value})"
+    if key == "safety_state":
+        return f"{SAFETY.get(value, '?')} ({value})"
+    if key == "last_trip_code":
+        return "none" if value == 0 else f"0x{value:04X} {emcy_code_text(value)}"
+    if info.index == 0x1001:
+        return f"0x{value:02X} [{','.join(error_register_names(value)) or 'none'}]"
+    if info.index == 0x1003:
+        return "none" if value == 0 else f"0x{value & 0xFFFF:04X} {emcy_code_text(value & 0xFFFF)}"
+    return common.fmt(value, info)
+
+
+@common.failures
+def run(args: argparse.Namespace) -> int:
+    net = common.network(args)
+    targets = [common.resolve_node(net, n) for n in args.nodes] if args.nodes else common.node_targets(net)
+    out, silent = [], []
+    with common.canopen_network(args, net) as nw:
+        hb = common.watch_heartbeats(nw)
+        for t in targets:
+            node = common.remote(nw, t, args.timeout)
+            row = {"node_id": t.node_id, "role": t.role, "values": {}, "units": {}, "error": None}
+            for label, key in FIELDS:
+                try:
+                    info = common.lookup(t, key)
+                except common.UserError:
+                    continue   # this node's EDS lacks the object
+                try:
+                    v = common.sdo_read(node, t, info)
+                except common.Failure as exc:
+                    if "did not answer" in str(exc):
+                        row["error"] = str(exc)
+                        silent.append(t.role)
+                        break
+                    v = None   # refused (e.g. 0x1003 empty): show '-'
+                row["values"][info.key] = v
+                row["units"][info.key] = info.unit
+                row.setdefault("text", {})[label] = _pretty(info.key, v, info)
+            out.append(row)
+        hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), common.heartbeat_wait_s(net))
+        for r in out:
+            r["nmt_state"] = hb.state_name(r["node_id"])
+    if args.json:
+        clean = [{k: v for k, v in r.items() if k != "text"} for r in out]
+        for r in clean:
+            r["values"] = {k: (str(v) if isinstance(v, float) and not math.isfinite(v) else v)
+                           for k, v in r["values"].items()}
+        print(json.dumps({"nodes": clean}, indent=2, allow_nan=False))
+    else:
+        for r in out:
+            print(f"{r['role']} (node {r['node_id']}): NMT {r['nmt_state']}")
+            if r["error"]:
+                print(f"  {r['error']}")
+            for label, text in r.get("text", {}).items():
+                print(f"  {label:15s} {text}")
+    if silent:
+        raise common.Failure(f"no SDO answer from {', '.join(silent)}")
+    return 0

@@ -1,0 +1,60 @@
+"""Two real CiA 301 devices (telethermo.canopen_dev.Device over canopen LocalNode, from
+bus_config's EDS and network settings) on a python-can virtual bus, for the CLI's tests."""
+from __future__ import annotations
+
+import itertools
+import time
+
+import canopen
+import pytest
+
+from telethermo.canopen_dev.device import Device
+from telethermo.canopen_dev.netconfig import load_network
+from telethermo.cli.main import main
+
+_n = itertools.count()
+
+
+class Nodes:
+    def __init__(self) -> None:
+        self.channel = f"tt-cli-{next(_n)}-{time.monotonic_ns()}"
+        self.net = load_network()
+        self.networks, self.devices = [], {}
+        for role in ("master", "slave"):
+            nw = canopen.Network()
+            nw.NOTIFIER_CYCLE = 0.05      # quick shutdown
+            nw.connect(interface="virtual", channel=self.channel)
+            cfg = self.net.node(role)
+            dev = Device(nw, cfg.node_id, cfg.eds, settings=self.net.device_settings(role))
+            dev.start()
+            self.networks.append(nw)
+            self.devices[role] = dev
+
+    @property
+    def bus(self) -> list[str]:
+        return ["--bus", f"virtual:{self.channel}"]
+
+    def close(self) -> None:
+        for dev in self.devices.values():
+            dev.close()
+        for nw in self.networks:
+            nw.disconnect()
+
+
+@pytest.fixture
+def nodes():
+    n = Nodes()
+    try:
+        yield n
+    finally:
+        n.close()
+
+
+@pytest.fixture
+def cli(capsys):
+    """Run ``telethermo ARGS`` in-process: (exit code, stdout, stderr)."""
+    def run(*argv: str):
+        code = main(list(argv))
+        out = capsys.readouterr()
+        return code, out.out, out.err
+    return run
