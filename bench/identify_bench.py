@@ -179,7 +179,7 @@ def run(quick: bool = False) -> dict[str, Any]:
         ["worst free-run error, order 3 (LS + OE), held-out, °C", o3_oe["heldout_max_C"], "<= 0.3 (aim 0.1)"],
         ["worst free-run error, order 3 (LS only), held-out, °C", o3_ls["heldout_max_C"], ""],
         [f"worst free-run error, justified order {just['orders']}, °C", just["heldout_max_C"], "<= 0.1"],
-        ["heat-flux error (with current), held-out max, W", flux_rows[0]["heldout_max_W"], "~0.0025"],
+        ["heat-flux error (with I, I², I·T terms), held-out max, W", flux_rows[0]["heldout_max_W"], "~0.0025"],
         ["heat-flux error (eq. 12, T only), held-out max, W", flux_rows[1]["heldout_max_W"], ""],
         ["flux sensor noise (filtered, 1 sigma), W", q_noise, ""],
         ["batch fit order 3, 10k samples (regressors+LS+metrics), ms", fit_s * 1e3, "<= 50"],
@@ -221,9 +221,20 @@ def run(quick: bool = False) -> dict[str, Any]:
                      "heldout": "free run from rest through training into the held-out PRBS; errors on held-out"},
         "simulate_s": sim_s,
     }
-    path = write_results("identify", data)
+    path = write_results("identify", _json_safe(data))
     print(f"\nwritten: {path}")
     return data
+
+
+def _json_safe(obj: Any) -> Any:
+    """inf/NaN (refused or diverged models) become None: JSON has no inf."""
+    if isinstance(obj, dict):
+        return {k: _json_safe(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_json_safe(v) for v in obj]
+    if isinstance(obj, float) and not np.isfinite(obj):
+        return None
+    return obj
 
 
 def main(argv: list[str] | None = None) -> int:

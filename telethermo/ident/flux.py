@@ -1,13 +1,15 @@
 """Heat-flux ARMA model: the heat flux through the sensor from the temperature (guiatni eq. 12),
 optionally extended with the drive current::
 
-    Q(t) = -Σ_{i=1..n} c_i·Q(t-i) + Σ_{j=0..m} d_j·T(t-j)  [ + Σ_{j=1..m} (e_j·I(t-j) + g_j·I(t-j)²) ]
+    Q(t) = -Σ_{i=1..n} c_i·Q(t-i) + Σ_{j=0..m} d_j·T(t-j)
+           [ + Σ_{j=1..m} (e_j·I(t-j) + g_j·I(t-j)² + h_j·I(t-j)·T(t-j)) ]
 
-The bracket is our extension. On a pad the flux through the sensor *leads* its mid-plane temperature
-(heat enters the sensor's bottom face before the mid-plane warms), so a model causal in T alone has
-an error floor; the current, the cause of both, removes most of it (measured on the default simulated
-rig: held-out worst case 0.057 W from T alone, 0.009 W with the current terms; see
-docs/identification.md). ``with_current=False`` gives guiatni's eq. 12 exactly.
+The bracket is our extension: the Peltier (α·T·I), Joule (R·I²) and current-proportional heats of eq. 5/6
+entering the pad plate. On a pad the flux through the sensor *leads* its mid-plane temperature (heat
+enters the sensor's bottom face before the mid-plane warms), so a model causal in T alone has an error
+floor; the current, the cause of both, removes it (measured on the default simulated rig, held-out worst
+case: 0.057 W from T alone, 0.010 W with I and I², 0.003 W with I, I² and I·T, at the sensor noise
+floor; see docs/identification.md). Without current terms it is guiatni's eq. 12 exactly.
 
 Like the temperature model it works in deviation from a reference temperature T_ref_C (°C), so that
 Q = 0 at rest. Fitted by **output error** (the free-run flux error, Levenberg-Marquardt from a FIR
@@ -38,6 +40,7 @@ class FluxArma:
         T_ref_C: reference temperature, °C (T in eq. 12 is T_C - T_ref_C).
         e: e_1..e_m, W/A (empty: no current terms).
         g: g_1..g_m, W/A² (empty: no current terms).
+        h: h_1..h_m, W/(A·K) (empty: no current terms).
         metrics: fit metrics, W.
     """
 
@@ -47,14 +50,15 @@ class FluxArma:
     T_ref_C: float
     e: np.ndarray = field(default_factory=lambda: np.zeros(0))
     g: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    h: np.ndarray = field(default_factory=lambda: np.zeros(0))
     metrics: dict[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        arrs = {k: np.array(getattr(self, k), dtype=float).reshape(-1) for k in ("c", "d", "e", "g")}
+        arrs = {k: np.array(getattr(self, k), dtype=float).reshape(-1) for k in ("c", "d", "e", "g", "h")}
         if not 1 <= arrs["c"].size <= MAX_ORDER or not 1 <= arrs["d"].size <= MAX_ORDER + 1:
             raise ValueError(f"FluxArma needs 1..{MAX_ORDER} c and 1..{MAX_ORDER + 1} d coefficients")
-        if arrs["e"].size != arrs["g"].size or arrs["e"].size not in (0, arrs["d"].size - 1):
-            raise ValueError("FluxArma current terms e, g must both be empty or have m = len(d) - 1 values")
+        if not arrs["e"].size == arrs["g"].size == arrs["h"].size or arrs["e"].size not in (0, arrs["d"].size - 1):
+            raise ValueError("FluxArma current terms e, g, h must all be empty or have m = len(d) - 1 values")
         if not all(np.all(np.isfinite(a)) for a in arrs.values()):
             raise ValueError("FluxArma coefficients must be finite")
         if not (math.isfinite(self.period_s) and self.period_s > 0):
@@ -97,6 +101,7 @@ class FluxArma:
                 raise ValueError(f"T_C and current_A have different lengths ({len(T)} and {len(I)})")
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.e]), a, I)
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.g]), a, I * I)
+            out += scipy.signal.lfilter(np.concatenate([[0.0], self.h]), a, I * T)
         return out
 
     def errors(self, *, T_C: np.ndarray, Q_W: np.ndarray, current_A: np.ndarray | None = None,
@@ -131,7 +136,7 @@ def fit_flux_arma(*, T_C: np.ndarray, Q_W: np.ndarray, n: int = 3, m: int = 3, p
     I = None if current_A is None else _as_1d("current_A", current_A)
     if I is not None and len(I) != len(T):
         raise ValueError(f"T_C and current_A have different lengths ({len(T)} and {len(I)})")
-    n_in = (m + 1) + (2 * m if I is not None else 0)
+    n_in = (m + 1) + (3 * m if I is not None else 0)
     if len(T) < 4 * (n + n_in):
         raise ValueError(f"need at least {4 * (n + n_in)} samples, got {len(T)}")
     # FIR least-squares start (c = 0): always stable
@@ -139,6 +144,7 @@ def fit_flux_arma(*, T_C: np.ndarray, Q_W: np.ndarray, n: int = 3, m: int = 3, p
     cols = [T[L - j:len(T) - j] for j in range(m + 1)]
     if I is not None:
         cols += [I[L - j:len(T) - j] for j in range(1, m + 1)] + [I[L - j:len(T) - j] ** 2 for j in range(1, m + 1)]
+        cols += [I[L - j:len(T) - j] * T[L - j:len(T) - j] for j in range(1, m + 1)]
     A = np.column_stack(cols)
     scale = np.sqrt(np.mean(A * A, axis=0))
     scale[scale == 0] = 1.0
@@ -146,9 +152,9 @@ def fit_flux_arma(*, T_C: np.ndarray, Q_W: np.ndarray, n: int = 3, m: int = 3, p
     x0 = np.concatenate([np.zeros(n), b0])
 
     def unpack(x: np.ndarray) -> FluxArma:
-        e = x[n + m + 1:n + 2 * m + 1] if I is not None else np.zeros(0)
-        g = x[n + 2 * m + 1:] if I is not None else np.zeros(0)
-        return FluxArma(c=x[:n], d=x[n:n + m + 1], e=e, g=g, period_s=float(period_s), T_ref_C=float(T_ref_C))
+        k = n + m + 1
+        e, g, h = (x[k:k + m], x[k + m:k + 2 * m], x[k + 2 * m:]) if I is not None else (np.zeros(0),) * 3
+        return FluxArma(c=x[:n], d=x[n:n + m + 1], e=e, g=g, h=h, period_s=float(period_s), T_ref_C=float(T_ref_C))
 
     penalty = np.full(len(Q), 10.0 * (np.max(np.abs(Q)) + 1.0))
 

@@ -14,7 +14,7 @@ Format (``format`` = "telethermo-tem-model", ``format_version`` = 1; see docs/id
         "metrics": {...}, "data_sha256": "<64 hex>"
       },
       "flux": null | {"kind": "arma", "period_s": 0.01, "T_ref_C": 25.0, "c": [n], "d": [m+1],
-                      "e": [m or 0], "g": [m or 0], "metrics": {...}},   # e, g: current terms (flux.py)
+                      "e": [m or 0], "g": [m or 0], "h": [m or 0], "metrics": {...}},  # current terms (flux.py)
       "capacity": null | {"kind": "capacity-eq13", "theta": [5 numbers], "current_range_A": [lo, hi], "metrics": {...}},
       "meta": {...}                          # free-form provenance: rig, scene, seed, date, ...
     }
@@ -108,6 +108,7 @@ def model_to_dict(tem: TemModel) -> dict[str, Any]:
         f = tem.flux
         doc["flux"] = {"kind": "arma", "period_s": f.period_s, "T_ref_C": f.T_ref_C, "c": [float(v) for v in f.c],
                        "d": [float(v) for v in f.d], "e": [float(v) for v in f.e], "g": [float(v) for v in f.g],
+                       "h": [float(v) for v in f.h],
                        "metrics": _clean(f.metrics)}
     if tem.capacity is not None:
         c = tem.capacity
@@ -247,10 +248,11 @@ def model_from_dict(doc: Any, *, path: str | os.PathLike = "<dict>", check_stabi
         m = len(d) - 1
         e = r.nums(f, "e", "flux.e", min_len=0, max_len=m) if "e" in f else np.zeros(0)
         g = r.nums(f, "g", "flux.g", min_len=0, max_len=m) if "g" in f else np.zeros(0)
-        if len(e) not in (0, m) or len(g) != len(e):
-            raise r.err("flux.e", f"'e' and 'g' both empty or both of {m} numbers (len(d) - 1)",
-                        f"{len(e)} and {len(g)} values")
-        flux = FluxArma(c=c, d=d, e=e, g=g, period_s=fp, T_ref_C=r.num(f, "T_ref_C", "flux.T_ref_C"),
+        h = r.nums(f, "h", "flux.h", min_len=0, max_len=m) if "h" in f else np.zeros(0)
+        if len(e) not in (0, m) or not len(g) == len(h) == len(e):
+            raise r.err("flux.e", f"'e', 'g', 'h' all empty or all of {m} numbers (len(d) - 1)",
+                        f"{len(e)}, {len(g)} and {len(h)} values")
+        flux = FluxArma(c=c, d=d, e=e, g=g, h=h, period_s=fp, T_ref_C=r.num(f, "T_ref_C", "flux.T_ref_C"),
                         metrics=r.metrics(f, "flux.metrics"))
         if np.max(np.abs(flux.poles())) >= 1.0:
             raise r.err("flux.c", "a stable ARMA model (poles inside the unit circle)", list(map(float, c)))

@@ -146,20 +146,30 @@ def solve_scaled_lstsq(Phi: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, dict
     """Least squares θ = argmin ||Φθ - y|| by QR with column pivoting on RMS-scaled columns.
 
     Never forms the normal equations. Columns are divided by their RMS (all-zero columns are left out
-    and get θ = 0); directions with singular values below ``RCOND`` times the largest are dropped
-    (minimum-norm solution) instead of amplifying noise. Returns θ and diagnostics: ``rank``, ``cond_scaled`` (2-norm condition number of the
-    scaled Φ).
+    and get θ = 0); trailing pivoted directions with |R_kk| below ``RCOND`` times |R_00| are dropped
+    (their θ = 0: the basic solution) instead of amplifying noise. Returns θ and diagnostics: ``rank``,
+    ``cond_scaled`` (2-norm condition number of the scaled Φ restricted to the kept columns, from the
+    singular values of R).
     """
-    scale = np.sqrt(np.mean(Phi * Phi, axis=0))
-    used = scale > 0
+    scale = np.sqrt(np.einsum("ij,ij->j", Phi, Phi) / max(Phi.shape[0], 1))
+    used = np.flatnonzero(scale > 0)
     theta = np.zeros(Phi.shape[1])
-    if not np.any(used):
-        return theta, {"rank": 0, "cond_scaled": math.inf}
-    A = Phi[:, used] / scale[used]
-    sol, _res, rank, sv = scipy.linalg.lstsq(A, y, cond=RCOND, lapack_driver="gelsd", check_finite=False)
-    theta[used] = sol / scale[used]
-    cond = float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf
-    return theta, {"rank": int(rank), "cond_scaled": cond, "n_params_used": int(np.count_nonzero(used))}
+    if used.size == 0:
+        return theta, {"rank": 0, "cond_scaled": math.inf, "n_params_used": 0}
+    A = np.asfortranarray(Phi[:, used] / scale[used])
+    Q, R, perm = scipy.linalg.qr(A, mode="economic", pivoting=True, check_finite=False, overwrite_a=True)
+    diag = np.abs(np.diag(R))
+    rank = int(np.count_nonzero(diag > RCOND * diag[0])) if diag[0] > 0 else 0
+    if rank == 0:
+        return theta, {"rank": 0, "cond_scaled": math.inf, "n_params_used": int(used.size)}
+    Rr = R[:rank, :rank]
+    sol = scipy.linalg.solve_triangular(Rr, Q[:, :rank].T @ y, check_finite=False)
+    x = np.zeros(used.size)
+    x[perm[:rank]] = sol
+    theta[used] = x / scale[used]
+    sv = np.linalg.svd(Rr, compute_uv=False)
+    return theta, {"rank": rank, "cond_scaled": float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf,
+                   "n_params_used": int(used.size)}
 
 
 @dataclass(frozen=True)

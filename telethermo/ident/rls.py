@@ -20,7 +20,7 @@ Numerical safety (what a node running this every cycle needs):
 - **Bounded covariance: constant trace** (Landau). After each update, if tr K exceeds ``trace_max``
   (default tr K(0)), K is scaled back to ``trace_max``: an effective time-varying λ1 that never lets the
   gain wind up. With no excitation (φ = 0, or φ stuck in one direction) plain forgetting makes K grow
-  as λ1^-t (after an hour at λ1 = 0.999, 10^1560: overflow, then a parameter jump at the next
+  as λ1^-t (after an hour at λ1 = 0.999, by 1e156: then a parameter jump at the next
   excitation); with the cap it stays at tr K(0). We chose it over EFRA (needs K², O(d³) per update) and
   directional forgetting (which, in the square-root form, needs a rank-one *downdate*), because it is
   O(d²), exact when inactive (with λ1 = 1 the trace only decreases, so RLS = batch LS), and it is the

@@ -30,10 +30,11 @@ def test_flux_model_with_current_terms():
     # T: driven by I, plus a slow independent disturbance (else T and I are collinear in eq. 12)
     T = 25.0 + scipy.signal.lfilter([0.0, 0.05], [1, -0.95], I) + scipy.signal.lfilter([0.02], [1, -0.99],
                                                                                        rng.normal(size=6000))
-    true = FluxArma(c=[-0.5], d=[0.3, -0.3], e=[0.02], g=[0.01], period_s=0.01, T_ref_C=25.0)
+    true = FluxArma(c=[-0.5], d=[0.3, -0.3], e=[0.02], g=[0.01], h=[0.005], period_s=0.01, T_ref_C=25.0)
     Q = true.free_run(T_C=T, current_A=I)
     f = fit_flux_arma(T_C=T, Q_W=Q + 1e-4 * rng.normal(size=len(Q)), n=1, m=1, T_ref_C=25.0, current_A=I)
     assert f.with_current and f.e == pytest.approx([0.02], abs=2e-3) and f.g == pytest.approx([0.01], abs=2e-3)
+    assert f.h == pytest.approx([0.005], abs=1e-3)
     with pytest.raises(ValueError, match="current_A"):
         f.free_run(T_C=T)
 

@@ -12,7 +12,7 @@ from telethermo.ident.modelfile import round_to_real32
 
 @pytest.fixture()
 def tem(true_model):
-    flux = FluxArma(c=[-0.5, 0.1], d=[2.0, -1.5, 0.1], e=[0.01, 0.0], g=[0.001, 0.0], period_s=0.01, T_ref_C=25.0)
+    flux = FluxArma(c=[-0.5, 0.1], d=[2.0, -1.5, 0.1], e=[0.01, 0.0], g=[0.001, 0.0], h=[1e-4, 0.0], period_s=0.01, T_ref_C=25.0)
     cap = CapacityModel(theta=[0.01, 0.36, -0.04, 2.3, 1.1], current_range_A=(-0.2, 0.3))
     return TemModel(temperature=true_model, flux=flux, capacity=cap, meta={"rig": "test", "seed": 1})
 
@@ -23,7 +23,7 @@ def test_round_trip_preserves_everything(tmp_path, tem):
     assert np.array_equal(back.temperature.theta, tem.temperature.theta)
     assert back.temperature.orders == tem.temperature.orders and back.temperature.T_ref_C == 25.0
     assert back.temperature.current_range_A == (-1.5, 1.5)
-    for k in "cdeg":
+    for k in "cdegh":
         assert np.array_equal(getattr(back.flux, k), getattr(tem.flux, k))
     assert np.array_equal(back.capacity.theta, tem.capacity.theta) and back.meta == tem.meta
     u = prbs(500, seed=1)
@@ -52,7 +52,7 @@ def corrupt(tmp_path, tem, edit):
     (lambda d: d.__setitem__("format_version", 2), "format_version", "1"),
     (lambda d: d.__setitem__("format", "other"), "format", "telethermo-tem-model"),
     (lambda d: d["flux"].__setitem__("period_s", 0.02), "flux.period_s", "temperature model's period"),
-    (lambda d: d["flux"]["e"].pop(), "flux.e", "both empty or both"),
+    (lambda d: d["flux"]["e"].pop(), "flux.e", "all empty or all"),
     (lambda d: d["capacity"].__setitem__("theta", [1, 2]), "capacity.theta", "5 finite numbers"),
     (lambda d: d["temperature"].pop("T_ref_C"), "temperature.T_ref_C", "missing"),
     (lambda d: d["temperature"]["theta"].__setitem__(0, 1.7), "temperature.theta", "stable model"),  # Σα > 1
