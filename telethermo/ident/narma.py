@@ -404,6 +404,18 @@ class NarmaPredictor:
         self._I = [current_A] * max(self._n, self._m)
         self.T_pred_C = T_C
 
+    def snapshot(self) -> tuple:
+        """The predictor's state as an immutable value (for a pure control step); see :meth:`restore`."""
+        return (tuple(self._T), tuple(self._I), self.T_pred_C, self.n_clamped, self.n_steps)
+
+    def restore(self, snap: tuple) -> None:
+        """Return to a state taken by :meth:`snapshot` (of a predictor of the same model)."""
+        T, I, T_pred, n_clamped, n_steps = snap
+        if len(T) != len(self._T) or len(I) != len(self._I):
+            raise ValueError("restore: the snapshot is of a predictor with other orders")
+        self._T, self._I = list(T), list(I)
+        self.T_pred_C, self.n_clamped, self.n_steps = float(T_pred), int(n_clamped), int(n_steps)
+
     def step(self, current_A: float) -> float:
         """Commit the current held over the coming period (A); return the prediction for the next sample, °C."""
         I = float(current_A)

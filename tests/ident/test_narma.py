@@ -177,3 +177,19 @@ def test_model_validates_its_fields(true_model):
                    T_range_C=(0, 1))
     assert not true_model.theta.flags.writeable
     assert math.isclose(true_model.theta_a[0, 0], 1.6) and math.isclose(true_model.theta_b[1, 1], 0.01)
+
+
+def test_predictor_snapshot_and_restore_replay_exactly(true_model):
+    """The control core carries the predictor through pure steps with snapshot()/restore()."""
+    I = prbs(300, amplitude_A=(0.1, 1.5), hold_samples=5, seed=8)
+    pred = true_model.predictor(26.0)
+    for i in I[:100]:
+        pred.step(i)
+    snap = pred.snapshot()
+    first = [pred.step(i) for i in I[100:]]
+    pred.restore(snap)
+    assert [pred.step(i) for i in I[100:]] == first
+    other = NarmaModel(orders=NarmaOrders(3, 3, 1, 1), theta=np.zeros(12), period_s=0.01, T_ref_C=25.0,
+                       current_range_A=(-1, 1), T_range_C=(20, 30)).predictor(25.0)
+    with pytest.raises(ValueError, match="other orders"):
+        other.restore(snap)
