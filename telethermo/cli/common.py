@@ -86,6 +86,8 @@ def transport(args: argparse.Namespace, net: NetworkConfig) -> TransportSettings
 def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, TransportSettings]:
     """Open the bus; Failure (exit 1) if it cannot be reached."""
     ts = transport(args, net)
+    # python-can's socketcand client logs every TCP read that splits a frame; not news to an operator
+    logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
     try:
         return open_bus(ts), ts
     except TransportError as exc:

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import time
 
 from telethermo.cli import common
 from telethermo.cli.main import UserError
@@ -74,8 +75,22 @@ def run(args: argparse.Namespace) -> int:
                 nodes[t.node_id] = common.remote(nw, t, args.timeout)
             node = nodes[t.node_id]
             common.sdo_write(node, t, info, value)
-        for t in {t.node_id: t for t, _, _ in planned}.values():
-            back = common.sdo_read(nodes[t.node_id], t, common.lookup(t, "mode"))
-            print(f"{t.role} (node {t.node_id}): mode {Mode(back).name.lower() if back in Mode._value2member_map_ else back}")
+        wanted = {t.node_id: (t, v) for t, info, v in planned if info.key == "mode"}
+        refused = []
+        for t, v in wanted.values():
+            # the node applies the mode in its own thread and writes the object back if it refuses:
+            # poll the read-back for a few control cycles before believing either way
+            deadline = time.monotonic() + 0.5
+            while True:
+                back = common.sdo_read(nodes[t.node_id], t, common.lookup(t, "mode"))
+                if back == v or time.monotonic() >= deadline:
+                    break
+                time.sleep(0.05)
+            name = Mode(back).name.lower() if back in Mode._value2member_map_ else str(back)
+            print(f"{t.role} (node {t.node_id}): mode {name}")
+            if back != v:
+                refused.append(f"{t.role} stays in {name}")
+    if refused:
+        raise common.Failure(f"mode {desc} not taken: {'; '.join(refused)} (the node refused it; see its log)")
     print(f"mode: {desc}")
     return 0
