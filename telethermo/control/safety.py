@@ -138,6 +138,8 @@ class SafetyLimits:
         ramp_up_C_per_s, ramp_down_C_per_s: setpoint rate limits, °C/s.
         hot_C: time-at-temperature threshold, °C; hot_time_limit_s: allowed continuous time above, s.
         guard_C: band inside each clamp in which the current may only push the surface back, °C.
+        taper_C: below the guard band the current driving outwards is tapered linearly to 0 over
+            this band, °C (the plate stores heat: a pad heated at full current overshoots a hard stop).
         surface_trip_margin_C: surface beyond a clamp by more than this trips (current cut), °C.
         sink_trip_C: heat-sink trip, °C.
         sensor_min_C, sensor_max_C: plausible thermocouple range, °C; open_tc_C: reading at or
@@ -158,6 +160,7 @@ class SafetyLimits:
     hot_C: float = 41.0
     hot_time_limit_s: float = 30.0
     guard_C: float = 0.5
+    taper_C: float = 2.0
     surface_trip_margin_C: float = 2.0
     sink_trip_C: float = 55.0
     sensor_min_C: float = -20.0
@@ -185,8 +188,8 @@ class SafetyLimits:
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ValueError(f"SafetyLimits.{name}: expected > 0, got {getattr(self, name)!r}")
-        if self.guard_C < 0 or self.surface_trip_margin_C < 0:
-            raise ValueError("SafetyLimits.guard_C/surface_trip_margin_C: expected >= 0")
+        if self.guard_C < 0 or self.surface_trip_margin_C < 0 or self.taper_C < 0:
+            raise ValueError("SafetyLimits.guard_C/taper_C/surface_trip_margin_C: expected >= 0")
         if not self.T_min_C < self.T_max_C:
             raise ValueError(f"SafetyLimits.T_min_C/T_max_C: expected T_min_C < T_max_C, got "
                              f"{self.T_min_C} and {self.T_max_C}")
@@ -418,7 +421,8 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
     """The current that may reach the TEM, A, and the limits that acted.
 
     NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
-    within ``guard_C`` of T_min_C only heating (I >= 0). Then |I| <= I_limit_A.
+    within ``guard_C`` of T_min_C only heating (I >= 0); over the ``taper_C`` band before that the
+    outward current is capped linearly (full at the band's inner edge). Then |I| <= I_limit_A.
     """
     active: list[str] = []
     if state.cut:
@@ -430,13 +434,23 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
     lo_ok = math.isfinite(surface_lo_C)
     if not (hi_ok and lo_ok):
         return 0.0, ("cut",)
-    if surface_hi_C >= limits.T_max_C - limits.guard_C and i > 0.0:
-        i = 0.0
-        active.append("guard")
-    if surface_lo_C <= limits.T_min_C + limits.guard_C and i < 0.0:
-        i = 0.0
-        active.append("guard")
     lim = limits.I_limit_A
+    hi_stop = limits.T_max_C - limits.guard_C
+    lo_stop = limits.T_min_C + limits.guard_C
+    if i > 0.0:
+        room = hi_stop - surface_hi_C
+        cap = 0.0 if room <= 0.0 else (lim if limits.taper_C <= 0.0 or room >= limits.taper_C
+                                         else lim * room / limits.taper_C)
+        if i > cap:
+            i = cap
+            active.append("guard")
+    elif i < 0.0:
+        room = surface_lo_C - lo_stop
+        cap = 0.0 if room <= 0.0 else (lim if limits.taper_C <= 0.0 or room >= limits.taper_C
+                                         else lim * room / limits.taper_C)
+        if i < -cap:
+            i = -cap
+            active.append("guard")
     if i > lim:
         i = lim
         active.append("current_limit")
