@@ -47,6 +47,10 @@ def failures(run: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Nam
         except Failure as exc:
             print(f"telethermo {args.command}: {exc}", file=sys.stderr)
             return EXIT_FAIL
+        except BrokenPipeError:   # the reader went away (| head): not an error of ours
+            import os
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            return 0
 
     return wrapper
 

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 
@@ -42,14 +41,6 @@ def register(subparsers) -> None:
 
 @common.failures
 def run(args: argparse.Namespace) -> int:
-    try:
-        return _run(args)
-    except BrokenPipeError:       # the reader went away (| head): not an error
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
-        return 0
-
-
-def _run(args: argparse.Namespace) -> int:
     if args.speed is not None and args.speed < 0:
         raise UserError(f"--speed: expected a number >= 0, got {args.speed}")
     if args.duration is not None and args.duration <= 0:

@@ -296,8 +296,8 @@ class Monitor:
                 st.hb_lost = True
                 st.hb_losses += 1
                 out.append(Event(now, ERROR, "heartbeat_lost", st.node,
-                                 f"node {st.node} {st.name}: heartbeat lost (none for {now - st.last_hb_t:.3f} s "
-                                 f"> timeout {to:.3f} s)".replace(" :", ":"),
+                                 f"node {st.node} {st.name}: heartbeat lost (none for {(now - st.last_hb_t) * 1e3:.1f} ms "
+                                 f"> {'consumer time' if st.consumer_time_s else 'timeout'} {to * 1e3:.0f} ms)".replace(" :", ":"),
                                  {"silence_s": now - st.last_hb_t, "timeout_s": to}))
         return out
 
