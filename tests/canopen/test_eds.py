@@ -120,17 +120,15 @@ def test_real32_limit_check_codes():
 
 @pytest.mark.parametrize("role", ROLES)
 def test_power_on_values_match_the_control_cores_defaults(role):
-    """The EDS defaults a fresh node boots with are the control core's own defaults."""
-    from telethermo.control.defaults import GAINS
+    """The EDS safety defaults a fresh node boots with are the control core's own defaults (gains
+    are placeholders the node program overwrites before start())."""
     from telethermo.control.estimators import Estimator
     from telethermo.control.safety import SafetyState
-    from telethermo.control.types import Mode, Role
+    from telethermo.control.types import Mode
 
     from telethermo.control.safety import SafetyLimits
 
     info = EdsInfo(path(f"{role}.eds"))
-    for name in ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"):
-        assert float(info.get(name).default) == GAINS[Role(role)][name], name
     sp = SafetyLimits()
     assert float(info.get("hot_time_limit_s").default) == sp.hot_time_limit_s
     assert float(info.get("sink_trip_C").default) == sp.sink_trip_C

@@ -50,7 +50,7 @@ def test_pdos_only_in_operational_and_sdo_not_in_stopped(lab):
     bus = lab.raw_bus()
     net = node.network
     assert pdo_after_sync(lab, net, bus) is None            # PRE-OPERATIONAL: no PDO ...
-    assert node.sdo["kp_A_per_C"].raw == pytest.approx(1.0)  # ... but SDO works
+    assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)  # ... but SDO works
     node.nmt.state = "OPERATIONAL"
     assert wait_state(node, "OPERATIONAL") == "OPERATIONAL"
     assert pdo_after_sync(lab, net, bus, counter=2, timeout=2.0) is not None
@@ -64,7 +64,7 @@ def test_pdos_only_in_operational_and_sdo_not_in_stopped(lab):
     node.nmt.state = "PRE-OPERATIONAL"
     assert wait_state(node, "PRE-OPERATIONAL") == "PRE-OPERATIONAL"
     assert pdo_after_sync(lab, net, bus, counter=4) is None
-    assert node.sdo["kp_A_per_C"].raw == pytest.approx(1.0)
+    assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)
     node.nmt.state = "OPERATIONAL"  # STOPPED -> ... -> OPERATIONAL again
     assert wait_state(node, "OPERATIONAL") == "OPERATIONAL"
     assert pdo_after_sync(lab, net, bus, counter=5, timeout=2.0) is not None
@@ -80,7 +80,7 @@ def test_reset_node_restores_everything_and_boots(lab):
     node.nmt.state = "RESET"
     node.nmt.wait_for_bootup(2.0)
     assert wait_state(node, "PRE-OPERATIONAL") == "PRE-OPERATIONAL"
-    assert node.sdo["kp_A_per_C"].raw == pytest.approx(2.0)       # application reset
+    assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)       # application reset
     assert node.sdo["Producer heartbeat time"].raw == 20           # power-on value (settings), not the EDS 100
     assert dev.state is NmtState.PRE_OPERATIONAL
 
@@ -146,6 +146,6 @@ def test_configuration_written_before_start_survives_power_on_but_not_reset_node
     dev.add_nmt_listener(lambda old, new, cmd: resets.append((old, new, cmd)))
     node.nmt.state = "RESET"
     node.nmt.wait_for_bootup(2.0)
-    assert node.sdo["kp_A_per_C"].raw == 1.0 and node.sdo["mode"].raw == 0
+    assert node.sdo["kp_A_per_C"].raw == 0.5 and node.sdo["mode"].raw == 0
     assert resets == [(NmtState.PRE_OPERATIONAL, NmtState.INITIALISING, NmtCommand.RESET_NODE),
                       (NmtState.INITIALISING, NmtState.PRE_OPERATIONAL, NmtCommand.RESET_NODE)]

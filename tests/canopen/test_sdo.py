@@ -19,7 +19,7 @@ def abort_code(fn) -> int:
 def test_read_and_write_by_name_and_by_index(lab):
     dev = lab.device("master")
     node = lab.client("master")
-    assert node.sdo["kp_A_per_C"].raw == pytest.approx(1.0)
+    assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)
     node.sdo["kp_A_per_C"].raw = 2.25
     assert dev.read("kp_A_per_C") == 2.25
     assert node.sdo[0x2200].raw == 2.25
@@ -73,7 +73,7 @@ def test_read_only_unknown_and_wrong_length_are_refused(lab):
     assert abort_code(write_ro) == 0x06010002
     assert abort_code(lambda: node.sdo.upload(0x2FFF, 0)) == 0x06020000
     assert abort_code(lambda: node.sdo.download(0x2200, 0, b"\x00\x00")) == 0x06070010  # 2 bytes to a REAL32
-    assert dev.read("kp_A_per_C") == pytest.approx(1.0)
+    assert dev.read("kp_A_per_C") == pytest.approx(0.5)
 
 
 def test_local_writes_are_range_checked_too(lab):
