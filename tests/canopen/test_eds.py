@@ -136,3 +136,10 @@ def test_power_on_values_match_the_control_cores_defaults(role):
     assert info.get("mode").high == max(Mode) and info.get("mode").low == min(Mode)
     assert info.get("estimator").high == len(Estimator) - 1
     assert "3 current cut" in info.get("safety_state").description and max(SafetyState) == 3
+
+
+def test_docs_table_is_the_generated_one():
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "canopen.md").read_text(encoding="utf-8")
+    assert edsgen.markdown_table("master") in doc  # regenerate: python -m bus_config.edsgen --table master
