@@ -6,11 +6,13 @@ controllers, both simulated rigs and the direct-touch reference, and reports:
 - ``run_s``: median wall time of the whole offline session over repeats (sim + both controllers), s;
 - ``step_us``: median cost of one controller ``step()`` (replaying the row's recorded samples), µs;
 - ``early_C`` / ``late_C``: transparency, mean |error| 0.1–1 s / 1–3 s after contact, °C;
-- ``tracking_rms_C``: steady-contact tracking RMS of both sides, °C; ``flux_early_W``.
+- ``tracking_rms_C``: steady-contact tracking RMS of both sides, °C; ``flux_early_W``;
+- ``pre_contact_C``: the skin vs the reference finger in air, 0.5 s before each touch, °C.
 
 Axes: control period (1, 2, 5, 10, 20 ms; flux estimator), estimator (flux / the paper's model /
-fused), NARMA model order (model estimator), REAL32 rounding of the exchanged values. Rows on the
-Pareto front of (run_s, early_C) are marked.
+fused), NARMA model order (model estimator), REAL32 rounding of the exchanged values, and the probe
+echoing the finger estimate while in air. Rows on the Pareto front of (run_s, early_C) are marked.
+An oracle row bounds what the display's TEM can do at all.
 
     python -m bench.control_bench [--quick]
 
@@ -69,12 +71,13 @@ def _step_cost_us(rec, pm, ps, model_m, model_s, n_max: int = 3000) -> float:
 
 
 def run_row(name: str, *, period_s: float = 0.01, estimator: Estimator = Estimator.FLUX, model: Any = None,
-            rounding: str = "none", duration_s: float | None = None, repeats: int = 3) -> dict[str, Any]:
+            rounding: str = "none", duration_s: float | None = None, repeats: int = 3,
+            slave_overrides: dict[str, Any] | None = None) -> dict[str, Any]:
     """One configuration: median session time over ``repeats`` and its figures."""
     from telethermo.session import run_offline_session
     sc = _scene(period_s)
     pm = default_params(Role.MASTER, period_s=period_s, estimator=estimator)
-    ps = default_params(Role.SLAVE, period_s=period_s, estimator=estimator)
+    ps = default_params(Role.SLAVE, period_s=period_s, estimator=estimator, **(slave_overrides or {}))
     times, res = [], None
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -91,6 +94,7 @@ def run_row(name: str, *, period_s: float = 0.01, estimator: Estimator = Estimat
         "model_order": _order(model), "rounding": rounding, "run_s": statistics.median(times),
         "step_us": step_us, "early_C": tr["early_mean_error_C"], "late_C": tr["late_mean_error_C"],
         "early_max_C": tr["early_max_error_C"], "flux_early_W": tr["early_mean_flux_error_W"],
+        "pre_contact_C": tr["pre_contact_mean_error_C"],
         "tracking_rms_C": f["tracking"]["rms_C"], "order_kept": f["discrimination"]["order_kept"],
         "trips": f["safety"]["n_trips"], "duration_s": f["duration_s"], "repeats": repeats,
     }
@@ -178,11 +182,14 @@ def run(quick: bool = False) -> dict[str, Any]:
             rows.append(run_row(f"10 ms, {est.value}, {_order(m)}", estimator=est, model=m, duration_s=duration,
                                 repeats=reps))
     rows.append(run_row("10 ms, flux, REAL32", rounding="real32", duration_s=duration, repeats=reps))
+    rows.append(run_row("10 ms, flux, probe echoes T_f in air", duration_s=duration, repeats=reps,
+                        slave_overrides={"echo_peer_when_free": True}))
     front = pareto(rows)
     for r in rows:
         r["pareto"] = r["name"] in front
-    print_table(["config", "run s", "step µs", "early °C", "late °C", "flux W", "track °C", "order", "trips", "pareto"],
-                [[r["name"], r["run_s"], r["step_us"], r["early_C"], r["late_C"], r["flux_early_W"],
+    print_table(["config", "run s", "step µs", "early °C", "late °C", "pre °C", "flux W", "track °C", "order", "trips",
+                 "pareto"],
+                [[r["name"], r["run_s"], r["step_us"], r["early_C"], r["late_C"], r["pre_contact_C"], r["flux_early_W"],
                   r["tracking_rms_C"], r["order_kept"], r["trips"], "*" if r["pareto"] else ""] for r in rows])
     oracle = oracle_bound(duration)
     print("oracle bound (truth, no filter, no delay): early %.3f °C, late %.3f °C; per touch early: %s" % (

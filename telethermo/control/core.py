@@ -144,6 +144,9 @@ class CoreParams:
         contact: :class:`telethermo.control.contact.ContactParams`.
         idle_ramp_A_per_s: how fast IDLE brings the current to 0, A/s.
         identify_amplitude_A: PRBS amplitude in IDENTIFY mode, A; identify_hold: samples per bit.
+        echo_peer_when_free: (slave, telepresence) while no contact is detected, send back the
+            peer's estimate instead of the own (an object estimate in air means nothing): the
+            display then only mirrors the probe's flux, and the finger rests as in air.
     """
 
     role: Role
@@ -165,6 +168,7 @@ class CoreParams:
     idle_ramp_A_per_s: float = 4.0
     identify_amplitude_A: float = 0.5
     identify_hold: int = 1
+    echo_peer_when_free: bool = False
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
 
@@ -487,7 +491,11 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     status = StepStatus(safety=status_env, requested_setpoint_C=req, setpoint_C=sp, feedback_C=y, T_pred_C=T_pred,
                         estimate_C=est, estimate_model_C=e_model, estimate_flux_C=e_flux, contact=cst.contact,
                         render_phase=phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req)
-    return StepResult(current_A=current, out=Outgoing(estimate_C=est, flux_W=Q), state=new_state, status=status)
+    sent = est
+    if (params.echo_peer_when_free and mode is Mode.TELEPRESENCE and not cst.contact and peer_ok and peer_alive
+            and math.isfinite(est)):
+        sent = peer.estimate_C
+    return StepResult(current_A=current, out=Outgoing(estimate_C=sent, flux_W=Q), state=new_state, status=status)
 
 
 def clear_faults(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> CoreState:

@@ -202,3 +202,17 @@ def test_clear_faults_releases_a_gone_trip_and_restarts_bumpless():
     assert not ok.env.trips and not ok.env.cut
     r2 = step(S(t=0.03, sink=30.0), PeerValues(33.0, 0.0), P, ok)
     assert r2.status.safety_state in (SafetyState.OK, SafetyState.LIMITING) and abs(r2.current_A) < 0.05
+
+
+def test_slave_echoes_the_finger_estimate_while_free_if_asked():
+    ps = CoreParams(role=Role.SLAVE, echo_peer_when_free=True)
+    s = init_state(ps, None, S(T=30.0))
+    r = step(S(T=30.0), PeerValues(33.5, 0.0), ps, s)
+    assert not r.status.contact and r.out.estimate_C == 33.5 and r.status.estimate_C == pytest.approx(30.0)
+    # an object touches: the flux jumps, contact is detected, the probe's own estimate goes out
+    r = step(S(t=0.01, T=29.0, Q=3.0), PeerValues(33.5, 0.0), ps, r.state)
+    assert r.status.contact and r.out.estimate_C == pytest.approx(29.0 - 1.5 * ps.R_sensor_K_per_W)
+    # a bad peer value is never echoed
+    ps2 = CoreParams(role=Role.SLAVE, echo_peer_when_free=True)
+    r = step(S(T=30.0), PeerValues(math.nan, 0.0), ps2, init_state(ps2, None, S(T=30.0)))
+    assert r.out.estimate_C == pytest.approx(30.0)
