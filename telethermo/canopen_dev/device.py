@@ -282,10 +282,16 @@ class Device:
             self._boot(whole=None, command=None)
 
     def close(self) -> None:
-        """Stop timers and leave the network (no more frames from this device)."""
+        """Stop timers and leave the network (no more frames from this device).
+
+        The device is then powered off: ``state`` is INITIALISING, SYNC processing returns None and
+        a SYNC producer on it refuses to transmit. No NMT listener is called.
+        """
         self._running = False
         self._scheduler.stop()  # outside the lock: a running job may be waiting for it
         with self._lock:
+            self._state = NmtState.INITIALISING
+            self.node.nmt._state = 0
             self._unsubscribe_pdos()
             self._unsubscribe_heartbeats()
             if self._sync_sub:
