@@ -11,11 +11,18 @@ fit_ms_order3_10k, rls_us_per_update, order_table, length_table, justified_order
 """
 from __future__ import annotations
 
-import argparse
-import time
-from typing import Any
+import os
 
-import numpy as np
+# One BLAS thread: on these shared 2-core machines a multi-threaded OpenBLAS QR stalls on contention
+# (medians of 6 ms vs 250 ms measured under load). Only effective if numpy is not imported yet
+# (python -m bench.identify_bench); the setting in force is recorded in the results.
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+
+import argparse  # noqa: E402
+import time  # noqa: E402
+from typing import Any  # noqa: E402
+
+import numpy as np  # noqa: E402
 
 from bench.common import median_time_s, print_table, write_results
 
@@ -82,7 +89,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     sl = slice(0, rest + 10_000)
     I10, T10 = rec.current_A[sl], rec.T_C[sl]
     o3 = NarmaOrders(*ORDER3)
-    reps = 3 if quick else 7
+    reps = 5 if quick else 15
     fit_s = median_time_s(lambda: fit_narma(current_A=I10, T_C=T10, orders=o3, T_ref_C=T_ref, check_stability=False),
                           repeats=reps)
     Phi, y = narma_regressors(I10, T10 - T_ref, o3)
@@ -220,6 +227,7 @@ def run(quick: bool = False) -> dict[str, Any]:
                      "n_train_max": n_max, "n_heldout": n_val, "prbs": "amplitude 0.1..1.0 A, hold 25 samples",
                      "heldout": "free run from rest through training into the held-out PRBS; errors on held-out"},
         "simulate_s": sim_s,
+        "openblas_num_threads": os.environ.get("OPENBLAS_NUM_THREADS", "unset"),
     }
     path = write_results("identify", _json_safe(data))
     print(f"\nwritten: {path}")
