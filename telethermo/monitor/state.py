@@ -192,6 +192,7 @@ class Monitor:
         self.pdo_map = PdoMap({n: info.od for n, info in self.config.nodes.items() if info.od is not None})
         self.pdos: dict[tuple[int, str, int], PdoState] = {}
         self._window: deque[tuple[float, int]] = deque()
+        self._window_bits = 0
         self._last_sync_t: float | None = None
         self._sync_cob = cia301.COB_SYNC
         for n, info in self.config.nodes.items():
@@ -272,19 +273,20 @@ class Monitor:
             s.t_first = t
         s.t_last = t
         self._window.append((t, bits))
+        self._window_bits += bits
         self._update_rates(t)
 
     def _update_rates(self, now: float) -> None:
         s, w = self.stats, self.config.window_s
         while self._window and self._window[0][0] <= now - w:
-            self._window.popleft()
+            self._window_bits -= self._window.popleft()[1]
         if s.t_first is None:
             return
         span = min(w, max(now - s.t_first, 0.0))
         if span <= 0:
             return
         s.frames_per_s = len(self._window) / span
-        s.bus_load = sum(b for _, b in self._window) / (self.config.bitrate_bps * span)
+        s.bus_load = self._window_bits / (self.config.bitrate_bps * span)
 
     def _check_timeouts(self, now: float) -> list[Event]:
         out = []
@@ -373,7 +375,8 @@ class Monitor:
                 s.missed_pdos += 1
                 if p.missing_streak == 1:
                     ev.append(Event(f.t_s, WARN, "pdo_missing", p.pdef.node,
-                                    f"node {p.pdef.node} {p.pdef.label} (0x{p.pdef.cob_id:03X}) missing in a SYNC cycle",
+                                    f"node {p.pdef.node} {p.pdef.label} (0x{p.pdef.cob_id:03X}) not seen before the next SYNC "
+                                    f"(late or lost)",
                                     {"cob_id": p.pdef.cob_id}))
             p.armed = False
         for pdef in self.pdo_map.table.values():

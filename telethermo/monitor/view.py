@@ -82,7 +82,7 @@ def render_lines(mon: Monitor, vs: ViewState, width: int, height: int) -> list[s
         emcy = "-"
         if st.last_emcy:
             e = st.last_emcy
-            emcy = (f"0x{e['code']:04X} {e['code_text']} reg 0x{e['register']:02X} @{fmt_time(st.last_emcy_t)}"
+            emcy = (f"0x{e['code']:04X} {e['code_text'][:30]} reg 0x{e['register']:02X} {fmt_time(st.last_emcy_t)}"
                     + ("" if st.emcy_active else " (reset)"))
         lines.append(f"{n:4d} {st.name[:8]:8s} {st.nmt_state:16s} {_ms(st.hb_period_last_s)}/{_ms(st.hb_period_min_s)}/"
                      f"{_ms(st.hb_period_max_s)}  {to_txt:9s} {st.boot_ups:4d} {st.sdo_ok:6d}/{st.sdo_aborts:<5d} {emcy}")

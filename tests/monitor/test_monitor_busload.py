@@ -40,3 +40,38 @@ def test_length_between_no_stuffing_and_worst_case(can_id, data):
 def test_all_zero_payload_is_stuffed():
     # SYNC-like frame of zeros: the stuffed region has long runs, so stuff bits must be counted
     assert frame_length_bits(0x000, bytes(8)) > 47 + 64
+
+
+def _stuff_bitwise(bits):
+    """ISO 11898-1 stuffing transcribed literally: after five equal bits insert the complement,
+    which itself counts towards the next run."""
+    count, run, last = 0, 0, None
+    for b in bits:
+        if b == last:
+            run += 1
+        else:
+            run, last = 1, b
+        if run == 5:
+            count += 1
+            last, run = 1 - b, 1
+    return count
+
+
+@given(st.lists(st.integers(0, 1), max_size=160))
+def test_run_based_stuff_count_equals_the_literal_rule(bits):
+    assert stuff_count(bits) == _stuff_bitwise(bits)
+
+
+@given(st.lists(st.integers(0, 1), min_size=1, max_size=130))
+def test_table_crc_equals_bitwise_crc(bits):
+    from telethermo.monitor.busload import _crc15_bitwise
+    assert _crc15(bits) == _crc15_bitwise(bits)
+
+
+@given(st.integers(0, 0x1FFFFFFF), st.binary(max_size=8), st.booleans(), st.booleans())
+def test_frame_length_equals_literal_construction(can_id, data, extended, remote):
+    from telethermo.monitor.busload import TAIL_BITS
+    cid = can_id if extended else can_id & 0x7FF
+    bits = frame_bits(cid, data, extended=extended, remote=remote)
+    assert frame_length_bits(cid, data, extended=extended, remote=remote) == (
+        len(bits) + _stuff_bitwise(bits) + TAIL_BITS)
