@@ -1,7 +1,7 @@
 """The CANopen device layer: CiA 301 behaviour over canopen.LocalNode (DESIGN.md §4).
 
 Modules: :mod:`.device` (the Device: NMT, SDO checks, heartbeat, PDO, EMCY), :mod:`.sync` (SYNC
-producer), :mod:`.pdo`, :mod:`.emcy`, :mod:`.scheduler` (one timer thread per device),
+producer), :mod:`.lockstep` (SYNC k+1 after the peer's PDO k; a device-only speed check), :mod:`.pdo`, :mod:`.emcy`, :mod:`.scheduler` (one timer thread per device),
 :mod:`.eds_info` (limits, units and names from the EDS text), :mod:`.netconfig` (network.toml),
 :mod:`.settings` (power-on overrides). See docs/canopen.md.
 """

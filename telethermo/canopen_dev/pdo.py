@@ -149,8 +149,9 @@ def check_comm_write(plan: PdoPlan, sub: int, new: int) -> None:
         if not new & (1 << 29) and (new & 0x7FF) in (0, 0x80) and not new & PDO_INVALID:
             raise SdoAbortedError(ABORT_RANGE)  # NMT/SYNC identifiers are not PDO identifiers
     elif sub == 2:
-        allowed = range(0, 241) if not plan.tx else range(0, 241)
-        if new not in allowed and new not in (254, 255):
+        # 0..240 synchronous, 254/255 event-driven; 241..251 are reserved and 252/253 (RTR-only)
+        # are not supported by this device
+        if not (0 <= new <= 240 or new in (254, 255)):
             raise SdoAbortedError(ABORT_RANGE)
     elif sub == 3 and plan.valid:
         raise SdoAbortedError(ABORT_INCOMPATIBLE)  # inhibit time only while invalid (CiA 301 7.5.2.35)
