@@ -62,6 +62,7 @@ class RuntimeStats:
     peer_resumes: int = 0
     nmt_starts_sent: int = 0
     cycle_errors: int = 0
+    fallback_cycles: int = 0
     latencies_s: list[float] = field(default_factory=list)
     """SYNC producer: SYNC sent -> first peer TPDO1 received, s (one per cycle with a PDO)."""
     cycle_s: list[float] = field(default_factory=list)
@@ -93,6 +94,9 @@ class NodeRuntime:
         self._state: CoreState | None = None
         self._advance_pending = False
         self._last_sync_wall: float | None = None
+        self._last_sync_at = 0.0
+        self._fallback: threading.Thread | None = None
+        self._safety_state = None
         self._sync_sent_at = 0.0
         self.network: canopen.Network | None = None
         self.device: Device | None = None
@@ -173,6 +177,8 @@ class NodeRuntime:
         if ev.kind == "lost":
             self.peer.on_heartbeat_timeout()
             log.warning("peer %d lost (no heartbeat for %d ms)", ev.node_id, self.net.heartbeat.consumer_ms)
+            if not self.produce_sync:
+                self._start_fallback()
         else:
             self.peer.on_heartbeat()
             if ev.kind == "back":
@@ -181,6 +187,38 @@ class NodeRuntime:
         if self.produce_sync and ev.state in (0, int(NmtState.PRE_OPERATIONAL)) and not self.stop_event.is_set():
             self.device.nmt_command(NmtCommand.START, ev.node_id)
             self.stats.nmt_starts_sent += 1
+
+    # ------------------------------------------------------------------ SYNC consumer without SYNC
+    def _start_fallback(self) -> None:
+        """The SYNC producer is gone: run our cycles on a local timer (peer lost: the envelope ramps
+        to neutral, then cuts) until SYNC or the peer's heartbeat come back."""
+        if self._fallback is not None and self._fallback.is_alive():
+            return
+        self._fallback = threading.Thread(target=self._fallback_loop, name="sync-fallback", daemon=True)
+        self._fallback.start()
+
+    def _fallback_loop(self) -> None:
+        dev = self.device
+        period = self.parts.period_s
+        ticker = RealtimeTicker(period)
+        log.warning("no SYNC producer: local fallback cycles every %g ms", period * 1e3)
+        n = 0
+        while not self.stop_event.is_set() and dev.peer_status(self.peer_id) == "lost":
+            ticker.wait_next()
+            if time.monotonic() - self._last_sync_at < 2 * period:
+                continue  # SYNC still arrives (only the heartbeat is missing)
+            with dev._lock:
+                if self.stop_event.is_set() or dev.state is not NmtState.OPERATIONAL or self._state is None:
+                    continue
+                try:
+                    self._cycle(SyncTick(None, (), True), fallback=True)
+                    n += 1
+                except Exception:
+                    self.stats.cycle_errors += 1
+                    log.exception("fallback cycle failed: current set to 0 A")
+                    self._safe_current()
+        self.stats.fallback_cycles += n
+        log.warning("local fallback cycles ended after %d cycles", n)
 
     def _on_rpdo(self, ev) -> None:
         if ev.number == 1 and self._waiting_first_rpdo:
@@ -230,8 +268,10 @@ class NodeRuntime:
             self._safe_current()
             raise
 
-    def _cycle(self, tick: SyncTick) -> None:
+    def _cycle(self, tick: SyncTick, *, fallback: bool = False) -> None:
         now = time.monotonic()
+        if not fallback:
+            self._last_sync_at = now
         if not self.produce_sync and not self.lockstep:
             last = self._last_sync_wall
             if last is not None and now - last > 1.5 * self.parts.period_s:
@@ -274,6 +314,11 @@ class NodeRuntime:
         w["T_pred_C"](st.T_pred_C)
         w["T_cmd_C"](st.setpoint_C)
         w["safety_state"](int(st.safety.state))
+        if st.safety.state != self._safety_state:
+            if self._safety_state is not None:
+                log.info("cycle %d: safety state %s -> %s", self.stats.cycles, self._safety_state.name,
+                         st.safety.state.name)
+            self._safety_state = st.safety.state
         self.stats.cycles += 1
         w["cycle_counter"](self.stats.cycles & 0xFFFFFFFF)
         w["late_cycles"](self.stats.late_cycles & 0xFFFFFFFF)

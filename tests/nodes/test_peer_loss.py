@@ -107,3 +107,28 @@ def test_slave_killed_then_restarted(session, tmp_path):
     assert np.count_nonzero(np.diff(peer[after])) > 0.9 * (len(rec) - k_resume - 1)
     assert abs(cur[k_resume]) <= 0.05
     assert np.max(np.abs(np.diff(cur[k_resume:k_resume + 50]))) <= 0.1
+
+
+def test_master_killed_slave_ramps_to_neutral_and_cuts_on_its_own(session, tmp_path):
+    pair, obs = session
+    assert wait_for(lambda: pair.progress[0] >= 150, 120), "session did not start"
+    pair.master.kill()                        # the SYNC producer is gone: no SYNC, no heartbeat
+    pair.master.wait()
+    assert wait_for(lambda: obs.emcy(2, 0x8130), 30), "no EMCY 0x8130 from the slave"
+    slave_log = tmp_path / "slave.log"
+    assert wait_for(lambda: "-> CUT" in slave_log.read_text(), 60), "the slave never cut its current"
+    codes = pair.stop()
+    assert codes["slave"] == 0
+    rec = read_recording_csv(tmp_path / "slave.csv")
+    trips = rec.text("s_new_trips")
+    k_trip = next(k for k, t in enumerate(trips) if "peer_lost" in t)
+    state, sp, cur = rec.col("s_safety_state"), rec.col("s_setpoint_C"), rec.col("s_current_A")
+    after = slice(k_trip, len(rec))
+    assert np.all(state[after] >= 2)
+    assert np.all(np.abs(np.diff(sp[after])) <= RAMP_C_PER_S * PERIOD_S + 1e-9)
+    cut = np.flatnonzero(state[after] == 3)
+    assert cut.size and np.all(cur[k_trip + cut[0]:] == 0.0)
+    # the cycles after the loss ran on the slave's own timer: one period of scene time each
+    t = rec.col("t_s")
+    np.testing.assert_allclose(np.diff(t[k_trip:]), PERIOD_S, rtol=1e-9)
+    assert "local fallback cycles" in slave_log.read_text()
