@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import struct
 from collections import deque
-from dataclasses import dataclass
 
 HISTORY_LEN = 8
 
@@ -44,13 +43,6 @@ def register_bits(code: int) -> int:
     elif code >> 8 == 0xFF:
         bits |= REG_MANUFACTURER
     return bits
-
-
-@dataclass(frozen=True, slots=True)
-class EmcyRecord:
-    code: int
-    register: int
-    data: bytes
 
 
 class EmcyState:

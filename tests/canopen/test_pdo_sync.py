@@ -10,7 +10,7 @@ import can
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.canopen_dev import DeviceSettings, NmtCommand, SyncProducer
+from telethermo.canopen_dev import NmtCommand, SyncProducer
 
 
 def drain(bus) -> list[can.Message]:
