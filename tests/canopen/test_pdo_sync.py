@@ -250,3 +250,19 @@ def test_real_time_producer_sends_counted_syncs_until_stopped(lab):
     assert sync.errors == 0 and dev.stats.tpdo_sent >= 10  # each SYNC also ticked the producer itself
     with pytest.raises(ValueError):
         sync.start(0.0)
+
+
+def test_nan_and_inf_in_an_rpdo_reach_the_od_unchanged(lab):
+    """The device does not judge PDO data: NaN/inf go to the OD for the safety envelope to see."""
+    import math
+
+    dev = lab.device("master")
+    node = lab.client("master")
+    bus = lab.raw_bus()
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    bus.send(can.Message(arbitration_id=0x182, data=struct.pack("<ff", math.nan, math.inf), is_extended_id=False))
+    node.network.sync.transmit(1)
+    barrier(node)
+    assert math.isnan(dev.read("peer_estimate_C")) and dev.read("peer_Q_W") == math.inf
+    assert dev.stats.malformed_frames == 0 and dev.stats.rpdo_count == 1
