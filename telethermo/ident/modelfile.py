@@ -306,7 +306,8 @@ def narma_to_od_values(model: NarmaModel) -> list[float]:
     Store θ as **REAL64** (CANopen data type 0x0011), not REAL32: at 10 ms the AR coefficients of a TEM
     model nearly cancel (1 - Σα ≈ 2e-8 for the shipped model, whose slowest pole is the heat sink's,
     0.9996), far below REAL32's resolution of ~5e-7 on coefficients of magnitude ~4; REAL32 rounding
-    makes such a model unstable (:func:`narma_from_od_values` then refuses it)."""
+    makes such a model unstable (:func:`narma_from_od_values` then refuses it) or wrong by degrees
+    (8 °C in a free run of the shipped model, measured)."""
     o = model.orders
     return [float(FORMAT_VERSION), float(o.n), float(o.m), float(o.p), float(o.q), model.period_s, model.T_ref_C,
             model.current_range_A[0], model.current_range_A[1], *map(float, model.theta)]

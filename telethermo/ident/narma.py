@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 
 MAX_ORDER = 8
 RCOND = 1e-12  # singular values of the scaled regressors below RCOND x the largest are treated as zero
@@ -451,7 +452,7 @@ class NarmaPredictor:
 def fit_narma(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders = NarmaOrders(),
               period_s: float = 0.01, T_ref_C: float | None = None, check_stability: bool = True,
               validation: tuple[np.ndarray, np.ndarray] | None = None, method: str = "ls",
-              max_nfev: int = 60) -> NarmaModel:
+              max_nfev: int = 100) -> NarmaModel:
     """Fit a NARMA model (eq. 10) by batch least squares (eq. 17) on RMS-scaled columns (QR/SVD, never
     the normal equations).
 
@@ -533,20 +534,24 @@ def free_run_sensitivity(model: NarmaModel, *, current_A: np.ndarray, T_C: np.nd
     if not np.all(np.isfinite(fr)):
         return fr, np.full((N, o.d), np.nan)
     Phi, _ = narma_regressors(I, fr - model.T_ref_C, o)
-    alpha = model.ar_coefficients(I).T
-    J = np.zeros((N, o.d))
-    a = [alpha[i] for i in range(n)]
+    # (1 - Σ_i α_i(t)·q^-i)·J = φ̂: a unit lower-triangular banded system, solved in LAPACK (dtbtrs,
+    # forward substitution without pivoting: the recursion itself) for all d columns at once
+    alpha = model.ar_coefficients(I).T  # alpha[i-1, s] = α_i evaluated at I[s], used at t = s + i
+    ab = np.zeros((n + 1, N))
+    ab[0] = 1.0
+    for i in range(1, n + 1):
+        ab[i, :N - i] = -alpha[i - 1, :N - i]
+    B = np.zeros((N, o.d), order="F")
+    B[L:] = Phi
     with np.errstate(over="ignore", invalid="ignore"):
-        for t in range(L, N):
-            row = Phi[t - L].copy()
-            for i in range(n):
-                row += a[i][t - i - 1] * J[t - i - 1]
-            J[t] = row
+        J, info = scipy.linalg.lapack.dtbtrs(ab, B, uplo="L", diag="U", overwrite_b=True)
+    if info != 0:
+        J = np.full((N, o.d), np.nan)
     return fr, J
 
 
 def refine_output_error(model: NarmaModel, *, current_A: np.ndarray, T_C: np.ndarray,
-                        max_nfev: int = 60) -> tuple[NarmaModel, dict[str, Any]]:
+                        max_nfev: int = 100) -> tuple[NarmaModel, dict[str, Any]]:
     """Refine θ to minimise the free-run (simulation) error on a record (Levenberg-Marquardt with the
     exact Jacobian of :func:`free_run_sensitivity`, on RMS-scaled parameters), starting from ``model``.
 

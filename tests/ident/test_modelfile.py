@@ -101,10 +101,16 @@ def test_shipped_model_loads_and_is_stable():
 
 
 def test_shipped_model_needs_real64_in_the_object_dictionary():
-    """The shipped model's AR coefficients cancel to 2e-8 (heat-sink pole 0.9996 at 10 ms): REAL64
-    transfer is exact, REAL32 rounding makes it unstable and the transfer is refused with the reason."""
+    """The shipped model's AR coefficients cancel to ~2e-8 (heat-sink pole 0.9996 at 10 ms): REAL64
+    transfer is exact; REAL32 rounding either makes it unstable (the transfer is then refused) or
+    wrong by degrees (steady-state gain and free run)."""
     m = load_model(default_model_path()).temperature
     vals = narma_to_od_values(m)
     assert np.array_equal(narma_from_od_values(vals).theta, m.theta)
-    with pytest.raises(ModelFileError, match="REAL64"):
-        narma_from_od_values(round_to_real32(vals))
+    try:
+        b = narma_from_od_values(round_to_real32(vals))
+    except ModelFileError as exc:
+        assert "REAL64" in str(exc)
+        return
+    u = np.r_[np.zeros(100), prbs(20000, amplitude_A=(0.1, 1.0), hold_samples=25, seed=5)]
+    assert np.max(np.abs(m.free_run(current_A=u, T0_C=25.0) - b.free_run(current_A=u, T0_C=25.0))) > 1.0
