@@ -134,8 +134,10 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
                         description="own estimate sent in TPDO1: finger T_f (master, eq. 30) / object T_o (slave, eq. 31)")),
         V(0x2101, _real("T_pred_C", "ro", 0.0, **ro_pdo, description="TEM surface temperature predicted by the model (eq. 32)")),
         V(0x2102, _real("T_cmd_C", "ro", 0.0, **ro_pdo, description="temperature command after the safety envelope")),
-        V(0x2103, _real("peer_estimate_C", "rww", 0.0, pdo=True, description="peer's estimate, received in RPDO1")),
-        V(0x2104, _real("peer_Q_W", "rww", 0.0, pdo=True, description="peer's heat flux, received in RPDO1")),
+        V(0x2103, _real("peer_estimate_C", "rww", 0.0, -273.15, 1000.0, pdo=True,
+                        description="peer's estimate, received in RPDO1 (limits apply to SDO writes only)")),
+        V(0x2104, _real("peer_Q_W", "rww", 0.0, -1000.0, 1000.0, pdo=True,
+                        description="peer's heat flux, received in RPDO1 (limits apply to SDO writes only)")),
         # -- controller (eq. 33-35)
         V(0x2200, _real("kp_A_per_C", "rw", kp, 0.0, 20.0, description="proportional gain")),
         V(0x2201, _real("ki_A_per_C_s", "rw", ki, 0.0, 20.0, description="integral gain")),
