@@ -7,7 +7,9 @@ PDO means (the safety envelope's peer-loss path).
 
 ``python -m telethermo.canopen_dev.lockstep`` measures the device layer alone: two devices on a
 python-can ``virtual`` bus in one process, a trivial SYNC handler, N lockstep cycles; it prints the
-median cycles/s over repeats (the node programs add their control step and rig on top).
+median cycles/s over repeats (the node programs add their control step and rig on top), and the
+median cost of one SYNC on a lone device (``process_sync_us``; ``sync_transmit_us`` with the SYNC
+frame itself).
 """
 from __future__ import annotations
 
@@ -85,13 +87,48 @@ def measure_virtual(cycles: int = 2000, *, repeats: int = 3) -> dict[str, float]
             "repeats": repeats, "min": min(rates), "max": max(rates)}
 
 
+def measure_per_sync(n: int = 5000, *, repeats: int = 5) -> dict[str, float]:
+    """Median cost of one SYNC on a lone producing device (own tick, handler, TPDO1 sent), µs."""
+    import canopen
+
+    from bus_config import path
+    from telethermo.canopen_dev.device import NmtCommand
+
+    net = canopen.Network()
+    net.NOTIFIER_CYCLE = 0.05
+    net.connect(interface="virtual", channel=f"persync-{uuid.uuid4().hex[:8]}")
+    dev = Device(net, 1, path("master.eds"))
+    try:
+        write, read = dev.writer("estimate_C"), dev.reader("peer_estimate_C")
+        dev.add_sync_handler(lambda tick: write(read() + 1.0))
+        dev.start()
+        dev.nmt_command(NmtCommand.START, 0)
+        sync = SyncProducer(dev)
+        own, transmit = [], []
+        for _ in range(repeats):
+            t0 = time.perf_counter()
+            for _ in range(n):
+                dev.process_sync(1)
+            t1 = time.perf_counter()
+            for _ in range(n):
+                sync.transmit()
+            t2 = time.perf_counter()
+            own.append((t1 - t0) / n * 1e6)
+            transmit.append((t2 - t1) / n * 1e6)
+    finally:
+        dev.close()
+        net.disconnect()
+    return {"process_sync_us": statistics.median(own), "sync_transmit_us": statistics.median(transmit)}
+
+
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Lockstep cycles/s of two bare devices over python-can virtual.")
+    parser = argparse.ArgumentParser(description="Lockstep cycles/s of two bare devices over python-can virtual, "
+                                                 "and the cost of one SYNC on one device.")
     parser.add_argument("--cycles", type=int, default=2000)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args(argv)
-    result = measure_virtual(args.cycles, repeats=args.repeats)
-    print(" ".join(f"{k}={v:.0f}" if isinstance(v, float) else f"{k}={v}" for k, v in result.items()))
+    result = {**measure_virtual(args.cycles, repeats=args.repeats), **measure_per_sync(repeats=args.repeats)}
+    print(" ".join(f"{k}={v:.1f}" if isinstance(v, float) else f"{k}={v}" for k, v in result.items()))
     return 0
 
 
