@@ -30,6 +30,8 @@ def _setup_logging(role: Role, verbose: bool, log_path) -> None:
         fh.setLevel(logging.INFO)
         handlers.append(fh)
     logging.basicConfig(level=logging.INFO, format=fmt, handlers=handlers, force=True)
+    # python-can's socketcand client warns about every TCP read that ends mid-frame (normal under load)
+    logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.ERROR)
 
 
 def run_node(role: Role, argv: list[str] | None = None) -> int:

@@ -57,6 +57,16 @@ class PeerLink:
             if not (math.isfinite(estimate_C) and math.isfinite(flux_W)):
                 self.counters.non_finite += 1
 
+    def start_with(self, values: PeerValues) -> None:
+        """Stand-in values until the peer's first PDO (``initial_peer`` of the first sample): not
+        fresh, so a peer whose PDOs never come is declared lost after ``max_missed_cycles``."""
+        with self._lock:
+            if not self._ever:
+                self._estimate_C, self._flux_W = values.estimate_C, values.flux_W
+                self._ever = True
+                self._fresh = False
+                self._missed = -1  # the first take() (cycle 0) is not a miss
+
     def on_heartbeat_timeout(self) -> None:
         with self._lock:
             self._hb_ok = False
@@ -75,13 +85,14 @@ class PeerLink:
         return self._hb_ok and self._ever and self._missed <= self.max_missed_cycles
 
     def take(self) -> PeerValues | None:
-        """The values for this cycle (None until the peer's first PDO); marks them consumed."""
+        """The values for this cycle (None before the first PDO or :meth:`start_with`); marks them consumed."""
         with self._lock:
             if self._fresh:
                 self._missed = 0
             elif self._ever:
                 self._missed += 1
-                self.counters.missed_cycles += 1
+                if self._missed > 0:
+                    self.counters.missed_cycles += 1
             if not self._ever:
                 return None
             alive = self._alive_locked()

@@ -36,6 +36,7 @@ from telethermo.canopen_dev.sync import SyncProducer
 from telethermo.control import safety as sf
 from telethermo.control.core import CoreState, clear_faults, init_state, initial_peer, step
 from telethermo.control.types import Mode, Role
+from telethermo.session.runner import _side_row, _truth_row  # the offline runner's row format, exactly
 from telethermo.transport.bus import TransportSettings, open_bus
 
 from nodes.parts import NodeParts
@@ -281,13 +282,12 @@ class NodeRuntime:
         if self._advance_pending:
             rig.advance(self.parts.period_s)
         sample = rig.read()
+        if self._state is None:
+            self._state = init_state(self.params, self.parts.model, sample)
+            self.peer.start_with(initial_peer(sample))  # cycle 0 as the offline runner; then PDOs
         if 1 in tick.fresh_rpdos:
             self.peer.on_pdo(self._r_peer_est(), self._r_peer_q())
         peer = self.peer.take()
-        if self._state is None:
-            self._state = init_state(self.params, self.parts.model, sample)
-            if peer is None:
-                peer = initial_peer(sample)
         state = self._state
         if peer is not None and peer.alive and peer.fresh and state.env.trips \
                 and state.env.trips <= sf.PEER_TRIPS:
@@ -334,7 +334,6 @@ class NodeRuntime:
             self.stats.cycle_s.append(time.monotonic() - now)
 
     def _record(self, sample, res, peer) -> None:
-        from telethermo.session.runner import _side_row, _truth_row
         row = {"t_s": sample.t_s}
         row.update(_side_row(self.prefix, sample, res, peer))
         if self.parts.truth is not None:
@@ -384,4 +383,8 @@ class NodeRuntime:
                     self.stats.lockstep_timeouts += 1
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)
+        # the session is over: every node leaves OPERATIONAL (no PDOs, current 0) before we go silent,
+        # so that the peer does not take our end for a loss
+        if dev.state is NmtState.OPERATIONAL:
+            dev.nmt_command(NmtCommand.ENTER_PRE_OPERATIONAL, 0)
         return k

@@ -44,3 +44,15 @@ def test_nan_is_passed_on_and_counted():
     link.on_pdo(math.nan, 1.0)
     pv = link.take()
     assert math.isnan(pv.estimate_C) and link.counters.non_finite == 1
+
+
+def test_stand_in_values_until_the_first_pdo_then_lost_if_none_comes():
+    from telethermo.control.types import PeerValues
+    link = PeerLink(max_missed_cycles=3)
+    link.start_with(PeerValues(30.0, 0.0, fresh=False, alive=True))
+    pv = link.take()                                  # cycle 0: the stand-in, as the offline runner
+    assert (pv.estimate_C, pv.flux_W, pv.fresh, pv.alive) == (30.0, 0.0, False, True)
+    assert link.counters.missed_cycles == 0
+    assert [link.take().alive for _ in range(4)] == [True, True, True, False]
+    link.on_pdo(31.0, 0.2)
+    assert link.take() == PeerValues(31.0, 0.2, fresh=True, alive=True)
