@@ -118,31 +118,37 @@ def test_silent_node_is_a_runtime_failure(cli):
 
 @pytest.mark.parametrize("ext", [".log", ".asc", ".blf"])
 def test_record_writes_a_log_that_logreader_reads_back_whole(nodes, cli, tmp_path, ext):
+    import threading
+    import time
     out_file = tmp_path / f"rec{ext}"
     sender = can.Bus(interface="virtual", channel=nodes.channel)
-    import threading
-    frames = [can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False) for k in range(200)]
+    stop = threading.Event()
 
-    def send():
-        import time
-        time.sleep(0.2)
-        for f in frames:
-            sender.send(f)
+    def send():   # SYNC with a running counter until the recording is over
+        k = 0
+        while not stop.is_set():
+            sender.send(can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False))
+            k += 1
+            time.sleep(0.002)
     th = threading.Thread(target=send)
     th.start()
-    code, out, err = cli("record", "--bus", f"virtual:{nodes.channel}", str(out_file), "--duration", "0.8")
-    th.join()
-    sender.shutdown()
+    try:
+        code, out, err = cli("record", "--bus", f"virtual:{nodes.channel}", str(out_file), "--duration", "0.8")
+    finally:
+        stop.set()
+        th.join()
+        sender.shutdown()
     assert code == EXIT_OK, err
     n = int(out.split()[1])
     back = list(can.LogReader(str(out_file)))
     assert len(back) == n
-    syncs = [m for m in back if m.arbitration_id == 0x080]
-    assert [m.data[0] for m in syncs] == [k % 240 + 1 for k in range(200)]   # all, in order
-    assert all(m.arbitration_id in range(0x701, 0x703) or m.arbitration_id == 0x080 for m in back)
+    counters = [m.data[0] for m in back if m.arbitration_id == 0x080]
+    assert len(counters) > 50
+    assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # none lost, in order
+    assert {m.arbitration_id for m in back} <= {0x080, 0x701, 0x702}
     rows = (tmp_path / "rec.csv").read_text().splitlines()
     assert len(rows) == n + 1 and rows[0].startswith("t_s,cob_id,kind")
-    assert sum(1 for r in rows if ",SYNC," in r) == 200
+    assert sum(1 for r in rows if ",SYNC," in r) == len(counters)
 
 
 def test_record_refuses_unknown_extension(cli, tmp_path):
