@@ -356,9 +356,13 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
 
 
 def _predict(state: CoreState, current_A: float) -> tuple[float, int, Any]:
+    """T_pred for this sample. ``current_A``: the current held since the previous sample (the sample's
+    measured current). The first sample is the predictor's rest state (no step yet)."""
     cell = state.cell
     if cell is None:
         return math.nan, state.pred_tick, None
+    if state.k == 0:
+        return state.T_pred_C, state.pred_tick, state.pred_snapshot
     if cell.tick != state.pred_tick:
         if not cell.can_snapshot:
             raise RuntimeError("control.core.step: this CoreState was already used and its predictor cannot be "

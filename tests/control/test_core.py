@@ -216,3 +216,45 @@ def test_slave_echoes_the_finger_estimate_while_free_if_asked():
     ps2 = CoreParams(role=Role.SLAVE, echo_peer_when_free=True)
     r = step(S(T=30.0), PeerValues(math.nan, 0.0), ps2, init_state(ps2, None, S(T=30.0)))
     assert r.out.estimate_C == pytest.approx(30.0)
+
+
+def test_model_estimator_with_the_shipped_narma_model():
+    """The paper's estimator with telethermo.ident's streaming predictor: eq. 30 and the predictor's
+    own free run; step() stays pure (the predictor's snapshot/restore travel in the state)."""
+    ident = pytest.importorskip("telethermo.ident")
+    model = ident.load_model(ident.default_model_path())
+    p = CoreParams(role=Role.MASTER, estimator=Estimator.MODEL)
+    s0 = init_state(p, model, S(T=26.0))
+    ref = model.temperature.predictor(T0_C=26.0)
+    r = step(S(T=26.0, I=0.0), PeerValues(26.0, 0.0), p, s0)
+    currents = [r.current_A]
+    for k in range(1, 50):
+        r_prev = r
+        r = step(S(t=0.01 * k, T=26.2, I=currents[-1]), PeerValues(27.0, 0.0), p, r.state)
+        T_pred = ref.step(currents[-1])
+        assert r.status.T_pred_C == pytest.approx(T_pred, abs=1e-12)
+        assert r.status.estimate_C == pytest.approx(2 * 26.2 - T_pred, abs=1e-12)  # guiatni eq. 30
+        currents.append(r.current_A)
+    again = step(S(t=0.49, T=26.2, I=currents[-2]), PeerValues(27.0, 0.0), p, r_prev.state)
+    assert again.status == r.status and again.current_A == r.current_A
+
+
+def test_a_predictor_without_snapshot_makes_states_single_use():
+    class Lag:  # a first-order TEM plate model (°C per A·s), no snapshot support
+        def __init__(self):
+            self.T = 0.0
+
+        def reset(self, T_C):
+            self.T = T_C
+
+        def step(self, current_A):
+            self.T += 0.04 * current_A
+            return self.T
+
+    p = CoreParams(role=Role.MASTER, estimator=Estimator.MODEL)
+    s0 = init_state(p, Lag(), S(T=26.0))
+    r1 = step(S(T=26.0), PeerValues(26.0, 0.0), p, s0)
+    r2 = step(S(t=0.01, T=26.0, I=0.5), PeerValues(26.0, 0.0), p, r1.state)
+    assert r2.status.T_pred_C == pytest.approx(26.02)
+    with pytest.raises(RuntimeError, match="already used"):
+        step(S(t=0.01, T=26.0, I=0.5), PeerValues(26.0, 0.0), p, r1.state)
