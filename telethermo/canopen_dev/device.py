@@ -326,6 +326,12 @@ class Device:
         return self._state
 
     @property
+    def lock(self) -> threading.RLock:
+        """The device lock (re-entrant): held during SYNC processing, RPDO commits, SDO writes and
+        NMT transitions. Hold it to act between two SYNCs (e.g. cut the current on shutdown)."""
+        return self._lock
+
+    @property
     def is_sync_producer(self) -> bool:
         return bool(self._u(0x1005, 0) & (1 << 30))
 
