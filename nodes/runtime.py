@@ -103,6 +103,7 @@ class NodeRuntime:
         self.device: Device | None = None
         self.sync: SyncProducer | None = None
         self.peer = PeerLink()
+        self.ticker: RealtimeTicker | None = None
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
@@ -193,7 +194,7 @@ class NodeRuntime:
     def _start_fallback(self) -> None:
         """The SYNC producer is gone: run our cycles on a local timer (peer lost: the envelope ramps
         to neutral, then cuts) until SYNC or the peer's heartbeat come back."""
-        if self._fallback is not None and self._fallback.is_alive():
+        if (self._fallback is not None and self._fallback.is_alive()) or self.device.state is not NmtState.OPERATIONAL:
             return
         self._fallback = threading.Thread(target=self._fallback_loop, name="sync-fallback", daemon=True)
         self._fallback.start()
@@ -358,6 +359,7 @@ class NodeRuntime:
         period = self.parts.period_s
         hb_timeout = self.net.heartbeat.consumer_ms * 1e-3 or 1.0
         ticker = None if self.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
+        self.ticker = ticker
         k = 0
         while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
             if dev.state is not NmtState.OPERATIONAL:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable, Iterable
 
 
@@ -85,6 +85,9 @@ class TickerStats:
     late_cycles: int = 0
     overruns: int = 0
     max_lateness_s: float = 0.0
+    lateness_s: list = field(default_factory=list)
+    """Start lateness of every cycle, s (the first ``max_samples``)."""
+    max_samples: int = 1_000_000
 
 
 class RealtimeTicker:
@@ -121,9 +124,11 @@ class RealtimeTicker:
         late = lateness > self.tolerance_s
         s = self.stats
         s.cycles += 1
+        if len(s.lateness_s) < s.max_samples:
+            s.lateness_s.append(lateness)
+        s.max_lateness_s = max(s.max_lateness_s, lateness)
         if late:
             s.late_cycles += 1
-            s.max_lateness_s = max(s.max_lateness_s, lateness)
         if lateness >= self.period_s:
             s.overruns += 1
             self._due = now + self.period_s  # re-anchor: no burst of catch-up cycles
