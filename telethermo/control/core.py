@@ -12,19 +12,21 @@ Per step (guiatni eq. 30-35, yamamoto §III):
 3. the mode gives the requested setpoint and the feed-forward:
    TELEPRESENCE: setpoint = the peer's estimate, feed-forward = -kQ·Q_peer (the pad delivers the
    mirror of the flux the peer's contact draws: eq. 34/35 with the rig sign convention, so kQ > 0);
-   RENDER: T_pad0 (eq. 7) until contact is detected, then T_contact (eq. 1); IDLE: current ramps to
-   0; IDENTIFY: a PRBS current of ``identify_amplitude_A``;
+   optional flux loop towards -Q_peer; RENDER: T_pad0 (eq. 7) until contact is detected, then
+   T_contact (eq. 1), current held ``settle_s``; IDLE: current ramps to 0; IDENTIFY: a PRBS
+   current of ``identify_amplitude_A``;
 4. the safety envelope (:mod:`telethermo.control.safety`) judges the sample and the peer, ramps and
    clamps the setpoint; a bad peer value is replaced by the ramp to neutral before it can reach the
    PI;
 5. PI + feed-forward with anti-windup including the feed-forward (:mod:`telethermo.control.pi`),
    bumpless on every change of mode or setpoint source;
-6. the envelope limits the current (cut, surface guard, |I| <= 0.8·Imax).
+6. the envelope limits the current (cut, surface guard with taper, |I| <= 0.8·Imax).
 
 ``step`` is pure: the same (sample, peer, params, state) give the same result. The predictor is the
 only stateful object; its state is carried in :class:`CoreState` through ``snapshot()``/``restore()``
-when the predictor offers them (``telethermo.ident``'s does, and :class:`NarmaFreeRun` below); a
-predictor without them makes a state single-use (re-using an old state raises).
+when the predictor offers them (``telethermo.ident``'s NarmaPredictor does); a predictor without
+them makes a state single-use (re-using an old state raises). Pass a *model* (not one predictor
+object) when both sides share it: each ``init_state`` then builds its own predictor.
 """
 from __future__ import annotations
 
