@@ -26,12 +26,14 @@ from typing import Any
 import numpy as np
 
 from telethermo.atomic import write_json_atomic
-from telethermo.control.core import CoreParams, RenderSettings, StepResult, init_state, initial_peer, step
+from telethermo.control.core import CoreParams, StepResult, init_state, initial_peer, step
 from telethermo.control.defaults import default_params
 from telethermo.control.types import Mode, PeerValues, Role
 from telethermo.session.figures import compute_figures
 from telethermo.session.plot import write_session_png
 from telethermo.session.recording import Recording, RecordingBuilder, write_recording_csv
+from telethermo.session.render_script import RenderScript
+from telethermo.session.render_script import render_touches as render_touches_
 
 ROUNDINGS = ("none", "real32")
 
@@ -172,11 +174,6 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     return SessionResult(rec, compute_figures(rec))
 
 
-def _set_finger0(touch: dict[str, Any], T_f0: float) -> None:
-    rs = dataclasses.replace(touch["settings"], T_finger0_C=T_f0)
-    touch.update(settings=rs, T_finger0_C=T_f0, T_contact_C=rs.T_contact_C, T_pad0_C=rs.T_pad0_C)
-
-
 def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, beta_pad: float = 2.23,
                 T_finger0_C: float = 34.0, finger_thermometer: bool = True,
                 thermometer_lead_s: float = 1.0, calibration_presets_C: list[float] | None = None) -> SessionResult:
@@ -187,42 +184,20 @@ def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, bet
     ``calibration_presets_C``: calibration session instead: touch i pre-sets the pad at
     ``calibration_presets_C[i]`` and holds the current during the touch (see session.calibration).
     """
-    touches = _render_touches(sc, beta_pad=beta_pad, T_finger0_C=T_finger0_C)
-    if calibration_presets_C is not None:
-        if len(calibration_presets_C) < len(touches):
-            raise ValueError(f"calibration_presets_C: expected {len(touches)} pre-sets (one per touch of "
-                             f"{sc.name}), got {len(calibration_presets_C)}")
-        for t, T in zip(touches, calibration_presets_C):
-            # rendering the pad's own material at T pre-sets the pad at T (eq. 7 with beta_obj = beta_pad)
-            rs = RenderSettings(beta_object=beta_pad, T_object0_C=float(T), beta_pad=beta_pad,
-                                T_finger0_C=T_finger0_C, hold_current_on_contact=True, material="calibration")
-            t.update(material="calibration", beta=beta_pad, T_object0_C=float(T), settings=rs,
-                     T_contact_C=rs.T_contact_C, T_pad0_C=rs.T_pad0_C)
-    base = params or default_params(Role.MASTER, period_s=period, mode=Mode.RENDER,
-                                    render=touches[0]["settings"] if touches else None)
+    script = RenderScript(sc, beta_pad=beta_pad, T_finger0_C=T_finger0_C, finger_thermometer=finger_thermometer,
+                          thermometer_lead_s=thermometer_lead_s, calibration_presets_C=calibration_presets_C)
+    base = params or default_params(Role.MASTER, period_s=period, mode=Mode.RENDER, render=script.first)
     base = _with_rig_limits(base, rig_m)
     s0 = rig_m.read()
-    state = init_state(dataclasses.replace(base, mode=Mode.RENDER, render=touches[0]["settings"]), model, s0)
+    state = init_state(dataclasses.replace(base, mode=Mode.RENDER, render=script.first), model, s0)
     meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "render", "rounding": rounding,
             "contacts": _contacts(sc, "master"), "finger_thermometer": finger_thermometer,
             "master_params": _params_meta(base)}
     b = RecordingBuilder(meta)
-    idx = 0
-    measured = set()
     for _k in range(n_steps):
         smp = rig_m.read()
-        # the next touch's material is selected once the previous touch has ended (the session's script)
-        while idx + 1 < len(touches) and smp.t_s >= touches[idx]["t_off_s"] + 0.5 * period:
-            idx += 1
-        if (finger_thermometer and touches and idx not in measured
-                and smp.t_s >= touches[idx]["t_on_s"] - thermometer_lead_s - 1e-9):
-            # yamamoto's radiation thermometer: the finger's skin temperature, read before the touch
-            T_f0 = _finger_skin_C(rig_m, rig_m.truth())
-            if math.isfinite(T_f0):
-                _set_finger0(touches[idx], T_f0)
-            measured.add(idx)
-        p = dataclasses.replace(base, mode=Mode.RENDER, render=touches[idx]["settings"]) if touches else base
-        r = step(smp, None, p, state)
+        rs = script.settings_at(smp.t_s, period, lambda: _finger_skin_C(rig_m, rig_m.truth()))
+        r = step(smp, None, dataclasses.replace(base, mode=Mode.RENDER, render=rs), state)
         row = {"t_s": smp.t_s}
         row.update(_side_row("m", smp, r, None))
         row.update(_truth_row("m", rig_m))
@@ -233,7 +208,7 @@ def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, bet
         rig_m.advance(period)
         ref.advance(period)
     rec = b.build()
-    rec.meta["render"] = [{k: v for k, v in t.items() if k != "settings"} for t in touches]
+    rec.meta["render"] = script.meta()
     return SessionResult(rec, compute_figures(rec))
 
 
@@ -258,25 +233,9 @@ def _contacts(sc, side: str) -> list[dict[str, Any]]:
 
 
 def _render_touches(sc, table: dict[str, float] | None = None, *, beta_pad: float = 2.23,
-                    T_finger0_C: float = 33.0) -> list[dict[str, Any]]:
-    """Render settings of each touch of a virtual scene (β from the rendering table)."""
-    from telethermo.control.rendering import load_render_table
-    table = table or load_render_table()
-    out = []
-    for t in sc.master_contacts:
-        if t.render is None:
-            continue
-        if t.render not in table:
-            raise ValueError(f"scene {sc.name}: render material {t.render!r} not in the rendering table "
-                             f"(known: {', '.join(sorted(table))})")
-        spec = sc.objects.get(t.render)
-        T_o = float(spec.T0_C) if spec is not None else float(sc.ambient_C)
-        rs = RenderSettings(beta_object=table[t.render], T_object0_C=T_o, beta_pad=beta_pad,
-                            T_finger0_C=T_finger0_C, material=t.render)
-        out.append({"material": t.render, "beta": table[t.render], "t_on_s": t.start_s, "t_off_s": t.end_s,
-                    "T_contact_C": rs.T_contact_C, "T_pad0_C": rs.T_pad0_C, "T_finger0_C": T_finger0_C,
-                    "T_object0_C": T_o, "settings": rs})
-    return out
+                    T_finger0_C: float = 34.0) -> list[dict[str, Any]]:
+    """Render settings of each touch of a virtual scene (see render_script.render_touches)."""
+    return render_touches_(sc, table, beta_pad=beta_pad, T_finger0_C=T_finger0_C)
 
 
 def _params_meta(p: CoreParams) -> dict[str, Any]:
