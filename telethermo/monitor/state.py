@@ -194,6 +194,7 @@ class Monitor:
         self._window: deque[tuple[float, int]] = deque()
         self._window_bits = 0
         self._last_sync_t: float | None = None
+        self._late_streak = 0
         self._sync_cob = cia301.COB_SYNC
         for n, info in self.config.nodes.items():
             self._node(n).name = info.name
@@ -363,9 +364,13 @@ class Monitor:
             per = self.config.sync_period_s
             if per and dt > per * (1.0 + self.config.late_tolerance):
                 s.late_cycles += 1
-                ev.append(Event(f.t_s, WARN, "late_cycle", None,
-                                f"late cycle: SYNC after {dt * 1e3:.2f} ms (period {per * 1e3:.2f} ms)",
-                                {"interval_s": dt, "period_s": per}))
+                self._late_streak += 1
+                if self._late_streak == 1:      # one event per burst of late cycles, all counted
+                    ev.append(Event(f.t_s, WARN, "late_cycle", None,
+                                    f"late cycle: SYNC after {dt * 1e3:.2f} ms (period {per * 1e3:.2f} ms)",
+                                    {"interval_s": dt, "period_s": per}))
+            else:
+                self._late_streak = 0
         self._last_sync_t = f.t_s
         # PDOs on every SYNC (transmission type 1) from OPERATIONAL nodes must have come in between
         for p in self.pdos.values():
