@@ -38,6 +38,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg.blas import dger as _dger
 
 
 @dataclass(frozen=True, slots=True)
@@ -205,7 +206,10 @@ class Rls:
             self._numerical_failure()
             return False
         self._theta = theta + u * (c * e / s)   # θ += K(t-1)φ·e°/(λ1/λ2 + φᵀK(t-1)φ)
-        S -= np.outer(u * beta, f)
+        # S -= β·u·fᵀ in place by BLAS dger on Sᵀ (a Fortran-ordered view of the C-ordered S: in place)
+        if not S.flags.c_contiguous:
+            self._S = S = np.ascontiguousarray(S)
+        _dger(-beta, f, u, a=S.T, overwrite_a=1)
         c /= self.lambda1
         if tr > self.trace_max:
             c *= self.trace_max / tr
