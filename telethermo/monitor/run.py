@@ -93,13 +93,14 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
     n = 0
     last_draw = 0.0
     pending: can.Message | None = None
+    idle = False      # the live source had nothing to give the last time it was asked
     while True:
         t = time.monotonic()
         if t - last_draw >= refresh_s or vs.done:
             if not view.handle_keys(mon):
                 return n
-            if now is not None:
-                mon.tick(now())
+            if now is not None and idle:
+                mon.tick(now())   # only with no frame waiting: a backlog must not look like silence
             if not vs.paused:
                 view.draw(mon)
             elif vs.paused and view.prev and "[PAUSED]" not in view.prev[0]:
@@ -120,6 +121,7 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
             except StopIteration:
                 vs.done = True
                 continue
+            idle = pending is None
         if pending is not None and pacer is not None:
             wait = pacer.wait_s(pending)
             if wait > 0:
