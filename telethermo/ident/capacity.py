@@ -7,7 +7,8 @@ drive current (A). Eq. 5/6 give this form with T_h - T_c folded into θ3, θ5 (t
 the heat sink). On our rigs we model the **pad plate**: P = heat out of the pad into its load (the
 rig's Q_W sign: > 0 when the pad heats what it touches), so for I > 0 it is the heating capacity and for
 I < 0 minus the cooling capacity; eq. 5 and 6 are the same polynomial once the current's sign is kept.
-Fitted by least squares (eq. 15/16, by lstsq, not the normal equations) from N steady-state points.
+Fitted by least squares (eq. 15/16, by pivoted QR on scaled columns, not the normal equations) from N
+steady-state points.
 """
 from __future__ import annotations
 

@@ -453,7 +453,7 @@ def fit_narma(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders = N
               period_s: float = 0.01, T_ref_C: float | None = None, check_stability: bool = True,
               validation: tuple[np.ndarray, np.ndarray] | None = None, method: str = "ls",
               max_nfev: int = 100) -> NarmaModel:
-    """Fit a NARMA model (eq. 10) by batch least squares (eq. 17) on RMS-scaled columns (QR/SVD, never
+    """Fit a NARMA model (eq. 10) by batch least squares (eq. 17) on RMS-scaled columns (pivoted QR, never
     the normal equations).
 
     Args:
