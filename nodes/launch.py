@@ -186,7 +186,8 @@ class NodePair:
             self.hub = HubProcess(log_path=self.log("hub"))
             self.hub.start()
             self.bus = self.hub.bus
-        self.start_slave()
+        if c.mode != "render":  # virtual rendering: the master alone
+            self.start_slave()
         margs = self._common("master") + ["--progress", str(c.progress_every)]
         if c.cycles is not None:
             margs += ["--cycles", str(c.cycles)]

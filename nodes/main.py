@@ -80,6 +80,11 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
     lockstep = opts.timing == "lockstep"
     rt = NodeRuntime(role, node_id, net, transport, parts, mode=opts.mode, lockstep=lockstep,
                      produce_sync=opts.produce_sync, recorder=recorder)
+    if recorder is not None and parts.render_script is not None:
+        # the render script measures each touch's finger temperature as it goes: the meta is final at the end
+        script = parts.render_script
+        rt.final_comments = lambda: [MAGIC[2:], "meta " + json.dumps(dict(meta, render=script.meta()),
+                                                                        sort_keys=True, default=str)]
     reason = ["finished"]
 
     def on_signal(signum, _frame):
@@ -97,7 +102,10 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
             code = EXIT_FAIL
             return code
         if opts.produce_sync:
-            if not rt.wait_for_peer(opts.wait_peer_s):
+            from telethermo.control.types import Mode
+            if opts.mode is not Mode.TELEPRESENCE:
+                pass  # rendering / identification / idle: the peer is welcome but not awaited
+            elif not rt.wait_for_peer(opts.wait_peer_s):
                 if not rt.stop_event.is_set():
                     log.warning("peer %d not seen within %g s: starting anyway", rt.peer_id, opts.wait_peer_s)
             cycles = opts.cycles if opts.cycles is not None else (parts.cycles or 0)

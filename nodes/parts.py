@@ -47,6 +47,12 @@ class NodeParts:
     cycles: int | None
     meta: dict[str, Any]
     truth: Callable[[], Any] | None
+    render_script: Any = None
+    """Render scenes (master): :class:`telethermo.session.render_script.RenderScript`, the same script
+    the offline runner follows (the next touch's material once the previous touch has ended; the
+    finger's skin read before each touch)."""
+    finger_skin: Callable[[], float] | None = None
+    """The finger thermometer of a simulated master rig (skin temperature, °C)."""
 
 
 def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
@@ -59,7 +65,8 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
         except ValueError as exc:  # ModelFileError names the file and the field
             raise OptionError(str(exc)) from None
     meta: dict[str, Any] = {"role": opts.role.value}
-    render = None
+    script = None
+    finger_skin = None
     if opts.scene is not None:
         import sim
         try:
@@ -74,13 +81,14 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
         cycles = int(round(scene.duration_s / rig.period_s))
         meta.update(scene=getattr(scene, "name", str(opts.scene)), seed=seed)
         truth = rig.truth
-        if opts.role is Role.MASTER:
+        if opts.role is Role.MASTER and getattr(scene, "kind", "") == "virtual":
+            from telethermo.session.render_script import RenderScript
+            from telethermo.session.runner import _finger_skin_C
             try:
-                from telethermo.session.runner import _render_touches
-                touches = _render_touches(scene)
-                render = touches[0]["settings"] if touches else None
-            except (ImportError, AttributeError, ValueError, KeyError):
-                render = None
+                script = RenderScript(scene)
+            except ValueError as exc:  # a material missing from the rendering table, no touch to render
+                raise OptionError(f"--scene {str(opts.scene)!r}: {exc}") from None
+            finger_skin = lambda: _finger_skin_C(rig, rig.truth())  # noqa: E731
     else:
         module, _, factory = opts.rig.partition(":")
         try:
@@ -94,14 +102,16 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
     if opts.timing == "lockstep" and not simulated:
         raise OptionError("--timing lockstep: this rig cannot advance on request (hardware runs in real time)")
 
-    base = default_params(opts.role, period_s=period_s)
-    base = dataclasses.replace(base, safety=dataclasses.replace(base.safety, I_max_A=float(rig.I_max_A)))
-
     def params_for(mode: Mode) -> CoreParams:
-        if mode is Mode.RENDER:
-            return dataclasses.replace(base, mode=mode, render=render)  # ValueError without render settings
-        return dataclasses.replace(base, mode=mode)
+        """As the offline runner: the defaults of (role, mode) with the envelope at this rig's I_max."""
+        kw = {"render": script.first} if mode is Mode.RENDER and script is not None else {}
+        p = default_params(opts.role, period_s=period_s, mode=mode, **kw)  # ValueError: RENDER without settings
+        if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
+            p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
+        return p
 
     params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC
+    if script is not None:
+        meta["render"] = script.meta()
     return NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,
-                     cycles=cycles, meta=meta, truth=truth)
+                     cycles=cycles, meta=meta, truth=truth, render_script=script, finger_skin=finger_skin)

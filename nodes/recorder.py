@@ -24,11 +24,14 @@ class CsvRecorder:
         fd, tmp = tempfile.mkstemp(prefix=f".{self.path.name}.", suffix=".tmp", dir=self.path.parent)
         self._tmp = Path(tmp)
         self._fh = os.fdopen(fd, "w", newline="", encoding="utf-8")
+        comments = list(comments)
         for line in comments:
             self._fh.write(f"# {line}\n")
         self._writer = csv.writer(self._fh, lineterminator="\n")
         self._writer.writerow(self.columns)
         self._flush_every = max(1, flush_every)
+        self._n_comments = len(comments)
+        self._final_comments: list[str] | None = None
         self.rows = 0
         self.closed = False
 
@@ -44,13 +47,28 @@ class CsvRecorder:
         if self.rows % self._flush_every == 0:
             self._fh.flush()
 
+    def set_final_comments(self, comments: Iterable[str]) -> None:
+        """Replace the leading comment lines when the file is closed (e.g. meta known only at the end;
+        same number of lines as given at the start)."""
+        comments = list(comments)
+        if len(comments) != self._n_comments:
+            raise ValueError(f"{self.path}: {len(comments)} final comment lines, expected {self._n_comments}")
+        self._final_comments = comments
+
     def close(self) -> Path:
         """Flush, fsync and rename into place; idempotent."""
         if not self.closed:
             self.closed = True
             self._fh.flush()
-            os.fsync(self._fh.fileno())
             self._fh.close()
+            if self._final_comments is not None:
+                with open(self._tmp, encoding="utf-8") as src:
+                    lines = src.readlines()
+                head = [f"# {c}\n" for c in self._final_comments]
+                with open(self._tmp, "w", encoding="utf-8", newline="") as dst:
+                    dst.writelines(head + lines[self._n_comments:])
+            with open(self._tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
             os.replace(self._tmp, self.path)
         return self.path
 

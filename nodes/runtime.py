@@ -104,6 +104,8 @@ class NodeRuntime:
         self.sync: SyncProducer | None = None
         self.peer = PeerLink()
         self.ticker: RealtimeTicker | None = None
+        self.final_comments = None
+        """Optional () -> comment lines that replace the recording's header at close (final meta)."""
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
@@ -154,6 +156,8 @@ class NodeRuntime:
                 self._safe_current()
         finally:
             if self.recorder is not None and not self.recorder.closed:
+                if self.final_comments is not None:
+                    self.recorder.set_final_comments(self.final_comments())
                 self.recorder.close()
             if dev is not None:
                 dev.close()
@@ -289,6 +293,9 @@ class NodeRuntime:
         if 1 in tick.fresh_rpdos:
             self.peer.on_pdo(self._r_peer_est(), self._r_peer_q())
         peer = self.peer.take()
+        if self.mode is Mode.RENDER:
+            peer = None  # rendering needs no peer (as offline)
+            self._select_render_touch(sample.t_s)
         state = self._state
         if peer is not None and peer.alive and peer.fresh and state.env.trips \
                 and state.env.trips <= sf.PEER_TRIPS:
@@ -333,6 +340,14 @@ class NodeRuntime:
             self._record(sample, res, peer)
         if self.record_timing and len(self.stats.cycle_s) < MAX_TIMING_SAMPLES:
             self.stats.cycle_s.append(time.monotonic() - now)
+
+    def _select_render_touch(self, t_s: float) -> None:
+        """The render script's settings in force now (the same script as the offline runner's)."""
+        script = self.parts.render_script
+        if script is not None:
+            rs = script.settings_at(t_s, self.parts.period_s, self.parts.finger_skin)
+            if rs is not self.params.render:
+                self.params = dataclasses.replace(self.params, render=rs)
 
     def _record(self, sample, res, peer) -> None:
         row = {"t_s": sample.t_s}
@@ -380,8 +395,10 @@ class NodeRuntime:
                 sync.transmit()
             k += 1
             if self.lockstep:
-                alive = dev.peer_status(self.peer_id) == "alive"
-                if not dev.wait_rpdo(1, after=n0, timeout=hb_timeout if alive else period):
+                status = dev.peer_status(self.peer_id)
+                if status == "unknown" and self.mode is not Mode.TELEPRESENCE:
+                    pass  # alone on the bus (rendering, identification): nobody to wait for
+                elif not dev.wait_rpdo(1, after=n0, timeout=hb_timeout if status == "alive" else period):
                     self.stats.lockstep_timeouts += 1
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)

@@ -3,7 +3,8 @@
     telethermo session --scene sim/scenes/probe_touches_al_steel_wood.toml --out out/session
 
 Starts our socketcand hub when no real bus is given (``--bus socketcan:vcan0`` uses a real one),
-then the slave and the master node programs as separate processes with the scene; shows progress;
+then the slave and the master node programs as separate processes with the scene (a virtual-material
+scene runs the master alone, rendering); shows progress;
 Ctrl-C stops everything cleanly (master, slave, hub: each node cuts its current and closes its
 recording). Then it merges the two recordings (plus the scene's direct-touch reference), prints the
 figures (the same as the offline runner's) and writes into ``--out``: ``recording.csv``,
@@ -73,8 +74,10 @@ def run(args: argparse.Namespace) -> int:
     cycles = int(round(duration / scene.period_s))
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
+    mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
     cfg = PairConfig(scene=scene_path, out_dir=out, bus=args.bus, network=args.network, model=args.model,
-                     timing=args.timing, cycles=cycles, seed=args.seed, progress_every=max(1, cycles // 100))
+                     mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
+                     progress_every=max(1, cycles // 100))
     pair = NodePair(cfg)
     interrupted = False
     t0 = time.monotonic()
@@ -88,8 +91,8 @@ def run(args: argparse.Namespace) -> int:
             return EXIT_FAIL
         where = pair.bus if args.bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
         if not args.quiet:
-            print(f"session {scene.name}: {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, on {where}",
-                  file=sys.stderr)
+            print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
+                  f"on {where}", file=sys.stderr)
         while pair.master.poll() is None:
             time.sleep(0.2)
             if not args.quiet:
@@ -97,7 +100,7 @@ def run(args: argparse.Namespace) -> int:
                 rate = k / max(1e-9, time.monotonic() - t0)
                 print(f"\r  cycle {k}/{n or cycles}  ({100 * k / max(1, cycles):5.1f} %, {rate:,.0f} cycles/s)",
                       end="", file=sys.stderr, flush=True)
-            if pair.slave.poll() is not None and pair.master.poll() is None:
+            if pair.slave is not None and pair.slave.poll() is not None and pair.master.poll() is None:
                 print(f"\ntelethermo session: the slave process ended (exit {pair.slave.returncode}); "
                       f"see {pair.log('slave')}", file=sys.stderr)
                 break
@@ -125,8 +128,9 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
     from telethermo.session.figures import compute_figures
     from telethermo.session.recording import RecordingError, write_recording_csv
 
-    m, s = pair.recording("master"), pair.recording("slave")
-    if not m.is_file() or not s.is_file():
+    m = pair.recording("master")
+    s = pair.recording("slave") if pair.slave is not None else None
+    if not m.is_file() or (s is not None and not s.is_file()):
         print(f"telethermo session: no recordings in {out} (see the logs there)", file=sys.stderr)
         return code or EXIT_FAIL
     try:
@@ -175,6 +179,14 @@ def print_summary(fig: dict) -> None:
         _table(rows)
         print(f"transparency: early mean {f(tr['early_mean_error_C'], ' °C')}, max {f(tr['early_max_error_C'], ' °C')}; "
               f"late mean {f(tr['late_mean_error_C'], ' °C')}; flux early mean {f(tr['early_mean_flux_error_W'], ' W')}")
+    rnd = fig.get("render")
+    if rnd:
+        rows = [["touch", "material", "beta", "T_contact eq.1 °C", "rendered early °C", "error °C"]]
+        for i, p in enumerate(rnd["per_touch"], 1):
+            rows.append([str(i), str(p["material"]), f(p.get("beta")), f(p["T_contact_eq1_C"]),
+                         f(p["rendered_early_mean_C"]), f(p["early_mean_error_C"])])
+        _table(rows)
+        print(f"render: largest |mean error| {f(rnd.get('max_abs_mean_error_C'), ' °C')}")
     trk = fig.get("tracking")
     if trk:
         print(f"tracking RMS in steady contact: master {f(trk.get('master_rms_C'), ' °C')}, "

@@ -30,3 +30,14 @@ def test_wrong_row_length_names_the_file(tmp_path):
         rec.write([1])
     rec.abort()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_final_comments_replace_the_header_on_close(tmp_path):
+    path = tmp_path / "m.csv"
+    rec = CsvRecorder(path, ["a"], comments=["magic", "meta {}"])
+    rec.write([1.5])
+    rec.set_final_comments(["magic", 'meta {"render": 1}'])
+    with pytest.raises(ValueError, match="expected 2"):
+        rec.set_final_comments(["only one"])
+    rec.close()
+    assert path.read_text() == '# magic\n# meta {"render": 1}\na\n1.5\n'
