@@ -139,7 +139,8 @@ def print_report(rep: dict) -> None:
     lines = [
         f"orders n,m,p,q            {o['n']},{o['m']},{o['p']},{o['q']}  (fit: {rep['fit_method']})",
         f"samples                   {rep['n_train']} training + {rep['n_validation']} held-out at {rep['period_s']} s",
-        f"reference temperature     {rep['T_ref_C']:.3f} °C",
+        f"reference temperature     {rep['T_ref_C']:.3f} °C (drift over the rest samples "
+        f"{rep['rest_drift_C']:+.4f} °C{'' if abs(rep['rest_drift_C']) < 0.05 else ': NOT AT REST'})",
         f"held-out free run         worst {rep['heldout_free_run_max_C']:.4f} °C, rms {rep['heldout_free_run_rms_C']:.4f} °C",
         f"held-out one-step         worst {rep['heldout_one_step_max_C']:.4f} °C",
         f"heat flux (held-out)      worst {rep['flux_heldout_max_W']:.4f} W, rms {rep['flux_heldout_rms_W']:.4f} W"

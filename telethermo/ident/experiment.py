@@ -3,7 +3,9 @@
 Protocol of :func:`identify_rig` (guiatni §3.3, on a pad that touches nothing, so that the sensor
 temperature is the pad temperature up to the tiny air flux):
 
-1. ``rest_samples`` at zero current: the reference (ambient) temperature T_ref_C of the model.
+1. ``rest_samples`` at zero current: the reference (ambient) temperature T_ref_C of the model. The rig
+   must start at rest (pad at ambient); the report's ``rest_drift_C`` (last minus first quarter of
+   the rest samples) shows whether it did.
 2. ``n_samples`` of training PRBS (variable amplitude, seed ``seed``).
 3. ``n_validation`` of held-out PRBS (seed ``seed + 1``: a different sequence, never used to fit).
 
@@ -134,6 +136,12 @@ def _concat(records: list[Record]) -> Record:
                   guard_interventions=sum(r.guard_interventions for r in records))
 
 
+def _rest_drift(T: np.ndarray) -> float:
+    """Mean of the last quarter minus mean of the first quarter of the rest samples, °C (0 if too few)."""
+    q = len(T) // 4
+    return float(np.mean(T[-q:]) - np.mean(T[:q])) if q else 0.0
+
+
 def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = NarmaOrders(), seed: int = 0,
                  progress: Progress | None = None, n_validation: int | None = None,
                  settings: ExperimentSettings = ExperimentSettings(), meta: dict[str, Any] | None = None,
@@ -214,6 +222,7 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         "orders": orders.as_dict(), "period_s": float(rig.period_s), "seed": int(seed),
         "n_train": int(n_samples), "n_validation": int(n_validation), "rest_samples": settings.rest_samples,
         "T_ref_C": T_ref,
+        "rest_drift_C": _rest_drift(rest.T_C),
         "heldout_free_run_max_C": metrics["heldout_free_run_max_C"],
         "heldout_free_run_rms_C": metrics["heldout_free_run_rms_C"],
         "heldout_one_step_max_C": metrics["heldout_one_step_max_C"],

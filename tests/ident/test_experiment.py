@@ -25,6 +25,7 @@ def test_order3_heldout_free_run_error_within_paper_bound(order3):
     # the excitation really moved the pad: errors are small against a swing of several °C
     assert rep["T_range_C"][1] - rep["T_range_C"][0] > 8.0
     assert tem.temperature.T_ref_C == pytest.approx(25.0, abs=0.02)      # ambient of the rig
+    assert abs(rep["rest_drift_C"]) < 0.01
 
 
 def test_flux_model_heldout_error(order3):
