@@ -76,6 +76,27 @@ class ExperimentSettings:
     settle_step_s: float = 50.0
     average_samples: int = 300
 
+    def __post_init__(self) -> None:
+        def bad(name: str, expected: str) -> ValueError:
+            return ValueError(f"ExperimentSettings.{name}: expected {expected}, got {getattr(self, name)!r}")
+
+        for name, lo in (("rest_samples", 0), ("hold_samples", 1), ("capacity_points", 5), ("average_samples", 1)):
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, int) or v < lo:
+                raise bad(name, f"an integer >= {lo}")
+        a_lo, a_hi = self.amplitude_A
+        if not (0.0 <= a_lo <= a_hi and math.isfinite(a_hi)):
+            raise bad("amplitude_A", "(a_min, a_max) with 0 <= a_min <= a_max, A")
+        if not 0.0 < self.current_limit_fraction <= 1.0:
+            raise bad("current_limit_fraction", "a fraction in (0, 1]")
+        if not (self.T_min_C + 2 * self.margin_C < self.T_max_C and self.margin_C >= 0.0):
+            raise bad("T_max_C", "T_min_C + 2·margin_C < T_max_C with margin_C >= 0, °C")
+        if not (self.settle_s > 0.0 and self.settle_step_s > 0.0):
+            raise bad("settle_s", "positive settle_s and settle_step_s, s")
+        c_lo, c_hi = self.capacity_current_span_A
+        if not c_lo <= 0.0 <= c_hi:
+            raise bad("capacity_current_span_A", "(lo, hi) with lo <= 0 <= hi, A")
+
 
 @dataclass
 class Record:

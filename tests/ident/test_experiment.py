@@ -88,3 +88,13 @@ def test_safety_guard_keeps_the_pad_inside_the_envelope():
     assert rec.guard_interventions > 0
     assert rec.T_C.max() <= settings.T_max_C
     assert np.max(np.abs(rec.current_A)) <= 0.8 * rig.I_max_A
+
+
+@pytest.mark.parametrize("kwargs, field", [(dict(hold_samples=0), "hold_samples"),
+                                           (dict(amplitude_A=(1.0, 0.5)), "amplitude_A"),
+                                           (dict(current_limit_fraction=1.5), "current_limit_fraction"),
+                                           (dict(T_min_C=40.0, T_max_C=41.0), "T_max_C"),
+                                           (dict(capacity_points=3), "capacity_points")])
+def test_experiment_settings_are_validated(kwargs, field):
+    with pytest.raises(ValueError, match=f"ExperimentSettings.{field}: expected"):
+        ExperimentSettings(**kwargs)
