@@ -3,7 +3,8 @@
 Each row runs the guiatni §5.3 scene (sim/scenes/probe_touches_al_steel_wood) offline with both
 controllers, both simulated rigs and the direct-touch reference, and reports:
 
-- ``run_s``: median wall time of the whole offline session over repeats (sim + both controllers), s;
+- ``run_s``: median wall time of the whole offline session over 3 interleaved rounds (sim + both
+  controllers), s;
 - ``step_us``: median cost of one controller ``step()`` (replaying the row's recorded samples), µs;
 - ``early_C`` / ``late_C``: transparency, mean |error| 0.1–1 s / 1–3 s after contact, °C;
 - ``tracking_rms_C``: steady-contact tracking RMS of both sides, °C; ``flux_early_W``;
@@ -70,34 +71,59 @@ def _step_cost_us(rec, pm, ps, model_m, model_s, n_max: int = 3000) -> float:
     return t / (2 * n) * 1e6
 
 
-def run_row(name: str, *, period_s: float = 0.01, estimator: Estimator = Estimator.FLUX, model: Any = None,
-            rounding: str = "none", duration_s: float | None = None, repeats: int = 3,
-            slave_overrides: dict[str, Any] | None = None) -> dict[str, Any]:
-    """One configuration: median session time over ``repeats`` and its figures."""
-    from telethermo.session import run_offline_session
-    sc = _scene(period_s)
-    pm = default_params(Role.MASTER, period_s=period_s, estimator=estimator)
-    ps = default_params(Role.SLAVE, period_s=period_s, estimator=estimator, **(slave_overrides or {}))
-    times, res = [], None
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        res = run_offline_session(sc, master_params=pm, slave_params=ps, master_model=model, slave_model=model,
-                                  duration_s=duration_s, rounding=rounding)
-        times.append(time.perf_counter() - t0)
-    f = res.figures
-    tr = f["transparency"]
-    rig_limits = dataclasses.replace(pm.safety, I_max_A=3.0)
-    step_us = _step_cost_us(res.recording, dataclasses.replace(pm, safety=rig_limits),
-                            dataclasses.replace(ps, safety=rig_limits), model, model)
-    return {
-        "name": name, "period_ms": round(period_s * 1e3, 6), "estimator": estimator.value,
-        "model_order": _order(model), "rounding": rounding, "run_s": statistics.median(times),
-        "step_us": step_us, "early_C": tr["early_mean_error_C"], "late_C": tr["late_mean_error_C"],
-        "early_max_C": tr["early_max_error_C"], "flux_early_W": tr["early_mean_flux_error_W"],
-        "pre_contact_C": tr["pre_contact_mean_error_C"],
-        "tracking_rms_C": f["tracking"]["rms_C"], "order_kept": f["discrimination"]["order_kept"],
-        "trips": f["safety"]["n_trips"], "duration_s": f["duration_s"], "repeats": repeats,
-    }
+@dataclasses.dataclass
+class RowConfig:
+    """One configuration of the table."""
+
+    name: str
+    period_s: float = 0.01
+    estimator: Estimator = Estimator.FLUX
+    model: Any = None
+    rounding: str = "none"
+    slave_overrides: dict[str, Any] | None = None
+
+    def params(self):
+        pm = default_params(Role.MASTER, period_s=self.period_s, estimator=self.estimator)
+        ps = default_params(Role.SLAVE, period_s=self.period_s, estimator=self.estimator,
+                            **(self.slave_overrides or {}))
+        return pm, ps
+
+    def session(self, duration_s: float | None):
+        from telethermo.session import run_offline_session
+        pm, ps = self.params()
+        return run_offline_session(_scene(self.period_s), master_params=pm, slave_params=ps, master_model=self.model,
+                                   slave_model=self.model, duration_s=duration_s, rounding=self.rounding)
+
+
+def run_rows(configs: list[RowConfig], *, duration_s: float | None, rounds: int) -> list[dict[str, Any]]:
+    """Time every configuration once per round, rounds interleaved (a loaded machine slows every row
+    alike), run_s = median over rounds; the figures are deterministic (seeded noise)."""
+    times: dict[str, list[float]] = {c.name: [] for c in configs}
+    results: dict[str, Any] = {}
+    for _ in range(rounds):
+        for c in configs:
+            t0 = time.perf_counter()
+            results[c.name] = c.session(duration_s)
+            times[c.name].append(time.perf_counter() - t0)
+    rows = []
+    for c in configs:
+        res = results[c.name]
+        f = res.figures
+        tr = f["transparency"]
+        pm, ps = c.params()
+        rig_limits = dataclasses.replace(pm.safety, I_max_A=3.0)
+        step_us = _step_cost_us(res.recording, dataclasses.replace(pm, safety=rig_limits),
+                                dataclasses.replace(ps, safety=rig_limits), c.model, c.model)
+        rows.append({
+            "name": c.name, "period_ms": round(c.period_s * 1e3, 6), "estimator": c.estimator.value,
+            "model_order": _order(c.model), "rounding": c.rounding, "run_s": statistics.median(times[c.name]),
+            "run_s_all": times[c.name], "step_us": step_us, "early_C": tr["early_mean_error_C"],
+            "late_C": tr["late_mean_error_C"], "early_max_C": tr["early_max_error_C"],
+            "flux_early_W": tr["early_mean_flux_error_W"], "pre_contact_C": tr["pre_contact_mean_error_C"],
+            "tracking_rms_C": f["tracking"]["rms_C"], "order_kept": f["discrimination"]["order_kept"],
+            "trips": f["safety"]["n_trips"], "duration_s": f["duration_s"], "rounds": rounds,
+        })
+    return rows
 
 
 def _order(model: Any) -> str | None:
@@ -172,18 +198,13 @@ def pareto(rows: list[dict[str, Any]], x: str = "run_s", y: str = "early_C") -> 
 def run(quick: bool = False) -> dict[str, Any]:
     """Run the benchmark; return the result dict (also written to bench/results/control.json)."""
     duration = 16.0 if quick else None
-    reps = 1 if quick else 3
-    rows = []
-    for ms in PERIODS_MS:
-        rows.append(run_row(f"period {ms} ms, flux", period_s=ms / 1000, duration_s=duration,
-                            repeats=1 if (ms < 5 and not quick) else reps))
+    configs = [RowConfig(f"period {ms} ms, flux", period_s=ms / 1000) for ms in PERIODS_MS]
     for m in _models(quick):
         for est in (Estimator.MODEL, Estimator.FUSED):
-            rows.append(run_row(f"10 ms, {est.value}, {_order(m)}", estimator=est, model=m, duration_s=duration,
-                                repeats=reps))
-    rows.append(run_row("10 ms, flux, REAL32", rounding="real32", duration_s=duration, repeats=reps))
-    rows.append(run_row("10 ms, flux, probe echoes T_f in air", duration_s=duration, repeats=reps,
-                        slave_overrides={"echo_peer_when_free": True}))
+            configs.append(RowConfig(f"10 ms, {est.value}, {_order(m)}", estimator=est, model=m))
+    configs.append(RowConfig("10 ms, flux, REAL32", rounding="real32"))
+    configs.append(RowConfig("10 ms, flux, probe echoes T_f in air", slave_overrides={"echo_peer_when_free": True}))
+    rows = run_rows(configs, duration_s=duration, rounds=1 if quick else 3)
     front = pareto(rows)
     for r in rows:
         r["pareto"] = r["name"] in front
