@@ -1,0 +1,83 @@
+"""``telethermo session`` as a user runs it (a real process): figures equal the offline runner's,
+bad input is refused with exit 2, Ctrl-C stops every child cleanly (exit 130, figures of what ran)."""
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from nodes.launch import wait_for
+from telethermo.session import run_offline_session
+
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+
+
+def session(*args: str, **kw) -> subprocess.Popen:
+    # the console script's entry point (``python -m telethermo.cli.main`` would import main twice)
+    return subprocess.Popen([sys.executable, "-c", "import sys; from telethermo.cli.main import main; sys.exit(main())",
+                             "session", *args],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+
+
+def processes_mentioning(text: str) -> list[int]:
+    pids = []
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                if text in (d / "cmdline").read_bytes().decode(errors="replace"):
+                    pids.append(int(d.name))
+            except OSError:
+                pass
+    return pids
+
+
+def test_session_figures_equal_offline(tmp_path):
+    p = session("--scene", str(SCENE), "--out", str(tmp_path), "--duration", "2.5", "--quiet")
+    out, err = p.communicate(timeout=300)
+    assert p.returncode == 0, err
+    fig = json.loads((tmp_path / "summary.json").read_text())
+    off = run_offline_session(SCENE, duration_s=2.5, rounding="real32", seed=0).figures
+    assert fig["n_steps"] == off["n_steps"] == 250
+    assert fig["transparency"]["per_contact"] == off["transparency"]["per_contact"]
+    assert fig["tracking"] == off["tracking"]
+    assert fig["run"]["complete"] and fig["run"]["master"]["lockstep_timeouts"] == 0
+    for name in ("recording.csv", "session.png", "master.csv", "slave.csv", "master.log", "slave.log"):
+        assert (tmp_path / name).stat().st_size > 0, name
+    assert "transparency" in out and "aluminium" in out
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["--scene", "no/such/scene.toml"], "no/such/scene.toml"),
+    (["--scene", str(SCENE), "--duration", "-1"], "--duration"),
+    (["--scene", str(SCENE), "--bus", "vcan0"], "INTERFACE:CHANNEL"),
+])
+def test_bad_input_exit_2(tmp_path, args, fragment):
+    p = session(*args, "--out", str(tmp_path))
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 2 and fragment in err
+
+
+def test_ctrl_c_stops_everything_cleanly(tmp_path):
+    p = session("--scene", str(SCENE), "--out", str(tmp_path), "--timing", "realtime", "--quiet",
+                "--no-plot")
+    try:
+        assert wait_for(lambda: (tmp_path / "master.log").exists()
+                        and "OPERATIONAL" in (tmp_path / "master.log").read_text(), 120)
+        time.sleep(2.0)  # let it run a while (real time, 100 Hz): what ran must be reported
+        p.send_signal(signal.SIGINT)
+        out, err = p.communicate(timeout=120)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 130, err
+    assert processes_mentioning(str(tmp_path)) == []          # hub, master and slave are gone
+    assert "stopped (SIGTERM)" in (tmp_path / "slave.log").read_text()
+    assert "stopped (SIGTERM)" in (tmp_path / "master.log").read_text()
+    fig = json.loads((tmp_path / "summary.json").read_text())  # the figures of what ran
+    assert 0 < fig["n_steps"] < 3000 and fig["run"]["complete"] is False
