@@ -63,7 +63,7 @@ def render_lines(mon: Monitor, vs: ViewState, width: int, height: int) -> list[s
     sync = s.sync_summary()
     lines: list[str] = []
     flags = ("  [PAUSED]" if vs.paused else "") + ("  [END OF LOG]" if vs.done else "")
-    lines.append(f"telethermo monitor | {vs.source} | {mon.config.bitrate_bps / 1000:g} kbit/s | {vs.mode}{flags}")
+    lines.append(f"telethermo monitor | {vs.mode}{flags} | {mon.config.bitrate_bps / 1000:g} kbit/s | {vs.source}")
     sync_txt = (f"SYNC {sync['period_s'] * 1e3:.2f} ms ±{sync['jitter_s'] * 1e3:.2f} "
                 f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] #{s.sync_counter if s.sync_counter is not None else '-'}"
                 if sync["period_s"] is not None else "SYNC --")
