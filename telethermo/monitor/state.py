@@ -20,6 +20,9 @@ from .events import ERROR, INFO, WARN, Event, EventLog
 from .pdo import PdoDef, PdoMap, PdoValue, od_value as _value, od_var as _var, decode_pdo, format_value
 from .sdo import SdoChannel, SdoTransfer
 
+#: a repeated WARN of the same kind (late cycle, missing PDO) is logged at most once per this bus time, s
+EVENT_HOLDOFF_S = 1.0
+
 
 @dataclass(frozen=True)
 class NodeInfo:
@@ -150,6 +153,8 @@ class PdoState:
     missing: int = 0
     missing_streak: int = 0
     armed: bool = False
+    unreported: int = 0            # missing cycles not yet in an event
+    event_t: float | None = None   # time of the last pdo_missing event
 
 
 @dataclass
@@ -194,7 +199,8 @@ class Monitor:
         self._window: deque[tuple[float, int]] = deque()
         self._window_bits = 0
         self._last_sync_t: float | None = None
-        self._late_streak = 0
+        self._late_event_t: float | None = None
+        self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
         for n, info in self.config.nodes.items():
             self._node(n).name = info.name
@@ -364,13 +370,15 @@ class Monitor:
             per = self.config.sync_period_s
             if per and dt > per * (1.0 + self.config.late_tolerance):
                 s.late_cycles += 1
-                self._late_streak += 1
-                if self._late_streak == 1:      # one event per burst of late cycles, all counted
+                self._late_unreported += 1
+                # every late cycle is counted; the log gets at most one event per second of bus time
+                if self._late_event_t is None or f.t_s - self._late_event_t >= EVENT_HOLDOFF_S:
+                    n = self._late_unreported
                     ev.append(Event(f.t_s, WARN, "late_cycle", None,
-                                    f"late cycle: SYNC after {dt * 1e3:.2f} ms (period {per * 1e3:.2f} ms)",
-                                    {"interval_s": dt, "period_s": per}))
-            else:
-                self._late_streak = 0
+                                    f"late cycle: SYNC after {dt * 1e3:.2f} ms (period {per * 1e3:.2f} ms)"
+                                    + (f"; {n} late cycles since the last report" if n > 1 else ""),
+                                    {"interval_s": dt, "period_s": per, "late_since_last_event": n}))
+                    self._late_event_t, self._late_unreported = f.t_s, 0
         self._last_sync_t = f.t_s
         # PDOs on every SYNC (transmission type 1) from OPERATIONAL nodes must have come in between
         for p in self.pdos.values():
@@ -378,11 +386,14 @@ class Monitor:
                 p.missing += 1
                 p.missing_streak += 1
                 s.missed_pdos += 1
-                if p.missing_streak == 1:
+                p.unreported += 1
+                if p.missing_streak == 1 and (p.event_t is None or f.t_s - p.event_t >= EVENT_HOLDOFF_S):
+                    n = p.unreported
                     ev.append(Event(f.t_s, WARN, "pdo_missing", p.pdef.node,
                                     f"node {p.pdef.node} {p.pdef.label} (0x{p.pdef.cob_id:03X}) not seen before the next SYNC "
-                                    f"(late or lost)",
-                                    {"cob_id": p.pdef.cob_id}))
+                                    f"(late or lost)" + (f"; {n} cycles since the last report" if n > 1 else ""),
+                                    {"cob_id": p.pdef.cob_id, "missing_since_last_event": n}))
+                    p.event_t, p.unreported = f.t_s, 0
             p.armed = False
         for pdef in self.pdo_map.table.values():
             if pdef.direction == "TPDO" and pdef.valid and pdef.transmission_type == 1:
