@@ -79,6 +79,8 @@ def run(args: argparse.Namespace) -> int:
         hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), common.heartbeat_wait_s(net))
         for r in out:
             r["nmt_state"] = hb.state_name(r["node_id"])
+            if r["error"] and r["nmt_state"] == "STOPPED":
+                r["error"] += " (a STOPPED node answers no SDO: telethermo nmt preop|start first)"
     if args.json:
         clean = [{k: v for k, v in r.items() if k != "text"} for r in out]
         for r in clean:
