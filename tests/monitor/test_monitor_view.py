@@ -98,3 +98,24 @@ def test_read_log_refuses_missing_and_foreign_files(tmp_path):
     bad.write_bytes(b"not a blf file at all")
     with pytest.raises(ReplayError, match="bad.blf"):
         list(read_log(bad))
+
+
+def test_monitor_cli_replays_a_log_as_json_and_refuses_bad_files(tmp_path, capsys):
+    from telethermo.cli.main import EXIT_OK, EXIT_USAGE, main
+    log = tmp_path / "s.asc"
+    w = can.Logger(str(log))
+    for k in range(1, 21):
+        w.on_message_received(msg(1000.0 + 0.01 * k, 0x080, [k]))
+        w.on_message_received(msg(1000.0 + 0.01 * k + 0.001, 0x181, struct.pack("<ff", 30.0 + k, 0.25)))
+    w.stop()
+    assert main(["monitor", "--replay", str(log), "--json", "--no-frames", "--status-every", "0"]) == EXIT_OK
+    rows = [json.loads(ln) for ln in capsys.readouterr().out.splitlines()]
+    (status,) = [r for r in rows if r["type"] == "status"]
+    assert status["frames"] == 40 and status["syncs"] == 20 and status["sync_counter"] == 20
+    assert status["sync"]["period_s"] == pytest.approx(0.01, abs=1e-5)
+    (p,) = status["pdos"]
+    assert p["count"] == 20 and p["values"][0] == {"name": "estimate_C", "value": 50.0, "unit": "degC",
+                                                   "index": 0x2100, "subindex": 0}
+    assert main(["monitor", "--replay", str(tmp_path / "nope.blf"), "--json"]) == EXIT_USAGE
+    err = capsys.readouterr().err
+    assert err.strip() == f"telethermo monitor: error: {tmp_path / 'nope.blf'}: no such log file"
