@@ -12,6 +12,7 @@ master (pad_beta, finger_T0_C), range-checked like ``telethermo set``.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import time
 
 from telethermo.cli import common
@@ -87,9 +88,8 @@ def run(args: argparse.Namespace) -> int:
     apply_infos = [common.lookup(t, "pad_beta"), common.lookup(t, "finger_T0_C")] if args.apply else []
     if args.live is not None and args.live < 1:
         raise UserError(f"--live: expected a number of touches >= 1, got {args.live}")
-    nw_ctx = common.canopen_network(args, net) if (args.live or args.apply) else None
-    nw = nw_ctx.__enter__() if nw_ctx else None
-    try:
+    with contextlib.ExitStack() as stack:
+        nw = stack.enter_context(common.canopen_network(args, net)) if (args.live or args.apply) else None
         node = common.remote(nw, t, args.timeout) if nw is not None else None
         if args.live:
             ts, contact = common.lookup(t, "T_sensor_C"), common.lookup(t, "contact")
@@ -114,7 +114,4 @@ def run(args: argparse.Namespace) -> int:
             for info, value in zip(apply_infos, (cal.beta_pad, cal.T_finger0_C)):
                 common.sdo_write(node, t, info, value)
                 print(f"{t.role}: {info.key} = {common.fmt(common.sdo_read(node, t, info), info)}")
-    finally:
-        if nw_ctx:
-            nw_ctx.__exit__(None, None, None)
     return 0

@@ -6,6 +6,7 @@ import json
 import struct
 import sys
 
+import canopen
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.cli import common
@@ -46,7 +47,6 @@ def run(args: argparse.Namespace) -> int:
             if t is not None:
                 node = common.remote(nw, t, min(args.timeout, 0.5))
             else:
-                import canopen
                 node = canopen.RemoteNode(nid, canopen.ObjectDictionary())
                 node.sdo.RESPONSE_TIMEOUT, node.sdo.MAX_RETRIES = min(args.timeout, 0.5), 1
                 nw.add_node(node)
