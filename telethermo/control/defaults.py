@@ -23,6 +23,10 @@ GAINS: dict[Role, dict[str, float]] = {
 
 #: gains of the virtual rendering mode (master alone): a well-damped PI on the surface estimate
 RENDER_GAINS: dict[str, float] = dict(kp_A_per_C=0.7, ki_A_per_C_s=1.0, kQ_render_A_per_W=0.0)
+#: gains of a plain regulation of the master's pad at a constant target (a virtual scene that renders
+#: nothing): the rendering PI, no flux terms (a constant virtual peer draws no flux)
+HOLD_GAINS: dict[str, float] = dict(kp_A_per_C=0.7, ki_A_per_C_s=1.0, kQ_A_per_W=0.0, kpQ_A_per_W=0.0,
+                                    kiQ_A_per_W_s=0.0)
 
 
 def default_params(role: Role, *, period_s: float = 0.01, mode: Mode = Mode.TELEPRESENCE, **overrides: Any) -> CoreParams:

@@ -14,6 +14,9 @@ Telepresence (guiatni §5.3; issue 4):
   cold-detection threshold.
 - **safety**: time at each envelope limit per side, time with the current cut, the trips.
 
+Hold (a virtual scene that renders nothing): the master regulates its pad at ``meta["hold_C"]``;
+RMS of the tracking error and of the skin vs the target in steady contact.
+
 Render (yamamoto): per touch of the display, the rendered early-phase contact temperature against
 eq. 1's prediction (``meta["render"][i]["T_contact_C"]``).
 
@@ -140,6 +143,9 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
     if mode == "render":
         out["render"] = _render_figures(rec, t, surf, contacts)
         return _clean(out)
+    if mode == "hold":
+        out["hold"] = _hold_figures(rec, t, contacts)
+        return _clean(out)
 
     ref = rec.col("ref_T_contact_C")
     q_m = rec.col("m_true_Q_W")
@@ -234,3 +240,18 @@ def _render_figures(rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: l
     errs = [abs(p["early_mean_error_C"]) for p in per if math.isfinite(p["early_mean_error_C"])]
     return {"per_touch": per, "max_abs_mean_error_C": float(max(errs)) if errs else math.nan,
             "max_mean_abs_error_C": float(max(p["early_mean_abs_error_C"] for p in per)) if per else math.nan}
+
+
+def _hold_figures(rec: Recording, t: np.ndarray, contacts: list[dict[str, Any]]) -> dict[str, Any]:
+    """Regulation of the pad at a constant target (virtual scenes that render nothing): RMS of the
+    controller's error and of the true skin vs the target, from 1 s after each touch to its end."""
+    T_hold = float(rec.meta.get("hold_C", math.nan))
+    err = rec.col("m_target_C") - rec.col("m_feedback_C")
+    skin = rec.col("m_true_surface_C") - T_hold
+    steady = np.zeros(len(t), bool)
+    for c in contacts:
+        steady |= (t >= c["t_on_s"] + LATE_S[0]) & (t <= c["t_off_s"])
+    e, k = err[steady & np.isfinite(err)], skin[steady & np.isfinite(skin)]
+    return {"hold_C": T_hold,
+            "tracking_rms_C": float(np.sqrt(np.mean(e ** 2))) if e.size else math.nan,
+            "skin_rms_error_C": float(np.sqrt(np.mean(k ** 2))) if k.size else math.nan}

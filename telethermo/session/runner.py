@@ -27,7 +27,7 @@ import numpy as np
 
 from telethermo.atomic import write_json_atomic
 from telethermo.control.core import CoreParams, StepResult, init_state, initial_peer, step
-from telethermo.control.defaults import default_params
+from telethermo.control.defaults import HOLD_GAINS, default_params
 from telethermo.control.types import Mode, PeerValues, Role
 from telethermo.session.figures import compute_figures
 from telethermo.session.plot import write_session_png
@@ -128,6 +128,9 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     rnd = round_real32 if rounding == "real32" else (lambda x: x)
     ref = sim.build_reference(sc)
 
+    if mode == "render" and not any(t.render is not None for t in sc.master_contacts):
+        return _run_hold(sc, rig_m, ref, master_params, _load_model(master_model), n_steps, period, rounding,
+                         **(render_options or {}))
     if mode == "render":
         return _run_render(sc, rig_m, ref, master_params, _load_model(master_model), n_steps, period, rounding,
                            **(render_options or {}))
@@ -209,6 +212,36 @@ def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, bet
         ref.advance(period)
     rec = b.build()
     rec.meta["render"] = script.meta()
+    return SessionResult(rec, compute_figures(rec))
+
+
+def _run_hold(sc, rig_m, ref, params, model, n_steps, period, rounding, *, hold_C: float | None = None,
+              **_ignored: Any) -> SessionResult:
+    """A virtual scene that renders nothing (e.g. finger_on_display): the master alone regulates its pad
+    at ``hold_C`` (default: the envelope's neutral 32 °C) with the telepresence law against a constant
+    virtual peer (estimate hold_C, no flux), whatever touches it."""
+    base = params or default_params(Role.MASTER, period_s=period, **HOLD_GAINS)
+    base = _with_rig_limits(dataclasses.replace(base, mode=Mode.TELEPRESENCE), rig_m)
+    T_hold = float(base.safety.neutral_C if hold_C is None else hold_C)
+    peer = PeerValues(T_hold, 0.0)
+    s0 = rig_m.read()
+    state = init_state(base, model, s0)
+    meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "hold", "rounding": rounding,
+            "hold_C": T_hold, "master_params": _params_meta(base),
+            "contacts": [{"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.body} for t in sc.master_contacts]}
+    b = RecordingBuilder(meta)
+    for _k in range(n_steps):
+        smp = rig_m.read()
+        r = step(smp, peer, base, state)
+        row = {"t_s": smp.t_s}
+        row.update(_side_row("m", smp, r, peer))
+        row.update(_truth_row("m", rig_m))
+        b.add(row)
+        state = r.state
+        rig_m.apply_current(r.current_A)
+        rig_m.advance(period)
+        ref.advance(period)
+    rec = b.build()
     return SessionResult(rec, compute_figures(rec))
 
 

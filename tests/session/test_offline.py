@@ -128,3 +128,17 @@ def test_bad_arguments_are_named():
         run_offline_session("probe_touches_al_steel_wood", rounding="real64")
     with pytest.raises(ValueError, match="scene|<name>"):
         run_offline_session("no_such_scene")
+
+
+def test_finger_on_display_is_held_at_neutral():
+    """A virtual scene that renders nothing: the display regulates the skin at 32 °C through lift and
+    re-touch, no trip."""
+    res = run_offline_session("finger_on_display")
+    f = res.figures
+    assert f["mode"] == "hold" and f["hold"]["hold_C"] == 32.0 and f["safety"]["n_trips"] == 0
+    rec = res.recording
+    t, skin = rec.col("t_s"), rec.col("m_true_surface_C")
+    for a, b in ((4.0, 9.9), (15.0, 19.9)):
+        m = (t >= a) & (t < b)
+        assert np.all(np.abs(skin[m] - 32.0) <= 0.1)
+    assert np.all(np.isnan(skin[(t > 10.05) & (t < 11.95)]))  # lifted: nothing touches the pad
