@@ -105,6 +105,7 @@ class NodeRuntime:
         self.peer = PeerLink()
         self.ticker: RealtimeTicker | None = None
         self.final_comments = None
+        self.peer_boots = 0
         """Optional () -> comment lines that replace the recording's header at close (final meta)."""
 
     # ------------------------------------------------------------------ life cycle
@@ -187,6 +188,8 @@ class NodeRuntime:
                 self._start_fallback()
         else:
             self.peer.on_heartbeat()
+            if ev.kind == "bootup":
+                self.peer_boots += 1
             if ev.kind == "back":
                 log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
         # the NMT master starts a peer that (re)booted or sits in pre-operational
@@ -372,10 +375,17 @@ class NodeRuntime:
         assert dev is not None and sync is not None
         dev.nmt_command(NmtCommand.START, 0)
         period = self.parts.period_s
-        hb_timeout = self.net.heartbeat.consumer_ms * 1e-3 or 1.0
+        # how long one lockstep cycle waits for the peer's PDO: half the heartbeat consumer time, so that
+        # a merely slow peer is told from a lost one (which the heartbeat consumer reports)
+        wait_s = self.net.heartbeat.consumer_ms * 0.5e-3 or 0.5
         ticker = None if self.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
         self.ticker = ticker
         k = 0
+        # lockstep bookkeeping: PDOs owed by the peer (one per SYNC it was sent while believed alive).
+        # A PDO that comes after its wait timed out is still owed: the next cycle waits for both, so a
+        # slow peer falls back into step instead of staying one PDO behind.
+        owed, base = 0, dev.rpdo_count(1)
+        boots = self.peer_boots
         while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
             if dev.state is not NmtState.OPERATIONAL:
                 # stopped or pre-operational by an NMT command from elsewhere: no SYNC cycles of ours
@@ -386,7 +396,9 @@ class NodeRuntime:
                 if late:
                     self.stats.late_cycles = ticker.stats.late_cycles
                     log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
-            n0 = dev.rpdo_count(1)
+            status = dev.peer_status(self.peer_id)
+            if status != "alive" or boots != self.peer_boots:  # lost, never seen, or rebooted: owes nothing
+                owed, base, boots = 0, dev.rpdo_count(1), self.peer_boots
             self._sync_sent_at = time.monotonic()
             self._waiting_first_rpdo = True
             # Hold the device lock from sending SYNC k until our own SYNC k is processed: a fast peer's
@@ -395,11 +407,19 @@ class NodeRuntime:
                 sync.transmit()
             k += 1
             if self.lockstep:
-                status = dev.peer_status(self.peer_id)
-                if status == "unknown" and self.mode is not Mode.TELEPRESENCE:
+                if status == "alive":
+                    owed += 1
+                    if dev.wait_rpdo(1, after=base + owed - 1, timeout=wait_s):
+                        base, owed = dev.rpdo_count(1), 0
+                    else:
+                        self.stats.lockstep_timeouts += 1
+                        log.warning("cycle %d: no PDO of node %d within %g ms (%d owed)", k - 1, self.peer_id,
+                                    wait_s * 1e3, owed)
+                elif status == "unknown" and self.mode is not Mode.TELEPRESENCE:
                     pass  # alone on the bus (rendering, identification): nobody to wait for
-                elif not dev.wait_rpdo(1, after=n0, timeout=hb_timeout if status == "alive" else period):
-                    self.stats.lockstep_timeouts += 1
+                else:
+                    # peer lost or not yet seen: our envelope keeps running, paced by the SYNC period
+                    dev.wait_rpdo(1, after=dev.rpdo_count(1), timeout=period)
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)
         # the session is over: every node leaves OPERATIONAL (no PDOs, current 0) before we go silent,

@@ -74,3 +74,36 @@ def test_exchange_is_real32_rounded_and_one_cycle_late(hub_session):
         assert np.count_nonzero(err) > 0.9 * len(err)  # doubles really were rounded on the bus
         flux = rec.col(f"{me}_peer_flux_W")[1:]
         np.testing.assert_array_equal(flux, rec.col(f"{peer}_Q_W")[:-1].astype(np.float32).astype(float))
+
+
+def test_a_stalled_slave_falls_back_into_step(tmp_path):
+    """SIGSTOP the slave longer than one lockstep wait (half the consumer time) but shorter than the
+    heartbeat consumer time: the master goes ahead once without its PDO, then waits for both owed
+    PDOs, and the exchange is back in step (peer value k = the peer's estimate k-1, REAL32)."""
+    import os
+    import signal
+    import time
+
+    from bus_config import path as bc
+    from nodes.launch import wait_for
+
+    net = tmp_path / "network.toml"
+    net.write_text(f'[bus]\ninterface = "virtual"\nchannel = "x"\n[sync]\nperiod_s = 0.01\n'
+                   f'[heartbeat]\nproducer_ms = 100\nconsumer_ms = 1000\n'
+                   f'[nodes.master]\neds = "{bc("master.eds")}"\n[nodes.slave]\neds = "{bc("slave.eds")}"\n')
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, cycles=400, seed=0, network=net, progress_every=10))
+    with pair:
+        assert wait_for(lambda: pair.progress[0] >= 100, 120)
+        os.kill(pair.slave.pid, signal.SIGSTOP)
+        time.sleep(0.7)                       # > 500 ms lockstep wait, < 1000 ms consumer time
+        os.kill(pair.slave.pid, signal.SIGCONT)
+        assert pair.wait_master(timeout_s=180) == 0
+    pair.stop()
+    assert 1 <= pair.result["lockstep_timeouts"] <= 2
+    assert pair.result["peer"]["losses"] == 0
+    rec = merge_recordings(tmp_path / "master.csv", tmp_path / "slave.csv")
+    got, sent = rec.col("m_peer_estimate_C")[1:], rec.col("s_estimate_C")[:-1].astype(np.float32).astype(float)
+    off_step = np.flatnonzero(got != sent)
+    assert 1 <= off_step.size <= 3                    # the cycle(s) that went ahead with a stale value
+    assert off_step[-1] < len(got) - 200              # ... and then 200+ cycles in step again
+    assert not any("peer_lost" in t for t in rec.text("m_new_trips"))
