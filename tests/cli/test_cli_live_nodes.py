@@ -124,3 +124,38 @@ def test_monitor_json_on_the_live_session(live, capsys):
     names = [v["name"] for v in pdos[(1, "TPDO1")]["values"]]
     assert names == ["estimate_C", "Q_W"] and pdos[(2, "TPDO1")]["count"] > 50
     assert snap["missed_pdos"] == 0 and snap["error_frames"] == 0
+
+
+def test_calibrate_finger_live_on_the_rendering_master(tmp_path, capsys):
+    """yamamoto's per-user step on the live master (the display alone, scene virtual_materials: the
+    simulated finger touches at 5 s with the pad pre-set for EPS). One touch with the finger's
+    temperature given (yamamoto measures it with a radiation thermometer): the contact temperature
+    must lie between the pad's and the finger's (eq. 1), β_pad = (T_f0 - T_c)/(T_c - T_pad0) must
+    come out positive and be written into the node."""
+    from nodes.launch import HubProcess, node_command, stop_process
+    hub = HubProcess(idle_timeout_s=60)
+    hub.start()
+    scene = SCENE.parent / "virtual_materials.toml"
+    master = subprocess.Popen(node_command("master", "--bus", hub.bus, "--scene", str(scene), "--timing", "realtime",
+                                           "--mode", "render", "--log", str(tmp_path / "m.log")),
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    tf0 = 34.0
+    try:
+        assert wait_for(lambda: run_cli(capsys, "get", "--bus", hub.bus, "--timeout", "0.2", "master", "mode")[0]
+                        == EXIT_OK, 30)     # the node is up (its scene's first touch is at 5 s)
+        code, out, err = run_cli(capsys, "calibrate-finger", "--bus", hub.bus, "--live", "1", "--finger-temp",
+                                 str(tf0), "--touch-timeout", "30", "--apply")
+        assert code == EXIT_OK, err
+        ((p0, c),) = [tuple(map(float, m)) for m in re.findall(r"T_pad0 ([\d.]+) °C -> T_contact ([\d.]+) °C", out)]
+        assert min(p0, tf0) < c < max(p0, tf0)                    # eq. 1: between pad and finger
+        beta = float(re.search(r"beta_pad = ([\d.]+)", out).group(1))
+        h = 0.0005   # the temperatures are printed to 3 decimals: β_pad from eq. 1 within that box
+        lo, hi = sorted([(tf0 - (c + h)) / ((c + h) - (p0 - h)), (tf0 - (c - h)) / ((c - h) - (p0 + h))])
+        assert lo - 1e-4 <= beta <= hi + 1e-4                      # eq. 1 solved for β_pad
+        code, out, err = run_cli(capsys, "get", "--bus", hub.bus, "master", "pad_beta", "finger_T0_C")
+        assert code == EXIT_OK, err
+        assert float(re.search(r"pad_beta = ([\d.]+)", out).group(1)) == pytest.approx(beta, abs=1e-3)
+        assert "finger_T0_C = 34 degC" in out
+    finally:
+        stop_process(master)
+        hub.stop()
