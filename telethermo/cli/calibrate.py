@@ -5,8 +5,8 @@ For every touch of the pad, eq. 1 gives T_contact = (T_f0 + β_pad·T_pad0)/(1 +
 at different pre-sets (or one with a known finger temperature) determine β_pad and T_f0
 (:func:`telethermo.control.rendering.calibrate_finger`). The touches come either from the command
 line (``--touch T_PAD0:T_CONTACT``) or from the live master (``--live``): T_pad0 is the mean pad
-sensor temperature in the 0.5 s before the contact detector closes, T_contact its mean 0.1..1 s
-after (yamamoto's early-time window), both read by SDO. ``--apply`` writes β_pad and T_f0 into the
+surface temperature (T_sensor - Q·R_sensor/2, guiatni eq. 29) in the 0.5 s before the contact
+detector closes, T_contact its mean 0.1..1 s after (yamamoto's early-time window), read by SDO. ``--apply`` writes β_pad and T_f0 into the
 master (pad_beta, finger_T0_C), range-checked like ``telethermo set``.
 """
 from __future__ import annotations
@@ -92,10 +92,14 @@ def run(args: argparse.Namespace) -> int:
         nw = stack.enter_context(common.canopen_network(args, net)) if (args.live or args.apply) else None
         node = common.remote(nw, t, args.timeout) if nw is not None else None
         if args.live:
-            ts, contact = common.lookup(t, "T_sensor_C"), common.lookup(t, "contact")
+            ts, q, contact = (common.lookup(t, k) for k in ("T_sensor_C", "Q_W", "contact"))
+            r_sensor = common.sdo_read(node, t, common.lookup(t, "R_sensor_C_per_W"))
 
             def read():
-                return common.sdo_read(node, t, ts), bool(common.sdo_read(node, t, contact))
+                # the pad surface: the thermocouple sits at the flux sensor's mid-plane, half its
+                # thermal resistance below the surface (guiatni eq. 29); Q > 0 flows out of the pad
+                T_mid = common.sdo_read(node, t, ts)
+                return T_mid - common.sdo_read(node, t, q) * r_sensor / 2.0, bool(common.sdo_read(node, t, contact))
 
             for k in range(args.live):
                 print(f"touch {k + 1}/{args.live}: put the finger on the pad and hold it for 1 s ...", flush=True)
