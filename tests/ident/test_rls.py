@@ -84,6 +84,7 @@ def _converged_and_idle(true_model, seed):
 ONE_HOUR = 360_000  # samples at 10 ms
 
 
+@pytest.mark.slow  # 360,000 updates: ~5 s on an idle machine
 def test_one_hour_without_excitation_keeps_covariance_bounded(true_model):
     """λ1 = 0.999, no dead zone: during 1 h of idle samples plain forgetting inflates K like λ1^-t in the
     unexcited (current) directions; the constant-trace bound holds tr K at its cap, K stays SPD and
