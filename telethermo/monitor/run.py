@@ -51,33 +51,38 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
                       f"{snap['bus_load_pct']:.1f}% {sync} late {snap['late_cycles']} missed {snap['missed_pdos']} "
                       f"err {snap['error_frames']} | {nodes}\n")
 
-    for msg in source:
-        if until is not None and until():
-            break
-        if msg is None:
-            if now is not None:
-                evs = mon.tick(now())
-                for e in evs:
-                    out.write(dumps(e.to_json()) + "\n" if as_json else
-                              f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
-            out.flush()
-            continue
-        frame, evs = mon.feed(msg)
-        n += 1
-        if frames:
-            out.write(dumps(frame.to_json()) + "\n" if as_json else
-                      f"{fmt_time(frame.t_s)} {frame.kind:10s} 0x{frame.cob_id:03X} [{len(frame.data)}] "
-                      f"{frame.data.hex(' '):23s} {frame.text}\n")
-        for e in evs:
-            out.write(dumps(e.to_json()) + "\n" if as_json else f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
-        if status_every_s > 0:
-            if next_status is None:
-                next_status = frame.t_s + status_every_s
-            elif frame.t_s >= next_status:
-                emit_status()
-                next_status = frame.t_s + status_every_s
-        if max_frames is not None and n >= max_frames:
-            break
+    try:
+        for msg in source:
+            if until is not None and until():
+                break
+            if msg is None:
+                if now is not None:
+                    evs = mon.tick(now())
+                    for e in evs:
+                        out.write(dumps(e.to_json()) + "\n" if as_json else
+                                  f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
+                out.flush()
+                continue
+            frame, evs = mon.feed(msg)
+            n += 1
+            if frames:
+                out.write(dumps(frame.to_json()) + "\n" if as_json else
+                          f"{fmt_time(frame.t_s)} {frame.kind:10s} 0x{frame.cob_id:03X} [{len(frame.data)}] "
+                          f"{frame.data.hex(' '):23s} {frame.text}\n")
+            for e in evs:
+                out.write(dumps(e.to_json()) + "\n" if as_json else f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
+            if status_every_s > 0:
+                if next_status is None:
+                    next_status = frame.t_s + status_every_s
+                elif frame.t_s >= next_status:
+                    emit_status()
+                    next_status = frame.t_s + status_every_s
+            if max_frames is not None and n >= max_frames:
+                break
+    except KeyboardInterrupt:
+        emit_status()   # Ctrl-C: the script still gets the final state
+        out.flush()
+        raise
     emit_status()
     out.flush()
     return n

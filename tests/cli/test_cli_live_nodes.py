@@ -159,3 +159,38 @@ def test_calibrate_finger_live_on_the_rendering_master(tmp_path, capsys):
     finally:
         stop_process(master)
         hub.stop()
+
+
+def test_monitor_keeps_up_with_a_lockstep_session(tmp_path):
+    """`telethermo monitor --json` as a third process on the hub while the two node processes run
+    1000 lockstep cycles as fast as they can: every SYNC and every TPDO1 of both nodes is decoded,
+    none is counted missing, the SYNC counter never jumps. Stopped with Ctrl-C (SIGINT) like a
+    person would: exit 130, the final status still printed."""
+    import signal
+    from nodes.launch import HubProcess, stop_process
+    hub = HubProcess(idle_timeout_s=60)
+    hub.start()
+    out = tmp_path / "mon.jsonl"
+    mon = subprocess.Popen([sys.executable, "-m", "telethermo.cli.main", "monitor", "--bus", hub.bus, "--json",
+                            "--no-frames", "--status-every", "0"], stdout=open(out, "w"), stderr=subprocess.PIPE,
+                           text=True)
+    try:
+        time.sleep(1.0)   # the monitor is connected before the nodes boot
+        pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path / "pair", bus=hub.bus, cycles=1000))
+        pair.start()
+        try:
+            assert pair.wait_master(120) == 0
+        finally:
+            pair.stop()
+        time.sleep(0.5)
+        mon.send_signal(signal.SIGINT)
+        assert mon.wait(30) == 130
+    finally:
+        stop_process(mon)
+        hub.stop()
+    rows = [json.loads(ln) for ln in out.read_text().splitlines()]
+    st = [r for r in rows if r["type"] == "status"][-1]
+    counts = {(p["node"], p["pdo"]): p["count"] for p in st["pdos"]}
+    assert st["syncs"] == 1000 and st["sync_counter_errors"] == 0
+    assert counts[(1, "TPDO1")] == 1000 and counts[(2, "TPDO1")] == 1000
+    assert st["missed_pdos"] == 0 and st["unknown_frames"] == 0 and st["malformed"] == 0
