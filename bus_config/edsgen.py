@@ -29,6 +29,7 @@ from bus_config import path as _path
 # CiA 301 data types
 BOOLEAN, INTEGER8, INTEGER16, INTEGER32 = 0x0001, 0x0002, 0x0003, 0x0004
 UNSIGNED8, UNSIGNED16, UNSIGNED32, REAL32, VISIBLE_STRING = 0x0005, 0x0006, 0x0007, 0x0008, 0x0009
+REAL64 = 0x0011
 
 UNIT_TEXT = {  # name suffix -> ASCII unit for the Unit= key (longest suffixes first when matching)
     "_A_per_C_s": "A/(degC*s)", "_A_per_C": "A/degC", "_A_per_W": "A/W", "_C_per_s": "degC/s",
@@ -78,6 +79,13 @@ def _f(x: float) -> str:
 def _real(name, access, default, low=None, high=None, pdo=False, description=""):
     return Var(name, REAL32, access, _f(default), None if low is None else _f(low),
                None if high is None else _f(high), pdo, description)
+
+
+def _real64(name, access, default, low=None, high=None, description=""):
+    """A REAL64 entry: identified model coefficients cancel to ~1e-8 (see docs/identification.md), so
+    REAL32 would make a transferred NARMA model unstable; they are SDO-only (never PDO-mapped)."""
+    return Var(name, REAL64, access, _f(default), None if low is None else _f(low),
+               None if high is None else _f(high), False, description)
 
 
 def _uint(name, data_type, access, default, low=None, high=None, pdo=False, description=""):
@@ -157,11 +165,11 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2309, _real("R_sensor_C_per_W", "rw", 2.0, 0.0, 1000.0, description="flux-sensor thermal resistance e/(kS), eq. 29")),
         Obj(0x2310, "theta", object_type=0x8, subs={
             0: _uint("Highest sub-index supported", UNSIGNED8, "const", 48),
-            **{i: _real(f"theta{i}", "rw", 0.0, -1.0e6, 1.0e6, description="NARMA parameter (eq. 11 order)")
+            **{i: _real64(f"theta{i}", "rw", 0.0, -1.0e6, 1.0e6, description="NARMA parameter (eq. 11 order)")
                for i in range(1, 49)}}),
         Obj(0x2311, "flux_coeffs", object_type=0x8, subs={
             0: _uint("Highest sub-index supported", UNSIGNED8, "const", 16),
-            **{i: _real(f"flux_coeff{i}", "rw", 0.0, -1.0e6, 1.0e6, description="c_1..c_n then d_0..d_m (eq. 12)")
+            **{i: _real64(f"flux_coeff{i}", "rw", 0.0, -1.0e6, 1.0e6, description="c_1..c_n then d_0..d_m (eq. 12)")
                for i in range(1, 17)}}),
         # -- safety envelope (DESIGN.md section 6): ranges only allow narrowing the defaults
         V(0x2400, _real("T_min_C", "rw", 15.0, 15.0, 43.0, description="lowest surface setpoint")),
@@ -304,7 +312,7 @@ def render(role: str) -> str:
 
 def markdown_table(role: str = "master") -> str:
     """The object dictionary as a Markdown table (for docs/canopen.md)."""
-    types = {BOOLEAN: "BOOLEAN", UNSIGNED8: "U8", UNSIGNED16: "U16", UNSIGNED32: "U32", REAL32: "REAL32",
+    types = {BOOLEAN: "BOOLEAN", UNSIGNED8: "U8", UNSIGNED16: "U16", UNSIGNED32: "U32", REAL32: "REAL32", REAL64: "REAL64",
              VISIBLE_STRING: "STRING", INTEGER16: "I16"}
     rows = ["| index | sub | name | type | access | default | range | unit | PDO |",
             "|---|---|---|---|---|---|---|---|---|"]
@@ -319,7 +327,7 @@ def markdown_table(role: str = "master") -> str:
             row(o.index, 0, o.var)
         elif o.index in (0x2310, 0x2311):
             first, last = o.subs[1], o.subs[len(o.subs) - 1]
-            rows.append(f"| 0x{o.index:04X} | 1..{len(o.subs) - 1} | {o.name}: {first.name}..{last.name} | REAL32 | "
+            rows.append(f"| 0x{o.index:04X} | 1..{len(o.subs) - 1} | {o.name}: {first.name}..{last.name} | {types[first.data_type]} | "
                         f"{first.access} | {first.default} | {first.low} .. {first.high} | | |")
         else:
             for sub, var in o.subs.items():
