@@ -90,6 +90,10 @@ def transport(args: argparse.Namespace, net: NetworkConfig) -> TransportSettings
 def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, TransportSettings]:
     """Open the bus; Failure (exit 1) if it cannot be reached."""
     ts = transport(args, net)
+    if ts.interface == "virtual" and not getattr(args, "bus", None):
+        print(f"telethermo {getattr(args, 'command', '')}: note: {ts.describe()} (from {net.path}) is a bus inside "
+              "this process only; to reach a session use --bus socketcand://127.0.0.1:PORT/telethermo (the hub) "
+              "or --bus socketcan:vcan0", file=sys.stderr)
     # python-can's socketcand client logs every TCP read that splits a frame; not news to an operator
     logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
     try:
