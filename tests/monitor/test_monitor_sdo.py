@@ -4,7 +4,6 @@ from __future__ import annotations
 import struct
 import time
 
-import can
 
 from telethermo.monitor.sdo import SdoChannel
 from telethermo.monitor.state import Monitor
