@@ -105,8 +105,9 @@ def test_find_status_set_nmt_mode_record(live, capsys, tmp_path):
     assert p.returncode == 0, p.stderr
     n = int(re.search(r"recorded (\d+) frames", p.stdout).group(1))
     back = list(can.LogReader(str(log)))
-    assert len(back) == n > 150          # ~1 s of SYNC + PDOs at 100 Hz
+    assert len(back) == n
     counters = [m.data[0] for m in back if m.arbitration_id == 0x080]
+    assert len(counters) >= 2
     assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # no SYNC lost
     rows = log.with_suffix(".csv").read_text().splitlines()
     assert len(rows) == n + 1 and any(",PDO," in r and "estimate_C" in r for r in rows)
@@ -119,11 +120,13 @@ def test_monitor_json_on_the_live_session(live, capsys):
     assert code == EXIT_OK, err
     snap = [json.loads(ln) for ln in out.splitlines() if '"type":"status"' in ln][-1]
     assert [n["nmt_state"] for n in snap["nodes"]] == ["OPERATIONAL", "OPERATIONAL"]
-    assert snap["sync"]["period_s"] == pytest.approx(0.010, rel=0.2)    # the network file's 10 ms
+    assert snap["syncs"] >= 2 and snap["sync_counter_errors"] == 0
     pdos = {(p["node"], p["pdo"]): p for p in snap["pdos"]}
-    names = [v["name"] for v in pdos[(1, "TPDO1")]["values"]]
-    assert names == ["estimate_C", "Q_W"] and pdos[(2, "TPDO1")]["count"] > 50
-    assert snap["missed_pdos"] == 0 and snap["error_frames"] == 0
+    assert [v["name"] for v in pdos[(1, "TPDO1")]["values"]] == ["estimate_C", "Q_W"]
+    assert [v["unit"] for v in pdos[(2, "TPDO1")]["values"]] == ["degC", "W"]
+    for node in (1, 2):   # one TPDO1 per SYNC from each node (up to the window's two ends)
+        assert abs(pdos[(node, "TPDO1")]["count"] - snap["syncs"]) <= 1
+    assert snap["error_frames"] == 0 and snap["unknown_frames"] == 0 and snap["malformed"] == 0
 
 
 def test_calibrate_finger_live_on_the_rendering_master(tmp_path, capsys):
