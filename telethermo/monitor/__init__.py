@@ -1,0 +1,10 @@
+"""The CANopen bus monitor: decode frames (CiA 301) into per-node state, bus statistics and events.
+
+Modules, one concept each: :mod:`.cia301` (tables: abort codes, EMCY codes, NMT states),
+:mod:`.decoder` (one frame → kind, node, fields), :mod:`.sdo` (one SDO state machine per node),
+:mod:`.pdo` (PDO mapping from the EDS and from remapping seen on the bus), :mod:`.busload` (frame
+length on the wire with bit stuffing), :mod:`.events` (event log with severity), :mod:`.state`
+(:class:`~telethermo.monitor.state.Monitor`: frames in, state and events out; no clock, no I/O),
+:mod:`.replay` (log files, pacing, live source), :mod:`.record` (log + decoded CSV),
+:mod:`.view` (screen renderer and curses view), :mod:`.run` (the view and line/JSON loops).
+"""
