@@ -172,7 +172,8 @@ def case_chatter(duration_s: float = 2.0) -> dict:
     c = Case("sim_contact_chatter_1ms",
              f"the probe chatters on copper at 10 °C: 1 ms contact, 1 ms off, for {duration_s:g} s (5 make/break "
              "events inside every 10 ms step): no NaN, within [10, 25] °C at 0 A, within the rig's band with "
-             f"±1 A, energy residual <= {ENERGY_REL_TOL:g} of the throughput")
+             f"±1 A, energy residual <= {ENERGY_REL_TOL:g} of the throughput; the same chatter of the operator's "
+             "finger on the display at 0 A stays within [25, 37] °C (ambient, blood and core)")
     touches = [{"start_s": round(0.002 * j + 0.1, 6), "end_s": round(0.002 * j + 0.101, 6), "object": "cu",
                 "force_N": 8.0} for j in range(int(duration_s / 0.002))]
     dur = 0.1 + duration_s + 0.1
@@ -185,6 +186,12 @@ def case_chatter(duration_s: float = 2.0) -> dict:
     rig = sim.build_rig(scene, "slave")
     _check_run(c, "prbs_1A", drive(rig, prbs(n, amplitude_A=(0.0, 1.0), hold_samples=3, seed=9), n), energy(rig),
                bounds=_band(), n=n)
+    # the operator's finger (perfused skin layers, core and blood at 37 °C) chattering on the display
+    fdoc = scene_doc(duration_s=dur, objects={}, master=[{k: v for k, v in t.items() if k != "object"}
+                                                          for t in touches])
+    fscene = load_scene_doc(fdoc, "finger_chatter")
+    rig = sim.build_rig(fscene, "master")
+    _check_run(c, "finger_zero_current", drive(rig, None, n), energy(rig), bounds=(25.0, 37.0), n=n)
     return c.result()
 
 
