@@ -178,3 +178,29 @@ def test_nan_in_a_pdo_trips_the_envelope_not_the_current(slave):
     assert math.isfinite(cmd) and 15.0 <= cmd <= 43.0
     est = [struct.unpack("<ff", d)[0] for _, d in frames.since(m, 0x182)]
     assert len(est) == 10 and all(math.isfinite(e) for e in est)
+
+
+def test_mode_by_sdo_changes_the_control_and_an_impossible_mode_is_refused(slave):
+    net, remote, frames, _ = slave
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x01, SLAVE]))
+    assert reaches_state(frames, m0, 5)
+
+    def cycles(n, start, T=40.0):
+        for c in range(start, start + n):
+            net.send_message(0x181, struct.pack("<ff", T, 0.0))   # the master's finger: warm
+            sync(net, (c % 240) + 1)
+        sdo_fence(remote)
+
+    cycles(60, 0)
+    heating = remote.sdo["current_A"].raw
+    assert heating > 0.05                              # telepresence: tracking a warm finger heats
+    remote.sdo["mode"].raw = 0                         # IDLE
+    cycles(60, 60)
+    assert remote.sdo["current_A"].raw == 0.0          # the idle ramp (4 A/s) has brought it to 0
+    remote.sdo["mode"].raw = 2                         # RENDER: the master's job, not the probe's
+    sdo_fence(remote)
+    assert remote.sdo["mode"].raw == 0                 # refused: written back
+    remote.sdo["mode"].raw = 1
+    cycles(60, 120)
+    assert remote.sdo["current_A"].raw > 0.05          # back to telepresence, heating again
