@@ -1,0 +1,208 @@
+"""``telethermo tune``: tune the bilateral pair's gains on a scene, offline, robustly.
+
+    telethermo tune --scene probe_touches_al_steel_wood --budget 80 --out gains.json
+
+Runs offline sessions (telethermo.session.run_offline_session) of the scene and of a perturbed variant
+(another room, finger, force and objects; --no-perturbed to skip it), searches the log-gains of both
+sides with bounded Nelder-Mead (or --method de) within --budget evaluations, then checks the best
+few points at ±30 % on each gain and keeps the one with the best worst case. Prints progress, the
+candidates and the sensitivity table of the chosen point, and writes the gains file (JSON, atomic;
+format in docs/tuning.md; ``telethermo.control.tuning.load_gains`` reads it). Each evaluation costs
+one offline session per scene (≈ 1 s each for 30 s of scene on this VM).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+from telethermo.cli.main import EXIT_OK, UserError
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("tune", help="tune the bilateral gains offline (search + ±30 %% robustness check)",
+                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--scene", required=True, help="telepresence scene: a TOML file or a shipped scene's name")
+    p.add_argument("--budget", type=int, default=60,
+                   help="search points (default 60; each costs 3 evaluations: the point and its two stress corners; "
+                        "the robustness check adds (2·gains + corners)·(candidates + 1) more)")
+    p.add_argument("--out", type=Path, help="write the tuned gains here (JSON, atomic)")
+    p.add_argument("--method", choices=["nelder-mead", "de"], default="nelder-mead",
+                   help="bounded Nelder-Mead from the shipped gains (default) or differential evolution")
+    p.add_argument("--seed", type=int, default=0, help="seed of the sessions' noise and of the optimiser (default 0)")
+    p.add_argument("--candidates", type=int, default=3, help="distinct best points checked for robustness (default 3)")
+    p.add_argument("--rel", type=float, default=0.3, help="relative half-width of the robustness box (default 0.3)")
+    p.add_argument("--corners", type=int, default=4, help="random corners of the box checked (default 4)")
+    p.add_argument("--stress", type=float, metavar="REL",
+                   help="relative size of the stress corners the search minimises over (default: --rel; 0: the "
+                        "centre alone)")
+    p.add_argument("--duration", type=float, metavar="S", help="run S seconds of each scene (default: the scene's)")
+    w = tn_weights_default()
+    p.add_argument("--w-early", type=float, default=w.early_per_C, metavar="W",
+                   help=f"weight of the transparency early mean error, 1/°C (default {w.early_per_C:g})")
+    p.add_argument("--w-tracking", type=float, default=w.tracking_per_C, metavar="W",
+                   help=f"weight of the steady tracking RMS, 1/°C (default {w.tracking_per_C:g})")
+    p.add_argument("--w-limit", type=float, default=w.limit_per_s, metavar="W",
+                   help=f"weight of the time at envelope limits, 1/s (default {w.limit_per_s:g})")
+    p.add_argument("--no-perturbed", action="store_true", help="tune on the scene alone (not recommended)")
+    p.add_argument("--bench", action="store_true", help="also write bench/results/tuning.json (bench.common)")
+    p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
+    p.set_defaults(func=run)
+
+
+def tn_weights_default():
+    from telethermo.control.tuning import Weights
+    return Weights()
+
+
+def _fmt(x: Any, nd: int = 3) -> str:
+    if isinstance(x, bool):
+        return "yes" if x else "NO"
+    if isinstance(x, float):
+        return "nan" if not math.isfinite(x) else f"{x:.{nd}f}"
+    return str(x)
+
+
+def _table(headers: list[str], rows: list[list[Any]]) -> str:
+    cells = [headers] + [[_fmt(c) for c in r] for r in rows]
+    w = [max(len(r[i]) for r in cells) for i in range(len(headers))]
+    lines = ["  ".join(c.rjust(w[i]) if i else c.ljust(w[i]) for i, c in enumerate(r)) for r in cells]
+    lines.insert(1, "  ".join("-" * x for x in w))
+    return "\n".join(lines)
+
+
+def _row(label: str, ev) -> list[Any]:
+    s = ev.summary()
+    return [label, ev.J, s["early_C"], s["late_C"], s["tracking_rms_C"], s["limit_s"], s["trips"], s["order_kept"]]
+
+
+HEADERS = ["point", "J", "early °C", "late °C", "track °C", "limit s", "trips", "order"]
+
+
+def sensitivity_rows(rob) -> list[dict[str, Any]]:
+    """JSON rows of a Robustness (centre first), scene-averaged figures and per-scene J."""
+    out = []
+    for label, ev in [("centre", rob.centre)] + list(rob.rows):
+        r = {"point": label, "gains": ev.gains, **ev.summary()}
+        r["per_scene"] = [{k: s[k] for k in ("scene", "J", "early_C", "late_C", "tracking_rms_C", "limit_s", "trips",
+                                             "order_kept", "per_contact_early_C")} for s in ev.scenes]
+        out.append(r)
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    import sim
+    from telethermo.control import tuning as tn
+
+    if args.budget < 1:
+        raise UserError(f"--budget {args.budget}: expected an integer >= 1")
+    if not (0 < args.rel < 1):
+        raise UserError(f"--rel {args.rel}: expected a number in (0, 1)")
+    if args.stress is not None and not (0 <= args.stress < 1):
+        raise UserError(f"--stress {args.stress}: expected a number in [0, 1)")
+    if args.candidates < 1 or args.corners < 0:
+        raise UserError("--candidates must be >= 1 and --corners >= 0")
+    if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
+        raise UserError(f"--duration {args.duration}: expected a number of seconds > 0")
+    try:
+        scene = sim.load_scene(args.scene)
+        scenes = tn.tuning_scenes(scene, perturbed=not args.no_perturbed)
+    except ValueError as exc:  # SceneError names the file and the field; a virtual scene is refused
+        raise UserError(str(exc)) from None
+
+    t0 = time.perf_counter()
+    best = [math.inf]
+
+    def progress(ev, n: int) -> None:
+        if ev.J < best[0]:
+            best[0] = ev.J
+        if not args.quiet:
+            s = ev.summary()
+            print(f"  eval {n:4d}  J {ev.J:7.3f}  (best {best[0]:.3f})  early {s['early_C']:.3f} °C  "
+                  f"track {s['tracking_rms_C']:.3f} °C  [{time.perf_counter() - t0:6.1f} s]", flush=True)
+
+    for name in ("w_early", "w_tracking", "w_limit"):
+        v = getattr(args, name)
+        if not (v >= 0 and math.isfinite(v)):
+            raise UserError(f"--{name.replace('_', '-')} {v}: expected a finite number >= 0")
+    weights = tn.Weights(early_per_C=args.w_early, tracking_per_C=args.w_tracking, limit_per_s=args.w_limit)
+    obj = tn.Objective(scenes, seed=args.seed, duration_s=args.duration, progress=progress, weights=weights)
+    print(f"telethermo tune: scenes {', '.join(s.name for s in scenes)}; gains "
+          f"{', '.join(f'{s.key} [{s.lo:g}, {s.hi:g}]' for s in obj.space)}", flush=True)
+    res = tn.tune(obj, budget=args.budget, method=args.method, seed=args.seed, candidates=args.candidates,
+                  rel=args.rel, corners=args.corners, stress_rel=args.stress, on_stage=lambda m: print(f"- {m}", flush=True))
+    wall = time.perf_counter() - t0
+
+    print("\ncandidates (centre J, worst J over the ±%d %% box, the worst point):" % round(args.rel * 100))
+    pool = res.candidates + ([res.reference] if res.reference is not None and res.reference not in res.candidates else [])
+    rows = []
+    for rob in pool:
+        tag = "reference (start)" if rob is res.reference else "candidate"
+        tag += " *chosen*" if rob is res.chosen else ""
+        rows.append([tag, rob.centre.J, rob.worst.J, rob.worst_label] +
+                    [rob.centre.gains[k] for k in obj.keys])
+    print(_table(["point", "J", "worst J", "worst at"] + obj.keys, rows))
+    print(f"\nsensitivity of the chosen point (±{args.rel:.0%} on each gain, then random corners):")
+    print(_table(HEADERS, [_row("centre", res.chosen.centre)] + [_row(lab, ev) for lab, ev in res.chosen.rows]))
+    print(f"\nchosen gains: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.best.gains.items()))
+    print(f"search: {res.search.method}, budget {res.search.budget} points, {len(res.search.points)} points, "
+          f"{res.search.n_evaluations} evaluations; "
+          f"{len(obj.history)} evaluations in all ({obj.n_sessions} sessions), wall time {wall:.0f} s")
+
+    doc = tn.gains_document(res, obj, extra={"wall_time_s": wall})
+    if args.out is not None:
+        try:
+            tn.write_gains(args.out, doc)
+        except OSError as exc:
+            raise UserError(f"--out {str(args.out)!r}: {exc}") from None
+        print(f"wrote {args.out}")
+    if args.bench:
+        try:
+            from bench.common import write_results
+        except ImportError:
+            raise UserError("--bench: the bench package is not importable (run from the repository root)") from None
+        data = {"scene": scene.name, "scenes": [s.name for s in scenes], "budget": args.budget, "method": args.method,
+                "seed": args.seed, "wall_time_s": wall, "evaluations": len(obj.history), "sessions": obj.n_sessions,
+                "space": [{"gain": s.key, "lo": s.lo, "hi": s.hi} for s in obj.space],
+                "weights": doc["objective"]["weights"], "rel_box": args.rel, "corners": args.corners,
+                "stress_rel": res.search.stress_rel,
+                "start": {"gains": res.search.start.gains, "searched_value": res.search.start.value,
+                          **res.search.start.centre.summary()},
+                "search_best": {"gains": res.search.best.gains, "searched_value": res.search.best.value,
+                                **res.search.best.centre.summary()},
+                "candidates": [{"gains": r.centre.gains, "J": r.centre.J, "worst_J": r.worst.J,
+                                "worst_at": r.worst_label, "is_reference": r is res.reference,
+                                "chosen": r is res.chosen} for r in pool],
+                "chosen": {"gains": res.best.gains, "worst_J": res.chosen.worst.J,
+                           "worst_at": res.chosen.worst_label, **res.best.summary()},
+                "sensitivity_chosen": sensitivity_rows(res.chosen),
+                "sensitivity_reference": sensitivity_rows(res.reference) if res.reference is not None else None,
+                "gains_file": doc,
+                "history": [{"gains": ev.gains, **ev.summary(),
+                             "per_scene_J": [sc["J"] for sc in ev.scenes],
+                             "per_scene_early_C": [sc["early_C"] for sc in ev.scenes],
+                             "per_scene_tracking_rms_C": [sc["tracking_rms_C"] for sc in ev.scenes]}
+                            for ev in obj.history]}
+        print(f"wrote {write_results('tuning', data)}")
+    return EXIT_OK
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run ``telethermo tune`` standalone (until the subcommand is registered in telethermo.cli.main)."""
+    from telethermo.cli.main import EXIT_USAGE
+    ap = argparse.ArgumentParser(prog="telethermo")
+    sub = ap.add_subparsers(dest="command")
+    register(sub)
+    args = ap.parse_args(["tune", *(sys.argv[1:] if argv is None else argv)])
+    try:
+        return int(args.func(args) or 0)
+    except UserError as exc:
+        print(f"telethermo tune: error: {exc}", file=sys.stderr)
+        return EXIT_USAGE
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
