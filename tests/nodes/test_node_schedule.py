@@ -1,11 +1,9 @@
-"""Lockstep gate and real-time ticker logic, with an injected clock (no wall-clock assertions)."""
+"""The real-time ticker's logic, with an injected clock (no wall-clock assertions)."""
 from __future__ import annotations
-
-import threading
 
 import pytest
 
-from nodes.schedule import LockstepGate, RealtimeTicker
+from nodes.schedule import RealtimeTicker
 
 
 class FakeClock:
@@ -19,38 +17,6 @@ class FakeClock:
     def sleep(self, dt: float) -> None:
         self.slept.append(dt)
         self.t += dt
-
-
-def test_gate_needs_own_and_every_peer():
-    gate = LockstepGate([2, 3])
-    gate.begin(0)
-    assert not gate.complete()
-    gate.own_done()
-    gate.peer_done(2)
-    assert not gate.complete() and gate.missing() == {3}
-    gate.peer_done(9)  # not a peer: ignored
-    assert not gate.complete()
-    gate.peer_done(3)
-    assert gate.complete()
-    gate.begin(1)
-    assert not gate.complete() and gate.missing() == {2, 3}
-
-
-def test_gate_wait_is_released_by_another_thread_and_counts_timeouts():
-    gate = LockstepGate([2])
-    gate.begin(0)
-    gate.own_done()
-    t = threading.Thread(target=gate.peer_done, args=(2,))
-    t.start()
-    assert gate.wait(10.0)
-    t.join()
-    gate.begin(1)
-    gate.own_done()
-    assert not gate.wait(0.01)
-    assert gate.timeouts == 1
-    # a lost peer is not waited for
-    assert gate.wait(0.01, wait_for=[])
-    assert gate.timeouts == 1
 
 
 def test_ticker_paces_and_counts_late_cycles():
