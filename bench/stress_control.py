@@ -258,9 +258,13 @@ def case_real32(duration_s: float = 15.0) -> dict:
     b = run_offline_session("probe_touches_al_steel_wood", duration_s=duration_s, rounding="real32")
     ra, rb = a.recording, b.recording
     for side in ("m", "s"):
-        dI = float(np.nanmax(np.abs(ra.col(f"{side}_current_A") - rb.col(f"{side}_current_A"))))
+        dIs = np.abs(ra.col(f"{side}_current_A") - rb.col(f"{side}_current_A"))
+        dI = float(np.nanmax(dIs))
         dT = float(np.nanmax(np.abs(ra.col(f"{side}_estimate_C") - rb.col(f"{side}_estimate_C"))))
-        c.fig(**{f"{side}_max_current_diff_A": dI, f"{side}_max_estimate_diff_C": dT})
+        c.fig(**{f"{side}_max_current_diff_A": dI, f"{side}_max_estimate_diff_C": dT,
+                 f"{side}_median_current_diff_A": float(np.nanmedian(dIs)),
+                 f"{side}_p99_current_diff_A": float(np.nanpercentile(dIs, 99)),
+                 f"{side}_max_current_diff_at_s": float(ra.col("t_s")[int(np.nanargmax(dIs))])})
         c.require(dI <= 1e-3, f"{side}: currents differ by {dI:.3g} A <= 1e-3 A")
         c.require(dT <= 1e-3, f"{side}: estimates differ by {dT:.3g} °C <= 1e-3 °C")
     return c.result()
