@@ -149,7 +149,7 @@ class NodeRuntime:
         dev = self.device
         try:
             if dev is not None:
-                with dev._lock:  # no SYNC handler runs while we cut the current
+                with dev.lock:  # no SYNC handler runs while we cut the current
                     self._safe_current()
                     self._w["current_A"](0.0)
                     dev.send_heartbeat_now()
@@ -216,7 +216,7 @@ class NodeRuntime:
             ticker.wait_next()
             if time.monotonic() - self._last_sync_at < 2 * period:
                 continue  # SYNC still arrives (only the heartbeat is missing)
-            with dev._lock:
+            with dev.lock:
                 if self.stop_event.is_set() or dev.state is not NmtState.OPERATIONAL or self._state is None:
                     continue
                 try:
@@ -401,10 +401,7 @@ class NodeRuntime:
                 owed, base, boots = 0, dev.rpdo_count(1), self.peer_boots
             self._sync_sent_at = time.monotonic()
             self._waiting_first_rpdo = True
-            # Hold the device lock from sending SYNC k until our own SYNC k is processed: a fast peer's
-            # TPDO k could otherwise be committed as an RPDO of SYNC k (one cycle early) instead of k+1.
-            with dev._lock:
-                sync.transmit()
+            sync.transmit()  # holds the device lock until our own SYNC k is processed (no early PDO k)
             k += 1
             if self.lockstep:
                 if status == "alive":

@@ -51,6 +51,8 @@ ABORT_RANGE = 0x06090030
 ABORT_INCOMPATIBLE = 0x06040043
 ABORT_READ_ONLY = 0x06010002
 ABORT_LENGTH = 0x06070010
+ABORT_GENERAL = 0x08000000
+ABORT_DEVICE_STATE = 0x08000022   # data cannot be transferred or stored because of the present device state
 
 # diagnostics objects served live from DeviceStats (see bus_config/edsgen.py)
 DIAG_OBJECTS = {0x2710: "malformed_frames", 0x2711: "unknown_cobid_frames", 0x2712: "callback_errors",
@@ -226,6 +228,7 @@ class Device:
         self._peer_listeners: list[Callable[[PeerEvent], None]] = []
         self._nmt_listeners: list[Callable[[NmtState, NmtState, int | None], None]] = []
         self._write_listeners: list[Callable[[WriteEvent], None]] = []
+        self._write_validators: dict[tuple[int, int], list[Callable[[Any], int | None]]] = {}
         self._last_sync_counter: int | None = None
         self._slots: dict[Any, tuple[int, int, Any, VarInfo | None]] = {}
         # EMCY
@@ -360,6 +363,31 @@ class Device:
     def add_write_listener(self, fn: Callable[[WriteEvent], None]) -> None:
         """``fn(event)`` after every accepted SDO write (notifier thread)."""
         self._write_listeners.append(fn)
+
+    def add_write_validator(self, key, fn: Callable[[Any], int | None]) -> None:
+        """``fn(value) -> abort_code | None`` before an SDO write of object ``key`` is stored.
+
+        Called in the SDO download path (notifier thread, device lock held) after the EDS range
+        check, with the decoded value; returning an abort code (e.g. :data:`ABORT_DEVICE_STATE`,
+        0x08000022, for a value the device cannot take in its present state) refuses the write:
+        the client gets that SDO abort and the object keeps its value. ``None`` accepts. A validator
+        that raises refuses the write with 0x08000000 (general error) and counts a callback error.
+        Local :meth:`write` calls of manufacturer objects (the program itself) are not validated.
+        Must not block. Several validators of one object are called in the order they were added.
+        """
+        index, sub, _, _ = self._slot(key)
+        self._write_validators.setdefault((index, sub), []).append(fn)
+
+    def _validate_write(self, index: int, sub: int, value: Any) -> int | None:
+        for fn in self._write_validators.get((index, sub), ()):
+            try:
+                code = fn(value)
+            except Exception:
+                self._callback_failed(fn)
+                return ABORT_GENERAL
+            if code is not None:
+                return int(code)
+        return None
 
     def _call(self, fns: list, *args) -> None:
         for fn in fns:
@@ -571,6 +599,10 @@ class Device:
         with self._lock:
             if info is not None and var.data_type in odmod.NUMBER_TYPES:
                 code = self.info.check(info, value)
+                if code is not None:
+                    raise SdoAbortedError(code)
+            if self._write_validators:
+                code = self._validate_write(index, sub, value)
                 if code is not None:
                     raise SdoAbortedError(code)
             old = self.store[index].get(sub)

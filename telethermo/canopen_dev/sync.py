@@ -46,22 +46,28 @@ class SyncProducer:
 
         Returns the own device's SyncTick. Raises RuntimeError if this device is not the SYNC
         producer or is not in PRE-OPERATIONAL/OPERATIONAL.
+
+        The device lock is held from sending SYNC k until the own SYNC k is processed: a peer that
+        answers SYNC k faster than this thread reaches its own tick would otherwise have its TPDO k
+        committed as an RPDO of SYNC k (one cycle early) instead of SYNC k+1. With the lock held, the
+        receive thread waits and stores that PDO as pending for the next SYNC.
         """
         dev = self.device
-        if not dev.is_sync_producer:
-            raise RuntimeError(f"node {dev.node_id} is not the SYNC producer (0x1005 bit 30 is clear)")
-        if dev.state not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
-            raise RuntimeError(f"node {dev.node_id} may not produce SYNC in {dev.state.name}")
-        overflow = dev._u(0x1019, 0)
-        if overflow:
-            self.counter = self.counter + 1 if 0 < self.counter < overflow else 1
-            counter: int | None = self.counter
-            dev._send(dev.sync_cob_id, bytes((counter,)))
-        else:
-            counter = None
-            dev._send(dev.sync_cob_id, b"")
-        self.sent += 1
-        return dev.process_sync(counter)
+        with dev.lock:
+            if not dev.is_sync_producer:
+                raise RuntimeError(f"node {dev.node_id} is not the SYNC producer (0x1005 bit 30 is clear)")
+            if dev.state not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
+                raise RuntimeError(f"node {dev.node_id} may not produce SYNC in {dev.state.name}")
+            overflow = dev._u(0x1019, 0)
+            if overflow:
+                self.counter = self.counter + 1 if 0 < self.counter < overflow else 1
+                counter: int | None = self.counter
+                dev._send(dev.sync_cob_id, bytes((counter,)))
+            else:
+                counter = None
+                dev._send(dev.sync_cob_id, b"")
+            self.sent += 1
+            return dev.process_sync(counter)
 
     # ---------------------------------------------------------------- real time
     def start(self, period_s: float | None = None, *, late_tolerance_s: float | None = None) -> None:

@@ -266,3 +266,42 @@ def test_nan_and_inf_in_an_rpdo_reach_the_od_unchanged(lab):
     barrier(node)
     assert math.isnan(dev.read("peer_estimate_C")) and dev.read("peer_Q_W") == math.inf
     assert dev.stats.malformed_frames == 0 and dev.stats.rpdo_count == 1
+
+
+def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cycle_early(lab):
+    """The race SyncProducer.transmit closes: the peer's TPDO k arrives while the producer's thread
+    is still between sending SYNC k and processing its own SYNC k (made certain here: the producer's
+    network, once it has sent a SYNC, waits until the peer's answer is on the bus and the producer's
+    receive thread has had time to handle it). The PDO must be committed at SYNC k+1, never at SYNC k:
+    at every SYNC the producer sees the peer's value of the previous SYNC."""
+    master, slave = lab.device("master"), lab.device("slave")
+    w = slave.writer("estimate_C")
+    slave.add_sync_handler(lambda tick: w(float(tick.counter)))     # the peer answers SYNC k with k
+    seen = []
+    r = master.reader("peer_estimate_C")
+    master.add_sync_handler(lambda tick: seen.append((tick.counter, tick.fresh_rpdos, r())))
+    observer = lab.raw_bus()
+    net = master.network
+    send = net.send_message
+
+    def slow_send(cob_id, data, remote=False):
+        send(cob_id, data, remote)
+        if cob_id == 0x80:   # a thread switch right after the SYNC: the peer's TPDO k gets here first
+            lab.recv_until(observer, lambda m: m.arbitration_id == 0x182 and m.data[:4] == struct.pack("<f", data[0]))
+            threading.Event().wait(0.02)
+
+    master.nmt_command(NmtCommand.START, 0)
+    sync = SyncProducer(master)
+    drain(observer)
+    net.send_message = slow_send
+    try:
+        for _ in range(20):
+            n = master.rpdo_count(1)
+            sync.transmit()
+            assert master.wait_rpdo(1, after=n, timeout=5.0)
+            drain(observer)
+    finally:
+        net.send_message = send
+    assert [c for c, _, _ in seen] == list(range(1, 21))
+    assert seen[0][1] == () and all(f == (1,) for _, f, _ in seen[1:])
+    assert [v for _, _, v in seen[1:]] == [float(k - 1) for k in range(2, 21)]

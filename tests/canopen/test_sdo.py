@@ -97,3 +97,45 @@ def test_write_listener_sees_accepted_writes_only(lab):
     with pytest.raises(SdoAbortedError):
         node.sdo["ki_A_per_C_s"].raw = 99.0
     assert seen == [(0x2201, 0, 1.5)]
+
+
+def test_write_validator_refuses_with_its_abort_code_and_leaves_the_value(lab):
+    """A pre-write validator (e.g. a mode the device cannot run now) answers the SDO download with its
+    abort code before the value is stored: canopen's client sees the abort, the value is unchanged,
+    no write listener fires; an accepted value goes through as before."""
+    dev = lab.device("slave")
+    calls, seen = [], []
+    dev.add_write_validator("mode", lambda v: (calls.append(v), 0x08000022 if v == 2 else None)[1])
+    dev.add_write_listener(lambda ev: seen.append((ev.index, ev.value)))
+    node = lab.client("slave")
+    node.sdo["mode"].raw = 1
+    before = node.sdo["mode"].raw
+
+    def write_render():
+        node.sdo["mode"].raw = 2
+
+    assert abort_code(write_render) == 0x08000022
+    assert node.sdo["mode"].raw == before == 1 and dev.read("mode") == 1
+    node.sdo["mode"].raw = 3
+    assert dev.read("mode") == 3
+    assert calls == [1, 2, 3]                       # the decoded value, once per download
+    assert seen == [(0x2500, 1), (0x2500, 3)]       # the refused write reached no listener
+    # the EDS range check comes first: the validator never sees an out-of-range value
+    assert abort_code(lambda: setattr(node.sdo["mode"], "raw", 9)) == 0x06090031
+    assert calls == [1, 2, 3]
+
+
+def test_a_failing_validator_refuses_with_a_general_error_and_is_counted(lab):
+    dev = lab.device("master")
+
+    def broken(value):
+        raise RuntimeError("bug")
+
+    dev.add_write_validator("kp_A_per_C", broken)
+    node = lab.client("master")
+    before = dev.read("kp_A_per_C")
+    assert abort_code(lambda: setattr(node.sdo["kp_A_per_C"], "raw", 1.0)) == 0x08000000
+    assert dev.read("kp_A_per_C") == before
+    assert node.sdo["callback_errors"].raw == 1
+    node.sdo["ki_A_per_C_s"].raw = 0.25             # other objects are untouched by it
+    assert dev.read("ki_A_per_C_s") == 0.25
