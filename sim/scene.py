@@ -98,6 +98,14 @@ def shipped_scenes() -> list[str]:
     return sorted(p.stem for p in SCENES_DIR.glob("*.toml"))
 
 
+def _is_finite(v: int | float) -> bool:
+    """True for a number a float can hold (TOML integers have no size limit)."""
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
 class _R:
     """Typed field reader that raises SceneError naming the file and field."""
 
@@ -126,7 +134,7 @@ class _R:
         field_ = prefix + key
         if v is None:
             raise SceneError(self.path, field_, "a number (required)")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not _is_finite(v):
             raise SceneError(self.path, field_, "a finite number", v)
         if (v <= lo if lo_open else v < lo) or v > hi:
             rng = f"{'(' if lo_open else '['}{lo}, {hi}]"

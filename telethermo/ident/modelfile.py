@@ -124,6 +124,18 @@ def save_model(path: str | os.PathLike, tem: TemModel) -> Path:
     return write_json_atomic(path, model_to_dict(tem))
 
 
+MAX_CURRENT_A = 100.0
+"""Largest |current| a model file may claim to cover, A (TEMs of this class run at a few A)."""
+
+
+def _is_finite(v: int | float) -> bool:
+    """True for a number a float can hold (JSON integers have no size limit)."""
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
 class _Reader:
     """Typed field access that raises ModelFileError with the dotted field name."""
 
@@ -150,7 +162,7 @@ class _Reader:
         if key not in parent:
             raise self.err(fld, "a number (missing)")
         v = parent[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
+        if isinstance(v, bool) or not isinstance(v, (int, float)) or not _is_finite(v):
             raise self.err(fld, "a finite number", v)
         if positive and v <= 0:
             raise self.err(fld, "a positive number", v)
@@ -172,7 +184,7 @@ class _Reader:
         if (length is not None and len(v) != length) or not (min_len <= len(v) <= max_len):
             raise self.err(fld, want, f"{len(v)} values")
         for i, x in enumerate(v):
-            if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(x):
+            if isinstance(x, bool) or not isinstance(x, (int, float)) or not _is_finite(x):
                 raise self.err(f"{fld}[{i}]", "a finite number", x)
         return np.asarray(v, dtype=float)
 
@@ -220,6 +232,8 @@ def model_from_dict(doc: Any, *, path: str | os.PathLike = "<dict>", check_stabi
     if not -50.0 <= T_ref <= 150.0:
         raise r.err("temperature.T_ref_C", "a temperature in [-50, 150] °C", T_ref)
     cr = r.range_(t, "current_range_A", "temperature.current_range_A")
+    if max(abs(cr[0]), abs(cr[1])) > MAX_CURRENT_A:
+        raise r.err("temperature.current_range_A", f"a current range within ±{MAX_CURRENT_A:g} A", list(cr))
     Tr = r.range_(t, "T_range_C", "temperature.T_range_C") if "T_range_C" in t else (T_ref, T_ref)
     theta = r.nums(t, "theta", "temperature.theta", length=orders.d)
     if "columns" in t and t["columns"] != orders.column_names():

@@ -57,18 +57,17 @@ def _only_known(r, kinds):
 
 def test_scene_loader_only_scene_or_scene_error():
     r = s.case_fuzz_scene_loader(max_examples=30)
-    _only_known(r, ("huge_int",))
+    _only_known(r, ())
     assert r["figures"]["scene_errors"] > 0
 
 
 def test_model_loader_only_model_or_model_file_error():
     r = s.case_fuzz_model_loader(max_examples=30)
-    _only_known(r, ("huge_int", "current_range"))
+    _only_known(r, ())
     assert r["figures"]["refused"] > 0
 
 
-@pytest.mark.xfail(strict=True, reason=s.KNOWN_FINDINGS["scene_huge_int"])
-def test_finding_scene_huge_integer_is_a_scene_error(tmp_path):
+def test_scene_huge_integer_is_a_scene_error(tmp_path):
     import sim
 
     p = tmp_path / "huge.toml"
@@ -78,8 +77,7 @@ def test_finding_scene_huge_integer_is_a_scene_error(tmp_path):
         sim.load_scene(p)
 
 
-@pytest.mark.xfail(strict=True, reason=s.KNOWN_FINDINGS["model_huge_int"])
-def test_finding_model_huge_integer_is_a_model_file_error(tmp_path):
+def test_model_huge_integer_is_a_model_file_error(tmp_path):
     from telethermo.ident import ModelFileError, load_model
 
     doc = s.base_model_doc()
@@ -90,8 +88,7 @@ def test_finding_model_huge_integer_is_a_model_file_error(tmp_path):
         load_model(p)
 
 
-@pytest.mark.xfail(strict=True, reason=s.KNOWN_FINDINGS["model_current_range"])
-def test_finding_model_huge_current_range_is_a_model_file_error(tmp_path):
+def test_model_huge_current_range_is_a_model_file_error(tmp_path):
     from telethermo.ident import ModelFileError, load_model
 
     doc = s.base_model_doc()
