@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: install demo test test-host test-vcan bench bench-quick stress clean
+.PHONY: install demo test test-host test-vcan bench bench-quick stress stress-quick clean
 
 install: $(STAMP)
 
@@ -37,6 +37,9 @@ bench-quick: $(STAMP)
 
 stress: $(STAMP)
 	$(PY) -m bench.stress
+
+stress-quick: $(STAMP)
+	$(PY) -m bench.stress --quick
 
 clean:
 	rm -rf $(VENV) $(OUT) .pytest_cache .hypothesis

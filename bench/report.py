@@ -30,6 +30,7 @@ HEADLINE = [
     ("nodes", "lockstep_cycles_per_s_vcan", "two processes over vcan0 (in the VM), cycles/s", "≥ 1000 natively"),
     ("nodes", "late_cycles_100hz_60s", "late cycles, real time 100 Hz, 60 s", "0"),
     ("nodes", "late_fraction_1khz", "late fraction, real time 1 kHz", "report"),
+    ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),
 ]
 
 
