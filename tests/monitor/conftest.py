@@ -60,6 +60,24 @@ class CanopenBench:
             time.sleep(0.005)
         return list(self.collector.messages)
 
+    def exchange(self, node: int, data: bytes, timeout_s: float = 10.0) -> can.Message:
+        """Send one SDO request to ``node`` by hand and wait for the server's response on the bus.
+
+        CiA 301 allows one outstanding request per SDO channel: a client sends the next request of a
+        transfer only after the response to the previous one. Waiting for that response (not a fixed
+        sleep) keeps a hand-driven client within the protocol however slowly the server thread runs.
+        """
+        resp_id = 0x580 + node
+        seen = sum(1 for m in list(self.collector.messages) if m.arbitration_id == resp_id)
+        self.client.send_message(0x600 + node, bytes(data))
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            resps = [m for m in list(self.collector.messages) if m.arbitration_id == resp_id]
+            if len(resps) > seen:
+                return resps[seen]
+            time.sleep(0.002)
+        raise AssertionError(f"no SDO response of node {node} within {timeout_s} s to {bytes(data).hex()}")
+
     def close(self) -> None:
         for node in (self.master, self.slave):
             node.nmt.stop_heartbeat()

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import struct
-import time
 
 
 from telethermo.monitor.sdo import SdoChannel
@@ -95,13 +94,11 @@ def test_unexpected_segment_without_transfer_is_a_problem_not_a_crash():
 
 def test_server_switching_block_upload_to_normal_upload(canbus):
     """canopen's SdoServer answers a block upload with a normal upload (allowed by CiA 301)."""
-    req = canbus.client
-    req.send_message(0x601, _pad(bytes([0xA4]) + struct.pack("<HBBB", 0x1008, 0, 127, 0)))
-    time.sleep(0.05)
-    for t in (0x60, 0x70, 0x60):
-        req.send_message(0x601, _pad(bytes([t])))
-        time.sleep(0.05)
+    canbus.exchange(1, _pad(bytes([0xA4]) + struct.pack("<HBBB", 0x1008, 0, 127, 0)))
+    for t in (0x60, 0x70, 0x60):    # each request only after the response to the previous one
+        canbus.exchange(1, _pad(bytes([t])))
     msgs = canbus.wait_frames(8)
+    assert len(msgs) == 8
     mon = Monitor(monitor_config())
     for m in msgs:
         mon.feed(m)
@@ -112,12 +109,14 @@ def test_server_switching_block_upload_to_normal_upload(canbus):
 
 def test_two_nodes_interleaved_transfers_decode_independently(canbus):
     """Segmented uploads from both real servers at once, the two conversations interleaved frame by
-    frame on the bus (the client side driven by hand): one state machine per node keeps them apart."""
-    c = canbus.client
-
+    frame on the bus (the client side driven by hand): one state machine per node keeps them apart.
+    Each request goes out only once the server has answered the previous one on its channel (CiA 301:
+    one outstanding request per channel), so the bus order is 601 581 602 582 601 581 ... however
+    slowly the server threads run; a fixed sleep there let a slow server fall behind and the client
+    send a segment request before the previous response, which is a protocol error (and the monitor
+    reports it as one)."""
     def req(node, data):
-        c.send_message(0x600 + node, _pad(bytes(data)))
-        time.sleep(0.01)
+        canbus.exchange(node, _pad(bytes(data)))
 
     req(1, [0x40, 0x08, 0x10, 0x00])         # initiate upload 0x1008 on node 1
     req(2, [0x40, 0x08, 0x10, 0x00])         # ... and on node 2 before node 1's segments
@@ -127,8 +126,7 @@ def test_two_nodes_interleaved_transfers_decode_independently(canbus):
     msgs = canbus.wait_frames(16)
     ids = [m.arbitration_id for m in msgs]
     assert len(ids) == 16
-    first1, last1 = ids.index(0x601), len(ids) - 1 - ids[::-1].index(0x601)
-    assert 0x602 in ids[first1:last1] and 0x582 in ids[first1:last1]     # really interleaved
+    assert ids == [0x601, 0x581, 0x602, 0x582] * 4       # really interleaved, frame by frame
     mon = Monitor(monitor_config())
     for m in msgs:
         mon.feed(m)
