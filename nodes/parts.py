@@ -13,7 +13,7 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Callable
 
-from telethermo.control.core import CoreParams
+from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.defaults import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.rig import Rig
@@ -31,7 +31,8 @@ class NodeParts:
     Attributes:
         rig: the rig (a simulated one advances only when asked).
         simulated: the rig has ``advance`` (lockstep possible).
-        params_for: mode -> :class:`CoreParams` (raises ValueError for a mode this node cannot run).
+        params_for: ``(mode, render=None)`` -> :class:`CoreParams`, the defaults read at run time
+            (raises ValueError for a mode this node cannot run; RENDER needs ``render`` without a script).
         model: TEM model or None (the FLUX estimator needs none).
         period_s: control period, s.
         cycles: cycles of the scene's duration (None for hardware).
@@ -102,15 +103,24 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
     if opts.timing == "lockstep" and not simulated:
         raise OptionError("--timing lockstep: this rig cannot advance on request (hardware runs in real time)")
 
-    def params_for(mode: Mode) -> CoreParams:
-        """As the offline runner: the defaults of (role, mode) with the envelope at this rig's I_max."""
-        kw = {"render": script.first} if mode is Mode.RENDER and script is not None else {}
+    def params_for(mode: Mode, render: RenderSettings | None = None) -> CoreParams:
+        """As the offline runner: the defaults of (role, mode) with the envelope at this rig's I_max.
+        RENDER renders ``render`` (default: the render script's first touch)."""
+        if mode is Mode.RENDER:
+            render = render if render is not None else (script.first if script is not None else None)
+            kw = {"render": render}
+        else:
+            kw = {}
         p = default_params(opts.role, period_s=period_s, mode=mode, **kw)  # ValueError: RENDER without settings
         if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
         return p
 
-    params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC
+    if not (opts.mode is Mode.RENDER and script is None):  # without a script, RENDER renders the OD's settings
+        try:
+            params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC
+        except ValueError as exc:
+            raise OptionError(f"--mode {opts.mode.name.lower()}: {exc}") from None
     if script is not None:
         meta["render"] = script.meta()
     return NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,

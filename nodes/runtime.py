@@ -39,6 +39,7 @@ from telethermo.control.types import Mode, Role
 from telethermo.session.runner import _side_row, _truth_row  # the offline runner's row format, exactly
 from telethermo.transport.bus import TransportSettings, open_bus
 
+from nodes.odparams import PARAM_KEYS, ParamBook, od_image
 from nodes.parts import NodeParts
 from nodes.peer import PeerLink
 from nodes.recorder import CsvRecorder
@@ -47,7 +48,6 @@ from nodes.schedule import RealtimeTicker
 log = logging.getLogger("telethermo.node")
 
 MODE_INDEX = 0x2500
-GAIN_FIELDS = {0x2200: "kp_A_per_C", 0x2201: "ki_A_per_C_s", 0x2202: "kQ_A_per_W"}
 PEER_MISS_INDEX = 0x2408
 MAX_TIMING_SAMPLES = 1_000_000
 
@@ -83,7 +83,11 @@ class NodeRuntime:
         self.transport = transport
         self.parts = parts
         self.mode = self.configured_mode = mode
-        self.params = parts.params_for(mode)
+        self.params = None  # built at start() from the parameter book (defaults + SDO writes)
+        self.book: ParamBook | None = None
+        self._book_version = 0
+        self._script_rs = parts.render_script.first if parts.render_script is not None else None
+        self._render_table: dict[str, float] | None = None
         self.lockstep = lockstep
         self.produce_sync = produce_sync
         self.recorder = recorder
@@ -125,9 +129,9 @@ class NodeRuntime:
         dev.add_write_listener(self._on_write)
         dev.add_nmt_listener(self._on_nmt)
         self._od_writers()
-        self.peer = PeerLink(max_missed_cycles=int(dev.read(PEER_MISS_INDEX)))
-        dev.write(MODE_INDEX, int(self.mode))
-        dev.write(0x2704, bool(self.lockstep), check=False)
+        for key in PARAM_KEYS:
+            dev.add_write_validator(key, lambda value, key=key: self.book.check(key, value))
+        self._power_on_parameters()
         if self.produce_sync:
             self.sync = SyncProducer(dev)
         dev.start()
@@ -142,6 +146,70 @@ class NodeRuntime:
             "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles")}
         self._r_peer_est = d.reader("peer_estimate_C")
         self._r_peer_q = d.reader("peer_Q_W")
+        self._param_w = {key: d.writer(key) for key in PARAM_KEYS}
+        self._param_keys = {d.info.get(key).index: key for key in PARAM_KEYS}  # index -> name
+
+    # ------------------------------------------------------------------ parameters in the OD
+    def _power_on_parameters(self) -> None:
+        """This program's power-on configuration (its --mode, the controller defaults of
+        ``default_params`` read now) into the controller and the OD; on start and after a reset node
+        (the device has restored the EDS values: a fresh book, a fresh peer link)."""
+        from telethermo.control.rendering import load_render_table
+        d = self.device
+        if self._render_table is None:
+            self._render_table = load_render_table()
+        script = self.parts.render_script
+        self.book = ParamBook(self.role, self.parts.params_for, has_model=self.parts.model is not None,
+                              table=self._render_table,
+                              od_material=(int(d.read("material_code")), float(d.read("material_beta")),
+                                           float(d.read("object_T0_C"))),
+                              script_first=self._script_rs if script is not None else None,
+                              mode=self.configured_mode, peer_miss_limit=int(d.read(PEER_MISS_INDEX)))
+        self.mode = self.configured_mode
+        self.params = self.book.params(render=self._scripted_render())
+        self._book_version = self.book.version
+        self.peer = PeerLink(max_missed_cycles=self.book.peer_miss_limit)
+        d.write(0x2704, bool(self.lockstep), check=False)
+        self._write_parameter_image()
+
+    def _scripted_render(self):
+        """The render script's settings in force (with the operator's pad β / finger temperature),
+        or None when the OD's settings are rendered (no script, or the operator chose a material)."""
+        if self.parts.render_script is None or not self.book.scripted:
+            return None
+        return self.book.overlay(self._script_rs)
+
+    def _render_view(self):
+        """The render settings the OD shows: rendered now (RENDER) or to be rendered."""
+        if self.mode is Mode.RENDER:
+            return self.params.render
+        rs = self._scripted_render()
+        return rs if rs is not None else self.book.render_settings()
+
+    def _write_parameter_image(self) -> None:
+        rs = self._render_view()
+        img = od_image(self.params, rs, material_code=self.book.material_code(rs),
+                       peer_miss_limit=self.book.peer_miss_limit)
+        w = self._param_w
+        for key, value in img.items():
+            w[key](value)
+
+    def _apply_parameters(self) -> None:
+        """Take the SDO writes accepted since the last SYNC (called at the start of a SYNC)."""
+        book = self.book
+        self._book_version = book.version
+        old_mode = self.mode
+        try:
+            params = book.params(render=self._scripted_render())
+        except ValueError as exc:  # the validators refuse what cannot be built: not expected
+            log.error("parameters refused at SYNC (%s); keeping the running ones", exc)
+            self._write_parameter_image()
+            return
+        self.mode, self.params = book.mode, params
+        self.peer.max_missed_cycles = book.peer_miss_limit
+        if self.mode is not old_mode:
+            log.info("mode %s -> %s", old_mode.name, self.mode.name)
+        self._write_parameter_image()
 
     def stop(self, reason: str = "stop") -> None:
         """Current to zero, last heartbeat, recording closed, bus released. Idempotent."""
@@ -236,37 +304,33 @@ class NodeRuntime:
                 self.stats.latencies_s.append(time.monotonic() - self._sync_sent_at)
 
     def _on_write(self, ev: WriteEvent) -> None:
-        if ev.index == MODE_INDEX:
-            try:
-                mode = Mode(int(ev.value))
-                params = self.parts.params_for(mode)
-            except ValueError as exc:
-                log.error("mode %s refused: %s; staying in %s", ev.value, exc, self.mode.name)
-                self.device.write(MODE_INDEX, int(self.mode), check=False)
-                return
-            self.mode, self.params = mode, params
-            log.info("mode -> %s", mode.name)
-        elif ev.index in GAIN_FIELDS:
-            self.params = dataclasses.replace(self.params, **{GAIN_FIELDS[ev.index]: float(ev.value)})
-            log.info("%s -> %g", GAIN_FIELDS[ev.index], ev.value)
-        elif ev.index == PEER_MISS_INDEX:
-            self.peer.max_missed_cycles = int(ev.value)
+        """An accepted SDO write of a parameter (validated before it was stored; device lock held):
+        into the book now, into the controller at the next SYNC."""
+        key = self._param_keys.get(ev.index)
+        if key is None or self.book is None:
+            return
+        try:
+            self.book.apply(key, ev.value)
+        except ValueError as exc:
+            log.error("%s = %r not applied: %s", key, ev.value, exc)
+            self.book.version += 1  # the next SYNC rewrites the OD with the truth
+        log.info("%s = %r (takes effect at the next SYNC)", key, ev.value)
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
         log.info("NMT %s -> %s%s", old.name, new.name, f" (command 0x{command:02X})" if command else "")
         if new is not NmtState.OPERATIONAL:
             # no control outside OPERATIONAL: the drive holds no current
             self._safe_current()
-        if command == NmtCommand.RESET_NODE and self.device is not None:
-            # reset application: this program's power-on values, a fresh controller and peer link
-            self.mode, self.params = self.configured_mode, self.parts.params_for(self.configured_mode)
-            self.device.write(MODE_INDEX, int(self.mode))
-            self.device.write(0x2704, bool(self.lockstep), check=False)
+        if command == NmtCommand.RESET_NODE and self.device is not None and new is NmtState.INITIALISING:
+            # reset application (before the boot-up goes out): this program's power-on values in the
+            # controller and the OD, a fresh controller state and peer link
+            self._power_on_parameters()
             self._state = None
-            self.peer = PeerLink(max_missed_cycles=int(self.device.read(PEER_MISS_INDEX)))
 
     # ------------------------------------------------------------------ the cycle
     def _on_sync(self, tick: SyncTick) -> None:
+        if self.book.version != self._book_version:
+            self._apply_parameters()
         if not tick.operational or self.stop_event.is_set():
             return
         try:
@@ -279,6 +343,8 @@ class NodeRuntime:
 
     def _cycle(self, tick: SyncTick, *, fallback: bool = False) -> None:
         now = time.monotonic()
+        if fallback and self.book.version != self._book_version:
+            self._apply_parameters()
         if not fallback:
             self._last_sync_at = now
         if not self.produce_sync and not self.lockstep:
@@ -345,12 +411,17 @@ class NodeRuntime:
             self.stats.cycle_s.append(time.monotonic() - now)
 
     def _select_render_touch(self, t_s: float) -> None:
-        """The render script's settings in force now (the same script as the offline runner's)."""
+        """The render script's settings in force now (the same script as the offline runner's), unless
+        the operator chose the material by SDO; the OD shows them."""
         script = self.parts.render_script
-        if script is not None:
+        if script is not None and self.book.scripted:
             rs = script.settings_at(t_s, self.parts.period_s, self.parts.finger_skin)
-            if rs is not self.params.render:
-                self.params = dataclasses.replace(self.params, render=rs)
+            if rs is not self._script_rs:
+                self._script_rs = rs
+                rs = self.book.overlay(rs)
+                if rs is not self.params.render:
+                    self.params = dataclasses.replace(self.params, render=rs)
+                    self._write_parameter_image()
 
     def _record(self, sample, res, peer) -> None:
         row = {"t_s": sample.t_s}

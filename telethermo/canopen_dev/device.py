@@ -361,7 +361,8 @@ class Device:
         self._nmt_listeners.append(fn)
 
     def add_write_listener(self, fn: Callable[[WriteEvent], None]) -> None:
-        """``fn(event)`` after every accepted SDO write (notifier thread)."""
+        """``fn(event)`` after every accepted SDO write (notifier thread), with the device lock held:
+        the store and the listeners are one step for a SYNC handler. Must not block."""
         self._write_listeners.append(fn)
 
     def add_write_validator(self, key, fn: Callable[[Any], int | None]) -> None:
@@ -616,8 +617,9 @@ class Device:
                     self.store[index][sub] = old
                 self._after_write_restore(index)
                 raise
-        if self._write_listeners:
-            self._call(self._write_listeners, WriteEvent(index, sub, value))
+            # under the lock, atomically with the store: no SYNC handler runs between the two
+            if self._write_listeners:
+                self._call(self._write_listeners, WriteEvent(index, sub, value))
 
     def _after_write_restore(self, index: int) -> None:
         if 0x1400 <= index <= 0x1BFF:

@@ -198,9 +198,85 @@ def test_mode_by_sdo_changes_the_control_and_an_impossible_mode_is_refused(slave
     remote.sdo["mode"].raw = 0                         # IDLE
     cycles(60, 60)
     assert remote.sdo["current_A"].raw == 0.0          # the idle ramp (4 A/s) has brought it to 0
-    remote.sdo["mode"].raw = 2                         # RENDER: the master's job, not the probe's
-    sdo_fence(remote)
-    assert remote.sdo["mode"].raw == 0                 # refused: written back
+    with pytest.raises(canopen.SdoAbortedError) as info:
+        remote.sdo["mode"].raw = 2                     # RENDER: the master's job, not the probe's
+    assert info.value.code == 0x08000022               # refused for the present device state ...
+    assert remote.sdo["mode"].raw == 0                 # ... before it was stored
     remote.sdo["mode"].raw = 1
     cycles(60, 120)
     assert remote.sdo["current_A"].raw > 0.05          # back to telepresence, heating again
+
+
+def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_sync(slave):
+    """The parameters in the OD are the controller's (default_params read at run time, the rig's
+    I_max), not the EDS placeholders; a write is taken at the next SYNC, not before; a value the
+    controller refuses (or cannot run in its present state) is aborted and left unchanged; reset
+    node brings the program's power-on parameters back."""
+    import sim
+    from telethermo.control.defaults import default_params
+    from telethermo.control.types import Role
+
+    net, remote, frames, _ = slave
+    p = default_params(Role.SLAVE)
+    i_max = sim.build_rig(sim.load_scene(SCENE), "slave", seed=1).I_max_A
+    f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0]   # noqa: E731
+    sdo = remote.sdo
+    for name, value in (("kp_A_per_C", p.kp_A_per_C), ("ki_A_per_C_s", p.ki_A_per_C_s), ("kQ_A_per_W", p.kQ_A_per_W),
+                        ("R_sensor_C_per_W", p.R_sensor_K_per_W), ("T_min_C", p.safety.T_min_C),
+                        ("T_max_C", p.safety.T_max_C), ("ramp_limit_C_per_s", p.safety.ramp_up_C_per_s),
+                        ("hot_threshold_C", p.safety.hot_C), ("neutral_C", p.safety.neutral_C),
+                        ("current_limit_A", p.safety.current_fraction * i_max), ("sink_trip_C", p.safety.sink_trip_C),
+                        ("mismatch_limit_C", p.safety.mismatch_C)):
+        assert sdo[name].raw == f32(value), name
+    assert sdo["estimator"].raw == 1 and sdo["mode"].raw == 1          # flux estimator, telepresence
+
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x01, SLAVE]))
+    assert reaches_state(frames, m0, 5)
+    counter = [0]
+
+    def cycle(T=40.0):
+        counter[0] += 1
+        net.send_message(0x181, struct.pack("<ff", T, 0.0))     # the master's finger: warm
+        sync(net, counter[0] % 240 + 1)
+        sdo_fence(remote)
+        return sdo["T_cmd_C"].raw, sdo["current_A"].raw
+
+    for _ in range(40):
+        cmd, cur = cycle()
+    # the setpoint ramps towards the finger at the ramp limit: 5 °C/s x 10 ms per SYNC
+    prev, _ = cycle()
+    cmd, _ = cycle()
+    assert cmd - prev == pytest.approx(p.safety.ramp_up_C_per_s * 0.01, abs=1e-4)
+    sdo["ramp_limit_C_per_s"].raw = 1.0
+    assert sdo["T_cmd_C"].raw == cmd                              # no SYNC yet: nothing changed
+    nxt, _ = cycle()
+    assert nxt - cmd == pytest.approx(0.01, abs=1e-4)             # the very next SYNC ramps at 1 °C/s
+    # gains: with kp at its maximum the current sits at the current limit from the next SYNC on
+    _, cur = cycle()
+    assert 0 < cur < 0.5 * p.safety.current_fraction * i_max
+    sdo["kp_A_per_C"].raw = 20.0
+    sdo["current_limit_A"].raw = 0.75
+    assert sdo["current_A"].raw == cur
+    _, cur = cycle()
+    assert cur == pytest.approx(0.75, abs=1e-6)
+    assert sdo["kp_A_per_C"].raw == 20.0 and sdo["current_limit_A"].raw == 0.75
+
+    def refused(name, value):
+        before = sdo[name].raw
+        with pytest.raises(canopen.SdoAbortedError) as info:
+            sdo[name].raw = value
+        assert sdo[name].raw == before
+        return info.value.code
+
+    assert refused("estimator", 0) == 0x08000022       # the NARMA estimator needs a model: none loaded
+    assert refused("estimator", 2) == 0x08000022
+    assert refused("T_min_C", 33.0) == 0x06090030      # the neutral temperature (32 °C) would leave [T_min, T_max]
+    assert refused("mode", 2) == 0x08000022
+    assert refused("current_limit_A", 0.0) == 0x06090030
+    # reset node: the program's power-on parameters again (not the EDS placeholders)
+    m = frames.mark()
+    net.send_message(0, bytes([0x81, SLAVE]))
+    assert wait_for(lambda: (0x702, b"\x00") in frames.since(m), 10)
+    assert sdo["kp_A_per_C"].raw == f32(p.kp_A_per_C) and sdo["ramp_limit_C_per_s"].raw == f32(p.safety.ramp_up_C_per_s)
+    assert sdo["current_limit_A"].raw == f32(p.safety.current_fraction * i_max) and sdo["estimator"].raw == 1
