@@ -50,8 +50,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 class ProgressBar:
     """A one-line progress bar on a stream (stderr)."""
 
-    def __init__(self, label: str, stream=sys.stderr, width: int = 40) -> None:
-        self.label, self.stream, self.width = label, stream, width
+    def __init__(self, label: str, stream=None, width: int = 40) -> None:
+        # the stream is looked up when the bar is made, not when this module was imported: a default
+        # argument would pin whatever sys.stderr was at import time (closed since, under a test runner)
+        self.label, self.stream, self.width = label, stream if stream is not None else sys.stderr, width
         self.t0 = time.perf_counter()
         self._last = -1
 
