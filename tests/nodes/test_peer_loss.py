@@ -132,3 +132,52 @@ def test_master_killed_slave_ramps_to_neutral_and_cuts_on_its_own(session, tmp_p
     t = rec.col("t_s")
     np.testing.assert_allclose(np.diff(t[k_trip:]), PERIOD_S, rtol=1e-9)
     assert "local fallback cycles" in slave_log.read_text()
+
+
+def test_real_time_resume_after_the_slave_is_killed_and_restarted(tmp_path):
+    """The operator's view of a peer loss in a real-time session (the CLI's monitor once showed the
+    master's safety_state 3 after the slave was back): kill the slave, restart it, and read the master's
+    safety_state, trips and current by SDO (canopen's RemoteNode) and from its recording. The peer
+    trip is cleared on the slave's return and the current comes back from the cut, without a jump."""
+    import canopen
+
+    from bus_config import path as bus_config_path
+
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="realtime", cycles=0, seed=0, progress_every=10))
+    pair.start()
+    obs = Observer(pair.hub.port)
+    net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port,
+                                  channel="telethermo", tcp_tune=True))
+    net.connect()
+    master = canopen.RemoteNode(1, str(bus_config_path("master.eds")))
+    net.add_node(master)
+    master.sdo.RESPONSE_TIMEOUT = 2.0
+    try:
+        assert wait_for(lambda: pair.progress[0] >= 150, 120), "session did not start"
+        pair.slave.kill()
+        pair.slave.wait()
+        assert wait_for(lambda: obs.emcy(1, 0x8130), 30), "no EMCY 0x8130 from the master"
+        assert wait_for(lambda: master.sdo["safety_state"].raw == 3, 60), "the master never cut its current"
+        assert master.sdo["current_A"].raw == 0.0 and master.sdo["peer_alive"].raw is False
+        pair.start_slave()
+        assert wait_for(lambda: obs.emcy(1, 0x0000), 60), "no error-reset EMCY after the slave came back"
+        assert wait_for(lambda: master.sdo["peer_alive"].raw is True, 30)
+        assert wait_for(lambda: master.sdo["safety_state"].raw < 2, 30), \
+            f"the master's safety_state stays {master.sdo['safety_state'].raw} after the slave's return"
+        k_back = pair.progress[0]
+        assert wait_for(lambda: pair.progress[0] >= k_back + 200, 120)
+        assert master.sdo["safety_state"].raw < 2
+        assert master.sdo["Error register"].raw == 0          # no error left active (0x1001)
+    finally:
+        net.disconnect()
+        obs.close()
+        codes = pair.stop()
+    assert codes["master"] == 0
+    rec = read_recording_csv(tmp_path / "master.csv")
+    state, cur = rec.col("m_safety_state"), rec.col("m_current_A")
+    k_trip = next(k for k, t in enumerate(rec.text("m_new_trips")) if "peer_lost" in t)
+    k_resume = k_trip + next(i for i, s in enumerate(state[k_trip:]) if s < 2)
+    assert np.any(state[k_trip:k_resume] == 3)
+    assert np.all(state[k_resume:] < 2)
+    assert abs(cur[k_resume]) <= 0.05
+    assert np.max(np.abs(np.diff(cur[k_resume:k_resume + 50]))) <= 0.1
