@@ -33,6 +33,8 @@ def register(subparsers) -> None:
     p.add_argument("--method", choices=["nelder-mead", "de"], default="nelder-mead",
                    help="bounded Nelder-Mead from the shipped gains (default) or differential evolution")
     p.add_argument("--seed", type=int, default=0, help="seed of the sessions' noise and of the optimiser (default 0)")
+    p.add_argument("--start", type=Path, metavar="GAINS.json",
+                   help="start the search from a gains file (e.g. an earlier --out; default: the shipped gains)")
     p.add_argument("--candidates", type=int, default=3, help="distinct best points checked for robustness (default 3)")
     p.add_argument("--rel", type=float, default=0.3, help="relative half-width of the robustness box (default 0.3)")
     p.add_argument("--corners", type=int, default=4, help="random corners of the box checked (default 4)")
@@ -43,6 +45,8 @@ def register(subparsers) -> None:
     w = tn_weights_default()
     p.add_argument("--w-early", type=float, default=w.early_per_C, metavar="W",
                    help=f"weight of the transparency early mean error, 1/°C (default {w.early_per_C:g})")
+    p.add_argument("--w-late", type=float, default=w.late_per_C, metavar="W",
+                   help=f"weight of the transparency late mean error, 1/°C (default {w.late_per_C:g})")
     p.add_argument("--w-tracking", type=float, default=w.tracking_per_C, metavar="W",
                    help=f"weight of the steady tracking RMS, 1/°C (default {w.tracking_per_C:g})")
     p.add_argument("--w-limit", type=float, default=w.limit_per_s, metavar="W",
@@ -113,6 +117,14 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:  # SceneError names the file and the field; a virtual scene is refused
         raise UserError(str(exc)) from None
 
+    x0 = None
+    if args.start is not None:
+        try:
+            loaded = tn.load_gains(args.start)
+        except ValueError as exc:
+            raise UserError(f"--start: {exc}") from None
+        x0 = {f"{role.value}.{k}": v for role, gains in loaded.items() for k, v in gains.items()}
+
     t0 = time.perf_counter()
     best = [math.inf]
 
@@ -124,15 +136,18 @@ def run(args: argparse.Namespace) -> int:
             print(f"  eval {n:4d}  J {ev.J:7.3f}  (best {best[0]:.3f})  early {s['early_C']:.3f} °C  "
                   f"track {s['tracking_rms_C']:.3f} °C  [{time.perf_counter() - t0:6.1f} s]", flush=True)
 
-    for name in ("w_early", "w_tracking", "w_limit"):
+    for name in ("w_early", "w_late", "w_tracking", "w_limit"):
         v = getattr(args, name)
         if not (v >= 0 and math.isfinite(v)):
             raise UserError(f"--{name.replace('_', '-')} {v}: expected a finite number >= 0")
-    weights = tn.Weights(early_per_C=args.w_early, tracking_per_C=args.w_tracking, limit_per_s=args.w_limit)
+    weights = tn.Weights(early_per_C=args.w_early, late_per_C=args.w_late, tracking_per_C=args.w_tracking,
+                         limit_per_s=args.w_limit)
     obj = tn.Objective(scenes, seed=args.seed, duration_s=args.duration, progress=progress, weights=weights)
     print(f"telethermo tune: scenes {', '.join(s.name for s in scenes)}; gains "
           f"{', '.join(f'{s.key} [{s.lo:g}, {s.hi:g}]' for s in obj.space)}", flush=True)
-    res = tn.tune(obj, budget=args.budget, method=args.method, seed=args.seed, candidates=args.candidates,
+    if x0 is not None:
+        x0 = {k: v for k, v in x0.items() if k in obj.keys}
+    res = tn.tune(obj, budget=args.budget, method=args.method, seed=args.seed, candidates=args.candidates, x0=x0,
                   rel=args.rel, corners=args.corners, stress_rel=args.stress, on_stage=lambda m: print(f"- {m}", flush=True))
     wall = time.perf_counter() - t0
 
@@ -140,7 +155,7 @@ def run(args: argparse.Namespace) -> int:
     pool = res.candidates + ([res.reference] if res.reference is not None and res.reference not in res.candidates else [])
     rows = []
     for rob in pool:
-        tag = "reference (start)" if rob is res.reference else "candidate"
+        tag = "reference (shipped)" if rob is res.reference else "candidate"
         tag += " *chosen*" if rob is res.chosen else ""
         rows.append([tag, rob.centre.J, rob.worst.J, rob.worst_label] +
                     [rob.centre.gains[k] for k in obj.keys])

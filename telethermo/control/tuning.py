@@ -9,7 +9,8 @@
 **Objective** (lower is better; each figure from :func:`telethermo.session.figures.compute_figures` of
 an offline session, averaged over the scenes)::
 
-    J = early_C / 0.5 + tracking_rms_C / 0.1                     (the issue's targets: J = 2 meets both)
+    J = early_C / 0.5 + tracking_rms_C / 0.1                     (the issue's targets: 2 meets both)
+        + late_C / 1 °C                                           (the later phase must not be traded away)
         + limit_per_s · Σ time at any envelope limit (both sides, s)
         + trip · trips + cut_per_s · time with the current cut (s)
         + order_lost (if the rendered material order differs from the direct-touch reference's)
@@ -20,9 +21,10 @@ A session that yields a non-finite figure (an unstable pair) scores :data:`UNSTA
 its lower bound of a flux term (1e-3 A/W) is practically off. Every point the optimiser proposes is
 clipped to the bounds *before* a session runs (and recorded: tests check that none leaves them).
 
-**Robust selection**: the best few distinct points of the search are checked at ±``rel`` (30 %) on
-each gain, one at a time, plus a few seeded random corners of the ±``rel`` box; the point with the
-best *worst case* wins (ties broken by the centre value).
+**Robust selection**: the best few distinct points of the search and the reference (the shipped gains)
+are checked at ±``rel`` (30 %) on each gain, one at a time, plus a few seeded random corners of the
+±``rel`` box; among the points whose centre is no worse than the reference's, the one with the best
+*worst case* wins (ties broken by the centre value).
 
 Pure: no wall clock, no files (except :func:`write_gains` / :func:`load_gains`), deterministic for
 a seed (the sessions' sensor noise is seeded, the optimisers are seeded).
@@ -89,6 +91,7 @@ class Weights:
     """Weights of the objective (see the module docstring)."""
 
     early_per_C: float = 1.0 / 0.5
+    late_per_C: float = 1.0
     tracking_per_C: float = 1.0 / 0.1
     limit_per_s: float = 0.05
     trip: float = 5.0
@@ -199,7 +202,8 @@ def score_figures(figures: dict[str, Any], weights: Weights = Weights()) -> tupl
             "per_contact_early_C": [_finite(p["early_T"]["mean_abs"]) for p in tr.get("per_contact", [])]}
     if not (math.isfinite(early) and math.isfinite(trk)):
         return UNSTABLE_J, used
-    J = (weights.early_per_C * early + weights.tracking_per_C * trk + weights.limit_per_s * limit_s
+    J = (weights.early_per_C * early + weights.late_per_C * (late if math.isfinite(late) else 0.0)
+         + weights.tracking_per_C * trk + weights.limit_per_s * limit_s
          + weights.trip * trips + weights.cut_per_s * cut_s + (0.0 if order else weights.order_lost))
     return float(min(J, UNSTABLE_J)), used
 
@@ -506,15 +510,16 @@ def tune(objective: Objective, *, budget: int = 60, method: str = "nelder-mead",
          x0: dict[str, float] | None = None, reference: dict[str, float] | None = None,
          on_stage: Callable[[str], None] | None = None) -> TuneResult:
     """Search (``budget`` points, stress corners at ``stress_rel``, default ``rel``), then check the
-    best ``candidates`` distinct points and the ``reference`` (default: the start point) over the
-    ±``rel`` box (:func:`robustness`) and choose the best worst case (ties: the best centre)."""
+    best ``candidates`` distinct points and the ``reference`` (default: the shipped gains) over the
+    ±``rel`` box (:func:`robustness`) and choose the best worst case (ties: the best centre) among
+    those whose centre is no worse than the reference's (so the reference wins if none is)."""
     say = on_stage or (lambda _m: None)
     stress_rel = rel if stress_rel is None else stress_rel
     say(f"search: {method}, budget {budget} points, {len(objective.space)} gains, {len(objective.scenes)} scenes, "
         f"stress corners ±{stress_rel:.0%}")
     sr = search(objective, budget=budget, method=method, seed=seed, x0=x0, stress_rel=stress_rel)
     cands = distinct_best(sr.points, objective.space, candidates)
-    ref_g = clip_gains(reference, objective.space) if reference is not None else sr.start.gains
+    ref_g = clip_gains(reference if reference is not None else default_gains(objective.space), objective.space)
     robs: list[Robustness] = []
     for i, p in enumerate(cands):
         say(f"robustness of candidate {i + 1}/{len(cands)} (J = {p.centre.J:.3f}, searched value {p.value:.3f})")
@@ -525,7 +530,9 @@ def tune(objective: Objective, *, budget: int = 60, method: str = "nelder-mead",
         say("robustness of the reference point")
         ref_rob = robustness(objective, ref_g, rel=rel, corners=corners, seed=seed)
     pool = robs + ([ref_rob] if ref_rob not in robs else [])
-    chosen = min(pool, key=lambda r: (r.worst.J, r.centre.J))
+    # better AND more robust: a candidate must not be worse than the reference at the centre
+    eligible = [r for r in pool if r.centre.J <= ref_rob.centre.J + 1e-12]
+    chosen = min(eligible, key=lambda r: (r.worst.J, r.centre.J))
     return TuneResult(search=sr, candidates=robs, chosen=chosen, reference=ref_rob, rel=rel)
 
 
