@@ -191,3 +191,40 @@ def test_the_shipped_gains_are_inside_the_default_space():
     assert _inside(REFERENCE, tn.DEFAULT_SPACE)
     for role in (Role.MASTER, Role.SLAVE):
         assert set(GAINS[role]) == set(tn.GAIN_FIELDS)
+
+
+def test_cli_tune_writes_a_loadable_gains_file(tmp_path, capsys):
+    import argparse
+
+    from telethermo.cli import tune as cli
+
+    ap = argparse.ArgumentParser()
+    sub = ap.add_subparsers()
+    cli.register(sub)
+    out = tmp_path / "gains.json"
+    args = ap.parse_args(["tune", "--scene", SCENE, "--duration", "2", "--budget", "2", "--candidates", "1",
+                          "--corners", "0", "--no-perturbed", "--quiet", "--out", str(out)])
+    assert args.func(args) == 0
+    text = capsys.readouterr().out
+    assert "sensitivity of the chosen point" in text and "master.kp_A_per_C +30%" in text
+    g = tn.load_gains(out)
+    doc = json.loads(out.read_text())
+    assert doc["search"]["budget_points"] == 2 and doc["objective"]["scenes"] == [SCENE]
+    assert _inside({f"{r.value}.{k}": v for r, d in g.items() for k, v in d.items()}, tn.DEFAULT_SPACE)
+
+
+@pytest.mark.parametrize("argv", [["--budget", "0"], ["--rel", "1.5"], ["--scene", "virtual_materials"],
+                                  ["--scene", "no_such_scene"], ["--start", "missing.json"]])
+def test_cli_tune_refuses_bad_arguments(argv):
+    import argparse
+
+    from telethermo.cli import tune as cli
+    from telethermo.cli.main import UserError
+
+    ap = argparse.ArgumentParser()
+    sub = ap.add_subparsers()
+    cli.register(sub)
+    base = ["tune", "--scene", SCENE] if "--scene" not in argv else ["tune"]
+    args = ap.parse_args(base + argv)
+    with pytest.raises(UserError):
+        args.func(args)
