@@ -119,8 +119,9 @@ def _mapping(index: int, sub: int, bits: int) -> int:
 
 
 # power-on gains per role (A/degC, A/(degC*s), A/W). Neutral placeholders: a node program writes its
-# controller's gains (telethermo/control/defaults.py) into the OD before Device.start(). (The CLI
-# tests read these values; changing them to the control defaults needs tests/cli updated too.)
+# controller's parameters (gains, estimator, R_sensor, safety limits, mode, rendering settings: read from
+# telethermo/control/defaults.py at run time, see nodes/odparams.py) into the OD before Device.start()
+# and after a reset node. (The CLI tests read these values; changing them needs tests/cli updated too.)
 GAINS = {"master": (0.5, 0.1, 0.0), "slave": (0.5, 0.1, 0.0)}
 
 
@@ -186,7 +187,8 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2500, _uint("mode", UNSIGNED8, "rw", 0, 0, 3, pdo=True, description="0 idle, 1 telepresence, 2 render, 3 identify")),
         # -- virtual rendering (yamamoto eq. 5/7)
         V(0x2600, _uint("material_code", UNSIGNED8, "rw", 0, 0, 255,
-                        description="0 custom (material_beta), else an entry of the materials table")),
+                        description="0 custom (material_beta), k >= 1 the k-th material of the rendering table "
+                                    "(telethermo/data/render_materials.toml, in file order)")),
         V(0x2601, _real("material_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the object (eq. 6)")),
         V(0x2602, _real("object_T0_C", "rw", 25.0, -20.0, 100.0, description="initial object temperature")),
         V(0x2603, _real("finger_T0_C", "rw", 33.0, 20.0, 40.0, description="initial finger temperature")),

@@ -41,3 +41,14 @@ def test_final_comments_replace_the_header_on_close(tmp_path):
         rec.set_final_comments(["only one"])
     rec.close()
     assert path.read_text() == '# magic\n# meta {"render": 1}\na\n1.5\n'
+
+
+def test_values_are_written_in_their_shortest_round_trip_form(tmp_path):
+    import numpy as np
+    path = tmp_path / "v.csv"
+    rec = CsvRecorder(path, ["a", "b", "c", "d", "e", "f"])
+    rec.write([0.1, np.float64(1 / 3), True, False, -math.inf, "x|y"])
+    rec.write([1e-300, 30.000000000000004, 2, 0, math.nan, ""])
+    rec.close()
+    assert path.read_text().splitlines()[1:] == [f"{0.1!r},{1 / 3!r},1,0,-inf,x|y",
+                                                 "1e-300,30.000000000000004,2,0,nan,"]
