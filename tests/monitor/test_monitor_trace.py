@@ -27,6 +27,19 @@ def _settle(b: CanopenBench, quiet_s: float = 0.01, cap_s: float = 0.3) -> None:
         time.sleep(quiet_s)
 
 
+def _wait_heartbeat(b: CanopenBench, node: int, state: int, after: int, timeout_s: float = 20.0) -> int:
+    """Wait until the sniffer has a heartbeat of ``node`` in NMT state ``state`` among the frames after
+    the first ``after`` (a protocol event instead of a fixed sleep: the heartbeat producers are threads
+    that a loaded machine runs late); return the number of frames sniffed by then."""
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        msgs = list(b.collector.messages)
+        if any(m.arbitration_id == 0x700 + node and bytes(m.data) == bytes([state]) for m in msgs[after:]):
+            return len(msgs)
+        time.sleep(0.01)
+    raise AssertionError(f"no heartbeat of node {node} in state 0x{state:02X} within {timeout_s} s")
+
+
 def make_trace(path) -> dict:
     """Run the scenario on real nodes, log it to ``path``; return what the clients saw."""
     logger = Recorder(path)
@@ -50,8 +63,10 @@ def make_trace(path) -> dict:
         b.r_slave.tpdo[1].add_variable("Q_W")
         b.r_slave.tpdo[1].add_variable("estimate_C")
         b.r_slave.tpdo[1].save()
+        mark = len(b.collector.messages)
         b.client.nmt.state = "OPERATIONAL"                         # NMT start, all nodes
-        time.sleep(0.25)                                           # heartbeats say OPERATIONAL
+        for node in (1, 2):                                        # heartbeats say OPERATIONAL
+            _wait_heartbeat(b, node, 0x05, mark)
         _settle(b)
         for k in (1, 2, 3):
             b.client.sync.transmit(k)                               # SYNC with counter
@@ -67,13 +82,16 @@ def make_trace(path) -> dict:
         b.master.emcy.send(0x4210, 0x09, b"\x01\x02\x03\x04\x05")  # EMCY device temperature
         b.client.time.transmit(TIME_STAMP)                         # TIME
         b.master.emcy.reset()                                      # EMCY error reset
+        mark = len(b.collector.messages)
         b.r_slave.nmt.state = "STOPPED"                            # NMT stop node 2
         b.master.nmt.stop_heartbeat()                              # the master reboots (NMT reset node)
         b.r_master.nmt.state = "RESET"
         _settle(b)
         b.master.nmt.state = "INITIALISING"
         b.master.nmt.state = "PRE-OPERATIONAL"
-        time.sleep(0.25)                                           # a few heartbeats
+        _wait_heartbeat(b, 2, 0x04, mark)                          # the slave's heartbeat says STOPPED
+        mark = _wait_heartbeat(b, 1, 0x00, mark)                   # the master's boot-up ...
+        _wait_heartbeat(b, 1, 0x7F, mark)                          # ... and a heartbeat after it
         _settle(b)
     finally:
         b.close()
