@@ -49,6 +49,8 @@ def register(subparsers) -> None:
                    help=f"weight of the transparency late mean error, 1/°C (default {w.late_per_C:g})")
     p.add_argument("--w-tracking", type=float, default=w.tracking_per_C, metavar="W",
                    help=f"weight of the steady tracking RMS, 1/°C (default {w.tracking_per_C:g})")
+    p.add_argument("--w-margin", type=float, default=w.margin_per_C, metavar="W",
+                   help=f"weight of the discrimination margin shortfall, 1/°C (default {w.margin_per_C:g})")
     p.add_argument("--w-limit", type=float, default=w.limit_per_s, metavar="W",
                    help=f"weight of the time at envelope limits, 1/s (default {w.limit_per_s:g})")
     p.add_argument("--no-perturbed", action="store_true", help="tune on the scene alone (not recommended)")
@@ -80,10 +82,11 @@ def _table(headers: list[str], rows: list[list[Any]]) -> str:
 
 def _row(label: str, ev) -> list[Any]:
     s = ev.summary()
-    return [label, ev.J, s["early_C"], s["late_C"], s["tracking_rms_C"], s["limit_s"], s["trips"], s["order_kept"]]
+    return [label, ev.J, s["early_C"], s["late_C"], s["tracking_rms_C"], s["margin_shortfall_C"], s["limit_s"],
+            s["trips"], s["order_kept"]]
 
 
-HEADERS = ["point", "J", "early °C", "late °C", "track °C", "limit s", "trips", "order"]
+HEADERS = ["point", "J", "early °C", "late °C", "track °C", "margin short °C", "limit s", "trips", "order"]
 
 
 def sensitivity_rows(rob) -> list[dict[str, Any]]:
@@ -92,7 +95,8 @@ def sensitivity_rows(rob) -> list[dict[str, Any]]:
     for label, ev in [("centre", rob.centre)] + list(rob.rows):
         r = {"point": label, "gains": ev.gains, **ev.summary()}
         r["per_scene"] = [{k: s[k] for k in ("scene", "J", "early_C", "late_C", "tracking_rms_C", "limit_s", "trips",
-                                             "order_kept", "per_contact_early_C")} for s in ev.scenes]
+                                             "order_kept", "margins_C", "margin_shortfall_C",
+                                             "per_contact_early_C")} for s in ev.scenes]
         out.append(r)
     return out
 
@@ -136,12 +140,12 @@ def run(args: argparse.Namespace) -> int:
             print(f"  eval {n:4d}  J {ev.J:7.3f}  (best {best[0]:.3f})  early {s['early_C']:.3f} °C  "
                   f"track {s['tracking_rms_C']:.3f} °C  [{time.perf_counter() - t0:6.1f} s]", flush=True)
 
-    for name in ("w_early", "w_late", "w_tracking", "w_limit"):
+    for name in ("w_early", "w_late", "w_tracking", "w_margin", "w_limit"):
         v = getattr(args, name)
         if not (v >= 0 and math.isfinite(v)):
             raise UserError(f"--{name.replace('_', '-')} {v}: expected a finite number >= 0")
     weights = tn.Weights(early_per_C=args.w_early, late_per_C=args.w_late, tracking_per_C=args.w_tracking,
-                         limit_per_s=args.w_limit)
+                         limit_per_s=args.w_limit, margin_per_C=args.w_margin)
     obj = tn.Objective(scenes, seed=args.seed, duration_s=args.duration, progress=progress, weights=weights)
     print(f"telethermo tune: scenes {', '.join(s.name for s in scenes)}; gains "
           f"{', '.join(f'{s.key} [{s.lo:g}, {s.hi:g}]' for s in obj.space)}", flush=True)

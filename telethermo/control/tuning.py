@@ -14,6 +14,8 @@ an offline session, averaged over the scenes)::
         + limit_per_s · Σ time at any envelope limit (both sides, s)
         + trip · trips + cut_per_s · time with the current cut (s)
         + order_lost (if the rendered material order differs from the direct-touch reference's)
+        + margin_per_C · Σ max(0, min(reference margin, 0.7 °C) − rendered margin)
+                                                   (consecutive materials, coldest first: discrimination)
 
 A session that yields a non-finite figure (an unstable pair) scores :data:`UNSTABLE_J`.
 
@@ -46,6 +48,7 @@ from telethermo.control.types import Role
 
 GAINS_FORMAT = "telethermo.gains/1"
 UNSTABLE_J = 100.0
+MARGIN_GOAL_C = 0.7  # the finger's cold-detection threshold (issue 4)
 #: the gains the tuner may change (CoreParams field names)
 GAIN_FIELDS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W", "kpQ_A_per_W", "kiQ_A_per_W_s")
 
@@ -97,6 +100,7 @@ class Weights:
     trip: float = 5.0
     cut_per_s: float = 1.0
     order_lost: float = 1.0
+    margin_per_C: float = 2.0
 
 
 # --------------------------------------------------------------------------------------------- scenes
@@ -175,7 +179,7 @@ class Evaluation:
             v = [s[k] for s in self.scenes]
             return float(np.mean(v)) if all(math.isfinite(x) for x in v) else math.nan
         return {"J": self.J, "early_C": avg("early_C"), "late_C": avg("late_C"), "tracking_rms_C": avg("tracking_rms_C"),
-                "limit_s": avg("limit_s"), "trips": int(sum(s["trips"] for s in self.scenes)),
+                "limit_s": avg("limit_s"), "margin_shortfall_C": avg("margin_shortfall_C"), "trips": int(sum(s["trips"] for s in self.scenes)),
                 "order_kept": all(s["order_kept"] for s in self.scenes)}
 
 
@@ -196,15 +200,24 @@ def score_figures(figures: dict[str, Any], weights: Weights = Weights()) -> tupl
     limit_s = float(sum(sum(v.values()) for v in saf.get("time_at_limit_s", {}).values()))
     cut_s = float(sum(saf.get("time_cut_s", {}).values()))
     trips = int(saf.get("n_trips", 0))
-    order = bool(figures.get("discrimination", {}).get("order_kept", False))
+    disc = figures.get("discrimination", {})
+    order = bool(disc.get("order_kept", False))
+    # discrimination: each consecutive margin should reach min(reference margin, 0.7 °C threshold)
+    shortfall = 0.0
+    for m, r in zip(disc.get("margins_C") or [], disc.get("reference_margins_C") or []):
+        m, r = _finite(m), _finite(r)
+        if math.isfinite(m) and math.isfinite(r):
+            shortfall += max(0.0, min(r, MARGIN_GOAL_C) - m)
     used = {"early_C": early, "late_C": late, "tracking_rms_C": trk, "limit_s": limit_s, "cut_s": cut_s,
             "trips": trips, "order_kept": order,
+            "margin_shortfall_C": shortfall, "margins_C": [_finite(m) for m in disc.get("margins_C") or []],
             "per_contact_early_C": [_finite(p["early_T"]["mean_abs"]) for p in tr.get("per_contact", [])]}
     if not (math.isfinite(early) and math.isfinite(trk)):
         return UNSTABLE_J, used
     J = (weights.early_per_C * early + weights.late_per_C * (late if math.isfinite(late) else 0.0)
          + weights.tracking_per_C * trk + weights.limit_per_s * limit_s
-         + weights.trip * trips + weights.cut_per_s * cut_s + (0.0 if order else weights.order_lost))
+         + weights.trip * trips + weights.cut_per_s * cut_s + (0.0 if order else weights.order_lost)
+         + weights.margin_per_C * shortfall)
     return float(min(J, UNSTABLE_J)), used
 
 
@@ -291,6 +304,7 @@ class Objective:
             except (FloatingPointError, np.linalg.LinAlgError, OverflowError) as exc:
                 J, used = UNSTABLE_J, {"early_C": math.nan, "late_C": math.nan, "tracking_rms_C": math.nan,
                                        "limit_s": math.nan, "cut_s": math.nan, "trips": 0, "order_kept": False,
+                                       "margin_shortfall_C": math.nan, "margins_C": [],
                                        "error": repr(exc)}
             self.n_sessions += 1
             Js.append(J)

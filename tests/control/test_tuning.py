@@ -144,11 +144,15 @@ def test_perturbed_scene_differs_in_room_finger_force_and_objects():
 
 def test_score_penalises_safety_and_instability():
     figs = {"transparency": {"early_mean_error_C": 0.5, "late_mean_error_C": 0.2, "per_contact": []},
-            "tracking": {"rms_C": 0.1}, "discrimination": {"order_kept": True},
+            "tracking": {"rms_C": 0.1},
+            "discrimination": {"order_kept": True, "margins_C": [0.2, 0.8], "reference_margins_C": [0.1, 1.8]},
             "safety": {"time_at_limit_s": {"master": {"ramp": 1.0}, "slave": {}}, "time_cut_s": {"master": 0.0},
                        "n_trips": 0}}
     J, _ = tn.score_figures(figs)
-    assert J == pytest.approx(2.0 + 0.2 + 0.05)
+    assert J == pytest.approx(2.0 + 0.2 + 0.05)  # margins reach min(reference, 0.7 °C): no shortfall
+    figs["discrimination"]["margins_C"] = [0.05, 0.5]
+    assert tn.score_figures(figs)[0] == pytest.approx(J + 2.0 * (0.05 + 0.2))
+    figs["discrimination"]["margins_C"] = [0.2, 0.8]
     figs["safety"]["n_trips"] = 1
     assert tn.score_figures(figs)[0] > J + 1
     figs["tracking"]["rms_C"] = None
