@@ -102,6 +102,7 @@ class NodeRuntime:
         self._last_sync_at = 0.0
         self._fallback: threading.Thread | None = None
         self._safety_state = None
+        self._latched_reported = False
         self._sync_sent_at = 0.0
         self.network: canopen.Network | None = None
         self.device: Device | None = None
@@ -375,6 +376,13 @@ class NodeRuntime:
             if cleared:
                 self.stats.peer_resumes += 1
                 log.warning("peer values back: cleared %s, resuming", ", ".join(t.value for t in cleared))
+        elif peer is not None and peer.alive and peer.fresh and state.env.trips & sf.PEER_TRIPS:
+            if not self._latched_reported:   # once per episode: say why we stay cut after the peer's return
+                self._latched_reported = True
+                log.warning("peer values back, but %s latched: the envelope stays as it is until an operator "
+                            "reset (NMT reset node)", ", ".join(sorted(t.value for t in state.env.trips - sf.PEER_TRIPS)))
+        if self._latched_reported and not (state.env.trips & sf.PEER_TRIPS):
+            self._latched_reported = False
         res = step(sample, peer, self.params, state)
         self._state = res.state
         rig.apply_current(res.current_A)

@@ -280,3 +280,47 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
     assert wait_for(lambda: (0x702, b"\x00") in frames.since(m), 10)
     assert sdo["kp_A_per_C"].raw == f32(p.kp_A_per_C) and sdo["ramp_limit_C_per_s"].raw == f32(p.safety.ramp_up_C_per_s)
     assert sdo["current_limit_A"].raw == f32(p.safety.current_fraction * i_max) and sdo["estimator"].raw == 1
+
+
+def test_after_the_peers_return_only_peer_trips_are_cleared_another_latched_trip_keeps_the_cut(slave, tmp_path):
+    """What an operator saw once (safety_state 3 after the peer came back, EMCY register 0x19): the peer
+    trip is cleared on the peer's return only when it is the only trip; a temperature trip latched before
+    keeps the cut (the node says so in its log) until an operator reset (NMT reset node)."""
+    net, remote, frames, _ = slave
+    sdo = remote.sdo
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x01, SLAVE]))
+    assert reaches_state(frames, m0, 5)
+    n = [0]
+
+    def cycles(k, pdo=True):
+        for _ in range(k):
+            n[0] += 1
+            if pdo:
+                net.send_message(0x181, struct.pack("<ff", 30.0, 0.0))
+            sync(net, n[0] % 240 + 1)
+        sdo_fence(remote)
+
+    cycles(20)
+    assert sdo["safety_state"].raw < 2
+    m = frames.mark()
+    sdo["T_min_C"].raw = 28.0                  # the probe sits at ~25 °C: now below T_min - 2 °C
+    cycles(3)
+    assert sdo["last_trip_code"].raw == 0x4220 and sdo["safety_state"].raw == 3   # surface_low: cut
+    cycles(15, pdo=False)                      # the peer's PDOs stop: peer_lost on top
+    emcy = [d for _, d in frames.since(m, 0x82) if len(d) == 8]
+    lost = [d for d in emcy if int.from_bytes(d[:2], "little") == 0x8130]
+    assert lost and lost[0][2] & 0x18 == 0x18  # register: temperature + communication (+ generic)
+    cycles(20)                                 # the peer is back
+    assert sdo["safety_state"].raw == 3 and sdo["current_A"].raw == 0.0
+    assert sdo["Error register"].raw & 0x08
+    log = (tmp_path / "slave.log").read_text()
+    assert "peer values back, but surface_low latched" in log
+    m = frames.mark()
+    net.send_message(0, bytes([0x81, SLAVE]))  # the operator's reset: power-on parameters, no trip
+    assert wait_for(lambda: (0x702, b"\x00") in frames.since(m), 10)
+    m0 = frames.mark()
+    net.send_message(0, bytes([0x01, SLAVE]))
+    assert reaches_state(frames, m0, 5)
+    cycles(20)
+    assert sdo["safety_state"].raw < 2 and sdo["Error register"].raw == 0 and sdo["T_min_C"].raw == 15.0
