@@ -178,7 +178,7 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2402, _real("ramp_limit_C_per_s", "rw", 5.0, 0.01, 5.0, description="setpoint ramp limit")),
         V(0x2403, _real("hot_threshold_C", "rw", 41.0, 30.0, 43.0, description="time-at-temperature threshold")),
         V(0x2404, _real("hot_time_limit_s", "rw", 30.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
-        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit (<= 0.8 Imax of the rig, here 0.8 x 2 A)")),
+        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit, <= 0.8 Imax of the rig (the node writes its own: 2.4 A on the simulated 3 A rig)")),
         V(0x2406, _real("sink_trip_C", "rw", 55.0, 20.0, 55.0, description="heat-sink trip temperature")),
         V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss")),
         V(0x2408, _uint("peer_pdo_miss_limit", UNSIGNED16, "rw", 10, 1, 1000, description="missed peer PDOs (cycles) before peer loss")),
