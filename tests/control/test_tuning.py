@@ -159,11 +159,21 @@ def test_score_penalises_safety_and_instability():
     assert tn.score_figures(figs)[0] == tn.UNSTABLE_J
 
 
+#: the most robust point of `telethermo tune --budget 40 --stress 0.15` (bench/results/tuning.json):
+#: better on the two-scene objective and over the ±30 % box, worse on the guiatni scene alone
+ROBUST = {"master.kp_A_per_C": 0.7319, "master.ki_A_per_C_s": 0.1631, "master.kpQ_A_per_W": 0.2752,
+          "slave.kp_A_per_C": 0.492, "slave.ki_A_per_C_s": 0.1097, "slave.kpQ_A_per_W": 0.06887}
+
+
 def test_tuned_defaults_are_at_least_as_good_as_the_reference_on_the_objective():
     obj = tn.Objective(tn.tuning_scenes(SCENE), seed=0)
     tuned = obj.evaluate(tn.default_gains(obj.space))
     ref = obj.evaluate(REFERENCE)
     assert tuned.J <= ref.J + 1e-9
+    # why the defaults were kept (docs/tuning.md): on the guiatni scene itself the shipped gains beat the
+    # tuner's most robust point, whose gain comes from the perturbed scene and the tracking figure
+    nominal = tn.Objective(tn.tuning_scenes(SCENE, perturbed=False), seed=0)
+    assert nominal.evaluate(tn.default_gains(obj.space)).J < nominal.evaluate(ROBUST).J
 
 
 def test_gains_file_round_trip(tmp_path):
