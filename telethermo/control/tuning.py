@@ -19,9 +19,11 @@ an offline session, averaged over the scenes)::
 
 A session that yields a non-finite figure (an unstable pair) scores :data:`UNSTABLE_J`.
 
-**Search space**: the log of each gain in :data:`DEFAULT_SPACE` (bounds in A/°C, A/(°C·s), A/W). A gain at
-its lower bound of a flux term (1e-3 A/W) is practically off. Every point the optimiser proposes is
-clipped to the bounds *before* a session runs (and recorded: tests check that none leaves them).
+**Search space**: the log of each gain in :data:`DEFAULT_SPACE` (bounds in A/°C, A/(°C·s), A/W; kQ and
+kiQ stay at 0: a screening found every non-zero value worse, docs/tuning.md). Every point the optimiser
+proposes is clipped to the bounds *before* a session runs (and recorded: tests check that none leaves
+them). The search minimises the worst of a point and its two *stress corners* (:func:`stress_corners`),
+which keeps it off the stability cliff.
 
 **Robust selection**: the best few distinct points of the search and the reference (the shipped gains)
 are checked at ±``rel`` (30 %) on each gain, one at a time, plus a few seeded random corners of the
