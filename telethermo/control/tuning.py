@@ -110,10 +110,12 @@ class Weights:
 def perturbed_scene(scene: Any) -> Any:
     """A robustness variant of a telepresence scene: another room, another operator, other objects.
 
-    Ambient 22 °C (objects start there), a finger with a thicker epidermis (0.8 mm), more perfused
-    dermis and a 36.5 °C core, the probe pressing 5 N (contact resistance no longer zero) and the
-    finger 6 N, objects of neighbouring materials (aluminium→copper, carbon steel→stainless steel,
-    oak→PVC, ...) touched in a rotated order, another noise seed. Same timing as the original.
+    Ambient 3 °C cooler (22 °C for the guiatni scene; objects start there), a finger with a 4/3 thicker
+    epidermis (0.8 mm), 1.5× dermal perfusion and a core at most 36.5 °C, the probe pressing at most 5 N
+    (contact resistance no longer zero) and the finger at most 6 N, objects of neighbouring materials
+    (aluminium→copper, carbon steel→stainless steel, oak→PVC, ...) touched in a rotated order. Same
+    timing as the original. (The scene's noise seed is changed too, but an offline session seeds the
+    noise from its own ``seed`` argument: :class:`Objective` passes its ``seed`` to every scene.)
     """
     import sim
     from sim.bodies import FingerParams
@@ -307,7 +309,7 @@ class Objective:
                 J, used = UNSTABLE_J, {"early_C": math.nan, "late_C": math.nan, "tracking_rms_C": math.nan,
                                        "limit_s": math.nan, "cut_s": math.nan, "trips": 0, "order_kept": False,
                                        "margin_shortfall_C": math.nan, "margins_C": [],
-                                       "error": repr(exc)}
+                                       "per_contact_early_C": [], "error": repr(exc)}
             self.n_sessions += 1
             Js.append(J)
             per.append(dict(scene=sc.name, J=J, **used))
