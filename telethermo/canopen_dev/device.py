@@ -180,6 +180,10 @@ class _FrameWatch(can.Listener):
         self.device = device
 
     def on_message_received(self, msg: can.Message) -> None:
+        # called before canopen's own listener (see Device.__init__): canopen dispatches by the bare
+        # identifier, so a 29-bit frame whose ID happens to be a service's (0x000, 0x601, ...) would
+        # reach that service's handler; the handlers look at this flag and ignore it
+        self.device._extended = msg.is_extended_id
         if msg.is_error_frame:
             return
         if msg.is_extended_id or msg.arbitration_id not in self.device._known_cobids:
@@ -266,11 +270,13 @@ class Device:
         network.subscribe(0, self._on_nmt_frame)
         network.subscribe(self.node.sdo.rx_cobid, self._on_sdo_frame)
         self.node.add_read_callback(self._on_read)
+        self._extended = False   # the frame being dispatched has a 29-bit ID (set by the frame watch)
         self._watch = _FrameWatch(self)
+        # first in line, before canopen's dispatcher: it flags 29-bit frames for the service handlers
         if network.notifier is not None:
-            network.notifier.add_listener(self._watch)
+            network.notifier.listeners.insert(0, self._watch)
         else:
-            network.listeners.append(self._watch)
+            network.listeners.insert(0, self._watch)
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
@@ -539,6 +545,8 @@ class Device:
             self._apply_nmt(command)
 
     def _on_nmt_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self._extended:
+            return  # a 29-bit ID is no service of ours (counted as unknown)
         if len(data) != 2:
             self.stats.malformed_frames += 1
             return
@@ -586,11 +594,21 @@ class Device:
 
     # ------------------------------------------------------------------ SDO
     def _on_sdo_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self._extended:
+            return  # a 29-bit ID is no service of ours (counted as unknown)
         if len(data) != 8:
             self.stats.malformed_frames += 1
             return
         if self._state in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
-            self.node.sdo.on_request(can_id, data, timestamp)
+            sdo = self.node.sdo
+            if sdo._index is None:
+                # canopen's server packs _index/_subindex into its abort frame: None before the first
+                # transfer made an invalid first request (e.g. command specifier 7) raise instead of abort
+                sdo._index, sdo._subindex = 0, 0
+            try:
+                sdo.on_request(can_id, data, timestamp)
+            except Exception:  # never into the notifier (canopen would drop the rest of the frame's callbacks)
+                self._callback_failed(sdo.on_request)
 
     def _sdo_write(self, var, data: bytes) -> None:
         """Check, store and apply a write (SDO or local to a communication object)."""
@@ -695,6 +713,8 @@ class Device:
         self._rpdo_subs = []
 
     def _on_rpdo_frame(self, plan: pdo_mod.PdoPlan, can_id: int, data: bytes, timestamp: float) -> None:
+        if self._extended:
+            return  # a 29-bit ID is no service of ours (counted as unknown)
         if self._state != NmtState.OPERATIONAL:
             self.stats.rpdo_ignored += 1
             return
@@ -779,6 +799,8 @@ class Device:
         self.network.subscribe(*self._sync_sub)
 
     def _on_sync_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+        if self._extended:
+            return  # a 29-bit ID is no service of ours (counted as unknown)
         if len(data) > 1:
             self.stats.malformed_frames += 1
             return
@@ -878,6 +900,8 @@ class Device:
         self._set_peer_alive()
 
     def _on_heartbeat_frame(self, peer: int, can_id: int, data: bytes, timestamp: float) -> None:
+        if self._extended:
+            return  # a 29-bit ID is no service of ours (counted as unknown)
         if len(data) != 1:
             self.stats.malformed_frames += 1
             return

@@ -99,3 +99,40 @@ def test_raising_callbacks_are_counted_and_do_not_stop_the_device(lab):
     assert master.rpdo_count(1) == 5 and slave.rpdo_count(1) == 5
     assert node.sdo["callback_errors"].raw == master.stats.callback_errors == 1 + 5 + 5  # nmt + sync + rpdo
     assert node.sdo["kp_A_per_C"].raw == 0.5
+
+
+def test_an_invalid_first_sdo_request_gets_an_abort_not_an_exception(lab, caplog):
+    """Command specifier 7 before any transfer: canopen's server would pack None into its abort frame
+    and raise into the notifier; the device answers the CiA 301 abort 0x05040001 instead."""
+    import logging
+    dev = lab.device("master")
+    bus = lab.raw_bus()
+    with caplog.at_level(logging.ERROR, logger="canopen.network"):
+        bus.send(can.Message(arbitration_id=0x601, data=bytes.fromhex("e2716fe805914f40"), is_extended_id=False))
+        reply = lab.recv_until(bus, lambda m: m.arbitration_id == 0x581)
+    assert reply is not None and reply.data[0] == 0x80
+    assert int.from_bytes(reply.data[4:8], "little") == 0x05040001
+    assert not [r for r in caplog.records if r.name == "canopen.network"]
+    assert dev.stats.callback_errors == 0
+    node = lab.client("master")
+    assert node.sdo["mode"].raw == 0                 # the server still works
+
+
+def test_29_bit_frames_never_reach_the_11_bit_services(lab):
+    """A 29-bit frame whose identifier equals a service's (NMT 0x000, SDO 0x601, SYNC 0x080, RPDO1
+    0x182, heartbeat 0x702) is only counted as unknown: canopen dispatches by the bare identifier,
+    the device does not take it for NMT, SDO, SYNC, a PDO or a heartbeat."""
+    dev = lab.device("master", settings=PAIR)
+    node = lab.client("master")
+    bus = lab.raw_bus()
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    before = (dev.stats.malformed_frames, dev.stats.unknown_cobid_frames, dev.stats.sync_count)
+    for cob, data in ((0x000, b""), (0x000, bytes([0x02, 1])), (0x601, bytes(8)), (0x080, b"\x01"),
+                      (0x182, struct.pack("<ff", 40.0, 1.0)), (0x702, b"\x05")):
+        bus.send(can.Message(arbitration_id=cob, data=data, is_extended_id=True))
+    barrier(node)
+    assert dev.stats.unknown_cobid_frames - before[1] == 6
+    assert dev.stats.malformed_frames == before[0] and dev.stats.sync_count == before[2]
+    assert dev.state.name == "OPERATIONAL"           # the 29-bit "NMT stop" did nothing
+    assert dev.stats.rpdo_count == 0 and dev.peer_status(2) == "unknown"
