@@ -13,7 +13,9 @@ import sys
 import time
 import traceback
 
-from bench.common import RESULTS_DIR
+import os
+
+from bench.common import RESULTS_DIR, RESULTS_ENV, current_results_dir
 from bench.report import refresh_docs
 
 SUITE = ["sim", "identify", "control", "nodes"]
@@ -23,7 +25,12 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
     ap.add_argument("--quick", action="store_true", help="short runs for CI that still measure something real")
     ap.add_argument("--only", nargs="+", choices=SUITE, help="run only these benchmarks")
+    ap.add_argument("--results-dir", help="write the result files here instead of bench/results/ "
+                                          "(docs/benchmarks.md is then left alone)")
     args = ap.parse_args(argv)
+    if args.results_dir:
+        os.makedirs(args.results_dir, exist_ok=True)
+        os.environ[RESULTS_ENV] = args.results_dir
     failed = []
     for name in args.only or SUITE:
         print(f"\n===== bench {name} ({'quick' if args.quick else 'full'}) =====", flush=True)
@@ -35,8 +42,11 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
             failed.append(name)
         print(f"----- bench {name}: {time.perf_counter() - t0:.1f} s", flush=True)
-    path = refresh_docs(RESULTS_DIR)
-    print(f"\nresults in {RESULTS_DIR}; table refreshed in {path}")
+    out = current_results_dir()
+    if out.resolve() == RESULTS_DIR.resolve():
+        print(f"\nresults in {out}; table refreshed in {refresh_docs(out)}")
+    else:
+        print(f"\nresults in {out} (docs/benchmarks.md left alone)")
     if failed:
         print(f"FAILED benchmarks: {', '.join(failed)}", file=sys.stderr)
         return 1

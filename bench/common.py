@@ -18,6 +18,15 @@ from typing import Any, Callable
 from telethermo.atomic import write_json_atomic
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
+RESULTS_ENV = "TELETHERMO_BENCH_RESULTS"
+"""Environment variable naming another results folder (CI's quick run writes there, not over the
+committed full-run results)."""
+
+
+def current_results_dir() -> Path:
+    """Where results go: $TELETHERMO_BENCH_RESULTS if set, else bench/results/."""
+    override = os.environ.get(RESULTS_ENV)
+    return Path(override) if override else RESULTS_DIR
 
 
 def provenance() -> dict[str, Any]:
@@ -53,7 +62,8 @@ def write_results(name: str, data: dict[str, Any], *, results_dir: Path | None =
     """Write ``data`` plus provenance to ``<results_dir>/<name>.json`` atomically; return the path."""
     out = dict(data)
     out["provenance"] = provenance()
-    return write_json_atomic((results_dir or RESULTS_DIR) / f"{name}.json", out)
+    folder = results_dir if results_dir is not None else current_results_dir()
+    return write_json_atomic(Path(folder) / f"{name}.json", out)
 
 
 def median_time_s(fn: Callable[[], Any], *, repeats: int = 5, warmup: int = 1) -> float:
