@@ -52,6 +52,7 @@ ABORT_INCOMPATIBLE = 0x06040043
 ABORT_READ_ONLY = 0x06010002
 ABORT_LENGTH = 0x06070010
 ABORT_GENERAL = 0x08000000
+ABORT_COMMAND_SPECIFIER = 0x05040001
 ABORT_DEVICE_STATE = 0x08000022   # data cannot be transferred or stored because of the present device state
 
 # diagnostics objects served live from DeviceStats (see bus_config/edsgen.py)
@@ -271,6 +272,7 @@ class Device:
         network.subscribe(self.node.sdo.rx_cobid, self._on_sdo_frame)
         self.node.add_read_callback(self._on_read)
         self._extended = False   # the frame being dispatched has a 29-bit ID (set by the frame watch)
+        self._sdo_transfer: str | None = None   # segmented SDO transfer in progress: "up", "down" or None
         self._watch = _FrameWatch(self)
         # first in line, before canopen's dispatcher: it flags 29-bit frames for the service handlers
         if network.notifier is not None:
@@ -509,6 +511,7 @@ class Device:
         old = self._state
         self._state = NmtState.INITIALISING
         self.node.nmt._state = 0
+        self._sdo_transfer = None
         self._scheduler.cancel("hb")
         if whole is None:
             pass
@@ -605,10 +608,31 @@ class Device:
                 # canopen's server packs _index/_subindex into its abort frame: None before the first
                 # transfer made an invalid first request (e.g. command specifier 7) raise instead of abort
                 sdo._index, sdo._subindex = 0, 0
+            # canopen's server keeps no transfer state: a segment request with no segmented transfer in
+            # progress makes it raise (TypeError on a None buffer) or re-use an old buffer; CiA 301 wants
+            # abort 0x05040001 (client/server command specifier not valid)
+            ccs = data[0] & 0xE0
+            if ccs in (0x00, 0x60) and self._sdo_transfer != ("down" if ccs == 0x00 else "up"):
+                self._sdo_transfer = None
+                sdo.abort(ABORT_COMMAND_SPECIFIER)
+                return
+            before = sdo._buffer
             try:
                 sdo.on_request(can_id, data, timestamp)
             except Exception:  # never into the notifier (canopen would drop the rest of the frame's callbacks)
                 self._callback_failed(sdo.on_request)
+                self._sdo_transfer = None
+                return
+            if ccs in (0x40, 0xA0):      # initiate upload: segmented if it filled a new buffer
+                self._sdo_transfer = "up" if sdo._buffer is not before and sdo._buffer else None
+            elif ccs == 0x20:            # initiate download: segmented unless expedited (and not aborted)
+                self._sdo_transfer = "down" if not data[0] & 0x02 and sdo._buffer is not before else None
+            elif ccs == 0x60 and not sdo._buffer:
+                self._sdo_transfer = None   # the last segment went out
+            elif ccs == 0x00 and data[0] & 0x01:
+                self._sdo_transfer = None   # the last segment came in
+            elif ccs == 0x80:
+                self._sdo_transfer = None   # the client aborted
 
     def _sdo_write(self, var, data: bytes) -> None:
         """Check, store and apply a write (SDO or local to a communication object)."""

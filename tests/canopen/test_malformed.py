@@ -136,3 +136,30 @@ def test_29_bit_frames_never_reach_the_11_bit_services(lab):
     assert dev.stats.malformed_frames == before[0] and dev.stats.sync_count == before[2]
     assert dev.state.name == "OPERATIONAL"           # the 29-bit "NMT stop" did nothing
     assert dev.stats.rpdo_count == 0 and dev.peer_status(2) == "unknown"
+
+
+def test_a_segment_request_without_a_transfer_is_aborted_and_transfers_still_work(lab, caplog):
+    """Upload- and download-segment requests with no segmented transfer in progress: abort 0x05040001
+    (canopen's server alone raises on its empty buffer); real segmented transfers (canopen's client:
+    the device name, a REAL64 model coefficient) are untouched, also right after such a request."""
+    import logging
+    dev = lab.device("master")
+    bus = lab.raw_bus()
+    node = lab.client("master")
+    with caplog.at_level(logging.ERROR):
+        for command in (0x60, 0x70, 0x00, 0x0B):   # upload segment (both toggles), download segment (last)
+            bus.send(can.Message(arbitration_id=0x601, data=bytes([command] + [0] * 7), is_extended_id=False))
+            reply = lab.recv_until(bus, lambda m: m.arbitration_id == 0x581)
+            assert reply is not None and reply.data[0] == 0x80, hex(command)
+            assert int.from_bytes(reply.data[4:8], "little") == 0x05040001
+        assert node.sdo[0x1008].raw == "telethermo master"          # segmented upload
+        node.sdo["theta"][3].raw = -1.25e-3                          # segmented download (8 bytes)
+        assert dev.read("theta3") == -1.25e-3
+        while bus.recv(0) is not None:                               # the transfers' own frames
+            pass
+        bus.send(can.Message(arbitration_id=0x601, data=bytes([0x60] + [0] * 7), is_extended_id=False))
+        reply = lab.recv_until(bus, lambda m: m.arbitration_id == 0x581)
+        assert reply is not None and int.from_bytes(reply.data[4:8], "little") == 0x05040001  # that upload is over
+        assert node.sdo[0x1008].raw == "telethermo master"
+    assert not [r for r in caplog.records if r.name.startswith("canopen")], caplog.records
+    assert dev.stats.callback_errors == 0
