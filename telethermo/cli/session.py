@@ -54,7 +54,7 @@ def _resolve_scene(arg: Path):
 
 
 def run(args: argparse.Namespace) -> int:
-    from nodes.launch import LaunchError, NodePair, PairConfig
+    from nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
 
     scene = _resolve_scene(args.scene)
     scene_path = Path(getattr(scene, "path", args.scene))
@@ -80,6 +80,7 @@ def run(args: argparse.Namespace) -> int:
                      progress_every=max(1, cycles // 100))
     pair = NodePair(cfg)
     interrupted = False
+    bar = None
     t0 = time.monotonic()
     old_int = signal.getsignal(signal.SIGINT)
     signal.signal(signal.SIGTERM, _interrupt)
@@ -93,28 +94,32 @@ def run(args: argparse.Namespace) -> int:
         if not args.quiet:
             print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
                   f"on {where}", file=sys.stderr)
+        if not args.quiet:
+            bar = ProgressLine(sys.stderr, cycles)
         while pair.master.poll() is None:
             time.sleep(0.2)
-            if not args.quiet:
+            if bar is not None:
                 k, n = pair.progress
-                rate = k / max(1e-9, time.monotonic() - t0)
-                print(f"\r  cycle {k}/{n or cycles}  ({100 * k / max(1, cycles):5.1f} %, {rate:,.0f} cycles/s)",
-                      end="", file=sys.stderr, flush=True)
+                bar.update(k, n or cycles, rate=k / max(1e-9, time.monotonic() - t0))
             if pair.slave is not None and pair.slave.poll() is not None and pair.master.poll() is None:
-                print(f"\ntelethermo session: the slave process ended (exit {pair.slave.returncode}); "
+                if bar is not None:
+                    bar.close()
+                print(f"telethermo session: the slave process ended (exit {pair.slave.returncode}); "
                       f"see {pair.log('slave')}", file=sys.stderr)
                 break
     except KeyboardInterrupt:
         interrupted = True
+        if bar is not None:
+            bar.close()
         if not args.quiet:
-            print("\n  interrupted: stopping master, slave and hub", file=sys.stderr)
+            print("  interrupted: stopping master, slave and hub", file=sys.stderr)
     finally:
+        if bar is not None:
+            bar.close()
         codes = pair.stop()
         signal.signal(signal.SIGINT, old_int)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
     wall = time.monotonic() - t0
-    if not args.quiet:
-        print("", file=sys.stderr)
     failed = {r: c for r, c in codes.items() if r in ("master", "slave") and c not in (0, None)}
     if failed:
         print(f"telethermo session: node exit codes {failed}; logs in {out}", file=sys.stderr)
