@@ -30,6 +30,7 @@ class NodeOptions:
         scene: scene file of a simulated rig (lockstep by default).
         rig: ``module:factory`` of a hardware rig driver (real time).
         model: identified model file (None: the packaged sim_tem.json).
+        gains: tuned gains file of `telethermo tune` (None: the shipped defaults); telepresence mode only.
         mode: initial mode (changeable by SDO on object 0x2500).
         record: CSV file for this node's signals (None: no recording).
         timing: "lockstep" (SYNC k+1 after every node's cycle-k PDO) or "realtime" (wall clock).
@@ -48,6 +49,7 @@ class NodeOptions:
     scene: Path | None = None
     rig: str | None = None
     model: Path | None = None
+    gains: Path | None = None
     mode: Mode = Mode.TELEPRESENCE
     record: Path | None = None
     timing: str | None = None
@@ -78,6 +80,8 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     rig.add_argument("--scene", type=Path, help="scene file (TOML): simulated rig")
     rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY() returns a telethermo.rig.Rig")
     p.add_argument("--model", type=Path, help="identified model file (default: packaged sim_tem.json)")
+    p.add_argument("--gains", type=Path, help="tuned gains file written by `telethermo tune --out` "
+                                              "(telepresence gains of this node's role; default: the shipped ones)")
     p.add_argument("--mode", choices=list(MODE_NAMES), default=None,
                    help="initial mode (default: telepresence); object 0x2500 changes it by SDO")
     p.add_argument("--record", type=Path, help="write this node's signals to this CSV file")
@@ -124,6 +128,7 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         raise OptionError(f"--record {str(args.record)!r}: is a directory, expected a CSV file path")
     return NodeOptions(
         role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
-        scene=existing(args.scene, "--scene"), rig=args.rig, model=existing(args.model, "--model"), mode=mode,
+        scene=existing(args.scene, "--scene"), rig=args.rig, model=existing(args.model, "--model"),
+        gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
         wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), log=args.log, verbose=args.verbose)

@@ -65,7 +65,16 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
             model = load_model(opts.model)
         except ValueError as exc:  # ModelFileError names the file and the field
             raise OptionError(str(exc)) from None
+    gains: dict[str, float] = {}
+    if opts.gains is not None:
+        from telethermo.control.tuning import load_gains
+        try:
+            gains = dict(load_gains(opts.gains)[opts.role])
+        except (ValueError, KeyError) as exc:  # load_gains names the file and the field
+            raise OptionError(f"--gains: {exc}") from None
     meta: dict[str, Any] = {"role": opts.role.value}
+    if gains:
+        meta["gains"] = {"file": str(opts.gains), **gains}
     script = None
     finger_skin = None
     if opts.scene is not None:
@@ -110,7 +119,7 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
             render = render if render is not None else (script.first if script is not None else None)
             kw = {"render": render}
         else:
-            kw = {}
+            kw = dict(gains) if mode is Mode.TELEPRESENCE else {}  # tuned gains are telepresence gains
         p = default_params(opts.role, period_s=period_s, mode=mode, **kw)  # ValueError: RENDER without settings
         if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))

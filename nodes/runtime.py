@@ -457,6 +457,7 @@ class NodeRuntime:
         # how long one lockstep cycle waits for the peer's PDO: half the heartbeat consumer time, so that
         # a merely slow peer is told from a lost one (which the heartbeat consumer reports)
         wait_s = self.net.heartbeat.consumer_ms * 0.5e-3 or 0.5
+        patience_s = 20 * wait_s  # a peer alive by its heartbeat but silent this long: count, go on
         ticker = None if self.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
         self.ticker = ticker
         k = 0
@@ -485,12 +486,21 @@ class NodeRuntime:
             if self.lockstep:
                 if status == "alive":
                     owed += 1
-                    if dev.wait_rpdo(1, after=base + owed - 1, timeout=wait_s):
+                    # lockstep means SYNC k+1 only after the peer's PDO k: while the heartbeat consumer
+                    # still sees the peer alive it is merely slow (a loaded machine), so keep waiting, up
+                    # to a patience bound for a peer whose heartbeat runs but whose cycle hangs
+                    waited, arrived = 0.0, False
+                    while not arrived and waited < patience_s and not self.stop_event.is_set():
+                        arrived = dev.wait_rpdo(1, after=base + owed - 1, timeout=wait_s)
+                        waited += wait_s
+                        if not arrived and dev.peer_status(self.peer_id) != "alive":
+                            break
+                    if arrived:
                         base, owed = dev.rpdo_count(1), 0
                     else:
                         self.stats.lockstep_timeouts += 1
                         log.warning("cycle %d: no PDO of node %d within %g ms (%d owed)", k - 1, self.peer_id,
-                                    wait_s * 1e3, owed)
+                                    waited * 1e3, owed)
                 elif status == "unknown" and self.mode is not Mode.TELEPRESENCE:
                     pass  # alone on the bus (rendering, identification): nobody to wait for
                 else:

@@ -62,4 +62,8 @@ def main(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    # `python -m telethermo.cli.main`: run the imported module's main, so that the subcommands' UserError
+    # (telethermo.cli.main.UserError) is the class caught here, not a second __main__.UserError
+    from telethermo.cli.main import main as _main
+
+    sys.exit(_main())

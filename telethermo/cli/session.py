@@ -31,6 +31,8 @@ def register(subparsers) -> None:
     p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
     p.add_argument("--model", type=Path, help="identified TEM model file for both nodes (default: none; the flux "
                                               "estimator needs none)")
+    p.add_argument("--gains", type=Path, help="tuned gains file of `telethermo tune --out` for both nodes "
+                                              "(default: the shipped gains)")
     p.add_argument("--timing", choices=["lockstep", "realtime"], default="lockstep",
                    help="lockstep (default: as fast as the two processes go) or realtime (wall clock)")
     p.add_argument("--duration", type=float, metavar="S", help="run S seconds of scene time (default: the scene's)")
@@ -62,6 +64,14 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--network {str(args.network)!r}: no such file")
     if args.model is not None and not args.model.is_file():
         raise UserError(f"--model {str(args.model)!r}: no such file")
+    gains_args: list[str] = []
+    if args.gains is not None:
+        from telethermo.control.tuning import load_gains
+        try:
+            load_gains(args.gains)  # refuse a bad file here, with its field, not in two node logs
+        except ValueError as exc:
+            raise UserError(f"--gains: {exc}") from None
+        gains_args = ["--gains", str(args.gains.resolve())]
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         raise UserError(f"--duration {args.duration}: expected a number of seconds > 0")
     if args.bus:
@@ -77,7 +87,7 @@ def run(args: argparse.Namespace) -> int:
     mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
     cfg = PairConfig(scene=scene_path, out_dir=out, bus=args.bus, network=args.network, model=args.model,
                      mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
-                     progress_every=max(1, cycles // 100))
+                     progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args)
     pair = NodePair(cfg)
     interrupted = False
     bar = None

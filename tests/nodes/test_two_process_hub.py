@@ -76,10 +76,11 @@ def test_exchange_is_real32_rounded_and_one_cycle_late(hub_session):
         np.testing.assert_array_equal(flux, rec.col(f"{peer}_Q_W")[:-1].astype(np.float32).astype(float))
 
 
-def test_a_stalled_slave_falls_back_into_step(tmp_path):
+def test_a_stalled_slave_is_waited_for_and_stays_in_step(tmp_path):
     """SIGSTOP the slave longer than one lockstep wait (half the consumer time) but shorter than the
-    heartbeat consumer time: the master goes ahead once without its PDO, then waits for both owed
-    PDOs, and the exchange is back in step (peer value k = the peer's estimate k-1, REAL32)."""
+    heartbeat consumer time: the peer is slow, not lost, so lockstep waits for its PDO (SYNC k+1 only
+    after PDO k) and the exchange never leaves step (peer value k = the peer's estimate k-1, REAL32),
+    with no lockstep timeout and no peer loss."""
     import os
     import signal
     import time
@@ -95,15 +96,16 @@ def test_a_stalled_slave_falls_back_into_step(tmp_path):
     with pair:
         assert wait_for(lambda: pair.progress[0] >= 100, 120)
         os.kill(pair.slave.pid, signal.SIGSTOP)
+        k_stop = pair.progress[0]
         time.sleep(0.7)                       # > 500 ms lockstep wait, < 1000 ms consumer time
+        k_cont = pair.progress[0]
         os.kill(pair.slave.pid, signal.SIGCONT)
         assert pair.wait_master(timeout_s=180) == 0
     pair.stop()
-    assert 1 <= pair.result["lockstep_timeouts"] <= 2
+    assert k_cont - k_stop <= 20                      # the master did not run on without its peer
+    assert pair.result["lockstep_timeouts"] == 0
     assert pair.result["peer"]["losses"] == 0
     rec = merge_recordings(tmp_path / "master.csv", tmp_path / "slave.csv")
     got, sent = rec.col("m_peer_estimate_C")[1:], rec.col("s_estimate_C")[:-1].astype(np.float32).astype(float)
-    off_step = np.flatnonzero(got != sent)
-    assert 1 <= off_step.size <= 3                    # the cycle(s) that went ahead with a stale value
-    assert off_step[-1] < len(got) - 200              # ... and then 200+ cycles in step again
+    assert np.array_equal(got, sent)                  # every cycle in step
     assert not any("peer_lost" in t for t in rec.text("m_new_trips"))
