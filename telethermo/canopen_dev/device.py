@@ -616,6 +616,13 @@ class Device:
                 self._sdo_transfer = None
                 sdo.abort(ABORT_COMMAND_SPECIFIER)
                 return
+            if ccs == 0xC0:
+                # block download is not supported: abort 0x05040001 for the object it names, as canopen's
+                # server would, but without its ERROR log line (a stray frame is no error of ours)
+                self._sdo_transfer = None
+                sdo._index, sdo._subindex = int.from_bytes(data[1:3], "little"), data[3]
+                sdo.abort(ABORT_COMMAND_SPECIFIER)
+                return
             before = sdo._buffer
             try:
                 sdo.on_request(can_id, data, timestamp)

@@ -93,3 +93,22 @@ def test_model_huge_current_range_is_a_model_file_error(tmp_path):
     p.write_text(json.dumps(doc), encoding="utf-8")
     with pytest.raises(ModelFileError, match="current_range_A"):
         load_model(p)
+
+
+def test_sdo_block_download_request_is_aborted_without_an_error_log():
+    """Block download (ccs 6) is not supported: CiA 301 abort 0x05040001 for the named object, and no
+    ERROR record (canopen's server would log one for a stray frame)."""
+    with s.device_under_fuzz() as (dev, raw, counter, client, log):
+        raw.send(can.Message(arbitration_id=0x600 + s.MASTER_ID, is_extended_id=False,
+                             data=bytes([0xC2, 0x00, 0x22, 0x01, 0, 0, 0, 0])))
+        assert counter.wait(1)
+        end = time.monotonic() + 2.0
+        reply = None
+        while reply is None and time.monotonic() < end:
+            m = raw.recv(0.2)
+            if m is not None and m.arbitration_id == 0x580 + s.MASTER_ID:
+                reply = m
+        assert not log.records, log.records
+        assert reply is not None and reply.data[0] == 0x80
+        assert int.from_bytes(reply.data[1:3], "little") == 0x2200 and reply.data[3] == 1
+        assert int.from_bytes(reply.data[4:8], "little") == 0x05040001
