@@ -16,7 +16,7 @@ import traceback
 import os
 
 from bench.common import RESULTS_DIR, RESULTS_ENV, current_results_dir
-from bench.report import refresh_docs
+from bench.report import refresh_docs, write_plots
 
 SUITE = ["sim", "identify", "control", "nodes"]
 
@@ -43,6 +43,8 @@ def main(argv: list[str] | None = None) -> int:
             failed.append(name)
         print(f"----- bench {name}: {time.perf_counter() - t0:.1f} s", flush=True)
     out = current_results_dir()
+    for png in write_plots(out):
+        print(f"plot: {png}")
     if out.resolve() == RESULTS_DIR.resolve():
         print(f"\nresults in {out}; table refreshed in {refresh_docs(out)}")
     else:
