@@ -14,6 +14,16 @@ import pytest
 from bench import stress_fuzz as s
 
 
+def _sdo_reply(raw, timeout_s: float = 2.0):
+    """The device's next SDO response frame (0x580 + id) on ``raw``, or None after ``timeout_s``."""
+    end = time.monotonic() + timeout_s
+    while time.monotonic() < end:
+        m = raw.recv(0.2)
+        if m is not None and m.arbitration_id == 0x580 + s.MASTER_ID:
+            return m
+    return None
+
+
 def test_device_frames_never_crash_and_are_counted():
     r = s.case_fuzz_frames(max_examples=60)
     f = r["figures"]
@@ -35,12 +45,7 @@ def test_sdo_segment_request_without_transfer_is_aborted():
     with s.device_under_fuzz() as (dev, raw, counter, client, log):
         raw.send(can.Message(arbitration_id=0x600 + s.MASTER_ID, is_extended_id=False, data=bytes([0x60] + [0] * 7)))
         assert counter.wait(1)
-        end = time.monotonic() + 1.0
-        reply = None
-        while reply is None and time.monotonic() < end:
-            m = raw.recv(0.2)
-            if m is not None and m.arbitration_id == 0x580 + s.MASTER_ID:
-                reply = m
+        reply = _sdo_reply(raw)
         assert not log.records, log.records
         assert reply is not None and reply.data[0] == 0x80  # an SDO abort
 
@@ -102,12 +107,7 @@ def test_sdo_block_download_request_is_aborted_without_an_error_log():
         raw.send(can.Message(arbitration_id=0x600 + s.MASTER_ID, is_extended_id=False,
                              data=bytes([0xC2, 0x00, 0x22, 0x01, 0, 0, 0, 0])))
         assert counter.wait(1)
-        end = time.monotonic() + 2.0
-        reply = None
-        while reply is None and time.monotonic() < end:
-            m = raw.recv(0.2)
-            if m is not None and m.arbitration_id == 0x580 + s.MASTER_ID:
-                reply = m
+        reply = _sdo_reply(raw)
         assert not log.records, log.records
         assert reply is not None and reply.data[0] == 0x80
         assert int.from_bytes(reply.data[1:3], "little") == 0x2200 and reply.data[3] == 1
