@@ -13,8 +13,10 @@ Per step (guiatni eq. 30-35, yamamoto §III):
    TELEPRESENCE: setpoint = the peer's estimate, feed-forward = -kQ·Q_peer (the pad delivers the
    mirror of the flux the peer's contact draws: eq. 34/35 with the rig sign convention, so kQ > 0);
    optional flux loop towards -Q_peer; RENDER: T_pad0 (eq. 7) until contact is detected, then
-   T_contact (eq. 1), current held ``settle_s``; IDLE: current ramps to 0; IDENTIFY: a PRBS
-   current of ``identify_amplitude_A``;
+   T_contact (eq. 1), current held ``settle_s``; IDLE: current ramps to 0; IDENTIFY: the identification
+   experiment ``identify`` (:class:`telethermo.ident.plan.IdentifyPlan`: rest, training PRBS,
+   held-out PRBS, then 0 A), sample by sample from the step that entered the mode, with the plan's
+   guard (sign flipped near the envelope) - the same currents as the offline experiment;
 4. the safety envelope (:mod:`telethermo.control.safety`) judges the sample and the peer, ramps and
    clamps the setpoint; a bad peer value is replaced by the ramp to neutral before it can reach the
    PI;
@@ -38,6 +40,7 @@ from typing import Any
 from telethermo.control import safety as sf
 from telethermo.control.contact import ContactParams, ContactState, contact_step
 from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
+from telethermo.ident.plan import IdentifyPlan, guarded_current
 from telethermo.control.pi import PIComponents, PIGains, PIState, bumpless, pi_step
 from telethermo.control.rendering import contact_temperature, pad_preset_temperature
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
@@ -145,7 +148,8 @@ class CoreParams:
         render: :class:`RenderSettings` (required in RENDER mode).
         contact: :class:`telethermo.control.contact.ContactParams`.
         idle_ramp_A_per_s: how fast IDLE brings the current to 0, A/s.
-        identify_amplitude_A: PRBS amplitude in IDENTIFY mode, A; identify_hold: samples per bit.
+        identify: the identification experiment run in IDENTIFY mode
+            (:class:`telethermo.ident.plan.IdentifyPlan`).
         echo_peer_when_free: (slave, telepresence) while no contact is detected, send back the
             peer's estimate instead of the own (an object estimate in air means nothing): the
             display then only mirrors the probe's flux, and the finger rests as in air.
@@ -168,8 +172,7 @@ class CoreParams:
     render: RenderSettings | None = None
     contact: ContactParams = field(default_factory=ContactParams)
     idle_ramp_A_per_s: float = 4.0
-    identify_amplitude_A: float = 0.5
-    identify_hold: int = 1
+    identify: IdentifyPlan = field(default_factory=IdentifyPlan)
     echo_peer_when_free: bool = False
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
@@ -193,9 +196,8 @@ class CoreParams:
         _finite_number(o, "R_sensor_K_per_W", self.R_sensor_K_per_W, lo=0.0, hi=1000.0)
         _finite_number(o, "fused_weight", self.fused_weight, lo=0.0, hi=1.0)
         _finite_number(o, "idle_ramp_A_per_s", self.idle_ramp_A_per_s, lo=0.0, lo_open=True)
-        _finite_number(o, "identify_amplitude_A", self.identify_amplitude_A, lo=0.0)
-        if not isinstance(self.identify_hold, int) or self.identify_hold < 1:
-            raise ValueError(f"{o}.identify_hold: expected an int >= 1, got {self.identify_hold!r}")
+        if not isinstance(self.identify, IdentifyPlan):
+            raise ValueError(f"{o}.identify: expected an IdentifyPlan, got {type(self.identify).__name__}")
         if not isinstance(self.safety, sf.SafetyLimits):
             raise ValueError(f"{o}.safety: expected SafetyLimits, got {type(self.safety).__name__}")
         if self.mode is Mode.RENDER and self.render is None:
@@ -246,7 +248,8 @@ class CoreState:
         source: key of the setpoint source of the previous step (mode, phase) for bumpless switching.
         render_phase: :class:`RenderPhase` (RENDER mode).
         T_pred_C: the last model prediction, °C (NaN without a model).
-        prbs: LFSR register for IDENTIFY.
+        ident_k: IDENTIFY: samples of the experiment done (0 outside IDENTIFY);
+        ident_guard: IDENTIFY: samples whose current the plan's guard flipped or cut.
     """
 
     k: int
@@ -258,7 +261,8 @@ class CoreState:
     source: tuple
     render_phase: RenderPhase
     T_pred_C: float
-    prbs: int
+    ident_k: int = 0
+    ident_guard: int = 0
     pred_tick: int = 0
     pred_snapshot: Any = None
     cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
@@ -354,7 +358,7 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
     snap = pred.snapshot() if cell is not None and cell.can_snapshot else None
     return CoreState(k=0, t_s=first_sample.t_s, env=sf.EnvelopeState(), pi=PIState(0.0), contact=ContactState(),
                      u_prev_A=0.0, source=(), render_phase=RenderPhase.PRESET, T_pred_C=T0 if pred else math.nan,
-                     prbs=0x5A5A, pred_tick=0, pred_snapshot=snap, cell=cell)
+                     pred_tick=0, pred_snapshot=snap, cell=cell)
 
 
 def _predict(state: CoreState, current_A: float) -> tuple[float, int, Any]:
@@ -374,12 +378,6 @@ def _predict(state: CoreState, current_A: float) -> tuple[float, int, Any]:
     cell.tick = state.pred_tick + 1
     snap = cell.predictor.snapshot() if cell.can_snapshot else None
     return T, cell.tick, snap
-
-
-def _prbs_next(reg: int) -> int:
-    """16-bit maximal-length Fibonacci LFSR (taps 16, 14, 13, 11)."""
-    bit = ((reg >> 0) ^ (reg >> 2) ^ (reg >> 3) ^ (reg >> 5)) & 1
-    return (reg >> 1) | (bit << 15)
 
 
 def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> StepResult:
@@ -466,22 +464,27 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     if switched or env.cut:
         pi_st = bumpless(gains, state.u_prev_A if not env.cut else 0.0, err, ff, -I_lim, I_lim,
                          flux_error_W=eQ, flux_gains=fg)
+    ident_k, ident_guard = 0, 0
     if mode is Mode.IDLE:
         stepA = params.idle_ramp_A_per_s * dt
         u_req = min(max(0.0, state.u_prev_A - stepA), state.u_prev_A + stepA) if math.isfinite(state.u_prev_A) else 0.0
         comps = PIComponents(0.0, 0.0, 0.0, u_req, u_req, False)
-        new_prbs = state.prbs
     elif mode is Mode.IDENTIFY:
-        new_prbs = _prbs_next(state.prbs) if state.k % params.identify_hold == 0 else state.prbs
-        u_req = params.identify_amplitude_A * (1.0 if new_prbs & 1 else -1.0)
+        plan = params.identify
+        j = 0 if switched else state.ident_k
+        guard = 0 if switched else state.ident_guard
+        if j < plan.total:
+            u_req, guarded = guarded_current(plan.current_at(j), Ts, I_limit_A=I_lim, T_min_C=lim.T_min_C,
+                                             T_max_C=lim.T_max_C, margin_C=plan.margin_C)
+            ident_k, ident_guard = j + 1, guard + int(guarded)
+        else:  # done: hold 0 A until the mode changes
+            u_req, ident_k, ident_guard = 0.0, j, guard
         comps = PIComponents(0.0, 0.0, 0.0, u_req, u_req, False)
     elif hold_current:
         u_req = state.u_prev_A
         comps = PIComponents(0.0, pi_st.integral_A, 0.0, u_req, u_req, False)
-        new_prbs = state.prbs
     else:
         u_req, pi_st, comps = pi_step(gains, pi_st, err, ff, dt, -I_lim, I_lim, flux_error_W=eQ, flux_gains=fg)
-        new_prbs = state.prbs
 
     # 6. envelope on current
     current, cur_active = sf.limit_current(lim, env, u_req, s_hi, s_lo)
@@ -492,7 +495,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     active = env_active + tuple(a for a in cur_active if a not in env_active)
     status_env = sf.summarize(env, new_trips, active)
     new_state = CoreState(k=state.k + 1, t_s=sample.t_s, env=env, pi=pi_st, contact=cst, u_prev_A=current,
-                          source=source, render_phase=phase, T_pred_C=T_pred, prbs=new_prbs, pred_tick=tick,
+                          source=source, render_phase=phase, T_pred_C=T_pred, ident_k=ident_k,
+                          ident_guard=ident_guard, pred_tick=tick,
                           pred_snapshot=snap, cell=state.cell)
     status = StepStatus(safety=status_env, requested_setpoint_C=req, setpoint_C=sp, feedback_C=y, T_pred_C=T_pred,
                         estimate_C=est, estimate_model_C=e_model, estimate_flux_C=e_flux, contact=cst.contact,

@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Callable
 
 import numpy as np
@@ -33,7 +33,7 @@ from telethermo.ident.capacity import CapacityModel, fit_capacity
 from telethermo.ident.flux import fit_flux_arma
 from telethermo.ident.modelfile import TemModel
 from telethermo.ident.narma import NarmaModel, NarmaOrders, fit_narma
-from telethermo.ident.prbs import prbs
+from telethermo.ident.plan import IdentifyPlan, guarded_current
 from telethermo.ident.stability import check_stability
 from telethermo.rig import Rig
 
@@ -75,6 +75,12 @@ class ExperimentSettings:
     settle_s: float = 2000.0
     settle_step_s: float = 50.0
     average_samples: int = 300
+
+    def plan(self, *, seed: int, train_samples: int, validation_samples: int) -> IdentifyPlan:
+        """The experiment of these settings as an :class:`~telethermo.ident.plan.IdentifyPlan`."""
+        return IdentifyPlan(seed=seed, rest_samples=self.rest_samples, train_samples=train_samples,
+                            validation_samples=validation_samples, amplitude_A=self.amplitude_A,
+                            hold_samples=self.hold_samples, margin_C=self.margin_C)
 
     def __post_init__(self) -> None:
         def bad(name: str, expected: str) -> ValueError:
@@ -130,7 +136,6 @@ def run_excitation(rig: Rig, current_A: np.ndarray, *, settings: ExperimentSetti
     N = len(u)
     dt = float(rig.period_s)
     I_lim = settings.current_limit_fraction * float(rig.I_max_A)
-    hi, lo = settings.T_max_C - settings.margin_C, settings.T_min_C + settings.margin_C
     truth = getattr(rig, "truth", None)
     t_s, I_out, T, Q, Ts, Qt = (np.empty(N) for _ in range(6))
     guard = 0
@@ -138,10 +143,9 @@ def run_excitation(rig: Rig, current_A: np.ndarray, *, settings: ExperimentSetti
     step = max(1, total // 200)
     for k in range(N):
         s = rig.read()
-        i = min(max(float(u[k]), -I_lim), I_lim)
-        if (s.T_sensor_C > hi and i > 0.0) or (s.T_sensor_C < lo and i < 0.0) or not math.isfinite(s.T_sensor_C):
-            i = -i if math.isfinite(s.T_sensor_C) else 0.0
-            guard += 1
+        i, guarded = guarded_current(u[k], s.T_sensor_C, I_limit_A=I_lim, T_min_C=settings.T_min_C,
+                                     T_max_C=settings.T_max_C, margin_C=settings.margin_C)
+        guard += guarded
         rig.apply_current(i)
         t_s[k], I_out[k], T[k], Q[k], Ts[k] = s.t_s, i, s.T_sensor_C, s.Q_W, s.T_sink_C
         Qt[k] = truth().Q_true_W if truth is not None else math.nan
@@ -194,24 +198,51 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         n_validation = max(n_samples // 2, 1)
     if n_samples < 1 or n_validation < 1:
         raise ValueError(f"n_samples and n_validation must be >= 1, got {n_samples}, {n_validation}")
-    total = settings.rest_samples + n_samples + n_validation
-    u_train = prbs(n_samples, amplitude_A=settings.amplitude_A, hold_samples=settings.hold_samples, seed=seed)
-    u_val = prbs(n_validation, amplitude_A=settings.amplitude_A, hold_samples=settings.hold_samples, seed=seed + 1)
+    plan = settings.plan(seed=seed, train_samples=n_samples, validation_samples=n_validation)
     t0 = time.perf_counter()
-    rest = run_excitation(rig, np.zeros(settings.rest_samples), settings=settings, progress=progress,
-                          progress_total=total)
-    train = run_excitation(rig, u_train, settings=settings, progress=progress,
-                           progress_offset=settings.rest_samples, progress_total=total)
-    val = run_excitation(rig, u_val, settings=settings, progress=progress,
-                         progress_offset=settings.rest_samples + n_samples, progress_total=total)
+    rec = run_excitation(rig, plan.currents(), settings=settings, progress=progress)
     t_experiment = time.perf_counter() - t0
-    fit_rec = _concat([rest, train])
-    allrec = _concat([rest, train, val])
-    n_fit = len(fit_rec.T_C)
-    T_ref = float(np.mean(rest.T_C)) if settings.rest_samples else float(train.T_C[0])
+    tem, report = fit_experiment(rec, plan=plan, orders=orders, period_s=float(rig.period_s), settings=settings,
+                                 method=method, meta=meta, keep_record=keep_record)
+    report["experiment_wall_s"] = t_experiment
+    if capacity:
+        cap, ss = identify_capacity(rig, tem.temperature, settings=settings)
+        if keep_record:
+            report["steady_states"] = ss
+        report.update({"capacity_points": len(ss.current_A), "capacity_current_range_A": [float(ss.current_A.min()),
+                       float(ss.current_A.max())], "capacity_rms_W": cap.metrics["rms_W"],
+                       "capacity_max_abs_W": cap.metrics["max_abs_W"], "capacity_skipped_A": ss.skipped})
+        tem = replace(tem, capacity=cap)
+    return tem, report
+
+
+def record_slice(rec: Record, start: int, stop: int) -> Record:
+    """Rows ``start:stop`` of a record (guard interventions are those of the whole record)."""
+    return Record(*(getattr(rec, f)[start:stop] for f in ("t_s", "current_A", "T_C", "Q_W", "T_sink_C", "Q_true_W")),
+                  guard_interventions=rec.guard_interventions)
+
+
+def fit_experiment(rec: Record, *, plan: IdentifyPlan, orders: NarmaOrders = NarmaOrders(), period_s: float,
+                   settings: ExperimentSettings = ExperimentSettings(), method: str = "oe",
+                   meta: dict[str, Any] | None = None, keep_record: bool = False,
+                   source: str = "telethermo.ident.experiment.identify_rig") -> tuple[TemModel, dict[str, Any]]:
+    """Fit the temperature (eq. 10) and heat-flux (eq. 12) models on the record of ``plan`` and validate them
+    on its held-out part: the fitting half of :func:`identify_rig`, for a record made anywhere (a simulated
+    rig here, a live node's samples streamed over the bus by ``telethermo identify <node>``).
+
+    ``rec`` holds ``plan.total`` rows in the order of the plan (rest, training, held-out). The report has
+    the same keys as :func:`identify_rig`'s (``experiment_wall_s`` is left to the caller).
+    """
+    if len(rec.T_C) != plan.total:
+        raise ValueError(f"fit_experiment: the record has {len(rec.T_C)} samples; the plan has {plan.total}")
+    n_rest, n_fit = plan.rest_samples, plan.fit_samples
+    fit_rec = record_slice(rec, 0, n_fit)
+    allrec = rec
+    rest_T = rec.T_C[:n_rest]
+    T_ref = float(np.mean(rest_T)) if n_rest else float(rec.T_C[0])
 
     t1 = time.perf_counter()
-    model = fit_narma(current_A=fit_rec.current_A, T_C=fit_rec.T_C, orders=orders, period_s=float(rig.period_s),
+    model = fit_narma(current_A=fit_rec.current_A, T_C=fit_rec.T_C, orders=orders, period_s=float(period_s),
                       T_ref_C=T_ref, method=method)
     t_fit = time.perf_counter() - t1
     fr = model.free_run(current_A=allrec.current_A, T0_C=T_ref)
@@ -225,13 +256,13 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         "heldout_free_run_rms_C": float(np.sqrt(np.mean(e_val ** 2))),
         "heldout_one_step_max_C": float(np.max(np.abs(e_os))),
         "heldout_one_step_rms_C": float(np.sqrt(np.mean(e_os ** 2))),
-        "heldout_samples": int(n_validation),
+        "heldout_samples": int(plan.validation_samples),
     })
     object.__setattr__(model, "metrics", metrics)
 
     fn, fm = settings.flux_orders
     t2 = time.perf_counter()
-    flux = fit_flux_arma(T_C=fit_rec.T_C, Q_W=fit_rec.Q_W, n=fn, m=fm, period_s=float(rig.period_s), T_ref_C=T_ref,
+    flux = fit_flux_arma(T_C=fit_rec.T_C, Q_W=fit_rec.Q_W, n=fn, m=fm, period_s=float(period_s), T_ref_C=T_ref,
                          current_A=fit_rec.current_A if settings.flux_with_current else None)
     t_flux = time.perf_counter() - t2
     fe = flux.errors(T_C=allrec.T_C, Q_W=allrec.Q_W, current_A=allrec.current_A, start=n_fit)
@@ -240,10 +271,10 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
     object.__setattr__(flux, "metrics", fmetrics)
 
     report: dict[str, Any] = {
-        "orders": orders.as_dict(), "period_s": float(rig.period_s), "seed": int(seed),
-        "n_train": int(n_samples), "n_validation": int(n_validation), "rest_samples": settings.rest_samples,
+        "orders": orders.as_dict(), "period_s": float(period_s), "seed": int(plan.seed),
+        "n_train": int(plan.train_samples), "n_validation": int(plan.validation_samples), "rest_samples": n_rest,
         "T_ref_C": T_ref,
-        "rest_drift_C": _rest_drift(rest.T_C),
+        "rest_drift_C": _rest_drift(rest_T),
         "heldout_free_run_max_C": metrics["heldout_free_run_max_C"],
         "heldout_free_run_rms_C": metrics["heldout_free_run_rms_C"],
         "heldout_one_step_max_C": metrics["heldout_one_step_max_C"],
@@ -255,26 +286,20 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
         "stability_free_run_max_dev_C": stab.free_run_max_dev_C,
         "guard_interventions": allrec.guard_interventions,
         "current_range_A": list(model.current_range_A), "T_range_C": [float(allrec.T_C.min()), float(allrec.T_C.max())],
-        "experiment_wall_s": t_experiment, "fit_wall_s": t_fit, "flux_fit_wall_s": t_flux,
+        "experiment_wall_s": math.nan, "fit_wall_s": t_fit, "flux_fit_wall_s": t_flux,
         "fit_method": method,
         "settings": asdict(settings),
+        "plan": plan.as_dict(),
     }
     if keep_record:
         report["record"] = {"t_s": allrec.t_s, "current_A": allrec.current_A, "T_C": allrec.T_C, "Q_W": allrec.Q_W,
                             "T_pred_C": fr, "Q_pred_W": flux.free_run(T_C=allrec.T_C, current_A=allrec.current_A),
                             "n_fit": n_fit}
-    cap = None
-    if capacity:
-        cap, ss = identify_capacity(rig, model, settings=settings)
-        if keep_record:
-            report["steady_states"] = ss
-        report.update({"capacity_points": len(ss.current_A), "capacity_current_range_A": [float(ss.current_A.min()),
-                       float(ss.current_A.max())], "capacity_rms_W": cap.metrics["rms_W"],
-                       "capacity_max_abs_W": cap.metrics["max_abs_W"], "capacity_skipped_A": ss.skipped})
-    tem_meta = {"source": "telethermo.ident.experiment.identify_rig", "seed": int(seed),
-                "n_train": int(n_samples), "n_validation": int(n_validation), "settings": asdict(settings)}
+    tem_meta = {"source": source, "seed": int(plan.seed),
+                "n_train": int(plan.train_samples), "n_validation": int(plan.validation_samples),
+                "settings": asdict(settings)}
     tem_meta.update(meta or {})
-    return TemModel(temperature=model, flux=flux, capacity=cap, meta=tem_meta), report
+    return TemModel(temperature=model, flux=flux, capacity=None, meta=tem_meta), report
 
 
 def capacity_currents(model: NarmaModel, *, settings: ExperimentSettings = ExperimentSettings(),

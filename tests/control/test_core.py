@@ -173,21 +173,31 @@ def test_any_input_gives_a_bounded_finite_current(T, Q, sink, pe, pq, alive, kp,
         assert r.current_A >= 0.0
 
 
-def test_identify_mode_prbs_within_envelope():
-    p = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify_amplitude_A=0.6, identify_hold=3)
+def test_identify_mode_runs_the_plan_then_holds_zero():
+    from telethermo.ident.plan import IdentifyPlan
+    plan = IdentifyPlan(seed=3, rest_samples=20, train_samples=150, validation_samples=80, amplitude_A=(0.2, 0.6),
+                        hold_samples=5)
+    p = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify=plan)
     r = step(S(), None, p, init_state(p, None, S()))
     us = [r.current_A]
-    for k in range(1, 300):
+    for k in range(1, plan.total + 30):
         r = step(S(t=0.01 * k), None, p, r.state)
         us.append(r.current_A)
-    assert set(us) == {0.6, -0.6}
-    # bits held for identify_hold samples, both levels present in similar amounts
-    runs = [len(list(g)) for _, g in __import__("itertools").groupby(us)]
-    assert min(runs[1:-1]) >= 3 and all(n % 3 == 0 for n in runs[1:-1])
-    assert 0.35 < us.count(0.6) / len(us) < 0.65
-    # near the top clamp only cooling passes, even in IDENTIFY
-    r = step(S(t=3.0, T=42.8), None, p, r.state)
-    assert r.current_A <= 0.0
+    # sample j of the mode carries the plan's current j (the pad far from the envelope: no guard)
+    assert us[:plan.total] == list(plan.currents())
+    assert all(u == 0.0 for u in us[:20]) and set(us[plan.total:]) == {0.0}
+    assert r.state.ident_k == plan.total and r.state.ident_guard == 0
+    # within the plan's margin of the top clamp the guard flips heating into cooling, and counts it
+    p2 = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify=IdentifyPlan(rest_samples=0, amplitude_A=(0.5, 0.5)))
+    r = step(S(T=42.5), None, p2, init_state(p2, None, S(T=42.5)))
+    r2 = step(S(t=0.01, T=42.5), None, p2, r.state)
+    assert r.current_A <= 0.0 and r2.current_A <= 0.0 and r2.state.ident_guard >= 1
+    # leaving the mode and coming back starts the experiment again from sample 0
+    pi = CoreParams(role=Role.MASTER, mode=Mode.IDLE)
+    r3 = step(S(t=0.02), None, pi, r2.state)
+    assert r3.state.ident_k == 0
+    r4 = step(S(t=0.03), None, p, r3.state)
+    assert r4.state.ident_k == 1
 
 
 def test_clear_faults_releases_a_gone_trip_and_restarts_bumpless():
