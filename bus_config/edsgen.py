@@ -164,13 +164,25 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2307, _uint("flux_n", UNSIGNED8, "rw", 0, 0, 8, description="flux model order n (c_1..c_n)")),
         V(0x2308, _uint("flux_m", UNSIGNED8, "rw", 0, 0, 7, description="flux model order m (d_0..d_m)")),
         V(0x2309, _real("R_sensor_C_per_W", "rw", 2.0, 0.0, 1000.0, description="flux-sensor thermal resistance e/(kS), eq. 29")),
+        V(0x230A, _real64("model_I_min_A", "rw", -1.0, -10.0, 10.0,
+                          description="lowest current of the model's training data (stability is checked over the range)")),
+        V(0x230B, _real64("model_I_max_A", "rw", 1.0, -10.0, 10.0, description="highest current of the model's training data")),
+        V(0x230C, _uint("flux_with_current", BOOLEAN, "rw", 0, 0, 1,
+                        description="1: flux_coeffs also hold e_1..e_m, g_1..g_m, h_1..h_m (current terms)")),
+        V(0x230D, _uint("model_command", UNSIGNED8, "rw", 0, 0, 2,
+                        description="write 1: load the model held in 0x2300..0x2311 (refused with 0x08000020 if it is "
+                                    "inconsistent or unstable), 2: unload it (reads 0)")),
+        V(0x230E, _uint("model_status", UNSIGNED8, "ro", 0,
+                        description="0 no model, 1 loaded (the objects hold the running model), 2 edited since loaded")),
+        V(0x230F, _uint("model_crc32", UNSIGNED32, "ro", 0,
+                        description="CRC-32 of the running model's objects (telethermo.ident.odmodel.od_crc32), 0 none")),
         Obj(0x2310, "theta", object_type=0x8, subs={
             0: _uint("Highest sub-index supported", UNSIGNED8, "const", 48),
             **{i: _real64(f"theta{i}", "rw", 0.0, -1.0e6, 1.0e6, description="NARMA parameter (eq. 11 order)")
                for i in range(1, 49)}}),
         Obj(0x2311, "flux_coeffs", object_type=0x8, subs={
             0: _uint("Highest sub-index supported", UNSIGNED8, "const", 16),
-            **{i: _real64(f"flux_coeff{i}", "rw", 0.0, -1.0e6, 1.0e6, description="c_1..c_n then d_0..d_m (eq. 12)")
+            **{i: _real64(f"flux_coeff{i}", "rw", 0.0, -1.0e6, 1.0e6, description="c_1..c_n, d_0..d_m (eq. 12), then e, g, h if flux_with_current")
                for i in range(1, 17)}}),
         # -- safety envelope (DESIGN.md section 6): ranges only allow narrowing the defaults
         V(0x2400, _real("T_min_C", "rw", 15.0, 15.0, 43.0, description="lowest surface setpoint")),
@@ -193,6 +205,22 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2602, _real("object_T0_C", "rw", 25.0, -20.0, 100.0, description="initial object temperature")),
         V(0x2603, _real("finger_T0_C", "rw", 33.0, 20.0, 40.0, description="initial finger temperature")),
         V(0x2604, _real("pad_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the pad")),
+        # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
+        V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
+        V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),
+        V(0x2802, _uint("ident_train_samples", UNSIGNED32, "rw", 10_000, 1, 500_000, description="training PRBS samples")),
+        V(0x2803, _uint("ident_validation_samples", UNSIGNED32, "rw", 5_000, 1, 500_000,
+                        description="held-out PRBS samples")),
+        V(0x2804, _real("ident_amplitude_min_A", "rw", 0.1, 0.0, 10.0, description="smallest PRBS bit amplitude")),
+        V(0x2805, _real("ident_amplitude_max_A", "rw", 1.0, 0.0, 10.0, description="largest PRBS bit amplitude")),
+        V(0x2806, _uint("ident_hold_samples", UNSIGNED16, "rw", 25, 1, 10_000, description="samples per PRBS bit")),
+        V(0x2807, _uint("ident_sample", UNSIGNED32, "ro", 0, pdo=True,
+                        description="samples of the experiment done (sample j is sent with the value j + 1)")),
+        V(0x2808, _uint("ident_state", UNSIGNED8, "ro", 0, pdo=True,
+                        description="0 not run, 1 running, 2 done, 3 interrupted (the mode changed before the end)")),
+        V(0x2809, _uint("ident_guard", UNSIGNED32, "ro", 0, description="samples whose current the guard flipped or cut")),
+        V(0x280A, _uint("ident_start_cycle", UNSIGNED32, "ro", 0,
+                        description="control cycles run before the experiment's first sample")),
         # -- status (written by the node)
         V(0x2700, _uint("safety_state", UNSIGNED8, "ro", 0, **ro_pdo,
                         description="0 ok, 1 limiting, 2 ramp to neutral, 3 current cut")),

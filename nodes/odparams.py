@@ -16,6 +16,7 @@ writes into its object dictionary so that ``telethermo get`` shows the running c
 | current_limit_A (0x2405) | ``safety.current_fraction`` × ``safety.I_max_A`` | all modes |
 | mode (0x2500) | ``mode`` | |
 | material_code, material_beta, object_T0_C, finger_T0_C, pad_beta (0x2600..0x2604) | ``render`` (:class:`RenderSettings`) | RENDER |
+| ident_seed, ident_rest_samples, ident_train_samples, ident_validation_samples, ident_amplitude_min_A, ident_amplitude_max_A, ident_hold_samples (0x2800..0x2806) | ``identify`` (:class:`~telethermo.ident.plan.IdentifyPlan`) | IDENTIFY |
 
 Rendering: ``material_code`` 0 is a custom material (β = ``material_beta``), k >= 1 the k-th entry of
 the rendering table (``telethermo/data/render_materials.toml``, in file order); writing a code sets
@@ -47,11 +48,18 @@ SAFETY_KEYS: dict[str, tuple[str, ...]] = {
 RENDER_KEYS = ("material_code", "material_beta", "object_T0_C", "finger_T0_C", "pad_beta")
 MATERIAL_KEYS = ("material_code", "material_beta", "object_T0_C")
 OTHER_KEYS = ("estimator", "R_sensor_C_per_W", "current_limit_A", "peer_pdo_miss_limit", "mode")
+#: OD name -> IdentifyPlan field (the amplitudes are the two ends of ``amplitude_A``)
+IDENT_KEYS: dict[str, str] = {
+    "ident_seed": "seed", "ident_rest_samples": "rest_samples", "ident_train_samples": "train_samples",
+    "ident_validation_samples": "validation_samples", "ident_amplitude_min_A": "amplitude_A",
+    "ident_amplitude_max_A": "amplitude_A", "ident_hold_samples": "hold_samples",
+}
 #: every object a node mirrors and accepts writes of
-PARAM_KEYS = GAIN_KEYS + tuple(SAFETY_KEYS) + RENDER_KEYS + OTHER_KEYS
+PARAM_KEYS = GAIN_KEYS + tuple(SAFETY_KEYS) + RENDER_KEYS + OTHER_KEYS + tuple(IDENT_KEYS)
 
 ABORT_RANGE = 0x06090030          # value range of parameter exceeded (the controller refuses the value)
 ABORT_DEVICE_STATE = 0x08000022   # data cannot be transferred or stored because of the present device state
+ABORT_MAX_BELOW_MIN = 0x06090036  # maximum value is less than minimum value
 
 
 class ParamBook:
@@ -79,6 +87,8 @@ class ParamBook:
         self.mode = Mode(mode)
         self.gains: dict[Mode, dict[str, float]] = {}
         self.common: dict[str, Any] = {}
+        self.identify: dict[str, Any] = {}
+        """IdentifyPlan fields written by the operator."""
         self.safety: dict[str, float] = {}
         self.peer_miss_limit = int(peer_miss_limit)
         self.scripted = script_first is not None
@@ -113,6 +123,8 @@ class ParamBook:
         kw.update(self.gains.get(mode, {}))
         if self.safety:
             kw["safety"] = dataclasses.replace(p.safety, **self.safety)
+        if self.identify:
+            kw["identify"] = dataclasses.replace(p.identify, **self.identify)
         return dataclasses.replace(p, **kw) if kw else p
 
     def render_settings(self) -> RenderSettings:
@@ -137,7 +149,7 @@ class ParamBook:
         new = object.__new__(ParamBook)
         new.__dict__.update(self.__dict__)
         new.gains = {m: dict(g) for m, g in self.gains.items()}
-        new.common, new.safety = dict(self.common), dict(self.safety)
+        new.common, new.safety, new.identify = dict(self.common), dict(self.safety), dict(self.identify)
         return new
 
     def check(self, key: str, value: Any, *, current_limit_of: Callable[[], float] | None = None) -> int | None:
@@ -155,6 +167,13 @@ class ParamBook:
                 return ABORT_RANGE
             if est is not Estimator.FLUX and not self.has_model:
                 return ABORT_DEVICE_STATE   # no TEM model loaded: T_pred cannot be computed
+        if key in IDENT_KEYS and self.mode is Mode.IDENTIFY:
+            return ABORT_DEVICE_STATE   # the experiment's plan is fixed while it runs
+        if key in ("ident_amplitude_min_A", "ident_amplitude_max_A"):
+            lo, hi = self.params().identify.amplitude_A
+            lo, hi = (float(value), hi) if key.endswith("min_A") else (lo, float(value))
+            if lo > hi:
+                return ABORT_MAX_BELOW_MIN
         if key == "material_code" and int(value) and self._code_name(int(value)) is None:
             return 0x06090031 if int(value) > len(self.table) else ABORT_RANGE
         trial = self.copy()
@@ -202,6 +221,14 @@ class ParamBook:
                 self.render = dataclasses.replace(r, beta_object=float(value), material="custom")
             else:
                 self.render = dataclasses.replace(r, T_object0_C=float(value))
+        elif key in IDENT_KEYS:
+            f = IDENT_KEYS[key]
+            if f == "amplitude_A":
+                lo, hi = self.identify.get(f, self.params_for(Mode.IDENTIFY).identify.amplitude_A)
+                value = (float(value), hi) if key.endswith("min_A") else (lo, float(value))
+            else:
+                value = int(value)
+            self.identify[f] = value
         elif key == "pad_beta":
             self.beta_pad = float(value)
         elif key == "finger_T0_C":
@@ -224,6 +251,10 @@ def od_image(params: CoreParams, render: RenderSettings | None, *, material_code
     img["current_limit_A"] = s.I_limit_A
     img["peer_pdo_miss_limit"] = peer_miss_limit
     img["mode"] = int(params.mode)
+    plan = params.identify
+    img.update(ident_seed=plan.seed, ident_rest_samples=plan.rest_samples, ident_train_samples=plan.train_samples,
+               ident_validation_samples=plan.validation_samples, ident_amplitude_min_A=plan.amplitude_A[0],
+               ident_amplitude_max_A=plan.amplitude_A[1], ident_hold_samples=plan.hold_samples)
     if render is not None:
         img.update(material_code=material_code, material_beta=render.beta_object, object_T0_C=render.T_object0_C,
                    finger_T0_C=render.T_finger0_C, pad_beta=render.beta_pad)

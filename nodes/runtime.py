@@ -34,12 +34,14 @@ from telethermo.canopen_dev.device import Device, NmtCommand, NmtState, PeerEven
 from telethermo.canopen_dev.netconfig import NetworkConfig
 from telethermo.canopen_dev.sync import SyncProducer
 from telethermo.control import safety as sf
-from telethermo.control.core import CoreState, clear_faults, init_state, initial_peer, step
+from telethermo.control.core import CoreState, Feedback, clear_faults, init_state, initial_peer, replace_model, step
+from telethermo.control.estimators import Estimator
+
 from telethermo.control.types import Mode, Role
 from telethermo.session.runner import _side_row, _truth_row  # the offline runner's row format, exactly
 from telethermo.transport.bus import TransportSettings, open_bus
 
-from nodes.odparams import PARAM_KEYS, ParamBook, od_image
+from nodes.odparams import ABORT_DEVICE_STATE, PARAM_KEYS, ParamBook, od_image
 from nodes.parts import NodeParts
 from nodes.peer import PeerLink
 from nodes.recorder import CsvRecorder
@@ -47,7 +49,12 @@ from nodes.schedule import RealtimeTicker
 
 log = logging.getLogger("telethermo.node")
 
+_MODEL_INDICES = frozenset(range(0x2300, 0x2309)) | frozenset(range(0x230A, 0x2310)) | {0x2310, 0x2311}
+"""Objects of the TEM model (telethermo.ident.odmodel) and its command: 0x2309 R_sensor is a controller parameter."""
+
 MODE_INDEX = 0x2500
+ABORT_MODEL_REFUSED = 0x08000020   # data cannot be transferred or stored to the application
+IDENT_NOT_RUN, IDENT_RUNNING, IDENT_DONE, IDENT_INTERRUPTED = 0, 1, 2, 3
 PEER_MISS_INDEX = 0x2408
 MAX_TIMING_SAMPLES = 1_000_000
 
@@ -112,6 +119,13 @@ class NodeRuntime:
         self.final_comments = None
         self.peer_boots = 0
         """Optional () -> comment lines that replace the recording's header at close (final meta)."""
+        self.model = parts.model
+        """The TEM model the controller runs (the --model file at power-on; 0x230D loads another)."""
+        self._model_candidate = None   # (TemModel | None, crc) validated by the last model_command write
+        self._model_pending = None     # the same, to take at the next SYNC
+        self._ident_state = IDENT_NOT_RUN
+        self._last_T_C = float("nan")
+        self.models_loaded = 0
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
@@ -132,6 +146,7 @@ class NodeRuntime:
         self._od_writers()
         for key in PARAM_KEYS:
             dev.add_write_validator(key, lambda value, key=key: self.book.check(key, value))
+        dev.add_write_validator("model_command", self._check_model_command)
         self._power_on_parameters()
         if self.produce_sync:
             self.sync = SyncProducer(dev)
@@ -144,7 +159,8 @@ class NodeRuntime:
         d = self.device
         self._w = {name: d.writer(name) for name in (
             "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "force_N", "estimate_C", "T_pred_C",
-            "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles")}
+            "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "ident_sample", "ident_state",
+            "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command")}
         self._r_peer_est = d.reader("peer_estimate_C")
         self._r_peer_q = d.reader("peer_Q_W")
         self._param_w = {key: d.writer(key) for key in PARAM_KEYS}
@@ -171,7 +187,79 @@ class NodeRuntime:
         self._book_version = self.book.version
         self.peer = PeerLink(max_missed_cycles=self.book.peer_miss_limit)
         d.write(0x2704, bool(self.lockstep), check=False)
+        self.model = self.parts.model
+        self.book.has_model = self.model is not None
+        self._model_candidate = self._model_pending = None
+        self._ident_state = IDENT_NOT_RUN
+        self._write_model_objects(self.model)
         self._write_parameter_image()
+
+    # ------------------------------------------------------------------ the model in the OD
+    def _write_model_objects(self, tem) -> None:
+        """The running model into 0x2300..0x2311, its status and CRC (none: status 0, CRC 0)."""
+        from telethermo.ident import odmodel
+        if tem is None:
+            self._w["model_status"](odmodel.STATUS_NONE)
+            self._w["model_crc32"](0)
+            return
+        try:
+            entries = odmodel.model_entries(tem)
+        except ValueError as exc:   # ModelFileError: more parameters than the objects hold
+            log.warning("the model runs but cannot be shown in the OD: %s", exc)
+            self._w["model_status"](odmodel.STATUS_LOADED)
+            self._w["model_crc32"](0)
+            return
+        for e in entries:
+            self.device.write((e.index, e.sub), e.value, check=False)
+        self._w["model_status"](odmodel.STATUS_LOADED)
+        self._w["model_crc32"](odmodel.od_crc32(entries))
+
+    def _check_model_command(self, value) -> int | None:
+        """Validator of model_command (0x230D), device lock held: 1 loads the model the objects hold (refused
+        with 0x08000020 if inconsistent, at another period or unstable), 2 unloads (refused with 0x08000022
+        while the controller needs a model)."""
+        from telethermo.ident import odmodel
+        from telethermo.ident.modelfile import ModelFileError
+        value = int(value)
+        if value == odmodel.CMD_LOAD:
+            d = self.device
+            try:
+                tem, entries = odmodel.model_from_od(lambda i, s: d.read((i, s)), source=f"node {self.node_id} OD",
+                                                     period_s=self.parts.period_s)
+            except ModelFileError as exc:
+                log.warning("model_command 1 refused: %s", exc)
+                return ABORT_MODEL_REFUSED
+            self._model_candidate = (tem, odmodel.od_crc32(entries))
+        elif value == odmodel.CMD_UNLOAD:
+            p = self.params
+            if p is not None and (p.estimator is not Estimator.FLUX or p.feedback is Feedback.MODEL):
+                log.warning("model_command 2 refused: the estimator %s needs the model", p.estimator.value)
+                return ABORT_DEVICE_STATE
+            self._model_candidate = (None, 0)
+        else:
+            self._model_candidate = None
+        return None
+
+    def _take_model(self) -> None:
+        """At a SYNC (lock held): run the model loaded by 0x230D from now on."""
+        from telethermo.ident import odmodel
+        tem, crc = self._model_pending
+        self._model_pending = None
+        self.model = tem
+        self.book.has_model = tem is not None
+        if self._state is not None:
+            T0 = self._last_T_C if self._last_T_C == self._last_T_C else self.params.safety.neutral_C
+            self._state = replace_model(self._state, tem, T0)
+        self._w["model_status"](odmodel.STATUS_LOADED if tem is not None else odmodel.STATUS_NONE)
+        self._w["model_crc32"](crc)
+        self._w["model_command"](0)
+        self.models_loaded += 1
+        if tem is None:
+            log.info("model unloaded")
+        else:
+            o = tem.temperature.orders
+            log.info("model loaded from the OD: orders %d,%d,%d,%d, T_ref %.3f °C, CRC 0x%08X", o.n, o.m, o.p, o.q,
+                     tem.temperature.T_ref_C, crc)
 
     def _scripted_render(self):
         """The render script's settings in force (with the operator's pad β / finger temperature),
@@ -307,8 +395,13 @@ class NodeRuntime:
     def _on_write(self, ev: WriteEvent) -> None:
         """An accepted SDO write of a parameter (validated before it was stored; device lock held):
         into the book now, into the controller at the next SYNC."""
+        if self.book is None:
+            return
+        if ev.index in _MODEL_INDICES:
+            self._on_model_write(ev)
+            return
         key = self._param_keys.get(ev.index)
-        if key is None or self.book is None:
+        if key is None:
             return
         try:
             self.book.apply(key, ev.value)
@@ -316,6 +409,14 @@ class NodeRuntime:
             log.error("%s = %r not applied: %s", key, ev.value, exc)
             self.book.version += 1  # the next SYNC rewrites the OD with the truth
         log.info("%s = %r (takes effect at the next SYNC)", key, ev.value)
+
+    def _on_model_write(self, ev: WriteEvent) -> None:
+        from telethermo.ident import odmodel
+        if ev.index == odmodel.COMMAND_INDEX:
+            self._model_pending, self._model_candidate = self._model_candidate, None
+            self._w["model_command"](0)   # a command, not a setting: reads 0
+        elif self.model is not None:
+            self._w["model_status"](odmodel.STATUS_EDITED)
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
         log.info("NMT %s -> %s%s", old.name, new.name, f" (command 0x{command:02X})" if command else "")
@@ -330,6 +431,8 @@ class NodeRuntime:
 
     # ------------------------------------------------------------------ the cycle
     def _on_sync(self, tick: SyncTick) -> None:
+        if self._model_pending is not None:
+            self._take_model()
         if self.book.version != self._book_version:
             self._apply_parameters()
         if not tick.operational or self.stop_event.is_set():
@@ -358,7 +461,7 @@ class NodeRuntime:
             rig.advance(self.parts.period_s)
         sample = rig.read()
         if self._state is None:
-            self._state = init_state(self.params, self.parts.model, sample)
+            self._state = init_state(self.params, self.model, sample)
             self.peer.start_with(initial_peer(sample))  # cycle 0 as the offline runner; then PDOs
         if 1 in tick.fresh_rpdos:
             self.peer.on_pdo(self._r_peer_est(), self._r_peer_q())
@@ -404,6 +507,8 @@ class NodeRuntime:
                 log.info("cycle %d: safety state %s -> %s", self.stats.cycles, self._safety_state.name,
                          st.safety.state.name)
             self._safety_state = st.safety.state
+        self._identify_status(res.state)
+        self._last_T_C = sample.T_sensor_C
         self.stats.cycles += 1
         w["cycle_counter"](self.stats.cycles & 0xFFFFFFFF)
         w["late_cycles"](self.stats.late_cycles & 0xFFFFFFFF)
@@ -417,6 +522,27 @@ class NodeRuntime:
             self._record(sample, res, peer)
         if self.record_timing and len(self.stats.cycle_s) < MAX_TIMING_SAMPLES:
             self.stats.cycle_s.append(time.monotonic() - now)
+
+    def _identify_status(self, state: CoreState) -> None:
+        """ident_sample / ident_state / ident_guard / ident_start_cycle of this cycle (0x2807..0x280A)."""
+        w, k = self._w, state.ident_k
+        w["ident_sample"](k)
+        if self.mode is Mode.IDENTIFY:
+            if k == 1:
+                w["ident_start_cycle"](self.stats.cycles & 0xFFFFFFFF)
+                log.info("identification experiment started: %d samples (%s)", self.params.identify.total,
+                         self.params.identify.as_dict())
+            new = IDENT_DONE if k >= self.params.identify.total else IDENT_RUNNING
+            if new == IDENT_DONE and self._ident_state == IDENT_RUNNING:
+                log.info("identification experiment done: %d samples, %d guarded", k, state.ident_guard)
+            w["ident_guard"](state.ident_guard)
+        else:
+            new = IDENT_INTERRUPTED if self._ident_state == IDENT_RUNNING else self._ident_state
+            if new == IDENT_INTERRUPTED and self._ident_state == IDENT_RUNNING:
+                log.warning("identification experiment interrupted (mode %s)", self.mode.name)
+        if new != self._ident_state:
+            self._ident_state = new
+            w["ident_state"](new)
 
     def _select_render_touch(self, t_s: float) -> None:
         """The render script's settings in force now (the same script as the offline runner's), unless

@@ -361,6 +361,17 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
                      pred_tick=0, pred_snapshot=snap, cell=cell)
 
 
+def replace_model(state: CoreState, predictor_or_model: Any, T0_C: float) -> CoreState:
+    """``state`` with a new TEM model (or none): its predictor starts at rest at ``T0_C`` (°C), as
+    :func:`init_state` starts one. For a model loaded into a running node (the pad may not be at rest:
+    T_pred then carries the pad's transient until it decays). None is only for parameters that need
+    no model (FLUX estimator, ESTIMATE feedback): the caller checks."""
+    pred = _as_predictor(predictor_or_model, T0_C)
+    cell = _PredictorCell(pred) if pred is not None else None
+    snap = pred.snapshot() if cell is not None and cell.can_snapshot else None
+    return replace(state, cell=cell, pred_tick=0, pred_snapshot=snap, T_pred_C=T0_C if pred is not None else math.nan)
+
+
 def _predict(state: CoreState, current_A: float) -> tuple[float, int, Any]:
     """T_pred for this sample. ``current_A``: the current held since the previous sample (the sample's
     measured current). The first sample is the predictor's rest state (no step yet)."""
