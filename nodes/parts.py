@@ -91,7 +91,10 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
         cycles = int(round(scene.duration_s / rig.period_s))
         meta.update(scene=getattr(scene, "name", str(opts.scene)), seed=seed)
         truth = rig.truth
-        if opts.role is Role.MASTER and getattr(scene, "kind", "") == "virtual":
+        touches = getattr(getattr(rig, "schedule", None), "touches", ())
+        # a virtual scene whose pad touches nothing (identification, idle) has nothing to script: RENDER then
+        # renders the OD's material
+        if opts.role is Role.MASTER and getattr(scene, "kind", "") == "virtual" and touches:
             from telethermo.session.render_script import RenderScript
             from telethermo.session.runner import _finger_skin_C
             try:

@@ -1,11 +1,14 @@
-"""``telethermo identify``: run the identification experiment on a simulated rig, fit, validate, write the model.
+"""``telethermo identify``: run the identification experiment, fit, validate, and write the model or load it
+into a live node.
 
+    telethermo identify master --bus socketcand://127.0.0.1:29536/telethermo   # a live node: load the model into it
+    telethermo identify slave --samples 10000 --out slave_tem.json               # ... and keep a copy
     telethermo identify --out model.json                          # default simulated free pad
     telethermo identify --scene free_pad_identification --orders 4,4,1,1 --samples 10000 --out m.json
 
 Prints a report (held-out worst-case free-run error, flux error, stability verdict) and writes the model
-file atomically. An unstable model is refused: nothing is written and the exit code is 1.
-Live nodes are not supported yet (the experiment needs a node's SYNC clock).
+file atomically. An unstable model is refused: nothing is written or loaded and the exit code is 1.
+The live path is :mod:`telethermo.cli.identify_live`.
 """
 from __future__ import annotations
 
@@ -14,16 +17,23 @@ import sys
 import time
 from pathlib import Path
 
+from telethermo.cli import common
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError
 
 DEFAULT_ORDERS = "4,4,1,1"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("identify", help="identify a TEM model (NARMA temperature + heat-flux) on a simulated rig",
-                       description="Run a PRBS identification experiment on a simulated rig whose pad touches "
-                                   "nothing, fit the NARMA temperature model (guiatni eq. 10) and the heat-flux "
-                                   "model (eq. 12), validate on a held-out PRBS, check stability, write the model.")
+    p = sub.add_parser("identify", help="identify a TEM model (NARMA temperature + heat-flux) on a live node "
+                                        "(and load it into it) or on a simulated rig",
+                       description="Run a PRBS identification experiment on a pad that touches nothing, fit the NARMA "
+                                   "temperature model (guiatni eq. 10) and the heat-flux model (eq. 12), validate on a "
+                                   "held-out PRBS, check stability. With NODE: the experiment runs on that live node "
+                                   "(IDENTIFY mode, its safety envelope active), its samples are recorded from the bus, "
+                                   "and the model is loaded into the node by SDO (CRC-checked). Without NODE: on a "
+                                   "simulated rig, and the model is written to --out.")
+    p.add_argument("node", nargs="?", help="a live node: master, slave or a node-ID (omit for a simulated rig)")
+    common.add_bus_options(p)
     src = p.add_mutually_exclusive_group()
     src.add_argument("--rig", choices=["sim"], default="sim",
                      help="'sim': the default simulated free pad (sim.free_pad_rig)")
@@ -39,10 +49,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--seed", type=int, default=0, help="PRBS seed (training seed, validation seed+1) and sim noise seed")
     p.add_argument("--period-s", type=float, default=0.01, help="sample period for --rig sim, s (default 0.01)")
     p.add_argument("--ambient-C", type=float, default=25.0, help="ambient temperature for --rig sim, °C")
+    p.add_argument("--rest", type=int, default=200, help="samples at 0 A before the PRBS (default 200)")
+    p.add_argument("--amplitude-A", default="0.1,1.0", metavar="LO,HI",
+                   help="range of the PRBS bit amplitudes, A (default 0.1,1.0)")
+    p.add_argument("--hold", type=int, default=25, help="samples each PRBS bit is held (default 25)")
+    p.add_argument("--no-load", action="store_true", help="live node: identify only, do not load the model into it")
+    p.add_argument("--force", action="store_true", help="live node: run even if its contact detector says touched")
     p.add_argument("--no-capacity", action="store_true",
                    help="skip the steady-state capacity experiment (eq. 13; 14 steady states inside the envelope)")
     p.add_argument("--plot", metavar="PNG", help="also plot measured vs predicted (held-out) and the capacity fit")
-    p.add_argument("--out", required=True, metavar="MODEL.json", help="model file to write")
+    p.add_argument("--out", metavar="MODEL.json", help="model file to write (required without NODE)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
@@ -91,9 +107,27 @@ def _build_rig(args: argparse.Namespace):
     return rig, {"rig": "sim.free_pad_rig", "period_s": args.period_s, "ambient_C": args.ambient_C}
 
 
+@common.failures
 def run(args: argparse.Namespace) -> int:
     from telethermo.ident import NarmaOrders, UnstableModelError, save_model
-    from telethermo.ident.experiment import identify_rig
+    from telethermo.ident.experiment import ExperimentSettings, identify_rig
+
+    if args.node is not None:
+        if args.scene or args.rig != "sim" or args.no_capacity or args.period_s != 0.01 or args.ambient_C != 25.0:
+            raise UserError("a live NODE takes no --scene/--rig/--period-s/--ambient-C/--no-capacity (its rig and "
+                            "SYNC period are the node's; the capacity experiment runs on simulated rigs only)")
+        from telethermo.cli.identify_live import run_live
+        return run_live(args)
+    if not args.out:
+        raise UserError("--out MODEL.json is required on a simulated rig (or name a live NODE)")
+    if args.no_load or args.force:
+        raise UserError("--no-load and --force are for a live NODE")
+    from telethermo.cli.identify_live import _parse_amplitude
+    try:
+        settings = ExperimentSettings(rest_samples=args.rest, amplitude_A=_parse_amplitude(args.amplitude_A),
+                                      hold_samples=args.hold)
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
 
     try:
         orders = NarmaOrders.parse(args.orders)
@@ -119,7 +153,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         tem, rep = identify_rig(rig, n_samples=args.samples, n_validation=args.validation, orders=orders,
                                 seed=args.seed, progress=fitting_notice, method=args.method, meta=meta,
-                                capacity=not args.no_capacity, keep_record=bool(args.plot))
+                                capacity=not args.no_capacity, keep_record=bool(args.plot), settings=settings)
     except UnstableModelError as exc:
         print(f"telethermo identify: {exc}; no model written", file=sys.stderr)
         return EXIT_FAIL

@@ -248,7 +248,8 @@ class CoreState:
         source: key of the setpoint source of the previous step (mode, phase) for bumpless switching.
         render_phase: :class:`RenderPhase` (RENDER mode).
         T_pred_C: the last model prediction, °C (NaN without a model).
-        ident_k: IDENTIFY: samples of the experiment done (0 outside IDENTIFY);
+        ident_k: IDENTIFY: steps since the experiment started (0 outside IDENTIFY); the plan is done once
+            it reaches ``identify.total`` (the count goes on while 0 A is held);
         ident_guard: IDENTIFY: samples whose current the plan's guard flipped or cut.
     """
 
@@ -488,8 +489,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
             u_req, guarded = guarded_current(plan.current_at(j), Ts, I_limit_A=I_lim, T_min_C=lim.T_min_C,
                                              T_max_C=lim.T_max_C, margin_C=plan.margin_C)
             ident_k, ident_guard = j + 1, guard + int(guarded)
-        else:  # done: hold 0 A until the mode changes
-            u_req, ident_k, ident_guard = 0.0, j, guard
+        else:  # done: hold 0 A until the mode changes (the count goes on: ident_k > total means done)
+            u_req, ident_k, ident_guard = 0.0, j + 1, guard
         comps = PIComponents(0.0, 0.0, 0.0, u_req, u_req, False)
     elif hold_current:
         u_req = state.u_prev_A

@@ -186,7 +186,7 @@ def test_identify_mode_runs_the_plan_then_holds_zero():
     # sample j of the mode carries the plan's current j (the pad far from the envelope: no guard)
     assert us[:plan.total] == list(plan.currents())
     assert all(u == 0.0 for u in us[:20]) and set(us[plan.total:]) == {0.0}
-    assert r.state.ident_k == plan.total and r.state.ident_guard == 0
+    assert r.state.ident_k == plan.total + 30 and r.state.ident_guard == 0
     # within the plan's margin of the top clamp the guard flips heating into cooling, and counts it
     p2 = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify=IdentifyPlan(rest_samples=0, amplitude_A=(0.5, 0.5)))
     r = step(S(T=42.5), None, p2, init_state(p2, None, S(T=42.5)))
