@@ -57,6 +57,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true", help="live node: run even if its contact detector says touched")
     p.add_argument("--no-capacity", action="store_true",
                    help="skip the steady-state capacity experiment (eq. 13; 14 steady states inside the envelope)")
+    p.add_argument("--save-data", metavar="CSV", help="also write the experiment's samples (j, phase, t_s, current_A, "
+                                                     "T_sensor_C, Q_W) to this CSV file")
     p.add_argument("--plot", metavar="PNG", help="also plot measured vs predicted (held-out) and the capacity fit")
     p.add_argument("--out", metavar="MODEL.json", help="model file to write (required without NODE)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -153,7 +155,8 @@ def run(args: argparse.Namespace) -> int:
     try:
         tem, rep = identify_rig(rig, n_samples=args.samples, n_validation=args.validation, orders=orders,
                                 seed=args.seed, progress=fitting_notice, method=args.method, meta=meta,
-                                capacity=not args.no_capacity, keep_record=bool(args.plot), settings=settings)
+                                capacity=not args.no_capacity, keep_record=bool(args.plot or args.save_data),
+                                settings=settings)
     except UnstableModelError as exc:
         print(f"telethermo identify: {exc}; no model written", file=sys.stderr)
         return EXIT_FAIL
@@ -163,6 +166,15 @@ def run(args: argparse.Namespace) -> int:
         return EXIT_FAIL
     save_model(out, tem)
     print(f"model written: {out}")
+    if args.save_data:
+        import numpy as np
+
+        from telethermo.ident.experiment import Record, save_record_csv
+        r = rep["record"]
+        nan = np.full(len(r["T_C"]), np.nan)
+        rec = Record(r["t_s"], r["current_A"], r["T_C"], r["Q_W"], nan, nan, rep["guard_interventions"])
+        plan = settings.plan(seed=args.seed, train_samples=rep["n_train"], validation_samples=rep["n_validation"])
+        print(f"samples written: {save_record_csv(args.save_data, rec, plan, comments={'rig': meta['rig']})}")
     if args.plot:
         from telethermo.ident.plots import plot_identification
 

@@ -255,6 +255,11 @@ def run_live(args: argparse.Namespace) -> int:
             print(f"telethermo identify: {exc}; no model written or loaded", file=sys.stderr)
             return EXIT_FAIL
         rep["experiment_wall_s"] = t_exp
+        if args.save_data:
+            from telethermo.ident.experiment import save_record_csv
+            path = save_record_csv(args.save_data, rec, plan, comments={**meta, "plan": plan.as_dict(),
+                                                                        "guard_interventions": guard})
+            print(f"samples written: {path}", file=sys.stderr)
         from telethermo.cli.identify import print_report
         print_report(rep)
         if not rep["stable"]:

@@ -216,6 +216,18 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
     return tem, report
 
 
+def save_record_csv(path, rec: Record, plan: IdentifyPlan, *, comments: dict[str, Any] | None = None):
+    """Write the experiment's samples as CSV, atomically: ``j, phase, t_s, current_A, T_sensor_C, Q_W`` (one row
+    per sample of ``plan``; ``current_A`` is the current commanded after sample j). ``comments`` become
+    ``# key: value`` lines first. Returns the path."""
+    from telethermo.atomic import write_text_atomic
+    lines = [f"# {k}: {v}" for k, v in (comments or {}).items()]
+    lines.append("j,phase,t_s,current_A,T_sensor_C,Q_W")
+    lines += [f"{j},{plan.phase(j)},{t!r},{i!r},{T!r},{q!r}" for j, (t, i, T, q) in
+              enumerate(zip(rec.t_s.tolist(), rec.current_A.tolist(), rec.T_C.tolist(), rec.Q_W.tolist()))]
+    return write_text_atomic(path, "\n".join(lines) + "\n")
+
+
 def record_slice(rec: Record, start: int, stop: int) -> Record:
     """Rows ``start:stop`` of a record (guard interventions are those of the whole record)."""
     return Record(*(getattr(rec, f)[start:stop] for f in ("t_s", "current_A", "T_C", "Q_W", "T_sink_C", "Q_true_W")),

@@ -1,0 +1,169 @@
+"""``telethermo identify master`` against a live node process: the master program alone on our socketcand
+hub (a pad in air: sim/scenes/free_pad_identification.toml, lockstep, idle until told), driven by the
+CLI as an operator would. The experiment runs in the node's control core; the CLI records it from the
+bus, fits, and loads the model into the node by SDO."""
+from __future__ import annotations
+
+import re
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import sim
+from nodes.launch import HubProcess, node_command, stop_process, wait_for
+from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
+from telethermo.ident import load_model, odmodel
+from telethermo.ident.experiment import ExperimentSettings, run_excitation
+from telethermo.ident.plan import IdentifyPlan
+
+pytestmark = pytest.mark.slow
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
+
+
+@pytest.fixture(scope="module")
+def master(tmp_path_factory):
+    out = tmp_path_factory.mktemp("ident")
+    hub = HubProcess(log_path=out / "hub.log")
+    hub.start()
+    proc = subprocess.Popen(node_command("master", "--bus", hub.bus, "--scene", str(SCENE), "--mode", "idle",
+                                         "--cycles", "0", "--timing", "lockstep", "--wait-peer", "0",
+                                         "--log", str(out / "master.log")),
+                            stdout=subprocess.DEVNULL, stderr=open(out / "master-stderr.log", "ab"),
+                            start_new_session=True)
+    try:
+        yield hub.bus, out
+    finally:
+        stop_process(proc)
+        hub.stop()
+
+
+def cli(capsys, *argv):
+    from telethermo.cli.main import main
+    code = main(list(argv))
+    o = capsys.readouterr()
+    return code, o.out, o.err
+
+
+def get(capsys, bus, name):
+    code, out, err = cli(capsys, "get", "--bus", bus, "master", name)
+    assert code == EXIT_OK, err
+    return out.split(" = ", 1)[1].split()[0]
+
+
+def set_(capsys, bus, name, value):
+    return cli(capsys, "set", "--bus", bus, "master", name, str(value))
+
+
+def test_identify_a_live_node_and_load_the_model(master, capsys):
+    bus, out = master
+    assert wait_for(lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30)
+    # without a model the node refuses the model estimator (the device state cannot give T_pred)
+    code, _, err = set_(capsys, bus, "estimator", 0)
+    assert code == EXIT_FAIL and "0x08000022" in err
+    model_file, data = out / "live.json", out / "live.csv"
+    code, text, err = cli(capsys, "identify", "master", "--bus", bus, "--samples", "2500", "--validation", "800",
+                          "--seed", "4", "--out", str(model_file), "--save-data", str(data), "--quiet")
+    assert code == EXIT_OK, err
+    m = re.search(r"CRC-32 0x([0-9A-F]{8}) verified", text)
+    assert m, text
+    # the node runs exactly the model in the file (its CRC over the objects it holds)
+    tem = load_model(model_file)
+    assert int(m.group(1), 16) == odmodel.od_crc32(odmodel.model_entries(tem)) == int(get(capsys, bus, "model_crc32"))
+    assert get(capsys, bus, "model_status") == "1"
+    # the model predicts the live pad's held-out PRBS (free run from rest) to well under 0.1 °C
+    worst = float(re.search(r"held-out free run\s+worst ([0-9.]+) °C", text).group(1))
+    assert worst < 0.1, text
+    assert tem.temperature.metrics["heldout_free_run_max_C"] == pytest.approx(worst, abs=1e-4)
+
+    # the recorded samples are the node's, in order: an identical simulated rig, idle for the cycles the
+    # node ran before the experiment and then driven by the plan, reads the same temperatures (REAL32 on the bus)
+    header = {}
+    rows = []
+    for line in data.read_text().splitlines():
+        if line.startswith("# "):
+            k, v = line[2:].split(": ", 1)
+            header[k] = v
+        elif not line.startswith("j,"):
+            rows.append(line.split(","))
+    assert len(rows) == 200 + 2500 + 800 and [int(r[0]) for r in rows] == list(range(len(rows)))
+    I_bus = np.array([float(r[3]) for r in rows])
+    T_bus = np.array([float(r[4]) for r in rows])
+    start = int(header["start_cycle"])
+    plan = IdentifyPlan(seed=4, train_samples=2500, validation_samples=800)
+    rig = sim.build_rig(sim.load_scene(SCENE), "master", seed=0)
+    for _ in range(start):
+        rig.read()
+        rig.apply_current(0.0)
+        rig.advance(rig.period_s)
+    rec = run_excitation(rig, plan.currents(), settings=ExperimentSettings())
+    assert rec.guard_interventions == int(header["guard_interventions"]) == 0
+    np.testing.assert_allclose(I_bus, rec.current_A, rtol=0, atol=1e-6)
+    np.testing.assert_allclose(T_bus, rec.T_C, rtol=0, atol=1e-5)
+
+    # the node now runs the model: the model estimator is accepted and T_pred follows the pad at rest
+    code, _, err = set_(capsys, bus, "estimator", 0)
+    assert code == EXIT_OK, err
+    T_pred, T_sensor = float(get(capsys, bus, "T_pred_C")), float(get(capsys, bus, "T_sensor_C"))
+    assert abs(T_pred - T_sensor) < 0.3
+    # and the node is as it was: idle, status TPDOs every 10th SYNC with their EDS mapping
+    assert get(capsys, bus, "mode") == "0"
+    assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == "10"
+    assert int(get(capsys, bus, "0x1A02:1")) == 0x21010020 and int(get(capsys, bus, "0x1A02:2")) == 0x21020020
+    assert get(capsys, bus, "ident_state") == "2"
+
+
+def test_the_node_refuses_a_bad_model_and_keeps_the_running_one(master, capsys):
+    bus, _ = master
+    crc = get(capsys, bus, "model_crc32")
+    assert get(capsys, bus, "model_status") == "1"
+    # theta_len inconsistent with the orders: the objects are edited, the load refused, the model kept
+    assert set_(capsys, bus, "theta_len", 5)[0] == EXIT_OK
+    assert get(capsys, bus, "model_status") == "2"
+    code, _, err = set_(capsys, bus, "model_command", 1)
+    assert code == EXIT_FAIL and "0x08000020" in err
+    assert get(capsys, bus, "model_crc32") == crc
+    assert set_(capsys, bus, "theta_len", 16)[0] == EXIT_OK
+    # an unstable model (a pole outside the unit circle): refused too
+    theta1 = float(get(capsys, bus, "theta1"))
+    assert set_(capsys, bus, "theta1", 3.5)[0] == EXIT_OK
+    code, _, err = set_(capsys, bus, "model_command", 1)
+    assert code == EXIT_FAIL and "0x08000020" in err
+    assert get(capsys, bus, "model_crc32") == crc
+    # unloading is refused while the model estimator needs it; with the flux estimator it goes
+    code, _, err = set_(capsys, bus, "model_command", 2)
+    assert code == EXIT_FAIL and "0x08000022" in err
+    assert set_(capsys, bus, "estimator", 1)[0] == EXIT_OK
+    assert set_(capsys, bus, "model_command", 2)[0] == EXIT_OK
+    assert wait_for(lambda: get(capsys, bus, "model_status") == "0", 5)
+    assert get(capsys, bus, "model_crc32") == "0" and get(capsys, bus, "T_pred_C") == "nan"
+    del theta1
+
+
+def test_plan_objects_are_checked_and_an_interrupted_experiment_is_reported(master, capsys):
+    bus, _ = master
+    code, _, err = set_(capsys, bus, "ident_amplitude_min_A", 5.0)   # above the maximum 1.0 A
+    assert code == EXIT_FAIL and "0x06090036" in err
+    assert set_(capsys, bus, "ident_train_samples", 500000)[0] == EXIT_OK
+    assert set_(capsys, bus, "mode", 3)[0] == EXIT_OK
+    assert wait_for(lambda: get(capsys, bus, "ident_state") == "1", 10)
+    code, _, err = set_(capsys, bus, "ident_seed", 7)                # the plan is fixed while it runs
+    assert code == EXIT_FAIL and "0x08000022" in err
+    assert set_(capsys, bus, "mode", 0)[0] == EXIT_OK
+    assert wait_for(lambda: get(capsys, bus, "ident_state") == "3", 10)
+    assert wait_for(lambda: float(get(capsys, bus, "current_A")) == 0.0, 10)
+
+
+def test_identify_refuses_a_node_that_is_not_operational(master, capsys):
+    bus, _ = master
+    assert cli(capsys, "nmt", "--bus", bus, "preop", "master")[0] == EXIT_OK
+    try:
+        code, _, err = cli(capsys, "identify", "master", "--bus", bus, "--samples", "1000", "--quiet")
+        assert code == EXIT_FAIL and "PRE-OPERATIONAL" in err and "nmt start master" in err
+    finally:
+        assert cli(capsys, "nmt", "--bus", bus, "start", "master")[0] == EXIT_OK
+    code, _, err = cli(capsys, "identify", "master", "--bus", bus, "--scene", "x.toml")
+    assert code == EXIT_USAGE and "--scene" in err
+    code, _, err = cli(capsys, "identify", "--no-load", "--out", "x.json")
+    assert code == EXIT_USAGE and "live NODE" in err
