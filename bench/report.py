@@ -30,6 +30,9 @@ HEADLINE = [
     ("nodes", "lockstep_cycles_per_s_vcan", "two processes over vcan0 (in the VM), cycles/s", "≥ 1000 natively"),
     ("nodes", "late_cycles_100hz_60s", "late cycles, real time 100 Hz, 60 s", "0"),
     ("nodes", "late_fraction_1khz", "late fraction, real time 1 kHz", "report"),
+    ("identify_live", "live_heldout_free_run_max_C", "`telethermo identify master` on a live node (hub, lockstep), held-out worst, °C",
+     "= offline"),
+    ("identify_live", "live_wall_s", "the same command end to end (set-up, experiment, fit, load + CRC), s", "report"),
     ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),
 ]
 
