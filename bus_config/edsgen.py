@@ -195,6 +195,9 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss")),
         V(0x2408, _uint("peer_pdo_miss_limit", UNSIGNED16, "rw", 10, 1, 1000, description="missed peer PDOs (cycles) before peer loss")),
         V(0x2409, _real("mismatch_limit_C", "rw", 12.0, 0.1, 20.0, description="model-vs-sensor plausibility limit")),
+        V(0x240A, _uint("fault_reset", UNSIGNED8, "rw", 0, 0, 1,
+                        description="write 1: clear the latched trips whose cause is gone (refused with 0x08000022 "
+                                    "while one persists: nothing cleared) (reads 0)")),
         # -- mode (telethermo.control.types.Mode)
         V(0x2500, _uint("mode", UNSIGNED8, "rw", 0, 0, 3, pdo=True, description="0 idle, 1 telepresence, 2 render, 3 identify")),
         # -- virtual rendering (yamamoto eq. 5/7)

@@ -125,6 +125,9 @@ class NodeRuntime:
         self._model_pending = None     # the same, to take at the next SYNC
         self._ident_state = IDENT_NOT_RUN
         self._last_T_C = float("nan")
+        self._last_sample = None
+        self._last_peer = None
+        self._fault_reset_pending = False
         self.models_loaded = 0
 
     # ------------------------------------------------------------------ life cycle
@@ -147,6 +150,7 @@ class NodeRuntime:
         for key in PARAM_KEYS:
             dev.add_write_validator(key, lambda value, key=key: self.book.check(key, value))
         dev.add_write_validator("model_command", self._check_model_command)
+        dev.add_write_validator("fault_reset", self._check_fault_reset)
         self._power_on_parameters()
         if self.produce_sync:
             self.sync = SyncProducer(dev)
@@ -160,7 +164,8 @@ class NodeRuntime:
         self._w = {name: d.writer(name) for name in (
             "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "force_N", "estimate_C", "T_pred_C",
             "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "ident_sample", "ident_state",
-            "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command")}
+            "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command", "fault_reset")}
+        self._fault_reset_index = d.info.get("fault_reset").index
         self._r_peer_est = d.reader("peer_estimate_C")
         self._r_peer_q = d.reader("peer_Q_W")
         self._param_w = {key: d.writer(key) for key in PARAM_KEYS}
@@ -400,6 +405,10 @@ class NodeRuntime:
         if ev.index in _MODEL_INDICES:
             self._on_model_write(ev)
             return
+        if ev.index == self._fault_reset_index:
+            self._fault_reset_pending = int(ev.value) == 1
+            self._w["fault_reset"](0)   # a command: reads 0
+            return
         key = self._param_keys.get(ev.index)
         if key is None:
             return
@@ -409,6 +418,18 @@ class NodeRuntime:
             log.error("%s = %r not applied: %s", key, ev.value, exc)
             self.book.version += 1  # the next SYNC rewrites the OD with the truth
         log.info("%s = %r (takes effect at the next SYNC)", key, ev.value)
+
+    def _check_fault_reset(self, value) -> int | None:
+        """Validator of fault_reset (0x240A), device lock held: refuse (0x08000022) while a latched trip's
+        cause persists in the last sample, so that the operator learns it at once; nothing is cleared then."""
+        st = self._state
+        if int(value) != 1 or st is None or not st.env.trips or self._last_sample is None:
+            return None
+        after = clear_faults(self._last_sample, self._last_peer, self.params, st)
+        if after.env.trips:
+            log.warning("fault reset refused: %s persist", ", ".join(sorted(t.value for t in after.env.trips)))
+            return ABORT_DEVICE_STATE
+        return None
 
     def _on_model_write(self, ev: WriteEvent) -> None:
         from telethermo.ident import odmodel
@@ -470,6 +491,9 @@ class NodeRuntime:
             peer = None  # rendering needs no peer (as offline)
             self._select_render_touch(sample.t_s)
         state = self._state
+        if self._fault_reset_pending:
+            self._fault_reset_pending = False
+            state = self._operator_fault_reset(sample, peer, state)
         if peer is not None and peer.alive and peer.fresh and state.env.trips \
                 and state.env.trips <= sf.PEER_TRIPS:
             state = clear_faults(sample, peer, self.params, state)
@@ -483,7 +507,8 @@ class NodeRuntime:
             if not self._latched_reported:   # once per episode: say why we stay cut after the peer's return
                 self._latched_reported = True
                 log.warning("peer values back, but %s latched: the envelope stays as it is until an operator "
-                            "reset (NMT reset node)", ", ".join(sorted(t.value for t in state.env.trips - sf.PEER_TRIPS)))
+                            "reset (telethermo fault-reset, or NMT reset node)",
+                            ", ".join(sorted(t.value for t in state.env.trips - sf.PEER_TRIPS)))
         if self._latched_reported and not (state.env.trips & sf.PEER_TRIPS):
             self._latched_reported = False
         res = step(sample, peer, self.params, state)
@@ -509,6 +534,7 @@ class NodeRuntime:
             self._safety_state = st.safety.state
         self._identify_status(res.state)
         self._last_T_C = sample.T_sensor_C
+        self._last_sample, self._last_peer = sample, peer
         self.stats.cycles += 1
         w["cycle_counter"](self.stats.cycles & 0xFFFFFFFF)
         w["late_cycles"](self.stats.late_cycles & 0xFFFFFFFF)
@@ -522,6 +548,21 @@ class NodeRuntime:
             self._record(sample, res, peer)
         if self.record_timing and len(self.stats.cycle_s) < MAX_TIMING_SAMPLES:
             self.stats.cycle_s.append(time.monotonic() - now)
+
+    def _operator_fault_reset(self, sample, peer, state: CoreState) -> CoreState:
+        """The operator's fault reset (0x240A = 1) at this SYNC: the trips whose cause is gone are cleared
+        (their EMCYs too), the envelope restarts bumplessly from the surface."""
+        if not state.env.trips:
+            log.info("fault reset: nothing latched")
+            return state
+        new = clear_faults(sample, peer, self.params, state)
+        gone = set(state.env.trips) - set(new.env.trips)
+        for trip in gone:
+            self.device.clear_emcy(sf.EMCY_CODES[trip])
+        log.warning("operator fault reset: cleared %s%s", ", ".join(sorted(t.value for t in gone)) or "nothing",
+                    f"; still latched: {', '.join(sorted(t.value for t in new.env.trips))}" if new.env.trips else "")
+        self._latched_reported = False
+        return new
 
     def _identify_status(self, state: CoreState) -> None:
         """ident_sample / ident_state / ident_guard / ident_start_cycle of this cycle (0x2807..0x280A)."""

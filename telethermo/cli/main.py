@@ -18,7 +18,7 @@ EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 # subcommand module names (telethermo.cli.<name>); each has register(subparsers)
 SUBCOMMAND_MODULES = [
-    "session", "identify", "tune", "monitor", "find", "status", "params", "nmt", "mode", "calibrate", "record", "bench",
+    "session", "identify", "tune", "monitor", "find", "status", "params", "nmt", "mode", "faults", "calibrate", "record", "bench",
 ]
 
 

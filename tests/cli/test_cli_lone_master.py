@@ -1,10 +1,11 @@
-"""``telethermo identify master`` against a live node process: the master program alone on our socketcand
-hub (a pad in air: sim/scenes/free_pad_identification.toml, lockstep, idle until told), driven by the
-CLI as an operator would. The experiment runs in the node's control core; the CLI records it from the
-bus, fits, and loads the model into the node by SDO."""
+"""A master node process alone on our socketcand hub (a pad in air: sim/scenes/free_pad_identification.toml,
+lockstep, idle until told), driven by the CLI as an operator would: ``telethermo identify master`` (the
+experiment runs in the node's control core; the CLI records it from the bus, fits, and loads the model
+into the node by SDO), the model objects' checks, and ``telethermo fault-reset``."""
 from __future__ import annotations
 
 import re
+import time
 import subprocess
 from pathlib import Path
 
@@ -167,3 +168,25 @@ def test_identify_refuses_a_node_that_is_not_operational(master, capsys):
     assert code == EXIT_USAGE and "--scene" in err
     code, _, err = cli(capsys, "identify", "--no-load", "--out", "x.json")
     assert code == EXIT_USAGE and "live NODE" in err
+
+
+def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, capsys):
+    bus, _ = master
+    # a heat-sink trip: the sink (at ambient, 25 °C) above a lowered trip temperature; it latches and cuts
+    assert set_(capsys, bus, "sink_trip_C", 20.0)[0] == EXIT_OK
+    assert wait_for(lambda: get(capsys, bus, "safety_state") == "3", 10)
+    assert int(get(capsys, bus, "0x1001")) != 0 and int(get(capsys, bus, "last_trip_code")) != 0
+    # the cause persists: refused, nothing cleared, the trip named
+    code, out, err = cli(capsys, "fault-reset", "--bus", bus, "master")
+    assert code == EXIT_FAIL and "0x08000022" in out and "persists" in err and "last trip 0x" in err
+    assert get(capsys, bus, "safety_state") == "3"
+    # the cause gone, the trip stays latched until the operator resets it
+    assert set_(capsys, bus, "sink_trip_C", 55.0)[0] == EXIT_OK
+    time.sleep(0.5)
+    assert get(capsys, bus, "safety_state") == "3"
+    code, out, err = cli(capsys, "fault-reset", "--bus", bus, "master")
+    assert code == EXIT_OK, err
+    assert "current cut -> ok (0)" in out and "error register 0x00" in out
+    assert get(capsys, bus, "safety_state") == "0" and int(get(capsys, bus, "0x1001")) == 0
+    # nothing latched: a reset is a no-op, accepted
+    assert cli(capsys, "fault-reset", "--bus", bus, "master")[0] == EXIT_OK

@@ -1,0 +1,77 @@
+"""``telethermo fault-reset``: the operator's fault reset (object 0x240A fault_reset).
+
+A trip of the safety envelope other than a peer loss stays latched (current cut, EMCY, 0x1001 bit)
+until the operator clears it. Writing 1 to 0x240A makes the node clear, at its next SYNC, the latched
+trips whose cause is gone; while a cause persists the node refuses the write (SDO abort 0x08000022) and
+clears nothing. This command writes it, then reads the safety state back.
+"""
+from __future__ import annotations
+
+import argparse
+import struct
+import time
+
+from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
+
+from telethermo.cli import common
+from telethermo.cli.status import SAFETY, _pretty
+
+ABORT_DEVICE_STATE = 0x08000022
+
+
+def register(subparsers) -> None:
+    p = subparsers.add_parser("fault-reset", help="clear the latched safety trips whose cause is gone",
+                              description="The operator's fault reset (object 0x240A): each node clears the latched "
+                                          "trips whose cause is gone, with their EMCYs, and its envelope restarts "
+                                          "bumplessly from the surface. A node where a cause persists refuses "
+                                          "(abort 0x08000022) and clears nothing: exit 1, with the trip named.")
+    common.add_bus_options(p)
+    p.add_argument("nodes", nargs="*", metavar="NODE", help="master, slave or a node-ID (default: all)")
+    p.set_defaults(func=run)
+
+
+def _read(node, t: common.Target, key: str):
+    info = common.lookup(t, key)
+    return info, common.sdo_read(node, t, info)
+
+
+@common.failures
+def run(args: argparse.Namespace) -> int:
+    net = common.network(args)
+    targets = [common.resolve_node(net, n) for n in args.nodes] if args.nodes else common.node_targets(net)
+    for t in targets:
+        common.lookup(t, "fault_reset")
+    refused = []
+    with common.canopen_network(args, net) as nw:
+        for t in targets:
+            node = common.remote(nw, t, args.timeout)
+            info = common.lookup(t, "fault_reset")
+            before = {k: _read(node, t, k) for k in ("safety_state", "last_trip_code", "0x1001")}
+            try:
+                node.sdo.download(info.index, info.subindex, struct.pack("<B", 1))
+            except SdoAbortedError as exc:
+                if exc.code != ABORT_DEVICE_STATE:
+                    raise common.Failure(f"{t.role} (node {t.node_id}) refused the fault reset: "
+                                         f"{common.abort_text(exc.code)}") from None
+                trip_info, trip = before["last_trip_code"]
+                reg_info, reg = before["0x1001"]
+                refused.append(f"{t.role}: a latched fault persists (last trip {_pretty('last_trip_code', trip, trip_info)}, "
+                               f"error register {_pretty('0x1001', reg, reg_info)}): remove its cause, then reset")
+                print(f"{t.role} (node {t.node_id}): not reset, {common.abort_text(exc.code)}")
+                continue
+            except SdoCommunicationError as exc:
+                raise common.Failure(f"{t.role} (node {t.node_id}) did not answer ({exc})") from None
+            # taken at the node's next SYNC: read the state back for a while
+            deadline = time.monotonic() + 2.0
+            while True:
+                st = common.sdo_read(node, t, before["safety_state"][0])
+                reg = common.sdo_read(node, t, before["0x1001"][0])
+                if (st != 3 and reg == 0) or time.monotonic() > deadline:
+                    break
+                time.sleep(0.05)
+            was = before["safety_state"][1]
+            print(f"{t.role} (node {t.node_id}): safety {SAFETY.get(was, was)} -> {SAFETY.get(st, st)} ({st}), "
+                  f"error register {_pretty('0x1001', reg, before['0x1001'][0])}")
+    if refused:
+        raise common.Failure("; ".join(refused))
+    return 0
