@@ -158,7 +158,8 @@ def run(args: argparse.Namespace) -> int:
                                 capacity=not args.no_capacity, keep_record=bool(args.plot or args.save_data),
                                 settings=settings)
     except UnstableModelError as exc:
-        print(f"telethermo identify: {exc}; no model written", file=sys.stderr)
+        print(f"telethermo identify: {exc}; no model written (a longer experiment, --samples 10000 or more, "
+              "gives a better-determined model)", file=sys.stderr)
         return EXIT_FAIL
     print_report(rep)
     if not rep["stable"]:

@@ -252,7 +252,8 @@ def run_live(args: argparse.Namespace) -> int:
                                       method=args.method, meta=meta, keep_record=bool(args.plot),
                                       source="telethermo identify (live node)")
         except UnstableModelError as exc:
-            print(f"telethermo identify: {exc}; no model written or loaded", file=sys.stderr)
+            print(f"telethermo identify: {exc}; no model written or loaded (a longer experiment, --samples 10000 or "
+              "more, gives a better-determined model)", file=sys.stderr)
             return EXIT_FAIL
         rep["experiment_wall_s"] = t_exp
         if args.save_data:

@@ -64,7 +64,7 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     code, _, err = set_(capsys, bus, "estimator", 0)
     assert code == EXIT_FAIL and "0x08000022" in err
     model_file, data = out / "live.json", out / "live.csv"
-    code, text, err = cli(capsys, "identify", "master", "--bus", bus, "--samples", "2500", "--validation", "800",
+    code, text, err = cli(capsys, "identify", "master", "--bus", bus, "--samples", "10000", "--validation", "2000",
                           "--seed", "4", "--out", str(model_file), "--save-data", str(data), "--quiet")
     assert code == EXIT_OK, err
     m = re.search(r"CRC-32 0x([0-9A-F]{8}) verified", text)
@@ -88,11 +88,11 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
             header[k] = v
         elif not line.startswith("j,"):
             rows.append(line.split(","))
-    assert len(rows) == 200 + 2500 + 800 and [int(r[0]) for r in rows] == list(range(len(rows)))
+    assert len(rows) == 200 + 10000 + 2000 and [int(r[0]) for r in rows] == list(range(len(rows)))
     I_bus = np.array([float(r[3]) for r in rows])
     T_bus = np.array([float(r[4]) for r in rows])
     start = int(header["start_cycle"])
-    plan = IdentifyPlan(seed=4, train_samples=2500, validation_samples=800)
+    plan = IdentifyPlan(seed=4, train_samples=10000, validation_samples=2000)
     rig = sim.build_rig(sim.load_scene(SCENE), "master", seed=0)
     for _ in range(start):
         rig.read()

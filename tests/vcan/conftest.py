@@ -8,8 +8,42 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+from pathlib import Path
 
 import pytest
+
+from bus_config import path as bus_config_path
+
+
+def slow_machine_network(tmp_path: Path, channel: str = "vcan0") -> Path:
+    """The packaged network settings on ``channel`` with heartbeat times for a machine 10-20x slower than
+    usual (the VM of ../shared/tools/vcan-run)."""
+    text = f"""
+[bus]
+interface = "socketcan"
+channel = "{channel}"
+[sync]
+producer = "master"
+period_s = 0.010
+lockstep = true
+[heartbeat]
+producer_ms = 200
+consumer_ms = 3000
+[nodes.master]
+node_id = 1
+eds = "{bus_config_path('master.eds')}"
+[nodes.slave]
+node_id = 2
+eds = "{bus_config_path('slave.eds')}"
+"""
+    p = tmp_path / "network.toml"
+    p.write_text(text)
+    return p
+
+
+@pytest.fixture
+def slow_network(tmp_path, vcan_channel) -> Path:
+    return slow_machine_network(tmp_path, vcan_channel)
 
 
 @pytest.fixture(scope="session")

@@ -10,7 +10,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from bus_config import path as bus_config_path
 from nodes.launch import NodePair, PairConfig
 from nodes.merge import merge_recordings
 from telethermo.session import run_offline_session
@@ -22,36 +21,11 @@ SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_
 CYCLES = 200
 
 
-def slow_machine_network(tmp_path: Path) -> Path:
-    """The packaged network settings with heartbeat times for a machine 10-20x slower than usual."""
-    text = f"""
-[bus]
-interface = "socketcan"
-channel = "vcan0"
-[sync]
-producer = "master"
-period_s = 0.010
-lockstep = true
-[heartbeat]
-producer_ms = 200
-consumer_ms = 3000
-[nodes.master]
-node_id = 1
-eds = "{bus_config_path('master.eds')}"
-[nodes.slave]
-node_id = 2
-eds = "{bus_config_path('slave.eds')}"
-"""
-    p = tmp_path / "network.toml"
-    p.write_text(text)
-    return p
-
-
-def test_two_processes_on_vcan_equal_offline_and_candump_agrees(vcan_channel, candump, tmp_path):
+def test_two_processes_on_vcan_equal_offline_and_candump_agrees(vcan_channel, candump, tmp_path, slow_network):
     dump = candump()
     time.sleep(1.0)
     pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, bus=f"socketcan:{vcan_channel}", cycles=CYCLES, seed=0,
-                               network=slow_machine_network(tmp_path), master_args=["--wait-peer", "300"]))
+                               network=slow_network, master_args=["--wait-peer", "300"]))
     with pair:
         assert pair.wait_master(timeout_s=900) == 0, (tmp_path / "master.log").read_text()
     codes = pair.stop()

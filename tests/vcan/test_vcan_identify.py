@@ -1,0 +1,68 @@
+"""``telethermo identify master`` over a real SocketCAN vcan: the master program alone (a pad in air),
+the CLI in this process, candump (can-utils) as an independent witness of the stream."""
+from __future__ import annotations
+
+import re
+import struct
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from nodes.launch import node_command, stop_process, wait_for
+from telethermo.cli.main import EXIT_OK, main
+from telethermo.ident import load_model, odmodel
+
+pytestmark = pytest.mark.vcan
+
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
+N_TRAIN, N_VAL, REST = 10_000, 1_000, 200
+
+
+def cli(capsys, *argv):
+    code = main(list(argv))
+    o = capsys.readouterr()
+    return code, o.out, o.err
+
+
+def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_network, capsys):
+    net = ["--network", str(slow_network), "--timeout", "5"]
+    node = subprocess.Popen(node_command("master", "--network", str(slow_network), "--scene", str(SCENE), "--mode",
+                                         "idle", "--cycles", "0", "--timing", "lockstep", "--wait-peer", "0",
+                                         "--log", str(tmp_path / "master.log")),
+                            stdout=subprocess.DEVNULL, stderr=open(tmp_path / "master-stderr.log", "ab"),
+                            start_new_session=True)
+    try:
+        assert wait_for(lambda: cli(capsys, "status", *net, "master")[0] == EXIT_OK, 300, poll_s=1.0), \
+            (tmp_path / "master-stderr.log").read_text()
+        dump = candump()
+        time.sleep(1.0)
+        code, out, err = cli(capsys, "identify", "master", *net, "--samples", str(N_TRAIN), "--validation", str(N_VAL),
+                             "--out", str(tmp_path / "m.json"), "--save-data", str(tmp_path / "m.csv"), "--quiet")
+        time.sleep(0.5)
+        frames = dump.stop()
+        assert code == EXIT_OK, err
+        crc = int(re.search(r"CRC-32 0x([0-9A-F]{8}) verified", out).group(1), 16)
+        assert crc == odmodel.od_crc32(odmodel.model_entries(load_model(tmp_path / "m.json")))
+        code, out, err = cli(capsys, "get", *net, "master", "model_crc32", "0x1A02:1", "0x1802:2", "mode")
+        assert code == EXIT_OK, err
+        vals = [line.split(" = ", 1)[1].split()[0] for line in out.splitlines()]
+        assert vals == [str(crc), str(0x21010020), "10", "0"]
+    finally:
+        stop_process(node)
+    total = REST + N_TRAIN + N_VAL
+    # candump saw every sample of the experiment once, numbered 1..total, in order, in TPDO3 (0x381) after
+    # the remapping; their heat flux is what the CLI recorded, bit for bit (REAL32)
+    tp3 = [struct.unpack("<If", d) for i, d in frames if i == 0x381 and len(d) == 8]
+    numbered = [(k, q) for k, q in tp3 if 1 <= k <= total]
+    assert [k for k, _ in numbered] == list(range(1, total + 1))
+    rows = [line.split(",") for line in (tmp_path / "m.csv").read_text().splitlines() if line[:1].isdigit()]
+    assert len(rows) == total
+    q_csv = np.array([float(r[5]) for r in rows], dtype=np.float32)
+    np.testing.assert_array_equal(np.array([q for _, q in numbered], dtype=np.float32), q_csv)
+    # the remapping went by CiA 301 on the bus: PDO invalid (COB-ID bit 31), mapping written, valid again
+    sdo_writes = [d for i, d in frames if i == 0x601 and d[0] & 0xE0 == 0x20]
+    idx = [(int.from_bytes(d[1:3], "little"), d[3], int.from_bytes(d[4:8], "little")) for d in sdo_writes]
+    assert (0x1802, 1, 0x80000381) in idx and (0x1A02, 1, 0x28070020) in idx and (0x1802, 1, 0x381) in idx
