@@ -224,6 +224,12 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2809, _uint("ident_guard", UNSIGNED32, "ro", 0, description="samples whose current the guard flipped or cut")),
         V(0x280A, _uint("ident_start_cycle", UNSIGNED32, "ro", 0,
                         description="control cycles run before the experiment's first sample")),
+        V(0x280B, _uint("ident_fetch_sample", UNSIGNED32, "rw", 0, 0, 1_000_000,
+                        description="write j: sample j of the last experiment into 0x280C..0x280E (a sample lost on "
+                                    "the bus is fetched again by SDO) (no such sample: abort 0x08000024)")),
+        V(0x280C, _real("ident_fetched_T_sensor_C", "ro", 0.0, description="T_sensor_C of the fetched sample")),
+        V(0x280D, _real("ident_fetched_current_A", "ro", 0.0, description="current_A commanded after the fetched sample")),
+        V(0x280E, _real("ident_fetched_Q_W", "ro", 0.0, description="Q_W of the fetched sample")),
         # -- status (written by the node)
         V(0x2700, _uint("safety_state", UNSIGNED8, "ro", 0, **ro_pdo,
                         description="0 ok, 1 limiting, 2 ramp to neutral, 3 current cut")),

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import canopen
+import numpy as np
 
 from telethermo.canopen_dev.device import Device, NmtCommand, NmtState, PeerEvent, SyncTick, WriteEvent
 from telethermo.canopen_dev.netconfig import NetworkConfig
@@ -54,6 +55,7 @@ _MODEL_INDICES = frozenset(range(0x2300, 0x2309)) | frozenset(range(0x230A, 0x23
 
 MODE_INDEX = 0x2500
 ABORT_MODEL_REFUSED = 0x08000020   # data cannot be transferred or stored to the application
+ABORT_NO_DATA = 0x08000024         # no data available
 IDENT_NOT_RUN, IDENT_RUNNING, IDENT_DONE, IDENT_INTERRUPTED = 0, 1, 2, 3
 PEER_MISS_INDEX = 0x2408
 MAX_TIMING_SAMPLES = 1_000_000
@@ -128,6 +130,7 @@ class NodeRuntime:
         self._last_sample = None
         self._last_peer = None
         self._fault_reset_pending = False
+        self._ident_rec = None   # float32 (T_sensor_C, current_A, Q_W) per sample of the last experiment
         self.models_loaded = 0
 
     # ------------------------------------------------------------------ life cycle
@@ -151,6 +154,7 @@ class NodeRuntime:
             dev.add_write_validator(key, lambda value, key=key: self.book.check(key, value))
         dev.add_write_validator("model_command", self._check_model_command)
         dev.add_write_validator("fault_reset", self._check_fault_reset)
+        dev.add_write_validator("ident_fetch_sample", self._check_ident_fetch)
         self._power_on_parameters()
         if self.produce_sync:
             self.sync = SyncProducer(dev)
@@ -164,7 +168,9 @@ class NodeRuntime:
         self._w = {name: d.writer(name) for name in (
             "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "force_N", "estimate_C", "T_pred_C",
             "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "ident_sample", "ident_state",
-            "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command", "fault_reset")}
+            "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command", "fault_reset",
+            "ident_fetched_T_sensor_C", "ident_fetched_current_A", "ident_fetched_Q_W")}
+        self._ident_fetch_index = d.info.get("ident_fetch_sample").index
         self._fault_reset_index = d.info.get("fault_reset").index
         self._r_peer_est = d.reader("peer_estimate_C")
         self._r_peer_q = d.reader("peer_Q_W")
@@ -405,6 +411,13 @@ class NodeRuntime:
         if ev.index in _MODEL_INDICES:
             self._on_model_write(ev)
             return
+        if ev.index == self._ident_fetch_index:
+            T, I, Q = (float(v) for v in self._ident_rec[int(ev.value)])
+            w = self._w
+            w["ident_fetched_T_sensor_C"](T)
+            w["ident_fetched_current_A"](I)
+            w["ident_fetched_Q_W"](Q)
+            return
         if ev.index == self._fault_reset_index:
             self._fault_reset_pending = int(ev.value) == 1
             self._w["fault_reset"](0)   # a command: reads 0
@@ -418,6 +431,14 @@ class NodeRuntime:
             log.error("%s = %r not applied: %s", key, ev.value, exc)
             self.book.version += 1  # the next SYNC rewrites the OD with the truth
         log.info("%s = %r (takes effect at the next SYNC)", key, ev.value)
+
+    def _check_ident_fetch(self, value) -> int | None:
+        """Validator of ident_fetch_sample (0x280B): a sample the last experiment recorded, else 0x08000024."""
+        rec = self._ident_rec
+        j = int(value)
+        if rec is None or j >= len(rec) or rec[j, 0] != rec[j, 0]:
+            return ABORT_NO_DATA
+        return None
 
     def _check_fault_reset(self, value) -> int | None:
         """Validator of fault_reset (0x240A), device lock held: refuse (0x08000022) while a latched trip's
@@ -532,7 +553,7 @@ class NodeRuntime:
                 log.info("cycle %d: safety state %s -> %s", self.stats.cycles, self._safety_state.name,
                          st.safety.state.name)
             self._safety_state = st.safety.state
-        self._identify_status(res.state)
+        self._identify_status(res.state, sample, res)
         self._last_T_C = sample.T_sensor_C
         self._last_sample, self._last_peer = sample, peer
         self.stats.cycles += 1
@@ -564,11 +585,17 @@ class NodeRuntime:
         self._latched_reported = False
         return new
 
-    def _identify_status(self, state: CoreState) -> None:
-        """ident_sample / ident_state / ident_guard / ident_start_cycle of this cycle (0x2807..0x280A)."""
+    def _identify_status(self, state: CoreState, sample, res) -> None:
+        """ident_sample / ident_state / ident_guard / ident_start_cycle of this cycle (0x2807..0x280A), and the
+        sample kept for ident_fetch_sample (0x280B): the values its TPDOs carry, as REAL32."""
         w, k = self._w, state.ident_k
         w["ident_sample"](k)
         if self.mode is Mode.IDENTIFY:
+            total = self.params.identify.total
+            if k == 1:
+                self._ident_rec = np.full((total, 3), np.nan, dtype=np.float32)
+            if 1 <= k <= total and self._ident_rec is not None and len(self._ident_rec) == total:
+                self._ident_rec[k - 1] = (sample.T_sensor_C, res.current_A, res.out.flux_W)
             if k == 1:
                 w["ident_start_cycle"](self.stats.cycles & 0xFFFFFFFF)
                 log.info("identification experiment started: %d samples (%s)", self.params.identify.total,

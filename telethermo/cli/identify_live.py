@@ -91,6 +91,12 @@ class Stream:
     def missing(self) -> int:
         return int(self.total - self.seen.sum())
 
+    def fill(self, j: int, T_C: float, I_A: float, Q_W: float) -> None:
+        """Sample ``j`` fetched by SDO (lost on the bus)."""
+        with self.cond:
+            self.T_C[j], self.I_A[j], self.Q_W[j] = T_C, I_A, Q_W
+            self.seen[j] = True
+
 
 class _Sdo:
     """SDO access by EDS name to one node, with the CLI's one-line failures."""
@@ -232,11 +238,12 @@ def run_live(args: argparse.Namespace) -> int:
             if stream is not None:
                 nw.unsubscribe(stream.cob_t)
                 nw.unsubscribe(stream.cob_q)
+        fetched = _fetch_lost(stream, dev, plan)
         guard = int(dev.get("ident_guard"))
         start_cycle = int(dev.get("ident_start_cycle"))
         if stream.missing() or stream.duplicates:
-            raise common.Failure(f"{stream.missing()} of {plan.total} samples lost and {stream.duplicates} repeated on the "
-                                 "bus (frames dropped by the bus or this computer); nothing fitted or loaded: run again")
+            raise common.Failure(f"{stream.missing()} of {plan.total} samples missing and {stream.duplicates} repeated on "
+                                 "the bus; nothing fitted or loaded: run again")
         # 6. fit
         print("identify: fitting (least squares, output-error refinement, stability check) ...", file=sys.stderr,
               flush=True)
@@ -246,7 +253,7 @@ def run_live(args: argparse.Namespace) -> int:
         settings = ExperimentSettings(rest_samples=plan.rest_samples, amplitude_A=plan.amplitude_A,
                                       hold_samples=plan.hold_samples)
         meta = {"rig": "live node", "node": target.role, "node_id": target.node_id, "bus": common.transport(args, net).describe(),
-                "start_cycle": start_cycle}
+                "start_cycle": start_cycle, "samples_fetched_by_sdo": fetched}
         try:
             tem, rep = fit_experiment(rec, plan=plan, orders=orders, period_s=period_s, settings=settings,
                                       method=args.method, meta=meta, keep_record=bool(args.plot),
@@ -256,6 +263,7 @@ def run_live(args: argparse.Namespace) -> int:
               "more, gives a better-determined model)", file=sys.stderr)
             return EXIT_FAIL
         rep["experiment_wall_s"] = t_exp
+        rep["samples_fetched_by_sdo"] = fetched
         if args.save_data:
             from telethermo.ident.experiment import save_record_csv
             path = save_record_csv(args.save_data, rec, plan, comments={**meta, "plan": plan.as_dict(),
@@ -281,8 +289,28 @@ def run_live(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _fetch_lost(stream: Stream, dev: _Sdo, plan) -> int:
+    """Samples lost on the bus (a busy computer's CAN socket overflows; a real bus can drop frames too) fetched
+    again by SDO from the node's record of the experiment (0x280B..0x280E). Returns how many; Failure when so
+    many are lost (over a fifth) that the stream is not worth patching."""
+    lost = np.flatnonzero(~stream.seen)
+    if not len(lost):
+        return 0
+    if len(lost) > max(100, plan.total // 5):
+        raise common.Failure(f"{len(lost)} of {plan.total} samples lost on the bus: too many to fetch again by SDO; "
+                             "nothing fitted or loaded (a less loaded computer, or real time, helps)")
+    print(f"identify: {len(lost)} of {plan.total} samples lost on the bus; fetching them by SDO ...", file=sys.stderr,
+          flush=True)
+    for j in lost.tolist():
+        dev.set("ident_fetch_sample", j)
+        stream.fill(j, float(dev.get("ident_fetched_T_sensor_C")), float(dev.get("ident_fetched_current_A")),
+                    float(dev.get("ident_fetched_Q_W")))
+    return len(lost)
+
+
 def _wait(stream: Stream, dev: _Sdo, plan, period_s: float, *, quiet: bool) -> None:
-    """Until every sample arrived; Failure if the node stops sending them or interrupts the experiment."""
+    """Until every sample arrived, or the node says the experiment is done (samples lost on the bus are
+    fetched afterwards); Failure if the node stops running it or interrupts it."""
     from telethermo.cli.identify import ProgressBar
     bar = None if quiet else ProgressBar("identify: experiment")
     stall_s = max(5.0, 50 * period_s)
@@ -301,6 +329,8 @@ def _wait(stream: Stream, dev: _Sdo, plan, period_s: float, *, quiet: bool) -> N
         if now - last_poll > 1.0:
             last_poll = now
             st = int(dev.get("ident_state"))
+            if st == 2 and now - last_t > 0.5:
+                return   # done, its last frames lost: fetched by SDO
             if st == 3 or (st == 0 and now - last_t > stall_s):
                 mode = int(dev.get("mode"))
                 raise common.Failure(f"{dev.t.role}: the experiment was interrupted (ident_state "

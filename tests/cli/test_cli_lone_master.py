@@ -103,6 +103,31 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     np.testing.assert_allclose(I_bus, rec.current_A, rtol=0, atol=1e-6)
     np.testing.assert_allclose(T_bus, rec.T_C, rtol=0, atol=1e-5)
 
+    # a sample lost on the bus is fetched again by SDO from the node's record: drop 37 samples of the record
+    # on the receiving side and let the CLI's fetch fill them over the real SDO path, bit for bit
+    from telethermo.cli import common
+    from telethermo.cli.identify_live import Stream, _fetch_lost, _Sdo
+    from telethermo.canopen_dev.netconfig import load_network
+    Q_bus = np.array([float(r[5]) for r in rows])
+    stream = Stream(0, 0, len(rows))
+    stream.T_C[:], stream.I_A[:], stream.Q_W[:] = T_bus, I_bus, Q_bus
+    stream.seen[:] = True
+    drop = np.random.default_rng(1).choice(len(rows), 37, replace=False)
+    stream.seen[drop] = False
+    stream.T_C[drop] = stream.I_A[drop] = stream.Q_W[drop] = np.nan
+    args = type("A", (), {"network": None, "bus": bus})()
+    net = load_network(None)
+    with common.canopen_network(args, net) as nw:
+        dev = _Sdo(nw, common.resolve_node(net, "master"), 1.0)
+        assert _fetch_lost(stream, dev, plan) == 37
+    assert stream.missing() == 0
+    np.testing.assert_array_equal(stream.T_C, T_bus)
+    np.testing.assert_array_equal(stream.I_A, I_bus)
+    np.testing.assert_array_equal(stream.Q_W, Q_bus)
+    capsys.readouterr()
+    code, _, err = set_(capsys, bus, "ident_fetch_sample", len(rows))       # beyond the record: no data
+    assert code == EXIT_FAIL and "0x08000024" in err
+
     # the node now runs the model: the model estimator is accepted and T_pred follows the pad at rest
     code, _, err = set_(capsys, bus, "estimator", 0)
     assert code == EXIT_OK, err
