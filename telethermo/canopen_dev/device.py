@@ -14,6 +14,8 @@ adds, per CiA 301:
 - SDO writes range-checked against the EDS (REAL32 limits re-read from the text): abort
   0x06090030 (range exceeded, or NaN), 0x06090031 (too high), 0x06090032 (too low); the value is
   left unchanged.
+- SDO block upload and block download (see :mod:`telethermo.canopen_dev.sdo_block`; canopen's
+  server has none), through the same read and write paths as segmented transfers.
 - Malformed frames (wrong length for a mapped PDO, SYNC, NMT, heartbeat or SDO) and frames with a
   COB-ID outside the contract are counted and ignored; callbacks never kill the receive thread.
 
@@ -43,6 +45,7 @@ from telethermo.canopen_dev import emcy as emcy_mod
 from telethermo.canopen_dev import pdo as pdo_mod
 from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo, parse_index_key
 from telethermo.canopen_dev.scheduler import Scheduler
+from telethermo.canopen_dev.sdo_block import BlockServer
 from telethermo.canopen_dev.settings import DeviceSettings
 
 logger = logging.getLogger(__name__)
@@ -209,6 +212,11 @@ class Device:
     ``network`` is a canopen.Network (connected or not yet); the device adds its LocalNode to it.
     """
 
+    #: sub-block size this server asks for in a block download (1..127 segments, CiA 301)
+    SDO_BLOCK_SIZE = 127
+    #: a block transfer whose client stays silent this long is aborted with 0x05040000 (s)
+    SDO_BLOCK_TIMEOUT_S = 1.0
+
     def __init__(self, network: canopen.Network, node_id: int, eds: str | Path, *,
                  settings: DeviceSettings | None = None, clock: Callable[[], float] = time.monotonic):
         if not 1 <= node_id <= 127:
@@ -273,6 +281,12 @@ class Device:
         self.node.add_read_callback(self._on_read)
         self._extended = False   # the frame being dispatched has a 29-bit ID (set by the frame watch)
         self._sdo_transfer: str | None = None   # segmented SDO transfer in progress: "up", "down" or None
+        # block transfers (canopen's server has none): reads and writes through the same paths as its
+        # segmented transfers (read callbacks; set_data -> _sdo_write with range checks and validators)
+        self._sdo_block = BlockServer(lambda i, s: self.node.get_data(i, s, check_readable=True),
+                                      lambda i, s, d: self.node.set_data(i, s, d, check_writable=True),
+                                      self._sdo_block_check)
+        self._sdo_block_deadline = 0.0
         self._watch = _FrameWatch(self)
         # first in line, before canopen's dispatcher: it flags 29-bit frames for the service handlers
         if network.notifier is not None:
@@ -512,6 +526,7 @@ class Device:
         self._state = NmtState.INITIALISING
         self.node.nmt._state = 0
         self._sdo_transfer = None
+        self._sdo_block.reset()
         self._scheduler.cancel("hb")
         if whole is None:
             pass
@@ -608,19 +623,14 @@ class Device:
                 # canopen's server packs _index/_subindex into its abort frame: None before the first
                 # transfer made an invalid first request (e.g. command specifier 7) raise instead of abort
                 sdo._index, sdo._subindex = 0, 0
+            if self._sdo_block_frame(data):
+                return
             # canopen's server keeps no transfer state: a segment request with no segmented transfer in
             # progress makes it raise (TypeError on a None buffer) or re-use an old buffer; CiA 301 wants
             # abort 0x05040001 (client/server command specifier not valid)
             ccs = data[0] & 0xE0
             if ccs in (0x00, 0x60) and self._sdo_transfer != ("down" if ccs == 0x00 else "up"):
                 self._sdo_transfer = None
-                sdo.abort(ABORT_COMMAND_SPECIFIER)
-                return
-            if ccs == 0xC0:
-                # block download is not supported: abort 0x05040001 for the object it names, as canopen's
-                # server would, but without its ERROR log line (a stray frame is no error of ours)
-                self._sdo_transfer = None
-                sdo._index, sdo._subindex = int.from_bytes(data[1:3], "little"), data[3]
                 sdo.abort(ABORT_COMMAND_SPECIFIER)
                 return
             before = sdo._buffer
@@ -640,6 +650,58 @@ class Device:
                 self._sdo_transfer = None   # the last segment came in
             elif ccs == 0x80:
                 self._sdo_transfer = None   # the client aborted
+
+    def _sdo_block_frame(self, data: bytes) -> bool:
+        """Serve a block transfer frame (CiA 301 §7.2.4.3.9 ff., :mod:`.sdo_block`); False if canopen's
+        server is to serve the frame.
+
+        Block frames: an initiate block upload/download (ccs 5/6), the client's start/acknowledge/end
+        (ccs 5) of an open block upload, and every frame but an abort (0x80) during a block download
+        (its segments carry ``c | seqno`` in byte 0, no command specifier). Any other frame ends an
+        open block transfer (one transfer per channel) and goes to canopen's server as before. A
+        protocol switch (the client's pst allows a normal upload) also goes to canopen's server, whose
+        block upload is a normal upload.
+        """
+        block = self._sdo_block
+        ccs = data[0] & 0xE0
+        if not (ccs in (0xA0, 0xC0) or (block.direction == "download" and data[0] != 0x80)):
+            if block.direction is not None:
+                with self._lock:
+                    block.reset()
+            return False
+        self._sdo_transfer = None   # a block initiate ends a segmented transfer too
+        with self._lock:
+            block.blksize = self.SDO_BLOCK_SIZE
+            try:
+                frames = block.on_request(data)
+            except Exception:  # never into the notifier: count it, abort the transfer
+                self._callback_failed(block.on_request)
+                frames = [block.abort(ABORT_GENERAL)]
+            if block.direction is not None:
+                self._sdo_block_deadline = self.clock() + self.SDO_BLOCK_TIMEOUT_S
+                self._scheduler.set("sdo-block", self._sdo_block_deadline, self._sdo_block_timeout)
+        if frames is None:
+            return False
+        for frame in frames:
+            self._send(self.node.sdo.tx_cobid, frame)
+        return True
+
+    def _sdo_block_check(self, index: int, subindex: int) -> None:
+        """At a block download's initiate: refuse a missing (0x06020000/0x06090011) or read-only
+        (0x06010002) object before the client sends its data."""
+        if not self.node._find_object(index, subindex).writable:
+            raise SdoAbortedError(ABORT_READ_ONLY)
+
+    def _sdo_block_timeout(self) -> None:
+        """Scheduler job: a block transfer idle for ``SDO_BLOCK_TIMEOUT_S`` is aborted with 0x05040000
+        (silently outside PRE-OPERATIONAL/OPERATIONAL, where the device sends no SDO)."""
+        with self._lock:
+            if self._sdo_block.direction is None or self.clock() < self._sdo_block_deadline:
+                return   # finished, or a frame came meanwhile (it re-armed the job)
+            frame = self._sdo_block.timeout()
+            serving = self._running and self._state in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL)
+        if serving and frame is not None:
+            self._send(self.node.sdo.tx_cobid, frame)
 
     def _sdo_write(self, var, data: bytes) -> None:
         """Check, store and apply a write (SDO or local to a communication object)."""
