@@ -7,8 +7,9 @@ monitor keeps one :class:`SdoChannel` per node (not one parser for the whole bus
 Covered: expedited and segmented upload and download, block download and block upload (with
 sub-block retransmission after a partial acknowledge, CRC not checked), a server switching a block
 upload to a normal upload (allowed by CiA 301, done by canopen's SdoServer), aborts from either side
-with the CiA 301 text, and protocol faults (toggle bit not alternated, a frame that fits no open
-transfer) reported as problems instead of being silently dropped.
+with the CiA 301 text (also in the middle of a sub-block: seqno 0 does not exist, so a frame starting
+with 0x80 there is an abort, not a segment), and protocol faults (toggle bit not alternated, a frame
+that fits no open transfer) reported as problems instead of being silently dropped.
 """
 from __future__ import annotations
 
@@ -140,8 +141,8 @@ class SdoChannel:
         if not data:
             return self._unexpected(t, "empty SDO request")
         cmd = data[0]
-        if self.state == BDL_SUB:       # block download segments carry no command specifier
-            return self._bdl_segment(t, data)
+        if self.state == BDL_SUB and cmd != 0x80:   # block download segments carry no command specifier;
+            return self._bdl_segment(t, data)        # 0x80 (c=1, seqno 0: no such segment) is an abort
         ccs = cmd >> 5
         if self.cur is not None:
             self.cur.t_end_s = t
@@ -239,8 +240,8 @@ class SdoChannel:
         if not data:
             return self._unexpected(t, "empty SDO response")
         cmd = data[0]
-        if self.state == BUL_SUB:        # block upload segments carry no command specifier
-            return self._bul_segment(t, data)
+        if self.state == BUL_SUB and cmd != 0x80:    # block upload segments carry no command specifier;
+            return self._bul_segment(t, data)         # 0x80 (c=1, seqno 0: no such segment) is an abort
         scs = cmd >> 5
         if self.cur is not None:
             self.cur.t_end_s = t
