@@ -100,9 +100,9 @@ def test_model_huge_current_range_is_a_model_file_error(tmp_path):
         load_model(p)
 
 
-def test_sdo_block_download_request_is_aborted_without_an_error_log():
-    """Block download (ccs 6) is not supported: CiA 301 abort 0x05040001 for the named object, and no
-    ERROR record (canopen's server would log one for a stray frame)."""
+def test_sdo_block_download_request_to_a_missing_object_is_aborted_without_an_error_log():
+    """A block download (ccs 6) initiate naming an object the dictionary lacks (0x2200 sub 1; 0x2200 is a VAR):
+    CiA 301 abort 0x06090011 (sub-index does not exist) for the named object at once, and no ERROR record."""
     with s.device_under_fuzz() as (dev, raw, counter, client, log):
         raw.send(can.Message(arbitration_id=0x600 + s.MASTER_ID, is_extended_id=False,
                              data=bytes([0xC2, 0x00, 0x22, 0x01, 0, 0, 0, 0])))
@@ -111,4 +111,4 @@ def test_sdo_block_download_request_is_aborted_without_an_error_log():
         assert not log.records, log.records
         assert reply is not None and reply.data[0] == 0x80
         assert int.from_bytes(reply.data[1:3], "little") == 0x2200 and reply.data[3] == 1
-        assert int.from_bytes(reply.data[4:8], "little") == 0x05040001
+        assert int.from_bytes(reply.data[4:8], "little") == 0x06090011
