@@ -222,6 +222,13 @@ def run_live(args: argparse.Namespace) -> int:
                 dev.raw_set(comm, 1, cob & ~PDO_INVALID)
                 cobs[comm] = cob & 0x7FF
             stream = Stream(cobs[TPDO2_COMM], cobs[TPDO3_COMM], plan.total)
+            # only what this command needs from now on (in the kernel on SocketCAN): the stream, SDO
+            # responses, heartbeats; a reader that also parsed every SYNC and PDO of a lockstep session falls
+            # behind on a slow computer
+            nw.bus.set_filters([{"can_id": stream.cob_t, "can_mask": 0x7FF, "extended": False},
+                                {"can_id": stream.cob_q, "can_mask": 0x7FF, "extended": False},
+                                {"can_id": 0x580, "can_mask": 0x780, "extended": False},
+                                {"can_id": 0x700, "can_mask": 0x780, "extended": False}])
             nw.subscribe(stream.cob_t, stream.on_frame)
             nw.subscribe(stream.cob_q, stream.on_frame)
             # 4. run
@@ -234,6 +241,7 @@ def run_live(args: argparse.Namespace) -> int:
             _wait(stream, dev, plan, period_s, quiet=args.quiet)
             t_exp = time.perf_counter() - t0
         finally:
+            nw.bus.set_filters(None)
             _restore(dev, mode0, saved, peer_restore)
             if stream is not None:
                 nw.unsubscribe(stream.cob_t)

@@ -144,7 +144,9 @@ def open_bus(settings: TransportSettings) -> can.BusABC:
     validate(settings)
     kwargs: dict[str, Any] = dict(settings.options)
     if settings.interface == "socketcan":
-        return can.Bus(interface="socketcan", channel=settings.channel, **kwargs)
+        bus = can.Bus(interface="socketcan", channel=settings.channel, **kwargs)
+        enlarge_receive_buffer(bus)
+        return bus
     if settings.interface == "virtual":
         kwargs.setdefault("receive_own_messages", False)
         return can.Bus(interface="virtual", channel=settings.channel, **kwargs)
@@ -153,6 +155,35 @@ def open_bus(settings: TransportSettings) -> can.BusABC:
         return can.Bus(interface="socketcand", channel=settings.channel, host=settings.host,
                        port=settings.port, **kwargs)
     return can.Bus(interface=settings.interface, channel=settings.channel, bitrate=settings.bitrate, **kwargs)
+
+
+#: SocketCAN receive buffer asked for, bytes (the kernel default, ~208 kB, holds only ~250 frames)
+RCVBUF_BYTES = 8 * 1024 * 1024
+
+
+def enlarge_receive_buffer(bus: can.BusABC, size: int = RCVBUF_BYTES) -> int:
+    """Give a SocketCAN bus a bigger socket receive buffer; returns the size in force, bytes (0: not a socket).
+
+    Each CAN frame costs the socket buffer a whole kernel buffer (~800 bytes), so the default holds ~250
+    frames: a reader that is not scheduled for a few milliseconds while a lockstep session or a 1 kHz
+    SYNC runs overflows it, and the kernel drops frames (measured: a CLI inside the vcan VM lost 1 % of an
+    identification stream and then an SDO response). SO_RCVBUFFORCE (root or CAP_NET_ADMIN) may exceed
+    net.core.rmem_max; SO_RCVBUF is capped by it. candump's ``-r`` does the same.
+    """
+    import socket
+    sock = getattr(bus, "socket", None)
+    if sock is None:
+        return 0
+    for opt in (getattr(socket, "SO_RCVBUFFORCE", 33), socket.SO_RCVBUF):
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, opt, size)
+            break
+        except OSError:
+            continue
+    try:
+        return int(sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF))
+    except OSError:
+        return 0
 
 
 def frame_bits(dlc: int, *, extended: bool = False) -> int:
