@@ -153,9 +153,20 @@ def _int(text: str) -> int | None:
         return None
 
 
+@functools.lru_cache(maxsize=16)
+def _parsed_eds(path: str, mtime_ns: int) -> EdsInfo:
+    return EdsInfo(path)
+
+
 def eds_info(target: Target) -> EdsInfo:
+    """The node's EDS, parsed once per file version (a parse takes ~20 ms; a command may look up hundreds
+    of names, e.g. identify's SDO set-up and model load)."""
     try:
-        return EdsInfo(target.eds)
+        try:
+            mtime = Path(target.eds).stat().st_mtime_ns
+        except OSError:
+            return EdsInfo(target.eds)   # names the file and what is wrong with it
+        return _parsed_eds(str(target.eds), mtime)
     except EdsError as exc:
         raise UserError(str(exc)) from None
 

@@ -62,13 +62,19 @@ class Candump:
         exe = shutil.which("candump")
         if exe is None:
             pytest.skip("candump not installed (apt-get install can-utils): cross-check skipped")
-        # -L: log format "(sec.usec) vcan0 181#0011223344556677"
-        self.proc = subprocess.Popen([exe, "-L", channel], stdout=subprocess.PIPE, text=True)
+        # -L: log format "(sec.usec) vcan0 181#0011223344556677"; into a file, not a pipe: nobody reads a
+        # pipe while the test runs, and a full pipe (64 kB) would block candump and make it lose frames
+        import tempfile
+        self.log = tempfile.TemporaryFile(mode="w+")
+        self.proc = subprocess.Popen([exe, "-L", channel], stdout=self.log, text=True)
 
     def stop(self) -> list[tuple[int, bytes]]:
         """Stop it (SIGINT, by pid) and return the frames it saw as (COB-ID, data)."""
         self.proc.send_signal(2)
-        out, _ = self.proc.communicate(timeout=30)
+        self.proc.wait(timeout=30)
+        self.log.seek(0)
+        out = self.log.read()
+        self.log.close()
         frames = []
         for line in out.splitlines():
             parts = line.split()

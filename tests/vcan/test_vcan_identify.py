@@ -18,7 +18,9 @@ from telethermo.ident import load_model, odmodel
 pytestmark = pytest.mark.vcan
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
-N_TRAIN, N_VAL, REST = 10_000, 1_000, 200
+# orders 3,3,1,1: well determined by a short experiment (2,000 training samples: 12 of 12 experiments stable,
+# see docs/identification.md), so that the run fits the slow VM
+N_TRAIN, N_VAL, REST, ORDERS = 2_000, 500, 200, "3,3,1,1"
 
 
 def cli(capsys, *argv):
@@ -40,7 +42,7 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
         dump = candump()
         time.sleep(1.0)
         code, out, err = cli(capsys, "identify", "master", *net, "--samples", str(N_TRAIN), "--validation", str(N_VAL),
-                             "--out", str(tmp_path / "m.json"), "--save-data", str(tmp_path / "m.csv"), "--quiet")
+                             "--orders", ORDERS, "--out", str(tmp_path / "m.json"), "--save-data", str(tmp_path / "m.csv"), "--quiet")
         time.sleep(0.5)
         frames = dump.stop()
         assert code == EXIT_OK, err
