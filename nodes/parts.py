@@ -105,9 +105,20 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
     else:
         module, _, factory = opts.rig.partition(":")
         try:
-            rig = getattr(importlib.import_module(module), factory)()
+            make = getattr(importlib.import_module(module), factory)
         except (ImportError, AttributeError) as exc:
             raise OptionError(f"--rig {opts.rig!r}: cannot load the rig factory: {exc}") from None
+        try:
+            rig = make()
+        except Exception as exc:  # a driver's own error (no device, bad port, ...): one named line
+            raise OptionError(f"--rig {opts.rig!r}: the rig factory failed: {type(exc).__name__}: {exc}") from None
+        missing = [a for a in ("read", "apply_current", "period_s", "I_max_A") if not hasattr(rig, a)]
+        if missing:
+            raise OptionError(f"--rig {opts.rig!r}: the factory returned a {type(rig).__name__}, not a "
+                              f"telethermo.rig.Rig (missing {', '.join(missing)})")
+        if abs(float(rig.period_s) - period_s) > 1e-12:
+            raise OptionError(f"--rig {opts.rig!r}: period_s = {rig.period_s} s but the network's SYNC period is "
+                              f"{period_s} s (network settings [sync] period_s); they must agree")
         cycles = None
         truth = None
         meta.update(rig=opts.rig)

@@ -630,6 +630,8 @@ class NodeRuntime:
         row.update(_side_row(self.prefix, sample, res, peer))
         if self.parts.truth is not None:
             row.update(_truth_row(self.prefix, self.parts.rig))
+        else:   # hardware: no simulator truth, the same columns (NaN), so every reader reads it
+            row.update(dict.fromkeys((c for c in self.recorder.columns if c not in row), float("nan")))
         self.recorder.write(row)
 
     # ------------------------------------------------------------------ SYNC producer

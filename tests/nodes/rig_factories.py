@@ -1,0 +1,21 @@
+"""Hardware-rig factories that go wrong, for tests/nodes/test_hardware_rig_path.py (``--rig MODULE:FACTORY``)."""
+from __future__ import annotations
+
+from sim.wallclock import pads_in_air_master
+
+
+def wrong_period():
+    """A working rig at 20 ms on a 10 ms bus."""
+    rig = pads_in_air_master()
+    rig.period_s = 0.02
+    return rig
+
+
+def no_device():
+    """A driver whose device is not there."""
+    raise OSError("no thermal display on /dev/ttyUSB9")
+
+
+def not_a_rig():
+    """A factory returning something else."""
+    return object()
