@@ -18,8 +18,11 @@ FIELDS = (
     ("peer flux", "peer_Q_W"), ("current", "current_A"), ("contact", "contact"), ("safety", "safety_state"),
     ("last trip", "last_trip_code"), ("cycles", "cycle_counter"), ("late cycles", "late_cycles"),
     ("lockstep", "lockstep"), ("peer alive", "peer_alive"), ("error register", "0x1001"),
-    ("last EMCY", "0x1003sub1"),
+    ("last EMCY", "0x1003sub1"), ("model", "model_status"), ("model CRC-32", "model_crc32"),
+    ("identification", "ident_state"),
 )
+MODEL_STATUS = {0: "none", 1: "loaded", 2: "edited, not loaded"}
+IDENT_STATE = {0: "not run", 1: "running", 2: "done", 3: "interrupted"}
 
 
 def register(subparsers) -> None:
@@ -40,6 +43,12 @@ def _pretty(key: str, value, info) -> str:
         return f"{MODES.get(value, '?')} ({value})"
     if key == "safety_state":
         return f"{SAFETY.get(value, '?')} ({value})"
+    if key == "model_status":
+        return f"{MODEL_STATUS.get(value, '?')} ({value})"
+    if key == "model_crc32":
+        return f"0x{value:08X}"
+    if key == "ident_state":
+        return f"{IDENT_STATE.get(value, '?')} ({value})"
     if key == "last_trip_code":
         return "none" if value == 0 else f"0x{value:04X} {emcy_code_text(value)}"
     if info.index == 0x1001:
