@@ -124,6 +124,7 @@ class NodeRuntime:
         self.model = parts.model
         """The TEM model the controller runs (the --model file at power-on; 0x230D loads another)."""
         self._model_candidate = None   # (TemModel | None, crc) validated by the last model_command write
+        self._model_edited = False     # model objects written since the last model_command
         self._model_pending = None     # the same, to take at the next SYNC
         self._ident_state = IDENT_NOT_RUN
         self._last_T_C = float("nan")
@@ -232,7 +233,15 @@ class NodeRuntime:
         from telethermo.ident import odmodel
         from telethermo.ident.modelfile import ModelFileError
         value = int(value)
+        p = self.book.params() if self.book is not None else None   # what is requested, not only what runs
+        uses_model = p is not None and (p.estimator is not Estimator.FLUX or p.feedback is Feedback.MODEL)
         if value == odmodel.CMD_LOAD:
+            if uses_model and self.book.mode in (Mode.TELEPRESENCE, Mode.RENDER):
+                # a new predictor starts at rest: under a model-driven controller its transient would reach
+                # the pad (and the peer); swap it while the flux estimator drives, or in idle
+                log.warning("model_command 1 refused: the %s estimator drives the pad in %s", p.estimator.value,
+                            self.book.mode.name)
+                return ABORT_DEVICE_STATE
             d = self.device
             try:
                 tem, entries = odmodel.model_from_od(lambda i, s: d.read((i, s)), source=f"node {self.node_id} OD",
@@ -242,8 +251,7 @@ class NodeRuntime:
                 return ABORT_MODEL_REFUSED
             self._model_candidate = (tem, odmodel.od_crc32(entries))
         elif value == odmodel.CMD_UNLOAD:
-            p = self.params
-            if p is not None and (p.estimator is not Estimator.FLUX or p.feedback is Feedback.MODEL):
+            if uses_model:
                 log.warning("model_command 2 refused: the estimator %s needs the model", p.estimator.value)
                 return ABORT_DEVICE_STATE
             self._model_candidate = (None, 0)
@@ -261,7 +269,10 @@ class NodeRuntime:
         if self._state is not None:
             T0 = self._last_T_C if self._last_T_C == self._last_T_C else self.params.safety.neutral_C
             self._state = replace_model(self._state, tem, T0)
-        self._w["model_status"](odmodel.STATUS_LOADED if tem is not None else odmodel.STATUS_NONE)
+        status = odmodel.STATUS_LOADED if tem is not None else odmodel.STATUS_NONE
+        if tem is not None and self._model_edited:
+            status = odmodel.STATUS_EDITED   # objects written after the load command: they differ from what runs
+        self._w["model_status"](status)
         self._w["model_crc32"](crc)
         self._w["model_command"](0)
         self.models_loaded += 1
@@ -456,9 +467,14 @@ class NodeRuntime:
         from telethermo.ident import odmodel
         if ev.index == odmodel.COMMAND_INDEX:
             self._model_pending, self._model_candidate = self._model_candidate, None
+            self._model_edited = False
+            if self._model_pending is not None and self._model_pending[0] is None:
+                self.book.has_model = False   # unloading: from now on no write may select the model estimator
             self._w["model_command"](0)   # a command, not a setting: reads 0
-        elif self.model is not None:
-            self._w["model_status"](odmodel.STATUS_EDITED)
+        else:
+            self._model_edited = True
+            if self.model is not None:
+                self._w["model_status"](odmodel.STATUS_EDITED)
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
         log.info("NMT %s -> %s%s", old.name, new.name, f" (command 0x{command:02X})" if command else "")

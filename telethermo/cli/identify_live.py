@@ -5,27 +5,31 @@ What it does, as a CANopen configuration tool would (every step by SDO, on any p
 1. checks the node: OPERATIONAL, its pad touching nothing (0x2004 contact), the SYNC running;
    a peer in telepresence is put in idle for the time of the experiment (and put back);
 2. writes the plan (0x2800..0x2806: seed, rest/training/held-out samples, amplitudes, hold);
-3. maps the samples into two synchronous TPDOs (CiA 301 dynamic mapping: PDO invalid, mapping
-   written, PDO valid): TPDO2 = (T_sensor_C, current_A), TPDO3 = (ident_sample, Q_W), both on
-   every SYNC;
+3. maps the samples into three synchronous TPDOs (CiA 301 dynamic mapping: PDO invalid, mapping
+   written, PDO valid), each carrying the sample number with one value: TPDO2 = (ident_sample,
+   T_sensor_C), TPDO3 = (ident_sample, current_A), TPDO4 = (ident_sample, Q_W), on every SYNC;
 4. sets mode 3 (IDENTIFY): the node's control core runs the plan under its safety envelope
-   (:mod:`telethermo.ident.plan`), and this command records every sample from the bus, in order,
-   by its sample number (a lost frame is a missing number: the run is refused, nothing loaded);
-5. puts back the node's mode, PDO parameters and the peer's mode (also on Ctrl-C or failure);
-6. fits and validates the models on the record (:func:`telethermo.ident.experiment.fit_experiment`,
+   (:mod:`telethermo.ident.plan`), and this command records every value from the bus by its sample
+   number; a value lost on the bus is fetched again by SDO from the node's record (0x280B..0x280E);
+   a record in which the envelope cut the current, or with the pad touched, is refused;
+5. fits and validates the models on the record (:func:`telethermo.ident.experiment.fit_experiment`,
    the same as offline), prints the report, refuses an unstable model;
-7. loads the model into the node (0x2300..0x2311 by SDO, REAL64 coefficients; 0x230D = 1) and
-   checks the node's CRC-32 of what it runs (0x230F) against the one of what was sent.
+6. loads the model into the node while it still holds 0 A in IDENTIFY (0x2300..0x2311 by SDO, REAL64
+   coefficients; 0x230D = 1) and checks the node's CRC-32 of what it runs (0x230F) against the one of
+   what was sent;
+7. puts back the node's mode, the PDO parameters it changed and the peer's mode (also on Ctrl-C or a
+   failure: Ctrl-C waits for this step).
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
+import signal
 import struct
 import sys
 import threading
 import time
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -34,56 +38,60 @@ from telethermo.cli import common
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError
 from telethermo.control.types import Mode
 
-TPDO2_COMM, TPDO3_COMM, TPDO2_MAP, TPDO3_MAP = 0x1801, 0x1802, 0x1A01, 0x1A02
 PDO_INVALID = 1 << 31
-#: the identification stream: TPDO2 and TPDO3 mappings (index << 16 | sub << 8 | bits)
-STREAM_MAPS = {TPDO2_MAP: [0x20000020, 0x20020020],   # T_sensor_C, current_A
-               TPDO3_MAP: [0x28070020, 0x20010020]}   # ident_sample, Q_W
+#: the identification stream: (communication, mapping) record of TPDO2..4 and their mapping (index << 16 |
+#: sub << 8 | bits): the sample number (ident_sample, U32) with one REAL32 value each
+STREAM = ((0x1801, 0x1A01, [0x28070020, 0x20000020]),   # ident_sample, T_sensor_C
+          (0x1802, 0x1A02, [0x28070020, 0x20020020]),   # ident_sample, current_A
+          (0x1803, 0x1A03, [0x28070020, 0x20010020]))   # ident_sample, Q_W
+FIELDS = ("T_sensor_C", "current_A", "Q_W")
 IDENT_STATE_NAMES = {0: "not run", 1: "running", 2: "done", 3: "interrupted"}
 
 
-@dataclass
 class Stream:
-    """Samples of the experiment as they arrive: TPDO2 (T, I) then TPDO3 (sample number, Q) of one SYNC."""
+    """The experiment's values as they arrive: each frame carries a sample number and one value (field f of
+    :data:`FIELDS`, by COB-ID). A sample is complete when all three fields arrived."""
 
-    cob_t: int
-    cob_q: int
-    total: int
-    T_C: np.ndarray = field(init=False)
-    I_A: np.ndarray = field(init=False)
-    Q_W: np.ndarray = field(init=False)
-    seen: np.ndarray = field(init=False)
-    last: tuple[float, float] | None = None
-    count: int = 0
-    duplicates: int = 0
-    unpaired: int = 0
-    highest: int = 0
-    cond: threading.Condition = field(default_factory=threading.Condition)
+    def __init__(self, cobs: list[int], total: int) -> None:
+        self.field_of = {cob: f for f, cob in enumerate(cobs)}
+        self.total = total
+        self.values = np.full((3, total), np.nan)
+        self.got = np.zeros((3, total), dtype=bool)
+        self.count = 0
+        self.duplicates = 0
+        self.highest = 0
+        self.cond = threading.Condition()
 
-    def __post_init__(self) -> None:
-        self.T_C, self.I_A, self.Q_W = (np.full(self.total, np.nan) for _ in range(3))
-        self.seen = np.zeros(self.total, dtype=bool)
+    @property
+    def T_C(self) -> np.ndarray:
+        return self.values[0]
+
+    @property
+    def I_A(self) -> np.ndarray:
+        return self.values[1]
+
+    @property
+    def Q_W(self) -> np.ndarray:
+        return self.values[2]
+
+    @property
+    def seen(self) -> np.ndarray:
+        """Samples with all three values."""
+        return self.got.all(axis=0)
 
     def on_frame(self, can_id: int, data: bytearray, timestamp: float) -> None:
-        if len(data) != 8:
+        f = self.field_of.get(can_id)
+        if f is None or len(data) != 8:
             return
-        if can_id == self.cob_t:
-            self.last = struct.unpack("<ff", data)
-            return
-        k, q = struct.unpack("<If", data)
-        pair, self.last = self.last, None
-        if k == 0 or k > self.total:
+        k, v = struct.unpack("<If", data)
+        if not 1 <= k <= self.total:
             return   # not (or no longer) in the experiment
-        if pair is None:
-            self.unpaired += 1
-            return
         j = k - 1
         with self.cond:
-            if self.seen[j]:
+            if self.got[f, j]:
                 self.duplicates += 1
-            self.T_C[j], self.I_A[j] = pair
-            self.Q_W[j] = q
-            self.seen[j] = True
+            self.values[f, j] = v
+            self.got[f, j] = True
             self.count += 1
             self.highest = max(self.highest, k)
             self.cond.notify_all()
@@ -92,10 +100,10 @@ class Stream:
         return int(self.total - self.seen.sum())
 
     def fill(self, j: int, T_C: float, I_A: float, Q_W: float) -> None:
-        """Sample ``j`` fetched by SDO (lost on the bus)."""
+        """Sample ``j`` fetched by SDO (a value of it lost on the bus)."""
         with self.cond:
-            self.T_C[j], self.I_A[j], self.Q_W[j] = T_C, I_A, Q_W
-            self.seen[j] = True
+            self.values[:, j] = (T_C, I_A, Q_W)
+            self.got[:, j] = True
 
 
 class _Sdo:
@@ -181,22 +189,23 @@ def run_live(args: argparse.Namespace) -> int:
         if int(dev.get("contact")) and not args.force:
             raise common.Failure(f"{target.role}: its pad is touched (contact = 1); identification needs a pad in air "
                                  "(lift the finger or the probe), or --force")
-        # the peer: out of telepresence while its partner runs a PRBS
-        peer_restore = None
-        for t in common.node_targets(net):
-            if t.node_id != target.node_id and t.node_id in hb.last:
-                try:
-                    pdev = _Sdo(nw, t, args.timeout)
-                    pmode = int(pdev.get("mode"))
-                except (common.Failure, UserError):
-                    continue
-                if pmode == int(Mode.TELEPRESENCE):
-                    pdev.set("mode", int(Mode.IDLE))
-                    peer_restore = (pdev, pmode)
-                    print(f"{t.role} (node {t.node_id}): telepresence -> idle for the experiment", file=sys.stderr)
-        saved: list[tuple[int, int, int]] = []
+        saved: dict[int, dict] = {}       # per TPDO communication record: its parameters before we changed them
+        touched: list[int] = []           # the TPDOs this command started to change (restored, and only they)
+        peer_restore: list = []
         stream = None
         try:
+            # 1. the peer: out of telepresence while its partner runs a PRBS
+            for t in common.node_targets(net):
+                if t.node_id != target.node_id and t.node_id in hb.last:
+                    try:
+                        pdev = _Sdo(nw, t, args.timeout)
+                        pmode = int(pdev.get("mode"))
+                    except (common.Failure, UserError):
+                        continue
+                    if pmode == int(Mode.TELEPRESENCE):
+                        peer_restore.append((pdev, pmode))
+                        pdev.set("mode", int(Mode.IDLE))
+                        print(f"{t.role} (node {t.node_id}): telepresence -> idle for the experiment", file=sys.stderr)
             # 2. the plan
             for key, value in (("ident_seed", plan.seed), ("ident_rest_samples", plan.rest_samples),
                                ("ident_train_samples", plan.train_samples),
@@ -205,32 +214,32 @@ def run_live(args: argparse.Namespace) -> int:
                                ("ident_amplitude_min_A", lo), ("ident_amplitude_max_A", hi),
                                ("ident_hold_samples", plan.hold_samples)):
                 dev.set(key, value)
-            # 3. the stream: save, then remap TPDO2 and TPDO3 (CiA 301: invalid while the mapping changes)
-            for comm, mp in ((TPDO2_COMM, TPDO2_MAP), (TPDO3_COMM, TPDO3_MAP)):
+            # 3. the stream: save every TPDO whole first, then remap (CiA 301: invalid while the mapping changes)
+            for comm, mp, _ in STREAM:
                 n = dev.raw_get(mp, 0)
-                saved += [(comm, 1, dev.raw_get(comm, 1)), (comm, 2, dev.raw_get(comm, 2))]
-                saved += [(mp, s, dev.raw_get(mp, s)) for s in range(1, n + 1)] + [(mp, 0, n)]
-            cobs = {}
-            for comm, mp in ((TPDO2_COMM, TPDO2_MAP), (TPDO3_COMM, TPDO3_MAP)):
-                cob = dev.raw_get(comm, 1)
+                saved[comm] = {"map": mp, "cob": dev.raw_get(comm, 1), "type": dev.raw_get(comm, 2), "n": n,
+                               "entries": [dev.raw_get(mp, k) for k in range(1, n + 1)]}
+            cobs = []
+            for comm, mp, entries in STREAM:
+                cob = saved[comm]["cob"]
+                touched.append(comm)
                 dev.raw_set(comm, 1, cob | PDO_INVALID)
                 dev.raw_set(mp, 0, 0)
-                for s, entry in enumerate(STREAM_MAPS[mp], start=1):
-                    dev.raw_set(mp, s, entry)
-                dev.raw_set(mp, 0, len(STREAM_MAPS[mp]))
+                for k, entry in enumerate(entries, start=1):
+                    dev.raw_set(mp, k, entry)
+                dev.raw_set(mp, 0, len(entries))
                 dev.raw_set(comm, 2, 1)
                 dev.raw_set(comm, 1, cob & ~PDO_INVALID)
-                cobs[comm] = cob & 0x7FF
-            stream = Stream(cobs[TPDO2_COMM], cobs[TPDO3_COMM], plan.total)
+                cobs.append(cob & 0x7FF)
+            stream = Stream(cobs, plan.total)
             # only what this command needs from now on (in the kernel on SocketCAN): the stream, SDO
             # responses, heartbeats; a reader that also parsed every SYNC and PDO of a lockstep session falls
             # behind on a slow computer
-            nw.bus.set_filters([{"can_id": stream.cob_t, "can_mask": 0x7FF, "extended": False},
-                                {"can_id": stream.cob_q, "can_mask": 0x7FF, "extended": False},
-                                {"can_id": 0x580, "can_mask": 0x780, "extended": False},
+            nw.bus.set_filters([{"can_id": c, "can_mask": 0x7FF, "extended": False} for c in cobs] +
+                               [{"can_id": 0x580, "can_mask": 0x780, "extended": False},
                                 {"can_id": 0x700, "can_mask": 0x780, "extended": False}])
-            nw.subscribe(stream.cob_t, stream.on_frame)
-            nw.subscribe(stream.cob_q, stream.on_frame)
+            for c in cobs:
+                nw.subscribe(c, stream.on_frame)
             # 4. run
             print(f"identify {target.role} (node {target.node_id}): {plan.total} samples "
                   f"({plan.rest_samples} rest + {plan.train_samples} training + {plan.validation_samples} held-out, "
@@ -240,61 +249,102 @@ def run_live(args: argparse.Namespace) -> int:
             dev.set("mode", int(Mode.IDENTIFY))
             _wait(stream, dev, plan, period_s, quiet=args.quiet)
             t_exp = time.perf_counter() - t0
-        finally:
             nw.bus.set_filters(None)
-            _restore(dev, mode0, saved, peer_restore)
-            if stream is not None:
-                nw.unsubscribe(stream.cob_t)
-                nw.unsubscribe(stream.cob_q)
-        fetched = _fetch_lost(stream, dev, plan)
-        guard = int(dev.get("ident_guard"))
-        start_cycle = int(dev.get("ident_start_cycle"))
-        if stream.missing() or stream.duplicates:
-            raise common.Failure(f"{stream.missing()} of {plan.total} samples missing and {stream.duplicates} repeated on "
-                                 "the bus; nothing fitted or loaded: run again")
-        # 6. fit
-        print("identify: fitting (least squares, output-error refinement, stability check) ...", file=sys.stderr,
-              flush=True)
-        rec = Record(t_s=np.arange(plan.total) * period_s, current_A=stream.I_A.copy(), T_C=stream.T_C.copy(),
-                     Q_W=stream.Q_W.copy(), T_sink_C=np.full(plan.total, np.nan), Q_true_W=np.full(plan.total, np.nan),
-                     guard_interventions=guard)
-        settings = ExperimentSettings(rest_samples=plan.rest_samples, amplitude_A=plan.amplitude_A,
-                                      hold_samples=plan.hold_samples)
-        meta = {"rig": "live node", "node": target.role, "node_id": target.node_id, "bus": common.transport(args, net).describe(),
-                "start_cycle": start_cycle, "samples_fetched_by_sdo": fetched}
-        try:
-            tem, rep = fit_experiment(rec, plan=plan, orders=orders, period_s=period_s, settings=settings,
-                                      method=args.method, meta=meta, keep_record=bool(args.plot),
-                                      source="telethermo identify (live node)")
-        except UnstableModelError as exc:
-            print(f"telethermo identify: {exc}; no model written or loaded (a longer experiment, --samples 10000 or "
-              "more, gives a better-determined model)", file=sys.stderr)
-            return EXIT_FAIL
-        rep["experiment_wall_s"] = t_exp
-        rep["samples_fetched_by_sdo"] = fetched
-        if args.save_data:
-            from telethermo.ident.experiment import save_record_csv
-            path = save_record_csv(args.save_data, rec, plan, comments={**meta, "plan": plan.as_dict(),
-                                                                        "guard_interventions": guard})
-            print(f"samples written: {path}", file=sys.stderr)
-        from telethermo.cli.identify import print_report
-        print_report(rep)
-        if not rep["stable"]:
-            print(f"telethermo identify: model refused ({rep['stability_reason']}); nothing written or loaded",
-                  file=sys.stderr)
-            return EXIT_FAIL
-        if out is not None:
-            save_model(out, tem)
-            print(f"model written: {out}")
-        if args.plot:
-            from telethermo.ident.plots import plot_identification
-            print(f"plot written: {plot_identification(args.plot, tem, rep)}")
-        if args.no_load:
-            print(f"{target.role}: model not loaded (--no-load)")
-            return EXIT_OK
-        crc = load_model_into(dev, tem)
-        print(f"model loaded into {target.role} (node {target.node_id}): CRC-32 0x{crc:08X} verified")
+            fetched = _fetch_lost(stream, dev, plan)
+            if stream.missing() or stream.duplicates:
+                raise common.Failure(f"{stream.missing()} of {plan.total} samples missing and {stream.duplicates} "
+                                     "values repeated on the bus; nothing fitted or loaded: run again")
+            guard = int(dev.get("ident_guard"))
+            start_cycle = int(dev.get("ident_start_cycle"))
+            _check_record(stream, dev, plan, force=args.force)
+            # 5. fit (the node holds 0 A in IDENTIFY, its plan done)
+            print("identify: fitting (least squares, output-error refinement, stability check) ...", file=sys.stderr,
+                  flush=True)
+            rec = Record(t_s=np.arange(plan.total) * period_s, current_A=stream.I_A.copy(), T_C=stream.T_C.copy(),
+                         Q_W=stream.Q_W.copy(), T_sink_C=np.full(plan.total, np.nan),
+                         Q_true_W=np.full(plan.total, np.nan), guard_interventions=guard)
+            settings = ExperimentSettings(rest_samples=plan.rest_samples, amplitude_A=plan.amplitude_A,
+                                          hold_samples=plan.hold_samples)
+            meta = {"rig": "live node", "node": target.role, "node_id": target.node_id,
+                    "bus": common.transport(args, net).describe(), "start_cycle": start_cycle,
+                    "samples_fetched_by_sdo": fetched}
+            try:
+                tem, rep = fit_experiment(rec, plan=plan, orders=orders, period_s=period_s, settings=settings,
+                                          method=args.method, meta=meta, keep_record=bool(args.plot),
+                                          source="telethermo identify (live node)")
+            except UnstableModelError as exc:
+                print(f"telethermo identify: {exc}; no model written or loaded (a longer experiment, --samples 10000 "
+                      "or more, or lower orders give a better-determined model)", file=sys.stderr)
+                return EXIT_FAIL
+            rep["experiment_wall_s"] = t_exp
+            rep["samples_fetched_by_sdo"] = fetched
+            if args.save_data:
+                from telethermo.ident.experiment import save_record_csv
+                path = save_record_csv(args.save_data, rec, plan, comments={**meta, "plan": plan.as_dict(),
+                                                                            "guard_interventions": guard})
+                print(f"samples written: {path}", file=sys.stderr)
+            from telethermo.cli.identify import print_report
+            print_report(rep)
+            if not rep["stable"]:
+                print(f"telethermo identify: model refused ({rep['stability_reason']}); nothing written or loaded",
+                      file=sys.stderr)
+                return EXIT_FAIL
+            if out is not None:
+                save_model(out, tem)
+                print(f"model written: {out}")
+            if args.plot:
+                from telethermo.ident.plots import plot_identification
+                print(f"plot written: {plot_identification(args.plot, tem, rep)}")
+            if args.no_load:
+                print(f"{target.role}: model not loaded (--no-load)")
+            else:
+                # 6. load, while the node still holds 0 A in IDENTIFY (its new predictor starts at rest there)
+                crc = load_model_into(dev, tem)
+                print(f"model loaded into {target.role} (node {target.node_id}): CRC-32 0x{crc:08X} verified")
+        finally:
+            # 7. put back what this command changed; Ctrl-C waits for it
+            with _sigint_deferred():
+                try:
+                    nw.bus.set_filters(None)
+                except Exception:
+                    pass
+                if stream is not None:
+                    for c in stream.field_of:
+                        nw.unsubscribe(c)
+                _restore(dev, mode0, saved, touched, peer_restore)
     return EXIT_OK
+
+
+@contextlib.contextmanager
+def _sigint_deferred():
+    """Ctrl-C while putting a node back would leave it half-configured: hold SIGINT until the block is done,
+    then raise it (main thread only; elsewhere a no-op)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    caught = []
+    old = signal.signal(signal.SIGINT, lambda *_: caught.append(1))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+        if caught:
+            raise KeyboardInterrupt
+
+
+def _check_record(stream: Stream, dev: "_Sdo", plan, *, force: bool) -> None:
+    """Refuse a record the envelope cut or a touch disturbed (Failure): the node's safety state and contact
+    now, and the recorded currents against the plan (a planned non-zero current recorded as 0 A is a cut)."""
+    st, trip = int(dev.get("safety_state")), int(dev.get("last_trip_code"))
+    planned = plan.currents()
+    cut = int(np.sum((planned != 0.0) & (stream.I_A == 0.0)))
+    if st == 3 or cut:
+        raise common.Failure(f"{dev.t.role}: the safety envelope cut the current during the experiment ({cut} samples "
+                             f"at 0 A instead of the plan's; safety state {st}, last trip 0x{trip:04X}); nothing fitted "
+                             "or loaded (see telethermo status; telethermo fault-reset once the cause is gone)")
+    if int(dev.get("contact")) and not force:
+        raise common.Failure(f"{dev.t.role}: the pad is touched (contact = 1) at the end of the experiment; its record "
+                             "is not of a pad in air: nothing fitted or loaded (or --force)")
 
 
 def _fetch_lost(stream: Stream, dev: _Sdo, plan) -> int:
@@ -348,37 +398,34 @@ def _wait(stream: Stream, dev: _Sdo, plan, period_s: float, *, quiet: bool) -> N
                                  "(is the SYNC producer running?)")
 
 
-def _restore(dev: _Sdo, mode0: int, saved: list[tuple[int, int, int]], peer_restore) -> None:
-    """The node's mode and PDO parameters, the peer's mode, as they were; each step tried (one failure does not
-    leave the rest undone). Problems are reported on stderr."""
+def _restore(dev: "_Sdo", mode0: int, saved: dict[int, dict], touched: list[int], peer_restore: list) -> None:
+    """The node's mode, the TPDOs this command changed (from their saved parameters, never read again) and the
+    peer's mode, as they were. Every step is tried, each SDO twice, and a failing one does not stop the rest;
+    what could not be put back is said on stderr."""
     problems = []
 
     def attempt(what: str, fn, *a) -> None:
-        try:
-            fn(*a)
-        except (common.Failure, UserError) as exc:
-            problems.append(f"{what}: {exc}")
+        for _ in range(2):
+            try:
+                fn(*a)
+                return
+            except (common.Failure, UserError) as exc:
+                err = exc
+        problems.append(f"{what}: {err}")
 
-    attempt("mode", dev.set, "mode", mode0)
-    comms = [(i, s, v) for i, s, v in saved if i in (TPDO2_COMM, TPDO3_COMM)]
-    for comm, mp in ((TPDO2_COMM, TPDO2_MAP), (TPDO3_COMM, TPDO3_MAP)):
-        cob = next((v for i, s, v in comms if i == comm and s == 1), None)
-        if cob is None:
-            continue
-        attempt("PDO", dev.raw_set, comm, 1, dev.raw_get(comm, 1) | PDO_INVALID)
-        attempt("PDO", dev.raw_set, mp, 0, 0)
-        entries = [(s, v) for i, s, v in saved if i == mp and s > 0]
-        for s, v in entries:
-            attempt("PDO", dev.raw_set, mp, s, v)
-        n = next((v for i, s, v in saved if i == mp and s == 0), len(entries))
-        attempt("PDO", dev.raw_set, mp, 0, n)
-        tt = next((v for i, s, v in comms if i == comm and s == 2), None)
-        if tt is not None:
-            attempt("PDO", dev.raw_set, comm, 2, tt)
-        attempt("PDO", dev.raw_set, comm, 1, cob)
-    if peer_restore is not None:
-        pdev, pmode = peer_restore
-        attempt("peer mode", pdev.set, "mode", pmode)
+    attempt(f"{dev.t.role} mode", dev.set, "mode", mode0)
+    for comm in touched:
+        sv = saved[comm]
+        mp = sv["map"]
+        attempt(f"TPDO 0x{comm:04X}", dev.raw_set, comm, 1, sv["cob"] | PDO_INVALID)
+        attempt(f"TPDO 0x{comm:04X}", dev.raw_set, mp, 0, 0)
+        for k, v in enumerate(sv["entries"], start=1):
+            attempt(f"TPDO 0x{comm:04X}", dev.raw_set, mp, k, v)
+        attempt(f"TPDO 0x{comm:04X}", dev.raw_set, mp, 0, sv["n"])
+        attempt(f"TPDO 0x{comm:04X}", dev.raw_set, comm, 2, sv["type"])
+        attempt(f"TPDO 0x{comm:04X}", dev.raw_set, comm, 1, sv["cob"])
+    for pdev, pmode in peer_restore:
+        attempt(f"{pdev.t.role} mode", pdev.set, "mode", pmode)
     for p in problems:
         print(f"telethermo identify: could not restore {p} (NMT reset node restores the power-on settings)",
               file=sys.stderr)

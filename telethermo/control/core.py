@@ -532,7 +532,9 @@ def clear_faults(sample: RigSample, peer: PeerValues | None, params: CoreParams,
     inp = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, s_hi, s_lo, state.T_pred_C,
                            params.mode is Mode.TELEPRESENCE, peer_alive, peer_ok)
     env = sf.clear_trips(lim, state.env, inp)
-    return replace(state, env=env, source=())
+    # a bumpless restart of the setpoint source, except for an identification experiment, which goes on
+    # with its plan (its record shows the cut; telethermo identify refuses such a record)
+    return replace(state, env=env, source=() if params.mode is not Mode.IDENTIFY else state.source)
 
 
 def initial_peer(first_sample: RigSample) -> PeerValues:

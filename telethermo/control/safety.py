@@ -463,6 +463,10 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
 def clear_trips(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput) -> EnvelopeState:
     """Operator's fault reset: drop the latched trips whose condition is gone now.
 
+    A trip whose condition cannot be observed while the current is cut (OVERCURRENT: the measured current
+    is 0 A then) is acknowledged by the reset: if its cause is still there it trips again at the next
+    sample that shows it.
+
     The cut is released only when no cut-trip remains and the peer is fine; the ramped setpoint
     restarts from the credible surface temperature (bumpless).
     """
@@ -474,6 +478,12 @@ def clear_trips(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput) 
     if Trip.TIME_AT_TEMPERATURE in state.trips and math.isfinite(inp.surface_hi_C) \
             and inp.surface_hi_C > limits.hot_C - 1.0:
         still.add(Trip.TIME_AT_TEMPERATURE)
+    # the model still disagrees with the sensor (or cannot say): the mismatch persists (a good model
+    # loaded, or the sensor back, removes it); without a model there is nothing to mismatch
+    T_pred = inp.T_pred_C
+    if Trip.MODEL_MISMATCH in state.trips and not math.isnan(T_pred) and (
+            math.isinf(T_pred) or not math.isfinite(inp.T_sensor_C) or abs(T_pred - inp.T_sensor_C) > limits.mismatch_C):
+        still.add(Trip.MODEL_MISMATCH)
     if inp.peer_required and not inp.peer_alive:
         still.add(Trip.PEER_LOST)
     elif inp.peer_required and not inp.peer_ok:

@@ -44,6 +44,13 @@ def test_identify_the_slave_of_a_running_pair(tmp_path, capsys):
         # both back in telepresence; the slave runs its new model, the master still none
         assert get(capsys, bus, "master", "mode") == get(capsys, bus, "slave", "mode") == "1"
         assert get(capsys, bus, "slave", "model_status") == "1" and get(capsys, bus, "master", "model_status") == "0"
+        # with the model estimator driving the pad in telepresence, a model swap is refused (its new predictor
+        # would start at rest under load); with the flux estimator it is taken
+        assert cli(capsys, "set", "--bus", bus, "slave", "estimator", "0")[0] == EXIT_OK
+        code, _, err = cli(capsys, "set", "--bus", bus, "slave", "model_command", "1")
+        assert code == 1 and "0x08000022" in err
+        assert cli(capsys, "set", "--bus", bus, "slave", "estimator", "1")[0] == EXIT_OK
+        assert cli(capsys, "set", "--bus", bus, "slave", "model_command", "1")[0] == EXIT_OK
         # the pair is still coupled: the master receives the slave's PDOs, no peer trip on either side
         assert get(capsys, bus, "master", "peer_alive") == "True" and get(capsys, bus, "slave", "peer_alive") == "True"
         assert get(capsys, bus, "master", "safety_state") in ("0", "1")

@@ -109,12 +109,13 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     from telethermo.cli.identify_live import Stream, _fetch_lost, _Sdo
     from telethermo.canopen_dev.netconfig import load_network
     Q_bus = np.array([float(r[5]) for r in rows])
-    stream = Stream(0, 0, len(rows))
-    stream.T_C[:], stream.I_A[:], stream.Q_W[:] = T_bus, I_bus, Q_bus
-    stream.seen[:] = True
+    stream = Stream([0x281, 0x381, 0x481], len(rows))
+    stream.values[:] = (T_bus, I_bus, Q_bus)
+    stream.got[:] = True
     drop = np.random.default_rng(1).choice(len(rows), 37, replace=False)
-    stream.seen[drop] = False
-    stream.T_C[drop] = stream.I_A[drop] = stream.Q_W[drop] = np.nan
+    for f, js in enumerate(np.array_split(drop, 3)):   # a value of each kind lost (one frame of the three)
+        stream.got[f, js] = False
+        stream.values[f, js] = np.nan
     args = type("A", (), {"network": None, "bus": bus})()
     net = load_network(None)
     with common.canopen_network(args, net) as nw:
@@ -135,8 +136,10 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     assert abs(T_pred - T_sensor) < 0.3
     # and the node is as it was: idle, status TPDOs every 10th SYNC with their EDS mapping
     assert get(capsys, bus, "mode") == "0"
-    assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == "10"
+    assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
+    assert int(get(capsys, bus, "0x1A01:1")) == 0x20000020 and int(get(capsys, bus, "0x1A01:2")) == 0x20020020
     assert int(get(capsys, bus, "0x1A02:1")) == 0x21010020 and int(get(capsys, bus, "0x1A02:2")) == 0x21020020
+    assert int(get(capsys, bus, "0x1A03:0")) == 5 and int(get(capsys, bus, "0x1A03:1")) == 0x27020020
     assert get(capsys, bus, "ident_state") == "2"
 
 
@@ -164,6 +167,8 @@ def test_the_node_refuses_a_bad_model_and_keeps_the_running_one(master, capsys):
     assert set_(capsys, bus, "model_command", 2)[0] == EXIT_OK
     assert wait_for(lambda: get(capsys, bus, "model_status") == "0", 5)
     assert get(capsys, bus, "model_crc32") == "0" and get(capsys, bus, "T_pred_C") == "nan"
+    code, _, err = set_(capsys, bus, "estimator", 0)   # no model any more: the model estimator is refused
+    assert code == EXIT_FAIL and "0x08000022" in err
     del theta1
 
 
@@ -215,3 +220,41 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     assert get(capsys, bus, "safety_state") == "0" and int(get(capsys, bus, "0x1001")) == 0
     # nothing latched: a reset is a no-op, accepted
     assert cli(capsys, "fault-reset", "--bus", bus, "master")[0] == EXIT_OK
+
+
+def test_ctrl_c_during_an_identification_puts_the_node_back(master, capsys):
+    """An operator's Ctrl-C in the middle of the experiment: exit 130, and the node is as it was (idle, its
+    TPDOs as in the EDS), the experiment reported interrupted, no current."""
+    import signal
+    import sys
+    bus, out = master
+    assert wait_for(lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30)
+    proc = subprocess.Popen([sys.executable, "-m", "telethermo.cli.main", "identify", "master", "--bus", bus,
+                             "--samples", "500000", "--validation", "1000", "--quiet"],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    # watch the bus, not the node's SDO server: one SDO channel serves one client at a time (the CLI's now)
+    from telethermo.transport.bus import open_bus, parse_bus_string
+    listener = open_bus(parse_bus_string(bus))
+    try:
+        deadline, numbered = time.monotonic() + 60, 0
+        while time.monotonic() < deadline and proc.poll() is None and numbered < 100:
+            msg = listener.recv(0.5)
+            # TPDO2 remapped to (ident_sample, T_sensor_C): the experiment runs (its EDS mapping starts with
+            # T_sensor_C, whose REAL32 bits read as an integer are ~1.1e9)
+            if msg is not None and msg.arbitration_id == 0x281 and len(msg.data) == 8 and \
+                    0 < int.from_bytes(msg.data[:4], "little") < 500_000:
+                numbered += 1
+        assert proc.poll() is None and numbered == 100, proc.communicate() if proc.poll() is not None else numbered
+        proc.send_signal(signal.SIGINT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        listener.shutdown()
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "Traceback" not in err
+    assert get(capsys, bus, "mode") == "0"
+    assert wait_for(lambda: get(capsys, bus, "ident_state") == "3", 10)
+    assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
+    assert int(get(capsys, bus, "0x1A01:1")) == 0x20000020 and int(get(capsys, bus, "0x1A03:1")) == 0x27020020
+    assert wait_for(lambda: float(get(capsys, bus, "current_A")) == 0.0, 10)

@@ -268,3 +268,19 @@ def test_a_predictor_without_snapshot_makes_states_single_use():
     assert r2.status.T_pred_C == pytest.approx(26.02)
     with pytest.raises(RuntimeError, match="already used"):
         step(S(t=0.01, T=26.0, I=0.5), PeerValues(26.0, 0.0), p, r1.state)
+
+
+def test_a_fault_reset_does_not_restart_an_identification_experiment():
+    from telethermo.control.core import clear_faults
+    from telethermo.ident.plan import IdentifyPlan
+    p = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify=IdentifyPlan(rest_samples=5, train_samples=100,
+                                                                                validation_samples=50))
+    r = step(S(), None, p, init_state(p, None, S()))
+    for k in range(1, 20):
+        r = step(S(t=0.01 * k), None, p, r.state)
+    r = step(S(t=0.2, sink=60.0), None, p, r.state)           # a heat-sink trip cuts the current
+    assert r.current_A == 0.0 and r.state.env.trips
+    st = clear_faults(S(t=0.21), None, p, r.state)             # the sink back to 25 °C: the operator resets
+    assert not st.env.trips
+    r = step(S(t=0.21), None, p, st)
+    assert r.state.ident_k == 22                               # the plan goes on (it does not restart at 0)

@@ -140,3 +140,22 @@ def test_limit_current_never_exceeds_limit_nor_pushes_outward(req, hi, span, I):
         assert i <= 0.0
     if lo <= L.T_min_C + L.guard_C:
         assert i >= 0.0
+
+
+def test_fault_reset_keeps_a_model_mismatch_while_the_model_still_disagrees():
+    """clear_trips (the operator's fault reset) keeps MODEL_MISMATCH while |T_pred - T_sensor| > mismatch_C
+    or T_pred diverged; a model that agrees again (or no model: T_pred NaN) lets it go."""
+    from telethermo.control.safety import EnvelopeInput, EnvelopeState, SafetyLimits, Trip, clear_trips
+    lim = SafetyLimits()
+    st = EnvelopeState(setpoint_C=30.0, trips=frozenset({Trip.MODEL_MISMATCH}), cut=True)
+
+    def after(T_pred):
+        inp = EnvelopeInput(30.0, 0.0, 25.0, 0.0, 30.0, 30.0, T_pred, False, False, False)
+        return clear_trips(lim, st, inp)
+
+    for bad in (30.0 + lim.mismatch_C + 0.5, 30.0 - lim.mismatch_C - 0.5, float("inf")):
+        kept = after(bad)
+        assert kept.trips == {Trip.MODEL_MISMATCH} and kept.cut
+    for good in (30.0 + lim.mismatch_C - 0.5, float("nan")):
+        gone = after(good)
+        assert not gone.trips and not gone.cut

@@ -55,11 +55,11 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
     finally:
         stop_process(node)
     total = REST + N_TRAIN + N_VAL
-    # candump saw the samples of the experiment numbered 1..total, in order, in TPDO3 (0x381) after the
+    # candump saw the samples of the experiment numbered 1..total, in order, in TPDO4 (0x481: number, Q_W) after the
     # remapping (in this slow VM a reader's socket may overflow: candump's too, so not all of them are
     # required here; the CLI fetched its own lost ones by SDO); their heat flux is what the CLI recorded,
     # bit for bit (REAL32)
-    tp3 = [struct.unpack("<If", d) for i, d in frames if i == 0x381 and len(d) == 8]
+    tp3 = [struct.unpack("<If", d) for i, d in frames if i == 0x481 and len(d) == 8]
     numbered = [(k, q) for k, q in tp3 if 1 <= k <= total]
     ks = [k for k, _ in numbered]
     assert ks == sorted(set(ks)) and len(ks) >= 0.95 * total
