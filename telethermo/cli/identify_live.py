@@ -142,6 +142,22 @@ def _parse_amplitude(text: str) -> tuple[float, float]:
 
 
 def run_live(args: argparse.Namespace) -> int:
+    """``telethermo identify NODE``; SIGTERM (a kill, a batch system's stop) is handled like Ctrl-C: the node is
+    put back before the command ends."""
+    if threading.current_thread() is not threading.main_thread():
+        return _run_live(args)
+
+    def on_term(signum, frame):
+        raise KeyboardInterrupt
+
+    old = signal.signal(signal.SIGTERM, on_term)
+    try:
+        return _run_live(args)
+    finally:
+        signal.signal(signal.SIGTERM, old)
+
+
+def _run_live(args: argparse.Namespace) -> int:
     from telethermo.ident import NarmaOrders, UnstableModelError, save_model
     from telethermo.ident.experiment import ExperimentSettings, Record, fit_experiment
     from telethermo.ident.plan import IdentifyPlan

@@ -222,8 +222,8 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     assert cli(capsys, "fault-reset", "--bus", bus, "master")[0] == EXIT_OK
 
 
-def test_ctrl_c_during_an_identification_puts_the_node_back(master, capsys):
-    """An operator's Ctrl-C in the middle of the experiment: exit 130, and the node is as it was (idle, its
+def test_a_kill_during_an_identification_puts_the_node_back(master, capsys):
+    """SIGTERM (as Ctrl-C) in the middle of the experiment: exit 130, and the node is as it was (idle, its
     TPDOs as in the EDS), the experiment reported interrupted, no current."""
     import signal
     import sys
@@ -245,7 +245,7 @@ def test_ctrl_c_during_an_identification_puts_the_node_back(master, capsys):
                     0 < int.from_bytes(msg.data[:4], "little") < 500_000:
                 numbered += 1
         assert proc.poll() is None and numbered == 100, proc.communicate() if proc.poll() is not None else numbered
-        proc.send_signal(signal.SIGINT)
+        proc.send_signal(signal.SIGTERM)   # a kill is handled like Ctrl-C
         _, err = proc.communicate(timeout=60)
     finally:
         listener.shutdown()
