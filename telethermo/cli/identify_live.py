@@ -58,6 +58,7 @@ class Stream:
         self.values = np.full((3, total), np.nan)
         self.got = np.zeros((3, total), dtype=bool)
         self.count = 0
+        self.complete = 0      # samples with all three values
         self.duplicates = 0
         self.highest = 0
         self.cond = threading.Condition()
@@ -88,11 +89,14 @@ class Stream:
             return   # not (or no longer) in the experiment
         j = k - 1
         with self.cond:
-            if self.got[f, j]:
+            repeated = bool(self.got[f, j])
+            if repeated:
                 self.duplicates += 1
             self.values[f, j] = v
             self.got[f, j] = True
             self.count += 1
+            if not repeated and self.got[0, j] and self.got[1, j] and self.got[2, j]:
+                self.complete += 1
             self.highest = max(self.highest, k)
             self.cond.notify_all()
 
@@ -391,11 +395,11 @@ def _wait(stream: Stream, dev: _Sdo, plan, period_s: float, *, quiet: bool) -> N
     last_n, last_t, last_poll = -1, time.monotonic(), 0.0
     while True:
         with stream.cond:
-            stream.cond.wait_for(lambda: stream.highest >= plan.total, 0.2)
-            n, top = stream.count, stream.highest
+            stream.cond.wait_for(lambda: stream.complete >= plan.total, 0.2)
+            n, top, done = stream.count, stream.highest, stream.complete
         if bar is not None:
             bar(min(top, plan.total), plan.total)
-        if top >= plan.total:
+        if done >= plan.total:
             return
         now = time.monotonic()
         if n != last_n:

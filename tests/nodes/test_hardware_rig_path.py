@@ -283,24 +283,27 @@ IDENT = {"rest": 50, "train": 400, "validation": 200, "hold": 5, "orders": "2,2,
 
 
 def _ident_stream(frames, node_id: int, total: int):
-    """The identification samples on the bus, decoded as ``telethermo identify`` decodes them: TPDO2 (T_sensor_C,
-    current_A) then TPDO3 (sample number 1..total, Q_W) of one SYNC. Returns T, I, Q and how often each sample
-    number was seen."""
-    T, I, Q = (np.full(total, np.nan) for _ in range(3))
-    seen = np.zeros(total, dtype=int)
-    pair = None
-    for _, cid, data in frames:
-        if len(data) != 8:
+    """The identification samples on the bus, decoded as ``telethermo identify`` decodes them: TPDO2, TPDO3 and
+    TPDO4, each (sample number 1..total, value): T_sensor_C, current_A, Q_W. Frames of the EDS mappings (before
+    and after the experiment) are told apart by the sample number's range, as the CLI does; TPDO4's EDS mapping
+    starts with the cycle counter, so only the frames between the first and the last numbered TPDO2 count.
+    Returns T, I, Q and how often each sample number was seen with all three values."""
+    vals = np.full((3, total), np.nan)
+    got = np.zeros((3, total), dtype=int)
+    cobs = {0x280 + node_id: 0, 0x380 + node_id: 1, 0x480 + node_id: 2}
+    numbered = [n for n, (_, cid, data) in enumerate(frames) if cid == 0x280 + node_id and len(data) == 8
+                and 1 <= struct.unpack("<I", data[:4])[0] <= total]
+    if not numbered:
+        return vals[0], vals[1], vals[2], np.zeros(total, dtype=int)
+    for _, cid, data in frames[numbered[0]:numbered[-1] + 4]:
+        f = cobs.get(cid)
+        if f is None or len(data) != 8:
             continue
-        if cid == 0x280 + node_id:
-            pair = struct.unpack("<ff", data)
-        elif cid == 0x380 + node_id:
-            k, q = struct.unpack("<If", data)
-            if 1 <= k <= total and pair is not None:
-                T[k - 1], I[k - 1], Q[k - 1] = pair[0], pair[1], q
-                seen[k - 1] += 1
-            pair = None
-    return T, I, Q, seen
+        k, v = struct.unpack("<If", data)
+        if 1 <= k <= total:
+            vals[f, k - 1] = v
+            got[f, k - 1] += 1
+    return vals[0], vals[1], vals[2], got.min(axis=0)
 
 
 def _refit(T, I, Q) -> dict:

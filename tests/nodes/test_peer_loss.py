@@ -175,9 +175,12 @@ def test_real_time_resume_after_the_slave_is_killed_and_restarted(tmp_path):
     assert codes["master"] == 0
     rec = read_recording_csv(tmp_path / "master.csv")
     state, cur = rec.col("m_safety_state"), rec.col("m_current_A")
-    k_trip = next(k for k, t in enumerate(rec.text("m_new_trips")) if "peer_lost" in t)
-    k_resume = k_trip + next(i for i, s in enumerate(state[k_trip:]) if s < 2)
-    assert np.any(state[k_trip:k_resume] == 3)
+    # the kill's episode: the trip whose ramp ended in the cut (on a loaded machine a slow peer may have caused
+    # an earlier, brief peer trip that resumed before the cut: that is the envelope working, not this case)
+    k_cut = int(np.flatnonzero(state == 3)[0])
+    k_trip = max(k for k, t in enumerate(rec.text("m_new_trips")[:k_cut + 1]) if "peer_lost" in t)
+    k_resume = k_cut + next(i for i, s in enumerate(state[k_cut:]) if s < 2)
+    assert np.all(state[k_trip:k_cut] == 2) and np.all(state[k_cut:k_resume] >= 2)
     assert np.all(state[k_resume:] < 2)
     assert abs(cur[k_resume]) <= 0.05
     assert np.max(np.abs(np.diff(cur[k_resume:k_resume + 50]))) <= 0.1

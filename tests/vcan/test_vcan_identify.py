@@ -55,17 +55,18 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
     finally:
         stop_process(node)
     total = REST + N_TRAIN + N_VAL
-    # candump saw the samples of the experiment numbered 1..total, in order, in TPDO4 (0x481: number, Q_W) after the
+    # candump saw the samples of the experiment numbered 1..total, in order, in TPDO2 (0x281: number, T_sensor_C) after the
     # remapping (in this slow VM a reader's socket may overflow: candump's too, so not all of them are
-    # required here; the CLI fetched its own lost ones by SDO); their heat flux is what the CLI recorded,
-    # bit for bit (REAL32)
-    tp3 = [struct.unpack("<If", d) for i, d in frames if i == 0x481 and len(d) == 8]
+    # required here; the CLI fetched its own lost ones by SDO); their temperatures are what the CLI recorded,
+    # bit for bit (REAL32). (TPDO2's EDS mapping starts with T_sensor_C: its REAL32 bits read as a number are
+    # ~1.1e9, never a sample number; TPDO4's starts with the cycle counter, which can be one.)
+    tp3 = [struct.unpack("<If", d) for i, d in frames if i == 0x281 and len(d) == 8]
     numbered = [(k, q) for k, q in tp3 if 1 <= k <= total]
     ks = [k for k, _ in numbered]
     assert ks == sorted(set(ks)) and len(ks) >= 0.95 * total
     rows = [line.split(",") for line in (tmp_path / "m.csv").read_text().splitlines() if line[:1].isdigit()]
     assert len(rows) == total
-    q_csv = np.array([float(r[5]) for r in rows], dtype=np.float32)
+    q_csv = np.array([float(r[4]) for r in rows], dtype=np.float32)
     np.testing.assert_array_equal(np.array([q for _, q in numbered], dtype=np.float32), q_csv[np.array(ks) - 1])
     # the remapping went by CiA 301 on the bus: PDO invalid (COB-ID bit 31), mapping written, valid again
     sdo_writes = [d for i, d in frames if i == 0x601 and d[0] & 0xE0 == 0x20]
