@@ -45,7 +45,7 @@ def _read_samples(path: Path) -> tuple[dict[str, str], np.ndarray, np.ndarray]:
 
 def run(quick: bool = False) -> dict[str, Any]:
     import sim
-    from nodes.launch import HubProcess, node_command, stop_process, wait_for
+    from nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
     from telethermo.ident import NarmaOrders
     from telethermo.ident.experiment import ExperimentSettings, fit_experiment, run_excitation
 
@@ -57,11 +57,7 @@ def run(quick: bool = False) -> dict[str, Any]:
     work = Path(tempfile.mkdtemp(prefix="tt-identify-live-"))
     hub = HubProcess(log_path=work / "hub.log")
     hub.start()
-    node = subprocess.Popen(node_command("master", "--bus", hub.bus, "--scene", str(SCENE), "--mode", "idle",
-                                         "--cycles", "0", "--timing", "lockstep", "--wait-peer", "0",
-                                         "--log", str(work / "master.log")),
-                            stdout=subprocess.DEVNULL, stderr=open(work / "master-stderr.log", "ab"),
-                            start_new_session=True)
+    node = start_lone_node("master", SCENE, work, "--bus", hub.bus)
     cli = [sys.executable, "-m", "telethermo.cli.main"]
     try:
         if not wait_for(lambda: subprocess.run(cli + ["status", "--bus", hub.bus, "master", "--timeout", "0.3"],

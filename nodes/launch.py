@@ -100,6 +100,18 @@ def node_command(role: str, *args: str) -> list[str]:
     return [sys.executable, "-m", f"nodes.{role}", *args]
 
 
+def start_lone_node(role: str, scene: Path, out_dir: Path, *bus_args: str, mode: str = "idle",
+                    timing: str = "lockstep") -> subprocess.Popen:
+    """One node program alone until stopped (``--cycles 0``, no wait for a peer), e.g. the master a
+    ``telethermo identify`` talks to; ``bus_args``: ``--bus B`` or ``--network FILE``. Its log goes to
+    ``out_dir/<role>.log`` and its stderr to ``out_dir/<role>-stderr.log``. Stop it with :func:`stop_process`."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    return subprocess.Popen(node_command(role, *bus_args, "--scene", str(scene), "--mode", mode, "--cycles", "0",
+                                         "--timing", timing, "--wait-peer", "0", "--log", str(out_dir / f"{role}.log")),
+                            stdout=subprocess.DEVNULL, stderr=open(out_dir / f"{role}-stderr.log", "ab"),
+                            start_new_session=True)
+
+
 @dataclass
 class PairConfig:
     """What :class:`NodePair` runs.

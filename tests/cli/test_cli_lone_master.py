@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import sim
-from nodes.launch import HubProcess, node_command, stop_process, wait_for
+from nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
 from telethermo.ident import load_model, odmodel
 from telethermo.ident.experiment import ExperimentSettings, run_excitation
@@ -28,11 +28,7 @@ def master(tmp_path_factory):
     out = tmp_path_factory.mktemp("ident")
     hub = HubProcess(log_path=out / "hub.log")
     hub.start()
-    proc = subprocess.Popen(node_command("master", "--bus", hub.bus, "--scene", str(SCENE), "--mode", "idle",
-                                         "--cycles", "0", "--timing", "lockstep", "--wait-peer", "0",
-                                         "--log", str(out / "master.log")),
-                            stdout=subprocess.DEVNULL, stderr=open(out / "master-stderr.log", "ab"),
-                            start_new_session=True)
+    proc = start_lone_node("master", SCENE, out, "--bus", hub.bus)
     try:
         yield hub.bus, out
     finally:

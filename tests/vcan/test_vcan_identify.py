@@ -4,14 +4,13 @@ from __future__ import annotations
 
 import re
 import struct
-import subprocess
 import time
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from nodes.launch import node_command, stop_process, wait_for
+from nodes.launch import start_lone_node, stop_process, wait_for
 from telethermo.cli.main import EXIT_OK, main
 from telethermo.ident import load_model, odmodel
 
@@ -31,11 +30,7 @@ def cli(capsys, *argv):
 
 def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_network, capsys):
     net = ["--network", str(slow_network), "--timeout", "5"]
-    node = subprocess.Popen(node_command("master", "--network", str(slow_network), "--scene", str(SCENE), "--mode",
-                                         "idle", "--cycles", "0", "--timing", "lockstep", "--wait-peer", "0",
-                                         "--log", str(tmp_path / "master.log")),
-                            stdout=subprocess.DEVNULL, stderr=open(tmp_path / "master-stderr.log", "ab"),
-                            start_new_session=True)
+    node = start_lone_node("master", SCENE, tmp_path, "--network", str(slow_network))
     try:
         assert wait_for(lambda: cli(capsys, "status", *net, "master")[0] == EXIT_OK, 300, poll_s=1.0), \
             (tmp_path / "master-stderr.log").read_text()
