@@ -238,6 +238,11 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2703, _uint("late_cycles", UNSIGNED32, "ro", 0, **ro_pdo, description="real-time cycles that missed their slot")),
         V(0x2704, _uint("lockstep", BOOLEAN, "ro", 0, **ro_pdo, description="1 lockstep, 0 real time")),
         V(0x2705, _uint("peer_alive", BOOLEAN, "ro", 0, **ro_pdo, description="1 while the peer's heartbeat is seen")),
+        V(0x2706, _uint("active_trips", UNSIGNED16, "ro", 0, **ro_pdo,
+                        description="latched safety trips, bit i = i-th trip of telethermo.control.safety.Trip "
+                                    "(0x080 heat_sink, 0x200 peer_lost, ...)")),
+        V(0x2707, _uint("fault_reset_blocked_by", UNSIGNED16, "ro", 0,
+                        description="the trips whose cause persisted at the last refused fault reset (same bits)")),
         # -- device-layer diagnostics (written by telethermo.canopen_dev)
         V(0x2710, _uint("malformed_frames", UNSIGNED32, "ro", 0, description="frames with a wrong length, ignored")),
         V(0x2711, _uint("unknown_cobid_frames", UNSIGNED32, "ro", 0, description="frames with a COB-ID outside the contract")),

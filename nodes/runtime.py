@@ -169,7 +169,7 @@ class NodeRuntime:
         self._w = {name: d.writer(name) for name in (
             "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "force_N", "estimate_C", "T_pred_C",
             "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "ident_sample", "ident_state",
-            "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command", "fault_reset",
+            "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command", "fault_reset", "active_trips", "fault_reset_blocked_by",
             "ident_fetched_T_sensor_C", "ident_fetched_current_A", "ident_fetched_Q_W")}
         self._ident_fetch_index = d.info.get("ident_fetch_sample").index
         self._fault_reset_index = d.info.get("fault_reset").index
@@ -460,6 +460,7 @@ class NodeRuntime:
         after = clear_faults(self._last_sample, self._last_peer, self.params, st)
         if after.env.trips:
             log.warning("fault reset refused: %s persist", ", ".join(sorted(t.value for t in after.env.trips)))
+            self._w["fault_reset_blocked_by"](sf.trips_mask(after.env.trips))   # the client reads why
             return ABORT_DEVICE_STATE
         return None
 
@@ -564,6 +565,7 @@ class NodeRuntime:
         w["T_pred_C"](st.T_pred_C)
         w["T_cmd_C"](st.setpoint_C)
         w["safety_state"](int(st.safety.state))
+        w["active_trips"](sf.trips_mask(res.state.env.trips))
         if st.safety.state != self._safety_state:
             if self._safety_state is not None:
                 log.info("cycle %d: safety state %s -> %s", self.stats.cycles, self._safety_state.name,

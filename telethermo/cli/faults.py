@@ -55,8 +55,16 @@ def run(args: argparse.Namespace) -> int:
                                          f"{common.abort_text(exc.code)}") from None
                 trip_info, trip = before["last_trip_code"]
                 reg_info, reg = before["0x1001"]
-                refused.append(f"{t.role}: a latched fault persists (last trip {_pretty('last_trip_code', trip, trip_info)}, "
-                               f"error register {_pretty('0x1001', reg, reg_info)}): remove its cause, then reset")
+                why = ""
+                try:
+                    from telethermo.control.safety import trips_from_mask
+                    mask = common.sdo_read(node, t, common.lookup(t, "fault_reset_blocked_by"))
+                    why = ", ".join(tr.value for tr in trips_from_mask(int(mask)))
+                except (common.Failure, common.UserError):
+                    pass   # an older node: the last trip and the error register still say a lot
+                refused.append(f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
+                               f"{_pretty('last_trip_code', trip, trip_info)}, error register "
+                               f"{_pretty('0x1001', reg, reg_info)}; remove its cause, then reset")
                 print(f"{t.role} (node {t.node_id}): not reset, {common.abort_text(exc.code)}")
                 continue
             except SdoCommunicationError as exc:

@@ -16,7 +16,7 @@ FIELDS = (
     ("mode", "mode"), ("T_sensor", "T_sensor_C"), ("T_sink", "T_sink_C"), ("estimate", "estimate_C"),
     ("T_pred", "T_pred_C"), ("T_cmd", "T_cmd_C"), ("peer estimate", "peer_estimate_C"), ("flux", "Q_W"),
     ("peer flux", "peer_Q_W"), ("current", "current_A"), ("contact", "contact"), ("safety", "safety_state"),
-    ("last trip", "last_trip_code"), ("cycles", "cycle_counter"), ("late cycles", "late_cycles"),
+    ("last trip", "last_trip_code"), ("latched trips", "active_trips"), ("cycles", "cycle_counter"), ("late cycles", "late_cycles"),
     ("lockstep", "lockstep"), ("peer alive", "peer_alive"), ("error register", "0x1001"),
     ("last EMCY", "0x1003sub1"), ("model", "model_status"), ("model CRC-32", "model_crc32"),
     ("identification", "ident_state"),
@@ -43,6 +43,9 @@ def _pretty(key: str, value, info) -> str:
         return f"{MODES.get(value, '?')} ({value})"
     if key == "safety_state":
         return f"{SAFETY.get(value, '?')} ({value})"
+    if key == "active_trips":
+        from telethermo.control.safety import trips_from_mask
+        return ", ".join(t.value for t in trips_from_mask(int(value))) or "none"
     if key == "model_status":
         return f"{MODEL_STATUS.get(value, '?')} ({value})"
     if key == "model_crc32":

@@ -53,6 +53,20 @@ class Trip(str, Enum):
     PEER_INVALID = "peer_invalid"              # NaN/inf/absurd peer estimate or flux
 
 
+def trips_mask(trips) -> int:
+    """The trips as a bit mask, bit i = the i-th member of :class:`Trip` in declaration order (objects 0x2706,
+    0x2707): sensor_invalid 0x001, open_thermocouple 0x002, sensor_range 0x004, model_mismatch 0x008,
+    surface_high 0x010, surface_low 0x020, time_at_temperature 0x040, heat_sink 0x080, overcurrent 0x100,
+    peer_lost 0x200, peer_invalid 0x400."""
+    order = list(Trip)
+    return sum(1 << order.index(Trip(t)) for t in set(trips))
+
+
+def trips_from_mask(mask: int) -> list[Trip]:
+    """Inverse of :func:`trips_mask` (unknown bits ignored)."""
+    return [t for i, t in enumerate(Trip) if mask >> i & 1]
+
+
 class ErrorRegisterBit(IntEnum):
     """Bits of the CiA 301 error register (object 0x1001)."""
 

@@ -204,7 +204,8 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     assert int(get(capsys, bus, "0x1001")) != 0 and int(get(capsys, bus, "last_trip_code")) != 0
     # the cause persists: refused, nothing cleared, the trip named
     code, out, err = cli(capsys, "fault-reset", "--bus", bus, "master")
-    assert code == EXIT_FAIL and "0x08000022" in out and "persists" in err and "last trip 0x" in err
+    assert code == EXIT_FAIL and "0x08000022" in out and "persists (heat_sink)" in err and "last trip 0x" in err
+    assert int(get(capsys, bus, "active_trips")) == 0x080
     assert get(capsys, bus, "safety_state") == "3"
     # the cause gone, the trip stays latched until the operator resets it
     assert set_(capsys, bus, "sink_trip_C", 55.0)[0] == EXIT_OK
@@ -214,6 +215,7 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     assert code == EXIT_OK, err
     assert "current cut -> ok (0)" in out and "error register 0x00" in out
     assert get(capsys, bus, "safety_state") == "0" and int(get(capsys, bus, "0x1001")) == 0
+    assert get(capsys, bus, "active_trips") == "0"
     # nothing latched: a reset is a no-op, accepted
     assert cli(capsys, "fault-reset", "--bus", bus, "master")[0] == EXIT_OK
 

@@ -159,3 +159,12 @@ def test_fault_reset_keeps_a_model_mismatch_while_the_model_still_disagrees():
     for good in (30.0 + lim.mismatch_C - 0.5, float("nan")):
         gone = after(good)
         assert not gone.trips and not gone.cut
+
+
+def test_trips_mask_round_trip_and_documented_bits():
+    from telethermo.control.safety import Trip, trips_from_mask, trips_mask
+    assert trips_mask([Trip.HEAT_SINK]) == 0x080 and trips_mask([Trip.PEER_LOST, Trip.SENSOR_INVALID]) == 0x201
+    assert trips_mask([]) == 0
+    every = list(Trip)
+    assert trips_from_mask(trips_mask(every)) == every and trips_mask(every) == (1 << len(every)) - 1
+    assert trips_from_mask(0x8000 | 0x008) == [Trip.MODEL_MISMATCH]   # unknown bits ignored
