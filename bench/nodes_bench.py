@@ -23,7 +23,6 @@ import statistics
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -169,35 +168,26 @@ class _Observer:
     """A third client on the hub: every frame, for the bus load."""
 
     def __init__(self, port: int) -> None:
-        import logging
+        from telethermo.transport.bus import FrameLog
+        self.log = FrameLog(f"socketcand://127.0.0.1:{port}/telethermo")
 
-        import can
-        logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.ERROR)
-        self.bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="telethermo", tcp_tune=True)
-        self.frames: list[tuple[float, int, int]] = []
-        self._stop = threading.Event()
-        self._t = threading.Thread(target=self._run, daemon=True)
-        self._t.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            m = self.bus.recv(0.1)
-            if m is not None:
-                self.frames.append((m.timestamp, m.arbitration_id, m.dlc))
+    @property
+    def frames(self) -> list[tuple[float, int, int]]:
+        """(timestamp s, COB-ID, DLC) of every frame so far."""
+        return [(t, cob, len(d)) for t, cob, d in self.log.snapshot()]
 
     def close(self) -> None:
-        self._stop.set()
-        self._t.join(5)
-        self.bus.shutdown()
+        self.log.close()
 
     def load(self) -> dict[str, Any]:
         """Bus load at 1 Mbit/s between the first and the last SYNC seen (hub timestamps)."""
         from telethermo.transport.bus import frame_bits
-        syncs = [t for t, cob, _ in self.frames if cob == 0x080]
+        frames = self.frames
+        syncs = [t for t, cob, _ in frames if cob == 0x080]
         if len(syncs) < 2:
-            return {"frames": len(self.frames), "bus_load_1mbit": None}
+            return {"frames": len(frames), "bus_load_1mbit": None}
         t0, t1 = syncs[0], syncs[-1]
-        inside = [(cob, dlc) for t, cob, dlc in self.frames if t0 <= t < t1]
+        inside = [(cob, dlc) for t, cob, dlc in frames if t0 <= t < t1]
         bits = sum(frame_bits(dlc) for _, dlc in inside)
         per_cob: dict[str, int] = {}
         for cob, _ in inside:

@@ -7,7 +7,6 @@ touches, ``RigTruth.T_contact_face_C``), which no controller sees. The envelope 
 """
 from __future__ import annotations
 
-import dataclasses
 import math
 
 import numpy as np

@@ -26,7 +26,6 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
-from typing import Any
 
 import canopen
 import numpy as np

@@ -58,8 +58,10 @@ def trips_mask(trips) -> int:
     0x2707): sensor_invalid 0x001, open_thermocouple 0x002, sensor_range 0x004, model_mismatch 0x008,
     surface_high 0x010, surface_low 0x020, time_at_temperature 0x040, heat_sink 0x080, overcurrent 0x100,
     peer_lost 0x200, peer_invalid 0x400."""
-    order = list(Trip)
-    return sum(1 << order.index(Trip(t)) for t in set(trips))
+    return sum(_TRIP_BIT[Trip(t)] for t in set(trips)) if trips else 0
+
+
+_TRIP_BIT = {t: 1 << i for i, t in enumerate(Trip)}   # written every control cycle: computed once
 
 
 def trips_from_mask(mask: int) -> list[Trip]:

@@ -24,6 +24,7 @@ or as one string (command-line override ``--bus``)::
 """
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
@@ -184,6 +185,38 @@ def enlarge_receive_buffer(bus: can.BusABC, size: int = RCVBUF_BYTES) -> int:
         return int(sock.getsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF))
     except OSError:
         return 0
+
+
+class FrameLog(can.Listener):
+    """Every data frame a bus receives, in order, as ``(timestamp s, COB-ID, data)``: a bus analyser for tests
+    and benchmarks (a client no node knows about). Frames are collected by python-can's own
+    :class:`can.Notifier` thread. ``bus``: a transport string (``socketcand://127.0.0.1:PORT/telethermo``,
+    ``socketcan:vcan0``, ...). Call :meth:`close` when done."""
+
+    def __init__(self, bus: str) -> None:
+        import threading
+        logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)  # split TCP reads are not news
+        self.bus = open_bus(parse_bus_string(bus))
+        self._frames: list[tuple[float, int, bytes]] = []
+        self._lock = threading.Lock()
+        self._notifier = can.Notifier(self.bus, [self], timeout=0.05)
+
+    def on_message_received(self, msg: can.Message) -> None:
+        if not msg.is_error_frame:
+            with self._lock:
+                self._frames.append((msg.timestamp, msg.arbitration_id, bytes(msg.data)))
+
+    def snapshot(self) -> list[tuple[float, int, bytes]]:
+        """The frames so far (a copy)."""
+        with self._lock:
+            return list(self._frames)
+
+    def __len__(self) -> int:
+        return len(self._frames)
+
+    def close(self) -> None:
+        self._notifier.stop()
+        self.bus.shutdown()
 
 
 def frame_bits(dlc: int, *, extended: bool = False) -> int:

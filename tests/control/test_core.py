@@ -5,7 +5,7 @@ import math
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from telethermo.control.core import CoreParams, Feedback, RenderPhase, RenderSettings, init_state, step
+from telethermo.control.core import CoreParams, RenderPhase, RenderSettings, init_state, step
 from telethermo.control.estimators import Estimator
 from telethermo.control.safety import EMCY_CODES, SafetyState, Trip
 from telethermo.control.types import Mode, PeerValues, Role

@@ -18,7 +18,6 @@ import math
 import re
 import struct
 import subprocess
-import threading
 import time
 from pathlib import Path
 
@@ -27,6 +26,7 @@ import pytest
 
 from nodes.launch import HubProcess, node_command, stop_process, wait_for
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK
+from telethermo.transport.bus import FrameLog
 
 pytestmark = pytest.mark.slow
 
@@ -41,36 +41,11 @@ NODE_ID = {"master": 1, "slave": 2}
 
 
 
-class BusWitness:
+class BusWitness(FrameLog):
     """A bench analyser on the hub: every frame with the hub's timestamp, in the hub's order."""
-
-    def __init__(self, bus: str) -> None:
-        from telethermo.transport.bus import open_bus, parse_bus_string
-        self.bus = open_bus(parse_bus_string(bus))
-        self.frames: list[tuple[float, int, bytes]] = []
-        self._lock = threading.Lock()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            m = self.bus.recv(0.05)
-            if m is not None and not m.is_error_frame:
-                with self._lock:
-                    self.frames.append((m.timestamp, m.arbitration_id, bytes(m.data)))
-
-    def snapshot(self) -> list[tuple[float, int, bytes]]:
-        with self._lock:
-            return list(self.frames)
 
     def saw(self, can_id: int) -> bool:
         return any(f[1] == can_id for f in self.snapshot())
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(5)
-        self.bus.shutdown()
 
 
 def _logs(out: Path, role: str) -> str:
@@ -118,7 +93,7 @@ def bench(tmp_path_factory):
         hub.stop()
     results = [json.loads(ln[len("result "):]) for ln in stdout.splitlines() if ln.startswith("result ")]
     return {"out": out, "master_code": master.returncode, "slave_code": slave_code, "stdout": stdout,
-            "result": results[0] if results else None, "frames": witness.frames, "wall_total_s": wall_total}
+            "result": results[0] if results else None, "frames": witness.snapshot(), "wall_total_s": wall_total}
 
 
 def _session_frames(bench) -> list[tuple[float, int, bytes]]:

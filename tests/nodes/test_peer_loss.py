@@ -3,7 +3,6 @@ raises EMCY 0x8130; restart the slave: the session resumes (error reset EMCY, bu
 Observed from a third client on the hub (python-can's socketcand client) and from the master's recording."""
 from __future__ import annotations
 
-import threading
 from pathlib import Path
 
 import can
@@ -12,6 +11,7 @@ import pytest
 
 from nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.session.recording import read_recording_csv
+from telethermo.transport.bus import FrameLog
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 MISS_LIMIT = 10          # 0x2408 peer_pdo_miss_limit default
@@ -19,31 +19,20 @@ HB_PRODUCER_MS, HB_CONSUMER_MS = 100, 250   # bus_config/network.toml
 RAMP_C_PER_S, PERIOD_S, NEUTRAL_C = 5.0, 0.01, 32.0
 
 
-class Observer:
-    """Every frame on the hub, in order (a bus monitor no node knows about)."""
+class Observer(FrameLog):
+    """Every frame on the hub, in order (a bus monitor no node knows about), as (COB-ID, data)."""
 
     def __init__(self, port: int) -> None:
-        self.bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="telethermo", tcp_tune=True)
-        self.frames: list[tuple[int, bytes]] = []
-        self._stop = threading.Event()
-        self._t = threading.Thread(target=self._run, daemon=True)
-        self._t.start()
+        super().__init__(f"socketcand://127.0.0.1:{port}/telethermo")
 
-    def _run(self) -> None:
-        while not self._stop.is_set():
-            m = self.bus.recv(0.1)
-            if m is not None:
-                self.frames.append((m.arbitration_id, bytes(m.data)))
+    @property
+    def frames(self) -> list[tuple[int, bytes]]:
+        return [(cob, d) for _, cob, d in self.snapshot()]
 
     def emcy(self, node_id: int, code: int) -> list[int]:
         """Positions of EMCY frames of ``node_id`` with error ``code``."""
         return [i for i, (cob, d) in enumerate(list(self.frames))
                 if cob == 0x80 + node_id and len(d) == 8 and int.from_bytes(d[:2], "little") == code]
-
-    def close(self) -> None:
-        self._stop.set()
-        self._t.join(5)
-        self.bus.shutdown()
 
 
 @pytest.fixture

@@ -3,7 +3,6 @@ bad input is refused with exit 2, Ctrl-C stops every child cleanly (exit 130, fi
 from __future__ import annotations
 
 import json
-import os
 import signal
 import subprocess
 import sys

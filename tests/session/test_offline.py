@@ -5,7 +5,6 @@ default controller reaches on these rigs, with the issue's targets noted where t
 (see docs/control.md for what limits them).
 """
 import json
-import math
 
 import numpy as np
 import pytest
