@@ -92,7 +92,24 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
         report.append(f"{role}: pad touches nothing: air only")
     return SimRig(params, bodies, Schedule(touches), ambient_C=scene.ambient_C, period_s=scene.period_s,
                   noise=np_, seed=scene.seed if seed is None else seed, name=role, prune=prune, pruning=report,
-                  grid=grid)
+                  grid=grid, start=_start(scene, role, params, grid))
+
+
+def finger_natural_C(scene: Scene, params: RigParams, grid: GridSettings) -> float:
+    """The finger's natural skin temperature (steady state in the scene's air), °C."""
+    body = Body(BodySpec("finger", kind="finger", finger=scene.finger), params.area_m2, scene.ambient_C,
+                params.h_air_W_m2K, grid)
+    return body.surface_C()
+
+
+def _start(scene: Scene, role: str, params: RigParams, grid: GridSettings) -> str | float | None:
+    """The rig's settled start (sim.rig.SimRig ``start``): the master's as the scene says; the slave's
+    "finger" is its pad held in air at the finger's natural skin temperature."""
+    if role == "master":
+        return scene.master_start
+    if scene.slave_start == "finger":
+        return finger_natural_C(scene, params, grid)
+    return scene.slave_start
 
 
 def free_pad_rig(period_s: float = 0.01, ambient_C: float = 25.0, seed: int | None = 0, noise: bool = True,

@@ -149,8 +149,11 @@ class Config:
         self.q_full = np.append(self.q_f, 0.0)          # acts on the augmented state [x, E_out]
         if body is not None:
             self.surf_f, self.surf_f0 = self.system.face_functional(4, "front")
+            # heat flow across the contact (sensor top -> body), W: what the touching body receives
+            self.body_q_f, self.body_q_f0 = self.system.link_flux_functional(3)
         else:
             self.surf_f, self.surf_f0 = None, math.nan
+            self.body_q_f, self.body_q_f0 = None, math.nan
         self.top_f, self.top_f0 = ft, ft0       # top face of the sensor (what a body touches), °C
         self._steps: dict[float, tuple] = {}
         self._last_dt, self._last_m = math.nan, None

@@ -31,6 +31,8 @@ class RigTruth:
         force_N: contact force, N.
         T_contact_face_C: top face of the flux sensor (the pad surface a body touches), °C.
         current_A: drive current, A.
+        Q_into_body_W: heat flow across the contact into the touching body (finger / object), W; > 0 heats
+            the body; 0 when nothing touches.
     """
 
     t_s: float
@@ -43,6 +45,7 @@ class RigTruth:
     force_N: float
     T_contact_face_C: float = math.nan
     current_A: float = 0.0
+    Q_into_body_W: float = 0.0
 
 
 class SimRig:
@@ -54,7 +57,8 @@ class SimRig:
 
     def __init__(self, params: RigParams, bodies: dict[str, Body], schedule, *, ambient_C: float, period_s: float,
                  noise: NoiseParams, seed: int | None, name: str = "rig", prune: bool = True,
-                 pruning: list[str] | None = None, grid: GridSettings | None = None) -> None:
+                 pruning: list[str] | None = None, grid: GridSettings | None = None,
+                 start: str | float | None = None) -> None:
         self.name = name
         self.params = params
         self.period_s = float(period_s)
@@ -88,6 +92,8 @@ class SimRig:
         self._chQ = Channel(noise.Q_sigma_W if on else 0.0, noise.Q_lsb_W, noise.cutoff_Hz, fs, rng)
         self._switch()
         self._next_event = self.schedule.next_event_after(self.t_s)
+        if start is not None:
+            self._settle(start)
         self._stored0 = self._stored_total()
         self._sample()
 
@@ -127,6 +133,61 @@ class SimRig:
         self._touch = touch
         self._force = touch.force_N if touch is not None else 0.0
         self._contact = self._force > self.params.detect_threshold_N
+
+    # ---- settled start -------------------------------------------------------------------------------
+    def _steady_at(self, I_A: float) -> np.ndarray:
+        """Steady state of the present contact state at a constant current I_A (the plate heats are linear in
+        the plate temperatures at a fixed current: one linear solve)."""
+        sysm = self.cfg.system
+        a, hT, J = self._alpha * I_A, 0.5 * self._tau * I_A, 0.5 * self._R * I_A * I_A
+        K = sysm.K.copy()
+        rhs = -sysm.s.copy()
+        i_s, i_p = self.cfg.i_s, self.cfg.i_p
+        K[i_s, i_s] += -a + hT
+        K[i_s, i_p] += -hT
+        K[i_p, i_s] += -hT
+        K[i_p, i_p] += a + hT
+        rhs[i_s] -= -a * KELVIN + J
+        rhs[i_p] -= a * KELVIN + J
+        return np.linalg.solve(K, rhs)
+
+    def _settle(self, start: str | float) -> None:
+        """Put the rig in the steady state a long-running display would be in at t = 0.
+
+        ``"finger"``: the finger (attached at t = 0) rests on a display that renders air: the pad draws from
+        it exactly the heat the finger loses to air at its natural (steady, in air) state, so the finger's
+        profile is its natural one. A number (°C): the sensor's mid-plane held at that temperature. The
+        constant current that does it is found by the secant method (the steady state is smooth in I)."""
+        cfg = self.cfg
+        n = cfg.n
+        if start == "finger":
+            body = cfg.body
+            if body is None or body.spec.kind != "finger":
+                raise ValueError("SimRig: start 'finger' needs the finger on the pad at t = 0")
+            f_air, f0_air = body.system.face_functional(0, "front")
+            T_nat = float(f_air @ body.x[: body.n] + f0_air)
+            loss_W = float(body.air.G_W_K) * (T_nat - body.ambient_C)
+
+            def resid(I: float) -> float:
+                return float(cfg.body_q_f @ self._steady_at(I) + cfg.body_q_f0) + loss_W
+        elif isinstance(start, (int, float)) and not isinstance(start, bool):
+            T_target = float(start)
+
+            def resid(I: float) -> float:
+                return float(self._steady_at(I)[cfg.i_mid]) - T_target
+        else:
+            raise ValueError(f"SimRig: start: expected 'finger' or a temperature in °C, got {start!r}")
+        I0, I1 = 0.0, 0.1
+        r0, r1 = resid(I0), resid(I1)
+        for _ in range(50):
+            if abs(r1) < 1e-12 or r1 == r0:
+                break
+            I0, I1, r0 = I1, I1 - r1 * (I1 - I0) / (r1 - r0), r1
+            r1 = resid(I1)
+        if not (abs(I1) <= self.I_max_A and abs(r1) < 1e-6):
+            raise ValueError(f"SimRig: no steady start {start!r} within ±{self.I_max_A} A (residual {r1:.3g})")
+        self.I = I1
+        self.x = np.append(self._steady_at(I1)[:n], 0.0)
 
     # ---- rig interface -------------------------------------------------------------------------------
     def apply_current(self, current_A: float) -> None:
@@ -212,11 +273,13 @@ class SimRig:
         n = cfg.n
         touch = self._touch
         surf = float(cfg.surf_f @ x[:n] + cfg.surf_f0) if cfg.surf_f is not None else math.nan
+        q_body = float(cfg.body_q_f @ x[:n] + cfg.body_q_f0) if cfg.body_q_f is not None else 0.0
         return RigTruth(t_s=self.t_s, T_pad_C=float(x[cfg.i_p]), T_surface_C=surf,
                         T_sensor_true_C=float(x[cfg.i_mid]), Q_true_W=float(cfg.q_f @ x[:n] + cfg.q_f0),
                         T_sink_C=float(x[0]), touching=touch.body if touch else None,
                         force_N=touch.force_N if touch else 0.0,
-                        T_contact_face_C=float(cfg.top_f @ x[:n] + cfg.top_f0), current_A=self.I)
+                        T_contact_face_C=float(cfg.top_f @ x[:n] + cfg.top_f0), current_A=self.I,
+                        Q_into_body_W=q_body)
 
     def pruning_report(self) -> list[str]:
         """What the compiled scene skipped, and why."""

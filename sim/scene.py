@@ -20,6 +20,15 @@ Format (all times s, temperatures °C, forces N, lengths mm)::
     T0_C = 25.0                    # default: ambient
     back = "adiabatic"             # or "ambient"
 
+    [master]                       # optional: how the display starts (default: everything at ambient, 0 A)
+    start = "finger"               # "finger": the finger has rested on a display rendering air for long
+                                   # (steady state, finger at its natural temperature); or a number: the
+                                   # pad regulated at that temperature for long (°C)
+
+    [slave]                        # optional: how the probe starts (default: ambient, 0 A)
+    start = "finger"               # "finger": its pad held in air at the finger's natural skin temperature
+                                   # (the pair has been running before t = 0); or a temperature, °C
+
     [[master.contacts]]            # the operator's finger on the master pad
     start_s = 0.0
     end_s = 30.0
@@ -87,6 +96,8 @@ class Scene:
     rig_params: RigParams
     description: str = ""
     tolerance_C: float = 0.05
+    master_start: str | float | None = None
+    slave_start: str | float | None = None
 
     @property
     def rigs(self) -> tuple[str, ...]:
@@ -241,10 +252,26 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
                                   back=r.string(o, "back", p, default="adiabatic", choices=("adiabatic", "ambient")))
 
     mr = r.table(raw, "master")
-    r.known(mr, ("contacts",), "master.")
+    r.known(mr, ("contacts", "start"), "master.")
+    master_start = mr.get("start")
+    if master_start is not None:
+        if isinstance(master_start, str):
+            if master_start != "finger":
+                raise SceneError(path, "master.start", "\"finger\" or a temperature in [15, 43] °C", master_start)
+        else:
+            master_start = r.num(mr, "start", "master.", lo=15.0, hi=43.0)
     master = _contacts(r, mr.get("contacts", []), "master.contacts", duration, objects, kind, True, known)
     sr = r.table(raw, "slave")
-    r.known(sr, ("contacts",), "slave.")
+    r.known(sr, ("contacts", "start"), "slave.")
+    slave_start = sr.get("start")
+    if slave_start is not None:
+        if kind != "telepresence":
+            raise SceneError(path, "slave.start", "no slave settings in a 'virtual' scene (master only)")
+        if isinstance(slave_start, str):
+            if slave_start != "finger":
+                raise SceneError(path, "slave.start", "\"finger\" or a temperature in [15, 43] °C", slave_start)
+        else:
+            slave_start = r.num(sr, "start", "slave.", lo=15.0, hi=43.0)
     if kind == "virtual" and sr.get("contacts"):
         raise SceneError(path, "slave.contacts", "no slave contacts in a 'virtual' scene (master only)")
     slave = _contacts(r, sr.get("contacts", []), "slave.contacts", duration, objects, kind, False, known)
@@ -282,7 +309,8 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
                  finger=finger, objects=objects, master_contacts=master, slave_contacts=slave, noise=noise,
                  seed=seed, record_signals=tuple(signals), record_every_s=every,
                  rig_params=rig_params or load_rig_params(), description=str(sc.get("description", "")),
-                 tolerance_C=tolerance)
+                 tolerance_C=tolerance, master_start=master_start,
+                 slave_start=slave_start)
 
 
 def load_scene(path_or_name: str | Path) -> Scene:
