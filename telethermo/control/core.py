@@ -114,6 +114,9 @@ class RenderSettings:
         return contact_temperature(self.T_finger0_C, 1.0, self.T_object0_C, self.beta_object)
 
 
+_NO_GAINS = PIGains(0.0, 0.0)
+
+
 def _finite_number(owner: str, name: str, v: Any, *, lo: float | None = None, hi: float | None = None,
                    lo_open: bool = False) -> None:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
@@ -153,6 +156,14 @@ class CoreParams:
         echo_peer_when_free: (slave, telepresence) while no contact is detected, send back the
             peer's estimate instead of the own (an object estimate in air means nothing): the
             display then only mirrors the probe's flux, and the finger rests as in air.
+        air_rendering: (master, telepresence) render *air* while the probe touches nothing (the
+            peer's contact flag is False): no temperature tracking, the flux loop
+            (``air_kpQ_A_per_W``, ``air_kiQ_A_per_W_s``) draws from the finger only what air would,
+            ``G_air_W_per_K·(T_f − T_air_C)``, so the finger stays at its natural temperature; and with
+            no finger on the display (own contact detector and the rig's flag both off) hold
+            ``safety.neutral_C``. In contact the published law runs (track T_o, flux mirror).
+        G_air_W_per_K: conductance of still air over the contact area (h·A = 15 W/(m²·K) · 15 × 15 mm), W/K.
+        T_air_C: the air's temperature for air rendering, °C.
     """
 
     role: Role
@@ -174,8 +185,14 @@ class CoreParams:
     idle_ramp_A_per_s: float = 4.0
     identify: IdentifyPlan = field(default_factory=IdentifyPlan)
     echo_peer_when_free: bool = False
+    air_rendering: bool = False
+    air_kpQ_A_per_W: float = 0.1
+    air_kiQ_A_per_W_s: float = 1.0
+    G_air_W_per_K: float = 15.0 * 0.015 * 0.015
+    T_air_C: float = 25.0
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
+    _air_gains: Any = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         o = "CoreParams"
@@ -196,6 +213,12 @@ class CoreParams:
         _finite_number(o, "R_sensor_K_per_W", self.R_sensor_K_per_W, lo=0.0, hi=1000.0)
         _finite_number(o, "fused_weight", self.fused_weight, lo=0.0, hi=1.0)
         _finite_number(o, "idle_ramp_A_per_s", self.idle_ramp_A_per_s, lo=0.0, lo_open=True)
+        _finite_number(o, "air_kpQ_A_per_W", self.air_kpQ_A_per_W, lo=0.0, hi=100.0)
+        _finite_number(o, "air_kiQ_A_per_W_s", self.air_kiQ_A_per_W_s, lo=0.0, hi=1000.0)
+        _finite_number(o, "G_air_W_per_K", self.G_air_W_per_K, lo=0.0, hi=1.0)
+        _finite_number(o, "T_air_C", self.T_air_C, lo=-20.0, hi=60.0)
+        if not isinstance(self.air_rendering, bool):
+            raise ValueError(f"{o}.air_rendering: expected True or False, got {self.air_rendering!r}")
         if not isinstance(self.identify, IdentifyPlan):
             raise ValueError(f"{o}.identify: expected an IdentifyPlan, got {type(self.identify).__name__}")
         if not isinstance(self.safety, sf.SafetyLimits):
@@ -209,6 +232,7 @@ class CoreParams:
         fg = None if (self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0) else \
             PIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
         object.__setattr__(self, "_flux_gains", fg)
+        object.__setattr__(self, "_air_gains", PIGains(self.air_kpQ_A_per_W, self.air_kiQ_A_per_W_s))
 
     @property
     def gains(self) -> PIGains:
@@ -357,8 +381,11 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
     pred = _as_predictor(predictor_or_model, T0)
     cell = _PredictorCell(pred) if pred is not None else None
     snap = pred.snapshot() if cell is not None and cell.can_snapshot else None
+    # bumpless from the current the rig is already driving (a display that was holding its pad)
+    I0 = first_sample.current_A if math.isfinite(first_sample.current_A) else 0.0
+    I0 = min(max(I0, -params.safety.I_limit_A), params.safety.I_limit_A)
     return CoreState(k=0, t_s=first_sample.t_s, env=sf.EnvelopeState(), pi=PIState(0.0), contact=ContactState(),
-                     u_prev_A=0.0, source=(), render_phase=RenderPhase.PRESET, T_pred_C=T0 if pred else math.nan,
+                     u_prev_A=I0, source=(), render_phase=RenderPhase.PRESET, T_pred_C=T0 if pred else math.nan,
                      pred_tick=0, pred_snapshot=snap, cell=cell)
 
 
@@ -430,14 +457,26 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     eQ = 0.0
     phase = state.render_phase
     hold_current = False
+    gains = params.gains
+    fg = params.flux_gains if mode is Mode.TELEPRESENCE else None
     if mode is Mode.TELEPRESENCE:
+        phase_t = "contact"
         if peer_alive and peer_ok:
             req = peer.estimate_C
             ff = -params.kQ_A_per_W * peer.flux_W
             eQ = -peer.flux_W - Q
+            if params.air_rendering and params.role is Role.MASTER:
+                if not (cst.contact or sample.contact):
+                    phase_t = "no_finger"      # nothing on the display: hold neutral, no flux terms
+                    req, ff, eQ, fg = lim.neutral_C, 0.0, 0.0, None
+                elif peer.contact is False:
+                    phase_t = "air"            # the probe touches nothing: render air
+                    req, ff = est, 0.0
+                    eQ = -params.G_air_W_per_K * (est - params.T_air_C) - Q
+                    gains, fg = _NO_GAINS, params._air_gains
         else:
             req = math.nan
-        source = (mode,)
+        source = (mode, phase_t)
     elif mode is Mode.RENDER:
         rs = params.render
         phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
@@ -470,8 +509,6 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     # 5. controller
     y = T_pred if params.feedback is Feedback.MODEL else est
     err = sp - y
-    gains = params.gains
-    fg = params.flux_gains if mode is Mode.TELEPRESENCE else None
     pi_st = state.pi
     if switched or env.cut:
         pi_st = bumpless(gains, state.u_prev_A if not env.cut else 0.0, err, ff, -I_lim, I_lim,
@@ -517,7 +554,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     if (params.echo_peer_when_free and mode is Mode.TELEPRESENCE and not cst.contact and peer_ok and peer_alive
             and math.isfinite(est)):
         sent = peer.estimate_C
-    return StepResult(current_A=current, out=Outgoing(estimate_C=sent, flux_W=Q), state=new_state, status=status)
+    return StepResult(current_A=current, out=Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact), state=new_state,
+                      status=status)
 
 
 def clear_faults(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> CoreState:

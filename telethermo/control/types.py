@@ -38,17 +38,22 @@ class PeerValues:
         fresh: True if a new value arrived for this cycle; False if the core is re-using an old one.
         alive: False once the node has declared the peer lost (heartbeat timeout or missing PDOs):
             the safety envelope then ramps to neutral and cuts current.
+        contact: the peer's contact detector (the probe touches something), or None when the peer
+            does not say (then the master treats the probe as touching: the published law).
     """
 
     estimate_C: float
     flux_W: float
     fresh: bool = True
     alive: bool = True
+    contact: bool | None = None
 
 
 @dataclass(frozen=True, slots=True)
 class Outgoing:
-    """What a controller sends to its peer each cycle (TPDO1): REAL32 on the bus."""
+    """What a controller sends to its peer each cycle (TPDO1: REAL32 on the bus; the contact flag in
+    the contact PDO)."""
 
     estimate_C: float
     flux_W: float
+    contact: bool = False

@@ -68,7 +68,7 @@ def _side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[
 def _truth_row(p: str, rig) -> dict[str, Any]:
     tr = rig.truth()
     row = {f"{p}_true_surface_C": tr.T_surface_C, f"{p}_true_Q_W": tr.Q_true_W,
-           f"{p}_true_touching": float(tr.touching is not None)}
+           f"{p}_true_Q_into_body_W": tr.Q_into_body_W, f"{p}_true_touching": float(tr.touching is not None)}
     if p == "m":
         row["m_true_finger_C"] = _finger_skin_C(rig, tr)
     return row
@@ -166,8 +166,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
         b.add(row)
         st_m, st_s = rm.state, rs.state
         # values sent in this cycle, received by the peer in the next one
-        peer_m = PeerValues(rnd(rs.out.estimate_C), rnd(rs.out.flux_W))
-        peer_s = PeerValues(rnd(rm.out.estimate_C), rnd(rm.out.flux_W))
+        peer_m = PeerValues(rnd(rs.out.estimate_C), rnd(rs.out.flux_W), contact=rs.out.contact)
+        peer_s = PeerValues(rnd(rm.out.estimate_C), rnd(rm.out.flux_W), contact=rm.out.contact)
         rig_m.apply_current(rm.current_A)
         rig_s.apply_current(rs.current_A)
         rig_m.advance(period)

@@ -204,7 +204,9 @@ def test_the_shipped_gains_are_inside_the_default_space():
     assert _inside(tn.default_gains(), tn.DEFAULT_SPACE)
     assert _inside(REFERENCE, tn.DEFAULT_SPACE)
     for role in (Role.MASTER, Role.SLAVE):
-        assert set(GAINS[role]) == set(tn.GAIN_FIELDS)
+        # every tuned gain has a shipped value (the defaults also carry non-gain settings: air rendering, the
+        # air flux loop, the slave's contact source)
+        assert set(tn.GAIN_FIELDS) <= set(GAINS[role])
 
 
 def test_cli_tune_writes_a_loadable_gains_file(tmp_path, capsys):
