@@ -37,6 +37,10 @@ UNIT_TEXT = {  # name suffix -> ASCII unit for the Unit= key (longest suffixes f
 }
 
 NODE_IDS = {"master": 1, "slave": 2}
+#: TPDO5 (the contact flag, 1 byte, every SYNC) goes on 0x680 + node-ID: outside CiA 301's predefined
+#: connection set and its restricted COB-IDs (0x680..0x6DF are free), so no other device's default uses it.
+#: It is sent after TPDO1 in the same SYNC, so a peer that has it has the TPDO1 of the same cycle too.
+CONTACT_PDO_BASE = 0x680
 TPDO_STATUS_TRANSMISSION_TYPE = 10  # status TPDOs 2..4 go with every 10th SYNC (bus load at 1 kHz)
 
 
@@ -138,6 +142,8 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2003, _real("T_sink_C", "ro", 0.0, **ro_pdo, description="heat-sink temperature")),
         V(0x2004, _uint("contact", BOOLEAN, "ro", 0, **ro_pdo, description="contact detector: 1 while touched")),
         V(0x2005, _real("force_N", "ro", 0.0, **ro_pdo, description="contact force (0 if not measured)")),
+        V(0x2006, _uint("contact_decision", BOOLEAN, "ro", 0, **ro_pdo,
+                        description="the controller's contact decision (its detector, or the rig's flag), sent in TPDO5")),
         # -- estimates
         V(0x2100, _real("estimate_C", "ro", 0.0, **ro_pdo,
                         description="own estimate sent in TPDO1: finger T_f (master, eq. 30) / object T_o (slave, eq. 31)")),
@@ -147,6 +153,8 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
                         description="peer's estimate, received in RPDO1 (limits apply to SDO writes only)")),
         V(0x2104, _real("peer_Q_W", "rww", 0.0, -1000.0, 1000.0, pdo=True,
                         description="peer's heat flux, received in RPDO1 (limits apply to SDO writes only)")),
+        V(0x2105, _uint("peer_contact", BOOLEAN, "rww", 0, 0, 1, pdo=True,
+                        description="peer's contact detector, received in RPDO2 (the probe touches something)")),
         # -- controller (eq. 33-35)
         V(0x2200, _real("kp_A_per_C", "rw", kp, 0.0, 20.0, description="proportional gain")),
         V(0x2201, _real("ki_A_per_C_s", "rw", ki, 0.0, 20.0, description="integral gain")),
@@ -289,16 +297,20 @@ def communication_objects(role: str) -> list[Obj]:
                         description="0 no counter, 2..240 counter wraps after this value")),
         _pdo_comm(0x1400, "RPDO1 communication parameter", f"0x{0x180 + peer:X}", 1, tpdo=False),
         _pdo_map(0x1600, "RPDO1 mapping parameter", [_mapping(0x2103, 0, 32), _mapping(0x2104, 0, 32)]),
+        _pdo_comm(0x1401, "RPDO2 communication parameter", f"0x{CONTACT_PDO_BASE + peer:X}", 1, tpdo=False),
+        _pdo_map(0x1601, "RPDO2 mapping parameter", [_mapping(0x2105, 0, 8)]),
         _pdo_comm(0x1800, "TPDO1 communication parameter", "$NODEID+0x180", 1, tpdo=True),
         _pdo_comm(0x1801, "TPDO2 communication parameter", "$NODEID+0x280", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
         _pdo_comm(0x1802, "TPDO3 communication parameter", "$NODEID+0x380", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
         _pdo_comm(0x1803, "TPDO4 communication parameter", "$NODEID+0x480", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
+        _pdo_comm(0x1804, "TPDO5 communication parameter", f"$NODEID+0x{CONTACT_PDO_BASE:X}", 1, tpdo=True),
         _pdo_map(0x1A00, "TPDO1 mapping parameter", [_mapping(0x2100, 0, 32), _mapping(0x2001, 0, 32)]),
         _pdo_map(0x1A01, "TPDO2 mapping parameter", [_mapping(0x2000, 0, 32), _mapping(0x2002, 0, 32)]),
         _pdo_map(0x1A02, "TPDO3 mapping parameter", [_mapping(0x2101, 0, 32), _mapping(0x2102, 0, 32)]),
         _pdo_map(0x1A03, "TPDO4 mapping parameter", [_mapping(0x2702, 0, 32), _mapping(0x2700, 0, 8),
                                                      _mapping(0x2500, 0, 8), _mapping(0x2004, 0, 8),
                                                      _mapping(0x2705, 0, 8)]),
+        _pdo_map(0x1A04, "TPDO5 mapping parameter", [_mapping(0x2006, 0, 8)]),
     ]
     return objs
 

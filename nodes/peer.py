@@ -45,6 +45,7 @@ class PeerLink:
         self._missed = 0
         self._hb_ok = True
         self._alive_reported: bool | None = None  # None until the first PDO
+        self._contact: bool | None = None  # the peer's contact flag (RPDO2); None until it arrives
         self.counters = PeerCounters()
 
     def on_pdo(self, estimate_C: float, flux_W: float) -> None:
@@ -56,6 +57,11 @@ class PeerLink:
             self.counters.pdos += 1
             if not (math.isfinite(estimate_C) and math.isfinite(flux_W)):
                 self.counters.non_finite += 1
+
+    def on_contact(self, contact: bool) -> None:
+        """The peer's contact PDO (RPDO2) arrived."""
+        with self._lock:
+            self._contact = bool(contact)
 
     def start_with(self, values: PeerValues) -> None:
         """Stand-in values until the peer's first PDO (``initial_peer`` of the first sample): not
@@ -103,4 +109,5 @@ class PeerLink:
                     self.counters.losses += 1
             self._alive_reported = alive
             fresh, self._fresh = self._fresh, False
-            return PeerValues(estimate_C=self._estimate_C, flux_W=self._flux_W, fresh=fresh, alive=alive)
+            return PeerValues(estimate_C=self._estimate_C, flux_W=self._flux_W, fresh=fresh, alive=alive,
+                              contact=self._contact)

@@ -166,7 +166,7 @@ class NodeRuntime:
     def _od_writers(self) -> None:
         d = self.device
         self._w = {name: d.writer(name) for name in (
-            "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "force_N", "estimate_C", "T_pred_C",
+            "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_decision", "force_N", "estimate_C", "T_pred_C",
             "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "ident_sample", "ident_state",
             "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command", "fault_reset", "active_trips", "fault_reset_blocked_by",
             "ident_fetched_T_sensor_C", "ident_fetched_current_A", "ident_fetched_Q_W")}
@@ -174,6 +174,7 @@ class NodeRuntime:
         self._fault_reset_index = d.info.get("fault_reset").index
         self._r_peer_est = d.reader("peer_estimate_C")
         self._r_peer_q = d.reader("peer_Q_W")
+        self._r_peer_contact = d.reader("peer_contact")
         self._param_w = {key: d.writer(key) for key in PARAM_KEYS}
         self._param_keys = {d.info.get(key).index: key for key in PARAM_KEYS}  # index -> name
 
@@ -523,6 +524,8 @@ class NodeRuntime:
             self.peer.start_with(initial_peer(sample))  # cycle 0 as the offline runner; then PDOs
         if 1 in tick.fresh_rpdos:
             self.peer.on_pdo(self._r_peer_est(), self._r_peer_q())
+        if 2 in tick.fresh_rpdos:
+            self.peer.on_contact(bool(self._r_peer_contact()))
         peer = self.peer.take()
         if self.mode is Mode.RENDER:
             peer = None  # rendering needs no peer (as offline)
@@ -560,6 +563,7 @@ class NodeRuntime:
         w["current_A"](res.current_A)
         w["T_sink_C"](sample.T_sink_C)
         w["contact"](bool(sample.contact))
+        w["contact_decision"](bool(res.out.contact))
         w["force_N"](sample.force_N)
         w["T_pred_C"](st.T_pred_C)
         w["T_cmd_C"](st.setpoint_C)
@@ -677,7 +681,10 @@ class NodeRuntime:
         # lockstep bookkeeping: PDOs owed by the peer (one per SYNC it was sent while believed alive).
         # A PDO that comes after its wait timed out is still owed: the next cycle waits for both, so a
         # slow peer falls back into step instead of staying one PDO behind.
-        owed, base = 0, dev.rpdo_count(1)
+        # the peer's PDOs of one SYNC: TPDO1 (estimate, flux), then TPDO5 (contact flag), in that order on an
+        # ordered transport; waiting for the last synchronous RPDO means every one of the cycle is in
+        last = max((n for n, p in dev.rpdos.items() if p.valid and p.trans_type <= 240), default=1)
+        owed, base = 0, dev.rpdo_count(last)
         boots = self.peer_boots
         while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
             if dev.state is not NmtState.OPERATIONAL:
@@ -691,7 +698,7 @@ class NodeRuntime:
                     log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
             status = dev.peer_status(self.peer_id)
             if status != "alive" or boots != self.peer_boots:  # lost, never seen, or rebooted: owes nothing
-                owed, base, boots = 0, dev.rpdo_count(1), self.peer_boots
+                owed, base, boots = 0, dev.rpdo_count(last), self.peer_boots
             self._sync_sent_at = time.monotonic()
             self._waiting_first_rpdo = True
             sync.transmit()  # holds the device lock until our own SYNC k is processed (no early PDO k)
@@ -704,12 +711,12 @@ class NodeRuntime:
                     # to a patience bound for a peer whose heartbeat runs but whose cycle hangs
                     waited, arrived = 0.0, False
                     while not arrived and waited < patience_s and not self.stop_event.is_set():
-                        arrived = dev.wait_rpdo(1, after=base + owed - 1, timeout=wait_s)
+                        arrived = dev.wait_rpdo(last, after=base + owed - 1, timeout=wait_s)
                         waited += wait_s
                         if not arrived and dev.peer_status(self.peer_id) != "alive":
                             break
                     if arrived:
-                        base, owed = dev.rpdo_count(1), 0
+                        base, owed = dev.rpdo_count(last), 0
                     else:
                         self.stats.lockstep_timeouts += 1
                         log.warning("cycle %d: no PDO of node %d within %g ms (%d owed)", k - 1, self.peer_id,
@@ -718,7 +725,7 @@ class NodeRuntime:
                     pass  # alone on the bus (rendering, identification): nobody to wait for
                 else:
                     # peer lost or not yet seen: our envelope keeps running, paced by the SYNC period
-                    dev.wait_rpdo(1, after=dev.rpdo_count(1), timeout=period)
+                    dev.wait_rpdo(last, after=dev.rpdo_count(last), timeout=period)
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)
         # the session is over: every node leaves OPERATIONAL (no PDOs, current 0) before we go silent,
