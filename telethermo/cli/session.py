@@ -186,14 +186,20 @@ def print_summary(fig: dict) -> None:
               f" p99 {f(res.get('sync_to_tpdo_ms_p99'), ' ms')}")
     tr = fig.get("transparency")
     if tr:
-        rows = [["touch", "object", "t_on s", "early |e| mean °C", "early |e| max °C", "late |e| mean °C",
-                 "rendered °C", "reference °C"]]
-        for i, p in enumerate(tr["per_contact"], 1):
-            rows.append([str(i), p["object"], f(p["t_on_s"]), f(p["early_T"]["mean_abs"]), f(p["early_T"]["max_abs"]),
-                         f(p["late_T"]["mean_abs"]), f(p["rendered_early_C"]), f(p["reference_early_C"])])
+        rows = [["touch", "object", "t_on s", "pre °C", "early 0-1 s °C", "0.1-1 s °C", "late °C", "window °C",
+                 "cue J", "direct cue J", "skin 1 s °C", "direct 1 s °C"]]
+        for i, p in enumerate(tr["per_touch"], 1):
+            rows.append([str(i), p["object"], f(p["t_on_s"]), f(p["pre_C"]), f(p["early_C"]), f(p["early01_C"]),
+                         f(p["late_C"]), f(p["window_C"]), f(p["cue_J"]), f(p["direct_cue_J"]), f(p["dskin_C"]),
+                         f(p["direct_dskin_C"])])
         _table(rows)
-        print(f"transparency: early mean {f(tr['early_mean_error_C'], ' °C')}, max {f(tr['early_max_error_C'], ' °C')}; "
-              f"late mean {f(tr['late_mean_error_C'], ' °C')}; flux early mean {f(tr['early_mean_flux_error_W'], ' W')}")
+        print(f"transparency (|skin - direct-touch skin|): headline {f(tr['headline_error_C'], ' °C')} over "
+              f"t_on-0.5..t_on+1 s; pre-contact {f(tr['pre_contact_mean_error_C'], ' °C')}, early "
+              f"{f(tr['early_mean_error_C'], ' °C')}, late {f(tr['late_mean_error_C'], ' °C')}")
+    cue = fig.get("discrimination_cue")
+    if cue:
+        print(f"material cue (heat drawn in the first second): direct order {' > '.join(cue['direct_order_most_heat_first'])}"
+              f" kept {cue['order_kept']}, smallest contrast ratio {f(cue['contrast_ratio_min'])}")
     rnd = fig.get("render")
     if rnd:
         rows = [["touch", "material", "beta", "T_contact eq.1 °C", "rendered early °C", "error °C"]]
@@ -204,11 +210,11 @@ def print_summary(fig: dict) -> None:
         print(f"render: largest |mean error| {f(rnd.get('max_abs_mean_error_C'), ' °C')}")
     trk = fig.get("tracking")
     if trk:
-        print(f"tracking RMS in steady contact: master {f(trk.get('master_rms_C'), ' °C')}, "
-              f"slave {f(trk.get('slave_rms_C'), ' °C')}")
+        print(f"tracking RMS in steady contact (internal: each controller vs its own estimate): master "
+              f"{f(trk.get('master_rms_C'), ' °C')}, slave {f(trk.get('slave_rms_C'), ' °C')}")
     d = fig.get("discrimination")
     if d:
-        print(f"discrimination: order kept {d['order_kept']} ({' < '.join(d['rendered_order_coldest_first'])}), "
+        print(f"early temperature (0.1-1 s): order kept {d['order_kept']} ({' < '.join(d['rendered_order_coldest_first'])}), "
               f"min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
     sfy = fig.get("safety", {})
     if sfy:

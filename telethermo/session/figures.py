@@ -4,14 +4,18 @@ Telepresence (guiatni §5.3; issue 4):
 
 - **transparency**: what the operator's finger feels on the master (``m_true_surface_C``, the skin on
   the pad) against the direct-touch reference (``ref_T_contact_C``, the same finger on the same
-  object), per touch of the probe: mean and max absolute error in the early phase (0.1–1 s after
-  contact, yamamoto's ETS) and the late phase (1–3 s, LTS); and the same for the heat flux into the
-  finger (``m_true_Q_W`` vs ``ref_Q_into_finger_W``). Windows are clipped at the release.
-- **tracking**: each side's error to its target (``X_target_C - X_feedback_C``), RMS in steady
-  contact (from 1 s after contact to the release).
-- **discrimination**: per object, the rendered early-phase temperature (mean over touches); the
-  order must match the reference's, consecutive margins compared with the finger's ~0.7 °C
-  cold-detection threshold.
+  object), per touch of the probe (:mod:`telethermo.session.transparency`): ``pre`` (0.5 s before),
+  ``early`` (0–1 s), ``early01`` (0.1–1 s), ``late`` (1–3 s) and the **headline** ``headline_error_C``
+  (mean over [t_on − 0.5 s, t_on + 1 s]: a display that ignores the probe cannot game it), the cue
+  (heat drawn from the finger over 0–1 s, J) and the skin change, display vs direct. ``per_contact``
+  keeps the earlier per-touch statistics (0.1–1 s, 1–3 s, heat flux through the sensor).
+- **discrimination_cue**: the direct-touch order of the materials' cues, kept or not by the display,
+  and the contrast ratio of every pair.
+- **tracking** (internal): each side's error to its target (``X_target_C - X_feedback_C``), RMS in
+  steady contact; each controller against its own estimate, so it says nothing about the truth.
+- **discrimination**: per object, the rendered early-phase (0.1–1 s) temperature (mean over
+  touches); the order must match the reference's, consecutive margins compared with the finger's
+  ~0.7 °C cold-detection threshold.
 - **safety**: time at each envelope limit per side, time with the current cut, the trips.
 
 Hold (a virtual scene that renders nothing): the master regulates its pad at ``meta["hold_C"]``;
@@ -31,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from telethermo.session.recording import Recording
+from telethermo.session.transparency import transparency_figures
 
 EARLY_S = (0.1, 1.0)
 LATE_S = (1.0, 3.0)
@@ -168,14 +173,21 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
             return math.nan
         return float(np.mean(vals)) if stat == "mean_abs" else float(np.max(vals))
 
+    honest = transparency_figures(t, surf, ref, rec.col("m_true_Q_into_body_W"), q_ref, contacts)
     out["transparency"] = {
-        "early_mean_error_C": agg("early_T", "mean_abs"), "early_max_error_C": agg("early_T", "max_abs"),
-        "pre_contact_mean_error_C": agg("pre_T", "mean_abs"),
-        "late_mean_error_C": agg("late_T", "mean_abs"), "late_max_error_C": agg("late_T", "max_abs"),
-        "early_mean_flux_error_W": agg("early_Q", "mean_abs"), "early_max_flux_error_W": agg("early_Q", "max_abs"),
+        # what the operator feels (telethermo.session.transparency): the headline is the mean |skin − direct
+        # skin| over [t_on − 0.5 s, t_on + 1 s]; early = 0–1 s, early01 = 0.1–1 s, late = 1–3 s
+        "headline_error_C": honest["headline_error_C"],
+        "pre_contact_mean_error_C": honest["pre_contact_mean_error_C"],
+        "early_mean_error_C": honest["early_mean_error_C"], "early01_mean_error_C": honest["early01_mean_error_C"],
+        "late_mean_error_C": honest["late_mean_error_C"],
+        "per_touch": honest["per_touch"],
+        "early01_max_error_C": agg("early_T", "max_abs"), "late_max_error_C": agg("late_T", "max_abs"),
+        "early01_mean_flux_error_W": agg("early_Q", "mean_abs"), "early01_max_flux_error_W": agg("early_Q", "max_abs"),
         "late_mean_flux_error_W": agg("late_Q", "mean_abs"), "late_max_flux_error_W": agg("late_Q", "max_abs"),
         "per_contact": per,
     }
+    out["discrimination_cue"] = honest["cue"]
 
     # tracking in steady contact
     trk: dict[str, Any] = {}
@@ -190,6 +202,7 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         pooled.append(e)
     allerr = np.concatenate(pooled) if pooled else np.array([])
     trk["rms_C"] = float(np.sqrt(np.mean(allerr ** 2))) if allerr.size else math.nan
+    trk["internal"] = "each controller against its own estimate, not against the truth"
     out["tracking"] = trk
 
     # discrimination

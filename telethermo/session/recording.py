@@ -38,6 +38,8 @@ X_limits                   envelope limits that acted ("ramp|guard|current_limit
 X_new_trips                trips raised in this step ("peer_lost|...")
 X_true_surface_C    °C     truth: the contact-side surface (master: the finger's skin on the pad)
 X_true_Q_W          W      truth: heat flux through the contact, > 0 out of the pad
+X_true_Q_into_body_W W     truth: heat flow across the contact into what touches the pad (master: into the
+                           finger's skin, < 0 when the pad draws heat from it); 0 when nothing touches
 X_true_touching     0/1    truth: something touches the pad (scene schedule)
 m_true_finger_C     °C     truth: the operator's skin on the master, touching or not (in air between)
 ref_T_contact_C     °C     truth: direct-touch reference, the finger's skin (on the object, or in air)
@@ -70,7 +72,7 @@ MAGIC = "# telethermo-recording 1"
 
 SIDE_NUMERIC = ["T_sensor_C", "Q_W", "T_sink_C", "current_A", "target_C", "setpoint_C", "feedback_C", "estimate_C",
                 "T_pred_C", "peer_estimate_C", "peer_flux_W", "contact", "safety_state", "error_register",
-                "true_surface_C", "true_Q_W", "true_touching"]
+                "true_surface_C", "true_Q_W", "true_Q_into_body_W", "true_touching"]
 SIDE_TEXT = ["limits", "new_trips"]
 REF_NUMERIC = ["m_true_finger_C", "ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"]
 TEXT_COLUMNS = frozenset(f"{p}_{c}" for p in ("m", "s") for c in SIDE_TEXT)

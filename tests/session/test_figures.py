@@ -34,7 +34,7 @@ def make(offset_early=0.2, offset_late=0.05, rendered_shift=None):
         if k == 700:
             trips = "peer_invalid"
         b.add({"t_s": t, "m_true_surface_C": surf, "ref_T_contact_C": ref, "ref_Q_into_finger_W": q_ref,
-               "m_true_Q_W": q_ref + 0.1, "ref_touching": touching, "m_target_C": 30.0 + 0.1 * math.sin(7 * t),
+               "m_true_Q_W": q_ref + 0.1, "m_true_Q_into_body_W": q_ref + 0.1, "ref_touching": touching, "m_target_C": 30.0 + 0.1 * math.sin(7 * t),
                "m_feedback_C": 30.0, "s_target_C": 30.0, "s_feedback_C": 30.0, "m_limits": lim, "m_new_trips": trips,
                "m_safety_state": 3 if 700 <= k < 720 else 0, "s_safety_state": 0})
     return b.build()
@@ -43,11 +43,44 @@ def make(offset_early=0.2, offset_late=0.05, rendered_shift=None):
 def test_transparency_errors_per_phase():
     f = compute_figures(make())
     tr = f["transparency"]
-    assert tr["early_mean_error_C"] == pytest.approx(0.2, abs=1e-9)
+    assert tr["early_mean_error_C"] == pytest.approx(0.2, abs=1e-9)      # 0-1 s
+    assert tr["early01_mean_error_C"] == pytest.approx(0.2, abs=1e-9)    # 0.1-1 s
     assert tr["late_mean_error_C"] == pytest.approx(0.05, abs=1e-9)
-    assert tr["early_max_error_C"] == pytest.approx(0.2, abs=1e-9)
-    assert tr["early_mean_flux_error_W"] == pytest.approx(0.1, abs=1e-9)
-    assert len(tr["per_contact"]) == 3
+    assert tr["pre_contact_mean_error_C"] == pytest.approx(0.0, abs=1e-9)
+    # the window [t_on - 0.5 s, t_on + 1 s): 50 samples at 0, 100 at 0.2 °C
+    assert tr["headline_error_C"] == pytest.approx(0.2 * 100 / 150, abs=1e-9)
+    assert tr["early01_max_error_C"] == pytest.approx(0.2, abs=1e-9)
+    assert tr["early01_mean_flux_error_W"] == pytest.approx(0.1, abs=1e-9)
+    assert len(tr["per_contact"]) == 3 and len(tr["per_touch"]) == 3
+    # the cue: heat drawn from the finger over the first second, 100 samples of 10 ms
+    for p in tr["per_touch"]:
+        assert p["direct_cue_J"] == pytest.approx(2.0, abs=1e-9)
+        assert p["cue_J"] == pytest.approx(1.9, abs=1e-9)
+        assert p["direct_dskin_C"] == pytest.approx(REF[p["object"]] - 33.0, abs=1e-9)
+
+
+def test_a_null_display_scores_its_closed_form():
+    """A display that ignores the probe and holds the skin at T: its headline is mean |T - direct skin| over
+    each touch's window, computed here directly from the reference."""
+    from telethermo.session.transparency import transparency_figures
+
+    rec = make()
+    t, ref = rec.col("t_s"), rec.col("ref_T_contact_C")
+    for T in (25.5, 33.0):
+        skin = np.full_like(t, T)
+        f = transparency_figures(t, skin, ref, np.zeros_like(t), rec.col("ref_Q_into_finger_W"), CONTACTS)
+        expect = []
+        for c in CONTACTS:
+            w = (t >= c["t_on_s"] - 0.5 - 1e-9) & (t < c["t_on_s"] + 1.0 - 1e-9)
+            expect.append(np.mean(np.abs(T - ref[w])))
+        assert f["headline_error_C"] == pytest.approx(np.mean(expect), abs=1e-12)
+        # a pad that draws nothing conveys no cue: the cue order cannot be kept
+        assert all(p["cue_J"] == 0.0 for p in f["per_touch"]) and not f["cue"]["order_kept"]
+    # holding the finger's temperature before the touches scores 0 before and the full drop after
+    f = transparency_figures(t, np.full_like(t, 33.0), ref, np.zeros_like(t), rec.col("ref_Q_into_finger_W"),
+                             CONTACTS)
+    for p in f["per_touch"]:
+        assert p["pre_C"] == 0.0 and p["early_C"] == pytest.approx(33.0 - REF[p["object"]], abs=1e-9)
 
 
 def test_tracking_rms_in_steady_contact():
