@@ -117,9 +117,10 @@ def run_rows(configs: list[RowConfig], *, duration_s: float | None, rounds: int)
         rows.append({
             "name": c.name, "period_ms": round(c.period_s * 1e3, 6), "estimator": c.estimator.value,
             "model_order": _order(c.model), "rounding": c.rounding, "run_s": statistics.median(times[c.name]),
-            "run_s_all": times[c.name], "step_us": step_us, "early_C": tr["early_mean_error_C"],
-            "late_C": tr["late_mean_error_C"], "early_max_C": tr["early_max_error_C"],
-            "flux_early_W": tr["early_mean_flux_error_W"], "pre_contact_C": tr["pre_contact_mean_error_C"],
+            "run_s_all": times[c.name], "step_us": step_us, "early_C": tr["early01_mean_error_C"],
+            "early_0_1s_C": tr["early_mean_error_C"], "headline_C": tr["headline_error_C"],
+            "late_C": tr["late_mean_error_C"], "early_max_C": tr["early01_max_error_C"],
+            "flux_early_W": tr["early01_mean_flux_error_W"], "pre_contact_C": tr["pre_contact_mean_error_C"],
             "tracking_rms_C": f["tracking"]["rms_C"], "order_kept": f["discrimination"]["order_kept"],
             "trips": f["safety"]["n_trips"], "duration_s": f["duration_s"], "rounds": rounds,
         })
