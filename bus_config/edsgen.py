@@ -160,7 +160,8 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2201, _real("ki_A_per_C_s", "rw", ki, 0.0, 20.0, description="integral gain")),
         V(0x2202, _real("kQ_A_per_W", "rw", kq, -20.0, 20.0, description="heat-flux feed-forward gain (peer's flux)")),
         V(0x2203, _uint("estimator", UNSIGNED8, "rw", 0, 0, 2,
-                        description="0 NARMA model (eq. 30/31), 1 flux (T_sensor - Q*R_sensor/2), 2 fused")),
+                        description="eq. 30/31, 2*T_sensor - T_pred, with T_pred from: 0 the NARMA model (eq. 32), "
+                                    "1 the flux sensor, T1 of eq. 28 as T_sensor + Q*R_sensor/2 (default), 2 both fused")),
         # -- model parameters (NARMA eq. 10, flux ARMA eq. 12)
         V(0x2300, _uint("narma_n", UNSIGNED8, "rw", 3, 0, 8, description="output lags n")),
         V(0x2301, _uint("narma_m", UNSIGNED8, "rw", 3, 0, 8, description="input lags m")),

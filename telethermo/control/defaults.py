@@ -20,9 +20,9 @@ from telethermo.control.types import Mode, Role
 #: T_f softly with a flux feed-forward, and decides contact from its rig's flag (a probe knows when it
 #: touches: its force sensor), so that the master learns a release at once.
 GAINS: dict[Role, dict[str, Any]] = {
-    Role.MASTER: dict(kp_A_per_C=1.6, ki_A_per_C_s=0.05, kQ_A_per_W=0.35, kpQ_A_per_W=0.9, kiQ_A_per_W_s=1.3,
-                      air_rendering=True, air_kpQ_A_per_W=0.12, air_kiQ_A_per_W_s=2.8),
-    Role.SLAVE: dict(kp_A_per_C=0.33, ki_A_per_C_s=0.08, kQ_A_per_W=0.22, kpQ_A_per_W=0.005, kiQ_A_per_W_s=0.0,
+    Role.MASTER: dict(kp_A_per_C=1.66, ki_A_per_C_s=0.04, kQ_A_per_W=0.63, kpQ_A_per_W=0.75, kiQ_A_per_W_s=0.79,
+                      air_rendering=True, air_kpQ_A_per_W=0.16, air_kiQ_A_per_W_s=2.1),
+    Role.SLAVE: dict(kp_A_per_C=0.43, ki_A_per_C_s=0.12, kQ_A_per_W=0.19, kpQ_A_per_W=0.005, kiQ_A_per_W_s=0.0,
                      contact=ContactParams(source=ContactSource.FLAG)),
 }
 
