@@ -90,9 +90,15 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
     np_ = scene.noise if noise is None or noise else replace(scene.noise, enabled=False)
     if not touches:
         report.append(f"{role}: pad touches nothing: air only")
-    return SimRig(params, bodies, Schedule(touches), ambient_C=scene.ambient_C, period_s=scene.period_s,
-                  noise=np_, seed=scene.seed if seed is None else seed, name=role, prune=prune, pruning=report,
-                  grid=grid, start=_start(scene, role, params, grid))
+    start = _start(scene, role, params, grid)
+    try:
+        return SimRig(params, bodies, Schedule(touches), ambient_C=scene.ambient_C, period_s=scene.period_s,
+                      noise=np_, seed=scene.seed if seed is None else seed, name=role, prune=prune, pruning=report,
+                      grid=grid, start=start)
+    except ValueError as exc:
+        if start is None:
+            raise
+        raise SceneError(scene.path, f"{role}.start", f"a start the rig can hold ({exc})", start) from None
 
 
 def finger_natural_C(scene: Scene, params: RigParams, grid: GridSettings) -> float:

@@ -261,6 +261,9 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
         else:
             master_start = r.num(mr, "start", "master.", lo=15.0, hi=43.0)
     master = _contacts(r, mr.get("contacts", []), "master.contacts", duration, objects, kind, True, known)
+    if master_start == "finger" and not any(t.start_s <= 1e-9 < t.end_s for t in master):
+        raise SceneError(path, "master.start", "\"finger\" only with the finger on the display at t = 0 "
+                         "(a master contact from 0 s)", master_start)
     sr = r.table(raw, "slave")
     r.known(sr, ("contacts", "start"), "slave.")
     slave_start = sr.get("start")

@@ -159,9 +159,10 @@ class CoreParams:
         air_rendering: (master, telepresence) render *air* while the probe touches nothing (the
             peer's contact flag is False): no temperature tracking, the flux loop
             (``air_kpQ_A_per_W``, ``air_kiQ_A_per_W_s``) draws from the finger only what air would,
-            ``G_air_W_per_K·(T_f − T_air_C)``, so the finger stays at its natural temperature; and with
-            no finger on the display (own contact detector and the rig's flag both off) hold
-            ``safety.neutral_C``. In contact the published law runs (track T_o, flux mirror).
+            ``G_air_W_per_K·(T_f − T_air_C)``, so the finger stays at its natural temperature; once the
+            finger is lifted (own contact detector and the rig's flag both off after a touch) hold
+            ``safety.neutral_C`` (no drift); before any finger the pad renders air too, i.e. rests at
+            ambient. In contact the published law runs (track T_o, flux mirror).
         G_air_W_per_K: conductance of still air over the contact area (h·A = 15 W/(m²·K) · 15 × 15 mm), W/K.
         T_air_C: the air's temperature for air rendering, °C.
     """
@@ -275,6 +276,9 @@ class CoreState:
         ident_k: IDENTIFY: steps since the experiment started (0 outside IDENTIFY); the plan is done once
             it reaches ``identify.total`` (the count goes on while 0 A is held);
         ident_guard: IDENTIFY: samples whose current the plan's guard flipped or cut.
+        finger_seen: something has touched the pad since the start (its detector or the rig's flag): once
+            the finger is lifted, air rendering holds neutral instead (before any finger it renders air,
+            and both pads rest at ambient).
     """
 
     k: int
@@ -288,6 +292,7 @@ class CoreState:
     T_pred_C: float
     ident_k: int = 0
     ident_guard: int = 0
+    finger_seen: bool = False
     pred_tick: int = 0
     pred_snapshot: Any = None
     cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
@@ -466,10 +471,10 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
             ff = -params.kQ_A_per_W * peer.flux_W
             eQ = -peer.flux_W - Q
             if params.air_rendering and params.role is Role.MASTER:
-                if not (cst.contact or sample.contact):
-                    phase_t = "no_finger"      # nothing on the display: hold neutral, no flux terms
+                if not (cst.contact or sample.contact) and state.finger_seen:
+                    phase_t = "no_finger"      # the finger was lifted: hold neutral, no flux terms
                     req, ff, eQ, fg = lim.neutral_C, 0.0, 0.0, None
-                elif peer.contact is False:
+                elif peer.contact is False or not (cst.contact or sample.contact):
                     phase_t = "air"            # the probe touches nothing: render air
                     req, ff = est, 0.0
                     eQ = -params.G_air_W_per_K * (est - params.T_air_C) - Q
@@ -546,6 +551,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     new_state = CoreState(k=state.k + 1, t_s=sample.t_s, env=env, pi=pi_st, contact=cst, u_prev_A=current,
                           source=source, render_phase=phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
+                          finger_seen=state.finger_seen or cst.contact or bool(sample.contact),
                           pred_snapshot=snap, cell=state.cell)
     status = StepStatus(safety=status_env, requested_setpoint_C=req, setpoint_C=sp, feedback_C=y, T_pred_C=T_pred,
                         estimate_C=est, estimate_model_C=e_model, estimate_flux_C=e_flux, contact=cst.contact,

@@ -97,7 +97,9 @@ def test_raising_callbacks_are_counted_and_do_not_stop_the_device(lab):
         assert master.wait_rpdo(1, after=n, timeout=3.0)  # slave still answers every SYNC
     barrier(node)
     assert master.rpdo_count(1) == 5 and slave.rpdo_count(1) == 5
-    assert node.sdo["callback_errors"].raw == master.stats.callback_errors == 1 + 5 + 5  # nmt + sync + rpdo
+    assert master.rpdo_count(2) == 5 and slave.rpdo_count(2) == 5   # the contact PDO (TPDO5 -> RPDO2) too
+    # nmt + sync + (rpdo1 and rpdo2) per cycle
+    assert node.sdo["callback_errors"].raw == master.stats.callback_errors == 1 + 5 + 2 * 5
     assert node.sdo["kp_A_per_C"].raw == 0.5
 
 

@@ -156,7 +156,7 @@ def test_two_devices_exchange_in_lockstep(lab):
         sync.transmit()
         assert master.wait_rpdo(1, after=n, timeout=5.0)
     assert master.read("estimate_C") == 200.0 and slave.read("estimate_C") == 200.0
-    assert fresh[0] == () and all(f == (1,) for f in fresh[1:])
+    assert fresh[0] == () and all(f == (1, 2) for f in fresh[1:])   # RPDO1 and the contact RPDO2
 
 
 def test_pdo_reconfiguration_with_canopens_pdo_client(lab):
@@ -303,5 +303,5 @@ def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cyc
     finally:
         net.send_message = send
     assert [c for c, _, _ in seen] == list(range(1, 21))
-    assert seen[0][1] == () and all(f == (1,) for _, f, _ in seen[1:])
+    assert seen[0][1] == () and all(f == (1, 2) for _, f, _ in seen[1:])
     assert [v for _, _, v in seen[1:]] == [float(k - 1) for k in range(2, 21)]

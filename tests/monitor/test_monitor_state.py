@@ -91,15 +91,15 @@ def test_sync_period_jitter_counter_and_late_cycles():
 def test_missing_sync_pdo_from_an_operational_node_is_counted():
     mon = Monitor(monitor_config())
     pdo = struct.pack("<ff", 33.0, 0.5)
-    feed(mon, msg(0.0, 0x701, [0x05]), msg(0.01, 0x080, [1]), msg(0.011, 0x181, pdo),
-         msg(0.02, 0x080, [2]), msg(0.021, 0x181, pdo))
+    feed(mon, msg(0.0, 0x701, [0x05]), msg(0.01, 0x080, [1]), msg(0.011, 0x181, pdo), msg(0.012, 0x681, [0]),
+         msg(0.02, 0x080, [2]), msg(0.021, 0x181, pdo), msg(0.022, 0x681, [1]))
     assert mon.stats.missed_pdos == 0
     evs = feed(mon, msg(0.03, 0x080, [3]), msg(0.04, 0x080, [4]), msg(0.05, 0x080, [5]))
-    assert mon.stats.missed_pdos == 2                         # cycles 3 and 4 had no TPDO1
-    assert [e.kind for e in evs] == ["pdo_missing"]           # one event per outage, not per cycle
+    assert mon.stats.missed_pdos == 4                         # cycles 3 and 4 had no TPDO1, no TPDO5
+    assert [e.kind for e in evs] == ["pdo_missing"] * 2       # one event per PDO per outage, not per cycle
     # a stopped node is not expected to send PDOs
     feed(mon, msg(0.051, 0x000, [0x02, 1]), msg(0.06, 0x080, [6]), msg(0.07, 0x701, [0x04]), msg(0.08, 0x080, [7]))
-    assert mon.stats.missed_pdos == 2        # the NMT stop disarms the cycle it falls in, STOPPED ones are not armed
+    assert mon.stats.missed_pdos == 4        # the NMT stop disarms the cycle it falls in, STOPPED ones are not armed
 
 
 def test_bus_load_is_stuffed_bits_over_bitrate_and_window():

@@ -40,8 +40,20 @@ class Frames(can.Listener):
             return [(c, d) for c, d in self.frames[mark:] if cob is None or c == cob]
 
 
+def ambient_start_scene(tmp_path: Path) -> Path:
+    """The probe scene with the probe starting at ambient (25 °C, 0 A) instead of settled at the finger's
+    temperature: the protocol checks below count on a probe that sits well below the neutral temperature."""
+    text = SCENE.read_text(encoding="utf-8")
+    start = text.index("[slave]\n")
+    end = text.index("[[slave.contacts]]")
+    p = tmp_path / "probe_ambient_start.toml"
+    p.write_text(text[:start] + text[end:], encoding="utf-8")
+    return p
+
+
 @pytest.fixture
 def slave(tmp_path):
+    scene = ambient_start_scene(tmp_path)
     with HubThread() as hub:
         bus_text = f"socketcand://127.0.0.1:{hub.port}/telethermo"
         net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
@@ -49,7 +61,7 @@ def slave(tmp_path):
         net.connect()
         frames = Frames()
         net.notifier.add_listener(frames)
-        proc = subprocess.Popen(node_command("slave", "--bus", bus_text, "--scene", str(SCENE), "--log",
+        proc = subprocess.Popen(node_command("slave", "--bus", bus_text, "--scene", str(scene), "--log",
                                              str(tmp_path / "slave.log")),
                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
         remote = canopen.RemoteNode(SLAVE, str(bus_config_path("slave.eds")))
