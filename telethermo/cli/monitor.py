@@ -15,8 +15,7 @@ from telethermo.monitor.view import ViewState
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "monitor", help="watch the CANopen bus (live or a recorded log)",
-        description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
+        "monitor", description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
                     "transfers (one state machine per node), PDOs by the EDS mapping and by remapping seen on "
                     "the bus, SYNC period/jitter, bus load, events. Curses view by default; --json or --lines "
                     "for scripts.")

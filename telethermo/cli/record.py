@@ -13,8 +13,7 @@ from telethermo.monitor.state import Monitor
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("record", help="record the bus to a .log/.asc/.blf file plus a decoded CSV",
-                              description="Record every frame to a python-can log file, the format chosen "
+    p = subparsers.add_parser("record", description="Record every frame to a python-can log file, the format chosen "
                                           "by the extension (.log candump, .asc Vector ASC, .blf Vector BLF), "
                                           "and the decoded frames to a CSV beside it. Stops after --duration "
                                           "or --count, or on Ctrl-C; the files are complete in every case.")

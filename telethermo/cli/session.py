@@ -23,8 +23,7 @@ from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("session", help="run a two-node telepresence session (simulated rigs) and report its figures",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser("session", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", required=True, type=Path, help="scene file (TOML) or a shipped scene's name")
     p.add_argument("--out", type=Path, default=Path("out/session"), help="output folder (default out/session)")
     p.add_argument("--bus", help="a real bus for both nodes (e.g. socketcan:vcan0); default: our loopback hub")
