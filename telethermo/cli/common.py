@@ -22,14 +22,12 @@ from typing import Any, Callable, Iterator
 
 import can
 import canopen
-from canopen.objectdictionary import import_od
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
 from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, UserError
 from telethermo.monitor.cia301 import sdo_abort_text
-from telethermo.monitor.state import MonitorConfig, NodeInfo
 from telethermo.transport.bus import TransportError, TransportSettings, open_bus, parse_bus_string
 
 
@@ -179,35 +177,15 @@ def lookup(target: Target, name: str) -> VarInfo:
         raise UserError(exc.args[0]) from None
 
 
-def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None
-                   ) -> MonitorConfig:
-    """The monitor's view of the network: node names, EDS dictionaries with the network file's
-    power-on overrides (heartbeat and consumer times, SYNC), bitrate and SYNC period (real time only)."""
-    nodes = {}
-    for t in node_targets(net):
-        try:
-            od = import_od(str(t.eds), t.node_id)
-        except Exception as exc:  # canopen raises assorted errors for a bad EDS
-            raise UserError(f"{t.eds}: cannot parse EDS ({exc})") from None
-        try:
-            for (index, sub), value in net.device_settings(t.role).overrides().items():
-                obj = od[index]
-                var = obj if sub == 0 and not hasattr(obj, "subindices") else obj[sub]
-                var.value = value
-        except (KeyError, NetworkConfigError):
-            pass  # an override for an object this EDS lacks: keep the EDS value
-        nodes[t.node_id] = NodeInfo(t.role, od)
-    period = sync_period_s if sync_period_s is not None else (None if net.sync.lockstep else net.sync.period_s)
-    return MonitorConfig(nodes=nodes, bitrate_bps=bitrate or net.bus.bitrate, sync_period_s=period)
-
-
 # --- SDO ------------------------------------------------------------------------------------------
 def abort_text(code: int) -> str:
     return f"SDO abort 0x{code:08X}: {sdo_abort_text(code)}"
 
 
 def remote(nw: canopen.Network, target: Target, timeout_s: float = 1.0) -> canopen.RemoteNode:
-    node = canopen.RemoteNode(target.node_id, str(target.eds))
+    """An SDO client of ``target``. Its object dictionary stays empty: the commands address objects by
+    index and subindex from :func:`eds_info` (parsed once), so canopen need not parse the EDS again."""
+    node = canopen.RemoteNode(target.node_id, canopen.ObjectDictionary())
     node.sdo.RESPONSE_TIMEOUT = timeout_s
     node.sdo.MAX_RETRIES = 1   # canopen counts attempts: 1 = no retry (0 would retry forever)
     nw.add_node(node)

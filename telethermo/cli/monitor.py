@@ -7,6 +7,7 @@ import time
 
 from telethermo.cli import common
 from telethermo.cli.main import UserError
+from telethermo.cli.monitor_setup import monitor_config
 from telethermo.monitor.replay import Pacer, ReplayError, live, paced, read_log
 from telethermo.monitor.run import run_curses, run_lines
 from telethermo.monitor.state import Monitor
@@ -47,7 +48,7 @@ def run(args: argparse.Namespace) -> int:
     if args.count is not None and args.count <= 0:
         raise UserError(f"--count: expected a positive number of frames, got {args.count}")
     net = common.network(args)
-    mon = Monitor(common.monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period))
+    mon = Monitor(monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period))
     scripted = args.json or args.lines
     bus = None
     deadline = time.monotonic() + args.duration if args.duration else None

@@ -8,6 +8,7 @@ from pathlib import Path
 
 from telethermo.cli import common
 from telethermo.cli.main import UserError
+from telethermo.cli.monitor_setup import monitor_config
 from telethermo.monitor.record import Recorder, RecordError, check_log_path
 from telethermo.monitor.state import Monitor
 
@@ -40,7 +41,7 @@ def run(args: argparse.Namespace) -> int:
     if csv is not None and csv.resolve() == log.resolve():
         raise UserError(f"--csv {csv}: must differ from the log file")
     net = common.network(args)
-    mon = Monitor(common.monitor_config(net))
+    mon = Monitor(monitor_config(net))
     bus, ts = common.open_can(args, net)
     rec = Recorder(log, csv, mon)
     interrupted = False
