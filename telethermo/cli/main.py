@@ -63,13 +63,22 @@ class _Subparsers:
         return self._action.add_parser(name, **kw)
 
 
-def _version() -> str:
-    from importlib.metadata import PackageNotFoundError, version
-    try:
-        return version("telethermo")
-    except PackageNotFoundError:   # a source tree that was never installed
-        from telethermo import __version__
-        return __version__
+class _VersionAction(argparse.Action):
+    """``--version``: the installed distribution's version, looked up only when asked (reading the
+    installed metadata costs ~50 ms, which every other command would pay if the parser held the text)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0,
+                         help=help or "show the version and exit")
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import PackageNotFoundError, version
+        try:
+            text = version("telethermo")
+        except PackageNotFoundError:   # a source tree that was never installed
+            from telethermo import __version__ as text
+        print(f"telethermo {text}")
+        parser.exit()
 
 
 def chosen_command(argv: list[str]) -> str | None:
@@ -87,7 +96,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The parser, with the real parser(s) of ``command``'s module (imported now) and a bare entry
     (name and help, no import) for every other command."""
     parser = argparse.ArgumentParser(prog="telethermo", description="Bilateral thermal telepresence over CANopen.")
-    parser.add_argument("--version", action="version", version=f"telethermo {_version()}")
+    parser.add_argument("--version", action=_VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     module = COMMANDS[command].module if command in COMMANDS else None
     for name, cmd in COMMANDS.items():
