@@ -2,8 +2,9 @@
 EDS look-ups, SDO access with clear errors.
 
 Every command takes the same bus options (:func:`add_bus_options`): ``--network FILE`` (default
-bus_config/network.toml) and ``--bus`` to override its transport (``socketcan:vcan0``,
-``virtual:NAME``, ``socketcand://127.0.0.1:29536/vcan0``). User errors raise
+bus_config/network.toml), ``--bus`` (``socketcan:vcan0``, ``virtual:NAME``,
+``socketcand://127.0.0.1:29536/telethermo``) or ``-i/-c/-b``; the bus is resolved in python-can's order by
+:func:`telethermo.transport.resolve.resolve_bus`. User errors raise
 :class:`telethermo.cli.main.UserError` (exit 2); runtime failures (a node that does not answer, an
 SDO abort) raise :class:`Failure`, turned into one line on stderr and exit 1 by :func:`failures`.
 """
@@ -28,7 +29,8 @@ from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
 from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, UserError
 from telethermo.monitor.cia301 import sdo_abort_text
-from telethermo.transport.bus import TransportError, TransportSettings, open_bus, parse_bus_string
+from telethermo.transport.bus import TransportError, TransportSettings, open_bus
+from telethermo.transport.resolve import ResolvedBus, add_bus_arguments, resolve_bus
 
 
 class Failure(Exception):
@@ -55,10 +57,12 @@ def failures(run: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Nam
 
 # --- options ------------------------------------------------------------------------------------
 def add_bus_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("bus")
+    g = p.add_argument_group("bus", "first wins: --bus or -i/-c/-b, then CAN_INTERFACE/CAN_CHANNEL/CAN_BITRATE, "
+                                    "then python-can's config file (~/.canrc: [telethermo], [default]), then "
+                                    "the network file's [bus] (its in-process virtual bus gives way to a "
+                                    "running telethermo-hub or session)")
     g.add_argument("--network", metavar="FILE", help="network settings (default: bus_config/network.toml)")
-    g.add_argument("--bus", metavar="BUS", help="override the transport: socketcan:vcan0, virtual:NAME, "
-                   "socketcand://127.0.0.1:29536/vcan0, pcan:PCAN_USBBUS1, ...")
+    add_bus_arguments(g)
     g.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="SDO response timeout, s (default 1.0)")
 
@@ -72,26 +76,28 @@ def network(args: argparse.Namespace) -> NetworkConfig:
         raise UserError(f"{args.network}: cannot read network settings ({exc.strerror or exc})") from None
 
 
-def transport(args: argparse.Namespace, net: NetworkConfig) -> TransportSettings:
-    """The transport from ``--bus`` or the network file's [bus] table."""
+def resolved_bus(args: argparse.Namespace, net: NetworkConfig) -> ResolvedBus:
+    """The bus of this command and where the setting came from (:func:`resolve_bus`)."""
     try:
-        if getattr(args, "bus", None):
-            return parse_bus_string(args.bus, bitrate=net.bus.bitrate)
-        opts = dict(net.bus.options)
-        host, port = opts.pop("host", None), opts.pop("port", None)
-        return TransportSettings(net.bus.interface, net.bus.channel, net.bus.bitrate, host=host, port=port,
-                                 options=opts)
+        return resolve_bus(net, bus=getattr(args, "bus", None), interface=getattr(args, "interface", None),
+                           channel=getattr(args, "channel", None), bitrate=getattr(args, "bitrate", None))
     except TransportError as exc:
         raise UserError(str(exc)) from None
 
 
+def transport(args: argparse.Namespace, net: NetworkConfig) -> TransportSettings:
+    return resolved_bus(args, net).settings
+
+
 def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, TransportSettings]:
     """Open the bus; Failure (exit 1) if it cannot be reached."""
-    ts = transport(args, net)
-    if ts.interface == "virtual" and not getattr(args, "bus", None):
+    rb = resolved_bus(args, net)
+    ts = rb.settings
+    if ts.interface == "virtual" and rb.source == str(net.path):
+        from telethermo.transport.published import state_file
         print(f"telethermo {getattr(args, 'command', '')}: note: {ts.describe()} (from {net.path}) is a bus inside "
-              "this process only; to reach a session use --bus socketcand://127.0.0.1:PORT/telethermo (the hub) "
-              "or --bus socketcan:vcan0", file=sys.stderr)
+              f"this process only, and no hub or session is running (none in {state_file()}); give the bus with "
+              "--bus or -i/-c, CAN_INTERFACE/CAN_CHANNEL or ~/.canrc, or start telethermo-hub", file=sys.stderr)
     # python-can's socketcand client logs every TCP read that splits a frame; not news to an operator
     logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
     try:
@@ -99,7 +105,10 @@ def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, 
     except TransportError as exc:
         raise UserError(str(exc)) from None
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        raise Failure(f"cannot open bus {ts.describe()}: {exc}") from None
+        raise Failure(f"cannot open bus {ts.describe()} (from {rb.source}): {exc}") from None
+    except Exception as exc:   # an interface whose driver library is missing fails in its own ways
+        raise Failure(f"cannot open bus {ts.describe()} (from {rb.source}): {type(exc).__name__}: {exc}; "
+                      f"is the {ts.interface} driver library installed?") from None
 
 
 @contextlib.contextmanager

@@ -35,7 +35,6 @@ def register(subparsers) -> None:
     p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
     p.add_argument("--sync-period", type=float, metavar="S",
                    help="nominal SYNC period for late cycles, s (default: the network file's, unless lockstep)")
-    p.add_argument("--bitrate", type=int, metavar="BIT_S", help="bitrate for the bus load (default: the network file's)")
     p.set_defaults(func=run)
 
 

@@ -56,6 +56,7 @@ def _resolve_scene(arg: Path):
 
 def run(args: argparse.Namespace) -> int:
     from nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
+    from telethermo.transport.published import publish, unpublish
 
     scene = _resolve_scene(args.scene)
     scene_path = Path(getattr(scene, "path", args.scene))
@@ -99,6 +100,12 @@ def run(args: argparse.Namespace) -> int:
         except LaunchError as exc:
             print(f"telethermo session: error: {exc}", file=sys.stderr)
             return EXIT_FAIL
+        # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag
+        try:
+            publish(pair.bus, "telethermo session")
+        except OSError as exc:
+            print(f"telethermo session: warning: cannot publish the bus ({exc}); other terminals need --bus {pair.bus}",
+                  file=sys.stderr)
         where = pair.bus if args.bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
         if not args.quiet:
             print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
@@ -125,6 +132,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
+        unpublish()
         codes = pair.stop()
         signal.signal(signal.SIGINT, old_int)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)

@@ -63,11 +63,23 @@ def test_bad_input_exit_2(tmp_path, args, fragment):
 
 
 def test_ctrl_c_stops_everything_cleanly(tmp_path):
+    import os
+    run_dir = tmp_path / "run"   # the session publishes its bus there (XDG_RUNTIME_DIR), removes it at the end
+    run_dir.mkdir()
+    state = run_dir / "telethermo" / "hub.json"
     p = session("--scene", str(SCENE), "--out", str(tmp_path), "--timing", "realtime", "--quiet",
-                "--no-plot")
+                "--no-plot", env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
     try:
         assert wait_for(lambda: (tmp_path / "master.log").exists()
                         and "OPERATIONAL" in (tmp_path / "master.log").read_text(), 120)
+        doc = json.loads(state.read_text())
+        assert doc["pid"] == p.pid and doc["by"] == "telethermo session"
+        assert doc["bus"].startswith("socketcand://127.0.0.1:") and doc["bus"].endswith("/telethermo")
+        # a second terminal's command finds the session's nodes with no bus flag
+        status = subprocess.run([sys.executable, "-m", "telethermo", "get", "slave", "Manufacturer device name"],
+                                capture_output=True, text=True, timeout=60,
+                                env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
+        assert status.returncode == 0 and status.stderr == "", status.stderr
         time.sleep(2.0)  # let it run a while (real time, 100 Hz): what ran must be reported
         p.send_signal(signal.SIGINT)
         out, err = p.communicate(timeout=120)
@@ -76,6 +88,7 @@ def test_ctrl_c_stops_everything_cleanly(tmp_path):
             p.kill()
     assert p.returncode == 130, err
     assert processes_mentioning(str(tmp_path)) == []          # hub, master and slave are gone
+    assert not state.exists()                                  # and the published bus with them
     assert "stopped (SIGTERM)" in (tmp_path / "slave.log").read_text()
     assert "stopped (SIGTERM)" in (tmp_path / "master.log").read_text()
     fig = json.loads((tmp_path / "summary.json").read_text())  # the figures of what ran
