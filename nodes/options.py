@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from telethermo.control.types import Mode, Role
+from telethermo.transport.busargs import add_bus_arguments
 
 MODE_NAMES = {"idle": Mode.IDLE, "telepresence": Mode.TELEPRESENCE, "render": Mode.RENDER, "identify": Mode.IDENTIFY}
 
@@ -78,11 +79,7 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
         epilog="exit codes: 0 ok, 1 runtime failure, 2 bad option or file, 130 interrupted")
     p.add_argument("--node-id", type=int, help="CANopen node-ID 1..127 (default: from the network settings)")
     p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
-    from telethermo.transport.resolve import add_bus_arguments
-    add_bus_arguments(p.add_argument_group(
-        "bus", "first wins: --bus or -i/-c/-b, then CAN_INTERFACE/CAN_CHANNEL/CAN_BITRATE, then python-can's "
-               "config file (~/.canrc: [telethermo], [default]), then the network file's [bus] (its in-process "
-               "virtual bus gives way to a running telethermo-hub or session)"))
+    add_bus_arguments(p)
     rig = p.add_mutually_exclusive_group(required=True)
     rig.add_argument("--scene", type=Path, help="scene file (TOML): simulated rig")
     rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY() returns a telethermo.rig.Rig")

@@ -30,7 +30,8 @@ from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, 
 from telethermo.cli.main import EXIT_FAIL, UserError
 from telethermo.monitor.cia301 import sdo_abort_text
 from telethermo.transport.bus import TransportError, TransportSettings, open_bus
-from telethermo.transport.resolve import ResolvedBus, add_bus_arguments, resolve_bus
+from telethermo.transport.busargs import add_bus_arguments
+from telethermo.transport.resolve import ResolvedBus, resolve_bus
 
 
 class Failure(Exception):
@@ -57,12 +58,8 @@ def failures(run: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Nam
 
 # --- options ------------------------------------------------------------------------------------
 def add_bus_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("bus", "first wins: --bus or -i/-c/-b, then CAN_INTERFACE/CAN_CHANNEL/CAN_BITRATE, "
-                                    "then python-can's config file (~/.canrc: [telethermo], [default]), then "
-                                    "the network file's [bus] (its in-process virtual bus gives way to a "
-                                    "running telethermo-hub or session)")
+    g = add_bus_arguments(p)
     g.add_argument("--network", metavar="FILE", help="network settings (default: bus_config/network.toml)")
-    add_bus_arguments(g)
     g.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="SDO response timeout, s (default 1.0)")
 

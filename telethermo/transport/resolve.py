@@ -18,7 +18,6 @@ resolved interface is the file's. The bitrate falls back to the file's (it is th
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 from dataclasses import dataclass
@@ -38,16 +37,6 @@ class ResolvedBus:
 
     settings: TransportSettings
     source: str
-
-
-def add_bus_arguments(group: argparse._ActionsContainer) -> None:
-    """``--bus`` and ``-i/-c/-b`` on a parser or argument group."""
-    group.add_argument("--bus", metavar="BUS", help="the bus as one string: socketcan:vcan0, virtual:NAME, "
-                       "socketcand://127.0.0.1:PORT/telethermo, pcan:PCAN_USBBUS1, ...")
-    group.add_argument("-i", "--interface", metavar="NAME", help="python-can interface (socketcan, pcan, "
-                       "kvaser, socketcand, virtual, ...)")
-    group.add_argument("-c", "--channel", metavar="CHANNEL", help="the interface's channel (vcan0, can0, ...)")
-    group.add_argument("-b", "--bitrate", type=int, metavar="BIT_PER_S", help="bitrate, bit/s")
 
 
 def _config_files() -> str:
