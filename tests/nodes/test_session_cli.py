@@ -55,6 +55,8 @@ def test_session_figures_equal_offline(tmp_path):
     (["--scene", "no/such/scene.toml"], "no/such/scene.toml"),
     (["--scene", str(SCENE), "--duration", "-1"], "--duration"),
     (["--scene", str(SCENE), "--bus", "vcan0"], "INTERFACE:CHANNEL"),
+    (["--scene", str(SCENE), "-i", "kvasr", "-c", "0"], "unknown python-can interface 'kvasr'"),
+    (["--scene", str(SCENE), "-i", "virtual", "-c", "x"], "virtual:x (from -i/-c/-b) exists inside one process only"),
 ])
 def test_bad_input_exit_2(tmp_path, args, fragment):
     p = session(*args, "--out", str(tmp_path))
