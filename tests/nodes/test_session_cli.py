@@ -18,7 +18,11 @@ SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_
 
 
 def session(*args: str, **kw) -> subprocess.Popen:
-    # the console script's entry point (``python -m telethermo.cli.main`` would import main twice)
+    # the console script's entry point (``python -m telethermo.cli.main`` would import main twice);
+    # a runtime dir of its own, so that the bus the session publishes never redirects this user's commands
+    import os
+    import tempfile
+    kw.setdefault("env", dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-run-")))
     return subprocess.Popen([sys.executable, "-c", "import sys; from telethermo.cli.main import main; sys.exit(main())",
                              "session", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
