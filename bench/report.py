@@ -40,6 +40,9 @@ HEADLINE = [
     ("identify_live", "live_heldout_free_run_max_C", "`telethermo identify master` on a live node (hub, lockstep), held-out worst, °C",
      "= offline"),
     ("identify_live", "live_wall_s", "the same command end to end (set-up, experiment, fit, load + CRC), s", "report"),
+    ("cli", "help_ratio_vs_can_viewer", "`telethermo --help` / `python -m can.viewer --help`, medians, one run", "≤ 1.5"),
+    ("cli", "get_ratio_vs_raw_canopen", "one `telethermo get master kp_A_per_C` (live node, hub) / a minimal canopen "
+     "script's SDO read, medians, one run", "≤ 1.5"),
     ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),
 ]
 

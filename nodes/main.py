@@ -47,7 +47,8 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 
     # heavy imports after the argument check (``--help`` and usage errors stay fast)
     from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
-    from telethermo.transport.bus import TransportError, parse_bus_string, settings_from_mapping
+    from telethermo.transport.bus import TransportError
+    from telethermo.transport.resolve import resolve_bus
 
     from nodes.parts import build_parts
     from nodes.recorder import CsvRecorder
@@ -55,12 +56,8 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 
     try:
         net = load_network(opts.network)
-        if opts.bus:
-            transport = parse_bus_string(opts.bus, bitrate=net.bus.bitrate)
-        else:
-            transport = settings_from_mapping(
-                {"interface": net.bus.interface, "channel": net.bus.channel, "bitrate": net.bus.bitrate,
-                 "options": dict(net.bus.options)}, str(net.path))
+        transport = resolve_bus(net, bus=opts.bus, interface=opts.interface, channel=opts.channel,
+                                bitrate=opts.bitrate).settings
         node_id = opts.node_id or net.node(role.value).node_id
         parts = build_parts(opts, period_s=net.sync.period_s)
     except (OptionError, NetworkConfigError, TransportError) as exc:
@@ -73,7 +70,7 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         p = "m_" if role is Role.MASTER else "s_"
         columns = ["t_s"] + [c for c in COLUMNS if c.startswith(p)]
         meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
-                    node_id=node_id, timing=opts.timing, transport=opts.bus or net.bus.interface)
+                    node_id=node_id, timing=opts.timing, transport=transport.describe())
         recorder = CsvRecorder(opts.record, columns,
                                comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
 

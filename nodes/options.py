@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from telethermo.control.types import Mode, Role
+from telethermo.transport.busargs import add_bus_arguments
 
 MODE_NAMES = {"idle": Mode.IDLE, "telepresence": Mode.TELEPRESENCE, "render": Mode.RENDER, "identify": Mode.IDENTIFY}
 
@@ -27,6 +28,7 @@ class NodeOptions:
         node_id: CANopen node-ID 1..127 (None: from the network settings).
         network: network settings file (None: the packaged bus_config/network.toml).
         bus: transport override, ``INTERFACE:CHANNEL`` or ``socketcand://HOST:PORT/CHANNEL``.
+        interface, channel, bitrate: ``-i/-c/-b`` (python-can's names); see telethermo.transport.resolve.
         scene: scene file of a simulated rig (lockstep by default).
         rig: ``module:factory`` of a hardware rig driver (real time).
         model: identified model file (None: the packaged sim_tem.json).
@@ -46,6 +48,9 @@ class NodeOptions:
     node_id: int | None = None
     network: Path | None = None
     bus: str | None = None
+    interface: str | None = None
+    channel: str | None = None
+    bitrate: int | None = None
     scene: Path | None = None
     rig: str | None = None
     model: Path | None = None
@@ -74,8 +79,7 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
         epilog="exit codes: 0 ok, 1 runtime failure, 2 bad option or file, 130 interrupted")
     p.add_argument("--node-id", type=int, help="CANopen node-ID 1..127 (default: from the network settings)")
     p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
-    p.add_argument("--bus", help="transport override: INTERFACE:CHANNEL (socketcan:vcan0, virtual:tt, pcan:...) "
-                                 "or socketcand://HOST:PORT/CHANNEL (our hub)")
+    add_bus_arguments(p)
     rig = p.add_mutually_exclusive_group(required=True)
     rig.add_argument("--scene", type=Path, help="scene file (TOML): simulated rig")
     rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY() returns a telethermo.rig.Rig")
@@ -128,6 +132,7 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         raise OptionError(f"--record {str(args.record)!r}: is a directory, expected a CSV file path")
     return NodeOptions(
         role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
+        interface=args.interface, channel=args.channel, bitrate=args.bitrate,
         scene=existing(args.scene, "--scene"), rig=args.rig, model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,

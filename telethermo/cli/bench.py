@@ -5,8 +5,7 @@ import argparse
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bench", help="run the benchmark suite, write bench/results/*.json and docs/benchmarks.md",
-                       description="Run every benchmark (simulator, identification, control, nodes); "
+    p = sub.add_parser("bench", description="Run every benchmark (simulator, identification, control, nodes); "
                                    "results go to bench/results/<name>.json and the table in docs/benchmarks.md.")
     p.add_argument("--quick", action="store_true", help="short runs (CI) that still measure something real")
     p.add_argument("--only", nargs="+", metavar="NAME", help="sim, identify, control, nodes")

@@ -23,8 +23,7 @@ PRE_S, EARLY = 0.5, (0.1, 1.0)   # s before contact; s after contact (ETS window
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("calibrate-finger", help="per-user finger calibration (yamamoto): β_pad and T_finger0",
-                              description=__doc__.split("\n\n")[1].replace("\n", " "))
+    p = subparsers.add_parser("calibrate-finger", description=__doc__.split("\n\n")[1].replace("\n", " "))
     common.add_bus_options(p)
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--touch", action="append", metavar="T_PAD0:T_CONTACT",

@@ -2,8 +2,9 @@
 EDS look-ups, SDO access with clear errors.
 
 Every command takes the same bus options (:func:`add_bus_options`): ``--network FILE`` (default
-bus_config/network.toml) and ``--bus`` to override its transport (``socketcan:vcan0``,
-``virtual:NAME``, ``socketcand://127.0.0.1:29536/vcan0``). User errors raise
+bus_config/network.toml), ``--bus`` (``socketcan:vcan0``, ``virtual:NAME``,
+``socketcand://127.0.0.1:29536/telethermo``) or ``-i/-c/-b``; the bus is resolved in python-can's order by
+:func:`telethermo.transport.resolve.resolve_bus`. User errors raise
 :class:`telethermo.cli.main.UserError` (exit 2); runtime failures (a node that does not answer, an
 SDO abort) raise :class:`Failure`, turned into one line on stderr and exit 1 by :func:`failures`.
 """
@@ -22,15 +23,15 @@ from typing import Any, Callable, Iterator
 
 import can
 import canopen
-from canopen.objectdictionary import import_od
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
 from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, UserError
 from telethermo.monitor.cia301 import sdo_abort_text
-from telethermo.monitor.state import MonitorConfig, NodeInfo
-from telethermo.transport.bus import TransportError, TransportSettings, open_bus, parse_bus_string
+from telethermo.transport.bus import TransportError, TransportSettings, open_bus
+from telethermo.transport.busargs import add_bus_arguments
+from telethermo.transport.resolve import ResolvedBus, resolve_bus
 
 
 class Failure(Exception):
@@ -57,10 +58,8 @@ def failures(run: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Nam
 
 # --- options ------------------------------------------------------------------------------------
 def add_bus_options(p: argparse.ArgumentParser) -> None:
-    g = p.add_argument_group("bus")
+    g = add_bus_arguments(p)
     g.add_argument("--network", metavar="FILE", help="network settings (default: bus_config/network.toml)")
-    g.add_argument("--bus", metavar="BUS", help="override the transport: socketcan:vcan0, virtual:NAME, "
-                   "socketcand://127.0.0.1:29536/vcan0, pcan:PCAN_USBBUS1, ...")
     g.add_argument("--timeout", type=float, default=1.0, metavar="S",
                    help="SDO response timeout, s (default 1.0)")
 
@@ -74,26 +73,28 @@ def network(args: argparse.Namespace) -> NetworkConfig:
         raise UserError(f"{args.network}: cannot read network settings ({exc.strerror or exc})") from None
 
 
-def transport(args: argparse.Namespace, net: NetworkConfig) -> TransportSettings:
-    """The transport from ``--bus`` or the network file's [bus] table."""
+def resolved_bus(args: argparse.Namespace, net: NetworkConfig) -> ResolvedBus:
+    """The bus of this command and where the setting came from (:func:`resolve_bus`)."""
     try:
-        if getattr(args, "bus", None):
-            return parse_bus_string(args.bus, bitrate=net.bus.bitrate)
-        opts = dict(net.bus.options)
-        host, port = opts.pop("host", None), opts.pop("port", None)
-        return TransportSettings(net.bus.interface, net.bus.channel, net.bus.bitrate, host=host, port=port,
-                                 options=opts)
+        return resolve_bus(net, bus=getattr(args, "bus", None), interface=getattr(args, "interface", None),
+                           channel=getattr(args, "channel", None), bitrate=getattr(args, "bitrate", None))
     except TransportError as exc:
         raise UserError(str(exc)) from None
 
 
+def transport(args: argparse.Namespace, net: NetworkConfig) -> TransportSettings:
+    return resolved_bus(args, net).settings
+
+
 def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, TransportSettings]:
     """Open the bus; Failure (exit 1) if it cannot be reached."""
-    ts = transport(args, net)
-    if ts.interface == "virtual" and not getattr(args, "bus", None):
+    rb = resolved_bus(args, net)
+    ts = rb.settings
+    if ts.interface == "virtual" and rb.source == str(net.path):
+        from telethermo.transport.published import state_file
         print(f"telethermo {getattr(args, 'command', '')}: note: {ts.describe()} (from {net.path}) is a bus inside "
-              "this process only; to reach a session use --bus socketcand://127.0.0.1:PORT/telethermo (the hub) "
-              "or --bus socketcan:vcan0", file=sys.stderr)
+              f"this process only, and no hub or session is running (none in {state_file()}); give the bus with "
+              "--bus or -i/-c, CAN_INTERFACE/CAN_CHANNEL or ~/.canrc, or start telethermo-hub", file=sys.stderr)
     # python-can's socketcand client logs every TCP read that splits a frame; not news to an operator
     logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
     try:
@@ -101,7 +102,10 @@ def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, 
     except TransportError as exc:
         raise UserError(str(exc)) from None
     except (can.CanError, OSError, ValueError, ImportError) as exc:
-        raise Failure(f"cannot open bus {ts.describe()}: {exc}") from None
+        raise Failure(f"cannot open bus {ts.describe()} (from {rb.source}): {exc}") from None
+    except Exception as exc:   # an interface whose driver library is missing fails in its own ways
+        raise Failure(f"cannot open bus {ts.describe()} (from {rb.source}): {type(exc).__name__}: {exc}; "
+                      f"is the {ts.interface} driver library installed?") from None
 
 
 @contextlib.contextmanager
@@ -179,35 +183,15 @@ def lookup(target: Target, name: str) -> VarInfo:
         raise UserError(exc.args[0]) from None
 
 
-def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None
-                   ) -> MonitorConfig:
-    """The monitor's view of the network: node names, EDS dictionaries with the network file's
-    power-on overrides (heartbeat and consumer times, SYNC), bitrate and SYNC period (real time only)."""
-    nodes = {}
-    for t in node_targets(net):
-        try:
-            od = import_od(str(t.eds), t.node_id)
-        except Exception as exc:  # canopen raises assorted errors for a bad EDS
-            raise UserError(f"{t.eds}: cannot parse EDS ({exc})") from None
-        try:
-            for (index, sub), value in net.device_settings(t.role).overrides().items():
-                obj = od[index]
-                var = obj if sub == 0 and not hasattr(obj, "subindices") else obj[sub]
-                var.value = value
-        except (KeyError, NetworkConfigError):
-            pass  # an override for an object this EDS lacks: keep the EDS value
-        nodes[t.node_id] = NodeInfo(t.role, od)
-    period = sync_period_s if sync_period_s is not None else (None if net.sync.lockstep else net.sync.period_s)
-    return MonitorConfig(nodes=nodes, bitrate_bps=bitrate or net.bus.bitrate, sync_period_s=period)
-
-
 # --- SDO ------------------------------------------------------------------------------------------
 def abort_text(code: int) -> str:
     return f"SDO abort 0x{code:08X}: {sdo_abort_text(code)}"
 
 
 def remote(nw: canopen.Network, target: Target, timeout_s: float = 1.0) -> canopen.RemoteNode:
-    node = canopen.RemoteNode(target.node_id, str(target.eds))
+    """An SDO client of ``target``. Its object dictionary stays empty: the commands address objects by
+    index and subindex from :func:`eds_info` (parsed once), so canopen need not parse the EDS again."""
+    node = canopen.RemoteNode(target.node_id, canopen.ObjectDictionary())
     node.sdo.RESPONSE_TIMEOUT = timeout_s
     node.sdo.MAX_RETRIES = 1   # canopen counts attempts: 1 = no retry (0 would retry forever)
     nw.add_node(node)

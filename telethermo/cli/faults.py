@@ -20,8 +20,7 @@ ABORT_DEVICE_STATE = 0x08000022
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("fault-reset", help="clear the latched safety trips whose cause is gone",
-                              description="The operator's fault reset (object 0x240A): each node clears the latched "
+    p = subparsers.add_parser("fault-reset", description="The operator's fault reset (object 0x240A): each node clears the latched "
                                           "trips whose cause is gone, with their EMCYs, and its envelope restarts "
                                           "bumplessly from the surface. A node where a cause persists refuses "
                                           "(abort 0x08000022) and clears nothing: exit 1, with the trip named.")

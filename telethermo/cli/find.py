@@ -14,8 +14,7 @@ from telethermo.monitor.cia301 import NMT_UNKNOWN
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("find", help="find the nodes on the bus: NMT state, identity, device name",
-                              description="Listen for heartbeats, probe the configured node-IDs (or all "
+    p = subparsers.add_parser("find", description="Listen for heartbeats, probe the configured node-IDs (or all "
                                           "1..127 with --scan) by SDO, and read identity (0x1018) and device "
                                           "name (0x1008) of every node that answers. Exit 1 if none is found.")
     common.add_bus_options(p)

@@ -24,9 +24,7 @@ DEFAULT_ORDERS = "4,4,1,1"
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("identify", help="identify a TEM model (NARMA temperature + heat-flux) on a live node "
-                                        "(and load it into it) or on a simulated rig",
-                       description="Run a PRBS identification experiment on a pad that touches nothing, fit the NARMA "
+    p = sub.add_parser("identify", description="Run a PRBS identification experiment on a pad that touches nothing, fit the NARMA "
                                    "temperature model (guiatni eq. 10) and the heat-flux model (eq. 12), validate on a "
                                    "held-out PRBS, check stability. With NODE: the experiment runs on that live node "
                                    "(IDENTIFY mode, its safety envelope active), its samples are recorded from the bus, "

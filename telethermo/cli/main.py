@@ -1,11 +1,15 @@
 """``telethermo``: one entry point, one subcommand per module of this package.
 
-Each subcommand module defines ``register(subparsers)`` which adds its parser and sets
-``func=run`` (a callable taking the parsed args and returning an exit code). Modules are imported
-lazily so that ``telethermo --help`` stays fast and one broken subcommand cannot break the others.
+The subcommand registry (:data:`COMMANDS`) is the one place that knows which module implements which
+command and the command's one-line help. Building the top-level parser imports no subcommand module:
+``telethermo --help`` lists the commands from the registry, and only the chosen command's module is
+imported (its ``register(subparsers)`` adds the real parser with its options and sets ``func=run``,
+a callable taking the parsed args and returning an exit code). So ``--help``, ``find``, ``get``,
+``set``, ``nmt`` and ``status`` import neither scipy nor matplotlib (tests/cli/test_cli_imports.py),
+and one broken subcommand module cannot break the others.
 
 Exit codes (stable, for scripts): 0 ok, 1 runtime failure (e.g. a node did not answer, SDO abort),
-2 usage or input error (bad argument, bad file), 130 interrupted (Ctrl-C).
+2 usage or input error (bad argument, bad file), 130 interrupted (Ctrl-C; `record` ends normally on Ctrl-C: 0).
 """
 from __future__ import annotations
 
@@ -13,30 +17,94 @@ import argparse
 import importlib
 import signal
 import sys
+from typing import NamedTuple
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
-# subcommand module names (telethermo.cli.<name>); each has register(subparsers)
-SUBCOMMAND_MODULES = [
-    "session", "identify", "tune", "monitor", "find", "status", "params", "nmt", "mode", "faults", "calibrate", "record", "bench",
-]
+
+class Command(NamedTuple):
+    module: str   # telethermo.cli.<module> defines register(subparsers)
+    help: str     # the line `telethermo --help` shows; register() gets it from here
+
+
+# command name -> implementing module and help, in the order `telethermo --help` lists them
+COMMANDS: dict[str, Command] = {
+    "session": Command("session", "run a two-node telepresence session (simulated rigs) and report its figures"),
+    "identify": Command("identify", "identify a TEM model (NARMA temperature + heat-flux) on a live node "
+                                    "(and load it into it) or on a simulated rig"),
+    "tune": Command("tune", "tune the bilateral gains offline (search + ±30 %% robustness check)"),
+    "monitor": Command("monitor", "watch the CANopen bus (live or a recorded log)"),
+    "find": Command("find", "find the nodes on the bus: NMT state, identity, device name"),
+    "status": Command("status", "mode, temperatures, estimates, flux, current, safety of each node"),
+    "get": Command("params", "read parameters by EDS name (or list them)"),
+    "set": Command("params", "write a parameter by EDS name (range-checked)"),
+    "nmt": Command("nmt", "NMT start/stop/preop/reset of one node or all"),
+    "mode": Command("mode", "switch the nodes: telepresence | render MATERIAL | idle"),
+    "fault-reset": Command("faults", "clear the latched safety trips whose cause is gone"),
+    "calibrate-finger": Command("calibrate", "per-user finger calibration (yamamoto): β_pad and T_finger0"),
+    "record": Command("record", "record the bus to a .log/.asc/.blf file plus a decoded CSV"),
+    "bench": Command("bench", "run the benchmark suite, write bench/results/*.json and docs/benchmarks.md"),
+}
 
 
 class UserError(Exception):
     """An error the user can fix (bad argument, bad file, unknown parameter): one line, exit 2."""
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="telethermo", description="Bilateral thermal telepresence over CANopen.")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
-    for name in SUBCOMMAND_MODULES:
+class _Subparsers:
+    """What a subcommand module's ``register`` receives: ``add_parser(name, **kw)`` with the help
+    text taken from :data:`COMMANDS` (a module cannot register a command the registry lacks)."""
+
+    def __init__(self, action: argparse._SubParsersAction) -> None:
+        self._action = action
+
+    def add_parser(self, name: str, **kw) -> argparse.ArgumentParser:
+        kw.setdefault("help", COMMANDS[name].help)
+        return self._action.add_parser(name, **kw)
+
+
+class _VersionAction(argparse.Action):
+    """``--version``: the installed distribution's version, looked up only when asked (reading the
+    installed metadata costs ~50 ms, which every other command would pay if the parser held the text)."""
+
+    def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
+        super().__init__(option_strings, dest=dest, default=default, nargs=0,
+                         help=help or "show the version and exit")
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        from importlib.metadata import PackageNotFoundError, version
         try:
-            mod = importlib.import_module(f"telethermo.cli.{name}")
-        except ModuleNotFoundError as exc:
-            if exc.name == f"telethermo.cli.{name}":
-                continue  # not built (yet)
-            raise
-        mod.register(sub)
+            text = version("telethermo")
+        except PackageNotFoundError:   # a source tree that was never installed
+            from telethermo import __version__ as text
+        print(f"telethermo {text}")
+        parser.exit()
+
+
+def chosen_command(argv: list[str]) -> str | None:
+    """The subcommand named in ``argv`` (the first word that is not an option), or None.
+    The top-level parser has only flags without values (-h, --version), so this is exact."""
+    for word in argv:
+        if word == "--":
+            return None
+        if not word.startswith("-"):
+            return word
+    return None
+
+
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The parser, with the real parser(s) of ``command``'s module (imported now) and a bare entry
+    (name and help, no import) for every other command."""
+    parser = argparse.ArgumentParser(prog="telethermo", description="Bilateral thermal telepresence over CANopen.")
+    parser.add_argument("--version", action=_VersionAction)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    module = COMMANDS[command].module if command in COMMANDS else None
+    for name, cmd in COMMANDS.items():
+        if cmd.module == module:
+            if name == command:   # the module registers all of its commands (get and set) at once
+                importlib.import_module(f"telethermo.cli.{module}").register(_Subparsers(sub))
+        else:
+            sub.add_parser(name, help=cmd.help)
     return parser
 
 
@@ -46,7 +114,8 @@ def main(argv: list[str] | None = None) -> int:
     # raises KeyboardInterrupt: restore the default so that SIGINT always stops us cleanly.
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(chosen_command(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):
         parser.print_help()

@@ -11,8 +11,7 @@ from telethermo.control.types import Mode
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("mode", help="switch the nodes: telepresence | render MATERIAL | idle",
-                              description="telepresence: both nodes couple bilaterally (guiatni eq. 34/35). "
+    p = subparsers.add_parser("mode", description="telepresence: both nodes couple bilaterally (guiatni eq. 34/35). "
                                           "render MATERIAL: the master renders a virtual material alone "
                                           "(yamamoto eq. 7; β from the rendering table, or --beta). idle: "
                                           "current to zero through the safety envelope's ramp.")

@@ -7,6 +7,7 @@ import time
 
 from telethermo.cli import common
 from telethermo.cli.main import UserError
+from telethermo.cli.monitor_setup import monitor_config
 from telethermo.monitor.replay import Pacer, ReplayError, live, paced, read_log
 from telethermo.monitor.run import run_curses, run_lines
 from telethermo.monitor.state import Monitor
@@ -15,8 +16,7 @@ from telethermo.monitor.view import ViewState
 
 def register(subparsers) -> None:
     p = subparsers.add_parser(
-        "monitor", help="watch the CANopen bus (live or a recorded log)",
-        description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
+        "monitor", description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
                     "transfers (one state machine per node), PDOs by the EDS mapping and by remapping seen on "
                     "the bus, SYNC period/jitter, bus load, events. Curses view by default; --json or --lines "
                     "for scripts.")
@@ -35,7 +35,6 @@ def register(subparsers) -> None:
     p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
     p.add_argument("--sync-period", type=float, metavar="S",
                    help="nominal SYNC period for late cycles, s (default: the network file's, unless lockstep)")
-    p.add_argument("--bitrate", type=int, metavar="BIT_S", help="bitrate for the bus load (default: the network file's)")
     p.set_defaults(func=run)
 
 
@@ -48,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
     if args.count is not None and args.count <= 0:
         raise UserError(f"--count: expected a positive number of frames, got {args.count}")
     net = common.network(args)
-    mon = Monitor(common.monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period))
+    mon = Monitor(monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period))
     scripted = args.json or args.lines
     bus = None
     deadline = time.monotonic() + args.duration if args.duration else None

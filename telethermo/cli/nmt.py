@@ -12,8 +12,7 @@ COMMANDS = {"start": (0x01, 0x05), "stop": (0x02, 0x04), "preop": (0x80, 0x7F),
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("nmt", help="NMT start/stop/preop/reset of one node or all",
-                              description="Send an NMT command and wait for the heartbeat that confirms it "
+    p = subparsers.add_parser("nmt", description="Send an NMT command and wait for the heartbeat that confirms it "
                                           "(boot-up for the resets). Exit 1 if a node does not confirm.")
     common.add_bus_options(p)
     p.add_argument("command", choices=sorted(COMMANDS), help="start (OPERATIONAL), stop (STOPPED), "

@@ -8,8 +8,7 @@ from telethermo.cli.main import UserError
 
 
 def register(subparsers) -> None:
-    g = subparsers.add_parser("get", help="read parameters by EDS name (or list them)",
-                              description="Read parameters of a node by SDO, by their EDS name "
+    g = subparsers.add_parser("get", description="Read parameters of a node by SDO, by their EDS name "
                                           "(kp_A_per_C, theta3, 'Identity object.Vendor-ID') or number "
                                           "(0x2200, 0x1018:1). --list shows every object with unit and range.")
     common.add_bus_options(g)
@@ -17,8 +16,7 @@ def register(subparsers) -> None:
     g.add_argument("names", nargs="*", metavar="NAME")
     g.add_argument("--list", action="store_true", help="list the node's objects (from its EDS; no bus needed)")
     g.set_defaults(func=run_get)
-    s = subparsers.add_parser("set", help="write a parameter by EDS name (range-checked)",
-                              description="Write one parameter of a node by SDO. A value outside the EDS "
+    s = subparsers.add_parser("set", description="Write one parameter of a node by SDO. A value outside the EDS "
                                           "range is refused here (exit 2, nothing sent); a write the node "
                                           "refuses shows the SDO abort code and its meaning (exit 1).")
     common.add_bus_options(s)

@@ -8,19 +8,22 @@ from pathlib import Path
 
 from telethermo.cli import common
 from telethermo.cli.main import UserError
-from telethermo.monitor.record import Recorder, RecordError, check_log_path
+from telethermo.cli.monitor_setup import monitor_config
+from telethermo.monitor.record import Recorder, RecordError, check_log_path, default_csv_path
 from telethermo.monitor.state import Monitor
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("record", help="record the bus to a .log/.asc/.blf file plus a decoded CSV",
-                              description="Record every frame to a python-can log file, the format chosen "
+    p = subparsers.add_parser("record", description="Record every frame to a python-can log file, the format chosen "
                                           "by the extension (.log candump, .asc Vector ASC, .blf Vector BLF), "
-                                          "and the decoded frames to a CSV beside it. Stops after --duration "
-                                          "or --count, or on Ctrl-C; the files are complete in every case.")
+                                          "and the decoded frames to a CSV beside it (FILE.csv: s.blf -> s.blf.csv). "
+                                          "Existing files are kept unless --force. Stops after --duration "
+                                          "or --count, or on Ctrl-C (exit 0: the normal stop); the files are "
+                                          "complete in every case.")
     common.add_bus_options(p)
     p.add_argument("out", metavar="FILE", help="log file: .log, .asc or .blf")
-    p.add_argument("--csv", metavar="CSV", help="decoded CSV (default: FILE with .csv)")
+    p.add_argument("--csv", metavar="CSV", help="decoded CSV (default: FILE.csv, e.g. s.blf.csv)")
+    p.add_argument("--force", action="store_true", help="replace existing files")
     p.add_argument("--no-csv", action="store_true", help="no decoded CSV")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
@@ -37,11 +40,15 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--duration: expected a positive number of seconds, got {args.duration}")
     if args.count is not None and args.count <= 0:
         raise UserError(f"--count: expected a positive number of frames, got {args.count}")
-    csv = None if args.no_csv else Path(args.csv) if args.csv else log.with_suffix(".csv")
+    csv = None if args.no_csv else Path(args.csv) if args.csv else default_csv_path(log)
     if csv is not None and csv.resolve() == log.resolve():
         raise UserError(f"--csv {csv}: must differ from the log file")
+    existing = [str(f) for f in (log, csv) if f is not None and f.exists()]
+    if existing and not args.force:
+        raise UserError(f"{' and '.join(existing)} already exist{'s' if len(existing) == 1 else ''}; "
+                        "give another name, or --force to replace")
     net = common.network(args)
-    mon = Monitor(common.monitor_config(net))
+    mon = Monitor(monitor_config(net))
     bus, ts = common.open_can(args, net)
     rec = Recorder(log, csv, mon)
     interrupted = False
@@ -62,5 +69,6 @@ def run(args: argparse.Namespace) -> int:
     finally:
         n = rec.stop()
         bus.shutdown()
-    print(f"recorded {n} frames to {log}" + (f" and {csv}" if csv else ""))
-    return 130 if interrupted else 0
+    # Ctrl-C is how a recording without --duration/--count ends: a normal stop, exit 0
+    print(f"recorded {n} frames to {log}" + (f" and {csv}" if csv else "") + (" (stopped by Ctrl-C)" if interrupted else ""))
+    return 0

@@ -23,11 +23,13 @@ from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("session", help="run a two-node telepresence session (simulated rigs) and report its figures",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser("session", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", required=True, type=Path, help="scene file (TOML) or a shipped scene's name")
     p.add_argument("--out", type=Path, default=Path("out/session"), help="output folder (default out/session)")
-    p.add_argument("--bus", help="a real bus for both nodes (e.g. socketcan:vcan0); default: our loopback hub")
+    from telethermo.transport.busargs import add_bus_arguments
+    add_bus_arguments(p).description += (". A session's bus joins two processes: when none is configured (or "
+                                          "only network.toml's in-process virtual bus), the session starts our "
+                                          "loopback hub")
     p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
     p.add_argument("--model", type=Path, help="identified TEM model file for both nodes (default: none; the flux "
                                               "estimator needs none)")
@@ -55,8 +57,30 @@ def _resolve_scene(arg: Path):
         raise UserError(str(exc)) from None
 
 
+def _session_bus(args: argparse.Namespace) -> str | None:
+    """The two nodes' bus, resolved as every command resolves it (telethermo.transport.resolve, without
+    a published hub: the session publishes its own); None = start our hub (nothing configured but
+    network.toml's in-process virtual bus)."""
+    from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
+    from telethermo.transport.bus import TransportError
+    from telethermo.transport.resolve import resolve_bus
+    try:
+        net = load_network(args.network)
+        rb = resolve_bus(net, bus=args.bus, interface=args.interface, channel=args.channel, bitrate=args.bitrate,
+                         use_published=False)
+    except (NetworkConfigError, TransportError) as exc:
+        raise UserError(str(exc)) from None
+    if rb.settings.interface != "virtual":
+        return rb.settings.describe()
+    if rb.source == str(net.path):
+        return None
+    raise UserError(f"{rb.settings.describe()} (from {rb.source}) exists inside one process only; the session's "
+                    "two node processes need socketcan, socketcand or no bus setting (then our hub)")
+
+
 def run(args: argparse.Namespace) -> int:
     from nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
+    from telethermo.transport.published import publish, unpublish
 
     scene = _resolve_scene(args.scene)
     scene_path = Path(getattr(scene, "path", args.scene))
@@ -74,18 +98,13 @@ def run(args: argparse.Namespace) -> int:
         gains_args = ["--gains", str(args.gains.resolve())]
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         raise UserError(f"--duration {args.duration}: expected a number of seconds > 0")
-    if args.bus:
-        from telethermo.transport.bus import TransportError, parse_bus_string
-        try:
-            parse_bus_string(args.bus)
-        except TransportError as exc:
-            raise UserError(str(exc)) from None
+    bus = _session_bus(args)
     duration = args.duration if args.duration is not None else scene.duration_s
     cycles = int(round(duration / scene.period_s))
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
-    cfg = PairConfig(scene=scene_path, out_dir=out, bus=args.bus, network=args.network, model=args.model,
+    cfg = PairConfig(scene=scene_path, out_dir=out, bus=bus, network=args.network, model=args.model,
                      mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
                      progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args)
     pair = NodePair(cfg)
@@ -100,7 +119,13 @@ def run(args: argparse.Namespace) -> int:
         except LaunchError as exc:
             print(f"telethermo session: error: {exc}", file=sys.stderr)
             return EXIT_FAIL
-        where = pair.bus if args.bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
+        # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag
+        try:
+            publish(pair.bus, "telethermo session")
+        except OSError as exc:
+            print(f"telethermo session: warning: cannot publish the bus ({exc}); other terminals need --bus {pair.bus}",
+                  file=sys.stderr)
+        where = pair.bus if bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
         if not args.quiet:
             print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
                   f"on {where}", file=sys.stderr)
@@ -126,6 +151,7 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
+        unpublish()
         codes = pair.stop()
         signal.signal(signal.SIGINT, old_int)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)

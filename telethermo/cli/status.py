@@ -26,8 +26,7 @@ IDENT_STATE = {0: "not run", 1: "running", 2: "done", 3: "interrupted"}
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("status", help="mode, temperatures, estimates, flux, current, safety of each node",
-                              description="Read each node's state by SDO: mode, temperatures, estimates, heat "
+    p = subparsers.add_parser("status", description="Read each node's state by SDO: mode, temperatures, estimates, heat "
                                           "flux, current, safety state, late cycles, last EMCY; NMT state from "
                                           "its heartbeat. Exit 1 if a node does not answer.")
     common.add_bus_options(p)

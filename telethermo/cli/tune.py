@@ -23,8 +23,7 @@ from telethermo.cli.main import EXIT_OK, UserError
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("tune", help="tune the bilateral gains offline (search + ±30 %% robustness check)",
-                              description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser("tune", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", required=True, help="telepresence scene: a TOML file or a shipped scene's name")
     p.add_argument("--budget", type=int, default=60,
                    help="search points (default 60; each costs 3 evaluations: the point and its two stress corners; "

@@ -39,6 +39,20 @@ def check_log_path(path: str | os.PathLike) -> Path:
     return p
 
 
+def default_csv_path(log_path: str | os.PathLike) -> Path:
+    """The decoded CSV of a log: its full name plus ``.csv`` (``s.blf`` -> ``s.blf.csv``), so that ``s.log``,
+    ``s.blf`` and ``s.asc`` each keep their own CSV."""
+    p = Path(log_path)
+    return p.with_name(p.name + ".csv")
+
+
+def _file_mode() -> int:
+    """What ``open()`` would give a new file: 0666 less the umask (0644 under the usual 022)."""
+    umask = os.umask(0)
+    os.umask(umask)
+    return 0o666 & ~umask
+
+
 def _temp_beside(path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
@@ -95,11 +109,14 @@ class Recorder(can.Listener):
                 return self.frames
             self._stopped = True
             self._writer.stop()
+            mode = _file_mode()   # the temporary files are 0600 (mkstemp); the recordings are for the group too
+            os.chmod(self._tmp_log, mode)
             os.replace(self._tmp_log, self.log_path)
             if self._csv_fh:
                 self._csv_fh.flush()
                 os.fsync(self._csv_fh.fileno())
                 self._csv_fh.close()
+                os.chmod(self._tmp_csv, mode)
                 os.replace(self._tmp_csv, self.csv_path)
         return self.frames
 

@@ -75,10 +75,19 @@ def _fail(source: str, fieldname: str, problem: str) -> TransportError:
     return TransportError(f"{source}: bus.{fieldname}: {problem}")
 
 
+def check_interface(name: Any, source: str = "transport") -> str:
+    """``name`` if python-can knows the interface (its own or a plugin's); TransportError otherwise."""
+    if not isinstance(name, str) or not name:
+        raise _fail(source, "interface", f"expected a python-can interface name, got {name!r}")
+    if name not in can.VALID_INTERFACES:
+        raise _fail(source, "interface", f"unknown python-can interface {name!r}; expected one of "
+                                         f"{', '.join(sorted(can.VALID_INTERFACES))}")
+    return name
+
+
 def validate(settings: TransportSettings, source: str = "transport") -> TransportSettings:
     """Check ``settings``; raise :class:`TransportError` naming ``source`` and the field."""
-    if not isinstance(settings.interface, str) or not settings.interface:
-        raise _fail(source, "interface", f"expected a python-can interface name, got {settings.interface!r}")
+    check_interface(settings.interface, source)
     if not isinstance(settings.channel, str) or not settings.channel:
         raise _fail(source, "channel", f"expected a channel name such as 'vcan0', got {settings.channel!r}")
     if not isinstance(settings.bitrate, int) or isinstance(settings.bitrate, bool) or not (

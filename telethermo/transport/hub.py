@@ -418,6 +418,9 @@ class HubThread:
             self._thread.join(timeout=5)
 
 
+DEFAULT_CHANNEL = "telethermo"
+
+
 def main(argv: list[str] | None = None) -> int:
     """``telethermo-hub``: run the hub until its parent ends, the idle timeout, or SIGINT/SIGTERM."""
     import signal
@@ -435,6 +438,11 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--parent-pid", type=int, default=None,
                         help="stop when this process ends (default: the process that started the hub)")
     parser.add_argument("--no-parent-watch", action="store_true", help="do not stop with the parent process")
+    parser.add_argument("--channel", default=DEFAULT_CHANNEL,
+                        help=f"the channel name published for clients (default {DEFAULT_CHANNEL}; the hub serves any)")
+    parser.add_argument("--no-publish", action="store_true",
+                        help="do not publish where the hub listens (by default the commands and node programs "
+                             "of this user find it with no flag: telethermo.transport.published)")
     parser.add_argument("-v", "--verbose", action="store_true", help="log connections")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
@@ -456,8 +464,22 @@ def main(argv: list[str] | None = None) -> int:
     if args.port_file:
         from telethermo.atomic import write_text_atomic
         write_text_atomic(args.port_file, f"{port}\n")
+    where = f"socketcand://{'[' + args.host + ']' if ':' in args.host else args.host}:{port}/{args.channel}"
+    if not args.no_publish:
+        from telethermo.transport.published import publish, unpublish
+        try:
+            state = publish(where, "telethermo-hub")
+        except OSError as exc:   # the hub works without it; the clients then need --bus
+            print(f"telethermo-hub: warning: cannot publish where it listens ({exc})", file=sys.stderr)
+            args.no_publish = True
     print(f"telethermo-hub listening on {args.host}:{port}", flush=True)
-    reason = hub.serve_forever()
+    if not args.no_publish:
+        print(f"telethermo-hub: clients of this user find it with no flag ({where}, published in {state})", flush=True)
+    try:
+        reason = hub.serve_forever()
+    finally:
+        if not args.no_publish:
+            unpublish()
     s = hub.stats
     print(f"telethermo-hub stopped ({reason}): {s.clients_accepted} clients, {s.frames_in} frames in, "
           f"{s.frames_out} out, {s.malformed} malformed, {s.dropped_clients} dropped", flush=True)

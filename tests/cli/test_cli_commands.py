@@ -149,7 +149,7 @@ def test_record_writes_a_log_that_logreader_reads_back_whole(nodes, cli, tmp_pat
     assert len(counters) >= 2
     assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # none lost, in order
     assert {m.arbitration_id for m in back} <= {0x080, 0x701, 0x702}
-    rows = (tmp_path / "rec.csv").read_text().splitlines()
+    rows = (tmp_path / f"rec{ext}.csv").read_text().splitlines()
     assert len(rows) == n + 1 and rows[0].startswith("t_s,cob_id,kind")
     assert sum(1 for r in rows if ",SYNC," in r) == len(counters)
 

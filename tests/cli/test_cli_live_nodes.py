@@ -110,7 +110,7 @@ def test_find_status_set_nmt_mode_record(live, capsys, tmp_path):
     counters = [m.data[0] for m in back if m.arbitration_id == 0x080]
     assert len(counters) >= 2
     assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # no SYNC lost
-    rows = log.with_suffix(".csv").read_text().splitlines()
+    rows = (tmp_path / "session.blf.csv").read_text().splitlines()
     assert len(rows) == n + 1 and any(",PDO," in r and "estimate_C" in r for r in rows)
 
 

@@ -18,7 +18,11 @@ SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_
 
 
 def session(*args: str, **kw) -> subprocess.Popen:
-    # the console script's entry point (``python -m telethermo.cli.main`` would import main twice)
+    # the console script's entry point (``python -m telethermo.cli.main`` would import main twice);
+    # a runtime dir of its own, so that the bus the session publishes never redirects this user's commands
+    import os
+    import tempfile
+    kw.setdefault("env", dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-run-")))
     return subprocess.Popen([sys.executable, "-c", "import sys; from telethermo.cli.main import main; sys.exit(main())",
                              "session", *args],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
@@ -55,6 +59,8 @@ def test_session_figures_equal_offline(tmp_path):
     (["--scene", "no/such/scene.toml"], "no/such/scene.toml"),
     (["--scene", str(SCENE), "--duration", "-1"], "--duration"),
     (["--scene", str(SCENE), "--bus", "vcan0"], "INTERFACE:CHANNEL"),
+    (["--scene", str(SCENE), "-i", "kvasr", "-c", "0"], "unknown python-can interface 'kvasr'"),
+    (["--scene", str(SCENE), "-i", "virtual", "-c", "x"], "virtual:x (from -i/-c/-b) exists inside one process only"),
 ])
 def test_bad_input_exit_2(tmp_path, args, fragment):
     p = session(*args, "--out", str(tmp_path))
@@ -63,11 +69,23 @@ def test_bad_input_exit_2(tmp_path, args, fragment):
 
 
 def test_ctrl_c_stops_everything_cleanly(tmp_path):
+    import os
+    run_dir = tmp_path / "run"   # the session publishes its bus there (XDG_RUNTIME_DIR), removes it at the end
+    run_dir.mkdir()
+    state = run_dir / "telethermo" / "hub.json"
     p = session("--scene", str(SCENE), "--out", str(tmp_path), "--timing", "realtime", "--quiet",
-                "--no-plot")
+                "--no-plot", env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
     try:
         assert wait_for(lambda: (tmp_path / "master.log").exists()
                         and "OPERATIONAL" in (tmp_path / "master.log").read_text(), 120)
+        doc = json.loads(state.read_text())
+        assert doc["pid"] == p.pid and doc["by"] == "telethermo session"
+        assert doc["bus"].startswith("socketcand://127.0.0.1:") and doc["bus"].endswith("/telethermo")
+        # a second terminal's command finds the session's nodes with no bus flag
+        status = subprocess.run([sys.executable, "-m", "telethermo", "get", "slave", "Manufacturer device name"],
+                                capture_output=True, text=True, timeout=60,
+                                env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
+        assert status.returncode == 0 and status.stderr == "", status.stderr
         time.sleep(2.0)  # let it run a while (real time, 100 Hz): what ran must be reported
         p.send_signal(signal.SIGINT)
         out, err = p.communicate(timeout=120)
@@ -76,6 +94,7 @@ def test_ctrl_c_stops_everything_cleanly(tmp_path):
             p.kill()
     assert p.returncode == 130, err
     assert processes_mentioning(str(tmp_path)) == []          # hub, master and slave are gone
+    assert not state.exists()                                  # and the published bus with them
     assert "stopped (SIGTERM)" in (tmp_path / "slave.log").read_text()
     assert "stopped (SIGTERM)" in (tmp_path / "master.log").read_text()
     fig = json.loads((tmp_path / "summary.json").read_text())  # the figures of what ran

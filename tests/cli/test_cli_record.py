@@ -1,0 +1,114 @@
+"""``telethermo record`` keeps what it records: one CSV per log file name, no silent overwrite (``--force``
+replaces), files readable by the group (the mode a new file gets), and Ctrl-C, the normal way to end a
+recording, exits 0 with complete files. Real frames on a python-can virtual bus, and a real record process
+on a real hub for Ctrl-C."""
+from __future__ import annotations
+
+import os
+import signal
+import stat
+import subprocess
+import sys
+import threading
+import time
+
+import can
+import pytest
+
+from telethermo.cli.main import EXIT_OK, EXIT_USAGE
+
+
+def record_with_sync(cli, channel: str, out, *extra: str, frames: int = 20):
+    """``telethermo record`` on a virtual bus while a thread sends SYNC frames; stops after ``frames``."""
+    sender = can.Bus(interface="virtual", channel=channel)
+    stop = threading.Event()
+
+    def send():
+        k = 0
+        while not stop.is_set():
+            sender.send(can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False))
+            k += 1
+            time.sleep(0.002)
+    th = threading.Thread(target=send)
+    th.start()
+    try:
+        return cli("record", "--bus", f"virtual:{channel}", str(out), "--count", str(frames), "--duration", "60",
+                   *extra)
+    finally:
+        stop.set()
+        th.join()
+        sender.shutdown()
+
+
+def test_one_csv_per_log_name_and_no_silent_overwrite(cli, tmp_path):
+    channel = f"tt-rec-{time.monotonic_ns()}"
+    for ext, n in ((".log", 10), (".blf", 20), (".asc", 30)):
+        code, out, err = record_with_sync(cli, channel, tmp_path / f"s{ext}", frames=n)
+        assert code == EXIT_OK, err
+    for ext, n in ((".log", 10), (".blf", 20), (".asc", 30)):
+        rows = (tmp_path / f"s{ext}.csv").read_text().splitlines()
+        assert len(rows) == n + 1, ext         # each log kept its own decoded CSV
+        assert len(list(can.LogReader(str(tmp_path / f"s{ext}")))) == n
+    assert not (tmp_path / "s.csv").exists()
+
+    before = {p.name: p.read_bytes() for p in tmp_path.iterdir()}
+    code, out, err = record_with_sync(cli, channel, tmp_path / "s.blf", frames=5)
+    assert code == EXIT_USAGE
+    assert err.strip() == (f"telethermo record: error: {tmp_path / 's.blf'} and {tmp_path / 's.blf.csv'} already exist; "
+                           "give another name, or --force to replace")
+    assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before     # nothing touched
+    # only the CSV there (the log was removed): still refused, naming it
+    (tmp_path / "s.log").unlink()
+    code, out, err = record_with_sync(cli, channel, tmp_path / "s.log", frames=5)
+    assert code == EXIT_USAGE and f"{tmp_path / 's.log.csv'} already exists;" in err
+    code, out, err = record_with_sync(cli, channel, tmp_path / "s.blf", "--force", frames=5)
+    assert code == EXIT_OK, err
+    assert len((tmp_path / "s.blf.csv").read_text().splitlines()) == 6
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027])
+def test_files_get_the_mode_a_new_file_gets(cli, tmp_path, umask):
+    old = os.umask(umask)
+    try:
+        code, out, err = record_with_sync(cli, f"tt-rec-mode-{time.monotonic_ns()}", tmp_path / "m.log", frames=3)
+    finally:
+        os.umask(old)
+    assert code == EXIT_OK, err
+    for name in ("m.log", "m.log.csv"):
+        assert stat.S_IMODE((tmp_path / name).stat().st_mode) == 0o666 & ~umask, name
+
+
+def test_ctrl_c_is_the_normal_stop(tmp_path):
+    from nodes.launch import HubProcess, stop_process
+    hub = HubProcess()
+    hub.start()
+    sender = None
+    proc = None
+    try:
+        sender = can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo")
+        log = tmp_path / "c.blf"
+        proc = subprocess.Popen([sys.executable, "-m", "telethermo", "record", "--bus", hub.bus, str(log)],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        line = proc.stderr.readline()   # "recording ... (Ctrl-C stops)" once the bus is open
+        assert line.startswith("recording socketcand://"), line
+        k = 0
+        t_end = time.monotonic() + 2.0       # frames flow while the recording runs, then Ctrl-C
+        while time.monotonic() < t_end:
+            sender.send(can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False))
+            k += 1
+            time.sleep(0.01)
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+        assert "(stopped by Ctrl-C)" in out and "Traceback" not in err
+        n = int(out.split()[1])           # "recorded N frames to ..."
+        assert 1 <= n <= k
+        back = list(can.LogReader(str(log)))          # complete: every frame counted is in the log and the CSV
+        assert len(back) == n and len((tmp_path / "c.blf.csv").read_text().splitlines()) == n + 1
+        assert [m.data[0] for m in back] == [i % 240 + 1 for i in range(n)]   # the first n sent, in order
+    finally:
+        if proc is not None and proc.poll() is None:
+            stop_process(proc)
+        if sender is not None:
+            sender.shutdown()
+        hub.stop()
