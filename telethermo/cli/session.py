@@ -240,7 +240,7 @@ def print_summary(fig: dict) -> None:
               f"{f(trk.get('master_rms_C'), ' °C')}, slave {f(trk.get('slave_rms_C'), ' °C')}")
     d = fig.get("discrimination")
     if d:
-        print(f"early temperature (0.1-1 s): order kept {d['order_kept']} ({' < '.join(d['rendered_order_coldest_first'])}), "
+        print(f"rendered early temperature per material (0.1-1 s, mean over its touches; follows the finger's history): order kept {d['order_kept']} ({' < '.join(d['rendered_order_coldest_first'])}), "
               f"min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
     sfy = fig.get("safety", {})
     if sfy:
