@@ -694,7 +694,8 @@ class NodeRuntime:
                 owed, base, boots = 0, dev.rpdo_count(1), self.peer_boots
             self._sync_sent_at = time.monotonic()
             self._waiting_first_rpdo = True
-            sync.transmit()  # holds the device lock until our own SYNC k is processed (no early PDO k)
+            if sync.transmit() is None:  # holds the device lock until our own SYNC k is processed (no early PDO k)
+                continue   # stopped by an NMT command that came while we waited for the slot: no SYNC sent
             k += 1
             if self.lockstep:
                 if status == "alive":

@@ -1,0 +1,84 @@
+"""NMT commands from another master on the bus, against the live real-time pair over the hub (issue 12):
+raw python-can frames (socketcand client) only, no project client code.
+
+- NMT STOP of the SYNC producer: it stops producing SYNC (CiA 301: STOPPED = NMT and heartbeat only),
+  the process lives on, and NMT START resumes the SYNC cycles (FAIL 1: the master died with exit 1).
+"""
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import can
+import pytest
+
+from nodes.launch import NodePair, PairConfig, wait_for
+
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+
+
+class Frames(can.Listener):
+    """Every frame a raw hub client sees, as (index, COB-ID, data)."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self.frames: list[tuple[int, bytes]] = []
+
+    def on_message_received(self, msg: can.Message) -> None:
+        with self._lock:
+            self.frames.append((msg.arbitration_id, bytes(msg.data)))
+
+    def mark(self) -> int:
+        with self._lock:
+            return len(self.frames)
+
+    def since(self, mark: int) -> list[tuple[int, bytes]]:
+        with self._lock:
+            return self.frames[mark:]
+
+
+@pytest.fixture
+def realtime_pair(tmp_path):
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="realtime", cycles=0, seed=0, progress_every=10))
+    pair.start()
+    bus = can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo", tcp_tune=True)
+    frames = Frames()
+    notifier = can.Notifier(bus, [frames], timeout=0.05)
+    try:
+        assert wait_for(lambda: pair.progress[0] >= 100, 120), "session did not start"
+        yield pair, bus, frames
+    finally:
+        notifier.stop()
+        bus.shutdown()
+        pair.stop()
+
+
+def _nmt(bus, command: int, node_id: int) -> None:
+    bus.send(can.Message(arbitration_id=0x000, data=[command, node_id], is_extended_id=False))
+
+
+def _heartbeat_state(frames: Frames, mark: int, node_id: int) -> int | None:
+    states = [d[0] for cob, d in frames.since(mark) if cob == 0x700 + node_id and len(d) == 1]
+    return states[-1] if states else None
+
+
+def test_nmt_stop_of_the_real_time_sync_producer_pauses_it_and_start_resumes(realtime_pair):
+    pair, bus, frames = realtime_pair
+    _nmt(bus, 0x02, 1)                                      # stop the master (SYNC producer)
+    mark = frames.mark()
+    assert wait_for(lambda: _heartbeat_state(frames, mark, 1) == 4, 5), "no STOPPED heartbeat from the master"
+    quiet = frames.mark()
+    time.sleep(0.5)                                         # 50 SYNC periods
+    assert pair.master.poll() is None, "the master process died on NMT STOP"
+    assert not [d for cob, d in frames.since(quiet) if cob == 0x080], "SYNC produced in STOPPED"
+    _nmt(bus, 0x01, 1)                                      # start it again
+    resumed = frames.mark()
+    assert wait_for(lambda: sum(cob == 0x080 for cob, _ in frames.since(resumed)) >= 50, 30), "SYNC did not resume"
+    k = pair.progress[0]
+    assert wait_for(lambda: pair.progress[0] >= k + 50, 30), "the master's cycles did not resume"
+    assert pair.master.poll() is None
+    counters = [d[0] for cob, d in frames.since(resumed) if cob == 0x080]
+    steps = {(b - a) % 240 for a, b in zip(counters, counters[1:])}
+    assert steps == {1}, f"SYNC counter not continuous after the restart: {sorted(steps)}"
+
