@@ -370,8 +370,11 @@ class NodeRuntime:
                 self.peer_boots += 1
             if ev.kind == "back":
                 log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
-        # the NMT master starts a peer that (re)booted or sits in pre-operational
-        if self.produce_sync and ev.state in (0, int(NmtState.PRE_OPERATIONAL)) and not self.stop_event.is_set():
+        # the NMT master starts a peer that (re)booted or reports pre-operational: once per boot-up (a
+        # boot-up after a loss also comes as "back" with state 0), once per pre-operational report
+        # (first heartbeat, return, or a change of state, e.g. another NMT master's command)
+        if (self.produce_sync and not self.stop_event.is_set()
+                and (ev.kind == "bootup" or (ev.kind != "lost" and ev.state == int(NmtState.PRE_OPERATIONAL)))):
             self.device.nmt_command(NmtCommand.START, ev.node_id)
             self.stats.nmt_starts_sent += 1
 

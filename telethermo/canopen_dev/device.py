@@ -112,8 +112,9 @@ class RpdoEvent:
 @dataclass(frozen=True, slots=True)
 class PeerEvent:
     """Heartbeat consumer event. ``kind``: "seen" (first heartbeat), "lost" (timeout), "back"
-    (heartbeat after a loss), "bootup" (the peer sent a boot-up message). ``state``: the peer's NMT
-    state code from the heartbeat (None for "lost")."""
+    (heartbeat after a loss), "bootup" (the peer sent a boot-up message), "state" (an alive peer's
+    heartbeat reports another NMT state than its previous one, e.g. put into PRE-OPERATIONAL by
+    another NMT master). ``state``: the peer's NMT state code from the heartbeat (None for "lost")."""
 
     node_id: int
     kind: str
@@ -1020,6 +1021,7 @@ class Device:
             if not self._running or self._state == NmtState.INITIALISING or timeout is None:
                 return
             prev = self._peer_status.get(peer, "unknown")
+            prev_state = self._peer_state.get(peer)
             self._peer_status[peer] = "alive"
             self._peer_state[peer] = state
             self._peer_seen[peer] = now = self.clock()
@@ -1032,6 +1034,8 @@ class Device:
                 self.clear_emcy(emcy_mod.EMCY_HEARTBEAT, source=_hb_source(peer))
             elif prev == "unknown":
                 events.append(PeerEvent(peer, "seen", state))
+            elif state != prev_state and state != 0:
+                events.append(PeerEvent(peer, "state", state))
             if state == 0:
                 events.append(PeerEvent(peer, "bootup", state))
             if prev != "alive":

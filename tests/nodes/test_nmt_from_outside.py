@@ -3,6 +3,8 @@ raw python-can frames (socketcand client) only, no project client code.
 
 - NMT STOP of the SYNC producer: it stops producing SYNC (CiA 301: STOPPED = NMT and heartbeat only),
   the process lives on, and NMT START resumes the SYNC cycles (FAIL 1: the master died with exit 1).
+- A slave put into PRE-OPERATIONAL: the master, NMT master of the pair, starts it again as docs/nodes.md
+  says (FAIL 3: only a boot-up was answered), and the session resumes.
 """
 from __future__ import annotations
 
@@ -82,3 +84,18 @@ def test_nmt_stop_of_the_real_time_sync_producer_pauses_it_and_start_resumes(rea
     steps = {(b - a) % 240 for a, b in zip(counters, counters[1:])}
     assert steps == {1}, f"SYNC counter not continuous after the restart: {sorted(steps)}"
 
+
+def test_the_master_starts_a_slave_put_into_pre_operational(realtime_pair):
+    pair, bus, frames = realtime_pair
+    mark = frames.mark()
+    _nmt(bus, 0x80, 2)                                      # another NMT master puts the slave into PRE-OP
+    assert wait_for(lambda: (0x000, bytes([0x01, 0x02])) in frames.since(mark), 5), \
+        "the master did not start the pre-operational slave"
+    started = frames.mark()
+    assert wait_for(lambda: _heartbeat_state(frames, started, 2) == 5, 5), "the slave is not OPERATIONAL again"
+    # the pair goes on: the slave's TPDO1 on every SYNC again, both processes alive
+    again = frames.mark()
+    assert wait_for(lambda: sum(cob == 0x182 for cob, _ in frames.since(again)) >= 100, 30)
+    assert pair.master.poll() is None and pair.slave.poll() is None
+    starts = [d for cob, d in frames.since(mark) if cob == 0x000 and d == bytes([0x01, 0x02])]
+    assert len(starts) == 1, f"{len(starts)} NMT starts for one pre-operational episode"
