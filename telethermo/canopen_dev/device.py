@@ -166,7 +166,8 @@ class _Node(canopen.LocalNode):
         obj = self._find_object(index, subindex)
         if check_writable and not obj.writable:
             raise SdoAbortedError(ABORT_READ_ONLY)
-        if obj.data_type in odmod.NUMBER_TYPES and 8 * len(data) != len(obj):
+        if (obj.data_type in odmod.NUMBER_TYPES and 8 * len(data) != len(obj)) \
+                or (obj.data_type == odmod.BOOLEAN and len(data) != 1):
             raise SdoAbortedError(ABORT_LENGTH)
         self._device._sdo_write(obj, bytes(data))
 
@@ -715,6 +716,8 @@ class Device:
         info = self.info.vars.get((index, sub))
         value = var.decode_raw(data)
         with self._lock:
+            if var.data_type == odmod.BOOLEAN and data[:1] not in (b"\x00", b"\x01"):
+                raise SdoAbortedError(ABORT_RANGE)   # CiA 301 BOOLEAN: 0 FALSE, 1 TRUE, nothing else
             if info is not None and var.data_type in odmod.NUMBER_TYPES:
                 code = self.info.check(info, value)
                 if code is not None:
