@@ -752,6 +752,11 @@ class Device:
             self._emcy.history.clear()
             self._store_emcy()
         elif index == 0x1005:
+            if value & (1 << 29):
+                # 29-bit SYNC is not supported (as in CANopenNode's OD_write_1005 / CO_ODF_1005: "only
+                # 11-bit CAN identifier is supported", 0x06090030): refuse rather than keep an 11-bit
+                # SYNC behind an OD that says 29-bit
+                raise SdoAbortedError(ABORT_RANGE)
             self._resubscribe_sync()
         elif index == 0x1016:
             entries = [self._u(0x1016, s) for s in self.store[0x1016] if s > 0]

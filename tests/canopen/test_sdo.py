@@ -155,3 +155,18 @@ def test_a_boolean_takes_0_or_1_only(lab):
     assert node.sdo.upload(0x230C, 0) == b"\x01"
     node.sdo.download(0x230C, 0, b"\x00")
     assert node.sdo.upload(0x230C, 0) == b"\x00"
+
+
+def test_cob_id_sync_refuses_the_29_bit_frame_bit(lab):
+    """Issue 12 FAIL 5: 0x1005 bit 29 (29-bit SYNC) was accepted while the node kept its 11-bit SYNC.
+    Refused with 0x06090030 as CANopenNode does; the value stays and SYNC on 0x80 still works."""
+    dev = lab.device("slave")
+    node = lab.client("slave")
+    ticks = []
+    dev.add_sync_handler(lambda t: ticks.append(t.counter))
+    assert abort_code(lambda: setattr(node.sdo["COB-ID SYNC"], "raw", 0x20000080)) == 0x06090030
+    assert abort_code(lambda: setattr(node.sdo["COB-ID SYNC"], "raw", 0x200000A0)) == 0x06090030
+    assert node.sdo["COB-ID SYNC"].raw == 0x80 and dev.sync_cob_id == 0x80
+    node.network.sync.transmit(7)                   # canopen's SYNC producer, 11-bit 0x80
+    node.sdo["COB-ID SYNC"].raw                     # SDO round trip: the SYNC before it was handled
+    assert ticks == [7]
