@@ -684,8 +684,15 @@ class NodeRuntime:
         boots = self.peer_boots
         while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
             if dev.state is not NmtState.OPERATIONAL:
-                # stopped or pre-operational by an NMT command from elsewhere: no SYNC cycles of ours
-                self.stop_event.wait(period)
+                # stopped or pre-operational by an NMT command from elsewhere: no control cycles of ours.
+                # CiA 301: the SYNC producer produces in PRE-OPERATIONAL too (paced by the period; the
+                # SYNC handlers see tick.operational False, no PDO goes out); in STOPPED it does not
+                if ticker is not None:
+                    ticker.wait_next()
+                else:
+                    self.stop_event.wait(period)
+                if dev.state is NmtState.PRE_OPERATIONAL and not self.stop_event.is_set():
+                    sync.transmit()
                 continue
             if ticker is not None:
                 late, lateness = ticker.wait_next()

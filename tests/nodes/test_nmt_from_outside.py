@@ -99,3 +99,21 @@ def test_the_master_starts_a_slave_put_into_pre_operational(realtime_pair):
     assert pair.master.poll() is None and pair.slave.poll() is None
     starts = [d for cob, d in frames.since(mark) if cob == 0x000 and d == bytes([0x01, 0x02])]
     assert len(starts) == 1, f"{len(starts)} NMT starts for one pre-operational episode"
+
+
+def test_the_sync_producer_in_pre_operational_produces_sync_but_no_pdo(realtime_pair):
+    """CiA 301: SYNC is produced in PRE-OPERATIONAL and OPERATIONAL (issue 12 deviation: the master stopped
+    producing in PRE-OPERATIONAL). No control cycle and no PDO of the master until NMT start."""
+    pair, bus, frames = realtime_pair
+    _nmt(bus, 0x80, 1)
+    mark = frames.mark()
+    assert wait_for(lambda: _heartbeat_state(frames, mark, 1) == 127, 5), "no PRE-OPERATIONAL heartbeat"
+    preop = frames.mark()
+    assert wait_for(lambda: sum(cob == 0x080 for cob, _ in frames.since(preop)) >= 30, 30), "no SYNC in PRE-OPERATIONAL"
+    k = pair.progress[0]
+    cobs = {cob for cob, _ in frames.since(preop)}
+    assert not cobs & {0x181, 0x281, 0x381, 0x481}, "a PDO of the master in PRE-OPERATIONAL"
+    _nmt(bus, 0x01, 1)
+    assert wait_for(lambda: pair.progress[0] >= k + 50, 30), "the master's cycles did not resume"
+    counters = [d[0] for cob, d in frames.since(preop) if cob == 0x080]
+    assert {(b - a) % 240 for a, b in zip(counters, counters[1:])} == {1}
