@@ -119,6 +119,9 @@ class NodeRuntime:
         self.ticker: RealtimeTicker | None = None
         self.final_comments = None
         self.peer_boots = 0
+        self.peer_pauses = 0
+        """Changes of the peer between OPERATIONAL and STOPPED/PRE-OPERATIONAL reported by its heartbeat."""
+        self._peer_paused = False   # the peer's heartbeat went from OPERATIONAL to STOPPED/PRE-OPERATIONAL
         """Optional () -> comment lines that replace the recording's header at close (final meta)."""
         self.model = parts.model
         """The TEM model the controller runs (the --model file at power-on; 0x230D loads another)."""
@@ -368,6 +371,16 @@ class NodeRuntime:
             self.peer.on_heartbeat()
             if ev.kind == "bootup":
                 self.peer_boots += 1
+                self._peer_paused = False
+            if ev.kind == "state":
+                # another NMT master stopped the peer or put it into PRE-OPERATIONAL (or started it again):
+                # a peer that is not OPERATIONAL answers no SYNC, so it owes no PDO (lockstep)
+                paused = ev.state != int(NmtState.OPERATIONAL)
+                if paused != self._peer_paused:
+                    self._peer_paused = paused
+                    self.peer_pauses += 1
+                    log.warning("peer %d reports NMT state %d%s", ev.node_id, ev.state,
+                                ": no PDOs owed until it is OPERATIONAL again" if paused else "")
             if ev.kind == "back":
                 log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
         # the NMT master starts a peer that (re)booted or reports pre-operational: once per boot-up (a
@@ -681,7 +694,7 @@ class NodeRuntime:
         # A PDO that comes after its wait timed out is still owed: the next cycle waits for both, so a
         # slow peer falls back into step instead of staying one PDO behind.
         owed, base = 0, dev.rpdo_count(1)
-        boots = self.peer_boots
+        boots, pauses = self.peer_boots, self.peer_pauses
         while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
             if dev.state is not NmtState.OPERATIONAL:
                 # stopped or pre-operational by an NMT command from elsewhere: no control cycles of ours.
@@ -700,8 +713,12 @@ class NodeRuntime:
                     self.stats.late_cycles = ticker.stats.late_cycles
                     log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
             status = dev.peer_status(self.peer_id)
-            if status != "alive" or boots != self.peer_boots:  # lost, never seen, or rebooted: owes nothing
-                owed, base, boots = 0, dev.rpdo_count(1), self.peer_boots
+            if status != "alive" or boots != self.peer_boots or pauses != self.peer_pauses:
+                # lost, never seen, rebooted, stopped/pre-operational or started again: owes nothing (the
+                # SYNCs it did not answer are never answered)
+                owed, base, boots, pauses = 0, dev.rpdo_count(1), self.peer_boots, self.peer_pauses
+            if self._peer_paused:
+                status = "paused"
             self._sync_sent_at = time.monotonic()
             self._waiting_first_rpdo = True
             if sync.transmit() is None:  # holds the device lock until our own SYNC k is processed (no early PDO k)
@@ -717,7 +734,7 @@ class NodeRuntime:
                     while not arrived and waited < patience_s and not self.stop_event.is_set():
                         arrived = dev.wait_rpdo(1, after=base + owed - 1, timeout=wait_s)
                         waited += wait_s
-                        if not arrived and dev.peer_status(self.peer_id) != "alive":
+                        if not arrived and (dev.peer_status(self.peer_id) != "alive" or self._peer_paused):
                             break
                     if arrived:
                         base, owed = dev.rpdo_count(1), 0
@@ -728,7 +745,7 @@ class NodeRuntime:
                 elif status == "unknown" and self.mode is not Mode.TELEPRESENCE:
                     pass  # alone on the bus (rendering, identification): nobody to wait for
                 else:
-                    # peer lost or not yet seen: our envelope keeps running, paced by the SYNC period
+                    # peer lost, not yet seen or not OPERATIONAL: our envelope keeps running, paced by the SYNC period
                     dev.wait_rpdo(1, after=dev.rpdo_count(1), timeout=period)
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)

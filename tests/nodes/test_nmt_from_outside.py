@@ -39,6 +39,9 @@ class Frames(can.Listener):
         with self._lock:
             return self.frames[mark:]
 
+    def count_since(self, cob_id: int, mark: int) -> int:
+        return sum(1 for cob, _ in self.since(mark) if cob == cob_id)
+
 
 @pytest.fixture
 def realtime_pair(tmp_path):
@@ -117,3 +120,38 @@ def test_the_sync_producer_in_pre_operational_produces_sync_but_no_pdo(realtime_
     assert wait_for(lambda: pair.progress[0] >= k + 50, 30), "the master's cycles did not resume"
     counters = [d[0] for cob, d in frames.since(preop) if cob == 0x080]
     assert {(b - a) % 240 for a, b in zip(counters, counters[1:])} == {1}
+
+
+def test_lockstep_goes_on_while_the_slave_is_stopped_and_resumes_in_step(tmp_path):
+    """Lockstep: a slave stopped by another NMT master answers no SYNC, so it owes no PDO; the master goes on
+    at the SYNC period (peer_lost trip, ramp, cut) and the exchange is back in step after NMT start (it stayed
+    at one lockstep timeout per cycle for ever: the unanswered SYNCs were counted as owed)."""
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=10))
+    pair.start()
+    bus = can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo", tcp_tune=True)
+    frames = Frames()
+    notifier = can.Notifier(bus, [frames], timeout=0.05)
+    try:
+        assert wait_for(lambda: pair.progress[0] >= 100, 120), "session did not start"
+        mark = frames.mark()
+        _nmt(bus, 0x02, 2)
+        assert wait_for(lambda: _heartbeat_state(frames, mark, 2) == 4, 5)
+        k = pair.progress[0]
+        assert wait_for(lambda: pair.progress[0] >= k + 50, 60), "the master stalled while the slave was stopped"
+        _nmt(bus, 0x01, 2)
+        started = frames.mark()
+        assert wait_for(lambda: _heartbeat_state(frames, started, 2) == 5, 5)
+        back = frames.mark()
+        assert wait_for(lambda: frames.count_since(0x182, back) >= 300, 60), "the slave's PDOs did not come back"
+        # in step again: one slave TPDO1 per SYNC over the last stretch
+        tail = frames.since(back)[-600:]
+        syncs = sum(cob == 0x080 for cob, _ in tail)
+        pdos = sum(cob == 0x182 for cob, _ in tail)
+        assert abs(syncs - pdos) <= 2, f"{syncs} SYNCs but {pdos} slave PDOs: not in step"
+        assert pair.master.poll() is None and pair.slave.poll() is None
+    finally:
+        notifier.stop()
+        bus.shutdown()
+        codes = pair.stop()
+    assert codes["master"] == 0
+    assert "no PDOs owed" in (tmp_path / "master.log").read_text()
