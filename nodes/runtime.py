@@ -122,6 +122,7 @@ class NodeRuntime:
         self.peer_pauses = 0
         """Changes of the peer between OPERATIONAL and STOPPED/PRE-OPERATIONAL reported by its heartbeat."""
         self._peer_paused = False   # the peer's heartbeat went from OPERATIONAL to STOPPED/PRE-OPERATIONAL
+        self._nmt_leaves = 0        # how often this node left OPERATIONAL (its device drops PDOs outside it)
         """Optional () -> comment lines that replace the recording's header at close (final meta)."""
         self.model = parts.model
         """The TEM model the controller runs (the --model file at power-on; 0x230D loads another)."""
@@ -374,9 +375,10 @@ class NodeRuntime:
                 self._peer_paused = False
             if ev.kind == "state":
                 # another NMT master stopped the peer or put it into PRE-OPERATIONAL (or started it again):
-                # a peer that is not OPERATIONAL answers no SYNC, so it owes no PDO (lockstep)
+                # a peer that left OPERATIONAL answers no SYNC, so it owes no PDO (lockstep). Only a change
+                # from OPERATIONAL counts: before its first start a peer owes its PDOs from the start on.
                 paused = ev.state != int(NmtState.OPERATIONAL)
-                if paused != self._peer_paused:
+                if paused != self._peer_paused and (paused or self._peer_paused):
                     self._peer_paused = paused
                     self.peer_pauses += 1
                     log.warning("peer %d reports NMT state %d%s", ev.node_id, ev.state,
@@ -494,6 +496,8 @@ class NodeRuntime:
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
         log.info("NMT %s -> %s%s", old.name, new.name, f" (command 0x{command:02X})" if command else "")
+        if new is not NmtState.OPERATIONAL and old is NmtState.OPERATIONAL:
+            self._nmt_leaves += 1
         if new is not NmtState.OPERATIONAL:
             # no control outside OPERATIONAL: the drive holds no current
             self._safe_current()
@@ -694,7 +698,7 @@ class NodeRuntime:
         # A PDO that comes after its wait timed out is still owed: the next cycle waits for both, so a
         # slow peer falls back into step instead of staying one PDO behind.
         owed, base = 0, dev.rpdo_count(1)
-        boots, pauses = self.peer_boots, self.peer_pauses
+        boots, pauses, leaves = self.peer_boots, self.peer_pauses, self._nmt_leaves
         while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
             if dev.state is not NmtState.OPERATIONAL:
                 # stopped or pre-operational by an NMT command from elsewhere: no control cycles of ours.
@@ -713,10 +717,12 @@ class NodeRuntime:
                     self.stats.late_cycles = ticker.stats.late_cycles
                     log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
             status = dev.peer_status(self.peer_id)
-            if status != "alive" or boots != self.peer_boots or pauses != self.peer_pauses:
+            if (status != "alive" or boots != self.peer_boots or pauses != self.peer_pauses
+                    or leaves != self._nmt_leaves):
                 # lost, never seen, rebooted, stopped/pre-operational or started again: owes nothing (the
-                # SYNCs it did not answer are never answered)
-                owed, base, boots, pauses = 0, dev.rpdo_count(1), self.peer_boots, self.peer_pauses
+                # SYNCs it did not answer are never answered); we left OPERATIONAL: its PDOs were dropped
+                owed, base, boots, pauses, leaves = (0, dev.rpdo_count(1), self.peer_boots, self.peer_pauses,
+                                                     self._nmt_leaves)
             if self._peer_paused:
                 status = "paused"
             self._sync_sent_at = time.monotonic()
@@ -734,10 +740,13 @@ class NodeRuntime:
                     while not arrived and waited < patience_s and not self.stop_event.is_set():
                         arrived = dev.wait_rpdo(1, after=base + owed - 1, timeout=wait_s)
                         waited += wait_s
-                        if not arrived and (dev.peer_status(self.peer_id) != "alive" or self._peer_paused):
+                        if not arrived and (dev.peer_status(self.peer_id) != "alive" or self._peer_paused
+                                            or leaves != self._nmt_leaves):
                             break
                     if arrived:
                         base, owed = dev.rpdo_count(1), 0
+                    elif leaves != self._nmt_leaves:
+                        pass   # we were stopped meanwhile: the debt is dropped at the next cycle
                     else:
                         self.stats.lockstep_timeouts += 1
                         log.warning("cycle %d: no PDO of node %d within %g ms (%d owed)", k - 1, self.peer_id,

@@ -1042,7 +1042,8 @@ class Device:
                 self.clear_emcy(emcy_mod.EMCY_HEARTBEAT, source=_hb_source(peer))
             elif prev == "unknown":
                 events.append(PeerEvent(peer, "seen", state))
-            elif state != prev_state and state != 0:
+            elif state != prev_state and state != 0 and prev_state not in (None, 0):
+                # news only: the boot-up's own PRE-OPERATIONAL heartbeat is part of the boot-up
                 events.append(PeerEvent(peer, "state", state))
             if state == 0:
                 events.append(PeerEvent(peer, "bootup", state))
