@@ -361,23 +361,23 @@ def _nmt_reset(nid: int, command: int) -> Callable[[Lab], str]:
 
 
 CHECKS: list[Check] = [
-    Check("sdo_expedited", "CiA 301 7.2.4.3.3/7.2.4.3.6 SDO expedited download and upload", sdo_expedited),
-    Check("sdo_segmented", "CiA 301 7.2.4.3.4/7.2.4.3.7 SDO segmented download and upload", sdo_segmented),
-    Check("sdo_block", "CiA 301 7.2.4.3.9-7.2.4.3.14 SDO block upload and download", sdo_block),
-    Check("sdo_abort_missing_object", "CiA 301 7.2.4.3.17 abort 0x06020000", sdo_abort_missing_object),
-    Check("sdo_abort_missing_subindex", "CiA 301 7.2.4.3.17 abort 0x06090011", sdo_abort_missing_subindex),
-    Check("sdo_abort_read_only", "CiA 301 7.2.4.3.17 abort 0x06010002", sdo_abort_read_only),
-    Check("sdo_abort_out_of_range", "CiA 301 7.2.4.3.17 aborts 0x06090030/31/32", sdo_abort_out_of_range),
-    Check("sync_counter", "CiA 301 7.2.5.2 SYNC with counter, 7.5.2.22 (0x1019)", sync_counter),
-    Check("heartbeat_producer", "CiA 301 7.2.8.3.2.2 heartbeat, 7.5.2.33 (0x1017)", heartbeat_producer),
-    Check("emcy_consistency", "CiA 301 7.2.7 EMCY, 7.5.2.2 (0x1001), 7.5.2.4 (0x1003)", emcy_consistency),
-    *[Check(f"nmt_stop_start_node{n}", "CiA 301 7.3.2.2 NMT state machine: STOPPED, start", _nmt_stop(n))
+    Check("sdo_expedited", "CiA 301 7.2.4 SDO: expedited download and upload", sdo_expedited),
+    Check("sdo_segmented", "CiA 301 7.2.4 SDO: segmented download and upload", sdo_segmented),
+    Check("sdo_block", "CiA 301 7.2.4 SDO: block upload and download", sdo_block),
+    Check("sdo_abort_missing_object", "CiA 301 7.2.4 SDO abort codes: 0x06020000 object does not exist", sdo_abort_missing_object),
+    Check("sdo_abort_missing_subindex", "CiA 301 7.2.4 SDO abort codes: 0x06090011 sub-index does not exist", sdo_abort_missing_subindex),
+    Check("sdo_abort_read_only", "CiA 301 7.2.4 SDO abort codes: 0x06010002 write to a read-only object", sdo_abort_read_only),
+    Check("sdo_abort_out_of_range", "CiA 301 7.2.4 SDO abort codes: 0x06090030/31/32 value range", sdo_abort_out_of_range),
+    Check("sync_counter", "CiA 301 7.2.5 SYNC with counter; object 0x1019", sync_counter),
+    Check("heartbeat_producer", "CiA 301 7.2.8.3 heartbeat producer; object 0x1017", heartbeat_producer),
+    Check("emcy_consistency", "CiA 301 7.2.7 EMCY, 7.2.8.3 heartbeat consumer; objects 0x1001, 0x1003, 0x1016", emcy_consistency),
+    *[Check(f"nmt_stop_start_node{n}", "CiA 301 7.3.2 NMT state machine: STOPPED, start", _nmt_stop(n))
       for n in (SLAVE, MASTER)],
-    *[Check(f"nmt_preop_start_node{n}", "CiA 301 7.3.2.2 NMT: PRE-OPERATIONAL (SDO, SYNC, no PDO)", _nmt_preop(n))
+    *[Check(f"nmt_preop_start_node{n}", "CiA 301 7.3.2 NMT: PRE-OPERATIONAL (SDO, SYNC, no PDO)", _nmt_preop(n))
       for n in (SLAVE, MASTER)],
-    *[Check(f"nmt_reset_communication_node{n}", "CiA 301 7.3.2.2 NMT reset communication: boot-up, 0x1000-0x1FFF power-on",
+    *[Check(f"nmt_reset_communication_node{n}", "CiA 301 7.3.2 NMT reset communication: boot-up, 0x1000-0x1FFF power-on",
             _nmt_reset(n, RESET_COMM)) for n in (SLAVE, MASTER)],
-    *[Check(f"nmt_reset_node_node{n}", "CiA 301 7.3.2.2 NMT reset node: boot-up, every object power-on",
+    *[Check(f"nmt_reset_node_node{n}", "CiA 301 7.3.2 NMT reset node: boot-up, every object power-on",
             _nmt_reset(n, RESET_NODE)) for n in (SLAVE, MASTER)],
 ]
 
