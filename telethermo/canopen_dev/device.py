@@ -769,6 +769,10 @@ class Device:
         elif index == 0x1019:
             if value == 1:
                 raise SdoAbortedError(ABORT_RANGE)
+            if self._u(0x1006, 0) != 0:
+                # CiA 301: 0x1019 may be changed only while the communication cycle period 0x1006 is 0
+                # (CANopenNode's OD_write_1019: ODR_DATA_DEV_STATE)
+                raise SdoAbortedError(ABORT_DEVICE_STATE)
         elif 0x1400 <= index <= 0x1BFF:
             self._pdo_param_written(index, sub, value, old)
 

@@ -79,6 +79,7 @@ def test_sync_start_value_delays_the_first_transmission(lab):
 def test_sync_counter_wraps_at_0x1019_and_the_producer_ticks_itself(lab):
     dev = lab.device("master")
     node = lab.client("master")
+    node.sdo["Communication cycle period"].raw = 0   # CiA 301: 0x1019 may change only while 0x1006 is 0
     node.sdo["Synchronous counter overflow value"].raw = 5
     ticks = []
     dev.add_sync_handler(lambda t: ticks.append(t.counter))
@@ -328,3 +329,22 @@ def test_a_stopped_producer_sends_no_sync_and_resumes_on_nmt_start(lab):
     assert sync.transmit() is not None
     syncs = [m.data[0] for m in drain(bus) if m.arbitration_id == 0x80]
     assert syncs == [1, 2]
+
+
+def test_0x1019_is_refused_while_the_communication_cycle_period_runs(lab):
+    """CiA 301 (object 0x1019): changed only while 0x1006 is 0, else 0x08000022, as CANopenNode's
+    OD_write_1019 (issue 12 deviation: it was accepted with 0x1006 = 10 ms)."""
+    dev = lab.device("master")
+    node = lab.client("master")
+    assert node.sdo["Communication cycle period"].raw == 10000
+    with pytest.raises(SdoAbortedError) as exc:
+        node.sdo["Synchronous counter overflow value"].raw = 5
+    assert exc.value.code == 0x08000022
+    assert node.sdo["Synchronous counter overflow value"].raw == 240 and dev.read(0x1019) == 240
+    with pytest.raises(SdoAbortedError) as exc:
+        node.sdo["Synchronous counter overflow value"].raw = 1      # an invalid value stays 0x06090030
+    assert exc.value.code == 0x06090030
+    node.sdo["Communication cycle period"].raw = 0
+    node.sdo["Synchronous counter overflow value"].raw = 5
+    node.sdo["Communication cycle period"].raw = 10000
+    assert node.sdo["Synchronous counter overflow value"].raw == 5
