@@ -327,6 +327,8 @@ def _nmt_preop(nid: int) -> Callable[[Lab], str]:
                    "the master did not start the pre-operational slave")
             return recovered(lab)
         expect(lab.sdo(nid)[0x1000].raw == lab.nodes[nid].object_dictionary[0x1000].default, "SDO in PRE-OPERATIONAL")
+        current = lab.sdo(nid)["current_A"].raw
+        expect(current == 0.0, f"0x2002 current_A = {current} A in PRE-OPERATIONAL (no control: 0 A)")
         quiet = lab.frames.mark()
         expect(lab.wait_frames(0x080, 20, since=quiet), "no SYNC from the master in PRE-OPERATIONAL")
         expect(lab.frames.count(0x180 + nid, quiet) == 0, "a TPDO of the master in PRE-OPERATIONAL")

@@ -499,8 +499,11 @@ class NodeRuntime:
         if new is not NmtState.OPERATIONAL and old is NmtState.OPERATIONAL:
             self._nmt_leaves += 1
         if new is not NmtState.OPERATIONAL:
-            # no control outside OPERATIONAL: the drive holds no current
+            # no control outside OPERATIONAL: the drive holds no current, and the OD says so (0x2002 showed
+            # the last cycle's current)
             self._safe_current()
+            if self.device is not None and getattr(self, "_w", None):
+                self._w["current_A"](0.0)
         if command == NmtCommand.RESET_NODE and self.device is not None and new is NmtState.INITIALISING:
             # reset application (before the boot-up goes out): this program's power-on values in the
             # controller and the OD, a fresh controller state and peer link
