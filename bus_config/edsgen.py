@@ -31,6 +31,10 @@ BOOLEAN, INTEGER8, INTEGER16, INTEGER32 = 0x0001, 0x0002, 0x0003, 0x0004
 UNSIGNED8, UNSIGNED16, UNSIGNED32, REAL32, VISIBLE_STRING = 0x0005, 0x0006, 0x0007, 0x0008, 0x0009
 REAL64 = 0x0011
 
+# CiA 306 [FileInfo] dates (mm-dd-yyyy, hh:mm(AM|PM)): of the object dictionary's last change, set by hand
+# (the files are generated, so they must not change with the clock)
+EDS_DATE, EDS_TIME = "11-23-2026", "10:00PM"
+
 UNIT_TEXT = {  # name suffix -> ASCII unit for the Unit= key (longest suffixes first when matching)
     "_A_per_C_s": "A/(degC*s)", "_A_per_C": "A/degC", "_A_per_W": "A/W", "_C_per_s": "degC/s",
     "_C_per_W": "degC/W", "_C": "degC", "_W": "W", "_A": "A", "_N": "N", "_s": "s",
@@ -105,7 +109,7 @@ def _pdo_comm(index: int, title: str, cob_id: str, trans_type: int, tpdo: bool) 
     }
     if tpdo:
         subs[3] = _uint("Inhibit time", UNSIGNED16, "rw", 0, description="100 us units")
-    subs[5] = _uint("Event timer", UNSIGNED16, "rw", 0, description="ms, 0 = off")
+    subs[5] = _uint("Event timer", UNSIGNED16, "rw", 0, description="ms, 0: off")
     if tpdo:
         subs[6] = _uint("SYNC start value", UNSIGNED8, "rw", 0, 0, 240)
     return Obj(index, title, subs=subs, object_type=0x9)
@@ -199,7 +203,7 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2402, _real("ramp_limit_C_per_s", "rw", 5.0, 0.01, 5.0, description="setpoint ramp limit")),
         V(0x2403, _real("hot_threshold_C", "rw", 41.0, 30.0, 43.0, description="time-at-temperature threshold")),
         V(0x2404, _real("hot_time_limit_s", "rw", 30.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
-        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit, <= 0.8 Imax of the rig (the node writes its own: 2.4 A on the simulated 3 A rig)")),
+        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit, at most 0.8 Imax of the rig (the node writes its own: 2.4 A on the simulated 3 A rig)")),
         V(0x2406, _real("sink_trip_C", "rw", 55.0, 20.0, 55.0, description="heat-sink trip temperature")),
         V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss")),
         V(0x2408, _uint("peer_pdo_miss_limit", UNSIGNED16, "rw", 10, 1, 1000, description="missed peer PDOs (cycles) before peer loss")),
@@ -211,7 +215,7 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2500, _uint("mode", UNSIGNED8, "rw", 0, 0, 3, pdo=True, description="0 idle, 1 telepresence, 2 render, 3 identify")),
         # -- virtual rendering (yamamoto eq. 5/7)
         V(0x2600, _uint("material_code", UNSIGNED8, "rw", 0, 0, 255,
-                        description="0 custom (material_beta), k >= 1 the k-th material of the rendering table "
+                        description="0 custom (material_beta), k from 1: the k-th material of the rendering table "
                                     "(telethermo/data/render_materials.toml, in file order)")),
         V(0x2601, _real("material_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the object (eq. 6)")),
         V(0x2602, _real("object_T0_C", "rw", 25.0, -20.0, 100.0, description="initial object temperature")),
@@ -248,7 +252,7 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2704, _uint("lockstep", BOOLEAN, "ro", 0, **ro_pdo, description="1 lockstep, 0 real time")),
         V(0x2705, _uint("peer_alive", BOOLEAN, "ro", 0, **ro_pdo, description="1 while the peer's heartbeat is seen")),
         V(0x2706, _uint("active_trips", UNSIGNED16, "ro", 0, **ro_pdo,
-                        description="latched safety trips, bit i = i-th trip of telethermo.control.safety.Trip "
+                        description="latched safety trips, bit i: the i-th trip of telethermo.control.safety.Trip "
                                     "(0x080 heat_sink, 0x200 peer_lost, ...)")),
         V(0x2707, _uint("fault_reset_blocked_by", UNSIGNED16, "ro", 0,
                         description="the trips whose cause persisted at the last refused fault reset (same bits)")),
@@ -286,7 +290,7 @@ def communication_objects(role: str) -> list[Obj]:
             1: _uint("Consumer heartbeat time 1", UNSIGNED32, "rw", (peer << 16) | 250,
                      description="the peer: bits 16-23 node-ID, bits 0-15 time in ms"),
             2: _uint("Consumer heartbeat time 2", UNSIGNED32, "rw", 0,
-                     description="spare (0 = unused): bits 16-23 node-ID, bits 0-15 time in ms")}),
+                     description="spare (0: unused): bits 16-23 node-ID, bits 0-15 time in ms")}),
         V(0x1017, _uint("Producer heartbeat time", UNSIGNED16, "rw", 100, 0, 0xFFFF, description="ms")),
         Obj(0x1018, "Identity object", object_type=0x9, subs={
             0: _uint("Highest sub-index supported", UNSIGNED8, "const", 4),
@@ -316,10 +320,16 @@ def communication_objects(role: str) -> list[Obj]:
     return objs
 
 
+def _check_value(section: str, text: str) -> None:
+    """A value every EDS reader takes: no ';' (an inline comment for canopen's parser), no line break,
+    no '=' (canopen-monitor splits every line on '=' and crashes on a second one)."""
+    if any(c in text for c in ";=\n"):
+        raise ValueError(f"[{section}]: ';', '=' or a line break in {text!r} would break EDS readers")
+
+
 def _var_lines(section: str, var: Var) -> list[str]:
-    for text in (var.name, var.description, var.default):
-        if ";" in text or "\n" in text:  # ';' starts an inline comment in canopen's EDS parser
-            raise ValueError(f"[{section}]: ';' or a line break in {text!r} would be cut by EDS parsers")
+    for text in (var.name, var.description, var.default, var.unit, var.low or "", var.high or ""):
+        _check_value(section, text)
     lines = [f"[{section}]", f"ParameterName={var.name}", "ObjectType=0x7", f"DataType=0x{var.data_type:04X}",
              f"AccessType={var.access}", f"DefaultValue={var.default}", f"PDOMapping={int(var.pdo)}"]
     if var.low is not None:
@@ -343,7 +353,8 @@ def render(role: str) -> str:
     out = [
         "[FileInfo]", f"FileName={role}.eds", "FileVersion=1", "FileRevision=0", "EDSVersion=4.0",
         f"Description=telethermo {role} node (bilateral thermal telepresence), generated by bus_config/edsgen.py",
-        "CreatedBy=telethermo", "",
+        f"CreationTime={EDS_TIME}", f"CreationDate={EDS_DATE}", "CreatedBy=telethermo",
+        f"ModificationTime={EDS_TIME}", f"ModificationDate={EDS_DATE}", "ModifiedBy=telethermo", "",
         "[DeviceInfo]", "VendorName=telethermo", "VendorNumber=0x00000000", f"ProductName=telethermo {role}",
         f"ProductNumber=0x{NODE_IDS[role]:08X}", "RevisionNumber=0x00010000", f"OrderCode=telethermo-{role}",
         *[f"BaudRate_{r}={int(r == 1000 or r == 500 or r == 250 or r == 125)}" for r in (10, 20, 50, 125, 250, 500, 800, 1000)],
@@ -364,6 +375,9 @@ def render(role: str) -> str:
                 f"SubNumber=0x{len(o.subs):X}", ""]
         for sub, var in o.subs.items():
             out += _var_lines(f"{o.index:04X}sub{sub:X}", var)
+    for line in out:   # every value of every section, the file's own keys included
+        if "=" in line:
+            _check_value(role, line.split("=", 1)[1])
     return "\n".join(out)
 
 

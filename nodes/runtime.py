@@ -119,6 +119,10 @@ class NodeRuntime:
         self.ticker: RealtimeTicker | None = None
         self.final_comments = None
         self.peer_boots = 0
+        self.peer_pauses = 0
+        """Changes of the peer between OPERATIONAL and STOPPED/PRE-OPERATIONAL reported by its heartbeat."""
+        self._peer_paused = False   # the peer's heartbeat went from OPERATIONAL to STOPPED/PRE-OPERATIONAL
+        self._nmt_leaves = 0        # how often this node left OPERATIONAL (its device drops PDOs outside it)
         """Optional () -> comment lines that replace the recording's header at close (final meta)."""
         self.model = parts.model
         """The TEM model the controller runs (the --model file at power-on; 0x230D loads another)."""
@@ -369,10 +373,24 @@ class NodeRuntime:
             self.peer.on_heartbeat()
             if ev.kind == "bootup":
                 self.peer_boots += 1
+                self._peer_paused = False
+            if ev.kind == "state":
+                # another NMT master stopped the peer or put it into PRE-OPERATIONAL (or started it again):
+                # a peer that left OPERATIONAL answers no SYNC, so it owes no PDO (lockstep). Only a change
+                # from OPERATIONAL counts: before its first start a peer owes its PDOs from the start on.
+                paused = ev.state != int(NmtState.OPERATIONAL)
+                if paused != self._peer_paused and (paused or self._peer_paused):
+                    self._peer_paused = paused
+                    self.peer_pauses += 1
+                    log.warning("peer %d reports NMT state %d%s", ev.node_id, ev.state,
+                                ": no PDOs owed until it is OPERATIONAL again" if paused else "")
             if ev.kind == "back":
                 log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
-        # the NMT master starts a peer that (re)booted or sits in pre-operational
-        if self.produce_sync and ev.state in (0, int(NmtState.PRE_OPERATIONAL)) and not self.stop_event.is_set():
+        # the NMT master starts a peer that (re)booted or reports pre-operational: once per boot-up (a
+        # boot-up after a loss also comes as "back" with state 0), once per pre-operational report
+        # (first heartbeat, return, or a change of state, e.g. another NMT master's command)
+        if (self.produce_sync and not self.stop_event.is_set()
+                and (ev.kind == "bootup" or (ev.kind != "lost" and ev.state == int(NmtState.PRE_OPERATIONAL)))):
             self.device.nmt_command(NmtCommand.START, ev.node_id)
             self.stats.nmt_starts_sent += 1
 
@@ -479,9 +497,14 @@ class NodeRuntime:
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
         log.info("NMT %s -> %s%s", old.name, new.name, f" (command 0x{command:02X})" if command else "")
+        if new is not NmtState.OPERATIONAL and old is NmtState.OPERATIONAL:
+            self._nmt_leaves += 1
         if new is not NmtState.OPERATIONAL:
-            # no control outside OPERATIONAL: the drive holds no current
+            # no control outside OPERATIONAL: the drive holds no current, and the OD says so (0x2002 showed
+            # the last cycle's current)
             self._safe_current()
+            if self.device is not None and getattr(self, "_w", None):
+                self._w["current_A"](0.0)
         if command == NmtCommand.RESET_NODE and self.device is not None and new is NmtState.INITIALISING:
             # reset application (before the boot-up goes out): this program's power-on values in the
             # controller and the OD, a fresh controller state and peer link
@@ -685,11 +708,18 @@ class NodeRuntime:
         # ordered transport; waiting for the last synchronous RPDO means every one of the cycle is in
         last = max((n for n, p in dev.rpdos.items() if p.valid and p.trans_type <= 240), default=1)
         owed, base = 0, dev.rpdo_count(last)
-        boots = self.peer_boots
+        boots, pauses, leaves = self.peer_boots, self.peer_pauses, self._nmt_leaves
         while not self.stop_event.is_set() and (cycles == 0 or k < cycles):
             if dev.state is not NmtState.OPERATIONAL:
-                # stopped or pre-operational by an NMT command from elsewhere: no SYNC cycles of ours
-                self.stop_event.wait(period)
+                # stopped or pre-operational by an NMT command from elsewhere: no control cycles of ours.
+                # CiA 301: the SYNC producer produces in PRE-OPERATIONAL too (paced by the period; the
+                # SYNC handlers see tick.operational False, no PDO goes out); in STOPPED it does not
+                if ticker is not None:
+                    ticker.wait_next()
+                else:
+                    self.stop_event.wait(period)
+                if dev.state is NmtState.PRE_OPERATIONAL and not self.stop_event.is_set():
+                    sync.transmit()
                 continue
             if ticker is not None:
                 late, lateness = ticker.wait_next()
@@ -697,11 +727,18 @@ class NodeRuntime:
                     self.stats.late_cycles = ticker.stats.late_cycles
                     log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
             status = dev.peer_status(self.peer_id)
-            if status != "alive" or boots != self.peer_boots:  # lost, never seen, or rebooted: owes nothing
-                owed, base, boots = 0, dev.rpdo_count(last), self.peer_boots
+            if (status != "alive" or boots != self.peer_boots or pauses != self.peer_pauses
+                    or leaves != self._nmt_leaves):
+                # lost, never seen, rebooted, stopped/pre-operational or started again: owes nothing (the
+                # SYNCs it did not answer are never answered); we left OPERATIONAL: its PDOs were dropped
+                owed, base, boots, pauses, leaves = (0, dev.rpdo_count(last), self.peer_boots, self.peer_pauses,
+                                                     self._nmt_leaves)
+            if self._peer_paused:
+                status = "paused"
             self._sync_sent_at = time.monotonic()
             self._waiting_first_rpdo = True
-            sync.transmit()  # holds the device lock until our own SYNC k is processed (no early PDO k)
+            if sync.transmit() is None:  # holds the device lock until our own SYNC k is processed (no early PDO k)
+                continue   # stopped by an NMT command that came while we waited for the slot: no SYNC sent
             k += 1
             if self.lockstep:
                 if status == "alive":
@@ -713,10 +750,13 @@ class NodeRuntime:
                     while not arrived and waited < patience_s and not self.stop_event.is_set():
                         arrived = dev.wait_rpdo(last, after=base + owed - 1, timeout=wait_s)
                         waited += wait_s
-                        if not arrived and dev.peer_status(self.peer_id) != "alive":
+                        if not arrived and (dev.peer_status(self.peer_id) != "alive" or self._peer_paused
+                                            or leaves != self._nmt_leaves):
                             break
                     if arrived:
                         base, owed = dev.rpdo_count(last), 0
+                    elif leaves != self._nmt_leaves:
+                        pass   # we were stopped meanwhile: the debt is dropped at the next cycle
                     else:
                         self.stats.lockstep_timeouts += 1
                         log.warning("cycle %d: no PDO of node %d within %g ms (%d owed)", k - 1, self.peer_id,
@@ -724,7 +764,7 @@ class NodeRuntime:
                 elif status == "unknown" and self.mode is not Mode.TELEPRESENCE:
                     pass  # alone on the bus (rendering, identification): nobody to wait for
                 else:
-                    # peer lost or not yet seen: our envelope keeps running, paced by the SYNC period
+                    # peer lost, not yet seen or not OPERATIONAL: our envelope keeps running, paced by the SYNC period
                     dev.wait_rpdo(last, after=dev.rpdo_count(last), timeout=period)
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)

@@ -112,8 +112,9 @@ class RpdoEvent:
 @dataclass(frozen=True, slots=True)
 class PeerEvent:
     """Heartbeat consumer event. ``kind``: "seen" (first heartbeat), "lost" (timeout), "back"
-    (heartbeat after a loss), "bootup" (the peer sent a boot-up message). ``state``: the peer's NMT
-    state code from the heartbeat (None for "lost")."""
+    (heartbeat after a loss), "bootup" (the peer sent a boot-up message), "state" (an alive peer's
+    heartbeat reports another NMT state than its previous one, e.g. put into PRE-OPERATIONAL by
+    another NMT master). ``state``: the peer's NMT state code from the heartbeat (None for "lost")."""
 
     node_id: int
     kind: str
@@ -165,7 +166,8 @@ class _Node(canopen.LocalNode):
         obj = self._find_object(index, subindex)
         if check_writable and not obj.writable:
             raise SdoAbortedError(ABORT_READ_ONLY)
-        if obj.data_type in odmod.NUMBER_TYPES and 8 * len(data) != len(obj):
+        if (obj.data_type in odmod.NUMBER_TYPES and 8 * len(data) != len(obj)) \
+                or (obj.data_type == odmod.BOOLEAN and len(data) != 1):
             raise SdoAbortedError(ABORT_LENGTH)
         self._device._sdo_write(obj, bytes(data))
 
@@ -195,6 +197,11 @@ class _FrameWatch(can.Listener):
 
     def stop(self) -> None:
         pass
+
+
+def _hb_source(node_id: int) -> str:
+    """The EMCY source of the heartbeat consumer's error for one watched node."""
+    return f"heartbeat{node_id}"
 
 
 def _known_cobids(node_ids: tuple[int, ...]) -> set[int]:
@@ -540,7 +547,7 @@ class Device:
         self._emcy_queue.clear()
         self._scheduler.cancel("emcy")
         self._reconfigure_pdos()
-        self._reconfigure_heartbeat_consumers()
+        self._reconfigure_heartbeat_consumers(restart=True)
         self._resubscribe_sync()
         if old is not NmtState.INITIALISING:
             self._call(self._nmt_listeners, old, NmtState.INITIALISING, command)
@@ -709,6 +716,8 @@ class Device:
         info = self.info.vars.get((index, sub))
         value = var.decode_raw(data)
         with self._lock:
+            if var.data_type == odmod.BOOLEAN and data[:1] not in (b"\x00", b"\x01"):
+                raise SdoAbortedError(ABORT_RANGE)   # CiA 301 BOOLEAN: 0 FALSE, 1 TRUE, nothing else
             if info is not None and var.data_type in odmod.NUMBER_TYPES:
                 code = self.info.check(info, value)
                 if code is not None:
@@ -743,6 +752,11 @@ class Device:
             self._emcy.history.clear()
             self._store_emcy()
         elif index == 0x1005:
+            if value & (1 << 29):
+                # 29-bit SYNC is not supported (as in CANopenNode's OD_write_1005 / CO_ODF_1005: "only
+                # 11-bit CAN identifier is supported", 0x06090030): refuse rather than keep an 11-bit
+                # SYNC behind an OD that says 29-bit
+                raise SdoAbortedError(ABORT_RANGE)
             self._resubscribe_sync()
         elif index == 0x1016:
             entries = [self._u(0x1016, s) for s in self.store[0x1016] if s > 0]
@@ -755,6 +769,10 @@ class Device:
         elif index == 0x1019:
             if value == 1:
                 raise SdoAbortedError(ABORT_RANGE)
+            if self._u(0x1006, 0) != 0:
+                # CiA 301: 0x1019 may be changed only while the communication cycle period 0x1006 is 0
+                # (CANopenNode's OD_write_1019: ODR_DATA_DEV_STATE)
+                raise SdoAbortedError(ABORT_DEVICE_STATE)
         elif 0x1400 <= index <= 0x1BFF:
             self._pdo_param_written(index, sub, value, old)
 
@@ -816,7 +834,7 @@ class Device:
             if not plan.bad_length:
                 plan.bad_length = True
                 code = emcy_mod.EMCY_PDO_LENGTH if len(data) < plan.length else emcy_mod.EMCY_PDO_LENGTH_EXCEEDED
-                self.raise_emcy(code, data=bytes([plan.number]))
+                self.raise_emcy(code, data=bytes([plan.number]), source=f"pdo-length{plan.number}")
             return
         data = bytes(data)
         with self._lock:
@@ -828,8 +846,7 @@ class Device:
         if plan.bad_length:
             plan.bad_length = False
             for code in (emcy_mod.EMCY_PDO_LENGTH, emcy_mod.EMCY_PDO_LENGTH_EXCEEDED):
-                if code in self._emcy.active:
-                    self.clear_emcy(code)
+                self.clear_emcy(code, source=f"pdo-length{plan.number}")
         with self._rpdo_cond:
             self._rpdo_counts[plan.number] += 1
             self._rpdo_cond.notify_all()
@@ -974,7 +991,11 @@ class Device:
         self._hb_subs = []
         self._scheduler.cancel_prefix("hbc")
 
-    def _reconfigure_heartbeat_consumers(self) -> None:
+    def _reconfigure_heartbeat_consumers(self, *, restart: bool = False) -> None:
+        """Watch the nodes 0x1016 names. An entry whose node and time did not change keeps its
+        monitoring (status, deadline); a node no longer watched (or watched anew, or every node when
+        ``restart``: a reset) starts from "unknown", and its heartbeat error leaves 0x1001/0x8130."""
+        old, old_status, old_state = self._consumers, self._peer_status, self._peer_state
         self._unsubscribe_heartbeats()
         self._consumers = {}
         for s in sorted(self.store.get(0x1016, {})):
@@ -984,12 +1005,19 @@ class Device:
             node_id, ms = (entry >> 16) & 0xFF, entry & 0xFFFF
             if node_id and ms and node_id != self.node_id:
                 self._consumers[node_id] = ms * 1e-3
-        self._peer_status = {n: "unknown" for n in self._consumers}
-        self._peer_state = {n: None for n in self._consumers}
+        kept = set() if restart else {n for n, t in self._consumers.items() if old.get(n) == t}
+        self._peer_status = {n: old_status[n] if n in kept else "unknown" for n in self._consumers}
+        self._peer_state = {n: old_state[n] if n in kept else None for n in self._consumers}
         for n in self._consumers:
             cb = functools.partial(self._on_heartbeat_frame, n)
             self.network.subscribe(0x700 + n, cb)
             self._hb_subs.append((0x700 + n, cb))
+            if n in kept and self._peer_status[n] == "alive":
+                self._scheduler.set(f"hbc{n}", self._peer_seen.get(n, self.clock()) + self._consumers[n],
+                                    functools.partial(self._on_heartbeat_timeout, n))
+        for n in old:
+            if n not in kept and self._emcy.holds(emcy_mod.EMCY_HEARTBEAT, _hb_source(n)):
+                self.clear_emcy(emcy_mod.EMCY_HEARTBEAT, source=_hb_source(n))
         self._set_peer_alive()
 
     def _on_heartbeat_frame(self, peer: int, can_id: int, data: bytes, timestamp: float) -> None:
@@ -1005,6 +1033,7 @@ class Device:
             if not self._running or self._state == NmtState.INITIALISING or timeout is None:
                 return
             prev = self._peer_status.get(peer, "unknown")
+            prev_state = self._peer_state.get(peer)
             self._peer_status[peer] = "alive"
             self._peer_state[peer] = state
             self._peer_seen[peer] = now = self.clock()
@@ -1012,11 +1041,14 @@ class Device:
                                 functools.partial(self._on_heartbeat_timeout, peer))
             if prev == "lost":
                 events.append(PeerEvent(peer, "back", state))
-                if (not any(s == "lost" for s in self._peer_status.values())
-                        and emcy_mod.EMCY_HEARTBEAT in self._emcy.active):
-                    self.clear_emcy(emcy_mod.EMCY_HEARTBEAT)
+                # this peer's heartbeat error only: 0x8130 stays while another watched node is lost or
+                # the application holds it (a latched peer_lost trip)
+                self.clear_emcy(emcy_mod.EMCY_HEARTBEAT, source=_hb_source(peer))
             elif prev == "unknown":
                 events.append(PeerEvent(peer, "seen", state))
+            elif state != prev_state and state != 0 and prev_state not in (None, 0):
+                # news only: the boot-up's own PRE-OPERATIONAL heartbeat is part of the boot-up
+                events.append(PeerEvent(peer, "state", state))
             if state == 0:
                 events.append(PeerEvent(peer, "bootup", state))
             if prev != "alive":
@@ -1033,7 +1065,7 @@ class Device:
             self._peer_status[peer] = "lost"
             self.stats.peer_losses += 1
             self._set_peer_alive()
-            self.raise_emcy(emcy_mod.EMCY_HEARTBEAT, data=bytes([peer]))
+            self.raise_emcy(emcy_mod.EMCY_HEARTBEAT, data=bytes([peer]), source=_hb_source(peer))
         self._call(self._peer_listeners, PeerEvent(peer, "lost", None))
 
     def _set_peer_alive(self) -> None:
@@ -1050,17 +1082,23 @@ class Device:
         return self._peer_state[node_id]
 
     # ------------------------------------------------------------------ EMCY
-    def raise_emcy(self, code: int, *, data: bytes = b"", info16: int = 0) -> None:
-        """Record error ``code`` (0x1001, 0x1003) and send its EMCY (inhibit time permitting)."""
-        with self._lock:
-            register = self._emcy.raise_error(code, info16)
-            self._store_emcy()
-            self._queue_emcy(code, register, data)
+    def raise_emcy(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP) -> None:
+        """Record error ``code`` (0x1001, 0x1003) and send its EMCY (inhibit time permitting).
 
-    def clear_emcy(self, code: int) -> None:
-        """The error ``code`` is gone; when none is left, send the error-reset EMCY (0x0000)."""
+        ``source`` tells who holds the error (the program: the default; the device's heartbeat consumer
+        and PDO-length check use their own): a code held by another source already is the same error
+        still present, so no second frame or history entry (see :mod:`.emcy`)."""
         with self._lock:
-            if self._emcy.clear(code):
+            new = self._emcy.raise_error(code, info16, source=source)
+            self._store_emcy()
+            if new:
+                self._queue_emcy(code, self._emcy.register, data)
+
+    def clear_emcy(self, code: int, *, source: str = emcy_mod.APP) -> None:
+        """``source`` no longer has error ``code``; the code stays active while another source holds
+        it; when no error is left, send the error-reset EMCY (0x0000)."""
+        with self._lock:
+            if self._emcy.clear(code, source=source):
                 self._store_emcy()
                 self._queue_emcy(0x0000, self._emcy.register, b"")
             else:

@@ -10,6 +10,11 @@
   waiting is not queued twice.
 - Only PRE-OPERATIONAL and OPERATIONAL send EMCY frames; in STOPPED the error is recorded
   (0x1001/0x1003) but no frame is sent.
+- One error code may be held by several *sources* (the device's heartbeat consumer per watched node,
+  its PDO-length check, the application): the code stays active, and 0x1001 keeps its bits, until
+  every source that raised it has cleared it. A source raising a code another source already holds
+  is the same error still present: no second frame, no second history entry (CANopenNode reports an
+  error only when its status bit was not yet set).
 """
 from __future__ import annotations
 
@@ -26,6 +31,9 @@ REG_COMMUNICATION, REG_PROFILE, REG_MANUFACTURER = 0x10, 0x20, 0x80
 EMCY_HEARTBEAT = 0x8130          # life guard / heartbeat error (consumer timeout)
 EMCY_PDO_LENGTH = 0x8210         # PDO not processed due to length error
 EMCY_PDO_LENGTH_EXCEEDED = 0x8220
+
+APP = "app"
+"""The source of errors raised through the device's public ``raise_emcy`` (the node program)."""
 
 
 def register_bits(code: int) -> int:
@@ -46,10 +54,12 @@ def register_bits(code: int) -> int:
 
 
 class EmcyState:
-    """Active errors, the error register and the history; pure bookkeeping (no I/O)."""
+    """Active errors (with the sources holding them), the error register and the history; pure
+    bookkeeping (no I/O)."""
 
     def __init__(self) -> None:
         self.active: dict[int, int] = {}   # code -> register bits
+        self.sources: dict[int, set[str]] = {}   # code -> the sources holding it
         self.history: deque[int] = deque(maxlen=HISTORY_LEN)  # newest first (0x1003 sub 1 = [0])
 
     @property
@@ -59,21 +69,46 @@ class EmcyState:
             reg |= bits
         return reg
 
-    def raise_error(self, code: int, info16: int = 0, extra_bits: int = 0) -> int:
+    def raise_error(self, code: int, info16: int = 0, extra_bits: int = 0, *, source: str = APP) -> bool:
+        """``source`` raises ``code``. True: a new occurrence (history entry, EMCY frame to send); False:
+        another source already holds the code (the same error still present: nothing to send)."""
         if not 0x0100 <= code <= 0xFFFF:
             raise ValueError(f"EMCY code must be in 0x0100..0xFFFF (0x00xx is 'no error'), got 0x{code:04X}")
-        self.active[code] = register_bits(code) | extra_bits
+        holders = self.sources.setdefault(code, set())
+        shared = bool(holders) and source not in holders
+        holders.add(source)
+        self.active[code] = self.active.get(code, 0) | register_bits(code) | extra_bits
+        if shared:
+            return False
         self.history.appendleft((code & 0xFFFF) | ((info16 & 0xFFFF) << 16))
-        return self.register
+        return True
 
-    def clear(self, code: int) -> bool:
-        """Forget ``code``; True if that left no active error (time for an error-reset EMCY)."""
-        had = self.active.pop(code, None) is not None
-        return had and not self.active
+    def holds(self, code: int, source: str) -> bool:
+        return source in self.sources.get(code, ())
+
+    def clear(self, code: int, *, source: str = APP) -> bool:
+        """``source`` no longer has ``code``; the code stays active while another source holds it.
+        True if that left no active error at all (time for an error-reset EMCY)."""
+        holders = self.sources.get(code)
+        if not holders or source not in holders:
+            return False
+        holders.discard(source)
+        if holders:
+            return False
+        del self.sources[code]
+        self.active.pop(code, None)
+        return not self.active
+
+    def clear_source(self, source: str) -> bool:
+        """Every code ``source`` holds is cleared (e.g. a heartbeat consumer entry removed); True if
+        that left no active error."""
+        cleared = [code for code, holders in self.sources.items() if source in holders]
+        return any([self.clear(code, source=source) for code in cleared])
 
     def clear_all(self) -> bool:
         had = bool(self.active)
         self.active.clear()
+        self.sources.clear()
         return had
 
 

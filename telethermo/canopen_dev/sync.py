@@ -44,8 +44,10 @@ class SyncProducer:
     def transmit(self) -> SyncTick | None:
         """Send one SYNC (with the next counter value if 0x1019 > 0) and tick the own device.
 
-        Returns the own device's SyncTick. Raises RuntimeError if this device is not the SYNC
-        producer or is not in PRE-OPERATIONAL/OPERATIONAL.
+        Returns the own device's SyncTick, or None without sending anything in STOPPED (CiA 301: a
+        stopped node produces no SYNC; an NMT start resumes it, and the counter goes on). Raises
+        RuntimeError if this device is not the SYNC producer or is not powered on (INITIALISING:
+        before ``start()`` or after ``close()``).
 
         The device lock is held from sending SYNC k until the own SYNC k is processed: a peer that
         answers SYNC k faster than this thread reaches its own tick would otherwise have its TPDO k
@@ -56,6 +58,8 @@ class SyncProducer:
         with dev.lock:
             if not dev.is_sync_producer:
                 raise RuntimeError(f"node {dev.node_id} is not the SYNC producer (0x1005 bit 30 is clear)")
+            if dev.state is NmtState.STOPPED:
+                return None   # NMT STOP from any master: no SYNC, and nothing to raise into a SYNC loop
             if dev.state not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
                 raise RuntimeError(f"node {dev.node_id} may not produce SYNC in {dev.state.name}")
             overflow = dev._u(0x1019, 0)

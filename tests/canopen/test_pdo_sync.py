@@ -5,12 +5,13 @@ from __future__ import annotations
 
 import struct
 import threading
+import time
 
 import can
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.canopen_dev import NmtCommand, SyncProducer
+from telethermo.canopen_dev import NmtCommand, NmtState, SyncProducer
 
 
 def drain(bus) -> list[can.Message]:
@@ -78,6 +79,7 @@ def test_sync_start_value_delays_the_first_transmission(lab):
 def test_sync_counter_wraps_at_0x1019_and_the_producer_ticks_itself(lab):
     dev = lab.device("master")
     node = lab.client("master")
+    node.sdo["Communication cycle period"].raw = 0   # CiA 301: 0x1019 may change only while 0x1006 is 0
     node.sdo["Synchronous counter overflow value"].raw = 5
     ticks = []
     dev.add_sync_handler(lambda t: ticks.append(t.counter))
@@ -305,3 +307,44 @@ def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cyc
     assert [c for c, _, _ in seen] == list(range(1, 21))
     assert seen[0][1] == () and all(f == (1, 2) for _, f, _ in seen[1:])
     assert [v for _, _, v in seen[1:]] == [float(k - 1) for k in range(2, 21)]
+
+
+def test_a_stopped_producer_sends_no_sync_and_resumes_on_nmt_start(lab):
+    """CiA 301: in STOPPED only NMT and heartbeat; the SYNC producer simply does not produce (issue 12
+    FAIL 1: it raised into the node's SYNC loop and killed the real-time master)."""
+    dev = lab.device("master")
+    node = lab.client("master")
+    bus = lab.raw_bus()
+    sync = SyncProducer(dev)
+    dev.nmt_command(NmtCommand.START, 0)
+    sync.transmit()
+    node.nmt.send_command(0x02)                    # NMT stop from another master (canopen's NmtMaster)
+    end = time.monotonic() + 2
+    while dev.state is not NmtState.STOPPED and time.monotonic() < end:
+        time.sleep(0.005)
+    assert sync.transmit() is None and sync.transmit() is None
+    node.nmt.send_command(0x01)                    # NMT start: SYNC again, the counter goes on
+    while dev.state is not NmtState.OPERATIONAL and time.monotonic() < end + 2:
+        time.sleep(0.005)
+    assert sync.transmit() is not None
+    syncs = [m.data[0] for m in drain(bus) if m.arbitration_id == 0x80]
+    assert syncs == [1, 2]
+
+
+def test_0x1019_is_refused_while_the_communication_cycle_period_runs(lab):
+    """CiA 301 (object 0x1019): changed only while 0x1006 is 0, else 0x08000022, as CANopenNode's
+    OD_write_1019 (issue 12 deviation: it was accepted with 0x1006 = 10 ms)."""
+    dev = lab.device("master")
+    node = lab.client("master")
+    assert node.sdo["Communication cycle period"].raw == 10000
+    with pytest.raises(SdoAbortedError) as exc:
+        node.sdo["Synchronous counter overflow value"].raw = 5
+    assert exc.value.code == 0x08000022
+    assert node.sdo["Synchronous counter overflow value"].raw == 240 and dev.read(0x1019) == 240
+    with pytest.raises(SdoAbortedError) as exc:
+        node.sdo["Synchronous counter overflow value"].raw = 1      # an invalid value stays 0x06090030
+    assert exc.value.code == 0x06090030
+    node.sdo["Communication cycle period"].raw = 0
+    node.sdo["Synchronous counter overflow value"].raw = 5
+    node.sdo["Communication cycle period"].raw = 10000
+    assert node.sdo["Synchronous counter overflow value"].raw == 5

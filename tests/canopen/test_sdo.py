@@ -139,3 +139,34 @@ def test_a_failing_validator_refuses_with_a_general_error_and_is_counted(lab):
     assert node.sdo["callback_errors"].raw == 1
     node.sdo["ki_A_per_C_s"].raw = 0.25             # other objects are untouched by it
     assert dev.read("ki_A_per_C_s") == 0.25
+
+
+def test_a_boolean_takes_0_or_1_only(lab):
+    """Issue 12 FAIL 4: BOOLEAN 0x230C accepted 2 and read back 2. Raw downloads (canopen's client would
+    encode any true value as 1): 2 is out of range (0x06090030), two bytes are the wrong length
+    (0x06070010); the value stays."""
+    dev = lab.device("master")
+    node = lab.client("master")
+    node.sdo.download(0x230C, 0, b"\x01")
+    assert node.sdo.upload(0x230C, 0) == b"\x01" and dev.read("flux_with_current") is True
+    assert abort_code(lambda: node.sdo.download(0x230C, 0, b"\x02")) == 0x06090030
+    assert abort_code(lambda: node.sdo.download(0x230C, 0, b"\xff")) == 0x06090030
+    assert abort_code(lambda: node.sdo.download(0x230C, 0, b"\x00\x00")) == 0x06070010
+    assert node.sdo.upload(0x230C, 0) == b"\x01"
+    node.sdo.download(0x230C, 0, b"\x00")
+    assert node.sdo.upload(0x230C, 0) == b"\x00"
+
+
+def test_cob_id_sync_refuses_the_29_bit_frame_bit(lab):
+    """Issue 12 FAIL 5: 0x1005 bit 29 (29-bit SYNC) was accepted while the node kept its 11-bit SYNC.
+    Refused with 0x06090030 as CANopenNode does; the value stays and SYNC on 0x80 still works."""
+    dev = lab.device("slave")
+    node = lab.client("slave")
+    ticks = []
+    dev.add_sync_handler(lambda t: ticks.append(t.counter))
+    assert abort_code(lambda: setattr(node.sdo["COB-ID SYNC"], "raw", 0x20000080)) == 0x06090030
+    assert abort_code(lambda: setattr(node.sdo["COB-ID SYNC"], "raw", 0x200000A0)) == 0x06090030
+    assert node.sdo["COB-ID SYNC"].raw == 0x80 and dev.sync_cob_id == 0x80
+    node.network.sync.transmit(7)                   # canopen's SYNC producer, 11-bit 0x80
+    node.sdo["COB-ID SYNC"].raw                     # SDO round trip: the SYNC before it was handled
+    assert ticks == [7]
