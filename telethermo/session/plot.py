@@ -65,11 +65,13 @@ def plot_session_png(rec: Recording) -> bytes:
         _legend(ax)
         k += 1
     ax = axs[k]
-    line(ax, "m_true_Q_W", "into the finger (telepresence)", color="C3")
+    # the heat across the contact into the finger (truth); older recordings only have the sensor's flux
+    q_col = "m_true_Q_into_body_W" if np.isfinite(rec.col("m_true_Q_into_body_W")).any() else "m_true_Q_W"
+    line(ax, q_col, "into the finger (telepresence)", color="C3")
     line(ax, "ref_Q_into_finger_W", "into the finger (direct touch)", color="k")
     # the direct touch's first samples are near-singular (semi-infinite contact: q ~ 1/sqrt(t)); scale the
     # axis to the bulk of both curves so the telepresence flux stays readable
-    both = np.concatenate([rec.col("m_true_Q_W"), rec.col("ref_Q_into_finger_W")])
+    both = np.concatenate([rec.col(q_col), rec.col("ref_Q_into_finger_W")])
     both = both[np.isfinite(both)]
     if both.size:
         lo, hi = np.percentile(both, [0.5, 99.5])
