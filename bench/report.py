@@ -29,7 +29,7 @@ HEADLINE = [
     ("transparency", "pre_contact_mean_error_C", "skin vs direct touch, 0.5 s before each touch, °C", "≤ 0.3"),
     ("transparency", "paper_law_headline_error_C", "headline of the paper's law as published, °C", "baseline"),
     ("transparency", "null_display_min_ratio_to_project", "best null display's headline / the project's", "≥ 3"),
-    ("transparency", "drift_10min_C", "both pads in air 10 min after a scene, max |T − neutral|, °C", "≤ 1"),
+    ("transparency", "drift_10min_C", "both pads in air 10 min after a scene, largest deviation from neutral, °C", "≤ 1"),
     ("control", "transparency_early_mean_error_C", "(earlier figure) contact T vs direct touch, 0.1–1 s, °C", "—"),
     ("control", "tracking_rms_C", "tracking RMS in steady contact (internal: vs own estimate), °C", "—"),
     ("nodes", "lockstep_cycles_per_s_virtual", "two-node lockstep, in-process virtual bus, cycles/s", "≥ 2000"),
