@@ -136,11 +136,11 @@ def canopen_network(args: argparse.Namespace, net: NetworkConfig) -> Iterator[ca
 # --- nodes and dictionaries -----------------------------------------------------------------------
 @dataclass(frozen=True)
 class Target:
-    """A node as the operator names it."""
+    """A node as the operator names it (``eds`` None: a node-ID outside the network file, e.g. for ``sdo``)."""
 
     role: str
     node_id: int
-    eds: Path
+    eds: Path | None
 
 
 def node_targets(net: NetworkConfig) -> list[Target]:

@@ -62,3 +62,25 @@ def test_set_refusal_says_the_rule(bus, capsys):
     code, _, err = cli(capsys, "set", "--bus", bus, "master", "estimator", "model")
     assert code == EXIT_FAIL and "SDO abort 0x08000022" in err
     assert "(0 and 2 need a loaded model: model_status 1) (now model_status = 0 (no model))" in err
+
+
+def test_sdo_on_the_running_node(bus, capsys):
+    assert wait_for(lambda: cli(capsys, "get", "--bus", bus, "--timeout", "0.3", "master", "mode")[0] == EXIT_OK, 30)
+    code, out, err = cli(capsys, "sdo", "--bus", bus, "master", "0x1017")
+    assert code == EXIT_OK and out == "master 0x1017:00 Producer heartbeat time = 100 ms\n", err
+    code, out, err = cli(capsys, "sdo", "--bus", bus, "1", "0x1008", "--type", "str")   # segmented upload
+    assert code == EXIT_OK and out == "master 0x1008:00 Manufacturer device name = 'telethermo master'\n", err
+    code, out, err = cli(capsys, "sdo", "--bus", bus, "1", "0x2200", "0.5", "--type", "f32")
+    assert code == EXIT_OK and out == "master 0x2200:00 kp_A_per_C <- 00 00 00 3f (REAL32 0.5): written\n", err
+    assert cli(capsys, "get", "--bus", bus, "master", "kp_A_per_C")[1].startswith("master 0x2200 kp_A_per_C = 0.5 ")
+    # aborts, with the CiA 301 text of each code
+    for argv, expected in [
+            (["0x1018:7"], "master 0x1018:07: read refused: SDO abort 0x06090011: Sub-index does not exist"),
+            (["0x5FFF"], "master 0x5FFF:00: read refused: SDO abort 0x06020000: "
+                         "Object does not exist in the object dictionary"),
+            (["0x1000", "5", "--type", "u32"], "master 0x1000:00: write refused: SDO abort 0x06010002: "
+                                               "Attempt to write a read only object"),
+            (["0x2400", "40", "--type", "f32"], "master 0x2400:00: write refused: SDO abort 0x06090030: "
+                                                "Invalid value for parameter (download only)")]:
+        code, out, err = cli(capsys, "sdo", "--bus", bus, "1", *argv)
+        assert code == EXIT_FAIL and out == "" and err == f"telethermo sdo: {expected}\n", argv
