@@ -93,3 +93,16 @@ def test_without_matplotlib_one_line_and_exit_2(cli, offline_csv, tmp_path, monk
     assert err == "telethermo plot: error: matplotlib is not installed; install the plot extra: " \
                   "pip install 'telethermo[plot]'\n"
     assert not (tmp_path / "x.png").exists()
+
+
+@pytest.mark.parametrize("tail,line,what", [
+    (b"0.01,\xff\xfe\n", 5, "not UTF-8 text (byte 0xFF)"),                       # binary garbage
+    (b"\n0.01,x\n", 6, "column 'm_T_sensor_C': expected a number, got 'x'"),     # a blank line still counts
+    (b'0.01,"' + b"x" * 200_000 + b'"\n', 5, "not a CSV row (field larger than field limit"),
+])
+def test_damaged_files_name_their_line(cli, tmp_path, tail, line, what):
+    bad = tmp_path / "bad.csv"
+    bad.write_bytes(b"# telethermo-recording 1\n# meta {}\nt_s,m_T_sensor_C\n0.0,1\n" + tail)
+    code, _, err = cli("plot", str(bad))
+    assert code == EXIT_USAGE and err.count("\n") == 1 and "Traceback" not in err
+    assert f"bad.csv: line {line}: {what}" in err
