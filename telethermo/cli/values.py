@@ -45,21 +45,25 @@ def unit_of(info: VarInfo) -> str:
     return ""
 
 
-def _control_enums() -> dict[str, dict[int, str]]:
-    from telethermo.control.estimators import Estimator
+def _control_enum(name: str) -> dict[int, str]:
+    """code -> name of one of our objects, from the control core's enum (imported only when shown: the
+    safety module alone takes ~10 ms to import)."""
+    if name == "mode":
+        from telethermo.control.types import Mode
+        return {int(m): m.name.lower() for m in Mode}
+    if name == "estimator":
+        # the object's codes are the enum's declaration order (tests/cli/test_cli_values.py checks the
+        # node's ESTIMATOR_CODES against it)
+        from telethermo.control.estimators import Estimator
+        return {i: e.value for i, e in enumerate(Estimator)}
     from telethermo.control.safety import SafetyState
-    from telethermo.control.types import Mode
-    return {"mode": {int(m): m.name.lower() for m in Mode},
-            # the object's codes are the enum's declaration order (tests/cli/test_cli_values.py checks the
-            # node's ESTIMATOR_CODES against it)
-            "estimator": {i: e.value for i, e in enumerate(Estimator)},
-            "safety_state": {int(s): s.name.lower() for s in SafetyState}}
+    return {int(s): s.name.lower() for s in SafetyState}
 
 
 def enum_names(info: VarInfo, ours: bool = True) -> dict[int, str] | None:
     """code -> name of an enumerated object, or None. ``ours``: the node runs our control core."""
     if ours and info.index >= 0x2000 and info.name in ("mode", "estimator", "safety_state"):
-        return _control_enums()[info.name]
+        return _control_enum(info.name)
     if info.data_type not in _UNSIGNED and info.data_type not in (0x0002, 0x0003, 0x0004):
         return None
     text = info.description.split(":")[-1] if ":" in info.description else info.description
