@@ -38,17 +38,10 @@ def _has(rec: Recording, *names: str) -> bool:
 
 
 def _touches(rec: Recording) -> list[tuple[float, float]]:
-    """The shaded spans: the scene's touches (meta or reference), else a node's own truth of touching."""
-    spans = [(c["t_on_s"], c["t_off_s"]) for c in contacts_of(rec)]
-    if spans:
-        return spans
-    t = rec.col("t_s")
-    for p, _, _ in SIDES:
-        touch = np.nan_to_num(rec.col(f"{p}_true_touching")) > 0.5
-        if touch.any():
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], touch.astype(int), [0]])))
-            return [(float(t[a]), float(t[b - 1])) for a, b in zip(edges[::2], edges[1::2])]
-    return []
+    """The shaded spans: the scene's touches as session.png shows them (:func:`contacts_of`: the probe's
+    touches in telepresence, the display's when rendering). A master's own recording in telepresence
+    has none (its finger rests on the pad throughout): nothing is shaded."""
+    return [(c["t_on_s"], c["t_off_s"]) for c in contacts_of(rec)]
 
 
 def _title(rec: Recording) -> str:
