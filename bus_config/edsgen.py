@@ -165,7 +165,8 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2202, _real("kQ_A_per_W", "rw", kq, -20.0, 20.0, description="heat-flux feed-forward gain (peer's flux)")),
         V(0x2203, _uint("estimator", UNSIGNED8, "rw", 0, 0, 2,
                         description="eq. 30/31, 2*T_sensor - T_pred, with T_pred from: 0 the NARMA model (eq. 32), "
-                                    "1 the flux sensor, T1 of eq. 28 as T_sensor + Q*R_sensor/2 (default), 2 both fused")),
+                                    "1 the flux sensor, T1 of eq. 28 as T_sensor + Q*R_sensor/2 (default), 2 both fused "
+                                    "(0 and 2 need a loaded model: model_status 1)")),
         # -- model parameters (NARMA eq. 10, flux ARMA eq. 12)
         V(0x2300, _uint("narma_n", UNSIGNED8, "rw", 3, 0, 8, description="output lags n")),
         V(0x2301, _uint("narma_m", UNSIGNED8, "rw", 3, 0, 8, description="input lags m")),
@@ -198,21 +199,26 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
             **{i: _real64(f"flux_coeff{i}", "rw", 0.0, -1.0e6, 1.0e6, description="c_1..c_n, d_0..d_m (eq. 12), then e, g, h if flux_with_current")
                for i in range(1, 17)}}),
         # -- safety envelope (DESIGN.md section 6): ranges only allow narrowing the defaults
-        V(0x2400, _real("T_min_C", "rw", 15.0, 15.0, 43.0, description="lowest surface setpoint")),
-        V(0x2401, _real("T_max_C", "rw", 43.0, 15.0, 43.0, description="highest surface setpoint")),
+        V(0x2400, _real("T_min_C", "rw", 15.0, 15.0, 43.0,
+                        description="lowest surface setpoint, must not exceed neutral_C and must stay more than 1 degC "
+                                    "(two 0.5 degC guard bands) below T_max_C")),
+        V(0x2401, _real("T_max_C", "rw", 43.0, 15.0, 43.0,
+                        description="highest surface setpoint, must not be below neutral_C and must stay more than 1 degC "
+                                    "(two 0.5 degC guard bands) above T_min_C")),
         V(0x2402, _real("ramp_limit_C_per_s", "rw", 5.0, 0.01, 5.0, description="setpoint ramp limit")),
         V(0x2403, _real("hot_threshold_C", "rw", 41.0, 30.0, 43.0, description="time-at-temperature threshold")),
         V(0x2404, _real("hot_time_limit_s", "rw", 30.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
         V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit, at most 0.8 Imax of the rig (the node writes its own: 2.4 A on the simulated 3 A rig)")),
         V(0x2406, _real("sink_trip_C", "rw", 55.0, 20.0, 55.0, description="heat-sink trip temperature")),
-        V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss")),
+        V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss, must lie within [T_min_C, T_max_C]")),
         V(0x2408, _uint("peer_pdo_miss_limit", UNSIGNED16, "rw", 10, 1, 1000, description="missed peer PDOs (cycles) before peer loss")),
         V(0x2409, _real("mismatch_limit_C", "rw", 12.0, 0.1, 20.0, description="model-vs-sensor plausibility limit")),
         V(0x240A, _uint("fault_reset", UNSIGNED8, "rw", 0, 0, 1,
                         description="write 1: clear the latched trips whose cause is gone (refused with 0x08000022 "
                                     "while one persists: nothing cleared) (reads 0)")),
         # -- mode (telethermo.control.types.Mode)
-        V(0x2500, _uint("mode", UNSIGNED8, "rw", 0, 0, 3, pdo=True, description="0 idle, 1 telepresence, 2 render, 3 identify")),
+        V(0x2500, _uint("mode", UNSIGNED8, "rw", 0, 0, 3, pdo=True,
+                        description="0 idle, 1 telepresence, 2 render, 3 identify (render on the master only)")),
         # -- virtual rendering (yamamoto eq. 5/7)
         V(0x2600, _uint("material_code", UNSIGNED8, "rw", 0, 0, 255,
                         description="0 custom (material_beta), k from 1: the k-th material of the rendering table "
@@ -227,8 +233,12 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2802, _uint("ident_train_samples", UNSIGNED32, "rw", 10_000, 1, 500_000, description="training PRBS samples")),
         V(0x2803, _uint("ident_validation_samples", UNSIGNED32, "rw", 5_000, 1, 500_000,
                         description="held-out PRBS samples")),
-        V(0x2804, _real("ident_amplitude_min_A", "rw", 0.1, 0.0, 10.0, description="smallest PRBS bit amplitude")),
-        V(0x2805, _real("ident_amplitude_max_A", "rw", 1.0, 0.0, 10.0, description="largest PRBS bit amplitude")),
+        V(0x2804, _real("ident_amplitude_min_A", "rw", 0.1, 0.0, 10.0,
+                        description="smallest PRBS bit amplitude, must not exceed ident_amplitude_max_A nor change "
+                                    "while identifying (mode 3)")),
+        V(0x2805, _real("ident_amplitude_max_A", "rw", 1.0, 0.0, 10.0,
+                        description="largest PRBS bit amplitude, must not be below ident_amplitude_min_A nor change "
+                                    "while identifying (mode 3)")),
         V(0x2806, _uint("ident_hold_samples", UNSIGNED16, "rw", 25, 1, 10_000, description="samples per PRBS bit")),
         V(0x2807, _uint("ident_sample", UNSIGNED32, "ro", 0, pdo=True,
                         description="sample j of the experiment is sent with j + 1 (values above the plan's total: done, 0 A held)")),

@@ -38,6 +38,14 @@ class Failure(Exception):
     """A runtime failure (node silent, SDO refused): one line on stderr, exit 1."""
 
 
+class Refused(Failure):
+    """A node refused an SDO write: ``code`` is its abort code."""
+
+    def __init__(self, message: str, code: int) -> None:
+        super().__init__(message)
+        self.code = code
+
+
 def failures(run: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
     """Decorate a command's ``run``: :class:`Failure` -> one line on stderr and exit 1."""
 
@@ -128,11 +136,11 @@ def canopen_network(args: argparse.Namespace, net: NetworkConfig) -> Iterator[ca
 # --- nodes and dictionaries -----------------------------------------------------------------------
 @dataclass(frozen=True)
 class Target:
-    """A node as the operator names it."""
+    """A node as the operator names it (``eds`` None: a node-ID outside the network file, e.g. for ``sdo``)."""
 
     role: str
     node_id: int
-    eds: Path
+    eds: Path | None
 
 
 def node_targets(net: NetworkConfig) -> list[Target]:
@@ -277,8 +285,8 @@ def sdo_write(node: canopen.RemoteNode, target: Target, info: VarInfo, value: An
     try:
         node.sdo.download(info.index, info.subindex, st.pack(value))
     except SdoAbortedError as exc:
-        raise Failure(f"{target.role} (node {target.node_id}) refused {info.key} = {value}: "
-                      f"{abort_text(exc.code)}") from None
+        raise Refused(f"{target.role} (node {target.node_id}) refused {info.key} = {value}: "
+                      f"{abort_text(exc.code)}", exc.code) from None
     except SdoCommunicationError as exc:
         raise Failure(f"{target.role} (node {target.node_id}) did not answer writing {info.key} ({exc})") from None
 

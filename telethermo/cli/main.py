@@ -38,11 +38,13 @@ COMMANDS: dict[str, Command] = {
     "status": Command("status", "mode, temperatures, estimates, flux, current, safety of each node"),
     "get": Command("params", "read parameters by EDS name (or list them)"),
     "set": Command("params", "write a parameter by EDS name (range-checked)"),
+    "sdo": Command("sdo", "SDO read/write of one object of any node 1..127 (EDS or not)"),
     "nmt": Command("nmt", "NMT start/stop/preop/reset of one node or all"),
     "mode": Command("mode", "switch the nodes: telepresence | render MATERIAL | idle"),
     "fault-reset": Command("faults", "clear the latched safety trips whose cause is gone"),
     "calibrate-finger": Command("calibrate", "per-user finger calibration (yamamoto): β_pad and T_finger0"),
     "record": Command("record", "record the bus to a .log/.asc/.blf file plus a decoded CSV"),
+    "plot": Command("plot", "plot a recording (a session's recording.csv, a node's --record CSV) to a PNG"),
     "bench": Command("bench", "run the benchmark suite, write bench/results/*.json and docs/benchmarks.md"),
 }
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from telethermo.cli import common
+from telethermo.cli import common, values
 from telethermo.cli.main import UserError
 
 
@@ -28,7 +28,37 @@ def register(subparsers) -> None:
 
 def describe(info) -> str:
     rng = info.range_text() or "no range"
-    return f"{info.type_name}, {info.access}, {rng}, 0x{info.index:04X}:{info.subindex:02X}"
+    return f"{info.type_name}, {info.access}, {rng}"
+
+
+def where(info) -> str:
+    """``0x2200`` for a VAR object, ``0x1018:01`` for an entry of an ARRAY/RECORD."""
+    return f"0x{info.index:04X}" if info.key == info.name and info.subindex == 0 else \
+        f"0x{info.index:04X}:{info.subindex:02X}"
+
+
+def line(t: common.Target, info, value, eds) -> str:
+    """One value as ``get``/``set`` print it: node, object, name, value with unit (or hex, or name)."""
+    return f"{t.role} {where(info)} {info.key} = {values.fmt(value, info, eds)}    ({describe(info)})"
+
+
+def refusal(exc: common.Refused, node, t: common.Target, info, eds) -> str:
+    """The node's refusal with the rule that refused: a value out of the node's own range (its EDS is
+    narrower than ours), else the object's description and the current values of the objects it names."""
+    text = str(exc)
+    if exc.code in (0x06090031, 0x06090032):
+        return (f"{text}; the node's limit is narrower than this EDS's range {info.range_text() or '(none)'} "
+                f"({info.key} in {common.eds_info(t).path}: out of date?)")
+    if not info.description:
+        return text
+    now = []
+    for key in values.rule_keys(info, eds):
+        other = eds.by_key[key]
+        try:
+            now.append(f"{key} = {values.fmt(common.sdo_read(node, t, other), other, eds)}")
+        except common.Failure:
+            pass   # the rule is still worth saying without the current value
+    return f"{text}; {info.key}: {info.description}" + (f" (now {', '.join(now)})" if now else "")
 
 
 @common.failures
@@ -44,11 +74,11 @@ def run_get(args: argparse.Namespace) -> int:
     if not args.names:
         raise UserError("give at least one parameter NAME, or --list")
     infos = [common.lookup(t, n) for n in args.names]
+    eds = common.eds_info(t)
     with common.canopen_network(args, net) as nw:
         node = common.remote(nw, t, args.timeout)
         for info in infos:
-            v = common.sdo_read(node, t, info)
-            print(f"{info.key} = {common.fmt(v, info)}    ({describe(info)})")
+            print(line(t, info, common.sdo_read(node, t, info), eds))
     return 0
 
 
@@ -59,11 +89,23 @@ def run_set(args: argparse.Namespace) -> int:
     info = common.lookup(t, args.name)
     if not info.writable:
         raise UserError(f"{info.key} is {'read-only' if info.access in ('ro', 'const') else info.access}; not sent")
-    value = common.parse_value(info, args.value)
+    code = values.parse_enum(info, args.value)   # `set master mode telepresence`
+    names = values.enum_names(info)
+    try:
+        value = code if code is not None else common.parse_value(info, args.value)
+    except UserError:
+        if not names:
+            raise
+        listed = ", ".join(f"{n} ({c})" for c, n in names.items())
+        raise UserError(f"{info.key}: expected one of {listed}, got {args.value!r}") from None
     common.check_range(info, value)
+    eds = common.eds_info(t)
     with common.canopen_network(args, net) as nw:
         node = common.remote(nw, t, args.timeout)
-        common.sdo_write(node, t, info, value)
+        try:
+            common.sdo_write(node, t, info, value)
+        except common.Refused as exc:
+            raise common.Failure(refusal(exc, node, t, info, eds)) from None
         back = common.sdo_read(node, t, info) if "r" in info.access else value
-    print(f"{t.role}: {info.key} = {common.fmt(back, info)}    ({describe(info)})")
+    print(line(t, info, back, eds))
     return 0

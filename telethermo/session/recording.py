@@ -163,9 +163,14 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
     """Read a recording; :class:`RecordingError` names the file, line and column on bad input."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
+        raw = path.read_bytes()
     except OSError as exc:
         raise RecordingError(f"{path}: cannot read: {exc}") from exc
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError as exc:   # a binary file, or a write torn inside a character
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise RecordingError(f"{path}: line {line}: not UTF-8 text (byte 0x{raw[exc.start]:02X})") from None
     lines = text.split("\n")
     if not lines or lines[0].strip() != MAGIC:
         raise RecordingError(f"{path}: line 1: expected {MAGIC!r}, got {lines[0][:60]!r}")
@@ -177,7 +182,11 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
         raise RecordingError(f"{path}: line 2: meta is not valid JSON: {exc}") from exc
     if not isinstance(meta, dict):
         raise RecordingError(f"{path}: line 2: meta must be a JSON object")
-    rows = list(csv.reader(io.StringIO("\n".join(lines[2:]))))
+    reader = csv.reader(io.StringIO("\n".join(lines[2:])))
+    try:
+        rows = list(reader)
+    except csv.Error as exc:   # e.g. a field longer than the csv module's limit (a torn or foreign file)
+        raise RecordingError(f"{path}: line {reader.line_num + 2}: not a CSV row ({exc})") from None
     if not rows:
         raise RecordingError(f"{path}: line 3: expected the header row")
     header = rows[0]
@@ -185,9 +194,10 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
         raise RecordingError(f"{path}: line 3: header has no 't_s' column")
     if len(set(header)) != len(header):
         raise RecordingError(f"{path}: line 3: duplicate column names")
-    data = [r for r in rows[1:] if r]
     cols: dict[str, Any] = {h: [] for h in header}
-    for ln, r in enumerate(data, start=4):
+    for ln, r in enumerate(rows[1:], start=4):   # file line numbers (blank lines count, rows skip them)
+        if not r:
+            continue
         if len(r) != len(header):
             raise RecordingError(f"{path}: line {ln}: expected {len(header)} fields, got {len(r)}")
         for h, v in zip(header, r):

@@ -53,8 +53,10 @@ def test_node_refusal_shows_abort_code_and_meaning(nodes, cli, tmp_path):
     (tmp_path / "network.toml").write_text(cfg_path("network.toml").read_text())
     code, out, err = cli("set", *nodes.bus, "--network", str(tmp_path / "network.toml"), "master", "T_max_C", "50")
     assert code == EXIT_FAIL
-    assert err.strip() == ("telethermo set: master (node 1) refused T_max_C = 50.0: "
-                           "SDO abort 0x06090031: Value of parameter written too high (download only)")
+    assert err.startswith("telethermo set: master (node 1) refused T_max_C = 50.0: "
+                          "SDO abort 0x06090031: Value of parameter written too high (download only); "
+                          "the node's limit is narrower than this EDS's range [15, 60] degC (T_max_C in ")
+    assert err.endswith("master.eds: out of date?)\n") and err.count("\n") == 1
     assert nodes.devices["master"].read("T_max_C") == pytest.approx(43.0)
 
 

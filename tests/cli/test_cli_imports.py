@@ -27,6 +27,7 @@ LIGHT = [
     (["find", *EMPTY], 1),
     (["status", *EMPTY], 1),
     (["nmt", *EMPTY, "preop", "master"], 1),
+    (["sdo", *EMPTY, "5", "0x1018:1"], 1),
 ]
 
 

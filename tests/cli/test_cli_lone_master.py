@@ -67,7 +67,7 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     assert m, text
     # the node runs exactly the model in the file (its CRC over the objects it holds)
     tem = load_model(model_file)
-    assert int(m.group(1), 16) == odmodel.od_crc32(odmodel.model_entries(tem)) == int(get(capsys, bus, "model_crc32"))
+    assert int(m.group(1), 16) == odmodel.od_crc32(odmodel.model_entries(tem)) == int(get(capsys, bus, "model_crc32"), 16)
     assert get(capsys, bus, "model_status") == "1"
     # the model predicts the live pad's held-out PRBS (free run from rest) to well under 0.1 °C
     worst = float(re.search(r"held-out free run\s+worst ([0-9.]+) °C", text).group(1))
@@ -133,9 +133,9 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     # and the node is as it was: idle, status TPDOs every 10th SYNC with their EDS mapping
     assert get(capsys, bus, "mode") == "0"
     assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
-    assert int(get(capsys, bus, "0x1A01:1")) == 0x20000020 and int(get(capsys, bus, "0x1A01:2")) == 0x20020020
-    assert int(get(capsys, bus, "0x1A02:1")) == 0x21010020 and int(get(capsys, bus, "0x1A02:2")) == 0x21020020
-    assert int(get(capsys, bus, "0x1A03:0")) == 5 and int(get(capsys, bus, "0x1A03:1")) == 0x27020020
+    assert int(get(capsys, bus, "0x1A01:1"), 16) == 0x20000020 and int(get(capsys, bus, "0x1A01:2"), 16) == 0x20020020
+    assert int(get(capsys, bus, "0x1A02:1"), 16) == 0x21010020 and int(get(capsys, bus, "0x1A02:2"), 16) == 0x21020020
+    assert int(get(capsys, bus, "0x1A03:0")) == 5 and int(get(capsys, bus, "0x1A03:1"), 16) == 0x27020020
     assert get(capsys, bus, "ident_state") == "2"
 
 
@@ -162,7 +162,7 @@ def test_the_node_refuses_a_bad_model_and_keeps_the_running_one(master, capsys):
     assert set_(capsys, bus, "estimator", 1)[0] == EXIT_OK
     assert set_(capsys, bus, "model_command", 2)[0] == EXIT_OK
     assert wait_for(lambda: get(capsys, bus, "model_status") == "0", 5)
-    assert get(capsys, bus, "model_crc32") == "0" and get(capsys, bus, "T_pred_C") == "nan"
+    assert get(capsys, bus, "model_crc32") == "0x00000000" and get(capsys, bus, "T_pred_C") == "nan"
     code, _, err = set_(capsys, bus, "estimator", 0)   # no model any more: the model estimator is refused
     assert code == EXIT_FAIL and "0x08000022" in err
     del theta1
@@ -201,11 +201,11 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     # a heat-sink trip: the sink (at ambient, 25 °C) above a lowered trip temperature; it latches and cuts
     assert set_(capsys, bus, "sink_trip_C", 20.0)[0] == EXIT_OK
     assert wait_for(lambda: get(capsys, bus, "safety_state") == "3", 10)
-    assert int(get(capsys, bus, "0x1001")) != 0 and int(get(capsys, bus, "last_trip_code")) != 0
+    assert int(get(capsys, bus, "0x1001"), 16) != 0 and int(get(capsys, bus, "last_trip_code"), 16) != 0
     # the cause persists: refused, nothing cleared, the trip named
     code, out, err = cli(capsys, "fault-reset", "--bus", bus, "master")
     assert code == EXIT_FAIL and "0x08000022" in out and "persists (heat_sink)" in err and "last trip 0x" in err
-    assert int(get(capsys, bus, "active_trips")) == 0x080
+    assert int(get(capsys, bus, "active_trips"), 16) == 0x080
     assert get(capsys, bus, "safety_state") == "3"
     # the cause gone, the trip stays latched until the operator resets it
     assert set_(capsys, bus, "sink_trip_C", 55.0)[0] == EXIT_OK
@@ -214,8 +214,8 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     code, out, err = cli(capsys, "fault-reset", "--bus", bus, "master")
     assert code == EXIT_OK, err
     assert "current cut -> ok (0)" in out and "error register 0x00" in out
-    assert get(capsys, bus, "safety_state") == "0" and int(get(capsys, bus, "0x1001")) == 0
-    assert get(capsys, bus, "active_trips") == "0"
+    assert get(capsys, bus, "safety_state") == "0" and int(get(capsys, bus, "0x1001"), 16) == 0
+    assert get(capsys, bus, "active_trips") == "0x0000"
     # nothing latched: a reset is a no-op, accepted
     assert cli(capsys, "fault-reset", "--bus", bus, "master")[0] == EXIT_OK
 
@@ -254,5 +254,5 @@ def test_a_kill_during_an_identification_puts_the_node_back(master, capsys):
     assert get(capsys, bus, "mode") == "0"
     assert wait_for(lambda: get(capsys, bus, "ident_state") == "3", 10)
     assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
-    assert int(get(capsys, bus, "0x1A01:1")) == 0x20000020 and int(get(capsys, bus, "0x1A03:1")) == 0x27020020
+    assert int(get(capsys, bus, "0x1A01:1"), 16) == 0x20000020 and int(get(capsys, bus, "0x1A03:1"), 16) == 0x27020020
     assert wait_for(lambda: float(get(capsys, bus, "current_A")) == 0.0, 10)

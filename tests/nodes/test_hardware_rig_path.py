@@ -319,7 +319,8 @@ def _cli(capsys, *argv: str) -> tuple[int, str, str]:
 def _get(capsys, bus: str, node: str, *names: str) -> dict[str, float]:
     code, out, err = _cli(capsys, "get", "--bus", bus, node, *names)
     assert code == EXIT_OK, err
-    return {m.group(1): float(m.group(2)) for m in re.finditer(r"^(\w+) = (\S+)", out, re.M)}
+    # "master 0x2000 T_sensor_C = 25.1 degC    (...)": node, object, name, value
+    return {m.group(1): float(m.group(2)) for m in re.finditer(r"^\w+ 0x[0-9A-F:]+ (\w+) = (\S+)", out, re.M)}
 
 
 def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):

@@ -46,7 +46,7 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
         code, out, err = cli(capsys, "get", *net, "master", "model_crc32", "0x1A02:1", "0x1802:2", "mode")
         assert code == EXIT_OK, err
         vals = [line.split(" = ", 1)[1].split()[0] for line in out.splitlines()]
-        assert vals == [str(crc), str(0x21010020), "10", "0"]
+        assert vals == [f"0x{crc:08X}", "0x21010020", "10", "0"]   # CRC and mapping entry in hex
     finally:
         stop_process(node)
     total = REST + N_TRAIN + N_VAL

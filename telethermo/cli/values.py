@@ -1,0 +1,168 @@
+"""How ``get`` and ``set`` show a value: hex for COB-IDs and bit fields, names for enumerations, the unit
+always, and the rule behind a refusal.
+
+Light on purpose (``get``/``set`` import it): no numpy, only the control core's enum modules, which
+import nothing but the standard library.
+
+- **Unit**: the EDS ``Unit=`` key; else the name's unit suffix (``_C`` degC, ``_A_per_W`` A/W, ... the
+  convention of bus_config/edsgen.py); else a time unit the description starts with (CiA 301 objects:
+  ``ms``, ``us``, ``100 us units`` -> ``x100 us``).
+- **Hex**: COB-IDs (``COB-ID SYNC = 0x40000080 (COB-ID 0x080, produces SYNC)``), PDO mapping entries
+  (``0x20000020 (0x2000:00 T_sensor_C, 32 bits)``), heartbeat consumer entries (``0x000200FA (node 2,
+  250 ms)``), the error register (``0x19 (generic, temperature, communication)``), trip masks
+  (``0x0200 (peer_lost)``), device type, identity, EMCY codes and CRCs; and any unsigned object whose
+  description speaks of bits.
+- **Enumerations**: ``mode``, ``estimator`` and ``safety_state`` of our nodes by the control core's enums
+  (``1 (telepresence)``); any other object whose description is a list ``0 name, 1 name, ...``.
+"""
+from __future__ import annotations
+
+import math
+import re
+from typing import Any
+
+from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo
+from telethermo.monitor.cia301 import error_register_names
+
+#: name suffix -> unit (the naming convention of bus_config/edsgen.py; longest first)
+NAME_UNITS = (("_A_per_C_s", "A/(degC*s)"), ("_A_per_C", "A/degC"), ("_A_per_W", "A/W"), ("_C_per_s", "degC/s"),
+              ("_C_per_W", "degC/W"), ("_C", "degC"), ("_W", "W"), ("_A", "A"), ("_N", "N"), ("_s", "s"))
+_TIME_UNIT = re.compile(r"^(?:(\d+) )?(us|ms|s)\b( units)?")
+_ENUM_ITEM = re.compile(r"^(\d+) ([A-Za-z][^()]*?)\s*(?:\(.*\))?$")
+_UNSIGNED = {0x0005: 2, 0x0006: 4, 0x0007: 8, 0x001B: 16}   # data type -> hex digits
+
+
+def unit_of(info: VarInfo) -> str:
+    """The unit to print after a value of ``info`` ('' if dimensionless)."""
+    if info.unit:
+        return info.unit
+    for suffix, unit in NAME_UNITS:
+        if info.name.endswith(suffix):
+            return unit
+    m = _TIME_UNIT.match(info.description)
+    if m and info.data_type in _UNSIGNED:
+        return f"x{m.group(1)} {m.group(2)}" if m.group(1) else m.group(2)
+    return ""
+
+
+def _control_enum(name: str) -> dict[int, str]:
+    """code -> name of one of our objects, from the control core's enum (imported only when shown: the
+    safety module alone takes ~10 ms to import)."""
+    if name == "mode":
+        from telethermo.control.types import Mode
+        return {int(m): m.name.lower() for m in Mode}
+    if name == "estimator":
+        # the object's codes are the enum's declaration order (tests/cli/test_cli_values.py checks the
+        # node's ESTIMATOR_CODES against it)
+        from telethermo.control.estimators import Estimator
+        return {i: e.value for i, e in enumerate(Estimator)}
+    from telethermo.control.safety import SafetyState
+    return {int(s): s.name.lower() for s in SafetyState}
+
+
+def enum_names(info: VarInfo, ours: bool = True) -> dict[int, str] | None:
+    """code -> name of an enumerated object, or None. ``ours``: the node runs our control core."""
+    if ours and info.index >= 0x2000 and info.name in ("mode", "estimator", "safety_state"):
+        return _control_enum(info.name)
+    if info.data_type not in _UNSIGNED and info.data_type not in (0x0002, 0x0003, 0x0004):
+        return None
+    text = info.description.split(":")[-1] if ":" in info.description else info.description
+    items = re.split(r",\s*(?=\d+ )", text.strip())
+    names: dict[int, str] = {}
+    for item in items:
+        m = _ENUM_ITEM.match(item.strip())
+        if not m or int(m.group(1)) in names:
+            return None
+        names[int(m.group(1))] = m.group(2).strip()
+    return names if len(names) >= 2 else None
+
+
+def _is_mapping_entry(info: VarInfo) -> bool:
+    return (0x1600 <= info.index <= 0x17FF or 0x1A00 <= info.index <= 0x1BFF) and info.subindex >= 1
+
+
+def hex_digits(info: VarInfo) -> int | None:
+    """Hex digits to show ``info``'s value with, or None to show it in decimal."""
+    digits = _UNSIGNED.get(info.data_type)
+    if digits is None:
+        return None
+    name, desc = info.name.lower(), info.description.lower()
+    if ("cob-id" in name or _is_mapping_entry(info) or info.index in (0x1000, 0x1001)
+            or (info.index in (0x1003, 0x1016, 0x1018) and info.subindex >= 1) or "crc" in name
+            or re.search(r"\bbits? (\d|i\b)", desc) or "emcy code" in desc or "error code" in name):
+        return digits
+    return None
+
+
+def _note(info: VarInfo, value: int, eds: EdsInfo | None) -> str:
+    """What a hex value means, where it is a known structure ('' if nothing to add)."""
+    name = info.name.lower()
+    if "cob-id" in name:
+        can_id = value & (0x1FFFFFFF if value & 0x20000000 else 0x7FF)
+        parts = [f"COB-ID 0x{can_id:03X}"]
+        if info.index == 0x1005:
+            parts.append("produces SYNC" if value & 0x40000000 else "consumes SYNC")
+        elif 0x1400 <= info.index <= 0x1BFF:
+            parts.append("disabled" if value & 0x80000000 else "enabled")
+        elif value & 0x80000000:
+            parts.append("invalid")
+        return ", ".join(parts)
+    if _is_mapping_entry(info):
+        if value == 0:
+            return "unused"
+        idx, sub, bits = value >> 16, (value >> 8) & 0xFF, value & 0xFF
+        target = eds.vars.get((idx, sub)) if eds is not None else None
+        return f"0x{idx:04X}:{sub:02X}{' ' + target.key if target else ''}, {bits} bits"
+    if info.index == 0x1016 and info.subindex >= 1:
+        node, ms = (value >> 16) & 0xFF, value & 0xFFFF
+        return "unused" if node == 0 or ms == 0 else f"node {node}, {ms} ms"
+    if info.index == 0x1001:
+        return ", ".join(error_register_names(value)) or "no error"
+    if info.name in ("active_trips", "fault_reset_blocked_by") and info.index >= 0x2000:
+        from telethermo.control.safety import Trip
+        trips = [t.value for i, t in enumerate(Trip) if value >> i & 1]
+        return ", ".join(trips) or "none"
+    return ""
+
+
+def fmt(value: Any, info: VarInfo, eds: EdsInfo | None = None, *, ours: bool = True) -> str:
+    """``value`` of ``info`` as ``get`` prints it (unit, hex, enumeration name)."""
+    unit = unit_of(info)
+    if isinstance(value, bool):
+        return str(value)
+    if isinstance(value, float):
+        txt = f"{value:.4f}".rstrip("0").rstrip(".") if math.isfinite(value) else str(value)
+        if txt in ("-0", ""):
+            txt = "0"
+        return f"{txt} {unit}".rstrip()
+    if isinstance(value, int):
+        names = enum_names(info, ours)
+        if names is not None:
+            return f"{value} ({names.get(value, 'not a listed value')})"
+        digits = hex_digits(info)
+        if digits is not None:
+            note = _note(info, value, eds)
+            return f"0x{value:0{digits}X}" + (f" ({note})" if note else "")
+    return f"{value} {unit}".rstrip()
+
+
+def parse_enum(info: VarInfo, text: str, ours: bool = True) -> int | None:
+    """The code of an enumeration name (``telepresence`` -> 1) or None if ``text`` is not one."""
+    names = enum_names(info, ours)
+    if not names:
+        return None
+    wanted = text.strip().lower().replace("-", "_").replace(" ", "_")
+    for code, name in names.items():
+        if name.lower().replace("-", "_").replace(" ", "_") == wanted:
+            return code
+    return None
+
+
+def rule_keys(info: VarInfo, eds: EdsInfo) -> list[str]:
+    """The other objects ``info``'s description names (the rule a node applies across objects)."""
+    words = re.findall(r"[A-Za-z_][A-Za-z0-9_]*", info.description)
+    out: list[str] = []
+    for w in words:
+        if w != info.key and w in eds.by_key and "_" in w and w not in out:
+            out.append(w)
+    return out
