@@ -144,3 +144,17 @@ def test_plot_is_a_png(tmp_path):
     from telethermo.session.plot import write_session_png
     p = write_session_png(tmp_path / "s.png", make())
     assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
+
+
+def test_atomic_writes_get_the_usual_file_mode(tmp_path):
+    import os
+    import stat
+
+    from telethermo.atomic import write_text_atomic
+
+    old = os.umask(0o022)
+    try:
+        p = write_text_atomic(tmp_path / "a.txt", "x")
+    finally:
+        os.umask(old)
+    assert stat.S_IMODE(p.stat().st_mode) == 0o644 and p.read_text() == "x"
