@@ -45,7 +45,7 @@ from nodes.odparams import ABORT_DEVICE_STATE, PARAM_KEYS, ParamBook, od_image
 from nodes.parts import NodeParts
 from nodes.peer import PeerLink
 from nodes.recorder import CsvRecorder
-from nodes.schedule import RealtimeTicker
+from nodes.schedule import LateCycleLog, RealtimeTicker
 
 log = logging.getLogger("telethermo.node")
 
@@ -700,6 +700,7 @@ class NodeRuntime:
         patience_s = 20 * wait_s  # a peer alive by its heartbeat but silent this long: count, go on
         ticker = None if self.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
         self.ticker = ticker
+        late_log = LateCycleLog(log)   # one summary line per second at most, not one per late cycle
         k = 0
         # lockstep bookkeeping: PDOs owed by the peer (one per SYNC it was sent while believed alive).
         # A PDO that comes after its wait timed out is still owed: the next cycle waits for both, so a
@@ -725,7 +726,7 @@ class NodeRuntime:
                 late, lateness = ticker.wait_next()
                 if late:
                     self.stats.late_cycles = ticker.stats.late_cycles
-                    log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
+                late_log.cycle(k, late, lateness)
             status = dev.peer_status(self.peer_id)
             if (status != "alive" or boots != self.peer_boots or pauses != self.peer_pauses
                     or leaves != self._nmt_leaves):
@@ -768,6 +769,7 @@ class NodeRuntime:
                     dev.wait_rpdo(last, after=dev.rpdo_count(last), timeout=period)
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)
+        late_log.flush()
         # the session is over: every node leaves OPERATIONAL (no PDOs, current 0) before we go silent,
         # so that the peer does not take our end for a loss
         if dev.state is NmtState.OPERATIONAL:

@@ -71,3 +71,59 @@ class RealtimeTicker:
         else:
             self._due += self.period_s
         return late, lateness
+
+
+class LateCycleLog:
+    """Late cycles in the log as one summary line per ``interval_s`` at most (count, cycle range, worst
+    lateness), not one line per cycle: on a loaded machine a line per late cycle made the log itself a load.
+
+    Call :meth:`cycle` once per cycle (cheap when nothing is late) and :meth:`flush` at the end. The first
+    late cycle after a quiet second is reported at once; later ones are summed until ``interval_s`` has
+    passed since the last line.
+
+    Args:
+        logger: where the lines go (``warning``).
+        interval_s: at most one line per this many seconds.
+        clock: monotonic clock, s (injectable).
+    """
+
+    def __init__(self, logger, *, interval_s: float = 1.0, clock: Callable[[], float] = time.monotonic) -> None:
+        self.logger = logger
+        self.interval_s = interval_s
+        self._clock = clock
+        self._last_line = -float("inf")
+        self.lines = 0
+        self._reset()
+
+    def _reset(self) -> None:
+        self.pending = 0
+        self._first_k = self._last_k = -1
+        self._worst_s = 0.0
+        self._since = None
+
+    def cycle(self, k: int, late: bool, lateness_s: float) -> None:
+        """Cycle ``k`` started ``lateness_s`` after its due time; ``late``: it counts as late."""
+        if late:
+            if not self.pending:
+                self._first_k, self._since = k, self._clock()
+            self.pending += 1
+            self._last_k = k
+            self._worst_s = max(self._worst_s, lateness_s)
+        if self.pending and self._clock() - self._last_line >= self.interval_s:
+            self._emit()
+
+    def flush(self) -> None:
+        """Write what is pending (end of the run)."""
+        if self.pending:
+            self._emit()
+
+    def _emit(self) -> None:
+        now = self._clock()
+        if self.pending == 1:
+            self.logger.warning("cycle %d late by %.1f ms", self._first_k, self._worst_s * 1e3)
+        else:
+            self.logger.warning("%d late cycles (cycles %d..%d, %.1f s), worst late by %.1f ms", self.pending,
+                                self._first_k, self._last_k, now - self._since, self._worst_s * 1e3)
+        self._last_line = now
+        self.lines += 1
+        self._reset()
