@@ -87,7 +87,7 @@ def _scene_at(folder: Path, period_s: float) -> Path:
 def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[float | None, str]:
     """Largest |recorded - offline runner (REAL32 exchange)| over every numeric column, and a note
     (None and the reason when the recordings do not even line up)."""
-    from nodes.merge import merge_recordings
+    from nodes.merge import SYNC_CYCLE, merge_recordings
     from telethermo.session import run_offline_session
     from telethermo.session.recording import TEXT_COLUMNS
     rec = merge_recordings(master_csv, slave_csv, scene=SCENE)
@@ -95,7 +95,11 @@ def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[
     if len(rec) != len(off):
         return None, f"{len(rec)} recorded rows vs {len(off)} offline"
     worst = 0.0
+    if not np.array_equal(rec.col(SYNC_CYCLE), np.arange(len(rec))):
+        return None, "the rows are not the SYNC cycles 0..n-1"
     for c in rec.columns:
+        if c == SYNC_CYCLE:
+            continue   # the node recordings' own column (the offline runner has none): checked above
         if c in TEXT_COLUMNS:
             if rec.text(c) != off.text(c):
                 k = next(i for i, (x, y) in enumerate(zip(rec.text(c), off.text(c))) if x != y)
@@ -114,6 +118,7 @@ def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[
 def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
     """Both nodes in this process on python-can's virtual bus; cycles/s of the SYNC producer's loop."""
     from nodes.main import run_result
+    from nodes.merge import SYNC_CYCLE
     from nodes.options import NodeOptions
     from nodes.parts import build_parts
     from nodes.recorder import CsvRecorder
@@ -131,7 +136,7 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
         parts = build_parts(opts, period_s=net.sync.period_s)
         p = "m_" if role is Role.MASTER else "s_"
         meta = dict(parts.meta, period_s=parts.period_s, mode="telepresence", rounding="real32")
-        rec = CsvRecorder(folder / f"{role.value}.csv", ["t_s"] + [c for c in COLUMNS if c.startswith(p)],
+        rec = CsvRecorder(folder / f"{role.value}.csv", ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)],
                           comments=[MAGIC[2:], "meta " + json.dumps(meta)])
         rt = NodeRuntime(role, net.node(role.value).node_id, net, transport, parts, mode=Mode.TELEPRESENCE,
                          lockstep=True, produce_sync=role is Role.MASTER, recorder=rec)

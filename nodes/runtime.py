@@ -112,6 +112,9 @@ class NodeRuntime:
         self._safety_state = None
         self._latched_reported = False
         self._sync_sent_at = 0.0
+        self.sync_cycle = -1
+        """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
+        self._sync_counter: int | None = None
         self.network: canopen.Network | None = None
         self.device: Device | None = None
         self.sync: SyncProducer | None = None
@@ -148,6 +151,7 @@ class NodeRuntime:
         dev = Device(self.network, self.node_id, eds, settings=settings)
         self.device = dev
         dev.add_sync_handler(self._on_sync)
+        self._counter_overflow = int(dev.read(0x1019)) if 0x1019 in dev.od else 0
         if self.produce_sync and self.record_timing:
             dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
@@ -512,7 +516,23 @@ class NodeRuntime:
             self._state = None
 
     # ------------------------------------------------------------------ the cycle
+    def _count_sync(self, counter: int | None) -> None:
+        """Number this SYNC: the producer's SYNCs from 0, unwrapped from the 1-byte counter (1..0x1019), so
+        that both nodes give a SYNC the same number (its recording rows merge on it) as long as each misses
+        fewer than 0x1019 SYNCs in a row; without a counter, the SYNCs seen are counted."""
+        last = self._sync_counter
+        if counter is None:
+            self.sync_cycle += 1
+        elif last is None:
+            self.sync_cycle = counter - 1 if self.sync_cycle < 0 else self.sync_cycle + 1
+        else:
+            overflow = self._counter_overflow or max(counter, last)
+            step = (counter - last) % overflow
+            self.sync_cycle += step or overflow
+        self._sync_counter = counter
+
     def _on_sync(self, tick: SyncTick) -> None:
+        self._count_sync(tick.counter)
         if self._model_pending is not None:
             self._take_model()
         if self.book.version != self._book_version:
@@ -610,7 +630,7 @@ class NodeRuntime:
             self.stats.emcy_raised += 1
             log.warning("cycle %d: trip %s (EMCY 0x%04X)", self.stats.cycles - 1, trip.value, code)
         if self.recorder is not None:
-            self._record(sample, res, peer)
+            self._record(sample, res, peer, -1 if fallback else self.sync_cycle)
         if self.record_timing and len(self.stats.cycle_s) < MAX_TIMING_SAMPLES:
             self.stats.cycle_s.append(time.monotonic() - now)
 
@@ -669,8 +689,8 @@ class NodeRuntime:
                     self.params = dataclasses.replace(self.params, render=rs)
                     self._write_parameter_image()
 
-    def _record(self, sample, res, peer) -> None:
-        row = {"t_s": sample.t_s}
+    def _record(self, sample, res, peer, sync_cycle: int) -> None:
+        row = {"t_s": sample.t_s, "sync_cycle": sync_cycle}
         row.update(_side_row(self.prefix, sample, res, peer))
         if self.parts.truth is not None:
             row.update(_truth_row(self.prefix, self.parts.rig))
