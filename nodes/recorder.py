@@ -56,6 +56,8 @@ def _lock(fd: int, path: Path) -> None:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         raise RecorderError(f"{path}: in use by a running node (locked)") from None
+    except OSError as exc:   # a file system without locks (some network or 9p mounts): go on unlocked
+        log.info("%s: not locked (%s)", path, exc)
 
 
 def _fsync_dir(folder: Path) -> None:
