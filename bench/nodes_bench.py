@@ -211,11 +211,11 @@ class _Observer:
 
 
 def nominal_bus_load(period_s: float) -> float:
-    """The contract's load at 1 Mbit/s: SYNC (1 byte) and two TPDO1 (8) per cycle, each node's three
-    status TPDOs (8 bytes) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
+    """The contract's load at 1 Mbit/s: SYNC (1 byte), two TPDO1 (8) and two contact TPDO5 (1) per cycle,
+    each node's three status TPDOs (8 bytes) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
     from telethermo.transport.bus import bus_load
     f = 1.0 / period_s
-    return bus_load({1: f + 2 * 10.0, 8: 2 * f + 2 * 3 * f / 10})
+    return bus_load({1: 3 * f + 2 * 10.0, 8: 2 * f + 2 * 3 * f / 10})
 
 
 def vcan_lockstep(cycles: int, timeout_s: float = 1200) -> tuple[float | None, str]:
