@@ -235,36 +235,59 @@ def recover_journal(path: str | os.PathLike, *, target: str | os.PathLike | None
             from None
     try:
         _lock(fd, journal)
-        with os.fdopen(os.dup(fd), "rb") as fh:
-            data = fh.read()
-        end = data.rfind(b"\n") + 1
-        text = data[:end].decode("utf-8", errors="replace")
-        lines = text.splitlines(keepends=True)
-        k = 0
-        comments = []
-        while k < len(lines) and lines[k].startswith("#"):
-            comments.append(lines[k])
-            k += 1
-        if k >= len(lines):
-            raise RecorderError(f"{journal}: no header line: nothing to recover")
-        header = next(csv.reader([lines[k]]))
-        rows = []
-        for line in lines[k + 1:]:
-            fields = next(csv.reader([line]), [])
-            if len(fields) != len(header):
-                break
-            rows.append(line)
-        dropped = len(data) - len("".join(comments + [lines[k]] + rows).encode("utf-8"))
-        info = {"journal": journal.name, "rows": len(rows), "dropped_tail_bytes": dropped}
-        comments = [_mark_meta(c, info) for c in comments]
-        _write_atomic(target, "".join(comments) + lines[k] + "".join(rows))
+        with os.fdopen(os.dup(fd), "rb") as fh:   # streamed: a journal of hours is not read into memory
+            comments, header, rows, body_bytes = _scan(fh, journal)
+            total = fh.seek(0, os.SEEK_END)
+            head = "".join(comments) + header
+            dropped = total - len(head.encode("utf-8")) - body_bytes
+            info = {"journal": journal.name, "rows": rows, "dropped_tail_bytes": dropped}
+            fh.seek(len(head.encode("utf-8")))
+            out_fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+            try:
+                with os.fdopen(out_fd, "wb") as out:
+                    out.write("".join(_mark_meta(c, info) for c in comments).encode("utf-8"))
+                    out.write(header.encode("utf-8"))
+                    left = body_bytes
+                    while left:
+                        chunk = fh.read(min(left, 1 << 20))
+                        if not chunk:
+                            raise RecorderError(f"{journal}: shrank while it was recovered")
+                        out.write(chunk)
+                        left -= len(chunk)
+                    out.flush()
+                    os.fsync(out.fileno())
+                os.replace(tmp, target)
+            except BaseException:
+                Path(tmp).unlink(missing_ok=True)
+                raise
         journal.unlink()
         _fsync_dir(target.parent)
     finally:
         os.close(fd)
-    log.warning("%s: recovered %d rows into %s (%d bytes of a torn row dropped)", journal, len(rows), target,
+    log.warning("%s: recovered %d rows into %s (%d bytes of a torn row dropped)", journal, rows, target,
                 dropped)
     return target
+
+
+def _scan(fh, journal: Path) -> tuple[list[str], str, int, int]:
+    """The comment lines and the header of a journal, the number of complete rows after them (each ended
+    by a line end, with as many fields as the header) and their size in bytes."""
+    comments: list[str] = []
+    line = fh.readline()
+    while line.startswith(b"#") and line.endswith(b"\n"):
+        comments.append(line.decode("utf-8", errors="replace"))
+        line = fh.readline()
+    if not line.endswith(b"\n") or line.startswith(b"#"):
+        raise RecorderError(f"{journal}: no header line: nothing to recover")
+    header = line.decode("utf-8", errors="replace")
+    n_fields = len(next(csv.reader([header])))
+    rows = body = 0
+    for line in fh:
+        if not line.endswith(b"\n") or len(next(csv.reader([line.decode("utf-8", errors="replace")]), [])) != n_fields:
+            break
+        rows += 1
+        body += len(line)
+    return comments, header, rows, body
 
 
 def _mark_meta(line: str, info: dict) -> str:
