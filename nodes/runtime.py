@@ -45,7 +45,7 @@ from nodes.odparams import ABORT_DEVICE_STATE, PARAM_KEYS, ParamBook, od_image
 from nodes.parts import NodeParts
 from nodes.peer import PeerLink
 from nodes.recorder import CsvRecorder
-from nodes.schedule import LateCycleLog, RealtimeTicker
+from nodes.schedule import LateCycleLog, RealtimeTicker, SyncNumbering
 
 log = logging.getLogger("telethermo.node")
 
@@ -114,7 +114,7 @@ class NodeRuntime:
         self._sync_sent_at = 0.0
         self.sync_cycle = -1
         """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
-        self._sync_counter: int | None = None
+        self._sync_numbering = SyncNumbering(None)
         self.network: canopen.Network | None = None
         self.device: Device | None = None
         self.sync: SyncProducer | None = None
@@ -151,7 +151,7 @@ class NodeRuntime:
         dev = Device(self.network, self.node_id, eds, settings=settings)
         self.device = dev
         dev.add_sync_handler(self._on_sync)
-        self._counter_overflow = int(dev.read(0x1019)) if 0x1019 in dev.od else 0
+        self._sync_numbering = SyncNumbering(int(dev.read(0x1019)) if 0x1019 in dev.od else 0)
         if self.produce_sync and self.record_timing:
             dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
@@ -516,23 +516,8 @@ class NodeRuntime:
             self._state = None
 
     # ------------------------------------------------------------------ the cycle
-    def _count_sync(self, counter: int | None) -> None:
-        """Number this SYNC: the producer's SYNCs from 0, unwrapped from the 1-byte counter (1..0x1019), so
-        that both nodes give a SYNC the same number (its recording rows merge on it) as long as each misses
-        fewer than 0x1019 SYNCs in a row; without a counter, the SYNCs seen are counted."""
-        last = self._sync_counter
-        if counter is None:
-            self.sync_cycle += 1
-        elif last is None:
-            self.sync_cycle = counter - 1 if self.sync_cycle < 0 else self.sync_cycle + 1
-        else:
-            overflow = self._counter_overflow or max(counter, last)
-            step = (counter - last) % overflow
-            self.sync_cycle += step or overflow
-        self._sync_counter = counter
-
     def _on_sync(self, tick: SyncTick) -> None:
-        self._count_sync(tick.counter)
+        self.sync_cycle = self._sync_numbering.on_sync(tick.counter)
         if self._model_pending is not None:
             self._take_model()
         if self.book.version != self._book_version:

@@ -127,3 +127,38 @@ class LateCycleLog:
         self._last_line = now
         self.lines += 1
         self._reset()
+
+
+class SyncNumbering:
+    """The producer's SYNCs numbered from 0, alike on every node, from the 1-byte SYNC counter (1..``overflow``,
+    0x1019): each node unwraps the counter it sees, so SYNC k has number k on the master and on the slave
+    (nodes.merge joins the two recordings on it).
+
+    Right as long as a node misses fewer than ``overflow`` SYNCs in a row. A node STOPPED (its device
+    ignores SYNC) while the producer sends ``overflow`` or more is a multiple of ``overflow`` behind
+    afterwards; the time that passed cannot tell (the producer itself pauses in lockstep and in STOPPED).
+    The first SYNC a node sees is number counter - 1 (right for a node that was there from the producer's
+    first SYNC; a node that joins later is right modulo ``overflow``). Without a counter every SYNC seen
+    counts one.
+
+    Args:
+        overflow: the counter's overflow value (0x1019; 0 or None: the largest counter seen so far).
+    """
+
+    def __init__(self, overflow: int | None) -> None:
+        self.overflow = overflow or 0
+        self.number = -1
+        self._counter: int | None = None
+
+    def on_sync(self, counter: int | None) -> int:
+        """Number of the SYNC that just came with ``counter``."""
+        last = self._counter
+        if counter is None:
+            self.number += 1
+        elif last is None:
+            self.number = counter - 1 if self.number < 0 else self.number + 1
+        else:
+            wrap = self.overflow or max(counter, last)
+            self.number += (counter - last) % wrap or wrap
+        self._counter = counter
+        return self.number

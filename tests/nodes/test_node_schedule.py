@@ -86,3 +86,21 @@ def test_the_summary_window_follows_the_injected_clock_not_the_cycle_count():
     clock.t += 5.0                                    # a stall of 5 s, then a late cycle: summary at once
     late_log.cycle(2, True, 0.03)
     assert out.lines[1] == "2 late cycles (cycles 1..2, 5.0 s), worst late by 30.0 ms"
+
+
+def test_sync_numbering_unwraps_the_counter_alike_on_every_node():
+    from nodes.schedule import SyncNumbering
+    master, slave = SyncNumbering(240), SyncNumbering(240)
+    counters = [(k % 240) + 1 for k in range(1000)]
+    got_s = []
+    assert [master.on_sync(c) for c in counters] == list(range(1000))
+    for k, c in enumerate(counters):
+        if not 300 <= k < 539:                        # the slave missed 239 SYNCs in a row (fewer than a wrap)
+            got_s.append((k, slave.on_sync(c)))
+    assert all(n == k for k, n in got_s)
+    late = SyncNumbering(240)                         # joined at the producer's SYNC 500: right modulo 240
+    assert late.on_sync(counters[500]) == 500 % 240
+    none = SyncNumbering(0)                           # no counter: the SYNCs seen
+    assert [none.on_sync(None) for _ in range(3)] == [0, 1, 2]
+    guess = SyncNumbering(0)                          # 0x1019 unknown: the largest counter seen is the wrap
+    assert [guess.on_sync(c) for c in (1, 2, 3, 1, 2)] == [0, 1, 2, 3, 4]
