@@ -152,6 +152,8 @@ class NodeRuntime:
         self.device = dev
         dev.add_sync_handler(self._on_sync)
         self._sync_numbering = SyncNumbering(int(dev.read(0x1019)) if 0x1019 in dev.od else 0)
+        if not self.produce_sync:   # SYNCs the device ignores (STOPPED) still count (recordings' sync_cycle)
+            self.network.subscribe(dev.sync_cob_id, self._on_sync_frame_ignored)
         if self.produce_sync and self.record_timing:
             dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
@@ -516,6 +518,13 @@ class NodeRuntime:
             self._state = None
 
     # ------------------------------------------------------------------ the cycle
+    def _on_sync_frame_ignored(self, can_id: int, data: bytes, timestamp: float) -> None:
+        """A SYNC frame that the device does not process (STOPPED: no SYNC handler runs) is numbered here, so
+        that a node stopped for a whole wrap of the counter (240 SYNCs) keeps the producer's numbering. Same
+        receive thread as the device's SYNC handling, so exactly one of the two numbers each frame."""
+        if len(data) <= 1 and self.device.state not in (NmtState.OPERATIONAL, NmtState.PRE_OPERATIONAL):
+            self._sync_numbering.on_sync(data[0] if data else None)
+
     def _on_sync(self, tick: SyncTick) -> None:
         self.sync_cycle = self._sync_numbering.on_sync(tick.counter)
         if self._model_pending is not None:

@@ -134,9 +134,9 @@ class SyncNumbering:
     0x1019): each node unwraps the counter it sees, so SYNC k has number k on the master and on the slave
     (nodes.merge joins the two recordings on it).
 
-    Right as long as a node misses fewer than ``overflow`` SYNCs in a row. A node STOPPED (its device
-    ignores SYNC) while the producer sends ``overflow`` or more is a multiple of ``overflow`` behind
-    afterwards; the time that passed cannot tell (the producer itself pauses in lockstep and in STOPPED).
+    Right as long as a node misses fewer than ``overflow`` SYNCs in a row (the node runtime also feeds it
+    the SYNC frames its device ignores in STOPPED); the time that passed cannot tell how many wraps were
+    missed (the producer itself pauses in lockstep and in STOPPED).
     The first SYNC a node sees is number counter - 1 (right for a node that was there from the producer's
     first SYNC; a node that joins later is right modulo ``overflow``). Without a counter every SYNC seen
     counts one.

@@ -66,3 +66,38 @@ def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):
     got = merged.col("m_peer_estimate_C")[1:]
     sent = merged.col("s_estimate_C")[:-1].astype(np.float32).astype(float)
     assert np.count_nonzero(got == sent) >= 0.95 * len(got)
+
+
+def test_a_slave_stopped_for_more_than_a_counter_wrap_keeps_the_sync_numbering(tmp_path):
+    """NMT STOP of the slave by another NMT master while the master sends more than 240 SYNCs (lockstep goes
+    on at the SYNC period): the slave's device ignores those SYNCs, its runtime still numbers them, so after
+    NMT start its rows carry the master's cycle numbers and the merge pairs the right rows."""
+    import can
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=1))
+    with pair:
+        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo",
+                      tcp_tune=True)
+        try:
+            time.sleep(0.3)                # the hub holds a new client's first 0.2 s back
+            assert wait_for(lambda: pair.progress[0] >= 100, 120), "session did not start"
+            bus.send(can.Message(arbitration_id=0x000, data=[0x02, 2], is_extended_id=False))   # stop the slave
+            k = pair.progress[0]
+            assert wait_for(lambda: pair.progress[0] >= k + 400, 60), "the master stalled"   # > 240 SYNCs
+            bus.send(can.Message(arbitration_id=0x000, data=[0x01, 2], is_extended_id=False))   # start it
+            k = pair.progress[0]
+            assert wait_for(lambda: pair.progress[0] >= k + 300, 60)
+        finally:
+            bus.shutdown()
+    pair.stop()
+    s = read_recording_csv(pair.recording("slave")).col("sync_cycle")
+    gaps = np.flatnonzero(np.diff(s) != 1)
+    assert len(gaps) == 1 and s[gaps[0] + 1] - s[gaps[0]] > 240, "the stop is not one gap of > 240 SYNCs"
+    merged = merge_recordings(pair.recording("master"), pair.recording("slave"))
+    c = merged.col("sync_cycle")
+    after = np.flatnonzero(c > s[gaps[0] + 1] + 20)          # settled after the return
+    after = after[np.isin(c[after] - 1, c)]                    # the previous cycle merged too
+    assert len(after) >= 200
+    prev = np.searchsorted(c, c[after] - 1)
+    got = merged.col("m_peer_estimate_C")[after]
+    sent = merged.col("s_estimate_C")[prev].astype(np.float32).astype(float)
+    assert np.count_nonzero(got == sent) >= 0.95 * len(after), "the merge pairs rows of different SYNCs"
