@@ -11,8 +11,17 @@ Measures, with the real node programs and the real device layer:
   bus load at 1 Mbit/s from every frame a third hub client saw (and the contract's nominal load);
 - real time at 1 kHz (10 s, quick 3 s): the fraction of late cycles.
 
+Speed as a ratio (issue 12): absolute cycles/s differ by 2x between machines of the same kind, so
+each lockstep repeat is paired with the anchor measured in the same run on the same transport, a raw
+python-can ping-pong carrying the frames of one node cycle (bench.raw_anchor: SYNC, 0x181/0x681 out,
+0x182 8 bytes + 0x682 1 byte back), and the benchmark reports
+``lockstep_ratio_vs_raw_virtual`` and ``lockstep_ratio_vs_raw_hub`` = median node cycles/s / median
+anchor cycles/s (goal >= 0.75: the node's own work costs at most a quarter of the cycle).
+
 Writes bench/results/nodes.json (keys: lockstep_cycles_per_s_virtual, lockstep_cycles_per_s_hub,
-lockstep_cycles_per_s_vcan, late_cycles_100hz_60s, late_fraction_1khz, ...).
+lockstep_cycles_per_s_vcan, raw_anchor_cycles_per_s_virtual, raw_anchor_cycles_per_s_hub,
+lockstep_ratio_vs_raw_virtual, lockstep_ratio_vs_raw_hub, late_cycles_100hz_60s, late_fraction_1khz, ...).
+``--lockstep-only`` measures the lockstep figures and ratios only and writes nodes_lockstep.json.
 """
 from __future__ import annotations
 
@@ -78,7 +87,7 @@ def _scene_at(folder: Path, period_s: float) -> Path:
 def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[float | None, str]:
     """Largest |recorded - offline runner (REAL32 exchange)| over every numeric column, and a note
     (None and the reason when the recordings do not even line up)."""
-    from nodes.merge import merge_recordings
+    from nodes.merge import SYNC_CYCLE, merge_recordings
     from telethermo.session import run_offline_session
     from telethermo.session.recording import TEXT_COLUMNS
     rec = merge_recordings(master_csv, slave_csv, scene=SCENE)
@@ -86,7 +95,11 @@ def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[
     if len(rec) != len(off):
         return None, f"{len(rec)} recorded rows vs {len(off)} offline"
     worst = 0.0
+    if not np.array_equal(rec.col(SYNC_CYCLE), np.arange(len(rec))):
+        return None, "the rows are not the SYNC cycles 0..n-1"
     for c in rec.columns:
+        if c == SYNC_CYCLE:
+            continue   # the node recordings' own column (the offline runner has none): checked above
         if c in TEXT_COLUMNS:
             if rec.text(c) != off.text(c):
                 k = next(i for i, (x, y) in enumerate(zip(rec.text(c), off.text(c))) if x != y)
@@ -105,6 +118,7 @@ def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[
 def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
     """Both nodes in this process on python-can's virtual bus; cycles/s of the SYNC producer's loop."""
     from nodes.main import run_result
+    from nodes.merge import SYNC_CYCLE
     from nodes.options import NodeOptions
     from nodes.parts import build_parts
     from nodes.recorder import CsvRecorder
@@ -122,7 +136,7 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
         parts = build_parts(opts, period_s=net.sync.period_s)
         p = "m_" if role is Role.MASTER else "s_"
         meta = dict(parts.meta, period_s=parts.period_s, mode="telepresence", rounding="real32")
-        rec = CsvRecorder(folder / f"{role.value}.csv", ["t_s"] + [c for c in COLUMNS if c.startswith(p)],
+        rec = CsvRecorder(folder / f"{role.value}.csv", ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)],
                           comments=[MAGIC[2:], "meta " + json.dumps(meta)])
         rt = NodeRuntime(role, net.node(role.value).node_id, net, transport, parts, mode=Mode.TELEPRESENCE,
                          lockstep=True, produce_sync=role is Role.MASTER, recorder=rec)
@@ -197,11 +211,11 @@ class _Observer:
 
 
 def nominal_bus_load(period_s: float) -> float:
-    """The contract's load at 1 Mbit/s: SYNC (1 byte) and two TPDO1 (8) per cycle, each node's three
-    status TPDOs (8 bytes) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
+    """The contract's load at 1 Mbit/s: SYNC (1 byte), two TPDO1 (8) and two contact TPDO5 (1) per cycle,
+    each node's three status TPDOs (8 bytes) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
     from telethermo.transport.bus import bus_load
     f = 1.0 / period_s
-    return bus_load({1: f + 2 * 10.0, 8: 2 * f + 2 * 3 * f / 10})
+    return bus_load({1: 3 * f + 2 * 10.0, 8: 2 * f + 2 * 3 * f / 10})
 
 
 def vcan_lockstep(cycles: int, timeout_s: float = 1200) -> tuple[float | None, str]:
@@ -233,8 +247,33 @@ def _vcan_child(cycles: int) -> int:
     return 0
 
 
+# ---------------------------------------------------------------------------------------- the anchor
+ANCHOR_FRAMES = ("per cycle, raw python-can: SYNC 0x080 (1 byte) + 0x181 (8) + 0x681 (1) out, 0x182 (8) + 0x682 (1) "
+                 "back, the next SYNC after 0x682 (the frames of one lockstep node cycle, without the status "
+                 "TPDOs every 10th SYNC and the heartbeats)")
+
+
+def anchor_virtual(cycles: int, channel: str) -> float:
+    """Raw ping-pong cycles/s on the virtual bus, the responder in a thread (bench.raw_anchor)."""
+    from bench.raw_anchor import anchor_virtual as run_anchor
+    return run_anchor(cycles, channel)
+
+
+def anchor_hub(cycles: int) -> float:
+    """Raw ping-pong cycles/s over our hub (the same program the node pair uses), the responder in
+    another process (bench.raw_anchor)."""
+    from bench.raw_anchor import anchor_process
+    from nodes.launch import HubProcess
+    hub = HubProcess()
+    hub.start()
+    try:
+        return anchor_process(cycles, hub.bus)
+    finally:
+        hub.stop()
+
+
 # ---------------------------------------------------------------------------------------- main
-def run(quick: bool = False) -> dict[str, Any]:
+def run(quick: bool = False, *, lockstep_only: bool = False) -> dict[str, Any]:
     repeats = 2 if quick else 3
     ls_cycles = 1000 if quick else 3000
     rt100_s = 10.0 if quick else 60.0
@@ -246,21 +285,28 @@ def run(quick: bool = False) -> dict[str, Any]:
     with tempfile.TemporaryDirectory(prefix="nodes_bench_") as tmp:
         tmp = Path(tmp)
         # -- lockstep, in-process virtual bus
-        runs = []
-        for i in range(repeats):
+        runs, anchors = [], []
+        for i in range(repeats):   # node run and its anchor interleaved: both see the same machine load
             folder = tmp / f"virtual{i}"
             folder.mkdir()
+            anchors.append(anchor_virtual(ls_cycles, f"bench-anchor-v{i}-{time.monotonic_ns()}"))
             runs.append(lockstep_virtual(ls_cycles, folder, f"v{i}"))
         dev_v, note_v = _offline_deviation(tmp / f"virtual{repeats - 1}" / "master.csv",
                                            tmp / f"virtual{repeats - 1}" / "slave.csv", ls_cycles)
         v = statistics.median(r["cycles_per_s"] for r in runs)
         out["lockstep_cycles_per_s_virtual"] = v
         out["lockstep_virtual_runs"] = runs
+        av = statistics.median(anchors)
+        out["raw_anchor_cycles_per_s_virtual"] = av
+        out["raw_anchor_virtual_runs"] = anchors
+        out["lockstep_ratio_vs_raw_virtual"] = v / av
+        rows.append(["raw ping-pong anchor, virtual", ls_cycles, ls_cycles / av, av, None, None, None])
         rows.append(["lockstep, virtual (1 process)", ls_cycles, ls_cycles / v, v, dev_v,
                      runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
         # -- lockstep, two processes over the hub
-        runs = []
+        runs, anchors = [], []
         for i in range(repeats):
+            anchors.append(anchor_hub(ls_cycles))
             runs.append(lockstep_processes(ls_cycles, tmp / f"hub{i}"))
         dev_h, note_h = _offline_deviation(tmp / f"hub{repeats - 1}" / "master.csv",
                                            tmp / f"hub{repeats - 1}" / "slave.csv", ls_cycles)
@@ -268,10 +314,23 @@ def run(quick: bool = False) -> dict[str, Any]:
         out["lockstep_cycles_per_s_hub"] = h
         out["lockstep_hub_runs"] = runs
         out["hub_over_virtual"] = h / v
+        ah = statistics.median(anchors)
+        out["raw_anchor_cycles_per_s_hub"] = ah
+        out["raw_anchor_hub_runs"] = anchors
+        out["lockstep_ratio_vs_raw_hub"] = h / ah
+        out["raw_anchor_frames"] = ANCHOR_FRAMES
+        rows.append(["raw ping-pong anchor, hub", ls_cycles, ls_cycles / ah, ah, None, None, None])
         rows.append(["lockstep, hub (2 processes)", ls_cycles, ls_cycles / h, h, dev_h,
                      runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
         out["max_deviation_from_offline"] = {"virtual": dev_v, "hub": dev_h, "note_virtual": note_v,
                                              "note_hub": note_h}
+        if lockstep_only:
+            print_table(["run", "cycles", "wall s", "cycles/s", "max |dev| vs offline", "SYNC->TPDO p50 ms", "p99 ms"],
+                        [[c if c is not None else "n/a" for c in r] for r in rows])
+            _print_ratios(out)
+            out["load_average_at_end"] = list(os.getloadavg())
+            write_results("nodes_lockstep", out)
+            return out
         # -- lockstep, two processes on vcan0 (VM)
         if quick:
             vc, note = None, "skipped in --quick (a VM boot and 10-20x slower Python: ~90 s); see the full run"
@@ -306,6 +365,7 @@ def run(quick: bool = False) -> dict[str, Any]:
                      r1k["sync_to_tpdo_ms_p50"], r1k["sync_to_tpdo_ms_p99"]])
     print_table(["run", "cycles", "wall s", "cycles/s", "max |dev| vs offline", "SYNC->TPDO p50 ms", "p99 ms"],
                 [[c if c is not None else "n/a" for c in r] for r in rows])
+    _print_ratios(out)
     print(f"late cycles: 100 Hz {out['late_cycles_100hz']}; 1 kHz {r1k['late_cycles']} of {r1k['cycles']} "
           f"({100 * out['late_fraction_1khz']:.2f} %)")
     print(f"bus load at 1 Mbit/s: 100 Hz measured {_pct(out['bus_load_1mbit_100hz_measured'])} "
@@ -319,6 +379,13 @@ def run(quick: bool = False) -> dict[str, Any]:
     return out
 
 
+def _print_ratios(out: dict[str, Any]) -> None:
+    for t in ("virtual", "hub"):
+        print(f"lockstep vs raw ping-pong, {t}: {out[f'lockstep_cycles_per_s_{t}']:.0f} / "
+              f"{out[f'raw_anchor_cycles_per_s_{t}']:.0f} cycles/s = ratio {out[f'lockstep_ratio_vs_raw_{t}']:.2f} "
+              "(goal >= 0.75)")
+
+
 def _pct(x: float | None) -> str:
     return "n/a" if x is None else f"{100 * x:.2f} %"
 
@@ -327,11 +394,13 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.nodes_bench", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--quick", action="store_true", help="short runs (CI)")
+    ap.add_argument("--lockstep-only", action="store_true",
+                    help="only the lockstep runs and their raw anchors (writes nodes_lockstep.json)")
     ap.add_argument("--vcan-child", type=int, metavar="CYCLES", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.vcan_child:
         return _vcan_child(args.vcan_child)
-    run(quick=args.quick)
+    run(quick=args.quick, lockstep_only=args.lockstep_only)
     return 0
 
 

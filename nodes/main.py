@@ -44,12 +44,15 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         return EXIT_USAGE
     _setup_logging(role, opts.verbose, opts.log)
     log = logging.getLogger("telethermo.node")
+    if opts.recover:
+        return _recover(prog, opts.record)
 
     # heavy imports after the argument check (``--help`` and usage errors stay fast)
     from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
     from telethermo.transport.bus import TransportError
     from telethermo.transport.resolve import resolve_bus
 
+    from nodes.merge import SYNC_CYCLE
     from nodes.parts import build_parts
     from nodes.recorder import CsvRecorder
     from nodes.runtime import NodeRuntime
@@ -68,11 +71,15 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
     if opts.record is not None:
         from telethermo.session.recording import COLUMNS, MAGIC
         p = "m_" if role is Role.MASTER else "s_"
-        columns = ["t_s"] + [c for c in COLUMNS if c.startswith(p)]
+        columns = ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)]
         meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
                     node_id=node_id, timing=opts.timing, transport=transport.describe())
-        recorder = CsvRecorder(opts.record, columns,
-                               comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
+        try:
+            recorder = CsvRecorder(opts.record, columns,
+                                   comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
+        except OSError as exc:   # RecorderError: the journal is held by a running node; no space; ...
+            print(f"{prog}: error: --record {opts.record}: {exc}", file=sys.stderr)
+            return EXIT_USAGE
 
     lockstep = opts.timing == "lockstep"
     rt = NodeRuntime(role, node_id, net, transport, parts, mode=opts.mode, lockstep=lockstep,
@@ -124,6 +131,18 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         rt.stop(reason[0])
     return code
 
+
+
+def _recover(prog: str, record) -> int:
+    """``--record FILE --recover``: the journal a killed node left becomes FILE; nothing else runs."""
+    from nodes.recorder import RecorderError, recover_journal
+    try:
+        path = recover_journal(record)
+    except RecorderError as exc:
+        print(f"{prog}: error: {exc}", file=sys.stderr)
+        return EXIT_FAIL
+    print(f"recovered {path}", flush=True)
+    return EXIT_OK
 
 
 def run_result(rt, cycles: int, wall_s: float) -> dict:

@@ -42,6 +42,7 @@ class NodeOptions:
         wait_peer_s: SYNC producer: wait this long for the peer's boot before starting anyway, s.
         progress_every: print ``progress K N`` every this many cycles (0: never).
         verbose: log at INFO level.
+        recover: only turn the journal of ``record`` left by a killed node into ``record``, then exit.
     """
 
     role: Role
@@ -65,6 +66,7 @@ class NodeOptions:
     progress_every: int = 0
     log: Path | None = None
     verbose: bool = False
+    recover: bool = False
 
 
 def build_parser(role: Role) -> argparse.ArgumentParser:
@@ -80,7 +82,7 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     p.add_argument("--node-id", type=int, help="CANopen node-ID 1..127 (default: from the network settings)")
     p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
     add_bus_arguments(p)
-    rig = p.add_mutually_exclusive_group(required=True)
+    rig = p.add_mutually_exclusive_group()   # one of them is required, except with --recover
     rig.add_argument("--scene", type=Path, help="scene file (TOML): simulated rig")
     rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY() returns a telethermo.rig.Rig")
     p.add_argument("--model", type=Path, help="identified model file (default: packaged sim_tem.json)")
@@ -88,7 +90,12 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
                                               "(telepresence gains of this node's role; default: the shipped ones)")
     p.add_argument("--mode", choices=list(MODE_NAMES), default=None,
                    help="initial mode (default: telepresence); object 0x2500 changes it by SDO")
-    p.add_argument("--record", type=Path, help="write this node's signals to this CSV file")
+    p.add_argument("--record", type=Path, help="write this node's signals to this CSV file (journaled in "
+                                               "FILE.journal, synced every 0.5 s, while the node runs)")
+    p.add_argument("--recover", action="store_true",
+                   help="with --record FILE: turn FILE.journal, left by a node that was killed, into FILE "
+                        "(every complete row) and exit; the next start with --record FILE does it by itself, "
+                        "into FILE's stem + .killed-<UTC time>")
     p.add_argument("--timing", choices=["lockstep", "realtime"],
                    help="lockstep (default with --scene) or realtime (default with --rig)")
     sync = p.add_mutually_exclusive_group()
@@ -113,6 +120,12 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
             raise OptionError(f"{what} {str(path)!r}: no such file")
         return path
 
+    if args.recover:
+        if args.record is None:
+            raise OptionError("--recover needs --record FILE (the recording whose journal to recover)")
+        return NodeOptions(role=role, record=args.record, recover=True, log=args.log, verbose=args.verbose)
+    if args.scene is None and args.rig is None:
+        raise OptionError("one of the arguments --scene --rig is required")
     if args.node_id is not None and not 1 <= args.node_id <= 127:
         raise OptionError(f"--node-id {args.node_id}: expected 1..127")
     if args.cycles is not None and args.cycles < 0:

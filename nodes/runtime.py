@@ -45,7 +45,7 @@ from nodes.odparams import ABORT_DEVICE_STATE, PARAM_KEYS, ParamBook, od_image
 from nodes.parts import NodeParts
 from nodes.peer import PeerLink
 from nodes.recorder import CsvRecorder
-from nodes.schedule import RealtimeTicker
+from nodes.schedule import LateCycleLog, RealtimeTicker, SyncNumbering
 
 log = logging.getLogger("telethermo.node")
 
@@ -112,6 +112,9 @@ class NodeRuntime:
         self._safety_state = None
         self._latched_reported = False
         self._sync_sent_at = 0.0
+        self.sync_cycle = -1
+        """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
+        self._sync_numbering = SyncNumbering(None)
         self.network: canopen.Network | None = None
         self.device: Device | None = None
         self.sync: SyncProducer | None = None
@@ -148,6 +151,9 @@ class NodeRuntime:
         dev = Device(self.network, self.node_id, eds, settings=settings)
         self.device = dev
         dev.add_sync_handler(self._on_sync)
+        self._sync_numbering = SyncNumbering(int(dev.read(0x1019)) if 0x1019 in dev.od else 0)
+        if not self.produce_sync:   # SYNCs the device ignores (STOPPED) still count (recordings' sync_cycle)
+            self.network.subscribe(dev.sync_cob_id, self._on_sync_frame_ignored)
         if self.produce_sync and self.record_timing:
             dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
@@ -512,7 +518,15 @@ class NodeRuntime:
             self._state = None
 
     # ------------------------------------------------------------------ the cycle
+    def _on_sync_frame_ignored(self, can_id: int, data: bytes, timestamp: float) -> None:
+        """A SYNC frame that the device does not process (STOPPED: no SYNC handler runs) is numbered here, so
+        that a node stopped for a whole wrap of the counter (240 SYNCs) keeps the producer's numbering. Same
+        receive thread as the device's SYNC handling, so exactly one of the two numbers each frame."""
+        if len(data) <= 1 and self.device.state not in (NmtState.OPERATIONAL, NmtState.PRE_OPERATIONAL):
+            self._sync_numbering.on_sync(data[0] if data else None)
+
     def _on_sync(self, tick: SyncTick) -> None:
+        self.sync_cycle = self._sync_numbering.on_sync(tick.counter)
         if self._model_pending is not None:
             self._take_model()
         if self.book.version != self._book_version:
@@ -610,7 +624,7 @@ class NodeRuntime:
             self.stats.emcy_raised += 1
             log.warning("cycle %d: trip %s (EMCY 0x%04X)", self.stats.cycles - 1, trip.value, code)
         if self.recorder is not None:
-            self._record(sample, res, peer)
+            self._record(sample, res, peer, -1 if fallback else self.sync_cycle)
         if self.record_timing and len(self.stats.cycle_s) < MAX_TIMING_SAMPLES:
             self.stats.cycle_s.append(time.monotonic() - now)
 
@@ -669,8 +683,8 @@ class NodeRuntime:
                     self.params = dataclasses.replace(self.params, render=rs)
                     self._write_parameter_image()
 
-    def _record(self, sample, res, peer) -> None:
-        row = {"t_s": sample.t_s}
+    def _record(self, sample, res, peer, sync_cycle: int) -> None:
+        row = {"t_s": sample.t_s, "sync_cycle": sync_cycle}
         row.update(_side_row(self.prefix, sample, res, peer))
         if self.parts.truth is not None:
             row.update(_truth_row(self.prefix, self.parts.rig))
@@ -700,6 +714,7 @@ class NodeRuntime:
         patience_s = 20 * wait_s  # a peer alive by its heartbeat but silent this long: count, go on
         ticker = None if self.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
         self.ticker = ticker
+        late_log = LateCycleLog(log)   # one summary line per second at most, not one per late cycle
         k = 0
         # lockstep bookkeeping: PDOs owed by the peer (one per SYNC it was sent while believed alive).
         # A PDO that comes after its wait timed out is still owed: the next cycle waits for both, so a
@@ -725,7 +740,7 @@ class NodeRuntime:
                 late, lateness = ticker.wait_next()
                 if late:
                     self.stats.late_cycles = ticker.stats.late_cycles
-                    log.warning("cycle %d late by %.1f ms", k, lateness * 1e3)
+                late_log.cycle(k, late, lateness)
             status = dev.peer_status(self.peer_id)
             if (status != "alive" or boots != self.peer_boots or pauses != self.peer_pauses
                     or leaves != self._nmt_leaves):
@@ -768,6 +783,7 @@ class NodeRuntime:
                     dev.wait_rpdo(last, after=dev.rpdo_count(last), timeout=period)
             if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
                 progress(k, cycles)
+        late_log.flush()
         # the session is over: every node leaves OPERATIONAL (no PDOs, current 0) before we go silent,
         # so that the peer does not take our end for a loss
         if dev.state is NmtState.OPERATIONAL:

@@ -71,3 +71,94 @@ class RealtimeTicker:
         else:
             self._due += self.period_s
         return late, lateness
+
+
+class LateCycleLog:
+    """Late cycles in the log as one summary line per ``interval_s`` at most (count, cycle range, worst
+    lateness), not one line per cycle: on a loaded machine a line per late cycle made the log itself a load.
+
+    Call :meth:`cycle` once per cycle (cheap when nothing is late) and :meth:`flush` at the end. The first
+    late cycle after a quiet second is reported at once; later ones are summed until ``interval_s`` has
+    passed since the last line.
+
+    Args:
+        logger: where the lines go (``warning``).
+        interval_s: at most one line per this many seconds.
+        clock: monotonic clock, s (injectable).
+    """
+
+    def __init__(self, logger, *, interval_s: float = 1.0, clock: Callable[[], float] = time.monotonic) -> None:
+        self.logger = logger
+        self.interval_s = interval_s
+        self._clock = clock
+        self._last_line = -float("inf")
+        self.lines = 0
+        self._reset()
+
+    def _reset(self) -> None:
+        self.pending = 0
+        self._first_k = self._last_k = -1
+        self._worst_s = 0.0
+        self._since = None
+
+    def cycle(self, k: int, late: bool, lateness_s: float) -> None:
+        """Cycle ``k`` started ``lateness_s`` after its due time; ``late``: it counts as late."""
+        if late:
+            if not self.pending:
+                self._first_k, self._since = k, self._clock()
+            self.pending += 1
+            self._last_k = k
+            self._worst_s = max(self._worst_s, lateness_s)
+        if self.pending and self._clock() - self._last_line >= self.interval_s:
+            self._emit()
+
+    def flush(self) -> None:
+        """Write what is pending (end of the run)."""
+        if self.pending:
+            self._emit()
+
+    def _emit(self) -> None:
+        now = self._clock()
+        if self.pending == 1:
+            self.logger.warning("cycle %d late by %.1f ms", self._first_k, self._worst_s * 1e3)
+        else:
+            self.logger.warning("%d late cycles (cycles %d..%d, %.1f s), worst late by %.1f ms", self.pending,
+                                self._first_k, self._last_k, now - self._since, self._worst_s * 1e3)
+        self._last_line = now
+        self.lines += 1
+        self._reset()
+
+
+class SyncNumbering:
+    """The producer's SYNCs numbered from 0, alike on every node, from the 1-byte SYNC counter (1..``overflow``,
+    0x1019): each node unwraps the counter it sees, so SYNC k has number k on the master and on the slave
+    (nodes.merge joins the two recordings on it).
+
+    Right as long as a node misses fewer than ``overflow`` SYNCs in a row (the node runtime also feeds it
+    the SYNC frames its device ignores in STOPPED); the time that passed cannot tell how many wraps were
+    missed (the producer itself pauses in lockstep and in STOPPED).
+    The first SYNC a node sees is number counter - 1 (right for a node that was there from the producer's
+    first SYNC; a node that joins later is right modulo ``overflow``). Without a counter every SYNC seen
+    counts one.
+
+    Args:
+        overflow: the counter's overflow value (0x1019; 0 or None: the largest counter seen so far).
+    """
+
+    def __init__(self, overflow: int | None) -> None:
+        self.overflow = overflow or 0
+        self.number = -1
+        self._counter: int | None = None
+
+    def on_sync(self, counter: int | None) -> int:
+        """Number of the SYNC that just came with ``counter``."""
+        last = self._counter
+        if counter is None:
+            self.number += 1
+        elif last is None:
+            self.number = counter - 1 if self.number < 0 else self.number + 1
+        else:
+            wrap = self.overflow or max(counter, last)
+            self.number += (counter - last) % wrap or wrap
+        self._counter = counter
+        return self.number

@@ -20,6 +20,9 @@ Columns (prefix ``m_`` master, ``s_`` slave; per side):
 name                unit   meaning
 =================== ====== ==========================================================================
 t_s                 s      sample time (the rigs' clock)
+sync_cycle          int    node recordings and their merge only (not in COLUMNS; the offline runner has
+                           none): the SYNC the row belongs to, the producer's SYNCs numbered from 0 alike
+                           on both nodes; -1 for a slave's local fallback cycle (nodes.merge joins on it)
 X_T_sensor_C        °C     thermocouple at the flux sensor's mid-plane (measured, filtered)
 X_Q_W               W      heat flux through the sensor, > 0 out of the pad (measured, filtered)
 X_T_sink_C          °C     heat-sink temperature (measured)

@@ -38,3 +38,69 @@ def test_ticker_paces_and_counts_late_cycles():
     assert tick.wait_next()[0] is False               # re-anchored: next due one period after the stall
     assert clock.t == pytest.approx(start + 0.010)
     assert tick.stats.cycles == 5 and tick.stats.late_cycles == 2
+
+
+class Lines:
+    """A logger that keeps what it was told."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+
+    def warning(self, fmt: str, *args) -> None:
+        self.lines.append(fmt % args)
+
+
+def test_late_cycles_are_logged_as_one_summary_per_second_at_most():
+    from nodes.schedule import LateCycleLog
+    clock, out = FakeClock(), Lines()
+    late_log = LateCycleLog(out, interval_s=1.0, clock=clock)
+    late_log.cycle(0, False, 0.001)
+    assert out.lines == []                            # nothing late, nothing said
+    late_log.cycle(1, True, 0.007)
+    assert out.lines == ["cycle 1 late by 7.0 ms"]    # the first one after a quiet second: at once
+    for k in range(2, 92):                            # 90 late cycles within 0.9 s: no line
+        clock.t += 0.01
+        late_log.cycle(k, k % 3 == 0, 0.005 + (0.02 if k == 51 else 0.0))
+    assert len(out.lines) == 1 and late_log.pending == 30
+    clock.t += 0.1                                    # one second after the first line
+    late_log.cycle(92, False, 0.0)
+    assert out.lines[1] == "30 late cycles (cycles 3..90, 1.0 s), worst late by 25.0 ms"
+    for k in range(93, 1093):                         # a late cycle every 10 ms for 10 s: 10 lines, not 1000
+        clock.t += 0.01
+        late_log.cycle(k, True, 0.006)
+    late_log.flush()
+    assert 10 <= len(out.lines) - 2 <= 11
+    counts = [int(line.split()[0]) for line in out.lines[2:]]
+    assert sum(counts) == 1000 and late_log.pending == 0
+    late_log.flush()                                  # nothing pending: nothing more
+    assert late_log.lines == len(out.lines)
+
+
+def test_the_summary_window_follows_the_injected_clock_not_the_cycle_count():
+    from nodes.schedule import LateCycleLog
+    clock, out = FakeClock(), Lines()
+    late_log = LateCycleLog(out, clock=clock)
+    late_log.cycle(0, True, 0.01)
+    late_log.cycle(1, True, 0.02)                     # same instant: pending
+    assert len(out.lines) == 1
+    clock.t += 5.0                                    # a stall of 5 s, then a late cycle: summary at once
+    late_log.cycle(2, True, 0.03)
+    assert out.lines[1] == "2 late cycles (cycles 1..2, 5.0 s), worst late by 30.0 ms"
+
+
+def test_sync_numbering_unwraps_the_counter_alike_on_every_node():
+    from nodes.schedule import SyncNumbering
+    master, slave = SyncNumbering(240), SyncNumbering(240)
+    counters = [(k % 240) + 1 for k in range(1000)]
+    got_s = []
+    assert [master.on_sync(c) for c in counters] == list(range(1000))
+    for k, c in enumerate(counters):
+        if not 300 <= k < 539:                        # the slave missed 239 SYNCs in a row (fewer than a wrap)
+            got_s.append((k, slave.on_sync(c)))
+    assert all(n == k for k, n in got_s)
+    late = SyncNumbering(240)                         # joined at the producer's SYNC 500: right modulo 240
+    assert late.on_sync(counters[500]) == 500 % 240
+    none = SyncNumbering(0)                           # no counter: the SYNCs seen
+    assert [none.on_sync(None) for _ in range(3)] == [0, 1, 2]
+    guess = SyncNumbering(0)                          # 0x1019 unknown: the largest counter seen is the wrap
+    assert [guess.on_sync(c) for c in (1, 2, 3, 1, 2)] == [0, 1, 2, 3, 4]

@@ -1,0 +1,103 @@
+"""A node killed with SIGKILL loses at most 1 s of its recording: the real slave program in a real-time
+session over the hub, killed with -9, its journal recovered by the documented command
+(``telethermo-slave --record FILE --recover``); the recovered file is a valid recording that merges with the
+master's on the SYNC cycle."""
+from __future__ import annotations
+
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+
+from nodes.launch import NodePair, PairConfig, node_command, wait_for
+from nodes.merge import merge_recordings
+from nodes.recorder import journal_path
+from telethermo.session.recording import read_recording_csv
+
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+ROW_FLUSH = 200   # CsvRecorder's row-count flush (2 s of rows at 100 Hz). A row of this node is ~700 bytes, so
+# the 8 KB file buffer pushes rows out every ~10 cycles anyway; the timed sync that bounds the loss when rows
+# stop coming is tested in test_node_recorder.py. What fails here without the journal: the recovery itself.
+
+
+def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, cycles=0, seed=0, timing="realtime",
+                               progress_every=1))
+    with pair:
+        # past a row-count flush (200), so that the rows asked for are not there by that flush alone
+        assert wait_for(lambda: pair.progress[0] >= ROW_FLUSH + 50, 120), "session did not start"
+        k_then = pair.progress[0]          # SYNCs sent by now: the slave has answered 0..k_then-2 at least
+        t_then = time.monotonic()
+        while time.monotonic() - t_then < 1.0:   # let one second pass before the kill (not an assertion)
+            time.sleep(0.05)
+        k_kill = pair.progress[0]
+        pair.slave.kill()                  # SIGKILL: no goodbye, no close
+        pair.slave.wait()
+        slave_csv = pair.recording("slave")
+        assert not slave_csv.exists() and journal_path(slave_csv).exists()
+        assert wait_for(lambda: pair.progress[0] >= k_kill + 50, 60)
+    codes = pair.stop()
+    assert codes["master"] == 0
+
+    out = subprocess.run(node_command("slave", "--record", str(slave_csv), "--recover"), capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == f"recovered {slave_csv}"
+    assert not journal_path(slave_csv).exists()
+
+    rec = read_recording_csv(slave_csv)    # a valid recording: magic, meta, header, numbers
+    assert rec.meta["recovered"]["journal"] == "slave.csv.journal"
+    assert rec.meta["timing"] == "realtime"
+    cycles = rec.col("sync_cycle")
+    assert cycles[0] == 0 and np.all(np.diff(cycles) == 1)
+    assert cycles[-1] >= k_then - 2, f"rows up to SYNC {k_then - 2} (1 s before the kill) are missing: " \
+                                     f"last row {cycles[-1]}"
+    assert cycles[-1] <= k_kill + 5
+    assert np.all(np.isfinite(rec.col("s_T_sensor_C")))
+
+    # the master's recording (closed normally) and the recovered one share the SYNC cycle axis
+    merged = merge_recordings(pair.recording("master"), slave_csv, scene=SCENE)
+    assert len(merged) == len(rec)
+    np.testing.assert_array_equal(merged.col("sync_cycle"), cycles)
+    m = read_recording_csv(pair.recording("master"))
+    assert len(m) > len(rec)               # the master ran on after the kill
+    # the exchange lines up: what the master received at SYNC k is what the slave sent at SYNC k-1
+    got = merged.col("m_peer_estimate_C")[1:]
+    sent = merged.col("s_estimate_C")[:-1].astype(np.float32).astype(float)
+    assert np.count_nonzero(got == sent) >= 0.95 * len(got)
+
+
+def test_a_slave_stopped_for_more_than_a_counter_wrap_keeps_the_sync_numbering(tmp_path):
+    """NMT STOP of the slave by another NMT master while the master sends more than 240 SYNCs (lockstep goes
+    on at the SYNC period): the slave's device ignores those SYNCs, its runtime still numbers them, so after
+    NMT start its rows carry the master's cycle numbers and the merge pairs the right rows."""
+    import can
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=1))
+    with pair:
+        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo",
+                      tcp_tune=True)
+        try:
+            time.sleep(0.3)                # the hub holds a new client's first 0.2 s back
+            assert wait_for(lambda: pair.progress[0] >= 100, 120), "session did not start"
+            bus.send(can.Message(arbitration_id=0x000, data=[0x02, 2], is_extended_id=False))   # stop the slave
+            k = pair.progress[0]
+            assert wait_for(lambda: pair.progress[0] >= k + 400, 60), "the master stalled"   # > 240 SYNCs
+            bus.send(can.Message(arbitration_id=0x000, data=[0x01, 2], is_extended_id=False))   # start it
+            k = pair.progress[0]
+            assert wait_for(lambda: pair.progress[0] >= k + 300, 60)
+        finally:
+            bus.shutdown()
+    pair.stop()
+    s = read_recording_csv(pair.recording("slave")).col("sync_cycle")
+    gaps = np.flatnonzero(np.diff(s) != 1)
+    assert len(gaps) == 1 and s[gaps[0] + 1] - s[gaps[0]] > 240, "the stop is not one gap of > 240 SYNCs"
+    merged = merge_recordings(pair.recording("master"), pair.recording("slave"))
+    c = merged.col("sync_cycle")
+    after = np.flatnonzero(c > s[gaps[0] + 1] + 20)          # settled after the return
+    after = after[np.isin(c[after] - 1, c)]                    # the previous cycle merged too
+    assert len(after) >= 200
+    prev = np.searchsorted(c, c[after] - 1)
+    got = merged.col("m_peer_estimate_C")[after]
+    sent = merged.col("s_estimate_C")[prev].astype(np.float32).astype(float)
+    assert np.count_nonzero(got == sent) >= 0.95 * len(after), "the merge pairs rows of different SYNCs"
