@@ -14,18 +14,16 @@ current limit), is chosen to minimise the mean |skin − direct-touch skin|:
 The plant is integrated exactly as ``sim.rig.SimRig`` does (same step matrices, same implicit solve of the
 plate temperatures), batched over columns so that a forward-difference gradient over every current costs
 one batched run; :func:`replay` re-runs a current sequence through ``SimRig`` itself (the bound is checked
-against it to 1e-9 °C). L-BFGS-B (scipy) does the search; the smooth |e| ≈ √(e² + ε²), ε = 0.01 °C.
+against it to 1e-9 °C; the plate solve is sim.rig.plate_heats itself, on arrays). L-BFGS-B (scipy) does the search; the smooth |e| ≈ √(e² + ε²), ε = 0.01 °C.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import minimize
 
-from sim.rig import SimRig
-from sim.tem import KELVIN
+from sim.rig import SimRig, plate_heats
 
 EPS_C = 0.01
 FD_STEP_A = 1e-5
@@ -71,30 +69,10 @@ class BatchedPlant:
         out[0] = self.skin(X)
         if heat is not None:
             heat.append(self.q_f @ X + self.q_f0)
-        c1, a10, a11, b10, b11, c2, a20, a21, b20, b21 = self.rows
         Phi, Bcat = self.Phi, self.Bcat
         for k in range(K):
-            I = U[k]
             Y = Phi @ X
-            aI = self.alpha * I
-            hT = 0.5 * self.tau * I
-            J = 0.5 * self.R * I * I
-            U00, U01, w0 = -aI + hT, -hT, -aI * KELVIN + J
-            U10, U11, w1 = -hT, aI + hT, aI * KELVIN + J
-            Ts, Tp = X[1], X[2]
-            u0 = U00 * Ts + U01 * Tp + w0
-            u1 = U10 * Ts + U11 * Tp + w1
-            r0 = Y[1] + c1 + a10 * u0 + a11 * u1 + b10 * w0 + b11 * w1
-            r1 = Y[2] + c2 + a20 * u0 + a21 * u1 + b20 * w0 + b21 * w1
-            m00 = 1.0 - (b10 * U00 + b11 * U10)
-            m01 = -(b10 * U01 + b11 * U11)
-            m10 = -(b20 * U00 + b21 * U10)
-            m11 = 1.0 - (b20 * U01 + b21 * U11)
-            det = m00 * m11 - m01 * m10
-            Ts1 = (r0 * m11 - m01 * r1) / det
-            Tp1 = (m00 * r1 - m10 * r0) / det
-            v0 = U00 * Ts1 + U01 * Tp1 + w0
-            v1 = U10 * Ts1 + U11 * Tp1 + w1
+            u0, u1, v0, v1 = plate_heats(self.rows, self.alpha, self.tau, self.R, U[k], X[1], X[2], Y[1], Y[2])
             X = Y + Bcat @ np.vstack((np.ones(B), u0, u1, v0, v1))
             out[k + 1] = self.skin(X)
             if heat is not None:
@@ -195,8 +173,3 @@ def matched_start(rig: SimRig, finger_cells_C: np.ndarray) -> np.ndarray:
     x[cfg.i_s] = x[cfg.i_sink]
     x[-1] = 0.0
     return x
-
-
-def mean_or_nan(v: list[float]) -> float:
-    v = [x for x in v if math.isfinite(x)]
-    return float(np.mean(v)) if v else math.nan

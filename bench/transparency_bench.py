@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import io
 import math
 import time
 from typing import Any
@@ -27,6 +28,7 @@ import sim
 from bench.bound import BatchedPlant, Window, causal_bound, foresight_bound, matched_start, replay, window_errors
 from bench.common import current_results_dir, print_table, write_results
 from sim.compile import finger_natural_C
+from telethermo.atomic import write_bytes_atomic
 from telethermo.control.core import init_state, step
 from telethermo.control.defaults import HOLD_GAINS, PAPER_GAINS, default_params
 from telethermo.control.types import PeerValues, Role
@@ -276,8 +278,6 @@ def _plot(o: dict[str, Any], b: dict[str, Any], rec, rec_paper, t_ref, skin_ref)
     except ImportError:
         print("(matplotlib not installed: no transparency.png)")
         return
-    from telethermo.atomic import write_bytes_atomic
-    import io
     per = o["per_touch"]
     n = len(per)
     fig, axes = plt.subplots(3, n, figsize=(3.2 * n, 9.5), squeeze=False)

@@ -48,6 +48,35 @@ class RigTruth:
     Q_into_body_W: float = 0.0
 
 
+def plate_heats(rows: tuple, alpha_V_K: float, tau_V_K: float, R_ohm: float, I_A, Ts_C, Tp_C, y1, y2):
+    """Electrical heat into the (sink, pad) plates at the start (u0, u1) and the end (v0, v1) of one exact step, W.
+
+    The plate heats are u = U·[T_s, T_p] + w (sim.tem docstring; T in °C, the Kelvin offset in w), and the
+    plate temperatures at the end of the step solve p' = P·y_n + P·B1·(U·p' + w) (2×2, exactly). ``rows``:
+    the step's scalars of the two plate rows (sim.plant.Config.step); ``Ts_C``, ``Tp_C``: the plates now;
+    ``y1``, ``y2``: the plate rows of Phi·x. Plain arithmetic, so the arguments may be floats (one rig) or
+    numpy arrays (many current sequences at once, bench/bound.py) with the same operations in the same order.
+    """
+    c1, a10, a11, b10, b11, c2, a20, a21, b20, b21 = rows
+    aI = alpha_V_K * I_A
+    hT = 0.5 * tau_V_K * I_A
+    J = 0.5 * R_ohm * I_A * I_A
+    U00, U01, w0 = -aI + hT, -hT, -aI * KELVIN + J
+    U10, U11, w1 = -hT, aI + hT, aI * KELVIN + J
+    u0 = U00 * Ts_C + U01 * Tp_C + w0
+    u1 = U10 * Ts_C + U11 * Tp_C + w1
+    r0 = y1 + c1 + a10 * u0 + a11 * u1 + b10 * w0 + b11 * w1
+    r1 = y2 + c2 + a20 * u0 + a21 * u1 + b20 * w0 + b21 * w1
+    m00 = 1.0 - (b10 * U00 + b11 * U10)
+    m01 = -(b10 * U01 + b11 * U11)
+    m10 = -(b20 * U00 + b21 * U10)
+    m11 = 1.0 - (b20 * U01 + b21 * U11)
+    det = m00 * m11 - m01 * m10
+    Ts1 = (r0 * m11 - m01 * r1) / det
+    Tp1 = (m00 * r1 - m10 * r0) / det
+    return u0, u1, U00 * Ts1 + U01 * Tp1 + w0, U10 * Ts1 + U11 * Tp1 + w1
+
+
 class SimRig:
     """One simulated rig (master display or slave probe); implements telethermo.rig.SimulatedRig.
 
@@ -164,9 +193,7 @@ class SimRig:
             body = cfg.body
             if body is None or body.spec.kind != "finger":
                 raise ValueError("SimRig: start 'finger' needs the finger on the pad at t = 0")
-            f_air, f0_air = body.system.face_functional(0, "front")
-            T_nat = float(f_air @ body.x[: body.n] + f0_air)
-            loss_W = float(body.air.G_W_K) * (T_nat - body.ambient_C)
+            loss_W = float(body.air.G_W_K) * (body.surface_C() - body.ambient_C)
 
             def resid(I: float) -> float:
                 return float(cfg.body_q_f @ self._steady_at(I) + cfg.body_q_f0) + loss_W
@@ -234,28 +261,8 @@ class SimRig:
             y += c
             self.x = y
             return
-        c1, a10, a11, b10, b11, c2, a20, a21, b20, b21 = rows
-        aI = self._alpha * I
-        hT = 0.5 * self._tau * I
-        J = 0.5 * self._R * I * I
-        # plate heats u = U·[T_s, T_p] + w (sim.tem docstring), T in °C (Kelvin offset in w)
-        U00, U01, w0 = -aI + hT, -hT, -aI * KELVIN + J
-        U10, U11, w1 = -hT, aI + hT, aI * KELVIN + J
-        Ts, Tp = x.item(1), x.item(2)
-        u0 = U00 * Ts + U01 * Tp + w0
-        u1 = U10 * Ts + U11 * Tp + w1
-        # plate temperatures at the end of the step: p' = P·y_n + P·B1·(U·p' + w)  (2×2, solved exactly)
-        r0 = y.item(1) + c1 + a10 * u0 + a11 * u1 + b10 * w0 + b11 * w1
-        r1 = y.item(2) + c2 + a20 * u0 + a21 * u1 + b20 * w0 + b21 * w1
-        m00 = 1.0 - (b10 * U00 + b11 * U10)
-        m01 = -(b10 * U01 + b11 * U11)
-        m10 = -(b20 * U00 + b21 * U10)
-        m11 = 1.0 - (b20 * U01 + b21 * U11)
-        det = m00 * m11 - m01 * m10
-        Ts1 = (r0 * m11 - m01 * r1) / det
-        Tp1 = (m00 * r1 - m10 * r0) / det
-        v0 = U00 * Ts1 + U01 * Tp1 + w0
-        v1 = U10 * Ts1 + U11 * Tp1 + w1
+        u0, u1, v0, v1 = plate_heats(rows, self._alpha, self._tau, self._R, I, x.item(1), x.item(2), y.item(1),
+                                     y.item(2))
         y += Bcat @ np.array((1.0, u0, u1, v0, v1))
         self.x = y
         self.E_el_J += 0.5 * dt * (u0 + u1 + v0 + v1)

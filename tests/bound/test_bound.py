@@ -58,7 +58,5 @@ def test_causal_bound_beats_doing_nothing_and_replays(setup):
     assert np.max(np.abs(skin - replay(mk, w, u, PERIOD))) <= 1e-9
     e = window_errors(skin, w)
     zero = window_errors(plant.run(w.x0, np.zeros((149, 1)))[:, 0], w)
-    hold = plant.run(w.x0, np.zeros((49, 1)))[:, 0]
     assert e["pre_C"] <= 0.05                       # before the touch it keeps the finger matched
     assert e["early_C"] < zero["early_C"] - 0.5     # on aluminium it cools far better than no current
-    assert hold.shape == (50,)

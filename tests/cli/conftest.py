@@ -5,8 +5,12 @@ from __future__ import annotations
 import itertools
 import time
 
+from pathlib import Path
+
 import canopen
 import pytest
+
+from nodes.launch import HubProcess, start_lone_node, stop_process
 
 from telethermo.canopen_dev.device import Device
 from telethermo.canopen_dev.netconfig import load_network
@@ -58,3 +62,20 @@ def cli(capsys):
         out = capsys.readouterr()
         return code, out.out, out.err
     return run
+
+
+FREE_PAD_SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
+
+
+@pytest.fixture(scope="module")
+def lone_master(tmp_path_factory):
+    """A master node process alone on our hub (a pad in air, lockstep, idle): (bus string, its folder)."""
+    out = tmp_path_factory.mktemp("lone-master")
+    hub = HubProcess(log_path=out / "hub.log")
+    hub.start()
+    proc = start_lone_node("master", FREE_PAD_SCENE, out, "--bus", hub.bus)
+    try:
+        yield hub.bus, out
+    finally:
+        stop_process(proc)
+        hub.stop()

@@ -3,28 +3,18 @@ shows what the running node holds in the operator's format, and `set` refusals s
 (the node's controller validates across objects: T_min_C must not exceed neutral_C)."""
 from __future__ import annotations
 
-from pathlib import Path
 
 import pytest
 
-from nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
+from nodes.launch import wait_for
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, main
 
 pytestmark = pytest.mark.slow
-SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
 
 
 @pytest.fixture(scope="module")
-def bus(tmp_path_factory):
-    out = tmp_path_factory.mktemp("live-master")
-    hub = HubProcess(log_path=out / "hub.log")
-    hub.start()
-    proc = start_lone_node("master", SCENE, out, "--bus", hub.bus)
-    try:
-        yield hub.bus
-    finally:
-        stop_process(proc)
-        hub.stop()
+def bus(lone_master):
+    return lone_master[0]
 
 
 def cli(capsys, *argv):

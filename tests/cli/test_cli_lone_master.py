@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 import sim
-from nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
+from nodes.launch import wait_for
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
 from telethermo.ident import load_model, odmodel
 from telethermo.ident.experiment import ExperimentSettings, run_excitation
@@ -24,16 +24,8 @@ SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_ident
 
 
 @pytest.fixture(scope="module")
-def master(tmp_path_factory):
-    out = tmp_path_factory.mktemp("ident")
-    hub = HubProcess(log_path=out / "hub.log")
-    hub.start()
-    proc = start_lone_node("master", SCENE, out, "--bus", hub.bus)
-    try:
-        yield hub.bus, out
-    finally:
-        stop_process(proc)
-        hub.stop()
+def master(lone_master):
+    return lone_master
 
 
 def cli(capsys, *argv):

@@ -1,11 +1,15 @@
 """Figures computed from a recording with known errors, and the CSV format round trip."""
 import math
+import os
+import stat
 
 import numpy as np
 import pytest
 
+from telethermo.atomic import write_text_atomic
 from telethermo.session import (RecordingBuilder, RecordingError, compute_figures, read_recording_csv,
                                 write_recording_csv)
+from telethermo.session.transparency import transparency_figures
 
 DT = 0.01
 CONTACTS = [dict(t_on_s=1.0, t_off_s=4.0, object="aluminium"), dict(t_on_s=5.0, t_off_s=8.0, object="steel"),
@@ -62,8 +66,6 @@ def test_transparency_errors_per_phase():
 def test_a_null_display_scores_its_closed_form():
     """A display that ignores the probe and holds the skin at T: its headline is mean |T - direct skin| over
     each touch's window, computed here directly from the reference."""
-    from telethermo.session.transparency import transparency_figures
-
     rec = make()
     t, ref = rec.col("t_s"), rec.col("ref_T_contact_C")
     for T in (25.5, 33.0):
@@ -147,11 +149,6 @@ def test_plot_is_a_png(tmp_path):
 
 
 def test_atomic_writes_get_the_usual_file_mode(tmp_path):
-    import os
-    import stat
-
-    from telethermo.atomic import write_text_atomic
-
     old = os.umask(0o022)
     try:
         p = write_text_atomic(tmp_path / "a.txt", "x")

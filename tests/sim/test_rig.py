@@ -1,6 +1,7 @@
 """Rig behaviour: interface, contact detection, exact events, pruning, grid convergence, reference."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -115,9 +116,7 @@ def test_thin_foil_is_lumped_within_budget():
 def test_default_grid_is_within_005_C_of_a_refined_grid():
     # the grid presets' errors were measured on this scene with both rigs starting at ambient; with the
     # settled starts (the probe at the finger's 33.6 °C making contact with 25 °C aluminium) the make contrast
-    # is 8.6 K on the slave too and the default grid's largest error is 0.062 °C (docs/sim.md)
-    import dataclasses
-
+    # is 8.6 K on the slave too and the default grid's largest error is 0.062 °C
     scene = dataclasses.replace(sim.load_scene("probe_touches_al_steel_wood"), master_start=None, slave_start=None)
     fine = GridSettings(t_min_s=scene.period_s / 8, ratio=1.1, cells_per_length=8.0)
     for role in ("master", "slave"):
