@@ -82,10 +82,14 @@ def test_ctrl_c_stops_everything_cleanly(tmp_path):
         assert doc["pid"] == p.pid and doc["by"] == "telethermo session"
         assert doc["bus"].startswith("socketcand://127.0.0.1:") and doc["bus"].endswith("/telethermo")
         # a second terminal's command finds the session's nodes with no bus flag
-        status = subprocess.run([sys.executable, "-m", "telethermo", "get", "slave", "Manufacturer device name"],
-                                capture_output=True, text=True, timeout=60,
-                                env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
-        assert status.returncode == 0 and status.stderr == "", status.stderr
+        # (the master reports OPERATIONAL before the slave's SDO server may answer: ask until it does)
+        def get_slave():
+            return subprocess.run([sys.executable, "-m", "telethermo", "get", "slave", "Manufacturer device name"],
+                                  capture_output=True, text=True, timeout=60,
+                                  env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
+        answers = []
+        assert wait_for(lambda: answers.append(get_slave()) or answers[-1].returncode == 0, 60), answers[-1].stderr
+        assert answers[-1].stderr == "", answers[-1].stderr
         time.sleep(2.0)  # let it run a while (real time, 100 Hz): what ran must be reported
         p.send_signal(signal.SIGINT)
         out, err = p.communicate(timeout=120)
