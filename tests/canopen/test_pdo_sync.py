@@ -154,9 +154,10 @@ def test_two_devices_exchange_in_lockstep(lab):
     master.nmt_command(NmtCommand.START, 0)
     sync = SyncProducer(master)
     for _ in range(200):
-        n = master.rpdo_count(1)
+        n, n2 = master.rpdo_count(1), master.rpdo_count(2)
         sync.transmit()
-        assert master.wait_rpdo(1, after=n, timeout=5.0)
+        # every PDO of the cycle (TPDO1, then the contact TPDO5) is in before the next SYNC
+        assert master.wait_rpdo(1, after=n, timeout=5.0) and master.wait_rpdo(2, after=n2, timeout=5.0)
     assert master.read("estimate_C") == 200.0 and slave.read("estimate_C") == 200.0
     assert fresh[0] == () and all(f == (1, 2) for f in fresh[1:])   # RPDO1 and the contact RPDO2
 
@@ -290,6 +291,7 @@ def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cyc
         send(cob_id, data, remote)
         if cob_id == 0x80:   # a thread switch right after the SYNC: the peer's TPDO k gets here first
             lab.recv_until(observer, lambda m: m.arbitration_id == 0x182 and m.data[:4] == struct.pack("<f", data[0]))
+            lab.recv_until(observer, lambda m: m.arbitration_id == 0x682)   # and its contact PDO, sent after it
             threading.Event().wait(0.02)
 
     master.nmt_command(NmtCommand.START, 0)
@@ -298,9 +300,10 @@ def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cyc
     net.send_message = slow_send
     try:
         for _ in range(20):
-            n = master.rpdo_count(1)
+            n, n2 = master.rpdo_count(1), master.rpdo_count(2)
             sync.transmit()
-            assert master.wait_rpdo(1, after=n, timeout=5.0)
+            # every PDO of the cycle is in before the next SYNC, as the lockstep producer waits for the last one
+            assert master.wait_rpdo(1, after=n, timeout=5.0) and master.wait_rpdo(2, after=n2, timeout=5.0)
             drain(observer)
     finally:
         net.send_message = send
