@@ -152,20 +152,9 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         out["hold"] = _hold_figures(rec, t, contacts)
         return _clean(out)
 
-    ref = rec.col("ref_T_contact_C")
-    q_m = rec.col("m_true_Q_W")
-    q_ref = rec.col("ref_Q_into_finger_W")
-    per = []
-    for c in contacts:
-        e, l = _window(t, c, EARLY_S), _window(t, c, LATE_S)
-        pre = (t >= c["t_on_s"] - PRE_S - 1e-9) & (t < c["t_on_s"] - 1e-9)
-        per.append({
-            "object": c["object"], "t_on_s": c["t_on_s"], "t_off_s": c["t_off_s"],
-            "early_T": _err_stats(surf[e] - ref[e]), "late_T": _err_stats(surf[l] - ref[l]),
-            "pre_T": _err_stats(surf[pre] - ref[pre]),
-            "early_Q": _err_stats(q_m[e] - q_ref[e]), "late_Q": _err_stats(q_m[l] - q_ref[l]),
-            "rendered_early_C": _nanmean(surf[e]), "reference_early_C": _nanmean(ref[e]),
-        })
+    per = _per_contact(rec, t, surf, contacts)
+    honest = transparency_figures(t, surf, rec.col("ref_T_contact_C"), rec.col("m_true_Q_into_body_W"),
+                                  rec.col("ref_Q_into_finger_W"), contacts)
 
     def agg(key: str, stat: str) -> float:
         vals = [p[key][stat] for p in per if p[key]["n"]]
@@ -173,7 +162,6 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
             return math.nan
         return float(np.mean(vals)) if stat == "mean_abs" else float(np.max(vals))
 
-    honest = transparency_figures(t, surf, ref, rec.col("m_true_Q_into_body_W"), q_ref, contacts)
     out["transparency"] = {
         # what the operator feels (telethermo.session.transparency): the headline is the mean |skin − direct
         # skin| over [t_on − 0.5 s, t_on + 1 s]; early = 0–1 s, early01 = 0.1–1 s, late = 1–3 s
@@ -188,8 +176,32 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         "per_contact": per,
     }
     out["discrimination_cue"] = honest["cue"]
+    out["tracking"] = _tracking(rec, t, contacts)
+    out["discrimination"] = _discrimination(per)
+    return _clean(out)
 
-    # tracking in steady contact
+
+def _per_contact(rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: list[dict[str, Any]]) -> list[dict]:
+    """Legacy per-contact errors (°C, W) of the pad surface against the direct-touch reference."""
+    ref = rec.col("ref_T_contact_C")
+    q_m = rec.col("m_true_Q_W")
+    q_ref = rec.col("ref_Q_into_finger_W")
+    per = []
+    for c in contacts:
+        e, l = _window(t, c, EARLY_S), _window(t, c, LATE_S)
+        pre = (t >= c["t_on_s"] - PRE_S - 1e-9) & (t < c["t_on_s"] - 1e-9)
+        per.append({
+            "object": c["object"], "t_on_s": c["t_on_s"], "t_off_s": c["t_off_s"],
+            "early_T": _err_stats(surf[e] - ref[e]), "late_T": _err_stats(surf[l] - ref[l]),
+            "pre_T": _err_stats(surf[pre] - ref[pre]),
+            "early_Q": _err_stats(q_m[e] - q_ref[e]), "late_Q": _err_stats(q_m[l] - q_ref[l]),
+            "rendered_early_C": _nanmean(surf[e]), "reference_early_C": _nanmean(ref[e]),
+        })
+    return per
+
+
+def _tracking(rec: Recording, t: np.ndarray, contacts: list[dict[str, Any]]) -> dict[str, Any]:
+    """Tracking RMS in steady contact, °C (internal: each controller against its own estimate)."""
     trk: dict[str, Any] = {}
     pooled = []
     steady = np.zeros(len(t), bool)
@@ -203,9 +215,11 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
     allerr = np.concatenate(pooled) if pooled else np.array([])
     trk["rms_C"] = float(np.sqrt(np.mean(allerr ** 2))) if allerr.size else math.nan
     trk["internal"] = "each controller against its own estimate, not against the truth"
-    out["tracking"] = trk
+    return trk
 
-    # discrimination
+
+def _discrimination(per: list[dict]) -> dict[str, Any]:
+    """Rendered early temperature per object and whether the direct-touch order is kept, °C."""
     objs: dict[str, dict[str, list[float]]] = {}
     for p in per:
         o = objs.setdefault(p["object"] or "?", {"rendered": [], "reference": []})
@@ -217,7 +231,7 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
     ren_order = sorted(table, key=lambda k: table[k]["rendered_C"])
     margins = [table[b]["rendered_C"] - table[a]["rendered_C"] for a, b in zip(ref_order, ref_order[1:])]
     ref_margins = [table[b]["reference_C"] - table[a]["reference_C"] for a, b in zip(ref_order, ref_order[1:])]
-    out["discrimination"] = {
+    return {
         "objects": table, "reference_order_coldest_first": ref_order, "rendered_order_coldest_first": ren_order,
         "order_kept": ref_order == ren_order and all(m > 0 for m in margins),
         "margins_C": margins, "reference_margins_C": ref_margins,
@@ -225,7 +239,6 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         "threshold_C": COLD_THRESHOLD_C,
         "margins_above_threshold": bool(margins) and min(margins) > COLD_THRESHOLD_C,
     }
-    return _clean(out)
 
 
 def _render_figures(rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: list[dict[str, Any]]) -> dict[str, Any]:

@@ -21,6 +21,7 @@ from typing import Callable
 import numpy as np
 
 from telethermo.atomic import write_bytes_atomic
+from telethermo.control.safety import SafetyState
 from telethermo.session.figures import contacts_of
 from telethermo.session.recording import Recording
 
@@ -53,6 +54,93 @@ def _title(rec: Recording) -> str:
             f"rounding {meta.get('rounding', 'none')})")
 
 
+def _line(ax, rec: Recording, name: str, label: str, **kw) -> None:
+    y = rec.col(name)
+    if np.isfinite(y).any():
+        kw.setdefault("lw", 1.0)
+        ax.plot(rec.col("t_s"), y, label=label, **kw)
+
+
+def _master_temps(ax, rec: Recording) -> None:
+    render = rec.meta.get("mode") == "render"
+    _line(ax, rec, "m_true_surface_C", "finger skin on the pad (truth)", color="C3")
+    _line(ax, rec, "m_T_sensor_C", "master sensor (measured)", color="0.5", lw=0.8)
+    _line(ax, rec, "m_estimate_C", "master estimate T_f", color="C1", ls="--")
+    _line(ax, rec, "m_target_C" if not render else "m_setpoint_C", "master target" if not render else "setpoint",
+          color="C0", ls=":")
+    _line(ax, rec, "ref_T_contact_C", "direct touch (reference)", color="k")
+    ax.set_ylabel("master °C")
+
+
+def _slave_temps(ax, rec: Recording) -> None:
+    _line(ax, rec, "s_estimate_C", "slave estimate T_o", color="C2", ls="--")
+    _line(ax, rec, "s_target_C", "slave target (T_f)", color="C0", ls=":")
+    _line(ax, rec, "s_true_surface_C", "probe pad surface (truth)", color="C4")
+    _line(ax, rec, "s_T_sensor_C", "slave sensor (measured)", color="0.5", lw=0.8)
+    ax.set_ylabel("slave °C")
+
+
+def _flux_columns(rec: Recording) -> tuple[str, list[str]]:
+    """The heat across the contact into the finger (truth); older recordings only have the sensor's flux."""
+    q_col = "m_true_Q_into_body_W" if _has(rec, "m_true_Q_into_body_W") else "m_true_Q_W"
+    q_cols = [q_col, "ref_Q_into_finger_W"] if _has(rec, q_col) else [f"{p}_Q_W" for p, _, _ in SIDES]
+    return q_col, q_cols
+
+
+def _flux(ax, rec: Recording) -> None:
+    q_col, q_cols = _flux_columns(rec)
+    if _has(rec, q_col):
+        _line(ax, rec, q_col, "into the finger (telepresence)", color="C3")
+        _line(ax, rec, "ref_Q_into_finger_W", "into the finger (direct touch)", color="k")
+    else:   # no simulator truth: what the sensors measured (> 0 out of the pad)
+        for p, side, colour in SIDES:
+            _line(ax, rec, f"{p}_Q_W", f"{side} sensor flux (measured)", color=colour)
+    # the direct touch's first samples are near-singular (semi-infinite contact: q ~ 1/sqrt(t)); scale the
+    # axis to the bulk of the curves so the telepresence flux stays readable
+    both = np.concatenate([rec.col(c) for c in q_cols])
+    both = both[np.isfinite(both)]
+    if both.size:
+        lo, hi = np.percentile(both, [0.5, 99.5])
+        pad = 0.1 * max(hi - lo, 0.1)
+        ax.set_ylim(lo - pad, hi + pad)
+    ax.set_ylabel("flux W")
+
+
+def _currents(ax, rec: Recording) -> None:
+    _line(ax, rec, "m_current_A", "master current", color="C1")
+    _line(ax, rec, "s_current_A", "slave current", color="C2")
+    ax.set_ylabel("current A")
+
+
+def _states(ax, rec: Recording) -> None:
+    t = rec.col("t_s")
+    for p, side, colour in SIDES:
+        c = rec.col(f"{p}_contact")
+        if np.isfinite(c).any():
+            ax.fill_between(t, 0, np.nan_to_num(c) > 0.5, step="post", color=colour, alpha=0.15, lw=0,
+                            transform=ax.get_xaxis_transform(), label=f"{side} contact detected")
+        s = rec.col(f"{p}_safety_state")
+        if np.isfinite(s).any():
+            ax.step(t, s, where="post", color=colour, lw=1.2, label=f"{side} safety state")
+    ax.set_yticks([int(s) for s in SafetyState], [s.name for s in SafetyState], fontsize=7)
+    ax.set_ylim(-0.3, max(SafetyState) + 0.3)
+    ax.set_ylabel("contact, safety")
+
+
+def _panels(rec: Recording) -> list[tuple[Callable, tuple[str, ...]]]:
+    """The panels that have data: (draw(ax, rec), the columns it shows)."""
+    render = rec.meta.get("mode") == "render"
+    panels: list[tuple[Callable, tuple[str, ...]]] = [
+        (_master_temps, ("m_true_surface_C", "m_T_sensor_C", "m_estimate_C", "m_target_C", "m_setpoint_C",
+                         "ref_T_contact_C")),
+        (_slave_temps, () if render else ("s_estimate_C", "s_target_C", "s_true_surface_C", "s_T_sensor_C")),
+        (_flux, tuple(_flux_columns(rec)[1])),
+        (_currents, ("m_current_A", "s_current_A")),
+        (_states, ("m_contact", "m_safety_state", "s_contact", "s_safety_state")),
+    ]
+    return [(draw, cols) for draw, cols in panels if _has(rec, *cols)]
+
+
 def plot_session_png(rec: Recording) -> bytes:
     """PNG bytes of the plot of ``rec`` (a session's or one node's recording)."""
     import matplotlib
@@ -60,79 +148,7 @@ def plot_session_png(rec: Recording) -> bytes:
     from matplotlib.figure import Figure
 
     t = rec.col("t_s")
-    render = rec.meta.get("mode") == "render"
-
-    def line(ax, name, label, **kw):
-        y = rec.col(name)
-        if np.isfinite(y).any():
-            kw.setdefault("lw", 1.0)
-            ax.plot(t, y, label=label, **kw)
-
-    def master_temps(ax):
-        line(ax, "m_true_surface_C", "finger skin on the pad (truth)", color="C3")
-        line(ax, "m_T_sensor_C", "master sensor (measured)", color="0.5", lw=0.8)
-        line(ax, "m_estimate_C", "master estimate T_f", color="C1", ls="--")
-        line(ax, "m_target_C" if not render else "m_setpoint_C", "master target" if not render else "setpoint",
-             color="C0", ls=":")
-        line(ax, "ref_T_contact_C", "direct touch (reference)", color="k")
-        ax.set_ylabel("master °C")
-
-    def slave_temps(ax):
-        line(ax, "s_estimate_C", "slave estimate T_o", color="C2", ls="--")
-        line(ax, "s_target_C", "slave target (T_f)", color="C0", ls=":")
-        line(ax, "s_true_surface_C", "probe pad surface (truth)", color="C4")
-        line(ax, "s_T_sensor_C", "slave sensor (measured)", color="0.5", lw=0.8)
-        ax.set_ylabel("slave °C")
-
-    # the heat across the contact into the finger (truth); older recordings only have the sensor's flux
-    q_col = "m_true_Q_into_body_W" if _has(rec, "m_true_Q_into_body_W") else "m_true_Q_W"
-    q_cols = [q_col, "ref_Q_into_finger_W"] if _has(rec, q_col) else [f"{p}_Q_W" for p, _, _ in SIDES]
-
-    def flux(ax):
-        if _has(rec, q_col):
-            line(ax, q_col, "into the finger (telepresence)", color="C3")
-            line(ax, "ref_Q_into_finger_W", "into the finger (direct touch)", color="k")
-        else:   # no simulator truth: what the sensors measured (> 0 out of the pad)
-            for p, side, colour in SIDES:
-                line(ax, f"{p}_Q_W", f"{side} sensor flux (measured)", color=colour)
-        # the direct touch's first samples are near-singular (semi-infinite contact: q ~ 1/sqrt(t)); scale the
-        # axis to the bulk of the curves so the telepresence flux stays readable
-        both = np.concatenate([rec.col(c) for c in q_cols])
-        both = both[np.isfinite(both)]
-        if both.size:
-            lo, hi = np.percentile(both, [0.5, 99.5])
-            pad = 0.1 * max(hi - lo, 0.1)
-            ax.set_ylim(lo - pad, hi + pad)
-        ax.set_ylabel("flux W")
-
-    def currents(ax):
-        line(ax, "m_current_A", "master current", color="C1")
-        line(ax, "s_current_A", "slave current", color="C2")
-        ax.set_ylabel("current A")
-
-    def states(ax):
-        from telethermo.control.safety import SafetyState
-        for p, side, colour in SIDES:
-            c = rec.col(f"{p}_contact")
-            if np.isfinite(c).any():
-                ax.fill_between(t, 0, np.nan_to_num(c) > 0.5, step="post", color=colour, alpha=0.15, lw=0,
-                                transform=ax.get_xaxis_transform(), label=f"{side} contact detected")
-            s = rec.col(f"{p}_safety_state")
-            if np.isfinite(s).any():
-                ax.step(t, s, where="post", color=colour, lw=1.2, label=f"{side} safety state")
-        ax.set_yticks([int(s) for s in SafetyState], [s.name for s in SafetyState], fontsize=7)
-        ax.set_ylim(-0.3, max(SafetyState) + 0.3)
-        ax.set_ylabel("contact, safety")
-
-    panels: list[tuple[Callable, tuple[str, ...]]] = [
-        (master_temps, ("m_true_surface_C", "m_T_sensor_C", "m_estimate_C", "m_target_C", "m_setpoint_C",
-                        "ref_T_contact_C")),
-        (slave_temps, () if render else ("s_estimate_C", "s_target_C", "s_true_surface_C", "s_T_sensor_C")),
-        (flux, tuple(q_cols)),
-        (currents, ("m_current_A", "s_current_A")),
-        (states, ("m_contact", "m_safety_state", "s_contact", "s_safety_state")),
-    ]
-    panels = [(draw, cols) for draw, cols in panels if _has(rec, *cols)]
+    panels = _panels(rec)
     if not panels:
         raise ValueError("the recording has no signal to plot (no temperature, flux, current or state column "
                          "with a number)")
@@ -143,7 +159,7 @@ def plot_session_png(rec: Recording) -> bytes:
         for on, off in spans:
             ax.axvspan(on, off, color="0.9", zorder=0)
         ax.grid(True, alpha=0.3)
-        draw(ax)
+        draw(ax, rec)
         _legend(ax)
     axs[0].set_title(_title(rec))
     axs[-1].set_xlabel("time s")
