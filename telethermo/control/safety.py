@@ -349,14 +349,9 @@ class EnvelopeInput:
     peer_ok: bool
 
 
-def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput, requested_C: float,
-                  dt_s: float) -> tuple[float, EnvelopeState, tuple[str, ...], frozenset[Trip]]:
-    """Judge one step: raise trips, ramp/clamp the requested setpoint.
-
-    Returns ``(setpoint_C, new_state, limits_active, new_trips)``. The setpoint is always finite and
-    inside [T_min_C, T_max_C], even if ``requested_C`` is NaN (then the previous setpoint is held).
-    """
-    active: list[str] = []
+def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput,
+                  dt_s: float) -> tuple[set[Trip], float, float]:
+    """The trips this step's measurements raise, and the new mismatch and hot timers, s."""
     raised = set(check_sample(limits, inp.T_sensor_C, inp.Q_W, inp.T_sink_C, inp.current_meas_A))
 
     # surface beyond the clamps (by more than the margin): cut
@@ -390,7 +385,18 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
             raised.add(Trip.PEER_LOST)
         elif not inp.peer_ok:
             raised.add(Trip.PEER_INVALID)
+    return raised, mismatch_time, hot_time
 
+
+def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput, requested_C: float,
+                  dt_s: float) -> tuple[float, EnvelopeState, tuple[str, ...], frozenset[Trip]]:
+    """Judge one step: raise trips, ramp/clamp the requested setpoint.
+
+    Returns ``(setpoint_C, new_state, limits_active, new_trips)``. The setpoint is always finite and
+    inside [T_min_C, T_max_C], even if ``requested_C`` is NaN (then the previous setpoint is held).
+    """
+    active: list[str] = []
+    raised, mismatch_time, hot_time = _judge_sample(limits, state, inp, dt_s)
     new_trips = frozenset(raised) - state.trips
     trips = state.trips | frozenset(raised)
 
