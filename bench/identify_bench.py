@@ -69,23 +69,12 @@ def _fit_eval(rec, rest: int, n_train: int, start_val: int, orders, method: str)
             "heldout_max_C": mx, "heldout_rms_C": rms, "refused": ""}
 
 
-def run(quick: bool = False) -> dict[str, Any]:
+def _timings(rec, rest: int, T_ref: float, quick: bool) -> dict[str, float]:
+    """Batch LS fit of order 3 on 10,000 samples (ms) and the RLS/streaming update (µs), same run."""
     from telethermo.ident import NarmaOrders, Rls, fit_narma
-    from telethermo.ident.experiment import identify_capacity, steady_state_points
-    from telethermo.ident.flux import fit_flux_arma
     from telethermo.ident.narma import narma_regressors, solve_scaled_lstsq
     from telethermo.ident.online import OnlineNarma
 
-    lengths = [2500, 5000, 10_000] if quick else [2500, 5000, 10_000, 20_000, 40_000]
-    n_max, n_val = max(lengths), 5000
-    t0 = time.perf_counter()
-    rec, rest = _record(n_max, n_val)
-    sim_s = time.perf_counter() - t0
-    start_val = rest + n_max
-    T_ref = float(np.mean(rec.T_C[:rest]))
-    print(f"experiment: {rest} rest + {n_max} training + {n_val} held-out samples simulated in {sim_s:.2f} s")
-
-    # -- timing: batch LS fit, order 3, 10,000 samples -------------------------------------------
     sl = slice(0, rest + 10_000)
     I10, T10 = rec.current_A[sl], rec.T_C[sl]
     o3 = NarmaOrders(*ORDER3)
@@ -119,8 +108,12 @@ def run(quick: bool = False) -> dict[str, Any]:
         rls_ls.update(Phi[k], y[k])
     theta_ls, _ = solve_scaled_lstsq(Phi, y)
     rls_vs_ls = float(np.linalg.norm(rls_ls.theta - theta_ls) / np.linalg.norm(theta_ls))
+    return {"fit_s": fit_s, "solve_s": solve_s, "fit_stab_s": fit_stab_s, "normal_eq_s": normal_eq_s,
+            "rls_us": rls_us, "online_us": online_us, "rls_vs_ls": rls_vs_ls}
 
-    # -- order table -------------------------------------------------------------------------------
+
+def _order_table(rec, rest: int, start_val: int, quick: bool) -> tuple[list[dict], dict]:
+    """Held-out free-run errors per order and method, and the order the data justify."""
     if quick:
         orders = [(n, n, p, p) for n in (2, 3, 4) for p in (1, 3)]
     else:
@@ -143,11 +136,12 @@ def run(quick: bool = False) -> dict[str, Any]:
     just = min(ok, key=lambda r: (r["d"], r["heldout_max_C"]))
     print(f"justified order: {just['orders']} (d = {just['d']}): worst {just['heldout_max_C']:.4f} °C "
           f"vs best {best:.4f} °C")
+    return rows, just
 
-    # -- training length ------------------------------------------------------------------------------
-    length_orders = [ORDER3, tuple(just["orders"])]
+
+def _length_table(rec, rest: int, start_val: int, lengths: list[int], just: dict) -> list[dict]:
     lrows = []
-    for o in length_orders:
+    for o in (ORDER3, tuple(just["orders"])):
         for n in lengths:
             for method in ("ls", "oe"):
                 lrows.append(_fit_eval(rec, rest, n, start_val, o, method))
@@ -155,10 +149,13 @@ def run(quick: bool = False) -> dict[str, Any]:
     print_table(["n,m,p,q", "method", "n_train", "fit s", "held-out max °C", "held-out rms °C"],
                 [[",".join(map(str, r["orders"])), r["method"], r["n_train"], r["fit_s"], r["heldout_max_C"],
                   r["heldout_rms_C"]] for r in lrows])
+    return lrows
 
-    # -- headline: order 3 as identify_rig fits it (LS + output error), flux ---------------------------
-    o3_oe = next(r for r in rows if tuple(r["orders"]) == ORDER3 and r["method"] == "oe")
-    o3_ls = next(r for r in rows if tuple(r["orders"]) == ORDER3 and r["method"] == "ls")
+
+def _flux_table(rec, rest: int, start_val: int, T_ref: float) -> list[dict]:
+    """Heat-flux ARMA (3, 3) with and without the current terms, held-out free run, W."""
+    from telethermo.ident.flux import fit_flux_arma
+
     fsl = slice(0, rest + 10_000)
     flux_rows = []
     for with_current in (True, False):
@@ -172,19 +169,27 @@ def run(quick: bool = False) -> dict[str, Any]:
     print("\nheat-flux model (3, 3), held-out free run:")
     print_table(["model", "fit s", "held-out max W", "held-out rms W"],
                 [[r["model"], r["fit_s"], r["heldout_max_W"], r["heldout_rms_W"]] for r in flux_rows])
-    q_noise = float(np.std(rec.Q_W[:rest]))
+    return flux_rows
 
-    # -- capacity ------------------------------------------------------------------------------------
+
+def _capacity_error(rec, rest: int, T_ref: float, just: dict) -> float:
+    """Capacity model (eq. 13) against the simulator's steady state at 13 held-out currents, relative."""
     import sim
+    from telethermo.ident import NarmaOrders, fit_narma
+    from telethermo.ident.experiment import identify_capacity, steady_state_points
 
+    fsl = slice(0, rest + 10_000)
     m_just = fit_narma(current_A=rec.current_A[fsl], T_C=rec.T_C[fsl], orders=NarmaOrders(*just["orders"]),
                        T_ref_C=T_ref, method="oe")
     cap, ss = identify_capacity(sim.free_pad_rig(seed=5), m_just)
     mid = 0.5 * (ss.current_A[1:] + ss.current_A[:-1])
     held = steady_state_points(sim.free_pad_rig(seed=6), mid)
     P = cap.predict(current_A=held.current_A, T_C=held.T_C)
-    cap_rel = float(np.max(np.abs(P - held.Q_true_W)) / np.max(np.abs(held.Q_true_W)))
+    return float(np.max(np.abs(P - held.Q_true_W)) / np.max(np.abs(held.Q_true_W)))
 
+
+def _print_summary(o3_oe: dict, o3_ls: dict, just: dict, flux_rows: list[dict], q_noise: float, tm: dict,
+                   cap_rel: float) -> None:
     summary = [
         ["worst free-run error, order 3 (LS + OE), held-out, °C", o3_oe["heldout_max_C"], "<= 0.3 (aim 0.1)"],
         ["worst free-run error, order 3 (LS only), held-out, °C", o3_ls["heldout_max_C"], ""],
@@ -192,17 +197,39 @@ def run(quick: bool = False) -> dict[str, Any]:
         ["heat-flux error (with I, I², I·T terms), held-out max, W", flux_rows[0]["heldout_max_W"], "~0.0025"],
         ["heat-flux error (eq. 12, T only), held-out max, W", flux_rows[1]["heldout_max_W"], ""],
         ["flux sensor noise (filtered, 1 sigma), W", q_noise, ""],
-        ["batch fit order 3, 10k samples (regressors+LS+metrics), ms", fit_s * 1e3, "<= 50"],
-        ["  of which the scaled LS solve, ms", solve_s * 1e3, ""],
-        ["  normal equations (not used), ms", normal_eq_s * 1e3, ""],
-        ["  fit + stability check, ms", fit_stab_s * 1e3, ""],
-        ["RLS update, d = 24, us", rls_us, "<= 30"],
-        ["streaming identifier (phi + RLS), us per sample", online_us, ""],
-        ["RLS (lambda = 1, K0 = 1e10) vs batch LS, relative", rls_vs_ls, "<= 1e-6"],
+        ["batch fit order 3, 10k samples (regressors+LS+metrics), ms", tm["fit_s"] * 1e3, "<= 50"],
+        ["  of which the scaled LS solve, ms", tm["solve_s"] * 1e3, ""],
+        ["  normal equations (not used), ms", tm["normal_eq_s"] * 1e3, ""],
+        ["  fit + stability check, ms", tm["fit_stab_s"] * 1e3, ""],
+        ["RLS update, d = 24, us", tm["rls_us"], "<= 30"],
+        ["streaming identifier (phi + RLS), us per sample", tm["online_us"], ""],
+        ["RLS (lambda = 1, K0 = 1e10) vs batch LS, relative", tm["rls_vs_ls"], "<= 1e-6"],
         ["capacity model vs sim steady state (13 held-out), rel", cap_rel, "<= 0.02"],
     ]
     print("\nsummary:")
     print_table(["figure", "value", "target"], summary)
+
+
+def run(quick: bool = False) -> dict[str, Any]:
+    lengths = [2500, 5000, 10_000] if quick else [2500, 5000, 10_000, 20_000, 40_000]
+    n_max, n_val = max(lengths), 5000
+    t0 = time.perf_counter()
+    rec, rest = _record(n_max, n_val)
+    sim_s = time.perf_counter() - t0
+    start_val = rest + n_max
+    T_ref = float(np.mean(rec.T_C[:rest]))
+    print(f"experiment: {rest} rest + {n_max} training + {n_val} held-out samples simulated in {sim_s:.2f} s")
+
+    tm = _timings(rec, rest, T_ref, quick)
+    rows, just = _order_table(rec, rest, start_val, quick)
+    lrows = _length_table(rec, rest, start_val, lengths, just)
+    # headline: order 3 as identify_rig fits it (LS + output error), flux
+    o3_oe = next(r for r in rows if tuple(r["orders"]) == ORDER3 and r["method"] == "oe")
+    o3_ls = next(r for r in rows if tuple(r["orders"]) == ORDER3 and r["method"] == "ls")
+    flux_rows = _flux_table(rec, rest, start_val, T_ref)
+    q_noise = float(np.std(rec.Q_W[:rest]))
+    cap_rel = _capacity_error(rec, rest, T_ref, just)
+    _print_summary(o3_oe, o3_ls, just, flux_rows, q_noise, tm, cap_rel)
 
     data = {
         "quick": quick,
@@ -212,13 +239,13 @@ def run(quick: bool = False) -> dict[str, Any]:
         "flux_error_W": flux_rows[0]["heldout_max_W"],
         "flux_error_eq12_T_only_W": flux_rows[1]["heldout_max_W"],
         "flux_noise_sigma_W": q_noise,
-        "fit_ms_order3_10k": fit_s * 1e3,
-        "lstsq_ms_order3_10k": solve_s * 1e3,
-        "normal_equations_ms_order3_10k": normal_eq_s * 1e3,
-        "fit_with_stability_ms_order3_10k": fit_stab_s * 1e3,
-        "rls_us_per_update": rls_us,
-        "online_identifier_us_per_sample": online_us,
-        "rls_vs_ls_relative": rls_vs_ls,
+        "fit_ms_order3_10k": tm["fit_s"] * 1e3,
+        "lstsq_ms_order3_10k": tm["solve_s"] * 1e3,
+        "normal_equations_ms_order3_10k": tm["normal_eq_s"] * 1e3,
+        "fit_with_stability_ms_order3_10k": tm["fit_stab_s"] * 1e3,
+        "rls_us_per_update": tm["rls_us"],
+        "online_identifier_us_per_sample": tm["online_us"],
+        "rls_vs_ls_relative": tm["rls_vs_ls"],
         "capacity_rel_error": cap_rel,
         "justified_order": just["orders"],
         "justified_order_worst_error_C": just["heldout_max_C"],
