@@ -156,6 +156,32 @@ def drift_after_scene(quick: bool) -> dict[str, Any]:
             "final_master_C": float(rec.col("m_estimate_C")[-1]), "final_slave_C": float(rec.col("s_estimate_C")[-1])}
 
 
+def _r_sensor_sensitivity(sc) -> tuple[dict[str, float], dict[str, Any]]:
+    """Headline error (°C) and estimator errors with both nodes' R_sensor prior off by ×0.8 … ×1.2."""
+    sens, est_err = {}, {}
+    for fac in (0.8, 0.9, 1.1, 1.2):
+        pm = default_params(Role.MASTER)
+        ps = default_params(Role.SLAVE)
+        r = run_offline_session(sc, master_params=dataclasses.replace(pm, R_sensor_K_per_W=pm.R_sensor_K_per_W * fac),
+                                slave_params=dataclasses.replace(ps, R_sensor_K_per_W=ps.R_sensor_K_per_W * fac))
+        if fac in (0.9, 1.1):
+            sens[f"x{fac:g}"] = honest(r.recording)["headline_error_C"]
+        sens[f"x{fac:g}_all"] = honest(r.recording)["headline_error_C"]
+        est_err[f"x{fac:g}"] = estimator_errors(r.recording)
+    return sens, est_err
+
+
+def _null_displays(sc, skin_ref, q_ref, contacts) -> dict[str, dict[str, Any]]:
+    """The trivial displays of the same run: hold 25.5 °C, hold the finger's natural temperature, I = 0."""
+    T_nat = finger_natural_C(sc, sc.rig_params, sim.build_rig(sc, "master").grid)
+    nulls = {}
+    for name, kind, T in (("hold_25.5C", "hold", 25.5), (f"hold_natural_{T_nat:.2f}C", "hold", T_nat),
+                          ("zero_current", "zero", None)):
+        t, skin, q = null_display(sc, kind, T)
+        nulls[name] = transparency_figures(t, skin, skin_ref[: len(t)], q, q_ref[: len(t)], contacts)
+    return nulls
+
+
 def run(quick: bool = False) -> dict[str, Any]:
     t_start = time.perf_counter()
     sc = sim.load_scene(SCENE)
@@ -168,24 +194,9 @@ def run(quick: bool = False) -> dict[str, Any]:
     paper = run_offline_session(sc, master_params=default_params(Role.MASTER, **PAPER_GAINS[Role.MASTER]),
                                 slave_params=default_params(Role.SLAVE, **PAPER_GAINS[Role.SLAVE]))
     f_paper = honest(paper.recording)
-    sens, est_err = {}, {"x1": estimator_errors(proj.recording)}
-    for fac in (0.8, 0.9, 1.1, 1.2):
-        pm = default_params(Role.MASTER)
-        ps = default_params(Role.SLAVE)
-        r = run_offline_session(sc, master_params=dataclasses.replace(pm, R_sensor_K_per_W=pm.R_sensor_K_per_W * fac),
-                                slave_params=dataclasses.replace(ps, R_sensor_K_per_W=ps.R_sensor_K_per_W * fac))
-        if fac in (0.9, 1.1):
-            sens[f"x{fac:g}"] = honest(r.recording)["headline_error_C"]
-        sens[f"x{fac:g}_all"] = honest(r.recording)["headline_error_C"]
-        est_err[f"x{fac:g}"] = estimator_errors(r.recording)
-
-    # null displays
-    T_nat = finger_natural_C(sc, sc.rig_params, sim.build_rig(sc, "master").grid)
-    nulls = {}
-    for name, kind, T in (("hold_25.5C", "hold", 25.5), (f"hold_natural_{T_nat:.2f}C", "hold", T_nat),
-                          ("zero_current", "zero", None)):
-        t, skin, q = null_display(sc, kind, T)
-        nulls[name] = transparency_figures(t, skin, skin_ref[: len(t)], q, q_ref[: len(t)], contacts)
+    sens, est_err = _r_sensor_sensitivity(sc)
+    est_err = {"x1": estimator_errors(proj.recording), **est_err}
+    nulls = _null_displays(sc, skin_ref, q_ref, contacts)
 
     # the bound
     b = run_bound(sc, t_ref, skin_ref, cells, maxiter=40 if quick else 150,
