@@ -54,6 +54,61 @@ def _samples_to(r_path: np.ndarray, target: np.ndarray, tol: float) -> int:
     return 0 if bad.size == 0 else int(bad[-1] + 1)
 
 
+def _step_phase(r: Rls, Phi_s: np.ndarray, y_s: np.ndarray, theta_new: np.ndarray) -> dict:
+    """Excitation returns with θ* stepped: the largest per-sample jump of θ and the samples to within 1 %."""
+    path = np.empty((len(y_s), D))
+    res = {"max_step": 0.0, "finite": True}
+    prev = r.theta
+    for k in range(len(y_s)):
+        r.update(Phi_s[k], y_s[k])
+        path[k] = r.theta
+        res["finite"] &= bool(np.all(np.isfinite(path[k])))
+        res["max_step"] = max(res["max_step"], float(np.linalg.norm(path[k] - prev)))
+        prev = path[k]
+    res["to_1pct"] = _samples_to(path, theta_new, 0.01 * np.linalg.norm(theta_new))
+    return res
+
+
+def _idle_variant(c: Case, variant: str, rng, n_idle: int, phases: dict, ref_step: dict, kw: dict) -> None:
+    """One idle hour (φ = 0, or φ stuck in one direction) then the step, with its figures and requirements."""
+    Phi_a, y_a, Phi_s, y_s, theta_new, delta, direction = (phases[k] for k in (
+        "Phi_a", "y_a", "Phi_s", "y_s", "theta_new", "delta", "direction"))
+    r = Rls(D, **kw)
+    _run(r, Phi_a, y_a)
+    th_a = r.theta
+    if variant == "zero":
+        Phi_i = np.zeros((n_idle, D))
+        y_i = SIGMA * rng.normal(size=n_idle)
+    else:
+        Phi_i = direction + 1e-6 * rng.normal(size=(n_idle, D))
+        y_i = Phi_i @ THETA + SIGMA * rng.normal(size=n_idle)
+    idle = _run(r, Phi_i, y_i, watch_every=max(n_idle // 36, 1))
+    drift = float(np.linalg.norm(r.theta - th_a))
+    st = _step_phase(r, Phi_s, y_s, theta_new)
+    h = r.health()
+    p = f"{variant}_"
+    c.fig(**{p + "idle_max_trace": idle["max_trace"], p + "trace_max": r.trace_max,
+             p + "idle_max_cond": idle["max_cond"], p + "idle_min_eig": idle["min_eig"],
+             p + "idle_theta_drift": drift, p + "step_max_jump": st["max_step"],
+             p + "samples_to_1pct": st["to_1pct"], p + "trace_capped": h.n_trace_capped,
+             p + "numerical_failures": h.n_numerical_failures})
+    c.require(idle["theta_finite"] and st["finite"], f"{variant}: θ stayed finite")
+    c.require(idle["max_trace"] <= r.trace_max * (1 + 1e-9),
+              f"{variant}: tr K {idle['max_trace']:.6g} <= trace_max {r.trace_max:.6g}")
+    c.require(idle["max_cond"] <= COND_MAX, f"{variant}: cond K {idle['max_cond']:.3g} <= {COND_MAX:g}")
+    c.require(drift <= 0.05 * np.linalg.norm(THETA), f"{variant}: θ drift while idle {drift:.3g} <= 5 % of ‖θ*‖")
+    c.require(st["max_step"] <= 1.5 * np.linalg.norm(delta),
+              f"{variant}: max per-sample jump {st['max_step']:.3g} <= 1.5 × step {np.linalg.norm(delta):.3g}")
+    c.require(st["to_1pct"] < len(y_s) and st["to_1pct"] <= 4 * ref_step["to_1pct"],
+              f"{variant}: re-convergence {st['to_1pct']} samples <= 4 × never-idle {ref_step['to_1pct']}")
+    if variant == "stuck" and st["to_1pct"] > 1.5 * ref_step["to_1pct"]:
+        c.note(f"stuck: re-convergence took {st['to_1pct']} samples vs {ref_step['to_1pct']} never idle: while the "
+               "trace is capped, the constant-trace scaling cancels the forgetting in the one excited direction, "
+               f"so information there keeps accumulating (min eig of K {idle['min_eig']:.2g}) and has to be "
+               "forgotten again when excitation returns; the delay grows with the log of the idle time. "
+               "Directional forgetting would not have it (see telethermo/ident/rls.py's choice).")
+
+
 def case_idle_hour_then_step(n_idle: int = 360_000, seed: int = 1) -> dict:
     """1 hour of samples (at 0.01 s) with no excitation, then excitation returns with a parameter step."""
     c = Case("rls_idle_hour_then_step",
@@ -69,71 +124,23 @@ def case_idle_hour_then_step(n_idle: int = 360_000, seed: int = 1) -> dict:
     direction = rng.normal(size=D)
     direction /= np.linalg.norm(direction)
     kw = dict(lambda1=0.999, K0=100.0)
-
-    def phase_a(r: Rls) -> None:
-        _run(r, Phi_a, y_a)
-
-    def step_phase(r: Rls) -> dict:
-        path = np.empty((len(y_s), D))
-        res = {"max_step": 0.0, "finite": True}
-        prev = r.theta
-        for k in range(len(y_s)):
-            r.update(Phi_s[k], y_s[k])
-            path[k] = r.theta
-            res["finite"] &= bool(np.all(np.isfinite(path[k])))
-            res["max_step"] = max(res["max_step"], float(np.linalg.norm(path[k] - prev)))
-            prev = path[k]
-        res["to_1pct"] = _samples_to(path, theta_new, 0.01 * np.linalg.norm(theta_new))
-        return res
+    phases = {"Phi_a": Phi_a, "y_a": y_a, "Phi_s": Phi_s, "y_s": y_s, "theta_new": theta_new, "delta": delta,
+              "direction": direction}
 
     ref = Rls(D, **kw)
-    phase_a(ref)
-    ref_step = step_phase(ref)
+    _run(ref, Phi_a, y_a)
+    ref_step = _step_phase(ref, Phi_s, y_s, theta_new)
     c.fig(step_norm=float(np.linalg.norm(delta)), never_idle_max_jump=ref_step["max_step"],
           never_idle_samples_to_1pct=ref_step["to_1pct"])
-
     for variant in ("zero", "stuck"):
-        r = Rls(D, **kw)
-        phase_a(r)
-        th_a = r.theta
-        if variant == "zero":
-            Phi_i = np.zeros((n_idle, D))
-            y_i = SIGMA * rng.normal(size=n_idle)
-        else:
-            Phi_i = direction + 1e-6 * rng.normal(size=(n_idle, D))
-            y_i = Phi_i @ THETA + SIGMA * rng.normal(size=n_idle)
-        idle = _run(r, Phi_i, y_i, watch_every=max(n_idle // 36, 1))
-        drift = float(np.linalg.norm(r.theta - th_a))
-        st = step_phase(r)
-        h = r.health()
-        p = f"{variant}_"
-        c.fig(**{p + "idle_max_trace": idle["max_trace"], p + "trace_max": r.trace_max,
-                 p + "idle_max_cond": idle["max_cond"], p + "idle_min_eig": idle["min_eig"],
-                 p + "idle_theta_drift": drift, p + "step_max_jump": st["max_step"],
-                 p + "samples_to_1pct": st["to_1pct"], p + "trace_capped": h.n_trace_capped,
-                 p + "numerical_failures": h.n_numerical_failures})
-        c.require(idle["theta_finite"] and st["finite"], f"{variant}: θ stayed finite")
-        c.require(idle["max_trace"] <= r.trace_max * (1 + 1e-9),
-                  f"{variant}: tr K {idle['max_trace']:.6g} <= trace_max {r.trace_max:.6g}")
-        c.require(idle["max_cond"] <= COND_MAX, f"{variant}: cond K {idle['max_cond']:.3g} <= {COND_MAX:g}")
-        c.require(drift <= 0.05 * np.linalg.norm(THETA), f"{variant}: θ drift while idle {drift:.3g} <= 5 % of ‖θ*‖")
-        c.require(st["max_step"] <= 1.5 * np.linalg.norm(delta),
-                  f"{variant}: max per-sample jump {st['max_step']:.3g} <= 1.5 × step {np.linalg.norm(delta):.3g}")
-        c.require(st["to_1pct"] < len(y_s) and st["to_1pct"] <= 4 * ref_step["to_1pct"],
-                  f"{variant}: re-convergence {st['to_1pct']} samples <= 4 × never-idle {ref_step['to_1pct']}")
-        if variant == "stuck" and st["to_1pct"] > 1.5 * ref_step["to_1pct"]:
-            c.note(f"stuck: re-convergence took {st['to_1pct']} samples vs {ref_step['to_1pct']} never idle: while the "
-                   "trace is capped, the constant-trace scaling cancels the forgetting in the one excited direction, "
-                   f"so information there keeps accumulating (min eig of K {idle['min_eig']:.2g}) and has to be "
-                   "forgotten again when excitation returns; the delay grows with the log of the idle time. "
-                   "Directional forgetting would not have it (see telethermo/ident/rls.py's choice).")
+        _idle_variant(c, variant, rng, n_idle, phases, ref_step, kw)
 
     # what the guard prevents: the same idle period without the constant-trace bound
     r = Rls(D, trace_max=math.inf, **kw)
-    phase_a(r)
+    _run(r, Phi_a, y_a)
     _run(r, np.zeros((n_idle, D)), SIGMA * rng.normal(size=n_idle))
     tr_unguarded = r.health().trace
-    st = step_phase(r)
+    st = _step_phase(r, Phi_s, y_s, theta_new)
     c.fig(unguarded_trace_after_idle=tr_unguarded, unguarded_numerical_failures=r.n_numerical_failures,
           unguarded_step_max_jump=st["max_step"])
     c.note("unguarded_* = the same estimator with trace_max = inf (no constant-trace bound), for comparison only")
