@@ -1,12 +1,6 @@
 """Fuzz cases (hypothesis): the device's frame handling, the scene loader and the model-file loader.
 
-- **frames**: random COB-IDs (11- and 29-bit, biased to the contract's services), DLCs 0..8, payloads and
-  remote frames sent on a python-can ``virtual`` bus to a real ``telethermo.canopen_dev.Device`` (master.eds,
-  OPERATIONAL). Never a crash: no exception reaches canopen's notifier safety net (it logs them at ERROR on
-  the ``canopen`` loggers), no callback error, the device still answers SDO (canopen's own RemoteNode client)
-  afterwards; frames counted: every frame on a COB-ID no service uses is counted as unknown, every frame of
-  a wrong length for NMT/SYNC/heartbeat/RPDO1 as malformed (exact counts for the non-SDO, non-NMT-command
-  frames).
+- **frames**: see :mod:`bench.stress_fuzz_frames` (its case is listed here with the others).
 - **scenes**: mutated shipped scene files (values replaced by other types, NaN/inf, huge/negative numbers,
   keys dropped, bytes flipped) through ``sim.load_scene``: either a Scene (which then builds a rig and runs
   10 steps with finite output) or ``SceneError`` naming the file and a field; nothing else.
@@ -15,53 +9,20 @@
 """
 from __future__ import annotations
 
-import contextlib
 import json
-import logging
 import math
 import tempfile
-import threading
-import time
-import traceback
-import uuid
+import tomllib
 from pathlib import Path
 from typing import Any
 
-import can
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+import sim
+from bench import stress_toml
 from bench.stress_case import Case
-
-MASTER_ID, SLAVE_ID = 1, 2
-
-#: Contract breaks of telethermo/canopen_dev found by this fuzz (reported to the lead; the case fails while
-#: they stand). Keys are used by the tests to tell these apart from anything new.
-KNOWN_FINDINGS = {
-    "29bit": "FINDING (telethermo/canopen_dev/device.py): a 29-bit (extended) frame whose identifier equals a "
-             "CANopen COB-ID is handled as the 11-bit service (canopen's Network.notify dispatches by "
-             "arbitration_id only): e.g. extended ID 0x000 with data 02 01 puts the node in STOPPED, extended "
-             "0x000 with DLC 0 is counted as a malformed NMT frame. CiA 301 uses 11-bit identifiers only: "
-             "extended frames should be counted as unknown and ignored.",
-    "sdo_segment": "FINDING (telethermo/canopen_dev/device.py _on_sdo_frame -> canopen SdoServer): an SDO "
-                   "upload-segment (0x60/0x70) or download-segment (0x00..) request with no transfer in progress "
-                   "raises TypeError('required argument is not an integer') out of the device's handler (caught "
-                   "and logged at ERROR by canopen's MessageListener) and no SDO abort is sent; CiA 301 expects "
-                   "abort 0x05040001 (command specifier not valid).",
-    "scene_huge_int": "FINDING (sim/scene.py _R.num): a scene number written as an integer beyond float range "
-                      "(tomllib accepts any size, e.g. period_s = 1 followed by 400 zeros) raises OverflowError "
-                      "('int too large to convert to float') from math.isfinite instead of a SceneError naming the "
-                      "file and the field.",
-    "model_huge_int": "FINDING (telethermo/ident/modelfile.py _Reader.num/nums): a model-file number written as an "
-                      "integer beyond float range (json accepts any size, e.g. \"period_s\": 1e400 written as "
-                      "digits) raises OverflowError ('int too large to convert to float') instead of a "
-                      "ModelFileError naming the file and the field.",
-    "model_current_range": "FINDING (telethermo/ident/modelfile.py + stability.py): a model file whose "
-                           "temperature.current_range_A holds a huge finite bound (e.g. [-1e308, 1.0]) passes the "
-                           "field checks, then check_stability evaluates the polynomial poles at that current, "
-                           "overflows, and numpy.linalg.eigvals raises LinAlgError('Array must not contain infs or "
-                           "NaNs') out of load_model instead of a ModelFileError naming the field.",
-}
+from bench.stress_fuzz_frames import KNOWN_FINDINGS, case_fuzz_frames
 
 HUGE_INT = 10 ** 400
 SWEEP_VALUES = (HUGE_INT, -HUGE_INT, math.nan, math.inf, -math.inf, 1e308, -1e308, 5e-324, -0.0, True, "1", [], {})
@@ -96,253 +57,6 @@ def _violation_kind(text: str) -> str:
         return "current_range"
     return "unexplained"
 
-
-
-# ------------------------------------------------------------------------------------------------ frames
-class _ErrorLog(logging.Handler):
-    """Collects ERROR records: canopen logs an exception that escaped a frame handler at ERROR."""
-
-    def __init__(self) -> None:
-        super().__init__(logging.ERROR)
-        self.records: list[str] = []
-
-    def emit(self, record: logging.LogRecord) -> None:
-        self.records.append(f"{record.name}: {record.getMessage()}")
-
-
-class _Counter(can.Listener):
-    """A python-can listener counting the frames the device's network has dispatched (added last, so when it
-    has seen frame N every other listener has handled frame N)."""
-
-    def __init__(self) -> None:
-        super().__init__()
-        self.n = 0
-        self.cond = threading.Condition()
-
-    def on_message_received(self, msg) -> None:
-        with self.cond:
-            self.n += 1
-            self.cond.notify_all()
-
-    def on_error(self, exc) -> None:
-        pass
-
-    def stop(self) -> None:
-        pass
-
-    def wait(self, n: int, timeout: float = 10.0) -> bool:
-        with self.cond:
-            return self.cond.wait_for(lambda: self.n >= n, timeout)
-
-
-@contextlib.contextmanager
-def device_under_fuzz():
-    """A master Device on a fresh virtual channel, OPERATIONAL, with a raw sender bus and a canopen client."""
-    import canopen
-
-    from bus_config import path
-    from telethermo.canopen_dev import Device, DeviceSettings
-
-    channel = f"stress-{uuid.uuid4().hex[:10]}"
-    log = _ErrorLog()
-    loggers = [logging.getLogger(n) for n in ("canopen", "can", "telethermo")]
-    for lg in loggers:
-        lg.addHandler(log)
-    with contextlib.ExitStack() as stack:
-        for lg in loggers:
-            stack.callback(lg.removeHandler, log)
-        net = canopen.Network()
-        net.NOTIFIER_CYCLE = 0.05
-        net.connect(interface="virtual", channel=channel)
-        stack.callback(net.disconnect)
-        dev = Device(net, MASTER_ID, path("master.eds"),
-                     settings=DeviceSettings(heartbeat_producer_ms=100, heartbeat_consumers=((SLAVE_ID, 250),),
-                                             known_node_ids=(MASTER_ID, SLAVE_ID)))
-        stack.callback(dev.close)
-        counter = _Counter()
-        net.notifier.add_listener(counter)
-        dev.start()
-        dev.nmt_command(0x01, MASTER_ID)
-        raw = can.Bus(interface="virtual", channel=channel)
-        stack.callback(raw.shutdown)
-
-        def client():
-            """canopen's own client (RemoteNode), created only after the fuzz: its handlers (EMCY consumer,
-            heartbeat) are canopen's, not the device's, and must not mix into the escaped-exception count."""
-            cnet = canopen.Network()
-            cnet.connect(interface="virtual", channel=channel)
-            stack.callback(cnet.disconnect)
-            return cnet.add_node(MASTER_ID, str(path("master.eds")))
-
-        yield dev, raw, counter, client, log
-
-
-def _rpdo1(dev) -> tuple[int, int]:
-    plan = dev.rpdos[1]
-    return plan.cob_id, plan.length
-
-
-def frame_strategy(dev) -> st.SearchStrategy:
-    """(cob_id, extended, dlc-sized payload, remote) biased to the services the device listens to."""
-    rp_cob, _ = _rpdo1(dev)
-    services = [0x000, 0x080, 0x600 + MASTER_ID, 0x700 + SLAVE_ID, rp_cob, 0x700 + MASTER_ID, 0x080 + SLAVE_ID,
-                0x180 + MASTER_ID, 0x580 + MASTER_ID, 0x7E5]
-    std_id = st.one_of(st.sampled_from(services), st.integers(0, 0x7FF))
-    return st.one_of(
-        st.tuples(std_id, st.just(False), st.binary(min_size=0, max_size=8), st.just(False)),
-        st.tuples(st.integers(0, 0x1FFFFFFF), st.just(True), st.binary(min_size=0, max_size=8), st.booleans()),
-        st.tuples(std_id, st.just(False), st.binary(min_size=0, max_size=8), st.just(True)),
-    )
-
-
-def expected_counts(frames: list[tuple], known: set[int], rp: tuple[int, int]) -> dict[str, int]:
-    """Unknown and malformed frames by CiA 301 (independent of the device's code) for frames that do not
-    change the device's state (no SDO requests, no well-formed NMT commands)."""
-    rp_cob, rp_len = rp
-    unknown = malformed = 0
-    for cob, ext, data, remote in frames:
-        if ext or cob not in known:
-            unknown += 1
-        if ext or remote:
-            continue
-        n = len(data)
-        if cob == 0x000 and n != 2:
-            malformed += 1
-        elif cob == 0x080 and n > 1:
-            malformed += 1
-        elif cob == 0x700 + SLAVE_ID and n != 1:
-            malformed += 1
-        elif cob == rp_cob and n != rp_len:
-            malformed += 1
-    return {"unknown": unknown, "malformed": malformed}
-
-
-def _state_changing(frame: tuple) -> bool:
-    cob, ext, data, remote = frame
-    if ext or remote:
-        return False
-    return cob == 0x600 + MASTER_ID or (cob == 0x000 and len(data) == 2)
-
-
-def case_fuzz_frames(max_examples: int = 300, seed: int = 0) -> dict:
-    """Random CAN frames to a real Device: no crash, counted, still alive."""
-
-    c = Case("fuzz_device_frames",
-             "random frames (COB-IDs incl. 29-bit, DLC 0..8, remote frames, payloads incl. NaN RPDOs) on a "
-             "virtual bus to a real master Device in OPERATIONAL: no exception escapes a frame handler, no "
-             "callback error, unknown COB-IDs and wrong lengths counted exactly, and the device still answers "
-             "SDO (canopen RemoteNode) and sends heartbeats afterwards; with SDO and NMT commands included: "
-             "never a crash and still alive after an NMT reset")
-    stats = {"examples": 0, "frames": 0, "unknown_counted": 0, "malformed_counted": 0, "mismatches": [],
-             "errors": [], "escapes": [], "mismatch_29bit": 0, "mismatch_other": 0, "escape_sdo": 0,
-             "escape_other": 0}
-    with device_under_fuzz() as (dev, raw, counter, client, log):
-        known = set(dev._known_cobids)
-        rp = _rpdo1(dev)
-        service_ids = {0x000, 0x080, 0x600 + MASTER_ID, 0x700 + SLAVE_ID, rp[0]}
-        sent = [0]
-
-        def send(frames):
-            for cob, ext, data, remote in frames:
-                raw.send(can.Message(arbitration_id=cob, is_extended_id=ext, data=b"" if remote else data,
-                                     dlc=len(data), is_remote_frame=remote))
-            sent[0] += len(frames)
-            if not counter.wait(sent[0]):
-                stats["errors"].append(f"device dispatched {counter.n} of {sent[0]} frames")
-
-        def note_escape(frames, n_log: int) -> None:
-            """Count an ERROR record logged while ``frames`` were handled (an exception out of a handler)."""
-            if len(log.records) <= n_log:
-                return
-            if any(f[0] == 0x600 + MASTER_ID and not f[3] for f in frames):
-                stats["escape_sdo"] += 1         # FINDING 2 (see KNOWN_FINDINGS)
-            else:
-                stats["escape_other"] += 1
-            if len(stats["escapes"]) < 3:
-                stats["escapes"].append({"error": log.records[-1], "state": int(dev.state),
-                                         "frames": [(hex(f[0]), f[1], f[2].hex(), f[3]) for f in frames]})
-
-        @settings(max_examples=max_examples, deadline=None, database=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
-        @given(st.lists(frame_strategy(dev).filter(lambda f: not _state_changing(f)), min_size=1, max_size=40))
-        def classified(frames):
-            s0 = (dev.stats.unknown_cobid_frames, dev.stats.malformed_frames)
-            n_log = len(log.records)
-            send(frames)
-            note_escape(frames, n_log)
-            du = dev.stats.unknown_cobid_frames - s0[0]
-            dm = dev.stats.malformed_frames - s0[1]
-            exp = expected_counts(frames, known, rp)
-            stats["examples"] += 1
-            stats["frames"] += len(frames)
-            stats["unknown_counted"] += du
-            stats["malformed_counted"] += dm
-            if (du, dm) != (exp["unknown"], exp["malformed"]):
-                if any(f[1] and f[0] in service_ids for f in frames):
-                    stats["mismatch_29bit"] += 1     # FINDING 1 (see KNOWN_FINDINGS)
-                else:
-                    stats["mismatch_other"] += 1
-                if len(stats["mismatches"]) < 5:
-                    stats["mismatches"].append({"frames": [(hex(f[0]), f[1], f[2].hex(), f[3]) for f in frames],
-                                                "counted": (du, dm), "expected": (exp["unknown"], exp["malformed"])})
-
-        try:
-            classified()
-        except Exception:  # noqa: BLE001 - a crash of the harness is a finding, reported in the case
-            stats["errors"].append(traceback.format_exc(limit=3))
-        # everything, including SDO requests and NMT commands
-        any_stats = {"examples": 0, "frames": 0}
-
-        @settings(max_examples=max_examples // 2, deadline=None, database=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
-        @given(st.lists(frame_strategy(dev), min_size=1, max_size=40))
-        def anything(frames):
-            n_log = len(log.records)
-            send(frames)
-            note_escape(frames, n_log)
-            any_stats["examples"] += 1
-            any_stats["frames"] += len(frames)
-
-        try:
-            anything()
-        except Exception:  # noqa: BLE001
-            stats["errors"].append(traceback.format_exc(limit=3))
-        # alive? reset the node (restores every object), start it, read the identity, see a heartbeat
-        alive = False
-        hb = False
-        escaped = list(log.records)
-        try:
-            client = client()
-            raw.send(can.Message(arbitration_id=0, is_extended_id=False, data=bytes([0x81, MASTER_ID])))
-            time.sleep(0.2)
-            vendor = client.sdo.upload(0x1018, 1)
-            alive = len(vendor) == 4
-            t_end = time.monotonic() + 1.0
-            while time.monotonic() < t_end and not hb:
-                m = raw.recv(0.3)
-                hb = m is not None and m.arbitration_id == 0x700 + MASTER_ID
-        except Exception as exc:  # noqa: BLE001
-            stats["errors"].append(f"after the fuzz: {exc!r}")
-        c.fig(classified_examples=stats["examples"], classified_frames=stats["frames"],
-              unknown_counted=stats["unknown_counted"], malformed_counted=stats["malformed_counted"],
-              any_examples=any_stats["examples"], any_frames=any_stats["frames"],
-              callback_errors=dev.stats.callback_errors, escaped_exceptions=len(escaped),
-              rpdo_accepted=dev.stats.rpdo_count, sdo_answers_after=alive, heartbeat_after=hb)
-        c.require(not stats["errors"], f"harness and device ran without errors: {stats['errors'][:2]}")
-        c.fig(escapes=stats["escapes"], mismatch_examples=stats["mismatches"],
-              examples_miscounted_29bit_finding=stats["mismatch_29bit"],
-              examples_miscounted_unexplained=stats["mismatch_other"],
-              examples_escaped_sdo_finding=stats["escape_sdo"], examples_escaped_unexplained=stats["escape_other"])
-        if stats["mismatch_29bit"]:
-            c.note(KNOWN_FINDINGS["29bit"])
-        if stats["escape_sdo"]:
-            c.note(KNOWN_FINDINGS["sdo_segment"])
-        c.require(not escaped, f"no exception escaped a frame handler: {escaped[:3]} (examples in figure 'escapes')")
-        c.require(dev.stats.callback_errors == 0, f"callback errors {dev.stats.callback_errors} == 0")
-        c.require(not stats["mismatches"], f"counts as CiA 301 says: {len(stats['mismatches'])} examples differ, "
-                                           f"first: {stats['mismatches'][:1]}")
-        c.require(alive and hb, f"device alive afterwards (SDO answer {alive}, heartbeat {hb})")
-    return c.result()
 
 
 # ------------------------------------------------------------------------------------------------ mutations
@@ -410,13 +124,40 @@ def _bytes_mutation(text: bytes, data: st.DataObject) -> bytes:
 
 
 # ------------------------------------------------------------------------------------------------ scenes
+def _judge_scene(path: Path, label: str, text: bytes, stats: dict, run_steps: int) -> None:
+    """Load ``text`` as a scene file: a Scene whose rigs run finite, or a SceneError naming file and field."""
+    path.write_bytes(text)
+    stats["examples"] += 1
+    try:
+        scene = sim.load_scene(path)
+    except sim.SceneError as exc:
+        stats["scene_errors"] += 1
+        if not (exc.file == str(path) and exc.field and str(path) in str(exc) and exc.field in str(exc)):
+            stats["bad"].append(f"{label}: SceneError without file/field: {exc}")
+        return
+    except Exception as exc:  # noqa: BLE001 - the finding
+        stats["bad"].append(f"{label}: {type(exc).__name__}: {exc} <- {text[:300]!r}")
+        return
+    stats["accepted"] += 1
+    try:
+        for role in scene.rigs:
+            rig = sim.build_rig(scene, role)
+            for _ in range(run_steps):
+                rig.apply_current(0.5)
+                rig.advance(scene.period_s)
+                s = rig.read()
+                if not (math.isfinite(s.T_sensor_C) and math.isfinite(s.Q_W)):
+                    stats["bad"].append(f"{label}: accepted scene gives a non-finite sample <- {text[:300]!r}")
+                    return
+    except sim.SceneError:
+        pass
+    except Exception as exc:  # noqa: BLE001
+        stats["bad"].append(f"{label}: accepted scene, then {type(exc).__name__} in build/run: {exc} "
+                            f"<- {text[:300]!r}")
+
+
 def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict:
     """Mutated scene files: a Scene or a SceneError naming file and field."""
-    import tomllib
-
-    import sim
-    from bench import stress_toml
-
     c = Case("fuzz_scene_loader",
              "mutated shipped scenes (values of other types, NaN/inf, huge numbers, keys dropped or added, bytes "
              "flipped) through sim.load_scene: a Scene (whose rigs then build and run finite for a few steps) or "
@@ -429,34 +170,7 @@ def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict
         path = Path(td) / "mutated.toml"
 
         def judge(label: str, text: bytes) -> None:
-            path.write_bytes(text)
-            stats["examples"] += 1
-            try:
-                scene = sim.load_scene(path)
-            except sim.SceneError as exc:
-                stats["scene_errors"] += 1
-                if not (exc.file == str(path) and exc.field and str(path) in str(exc) and exc.field in str(exc)):
-                    stats["bad"].append(f"{label}: SceneError without file/field: {exc}")
-                return
-            except Exception as exc:  # noqa: BLE001 - the finding
-                stats["bad"].append(f"{label}: {type(exc).__name__}: {exc} <- {text[:300]!r}")
-                return
-            stats["accepted"] += 1
-            try:
-                for role in scene.rigs:
-                    rig = sim.build_rig(scene, role)
-                    for _ in range(run_steps):
-                        rig.apply_current(0.5)
-                        rig.advance(scene.period_s)
-                        s = rig.read()
-                        if not (math.isfinite(s.T_sensor_C) and math.isfinite(s.Q_W)):
-                            stats["bad"].append(f"{label}: accepted scene gives a non-finite sample <- {text[:300]!r}")
-                            return
-            except sim.SceneError:
-                pass
-            except Exception as exc:  # noqa: BLE001
-                stats["bad"].append(f"{label}: accepted scene, then {type(exc).__name__} in build/run: {exc} "
-                                    f"<- {text[:300]!r}")
+            _judge_scene(path, label, text, stats, run_steps)
 
         @settings(max_examples=max_examples, deadline=None, database=None, derandomize=True,
                   suppress_health_check=list(HealthCheck))

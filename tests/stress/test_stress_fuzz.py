@@ -12,6 +12,7 @@ import can
 import pytest
 
 from bench import stress_fuzz as s
+from bench import stress_fuzz_frames as fr
 
 
 def _sdo_reply(raw, timeout_s: float = 2.0):
@@ -19,13 +20,13 @@ def _sdo_reply(raw, timeout_s: float = 2.0):
     end = time.monotonic() + timeout_s
     while time.monotonic() < end:
         m = raw.recv(0.2)
-        if m is not None and m.arbitration_id == 0x580 + s.MASTER_ID:
+        if m is not None and m.arbitration_id == 0x580 + fr.MASTER_ID:
             return m
     return None
 
 
 def test_device_frames_never_crash_and_are_counted():
-    r = s.case_fuzz_frames(max_examples=60)
+    r = fr.case_fuzz_frames(max_examples=60)
     f = r["figures"]
     assert f["examples_miscounted_unexplained"] == 0, f["mismatch_examples"]
     assert f["examples_escaped_unexplained"] == 0, f["escapes"]
@@ -35,15 +36,15 @@ def test_device_frames_never_crash_and_are_counted():
 
 
 def test_29bit_frame_is_not_an_nmt_command():
-    with s.device_under_fuzz() as (dev, raw, counter, client, log):
-        raw.send(can.Message(arbitration_id=0x000, is_extended_id=True, data=bytes([0x02, s.MASTER_ID])))
+    with fr.device_under_fuzz() as (dev, raw, counter, client, log):
+        raw.send(can.Message(arbitration_id=0x000, is_extended_id=True, data=bytes([0x02, fr.MASTER_ID])))
         assert counter.wait(1)
         assert dev.state == 5  # still OPERATIONAL
 
 
 def test_sdo_segment_request_without_transfer_is_aborted():
-    with s.device_under_fuzz() as (dev, raw, counter, client, log):
-        raw.send(can.Message(arbitration_id=0x600 + s.MASTER_ID, is_extended_id=False, data=bytes([0x60] + [0] * 7)))
+    with fr.device_under_fuzz() as (dev, raw, counter, client, log):
+        raw.send(can.Message(arbitration_id=0x600 + fr.MASTER_ID, is_extended_id=False, data=bytes([0x60] + [0] * 7)))
         assert counter.wait(1)
         reply = _sdo_reply(raw)
         assert not log.records, log.records
@@ -103,8 +104,8 @@ def test_model_huge_current_range_is_a_model_file_error(tmp_path):
 def test_sdo_block_download_request_to_a_missing_object_is_aborted_without_an_error_log():
     """A block download (ccs 6) initiate naming an object the dictionary lacks (0x2200 sub 1; 0x2200 is a VAR):
     CiA 301 abort 0x06090011 (sub-index does not exist) for the named object at once, and no ERROR record."""
-    with s.device_under_fuzz() as (dev, raw, counter, client, log):
-        raw.send(can.Message(arbitration_id=0x600 + s.MASTER_ID, is_extended_id=False,
+    with fr.device_under_fuzz() as (dev, raw, counter, client, log):
+        raw.send(can.Message(arbitration_id=0x600 + fr.MASTER_ID, is_extended_id=False,
                              data=bytes([0xC2, 0x00, 0x22, 0x01, 0, 0, 0, 0])))
         assert counter.wait(1)
         reply = _sdo_reply(raw)
