@@ -273,60 +273,109 @@ def anchor_hub(cycles: int) -> float:
 
 
 # ---------------------------------------------------------------------------------------- main
+ROW_HEADER = ["run", "cycles", "wall s", "cycles/s", "max |dev| vs offline", "SYNC->TPDO p50 ms", "p99 ms"]
+
+
+def _lockstep_virtual(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, Any], rows: list) -> None:
+    """Lockstep on the in-process virtual bus, interleaved with its raw ping-pong anchor (same machine load)."""
+    runs, anchors = [], []
+    for i in range(repeats):
+        folder = tmp / f"virtual{i}"
+        folder.mkdir()
+        anchors.append(anchor_virtual(ls_cycles, f"bench-anchor-v{i}-{time.monotonic_ns()}"))
+        runs.append(lockstep_virtual(ls_cycles, folder, f"v{i}"))
+    dev_v, note_v = _offline_deviation(tmp / f"virtual{repeats - 1}" / "master.csv",
+                                       tmp / f"virtual{repeats - 1}" / "slave.csv", ls_cycles)
+    v = statistics.median(r["cycles_per_s"] for r in runs)
+    out["lockstep_cycles_per_s_virtual"] = v
+    out["lockstep_virtual_runs"] = runs
+    av = statistics.median(anchors)
+    out["raw_anchor_cycles_per_s_virtual"] = av
+    out["raw_anchor_virtual_runs"] = anchors
+    out["lockstep_ratio_vs_raw_virtual"] = v / av
+    out["max_deviation_from_offline"] = {"virtual": dev_v, "note_virtual": note_v}
+    rows.append(["raw ping-pong anchor, virtual", ls_cycles, ls_cycles / av, av, None, None, None])
+    rows.append(["lockstep, virtual (1 process)", ls_cycles, ls_cycles / v, v, dev_v,
+                 runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
+
+
+def _lockstep_hub(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, Any], rows: list) -> None:
+    """Lockstep of the two node processes over the hub, interleaved with the raw anchor over the hub."""
+    runs, anchors = [], []
+    for i in range(repeats):
+        anchors.append(anchor_hub(ls_cycles))
+        runs.append(lockstep_processes(ls_cycles, tmp / f"hub{i}"))
+    dev_h, note_h = _offline_deviation(tmp / f"hub{repeats - 1}" / "master.csv",
+                                       tmp / f"hub{repeats - 1}" / "slave.csv", ls_cycles)
+    h = statistics.median(r["cycles_per_s"] for r in runs)
+    out["lockstep_cycles_per_s_hub"] = h
+    out["lockstep_hub_runs"] = runs
+    out["hub_over_virtual"] = h / out["lockstep_cycles_per_s_virtual"]
+    ah = statistics.median(anchors)
+    out["raw_anchor_cycles_per_s_hub"] = ah
+    out["raw_anchor_hub_runs"] = anchors
+    out["lockstep_ratio_vs_raw_hub"] = h / ah
+    out["raw_anchor_frames"] = ANCHOR_FRAMES
+    rows.append(["raw ping-pong anchor, hub", ls_cycles, ls_cycles / ah, ah, None, None, None])
+    rows.append(["lockstep, hub (2 processes)", ls_cycles, ls_cycles / h, h, dev_h,
+                 runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
+    dev = out["max_deviation_from_offline"]
+    out["max_deviation_from_offline"] = {"virtual": dev["virtual"], "hub": dev_h, "note_virtual": dev["note_virtual"],
+                                         "note_hub": note_h}
+
+
+def _realtime(tmp: Path, quick: bool, out: dict[str, Any], rows: list) -> dict[str, Any]:
+    """Real time at 100 Hz and at 1 kHz over the hub, observed by a third client; the 1 kHz result."""
+    rt100_s = 10.0 if quick else 60.0
+    rt1k_s = 3.0 if quick else 10.0
+    n100 = int(round(rt100_s / 0.01))
+    r100 = lockstep_processes(n100, tmp / "rt100", timing="realtime", observe=True)
+    out["late_cycles_100hz_60s"] = r100["late_cycles"] if not quick else None
+    out["late_cycles_100hz"] = {"duration_s": rt100_s, "cycles": r100["cycles"], "late": r100["late_cycles"]}
+    out["realtime_100hz"] = r100
+    out["sync_to_tpdo_ms_p50"] = r100["sync_to_tpdo_ms_p50"]
+    out["sync_to_tpdo_ms_p99"] = r100["sync_to_tpdo_ms_p99"]
+    out["bus_load_1mbit_100hz_measured"] = r100.get("observed", {}).get("bus_load_1mbit")
+    out["bus_load_1mbit_100hz_nominal"] = nominal_bus_load(0.01)
+    out["bus_load_1mbit_1khz_nominal"] = nominal_bus_load(0.001)
+    rows.append([f"real time 100 Hz, hub, {rt100_s:g} s", r100["cycles"], r100["wall_s"], r100["cycles_per_s"], None,
+                 r100["sync_to_tpdo_ms_p50"], r100["sync_to_tpdo_ms_p99"]])
+    n1k = int(round(rt1k_s / 0.001))
+    scene1k = _scene_at(tmp, 0.001)
+    net1k = _network_file(tmp, period_s=0.001)
+    r1k = lockstep_processes(n1k, tmp / "rt1k", timing="realtime", scene=scene1k, network=net1k, observe=True)
+    out["late_fraction_1khz"] = r1k["late_cycles"] / max(1, r1k["cycles"])
+    out["realtime_1khz"] = r1k
+    out["bus_load_1mbit_1khz_measured"] = r1k.get("observed", {}).get("bus_load_1mbit")
+    rows.append([f"real time 1 kHz, hub, {rt1k_s:g} s", r1k["cycles"], r1k["wall_s"], r1k["cycles_per_s"], None,
+                 r1k["sync_to_tpdo_ms_p50"], r1k["sync_to_tpdo_ms_p99"]])
+    return r1k
+
+
+def _print_summary(out: dict[str, Any], rows: list, r1k: dict[str, Any]) -> None:
+    print_table(ROW_HEADER, [[c if c is not None else "n/a" for c in r] for r in rows])
+    _print_ratios(out)
+    print(f"late cycles: 100 Hz {out['late_cycles_100hz']}; 1 kHz {r1k['late_cycles']} of {r1k['cycles']} "
+          f"({100 * out['late_fraction_1khz']:.2f} %)")
+    print(f"bus load at 1 Mbit/s: 100 Hz measured {_pct(out['bus_load_1mbit_100hz_measured'])} "
+          f"(nominal {_pct(out['bus_load_1mbit_100hz_nominal'])}); 1 kHz measured "
+          f"{_pct(out['bus_load_1mbit_1khz_measured'])} (nominal {_pct(out['bus_load_1mbit_1khz_nominal'])})")
+    print(f"vcan: {out['lockstep_vcan_note']}")
+
+
 def run(quick: bool = False, *, lockstep_only: bool = False) -> dict[str, Any]:
     repeats = 2 if quick else 3
     ls_cycles = 1000 if quick else 3000
-    rt100_s = 10.0 if quick else 60.0
-    rt1k_s = 3.0 if quick else 10.0
     vcan_cycles = 300
     out: dict[str, Any] = {"quick": quick, "scene": SCENE.name, "repeats": repeats, "lockstep_cycles": ls_cycles,
                            "load_average_at_start": list(os.getloadavg())}
-    rows = []
+    rows: list = []
     with tempfile.TemporaryDirectory(prefix="nodes_bench_") as tmp:
         tmp = Path(tmp)
-        # -- lockstep, in-process virtual bus
-        runs, anchors = [], []
-        for i in range(repeats):   # node run and its anchor interleaved: both see the same machine load
-            folder = tmp / f"virtual{i}"
-            folder.mkdir()
-            anchors.append(anchor_virtual(ls_cycles, f"bench-anchor-v{i}-{time.monotonic_ns()}"))
-            runs.append(lockstep_virtual(ls_cycles, folder, f"v{i}"))
-        dev_v, note_v = _offline_deviation(tmp / f"virtual{repeats - 1}" / "master.csv",
-                                           tmp / f"virtual{repeats - 1}" / "slave.csv", ls_cycles)
-        v = statistics.median(r["cycles_per_s"] for r in runs)
-        out["lockstep_cycles_per_s_virtual"] = v
-        out["lockstep_virtual_runs"] = runs
-        av = statistics.median(anchors)
-        out["raw_anchor_cycles_per_s_virtual"] = av
-        out["raw_anchor_virtual_runs"] = anchors
-        out["lockstep_ratio_vs_raw_virtual"] = v / av
-        rows.append(["raw ping-pong anchor, virtual", ls_cycles, ls_cycles / av, av, None, None, None])
-        rows.append(["lockstep, virtual (1 process)", ls_cycles, ls_cycles / v, v, dev_v,
-                     runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
-        # -- lockstep, two processes over the hub
-        runs, anchors = [], []
-        for i in range(repeats):
-            anchors.append(anchor_hub(ls_cycles))
-            runs.append(lockstep_processes(ls_cycles, tmp / f"hub{i}"))
-        dev_h, note_h = _offline_deviation(tmp / f"hub{repeats - 1}" / "master.csv",
-                                           tmp / f"hub{repeats - 1}" / "slave.csv", ls_cycles)
-        h = statistics.median(r["cycles_per_s"] for r in runs)
-        out["lockstep_cycles_per_s_hub"] = h
-        out["lockstep_hub_runs"] = runs
-        out["hub_over_virtual"] = h / v
-        ah = statistics.median(anchors)
-        out["raw_anchor_cycles_per_s_hub"] = ah
-        out["raw_anchor_hub_runs"] = anchors
-        out["lockstep_ratio_vs_raw_hub"] = h / ah
-        out["raw_anchor_frames"] = ANCHOR_FRAMES
-        rows.append(["raw ping-pong anchor, hub", ls_cycles, ls_cycles / ah, ah, None, None, None])
-        rows.append(["lockstep, hub (2 processes)", ls_cycles, ls_cycles / h, h, dev_h,
-                     runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
-        out["max_deviation_from_offline"] = {"virtual": dev_v, "hub": dev_h, "note_virtual": note_v,
-                                             "note_hub": note_h}
+        _lockstep_virtual(tmp, repeats, ls_cycles, out, rows)
+        _lockstep_hub(tmp, repeats, ls_cycles, out, rows)
         if lockstep_only:
-            print_table(["run", "cycles", "wall s", "cycles/s", "max |dev| vs offline", "SYNC->TPDO p50 ms", "p99 ms"],
-                        [[c if c is not None else "n/a" for c in r] for r in rows])
+            print_table(ROW_HEADER, [[c if c is not None else "n/a" for c in r] for r in rows])
             _print_ratios(out)
             out["load_average_at_end"] = list(os.getloadavg())
             write_results("nodes_lockstep", out)
@@ -340,38 +389,8 @@ def run(quick: bool = False, *, lockstep_only: bool = False) -> dict[str, Any]:
         out["lockstep_vcan_note"] = note
         rows.append(["lockstep, vcan0 in VM (2 proc.)", vcan_cycles, vcan_cycles / vc if vc else None, vc, None,
                      None, None])
-        # -- real time, 100 Hz, hub, observed
-        n100 = int(round(rt100_s / 0.01))
-        r100 = lockstep_processes(n100, tmp / "rt100", timing="realtime", observe=True)
-        out["late_cycles_100hz_60s"] = r100["late_cycles"] if not quick else None
-        out["late_cycles_100hz"] = {"duration_s": rt100_s, "cycles": r100["cycles"], "late": r100["late_cycles"]}
-        out["realtime_100hz"] = r100
-        out["sync_to_tpdo_ms_p50"] = r100["sync_to_tpdo_ms_p50"]
-        out["sync_to_tpdo_ms_p99"] = r100["sync_to_tpdo_ms_p99"]
-        out["bus_load_1mbit_100hz_measured"] = r100.get("observed", {}).get("bus_load_1mbit")
-        out["bus_load_1mbit_100hz_nominal"] = nominal_bus_load(0.01)
-        out["bus_load_1mbit_1khz_nominal"] = nominal_bus_load(0.001)
-        rows.append([f"real time 100 Hz, hub, {rt100_s:g} s", r100["cycles"], r100["wall_s"], r100["cycles_per_s"], None,
-                     r100["sync_to_tpdo_ms_p50"], r100["sync_to_tpdo_ms_p99"]])
-        # -- real time, 1 kHz, hub
-        n1k = int(round(rt1k_s / 0.001))
-        scene1k = _scene_at(tmp, 0.001)
-        net1k = _network_file(tmp, period_s=0.001)
-        r1k = lockstep_processes(n1k, tmp / "rt1k", timing="realtime", scene=scene1k, network=net1k, observe=True)
-        out["late_fraction_1khz"] = r1k["late_cycles"] / max(1, r1k["cycles"])
-        out["realtime_1khz"] = r1k
-        out["bus_load_1mbit_1khz_measured"] = r1k.get("observed", {}).get("bus_load_1mbit")
-        rows.append([f"real time 1 kHz, hub, {rt1k_s:g} s", r1k["cycles"], r1k["wall_s"], r1k["cycles_per_s"], None,
-                     r1k["sync_to_tpdo_ms_p50"], r1k["sync_to_tpdo_ms_p99"]])
-    print_table(["run", "cycles", "wall s", "cycles/s", "max |dev| vs offline", "SYNC->TPDO p50 ms", "p99 ms"],
-                [[c if c is not None else "n/a" for c in r] for r in rows])
-    _print_ratios(out)
-    print(f"late cycles: 100 Hz {out['late_cycles_100hz']}; 1 kHz {r1k['late_cycles']} of {r1k['cycles']} "
-          f"({100 * out['late_fraction_1khz']:.2f} %)")
-    print(f"bus load at 1 Mbit/s: 100 Hz measured {_pct(out['bus_load_1mbit_100hz_measured'])} "
-          f"(nominal {_pct(out['bus_load_1mbit_100hz_nominal'])}); 1 kHz measured "
-          f"{_pct(out['bus_load_1mbit_1khz_measured'])} (nominal {_pct(out['bus_load_1mbit_1khz_nominal'])})")
-    print(f"vcan: {out['lockstep_vcan_note']}")
+        r1k = _realtime(tmp, quick, out, rows)
+    _print_summary(out, rows, r1k)
     out["load_average_at_end"] = list(os.getloadavg())
     print(f"machine load average (1, 5, 15 min): start {out['load_average_at_start']}, end {out['load_average_at_end']}"
           " -- these figures depend on it (2 shared cores)")
