@@ -237,7 +237,7 @@ def case_fuzz_frames(max_examples: int = 300, seed: int = 0) -> dict:
              "errors": [], "escapes": [], "mismatch_29bit": 0, "mismatch_other": 0, "escape_sdo": 0,
              "escape_other": 0}
     with device_under_fuzz() as (dev, raw, counter, client, log):
-        known = set(dev._known_cobids)
+        known = set(dev.known_cobids)
         rp = _rpdo1(dev)
         service_ids = {0x000, 0x080, 0x600 + MASTER_ID, 0x700 + SLAVE_ID, rp[0]}
         sent = [0]

@@ -62,14 +62,14 @@ class SyncProducer:
                 return None   # NMT STOP from any master: no SYNC, and nothing to raise into a SYNC loop
             if dev.state not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
                 raise RuntimeError(f"node {dev.node_id} may not produce SYNC in {dev.state.name}")
-            overflow = dev._u(0x1019, 0)
+            overflow = dev.core.u(0x1019, 0)
             if overflow:
                 self.counter = self.counter + 1 if 0 < self.counter < overflow else 1
                 counter: int | None = self.counter
-                dev._send(dev.sync_cob_id, bytes((counter,)))
+                dev.core.send(dev.sync_cob_id, bytes((counter,)))
             else:
                 counter = None
-                dev._send(dev.sync_cob_id, b"")
+                dev.core.send(dev.sync_cob_id, b"")
             self.sent += 1
             return dev.process_sync(counter)
 
@@ -78,7 +78,7 @@ class SyncProducer:
         """Send SYNC every ``period_s`` (default 0x1006) from a thread until :meth:`stop`."""
         if self._thread is not None:
             raise RuntimeError("SYNC producer already running")
-        period = period_s if period_s is not None else self.device._u(0x1006, 0) * 1e-6
+        period = period_s if period_s is not None else self.device.core.u(0x1006, 0) * 1e-6
         if not period or period <= 0:
             raise ValueError("a SYNC period > 0 is needed (argument or 0x1006)")
         tolerance = period / 2 if late_tolerance_s is None else late_tolerance_s
