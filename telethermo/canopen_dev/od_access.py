@@ -25,8 +25,8 @@ DIAG_OBJECTS = {0x2710: "malformed_frames", 0x2711: "unknown_cobid_frames", 0x27
 
 #: ``hook(index, sub, value, old_bytes)`` after a communication object was stored; an SdoAbortedError
 #: refuses the write (the old value is put back)
-WriteHook = Callable[[int, int, Any, "bytes | None"], None]
-Slot = tuple[int, int, Any, "VarInfo | None"]
+WriteHook = Callable[[int, int, Any, bytes | None], None]
+Slot = tuple[int, int, Any, VarInfo | None]
 
 
 class OdAccess:
