@@ -2,8 +2,9 @@
 
 :class:`DeviceCore` is handed to every service module (:mod:`.nmt`, :mod:`.sdo_gate`,
 :mod:`.pdo_engine`, :mod:`.sync_consumer`, :mod:`.heartbeat`, :mod:`.emcy_producer`,
-:mod:`.od_access`); the services talk to each other only through the thin
-:class:`telethermo.canopen_dev.device.Device` that composes them.
+:mod:`.od_access`); the thin :class:`telethermo.canopen_dev.device.Device` composes them, hands
+each the few services it calls (the heartbeat consumer and the PDO length check raise EMCYs, the SYNC
+consumer runs the PDOs) and wires the NMT transitions and the SDO write side effects.
 """
 from __future__ import annotations
 

@@ -62,7 +62,7 @@ class Device:
     """One CANopen node: ``Device(network, node_id, eds_path, settings=...)`` then ``start()``.
 
     ``network`` is a canopen.Network (connected or not yet); the device adds its LocalNode to it.
-    The services are attributes (``nmt``, ``sdo``, ``pdos``, ``sync``, ``heartbeat``, ``emcy``,
+    The services are attributes (``nmt``, ``sdo``, ``pdos``, ``sync_consumer``, ``heartbeat``, ``emcy``,
     ``od_access``); the methods below are the device's whole public API.
     """
 
@@ -90,19 +90,19 @@ class Device:
         self.watch = FrameWatch(core, self.settings.known_node_ids)
         self.emcy = EmcyProducer(core)
         self.heartbeat = Heartbeat(core, self.emcy)
-        self.pdos = PdoEngine(core, self.emcy, self.watch, lambda: self.sync.last_counter)
+        self.pdos = PdoEngine(core, self.emcy, self.watch, lambda: self.sync_consumer.last_counter)
         self.tpdos, self.rpdos = self.pdos.tpdos, self.pdos.rpdos
-        self.sync = SyncConsumer(core, self.pdos)
+        self.sync_consumer = SyncConsumer(core, self.pdos)
         self.sdo = SdoGate(core, self.node, block_size=lambda: self.SDO_BLOCK_SIZE,
                            block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S)
         self.nmt = NmtSlave(core, reset=self._reset_services, booted=self.heartbeat.arm,
                             changed=self.pdos.nmt_changed)
         self.od_access = OdAccess(core, self.node, self.info, self.settings)
         for low, high, hook in ((0x1003, 0x1003, self.emcy.history_written),
-                                (0x1005, 0x1005, self.sync.cob_id_written),
+                                (0x1005, 0x1005, self.sync_consumer.cob_id_written),
                                 (0x1016, 0x1016, self.heartbeat.consumers_written),
                                 (0x1017, 0x1017, self.heartbeat.producer_written),
-                                (0x1019, 0x1019, self.sync.overflow_written)):
+                                (0x1019, 0x1019, self.sync_consumer.overflow_written)):
             self.od_access.on_write(low, high, hook)
         self.od_access.on_write(0x1400, 0x1BFF, self.pdos.param_written, restore=self.pdos.reconfigure)
         # wire into the network: replace LocalNode's NMT and SDO handlers by gated ones
@@ -122,7 +122,7 @@ class Device:
         self.emcy.reset(whole)
         self.pdos.reconfigure()
         self.heartbeat.reconfigure(restart=True)
-        self.sync.resubscribe()
+        self.sync_consumer.resubscribe()
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
@@ -149,7 +149,7 @@ class Device:
             self.nmt.power_off()
             self.pdos.unsubscribe()
             self.heartbeat.unsubscribe()
-            self.sync.unsubscribe()
+            self.sync_consumer.unsubscribe()
             core.unsubscribe(0, self.nmt.on_frame)
             core.unsubscribe(self.node.sdo.rx_cobid, self.sdo.on_frame)
             adapter.stop_listening(self.network, self.watch)
@@ -174,11 +174,11 @@ class Device:
 
     @property
     def is_sync_producer(self) -> bool:
-        return self.sync.is_producer
+        return self.sync_consumer.is_producer
 
     @property
     def sync_cob_id(self) -> int:
-        return self.sync.cob_id
+        return self.sync_consumer.cob_id
 
     @property
     def known_cobids(self) -> frozenset[int]:
@@ -189,7 +189,7 @@ class Device:
     def add_sync_handler(self, fn: Callable[[SyncTick], None]) -> None:
         """``fn(tick)`` on every SYNC in PRE-OPERATIONAL/OPERATIONAL, before the synchronous TPDOs
         are built (so what it writes into the OD goes out with this SYNC)."""
-        self.sync.handlers.append(fn)
+        self.sync_consumer.handlers.append(fn)
 
     def add_rpdo_listener(self, fn: Callable[[RpdoEvent], None]) -> None:
         """``fn(event)`` when an RPDO is accepted (notifier thread)."""
@@ -256,7 +256,7 @@ class Device:
         Called for SYNC frames from the bus, and by the SYNC producer for its own SYNC (a node never
         receives its own frames). Returns None in STOPPED/INITIALISING (SYNC ignored).
         """
-        return self.sync.process(counter)
+        return self.sync_consumer.process(counter)
 
     def rpdo_count(self, number: int = 1) -> int:
         """RPDOs of channel ``number`` accepted so far."""
