@@ -39,7 +39,7 @@ class OdAccess:
         self.settings = settings
         self.write_listeners: list[Callable[[WriteEvent], None]] = []
         self._validators: dict[tuple[int, int], list[Callable[[Any], int | None]]] = {}
-        self._hooks: list[tuple[int, int, WriteHook, Callable[[int], None] | None]] = []
+        self._hooks: list[tuple[int, int, WriteHook, Callable[[], None] | None]] = []
         self._slots: dict[Any, Slot] = {}
         self.defaults = self._power_on_values()
         self.install_defaults(lambda index: True)
@@ -110,9 +110,9 @@ class OdAccess:
         index, sub, _, _ = self.slot(key)
         self._validators.setdefault((index, sub), []).append(fn)
 
-    def on_write(self, low: int, high: int, hook: WriteHook, *, restore: Callable[[int], None] | None = None) -> None:
+    def on_write(self, low: int, high: int, hook: WriteHook, *, restore: Callable[[], None] | None = None) -> None:
         """``hook`` applies a write of an object in ``low..high`` (a communication object's side
-        effect, run after the value is stored); ``restore(index)`` after a refused write put the old
+        effect, run after the value is stored); ``restore()`` after a refused write put the old
         value back."""
         self._hooks.append((low, high, hook, restore))
 
@@ -154,7 +154,7 @@ class OdAccess:
             else:
                 self.core.store[index][sub] = old
             if restore is not None:
-                restore(index)
+                restore()
             raise
 
     def _validate(self, index: int, sub: int, value: Any) -> int | None:

@@ -59,7 +59,7 @@ class PdoEngine:
             raise SdoAbortedError(ABORT_PDO_TOO_LONG)
         self.reconfigure()
 
-    def reconfigure(self, index: int | None = None) -> None:
+    def reconfigure(self) -> None:
         """Rebuild every plan from the OD, resubscribe the RPDOs, re-arm the event timers."""
         core = self.core
         self.unsubscribe()
