@@ -16,6 +16,10 @@ from typing import Callable
 
 from canopen import SdoAbortedError, SdoCommunicationError
 
+from telethermo.canopen_dev.cia301 import (
+    ABORT_NO_OBJECT, ABORT_NO_SUBINDEX, ABORT_RANGE, ABORT_READ_ONLY, ABORT_TOO_HIGH, ABORT_TOO_LOW, EMCY_HEARTBEAT,
+)
+
 from bench.conformance_lab import MASTER, ROLE, SLAVE, Lab, eds_limits, wait_for
 
 STOPPED, OPERATIONAL, PRE_OPERATIONAL = 4, 5, 127
@@ -106,14 +110,14 @@ def sdo_block(lab: Lab) -> str:
 def sdo_abort_missing_object(lab: Lab) -> str:
     for nid in (MASTER, SLAVE):
         code = _abort(lambda: lab.nodes[nid].sdo.upload(0x5FFF, 0))
-        expect(code == 0x06020000, f"node {nid}: upload of 0x5FFF aborted with {code and hex(code)}")
+        expect(code == ABORT_NO_OBJECT, f"node {nid}: upload of 0x5FFF aborted with {code and hex(code)}")
     return "0x06020000"
 
 
 def sdo_abort_missing_subindex(lab: Lab) -> str:
     for nid in (MASTER, SLAVE):
         code = _abort(lambda: lab.nodes[nid].sdo.upload(0x1018, 9))
-        expect(code == 0x06090011, f"node {nid}: upload of 0x1018 sub 9 aborted with {code and hex(code)}")
+        expect(code == ABORT_NO_SUBINDEX, f"node {nid}: upload of 0x1018 sub 9 aborted with {code and hex(code)}")
     return "0x06090011"
 
 
@@ -122,7 +126,7 @@ def sdo_abort_read_only(lab: Lab) -> str:
         node = lab.nodes[nid]
         before = node.sdo.upload(0x1000, 0)
         code = _abort(lambda: node.sdo.download(0x1000, 0, b"\x01\x00\x00\x00"))
-        expect(code == 0x06010002, f"node {nid}: download to 0x1000 aborted with {code and hex(code)}")
+        expect(code == ABORT_READ_ONLY, f"node {nid}: download to 0x1000 aborted with {code and hex(code)}")
         expect(node.sdo.upload(0x1000, 0) == before, f"node {nid}: 0x1000 changed")
     return "0x06010002"
 
@@ -132,16 +136,16 @@ def sdo_abort_out_of_range(lab: Lab) -> str:
         node = lab.nodes[nid]
         low, high = eds_limits(ROLE[nid], 0x2200)
         kp = node.sdo.upload(0x2200, 0)
-        cases = [(struct.pack("<f", high + 1.0), 0x06090031, "above HighLimit"),
-                 (struct.pack("<f", low - 1.0), 0x06090032, "below LowLimit"),
-                 (struct.pack("<f", math.nan), 0x06090030, "NaN")]
+        cases = [(struct.pack("<f", high + 1.0), ABORT_TOO_HIGH, "above HighLimit"),
+                 (struct.pack("<f", low - 1.0), ABORT_TOO_LOW, "below LowLimit"),
+                 (struct.pack("<f", math.nan), ABORT_RANGE, "NaN")]
         for data, want, what in cases:
             code = _abort(lambda: node.sdo.download(0x2200, 0, data))
             expect(code == want, f"node {nid}: 0x2200 {what}: abort {code and hex(code)}, want 0x{want:08X}")
             expect(node.sdo.upload(0x2200, 0) == kp, f"node {nid}: 0x2200 changed by a refused write")
         flag = node.sdo.upload(0x230C, 0)
         code = _abort(lambda: node.sdo.download(0x230C, 0, b"\x02"))
-        expect(code == 0x06090030, f"node {nid}: BOOLEAN 0x230C = 2: abort {code and hex(code)}")
+        expect(code == ABORT_RANGE, f"node {nid}: BOOLEAN 0x230C = 2: abort {code and hex(code)}")
         expect(node.sdo.upload(0x230C, 0) == flag, f"node {nid}: 0x230C changed by a refused write")
     return "0x06090031 / 0x06090032 / 0x06090030 (NaN, BOOLEAN 2), values unchanged"
 
@@ -265,8 +269,8 @@ def emcy_consistency(lab: Lab) -> str:
         master[0x1016][2].raw = 0
         for _ in range(10):
             sample()
-        expect(0x8130 in lab.emcy_codes(MASTER, mark), "no EMCY 0x8130 from the master")
-        expect(master[0x1003][1].raw & 0xFFFF == 0x8130, "0x1003 newest entry is not 0x8130")
+        expect(EMCY_HEARTBEAT in lab.emcy_codes(MASTER, mark), "no EMCY 0x8130 from the master")
+        expect(master[0x1003][1].raw & 0xFFFF == EMCY_HEARTBEAT, "0x1003 newest entry is not 0x8130")
         lab.nmt(START, SLAVE)
         expect(wait_for(lambda: sample() == 0, 30, 0.05), "the peer_lost trip did not clear after NMT start")
         expect(wait_for(lambda: master[0x1001].raw == 0, 10, 0.05),
@@ -278,7 +282,7 @@ def emcy_consistency(lab: Lab) -> str:
         master[0x1016][2].raw = 0
     expect(not bad, f"0x1001 disagreed with the latched trips (active_trips, 0x1001): {bad[:5]}")
     codes = lab.emcy_codes(MASTER, mark)
-    expect(codes.count(0x8130) == 1, f"{codes.count(0x8130)} EMCY 0x8130 for one error episode")
+    expect(codes.count(EMCY_HEARTBEAT) == 1, f"{codes.count(EMCY_HEARTBEAT)} EMCY 0x8130 for one error episode")
     expect(codes[-1] == 0x0000 and codes.count(0x0000) == 1, f"master EMCYs {[hex(c) for c in codes]}")
     recovered(lab)
     return f"{samples} consistent samples; master EMCYs {[f'0x{c:04X}' for c in codes]}"

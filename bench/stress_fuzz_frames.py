@@ -182,7 +182,7 @@ class _FrameFuzz:
 
     def __init__(self, dev, raw, counter, log) -> None:
         self.dev, self.raw, self.counter, self.log = dev, raw, counter, log
-        self.known = set(dev._known_cobids)
+        self.known = set(dev.known_cobids)
         self.rp = _rpdo1(dev)
         self.service_ids = {0x000, 0x080, 0x600 + MASTER_ID, 0x700 + SLAVE_ID, self.rp[0]}
         self.sent = 0

@@ -32,6 +32,7 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Callable
 
+from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE, ABORT_MAX_BELOW_MIN, ABORT_RANGE, ABORT_TOO_HIGH
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.estimators import Estimator
 from telethermo.control.types import Mode, Role
@@ -56,10 +57,6 @@ IDENT_KEYS: dict[str, str] = {
 }
 #: every object a node mirrors and accepts writes of
 PARAM_KEYS = GAIN_KEYS + tuple(SAFETY_KEYS) + RENDER_KEYS + OTHER_KEYS + tuple(IDENT_KEYS)
-
-ABORT_RANGE = 0x06090030          # value range of parameter exceeded (the controller refuses the value)
-ABORT_DEVICE_STATE = 0x08000022   # data cannot be transferred or stored because of the present device state
-ABORT_MAX_BELOW_MIN = 0x06090036  # maximum value is less than minimum value
 
 
 class ParamBook:
@@ -175,7 +172,7 @@ class ParamBook:
             if lo > hi:
                 return ABORT_MAX_BELOW_MIN
         if key == "material_code" and int(value) and self._code_name(int(value)) is None:
-            return 0x06090031 if int(value) > len(self.table) else ABORT_RANGE
+            return ABORT_TOO_HIGH if int(value) > len(self.table) else ABORT_RANGE
         trial = self.copy()
         try:
             trial.apply(key, value)

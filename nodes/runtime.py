@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 import canopen
 import numpy as np
 
+from telethermo.canopen_dev.cia301 import ABORT_APPLICATION as ABORT_MODEL_REFUSED, ABORT_DEVICE_STATE, ABORT_NO_DATA
 from telethermo.canopen_dev.device import Device, NmtCommand, NmtState, PeerEvent, SyncTick, WriteEvent
 from telethermo.canopen_dev.netconfig import NetworkConfig
 from telethermo.canopen_dev.sync import SyncProducer
@@ -41,7 +42,7 @@ from telethermo.control.types import Mode, Role
 from telethermo.session.runner import _side_row, _truth_row  # the offline runner's row format, exactly
 from telethermo.transport.bus import TransportSettings, open_bus
 
-from nodes.odparams import ABORT_DEVICE_STATE, PARAM_KEYS, ParamBook, od_image
+from nodes.odparams import PARAM_KEYS, ParamBook, od_image
 from nodes.parts import NodeParts
 from nodes.peer import PeerLink
 from nodes.recorder import CsvRecorder
@@ -53,8 +54,6 @@ _MODEL_INDICES = frozenset(range(0x2300, 0x2309)) | frozenset(range(0x230A, 0x23
 """Objects of the TEM model (telethermo.ident.odmodel) and its command: 0x2309 R_sensor is a controller parameter."""
 
 MODE_INDEX = 0x2500
-ABORT_MODEL_REFUSED = 0x08000020   # data cannot be transferred or stored to the application
-ABORT_NO_DATA = 0x08000024         # no data available
 IDENT_NOT_RUN, IDENT_RUNNING, IDENT_DONE, IDENT_INTERRUPTED = 0, 1, 2, 3
 PEER_MISS_INDEX = 0x2408
 MAX_TIMING_SAMPLES = 1_000_000

@@ -18,6 +18,8 @@ from configparser import RawConfigParser
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from telethermo.canopen_dev.cia301 import ABORT_RANGE, ABORT_TOO_HIGH, ABORT_TOO_LOW
+
 REAL_TYPES = {0x0008, 0x0011}  # REAL32, REAL64
 SIGNED_BITS = {0x0002: 8, 0x0003: 16, 0x0004: 32, 0x0015: 64}
 UNSIGNED_TYPES = {0x0001, 0x0005, 0x0006, 0x0007, 0x001B}
@@ -186,11 +188,11 @@ class EdsInfo:
         0x06090030 value range exceeded (NaN for a REAL), 0x06090031 too high, 0x06090032 too low.
         """
         if isinstance(value, float) and math.isnan(value):
-            return 0x06090030 if (info.low is not None or info.high is not None) else None
+            return ABORT_RANGE if (info.low is not None or info.high is not None) else None
         if info.high is not None and value > info.high:
-            return 0x06090031
+            return ABORT_TOO_HIGH
         if info.low is not None and value < info.low:
-            return 0x06090032
+            return ABORT_TOO_LOW
         return None
 
 

@@ -27,11 +27,6 @@ HISTORY_LEN = 8
 REG_GENERIC, REG_CURRENT, REG_VOLTAGE, REG_TEMPERATURE = 0x01, 0x02, 0x04, 0x08
 REG_COMMUNICATION, REG_PROFILE, REG_MANUFACTURER = 0x10, 0x20, 0x80
 
-# codes the device layer itself raises
-EMCY_HEARTBEAT = 0x8130          # life guard / heartbeat error (consumer timeout)
-EMCY_PDO_LENGTH = 0x8210         # PDO not processed due to length error
-EMCY_PDO_LENGTH_EXCEEDED = 0x8220
-
 APP = "app"
 """The source of errors raised through the device's public ``raise_emcy`` (the node program)."""
 

@@ -107,31 +107,31 @@ class _Section:
             raise NetworkConfigError(f"{file}: [{name}] {unknown[0]}: unknown key (expected one of {', '.join(sorted(allowed))})")
         self.file, self.name, self.table = file, name, table
 
-    def _err(self, key: str, expected: str, value: Any) -> NetworkConfigError:
+    def error(self, key: str, expected: str, value: Any) -> NetworkConfigError:
         return NetworkConfigError(f"{self.file}: [{self.name}] {key}: expected {expected}, got {value!r}")
 
     def str(self, key: str, default: str, choices: tuple[str, ...] | None = None) -> str:
         v = self.table.get(key, default)
         if not isinstance(v, str) or not v or (choices and v not in choices):
-            raise self._err(key, f"one of {', '.join(choices)}" if choices else "a non-empty string", v)
+            raise self.error(key, f"one of {', '.join(choices)}" if choices else "a non-empty string", v)
         return v
 
     def int(self, key: str, default: int, lo: int, hi: int, what: str = "") -> int:
         v = self.table.get(key, default)
         if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            raise self._err(key, f"an integer in [{lo}, {hi}]{what}", v)
+            raise self.error(key, f"an integer in [{lo}, {hi}]{what}", v)
         return v
 
     def float(self, key: str, default: float, lo: float, hi: float, what: str = "") -> float:
         v = self.table.get(key, default)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
-            raise self._err(key, f"a number in [{lo:g}, {hi:g}]{what}", v)
+            raise self.error(key, f"a number in [{lo:g}, {hi:g}]{what}", v)
         return float(v)
 
     def bool(self, key: str, default: bool) -> bool:
         v = self.table.get(key, default)
         if not isinstance(v, bool):
-            raise self._err(key, "true or false", v)
+            raise self.error(key, "true or false", v)
         return v
 
 
@@ -162,7 +162,7 @@ def load_network(path: str | Path | None = None) -> NetworkConfig:
     s = _Section(file, "sync", top.table.get("sync", {}), {"producer", "period_s", "counter_overflow", "lockstep"})
     overflow = s.int("counter_overflow", 240, 0, 240, " (0 = no counter; 1 is not allowed)")
     if overflow == 1:
-        raise s._err("counter_overflow", "0 (no counter) or an integer in [2, 240]", overflow)
+        raise s.error("counter_overflow", "0 (no counter) or an integer in [2, 240]", overflow)
     sync = SyncConfig(
         producer=s.str("producer", "master", ("master", "slave", "none")),
         period_s=s.float("period_s", 0.010, 0.0001, 1.0, " s"),
@@ -173,7 +173,7 @@ def load_network(path: str | Path | None = None) -> NetworkConfig:
     producer_ms = h.int("producer_ms", 100, 0, 65535, " ms")
     consumer_ms = h.int("consumer_ms", 250, 0, 65535, " ms")
     if consumer_ms and producer_ms and consumer_ms <= producer_ms:
-        raise h._err("consumer_ms", f"an integer > producer_ms ({producer_ms}) so that one late heartbeat is not a loss", consumer_ms)
+        raise h.error("consumer_ms", f"an integer > producer_ms ({producer_ms}) so that one late heartbeat is not a loss", consumer_ms)
     heartbeat = HeartbeatConfig(producer_ms=producer_ms, consumer_ms=consumer_ms)
 
     n = _Section(file, "nodes", top.table.get("nodes", {}), set(ROLES))
@@ -184,7 +184,7 @@ def load_network(path: str | Path | None = None) -> NetworkConfig:
         eds = Path(t.str("eds", f"{role}.eds"))
         eds = eds if eds.is_absolute() else (file.parent / eds)
         if not eds.is_file():
-            raise t._err("eds", f"an existing EDS file (looked for {eds})", t.table.get("eds", f"{role}.eds"))
+            raise t.error("eds", f"an existing EDS file (looked for {eds})", t.table.get("eds", f"{role}.eds"))
         nodes[role] = NodeConfig(role, t.int("node_id", defaults[role], 1, 127), eds.resolve())
     if nodes["master"].node_id == nodes["slave"].node_id:
         raise NetworkConfigError(f"{file}: [nodes.slave] node_id: expected a node-ID different from the master's "

@@ -20,13 +20,10 @@ from dataclasses import dataclass, field
 
 from canopen.sdo import SdoAbortedError
 
+from telethermo.canopen_dev.cia301 import ABORT_CANNOT_MAP, ABORT_INCOMPATIBLE, ABORT_PDO_TOO_LONG, ABORT_RANGE
+
 PDO_INVALID = 1 << 31
 RTR_NOT_ALLOWED = 1 << 30
-
-ABORT_CANNOT_MAP = 0x06040041      # object cannot be mapped to the PDO
-ABORT_PDO_TOO_LONG = 0x06040042    # number and length of mapped objects exceed the PDO length
-ABORT_RANGE = 0x06090030           # value range of parameter exceeded
-ABORT_INCOMPATIBLE = 0x06040043    # general parameter incompatibility
 
 
 @dataclass(slots=True, eq=False)

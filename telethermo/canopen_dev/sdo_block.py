@@ -46,14 +46,10 @@ from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-ABORT_TIMEOUT = 0x05040000
-ABORT_COMMAND = 0x05040001
-ABORT_BLOCK_SIZE = 0x05040002
-ABORT_SEQNO = 0x05040003
-ABORT_CRC = 0x05040004
-ABORT_GENERAL = 0x08000000
-ABORT_LENGTH = 0x06070010
-ABORT_NO_DATA = 0x08000024
+from telethermo.canopen_dev.cia301 import (
+    ABORT_BLOCK_SIZE, ABORT_COMMAND_SPECIFIER, ABORT_CRC, ABORT_LENGTH, ABORT_NO_DATA, ABORT_SEQNO,
+    ABORT_TIMEOUT,
+)
 
 MAX_BLKSIZE = 127
 SEG = 7   # data bytes per segment
@@ -139,7 +135,7 @@ class BlockServer:
                 return self._upload_initiate(data)
             if ccs == 0xA0 and self.direction == "upload":
                 return self._upload_frame(data, cs)
-            return [self.abort(ABORT_COMMAND)]
+            return [self.abort(ABORT_COMMAND_SPECIFIER)]
         except SdoAbortedError as exc:
             return [self.abort(exc.code)]
 
@@ -162,7 +158,7 @@ class BlockServer:
     def _download_frame(self, data: bytes) -> list[bytes]:
         if self._step == "end":
             if data[0] & 0xE1 != 0xC1:   # ccs 6, cs 1 (end); n in bits 4..2, bit 1 reserved
-                return [self.abort(ABORT_COMMAND)]
+                return [self.abort(ABORT_COMMAND_SPECIFIER)]
             return self._download_end(data)
         return self._download_segment(data)
 
@@ -221,7 +217,7 @@ class BlockServer:
         if self._step == "end" and cs == 1:
             self.reset()
             return []
-        return [self.abort(ABORT_COMMAND)]
+        return [self.abort(ABORT_COMMAND_SPECIFIER)]
 
     def _sub_block(self) -> list[bytes]:
         """The next sub-block: up to blksize segments from the first unacknowledged byte, numbered

@@ -2,39 +2,22 @@
 
 A node never receives its own frames, so :meth:`SyncProducer.transmit` sends the SYNC and then runs
 the producing device's own SYNC processing (RPDO commit, SYNC handlers, TPDOs) in the caller's
-thread. Two ways to drive it:
-
-- lockstep: call :meth:`transmit` yourself, e.g. after the peer's PDO of the previous cycle arrived
-  (:meth:`telethermo.canopen_dev.device.Device.wait_rpdo`);
-- real time: :meth:`start` runs a thread that sends SYNC every ``period_s`` on an absolute
-  schedule and counts late cycles (a SYNC sent more than ``late_tolerance_s`` after its slot;
-  slots missed entirely are counted too and skipped, never sent in a burst).
+thread. The schedule (lockstep: SYNC k+1 after the peer's PDO k, seen with
+:meth:`telethermo.canopen_dev.device.Device.wait_rpdo`; or real time) is the node program's: the one
+SYNC scheduler is ``nodes.runtime.NodeRuntime.run_producer``.
 """
 from __future__ import annotations
 
-import logging
-import threading
-import time
-from typing import Callable
-
 from telethermo.canopen_dev.device import Device, NmtState, SyncTick
-
-logger = logging.getLogger(__name__)
 
 
 class SyncProducer:
     """SYNC producer of ``device`` (which must have 0x1005 bit 30 set)."""
 
-    def __init__(self, device: Device, *, clock: Callable[[], float] = time.monotonic):
+    def __init__(self, device: Device):
         self.device = device
-        self.clock = clock
         self.counter = 0          # last counter sent (0: none yet)
         self.sent = 0
-        self.late_cycles = 0
-        self.max_lateness_s = 0.0
-        self.errors = 0
-        self._thread: threading.Thread | None = None
-        self._stop = threading.Event()
         device.add_nmt_listener(self._on_nmt)
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
@@ -62,55 +45,13 @@ class SyncProducer:
                 return None   # NMT STOP from any master: no SYNC, and nothing to raise into a SYNC loop
             if dev.state not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
                 raise RuntimeError(f"node {dev.node_id} may not produce SYNC in {dev.state.name}")
-            overflow = dev._u(0x1019, 0)
+            overflow = dev.core.u(0x1019, 0)
             if overflow:
                 self.counter = self.counter + 1 if 0 < self.counter < overflow else 1
                 counter: int | None = self.counter
-                dev._send(dev.sync_cob_id, bytes((counter,)))
+                dev.core.send(dev.sync_cob_id, bytes((counter,)))
             else:
                 counter = None
-                dev._send(dev.sync_cob_id, b"")
+                dev.core.send(dev.sync_cob_id, b"")
             self.sent += 1
             return dev.process_sync(counter)
-
-    # ---------------------------------------------------------------- real time
-    def start(self, period_s: float | None = None, *, late_tolerance_s: float | None = None) -> None:
-        """Send SYNC every ``period_s`` (default 0x1006) from a thread until :meth:`stop`."""
-        if self._thread is not None:
-            raise RuntimeError("SYNC producer already running")
-        period = period_s if period_s is not None else self.device._u(0x1006, 0) * 1e-6
-        if not period or period <= 0:
-            raise ValueError("a SYNC period > 0 is needed (argument or 0x1006)")
-        tolerance = period / 2 if late_tolerance_s is None else late_tolerance_s
-        self._stop.clear()
-        self._thread = threading.Thread(target=self._run, args=(period, tolerance),
-                                        name=f"sync-producer-{self.device.node_id}", daemon=True)
-        self._thread.start()
-
-    def stop(self, timeout: float = 2.0) -> None:
-        self._stop.set()
-        if self._thread is not None:
-            self._thread.join(timeout)
-            self._thread = None
-
-    def _run(self, period: float, tolerance: float) -> None:
-        slot = self.clock() + period
-        while not self._stop.is_set():
-            delay = slot - self.clock()
-            if delay > 0 and self._stop.wait(delay):
-                return
-            lateness = self.clock() - slot
-            self.max_lateness_s = max(self.max_lateness_s, lateness)
-            if lateness > tolerance:
-                self.late_cycles += 1
-            try:
-                self.transmit()
-            except Exception:
-                self.errors += 1
-                logger.exception("SYNC transmit failed")
-            slot += period
-            behind = self.clock() - slot
-            if behind > period:  # whole slots missed: count them, do not send a burst
-                missed = int(behind // period)
-                self.late_cycles += missed
-                slot += missed * period

@@ -25,10 +25,10 @@ import can
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
+from telethermo.canopen_dev.cia301 import sdo_abort_text
 from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
 from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, UserError
-from telethermo.monitor.cia301 import sdo_abort_text
 from telethermo.transport.bus import TransportError, TransportSettings, open_bus
 from telethermo.transport.busargs import add_bus_arguments
 from telethermo.transport.resolve import ResolvedBus, resolve_bus

@@ -13,10 +13,9 @@ import time
 
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
+from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE
 from telethermo.cli import common
 from telethermo.cli.status import SAFETY, _pretty
-
-ABORT_DEVICE_STATE = 0x08000022
 
 
 def register(subparsers) -> None:

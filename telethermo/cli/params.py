@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from telethermo.canopen_dev.cia301 import ABORT_TOO_HIGH, ABORT_TOO_LOW
 from telethermo.cli import common, values
 from telethermo.cli.main import UserError
 
@@ -46,7 +47,7 @@ def refusal(exc: common.Refused, node, t: common.Target, info, eds) -> str:
     """The node's refusal with the rule that refused: a value out of the node's own range (its EDS is
     narrower than ours), else the object's description and the current values of the objects it names."""
     text = str(exc)
-    if exc.code in (0x06090031, 0x06090032):
+    if exc.code in (ABORT_TOO_HIGH, ABORT_TOO_LOW):
         return (f"{text}; the node's limit is narrower than this EDS's range {info.range_text() or '(none)'} "
                 f"({info.key} in {common.eds_info(t).path}: out of date?)")
     if not info.description:

@@ -6,7 +6,8 @@ import json
 import math
 
 from telethermo.cli import common
-from telethermo.monitor.cia301 import emcy_code_text, error_register_names
+from telethermo.canopen_dev.cia301 import emcy_code_text
+from telethermo.monitor.cia301 import error_register_names
 
 MODES = {0: "idle", 1: "telepresence", 2: "render", 3: "identify"}
 SAFETY = {0: "ok", 1: "limiting", 2: "ramp to neutral", 3: "current cut"}

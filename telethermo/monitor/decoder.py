@@ -14,6 +14,8 @@ import struct
 from dataclasses import dataclass, field
 from typing import Any
 
+from telethermo.canopen_dev.cia301 import emcy_code_text
+
 from . import cia301
 
 # frame kinds
@@ -110,7 +112,7 @@ def decode_emcy(data: bytes) -> dict[str, Any]:
     if len(data) < 3:
         return {"error": f"EMCY frame too short ({len(data)} bytes, 8 expected)"}
     code, reg = struct.unpack_from("<HB", data)
-    out = {"code": code, "code_text": cia301.emcy_code_text(code), "register": reg,
+    out = {"code": code, "code_text": emcy_code_text(code), "register": reg,
            "register_bits": cia301.error_register_names(reg), "manufacturer": bytes(data[3:8]).hex(),
            "reset": code == 0}
     if len(data) != 8:

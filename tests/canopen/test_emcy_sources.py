@@ -114,7 +114,7 @@ def test_removing_the_0x1016_entry_of_a_lost_node_removes_its_heartbeat_error(la
     node.sdo["Consumer heartbeat time"][1].raw = 0                          # node 2 no longer watched
     assert _wait(lambda: 0x0000 in _codes(node))
     assert node.sdo["Error register"].raw == 0
-    assert 2 not in dev._consumers
+    assert 2 not in dev.heartbeat.consumers
 
 
 def test_an_unchanged_entry_keeps_watching_an_alive_node(lab):

@@ -1,15 +1,9 @@
-"""Lockstep SYNC (DESIGN.md §3): SYNC k+1 only after the peer's PDO of cycle k arrived.
+"""Speed of the device layer alone: ``python -m telethermo.canopen_dev.measure``.
 
-The producer's own PDO of cycle k is sent inside :meth:`SyncProducer.transmit` (own tick), so
-waiting for the peer's RPDO is enough. A cycle whose peer PDO does not come within ``timeout_s``
-is reported (``step()`` returns False) and counted, never hidden: the node decides what a missing
-PDO means (the safety envelope's peer-loss path).
-
-``python -m telethermo.canopen_dev.lockstep`` measures the device layer alone: two devices on a
-python-can ``virtual`` bus in one process, a trivial SYNC handler, N lockstep cycles; it prints the
-median cycles/s over repeats (the node programs add their control step and rig on top), and the
-median cost of one SYNC on a lone device (``process_sync_us``; ``sync_transmit_us`` with the SYNC
-frame itself).
+Two bare devices on a python-can ``virtual`` bus in one process, a trivial SYNC handler on each
+(``estimate = peer + 1``), N cycles of SYNC k+1 after the peer's PDO k; it prints the median cycles/s
+over repeats (the node programs add their control step and rig on top), and the median cost of one
+SYNC on a lone device (``process_sync_us``; ``sync_transmit_us`` with the SYNC frame itself).
 """
 from __future__ import annotations
 
@@ -18,40 +12,34 @@ import statistics
 import time
 import uuid
 
-from telethermo.canopen_dev.device import Device
+import canopen
+
+from bus_config import path
+from telethermo.canopen_dev.device import Device, NmtCommand
+from telethermo.canopen_dev.netconfig import load_network
 from telethermo.canopen_dev.sync import SyncProducer
 
 
-class LockstepDriver:
-    """Drives lockstep cycles from the SYNC-producing device."""
+def _virtual_network(channel: str) -> canopen.Network:
+    net = canopen.Network()
+    net.NOTIFIER_CYCLE = 0.05
+    net.connect(interface="virtual", channel=channel)
+    return net
 
-    def __init__(self, device: Device, sync: SyncProducer | None = None, *, rpdo: int = 1, timeout_s: float = 1.0):
-        self.device = device
-        self.sync = sync or SyncProducer(device)
-        self.rpdo = rpdo
-        self.timeout_s = timeout_s
-        self.cycles = 0
-        self.missed = 0
 
-    def step(self) -> bool:
-        """One cycle: SYNC (own tick included), then wait for the peer's PDO. False if it did not come."""
-        before = self.device.rpdo_count(self.rpdo)
-        self.sync.transmit()
-        self.cycles += 1
-        if self.device.wait_rpdo(self.rpdo, after=before, timeout=self.timeout_s):
-            return True
-        self.missed += 1
-        return False
+def _cycles(master: Device, sync: SyncProducer, n: int, timeout_s: float) -> int:
+    """``n`` cycles: SYNC (own tick included), then wait for the peer's RPDO1; the cycles it did not come."""
+    missed = 0
+    for _ in range(n):
+        before = master.rpdo_count(1)
+        sync.transmit()
+        if not master.wait_rpdo(1, after=before, timeout=timeout_s):
+            missed += 1
+    return missed
 
 
 def measure_virtual(cycles: int = 2000, *, repeats: int = 3) -> dict[str, float]:
-    """Median lockstep cycles/s of two bare devices over python-can ``virtual`` (one process)."""
-    import canopen
-
-    from bus_config import path
-    from telethermo.canopen_dev.device import NmtCommand
-    from telethermo.canopen_dev.netconfig import load_network
-
+    """Median cycles/s of two bare devices over python-can ``virtual`` (one process)."""
     cfg = load_network()
     rates = []
     for _ in range(repeats):
@@ -59,25 +47,20 @@ def measure_virtual(cycles: int = 2000, *, repeats: int = 3) -> dict[str, float]
         nets, devs = [], []
         try:
             for role in ("master", "slave"):
-                net = canopen.Network()
-                net.NOTIFIER_CYCLE = 0.05
-                net.connect(interface="virtual", channel=channel)
-                nets.append(net)
+                nets.append(net := _virtual_network(channel))
                 dev = Device(net, cfg.node(role).node_id, path(f"{role}.eds"), settings=cfg.device_settings(role))
                 devs.append(dev)
                 write, read = dev.writer("estimate_C"), dev.reader("peer_estimate_C")
                 dev.add_sync_handler(lambda tick, w=write, r=read: w(r() + 1.0))
                 dev.start()
             devs[0].nmt_command(NmtCommand.START, 0)
-            driver = LockstepDriver(devs[0], timeout_s=5.0)
-            for _ in range(50):  # warm-up
-                driver.step()
+            sync = SyncProducer(devs[0])
+            _cycles(devs[0], sync, 50, 5.0)  # warm-up
             t0 = time.perf_counter()
-            for _ in range(cycles):
-                driver.step()
+            missed = _cycles(devs[0], sync, cycles, 5.0)
             rates.append(cycles / (time.perf_counter() - t0))
-            if driver.missed:
-                raise RuntimeError(f"{driver.missed} cycles without the peer's PDO")
+            if missed:
+                raise RuntimeError(f"{missed} cycles without the peer's PDO")
         finally:
             for dev in devs:
                 dev.close()
@@ -89,14 +72,7 @@ def measure_virtual(cycles: int = 2000, *, repeats: int = 3) -> dict[str, float]
 
 def measure_per_sync(n: int = 5000, *, repeats: int = 5) -> dict[str, float]:
     """Median cost of one SYNC on a lone producing device (own tick, handler, TPDO1 sent), µs."""
-    import canopen
-
-    from bus_config import path
-    from telethermo.canopen_dev.device import NmtCommand
-
-    net = canopen.Network()
-    net.NOTIFIER_CYCLE = 0.05
-    net.connect(interface="virtual", channel=f"persync-{uuid.uuid4().hex[:8]}")
+    net = _virtual_network(f"persync-{uuid.uuid4().hex[:8]}")
     dev = Device(net, 1, path("master.eds"))
     try:
         write, read = dev.writer("estimate_C"), dev.reader("peer_estimate_C")

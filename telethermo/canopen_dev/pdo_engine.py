@@ -1,0 +1,205 @@
+"""PDO service of a device: the channels' plans (:mod:`.pdo`) rebuilt on every parameter write, RPDOs
+into the OD (at the next SYNC if synchronous), TPDOs on SYNC, on trigger and on the event timer, and
+the NMT rules (PDOs only in OPERATIONAL). A frame whose length differs from the mapping is counted as
+malformed, ignored, and raises EMCY 0x8210/0x8220 once until a frame of the right length comes."""
+from __future__ import annotations
+
+import functools
+import threading
+from typing import Callable
+
+from canopen.sdo import SdoAbortedError
+
+from telethermo.canopen_dev import pdo as pdo_mod
+from telethermo.canopen_dev.cia301 import ABORT_PDO_TOO_LONG, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED
+from telethermo.canopen_dev.context import DeviceCore, NmtState
+from telethermo.canopen_dev.emcy_producer import EmcyProducer
+from telethermo.canopen_dev.events import RpdoEvent
+from telethermo.canopen_dev.frames import FrameWatch
+
+
+class PdoEngine:
+    """Every TPDO and RPDO channel the object dictionary has (``tpdos``/``rpdos`` by number, 1-based)."""
+
+    def __init__(self, core: DeviceCore, emcy: EmcyProducer, watch: FrameWatch,
+                 last_sync_counter: Callable[[], int | None]):
+        self.core = core
+        self.emcy = emcy
+        self.watch = watch
+        self.last_sync_counter = last_sync_counter
+        od = core.node.object_dictionary
+        self.tpdos: dict[int, pdo_mod.PdoPlan] = {}
+        self.rpdos: dict[int, pdo_mod.PdoPlan] = {}
+        for i in range(512):
+            if 0x1800 + i in od and 0x1A00 + i in od:
+                self.tpdos[i + 1] = pdo_mod.PdoPlan(i + 1, True, 0x1800 + i, 0x1A00 + i)
+            if 0x1400 + i in od and 0x1600 + i in od:
+                self.rpdos[i + 1] = pdo_mod.PdoPlan(i + 1, False, 0x1400 + i, 0x1600 + i)
+        self.sync_tpdos: list[pdo_mod.PdoPlan] = []
+        self.sync_rpdos: list[pdo_mod.PdoPlan] = []
+        self.listeners: list[Callable[[RpdoEvent], None]] = []
+        self._subs: list[tuple[int, Callable]] = []
+        self._counts: dict[int, int] = {n: 0 for n in self.rpdos}
+        self._cond = threading.Condition()
+
+    # ------------------------------------------------------------------ configuration
+    def param_written(self, index: int, sub: int, value: int, old: bytes | None) -> None:
+        """SDO write to a PDO communication or mapping parameter (0x1400..0x1BFF): CiA 301's rules,
+        then the plans are rebuilt (an SdoAbortedError refuses the write)."""
+        tx = index >= 0x1800
+        is_map = (0x1600 <= index <= 0x17FF) or index >= 0x1A00
+        plan = (self.tpdos if tx else self.rpdos).get((index & 0x1FF) + 1)
+        if plan is None:
+            return
+        if not is_map:
+            pdo_mod.check_comm_write(plan, sub, int(value))  # ``plan`` still holds the values before this write
+        elif sub > 0 and value:
+            pdo_mod.mappable(self.core.node, value >> 16, (value >> 8) & 0xFF, value & 0xFF, tx=tx)
+        elif sub == 0 and value > 8:
+            raise SdoAbortedError(ABORT_PDO_TOO_LONG)
+        self.reconfigure()
+
+    def reconfigure(self) -> None:
+        """Rebuild every plan from the OD, resubscribe the RPDOs, re-arm the event timers."""
+        core = self.core
+        self.unsubscribe()
+        for plan in list(self.tpdos.values()) + list(self.rpdos.values()):
+            pdo_mod.compile_plan(plan, core.store, core.node)
+            if plan.tx and 1 <= plan.trans_type <= 240:
+                plan.countdown = min(plan.countdown, plan.trans_type) if plan.countdown > 0 else plan.trans_type
+        self.sync_tpdos = [p for p in self.tpdos.values() if p.valid and p.trans_type <= 240]
+        self.sync_rpdos = [p for p in self.rpdos.values() if p.valid and p.trans_type <= 240]
+        for plan in self.rpdos.values():
+            if plan.valid:
+                self._subs.append(core.subscribe(plan.cob_id, functools.partial(self._on_rpdo_frame, plan)))
+        self.watch.set_pdo_cobids(p.cob_id for p in list(self.tpdos.values()) + list(self.rpdos.values())
+                                  if p.valid)
+        if core.state == NmtState.OPERATIONAL:
+            for tp in self.tpdos.values():
+                self._arm_event_timer(tp)
+
+    def unsubscribe(self) -> None:
+        for cob, cb in self._subs:
+            self.core.unsubscribe(cob, cb)
+        self._subs = []
+
+    def nmt_changed(self, old: NmtState, new: NmtState) -> None:
+        """PDOs follow NMT: pending RPDO data dropped outside OPERATIONAL; on entering OPERATIONAL the
+        SYNC countdowns start over (from the SYNC start value when the SYNC has a counter)."""
+        if new != NmtState.OPERATIONAL or old != NmtState.OPERATIONAL:
+            for rp in self.rpdos.values():
+                rp.pending = None
+        if new == NmtState.OPERATIONAL and old != NmtState.OPERATIONAL:
+            overflow = self.core.u(0x1019, 0)
+            for tp in self.tpdos.values():
+                tp.countdown = tp.trans_type if 1 <= tp.trans_type <= 240 else 0
+                tp.waiting_start = bool(tp.sync_start and overflow)
+                tp.triggered = False
+                self._arm_event_timer(tp)
+        if new != NmtState.OPERATIONAL:
+            self.core.scheduler.cancel_prefix("tpdo")
+
+    # ------------------------------------------------------------------ RPDO
+    def _on_rpdo_frame(self, plan: pdo_mod.PdoPlan, can_id: int, data: bytes, timestamp: float) -> None:
+        core = self.core
+        if core.extended:
+            return  # a 29-bit ID is no service of ours (counted as unknown)
+        if core.state != NmtState.OPERATIONAL:
+            core.stats.rpdo_ignored += 1
+            return
+        if len(data) != plan.length:
+            core.stats.malformed_frames += 1
+            if not plan.bad_length:
+                plan.bad_length = True
+                code = EMCY_PDO_LENGTH if len(data) < plan.length else EMCY_PDO_LENGTH_EXCEEDED
+                self.emcy.raise_error(code, data=bytes([plan.number]), source=f"pdo-length{plan.number}")
+            return
+        data = bytes(data)
+        with core.lock:
+            if plan.synchronous:
+                plan.pending = data
+            else:
+                plan.unpack_into_store(data)
+            core.stats.rpdo_count += 1
+        if plan.bad_length:
+            plan.bad_length = False
+            for code in (EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED):
+                self.emcy.clear(code, source=f"pdo-length{plan.number}")
+        with self._cond:
+            self._counts[plan.number] += 1
+            self._cond.notify_all()
+        if self.listeners:
+            core.call(self.listeners, RpdoEvent(plan.number, plan.decode(data), self.last_sync_counter(), timestamp))
+
+    def commit_sync_rpdos(self) -> tuple[int, ...]:
+        """At a SYNC in OPERATIONAL: the synchronous RPDOs received since the previous SYNC go into the
+        OD; their numbers."""
+        fresh: tuple[int, ...] = ()
+        for rp in self.sync_rpdos:
+            if rp.pending is not None:
+                rp.unpack_into_store(rp.pending)
+                rp.pending = None
+                fresh += (rp.number,)
+        return fresh
+
+    def rpdo_count(self, number: int = 1) -> int:
+        """RPDOs of channel ``number`` accepted so far."""
+        return self._counts[number]
+
+    def wait_rpdo(self, number: int, *, after: int, timeout: float) -> bool:
+        """Block until more than ``after`` RPDOs of channel ``number`` were accepted; False on timeout."""
+        with self._cond:
+            return self._cond.wait_for(lambda: self._counts[number] > after, timeout)
+
+    # ------------------------------------------------------------------ TPDO
+    def send_sync_tpdos(self, counter: int | None) -> None:
+        """At a SYNC in OPERATIONAL: the synchronous TPDOs that are due (type 0 when triggered, type n
+        every n-th SYNC, after the SYNC start value if one is set)."""
+        for tp in self.sync_tpdos:
+            if tp.trans_type == 0:
+                if tp.triggered:
+                    tp.triggered = False
+                    self._send(tp)
+                continue
+            if tp.waiting_start:
+                if counter != tp.sync_start:
+                    continue
+                tp.waiting_start = False
+                tp.countdown = 1
+            tp.countdown -= 1
+            if tp.countdown <= 0:
+                tp.countdown = tp.trans_type
+                self._send(tp)
+
+    def trigger(self, number: int) -> None:
+        """Event for TPDO ``number``: type 0 goes at the next SYNC, types 254/255 now (inhibit time permitting)."""
+        tp = self.tpdos[number]
+        if self.core.state != NmtState.OPERATIONAL or not tp.valid:
+            return
+        if tp.trans_type == 0:
+            tp.triggered = True
+        elif tp.trans_type >= 254:
+            self._send_event_tpdo(tp)
+
+    def _send_event_tpdo(self, tp: pdo_mod.PdoPlan) -> None:
+        core = self.core
+        if core.state != NmtState.OPERATIONAL or not tp.valid:
+            return
+        now = core.clock()
+        allowed = tp.last_sent + tp.inhibit_100us * 1e-4
+        if now < allowed:
+            core.scheduler.set(f"tpdo-inhibit{tp.number}", allowed, lambda: self._send_event_tpdo(tp))
+            return
+        tp.last_sent = now
+        self._send(tp)
+        self._arm_event_timer(tp)
+
+    def _arm_event_timer(self, tp: pdo_mod.PdoPlan) -> None:
+        core = self.core
+        if tp.valid and tp.trans_type >= 254 and tp.event_timer_ms and core.state == NmtState.OPERATIONAL:
+            core.scheduler.set(f"tpdo-event{tp.number}", core.clock() + tp.event_timer_ms * 1e-3,
+                               lambda: self._send_event_tpdo(tp))
+
+    def _send(self, tp: pdo_mod.PdoPlan) -> None:
+        self.core.send(tp.cob_id, tp.pack())
+        self.core.stats.tpdo_sent += 1

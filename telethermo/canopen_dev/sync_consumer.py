@@ -1,0 +1,90 @@
+"""SYNC consumer of a device (0x1005, 0x1019): on each SYNC in PRE-OPERATIONAL or OPERATIONAL, commit
+the synchronous RPDOs, run the SYNC handlers, send the due synchronous TPDOs. The producing side is
+:mod:`.sync` (a node never receives its own SYNC: the producer ticks its own device)."""
+from __future__ import annotations
+
+from typing import Callable
+
+from canopen.sdo import SdoAbortedError
+
+from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE, ABORT_RANGE
+from telethermo.canopen_dev.context import DeviceCore, NmtState
+from telethermo.canopen_dev.events import SyncTick
+from telethermo.canopen_dev.pdo_engine import PdoEngine
+
+
+class SyncConsumer:
+    """SYNC handling of one device."""
+
+    def __init__(self, core: DeviceCore, pdos: PdoEngine):
+        self.core = core
+        self.pdos = pdos
+        self.handlers: list[Callable[[SyncTick], None]] = []
+        self.last_counter: int | None = None
+        self._sub: tuple[int, Callable] | None = None
+
+    @property
+    def cob_id(self) -> int:
+        return self.core.u(0x1005, 0) & 0x7FF
+
+    @property
+    def is_producer(self) -> bool:
+        return bool(self.core.u(0x1005, 0) & (1 << 30))
+
+    def resubscribe(self) -> None:
+        """Listen on the COB-ID 0x1005 names (after a reset or a write of 0x1005)."""
+        self.unsubscribe()
+        self._sub = self.core.subscribe(self.cob_id, self._on_frame)
+
+    def unsubscribe(self) -> None:
+        if self._sub:
+            self.core.unsubscribe(*self._sub)
+            self._sub = None
+
+    def cob_id_written(self, index: int, sub: int, value: int, old: bytes | None) -> None:
+        """SDO write to 0x1005. A 29-bit SYNC is not supported (as in CANopenNode's OD_write_1005 /
+        CO_ODF_1005: "only 11-bit CAN identifier is supported", 0x06090030): refused rather than
+        keeping an 11-bit SYNC behind an OD that says 29-bit."""
+        if value & (1 << 29):
+            raise SdoAbortedError(ABORT_RANGE)
+        self.resubscribe()
+
+    def overflow_written(self, index: int, sub: int, value: int, old: bytes | None) -> None:
+        """SDO write to 0x1019: 1 is no counter overflow value (0x06090030); CiA 301 allows a change
+        only while the communication cycle period 0x1006 is 0 (CANopenNode's OD_write_1019:
+        ODR_DATA_DEV_STATE, 0x08000022)."""
+        if value == 1:
+            raise SdoAbortedError(ABORT_RANGE)
+        if self.core.u(0x1006, 0) != 0:
+            raise SdoAbortedError(ABORT_DEVICE_STATE)
+
+    def _on_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+        core = self.core
+        if core.extended:
+            return  # a 29-bit ID is no service of ours (counted as unknown)
+        if len(data) > 1:
+            core.stats.malformed_frames += 1
+            return
+        self.process(data[0] if data else None)
+
+    def process(self, counter: int | None) -> SyncTick | None:
+        """Handle one SYNC: commit synchronous RPDOs, run the SYNC handlers, send the due TPDOs.
+        Returns None in STOPPED/INITIALISING (SYNC ignored)."""
+        core = self.core
+        state = core.state
+        if state is not NmtState.OPERATIONAL and state is not NmtState.PRE_OPERATIONAL:
+            return None
+        with core.lock:
+            core.stats.sync_count += 1
+            self.last_counter = counter
+            operational = state is NmtState.OPERATIONAL
+            fresh = self.pdos.commit_sync_rpdos() if operational else ()
+            tick = SyncTick(counter, fresh, operational)
+            for fn in self.handlers:
+                try:
+                    fn(tick)
+                except Exception:
+                    core.callback_failed(fn)
+            if core.state is NmtState.OPERATIONAL:
+                self.pdos.send_sync_tpdos(counter)
+        return tick
