@@ -13,10 +13,15 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Callable
 
+import sim
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.defaults import default_params
+from telethermo.control.tuning import load_gains
 from telethermo.control.types import Mode, Role
+from telethermo.ident import load_model
 from telethermo.rig import Rig
+from telethermo.session.render_script import RenderScript
+from telethermo.session.runner import finger_skin_C
 
 from nodes.options import NodeOptions, OptionError
 
@@ -60,14 +65,12 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
     """Rig, parameters and model of ``opts``; ``period_s`` is the network's SYNC period, s."""
     model = None
     if opts.model is not None:
-        from telethermo.ident import load_model
         try:
             model = load_model(opts.model)
         except ValueError as exc:  # ModelFileError names the file and the field
             raise OptionError(str(exc)) from None
     gains: dict[str, float] = {}
     if opts.gains is not None:
-        from telethermo.control.tuning import load_gains
         try:
             gains = dict(load_gains(opts.gains)[opts.role])
         except (ValueError, KeyError) as exc:  # load_gains names the file and the field
@@ -78,7 +81,6 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
     script = None
     finger_skin = None
     if opts.scene is not None:
-        import sim
         try:
             scene = sim.load_scene(opts.scene)
         except ValueError as exc:  # SceneError names the file and the field
@@ -95,13 +97,11 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
         # a virtual scene whose pad touches nothing (identification, idle) has nothing to script: RENDER then
         # renders the OD's material
         if opts.role is Role.MASTER and getattr(scene, "kind", "") == "virtual" and touches:
-            from telethermo.session.render_script import RenderScript
-            from telethermo.session.runner import _finger_skin_C
             try:
                 script = RenderScript(scene)
             except ValueError as exc:  # a material missing from the rendering table, no touch to render
                 raise OptionError(f"--scene {str(opts.scene)!r}: {exc}") from None
-            finger_skin = lambda: _finger_skin_C(rig, rig.truth())  # noqa: E731
+            finger_skin = lambda: finger_skin_C(rig, rig.truth())  # noqa: E731
     else:
         module, _, factory = opts.rig.partition(":")
         try:
