@@ -21,6 +21,8 @@ from telethermo.canopen_dev.device import NmtState
 from telethermo.canopen_dev.netconfig import load_network
 from telethermo.control.safety import EMCY_CODES, Trip
 from telethermo.control.types import Mode, Role
+from telethermo.ident.modelfile import default_model_path
+from telethermo.ident.odmodel import CMD_UNLOAD, STATUS_LOADED, STATUS_NONE
 from telethermo.transport.bus import TransportSettings
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -61,10 +63,10 @@ class Bench:
         with self._frames_lock:
             return [cob for cob, _ in self.frames]
 
-    def node(self, role: Role, *, start: bool = True) -> NodeRuntime:
+    def node(self, role: Role, *, start: bool = True, model: Path | None = None) -> NodeRuntime:
         """A node runtime as ``telethermo-master``/``-slave`` builds it (lockstep, simulated rig of SCENE)."""
         producer = role is Role.MASTER
-        opts = NodeOptions(role=role, scene=SCENE, timing="lockstep", produce_sync=producer)
+        opts = NodeOptions(role=role, scene=SCENE, timing="lockstep", produce_sync=producer, model=model)
         parts = build_parts(opts, period_s=NET.sync.period_s)
         rt = NodeRuntime(role, ID[role], NET, TransportSettings("virtual", self.channel), parts,
                          mode=Mode.TELEPRESENCE, lockstep=True, produce_sync=producer, record_timing=False)
@@ -159,3 +161,25 @@ def test_peer_loss_trips_the_master_and_its_return_resumes(bench):
         master.stop_event.set()
         run.join(10)
     assert not run.is_alive()
+
+
+def test_sdo_writes_reach_the_parameters_the_model_and_the_identification_service(bench):
+    node = bench.remote(Role.MASTER)
+    rt = bench.node(Role.MASTER, model=default_model_path())
+    assert node.sdo["model_status"].raw == STATUS_LOADED and node.sdo["model_crc32"].raw != 0
+    with pytest.raises(canopen.SdoAbortedError) as exc:
+        node.sdo["ident_fetch_sample"].raw = 0               # no experiment recorded yet
+    assert exc.value.code == 0x08000024
+    with pytest.raises(canopen.SdoAbortedError) as exc:
+        node.sdo["T_max_C"].raw = 60.0                       # above the EDS limit (43 °C)
+    assert exc.value.code == 0x06090031
+    kp0 = rt.settings.params.kp_A_per_C
+    node.sdo["kp_A_per_C"].raw = kp0 + 0.25                  # into the book now, into the controller at SYNC
+    node.sdo["model_command"].raw = CMD_UNLOAD               # the flux estimator needs no model
+    assert rt.settings.params.kp_A_per_C == kp0 and rt.model is not None
+    assert node.sdo["model_command"].raw == 0                # a command: reads 0
+    assert rt.run_producer(2) == 2
+    assert rt.settings.params.kp_A_per_C == pytest.approx(kp0 + 0.25)
+    assert node.sdo["kp_A_per_C"].raw == pytest.approx(kp0 + 0.25)
+    assert rt.model is None and rt.models_loaded == 1
+    assert node.sdo["model_status"].raw == STATUS_NONE and node.sdo["model_crc32"].raw == 0
