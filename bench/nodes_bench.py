@@ -121,7 +121,7 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
     from nodes.merge import SYNC_CYCLE
     from nodes.options import NodeOptions
     from nodes.parts import build_parts
-    from nodes.recorder import CsvRecorder
+    from telethermo.session.recording_journal import CsvRecorder
     from nodes.runtime import NodeRuntime
     from telethermo.canopen_dev.netconfig import load_network
     from telethermo.control.types import Mode, Role

@@ -11,6 +11,7 @@ when its parent ends.
 """
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -222,7 +223,6 @@ class NodePair:
                 with self._progress_lock:
                     self.progress = (int(parts[1]), int(parts[2]))
             elif line.startswith("result "):
-                import json
                 self.result = json.loads(line[len("result "):])
             else:
                 self._master_lines.append(line.rstrip("\n"))

@@ -12,10 +12,21 @@ import logging
 import signal
 import sys
 import time
+from typing import Callable
 
-from telethermo.control.types import Role
+import numpy as np
 
+from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
+from telethermo.control.types import Mode, Role
+from telethermo.session.recording import COLUMNS, MAGIC
+from telethermo.session.recording_journal import CsvRecorder, RecorderError, recover_journal
+from telethermo.transport.bus import TransportError
+from telethermo.transport.resolve import resolve_bus
+
+from nodes.merge import SYNC_CYCLE
 from nodes.options import OptionError, build_parser, options_from_args
+from nodes.parts import build_parts
+from nodes.runtime import NodeRuntime
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 
@@ -47,16 +58,6 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
     if opts.recover:
         return _recover(prog, opts.record)
 
-    # heavy imports after the argument check (``--help`` and usage errors stay fast)
-    from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
-    from telethermo.transport.bus import TransportError
-    from telethermo.transport.resolve import resolve_bus
-
-    from nodes.merge import SYNC_CYCLE
-    from nodes.parts import build_parts
-    from nodes.recorder import CsvRecorder
-    from nodes.runtime import NodeRuntime
-
     try:
         net = load_network(opts.network)
         transport = resolve_bus(net, bus=opts.bus, interface=opts.interface, channel=opts.channel,
@@ -67,16 +68,10 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
 
-    recorder = None
+    recorder = final_comments = None
     if opts.record is not None:
-        from telethermo.session.recording import COLUMNS, MAGIC
-        p = "m_" if role is Role.MASTER else "s_"
-        columns = ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)]
-        meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
-                    node_id=node_id, timing=opts.timing, transport=transport.describe())
         try:
-            recorder = CsvRecorder(opts.record, columns,
-                                   comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
+            recorder, final_comments = _recorder(role, opts, parts, node_id, transport.describe())
         except OSError as exc:   # RecorderError: the journal is held by a running node; no space; ...
             print(f"{prog}: error: --record {opts.record}: {exc}", file=sys.stderr)
             return EXIT_USAGE
@@ -84,11 +79,7 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
     lockstep = opts.timing == "lockstep"
     rt = NodeRuntime(role, node_id, net, transport, parts, mode=opts.mode, lockstep=lockstep,
                      produce_sync=opts.produce_sync, recorder=recorder)
-    if recorder is not None and parts.render_script is not None:
-        # the render script measures each touch's finger temperature as it goes: the meta is final at the end
-        script = parts.render_script
-        rt.final_comments = lambda: [MAGIC[2:], "meta " + json.dumps(dict(meta, render=script.meta()),
-                                                                        sort_keys=True, default=str)]
+    rt.final_comments = final_comments
     reason = ["finished"]
 
     def on_signal(signum, _frame):
@@ -106,22 +97,7 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
             code = EXIT_FAIL
             return code
         if opts.produce_sync:
-            from telethermo.control.types import Mode
-            if opts.mode is not Mode.TELEPRESENCE:
-                pass  # rendering / identification / idle: the peer is welcome but not awaited
-            elif not rt.wait_for_peer(opts.wait_peer_s):
-                if not rt.stop_event.is_set():
-                    log.warning("peer %d not seen within %g s: starting anyway", rt.peer_id, opts.wait_peer_s)
-            cycles = opts.cycles if opts.cycles is not None else (parts.cycles or 0)
-
-            def progress(k: int, n: int) -> None:
-                print(f"progress {k} {n}", flush=True)
-
-            t0 = time.perf_counter()
-            done = rt.run_producer(cycles, progress_every=opts.progress_every, progress=progress)
-            wall = time.perf_counter() - t0
-            log.info("SYNC producer: %d of %d cycles run in %.3f s", done, cycles, wall)
-            print("result " + json.dumps(run_result(rt, done, wall)), flush=True)
+            _produce(rt, opts, parts, log)
         else:
             while not rt.stop_event.wait(0.5):
                 pass
@@ -132,10 +108,44 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
     return code
 
 
+def _recorder(role: Role, opts, parts, node_id: int, transport: str) -> tuple[CsvRecorder, Callable | None]:
+    """The node's recording (its side's columns and the SYNC cycle), streamed through the journal, and the
+    source of its final comment lines (render scenes: the meta is final at the end), or None."""
+    p = "m_" if role is Role.MASTER else "s_"
+    columns = ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)]
+    meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
+                node_id=node_id, timing=opts.timing, transport=transport)
+    recorder = CsvRecorder(opts.record, columns,
+                           comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
+    if parts.render_script is None:
+        return recorder, None
+    # the render script measures each touch's finger temperature as it goes: the meta is final at the end
+    script = parts.render_script
+    return recorder, lambda: [MAGIC[2:], "meta " + json.dumps(dict(meta, render=script.meta()), sort_keys=True,
+                                                              default=str)]
+
+
+def _produce(rt: NodeRuntime, opts, parts, log: logging.Logger) -> None:
+    """The SYNC producer's run: wait for the peer (telepresence), run the cycles, print the result line."""
+    if opts.mode is not Mode.TELEPRESENCE:
+        pass  # rendering / identification / idle: the peer is welcome but not awaited
+    elif not rt.wait_for_peer(opts.wait_peer_s):
+        if not rt.stop_event.is_set():
+            log.warning("peer %d not seen within %g s: starting anyway", rt.peer_id, opts.wait_peer_s)
+    cycles = opts.cycles if opts.cycles is not None else (parts.cycles or 0)
+
+    def progress(k: int, n: int) -> None:
+        print(f"progress {k} {n}", flush=True)
+
+    t0 = time.perf_counter()
+    done = rt.run_producer(cycles, progress_every=opts.progress_every, progress=progress)
+    wall = time.perf_counter() - t0
+    log.info("SYNC producer: %d of %d cycles run in %.3f s", done, cycles, wall)
+    print("result " + json.dumps(run_result(rt, done, wall)), flush=True)
+
 
 def _recover(prog: str, record) -> int:
     """``--record FILE --recover``: the journal a killed node left becomes FILE; nothing else runs."""
-    from nodes.recorder import RecorderError, recover_journal
     try:
         path = recover_journal(record)
     except RecorderError as exc:
@@ -147,8 +157,6 @@ def _recover(prog: str, record) -> int:
 
 def run_result(rt, cycles: int, wall_s: float) -> dict:
     """The SYNC producer's machine-readable summary (one ``result {json}`` line on stdout)."""
-    import numpy as np
-
     def pct(xs, q):
         return float(np.percentile(np.asarray(xs) * 1e3, q)) if xs else None
 

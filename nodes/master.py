@@ -5,9 +5,10 @@ import sys
 
 from telethermo.control.types import Role
 
+from nodes.main import run_node
+
 
 def main(argv: list[str] | None = None) -> int:
-    from nodes.main import run_node
     return run_node(Role.MASTER, argv)
 
 

@@ -19,7 +19,9 @@ from typing import Any
 
 import numpy as np
 
+import sim
 from telethermo.session.recording import COLUMNS, TEXT_COLUMNS, Recording, RecordingError, read_recording_csv
+from telethermo.session.runner import ref_row, scene_contacts
 
 
 SYNC_CYCLE = "sync_cycle"
@@ -65,16 +67,14 @@ def merge_recordings(master_csv: str | Path, slave_csv: str | Path | None, *, sc
             if c != "t_s":
                 cols[c] = [v[i] for i in idx] if c in TEXT_COLUMNS else np.asarray(v, dtype=float)[idx]
     if scene is not None:
-        import sim
         sc = sim.load_scene(scene) if isinstance(scene, (str, Path)) else scene
-        from telethermo.session.runner import _contacts, _ref_row
-        meta["contacts"] = _contacts(sc, "slave" if meta["mode"] == "telepresence" else "master")
+        meta["contacts"] = scene_contacts(sc, "slave" if meta["mode"] == "telepresence" else "master")
         if reference:
             ref = sim.build_reference(sc)
             period = float(meta.get("period_s") or sc.period_s)
             rows = []
             for _ in range(n_master if n else 0):   # the master's rows are consecutive periods of its rig
-                rows.append(_ref_row(ref))
+                rows.append(ref_row(ref))
                 ref.advance(period)
             for c in ("ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"):
                 cols[c] = np.asarray([r[c] for r in rows], dtype=float)[mi]

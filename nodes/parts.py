@@ -13,10 +13,15 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Callable
 
+import sim
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.defaults import default_params
+from telethermo.control.tuning import load_gains
 from telethermo.control.types import Mode, Role
+from telethermo.ident import load_model
 from telethermo.rig import Rig
+from telethermo.session.render_script import RenderScript
+from telethermo.session.runner import finger_skin_C
 
 from nodes.options import NodeOptions, OptionError
 
@@ -60,14 +65,12 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
     """Rig, parameters and model of ``opts``; ``period_s`` is the network's SYNC period, s."""
     model = None
     if opts.model is not None:
-        from telethermo.ident import load_model
         try:
             model = load_model(opts.model)
         except ValueError as exc:  # ModelFileError names the file and the field
             raise OptionError(str(exc)) from None
     gains: dict[str, float] = {}
     if opts.gains is not None:
-        from telethermo.control.tuning import load_gains
         try:
             gains = dict(load_gains(opts.gains)[opts.role])
         except (ValueError, KeyError) as exc:  # load_gains names the file and the field
@@ -75,52 +78,10 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
     meta: dict[str, Any] = {"role": opts.role.value}
     if gains:
         meta["gains"] = {"file": str(opts.gains), **gains}
-    script = None
-    finger_skin = None
     if opts.scene is not None:
-        import sim
-        try:
-            scene = sim.load_scene(opts.scene)
-        except ValueError as exc:  # SceneError names the file and the field
-            raise OptionError(str(exc)) from None
-        seed = opts.seed if opts.seed is not None else DEFAULT_SEEDS[opts.role]
-        rig = sim.build_rig(scene, opts.role.value, seed=seed)
-        if abs(rig.period_s - period_s) > 1e-12:
-            raise OptionError(f"--scene {str(opts.scene)!r}: period_s = {rig.period_s} s but the network's SYNC "
-                              f"period is {period_s} s (network settings [sync] period_s); they must agree")
-        cycles = int(round(scene.duration_s / rig.period_s))
-        meta.update(scene=getattr(scene, "name", str(opts.scene)), seed=seed)
-        truth = rig.truth
-        touches = getattr(getattr(rig, "schedule", None), "touches", ())
-        # a virtual scene whose pad touches nothing (identification, idle) has nothing to script: RENDER then
-        # renders the OD's material
-        if opts.role is Role.MASTER and getattr(scene, "kind", "") == "virtual" and touches:
-            from telethermo.session.render_script import RenderScript
-            from telethermo.session.runner import _finger_skin_C
-            try:
-                script = RenderScript(scene)
-            except ValueError as exc:  # a material missing from the rendering table, no touch to render
-                raise OptionError(f"--scene {str(opts.scene)!r}: {exc}") from None
-            finger_skin = lambda: _finger_skin_C(rig, rig.truth())  # noqa: E731
+        rig, cycles, truth, script, finger_skin = _scene_rig(opts, period_s, meta)
     else:
-        module, _, factory = opts.rig.partition(":")
-        try:
-            make = getattr(importlib.import_module(module), factory)
-        except (ImportError, AttributeError) as exc:
-            raise OptionError(f"--rig {opts.rig!r}: cannot load the rig factory: {exc}") from None
-        try:
-            rig = make()
-        except Exception as exc:  # a driver's own error (no device, bad port, ...): one named line
-            raise OptionError(f"--rig {opts.rig!r}: the rig factory failed: {type(exc).__name__}: {exc}") from None
-        missing = [a for a in ("read", "apply_current", "period_s", "I_max_A") if not hasattr(rig, a)]
-        if missing:
-            raise OptionError(f"--rig {opts.rig!r}: the factory returned a {type(rig).__name__}, not a "
-                              f"telethermo.rig.Rig (missing {', '.join(missing)})")
-        if abs(float(rig.period_s) - period_s) > 1e-12:
-            raise OptionError(f"--rig {opts.rig!r}: period_s = {rig.period_s} s but the network's SYNC period is "
-                              f"{period_s} s (network settings [sync] period_s); they must agree")
-        cycles = None
-        truth = None
+        rig, cycles, truth, script, finger_skin = _hardware_rig(opts, period_s), None, None, None, None
         meta.update(rig=opts.rig)
     simulated = callable(getattr(rig, "advance", None))
     if opts.timing == "lockstep" and not simulated:
@@ -148,3 +109,52 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
         meta["render"] = script.meta()
     return NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,
                      cycles=cycles, meta=meta, truth=truth, render_script=script, finger_skin=finger_skin)
+
+
+def _scene_rig(opts: NodeOptions, period_s: float, meta: dict[str, Any]):
+    """The simulated rig of ``opts.scene``: (rig, cycles of the scene, truth, render script, finger thermometer)."""
+    script = None
+    finger_skin = None
+    try:
+        scene = sim.load_scene(opts.scene)
+    except ValueError as exc:  # SceneError names the file and the field
+        raise OptionError(str(exc)) from None
+    seed = opts.seed if opts.seed is not None else DEFAULT_SEEDS[opts.role]
+    rig = sim.build_rig(scene, opts.role.value, seed=seed)
+    if abs(rig.period_s - period_s) > 1e-12:
+        raise OptionError(f"--scene {str(opts.scene)!r}: period_s = {rig.period_s} s but the network's SYNC "
+                          f"period is {period_s} s (network settings [sync] period_s); they must agree")
+    cycles = int(round(scene.duration_s / rig.period_s))
+    meta.update(scene=getattr(scene, "name", str(opts.scene)), seed=seed)
+    truth = rig.truth
+    touches = getattr(getattr(rig, "schedule", None), "touches", ())
+    # a virtual scene whose pad touches nothing (identification, idle) has nothing to script: RENDER then
+    # renders the OD's material
+    if opts.role is Role.MASTER and getattr(scene, "kind", "") == "virtual" and touches:
+        try:
+            script = RenderScript(scene)
+        except ValueError as exc:  # a material missing from the rendering table, no touch to render
+            raise OptionError(f"--scene {str(opts.scene)!r}: {exc}") from None
+        finger_skin = lambda: finger_skin_C(rig, rig.truth())  # noqa: E731
+    return rig, cycles, truth, script, finger_skin
+
+
+def _hardware_rig(opts: NodeOptions, period_s: float) -> Rig:
+    """The hardware rig of ``opts.rig`` (``module:factory``), checked against the Rig protocol and the period."""
+    module, _, factory = opts.rig.partition(":")
+    try:
+        make = getattr(importlib.import_module(module), factory)
+    except (ImportError, AttributeError) as exc:
+        raise OptionError(f"--rig {opts.rig!r}: cannot load the rig factory: {exc}") from None
+    try:
+        rig = make()
+    except Exception as exc:  # a driver's own error (no device, bad port, ...): one named line
+        raise OptionError(f"--rig {opts.rig!r}: the rig factory failed: {type(exc).__name__}: {exc}") from None
+    missing = [a for a in ("read", "apply_current", "period_s", "I_max_A") if not hasattr(rig, a)]
+    if missing:
+        raise OptionError(f"--rig {opts.rig!r}: the factory returned a {type(rig).__name__}, not a "
+                          f"telethermo.rig.Rig (missing {', '.join(missing)})")
+    if abs(float(rig.period_s) - period_s) > 1e-12:
+        raise OptionError(f"--rig {opts.rig!r}: period_s = {rig.period_s} s but the network's SYNC period is "
+                          f"{period_s} s (network settings [sync] period_s); they must agree")
+    return rig

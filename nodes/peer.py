@@ -3,7 +3,7 @@ sees them each cycle (:class:`telethermo.control.types.PeerValues`).
 
 The peer is *lost* when the heartbeat consumer (0x1016) reports a timeout, or when its TPDO1 has
 been missing for more than ``max_missed_cycles`` consecutive cycles; it is back when its heartbeat
-is seen again and a fresh PDO arrives. Thread-safe: the bus's receive thread writes, the cycle reads.
+is seen again and a fresh PDO arrives (the rule: :func:`telethermo.control.peer_policy.peer_alive`). Thread-safe: the bus's receive thread writes, the cycle reads.
 """
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import math
 import threading
 from dataclasses import dataclass
 
+from telethermo.control.peer_policy import peer_alive
 from telethermo.control.types import PeerValues
 
 
@@ -88,7 +89,8 @@ class PeerLink:
             return self._alive_locked()
 
     def _alive_locked(self) -> bool:
-        return self._hb_ok and self._ever and self._missed <= self.max_missed_cycles
+        return peer_alive(heartbeat_ok=self._hb_ok, seen=self._ever, missed_cycles=self._missed,
+                          max_missed_cycles=self.max_missed_cycles)
 
     def take(self) -> PeerValues | None:
         """The values for this cycle (None before the first PDO or :meth:`start_with`); marks them consumed."""

@@ -5,10 +5,10 @@ process, lockstep; recordings (documented CSV), figures (JSON) and a plot (PNG).
 """
 from telethermo.session.figures import compute_figures, contacts_of
 from telethermo.session.recording import (Recording, RecordingBuilder, RecordingError, read_recording_csv,
-                                          recording_to_csv_text, write_recording_csv)
+                                          write_recording_csv)
 
 __all__ = ["compute_figures", "contacts_of", "Recording", "RecordingBuilder", "RecordingError", "read_recording_csv",
-           "recording_to_csv_text", "write_recording_csv", "run_offline_session", "write_session"]
+           "write_recording_csv", "run_offline_session", "write_session"]
 
 
 def __getattr__(name):  # the runner imports sim/ and ident lazily

@@ -69,7 +69,7 @@ from typing import Any
 
 import numpy as np
 
-from telethermo.atomic import write_text_atomic
+from telethermo.session.recording_journal import CsvRecorder
 
 MAGIC = "# telethermo-recording 1"
 
@@ -143,23 +143,29 @@ def _fmt(v: Any) -> str:
     return repr(f)
 
 
-def recording_to_csv_text(rec: Recording) -> str:
-    """The CSV text of a recording (format in the module docstring)."""
-    names = list(rec.columns)
-    buf = io.StringIO()
-    buf.write(MAGIC + "\n")
-    buf.write("# meta " + json.dumps(rec.meta, allow_nan=False, sort_keys=True, default=str) + "\n")
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(names)
-    cols = [rec.columns[n] for n in names]
+def header_comments(meta: dict[str, Any]) -> list[str]:
+    """The comment lines that open a recording (without their ``# ``): the magic line and the meta."""
+    return [MAGIC[2:], "meta " + json.dumps(meta, allow_nan=False, sort_keys=True, default=str)]
+
+
+def _rows(rec: Recording):
+    cols = list(rec.columns.values())
     for i in range(len(rec)):
-        w.writerow([_fmt(c[i]) for c in cols])
-    return buf.getvalue()
+        yield [_fmt(c[i]) for c in cols]
 
 
 def write_recording_csv(path: str | os.PathLike, rec: Recording) -> Path:
-    """Write ``rec`` to ``path`` atomically."""
-    return write_text_atomic(path, recording_to_csv_text(rec))
+    """Write ``rec`` to ``path`` atomically, through the recordings' one writer
+    (:class:`telethermo.session.recording_journal.CsvRecorder`, as the nodes)."""
+    head = header_comments(rec.meta)
+    writer = CsvRecorder(path, list(rec.columns), comments=head, flush_every=1 << 30)
+    try:
+        for row in _rows(rec):
+            writer.write(row)
+    except BaseException:
+        writer.abort()
+        raise
+    return writer.close()
 
 
 def read_recording_csv(path: str | os.PathLike) -> Recording:

@@ -33,7 +33,6 @@ from telethermo.session.figures import compute_figures
 from telethermo.session.plot import write_session_png
 from telethermo.session.recording import Recording, RecordingBuilder, write_recording_csv
 from telethermo.session.render_script import RenderScript
-from telethermo.session.render_script import render_touches as render_touches_
 
 ROUNDINGS = ("none", "real32")
 
@@ -51,7 +50,7 @@ class SessionResult:
     figures: dict[str, Any]
 
 
-def _side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[str, Any]:
+def side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[str, Any]:
     s = res.status
     return {
         f"{p}_T_sensor_C": sample.T_sensor_C, f"{p}_Q_W": sample.Q_W, f"{p}_T_sink_C": sample.T_sink_C,
@@ -65,16 +64,16 @@ def _side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[
     }
 
 
-def _truth_row(p: str, rig) -> dict[str, Any]:
+def truth_row(p: str, rig) -> dict[str, Any]:
     tr = rig.truth()
     row = {f"{p}_true_surface_C": tr.T_surface_C, f"{p}_true_Q_W": tr.Q_true_W,
            f"{p}_true_Q_into_body_W": tr.Q_into_body_W, f"{p}_true_touching": float(tr.touching is not None)}
     if p == "m":
-        row["m_true_finger_C"] = _finger_skin_C(rig, tr)
+        row["m_true_finger_C"] = finger_skin_C(rig, tr)
     return row
 
 
-def _finger_skin_C(rig, tr) -> float:
+def finger_skin_C(rig, tr) -> float:
     """Truth: the operator's skin temperature on the master, touching or not (in air between touches)."""
     if tr.touching == "finger":
         return tr.T_surface_C
@@ -85,7 +84,7 @@ def _finger_skin_C(rig, tr) -> float:
     return float(body.surface_C())
 
 
-def _ref_row(ref) -> dict[str, Any]:
+def ref_row(ref) -> dict[str, Any]:
     return {"ref_T_contact_C": ref.T_contact_C,   # the reference finger's skin, touching or in air
             "ref_Q_into_finger_W": -ref.Q_finger_W if ref.touching else 0.0,
             "ref_touching": float(bool(ref.touching))}
@@ -150,7 +149,7 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     peer_m, peer_s = initial_peer(sm0), initial_peer(ss0)
 
     meta = {"scene": getattr(sc, "name", str(scene)), "period_s": period, "mode": "telepresence",
-            "rounding": rounding, "seed": seed, "contacts": _contacts(sc, "slave"),
+            "rounding": rounding, "seed": seed, "contacts": scene_contacts(sc, "slave"),
             "master_params": _params_meta(pm), "slave_params": _params_meta(ps)}
     b = RecordingBuilder(meta)
     for _k in range(n_steps):
@@ -158,11 +157,11 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
         rm = step(sm, peer_m, pm, st_m)
         rs = step(ss, peer_s, ps, st_s)
         row = {"t_s": sm.t_s}
-        row.update(_side_row("m", sm, rm, peer_m))
-        row.update(_side_row("s", ss, rs, peer_s))
-        row.update(_truth_row("m", rig_m))
-        row.update(_truth_row("s", rig_s))
-        row.update(_ref_row(ref))
+        row.update(side_row("m", sm, rm, peer_m))
+        row.update(side_row("s", ss, rs, peer_s))
+        row.update(truth_row("m", rig_m))
+        row.update(truth_row("s", rig_s))
+        row.update(ref_row(ref))
         b.add(row)
         st_m, st_s = rm.state, rs.state
         # values sent in this cycle, received by the peer in the next one
@@ -194,17 +193,17 @@ def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, bet
     s0 = rig_m.read()
     state = init_state(dataclasses.replace(base, mode=Mode.RENDER, render=script.first), model, s0)
     meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "render", "rounding": rounding,
-            "contacts": _contacts(sc, "master"), "finger_thermometer": finger_thermometer,
+            "contacts": scene_contacts(sc, "master"), "finger_thermometer": finger_thermometer,
             "master_params": _params_meta(base)}
     b = RecordingBuilder(meta)
     for _k in range(n_steps):
         smp = rig_m.read()
-        rs = script.settings_at(smp.t_s, period, lambda: _finger_skin_C(rig_m, rig_m.truth()))
+        rs = script.settings_at(smp.t_s, period, lambda: finger_skin_C(rig_m, rig_m.truth()))
         r = step(smp, None, dataclasses.replace(base, mode=Mode.RENDER, render=rs), state)
         row = {"t_s": smp.t_s}
-        row.update(_side_row("m", smp, r, None))
-        row.update(_truth_row("m", rig_m))
-        row.update(_ref_row(ref))
+        row.update(side_row("m", smp, r, None))
+        row.update(truth_row("m", rig_m))
+        row.update(ref_row(ref))
         b.add(row)
         state = r.state
         rig_m.apply_current(r.current_A)
@@ -234,8 +233,8 @@ def _run_hold(sc, rig_m, ref, params, model, n_steps, period, rounding, *, hold_
         smp = rig_m.read()
         r = step(smp, peer, base, state)
         row = {"t_s": smp.t_s}
-        row.update(_side_row("m", smp, r, peer))
-        row.update(_truth_row("m", rig_m))
+        row.update(side_row("m", smp, r, peer))
+        row.update(truth_row("m", rig_m))
         b.add(row)
         state = r.state
         rig_m.apply_current(r.current_A)
@@ -252,7 +251,7 @@ def _with_rig_limits(p: CoreParams, rig) -> CoreParams:
     return p
 
 
-def _contacts(sc, side: str) -> list[dict[str, Any]]:
+def scene_contacts(sc, side: str) -> list[dict[str, Any]]:
     """The scene's touches of the probe (slave) or of the display (master, render scenes)."""
     out = []
     if side == "slave":
@@ -263,12 +262,6 @@ def _contacts(sc, side: str) -> list[dict[str, Any]]:
             if t.render is not None:
                 out.append({"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.render})
     return out
-
-
-def _render_touches(sc, table: dict[str, float] | None = None, *, beta_pad: float = 2.23,
-                    T_finger0_C: float = 34.0) -> list[dict[str, Any]]:
-    """Render settings of each touch of a virtual scene (see render_script.render_touches)."""
-    return render_touches_(sc, table, beta_pad=beta_pad, T_finger0_C=T_finger0_C)
 
 
 def _params_meta(p: CoreParams) -> dict[str, Any]:
@@ -293,10 +286,3 @@ def write_session(out_dir: str | os.PathLike, result: SessionResult, *, png: boo
         paths["png"] = write_session_png(out / "session.png", result.recording)
     return paths
 
-
-# Public names of the row builders and the render-touch settings: the node session (nodes/) records
-# its rows and builds its render settings with these, so both paths write the same columns.
-side_row = _side_row
-truth_row = _truth_row
-ref_row = _ref_row
-render_touches = _render_touches

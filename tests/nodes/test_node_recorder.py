@@ -9,7 +9,7 @@ import numpy as np
 
 import pytest
 
-from nodes.recorder import CsvRecorder
+from telethermo.session.recording_journal import CsvRecorder
 
 
 def test_rows_round_trip_exactly_and_appear_only_on_close(tmp_path):
@@ -60,7 +60,7 @@ def test_values_are_written_in_their_shortest_round_trip_form(tmp_path):
 # ------------------------------------------------------------------ the journal (nothing lost on SIGKILL)
 _CHILD = """
 import sys, time
-from nodes.recorder import CsvRecorder
+from telethermo.session.recording_journal import CsvRecorder
 rec = CsvRecorder(sys.argv[1], ["t_s", "sync_cycle", "x"], flush_every=10**9, sync_interval_s=0.05,
                   comments=["telethermo-recording 1", 'meta {"role": "slave"}'])
 for k in range(int(sys.argv[2])):
@@ -93,7 +93,7 @@ def _killed_writer(tmp_path, rows: int):
 
 
 def test_a_killed_writers_journal_is_recovered_with_every_complete_row(tmp_path):
-    from nodes.recorder import journal_path, recover_journal
+    from telethermo.session.recording_journal import journal_path, recover_journal
     from telethermo.session.recording import read_recording_csv
     path = _killed_writer(tmp_path, 123)
     assert not path.exists() and journal_path(path).exists()
@@ -109,7 +109,7 @@ def test_a_killed_writers_journal_is_recovered_with_every_complete_row(tmp_path)
 
 
 def test_the_next_start_recovers_the_journal_beside_the_new_recording(tmp_path):
-    from nodes.recorder import journal_path
+    from telethermo.session.recording_journal import journal_path
     from telethermo.session.recording import read_recording_csv
     path = _killed_writer(tmp_path, 40)
     rec = CsvRecorder(path, ["t_s", "sync_cycle", "x"], comments=["telethermo-recording 1", "meta {}"])
@@ -122,7 +122,7 @@ def test_the_next_start_recovers_the_journal_beside_the_new_recording(tmp_path):
 
 
 def test_a_journal_in_use_is_not_recovered_and_rows_reach_it_without_close(tmp_path):
-    from nodes.recorder import RecorderError, journal_path, recover_journal
+    from telethermo.session.recording_journal import RecorderError, journal_path, recover_journal
     path = tmp_path / "m.csv"
     rec = CsvRecorder(path, ["a"], flush_every=10**9, sync_interval_s=0.02)
     rec.write([1.5])

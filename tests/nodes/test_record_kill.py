@@ -12,7 +12,7 @@ import numpy as np
 
 from nodes.launch import NodePair, PairConfig, node_command, wait_for
 from nodes.merge import merge_recordings
-from nodes.recorder import journal_path
+from telethermo.session.recording_journal import journal_path
 from telethermo.session.recording import read_recording_csv
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"

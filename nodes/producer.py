@@ -1,0 +1,148 @@
+"""The SYNC producer of the pair (the master by default): the one SYNC scheduler of telethermo.
+
+It is the NMT master of the pair (it starts every node, and each one that reports a boot-up or a
+pre-operational heartbeat, see :meth:`nodes.runtime.NodeRuntime`'s peer events) and runs the schedule
+(DESIGN.md §3):
+
+- **lockstep**: SYNC k+1 only after the peer's PDOs of cycle k, or after a timeout when the peer is
+  silent. While the heartbeat consumer still sees the peer alive it is merely slow (a loaded machine),
+  so the producer keeps waiting, up to a patience bound for a peer whose heartbeat runs but whose
+  cycle hangs. A PDO that comes after its wait timed out is still owed: the next cycle waits for both,
+  so a slow peer falls back into step instead of staying one PDO behind.
+- **real time**: SYNC at the wall clock's period (:class:`nodes.schedule.RealtimeTicker`); late cycles
+  counted in 0x2703 and the log (one summary line per second at most).
+
+CiA 301: the SYNC producer produces in PRE-OPERATIONAL too (paced by the period; the SYNC handlers
+see ``tick.operational`` False, no PDO goes out); in STOPPED it does not.
+"""
+from __future__ import annotations
+
+import logging
+import time
+from typing import TYPE_CHECKING, Callable
+
+from telethermo.canopen_dev.device import NmtCommand, NmtState
+from telethermo.control.types import Mode
+
+from nodes.schedule import LateCycleLog, RealtimeTicker
+
+if TYPE_CHECKING:
+    from nodes.runtime import NodeRuntime
+
+log = logging.getLogger("telethermo.node")
+
+
+def wait_for_peer(rt: "NodeRuntime", timeout_s: float) -> bool:
+    """Wait until the peer's heartbeat is seen (it is started by NMT when it is)."""
+    deadline = time.monotonic() + timeout_s
+    while not rt.stop_event.is_set() and time.monotonic() < deadline:
+        if rt.device.peer_status(rt.peer_id) == "alive":
+            return True
+        rt.stop_event.wait(0.01)
+    return False
+
+
+class _PeerDebt:
+    """Lockstep bookkeeping: the PDOs owed by the peer (one per SYNC sent while it was believed alive).
+
+    The peer's PDOs of one SYNC are TPDO1 (estimate, flux), then TPDO5 (contact flag), in that order on an
+    ordered transport; waiting for the last synchronous RPDO (``last``) means every one of the cycle is in.
+    """
+
+    def __init__(self, rt: "NodeRuntime") -> None:
+        self.rt = rt
+        dev = rt.device
+        self.last = max((n for n, p in dev.rpdos.items() if p.valid and p.trans_type <= 240), default=1)
+        self.owed, self.base = 0, dev.rpdo_count(self.last)
+        self._marks = self._events()
+
+    def _events(self) -> tuple[int, int, int]:
+        return self.rt.peer_boots, self.rt.peer_pauses, self.rt.nmt_leaves
+
+    def refresh(self, status: str) -> None:
+        """A peer lost, never seen, rebooted, stopped/pre-operational or started again owes nothing (the SYNCs
+        it did not answer are never answered); when we left OPERATIONAL its PDOs were dropped."""
+        if status != "alive" or self._marks != self._events():
+            self.owed, self.base, self._marks = 0, self.rt.device.rpdo_count(self.last), self._events()
+
+    def left_operational(self) -> bool:
+        """This node left OPERATIONAL since the last refresh."""
+        return self._marks[2] != self.rt.nmt_leaves
+
+    def wait(self, k: int, wait_s: float, patience_s: float) -> None:
+        """After SYNC k-1 to a live peer: wait for its PDOs, up to ``patience_s`` while it stays alive."""
+        rt, dev = self.rt, self.rt.device
+        self.owed += 1
+        waited, arrived = 0.0, False
+        while not arrived and waited < patience_s and not rt.stop_event.is_set():
+            arrived = dev.wait_rpdo(self.last, after=self.base + self.owed - 1, timeout=wait_s)
+            waited += wait_s
+            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or rt.peer_paused or self.left_operational()):
+                break
+        if arrived:
+            self.base, self.owed = dev.rpdo_count(self.last), 0
+        elif not self.left_operational():   # we were stopped meanwhile: the debt is dropped at the next cycle
+            rt.stats.lockstep_timeouts += 1
+            log.warning("cycle %d: no PDO of node %d within %g ms (%d owed)", k - 1, rt.peer_id, waited * 1e3,
+                        self.owed)
+
+
+def _not_operational(rt: "NodeRuntime", ticker: RealtimeTicker | None) -> None:
+    """Stopped or pre-operational by an NMT command from elsewhere: no control cycles of ours; a SYNC per
+    period in PRE-OPERATIONAL."""
+    if ticker is not None:
+        ticker.wait_next()
+    else:
+        rt.stop_event.wait(rt.parts.period_s)
+    if rt.device.state is NmtState.PRE_OPERATIONAL and not rt.stop_event.is_set():
+        rt.sync.transmit()
+
+
+def run_producer(rt: "NodeRuntime", cycles: int, *, progress_every: int = 0,
+                 progress: Callable[[int, int], None] | None = None) -> int:
+    """Start all nodes (NMT) and run ``cycles`` SYNC cycles (0 = until stopped); return cycles run."""
+    dev, sync = rt.device, rt.sync
+    assert dev is not None and sync is not None
+    dev.nmt_command(NmtCommand.START, 0)
+    period = rt.parts.period_s
+    # how long one lockstep cycle waits for the peer's PDO: half the heartbeat consumer time, so that
+    # a merely slow peer is told from a lost one (which the heartbeat consumer reports)
+    wait_s = rt.net.heartbeat.consumer_ms * 0.5e-3 or 0.5
+    patience_s = 20 * wait_s  # a peer alive by its heartbeat but silent this long: count, go on
+    ticker = rt.ticker = None if rt.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
+    late_log = LateCycleLog(log)   # one summary line per second at most, not one per late cycle
+    debt = _PeerDebt(rt)
+    k = 0
+    while not rt.stop_event.is_set() and (cycles == 0 or k < cycles):
+        if dev.state is not NmtState.OPERATIONAL:
+            _not_operational(rt, ticker)
+            continue
+        if ticker is not None:
+            late, lateness = ticker.wait_next()
+            if late:
+                rt.stats.late_cycles = ticker.stats.late_cycles
+            late_log.cycle(k, late, lateness)
+        status = dev.peer_status(rt.peer_id)
+        debt.refresh(status)
+        if rt.peer_paused:
+            status = "paused"
+        rt.mark_sync_sent()
+        if sync.transmit() is None:  # holds the device lock until our own SYNC k is processed (no early PDO k)
+            continue   # stopped by an NMT command that came while we waited for the slot: no SYNC sent
+        k += 1
+        if rt.lockstep:
+            if status == "alive":
+                debt.wait(k, wait_s, patience_s)
+            elif status == "unknown" and rt.settings.mode is not Mode.TELEPRESENCE:
+                pass  # alone on the bus (rendering, identification): nobody to wait for
+            else:
+                # peer lost, not yet seen or not OPERATIONAL: our envelope keeps running, paced by the SYNC period
+                dev.wait_rpdo(debt.last, after=dev.rpdo_count(debt.last), timeout=period)
+        if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
+            progress(k, cycles)
+    late_log.flush()
+    # the session is over: every node leaves OPERATIONAL (no PDOs, current 0) before we go silent,
+    # so that the peer does not take our end for a loss
+    if dev.state is NmtState.OPERATIONAL:
+        dev.nmt_command(NmtCommand.ENTER_PRE_OPERATIONAL, 0)
+    return k

@@ -1,0 +1,38 @@
+"""The one recording writer: the offline runner's write_recording_csv goes through the nodes' journaled
+CsvRecorder, and the file is the documented format, byte for byte."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from telethermo.session.recording import Recording, read_recording_csv, write_recording_csv
+from telethermo.session.recording_journal import journal_path
+
+
+def _rec() -> Recording:
+    return Recording(meta={"scene": "s", "period_s": 0.01},
+                     columns={"t_s": np.array([0.0, 0.01]), "m_T_sensor_C": np.array([33.0, 33.125]),
+                              "m_contact": np.array([0.0, 1.0]), "m_Q_W": np.array([math.nan, -0.1]),
+                              "m_limits": ["", "ramp|guard"]})
+
+
+def test_the_offline_writer_writes_the_documented_format(tmp_path):
+    p = write_recording_csv(tmp_path / "r.csv", _rec())
+    assert p.read_bytes() == (b'# telethermo-recording 1\n'
+                              b'# meta {"period_s": 0.01, "scene": "s"}\n'
+                              b't_s,m_T_sensor_C,m_contact,m_Q_W,m_limits\n'
+                              b'0,33,0,nan,\n'
+                              b'0.01,33.125,1,-0.1,ramp|guard\n')
+    assert not journal_path(p).exists()
+    back = read_recording_csv(p)
+    assert back.text("m_limits") == ["", "ramp|guard"] and back.col("m_T_sensor_C")[1] == 33.125
+
+
+def test_a_killed_writers_journal_is_kept_beside_not_overwritten(tmp_path):
+    target = tmp_path / "r.csv"
+    journal_path(target).write_text("# telethermo-recording 1\n# meta {}\nt_s\n0.5\n0.6", encoding="utf-8")
+    write_recording_csv(target, _rec())
+    killed = [f for f in tmp_path.iterdir() if ".killed-" in f.name]
+    assert len(killed) == 1 and killed[0].read_text(encoding="utf-8").splitlines()[2:] == ["t_s", "0.5"]
+    assert read_recording_csv(target).meta == {"period_s": 0.01, "scene": "s"}
