@@ -1,0 +1,95 @@
+"""The render mode's later phase: what the pad renders after the first instant of a touch.
+
+Three models, chosen per render (``RenderSettings.later``):
+
+- ``semi_infinite`` (default, yamamoto): eq. 1's T_contact for the whole touch (an object of infinite
+  thickness: an aluminium foil and block feel the same);
+- ``rc``: benali-khoudja's RC analog (:mod:`telethermo.control.later_rc`);
+- ``conduction``: a few-cell conduction model of the object with its thickness and back
+  (:mod:`telethermo.control.later_conduction`), driven by the flux the finger sends into the pad.
+
+    lp = later_phase("conduction", VirtualObject("aluminium", 1.0), dt_s=0.01)
+    st = later_start(lp, T_object0_C)                       # at the touch
+    T, st = later_setpoint(lp, st, T_contact_C, T_finger0_C, T_object0_C, t_since_s, q_in_W)  # each cycle
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from enum import Enum
+from typing import Any
+
+from telethermo.control.later_conduction import ConductionModel, conduction_model, conduction_start, conduction_step
+from telethermo.control.later_rc import RcEntry, load_rc_table, rc_lookup, rc_temperature
+from telethermo.control.virtual_object import ObjectTable, VirtualObject, load_object_table
+
+
+class LaterModel(str, Enum):
+    """Later-phase model of the render mode."""
+
+    SEMI_INFINITE = "semi_infinite"
+    RC = "rc"
+    CONDUCTION = "conduction"
+
+
+LATER_MODELS = tuple(m.value for m in LaterModel)
+
+
+@dataclass(frozen=True, eq=False)
+class LaterPhase:
+    """A built later-phase model of one virtual object (immutable; its state is carried by the core).
+
+    Attributes:
+        model: :class:`LaterModel`. obj: the object.
+        tau_s, final_fraction: the RC model's τ (s) and φ (RC only).
+        conduction: the conduction model (CONDUCTION only).
+    """
+
+    model: LaterModel
+    obj: VirtualObject | None = None
+    tau_s: float = float("nan")
+    final_fraction: float = 0.0
+    conduction: ConductionModel | None = None
+
+
+def later_phase(model: str | LaterModel, obj: VirtualObject | None, dt_s: float, *, load_g: float = 0.0,
+                objects: ObjectTable | None = None, rc_table: list[RcEntry] | None = None) -> LaterPhase:
+    """Build the later-phase model ``model`` of ``obj`` for a control period ``dt_s`` (s). The tables
+    default to the shipped ones (telethermo/data/render_objects.toml, render_rc.toml)."""
+    try:
+        m = LaterModel(model)
+    except ValueError:
+        raise ValueError(f"later_phase: model: expected one of {', '.join(LATER_MODELS)}, got {model!r}") from None
+    if m is LaterModel.SEMI_INFINITE:
+        return LaterPhase(m, obj)
+    if obj is None:
+        raise ValueError(f"later_phase: the {m.value} model needs the virtual object (material, thickness, back)")
+    objects = objects or load_object_table()
+    name = objects.canonical(obj.material)
+    if m is LaterModel.RC:
+        tau, phi = rc_lookup(rc_table if rc_table is not None else load_rc_table(), name, obj.thickness_mm,
+                             obj.back, load_g)
+        return LaterPhase(m, obj, tau_s=tau, final_fraction=phi)
+    return LaterPhase(m, obj, conduction=conduction_model(obj, objects.get(name), dt_s))
+
+
+def later_start(lp: LaterPhase, T_object0_C: float) -> Any:
+    """The model's state at the instant of a touch (None for the stateless models)."""
+    if lp.model is LaterModel.CONDUCTION:
+        return conduction_start(lp.conduction, T_object0_C)
+    return None
+
+
+def later_setpoint(lp: LaterPhase, state: Any, T_contact_C: float, T_finger0_C: float, T_object0_C: float,
+                   t_since_s: float, q_in_W: float) -> tuple[float, Any]:
+    """The temperature to render now, °C, and the model's next state.
+
+    ``T_contact_C``: eq. 1; ``t_since_s``: time since the touch was detected, s; ``q_in_W``: heat flowing
+    from the finger into the pad (= −Q_W of the pad's sensor), W (conduction model only).
+    """
+    if lp.model is LaterModel.RC:
+        T_final = T_finger0_C + lp.final_fraction * (T_object0_C - T_finger0_C)
+        return rc_temperature(T_contact_C, T_final, lp.tau_s, t_since_s), None
+    if lp.model is LaterModel.CONDUCTION:
+        state, corr = conduction_step(lp.conduction, state, q_in_W)
+        return T_contact_C + corr, state
+    return T_contact_C, None
