@@ -496,7 +496,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
             later_st = state.render_later if state.render_phase is RenderPhase.CONTACT else None
             later_st = later_st if later_st is not None else later_start(rs.later, rs.T_object0_C)
             req, later_st = later_setpoint(rs.later, later_st, rs.T_contact_C, rs.T_finger0_C, rs.T_object0_C,
-                                           cst.since_s, -Q)
+                                           cst.since_s, -Q, e_flux)
         settling = phase is RenderPhase.CONTACT and cst.since_s < rs.settle_s - 1e-12
         hold_current = phase is RenderPhase.CONTACT and (rs.hold_current_on_contact or settling)
         ff = params.kQ_render_A_per_W * Q if phase is RenderPhase.CONTACT else 0.0

@@ -2,7 +2,10 @@
 
 The object is a slab of a few graded cells (the first ones thin, growing towards the back) with its back
 condition (adiabatic, or loss to ambient air), driven every cycle by the heat flux the finger sends into
-the pad (the pad's own flux sensor: ``q_in_W = -Q_W``). A few cells cannot resolve the first instant of a
+the pad: the pad's own flux sensor measures it at its mid-plane (``-Q_W``). Optionally the heat stored on
+the way in the sensor's upper half is added back (``C_front_J_K`` times the rate of the pad's surface
+estimate; measured by bench/rendering_bench.py: better on Al 1 mm, worse on glass, steel and EPS, so off
+by default). A few cells cannot resolve the first instant of a
 contact (the flux is singular at t = 0+), which eq. 1 renders exactly. So the model renders
 
     T_render(t) = T_contact (eq. 1) + [T_s,slab(t) - T_s,deep(t)]
@@ -27,6 +30,9 @@ from telethermo.control.virtual_object import H_AIR_W_M2K, ObjectMaterial, Virtu
 
 #: the deep twin reaches 4 diffusion lengths of this time, s (longer than any touch it renders)
 HORIZON_S = 60.0
+#: heat capacity between the flux sensor's mid-plane and the pad's surface, J/K: half of the default
+#: 0.42 mm, 15 × 15 mm sensor (ρc = 2.0e6 J/(m³·K), the design value of telethermo.control.core's R_sensor)
+C_FRONT_J_K = 0.5 * 0.42e-3 * 0.015 * 0.015 * 2.0e6
 #: first cell = √(a·T_FIRST_S)/2, geometric growth RATIO, at most MAX_CELLS per slab
 T_FIRST_S = 0.1
 RATIO = 1.5
@@ -101,21 +107,25 @@ def build_slab(mat: ObjectMaterial, widths_m: np.ndarray, area_m2: float, dt_s: 
 
 @dataclass(frozen=True, eq=False)
 class ConductionModel:
-    """The virtual object's slab and its deep (semi-infinite) twin, stepped together."""
+    """The virtual object's slab and its deep (semi-infinite) twin, stepped together; ``C_front_J_K``: heat
+    capacity between the flux measurement and the pad's surface, J/K."""
 
     slab: Slab
     deep: Slab
+    C_front_J_K: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
 class ConductionState:
-    """Cell temperatures of the slab and of the twin, °C."""
+    """Cell temperatures of the slab and of the twin, °C; the pad's last surface estimate, °C."""
 
     x_slab: np.ndarray
     x_deep: np.ndarray
+    T_surface_C: float = math.nan
 
 
-def conduction_model(obj: VirtualObject, mat: ObjectMaterial, dt_s: float) -> ConductionModel:
+def conduction_model(obj: VirtualObject, mat: ObjectMaterial, dt_s: float,
+                     C_front_J_K: float = 0.0) -> ConductionModel:
     """The model of ``obj`` (made of ``mat``) stepped every ``dt_s`` seconds."""
     if not (math.isfinite(dt_s) and dt_s > 0):
         raise ValueError(f"conduction_model: dt_s must be > 0, got {dt_s!r}")
@@ -127,7 +137,7 @@ def conduction_model(obj: VirtualObject, mat: ObjectMaterial, dt_s: float) -> Co
     slab = build_slab(mat, graded_widths(first, RATIO, L), obj.area_m2, dt_s, G_back_W_K=G_back,
                       T_back_C=obj.T_ambient_C)
     deep = build_slab(mat, graded_widths(first, RATIO, depth), obj.area_m2, dt_s)
-    return ConductionModel(slab, deep)
+    return ConductionModel(slab, deep, float(C_front_J_K))
 
 
 def conduction_start(model: ConductionModel, T_object0_C: float) -> ConductionState:
@@ -136,11 +146,15 @@ def conduction_start(model: ConductionModel, T_object0_C: float) -> ConductionSt
                            np.full(len(model.deep.widths_m), float(T_object0_C)))
 
 
-def conduction_step(model: ConductionModel, state: ConductionState, q_in_W: float) -> tuple[ConductionState, float]:
-    """Advance one period with ``q_in_W`` (W) entering the object's front; returns the new state and the
-    finite-object correction T_s,slab − T_s,deep, °C (add it to eq. 1's T_contact)."""
-    q = float(q_in_W) if math.isfinite(q_in_W) else 0.0
+def conduction_step(model: ConductionModel, state: ConductionState, q_in_W: float,
+                    T_surface_C: float = math.nan) -> tuple[ConductionState, float]:
+    """Advance one period with ``q_in_W`` (W, measured at the sensor's mid-plane) entering the object's
+    front and the pad's surface estimate ``T_surface_C`` (°C); returns the new state and the finite-object
+    correction T_s,slab − T_s,deep, °C (add it to eq. 1's T_contact)."""
     s, d = model.slab, model.deep
+    q = float(q_in_W) if math.isfinite(q_in_W) else 0.0
+    if math.isfinite(T_surface_C) and math.isfinite(state.T_surface_C):
+        q += model.C_front_J_K * (T_surface_C - state.T_surface_C) / s.dt_s
     xs = s.Phi @ state.x_slab + s.gam_q * q + s.gam_s
     xd = d.Phi @ state.x_deep + d.gam_q * q + d.gam_s
-    return ConductionState(xs, xd), s.surface_C(xs, q) - d.surface_C(xd, q)
+    return ConductionState(xs, xd, float(T_surface_C)), s.surface_C(xs, q) - d.surface_C(xd, q)

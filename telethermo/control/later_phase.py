@@ -10,7 +10,7 @@ Three models, chosen per render (``RenderSettings.later``):
 
     lp = later_phase("conduction", VirtualObject("aluminium", 1.0), dt_s=0.01)
     st = later_start(lp, T_object0_C)                       # at the touch
-    T, st = later_setpoint(lp, st, T_contact_C, T_finger0_C, T_object0_C, t_since_s, q_in_W)  # each cycle
+    T, st = later_setpoint(lp, st, T_contact_C, T_finger0_C, T_object0_C, t_since_s, q_in_W, T_surface_C)
 """
 from __future__ import annotations
 
@@ -80,16 +80,17 @@ def later_start(lp: LaterPhase, T_object0_C: float) -> Any:
 
 
 def later_setpoint(lp: LaterPhase, state: Any, T_contact_C: float, T_finger0_C: float, T_object0_C: float,
-                   t_since_s: float, q_in_W: float) -> tuple[float, Any]:
+                   t_since_s: float, q_in_W: float, T_surface_C: float = float("nan")) -> tuple[float, Any]:
     """The temperature to render now, °C, and the model's next state.
 
     ``T_contact_C``: eq. 1; ``t_since_s``: time since the touch was detected, s; ``q_in_W``: heat flowing
-    from the finger into the pad (= −Q_W of the pad's sensor), W (conduction model only).
+    from the finger into the pad (= −Q_W of the pad's sensor), W, and ``T_surface_C`` the pad's surface
+    estimate, °C (conduction model only).
     """
     if lp.model is LaterModel.RC:
         T_final = T_finger0_C + lp.final_fraction * (T_object0_C - T_finger0_C)
         return rc_temperature(T_contact_C, T_final, lp.tau_s, t_since_s), None
     if lp.model is LaterModel.CONDUCTION:
-        state, corr = conduction_step(lp.conduction, state, q_in_W)
+        state, corr = conduction_step(lp.conduction, state, q_in_W, T_surface_C)
         return T_contact_C + corr, state
     return T_contact_C, None
