@@ -32,6 +32,11 @@ class LaterModel(str, Enum):
 
 
 LATER_MODELS = tuple(m.value for m in LaterModel)
+#: OD codes (0x2605 later_model, 0x2607 object_back): position in these tuples
+LATER_CODES = LATER_MODELS
+BACK_CODES = ("adiabatic", "ambient")
+#: the object of a render whose thickness nobody gave, mm (a block: semi-infinite over a touch for non-metals)
+DEFAULT_THICKNESS_MM = 20.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -94,3 +99,29 @@ def later_setpoint(lp: LaterPhase, state: Any, T_contact_C: float, T_finger0_C: 
         state, corr = conduction_step(lp.conduction, state, q_in_W, T_surface_C)
         return T_contact_C + corr, state
     return T_contact_C, None
+
+
+def later_od_values(lp: LaterPhase | None) -> dict[str, float | int]:
+    """The OD image of a later phase: later_model code, object_thickness_mm, object_back code."""
+    obj = lp.obj if lp is not None else None
+    return {"later_model": LATER_CODES.index(lp.model.value) if lp is not None else 0,
+            "object_thickness_mm": obj.thickness_mm if obj is not None else DEFAULT_THICKNESS_MM,
+            "object_back": BACK_CODES.index(obj.back) if obj is not None else 0}
+
+
+def later_key(lp: LaterPhase | None, material: str, written: dict[str, float | int]) -> tuple:
+    """(model, material, thickness_mm, back): ``lp``'s with the operator's OD writes (``written``: codes as
+    in :func:`later_od_values`) on top; the key of :func:`later_from_key`. ValueError on a bad code."""
+    cur = later_od_values(lp)
+    cur.update(written)
+    code, back = int(cur["later_model"]), int(cur["object_back"])
+    if not (0 <= code < len(LATER_CODES) and 0 <= back < len(BACK_CODES)):
+        raise ValueError(f"later phase: later_model {code} / object_back {back}: expected codes "
+                         f"0..{len(LATER_CODES) - 1} / 0..{len(BACK_CODES) - 1}")
+    return LATER_CODES[code], material, float(cur["object_thickness_mm"]), BACK_CODES[back]
+
+
+def later_from_key(key: tuple, dt_s: float, T_ambient_C: float = 25.0) -> LaterPhase:
+    """The later phase of a :func:`later_key` (ValueError for a material the tables do not know)."""
+    model, material, thickness_mm, back = key
+    return later_phase(model, VirtualObject(material, thickness_mm, back, T_ambient_C=T_ambient_C), dt_s)

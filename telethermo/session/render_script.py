@@ -54,12 +54,14 @@ def render_touches(sc, table: dict[str, float] | None = None, *, beta_pad: float
         obj = VirtualObject(spec.material if spec is not None else t.render,
                             spec.thickness_m * 1e3 if spec is not None else 20.0,
                             spec.back if spec is not None else "adiabatic", T_ambient_C=float(sc.ambient_C))
-        later = None if LaterModel(later_model) is LaterModel.SEMI_INFINITE else \
-            later_phase(later_model, obj, period_s or sc.period_s, objects=objects)
+        try:
+            later = later_phase(later_model, obj, period_s or sc.period_s, objects=objects)
+        except ValueError:   # a material the object table does not know: eq. 1 for the whole touch
+            later = later_phase(LaterModel.SEMI_INFINITE, obj, period_s or sc.period_s)
         rs = RenderSettings(beta_object=beta, T_object0_C=T_o, beta_pad=beta_pad,
                             T_finger0_C=T_finger0_C, material=t.render, later=later)
         out.append({"material": t.render, "beta": beta, "t_on_s": t.start_s, "t_off_s": t.end_s,
-                    "thickness_mm": obj.thickness_mm, "back": obj.back, "later_model": LaterModel(later_model).value,
+                    "thickness_mm": obj.thickness_mm, "back": obj.back, "later_model": later.model.value,
                     "T_contact_C": rs.T_contact_C, "T_pad0_C": rs.T_pad0_C, "T_finger0_C": T_finger0_C,
                     "T_object0_C": T_o, "settings": rs})
     return out
