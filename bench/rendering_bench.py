@@ -115,11 +115,9 @@ def write_plot(path: Path, traces: dict) -> Path | None:
     return write_bytes_atomic(path, buf.getvalue())
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.rendering_bench", description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="Al 1 mm and 20 mm only")
-    args = ap.parse_args(argv)
-    figs = later_phase_figures(args.quick)
+def run(quick: bool) -> dict[str, Any]:
+    """Measure, print the table, write rendering.json (other keys kept) and rendering.png; the data."""
+    figs = later_phase_figures(quick)
     traces = figs.pop("_traces")
     print_table(["material", "mm", "model", "early RMS °C", "late RMS °C"],
                 [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in figs["later_phase"]])
@@ -128,11 +126,18 @@ def main(argv: list[str] | None = None) -> int:
     data: dict[str, Any] = {}
     if old.exists():
         data = {k: v for k, v in json.loads(old.read_text(encoding="utf-8")).items() if k != "provenance"}
-    data.update(figs, later_phase_quick=args.quick)
+    data.update(figs, later_phase_quick=quick)
     print(f"wrote {write_results('rendering', data)}")
     png = write_plot(out_dir / "rendering.png", traces)
     if png:
         print(f"wrote {png}")
+    return data
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.rendering_bench", description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="Al 1 mm and 20 mm only")
+    run(ap.parse_args(argv).quick)
     return 0
 
 
