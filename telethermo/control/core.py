@@ -283,6 +283,8 @@ class CoreState:
         finger_seen: something has touched the pad since the start (its detector or the rig's flag): once
             the finger is lifted, air rendering holds neutral instead (before any finger it renders air,
             and both pads rest at ambient).
+        render_later: RENDER in contact: (the render's ``LaterPhase``, its model state); restarted at each
+            touch and whenever the rendered object changes.
     """
 
     k: int
@@ -467,7 +469,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     eQ = 0.0
     phase = state.render_phase
     hold_current = False
-    later_st = None   # RENDER: the later-phase model's state
+    later_st = None   # RENDER: (the later-phase model, its state)
     gains = params.gains
     fg = params.flux_gains if mode is Mode.TELEPRESENCE else None
     if mode is Mode.TELEPRESENCE:
@@ -493,10 +495,12 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
         req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
         if phase is RenderPhase.CONTACT and rs.later is not None:   # after the first instant (eq. 1)
-            later_st = state.render_later if state.render_phase is RenderPhase.CONTACT else None
-            later_st = later_st if later_st is not None else later_start(rs.later, rs.T_object0_C)
-            req, later_st = later_setpoint(rs.later, later_st, rs.T_contact_C, rs.T_finger0_C, rs.T_object0_C,
-                                           cst.since_s, -Q, e_flux)
+            prev = state.render_later       # (the model it belongs to, its state): restart on a new touch/object
+            ls = prev[1] if prev is not None and prev[0] is rs.later and state.render_phase is phase else \
+                later_start(rs.later, rs.T_object0_C)
+            req, ls = later_setpoint(rs.later, ls, rs.T_contact_C, rs.T_finger0_C, rs.T_object0_C, cst.since_s,
+                                     -Q, e_flux)
+            later_st = (rs.later, ls)
         settling = phase is RenderPhase.CONTACT and cst.since_s < rs.settle_s - 1e-12
         hold_current = phase is RenderPhase.CONTACT and (rs.hold_current_on_contact or settling)
         ff = params.kQ_render_A_per_W * Q if phase is RenderPhase.CONTACT else 0.0

@@ -134,6 +134,12 @@ def test_the_render_mode_steps_the_conduction_model_from_each_touch():
         assert len(want) > 250
         assert all(a == pytest.approx(b, abs=1e-9) for a, b in want)
         assert want[-1][0] > rs.T_contact_C + 2.0     # the foil warms up under the finger
+    # the script switches to another object while the finger is still detected: its model starts afresh
+    foil2 = later_phase("conduction", VirtualObject("glass", 1.0), DT_S)
+    P2 = dataclasses.replace(P, render=dataclasses.replace(rs, later=foil2))
+    r2 = step(RigSample(10.0, rs.T_contact_C, -1.5, 0.0, True, 26.0), None, P2, r.state)
+    assert r2.status.requested_setpoint_C == pytest.approx(later_setpoint(
+        foil2, later_start(foil2, 25.0), rs.T_contact_C, 33.0, 25.0, 0.0, 1.5)[0], abs=1e-12)
     semi = dataclasses.replace(P, render=dataclasses.replace(rs, later=None))
     r2 = step(RigSample(20.0, rs.T_contact_C, -1.5, 0.0, True, 26.0), None, semi, r.state)
     assert r2.status.requested_setpoint_C == pytest.approx(rs.T_contact_C)
