@@ -2,10 +2,10 @@
 
 Three models, chosen per render (``RenderSettings.later``):
 
-- ``semi_infinite`` (default, yamamoto): eq. 1's T_contact for the whole touch (an object of infinite
+- ``semi_infinite`` (yamamoto): eq. 1's T_contact for the whole touch (an object of infinite
   thickness: an aluminium foil and block feel the same);
 - ``rc``: benali-khoudja's RC analog (:mod:`telethermo.control.later_rc`);
-- ``conduction``: a few-cell conduction model of the object with its thickness and back
+- ``conduction`` (the default of render sessions, :data:`DEFAULT_LATER_MODEL`): a few-cell conduction model of the object with its thickness and back
   (:mod:`telethermo.control.later_conduction`), driven by the flux the finger sends into the pad.
 
     lp = later_phase("conduction", VirtualObject("aluminium", 1.0), dt_s=0.01)
@@ -32,6 +32,8 @@ class LaterModel(str, Enum):
 
 
 LATER_MODELS = tuple(m.value for m in LaterModel)
+#: the render sessions' default (bench/rendering_bench.py: never worse than semi-infinite, best late phase)
+DEFAULT_LATER_MODEL = LaterModel.CONDUCTION
 #: OD codes (0x2605 later_model, 0x2607 object_back): position in these tuples
 LATER_CODES = LATER_MODELS
 BACK_CODES = ("adiabatic", "ambient")

@@ -19,7 +19,7 @@ import math
 from typing import Any, Callable
 
 from telethermo.control.core import RenderSettings
-from telethermo.control.later_phase import LaterModel, later_phase
+from telethermo.control.later_phase import DEFAULT_LATER_MODEL, LaterModel, later_phase
 from telethermo.control.virtual_object import VirtualObject, load_object_table
 
 
@@ -37,7 +37,7 @@ def _object_beta(sc, name: str, spec, table: dict[str, float], objects) -> float
 
 
 def render_touches(sc, table: dict[str, float] | None = None, *, beta_pad: float = 2.23,
-                   T_finger0_C: float = 34.0, later_model: str = LaterModel.SEMI_INFINITE.value,
+                   T_finger0_C: float = 34.0, later_model: str = DEFAULT_LATER_MODEL.value,
                    period_s: float | None = None) -> list[dict[str, Any]]:
     """Render settings of each touch of a virtual scene (β from the rendering table; ``later_model``:
     the later-phase model, built from the scene object's material, thickness and back)."""
@@ -72,7 +72,7 @@ class RenderScript:
 
     def __init__(self, sc, *, beta_pad: float = 2.23, T_finger0_C: float = 34.0, finger_thermometer: bool = True,
                  thermometer_lead_s: float = 1.0, calibration_presets_C: list[float] | None = None,
-                 table: dict[str, float] | None = None, later_model: str = LaterModel.SEMI_INFINITE.value) -> None:
+                 table: dict[str, float] | None = None, later_model: str = DEFAULT_LATER_MODEL.value) -> None:
         self.touches = render_touches(sc, table, beta_pad=beta_pad, T_finger0_C=T_finger0_C, later_model=later_model)
         if not self.touches:
             raise ValueError(f"scene {getattr(sc, 'name', sc)}: no master contact with a 'render' material: "
