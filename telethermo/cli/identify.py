@@ -13,6 +13,7 @@ The live path is :mod:`telethermo.cli.identify_live`.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -90,8 +91,6 @@ class ProgressBar:
 
 
 def _build_rig(args: argparse.Namespace):
-    import dataclasses
-
     import sim
 
     try:

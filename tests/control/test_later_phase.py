@@ -4,7 +4,6 @@ render mode stepping them."""
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 import pytest
