@@ -73,8 +73,8 @@ def run_object(material: str, thickness_mm: float) -> dict[str, Any]:
     return traces
 
 
-def later_phase_figures(quick: bool) -> dict[str, Any]:
-    """The ``later_phase`` list (and the traces for the plot under ``_traces``)."""
+def measure(quick: bool) -> tuple[list[dict[str, Any]], dict]:
+    """The ``later_phase`` rows and the skin traces per (material label, thickness mm)."""
     rows, traces = [], {}
     for label, material, th in (QUICK_OBJECTS if quick else OBJECTS):
         tr = run_object(material, th)
@@ -83,7 +83,12 @@ def later_phase_figures(quick: bool) -> dict[str, Any]:
             e = tr[model] - tr["direct"]
             rows.append({"material": label, "thickness_mm": th, "model": model,
                          "early_C": round(_rms(tr["t"], e, EARLY_S), 4), "late_C": round(_rms(tr["t"], e, LATE_S), 4)})
-    return {"later_phase": rows, "_traces": traces}
+    return rows, traces
+
+
+def later_phase_figures(quick: bool) -> dict[str, Any]:
+    """``{"later_phase": [{material, thickness_mm, model, early_C, late_C}, ...]}`` (JSON-ready)."""
+    return {"later_phase": measure(quick)[0]}
 
 
 def write_plot(path: Path, traces: dict) -> Path | None:
@@ -117,8 +122,8 @@ def write_plot(path: Path, traces: dict) -> Path | None:
 
 def run(quick: bool) -> dict[str, Any]:
     """Measure, print the table, write rendering.json (other keys kept) and rendering.png; the data."""
-    figs = later_phase_figures(quick)
-    traces = figs.pop("_traces")
+    rows, traces = measure(quick)
+    figs = {"later_phase": rows}
     print_table(["material", "mm", "model", "early RMS °C", "late RMS °C"],
                 [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in figs["later_phase"]])
     out_dir = current_results_dir()
