@@ -2,11 +2,12 @@
 
 Per virtual object (material, thickness; adiabatic back, at the 25 °C ambient): the master alone renders
 one 10 s touch at 6 N (yamamoto eq. 7 pre-set, then eq. 1 at contact) with each later-phase model
-(telethermo.control.later_phase: ``semi_infinite`` = today's behaviour, ``rc`` = benali-khoudja §4,
-``conduction`` = the few-cell model of the object), plus a null display that pre-sets its pad as eq. 7
-asks for the object and then holds its current through the touch (it ignores the object). The figure is the RMS of the operator's skin temperature minus the
-same finger's skin when it touches the same object directly (sim.build_reference), over 0-1 s (early_C)
-and 1-10 s (late_C) after the touch.
+(telethermo.control.later_phase: ``semi_infinite`` = the behaviour before issue 15, ``rc`` =
+benali-khoudja §4, ``conduction`` = the few-cell model of the object), plus a null display that pre-sets
+its pad as eq. 7 asks for the object and then holds its current through the touch (it ignores the
+object). The figure is the RMS of the operator's skin temperature minus the same finger's skin when it
+touches the same object directly (sim.build_reference), over 0-1 s (early_C) and 1-10 s (late_C) after
+the touch.
 
     python -m bench.rendering_bench [--quick]      # bench/results/rendering.json key later_phase, rendering.png
 
@@ -31,7 +32,8 @@ from telethermo.session.render_script import RenderScript
 from telethermo.session.runner import run_offline_session
 
 #: (label, sim material, thickness mm)
-OBJECTS = (("aluminium", "aluminium", 1.0), ("aluminium", "aluminium", 20.0), ("stainless_steel", "stainless_steel", 2.0),
+OBJECTS = (("aluminium", "aluminium", 1.0), ("aluminium", "aluminium", 20.0),
+           ("stainless_steel", "stainless_steel", 2.0),
            ("glass", "glass", 1.0), ("wood", "oak", 2.0), ("eps", "eps", 5.0))
 QUICK_OBJECTS = OBJECTS[:2]
 MODELS = ("semi_infinite", "rc", "conduction")
@@ -125,7 +127,7 @@ def run(quick: bool) -> dict[str, Any]:
     rows, traces = measure(quick)
     figs = {"later_phase": rows}
     print_table(["material", "mm", "model", "early RMS °C", "late RMS °C"],
-                [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in figs["later_phase"]])
+                [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in rows])
     out_dir = current_results_dir()
     old = out_dir / "rendering.json"
     data: dict[str, Any] = {}
