@@ -37,7 +37,7 @@ EDS_DATE, EDS_TIME = "11-23-2026", "10:00PM"
 
 UNIT_TEXT = {  # name suffix -> ASCII unit for the Unit= key (longest suffixes first when matching)
     "_A_per_C_s": "A/(degC*s)", "_A_per_C": "A/degC", "_A_per_W": "A/W", "_C_per_s": "degC/s",
-    "_C_per_W": "degC/W", "_C": "degC", "_W": "W", "_A": "A", "_N": "N", "_s": "s",
+    "_C_per_W": "degC/W", "_C": "degC", "_W": "W", "_A": "A", "_N": "N", "_s": "s", "_mm": "mm",
 }
 
 NODE_IDS = {"master": 1, "slave": 2}
@@ -227,6 +227,14 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2602, _real("object_T0_C", "rw", 25.0, -20.0, 100.0, description="initial object temperature")),
         V(0x2603, _real("finger_T0_C", "rw", 33.0, 20.0, 40.0, description="initial finger temperature")),
         V(0x2604, _real("pad_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the pad")),
+        # -- later phase of a rendered touch (issue 15; telethermo.control.later_phase)
+        V(0x2605, _uint("later_model", UNSIGNED8, "rw", 0, 0, 2,
+                        description="after the first instant: 0 semi-infinite (eq. 1 for the whole touch), 1 RC "
+                                    "(benali-khoudja 4), 2 conduction model of the object (1 and 2 need a material of "
+                                    "telethermo/data/render_objects.toml)")),
+        V(0x2606, _real("object_thickness_mm", "rw", 20.0, 0.01, 1000.0, description="virtual object thickness, mm")),
+        V(0x2607, _uint("object_back", UNSIGNED8, "rw", 0, 0, 1,
+                        description="virtual object back face: 0 adiabatic, 1 losing to ambient air")),
         # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
         V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
         V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),

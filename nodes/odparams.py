@@ -16,6 +16,7 @@ writes into its object dictionary so that ``telethermo get`` shows the running c
 | current_limit_A (0x2405) | ``safety.current_fraction`` × ``safety.I_max_A`` | all modes |
 | mode (0x2500) | ``mode`` | |
 | material_code, material_beta, object_T0_C, finger_T0_C, pad_beta (0x2600..0x2604) | ``render`` (:class:`RenderSettings`) | RENDER |
+| later_model, object_thickness_mm, object_back (0x2605..0x2607) | ``render.later`` (:mod:`telethermo.control.later_phase`) | RENDER |
 | ident_seed, ident_rest_samples, ident_train_samples, ident_validation_samples, ident_amplitude_min_A, ident_amplitude_max_A, ident_hold_samples (0x2800..0x2806) | ``identify`` (:class:`~telethermo.ident.plan.IdentifyPlan`) | IDENTIFY |
 
 Rendering: ``material_code`` 0 is a custom material (β = ``material_beta``), k >= 1 the k-th entry of
@@ -35,6 +36,7 @@ from typing import Any, Callable
 from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE, ABORT_MAX_BELOW_MIN, ABORT_RANGE, ABORT_TOO_HIGH
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.estimators import Estimator
+from telethermo.control.later_phase import later_from_key, later_key, later_od_values
 from telethermo.control.types import Mode, Role
 
 GAIN_KEYS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W")
@@ -46,7 +48,8 @@ SAFETY_KEYS: dict[str, tuple[str, ...]] = {
     "hot_threshold_C": ("hot_C",), "hot_time_limit_s": ("hot_time_limit_s",), "sink_trip_C": ("sink_trip_C",),
     "neutral_C": ("neutral_C",), "mismatch_limit_C": ("mismatch_C",),
 }
-RENDER_KEYS = ("material_code", "material_beta", "object_T0_C", "finger_T0_C", "pad_beta")
+LATER_KEYS = ("later_model", "object_thickness_mm", "object_back")   # 0x2605..0x2607, on top of any render
+RENDER_KEYS = ("material_code", "material_beta", "object_T0_C", "finger_T0_C", "pad_beta") + LATER_KEYS
 MATERIAL_KEYS = ("material_code", "material_beta", "object_T0_C")
 OTHER_KEYS = ("estimator", "R_sensor_C_per_W", "current_limit_A", "peer_pdo_miss_limit", "mode")
 #: OD name -> IdentifyPlan field (the amplitudes are the two ends of ``amplitude_A``)
@@ -94,6 +97,9 @@ class ParamBook:
         """pad_beta written by the operator (applies to the script's touches too)."""
         self.finger_T0_C: float | None = None
         """finger_T0_C written by the operator (on a script: until its thermometer measures the next touch)."""
+        self.later: dict[str, float] = {}
+        """later_model, object_thickness_mm, object_back written by the operator (telethermo.control.later_phase)."""
+        self._later_built: dict[tuple, Any] = {}
         if script_first is not None:
             self.render = script_first
         else:
@@ -135,6 +141,12 @@ class ParamBook:
             kw["beta_pad"] = self.beta_pad
         if self.finger_T0_C is not None and rs.T_finger0_C != self.finger_T0_C:
             kw["T_finger0_C"] = self.finger_T0_C
+        if self.later:
+            key = later_key(rs.later, rs.material, self.later)
+            if key not in self._later_built:
+                self._later_built[key] = later_from_key(key, self.params_for(Mode.IDLE).period_s)
+            if self._later_built[key] is not rs.later:
+                kw["later"] = self._later_built[key]
         return dataclasses.replace(rs, **kw) if kw else rs
 
     def material_code(self, rs: RenderSettings) -> int:
@@ -147,6 +159,7 @@ class ParamBook:
         new.__dict__.update(self.__dict__)
         new.gains = {m: dict(g) for m, g in self.gains.items()}
         new.common, new.safety, new.identify = dict(self.common), dict(self.safety), dict(self.identify)
+        new.later = dict(self.later)
         return new
 
     def check(self, key: str, value: Any, *, current_limit_of: Callable[[], float] | None = None) -> int | None:
@@ -230,6 +243,8 @@ class ParamBook:
             self.beta_pad = float(value)
         elif key == "finger_T0_C":
             self.finger_T0_C = float(value)
+        elif key in LATER_KEYS:
+            self.later[key] = float(value)
         else:
             raise KeyError(key)
         self.version += 1
@@ -254,6 +269,6 @@ def od_image(params: CoreParams, render: RenderSettings | None, *, material_code
                ident_amplitude_max_A=plan.amplitude_A[1], ident_hold_samples=plan.hold_samples)
     if render is not None:
         img.update(material_code=material_code, material_beta=render.beta_object, object_T0_C=render.T_object0_C,
-                   finger_T0_C=render.T_finger0_C, pad_beta=render.beta_pad)
+                   finger_T0_C=render.T_finger0_C, pad_beta=render.beta_pad, **later_od_values(render.later))
     return img
 

@@ -14,6 +14,8 @@ from sim.plant import GridSettings
 from sim.reference import DirectTouch, build_reference
 from sim.rig import RigTruth, SimRig
 from sim.scene import Scene, load_scene, shipped_scenes
+from sim.tem import load_tem_file
 
 __all__ = ["build_rig", "free_pad_rig", "build_reference", "load_scene", "shipped_scenes", "materials",
-           "Material", "Scene", "SceneError", "SimRig", "RigTruth", "DirectTouch", "GridSettings"]
+           "Material", "Scene", "SceneError", "SimRig", "RigTruth", "DirectTouch", "GridSettings",
+           "load_tem_file"]

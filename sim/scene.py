@@ -47,6 +47,15 @@ Format (all times s, temperatures °C, forces N, lengths mm)::
     Q_sigma_W = 0.002
     cutoff_Hz = 5.0
 
+    [tem]                          # optional: the rigs' thermo-electric module (default: sim/data/tem_15x15.toml)
+    couples = 31                   # needed only with per-couple values (seebeck_per_couple_V_K, R_per_couple_ohm,
+    seebeck_V_K = 0.0125           #   K_per_couple_W_K); else module values: Seebeck V/K, resistance ohm,
+    R_ohm = 0.971                  #   conductance W/K (see sim.tem.parse_tem_section)
+    K_W_K = 0.0652
+    thomson_V_K = 1.9e-3           # optional
+    plate_C_J_K = 0.62             # each plate's heat capacity, J/K
+    Imax_A = 3.0
+
     [numerics]                     # optional: error tolerance that picks the grid (sim.GridSettings.for_tolerance)
     tolerance_C = 0.05
 
@@ -66,7 +75,7 @@ from sim.bodies import FingerParams
 from sim.errors import SceneError
 from sim.materials import materials
 from sim.measurement import NoiseParams
-from sim.tem import RigParams, load_rig_params
+from sim.tem import RigParams, load_rig_params, parse_tem_section
 from sim.touch import BodySpec, Touch
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
@@ -201,7 +210,7 @@ def _contacts(r: _R, raw: list, prefix: str, duration: float, objects: dict, kin
 def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Scene:
     """Validate a scene given as a dict (as read from TOML); ``path`` names it in errors."""
     r = _R(path)
-    r.known(raw, ("scene", "finger", "objects", "master", "slave", "noise", "record", "numerics"), "")
+    r.known(raw, ("scene", "finger", "objects", "master", "slave", "noise", "record", "numerics", "tem"), "")
     sc = r.table(raw, "scene", required=True)
     r.known(sc, ("name", "kind", "description", "duration_s", "period_s", "ambient_C"), "scene.")
     name = r.string(sc, "name", "scene.", default=Path(path).stem)
@@ -307,11 +316,14 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
     num = r.table(raw, "numerics")
     r.known(num, ("tolerance_C",), "numerics.")
     tolerance = r.num(num, "tolerance_C", "numerics.", default=0.05, lo=0.0, hi=10.0, lo_open=True)
+    rig = rig_params or load_rig_params()
+    if "tem" in raw:
+        rig = parse_tem_section(raw["tem"], path, rig)
 
     return Scene(name=name, path=str(path), kind=kind, duration_s=duration, period_s=period, ambient_C=ambient,
                  finger=finger, objects=objects, master_contacts=master, slave_contacts=slave, noise=noise,
                  seed=seed, record_signals=tuple(signals), record_every_s=every,
-                 rig_params=rig_params or load_rig_params(), description=str(sc.get("description", "")),
+                 rig_params=rig, description=str(sc.get("description", "")),
                  tolerance_C=tolerance, master_start=master_start,
                  slave_start=slave_start)
 

@@ -167,3 +167,86 @@ def load_rig_params(path: str | Path | None = None) -> RigParams:
         detect_threshold_N=_num(raw, path, "contact", "detect_threshold_N"),
         h_air_W_m2K=_num(raw, path, "contact", "h_air_W_m2K"),
     )
+
+
+#: [tem] section of a scene or a --tem file: key -> (what, unit). Module values, or per-couple ones times ``couples``.
+TEM_KEYS = ("couples", "seebeck_V_K", "R_ohm", "K_W_K", "seebeck_per_couple_V_K", "R_per_couple_ohm",
+            "K_per_couple_W_K", "thomson_V_K", "plate_C_J_K", "sink_plate_C_J_K", "pad_plate_C_J_K", "Imax_A")
+_PER_COUPLE = (("seebeck_V_K", "seebeck_per_couple_V_K"), ("R_ohm", "R_per_couple_ohm"), ("K_W_K", "K_per_couple_W_K"))
+
+
+def _tem_num(raw: dict, path: str, key: str, lo: float, hi: float, default: float | None = None) -> float:
+    v = raw.get(key, default)
+    if v is None:
+        raise SceneError(path, f"tem.{key}", f"a number in ({lo}, {hi}] (required)")
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)) or not lo < v <= hi:
+        raise SceneError(path, f"tem.{key}", f"a number in ({lo}, {hi}]", v)
+    return float(v)
+
+
+def parse_tem_section(raw: object, path: str | Path, base: RigParams | None = None) -> RigParams:
+    """The rig of ``base`` (default: the shipped module) with the TEM of a ``[tem]`` table.
+
+    Keys: ``Imax_A``; the module's Seebeck coefficient, resistance and conductance, either as module
+    values (``seebeck_V_K``, ``R_ohm``, ``K_W_K``) or per couple (``seebeck_per_couple_V_K``,
+    ``R_per_couple_ohm``, ``K_per_couple_W_K``, multiplied by ``couples``); the plate capacities
+    (``plate_C_J_K`` for both plates; the model's two plates share one value, so ``sink_plate_C_J_K`` and
+    ``pad_plate_C_J_K``, if given, must be equal); ``thomson_V_K`` (optional, default: the base module's).
+    Errors are one line naming the file, the field and what was expected (:class:`SceneError`).
+    """
+    path = str(path)
+    if not isinstance(raw, dict):
+        raise SceneError(path, "tem", "a table [tem]", raw)
+    for key in raw:
+        if key not in TEM_KEYS:
+            raise SceneError(path, f"tem.{key}", f"a known field ({', '.join(TEM_KEYS)})")
+    base = base or load_rig_params()
+    couples = raw.get("couples")
+    if couples is not None and (isinstance(couples, bool) or not isinstance(couples, int) or not 0 < couples <= 10_000):
+        raise SceneError(path, "tem.couples", "an integer in [1, 10000]", couples)
+    vals = {}
+    for module_key, couple_key in _PER_COUPLE:
+        if (module_key in raw) == (couple_key in raw):
+            raise SceneError(path, f"tem.{module_key}", f"either {module_key} or {couple_key} (exactly one)")
+        if module_key in raw:
+            vals[module_key] = _tem_num(raw, path, module_key, 0.0, 1e3)
+        elif couples is None:
+            raise SceneError(path, "tem.couples", f"the number of couples (for {couple_key})")
+        else:
+            vals[module_key] = couples * _tem_num(raw, path, couple_key, 0.0, 10.0)
+    plates = {k: _tem_num(raw, path, k, 0.0, 1e3) for k in ("plate_C_J_K", "sink_plate_C_J_K", "pad_plate_C_J_K")
+              if k in raw}
+    if not plates:
+        raise SceneError(path, "tem.plate_C_J_K", "a number in (0.0, 1000.0] (required)")
+    if max(plates.values()) - min(plates.values()) > 1e-12 * max(plates.values()):
+        raise SceneError(path, "tem.pad_plate_C_J_K", "the same capacity for both plates (the lumped TEM model "
+                         f"has one plate capacity), got {plates}")
+    th = raw.get("thomson_V_K", base.tem.tau_V_K)
+    if isinstance(th, bool) or not isinstance(th, (int, float)) or not math.isfinite(float(th)) or abs(th) > 1.0:
+        raise SceneError(path, "tem.thomson_V_K", "a number in [-1, 1] V/K", th)
+    tem = TEMParams(alpha_V_K=vals["seebeck_V_K"], R_ohm=vals["R_ohm"], K_W_K=vals["K_W_K"], tau_V_K=float(th),
+                    plate_C_J_K=next(iter(plates.values())), I_max_A=_tem_num(raw, path, "Imax_A", 0.0, 100.0))
+    return base.with_(tem=tem)
+
+
+def load_tem_file(path: str | Path) -> RigParams:
+    """The default rig with the TEM of a TOML file's ``[tem]`` table (the scene format; ``telethermo identify
+    --tem FILE``). SceneError names the file and the field."""
+    p = Path(path)
+    try:
+        raw = tomllib.loads(p.read_text(encoding="utf-8"))
+    except (FileNotFoundError, IsADirectoryError):
+        raise SceneError(str(p), "<file>", "an existing TOML file with a [tem] table") from None
+    except UnicodeDecodeError as exc:
+        raise SceneError(str(p), "<file>", f"UTF-8 text ({exc})") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError(str(p), "<toml>", f"valid TOML ({exc})") from None
+    if "tem" not in raw:
+        raise SceneError(str(p), "tem", "a [tem] table")
+    return parse_tem_section(raw["tem"], p)
+
+
+def tem_section(p: TEMParams) -> dict[str, float]:
+    """The ``[tem]`` table of a module (module values): parse_tem_section's inverse."""
+    return {"seebeck_V_K": p.alpha_V_K, "R_ohm": p.R_ohm, "K_W_K": p.K_W_K, "thomson_V_K": p.tau_V_K,
+            "plate_C_J_K": p.plate_C_J_K, "Imax_A": p.I_max_A}

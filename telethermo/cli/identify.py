@@ -13,6 +13,7 @@ The live path is :mod:`telethermo.cli.identify_live`.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -37,6 +38,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                      help="'sim': the default simulated free pad (sim.free_pad_rig)")
     src.add_argument("--scene", metavar="NAME_OR_TOML",
                      help="use the master rig of this scene (its pad must touch nothing)")
+    p.add_argument("--tem", metavar="TOML", help="simulated rig: its thermo-electric module from the file's [tem] "
+                   "table (the scene format; default: sim/data/tem_15x15.toml)")
     p.add_argument("--samples", type=int, default=10_000, help="training PRBS length, samples (default 10000)")
     p.add_argument("--validation", type=int, default=None, help="held-out PRBS length, samples (default samples/2)")
     p.add_argument("--orders", default=DEFAULT_ORDERS, metavar="n,m,p,q",
@@ -90,9 +93,14 @@ class ProgressBar:
 def _build_rig(args: argparse.Namespace):
     import sim
 
+    try:
+        params = sim.load_tem_file(args.tem) if getattr(args, "tem", None) else None
+    except ValueError as exc:
+        raise UserError(str(exc)) from None
     if args.scene:
         try:
             scene = sim.load_scene(args.scene)
+            scene = dataclasses.replace(scene, rig_params=params) if params is not None else scene
             rig = sim.build_rig(scene, "master", seed=args.seed)
         except (ValueError, OSError) as exc:
             raise UserError(str(exc)) from None
@@ -103,8 +111,9 @@ def _build_rig(args: argparse.Namespace):
         return rig, {"rig": "scene", "scene": str(args.scene)}
     if not (args.period_s > 0):
         raise UserError(f"--period-s must be > 0, got {args.period_s}")
-    rig = sim.free_pad_rig(period_s=args.period_s, ambient_C=args.ambient_C, seed=args.seed, noise=True)
-    return rig, {"rig": "sim.free_pad_rig", "period_s": args.period_s, "ambient_C": args.ambient_C}
+    rig = sim.free_pad_rig(period_s=args.period_s, ambient_C=args.ambient_C, seed=args.seed, noise=True, params=params)
+    return rig, {"rig": "sim.free_pad_rig", "period_s": args.period_s, "ambient_C": args.ambient_C,
+                 **({"tem": str(args.tem)} if params is not None else {})}
 
 
 @common.failures

@@ -26,7 +26,7 @@ from telethermo.monitor.cia301 import error_register_names
 
 #: name suffix -> unit (the naming convention of bus_config/edsgen.py; longest first)
 NAME_UNITS = (("_A_per_C_s", "A/(degC*s)"), ("_A_per_C", "A/degC"), ("_A_per_W", "A/W"), ("_C_per_s", "degC/s"),
-              ("_C_per_W", "degC/W"), ("_C", "degC"), ("_W", "W"), ("_A", "A"), ("_N", "N"), ("_s", "s"))
+              ("_C_per_W", "degC/W"), ("_C", "degC"), ("_W", "W"), ("_A", "A"), ("_N", "N"), ("_s", "s"), ("_mm", "mm"))
 _TIME_UNIT = re.compile(r"^(?:(\d+) )?(us|ms|s)\b( units)?")
 _ENUM_ITEM = re.compile(r"^(\d+) ([A-Za-z][^()]*?)\s*(?:\(.*\))?$")
 _UNSIGNED = {0x0005: 2, 0x0006: 4, 0x0007: 8, 0x001B: 16}   # data type -> hex digits

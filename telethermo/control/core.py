@@ -40,6 +40,7 @@ from typing import Any
 from telethermo.control import safety as sf
 from telethermo.control.contact import ContactParams, ContactState, contact_step
 from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
+from telethermo.control.later_phase import LaterPhase, later_setpoint, later_start
 from telethermo.ident.plan import IdentifyPlan, guarded_current
 from telethermo.control.pi import PIComponents, PIGains, PIState, bumpless, pi_step
 from telethermo.control.rendering import contact_temperature, pad_preset_temperature
@@ -81,6 +82,8 @@ class RenderSettings:
             measurements catch up with the skin's natural jump (≈ 2 × the filter's group delay);
             then the PI resumes, bumpless, on T_contact.
         material: name, for the records.
+        later: the later-phase model (:mod:`telethermo.control.later_phase`); None = eq. 1's T_contact
+            for the whole touch (semi-infinite object).
     """
 
     beta_object: float
@@ -90,6 +93,7 @@ class RenderSettings:
     hold_current_on_contact: bool = False
     settle_s: float = 0.1
     material: str = ""
+    later: LaterPhase | None = None
 
     def __post_init__(self) -> None:
         for name in ("beta_object", "beta_pad"):
@@ -279,6 +283,8 @@ class CoreState:
         finger_seen: something has touched the pad since the start (its detector or the rig's flag): once
             the finger is lifted, air rendering holds neutral instead (before any finger it renders air,
             and both pads rest at ambient).
+        render_later: RENDER in contact: (the render's ``LaterPhase``, its model state); restarted at each
+            touch and whenever the rendered object changes.
     """
 
     k: int
@@ -295,6 +301,7 @@ class CoreState:
     finger_seen: bool = False
     pred_tick: int = 0
     pred_snapshot: Any = None
+    render_later: Any = None
     cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
 
 
@@ -462,6 +469,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     eQ = 0.0
     phase = state.render_phase
     hold_current = False
+    later_st = None   # RENDER: (the later-phase model, its state)
     gains = params.gains
     fg = params.flux_gains if mode is Mode.TELEPRESENCE else None
     if mode is Mode.TELEPRESENCE:
@@ -486,6 +494,13 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         rs = params.render
         phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
         req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
+        if phase is RenderPhase.CONTACT and rs.later is not None:   # after the first instant (eq. 1)
+            prev = state.render_later       # (the model it belongs to, its state): restart on a new touch/object
+            ls = prev[1] if prev is not None and prev[0] is rs.later and state.render_phase is phase else \
+                later_start(rs.later, rs.T_object0_C)
+            req, ls = later_setpoint(rs.later, ls, rs.T_contact_C, rs.T_finger0_C, rs.T_object0_C, cst.since_s,
+                                     -Q, e_flux)
+            later_st = (rs.later, ls)
         settling = phase is RenderPhase.CONTACT and cst.since_s < rs.settle_s - 1e-12
         hold_current = phase is RenderPhase.CONTACT and (rs.hold_current_on_contact or settling)
         ff = params.kQ_render_A_per_W * Q if phase is RenderPhase.CONTACT else 0.0
@@ -552,7 +567,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
                           source=source, render_phase=phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
                           finger_seen=state.finger_seen or cst.contact or bool(sample.contact),
-                          pred_snapshot=snap, cell=state.cell)
+                          pred_snapshot=snap, cell=state.cell,
+                          render_later=later_st)
     status = StepStatus(safety=status_env, requested_setpoint_C=req, setpoint_C=sp, feedback_C=y, T_pred_C=T_pred,
                         estimate_C=est, estimate_model_C=e_model, estimate_flux_C=e_flux, contact=cst.contact,
                         render_phase=phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req)

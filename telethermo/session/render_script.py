@@ -19,25 +19,49 @@ import math
 from typing import Any, Callable
 
 from telethermo.control.core import RenderSettings
+from telethermo.control.later_phase import DEFAULT_LATER_MODEL, LaterModel, later_phase
+from telethermo.control.virtual_object import VirtualObject, load_object_table
+
+
+def _object_beta(sc, name: str, spec, table: dict[str, float], objects) -> float:
+    """β of a rendered object: the rendering table's by the touch's name, then by the object's material,
+    then b/b_finger from the object table (telethermo/data/render_objects.toml)."""
+    for key in (name, getattr(spec, "material", None)):
+        if key in table:
+            return table[key]
+    try:
+        return objects.beta(getattr(spec, "material", None) or name)
+    except ValueError:
+        raise ValueError(f"scene {sc.name}: render material {name!r} not in the rendering table "
+                         f"(known: {', '.join(sorted(table))}) nor in the object table") from None
 
 
 def render_touches(sc, table: dict[str, float] | None = None, *, beta_pad: float = 2.23,
-                   T_finger0_C: float = 34.0) -> list[dict[str, Any]]:
-    """Render settings of each touch of a virtual scene (β from the rendering table)."""
+                   T_finger0_C: float = 34.0, later_model: str = DEFAULT_LATER_MODEL.value,
+                   period_s: float | None = None) -> list[dict[str, Any]]:
+    """Render settings of each touch of a virtual scene (β from the rendering table; ``later_model``:
+    the later-phase model, built from the scene object's material, thickness and back)."""
     from telethermo.control.rendering import load_render_table
     table = table or load_render_table()
+    objects = load_object_table()
     out = []
     for t in sc.master_contacts:
         if t.render is None:
             continue
-        if t.render not in table:
-            raise ValueError(f"scene {sc.name}: render material {t.render!r} not in the rendering table "
-                             f"(known: {', '.join(sorted(table))})")
         spec = sc.objects.get(t.render)
+        beta = _object_beta(sc, t.render, spec, table, objects)
         T_o = float(spec.T0_C) if spec is not None else float(sc.ambient_C)
-        rs = RenderSettings(beta_object=table[t.render], T_object0_C=T_o, beta_pad=beta_pad,
-                            T_finger0_C=T_finger0_C, material=t.render)
-        out.append({"material": t.render, "beta": table[t.render], "t_on_s": t.start_s, "t_off_s": t.end_s,
+        obj = VirtualObject(spec.material if spec is not None else t.render,
+                            spec.thickness_m * 1e3 if spec is not None else 20.0,
+                            spec.back if spec is not None else "adiabatic", T_ambient_C=float(sc.ambient_C))
+        try:
+            later = later_phase(later_model, obj, period_s or sc.period_s, objects=objects)
+        except ValueError:   # a material the object table does not know: eq. 1 for the whole touch
+            later = later_phase(LaterModel.SEMI_INFINITE, obj, period_s or sc.period_s)
+        rs = RenderSettings(beta_object=beta, T_object0_C=T_o, beta_pad=beta_pad,
+                            T_finger0_C=T_finger0_C, material=t.render, later=later)
+        out.append({"material": t.render, "beta": beta, "t_on_s": t.start_s, "t_off_s": t.end_s,
+                    "thickness_mm": obj.thickness_mm, "back": obj.back, "later_model": later.model.value,
                     "T_contact_C": rs.T_contact_C, "T_pad0_C": rs.T_pad0_C, "T_finger0_C": T_finger0_C,
                     "T_object0_C": T_o, "settings": rs})
     return out
@@ -48,8 +72,8 @@ class RenderScript:
 
     def __init__(self, sc, *, beta_pad: float = 2.23, T_finger0_C: float = 34.0, finger_thermometer: bool = True,
                  thermometer_lead_s: float = 1.0, calibration_presets_C: list[float] | None = None,
-                 table: dict[str, float] | None = None) -> None:
-        self.touches = render_touches(sc, table, beta_pad=beta_pad, T_finger0_C=T_finger0_C)
+                 table: dict[str, float] | None = None, later_model: str = DEFAULT_LATER_MODEL.value) -> None:
+        self.touches = render_touches(sc, table, beta_pad=beta_pad, T_finger0_C=T_finger0_C, later_model=later_model)
         if not self.touches:
             raise ValueError(f"scene {getattr(sc, 'name', sc)}: no master contact with a 'render' material: "
                              "nothing to render")

@@ -28,6 +28,7 @@ import numpy as np
 from telethermo.atomic import write_json_atomic
 from telethermo.control.core import CoreParams, StepResult, init_state, initial_peer, step
 from telethermo.control.defaults import HOLD_GAINS, default_params
+from telethermo.control.later_phase import DEFAULT_LATER_MODEL
 from telethermo.control.types import Mode, PeerValues, Role
 from telethermo.session.figures import compute_figures
 from telethermo.session.plot import write_session_png
@@ -109,7 +110,7 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     ``rounding``: "none" or "real32" (exchanged values rounded as REAL32 PDOs carry them).
     ``mode``: "telepresence" or "render" (default: render for a "virtual" scene).
     ``render_options``: ``beta_pad`` (the calibrated pad β), ``T_finger0_C``, ``finger_thermometer``,
-    ``thermometer_lead_s`` (see :func:`_run_render`).
+    ``thermometer_lead_s``, ``later_model`` (see :func:`_run_render`).
     """
     import sim
 
@@ -178,22 +179,26 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
 
 def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, beta_pad: float = 2.23,
                 T_finger0_C: float = 34.0, finger_thermometer: bool = True,
-                thermometer_lead_s: float = 1.0, calibration_presets_C: list[float] | None = None) -> SessionResult:
+                thermometer_lead_s: float = 1.0, calibration_presets_C: list[float] | None = None,
+                later_model: str = DEFAULT_LATER_MODEL.value) -> SessionResult:
     """Master alone renders each touch's virtual material (settings from the scene's touches).
 
     ``finger_thermometer``: read the finger's skin temperature ``thermometer_lead_s`` before each
     touch, as yamamoto's radiation thermometer does (else ``T_finger0_C`` for every touch).
     ``calibration_presets_C``: calibration session instead: touch i pre-sets the pad at
     ``calibration_presets_C[i]`` and holds the current during the touch (see session.calibration).
+    ``later_model``: the later-phase model (telethermo.control.later_phase: semi_infinite, rc, conduction;
+    default conduction).
     """
     script = RenderScript(sc, beta_pad=beta_pad, T_finger0_C=T_finger0_C, finger_thermometer=finger_thermometer,
-                          thermometer_lead_s=thermometer_lead_s, calibration_presets_C=calibration_presets_C)
+                          thermometer_lead_s=thermometer_lead_s, calibration_presets_C=calibration_presets_C,
+                          later_model=later_model)
     base = params or default_params(Role.MASTER, period_s=period, mode=Mode.RENDER, render=script.first)
     base = _with_rig_limits(base, rig_m)
     s0 = rig_m.read()
     state = init_state(dataclasses.replace(base, mode=Mode.RENDER, render=script.first), model, s0)
     meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "render", "rounding": rounding,
-            "contacts": scene_contacts(sc, "master"), "finger_thermometer": finger_thermometer,
+            "contacts": scene_contacts(sc, "master"), "finger_thermometer": finger_thermometer, "later_model": later_model,
             "master_params": _params_meta(base)}
     b = RecordingBuilder(meta)
     for _k in range(n_steps):

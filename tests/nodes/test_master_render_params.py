@@ -168,3 +168,26 @@ def test_on_a_render_scene_the_od_shows_the_script_and_a_written_pad_beta_applie
     assert list(target[10:20]) == [calibrated.T_pad0_C] * 10
     assert list(target[20:30]) == [brass.T_pad0_C] * 10
     assert len({first.T_pad0_C, calibrated.T_pad0_C, brass.T_pad0_C}) == 3
+
+
+def test_the_later_phase_objects_show_the_script_object_and_take_writes(master):
+    """0x2605..0x2607: the script's object (eps, 20 mm, adiabatic back, conduction model) is shown; a written
+    model and thickness are taken at the next SYNC; RC/conduction with a custom β (no material) is refused."""
+    master.start("virtual_materials.toml")
+    sdo = master.sdo
+    assert [sdo[k].raw for k in ("later_model", "object_thickness_mm", "object_back")] == [2, 20.0, 0]
+    master.operational()
+    master.syncs(5)
+    sdo["later_model"].raw = 1
+    sdo["object_thickness_mm"].raw = 1.0
+    master.syncs(5)
+    assert [sdo[k].raw for k in ("later_model", "object_thickness_mm", "object_back")] == [1, 1.0, 0]
+    with pytest.raises(canopen.SdoAbortedError):            # a custom β has no material for the RC model
+        sdo["material_beta"].raw = 7.5
+    sdo["later_model"].raw = 0
+    master.syncs(2)
+    sdo["material_beta"].raw = 7.5                          # semi-infinite: any β
+    master.syncs(2)
+    with pytest.raises(canopen.SdoAbortedError):
+        sdo["later_model"].raw = 1
+    assert master.recording().col("m_target_C").size == 14

@@ -1,0 +1,152 @@
+"""Rendering benchmark: the render mode's later-phase models against the simulator's direct touch.
+
+Per virtual object (material, thickness; adiabatic back, at the 25 °C ambient): the master alone renders
+one 10 s touch at 6 N (yamamoto eq. 7 pre-set, then eq. 1 at contact) with each later-phase model
+(telethermo.control.later_phase: ``semi_infinite`` = the behaviour before issue 15, ``rc`` =
+benali-khoudja §4, ``conduction`` = the few-cell model of the object), plus a null display that pre-sets
+its pad as eq. 7 asks for the object and then holds its current through the touch (it ignores the
+object). The figure is the RMS of the operator's skin temperature minus the same finger's skin when it
+touches the same object directly (sim.build_reference), over 0-1 s (early_C) and 1-10 s (late_C) after
+the touch.
+
+    python -m bench.rendering_bench [--quick]      # bench/results/rendering.json key later_phase, rendering.png
+
+``later_phase_figures(quick)`` returns the figures; other keys of rendering.json (material identification)
+are kept when this bench rewrites it.
+"""
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import sim
+from bench.common import current_results_dir, print_table, write_results
+from telethermo.atomic import write_bytes_atomic
+from telethermo.session.render_script import RenderScript
+from telethermo.session.runner import run_offline_session
+
+#: (label, sim material, thickness mm)
+OBJECTS = (("aluminium", "aluminium", 1.0), ("aluminium", "aluminium", 20.0),
+           ("stainless_steel", "stainless_steel", 2.0),
+           ("glass", "glass", 1.0), ("wood", "oak", 2.0), ("eps", "eps", 5.0))
+QUICK_OBJECTS = OBJECTS[:2]
+MODELS = ("semi_infinite", "rc", "conduction")
+NULL = "null_hold_preset"
+T_ON_S, TOUCH_S, FORCE_N, AMBIENT_C = 6.0, 10.0, 6.0, 25.0
+EARLY_S, LATE_S = (0.0, 1.0), (1.0, 10.0)
+
+
+def _scene(material: str, thickness_mm: float, render: bool) -> sim.Scene:
+    raw: dict[str, Any] = {
+        "scene": {"name": f"render_{material}_{thickness_mm:g}mm", "kind": "virtual", "ambient_C": AMBIENT_C,
+                  "duration_s": T_ON_S + TOUCH_S + 0.5, "period_s": 0.01},
+        "objects": {"obj": {"material": material, "thickness_mm": thickness_mm, "back": "adiabatic"}},
+        "master": {"contacts": [{"start_s": T_ON_S, "end_s": T_ON_S + TOUCH_S + 0.5, "force_N": FORCE_N}]},
+        "noise": {"seed": 5},
+    }
+    if render:
+        raw["master"]["contacts"][0]["render"] = "obj"
+    return sim.scene.parse_scene(raw, f"<rendering bench {material} {thickness_mm:g} mm>")
+
+
+def _rms(t: np.ndarray, e: np.ndarray, window: tuple[float, float]) -> float:
+    m = (t >= T_ON_S + window[0]) & (t < T_ON_S + window[1])
+    return float(np.sqrt(np.mean(e[m] ** 2)))
+
+
+def run_object(material: str, thickness_mm: float) -> dict[str, Any]:
+    """Skin traces (t, direct touch, each model, null) of one object."""
+    traces: dict[str, np.ndarray] = {}
+    for model in MODELS:
+        rec = run_offline_session(_scene(material, thickness_mm, True), render_options={"later_model": model}).recording
+        traces["t"], traces["direct"] = rec.col("t_s"), rec.col("ref_T_contact_C")
+        traces[model] = rec.col("m_true_finger_C")
+    # null: the pad pre-set as eq. 7 asks for this object, then its current held through the touch
+    sc = _scene(material, thickness_mm, True)
+    T_pad0 = RenderScript(sc).first.T_pad0_C
+    rec = run_offline_session(sc, render_options={"calibration_presets_C": [T_pad0]}).recording
+    traces[NULL] = rec.col("m_true_finger_C")
+    return traces
+
+
+def measure(quick: bool) -> tuple[list[dict[str, Any]], dict]:
+    """The ``later_phase`` rows and the skin traces per (material label, thickness mm)."""
+    rows, traces = [], {}
+    for label, material, th in (QUICK_OBJECTS if quick else OBJECTS):
+        tr = run_object(material, th)
+        traces[(label, th)] = tr
+        for model in (*MODELS, NULL):
+            e = tr[model] - tr["direct"]
+            rows.append({"material": label, "thickness_mm": th, "model": model,
+                         "early_C": round(_rms(tr["t"], e, EARLY_S), 4), "late_C": round(_rms(tr["t"], e, LATE_S), 4)})
+    return rows, traces
+
+
+def later_phase_figures(quick: bool) -> dict[str, Any]:
+    """``{"later_phase": [{material, thickness_mm, model, early_C, late_C}, ...]}`` (JSON-ready)."""
+    return {"later_phase": measure(quick)[0]}
+
+
+def write_plot(path: Path, traces: dict) -> Path | None:
+    """Skin temperature vs time for Al 1 mm and Al 20 mm: direct touch and the three models."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    keys = [k for k in (("aluminium", 1.0), ("aluminium", 20.0)) if k in traces]
+    if not keys:
+        return None
+    fig, axes = plt.subplots(1, len(keys), figsize=(6 * len(keys), 4), sharey=True)
+    for ax, key in zip(np.atleast_1d(axes), keys):
+        tr = traces[key]
+        t = tr["t"] - T_ON_S
+        m = (t >= -1.0) & (t <= TOUCH_S)
+        ax.plot(t[m], tr["direct"][m], "k", lw=2, label="direct touch (simulator)")
+        for model, style in zip((*MODELS, NULL), ("C0-", "C1--", "C2-", "C7:")):
+            ax.plot(t[m], tr[model][m], style, label=model)
+        ax.set_title(f"aluminium {key[1]:g} mm (adiabatic back)")
+        ax.set_xlabel("time since touch (s)")
+        ax.grid(alpha=0.3)
+    np.atleast_1d(axes)[0].set_ylabel("operator's skin temperature (°C)")
+    np.atleast_1d(axes)[0].legend(fontsize=8)
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=110)
+    plt.close(fig)
+    return write_bytes_atomic(path, buf.getvalue())
+
+
+def run(quick: bool) -> dict[str, Any]:
+    """Measure, print the table, write rendering.json (other keys kept) and rendering.png; the data."""
+    rows, traces = measure(quick)
+    figs = {"later_phase": rows}
+    print_table(["material", "mm", "model", "early RMS °C", "late RMS °C"],
+                [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in rows])
+    out_dir = current_results_dir()
+    old = out_dir / "rendering.json"
+    data: dict[str, Any] = {}
+    if old.exists():
+        data = {k: v for k, v in json.loads(old.read_text(encoding="utf-8")).items() if k != "provenance"}
+    data.update(figs, later_phase_quick=quick)
+    print(f"wrote {write_results('rendering', data)}")
+    png = write_plot(out_dir / "rendering.png", traces)
+    if png:
+        print(f"wrote {png}")
+    return data
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.rendering_bench", description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="Al 1 mm and 20 mm only")
+    run(ap.parse_args(argv).quick)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

@@ -1,0 +1,102 @@
+"""A scene's [tem] section and ``telethermo identify --tem``: the module round-trips, per-couple values
+scale, the module really drives the rig, and bad values give one line naming the file, field and expectation."""
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+import sim
+from sim.errors import SceneError
+from sim.tem import load_rig_params, load_tem_file, tem_section
+from telethermo.cli.main import main as cli_main
+
+BASE = """[scene]
+name = "tem_scene"
+kind = "virtual"
+duration_s = 1.0
+
+"""
+
+
+def toml_table(name: str, d: dict) -> str:
+    def val(v):
+        return str(v).lower() if isinstance(v, bool) else repr(v)
+    return f"[{name}]\n" + "".join(f"{k} = {val(v)}\n" for k, v in d.items())
+
+
+def write_scene(tmp_path, tem: dict) -> str:
+    p = tmp_path / "scene.toml"
+    p.write_text(BASE + toml_table("tem", tem), encoding="utf-8")
+    return str(p)
+
+
+def test_the_default_module_round_trips_through_a_scene(tmp_path):
+    default = load_rig_params()
+    sc = sim.load_scene(write_scene(tmp_path, tem_section(default.tem)))
+    assert sc.rig_params == default   # every TEM field and the rest of the rig unchanged
+
+
+def test_per_couple_values_scale_with_the_couples_and_the_module_drives_the_rig(tmp_path):
+    tem = {"couples": 71, "seebeck_per_couple_V_K": 4.0e-4, "R_per_couple_ohm": 0.025, "K_per_couple_W_K": 0.0015,
+           "plate_C_J_K": 1.1, "Imax_A": 6.0, "thomson_V_K": 0.0}
+    sc = sim.load_scene(write_scene(tmp_path, tem))
+    t = sc.rig_params.tem
+    assert (t.alpha_V_K, t.R_ohm, t.K_W_K) == pytest.approx((71 * 4.0e-4, 71 * 0.025, 71 * 0.0015), rel=1e-12)
+    assert (t.plate_C_J_K, t.I_max_A, t.tau_V_K) == (1.1, 6.0, 0.0)
+    rig = sim.build_rig(sc, "master", noise=False)
+    assert rig.I_max_A == 6.0
+    # the same current heats the bigger module's pad differently from the default one
+    default = sim.build_rig(dataclasses.replace(sc, rig_params=load_rig_params()), "master", noise=False)
+    for r in (rig, default):
+        r.apply_current(1.0)
+        r.advance(2.0)
+    assert abs(rig.truth().T_pad_C - default.truth().T_pad_C) > 0.5
+    # a --tem file uses the same table
+    p = tmp_path / "module.toml"
+    p.write_text(toml_table("tem", tem), encoding="utf-8")
+    assert load_tem_file(p) == sc.rig_params
+
+
+GOOD = {"seebeck_V_K": 0.0125, "R_ohm": 0.97, "K_W_K": 0.065, "plate_C_J_K": 0.62, "Imax_A": 3.0}
+
+
+@pytest.mark.parametrize("change, field, expected", [
+    ({"seebeck_V_K": -0.01}, "tem.seebeck_V_K", "a number in (0.0, 1000.0]"),
+    ({"R_ohm": "one"}, "tem.R_ohm", "a number in"),
+    ({"K_W_K": True}, "tem.K_W_K", "a number in"),
+    ({"Imax_A": None}, "tem.Imax_A", "(required)"),
+    ({"plate_C_J_K": None}, "tem.plate_C_J_K", "(required)"),
+    ({"Imax": 3.0}, "tem.Imax", "a known field"),
+    ({"R_per_couple_ohm": 0.03, "couples": 31}, "tem.R_ohm", "exactly one"),
+    ({"R_ohm": None, "R_per_couple_ohm": 0.03}, "tem.couples", "the number of couples"),
+    ({"couples": 2.5}, "tem.couples", "an integer"),
+    ({"sink_plate_C_J_K": 0.5}, "tem.pad_plate_C_J_K", "the same capacity for both plates"),
+    ({"thomson_V_K": float("nan")}, "tem.thomson_V_K", "a number in [-1, 1]"),
+])
+def test_bad_tem_values_give_one_line_naming_file_field_and_expectation(tmp_path, change, field, expected):
+    tem = {**GOOD, **change}
+    tem = {k: v for k, v in tem.items() if v is not None}
+    path = write_scene(tmp_path, tem).replace("\\", "/")
+    with pytest.raises(SceneError) as ei:
+        sim.load_scene(path)
+    msg = str(ei.value)
+    assert "\n" not in msg and msg.startswith(f"{path}: field '{field}': expected ") and expected in msg, msg
+
+
+def test_a_tem_table_that_is_not_a_table_is_refused(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text('tem = "big"\n' + BASE, encoding="utf-8")
+    with pytest.raises(SceneError, match=r"field 'tem': expected a table \[tem\]"):
+        sim.load_scene(p)
+
+
+def test_identify_tem_option_reports_a_bad_file_in_one_line(tmp_path, capsys):
+    bad = tmp_path / "bad.toml"
+    bad.write_text(toml_table("tem", {**GOOD, "Imax_A": 0}), encoding="utf-8")
+    code = cli_main(["identify", "--tem", str(bad), "--out", str(tmp_path / "m.json"), "--quiet"])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and "\n" not in err and f"{bad}: field 'tem.Imax_A': expected a number in (0.0, 100.0]" in err
+    missing = tmp_path / "none.toml"
+    assert cli_main(["identify", "--tem", str(missing), "--out", str(tmp_path / "m.json"), "--quiet"]) == 2
+    assert "an existing TOML file with a [tem] table" in capsys.readouterr().err
