@@ -17,7 +17,10 @@ Hence, with H the touch's step,
 
     E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H],
 
-linear in (b, b·T_o0, b·R_c): least squares, b·R_c kept ≥ 0. The rig's filter is linear and time-invariant,
+linear in (b, b·T_o0, b·R_c): least squares, b·R_c kept ≥ 0. The same relation differentiated, the flux
+form T_top = T_o0 + (1/b)·I½[q_top]/A + R_c·q_top with q_top = dE/dt, is linear in (T_o0, 1/b, R_c) and
+weighs the early samples more; both are fitted and the one with the smaller standard error of ln b kept
+(the energy form wins on insulators, the flux form on metals behind a contact resistance). The rig's filter is linear and time-invariant,
 as are I½ and ∫, so the relation holds for the filtered signals once the filter's memory of the pre-contact
 state is removed: the filter's response to the touch's step, ``s(k)`` (1 at the touch, → 0), times the
 pre-contact means (:func:`filter_release`; the rig's documented 2nd-order Butterworth, ``cutoff_Hz`` = 0
@@ -71,6 +74,7 @@ class ProbeParams:
         prior_T_object_C: prior mean of the object's initial temperature, °C (objects near ambient).
         prior_weight: weight of the prior row: a residual b·(prior − T_o0) counts like prior_weight × that
             many J of heat residual (1e-5: about a 5 °C prior σ against the fit's typical residual).
+        prior_weight_C: the same prior in the flux form, a residual (prior − T_o0) counted × this, °C/°C.
     """
 
     R_half_K_per_W: float = 0.5 * 0.42e-3 / (2.0 * 0.015 * 0.015)
@@ -83,6 +87,7 @@ class ProbeParams:
     c_store_J_per_K: float = 0.095
     prior_T_object_C: float = 25.0
     prior_weight: float = 1e-5
+    prior_weight_C: float = 0.002
     top_store_J_per_K: float = 0.0475
 
 
@@ -207,28 +212,52 @@ def estimate_effusivity(T_sensor_C, Q_W, i_contact: int, dt_s: float,
     w = _window(np.asarray(T_sensor_C, float), np.asarray(Q_W, float), int(i_contact), dt_s, probe)
     if w is None:
         return None
-    E, top_H, q, s = w
+    ests = [e for e in (_energy_form(*w, dt_s, probe), _flux_form(*w, dt_s, probe)) if e is not None]
+    return min(ests, key=lambda e: e.se_ln_b) if ests else None
+
+
+def _energy_form(E, top_H, q, s, dt_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
+    """E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H]: θ = (b, b·T_o0, b·R_c)."""
     M = probe.area_m2 * half_integral_matrix(E.size, dt_s)                     # A·I½
     X = np.column_stack([M @ top_H, -(M @ (1.0 - s)), -(M @ q)])
     k0 = int(round(probe.skip_s / dt_s))
-    fit = _fit(X[k0:], E[k0:], probe)
+    wp = probe.prior_weight
+    fit = _fit(X[k0:], E[k0:], wp * np.array([probe.prior_T_object_C, -1.0, 0.0]), 0.0, 0)
     if fit is None:
         return None
     theta, se_b, resid = fit
     b = float(theta[0])
     return EffusivityEstimate(b=b, se_ln_b=se_b / b, T_object0_C=float(theta[1] / b),
                               R_contact_K_per_W=float(theta[2] / b),
+                              residual_C=math.sqrt(float(resid @ resid) / resid.size) / (b * probe.area_m2 * 0.5),
+                              n=int(resid.size))
+
+
+def _flux_form(E, top_H, q, s, dt_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
+    """T_top·H = T_o0·H + (1/b)·I½[q_top]/A + R_c·q_top, q_top = dE/dt: θ = (T_o0, 1/b, R_c)."""
+    q_top = np.gradient(E, dt_s)
+    M = half_integral_matrix(E.size, dt_s) / probe.area_m2
+    X = np.column_stack([1.0 - s, M @ q_top, q_top])
+    k0 = int(round(probe.skip_s / dt_s))
+    wt = probe.prior_weight_C
+    fit = _fit(X[k0:], top_H[k0:], wt * np.array([1.0, 0.0, 0.0]), wt * probe.prior_T_object_C, 1)
+    if fit is None:
+        return None
+    theta, se_inv_b, resid = fit
+    inv_b = float(theta[1])
+    return EffusivityEstimate(b=1.0 / inv_b, se_ln_b=se_inv_b / inv_b, T_object0_C=float(theta[0]),
+                              R_contact_K_per_W=float(theta[2]),
                               residual_C=math.sqrt(float(resid @ resid) / resid.size), n=int(resid.size))
 
 
-def _fit(X: np.ndarray, y: np.ndarray, probe: ProbeParams):
-    """Least squares of y on X = [b, b·T_o0, b·R_c] with the prior row on T_o0 (weight ``prior_weight``);
-    b·R_c kept >= 0. Returns (θ, se of b, residuals) or None (b <= 0 or singular)."""
-    wp = probe.prior_weight
-    prior = wp * np.array([probe.prior_T_object_C, -1.0, 0.0])
+def _fit(X: np.ndarray, y: np.ndarray, prior_row: np.ndarray, prior_y: float, i_pos: int):
+    """Least squares of y on X's three columns plus one prior row (all zero: none); the last parameter (the
+    contact resistance's) is kept >= 0 (refit without it), parameter ``i_pos`` must come out > 0.
+    Returns (θ, standard error of θ[i_pos], residuals) or None."""
+    use_prior = bool(np.any(prior_row))
     for cols in (3, 2):
-        Xc = np.vstack([X[:, :cols], prior[:cols]]) if wp > 0 else X[:, :cols]
-        yc = np.append(y, 0.0) if wp > 0 else y
+        Xc = np.vstack([X[:, :cols], prior_row[:cols]]) if use_prior else X[:, :cols]
+        yc = np.append(y, prior_y) if use_prior else y
         XtX = Xc.T @ Xc
         if not np.isfinite(XtX).all() or np.linalg.cond(XtX) > 1e16:
             return None
@@ -236,14 +265,14 @@ def _fit(X: np.ndarray, y: np.ndarray, probe: ProbeParams):
         theta = cov @ (Xc.T @ yc)
         if cols == 3 and theta[2] < 0:
             continue
-        if not theta[0] > 0:
+        if not theta[i_pos] > 0:
             return None
         resid = y - X[:, :cols] @ theta
         n = resid.size
         rho = _lag1(resid)
         sigma2 = float(resid @ resid) / max(n - cols, 1) * (1.0 + rho) / (1.0 - rho)
         theta = np.append(theta, 0.0) if cols == 2 else theta
-        return theta, math.sqrt(max(sigma2 * cov[0, 0], 0.0)), resid
+        return theta, math.sqrt(max(sigma2 * cov[i_pos, i_pos], 0.0)), resid
     return None
 
 
