@@ -38,6 +38,7 @@ from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
 from telethermo.control.defaults import default_params
 from telethermo.control.estimators import estimate_flux
+from telethermo.control.material_stream import MaterialEstimate
 from telethermo.control.types import PeerValues, Role
 
 #: simulator material -> rendering-table name
@@ -57,8 +58,9 @@ def finger_natural_C(params) -> float:
 
 
 def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
-                   seed: int, t_on_s: float) -> tuple[np.ndarray, np.ndarray, int]:
-    """(T_sensor_C, Q_W, index of the first contact sample) of one touch under the slave's default control."""
+                   seed: int, t_on_s: float) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None]:
+    """(T_sensor_C, Q_W, index of the first contact sample, the material the slave's core published at the
+    end) of one touch under the slave's default control."""
     grid = GridSettings(t_min_s=PERIOD_S)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, AMBIENT_C, params.h_air_W_m2K, grid)
@@ -77,7 +79,7 @@ def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, forc
         st = r.state
         rig.apply_current(r.current_A)
         rig.advance(PERIOD_S)
-    return T, Q, int(np.argmax(flag)) if flag.any() else -1
+    return T, Q, int(np.argmax(flag)) if flag.any() else -1, r.status.material
 
 
 def eq1_baseline(T: np.ndarray, Q: np.ndarray, i0: int, R_sensor: float, b_probe: float) -> float:
@@ -115,6 +117,21 @@ def merged_groups(conf: np.ndarray, rate: float) -> list[list[int]]:
     return sorted(groups.values())
 
 
+def pair_table(conf: np.ndarray, names: list[str], lb: np.ndarray, ln_err: list[list[float]]) -> list[dict]:
+    """Neighbours in ln b: their separation, the measured spread of the estimate (RMS of ln(b_est/b) over
+    both classes) and the mutual confusion: a pair whose separation is below ~2 spreads cannot be told apart
+    by this probe in the window."""
+    order = np.argsort(lb)
+    out = []
+    for a, b in zip(order, order[1:]):
+        e = ln_err[a] + ln_err[b]
+        n = conf[a].sum() + conf[b].sum()
+        out.append({"pair": [names[a], names[b]], "separation_ln_b": round(float(lb[b] - lb[a]), 3),
+                    "rms_ln_error": round(float(np.sqrt(np.mean(np.square(e)))), 3) if e else None,
+                    "mutual_confusion": round(float((conf[a, b] + conf[b, a]) / n), 3) if n else None})
+    return out
+
+
 def material_id_figures(quick: bool) -> dict[str, Any]:
     """Run the touches and return the figures (see the module docstring)."""
     t_start = time.perf_counter()
@@ -132,6 +149,7 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     conf = np.zeros((k, k + 1), int)
     conf_eq1 = np.zeros((k, k + 1), int)
     err_pct, within_ci, se_ln = [], [], []
+    ln_err: list[list[float]] = [[] for _ in range(k)]
     for i in range(n_touches):
         j = i % k
         mat = sims[j]
@@ -139,21 +157,22 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
         T_obj = float(rng.uniform(15.0, 35.0))
         d = float(rng.uniform(1.0, 20.0)) * 1e-3
         t_on = PRE_S + float(rng.uniform(0.0, PERIOD_S))
-        T, Q, i0 = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=1000 + i, t_on_s=t_on)
-        est = mi.estimate_effusivity(T, Q, i0, PERIOD_S) if i0 > 0 else None
+        T, Q, i0, est = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=1000 + i, t_on_s=t_on)
         b_true = material(mat).b
-        if est is not None:
-            err_pct.append(100.0 * abs(est.b / b_true - 1.0))
-            lo, hi = est.interval()
-            within_ci.append(lo <= b_true <= hi)
+        b_est = est.effusivity if est is not None and est.touch == 1 else math.nan
+        if math.isfinite(b_est):
+            err_pct.append(100.0 * abs(b_est / b_true - 1.0))
+            within_ci.append(abs(math.log(b_est / b_true)) <= 1.96 * est.se_ln_b)
             se_ln.append(est.se_ln_b)
-        conf[j, nearest(est.b if est else math.nan, names, lb)] += 1
+            ln_err[j].append(math.log(b_est / b_true))
+        conf[j, nearest(b_est, names, lb)] += 1
         conf_eq1[j, nearest(eq1_baseline(T, Q, i0, R_sensor, b_probe), names, lb)] += 1
     correct = int(np.trace(conf[:, :k]))
     groups = merged_groups(conf, MERGE_RATE)
     group_of = {c: gi for gi, g in enumerate(groups) for c in g}
     merged_ok = sum(int(conf[a, b]) for a in range(k) for b in range(k) if group_of[a] == group_of[b])
     majority = float(conf.sum(axis=1).max() / n_touches)
+    pairs = pair_table(conf, names, lb, ln_err)
     return {
         "material_id_accuracy": correct / n_touches,
         "material_id_n_touches": n_touches,
@@ -163,6 +182,7 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
         "material_id_se_ln_b_median": float(np.median(se_ln)) if se_ln else math.nan,
         "confusion": {"labels": names, "columns": names + ["none"], "rows_truth_cols_estimate": conf.tolist()},
         "material_id_merged_groups": [[names[c] for c in g] for g in groups if len(g) > 1],
+        "material_id_pairs": pairs,
         "material_id_merge_rule": f"pairs with mutual confusion >= {MERGE_RATE} in this run, joined transitively",
         "material_id_accuracy_merged": merged_ok / n_touches,
         "material_id_baseline_majority_accuracy": majority,

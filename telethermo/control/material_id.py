@@ -121,7 +121,7 @@ class Classification:
     """Nearest table material.
 
     Attributes:
-        index: 1-based position of the material in the table (file order, = the OD's material code).
+        index: 1-based position of the material in the table given (file order).
         name: its name.
         posterior: its posterior probability (equal priors).
         margin_sigma: (distance to the 2nd nearest − distance to the nearest) in ln b / σ.
