@@ -201,7 +201,8 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     fig = material_id_figures(args.quick)
     c = fig["confusion"]
-    print_table(["truth \\ est"] + c["columns"], [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])])
+    rows = [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])]
+    print_table(["truth \\ est"] + c["columns"], rows)
     for key in ("material_id_accuracy", "material_id_accuracy_merged", "material_id_merged_groups",
                 "effusivity_error_median_pct", "material_id_baseline_majority_accuracy",
                 "material_id_baseline_eq1_ambient_accuracy", "material_id_ci95_coverage", "material_id_run_s"):

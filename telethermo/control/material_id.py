@@ -20,9 +20,10 @@ Hence, with H the touch's step,
 linear in (b, b·T_o0, b·R_c): least squares, b·R_c kept ≥ 0. The same relation differentiated, the flux
 form T_top = T_o0 + (1/b)·I½[q_top]/A + R_c·q_top with q_top = dE/dt, is linear in (T_o0, 1/b, R_c) and
 weighs the early samples more; both are fitted and the one with the smaller standard error of ln b kept
-(the energy form wins on insulators, the flux form on metals behind a contact resistance). The rig's filter is linear and time-invariant,
-as are I½ and ∫, so the relation holds for the filtered signals once the filter's memory of the pre-contact
-state is removed: the filter's response to the touch's step, ``s(k)`` (1 at the touch, → 0), times the
+(the energy form wins on insulators, the flux form on metals behind a contact resistance).
+
+The rig's filter is linear and time-invariant, as are I½ and ∫, so the relation holds for the filtered
+signals once the filter's memory of the pre-contact state is removed: the filter's response to the touch's step, ``s(k)`` (1 at the touch, → 0), times the
 pre-contact means (:func:`filter_release`; the rig's documented 2nd-order Butterworth, ``cutoff_Hz`` = 0
 for an unfiltered rig).
 
@@ -33,8 +34,11 @@ so a weak prior on the object's temperature (``prior_T_object_C``, weight ``prio
 defined; for metals the object's surface hardly moves and b hides behind R_half + R_c (a few % of the
 temperature drop): the standard error says so.
 
-Confidence: the standard error of ln b from the residuals (σ²·(XᵀX)⁻¹, σ² inflated by the residuals'
-lag-1 autocorrelation (1 + ρ)/(1 − ρ): the filter makes neighbouring residuals correlated).
+Confidence: the standard error of ln b combines the residuals' (σ²·(XᵀX)⁻¹, σ² inflated by the residuals'
+lag-1 autocorrelation (1 + ρ)/(1 − ρ): the filter makes neighbouring residuals correlated) with the spread
+of ln b when the rig's documented noise is drawn again (``noise_draws`` seeded realisations through the
+same filter): the noise of the early samples enters every later one through the integrals, which the
+residuals do not show. The model's own bias (a few % on clean touches, more on thin slabs) is not in it.
 
 Classification (:func:`classify`): nearest table effusivity in ln b; the posterior of each class under a
 Gaussian in ln b with the estimate's standard error widened by a model floor ``floor_ln``, and the margin
@@ -44,7 +48,7 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -64,31 +68,42 @@ class ProbeParams:
         cutoff_Hz: the rig's 2nd-order Butterworth low-pass, Hz (0 = unfiltered signals).
         window_s: fit window after the touch, s (≤ 0.3 s).
         skip_s: samples this long after the touch are left out of the residuals, s (the sensor's own
-            transient; they still enter the integrals).
+            transient, ≈ 4 × its half's diffusion time; they still enter the integrals).
         pre_s: pre-contact averaging window, s.
         floor_ln: model floor added (in quadrature) to the standard error of ln b when classifying.
         c_store_J_per_K: heat capacity of the sensor's upper half, J/K (0.42 mm, 15 × 15 mm, ρc = 2 MJ/(m³·K):
             half of 0.19 J/K).
-        top_store_J_per_K: half of it: the upper half's mean flux is the measured mean less this times
-            dT_sensor/dt, J/K.
+        top_store_J_per_K: the upper half's mean flux is the measured mean less this times dT_sensor/dt,
+            J/K: C_half/2 = 0.0475 for a linear profile; 0.055 puts the clean semi-infinite touches of oak,
+            glass, ceramic and copper (8 N, 20 mm, 20 °C) within 2.1 % of their effusivity (the graded
+            profile of the sensor's fast transient).
         prior_T_object_C: prior mean of the object's initial temperature, °C (objects near ambient).
         prior_weight: weight of the prior row: a residual b·(prior − T_o0) counts like prior_weight × that
             many J of heat residual (1e-5: about a 5 °C prior σ against the fit's typical residual).
         prior_weight_C: the same prior in the flux form, a residual (prior − T_o0) counted × this, °C/°C.
+        slope_half_width: time derivatives by central differences over ± this many samples.
+        T_sigma_C, Q_sigma_W: the rig's measurement noise before its filter (1 σ; sim.measurement's
+            defaults), for the noise part of the confidence.
+        noise_draws: noise realisations drawn for it (0: residuals only); noise_seed: their seed.
     """
 
     R_half_K_per_W: float = 0.5 * 0.42e-3 / (2.0 * 0.015 * 0.015)
     area_m2: float = 0.015 * 0.015
     cutoff_Hz: float = 5.0
     window_s: float = 0.3
-    skip_s: float = 0.1
+    skip_s: float = 0.2
     pre_s: float = 0.05
     floor_ln: float = 0.1
     c_store_J_per_K: float = 0.095
     prior_T_object_C: float = 25.0
     prior_weight: float = 1e-5
     prior_weight_C: float = 0.002
-    top_store_J_per_K: float = 0.0475
+    slope_half_width: int = 1
+    T_sigma_C: float = 0.02
+    Q_sigma_W: float = 0.002
+    noise_draws: int = 8
+    noise_seed: int = 15
+    top_store_J_per_K: float = 0.055
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,15 +173,17 @@ def filter_release(n: int, cutoff_Hz: float, dt_s: float) -> np.ndarray:
     return out
 
 
-def half_integral_matrix(n: int, dt_s: float) -> np.ndarray:
-    """Lower-triangular M with (M·f)[k] = I½[f](t_k) = 1/√π ∫ f(σ)/√(t_k − σ) dσ, s^½, f held over
-    [t_j − dt/2, t_j + dt/2] (sample 0 at the touch, which happened half a period before it on average)."""
-    m = np.arange(n, dtype=float)
-    g = 2.0 * (np.sqrt((m + 0.5) * dt_s) - np.sqrt(np.maximum(m - 0.5, 0.0) * dt_s)) / math.sqrt(math.pi)
-    M = np.zeros((n, n))
-    for k in range(n):
-        M[k, : k + 1] = g[k::-1]
-    return M
+def half_integral_matrix(n: int, dt_s: float, onset_s: float) -> np.ndarray:
+    """Lower-triangular M with (M·f)[k] = I½[f](t_k) = 1/√π ∫ f(σ)/√(t_k − σ) dσ, s^½, sample j's value
+    held over its cell [t_j − dt/2, t_j + dt/2], the first cell starting at the touch, ``onset_s`` before
+    sample 0 (the rig flags the touch at the first sample after it)."""
+    t = np.arange(n) * dt_s
+    a = t - 0.5 * dt_s
+    a[0] = -onset_s
+    b = t + 0.5 * dt_s
+    tk, aj, bj = t[:, None], a[None, :], np.minimum(b[None, :], t[:, None])
+    M = 2.0 * (np.sqrt(np.maximum(tk - aj, 0.0)) - np.sqrt(np.maximum(tk - bj, 0.0))) / math.sqrt(math.pi)
+    return np.tril(M)
 
 
 def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbeParams):
@@ -187,7 +204,7 @@ def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbePara
     q = Qa - Q_pre * s                                   # F[Q·H]
     # the contact face: below the thermocouple by R_half times the mean flux of the upper half, which is
     # the measured (thickness-mean) flux less half the heat the upper half stores
-    dT_dt = np.gradient(Tw, dt_s)[n_pre:]
+    dT_dt = _slope(Tw, dt_s, probe.slope_half_width)[n_pre:]
     top = Ta - Rh * (Qa - probe.top_store_J_per_K * dT_dt)                           # F[T_top]
     top_H = top - (T_pre - Rh * Q_pre) * s               # F[T_top·H]
     stored = probe.c_store_J_per_K * 0.5 * ((Ta - T_pre) + (top - (T_pre - Rh * Q_pre)))
@@ -209,16 +226,59 @@ def estimate_effusivity(T_sensor_C, Q_W, i_contact: int, dt_s: float,
     linear in (b, b·T_o0, b·R_c). Returns None when the samples are too few, not finite, or carry no
     information.
     """
-    w = _window(np.asarray(T_sensor_C, float), np.asarray(Q_W, float), int(i_contact), dt_s, probe)
+    T, Q = np.asarray(T_sensor_C, float), np.asarray(Q_W, float)
+    n_pre = max(1, int(round(probe.pre_s / dt_s)))
+    i0 = int(i_contact)
+    if T.ndim != 1 or T.shape != Q.shape or i0 < n_pre:
+        return None
+    i1 = i0 + int(round(probe.window_s / dt_s))
+    T, Q = T[i0 - n_pre: i1], Q[i0 - n_pre: i1]
+    w = _window(T, Q, n_pre, dt_s, probe)
     if w is None:
         return None
-    ests = [e for e in (_energy_form(*w, dt_s, probe), _flux_form(*w, dt_s, probe)) if e is not None]
-    return min(ests, key=lambda e: e.se_ln_b) if ests else None
+    fits = [(e, f) for f in (_energy_form, _flux_form) if (e := f(*w, dt_s, 0.5 * dt_s, probe)) is not None]
+    if not fits:
+        return None
+    est, form = min(fits, key=lambda ef: ef[0].se_ln_b)
+    spread = _noise_spread(T, Q, n_pre, dt_s, probe, form, math.log(est.b))
+    return replace(est, se_ln_b=math.hypot(est.se_ln_b, spread))
 
 
-def _energy_form(E, top_H, q, s, dt_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
+def _noise_spread(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbeParams, form, ln_b: float) -> float:
+    """RMS change of ln b when the rig's documented noise (filtered like the signals) is added again: the
+    noise enters every later sample through the integrals, which the residuals do not show. Seeded: pure."""
+    k = probe.noise_draws
+    if k <= 0 or (probe.T_sigma_C <= 0 and probe.Q_sigma_W <= 0):
+        return 0.0
+    rng = np.random.default_rng(probe.noise_seed)
+    n = T.size
+    dev = []
+    for _ in range(k):
+        nT = _lowpass(probe.T_sigma_C * rng.standard_normal(n + 50), probe.cutoff_Hz, dt_s)[50:]
+        nQ = _lowpass(probe.Q_sigma_W * rng.standard_normal(n + 50), probe.cutoff_Hz, dt_s)[50:]
+        w = _window(T + nT, Q + nQ, i0, dt_s, probe)
+        e = form(*w, dt_s, 0.5 * dt_s, probe) if w is not None else None
+        dev.append(math.log(e.b) - ln_b if e is not None else 1.0)
+    return math.sqrt(float(np.mean(np.square(dev))))
+
+
+def _lowpass(x: np.ndarray, cutoff_Hz: float, dt_s: float) -> np.ndarray:
+    """The rig's filter (:func:`butter2_lowpass`) applied to x from rest."""
+    if cutoff_Hz <= 0:
+        return x
+    (b0, b1, b2), (a1, a2) = butter2_lowpass(cutoff_Hz, 1.0 / dt_s)
+    y = np.empty_like(x)
+    z1 = z2 = 0.0
+    for i, v in enumerate(x.tolist()):
+        out = b0 * v + z1
+        z1, z2 = b1 * v - a1 * out + z2, b2 * v - a2 * out
+        y[i] = out
+    return y
+
+
+def _energy_form(E, top_H, q, s, dt_s: float, onset_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
     """E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H]: θ = (b, b·T_o0, b·R_c)."""
-    M = probe.area_m2 * half_integral_matrix(E.size, dt_s)                     # A·I½
+    M = probe.area_m2 * half_integral_matrix(E.size, dt_s, onset_s)            # A·I½
     X = np.column_stack([M @ top_H, -(M @ (1.0 - s)), -(M @ q)])
     k0 = int(round(probe.skip_s / dt_s))
     wp = probe.prior_weight
@@ -233,10 +293,10 @@ def _energy_form(E, top_H, q, s, dt_s: float, probe: ProbeParams) -> EffusivityE
                               n=int(resid.size))
 
 
-def _flux_form(E, top_H, q, s, dt_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
+def _flux_form(E, top_H, q, s, dt_s: float, onset_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
     """T_top·H = T_o0·H + (1/b)·I½[q_top]/A + R_c·q_top, q_top = dE/dt: θ = (T_o0, 1/b, R_c)."""
-    q_top = np.gradient(E, dt_s)
-    M = half_integral_matrix(E.size, dt_s) / probe.area_m2
+    q_top = _slope(E, dt_s, probe.slope_half_width)
+    M = half_integral_matrix(E.size, dt_s, onset_s) / probe.area_m2
     X = np.column_stack([1.0 - s, M @ q_top, q_top])
     k0 = int(round(probe.skip_s / dt_s))
     wt = probe.prior_weight_C
@@ -274,6 +334,15 @@ def _fit(X: np.ndarray, y: np.ndarray, prior_row: np.ndarray, prior_y: float, i_
         theta = np.append(theta, 0.0) if cols == 2 else theta
         return theta, math.sqrt(max(sigma2 * cov[i_pos, i_pos], 0.0)), resid
     return None
+
+
+def _slope(x: np.ndarray, dt_s: float, h: int) -> np.ndarray:
+    """d/dt by central differences over ±h samples (one-sided, narrower, at the ends): the filtered
+    signals carry nothing above a few Hz, and a wider difference keeps the noise out of the slope."""
+    n = x.size
+    i = np.arange(n)
+    lo, hi = np.maximum(i - h, 0), np.minimum(i + h, n - 1)
+    return (x[hi] - x[lo]) / ((hi - lo) * dt_s)
 
 
 def _lag1(r: np.ndarray) -> float:
