@@ -227,6 +227,17 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2602, _real("object_T0_C", "rw", 25.0, -20.0, 100.0, description="initial object temperature")),
         V(0x2603, _real("finger_T0_C", "rw", 33.0, 20.0, 40.0, description="initial finger temperature")),
         V(0x2604, _real("pad_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the pad")),
+        # -- material identification (slave; written by the node from telethermo.control.material_stream)
+        V(0x2610, _uint("identified_material", UNSIGNED8, "ro", 0, pdo=True,
+                        description="material of the last touch (its first 0.3 s): code in the rendering table as "
+                                    "material_code, 0 none (no estimate, or the master)")),
+        V(0x2611, _real("identified_beta", "ro", 0.0, pdo=True,
+                        description="relative effusivity b/b_skin of the last touched object, as material_beta "
+                                    "(b_skin 951 W*s^0.5/(m2*K) as in the rendering table, 0 none)")),
+        V(0x2612, _real("identified_se_ln_b", "ro", 0.0,
+                        description="standard error of ln(effusivity), about its relative error (0 none)")),
+        V(0x2613, _real("identified_posterior", "ro", 0.0, description="posterior of identified_material")),
+        V(0x2614, _uint("identified_touches", UNSIGNED16, "ro", 0, description="touches evaluated (wraps)")),
         # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
         V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
         V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),

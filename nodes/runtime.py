@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import threading
 import time
 from dataclasses import dataclass, field
@@ -58,6 +59,16 @@ ABORT_NO_DATA = 0x08000024         # no data available
 IDENT_NOT_RUN, IDENT_RUNNING, IDENT_DONE, IDENT_INTERRUPTED = 0, 1, 2, 3
 PEER_MISS_INDEX = 0x2408
 MAX_TIMING_SAMPLES = 1_000_000
+
+
+def material_status(w, m) -> None:
+    """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614."""
+    ok = math.isfinite(m.effusivity)
+    w["identified_material"](m.code)
+    w["identified_beta"](m.beta if ok else 0.0)
+    w["identified_se_ln_b"](m.se_ln_b if ok else 0.0)
+    w["identified_posterior"](m.posterior)
+    w["identified_touches"](m.touch & 0xFFFF)
 
 
 @dataclass
@@ -110,6 +121,7 @@ class NodeRuntime:
         self._last_sync_at = 0.0
         self._fallback: threading.Thread | None = None
         self._safety_state = None
+        self._material_touch = 0
         self._latched_reported = False
         self._sync_sent_at = 0.0
         self.sync_cycle = -1
@@ -179,7 +191,8 @@ class NodeRuntime:
             "T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_decision", "force_N", "estimate_C", "T_pred_C",
             "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "ident_sample", "ident_state",
             "ident_guard", "ident_start_cycle", "model_status", "model_crc32", "model_command", "fault_reset", "active_trips", "fault_reset_blocked_by",
-            "ident_fetched_T_sensor_C", "ident_fetched_current_A", "ident_fetched_Q_W")}
+            "ident_fetched_T_sensor_C", "ident_fetched_current_A", "ident_fetched_Q_W", "identified_material",
+            "identified_beta", "identified_se_ln_b", "identified_posterior", "identified_touches")}
         self._ident_fetch_index = d.info.get("ident_fetch_sample").index
         self._fault_reset_index = d.info.get("fault_reset").index
         self._r_peer_est = d.reader("peer_estimate_C")
@@ -612,6 +625,9 @@ class NodeRuntime:
                          st.safety.state.name)
             self._safety_state = st.safety.state
         self._identify_status(res.state, sample, res)
+        if st.material is not None and st.material.touch != self._material_touch:
+            material_status(w, st.material)
+            self._material_touch = st.material.touch
         self._last_T_C = sample.T_sensor_C
         self._last_sample, self._last_peer = sample, peer
         self.stats.cycles += 1

@@ -15,6 +15,10 @@ from dataclasses import dataclass, field
 from telethermo.control.material_id import ProbeParams, classify, estimate_effusivity, load_effusivity_table
 from telethermo.control.rendering import load_render_table
 
+#: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
+#: (sim/data/materials.toml [materials.skin]: √(0.21 · 1200 · 3590); telethermo/data/render_materials.toml)
+B_SKIN_REF = 951.15
+
 
 @dataclass(frozen=True, slots=True)
 class MaterialEstimate:
@@ -33,6 +37,11 @@ class MaterialEstimate:
     code: int = 0
     posterior: float = 0.0
     touch: int = 0
+
+    @property
+    def beta(self) -> float:
+        """Relative effusivity b/b_skin (the rendering table's and the OD's material_beta scale)."""
+        return self.effusivity / B_SKIN_REF
 
 
 @dataclass(frozen=True, slots=True)
