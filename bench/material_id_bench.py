@@ -132,6 +132,22 @@ def pair_table(conf: np.ndarray, names: list[str], lb: np.ndarray, ln_err: list[
     return out
 
 
+def by_condition(touches: list[tuple[bool, float, float, float, bool]]) -> dict[str, dict[str, float]]:
+    """Accuracy (and count) where the physics helps or not: temperature difference probe-object, contact
+    force (≥ 6 N: the simulated contact resistance vanishes), thickness, metals (b > 10⁴)."""
+    conds = {"dT_gt_5C": lambda t: t[2] > 5.0, "dT_le_5C": lambda t: t[2] <= 5.0,
+             "force_ge_6N": lambda t: t[1] >= 6.0, "force_lt_6N": lambda t: t[1] < 6.0,
+             "thickness_ge_8mm": lambda t: t[3] >= 8e-3, "thickness_lt_8mm": lambda t: t[3] < 8e-3,
+             "non_metals": lambda t: not t[4], "metals": lambda t: t[4],
+             "non_metals_dT_gt_5C": lambda t: not t[4] and t[2] > 5.0,
+             "metals_force_ge_6N_thickness_ge_8mm": lambda t: t[4] and t[1] >= 6.0 and t[3] >= 8e-3}
+    out = {}
+    for name, f in conds.items():
+        sel = [t[0] for t in touches if f(t)]
+        out[name] = {"accuracy": round(float(np.mean(sel)), 3) if sel else None, "n": len(sel)}
+    return out
+
+
 def material_id_figures(quick: bool) -> dict[str, Any]:
     """Run the touches and return the figures (see the module docstring)."""
     t_start = time.perf_counter()
@@ -150,6 +166,7 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     conf_eq1 = np.zeros((k, k + 1), int)
     err_pct, within_ci, se_ln = [], [], []
     ln_err: list[list[float]] = [[] for _ in range(k)]
+    touches: list[tuple[bool, float, float, float, bool]] = []     # (right, force, |ΔT|, thickness, metal)
     for i in range(n_touches):
         j = i % k
         mat = sims[j]
@@ -166,6 +183,7 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
             se_ln.append(est.se_ln_b)
             ln_err[j].append(math.log(b_est / b_true))
         conf[j, nearest(b_est, names, lb)] += 1
+        touches.append((nearest(b_est, names, lb) == j, force, abs(T_obj - T_probe), d, b_true > 10_000.0))
         conf_eq1[j, nearest(eq1_baseline(T, Q, i0, R_sensor, b_probe), names, lb)] += 1
     correct = int(np.trace(conf[:, :k]))
     groups = merged_groups(conf, MERGE_RATE)
@@ -183,6 +201,7 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
         "confusion": {"labels": names, "columns": names + ["none"], "rows_truth_cols_estimate": conf.tolist()},
         "material_id_merged_groups": [[names[c] for c in g] for g in groups if len(g) > 1],
         "material_id_pairs": pairs,
+        "material_id_accuracy_by_condition": by_condition(touches),
         "material_id_merge_rule": f"pairs with mutual confusion >= {MERGE_RATE} in this run, joined transitively",
         "material_id_accuracy_merged": merged_ok / n_touches,
         "material_id_baseline_majority_accuracy": majority,
