@@ -118,15 +118,16 @@ def merged_groups(conf: np.ndarray, rate: float) -> list[list[int]]:
 
 
 def pair_table(conf: np.ndarray, names: list[str], lb: np.ndarray, ln_err: list[list[float]]) -> list[dict]:
-    """Neighbours in ln b: their separation, the measured spread of the estimate (RMS of ln(b_est/b) over
-    both classes) and the mutual confusion: a pair whose separation is below ~2 spreads cannot be told apart
-    by this probe in the window."""
+    """Neighbours in ln b: their separation, the measured spread of the estimate (median |ln(b_est/b)| and
+    its RMS, over both classes' touches) and the mutual confusion: a pair whose separation is below ~2
+    spreads cannot be told apart by this probe in the window."""
     order = np.argsort(lb)
     out = []
     for a, b in zip(order, order[1:]):
         e = ln_err[a] + ln_err[b]
         n = conf[a].sum() + conf[b].sum()
         out.append({"pair": [names[a], names[b]], "separation_ln_b": round(float(lb[b] - lb[a]), 3),
+                    "median_abs_ln_error": round(float(np.median(np.abs(e))), 3) if e else None,
                     "rms_ln_error": round(float(np.sqrt(np.mean(np.square(e)))), 3) if e else None,
                     "mutual_confusion": round(float((conf[a, b] + conf[b, a]) / n), 3) if n else None})
     return out
