@@ -53,8 +53,8 @@ from pathlib import Path
 
 import numpy as np
 
-#: default rendering table (the same file as telethermo.control.rendering.DEFAULT_RENDER_TABLE)
-DEFAULT_TABLE = Path(__file__).resolve().parent.parent / "data" / "render_materials.toml"
+from telethermo.control.rendering import DEFAULT_RENDER_TABLE
+
 
 
 @dataclass(frozen=True, slots=True)
@@ -371,7 +371,7 @@ def classify(est: EffusivityEstimate, table: dict[str, float], floor_ln: float =
 def load_effusivity_table(path: str | Path | None = None) -> dict[str, float]:
     """Material -> effusivity (W·s^½/(m²·K)) of the rendering-table entries that give ``effusivity``, in file
     order; errors name the file and the field."""
-    path = Path(path) if path is not None else DEFAULT_TABLE
+    path = Path(path) if path is not None else DEFAULT_RENDER_TABLE
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (OSError, tomllib.TOMLDecodeError) as exc:
