@@ -215,11 +215,9 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     }
 
 
-def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.material_id_bench", description=__doc__)
-    ap.add_argument("--quick", action="store_true", help="150 touches instead of 600")
-    args = ap.parse_args(argv)
-    fig = material_id_figures(args.quick)
+def run(quick: bool) -> dict[str, Any]:
+    """The suite's entry (bench/__main__.py): figures, printed table, bench/results/material_id.json."""
+    fig = material_id_figures(quick)
     c = fig["confusion"]
     rows = [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])]
     print_table(["truth \\ est"] + c["columns"], rows)
@@ -228,6 +226,14 @@ def main(argv: list[str] | None = None) -> int:
                 "material_id_baseline_eq1_ambient_accuracy", "material_id_ci95_coverage", "material_id_run_s"):
         print(f"{key}: {fig[key]}")
     print(f"wrote {write_results('material_id', fig)}")
+    return fig
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.material_id_bench", description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="150 touches instead of 600")
+    args = ap.parse_args(argv)
+    run(args.quick)
     return 0
 
 
