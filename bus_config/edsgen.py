@@ -235,6 +235,17 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2606, _real("object_thickness_mm", "rw", 20.0, 0.01, 1000.0, description="virtual object thickness, mm")),
         V(0x2607, _uint("object_back", UNSIGNED8, "rw", 0, 0, 1,
                         description="virtual object back face: 0 adiabatic, 1 losing to ambient air")),
+        # -- material identification (slave; written by the node from telethermo.control.material_stream)
+        V(0x2610, _uint("identified_material", UNSIGNED8, "ro", 0, pdo=True,
+                        description="material of the last touch (its first 0.3 s): code in the rendering table as "
+                                    "material_code, 0 none (no estimate, or the master)")),
+        V(0x2611, _real("identified_beta", "ro", 0.0, pdo=True,
+                        description="relative effusivity b/b_skin of the last touched object, as material_beta "
+                                    "(b_skin 951 W*s^0.5/(m2*K) as in the rendering table, 0 none)")),
+        V(0x2612, _real("identified_se_ln_b", "ro", 0.0,
+                        description="standard error of ln(effusivity), about its relative error (0 none)")),
+        V(0x2613, _real("identified_posterior", "ro", 0.0, description="posterior of identified_material")),
+        V(0x2614, _uint("identified_touches", UNSIGNED16, "ro", 0, description="touches evaluated (wraps)")),
         # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
         V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
         V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),

@@ -15,6 +15,7 @@ persists) and carried out at the next cycle.
 from __future__ import annotations
 
 import logging
+import math
 import time
 from typing import TYPE_CHECKING
 
@@ -36,7 +37,18 @@ log = logging.getLogger("telethermo.node")
 MAX_TIMING_SAMPLES = 1_000_000
 _WRITERS = ("T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_decision", "force_N", "estimate_C",
             "T_pred_C", "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "active_trips",
-            "fault_reset", "fault_reset_blocked_by")
+            "fault_reset", "fault_reset_blocked_by", "identified_material", "identified_beta", "identified_se_ln_b",
+            "identified_posterior", "identified_touches")
+
+
+def material_status(w, m) -> None:
+    """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614."""
+    ok = math.isfinite(m.effusivity)
+    w["identified_material"](m.code)
+    w["identified_beta"](m.beta if ok else 0.0)
+    w["identified_se_ln_b"](m.se_ln_b if ok else 0.0)
+    w["identified_posterior"](m.posterior)
+    w["identified_touches"](m.touch & 0xFFFF)
 
 
 class ControlCycle:
@@ -50,6 +62,7 @@ class ControlCycle:
         """Monotonic time of the last SYNC-driven cycle, s (the fallback runs only when SYNCs stop)."""
         self._last_sync_wall: float | None = None
         self._safety_state = None
+        self._material_touch = 0
         self._latched_reported = False
         self._last_T_C = float("nan")
         self._last_sample: RigSample | None = None
@@ -169,6 +182,9 @@ class ControlCycle:
                 log.info("cycle %d: safety state %s -> %s", self.rt.stats.cycles, self._safety_state.name,
                          st.safety.state.name)
             self._safety_state = st.safety.state
+        if st.material is not None and st.material.touch != self._material_touch:
+            material_status(w, st.material)
+            self._material_touch = st.material.touch
 
     def _raise_trips(self, res: StepResult) -> None:
         """An EMCY for every new trip (and last_trip_code)."""

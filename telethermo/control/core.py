@@ -43,6 +43,7 @@ from telethermo.control.estimators import Estimator, TemperaturePredictor, estim
 from telethermo.control.later_phase import LaterPhase, later_setpoint, later_start
 from telethermo.ident.plan import IdentifyPlan, guarded_current
 from telethermo.control.pi import PIComponents, PIGains, PIState, bumpless, pi_step
+from telethermo.control.material_stream import MaterialEstimate, MaterialIdParams, MaterialState, material_step
 from telethermo.control.rendering import contact_temperature, pad_preset_temperature
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.rig import RigSample
@@ -169,6 +170,8 @@ class CoreParams:
             ambient. In contact the published law runs (track T_o, flux mirror).
         G_air_W_per_K: conductance of still air over the contact area (h·A = 15 W/(m²·K) · 15 × 15 mm), W/K.
         T_air_C: the air's temperature for air rendering, °C.
+        material_id: (slave) material identification from each touch's first samples
+            (:mod:`telethermo.control.material_stream`); None turns it off.
     """
 
     role: Role
@@ -195,6 +198,7 @@ class CoreParams:
     air_kiQ_A_per_W_s: float = 1.0
     G_air_W_per_K: float = 15.0 * 0.015 * 0.015
     T_air_C: float = 25.0
+    material_id: MaterialIdParams | None = field(default_factory=MaterialIdParams)
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
     _air_gains: Any = field(default=None, init=False, repr=False, compare=False)
@@ -285,6 +289,7 @@ class CoreState:
             and both pads rest at ambient).
         render_later: RENDER in contact: (the render's ``LaterPhase``, its model state); restarted at each
             touch and whenever the rendered object changes.
+        material: (slave) the material identification's collector and last result.
     """
 
     k: int
@@ -303,6 +308,7 @@ class CoreState:
     pred_snapshot: Any = None
     render_later: Any = None
     cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
+    material: MaterialState = field(default_factory=MaterialState)
 
 
 @dataclass(frozen=True, slots=True)
@@ -321,6 +327,7 @@ class StepStatus:
         render_phase: RENDER phase (PRESET/CONTACT) or None.
         pi: :class:`telethermo.control.pi.PIComponents`.
         current_requested_A: the controller's output before the envelope's current limits, A.
+        material: (slave) the last identified material (None on the master or with identification off).
     """
 
     safety: sf.EnvelopeStatus
@@ -335,6 +342,7 @@ class StepStatus:
     render_phase: RenderPhase | None
     pi: PIComponents
     current_requested_A: float
+    material: MaterialEstimate | None = None
 
     # convenience for the node layer
     @property
@@ -562,16 +570,20 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         pi_st = bumpless(gains, current, err, ff, -I_lim, I_lim, flux_error_W=eQ, flux_gains=fg)
 
     active = env_active + tuple(a for a in cur_active if a not in env_active)
+    mat = state.material
+    if params.role is Role.SLAVE and params.material_id is not None:
+        mat = material_step(params.material_id, mat, Ts, Q, cst.contact, dt)
     status_env = sf.summarize(env, new_trips, active)
     new_state = CoreState(k=state.k + 1, t_s=sample.t_s, env=env, pi=pi_st, contact=cst, u_prev_A=current,
                           source=source, render_phase=phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
                           finger_seen=state.finger_seen or cst.contact or bool(sample.contact),
                           pred_snapshot=snap, cell=state.cell,
-                          render_later=later_st)
+                          render_later=later_st, material=mat)
     status = StepStatus(safety=status_env, requested_setpoint_C=req, setpoint_C=sp, feedback_C=y, T_pred_C=T_pred,
                         estimate_C=est, estimate_model_C=e_model, estimate_flux_C=e_flux, contact=cst.contact,
-                        render_phase=phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req)
+                        render_phase=phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req,
+                        material=mat.last if params.role is Role.SLAVE and params.material_id is not None else None)
     sent = est
     if (params.echo_peer_when_free and mode is Mode.TELEPRESENCE and not cst.contact and peer_ok and peer_alive
             and math.isfinite(est)):

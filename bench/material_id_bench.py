@@ -1,0 +1,241 @@
+"""Material identification on the slave (issue 15): effusivity and class from the first 0.3 s of a touch.
+
+``python -m bench.material_id_bench [--quick]`` writes ``bench/results/material_id.json`` (the coordinator
+merges its keys into ``bench/results/rendering.json``).
+
+Each touch: the default simulated probe (sim/data/tem_15x15.toml, 10 ms, measurement noise on, 5 Hz
+filter) rests in air at the finger's natural skin temperature (the pair has been running before: the
+scene start ``"finger"``) under the slave's default controller (telepresence, peer = the finger at that
+temperature), then touches a slab of one of the ten materials, drawn at random: contact force 2–10 N,
+object temperature 15–35 °C, thickness 1–20 mm (uniform), adiabatic back. Only the first 0.5 s after the
+touch is simulated. The estimator (telethermo.control.material_id) sees what the slave's control core sees:
+the filtered T_sensor and Q and the rig's contact flag.
+
+Figures: accuracy over all touches (a touch without an estimate counts as wrong), the confusion matrix
+(rows: truth, columns: estimate, last column: no estimate), the median |error| of the effusivity, the
+accuracy with the pairs merged that this probe cannot tell apart (mutual confusion ≥ ``MERGE_RATE`` in
+this run), and two baselines in the same run: always the most frequent class, and eq. 1 inverted with the
+probe's surface estimate at 0.3 s, the flux sensor's effusivity and the object assumed at ambient (the
+slave does not know the object's temperature).
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import time
+from typing import Any
+
+import numpy as np
+
+from bench.common import print_table, write_results
+from sim.materials import material
+from sim.measurement import NoiseParams
+from sim.plant import Body, GridSettings
+from sim.rig import SimRig
+from sim.tem import load_rig_params
+from sim.touch import BodySpec, Schedule, Touch
+from telethermo.control import material_id as mi
+from telethermo.control.core import init_state, step
+from telethermo.control.defaults import default_params
+from telethermo.control.estimators import estimate_flux
+from telethermo.control.material_stream import MaterialEstimate
+from telethermo.control.types import PeerValues, Role
+
+#: simulator material -> rendering-table name
+SIM_TO_TABLE = {"eps": "eps", "oak": "wood", "pvc": "pvc", "glass": "glass", "ceramic": "ceramic",
+                "stainless_steel": "stainless_steel", "carbon_steel": "carbon_steel", "brass": "brass",
+                "aluminium": "aluminium", "copper": "copper"}
+PERIOD_S = 0.01
+PRE_S, POST_S = 0.2, 0.5
+AMBIENT_C = 25.0
+MERGE_RATE = 0.2
+
+
+def finger_natural_C(params) -> float:
+    """The default finger's natural skin temperature in still air at ambient, °C (the probe's rest)."""
+    grid = GridSettings(t_min_s=PERIOD_S)
+    return Body(BodySpec("finger", kind="finger"), params.area_m2, AMBIENT_C, params.h_air_W_m2K, grid).surface_C()
+
+
+def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
+                   seed: int, t_on_s: float) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None]:
+    """(T_sensor_C, Q_W, index of the first contact sample, the material the slave's core published at the
+    end) of one touch under the slave's default control."""
+    grid = GridSettings(t_min_s=PERIOD_S)
+    spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
+    body = Body(spec, params.area_m2, AMBIENT_C, params.h_air_W_m2K, grid)
+    rig = SimRig(params, {"object": body}, Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
+                 ambient_C=AMBIENT_C, period_s=PERIOD_S, noise=NoiseParams(), seed=seed, grid=grid, start=T_probe_C)
+    cp = default_params(Role.SLAVE, period_s=PERIOD_S)
+    s = rig.read()
+    st = init_state(cp, None, s)
+    peer = PeerValues(estimate_C=T_probe_C, flux_W=0.0)
+    n = int(round((t_on_s + POST_S) / PERIOD_S))
+    T, Q, flag = np.empty(n), np.empty(n), np.zeros(n, bool)
+    for k in range(n):
+        s = rig.read()
+        T[k], Q[k], flag[k] = s.T_sensor_C, s.Q_W, s.contact
+        r = step(s, peer, cp, st)
+        st = r.state
+        rig.apply_current(r.current_A)
+        rig.advance(PERIOD_S)
+    return T, Q, int(np.argmax(flag)) if flag.any() else -1, r.status.material
+
+
+def eq1_baseline(T: np.ndarray, Q: np.ndarray, i0: int, R_sensor: float, b_probe: float) -> float:
+    """Eq. 1 inverted: b_obj = b_probe·(T_p0 − T_c)/(T_c − T_amb), T_c the surface estimate 0.3 s in."""
+    T_p0 = estimate_flux(float(np.mean(T[i0 - 5: i0])), float(np.mean(Q[i0 - 5: i0])), R_sensor)
+    k = i0 + int(round(0.3 / PERIOD_S)) - 1
+    T_c = estimate_flux(float(T[k]), float(Q[k]), R_sensor)
+    den = T_c - AMBIENT_C
+    b = b_probe * (T_p0 - T_c) / den if abs(den) > 1e-6 else math.nan
+    return b if b > 0 else math.nan
+
+
+def nearest(b: float, names: list[str], lb: np.ndarray) -> int:
+    """Index of the nearest table effusivity in ln b, or -1 (no estimate)."""
+    return int(np.argmin(np.abs(lb - math.log(b)))) if math.isfinite(b) and b > 0 else -1
+
+
+def merged_groups(conf: np.ndarray, rate: float) -> list[list[int]]:
+    """Connected groups of classes whose mutual confusion (c_ij + c_ji)/(n_i + n_j) is ≥ ``rate``."""
+    k = conf.shape[0]
+    n = conf[:, :k].sum(axis=1) + conf[:, k:].sum(axis=1)
+    parent = list(range(k))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            i = parent[i]
+        return i
+    for i in range(k):
+        for j in range(i + 1, k):
+            if n[i] + n[j] and (conf[i, j] + conf[j, i]) / (n[i] + n[j]) >= rate:
+                parent[root(j)] = root(i)
+    groups: dict[int, list[int]] = {}
+    for i in range(k):
+        groups.setdefault(root(i), []).append(i)
+    return sorted(groups.values())
+
+
+def pair_table(conf: np.ndarray, names: list[str], lb: np.ndarray, ln_err: list[list[float]]) -> list[dict]:
+    """Neighbours in ln b: their separation, the measured spread of the estimate (median |ln(b_est/b)| and
+    its RMS, over both classes' touches) and the mutual confusion: a pair whose separation is below ~2
+    spreads cannot be told apart by this probe in the window."""
+    order = np.argsort(lb)
+    out = []
+    for a, b in zip(order, order[1:]):
+        e = ln_err[a] + ln_err[b]
+        n = conf[a].sum() + conf[b].sum()
+        out.append({"pair": [names[a], names[b]], "separation_ln_b": round(float(lb[b] - lb[a]), 3),
+                    "median_abs_ln_error": round(float(np.median(np.abs(e))), 3) if e else None,
+                    "rms_ln_error": round(float(np.sqrt(np.mean(np.square(e)))), 3) if e else None,
+                    "mutual_confusion": round(float((conf[a, b] + conf[b, a]) / n), 3) if n else None})
+    return out
+
+
+def by_condition(touches: list[tuple[bool, float, float, float, bool]]) -> dict[str, dict[str, float]]:
+    """Accuracy (and count) where the physics helps or not: temperature difference probe-object, contact
+    force (≥ 6 N: the simulated contact resistance vanishes), thickness, metals (b > 10⁴)."""
+    conds = {"dT_gt_5C": lambda t: t[2] > 5.0, "dT_le_5C": lambda t: t[2] <= 5.0,
+             "force_ge_6N": lambda t: t[1] >= 6.0, "force_lt_6N": lambda t: t[1] < 6.0,
+             "thickness_ge_8mm": lambda t: t[3] >= 8e-3, "thickness_lt_8mm": lambda t: t[3] < 8e-3,
+             "non_metals": lambda t: not t[4], "metals": lambda t: t[4],
+             "non_metals_dT_gt_5C": lambda t: not t[4] and t[2] > 5.0,
+             "metals_force_ge_6N_thickness_ge_8mm": lambda t: t[4] and t[1] >= 6.0 and t[3] >= 8e-3}
+    out = {}
+    for name, f in conds.items():
+        sel = [t[0] for t in touches if f(t)]
+        out[name] = {"accuracy": round(float(np.mean(sel)), 3) if sel else None, "n": len(sel)}
+    return out
+
+
+def material_id_figures(quick: bool) -> dict[str, Any]:
+    """Run the touches and return the figures (see the module docstring)."""
+    t_start = time.perf_counter()
+    n_touches = 150 if quick else 600
+    rng = np.random.default_rng(15)
+    params = load_rig_params()
+    T_probe = finger_natural_C(params)
+    table = mi.load_effusivity_table()
+    sims = list(SIM_TO_TABLE)
+    names = [SIM_TO_TABLE[m] for m in sims]
+    lb = np.log(np.array([table[n] for n in names]))
+    R_sensor = 2.0 * mi.ProbeParams().R_half_K_per_W
+    b_probe = material(params.sensor_material).b
+    k = len(names)
+    conf = np.zeros((k, k + 1), int)
+    conf_eq1 = np.zeros((k, k + 1), int)
+    err_pct, within_ci, se_ln = [], [], []
+    ln_err: list[list[float]] = [[] for _ in range(k)]
+    touches: list[tuple[bool, float, float, float, bool]] = []     # (right, force, |ΔT|, thickness, metal)
+    for i in range(n_touches):
+        j = i % k
+        mat = sims[j]
+        force = float(rng.uniform(2.0, 10.0))
+        T_obj = float(rng.uniform(15.0, 35.0))
+        d = float(rng.uniform(1.0, 20.0)) * 1e-3
+        t_on = PRE_S + float(rng.uniform(0.0, PERIOD_S))
+        T, Q, i0, est = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=1000 + i, t_on_s=t_on)
+        b_true = material(mat).b
+        b_est = est.effusivity if est is not None and est.touch == 1 else math.nan
+        if math.isfinite(b_est):
+            err_pct.append(100.0 * abs(b_est / b_true - 1.0))
+            within_ci.append(abs(math.log(b_est / b_true)) <= 1.96 * est.se_ln_b)
+            se_ln.append(est.se_ln_b)
+            ln_err[j].append(math.log(b_est / b_true))
+        conf[j, nearest(b_est, names, lb)] += 1
+        touches.append((nearest(b_est, names, lb) == j, force, abs(T_obj - T_probe), d, b_true > 10_000.0))
+        conf_eq1[j, nearest(eq1_baseline(T, Q, i0, R_sensor, b_probe), names, lb)] += 1
+    correct = int(np.trace(conf[:, :k]))
+    groups = merged_groups(conf, MERGE_RATE)
+    group_of = {c: gi for gi, g in enumerate(groups) for c in g}
+    merged_ok = sum(int(conf[a, b]) for a in range(k) for b in range(k) if group_of[a] == group_of[b])
+    majority = float(conf.sum(axis=1).max() / n_touches)
+    pairs = pair_table(conf, names, lb, ln_err)
+    return {
+        "material_id_accuracy": correct / n_touches,
+        "material_id_n_touches": n_touches,
+        "effusivity_error_median_pct": float(np.median(err_pct)) if err_pct else math.nan,
+        "material_id_no_estimate": int(conf[:, k].sum()),
+        "material_id_ci95_coverage": float(np.mean(within_ci)) if within_ci else math.nan,
+        "material_id_se_ln_b_median": float(np.median(se_ln)) if se_ln else math.nan,
+        "confusion": {"labels": names, "columns": names + ["none"], "rows_truth_cols_estimate": conf.tolist()},
+        "material_id_merged_groups": [[names[c] for c in g] for g in groups if len(g) > 1],
+        "material_id_pairs": pairs,
+        "material_id_accuracy_by_condition": by_condition(touches),
+        "material_id_merge_rule": f"pairs with mutual confusion >= {MERGE_RATE} in this run, joined transitively",
+        "material_id_accuracy_merged": merged_ok / n_touches,
+        "material_id_baseline_majority_accuracy": majority,
+        "material_id_baseline_eq1_ambient_accuracy": float(np.trace(conf_eq1[:, :k]) / n_touches),
+        "confusion_eq1_baseline": conf_eq1.tolist(),
+        "material_id_conditions": {"force_N": [2.0, 10.0], "T_object_C": [15.0, 35.0], "thickness_mm": [1.0, 20.0],
+                                   "T_probe_C": round(T_probe, 3), "window_s": mi.ProbeParams().window_s,
+                                   "simulated_s_per_touch": PRE_S + POST_S, "noise": "sim default (on)"},
+        "material_id_run_s": round(time.perf_counter() - t_start, 1),
+    }
+
+
+def run(quick: bool) -> dict[str, Any]:
+    """The suite's entry (bench/__main__.py): figures, printed table, bench/results/material_id.json."""
+    fig = material_id_figures(quick)
+    c = fig["confusion"]
+    rows = [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])]
+    print_table(["truth \\ est"] + c["columns"], rows)
+    for key in ("material_id_accuracy", "material_id_accuracy_merged", "material_id_merged_groups",
+                "effusivity_error_median_pct", "material_id_baseline_majority_accuracy",
+                "material_id_baseline_eq1_ambient_accuracy", "material_id_ci95_coverage", "material_id_run_s"):
+        print(f"{key}: {fig[key]}")
+    print(f"wrote {write_results('material_id', fig)}")
+    return fig
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.material_id_bench", description=__doc__)
+    ap.add_argument("--quick", action="store_true", help="150 touches instead of 600")
+    args = ap.parse_args(argv)
+    run(args.quick)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
