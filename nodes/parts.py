@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Callable
 
 from telethermo.control.core import CoreParams, RenderSettings
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.rig import Rig
 

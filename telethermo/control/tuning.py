@@ -45,7 +45,8 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from telethermo.control.defaults import GAINS, default_params
+from telethermo.control.defaults import GAINS
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 
 GAINS_FORMAT = "telethermo.gains/1"

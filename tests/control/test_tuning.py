@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 
 from telethermo.control import tuning as tn
-from telethermo.control.defaults import GAINS, default_params
+from telethermo.control.defaults import GAINS
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 
 sim = pytest.importorskip("sim")

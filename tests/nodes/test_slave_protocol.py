@@ -225,7 +225,7 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
     controller refuses (or cannot run in its present state) is aborted and left unchanged; reset
     node brings the program's power-on parameters back."""
     import sim
-    from telethermo.control.defaults import default_params
+    from telethermo.control.params import default_params
     from telethermo.control.types import Role
 
     net, remote, frames, _ = slave
