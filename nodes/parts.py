@@ -67,7 +67,7 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
             raise OptionError(str(exc)) from None
     gains: dict[str, float] = {}
     if opts.gains is not None:
-        from telethermo.control.tuning import load_gains
+        from telethermo.control.gainsfile import load_gains
         try:
             gains = dict(load_gains(opts.gains)[opts.role])
         except (ValueError, KeyError) as exc:  # load_gains names the file and the field

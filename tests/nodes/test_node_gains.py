@@ -11,7 +11,7 @@ import pytest
 from nodes.launch import NodePair, PairConfig
 from nodes.merge import merge_recordings
 from telethermo.control.params import default_params
-from telethermo.control.tuning import GAINS_FORMAT, load_gains
+from telethermo.control.gainsfile import GAINS_FORMAT, load_gains
 from telethermo.control.types import Role
 from telethermo.session import run_offline_session
 
