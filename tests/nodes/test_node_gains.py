@@ -15,6 +15,8 @@ from telethermo.control.gainsfile import GAINS_FORMAT, load_gains
 from telethermo.control.types import Role
 from telethermo.session import run_offline_session
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 CYCLES = 200  # the probe touches the aluminium at 1.0 s (cycle 100)
 

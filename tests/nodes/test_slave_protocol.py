@@ -18,6 +18,8 @@ from bus_config import path as bus_config_path
 from nodes.launch import node_command, stop_process, wait_for
 from telethermo.transport.hub import HubThread
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 SLAVE = 2
 
