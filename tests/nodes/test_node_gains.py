@@ -10,8 +10,8 @@ import pytest
 
 from nodes.launch import NodePair, PairConfig
 from nodes.merge import merge_recordings
-from telethermo.control.params import default_params
 from telethermo.control.gainsfile import GAINS_FORMAT, load_gains
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 from telethermo.session import run_offline_session
 
