@@ -30,7 +30,7 @@ from typing import Any
 
 from bench.common import median_time_s, print_table, write_results
 from telethermo.control.core import init_state, step
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.estimators import Estimator
 from telethermo.control.types import PeerValues, Role
 from telethermo.rig import RigSample

@@ -36,7 +36,7 @@ from sim.tem import load_rig_params
 from sim.touch import BodySpec, Schedule, Touch
 from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.estimators import estimate_flux
 from telethermo.control.material_stream import MaterialEstimate
 from telethermo.control.types import PeerValues, Role

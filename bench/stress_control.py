@@ -14,7 +14,7 @@ import numpy as np
 from bench.stress_case import Case
 from telethermo.control import safety as sf
 from telethermo.control.core import init_state, step
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
 
 PERIOD_S = 0.01

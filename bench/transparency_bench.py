@@ -30,7 +30,8 @@ from bench.common import current_results_dir, print_table, write_results
 from sim.compile import finger_natural_C
 from telethermo.atomic import write_bytes_atomic
 from telethermo.control.core import init_state, step
-from telethermo.control.defaults import HOLD_GAINS, PAPER_GAINS, default_params
+from telethermo.control.defaults import HOLD_GAINS, PAPER_GAINS
+from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
 from telethermo.session.figures import contacts_of
 from telethermo.session.runner import run_offline_session

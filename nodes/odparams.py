@@ -1,7 +1,7 @@
 """The controller's parameters and the object dictionary: what a node shows, what an SDO write changes.
 
 A node's controller runs with :class:`telethermo.control.core.CoreParams` built at run time by
-``NodeParts.params_for(mode)`` (``telethermo.control.defaults.default_params`` for the role and mode,
+``NodeParts.params_for(mode)`` (``telethermo.control.params.default_params`` for the role and mode,
 the envelope at the rig's I_max). :class:`ParamBook` keeps what the operator changed by SDO on top of
 those defaults, and builds the parameters of any mode from both; :func:`od_image` is what the node
 writes into its object dictionary so that ``telethermo get`` shows the running controller:

@@ -4,7 +4,7 @@ the recording's meta. The only module of nodes/ that knows the simulator.
 Built exactly as the offline runner (telethermo.session.runner) builds them, so that a two-process
 session and an offline session of the same scene give the same trajectories up to REAL32 rounding:
 the same rigs (``sim.build_rig(scene, role, seed)``; seeds master 0, slave 1 by default), the same
-default parameters (``telethermo.control.defaults.default_params``), the same cycle-0 peer values.
+default parameters (``telethermo.control.params.default_params``), the same cycle-0 peer values.
 """
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ from typing import Any, Callable
 
 import sim
 from telethermo.control.core import CoreParams, RenderSettings
-from telethermo.control.defaults import default_params
-from telethermo.control.tuning import load_gains
+from telethermo.control.gainsfile import load_gains
+from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.ident import load_model
 from telethermo.rig import Rig

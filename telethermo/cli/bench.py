@@ -1,7 +1,14 @@
-"""``telethermo bench [--quick] [--only NAME ...]``: the benchmark suite (same as ``make bench``)."""
+"""``telethermo bench [--quick] [--only NAME ...]``: the benchmark suite (same as ``make bench``).
+
+The suite is its own program, ``python -m bench``, which this command runs as a child process (same
+interpreter, same arguments, its exit code): the benchmarks sit above every layer of telethermo (they
+time the simulator, the nodes, the CLI itself), so the CLI must not import them.
+"""
 from __future__ import annotations
 
 import argparse
+import subprocess
+import sys
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -12,8 +19,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-def run(args: argparse.Namespace) -> int:
-    from bench.__main__ import main
+def bench_argv(args: argparse.Namespace) -> list[str]:
+    """The command line of the suite for ``args``."""
+    return ([sys.executable, "-m", "bench"] + (["--quick"] if args.quick else [])
+            + (["--only", *args.only] if args.only else []))
 
-    argv = (["--quick"] if args.quick else []) + (["--only", *args.only] if args.only else [])
-    return main(argv)
+
+def run(args: argparse.Namespace) -> int:
+    return subprocess.call(bench_argv(args))

@@ -90,7 +90,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(f"--model {str(args.model)!r}: no such file")
     gains_args: list[str] = []
     if args.gains is not None:
-        from telethermo.control.tuning import load_gains
+        from telethermo.control.gainsfile import load_gains
         try:
             load_gains(args.gains)  # refuse a bad file here, with its field, not in two node logs
         except ValueError as exc:

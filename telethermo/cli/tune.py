@@ -7,8 +7,10 @@ Runs offline sessions (telethermo.session.run_offline_session) of the scene and 
 sides with bounded Nelder-Mead (or --method de) within --budget evaluations, then checks the best
 few points at ±30 % on each gain and keeps the one with the best worst case. Prints progress, the
 candidates and the sensitivity table of the chosen point, and writes the gains file (JSON, atomic;
-format in docs/tuning.md; ``telethermo.control.tuning.load_gains`` reads it). Each evaluation costs
-one offline session per scene (≈ 1 s each for 30 s of scene on this VM).
+format in docs/tuning.md; ``telethermo.control.gainsfile.load_gains`` reads it) and, with --record,
+the run's full record (every evaluation; ``python -m bench.tune`` puts it into bench/results/tuning.json).
+Each evaluation costs one offline session per scene (≈ 1 s each for 30 s of scene on this VM).
+The tuner itself is :mod:`telethermo.tuning`.
 """
 from __future__ import annotations
 
@@ -19,7 +21,10 @@ import time
 from pathlib import Path
 from typing import Any
 
-from telethermo.cli.main import EXIT_OK, UserError
+import sim
+from telethermo import tuning as tn
+from telethermo.atomic import write_json_atomic
+from telethermo.cli.main import EXIT_OK, EXIT_USAGE, UserError
 
 
 def register(subparsers) -> None:
@@ -41,7 +46,7 @@ def register(subparsers) -> None:
                    help="relative size of the stress corners the search minimises over (default: --rel; 0: the "
                         "centre alone)")
     p.add_argument("--duration", type=float, metavar="S", help="run S seconds of each scene (default: the scene's)")
-    w = tn_weights_default()
+    w = tn.Weights()
     p.add_argument("--w-early", type=float, default=w.early_per_C, metavar="W",
                    help=f"weight of the transparency early mean error, 1/°C (default {w.early_per_C:g})")
     p.add_argument("--w-late", type=float, default=w.late_per_C, metavar="W",
@@ -53,14 +58,11 @@ def register(subparsers) -> None:
     p.add_argument("--w-limit", type=float, default=w.limit_per_s, metavar="W",
                    help=f"weight of the time at envelope limits, 1/s (default {w.limit_per_s:g})")
     p.add_argument("--no-perturbed", action="store_true", help="tune on the scene alone (not recommended)")
-    p.add_argument("--bench", action="store_true", help="also write bench/results/tuning.json (bench.common)")
+    p.add_argument("--record", type=Path, metavar="RUN.json",
+                   help="also write the run's full record here (every evaluation, the candidates, the sensitivity "
+                        "tables; JSON, atomic)")
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
     p.set_defaults(func=run)
-
-
-def tn_weights_default():
-    from telethermo.control.tuning import Weights
-    return Weights()
 
 
 def _fmt(x: Any, nd: int = 3) -> str:
@@ -88,22 +90,8 @@ def _row(label: str, ev) -> list[Any]:
 HEADERS = ["point", "J", "early °C", "late °C", "track °C", "margin short °C", "limit s", "trips", "order"]
 
 
-def sensitivity_rows(rob) -> list[dict[str, Any]]:
-    """JSON rows of a Robustness (centre first), scene-averaged figures and per-scene J."""
-    out = []
-    for label, ev in [("centre", rob.centre)] + list(rob.rows):
-        r = {"point": label, "gains": ev.gains, **ev.summary()}
-        r["per_scene"] = [{k: s[k] for k in ("scene", "J", "early_C", "late_C", "tracking_rms_C", "limit_s", "trips",
-                                             "order_kept", "margins_C", "margin_shortfall_C",
-                                             "per_contact_early_C")} for s in ev.scenes]
-        out.append(r)
-    return out
-
-
-def run(args: argparse.Namespace) -> int:
-    import sim
-    from telethermo.control import tuning as tn
-
+def _check(args: argparse.Namespace) -> None:
+    """UserError for an argument out of its range."""
     if args.budget < 1:
         raise UserError(f"--budget {args.budget}: expected an integer >= 1")
     if not (0 < args.rel < 1):
@@ -114,19 +102,64 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("--candidates must be >= 1 and --corners >= 0")
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         raise UserError(f"--duration {args.duration}: expected a number of seconds > 0")
+
+
+def _start_gains(path: Path | None) -> dict[str, float] | None:
+    """--start: the gains file's gains as {"role.field": value}, or None (the shipped gains)."""
+    if path is None:
+        return None
+    try:
+        loaded = tn.load_gains(path)
+    except ValueError as exc:
+        raise UserError(f"--start: {exc}") from None
+    return {f"{role.value}.{k}": v for role, gains in loaded.items() for k, v in gains.items()}
+
+
+def _weights(args: argparse.Namespace) -> tn.Weights:
+    for name in ("w_early", "w_late", "w_tracking", "w_margin", "w_limit"):
+        v = getattr(args, name)
+        if not (v >= 0 and math.isfinite(v)):
+            raise UserError(f"--{name.replace('_', '-')} {v}: expected a finite number >= 0")
+    return tn.Weights(early_per_C=args.w_early, late_per_C=args.w_late, tracking_per_C=args.w_tracking,
+                      limit_per_s=args.w_limit, margin_per_C=args.w_margin)
+
+
+def _report(res: tn.TuneResult, obj: tn.Objective, rel: float, wall: float) -> None:
+    """Print the candidates, the sensitivity table of the chosen point and the search's totals."""
+    print("\ncandidates (centre J, worst J over the ±%d %% box, the worst point):" % round(rel * 100))
+    pool = res.candidates + ([res.reference] if res.reference is not None and res.reference not in res.candidates else [])
+    rows = []
+    for rob in pool:
+        tag = "reference (shipped)" if rob is res.reference else "candidate"
+        tag += " *chosen*" if rob is res.chosen else ""
+        rows.append([tag, rob.centre.J, rob.worst.J, rob.worst_label] +
+                    [rob.centre.gains[k] for k in obj.keys])
+    print(_table(["point", "J", "worst J", "worst at"] + obj.keys, rows))
+    print(f"\nsensitivity of the chosen point (±{rel:.0%} on each gain, then random corners):")
+    print(_table(HEADERS, [_row("centre", res.chosen.centre)] + [_row(lab, ev) for lab, ev in res.chosen.rows]))
+    print(f"\nchosen gains: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.best.gains.items()))
+    print(f"search: {res.search.method}, budget {res.search.budget} points, {len(res.search.points)} points, "
+          f"{res.search.n_evaluations} evaluations; "
+          f"{len(obj.history)} evaluations in all ({obj.n_sessions} sessions), wall time {wall:.0f} s")
+
+
+def _write(path: Path, what: str, doc: dict[str, Any], writer) -> None:
+    try:
+        writer(path, doc)
+    except OSError as exc:
+        raise UserError(f"{what} {str(path)!r}: {exc}") from None
+    print(f"wrote {path}")
+
+
+def run(args: argparse.Namespace) -> int:
+    _check(args)
     try:
         scene = sim.load_scene(args.scene)
         scenes = tn.tuning_scenes(scene, perturbed=not args.no_perturbed)
     except ValueError as exc:  # SceneError names the file and the field; a virtual scene is refused
         raise UserError(str(exc)) from None
-
-    x0 = None
-    if args.start is not None:
-        try:
-            loaded = tn.load_gains(args.start)
-        except ValueError as exc:
-            raise UserError(f"--start: {exc}") from None
-        x0 = {f"{role.value}.{k}": v for role, gains in loaded.items() for k, v in gains.items()}
+    x0 = _start_gains(args.start)
+    weights = _weights(args)
 
     t0 = time.perf_counter()
     best = [math.inf]
@@ -139,12 +172,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"  eval {n:4d}  J {ev.J:7.3f}  (best {best[0]:.3f})  early {s['early_C']:.3f} °C  "
                   f"track {s['tracking_rms_C']:.3f} °C  [{time.perf_counter() - t0:6.1f} s]", flush=True)
 
-    for name in ("w_early", "w_late", "w_tracking", "w_margin", "w_limit"):
-        v = getattr(args, name)
-        if not (v >= 0 and math.isfinite(v)):
-            raise UserError(f"--{name.replace('_', '-')} {v}: expected a finite number >= 0")
-    weights = tn.Weights(early_per_C=args.w_early, late_per_C=args.w_late, tracking_per_C=args.w_tracking,
-                         limit_per_s=args.w_limit, margin_per_C=args.w_margin)
     obj = tn.Objective(scenes, seed=args.seed, duration_s=args.duration, progress=progress, weights=weights)
     print(f"telethermo tune: scenes {', '.join(s.name for s in scenes)}; gains "
           f"{', '.join(f'{s.key} [{s.lo:g}, {s.hi:g}]' for s in obj.space)}", flush=True)
@@ -153,64 +180,20 @@ def run(args: argparse.Namespace) -> int:
     res = tn.tune(obj, budget=args.budget, method=args.method, seed=args.seed, candidates=args.candidates, x0=x0,
                   rel=args.rel, corners=args.corners, stress_rel=args.stress, on_stage=lambda m: print(f"- {m}", flush=True))
     wall = time.perf_counter() - t0
-
-    print("\ncandidates (centre J, worst J over the ±%d %% box, the worst point):" % round(args.rel * 100))
-    pool = res.candidates + ([res.reference] if res.reference is not None and res.reference not in res.candidates else [])
-    rows = []
-    for rob in pool:
-        tag = "reference (shipped)" if rob is res.reference else "candidate"
-        tag += " *chosen*" if rob is res.chosen else ""
-        rows.append([tag, rob.centre.J, rob.worst.J, rob.worst_label] +
-                    [rob.centre.gains[k] for k in obj.keys])
-    print(_table(["point", "J", "worst J", "worst at"] + obj.keys, rows))
-    print(f"\nsensitivity of the chosen point (±{args.rel:.0%} on each gain, then random corners):")
-    print(_table(HEADERS, [_row("centre", res.chosen.centre)] + [_row(lab, ev) for lab, ev in res.chosen.rows]))
-    print(f"\nchosen gains: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.best.gains.items()))
-    print(f"search: {res.search.method}, budget {res.search.budget} points, {len(res.search.points)} points, "
-          f"{res.search.n_evaluations} evaluations; "
-          f"{len(obj.history)} evaluations in all ({obj.n_sessions} sessions), wall time {wall:.0f} s")
+    _report(res, obj, args.rel, wall)
 
     doc = tn.gains_document(res, obj, extra={"wall_time_s": wall})
     if args.out is not None:
-        try:
-            tn.write_gains(args.out, doc)
-        except OSError as exc:
-            raise UserError(f"--out {str(args.out)!r}: {exc}") from None
-        print(f"wrote {args.out}")
-    if args.bench:
-        try:
-            from bench.common import write_results
-        except ImportError:
-            raise UserError("--bench: the bench package is not importable (run from the repository root)") from None
-        data = {"scene": scene.name, "scenes": [s.name for s in scenes], "budget": args.budget, "method": args.method,
-                "seed": args.seed, "wall_time_s": wall, "evaluations": len(obj.history), "sessions": obj.n_sessions,
-                "space": [{"gain": s.key, "lo": s.lo, "hi": s.hi} for s in obj.space],
-                "weights": doc["objective"]["weights"], "rel_box": args.rel, "corners": args.corners,
-                "stress_rel": res.search.stress_rel,
-                "start": {"gains": res.search.start.gains, "searched_value": res.search.start.value,
-                          **res.search.start.centre.summary()},
-                "search_best": {"gains": res.search.best.gains, "searched_value": res.search.best.value,
-                                **res.search.best.centre.summary()},
-                "candidates": [{"gains": r.centre.gains, "J": r.centre.J, "worst_J": r.worst.J,
-                                "worst_at": r.worst_label, "is_reference": r is res.reference,
-                                "chosen": r is res.chosen} for r in pool],
-                "chosen": {"gains": res.best.gains, "worst_J": res.chosen.worst.J,
-                           "worst_at": res.chosen.worst_label, **res.best.summary()},
-                "sensitivity_chosen": sensitivity_rows(res.chosen),
-                "sensitivity_reference": sensitivity_rows(res.reference) if res.reference is not None else None,
-                "gains_file": doc,
-                "history": [{"gains": ev.gains, **ev.summary(),
-                             "per_scene_J": [sc["J"] for sc in ev.scenes],
-                             "per_scene_early_C": [sc["early_C"] for sc in ev.scenes],
-                             "per_scene_tracking_rms_C": [sc["tracking_rms_C"] for sc in ev.scenes]}
-                            for ev in obj.history]}
-        print(f"wrote {write_results('tuning', data)}")
+        _write(args.out, "--out", doc, tn.write_gains)
+    if args.record is not None:
+        record = tn.run_record(res, obj, doc, scene=scene.name, budget=args.budget, method=args.method,
+                               seed=args.seed, rel=args.rel, corners=args.corners, wall_time_s=wall)
+        _write(args.record, "--record", record, write_json_atomic)
     return EXIT_OK
 
 
 def main(argv: list[str] | None = None) -> int:
-    """Run ``telethermo tune`` standalone (until the subcommand is registered in telethermo.cli.main)."""
-    from telethermo.cli.main import EXIT_USAGE
+    """Run ``telethermo tune`` standalone (``python -m telethermo.cli.tune``; bench.tune calls it too)."""
     ap = argparse.ArgumentParser(prog="telethermo")
     sub = ap.add_subparsers(dest="command")
     register(sub)

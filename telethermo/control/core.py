@@ -39,19 +39,15 @@ from typing import Any
 
 from telethermo.control import safety as sf
 from telethermo.control.contact import ContactParams, ContactState, contact_step
+from telethermo.control.defaults import CORE
 from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
 from telethermo.control.later_phase import LaterPhase, later_setpoint, later_start
 from telethermo.ident.plan import IdentifyPlan, guarded_current
-from telethermo.control.pi import PIComponents, PIGains, PIState, bumpless, pi_step
+from telethermo.control.pi import FluxPIGains, PIComponents, PIGains, PIState, bumpless, pi_step
 from telethermo.control.material_stream import MaterialEstimate, MaterialIdParams, MaterialState, material_step
 from telethermo.control.rendering import contact_temperature, pad_preset_temperature
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.rig import RigSample
-
-#: Thermal resistance of the default heat-flux sensor between its two faces, K/W: 0.42 mm thick
-#: (guiatni §4.1), 15 × 15 mm, effective conductivity 2.0 W/(m·K) (the design value of the sensor with
-#: copper cover plates, sim/data/materials.toml [flux_sensor]): R = e/(k·S) ≈ 0.93 K/W.
-DEFAULT_R_SENSOR_K_PER_W = 0.42e-3 / (2.0 * 0.015 * 0.015)
 
 
 class Feedback(str, Enum):
@@ -176,28 +172,28 @@ class CoreParams:
 
     role: Role
     mode: Mode = Mode.TELEPRESENCE
-    period_s: float = 0.01
-    kp_A_per_C: float = 0.4
-    ki_A_per_C_s: float = 2.0
-    kQ_A_per_W: float = 0.0
-    kpQ_A_per_W: float = 0.0
-    kiQ_A_per_W_s: float = 0.0
-    kQ_render_A_per_W: float = 0.0
+    period_s: float = CORE["period_s"]
+    kp_A_per_C: float = CORE["kp_A_per_C"]
+    ki_A_per_C_s: float = CORE["ki_A_per_C_s"]
+    kQ_A_per_W: float = CORE["kQ_A_per_W"]
+    kpQ_A_per_W: float = CORE["kpQ_A_per_W"]
+    kiQ_A_per_W_s: float = CORE["kiQ_A_per_W_s"]
+    kQ_render_A_per_W: float = CORE["kQ_render_A_per_W"]
     estimator: Estimator = Estimator.FLUX
     feedback: Feedback = Feedback.ESTIMATE
-    R_sensor_K_per_W: float = DEFAULT_R_SENSOR_K_PER_W
-    fused_weight: float = 0.5
+    R_sensor_K_per_W: float = CORE["R_sensor_K_per_W"]
+    fused_weight: float = CORE["fused_weight"]
     safety: sf.SafetyLimits = field(default_factory=sf.SafetyLimits)
     render: RenderSettings | None = None
     contact: ContactParams = field(default_factory=ContactParams)
-    idle_ramp_A_per_s: float = 4.0
+    idle_ramp_A_per_s: float = CORE["idle_ramp_A_per_s"]
     identify: IdentifyPlan = field(default_factory=IdentifyPlan)
     echo_peer_when_free: bool = False
     air_rendering: bool = False
-    air_kpQ_A_per_W: float = 0.1
-    air_kiQ_A_per_W_s: float = 1.0
-    G_air_W_per_K: float = 15.0 * 0.015 * 0.015
-    T_air_C: float = 25.0
+    air_kpQ_A_per_W: float = CORE["air_kpQ_A_per_W"]
+    air_kiQ_A_per_W_s: float = CORE["air_kiQ_A_per_W_s"]
+    G_air_W_per_K: float = CORE["G_air_W_per_K"]
+    T_air_C: float = CORE["T_air_C"]
     material_id: MaterialIdParams | None = field(default_factory=MaterialIdParams)
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
@@ -239,9 +235,9 @@ class CoreParams:
         # built once: step() runs every SYNC
         object.__setattr__(self, "_gains", PIGains(self.kp_A_per_C, self.ki_A_per_C_s))
         fg = None if (self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0) else \
-            PIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
+            FluxPIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
         object.__setattr__(self, "_flux_gains", fg)
-        object.__setattr__(self, "_air_gains", PIGains(self.air_kpQ_A_per_W, self.air_kiQ_A_per_W_s))
+        object.__setattr__(self, "_air_gains", FluxPIGains(self.air_kpQ_A_per_W, self.air_kiQ_A_per_W_s))
 
     @property
     def gains(self) -> PIGains:
@@ -249,7 +245,7 @@ class CoreParams:
         return self._gains
 
     @property
-    def flux_gains(self) -> PIGains | None:
+    def flux_gains(self) -> FluxPIGains | None:
         """Heat-flux loop gains (kp in A/W, ki in A/(W·s)), None when off."""
         return self._flux_gains
 

@@ -1,15 +1,42 @@
-"""Default controller parameters per role and period: the configuration the figures are quoted for.
+"""The one defaults object of the controller: every default number of :class:`CoreParams`, per role and mode.
+
+- :data:`CORE`: the field defaults of a bare ``CoreParams(role=...)`` (core.py reads them from here): a
+  plain temperature PI with no flux terms, the flux estimator, the sensor's resistance, the air model.
+  No program runs with CORE's gains alone: the nodes and the offline session build their parameters
+  with :func:`telethermo.control.params.default_params`, which lays :data:`GAINS` (or
+  :data:`RENDER_GAINS` in RENDER mode) over CORE.
+- :data:`GAINS`: the tuned gains per role (telepresence); :data:`RENDER_GAINS`, :data:`HOLD_GAINS`,
+  :data:`PAPER_GAINS`: the other modes' and the published law's.
 
 Gains were tuned on the simulated rigs (sim/, default 15 × 15 mm TEM, 5 Hz measurement filter) with
 the offline session of the guiatni §5.3 scene; see docs/control.md for the tuning and the trade-offs.
+Data only (no CoreParams here: core.py imports this module).
 """
 from __future__ import annotations
 
 from typing import Any
 
 from telethermo.control.contact import ContactParams, ContactSource
-from telethermo.control.core import CoreParams
-from telethermo.control.types import Mode, Role
+from telethermo.control.types import Role
+
+#: Thermal resistance of the default heat-flux sensor between its two faces, K/W: 0.42 mm thick
+#: (guiatni §4.1), 15 × 15 mm, effective conductivity 2.0 W/(m·K) (the design value of the sensor with
+#: copper cover plates, sim/data/materials.toml [flux_sensor]): R = e/(k·S) ≈ 0.93 K/W.
+DEFAULT_R_SENSOR_K_PER_W = 0.42e-3 / (2.0 * 0.015 * 0.015)
+
+#: CoreParams' field defaults (units in the names; see CoreParams for each field's meaning)
+CORE: dict[str, float] = dict(
+    period_s=0.01,
+    kp_A_per_C=0.4, ki_A_per_C_s=2.0,                      # plain temperature PI (unit tests, bare CoreParams)
+    kQ_A_per_W=0.0, kpQ_A_per_W=0.0, kiQ_A_per_W_s=0.0,    # no flux feed-forward, no flux loop
+    kQ_render_A_per_W=0.0,
+    R_sensor_K_per_W=DEFAULT_R_SENSOR_K_PER_W,
+    fused_weight=0.5,
+    idle_ramp_A_per_s=4.0,
+    air_kpQ_A_per_W=0.1, air_kiQ_A_per_W_s=1.0,
+    G_air_W_per_K=15.0 * 0.015 * 0.015,                    # still air, h = 15 W/(m²·K) over 15 × 15 mm
+    T_air_C=25.0,
+)
 
 #: role -> parameters at the reference period of 10 ms (telepresence), tuned on probe_touches_al_steel_wood
 #: (issue 11: random search then a local search on the transparency headline, each touch's early error
@@ -41,12 +68,3 @@ RENDER_GAINS: dict[str, float] = dict(kp_A_per_C=0.7, ki_A_per_C_s=1.0, kQ_rende
 #: nothing): the rendering PI, no flux terms (a constant virtual peer draws no flux)
 HOLD_GAINS: dict[str, float] = dict(kp_A_per_C=0.7, ki_A_per_C_s=1.0, kQ_A_per_W=0.0, kpQ_A_per_W=0.0,
                                     kiQ_A_per_W_s=0.0)
-
-
-def default_params(role: Role, *, period_s: float = 0.01, mode: Mode = Mode.TELEPRESENCE, **overrides: Any) -> CoreParams:
-    """The default :class:`CoreParams` of ``role`` at ``period_s`` (keyword overrides win)."""
-    role = Role(role)
-    gains = RENDER_GAINS if Mode(mode) is Mode.RENDER else GAINS[role]
-    kw: dict[str, Any] = dict(role=role, mode=mode, period_s=period_s, **gains)
-    kw.update(overrides)
-    return CoreParams(**kw)

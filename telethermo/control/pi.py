@@ -39,6 +39,25 @@ class PIGains:
 
 
 @dataclass(frozen=True, slots=True)
+class FluxPIGains:
+    """Gains of the heat-flux tracking loop that shares the PI's integrator (its error is in W).
+
+    Attributes:
+        kp_A_per_W: proportional gain, A/W.
+        ki_A_per_W_s: integral gain, A/(W·s).
+    """
+
+    kp_A_per_W: float
+    ki_A_per_W_s: float
+
+    def __post_init__(self) -> None:
+        for name in ("kp_A_per_W", "ki_A_per_W_s"):
+            v = getattr(self, name)
+            if not (isinstance(v, (int, float)) and math.isfinite(v) and v >= 0):
+                raise ValueError(f"FluxPIGains.{name}: expected a finite number >= 0, got {v!r}")
+
+
+@dataclass(frozen=True, slots=True)
 class PIState:
     """Integrator of the PI, A (the integral term itself, so gain changes are bumpless)."""
 
@@ -68,12 +87,12 @@ def _clip(x: float, lo: float, hi: float) -> float:
 
 
 def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: float,
-            u_min_A: float, u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: PIGains | None = None
+            u_min_A: float, u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: FluxPIGains | None = None
             ) -> tuple[float, PIState, PIComponents]:
     """One PI + feed-forward step. Returns ``(u_A, new_state, components)``.
 
-    ``flux_gains`` (kp in A/W, ki in A/(W·s), carried in the same :class:`PIGains` fields) add a
-    heat-flux tracking loop on ``flux_error_W`` sharing the integrator and the anti-windup.
+    ``flux_gains`` (:class:`FluxPIGains`, A/W and A/(W·s)) add a heat-flux tracking loop on
+    ``flux_error_W`` sharing the integrator and the anti-windup.
     Non-finite errors or ``ff_A`` are treated as 0 (the safety envelope trips on their causes);
     the integrator then holds. ``u_min_A < u_max_A`` is required.
     """
@@ -84,8 +103,8 @@ def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: f
     p = gains.kp_A_per_C * error_C
     di = gains.ki_A_per_C_s * error_C
     if flux_gains is not None and math.isfinite(flux_error_W):
-        p += flux_gains.kp_A_per_C * flux_error_W
-        di += flux_gains.ki_A_per_C_s * flux_error_W
+        p += flux_gains.kp_A_per_W * flux_error_W
+        di += flux_gains.ki_A_per_W_s * flux_error_W
     i = state.integral_A + di * dt_s
     # anti-windup including the feed-forward
     i = _clip(i, u_min_A - p - ff_A, u_max_A - p - ff_A)
@@ -96,7 +115,7 @@ def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: f
 
 
 def bumpless(gains: PIGains, u_prev_A: float, error_C: float, ff_A: float, u_min_A: float,
-             u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: PIGains | None = None) -> PIState:
+             u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: FluxPIGains | None = None) -> PIState:
     """Integrator that makes ``kp·error + I + ff`` equal the previous output ``u_prev_A`` (clamped)."""
     if not math.isfinite(u_prev_A):
         u_prev_A = 0.0
@@ -104,6 +123,6 @@ def bumpless(gains: PIGains, u_prev_A: float, error_C: float, ff_A: float, u_min
     f = ff_A if math.isfinite(ff_A) else 0.0
     p = gains.kp_A_per_C * e
     if flux_gains is not None and math.isfinite(flux_error_W):
-        p += flux_gains.kp_A_per_C * flux_error_W
+        p += flux_gains.kp_A_per_W * flux_error_W
     i = u_prev_A - p - f
     return PIState(_clip(i, u_min_A, u_max_A))

@@ -14,7 +14,8 @@ from telethermo.ident.capacity import CapacityModel, fit_capacity
 from telethermo.ident.flux import FluxArma, fit_flux_arma
 from telethermo.ident.modelfile import (ModelFileError, TemModel, default_model_path, load_model, narma_from_od_values,
                                         narma_to_od_values, save_model)
-from telethermo.ident.narma import NarmaModel, NarmaOrders, NarmaPredictor, UnstableModelError, fit_narma
+from telethermo.ident.narma import NarmaModel, NarmaOrders, NarmaPredictor, UnstableModelError
+from telethermo.ident.narma_fit import fit_narma
 from telethermo.ident.prbs import prbs
 from telethermo.ident.rls import Rls, RlsHealth
 from telethermo.ident.stability import StabilityReport, check_stability

@@ -32,7 +32,8 @@ import numpy as np
 from telethermo.ident.capacity import CapacityModel, fit_capacity
 from telethermo.ident.flux import fit_flux_arma
 from telethermo.ident.modelfile import TemModel
-from telethermo.ident.narma import NarmaModel, NarmaOrders, fit_narma
+from telethermo.ident.narma import NarmaModel, NarmaOrders
+from telethermo.ident.narma_fit import fit_narma
 from telethermo.ident.plan import IdentifyPlan, guarded_current
 from telethermo.ident.stability import check_stability
 from telethermo.rig import Rig

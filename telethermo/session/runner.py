@@ -27,8 +27,9 @@ import numpy as np
 
 from telethermo.atomic import write_json_atomic
 from telethermo.control.core import CoreParams, StepResult, init_state, initial_peer, step
-from telethermo.control.defaults import HOLD_GAINS, default_params
+from telethermo.control.defaults import HOLD_GAINS
 from telethermo.control.later_phase import DEFAULT_LATER_MODEL
+from telethermo.control.params import default_params
 from telethermo.control.types import Mode, PeerValues, Role
 from telethermo.session.figures import compute_figures
 from telethermo.session.plot import write_session_png
@@ -105,7 +106,7 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     """Run a scene offline and return the recording and its figures.
 
     ``scene``: a name or path (``sim.load_scene``) or a loaded scene. ``*_params``: controller
-    parameters (default: :func:`telethermo.control.defaults.default_params` for the scene's period).
+    parameters (default: :func:`telethermo.control.params.default_params` for the scene's period).
     ``*_model``: a TEM model, a model file path, a predictor, or None (FLUX estimator needs none).
     ``rounding``: "none" or "real32" (exchanged values rounded as REAL32 PDOs carry them).
     ``mode``: "telepresence" or "render" (default: render for a "virtual" scene).

@@ -21,6 +21,8 @@ from telethermo.transport.bus import TransportError
 from telethermo.transport.published import publish, running, state_file
 from telethermo.transport.resolve import resolve_bus
 
+pytestmark = pytest.mark.slow  # starts processes
+
 ENV_KEYS = ("CAN_INTERFACE", "CAN_CHANNEL", "CAN_BITRATE", "CAN_CONFIG")
 
 

@@ -13,6 +13,8 @@ import pytest
 
 from telethermo.cli.main import COMMANDS, build_parser
 
+pytestmark = pytest.mark.slow  # starts processes
+
 HEAVY = ("scipy", "matplotlib", "numpy")
 # an empty virtual bus: the commands run their whole path (open the bus, parse the EDS, SDO/NMT) and
 # give up after the short timeout (exit 1: nobody answers)

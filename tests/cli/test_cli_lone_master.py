@@ -9,15 +9,18 @@ import time
 import subprocess
 from pathlib import Path
 
+import canopen
 import numpy as np
 import pytest
 
 import sim
 from nodes.launch import wait_for
+from telethermo.canopen_dev.netconfig import load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
-from telethermo.ident import load_model, odmodel
+from telethermo.ident import default_model_path, load_model, odmodel
 from telethermo.ident.experiment import ExperimentSettings, run_excitation
 from telethermo.ident.plan import IdentifyPlan
+from telethermo.transport.bus import open_bus, parse_bus_string
 
 pytestmark = pytest.mark.slow
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
@@ -43,6 +46,22 @@ def get(capsys, bus, name):
 
 def set_(capsys, bus, name, value):
     return cli(capsys, "set", "--bus", bus, "master", name, str(value))
+
+
+def load_model_by_sdo(bus: str, model_file: Path) -> int:
+    """Write a model file into the master's model objects by SDO (a canopen client of its own) and load
+    it (model_command 1), as ``telethermo identify`` does; returns the CRC-32 the node must then report."""
+    entries = odmodel.model_entries(load_model(model_file))
+    cfg = load_network(None).node("master")
+    nw = canopen.Network(open_bus(parse_bus_string(bus))).connect()
+    try:
+        node = nw.add_node(cfg.node_id, str(cfg.eds))
+        for e in entries:
+            (node.sdo[e.index][e.sub] if e.sub else node.sdo[e.index]).raw = e.value
+        node.sdo["model_command"].raw = odmodel.CMD_LOAD
+    finally:
+        nw.disconnect()
+    return odmodel.od_crc32(entries)
 
 
 def test_identify_a_live_node_and_load_the_model(master, capsys):
@@ -95,7 +114,6 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     # on the receiving side and let the CLI's fetch fill them over the real SDO path, bit for bit
     from telethermo.cli import common
     from telethermo.cli.identify_live import Stream, _fetch_lost, _Sdo
-    from telethermo.canopen_dev.netconfig import load_network
     Q_bus = np.array([float(r[5]) for r in rows])
     stream = Stream([0x281, 0x381, 0x481], len(rows))
     stream.values[:] = (T_bus, I_bus, Q_bus)
@@ -133,6 +151,12 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
 
 def test_the_node_refuses_a_bad_model_and_keeps_the_running_one(master, capsys):
     bus, _ = master
+    # the node runs a model (the shipped one, loaded here: this test needs no other test before it) with the
+    # model estimator
+    assert wait_for(lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30)
+    want = load_model_by_sdo(bus, default_model_path())
+    assert wait_for(lambda: get(capsys, bus, "model_status") == "1" and int(get(capsys, bus, "model_crc32"), 16) == want, 5)
+    assert set_(capsys, bus, "estimator", 0)[0] == EXIT_OK
     crc = get(capsys, bus, "model_crc32")
     assert get(capsys, bus, "model_status") == "1"
     # theta_len inconsistent with the orders: the objects are edited, the load refused, the model kept
@@ -223,7 +247,6 @@ def test_a_kill_during_an_identification_puts_the_node_back(master, capsys):
                              "--samples", "500000", "--validation", "1000", "--quiet"],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     # watch the bus, not the node's SDO server: one SDO channel serves one client at a time (the CLI's now)
-    from telethermo.transport.bus import open_bus, parse_bus_string
     listener = open_bus(parse_bus_string(bus))
     try:
         deadline, numbered = time.monotonic() + 60, 0

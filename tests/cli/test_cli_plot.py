@@ -11,6 +11,8 @@ import pytest
 
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 CYCLES = 150
 

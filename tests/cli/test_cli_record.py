@@ -17,6 +17,8 @@ import pytest
 
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
 
+pytestmark = pytest.mark.slow  # starts processes
+
 
 def record_with_sync(cli, channel: str, out, *extra: str, frames: int = 20):
     """``telethermo record`` on a virtual bus while a thread sends SYNC frames; stops after ``frames``."""

@@ -14,7 +14,7 @@ from sim.tem import load_rig_params
 from sim.touch import BodySpec, Schedule, Touch
 from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.material_stream import MaterialIdParams, MaterialState, default_classes, material_step
 from telethermo.control.rendering import load_render_table, relative_effusivity_from_contact
 from telethermo.control.types import PeerValues, Role

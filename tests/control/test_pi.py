@@ -1,9 +1,10 @@
 """PI + feed-forward: anti-windup including the feed-forward, bumpless re-seeding, components."""
 import math
 
+import pytest
 from hypothesis import given, settings, strategies as st
 
-from telethermo.control.pi import PIGains, PIState, bumpless, pi_step
+from telethermo.control.pi import FluxPIGains, PIGains, PIState, bumpless, pi_step
 
 G = PIGains(kp_A_per_C=0.5, ki_A_per_C_s=2.0)
 
@@ -59,3 +60,15 @@ def test_bumpless_reseed_gives_continuous_output(u_prev, e, ff, kp, ki):
 def test_output_always_finite_and_within_limits(e, ff, i0):
     u, s, _ = pi_step(G, PIState(i0), e, ff, 0.01, -1.6, 1.6)
     assert math.isfinite(u) and -1.6 <= u <= 1.6 and math.isfinite(s.integral_A)
+
+
+def test_the_flux_loop_gains_are_in_amperes_per_watt():
+    fg = FluxPIGains(kp_A_per_W=0.5, ki_A_per_W_s=2.0)
+    u, st, c = pi_step(PIGains(0.0, 0.0), PIState(), 0.0, 0.0, 0.01, -3.0, 3.0, flux_error_W=0.4, flux_gains=fg)
+    assert c.p_A == pytest.approx(0.5 * 0.4) and st.integral_A == pytest.approx(2.0 * 0.4 * 0.01)
+    assert u == pytest.approx(0.2 + 0.008)
+    # bumpless re-seeding counts the flux loop's proportional term too
+    assert bumpless(PIGains(0.0, 0.0), 1.0, 0.0, 0.0, -3.0, 3.0, flux_error_W=0.4, flux_gains=fg).integral_A \
+        == pytest.approx(1.0 - 0.2)
+    with pytest.raises(ValueError, match="FluxPIGains.kp_A_per_W"):
+        FluxPIGains(-1.0, 0.0)

@@ -5,7 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from telethermo.ident.narma import (NarmaModel, NarmaOrders, UnstableModelError, fit_narma, narma_regressors)
+from telethermo.ident.narma import NarmaModel, NarmaOrders, UnstableModelError, narma_regressors
+from telethermo.ident.narma_fit import fit_narma
 from telethermo.ident.prbs import prbs
 from telethermo.ident.stability import check_stability
 

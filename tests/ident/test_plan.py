@@ -8,7 +8,7 @@ import pytest
 
 import sim
 from telethermo.control.core import init_state, step
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.ident.experiment import ExperimentSettings, identify_rig, run_excitation
 from telethermo.ident.plan import IdentifyPlan, guarded_current

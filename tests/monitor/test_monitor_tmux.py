@@ -13,7 +13,7 @@ from pathlib import Path
 import can
 import pytest
 
-pytestmark = pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed")
+pytestmark = [pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed"), pytest.mark.slow]
 ROOT = Path(__file__).resolve().parents[2]
 
 

@@ -25,6 +25,8 @@ from telethermo.control.rendering import load_render_table
 from telethermo.session.recording import read_recording_csv
 from telethermo.transport.hub import HubThread
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENES = Path(__file__).resolve().parents[2] / "sim" / "scenes"
 MASTER = 1
 

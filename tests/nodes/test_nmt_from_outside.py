@@ -17,6 +17,8 @@ import pytest
 
 from nodes.launch import NodePair, PairConfig, wait_for
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from nodes.launch import NodePair, PairConfig
 from nodes.merge import merge_recordings
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 
 pytestmark = pytest.mark.slow

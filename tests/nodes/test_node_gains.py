@@ -10,10 +10,12 @@ import pytest
 
 from nodes.launch import NodePair, PairConfig
 from nodes.merge import merge_recordings
-from telethermo.control.defaults import default_params
-from telethermo.control.tuning import GAINS_FORMAT, load_gains
+from telethermo.control.gainsfile import GAINS_FORMAT, load_gains
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 from telethermo.session import run_offline_session
+
+pytestmark = pytest.mark.slow  # starts processes
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 CYCLES = 200  # the probe touches the aluminium at 1.0 s (cycle 100)

@@ -11,6 +11,8 @@ import pytest
 
 from telethermo.session.recording_journal import CsvRecorder
 
+pytestmark = pytest.mark.slow  # starts processes
+
 
 def test_rows_round_trip_exactly_and_appear_only_on_close(tmp_path):
     path = tmp_path / "rec" / "master.csv"

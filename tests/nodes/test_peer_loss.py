@@ -13,6 +13,8 @@ from nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.session.recording import read_recording_csv
 from telethermo.transport.bus import FrameLog
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 MISS_LIMIT = 10          # 0x2408 peer_pdo_miss_limit default
 HB_PRODUCER_MS, HB_CONSUMER_MS = 100, 250   # bus_config/network.toml

@@ -9,11 +9,14 @@ import time
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from nodes.launch import NodePair, PairConfig, node_command, wait_for
 from nodes.merge import merge_recordings
 from telethermo.session.recording_journal import journal_path
 from telethermo.session.recording import read_recording_csv
+
+pytestmark = pytest.mark.slow  # starts processes
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 ROW_FLUSH = 200   # CsvRecorder's row-count flush (2 s of rows at 100 Hz). A row of this node is ~700 bytes, so

@@ -14,6 +14,8 @@ import pytest
 from nodes.launch import wait_for
 from telethermo.session import run_offline_session
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 
 

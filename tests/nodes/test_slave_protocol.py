@@ -18,6 +18,8 @@ from bus_config import path as bus_config_path
 from nodes.launch import node_command, stop_process, wait_for
 from telethermo.transport.hub import HubThread
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 SLAVE = 2
 
@@ -225,7 +227,7 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
     controller refuses (or cannot run in its present state) is aborted and left unchanged; reset
     node brings the program's power-on parameters back."""
     import sim
-    from telethermo.control.defaults import default_params
+    from telethermo.control.params import default_params
     from telethermo.control.types import Role
 
     net, remote, frames, _ = slave

@@ -12,6 +12,8 @@ import pytest
 
 from telethermo.transport.hub import HubConfig, HubThread, format_frame, parse_send
 
+pytestmark = pytest.mark.slow  # starts processes
+
 
 def _client(port: int, channel: str = "vcan0") -> can.BusABC:
     return can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel=channel, tcp_tune=True)

@@ -12,6 +12,8 @@ from nodes.merge import merge_recordings
 from telethermo.session import run_offline_session
 from telethermo.session.recording import TEXT_COLUMNS
 
+pytestmark = pytest.mark.slow  # starts processes
+
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 CYCLES = 250  # the probe touches the aluminium at 1.0 s (cycle 100): contact, flux and tracking all in play
 

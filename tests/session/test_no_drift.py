@@ -3,7 +3,7 @@ stay there (a real-time run after a scene's end was once seen climbing to 42 °C
 import numpy as np
 import pytest
 
-from telethermo.control.defaults import default_params
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 from telethermo.session import run_offline_session
 

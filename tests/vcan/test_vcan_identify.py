@@ -14,7 +14,7 @@ from nodes.launch import start_lone_node, stop_process, wait_for
 from telethermo.cli.main import EXIT_OK, main
 from telethermo.ident import load_model, odmodel
 
-pytestmark = pytest.mark.vcan
+pytestmark = [pytest.mark.vcan, pytest.mark.slow]
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
 # orders 3,3,1,1: well determined by a short experiment (2,000 training samples: 12 of 12 experiments stable,

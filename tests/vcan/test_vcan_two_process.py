@@ -15,7 +15,7 @@ from nodes.merge import merge_recordings
 from telethermo.session import run_offline_session
 from telethermo.session.recording import TEXT_COLUMNS
 
-pytestmark = pytest.mark.vcan
+pytestmark = [pytest.mark.vcan, pytest.mark.slow]
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 CYCLES = 200

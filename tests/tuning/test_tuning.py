@@ -1,4 +1,4 @@
-"""Gain tuning (telethermo.control.tuning): deterministic objective, bounded search, robust choice, gains file.
+"""Gain tuning (telethermo.tuning): deterministic objective, bounded search, robust choice, gains file.
 
 The search tests use a cheap analytic objective (same class, sessions replaced); the session tests
 run short scenes. No wall-clock assertions.
@@ -9,8 +9,9 @@ import math
 import numpy as np
 import pytest
 
-from telethermo.control import tuning as tn
-from telethermo.control.defaults import GAINS, default_params
+from telethermo import tuning as tn
+from telethermo.control.defaults import GAINS
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 
 sim = pytest.importorskip("sim")
@@ -244,3 +245,22 @@ def test_cli_tune_refuses_bad_arguments(argv):
     args = ap.parse_args(base + argv)
     with pytest.raises(UserError):
         args.func(args)
+
+
+def test_cli_tune_record_holds_every_evaluation(tmp_path, capsys):
+    import argparse
+
+    from telethermo.cli import tune as cli
+
+    ap = argparse.ArgumentParser()
+    cli.register(ap.add_subparsers())
+    rec = tmp_path / "run.json"
+    args = ap.parse_args(["tune", "--scene", SCENE, "--duration", "1", "--budget", "1", "--candidates", "1",
+                          "--corners", "0", "--stress", "0", "--no-perturbed", "--quiet", "--record", str(rec)])
+    assert args.func(args) == 0
+    assert f"wrote {rec}" in capsys.readouterr().out
+    doc = json.loads(rec.read_text())
+    assert doc["scenes"] == [SCENE] and doc["budget"] == 1
+    assert len(doc["history"]) == doc["evaluations"] >= 1
+    assert doc["gains_file"]["format"] == tn.GAINS_FORMAT
+    assert doc["chosen"]["J"] == doc["gains_file"]["objective"]["J"]

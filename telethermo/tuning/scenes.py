@@ -1,0 +1,55 @@
+"""The scenes a tuning objective averages over: the given telepresence scene and a perturbed variant.
+
+The tuner sees the simulator only here and through the offline session (telethermo.session): the
+control package itself never imports ``sim``.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+from typing import Any
+
+import sim
+from sim.bodies import FingerParams
+
+
+def perturbed_scene(scene: Any) -> Any:
+    """A robustness variant of a telepresence scene: another room, another operator, other objects.
+
+    Ambient 3 °C cooler (22 °C for the guiatni scene; objects start there), a finger with a 4/3 thicker
+    epidermis (0.8 mm), 1.5× dermal perfusion and a core at most 36.5 °C, the probe pressing at most 5 N
+    (contact resistance no longer zero) and the finger at most 6 N, objects of neighbouring materials
+    (aluminium→copper, carbon steel→stainless steel, oak→PVC, ...) touched in a rotated order. Same
+    timing as the original. (The scene's noise seed is changed too, but an offline session seeds the
+    noise from its own ``seed`` argument: :class:`Objective` passes its ``seed`` to every scene.)
+    """
+    sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
+    swap = {"aluminium": "copper", "carbon_steel": "stainless_steel", "oak": "pvc", "copper": "aluminium",
+            "stainless_steel": "carbon_steel", "pvc": "oak", "brass": "aluminium", "eps": "oak", "glass": "ceramic"}
+    ambient = sc.ambient_C - 3.0
+    objects = {k: dataclasses.replace(o, material=swap.get(o.material, o.material), T0_C=ambient)
+               for k, o in sc.objects.items()}
+    f = sc.finger
+    layers = list(f.layers)
+    if layers:
+        m, t, w = layers[0]
+        layers[0] = (m, t * 4.0 / 3.0, w)
+    if len(layers) > 1:
+        m, t, w = layers[1]
+        layers[1] = (m, t, w * 1.5)
+    finger = FingerParams(layers=tuple(layers), T_blood_C=f.T_blood_C, core_C=min(f.core_C, 36.5))
+    names = [t.body for t in sc.slave_contacts]
+    rot = names[1:] + names[:1] if names else names
+    slave = tuple(dataclasses.replace(t, body=b, force_N=min(t.force_N, 5.0)) for t, b in zip(sc.slave_contacts, rot))
+    master = tuple(dataclasses.replace(t, force_N=min(t.force_N, 6.0)) for t in sc.master_contacts)
+    return dataclasses.replace(sc, name=f"{sc.name}~perturbed", ambient_C=ambient, objects=objects, finger=finger,
+                               slave_contacts=slave, master_contacts=master,
+                               seed=(sc.seed or 0) + 100)
+
+
+def tuning_scenes(scene: Any, *, perturbed: bool = True) -> list[Any]:
+    """The scenes an objective averages over: ``scene`` and (default) its :func:`perturbed_scene`."""
+    sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
+    if sc.kind != "telepresence":
+        raise ValueError(f"tuning: scene {sc.name!r} is {sc.kind!r}; the bilateral gains need a telepresence scene")
+    return [sc, perturbed_scene(sc)] if perturbed else [sc]
