@@ -19,6 +19,9 @@ import signal
 import sys
 from typing import NamedTuple
 
+# the operator's error (exit 2), defined with the remote-node client that raises it for bad names and values
+from telethermo.remote.errors import UserError
+
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
@@ -47,10 +50,6 @@ COMMANDS: dict[str, Command] = {
     "plot": Command("plot", "plot a recording (a session's recording.csv, a node's --record CSV) to a PNG"),
     "bench": Command("bench", "run the benchmark suite, write bench/results/*.json and docs/benchmarks.md"),
 }
-
-
-class UserError(Exception):
-    """An error the user can fix (bad argument, bad file, unknown parameter): one line, exit 2."""
 
 
 class _Subparsers:

@@ -14,8 +14,14 @@ import re
 import struct
 from typing import Any
 
+from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
+
 from telethermo.cli import common
 from telethermo.cli.main import UserError
+from telethermo.remote import codec, values
+from telethermo.remote.client import remote_node
+from telethermo.remote.errors import Failure, abort_text
+from telethermo.remote.targets import Target, eds_info, node_targets, resolve_node
 
 #: --type -> (struct format or None for text, CiA 301 type name)
 TYPES: dict[str, tuple[str | None, str]] = {
@@ -54,19 +60,19 @@ def parse_object(text: str) -> tuple[int, int]:
     return int(m.group(1), 16), sub
 
 
-def target_of(net, text: str) -> common.Target:
+def target_of(net, text: str) -> Target:
     """A node of the network file (by name or ID, with its EDS), or any other node-ID 1..127 (no EDS)."""
     try:
-        return common.resolve_node(net, text)
+        return resolve_node(net, text)
     except UserError:
         try:
             node_id = int(text, 0)
         except ValueError:
             node_id = None
         if node_id is None or not 1 <= node_id <= 127:
-            names = ", ".join(t.role for t in common.node_targets(net))
+            names = ", ".join(t.role for t in node_targets(net))
             raise UserError(f"node {text!r}: expected a node-ID 1..127 or one of {names}") from None
-        return common.Target(f"node {node_id}", node_id, None)
+        return Target(f"node {node_id}", node_id, None)
 
 
 def encode(type_name: str, text: str) -> bytes:
@@ -91,12 +97,12 @@ def encode(type_name: str, text: str) -> bytes:
 
 
 def decode(type_name: str, data: bytes) -> str:
-    """The uploaded bytes read as ``type_name``; common.Failure if their size does not fit."""
+    """The uploaded bytes read as ``type_name``; Failure if their size does not fit."""
     fmt, cia = TYPES[type_name]
     if fmt is None:
         return repr(data.decode("ascii", "replace").rstrip("\x00"))
     if len(data) != struct.calcsize(fmt):
-        raise common.Failure(f"the node sent {len(data)} bytes ({data.hex(' ')}); a {cia} has {struct.calcsize(fmt)}")
+        raise Failure(f"the node sent {len(data)} bytes ({data.hex(' ')}); a {cia} has {struct.calcsize(fmt)}")
     v = struct.unpack(fmt, data)[0]
     if type_name.startswith("f"):
         return repr(v)
@@ -117,15 +123,13 @@ def raw(data: bytes) -> str:
 
 @common.failures
 def run(args: argparse.Namespace) -> int:
-    from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
-
     net = common.network(args)
     t = target_of(net, args.node)
     index, sub = parse_object(args.object)
     where = f"0x{index:04X}:{sub:02X}"
     info = None
     if t.eds is not None:
-        info = common.eds_info(t).vars.get((index, sub))
+        info = eds_info(t).vars.get((index, sub))
     type_name = args.type or (EDS_TYPES.get(info.data_type) if info is not None else None)
     data = None
     if args.value is not None:
@@ -134,7 +138,7 @@ def run(args: argparse.Namespace) -> int:
                             + ("no EDS object there" if t.eds is not None else "no EDS for this node"))
         data = encode(type_name, args.value)
     with common.canopen_network(args, net) as nw:
-        node = common.remote(nw, t, args.timeout)
+        node = remote_node(nw, t.node_id, args.timeout)
         try:
             if data is None:
                 got = node.sdo.upload(index, sub)
@@ -142,18 +146,17 @@ def run(args: argparse.Namespace) -> int:
                 node.sdo.download(index, sub, data)
         except SdoAbortedError as exc:
             verb = "read" if data is None else "write"
-            raise common.Failure(f"{t.role} {where}: {verb} refused: {common.abort_text(exc.code)}") from None
+            raise Failure(f"{t.role} {where}: {verb} refused: {abort_text(exc.code)}") from None
         except SdoCommunicationError as exc:
-            raise common.Failure(f"{t.role} {where}: no answer (SDO timeout {args.timeout:g} s; is node "
-                                 f"{t.node_id} on the bus?) ({exc})") from None
+            raise Failure(f"{t.role} {where}: no answer (SDO timeout {args.timeout:g} s; is node "
+                          f"{t.node_id} on the bus?) ({exc})") from None
     name = f" {info.key}" if info is not None else ""
     if data is not None:
         print(f"{t.role} {where}{name} <- {data.hex(' ')} ({TYPES[type_name][1]} {args.value}): written")
     elif args.type:
         print(f"{t.role} {where}{name} = {decode(args.type, got)}")
     elif info is not None:
-        from telethermo.cli import values
-        print(f"{t.role} {where}{name} = {values.fmt(common.decode(info, got), info, common.eds_info(t))}")
+        print(f"{t.role} {where}{name} = {values.fmt(codec.decode(info, got), info, eds_info(t))}")
     else:
         print(f"{t.role} {where} = {raw(got)}")
     return 0

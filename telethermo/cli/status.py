@@ -6,7 +6,13 @@ import json
 import math
 
 from telethermo.cli import common
+from telethermo.control.safety import trips_from_mask
 from telethermo.monitor.cia301 import emcy_code_text, error_register_names
+from telethermo.remote.client import NodeClient
+from telethermo.remote.errors import Failure, UserError
+from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
+from telethermo.remote.targets import lookup, node_targets, resolve_node
+from telethermo.remote.values import fmt_plain
 
 MODES = {0: "idle", 1: "telepresence", 2: "render", 3: "identify"}
 SAFETY = {0: "ok", 1: "limiting", 2: "ramp to neutral", 3: "current cut"}
@@ -43,7 +49,6 @@ def _pretty(key: str, value, info) -> str:
     if key == "safety_state":
         return f"{SAFETY.get(value, '?')} ({value})"
     if key == "active_trips":
-        from telethermo.control.safety import trips_from_mask
         return ", ".join(t.value for t in trips_from_mask(int(value))) or "none"
     if key == "model_status":
         return f"{MODEL_STATUS.get(value, '?')} ({value})"
@@ -57,27 +62,27 @@ def _pretty(key: str, value, info) -> str:
         return f"0x{value:02X} [{','.join(error_register_names(value)) or 'none'}]"
     if info.index == 0x1003:
         return "none" if value == 0 else f"0x{value & 0xFFFF:04X} {emcy_code_text(value & 0xFFFF)}"
-    return common.fmt(value, info)
+    return fmt_plain(value, info)
 
 
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    targets = [common.resolve_node(net, n) for n in args.nodes] if args.nodes else common.node_targets(net)
+    targets = [resolve_node(net, n) for n in args.nodes] if args.nodes else node_targets(net)
     out, silent = [], []
     with common.canopen_network(args, net) as nw:
-        hb = common.watch_heartbeats(nw)
+        hb = watch_heartbeats(nw)
         for t in targets:
-            node = common.remote(nw, t, args.timeout)
+            node = NodeClient(nw, t, args.timeout)
             row = {"node_id": t.node_id, "role": t.role, "values": {}, "units": {}, "error": None}
             for label, key in FIELDS:
                 try:
-                    info = common.lookup(t, key)
-                except common.UserError:
+                    info = lookup(t, key)
+                except UserError:
                     continue   # this node's EDS lacks the object
                 try:
-                    v = common.sdo_read(node, t, info)
-                except common.Failure as exc:
+                    v = node.read(info)
+                except Failure as exc:
                     if "did not answer" in str(exc):
                         row["error"] = str(exc)
                         silent.append(t.role)
@@ -87,7 +92,7 @@ def run(args: argparse.Namespace) -> int:
                 row["units"][info.key] = info.unit
                 row.setdefault("text", {})[label] = _pretty(info.key, v, info)
             out.append(row)
-        hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), common.heartbeat_wait_s(net))
+        hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), heartbeat_wait_s(net))
         for r in out:
             r["nmt_state"] = hb.state_name(r["node_id"])
             if r["error"] and r["nmt_state"] == "STOPPED":
@@ -106,5 +111,5 @@ def run(args: argparse.Namespace) -> int:
             for label, text in r.get("text", {}).items():
                 print(f"  {label:15s} {text}")
     if silent:
-        raise common.Failure(f"no SDO answer from {', '.join(silent)}")
+        raise Failure(f"no SDO answer from {', '.join(silent)}")
     return 0

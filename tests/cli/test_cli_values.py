@@ -9,7 +9,7 @@ import pytest
 from bus_config import edsgen
 from bus_config import path as cfg_path
 from telethermo.canopen_dev.eds_info import EdsInfo
-from telethermo.cli import values
+from telethermo.remote import values
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
 
 EDS = EdsInfo(cfg_path("master.eds"))

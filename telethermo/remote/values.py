@@ -1,5 +1,6 @@
-"""How ``get`` and ``set`` show a value: hex for COB-IDs and bit fields, names for enumerations, the unit
-always, and the rule behind a refusal.
+"""A remote node's values as the operator types and reads them: parsing a value for an object's type,
+the local range check, and the formatting ``get``, ``set`` and ``status`` print (hex for COB-IDs and bit
+fields, names for enumerations, the unit always) and the rule behind a refusal.
 
 Light on purpose (``get``/``set`` import it): no numpy, only the control core's enum modules, which
 import nothing but the standard library.
@@ -19,10 +20,16 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 from typing import Any
 
 from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo
+from telethermo.control.estimators import Estimator
+from telethermo.control.safety import SafetyState, Trip
+from telethermo.control.types import Mode
 from telethermo.monitor.cia301 import error_register_names
+from telethermo.remote.codec import struct_of
+from telethermo.remote.errors import UserError
 
 #: name suffix -> unit (the naming convention of bus_config/edsgen.py; longest first)
 NAME_UNITS = (("_A_per_C_s", "A/(degC*s)"), ("_A_per_C", "A/degC"), ("_A_per_W", "A/W"), ("_C_per_s", "degC/s"),
@@ -46,17 +53,13 @@ def unit_of(info: VarInfo) -> str:
 
 
 def _control_enum(name: str) -> dict[int, str]:
-    """code -> name of one of our objects, from the control core's enum (imported only when shown: the
-    safety module alone takes ~10 ms to import)."""
+    """code -> name of one of our objects, from the control core's enum."""
     if name == "mode":
-        from telethermo.control.types import Mode
         return {int(m): m.name.lower() for m in Mode}
     if name == "estimator":
         # the object's codes are the enum's declaration order (tests/cli/test_cli_values.py checks the
         # node's ESTIMATOR_CODES against it)
-        from telethermo.control.estimators import Estimator
         return {i: e.value for i, e in enumerate(Estimator)}
-    from telethermo.control.safety import SafetyState
     return {int(s): s.name.lower() for s in SafetyState}
 
 
@@ -119,7 +122,6 @@ def _note(info: VarInfo, value: int, eds: EdsInfo | None) -> str:
     if info.index == 0x1001:
         return ", ".join(error_register_names(value)) or "no error"
     if info.name in ("active_trips", "fault_reset_blocked_by") and info.index >= 0x2000:
-        from telethermo.control.safety import Trip
         trips = [t.value for i, t in enumerate(Trip) if value >> i & 1]
         return ", ".join(trips) or "none"
     return ""
@@ -166,3 +168,55 @@ def rule_keys(info: VarInfo, eds: EdsInfo) -> list[str]:
         if w != info.key and w in eds.by_key and "_" in w and w not in out:
             out.append(w)
     return out
+
+
+def parse_value(info: VarInfo, text: str) -> float | int | bool:
+    """Parse an operator's value for ``info``'s type; UserError naming the parameter otherwise."""
+    t = text.strip()
+    try:
+        if info.data_type in (0x0008, 0x0011):
+            v: Any = float(t)
+        elif info.data_type == 0x0001:
+            low = t.lower()
+            if low in ("1", "true", "on", "yes"):
+                return True
+            if low in ("0", "false", "off", "no"):
+                return False
+            raise ValueError
+        elif struct_of(info) is not None:
+            v = int(t, 0)
+        else:
+            raise UserError(f"{info.key}: setting a {info.type_name} is not supported here")
+    except ValueError:
+        raise UserError(f"{info.key}: expected a {info.type_name} value, got {text!r}") from None
+    if isinstance(v, float) and not math.isfinite(v) and not math.isnan(v):
+        raise UserError(f"{info.key}: expected a finite number, got {text!r}")
+    return v
+
+
+def check_range(info: VarInfo, value: float | int | bool) -> None:
+    """Refuse locally what the node would refuse: out of the EDS range, or out of the type's range."""
+    if isinstance(value, bool):
+        return
+    if isinstance(value, float) and math.isnan(value):
+        raise UserError(f"{info.key}: NaN is not a value; allowed range {info.range_text() or 'any number'}")
+    if info.low is not None and value < info.low or info.high is not None and value > info.high:
+        raise UserError(f"{info.key} = {value:g} is out of range {info.range_text()}; not sent")
+    st = struct_of(info)
+    if st is not None and isinstance(value, int):
+        try:
+            st.pack(value)
+        except struct.error:
+            raise UserError(f"{info.key} = {value} does not fit a {info.type_name}; not sent") from None
+
+
+def fmt_plain(value: Any, info: VarInfo) -> str:
+    """A value with the EDS unit only, floats to 4 decimals (REAL32 carries ~7 digits): how ``status``
+    shows what :func:`fmt` does not name otherwise."""
+    if isinstance(value, float):
+        txt = f"{value:.4f}".rstrip("0").rstrip(".") if math.isfinite(value) else str(value)
+        if txt in ("-0", ""):
+            txt = "0"
+    else:
+        txt = str(value)
+    return f"{txt} {info.unit}".rstrip()
