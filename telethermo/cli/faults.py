@@ -14,8 +14,8 @@ import time
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.cli import common
-from telethermo.cli.status import SAFETY, _pretty
 from telethermo.control.safety import trips_from_mask
+from telethermo.remote import values
 from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, UserError, abort_text
 from telethermo.remote.targets import Target, lookup, node_targets, resolve_node
@@ -36,6 +36,11 @@ def register(subparsers) -> None:
 def _read(node: NodeClient, t: Target, key: str):
     info = lookup(t, key)
     return info, node.read(info)
+
+
+def _safety(info, code: int) -> str:
+    """The safety state's name as the EDS describes it (``current cut``)."""
+    return (values.enum_names(info, ours=False) or {}).get(code, str(code))
 
 
 @common.failures
@@ -65,8 +70,8 @@ def run(args: argparse.Namespace) -> int:
                 except (Failure, UserError):
                     pass   # an older node: the last trip and the error register still say a lot
                 refused.append(f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
-                               f"{_pretty('last_trip_code', trip, trip_info)}, error register "
-                               f"{_pretty('0x1001', reg, reg_info)}; remove its cause, then reset")
+                               f"{values.fmt(trip, trip_info, node.eds)}, error register "
+                               f"{values.fmt(reg, reg_info, node.eds)}; remove its cause, then reset")
                 print(f"{t.role} (node {t.node_id}): not reset, {abort_text(exc.code)}")
                 continue
             except SdoCommunicationError as exc:
@@ -79,9 +84,9 @@ def run(args: argparse.Namespace) -> int:
                 if (st != 3 and reg == 0) or time.monotonic() > deadline:
                     break
                 time.sleep(0.05)
-            was = before["safety_state"][1]
-            print(f"{t.role} (node {t.node_id}): safety {SAFETY.get(was, was)} -> {SAFETY.get(st, st)} ({st}), "
-                  f"error register {_pretty('0x1001', reg, before['0x1001'][0])}")
+            (st_info, was), reg_info = before["safety_state"], before["0x1001"][0]
+            print(f"{t.role} (node {t.node_id}): safety {_safety(st_info, was)} -> {_safety(st_info, st)} ({st}), "
+                  f"error register {values.fmt(reg, reg_info, node.eds)}")
     if refused:
         raise Failure("; ".join(refused))
     return 0

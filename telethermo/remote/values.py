@@ -11,8 +11,9 @@ import nothing but the standard library.
 - **Hex**: COB-IDs (``COB-ID SYNC = 0x40000080 (COB-ID 0x080, produces SYNC)``), PDO mapping entries
   (``0x20000020 (0x2000:00 T_sensor_C, 32 bits)``), heartbeat consumer entries (``0x000200FA (node 2,
   250 ms)``), the error register (``0x19 (generic, temperature, communication)``), trip masks
-  (``0x0200 (peer_lost)``), device type, identity, EMCY codes and CRCs; and any unsigned object whose
-  description speaks of bits.
+  (``0x0200 (peer_lost)``), EMCY codes with their CiA 301 text (``0x8130 (Life guard error or heartbeat
+  error)``, the error history 0x1003 likewise), device type, identity and CRCs; and any unsigned object
+  whose description speaks of bits.
 - **Enumerations**: ``mode``, ``estimator`` and ``safety_state`` of our nodes by the control core's enums
   (``1 (telepresence)``); any other object whose description is a list ``0 name, 1 name, ...``.
 """
@@ -27,7 +28,7 @@ from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo
 from telethermo.control.estimators import Estimator
 from telethermo.control.safety import SafetyState, Trip
 from telethermo.control.types import Mode
-from telethermo.monitor.cia301 import error_register_names
+from telethermo.monitor.cia301 import emcy_code_text, error_register_names
 from telethermo.remote.codec import struct_of
 from telethermo.remote.errors import UserError
 
@@ -121,6 +122,10 @@ def _note(info: VarInfo, value: int, eds: EdsInfo | None) -> str:
         return "unused" if node == 0 or ms == 0 else f"node {node}, {ms} ms"
     if info.index == 0x1001:
         return ", ".join(error_register_names(value)) or "no error"
+    if info.index == 0x1003 and info.subindex >= 1:   # error field: EMCY code in the low 16 bits
+        return f"EMCY 0x{value & 0xFFFF:04X} {emcy_code_text(value & 0xFFFF)}" if value else "none"
+    if "emcy code" in info.description.lower() or "error code" in name:
+        return emcy_code_text(value & 0xFFFF) if value else "none"
     if info.name in ("active_trips", "fault_reset_blocked_by") and info.index >= 0x2000:
         trips = [t.value for i, t in enumerate(Trip) if value >> i & 1]
         return ", ".join(trips) or "none"
@@ -208,15 +213,3 @@ def check_range(info: VarInfo, value: float | int | bool) -> None:
             st.pack(value)
         except struct.error:
             raise UserError(f"{info.key} = {value} does not fit a {info.type_name}; not sent") from None
-
-
-def fmt_plain(value: Any, info: VarInfo) -> str:
-    """A value with the EDS unit only, floats to 4 decimals (REAL32 carries ~7 digits): how ``status``
-    shows what :func:`fmt` does not name otherwise."""
-    if isinstance(value, float):
-        txt = f"{value:.4f}".rstrip("0").rstrip(".") if math.isfinite(value) else str(value)
-        if txt in ("-0", ""):
-            txt = "0"
-    else:
-        txt = str(value)
-    return f"{txt} {info.unit}".rstrip()
