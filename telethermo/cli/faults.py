@@ -8,16 +8,13 @@ clears nothing. This command writes it, then reads the safety state back.
 from __future__ import annotations
 
 import argparse
-import struct
 import time
-
-from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.cli import common
 from telethermo.control.safety import trips_from_mask
 from telethermo.remote import values
 from telethermo.remote.client import NodeClient
-from telethermo.remote.errors import Failure, UserError, abort_text
+from telethermo.remote.errors import Failure, Refused, UserError, abort_text
 from telethermo.remote.targets import Target, lookup, node_targets, resolve_node
 
 ABORT_DEVICE_STATE = 0x08000022
@@ -38,6 +35,22 @@ def _read(node: NodeClient, t: Target, key: str):
     return info, node.read(info)
 
 
+def _persists(node: NodeClient, before: dict) -> str:
+    """Why the node refused: the trips blocking the reset (fault_reset_blocked_by), the last trip and the error register."""
+    t = node.t
+    trip_info, trip = before["last_trip_code"]
+    reg_info, reg = before["0x1001"]
+    why = ""
+    try:
+        mask = node.read(lookup(t, "fault_reset_blocked_by"))
+        why = ", ".join(tr.value for tr in trips_from_mask(int(mask)))
+    except (Failure, UserError):
+        pass   # an older node: the last trip and the error register still say a lot
+    return (f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
+            f"{values.fmt(trip, trip_info, node.eds)}, error register "
+            f"{values.fmt(reg, reg_info, node.eds)}; remove its cause, then reset")
+
+
 def _safety(info, code: int) -> str:
     """The safety state's name as the EDS describes it (``current cut``)."""
     return (values.enum_names(info, ours=False) or {}).get(code, str(code))
@@ -56,26 +69,14 @@ def run(args: argparse.Namespace) -> int:
             info = lookup(t, "fault_reset")
             before = {k: _read(node, t, k) for k in ("safety_state", "last_trip_code", "0x1001")}
             try:
-                node.node.sdo.download(info.index, info.subindex, struct.pack("<B", 1))
-            except SdoAbortedError as exc:
+                node.write(info, 1)
+            except Refused as exc:
                 if exc.code != ABORT_DEVICE_STATE:
                     raise Failure(f"{t.role} (node {t.node_id}) refused the fault reset: "
                                   f"{abort_text(exc.code)}") from None
-                trip_info, trip = before["last_trip_code"]
-                reg_info, reg = before["0x1001"]
-                why = ""
-                try:
-                    mask = node.read(lookup(t, "fault_reset_blocked_by"))
-                    why = ", ".join(tr.value for tr in trips_from_mask(int(mask)))
-                except (Failure, UserError):
-                    pass   # an older node: the last trip and the error register still say a lot
-                refused.append(f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
-                               f"{values.fmt(trip, trip_info, node.eds)}, error register "
-                               f"{values.fmt(reg, reg_info, node.eds)}; remove its cause, then reset")
+                refused.append(_persists(node, before))
                 print(f"{t.role} (node {t.node_id}): not reset, {abort_text(exc.code)}")
                 continue
-            except SdoCommunicationError as exc:
-                raise Failure(f"{t.role} (node {t.node_id}) did not answer ({exc})") from None
             # taken at the node's next SYNC: read the state back for a while
             deadline = time.monotonic() + 2.0
             while True:
