@@ -18,6 +18,10 @@ import time
 from telethermo.cli import common
 from telethermo.cli.main import UserError
 from telethermo.control.rendering import calibrate_finger
+from telethermo.remote.client import NodeClient
+from telethermo.remote.errors import Failure
+from telethermo.remote.targets import lookup, resolve_node
+from telethermo.remote.values import check_range, fmt
 
 PRE_S, EARLY = 0.5, (0.1, 1.0)   # s before contact; s after contact (ETS window)
 
@@ -54,7 +58,7 @@ def measure_touch(read, *, timeout_s: float, poll_s: float, clock=time.monotonic
     was = True   # a finger already on the pad must lift first
     while True:
         if clock() > t_end:
-            raise common.Failure(f"no touch within {timeout_s:g} s (the contact detector did not close)")
+            raise Failure(f"no touch within {timeout_s:g} s (the contact detector did not close)")
         T, contact = read()
         now = clock()
         if not contact:
@@ -70,35 +74,35 @@ def measure_touch(read, *, timeout_s: float, poll_s: float, clock=time.monotonic
         T, contact = read()
         now = clock()
         if not contact:
-            raise common.Failure("the finger left the pad within 1 s; touch and hold for at least 1 s")
+            raise Failure("the finger left the pad within 1 s; touch and hold for at least 1 s")
         if now >= t0 + EARLY[0]:
             after.append(T)
         sleep(poll_s)
     if not after:
-        raise common.Failure("no sample in the 0.1..1 s window; lower --poll")
+        raise Failure("no sample in the 0.1..1 s window; lower --poll")
     return sum(x for _, x in before) / len(before), sum(after) / len(after)
 
 
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    t = common.resolve_node(net, args.node)
+    t = resolve_node(net, args.node)
     touches = [parse_touch(x) for x in args.touch] if args.touch else []
-    apply_infos = [common.lookup(t, "pad_beta"), common.lookup(t, "finger_T0_C")] if args.apply else []
+    apply_infos = [lookup(t, "pad_beta"), lookup(t, "finger_T0_C")] if args.apply else []
     if args.live is not None and args.live < 1:
         raise UserError(f"--live: expected a number of touches >= 1, got {args.live}")
     with contextlib.ExitStack() as stack:
         nw = stack.enter_context(common.canopen_network(args, net)) if (args.live or args.apply) else None
-        node = common.remote(nw, t, args.timeout) if nw is not None else None
+        node = NodeClient(nw, t, args.timeout) if nw is not None else None
         if args.live:
-            ts, q, contact = (common.lookup(t, k) for k in ("T_sensor_C", "Q_W", "contact"))
-            r_sensor = common.sdo_read(node, t, common.lookup(t, "R_sensor_C_per_W"))
+            ts, q, contact = (lookup(t, k) for k in ("T_sensor_C", "Q_W", "contact"))
+            r_sensor = node.read(lookup(t, "R_sensor_C_per_W"))
 
             def read():
                 # the pad surface: the thermocouple sits at the flux sensor's mid-plane, half its
                 # thermal resistance below the surface (guiatni eq. 29); Q > 0 flows out of the pad
-                T_mid = common.sdo_read(node, t, ts)
-                return T_mid - common.sdo_read(node, t, q) * r_sensor / 2.0, bool(common.sdo_read(node, t, contact))
+                T_mid = node.read(ts)
+                return T_mid - node.read(q) * r_sensor / 2.0, bool(node.read(contact))
 
             for k in range(args.live):
                 print(f"touch {k + 1}/{args.live}: put the finger on the pad and hold it for 1 s ...", flush=True)
@@ -108,13 +112,13 @@ def run(args: argparse.Namespace) -> int:
         try:
             cal = calibrate_finger([p for p, _ in touches], [c for _, c in touches], args.finger_temp)
         except ValueError as exc:
-            raise (common.Failure if args.live else UserError)(str(exc)) from None
+            raise (Failure if args.live else UserError)(str(exc)) from None
         print(f"beta_pad = {cal.beta_pad:.4f}  T_finger0 = {cal.T_finger0_C:.3f} °C  "
               f"(residual {cal.residual_C:.3f} °C, {cal.n_touches} touches)")
         if args.apply:
             for info, value in zip(apply_infos, (cal.beta_pad, cal.T_finger0_C)):
-                common.check_range(info, value)
+                check_range(info, value)
             for info, value in zip(apply_infos, (cal.beta_pad, cal.T_finger0_C)):
-                common.sdo_write(node, t, info, value)
-                print(f"{t.role}: {info.key} = {common.fmt(common.sdo_read(node, t, info), info)}")
+                node.write(info, value)
+                print(f"{t.role}: {info.key} = {fmt(node.read(info), info)}")
     return 0

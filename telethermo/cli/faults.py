@@ -8,14 +8,15 @@ clears nothing. This command writes it, then reads the safety state back.
 from __future__ import annotations
 
 import argparse
-import struct
 import time
-
-from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE
 from telethermo.cli import common
-from telethermo.cli.status import SAFETY, _pretty
+from telethermo.control.safety import trips_from_mask
+from telethermo.remote import values
+from telethermo.remote.client import NodeClient
+from telethermo.remote.errors import Failure, Refused, UserError, abort_text
+from telethermo.remote.targets import Target, lookup, node_targets, resolve_node
 
 
 def register(subparsers) -> None:
@@ -28,56 +29,64 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _read(node, t: common.Target, key: str):
-    info = common.lookup(t, key)
-    return info, common.sdo_read(node, t, info)
+def _read(node: NodeClient, t: Target, key: str):
+    info = lookup(t, key)
+    return info, node.read(info)
+
+
+def _persists(node: NodeClient, before: dict) -> str:
+    """Why the node refused: the trips blocking the reset (fault_reset_blocked_by), the last trip and the error register."""
+    t = node.t
+    trip_info, trip = before["last_trip_code"]
+    reg_info, reg = before["0x1001"]
+    why = ""
+    try:
+        mask = node.read(lookup(t, "fault_reset_blocked_by"))
+        why = ", ".join(tr.value for tr in trips_from_mask(int(mask)))
+    except (Failure, UserError):
+        pass   # an older node: the last trip and the error register still say a lot
+    return (f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
+            f"{values.fmt(trip, trip_info, node.eds)}, error register "
+            f"{values.fmt(reg, reg_info, node.eds)}; remove its cause, then reset")
+
+
+def _safety(info, code: int) -> str:
+    """The safety state's name as the EDS describes it (``current cut``)."""
+    return (values.enum_names(info, ours=False) or {}).get(code, str(code))
 
 
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    targets = [common.resolve_node(net, n) for n in args.nodes] if args.nodes else common.node_targets(net)
+    targets = [resolve_node(net, n) for n in args.nodes] if args.nodes else node_targets(net)
     for t in targets:
-        common.lookup(t, "fault_reset")
+        lookup(t, "fault_reset")
     refused = []
     with common.canopen_network(args, net) as nw:
         for t in targets:
-            node = common.remote(nw, t, args.timeout)
-            info = common.lookup(t, "fault_reset")
+            node = NodeClient(nw, t, args.timeout)
+            info = lookup(t, "fault_reset")
             before = {k: _read(node, t, k) for k in ("safety_state", "last_trip_code", "0x1001")}
             try:
-                node.sdo.download(info.index, info.subindex, struct.pack("<B", 1))
-            except SdoAbortedError as exc:
+                node.write(info, 1)
+            except Refused as exc:
                 if exc.code != ABORT_DEVICE_STATE:
-                    raise common.Failure(f"{t.role} (node {t.node_id}) refused the fault reset: "
-                                         f"{common.abort_text(exc.code)}") from None
-                trip_info, trip = before["last_trip_code"]
-                reg_info, reg = before["0x1001"]
-                why = ""
-                try:
-                    from telethermo.control.safety import trips_from_mask
-                    mask = common.sdo_read(node, t, common.lookup(t, "fault_reset_blocked_by"))
-                    why = ", ".join(tr.value for tr in trips_from_mask(int(mask)))
-                except (common.Failure, common.UserError):
-                    pass   # an older node: the last trip and the error register still say a lot
-                refused.append(f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
-                               f"{_pretty('last_trip_code', trip, trip_info)}, error register "
-                               f"{_pretty('0x1001', reg, reg_info)}; remove its cause, then reset")
-                print(f"{t.role} (node {t.node_id}): not reset, {common.abort_text(exc.code)}")
+                    raise Failure(f"{t.role} (node {t.node_id}) refused the fault reset: "
+                                  f"{abort_text(exc.code)}") from None
+                refused.append(_persists(node, before))
+                print(f"{t.role} (node {t.node_id}): not reset, {abort_text(exc.code)}")
                 continue
-            except SdoCommunicationError as exc:
-                raise common.Failure(f"{t.role} (node {t.node_id}) did not answer ({exc})") from None
             # taken at the node's next SYNC: read the state back for a while
             deadline = time.monotonic() + 2.0
             while True:
-                st = common.sdo_read(node, t, before["safety_state"][0])
-                reg = common.sdo_read(node, t, before["0x1001"][0])
+                st = node.read(before["safety_state"][0])
+                reg = node.read(before["0x1001"][0])
                 if (st != 3 and reg == 0) or time.monotonic() > deadline:
                     break
                 time.sleep(0.05)
-            was = before["safety_state"][1]
-            print(f"{t.role} (node {t.node_id}): safety {SAFETY.get(was, was)} -> {SAFETY.get(st, st)} ({st}), "
-                  f"error register {_pretty('0x1001', reg, before['0x1001'][0])}")
+            (st_info, was), reg_info = before["safety_state"], before["0x1001"][0]
+            print(f"{t.role} (node {t.node_id}): safety {_safety(st_info, was)} -> {_safety(st_info, st)} ({st}), "
+                  f"error register {values.fmt(reg, reg_info, node.eds)}")
     if refused:
-        raise common.Failure("; ".join(refused))
+        raise Failure("; ".join(refused))
     return 0

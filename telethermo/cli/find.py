@@ -6,11 +6,14 @@ import json
 import struct
 import sys
 
-import canopen
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.cli import common
 from telethermo.monitor.cia301 import NMT_UNKNOWN
+from telethermo.remote.client import remote_node
+from telethermo.remote.errors import Failure
+from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
+from telethermo.remote.targets import node_targets
 
 
 def register(subparsers) -> None:
@@ -33,22 +36,17 @@ def _read(node, index: int, sub: int):
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    configured = {t.node_id: t for t in common.node_targets(net)}
+    configured = {t.node_id: t for t in node_targets(net)}
     with common.canopen_network(args, net) as nw:
-        hb = common.watch_heartbeats(nw)
+        hb = watch_heartbeats(nw)
         if args.scan:
             nw.scanner.search()            # SDO upload 0x1000 to all node-IDs at once; servers answer
-        hb.wait_for(lambda: False, common.heartbeat_wait_s(net))
+        hb.wait_for(lambda: False, heartbeat_wait_s(net))
         candidates = sorted(set(hb.last) | set(configured) | set(nw.scanner.nodes if args.scan else []))
         found = []
         for nid in candidates:
             t = configured.get(nid)
-            if t is not None:
-                node = common.remote(nw, t, min(args.timeout, 0.5))
-            else:
-                node = canopen.RemoteNode(nid, canopen.ObjectDictionary())
-                node.sdo.RESPONSE_TIMEOUT, node.sdo.MAX_RETRIES = min(args.timeout, 0.5), 1
-                nw.add_node(node)
+            node = remote_node(nw, nid, min(args.timeout, 0.5))
             dtype = _read(node, 0x1000, 0)
             state = hb.state_name(nid)
             if dtype is None and state == NMT_UNKNOWN:
@@ -78,7 +76,7 @@ def run(args: argparse.Namespace) -> int:
             if n not in {f["node_id"] for f in found}:
                 print(f"{n:4d} {t.role:7} not found (no heartbeat, no SDO answer)", file=sys.stderr)
     if not found:
-        raise common.Failure("no CANopen node found on the bus")
+        raise Failure("no CANopen node found on the bus")
     return 0
 
 

@@ -8,18 +8,25 @@ into a live node.
 
 Prints a report (held-out worst-case free-run error, flux error, stability verdict) and writes the model
 file atomically. An unstable model is refused: nothing is written or loaded and the exit code is 1.
-The live path is :mod:`telethermo.cli.identify_live`.
+The live path is :mod:`telethermo.cli.identify_live`; what both print, :mod:`telethermo.cli.identify_output`.
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
 import sys
-import time
 from pathlib import Path
 
+import numpy as np
+
+import sim
 from telethermo.cli import common
+from telethermo.cli.identify_live import parse_amplitude, run_live
+from telethermo.cli.identify_output import ProgressBar, print_report
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError
+from telethermo.ident import NarmaOrders, UnstableModelError, save_model
+from telethermo.ident.experiment import ExperimentSettings, Record, identify_rig, save_record_csv
+from telethermo.ident.plots import plot_identification
 
 DEFAULT_ORDERS = "4,4,1,1"
 
@@ -66,33 +73,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
-class ProgressBar:
-    """A one-line progress bar on a stream (stderr)."""
-
-    def __init__(self, label: str, stream=None, width: int = 40) -> None:
-        # the stream is looked up when the bar is made, not when this module was imported: a default
-        # argument would pin whatever sys.stderr was at import time (closed since, under a test runner)
-        self.label, self.stream, self.width = label, stream if stream is not None else sys.stderr, width
-        self.t0 = time.perf_counter()
-        self._last = -1
-
-    def __call__(self, done: int, total: int) -> None:
-        frac = done / total if total else 1.0
-        pct = int(frac * 100)
-        if pct == self._last and done < total:
-            return
-        self._last = pct
-        fill = int(frac * self.width)
-        self.stream.write(f"\r{self.label} [{'#' * fill}{'.' * (self.width - fill)}] {pct:3d}% "
-                          f"{done}/{total} samples {time.perf_counter() - self.t0:5.1f} s")
-        if done >= total:
-            self.stream.write("\n")
-        self.stream.flush()
-
-
 def _build_rig(args: argparse.Namespace):
-    import sim
-
     try:
         params = sim.load_tem_file(args.tem) if getattr(args, "tem", None) else None
     except ValueError as exc:
@@ -118,22 +99,17 @@ def _build_rig(args: argparse.Namespace):
 
 @common.failures
 def run(args: argparse.Namespace) -> int:
-    from telethermo.ident import NarmaOrders, UnstableModelError, save_model
-    from telethermo.ident.experiment import ExperimentSettings, identify_rig
-
     if args.node is not None:
         if args.scene or args.rig != "sim" or args.no_capacity or args.period_s != 0.01 or args.ambient_C != 25.0:
             raise UserError("a live NODE takes no --scene/--rig/--period-s/--ambient-C/--no-capacity (its rig and "
                             "SYNC period are the node's; the capacity experiment runs on simulated rigs only)")
-        from telethermo.cli.identify_live import run_live
         return run_live(args)
     if not args.out:
         raise UserError("--out MODEL.json is required on a simulated rig (or name a live NODE)")
     if args.no_load or args.force:
         raise UserError("--no-load and --force are for a live NODE")
-    from telethermo.cli.identify_live import _parse_amplitude
     try:
-        settings = ExperimentSettings(rest_samples=args.rest, amplitude_A=_parse_amplitude(args.amplitude_A),
+        settings = ExperimentSettings(rest_samples=args.rest, amplitude_A=parse_amplitude(args.amplitude_A),
                                       hold_samples=args.hold)
     except ValueError as exc:
         raise UserError(str(exc)) from None
@@ -175,40 +151,11 @@ def run(args: argparse.Namespace) -> int:
     save_model(out, tem)
     print(f"model written: {out}")
     if args.save_data:
-        import numpy as np
-
-        from telethermo.ident.experiment import Record, save_record_csv
         r = rep["record"]
         nan = np.full(len(r["T_C"]), np.nan)
         rec = Record(r["t_s"], r["current_A"], r["T_C"], r["Q_W"], nan, nan, rep["guard_interventions"])
         plan = settings.plan(seed=args.seed, train_samples=rep["n_train"], validation_samples=rep["n_validation"])
         print(f"samples written: {save_record_csv(args.save_data, rec, plan, comments={'rig': meta['rig']})}")
     if args.plot:
-        from telethermo.ident.plots import plot_identification
-
         print(f"plot written: {plot_identification(args.plot, tem, rep)}")
     return EXIT_OK
-
-
-def print_report(rep: dict) -> None:
-    o = rep["orders"]
-    lines = [
-        f"orders n,m,p,q            {o['n']},{o['m']},{o['p']},{o['q']}  (fit: {rep['fit_method']})",
-        f"samples                   {rep['n_train']} training + {rep['n_validation']} held-out at {rep['period_s']} s",
-        f"reference temperature     {rep['T_ref_C']:.3f} °C (drift over the rest samples "
-        f"{rep['rest_drift_C']:+.4f} °C{'' if abs(rep['rest_drift_C']) < 0.05 else ': NOT AT REST'})",
-        f"held-out free run         worst {rep['heldout_free_run_max_C']:.4f} °C, rms {rep['heldout_free_run_rms_C']:.4f} °C",
-        f"held-out one-step         worst {rep['heldout_one_step_max_C']:.4f} °C",
-        f"heat flux (held-out)      worst {rep['flux_heldout_max_W']:.4f} W, rms {rep['flux_heldout_rms_W']:.4f} W"
-        f"{' (with current terms)' if rep['flux_with_current'] else ''}",
-        f"stability                 {'stable' if rep['stable'] else 'UNSTABLE: ' + rep['stability_reason']}, "
-        f"max local pole |z| = {rep['max_pole_modulus']:.6f}",
-        f"safety guard              {rep['guard_interventions']} interventions; T {rep['T_range_C'][0]:.2f}.."
-        f"{rep['T_range_C'][1]:.2f} °C, I {rep['current_range_A'][0]:+.2f}..{rep['current_range_A'][1]:+.2f} A",
-        f"time                      experiment {rep['experiment_wall_s']:.2f} s, fit {rep['fit_wall_s']:.2f} s",
-    ]
-    if "capacity_points" in rep:
-        lines.append(f"capacity (eq. 13)         {rep['capacity_points']} steady states, I "
-                     f"{rep['capacity_current_range_A'][0]:+.3f}..{rep['capacity_current_range_A'][1]:+.3f} A, "
-                     f"fit residual max {rep['capacity_max_abs_W']:.2e} W")
-    print("\n".join(lines))

@@ -19,6 +19,10 @@ import signal
 import sys
 from typing import NamedTuple
 
+from telethermo import __version__
+# the operator's error (exit 2), defined with the remote-node client that raises it for bad names and values
+from telethermo.remote.errors import UserError
+
 EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
@@ -49,10 +53,6 @@ COMMANDS: dict[str, Command] = {
 }
 
 
-class UserError(Exception):
-    """An error the user can fix (bad argument, bad file, unknown parameter): one line, exit 2."""
-
-
 class _Subparsers:
     """What a subcommand module's ``register`` receives: ``add_parser(name, **kw)`` with the help
     text taken from :data:`COMMANDS` (a module cannot register a command the registry lacks)."""
@@ -74,11 +74,11 @@ class _VersionAction(argparse.Action):
                          help=help or "show the version and exit")
 
     def __call__(self, parser, namespace, values, option_string=None):
-        from importlib.metadata import PackageNotFoundError, version
+        from importlib.metadata import PackageNotFoundError, version   # lazy: see the docstring
         try:
             text = version("telethermo")
         except PackageNotFoundError:   # a source tree that was never installed
-            from telethermo import __version__ as text
+            text = __version__
         print(f"telethermo {text}")
         parser.exit()
 

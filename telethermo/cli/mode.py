@@ -8,6 +8,10 @@ from telethermo.cli import common
 from telethermo.cli.main import UserError
 from telethermo.control.rendering import load_render_table
 from telethermo.control.types import Mode
+from telethermo.remote.client import NodeClient
+from telethermo.remote.errors import Failure
+from telethermo.remote.targets import Target, lookup, node_targets, resolve_node
+from telethermo.remote.values import check_range
 
 
 def register(subparsers) -> None:
@@ -46,10 +50,10 @@ def run(args: argparse.Namespace) -> int:
     net = common.network(args)
     if args.mode != "render" and (args.material or args.beta is not None or args.object_temp is not None):
         raise UserError(f"{args.mode} takes no material, --beta or --object-temp")
-    writes: list[tuple[common.Target, str, object]] = []
+    writes: list[tuple[Target, str, object]] = []
     if args.mode == "render":
         name, beta = _material(args)
-        master = common.resolve_node(net, "master")
+        master = resolve_node(net, "master")
         for key, value in (("material_code", 0), ("material_beta", beta)) + (
                 (("object_T0_C", args.object_temp),) if args.object_temp is not None else ()):
             writes.append((master, key, value))
@@ -58,22 +62,22 @@ def run(args: argparse.Namespace) -> int:
     else:
         mode = Mode.TELEPRESENCE if args.mode == "telepresence" else Mode.IDLE
         # the slave first: the master starts driving the operator's pad last
-        for t in sorted(common.node_targets(net), key=lambda t: t.role != "slave"):
+        for t in sorted(node_targets(net), key=lambda t: t.role != "slave"):
             writes.append((t, "mode", int(mode)))
         desc = args.mode
     # check every value locally before sending anything
     planned = []
     for t, key, value in writes:
-        info = common.lookup(t, key)
-        common.check_range(info, value)
+        info = lookup(t, key)
+        check_range(info, value)
         planned.append((t, info, value))
     with common.canopen_network(args, net) as nw:
         nodes = {}
         for t, info, value in planned:
             if t.node_id not in nodes:
-                nodes[t.node_id] = common.remote(nw, t, args.timeout)
+                nodes[t.node_id] = NodeClient(nw, t, args.timeout)
             node = nodes[t.node_id]
-            common.sdo_write(node, t, info, value)
+            node.write(info, value)
         wanted = {t.node_id: (t, v) for t, info, v in planned if info.key == "mode"}
         refused = []
         for t, v in wanted.values():
@@ -81,7 +85,7 @@ def run(args: argparse.Namespace) -> int:
             # poll the read-back for a few control cycles before believing either way
             deadline = time.monotonic() + 0.5
             while True:
-                back = common.sdo_read(nodes[t.node_id], t, common.lookup(t, "mode"))
+                back = nodes[t.node_id].read(lookup(t, "mode"))
                 if back == v or time.monotonic() >= deadline:
                     break
                 time.sleep(0.05)
@@ -90,6 +94,6 @@ def run(args: argparse.Namespace) -> int:
             if back != v:
                 refused.append(f"{t.role} stays in {name}")
     if refused:
-        raise common.Failure(f"mode {desc} not taken: {'; '.join(refused)} (the node refused it; see its log)")
+        raise Failure(f"mode {desc} not taken: {'; '.join(refused)} (the node refused it; see its log)")
     print(f"mode: {desc}")
     return 0

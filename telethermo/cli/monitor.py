@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import argparse
+import curses
 import sys
 import time
 
@@ -12,6 +13,7 @@ from telethermo.monitor.replay import Pacer, ReplayError, live, paced, read_log
 from telethermo.monitor.run import run_curses, run_lines
 from telethermo.monitor.state import Monitor
 from telethermo.monitor.view import ViewState
+from telethermo.remote.errors import Failure
 
 
 def register(subparsers) -> None:
@@ -72,7 +74,6 @@ def run(args: argparse.Namespace) -> int:
             else:
                 if not sys.stdout.isatty():
                     raise UserError("the view needs a terminal; use --json or --lines for scripts")
-                import curses
                 vs = ViewState(source=desc, mode=mode)
                 counter = {"n": 0}
 
@@ -87,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
                 curses.wrapper(run_curses, limited(), mon, vs, pacer=Pacer(speed) if args.replay else None,
                                now=now, until=until)
         except ReplayError as exc:
-            raise common.Failure(str(exc)) from None
+            raise Failure(str(exc)) from None
     finally:
         if bus is not None:
             bus.shutdown()

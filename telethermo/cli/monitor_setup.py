@@ -1,14 +1,15 @@
 """The monitor's view of the network (``telethermo monitor`` and ``telethermo record``): node names and
 EDS dictionaries with the network file's power-on overrides. Apart from :mod:`telethermo.cli.common` so
-that the SDO commands do not import the monitor's decoders."""
+that the SDO commands do not import the monitor's decoders; the nodes are named as every command names
+them (:mod:`telethermo.remote.targets`)."""
 from __future__ import annotations
 
 from canopen.objectdictionary import import_od
 
 from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError
-from telethermo.cli.common import node_targets
 from telethermo.cli.main import UserError
-from telethermo.monitor.state import MonitorConfig, NodeInfo
+from telethermo.monitor.records import MonitorConfig, NodeInfo
+from telethermo.remote.targets import node_targets
 
 
 def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None

@@ -5,6 +5,9 @@ import argparse
 
 from telethermo.cli import common
 from telethermo.monitor.cia301 import NMT_STATES
+from telethermo.remote.errors import Failure
+from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
+from telethermo.remote.targets import node_targets, resolve_node
 
 #: command -> (NMT command specifier, heartbeat state confirming it)
 COMMANDS = {"start": (0x01, 0x05), "stop": (0x02, 0x04), "preop": (0x80, 0x7F),
@@ -26,10 +29,10 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
     cs, want = COMMANDS[args.command]
-    targets = common.node_targets(net) if args.node == "all" else [common.resolve_node(net, args.node)]
+    targets = node_targets(net) if args.node == "all" else [resolve_node(net, args.node)]
     dest = 0 if args.node == "all" else targets[0].node_id
     with common.canopen_network(args, net) as nw:
-        hb = common.watch_heartbeats(nw)
+        hb = watch_heartbeats(nw)
         with hb.cond:
             boots0 = {t.node_id: hb.boot_ups.get(t.node_id, 0) for t in targets}
             counts0 = {t.node_id: hb.count.get(t.node_id, 0) for t in targets}
@@ -44,7 +47,7 @@ def run(args: argparse.Namespace) -> int:
             s = hb.last.get(t.node_id)
             return s is not None and s[0] == want and hb.count.get(t.node_id, 0) > counts0[t.node_id]
 
-        hb.wait_for(lambda: all(confirmed(t) for t in targets), max(0.5, 3 * common.heartbeat_wait_s(net)))
+        hb.wait_for(lambda: all(confirmed(t) for t in targets), max(0.5, 3 * heartbeat_wait_s(net)))
         bad = []
         for t in targets:
             ok = confirmed(t)
@@ -54,5 +57,5 @@ def run(args: argparse.Namespace) -> int:
             if not ok:
                 bad.append(t.role)
     if bad:
-        raise common.Failure(f"NMT {args.command}: no heartbeat confirming {NMT_STATES[want]} from {', '.join(bad)}")
+        raise Failure(f"NMT {args.command}: no heartbeat confirming {NMT_STATES[want]} from {', '.join(bad)}")
     return 0

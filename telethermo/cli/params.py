@@ -4,8 +4,13 @@ from __future__ import annotations
 import argparse
 
 from telethermo.canopen_dev.cia301 import ABORT_TOO_HIGH, ABORT_TOO_LOW
-from telethermo.cli import common, values
+from telethermo.cli import common
 from telethermo.cli.main import UserError
+from telethermo.remote import values
+from telethermo.remote.client import NodeClient
+from telethermo.remote.errors import Failure, Refused
+from telethermo.remote.targets import Target, eds_info, lookup, resolve_node
+from telethermo.remote.values import check_range, parse_value
 
 
 def register(subparsers) -> None:
@@ -38,26 +43,26 @@ def where(info) -> str:
         f"0x{info.index:04X}:{info.subindex:02X}"
 
 
-def line(t: common.Target, info, value, eds) -> str:
+def line(t: Target, info, value, eds) -> str:
     """One value as ``get``/``set`` print it: node, object, name, value with unit (or hex, or name)."""
     return f"{t.role} {where(info)} {info.key} = {values.fmt(value, info, eds)}    ({describe(info)})"
 
 
-def refusal(exc: common.Refused, node, t: common.Target, info, eds) -> str:
+def refusal(exc: Refused, node, t: Target, info, eds) -> str:
     """The node's refusal with the rule that refused: a value out of the node's own range (its EDS is
     narrower than ours), else the object's description and the current values of the objects it names."""
     text = str(exc)
     if exc.code in (ABORT_TOO_HIGH, ABORT_TOO_LOW):
         return (f"{text}; the node's limit is narrower than this EDS's range {info.range_text() or '(none)'} "
-                f"({info.key} in {common.eds_info(t).path}: out of date?)")
+                f"({info.key} in {eds_info(t).path}: out of date?)")
     if not info.description:
         return text
     now = []
     for key in values.rule_keys(info, eds):
         other = eds.by_key[key]
         try:
-            now.append(f"{key} = {values.fmt(common.sdo_read(node, t, other), other, eds)}")
-        except common.Failure:
+            now.append(f"{key} = {values.fmt(node.read(other), other, eds)}")
+        except Failure:
             pass   # the rule is still worth saying without the current value
     return f"{text}; {info.key}: {info.description}" + (f" (now {', '.join(now)})" if now else "")
 
@@ -65,48 +70,48 @@ def refusal(exc: common.Refused, node, t: common.Target, info, eds) -> str:
 @common.failures
 def run_get(args: argparse.Namespace) -> int:
     net = common.network(args)
-    t = common.resolve_node(net, args.node)
+    t = resolve_node(net, args.node)
     if args.list:
-        eds = common.eds_info(t)
+        eds = eds_info(t)
         for (index, sub), v in sorted(eds.vars.items()):
             print(f"0x{index:04X}:{sub:02X} {v.key:45s} {v.type_name:10s} {v.access:5s} "
                   f"{v.range_text() or '-':28s} {v.description}")
         return 0
     if not args.names:
         raise UserError("give at least one parameter NAME, or --list")
-    infos = [common.lookup(t, n) for n in args.names]
-    eds = common.eds_info(t)
+    infos = [lookup(t, n) for n in args.names]
+    eds = eds_info(t)
     with common.canopen_network(args, net) as nw:
-        node = common.remote(nw, t, args.timeout)
+        node = NodeClient(nw, t, args.timeout)
         for info in infos:
-            print(line(t, info, common.sdo_read(node, t, info), eds))
+            print(line(t, info, node.read(info), eds))
     return 0
 
 
 @common.failures
 def run_set(args: argparse.Namespace) -> int:
     net = common.network(args)
-    t = common.resolve_node(net, args.node)
-    info = common.lookup(t, args.name)
+    t = resolve_node(net, args.node)
+    info = lookup(t, args.name)
     if not info.writable:
         raise UserError(f"{info.key} is {'read-only' if info.access in ('ro', 'const') else info.access}; not sent")
     code = values.parse_enum(info, args.value)   # `set master mode telepresence`
     names = values.enum_names(info)
     try:
-        value = code if code is not None else common.parse_value(info, args.value)
+        value = code if code is not None else parse_value(info, args.value)
     except UserError:
         if not names:
             raise
         listed = ", ".join(f"{n} ({c})" for c, n in names.items())
         raise UserError(f"{info.key}: expected one of {listed}, got {args.value!r}") from None
-    common.check_range(info, value)
-    eds = common.eds_info(t)
+    check_range(info, value)
+    eds = eds_info(t)
     with common.canopen_network(args, net) as nw:
-        node = common.remote(nw, t, args.timeout)
+        node = NodeClient(nw, t, args.timeout)
         try:
-            common.sdo_write(node, t, info, value)
-        except common.Refused as exc:
-            raise common.Failure(refusal(exc, node, t, info, eds)) from None
-        back = common.sdo_read(node, t, info) if "r" in info.access else value
+            node.write(info, value)
+        except Refused as exc:
+            raise Failure(refusal(exc, node, t, info, eds)) from None
+        back = node.read(info) if "r" in info.access else value
     print(line(t, info, back, eds))
     return 0

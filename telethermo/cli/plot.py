@@ -10,6 +10,8 @@ import argparse
 from pathlib import Path
 
 from telethermo.cli.main import UserError
+from telethermo.session.plot import write_session_png
+from telethermo.session.recording import RecordingError, read_recording_csv
 
 BUS_LOGS = (".log", ".asc", ".blf", ".trc")
 
@@ -44,9 +46,6 @@ def run(args: argparse.Namespace) -> int:
         import matplotlib  # noqa: F401  (the optional extra: say so before reading anything)
     except ImportError:
         raise UserError("matplotlib is not installed; install the plot extra: pip install 'telethermo[plot]'") from None
-    from telethermo.session.plot import write_session_png
-    from telethermo.session.recording import RecordingError, read_recording_csv
-
     try:
         rec = read_recording_csv(src)
     except RecordingError as exc:

@@ -19,14 +19,26 @@ import sys
 import time
 from pathlib import Path
 
+import sim
+from nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
+from nodes.merge import MergeError, merge_recordings
+from telethermo.atomic import write_json_atomic
+from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
+from telethermo.control.tuning import load_gains
+from telethermo.session.figures import compute_figures
+from telethermo.session.plot import write_session_png
+from telethermo.session.recording import RecordingError, write_recording_csv
+from telethermo.transport.bus import TransportError
+from telethermo.transport.busargs import add_bus_arguments
+from telethermo.transport.published import publish, unpublish
+from telethermo.transport.resolve import resolve_bus
 
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("session", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--scene", required=True, type=Path, help="scene file (TOML) or a shipped scene's name")
     p.add_argument("--out", type=Path, default=Path("out/session"), help="output folder (default out/session)")
-    from telethermo.transport.busargs import add_bus_arguments
     add_bus_arguments(p).description += (". A session's bus joins two processes: when none is configured (or "
                                           "only network.toml's in-process virtual bus), the session starts our "
                                           "loopback hub")
@@ -50,7 +62,6 @@ def _interrupt(signum, frame) -> None:
 
 
 def _resolve_scene(arg: Path):
-    import sim
     try:
         return sim.load_scene(arg)
     except ValueError as exc:  # SceneError: names the file and the field
@@ -61,9 +72,6 @@ def _session_bus(args: argparse.Namespace) -> str | None:
     """The two nodes' bus, resolved as every command resolves it (telethermo.transport.resolve, without
     a published hub: the session publishes its own); None = start our hub (nothing configured but
     network.toml's in-process virtual bus)."""
-    from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
-    from telethermo.transport.bus import TransportError
-    from telethermo.transport.resolve import resolve_bus
     try:
         net = load_network(args.network)
         rb = resolve_bus(net, bus=args.bus, interface=args.interface, channel=args.channel, bitrate=args.bitrate,
@@ -78,24 +86,26 @@ def _session_bus(args: argparse.Namespace) -> str | None:
                     "two node processes need socketcan, socketcand or no bus setting (then our hub)")
 
 
-def run(args: argparse.Namespace) -> int:
-    from nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
-    from telethermo.transport.published import publish, unpublish
-
-    scene = _resolve_scene(args.scene)
-    scene_path = Path(getattr(scene, "path", args.scene))
+def _checked_files(args: argparse.Namespace) -> list[str]:
+    """Refuse a missing --network/--model file and a bad --gains file here, with its field, not in two node
+    logs; the gains arguments of the node programs."""
     if args.network is not None and not args.network.is_file():
         raise UserError(f"--network {str(args.network)!r}: no such file")
     if args.model is not None and not args.model.is_file():
         raise UserError(f"--model {str(args.model)!r}: no such file")
-    gains_args: list[str] = []
-    if args.gains is not None:
-        from telethermo.control.gainsfile import load_gains
-        try:
-            load_gains(args.gains)  # refuse a bad file here, with its field, not in two node logs
-        except ValueError as exc:
-            raise UserError(f"--gains: {exc}") from None
-        gains_args = ["--gains", str(args.gains.resolve())]
+    if args.gains is None:
+        return []
+    try:
+        load_gains(args.gains)
+    except ValueError as exc:
+        raise UserError(f"--gains: {exc}") from None
+    return ["--gains", str(args.gains.resolve())]
+
+
+def run(args: argparse.Namespace) -> int:
+    scene = _resolve_scene(args.scene)
+    scene_path = Path(getattr(scene, "path", args.scene))
+    gains_args = _checked_files(args)
     if args.duration is not None and not (args.duration > 0 and math.isfinite(args.duration)):
         raise UserError(f"--duration {args.duration}: expected a number of seconds > 0")
     bus = _session_bus(args)
@@ -164,11 +174,6 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, code: int) -> int:
-    from nodes.merge import MergeError, merge_recordings
-    from telethermo.atomic import write_json_atomic
-    from telethermo.session.figures import compute_figures
-    from telethermo.session.recording import RecordingError, write_recording_csv
-
     m = pair.recording("master")
     s = pair.recording("slave") if pair.slave is not None else None
     if not m.is_file() or (s is not None and not s.is_file()):
@@ -188,7 +193,6 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
     write_json_atomic(out / "summary.json", figures)
     if plot:
         try:
-            from telethermo.session.plot import write_session_png
             write_session_png(out / "session.png", rec)
         except ImportError as exc:  # matplotlib is the optional 'plot' extra
             print(f"telethermo session: no plot ({exc})", file=sys.stderr)

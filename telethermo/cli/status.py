@@ -1,4 +1,7 @@
-"""``telethermo status``: what each node is doing, read by SDO (and its NMT state from the heartbeat)."""
+"""``telethermo status``: what each node is doing, read by SDO (and its NMT state from the heartbeat).
+
+Each value is shown as ``get`` shows it (:mod:`telethermo.remote.values`): the unit, names for
+enumerations (``1 (telepresence)``), hex with the meaning for bit fields and EMCY codes."""
 from __future__ import annotations
 
 import argparse
@@ -6,11 +9,11 @@ import json
 import math
 
 from telethermo.cli import common
-from telethermo.canopen_dev.cia301 import emcy_code_text
-from telethermo.monitor.cia301 import error_register_names
-
-MODES = {0: "idle", 1: "telepresence", 2: "render", 3: "identify"}
-SAFETY = {0: "ok", 1: "limiting", 2: "ramp to neutral", 3: "current cut"}
+from telethermo.remote import values
+from telethermo.remote.client import NodeClient
+from telethermo.remote.errors import Failure, UserError
+from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
+from telethermo.remote.targets import eds_info, lookup, node_targets, resolve_node
 
 #: (label, EDS key) read from each node, in display order
 FIELDS = (
@@ -22,8 +25,6 @@ FIELDS = (
     ("last EMCY", "0x1003sub1"), ("model", "model_status"), ("model CRC-32", "model_crc32"),
     ("identification", "ident_state"),
 )
-MODEL_STATUS = {0: "none", 1: "loaded", 2: "edited, not loaded"}
-IDENT_STATE = {0: "not run", 1: "running", 2: "done", 3: "interrupted"}
 
 
 def register(subparsers) -> None:
@@ -36,49 +37,29 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def _pretty(key: str, value, info) -> str:
-    if value is None:
-        return "-"
-    if key == "mode":
-        return f"{MODES.get(value, '?')} ({value})"
-    if key == "safety_state":
-        return f"{SAFETY.get(value, '?')} ({value})"
-    if key == "active_trips":
-        from telethermo.control.safety import trips_from_mask
-        return ", ".join(t.value for t in trips_from_mask(int(value))) or "none"
-    if key == "model_status":
-        return f"{MODEL_STATUS.get(value, '?')} ({value})"
-    if key == "model_crc32":
-        return f"0x{value:08X}"
-    if key == "ident_state":
-        return f"{IDENT_STATE.get(value, '?')} ({value})"
-    if key == "last_trip_code":
-        return "none" if value == 0 else f"0x{value:04X} {emcy_code_text(value)}"
-    if info.index == 0x1001:
-        return f"0x{value:02X} [{','.join(error_register_names(value)) or 'none'}]"
-    if info.index == 0x1003:
-        return "none" if value == 0 else f"0x{value & 0xFFFF:04X} {emcy_code_text(value & 0xFFFF)}"
-    return common.fmt(value, info)
+def pretty(value, info, eds) -> str:
+    """A value as ``get`` prints it (:func:`telethermo.remote.values.fmt`); '-' for one the node refused."""
+    return "-" if value is None else values.fmt(value, info, eds)
 
 
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    targets = [common.resolve_node(net, n) for n in args.nodes] if args.nodes else common.node_targets(net)
+    targets = [resolve_node(net, n) for n in args.nodes] if args.nodes else node_targets(net)
     out, silent = [], []
     with common.canopen_network(args, net) as nw:
-        hb = common.watch_heartbeats(nw)
+        hb = watch_heartbeats(nw)
         for t in targets:
-            node = common.remote(nw, t, args.timeout)
+            node = NodeClient(nw, t, args.timeout)
             row = {"node_id": t.node_id, "role": t.role, "values": {}, "units": {}, "error": None}
             for label, key in FIELDS:
                 try:
-                    info = common.lookup(t, key)
-                except common.UserError:
+                    info = lookup(t, key)
+                except UserError:
                     continue   # this node's EDS lacks the object
                 try:
-                    v = common.sdo_read(node, t, info)
-                except common.Failure as exc:
+                    v = node.read(info)
+                except Failure as exc:
                     if "did not answer" in str(exc):
                         row["error"] = str(exc)
                         silent.append(t.role)
@@ -86,9 +67,9 @@ def run(args: argparse.Namespace) -> int:
                     v = None   # refused (e.g. 0x1003 empty): show '-'
                 row["values"][info.key] = v
                 row["units"][info.key] = info.unit
-                row.setdefault("text", {})[label] = _pretty(info.key, v, info)
+                row.setdefault("text", {})[label] = pretty(v, info, eds_info(t))
             out.append(row)
-        hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), common.heartbeat_wait_s(net))
+        hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), heartbeat_wait_s(net))
         for r in out:
             r["nmt_state"] = hb.state_name(r["node_id"])
             if r["error"] and r["nmt_state"] == "STOPPED":
@@ -107,5 +88,5 @@ def run(args: argparse.Namespace) -> int:
             for label, text in r.get("text", {}).items():
                 print(f"  {label:15s} {text}")
     if silent:
-        raise common.Failure(f"no SDO answer from {', '.join(silent)}")
+        raise Failure(f"no SDO answer from {', '.join(silent)}")
     return 0

@@ -7,13 +7,13 @@
 - :mod:`~telethermo.ident.flux`: heat-flux ARMA model (eq. 12).
 - :mod:`~telethermo.ident.capacity`: steady-state capacity model (eq. 13).
 - :mod:`~telethermo.ident.stability`: stability check of an identified model.
-- :mod:`~telethermo.ident.modelfile`: model files (JSON) and transfer to an object dictionary.
+- :mod:`~telethermo.ident.modelfile`: model files (JSON).
+- :mod:`~telethermo.ident.odmodel`: a model in a node's object dictionary (the one model <-> OD API).
 - :mod:`~telethermo.ident.experiment`: the identification experiment on a rig.
 """
 from telethermo.ident.capacity import CapacityModel, fit_capacity
 from telethermo.ident.flux import FluxArma, fit_flux_arma
-from telethermo.ident.modelfile import (ModelFileError, TemModel, default_model_path, load_model, narma_from_od_values,
-                                        narma_to_od_values, save_model)
+from telethermo.ident.modelfile import ModelFileError, TemModel, default_model_path, load_model, save_model
 from telethermo.ident.narma import NarmaModel, NarmaOrders, NarmaPredictor, UnstableModelError
 from telethermo.ident.narma_fit import fit_narma
 from telethermo.ident.prbs import prbs
@@ -22,7 +22,7 @@ from telethermo.ident.stability import StabilityReport, check_stability
 
 __all__ = [
     "CapacityModel", "fit_capacity", "FluxArma", "fit_flux_arma", "ModelFileError", "TemModel",
-    "default_model_path", "load_model", "save_model", "narma_to_od_values", "narma_from_od_values", "NarmaModel",
+    "default_model_path", "load_model", "save_model", "NarmaModel",
     "NarmaOrders", "NarmaPredictor", "UnstableModelError", "fit_narma", "prbs", "Rls", "RlsHealth",
     "StabilityReport", "check_stability",
 ]

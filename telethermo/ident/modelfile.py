@@ -29,7 +29,6 @@ import json
 import math
 import os
 import re
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -307,60 +306,3 @@ def load_model(path: str | os.PathLike, *, check_stability: bool = True,
     except json.JSONDecodeError as exc:
         raise ModelFileError(path, "", "valid JSON", f"{exc.msg} at line {exc.lineno} column {exc.colno}") from None
     return model_from_dict(doc, path=path, check_stability=check_stability, expect_period_s=expect_period_s)
-
-
-# -- transfer to a node's object dictionary --------------------------------------------------------
-OD_HEADER = ("format_version", "n", "m", "p", "q", "period_s", "T_ref_C", "I_min_A", "I_max_A")
-
-
-def narma_to_od_values(model: NarmaModel) -> list[float]:
-    """The temperature model as a flat list of numbers for a node's object dictionary:
-    ``[format_version, n, m, p, q, period_s, T_ref_C, I_min_A, I_max_A, θ_1..θ_d]``.
-
-    Store θ as **REAL64** (CANopen data type 0x0011), not REAL32: at 10 ms the AR coefficients of a TEM
-    model nearly cancel (1 - Σα ≈ 2e-8 for the shipped model, whose slowest pole is the heat sink's,
-    0.9996), far below REAL32's resolution of ~5e-7 on coefficients of magnitude ~4; REAL32 rounding
-    makes such a model unstable (:func:`narma_from_od_values` then refuses it) or wrong by degrees
-    (8 °C in a free run of the shipped model, measured)."""
-    o = model.orders
-    return [float(FORMAT_VERSION), float(o.n), float(o.m), float(o.p), float(o.q), model.period_s, model.T_ref_C,
-            model.current_range_A[0], model.current_range_A[1], *map(float, model.theta)]
-
-
-def narma_from_od_values(values: list[float] | np.ndarray, *, source: str = "object dictionary",
-                         check_stability: bool = True) -> NarmaModel:
-    """Inverse of :func:`narma_to_od_values`; validated like a file, stability included: raises
-    :class:`ModelFileError` with ``source`` as the file name."""
-    v = [float(x) for x in values]
-    h = len(OD_HEADER)
-    if len(v) < h:
-        raise ModelFileError(source, "", f"at least {h} values {OD_HEADER}", f"{len(v)} values")
-    if v[0] != FORMAT_VERSION:
-        raise ModelFileError(source, "format_version", str(FORMAT_VERSION), str(v[0]))
-    orders = {}
-    for k, name in enumerate(("n", "m", "p", "q"), start=1):
-        if not v[k].is_integer():
-            raise ModelFileError(source, name, "an integer", str(v[k]))
-        orders[name] = int(v[k])
-    try:
-        o = NarmaOrders(**orders)
-    except ValueError as exc:
-        raise ModelFileError(source, "orders", "valid orders", str(exc)) from None
-    if len(v) != h + o.d:
-        raise ModelFileError(source, "theta", f"{o.d} values for orders {o.as_dict()}", f"{len(v) - h}")
-    try:
-        model = NarmaModel(orders=o, theta=np.array(v[h:]), period_s=v[5], T_ref_C=v[6],
-                           current_range_A=(v[7], v[8]), T_range_C=(v[6], v[6]))
-    except ValueError as exc:
-        raise ModelFileError(source, "", "a valid model", str(exc)) from None
-    if check_stability:
-        from telethermo.ident.stability import check_stability as _check
-        rep = _check(model)
-        if not rep.stable:
-            raise ModelFileError(source, "theta", "a stable model (REAL64 values, see narma_to_od_values)", rep.reason)
-    return model
-
-
-def round_to_real32(values: list[float]) -> list[float]:
-    """Round each value to IEEE-754 single precision (what a REAL32 object holds)."""
-    return [struct.unpack("<f", struct.pack("<f", x))[0] for x in values]

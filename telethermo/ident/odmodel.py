@@ -17,8 +17,13 @@ and the commands: 0x230D model_command (write 1: load what 0x2300..0x2311 hold, 
 model_status (0 none, 1 loaded, 2 edited since loaded), 0x230F model_crc32 (of the loaded model's
 entries, :func:`od_crc32`).
 
-The coefficients are REAL64 (see :func:`telethermo.ident.modelfile.narma_to_od_values`: REAL32 would
-make the shipped model unstable). The period and the reference temperature are REAL32: a node's model
+This is the one model <-> object-dictionary API (the nodes, ``telethermo identify`` and the tests use it).
+
+The coefficients are REAL64: at 10 ms the AR coefficients of a TEM model nearly cancel (1 - Σα ≈ 2e-8
+for the shipped model, whose slowest pole is the heat sink's, 0.9996), far below REAL32's resolution of
+~5e-7 on coefficients of magnitude ~4; REAL32 rounding (:func:`round_real32`) makes such a model unstable
+(:func:`model_from_od` then refuses it) or wrong by degrees (8 °C in a free run of the shipped model,
+measured in tests/ident/test_modelfile.py). The period and the reference temperature are REAL32: a node's model
 differs from its file by their rounding only (< 1e-6 °C on T_ref).
 
 The capacity model (eq. 13) has no objects: it stays in the model file.
@@ -33,6 +38,7 @@ from typing import Any, Callable
 
 import numpy as np
 
+from telethermo.ident import stability
 from telethermo.ident.flux import FluxArma
 from telethermo.ident.modelfile import ModelFileError, TemModel
 from telethermo.ident.narma import NarmaModel, NarmaOrders
@@ -70,7 +76,8 @@ class Entry:
         return _PACK[self.kind].pack(self.value)
 
 
-def _round32(x: float) -> float:
+def round_real32(x: float) -> float:
+    """``x`` rounded to IEEE-754 single precision (what a REAL32 object holds)."""
     return struct.unpack("<f", struct.pack("<f", x))[0]
 
 
@@ -92,7 +99,7 @@ def model_entries(tem: TemModel) -> list[Entry]:
     if o.d > THETA_MAX:
         raise ModelFileError(src, "theta", f"at most {THETA_MAX} parameters (object 0x2310)", f"{o.d} for orders {o.as_dict()}")
     vals: dict[str, Any] = {"narma_n": o.n, "narma_m": o.m, "narma_p": o.p, "narma_q": o.q,
-                            "model_period_s": _round32(m.period_s), "model_T_ref_C": _round32(m.T_ref_C),
+                            "model_period_s": round_real32(m.period_s), "model_T_ref_C": round_real32(m.T_ref_C),
                             "theta_len": o.d, "model_I_min_A": float(m.current_range_A[0]),
                             "model_I_max_A": float(m.current_range_A[1])}
     coeffs: list[float] = []
@@ -155,10 +162,10 @@ def model_from_od(read: Callable[[int, int], Any], *, source: str = "object dict
     except ValueError as exc:
         raise ModelFileError(source, "", "a valid model", str(exc)) from None
     if check_stability:
-        from telethermo.ident.stability import check_stability as _check
-        rep = _check(model, n_samples=stability_samples)
+        rep = stability.check_stability(model, n_samples=stability_samples)
         if not rep.stable:
-            raise ModelFileError(source, "theta (0x2310)", "a stable model", rep.reason)
+            raise ModelFileError(source, "theta (0x2310)", "a stable model (REAL64 coefficients: REAL32 rounding makes "
+                                 "an identified model unstable)", rep.reason)
     fn, fm, with_i = int(vals["flux_n"]), int(vals["flux_m"]), bool(vals["flux_with_current"])
     flux = None
     count = 0

@@ -5,6 +5,7 @@ Modules, one concept each: :mod:`.cia301` (tables: abort codes, EMCY codes, NMT 
 :mod:`.pdo` (PDO mapping from the EDS and from remapping seen on the bus), :mod:`.busload` (frame
 length on the wire with bit stuffing), :mod:`.events` (event log with severity), :mod:`.state`
 (:class:`~telethermo.monitor.state.Monitor`: frames in, state and events out; no clock, no I/O),
+:mod:`.records` (its settings and the per-node, per-PDO, SDO and bus records it keeps),
 :mod:`.replay` (log files, pacing, live source), :mod:`.record` (log + decoded CSV),
 :mod:`.view` (screen renderer and curses view), :mod:`.run` (the view and line/JSON loops).
 """

@@ -148,90 +148,101 @@ class SdoChannel:
             self.cur.t_end_s = t
         if ccs == 4:
             return self._abort(t, data, "client")
-        if ccs == 1:                    # initiate download
+        handler = {0: self._download_segment, 1: self._initiate_download, 2: self._initiate_upload,
+                   3: self._upload_segment_request, 5: self._block_upload_request,
+                   6: self._block_download_request}.get(ccs)
+        if handler is None:
+            return self._unexpected(t, f"client command specifier {ccs}")
+        return handler(t, data, cmd)
+
+    def _initiate_download(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if len(data) < 8:
+            return self._unexpected(t, "short initiate download")
+        index, sub = struct.unpack_from("<HB", data, 1)
+        e, s, n = (cmd >> 1) & 1, cmd & 1, (cmd >> 2) & 3
+        stale = self._start(t, "download", index, sub, "expedited" if e else "segmented")
+        if e:
+            self.cur.data = data[4:8 - n] if s else data[4:8]
+            self.cur.size = len(self.cur.data) if s else None
+        else:
+            self.cur.size = struct.unpack_from("<L", data, 4)[0] if s else None
+        self.state = DL_INIT
+        return self._with_stale(SdoStep(f"initiate download 0x{index:04X}:{sub:02X} "
+                                        f"{self.cur.mode} {self._size_text()}"), stale)
+
+    def _download_segment(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if self.state != DL_SEG_REQ:
+            return self._unexpected(t, "download segment")
+        bad = self._check_toggle(t, cmd, "download segment")
+        if bad:
+            return bad
+        n, c = (cmd >> 1) & 7, cmd & 1
+        self.cur.data += data[1:8 - n]
+        self.last_seg = bool(c)
+        self.state = DL_SEG_RESP
+        return SdoStep(f"download segment t={self.toggle} {7 - n} bytes{' last' if c else ''}")
+
+    def _initiate_upload(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if len(data) < 4:
+            return self._unexpected(t, "short initiate upload")
+        index, sub = struct.unpack_from("<HB", data, 1)
+        stale = self._start(t, "upload", index, sub, "expedited")
+        self.state = UL_INIT
+        return self._with_stale(SdoStep(f"initiate upload 0x{index:04X}:{sub:02X}"), stale)
+
+    def _upload_segment_request(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if self.state != UL_SEG_REQ:
+            return self._unexpected(t, "upload segment request")
+        bad = self._check_toggle(t, cmd, "upload segment request")
+        if bad:
+            return bad
+        self.state = UL_SEG_RESP
+        return SdoStep(f"upload segment request t={self.toggle}")
+
+    def _block_download_request(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if cmd & 1 == 0:            # initiate
             if len(data) < 8:
-                return self._unexpected(t, "short initiate download")
+                return self._unexpected(t, "short initiate block download")
             index, sub = struct.unpack_from("<HB", data, 1)
-            e, s, n = (cmd >> 1) & 1, cmd & 1, (cmd >> 2) & 3
-            stale = self._start(t, "download", index, sub, "expedited" if e else "segmented")
-            if e:
-                self.cur.data = data[4:8 - n] if s else data[4:8]
-                self.cur.size = len(self.cur.data) if s else None
-            else:
-                self.cur.size = struct.unpack_from("<L", data, 4)[0] if s else None
-            self.state = DL_INIT
-            return self._with_stale(SdoStep(f"initiate download 0x{index:04X}:{sub:02X} "
-                                            f"{self.cur.mode} {self._size_text()}"), stale)
-        if ccs == 0:                    # download segment
-            if self.state != DL_SEG_REQ:
-                return self._unexpected(t, "download segment")
-            bad = self._check_toggle(t, cmd, "download segment")
-            if bad:
-                return bad
-            n, c = (cmd >> 1) & 7, cmd & 1
-            self.cur.data += data[1:8 - n]
-            self.last_seg = bool(c)
-            self.state = DL_SEG_RESP
-            return SdoStep(f"download segment t={self.toggle} {7 - n} bytes{' last' if c else ''}")
-        if ccs == 2:                    # initiate upload
-            if len(data) < 4:
-                return self._unexpected(t, "short initiate upload")
+            stale = self._start(t, "download", index, sub, "block")
+            self.cur.size = struct.unpack_from("<L", data, 4)[0] if cmd & 2 else None
+            self.state = BDL_INIT
+            return self._with_stale(SdoStep(f"initiate block download 0x{index:04X}:{sub:02X} "
+                                            f"{self._size_text()}"), stale)
+        if self.state != BDL_END_REQ:
+            return self._unexpected(t, "end block download")
+        n = (cmd >> 2) & 7
+        if n:
+            self.cur.data = self.cur.data[:-n]
+        self.state = BDL_END_RESP
+        return SdoStep(f"end block download ({n} bytes unused in last segment)")
+
+    def _block_upload_request(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        cs = cmd & 3
+        if cs == 0:
+            if len(data) < 6:
+                return self._unexpected(t, "short initiate block upload")
             index, sub = struct.unpack_from("<HB", data, 1)
-            stale = self._start(t, "upload", index, sub, "expedited")
-            self.state = UL_INIT
-            return self._with_stale(SdoStep(f"initiate upload 0x{index:04X}:{sub:02X}"), stale)
-        if ccs == 3:                    # upload segment request
-            if self.state != UL_SEG_REQ:
-                return self._unexpected(t, "upload segment request")
-            bad = self._check_toggle(t, cmd, "upload segment request")
-            if bad:
-                return bad
-            self.state = UL_SEG_RESP
-            return SdoStep(f"upload segment request t={self.toggle}")
-        if ccs == 6:                    # block download
-            if cmd & 1 == 0:            # initiate
-                if len(data) < 8:
-                    return self._unexpected(t, "short initiate block download")
-                index, sub = struct.unpack_from("<HB", data, 1)
-                stale = self._start(t, "download", index, sub, "block")
-                self.cur.size = struct.unpack_from("<L", data, 4)[0] if cmd & 2 else None
-                self.state = BDL_INIT
-                return self._with_stale(SdoStep(f"initiate block download 0x{index:04X}:{sub:02X} "
-                                                f"{self._size_text()}"), stale)
-            if self.state != BDL_END_REQ:
-                return self._unexpected(t, "end block download")
-            n = (cmd >> 2) & 7
-            if n:
-                self.cur.data = self.cur.data[:-n]
-            self.state = BDL_END_RESP
-            return SdoStep(f"end block download ({n} bytes unused in last segment)")
-        if ccs == 5:                    # block upload
-            cs = cmd & 3
-            if cs == 0:
-                if len(data) < 6:
-                    return self._unexpected(t, "short initiate block upload")
-                index, sub = struct.unpack_from("<HB", data, 1)
-                stale = self._start(t, "upload", index, sub, "block")
-                self.blksize = data[4]
-                self.state = BUL_INIT
-                return self._with_stale(SdoStep(f"initiate block upload 0x{index:04X}:{sub:02X} "
-                                                f"blksize {self.blksize}"), stale)
-            if cs == 3:
-                if self.state != BUL_START:
-                    return self._unexpected(t, "start block upload")
-                self.state, self.seq_data, self.last_seq = BUL_SUB, {}, None
-                return SdoStep("start block upload")
-            if cs == 2:
-                if self.state != BUL_SUB:
-                    return self._unexpected(t, "block upload acknowledge")
-                ackseq, self.blksize = data[1], data[2]
-                self.state = BUL_END if self._ack(ackseq) else BUL_SUB
-                return SdoStep(f"block upload ack seq {ackseq}, next blksize {self.blksize}")
-            if cs == 1:
-                if self.state != BUL_END_RESP:
-                    return self._unexpected(t, "end block upload response")
-                return SdoStep("end block upload response", self._finish(t, "ok"))
-        return self._unexpected(t, f"client command specifier {ccs}")
+            stale = self._start(t, "upload", index, sub, "block")
+            self.blksize = data[4]
+            self.state = BUL_INIT
+            return self._with_stale(SdoStep(f"initiate block upload 0x{index:04X}:{sub:02X} "
+                                            f"blksize {self.blksize}"), stale)
+        if cs == 3:
+            if self.state != BUL_START:
+                return self._unexpected(t, "start block upload")
+            self.state, self.seq_data, self.last_seq = BUL_SUB, {}, None
+            return SdoStep("start block upload")
+        if cs == 2:
+            if self.state != BUL_SUB:
+                return self._unexpected(t, "block upload acknowledge")
+            ackseq, self.blksize = data[1], data[2]
+            self.state = BUL_END if self._ack(ackseq) else BUL_SUB
+            return SdoStep(f"block upload ack seq {ackseq}, next blksize {self.blksize}")
+        if cs == 1:
+            if self.state != BUL_END_RESP:
+                return self._unexpected(t, "end block upload response")
+            return SdoStep("end block upload response", self._finish(t, "ok"))
 
     # -- server -> client ------------------------------------------------------------------------
     def response(self, t: float, data: bytes) -> SdoStep:
@@ -247,84 +258,96 @@ class SdoChannel:
             self.cur.t_end_s = t
         if scs == 4:
             return self._abort(t, data, "server")
-        if scs == 3:                     # initiate download response
-            if self.state != DL_INIT:
-                return self._unexpected(t, "initiate download response")
-            if self.cur.mode == "expedited":
-                return SdoStep("download confirmed", self._finish(t, "ok"))
-            self.state, self.toggle = DL_SEG_REQ, 0
-            return SdoStep("initiate download confirmed")
-        if scs == 1:                     # download segment response
-            if self.state != DL_SEG_RESP:
-                return self._unexpected(t, "download segment response")
-            bad = self._check_toggle(t, cmd, "download segment response")
-            if bad:
-                return bad
-            if self.last_seg:
-                return SdoStep(f"download segment confirmed t={self.toggle}, done", self._finish(t, "ok"))
-            self.toggle ^= 1
-            self.state = DL_SEG_REQ
-            return SdoStep(f"download segment confirmed t={self.toggle ^ 1}")
-        if scs == 2:                     # initiate upload response (also a block upload fallback)
-            if self.state not in (UL_INIT, BUL_INIT):
-                return self._unexpected(t, "initiate upload response")
-            e, s, n = (cmd >> 1) & 1, cmd & 1, (cmd >> 2) & 3
-            if self.state == BUL_INIT:
-                self.cur.mode = "expedited"
-            if e:
-                self.cur.data = data[4:8 - n] if s else data[4:8]
-                self.cur.size = len(self.cur.data) if s else None
-                return SdoStep(f"upload response expedited {len(self.cur.data)} bytes", self._finish(t, "ok"))
-            self.cur.mode = "segmented"
-            self.cur.size = struct.unpack_from("<L", data, 4)[0] if s and len(data) >= 8 else None
-            self.state, self.toggle = UL_SEG_REQ, 0
-            return SdoStep(f"upload response segmented {self._size_text()}")
-        if scs == 0:                     # upload segment response
-            if self.state != UL_SEG_RESP:
-                return self._unexpected(t, "upload segment response")
-            bad = self._check_toggle(t, cmd, "upload segment response")
-            if bad:
-                return bad
-            n, c = (cmd >> 1) & 7, cmd & 1
-            self.cur.data += data[1:8 - n]
-            if c:
-                return SdoStep(f"upload segment t={self.toggle} {7 - n} bytes last", self._finish(t, "ok"))
-            self.toggle ^= 1
-            self.state = UL_SEG_REQ
-            return SdoStep(f"upload segment t={self.toggle ^ 1} {7 - n} bytes")
-        if scs == 5:                     # block download responses
-            ss = cmd & 3
-            if ss == 0:
-                if self.state != BDL_INIT:
-                    return self._unexpected(t, "initiate block download response")
-                self.blksize = data[4]
-                self.state, self.seq_data, self.last_seq = BDL_SUB, {}, None
-                return SdoStep(f"initiate block download confirmed, blksize {self.blksize}")
-            if ss == 2:
-                if self.state != BDL_ACK:
-                    return self._unexpected(t, "block download acknowledge")
-                ackseq, self.blksize = data[1], data[2]
-                self.state = BDL_END_REQ if self._ack(ackseq) else BDL_SUB
-                return SdoStep(f"block download ack seq {ackseq}, next blksize {self.blksize}")
-            if ss == 1:
-                if self.state != BDL_END_RESP:
-                    return self._unexpected(t, "end block download response")
-                return SdoStep("end block download confirmed", self._finish(t, "ok"))
-        if scs == 6:                     # block upload responses
-            if cmd & 1 == 0:
-                if self.state != BUL_INIT:
-                    return self._unexpected(t, "initiate block upload response")
-                self.cur.size = struct.unpack_from("<L", data, 4)[0] if cmd & 2 and len(data) >= 8 else None
-                self.state = BUL_START
-                return SdoStep(f"initiate block upload response {self._size_text()}")
-            if self.state != BUL_END:
-                return self._unexpected(t, "end block upload")
-            n = (cmd >> 2) & 7
-            if n:
-                self.cur.data = self.cur.data[:-n]
-            self.state = BUL_END_RESP
-            return SdoStep(f"end block upload ({n} bytes unused in last segment)")
-        return self._unexpected(t, f"server command specifier {scs}")
+        handler = {0: self._upload_segment_response, 1: self._download_segment_response,
+                   2: self._initiate_upload_response, 3: self._initiate_download_response,
+                   5: self._block_download_response, 6: self._block_upload_response}.get(scs)
+        if handler is None:
+            return self._unexpected(t, f"server command specifier {scs}")
+        return handler(t, data, cmd)
+
+    def _initiate_download_response(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if self.state != DL_INIT:
+            return self._unexpected(t, "initiate download response")
+        if self.cur.mode == "expedited":
+            return SdoStep("download confirmed", self._finish(t, "ok"))
+        self.state, self.toggle = DL_SEG_REQ, 0
+        return SdoStep("initiate download confirmed")
+
+    def _download_segment_response(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if self.state != DL_SEG_RESP:
+            return self._unexpected(t, "download segment response")
+        bad = self._check_toggle(t, cmd, "download segment response")
+        if bad:
+            return bad
+        if self.last_seg:
+            return SdoStep(f"download segment confirmed t={self.toggle}, done", self._finish(t, "ok"))
+        self.toggle ^= 1
+        self.state = DL_SEG_REQ
+        return SdoStep(f"download segment confirmed t={self.toggle ^ 1}")
+
+    def _initiate_upload_response(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if self.state not in (UL_INIT, BUL_INIT):
+            return self._unexpected(t, "initiate upload response")
+        e, s, n = (cmd >> 1) & 1, cmd & 1, (cmd >> 2) & 3
+        if self.state == BUL_INIT:
+            self.cur.mode = "expedited"
+        if e:
+            self.cur.data = data[4:8 - n] if s else data[4:8]
+            self.cur.size = len(self.cur.data) if s else None
+            return SdoStep(f"upload response expedited {len(self.cur.data)} bytes", self._finish(t, "ok"))
+        self.cur.mode = "segmented"
+        self.cur.size = struct.unpack_from("<L", data, 4)[0] if s and len(data) >= 8 else None
+        self.state, self.toggle = UL_SEG_REQ, 0
+        return SdoStep(f"upload response segmented {self._size_text()}")
+
+    def _upload_segment_response(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if self.state != UL_SEG_RESP:
+            return self._unexpected(t, "upload segment response")
+        bad = self._check_toggle(t, cmd, "upload segment response")
+        if bad:
+            return bad
+        n, c = (cmd >> 1) & 7, cmd & 1
+        self.cur.data += data[1:8 - n]
+        if c:
+            return SdoStep(f"upload segment t={self.toggle} {7 - n} bytes last", self._finish(t, "ok"))
+        self.toggle ^= 1
+        self.state = UL_SEG_REQ
+        return SdoStep(f"upload segment t={self.toggle ^ 1} {7 - n} bytes")
+
+    def _block_download_response(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        ss = cmd & 3
+        if ss == 0:
+            if self.state != BDL_INIT:
+                return self._unexpected(t, "initiate block download response")
+            self.blksize = data[4]
+            self.state, self.seq_data, self.last_seq = BDL_SUB, {}, None
+            return SdoStep(f"initiate block download confirmed, blksize {self.blksize}")
+        if ss == 2:
+            if self.state != BDL_ACK:
+                return self._unexpected(t, "block download acknowledge")
+            ackseq, self.blksize = data[1], data[2]
+            self.state = BDL_END_REQ if self._ack(ackseq) else BDL_SUB
+            return SdoStep(f"block download ack seq {ackseq}, next blksize {self.blksize}")
+        if ss == 1:
+            if self.state != BDL_END_RESP:
+                return self._unexpected(t, "end block download response")
+            return SdoStep("end block download confirmed", self._finish(t, "ok"))
+        return self._unexpected(t, f"server command specifier {cmd >> 5}")
+
+    def _block_upload_response(self, t: float, data: bytes, cmd: int) -> SdoStep:
+        if cmd & 1 == 0:
+            if self.state != BUL_INIT:
+                return self._unexpected(t, "initiate block upload response")
+            self.cur.size = struct.unpack_from("<L", data, 4)[0] if cmd & 2 and len(data) >= 8 else None
+            self.state = BUL_START
+            return SdoStep(f"initiate block upload response {self._size_text()}")
+        if self.state != BUL_END:
+            return self._unexpected(t, "end block upload")
+        n = (cmd >> 2) & 7
+        if n:
+            self.cur.data = self.cur.data[:-n]
+        self.state = BUL_END_RESP
+        return SdoStep(f"end block upload ({n} bytes unused in last segment)")
 
     # -- block transfer internals ----------------------------------------------------------------
     def _bdl_segment(self, t: float, data: bytes) -> SdoStep:

@@ -1,4 +1,5 @@
-"""The monitor's state machine: frames in, per-node state, bus statistics and events out.
+"""The monitor's state machine: frames in, per-node state, bus statistics and events out (the records it
+keeps, and its settings :class:`~telethermo.monitor.records.MonitorConfig`, are in :mod:`.records`).
 
 :class:`Monitor` is pure in the sense that matters: it never reads a clock or touches a bus. Every
 frame brings its own timestamp (:meth:`Monitor.feed`) and the caller says what time it is when no
@@ -7,183 +8,19 @@ object therefore serves a live bus, a replay at recorded speed and a replay as f
 """
 from __future__ import annotations
 
-import math
-import statistics
 from collections import deque
-from dataclasses import dataclass, field
 from typing import Any
 
 from . import cia301
 from . import decoder as dec
 from .busload import message_length_bits
 from .events import ERROR, INFO, WARN, Event, EventLog
-from .pdo import PdoDef, PdoMap, PdoValue, od_value as _value, od_var as _var, decode_pdo, format_value
+from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo, format_value
+from .records import BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
 
 #: a repeated WARN of the same kind (late cycle, missing PDO) is logged at most once per this bus time, s
 EVENT_HOLDOFF_S = 1.0
-
-
-@dataclass(frozen=True)
-class NodeInfo:
-    """What the monitor knows of a node before it sees it: its name and object dictionary."""
-
-    name: str
-    od: Any = None  # canopen.ObjectDictionary (from the node's EDS) or None
-
-
-@dataclass
-class MonitorConfig:
-    """Settings of one monitor.
-
-    Attributes:
-        nodes: node-ID -> NodeInfo (name, EDS object dictionary); unknown nodes are still decoded.
-        bitrate_bps: the bus bitrate, bit/s (for the bus load).
-        sync_period_s: nominal SYNC period, s; a SYNC interval longer than
-            ``sync_period_s * (1 + late_tolerance)`` is a late cycle. None: no late-cycle count (lockstep).
-        late_tolerance: fraction of the period a SYNC may be late before the cycle counts as late.
-        window_s: window of frames/s and bus load, s.
-        heartbeat_timeout_factor: without a consumer time (0x1016) for a node, its heartbeat times out
-            after this many producer periods (0x1017).
-    """
-
-    nodes: dict[int, NodeInfo] = field(default_factory=dict)
-    bitrate_bps: int = 1_000_000
-    sync_period_s: float | None = None
-    late_tolerance: float = 0.5
-    window_s: float = 1.0
-    heartbeat_timeout_factor: float = 1.5
-
-
-@dataclass
-class SdoRecord:
-    """A finished SDO transfer with what the EDS says about the object."""
-
-    transfer: SdoTransfer
-    name: str
-    value: Any
-    unit: str
-
-    def text(self) -> str:
-        tr = self.transfer
-        arrow = "write" if tr.direction == "download" else "read" if tr.direction == "upload" else tr.direction
-        where = f"0x{tr.index:04X}:{tr.subindex:02X} {self.name}".rstrip()
-        if tr.status == "ok":
-            shown = (f"0x{self.value:X}" if isinstance(self.value, int) and not isinstance(self.value, bool)
-                     and 0x1000 <= tr.index < 0x2000 else format_value(self.value, self.unit))
-            return f"{arrow} {where} = {shown} ({tr.mode})"
-        if tr.status == "aborted":
-            return f"{arrow} {where} ABORT 0x{tr.abort_code:08X} {tr.abort_text} (by {tr.aborted_by})"
-        return f"{arrow} {where} ERROR {tr.problem}"
-
-    def to_json(self) -> dict[str, Any]:
-        out = self.transfer.to_json()
-        v = self.value
-        if isinstance(v, (bytes, bytearray)):
-            v = bytes(v).hex()
-        elif isinstance(v, float) and not math.isfinite(v):
-            v = str(v)
-        out.update(type="sdo", name=self.name, value=v, unit=self.unit, text=self.text())
-        return out
-
-
-@dataclass
-class NodeState:
-    """Everything the monitor learnt about one node."""
-
-    node: int
-    name: str = ""
-    nmt_state: str = cia301.NMT_UNKNOWN
-    heartbeats: int = 0
-    boot_ups: int = 0
-    last_hb_t: float | None = None
-    hb_period_min_s: float | None = None
-    hb_period_max_s: float | None = None
-    hb_period_last_s: float | None = None
-    producer_time_s: float | None = None      # 0x1017 of the node
-    consumer_time_s: float | None = None      # the shortest 0x1016 entry watching it
-    hb_lost: bool = False
-    hb_losses: int = 0
-    nmt_pending: str | None = None            # an NMT command was seen, heartbeat not yet confirming
-    reset_pending: bool = False
-    after_boot: bool = False
-    last_emcy: dict[str, Any] | None = None
-    last_emcy_t: float | None = None
-    emcys: int = 0
-    emcy_active: bool = False                 # the last EMCY was an error, not a reset (0x0000)
-    error_register: int | None = None
-    sdo: SdoChannel | None = None
-    sdo_transfers: deque = field(default_factory=lambda: deque(maxlen=8))
-    sdo_ok: int = 0
-    sdo_aborts: int = 0
-    pdo_frames: dict[str, int] = field(default_factory=dict)
-
-    @property
-    def hb_timeout_s(self) -> float | None:
-        """Time without heartbeat after which the node counts as lost, s."""
-        if self.consumer_time_s:
-            return self.consumer_time_s
-        if self.producer_time_s:
-            return self.producer_time_s * self._factor
-        return None
-
-    _factor: float = 1.5
-
-    def to_json(self) -> dict[str, Any]:
-        return {"node": self.node, "name": self.name, "nmt_state": self.nmt_state, "heartbeats": self.heartbeats,
-                "boot_ups": self.boot_ups, "hb_period_min_s": self.hb_period_min_s,
-                "hb_period_max_s": self.hb_period_max_s, "hb_period_last_s": self.hb_period_last_s,
-                "producer_time_s": self.producer_time_s, "consumer_time_s": self.consumer_time_s,
-                "hb_timeout_s": self.hb_timeout_s, "hb_lost": self.hb_lost, "hb_losses": self.hb_losses,
-                "last_emcy": self.last_emcy, "last_emcy_t_s": self.last_emcy_t, "emcy_active": self.emcy_active,
-                "emcys": self.emcys, "error_register": self.error_register,
-                "sdo_ok": self.sdo_ok, "sdo_aborts": self.sdo_aborts,
-                "last_sdo": [r.to_json() for r in self.sdo_transfers][-1:],
-                "pdo_frames": dict(self.pdo_frames)}
-
-
-@dataclass
-class PdoState:
-    """Last values of one PDO as seen on the bus."""
-
-    pdef: PdoDef
-    count: int = 0
-    last_t: float | None = None
-    values: list[PdoValue] = field(default_factory=list)
-    missing: int = 0
-    missing_streak: int = 0
-    armed: bool = False
-    unreported: int = 0            # missing cycles not yet in an event
-    event_t: float | None = None   # time of the last pdo_missing event
-
-
-@dataclass
-class BusStats:
-    """Bus-wide figures for the status bar."""
-
-    frames: int = 0
-    bits: int = 0
-    error_frames: int = 0
-    unknown_frames: int = 0
-    malformed: int = 0
-    syncs: int = 0
-    sync_counter: int | None = None
-    sync_counter_errors: int = 0
-    sync_intervals_s: deque = field(default_factory=lambda: deque(maxlen=500))
-    late_cycles: int = 0
-    missed_pdos: int = 0
-    frames_per_s: float = 0.0
-    bus_load: float = 0.0   # fraction of the bitrate
-    t_first: float | None = None
-    t_last: float | None = None
-
-    def sync_summary(self) -> dict[str, float | None]:
-        """Mean SYNC period, its standard deviation (jitter), min and max over the last 500, s."""
-        iv = list(self.sync_intervals_s)
-        if not iv:
-            return {"period_s": None, "jitter_s": None, "min_s": None, "max_s": None}
-        return {"period_s": statistics.fmean(iv), "jitter_s": statistics.pstdev(iv) if len(iv) > 1 else 0.0,
-                "min_s": min(iv), "max_s": max(iv)}
 
 
 class Monitor:

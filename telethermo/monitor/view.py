@@ -8,6 +8,7 @@ resume (the monitor keeps decoding; a replay waits), ``f`` filter the event log 
 """
 from __future__ import annotations
 
+import curses
 import datetime as _dt
 from dataclasses import dataclass
 
@@ -116,7 +117,6 @@ class CursesView:
     """Draws :func:`render_lines` in a curses window, rewriting only the lines that changed."""
 
     def __init__(self, stdscr, vs: ViewState) -> None:
-        import curses
         self.curses = curses
         self.scr = stdscr
         self.vs = vs

@@ -4,7 +4,7 @@ from __future__ import annotations
 import pytest
 
 from telethermo.cli.calibrate import measure_touch
-from telethermo.cli.common import Failure
+from telethermo.remote.errors import Failure
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
 
 

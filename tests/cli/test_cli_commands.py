@@ -93,7 +93,7 @@ def test_status_reads_mode_temperatures_safety_and_nmt(nodes, cli):
         assert {"T_sensor_C", "estimate_C", "Q_W", "current_A", "safety_state", "late_cycles"} <= set(v)
         assert doc[role]["units"]["T_sensor_C"] == "degC" and doc[role]["nmt_state"] == "PRE-OPERATIONAL"
     code, out, _ = cli("status", *nodes.bus, "master")
-    assert "mode            telepresence (1)" in out and "safety          ok (0)" in out
+    assert "mode            1 (telepresence)" in out and "safety          0 (ok)" in out   # as `get` shows them
 
 
 def test_mode_render_writes_material_beta_and_mode(nodes, cli):

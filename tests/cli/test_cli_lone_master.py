@@ -113,7 +113,10 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     # a sample lost on the bus is fetched again by SDO from the node's record: drop 37 samples of the record
     # on the receiving side and let the CLI's fetch fill them over the real SDO path, bit for bit
     from telethermo.cli import common
-    from telethermo.cli.identify_live import Stream, _fetch_lost, _Sdo
+    from telethermo.remote.client import NodeClient
+    from telethermo.remote.identify import Stream, fetch_lost
+    from telethermo.remote.targets import resolve_node
+    from telethermo.canopen_dev.netconfig import load_network
     Q_bus = np.array([float(r[5]) for r in rows])
     stream = Stream([0x281, 0x381, 0x481], len(rows))
     stream.values[:] = (T_bus, I_bus, Q_bus)
@@ -125,8 +128,8 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     args = type("A", (), {"network": None, "bus": bus})()
     net = load_network(None)
     with common.canopen_network(args, net) as nw:
-        dev = _Sdo(nw, common.resolve_node(net, "master"), 1.0)
-        assert _fetch_lost(stream, dev, plan) == 37
+        dev = NodeClient(nw, resolve_node(net, "master"), 1.0)
+        assert fetch_lost(stream, dev, plan) == 37
     assert stream.missing() == 0
     np.testing.assert_array_equal(stream.T_C, T_bus)
     np.testing.assert_array_equal(stream.I_A, I_bus)

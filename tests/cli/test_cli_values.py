@@ -9,7 +9,7 @@ import pytest
 from bus_config import edsgen
 from bus_config import path as cfg_path
 from telethermo.canopen_dev.eds_info import EdsInfo
-from telethermo.cli import values
+from telethermo.remote import values
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
 
 EDS = EdsInfo(cfg_path("master.eds"))
@@ -28,7 +28,9 @@ def test_cob_ids_and_bit_fields_in_hex_with_their_meaning():
     assert show("0x1016:1", 0x000200FA) == "0x000200FA (node 2, 250 ms)"
     assert show("Error register", 0x19) == "0x19 (generic, temperature, communication)"
     assert show("active_trips", 0x280) == "0x0280 (heat_sink, peer_lost)"
-    assert show("last_trip_code", 0x8130) == "0x8130"
+    assert show("last_trip_code", 0x8130) == "0x8130 (Life guard error or heartbeat error)"
+    assert show("last_trip_code", 0) == "0x0000 (none)"
+    assert show("0x1003:1", 0x00014210) == "0x00014210 (EMCY 0x4210 Device temperature)"
     assert show("model_crc32", 0xDEADBEEF) == "0xDEADBEEF"
     assert show("Identity object.Vendor-ID", 5) == "0x00000005"
     # counts stay decimal, even when an unrelated word of the description is "bit"

@@ -1,13 +1,20 @@
 """Model files: round trip, atomic write, validation errors naming file, field and expectation,
-object-dictionary transfer (REAL32)."""
+object-dictionary transfer (telethermo.ident.odmodel, REAL32 vs REAL64)."""
 import json
 
 import numpy as np
 import pytest
 
 from telethermo.ident import (CapacityModel, FluxArma, ModelFileError, TemModel, default_model_path, load_model,
-                              narma_from_od_values, narma_to_od_values, prbs, save_model)
-from telethermo.ident.modelfile import round_to_real32
+                              odmodel, prbs, save_model)
+
+
+def od_reader(entries, *, real32=False, **changed):
+    """``read(index, sub)`` of a node's object dictionary holding ``entries`` (the REAL64 ones rounded to
+    REAL32 with ``real32``; ``changed``: name -> value written over an entry)."""
+    table = {(e.index, e.sub): changed.get(e.name, odmodel.round_real32(e.value) if real32 and e.kind == "f64"
+                                           else e.value) for e in entries}
+    return lambda index, sub: table[(index, sub)]
 
 
 @pytest.fixture()
@@ -80,17 +87,17 @@ def test_unreadable_and_mismatched_files(tmp_path, tem):
 
 
 def test_object_dictionary_transfer_survives_real32(true_model):
-    vals = narma_to_od_values(true_model)
-    assert len(vals) == 9 + true_model.orders.d
-    back = narma_from_od_values(round_to_real32(vals))
+    entries = odmodel.model_entries(TemModel(temperature=true_model))
+    assert len(entries) == len(odmodel.SCALARS) + true_model.orders.d
+    back, _ = odmodel.model_from_od(od_reader(entries, real32=True))
     u = prbs(5000, amplitude_A=(0.1, 1.5), hold_samples=20, seed=4)
     a = true_model.free_run(current_A=u, T0_C=25.0)
-    b = back.free_run(current_A=u, T0_C=25.0)
+    b = back.temperature.free_run(current_A=u, T0_C=25.0)
     assert np.max(np.abs(a - b)) < 1e-3                         # REAL32 rounding of θ: < 1 mK
-    with pytest.raises(ModelFileError, match="theta"):
-        narma_from_od_values(vals[:-1])
-    with pytest.raises(ModelFileError, match="integer"):
-        narma_from_od_values([1.0, 2.5] + vals[2:])
+    with pytest.raises(ModelFileError, match="theta"):          # one coefficient fewer than the orders need
+        odmodel.model_from_od(od_reader(entries, theta_len=true_model.orders.d - 1))
+    with pytest.raises(ModelFileError, match="valid orders"):   # the orders' own check (UNSIGNED8 objects)
+        odmodel.model_from_od(od_reader(entries, narma_n=0))
 
 
 def test_shipped_model_loads_and_is_stable():
@@ -105,10 +112,10 @@ def test_shipped_model_needs_real64_in_the_object_dictionary():
     transfer is exact; REAL32 rounding either makes it unstable (the transfer is then refused) or
     wrong by degrees (steady-state gain and free run)."""
     m = load_model(default_model_path()).temperature
-    vals = narma_to_od_values(m)
-    assert np.array_equal(narma_from_od_values(vals).theta, m.theta)
+    entries = odmodel.model_entries(TemModel(temperature=m))
+    assert np.array_equal(odmodel.model_from_od(od_reader(entries))[0].temperature.theta, m.theta)
     try:
-        b = narma_from_od_values(round_to_real32(vals))
+        b = odmodel.model_from_od(od_reader(entries, real32=True))[0].temperature
     except ModelFileError as exc:
         assert "REAL64" in str(exc)
         return

@@ -12,7 +12,7 @@ import pytest
 from canopen.objectdictionary import import_od
 
 import bus_config
-from telethermo.monitor.state import MonitorConfig, NodeInfo
+from telethermo.monitor.records import MonitorConfig, NodeInfo
 
 EDS_DIR = Path(bus_config.__file__).resolve().parent
 MASTER_EDS, SLAVE_EDS = EDS_DIR / "master.eds", EDS_DIR / "slave.eds"

@@ -1,5 +1,6 @@
-"""How ``get`` and ``set`` show a value: hex for COB-IDs and bit fields, names for enumerations, the unit
-always, and the rule behind a refusal.
+"""A remote node's values as the operator types and reads them: parsing a value for an object's type,
+the local range check, and the formatting ``get``, ``set`` and ``status`` print (hex for COB-IDs and bit
+fields, names for enumerations, the unit always) and the rule behind a refusal.
 
 Light on purpose (``get``/``set`` import it): no numpy, only the control core's enum modules, which
 import nothing but the standard library.
@@ -10,8 +11,9 @@ import nothing but the standard library.
 - **Hex**: COB-IDs (``COB-ID SYNC = 0x40000080 (COB-ID 0x080, produces SYNC)``), PDO mapping entries
   (``0x20000020 (0x2000:00 T_sensor_C, 32 bits)``), heartbeat consumer entries (``0x000200FA (node 2,
   250 ms)``), the error register (``0x19 (generic, temperature, communication)``), trip masks
-  (``0x0200 (peer_lost)``), device type, identity, EMCY codes and CRCs; and any unsigned object whose
-  description speaks of bits.
+  (``0x0200 (peer_lost)``), EMCY codes with their CiA 301 text (``0x8130 (Life guard error or heartbeat
+  error)``, the error history 0x1003 likewise), device type, identity and CRCs; and any unsigned object
+  whose description speaks of bits.
 - **Enumerations**: ``mode``, ``estimator`` and ``safety_state`` of our nodes by the control core's enums
   (``1 (telepresence)``); any other object whose description is a list ``0 name, 1 name, ...``.
 """
@@ -19,10 +21,16 @@ from __future__ import annotations
 
 import math
 import re
+import struct
 from typing import Any
 
 from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo
-from telethermo.monitor.cia301 import error_register_names
+from telethermo.control.estimators import Estimator
+from telethermo.control.safety import SafetyState, Trip
+from telethermo.control.types import Mode
+from telethermo.monitor.cia301 import emcy_code_text, error_register_names
+from telethermo.remote.codec import struct_of
+from telethermo.remote.errors import UserError
 
 #: name suffix -> unit (the naming convention of bus_config/edsgen.py; longest first)
 NAME_UNITS = (("_A_per_C_s", "A/(degC*s)"), ("_A_per_C", "A/degC"), ("_A_per_W", "A/W"), ("_C_per_s", "degC/s"),
@@ -46,17 +54,13 @@ def unit_of(info: VarInfo) -> str:
 
 
 def _control_enum(name: str) -> dict[int, str]:
-    """code -> name of one of our objects, from the control core's enum (imported only when shown: the
-    safety module alone takes ~10 ms to import)."""
+    """code -> name of one of our objects, from the control core's enum."""
     if name == "mode":
-        from telethermo.control.types import Mode
         return {int(m): m.name.lower() for m in Mode}
     if name == "estimator":
         # the object's codes are the enum's declaration order (tests/cli/test_cli_values.py checks the
         # node's ESTIMATOR_CODES against it)
-        from telethermo.control.estimators import Estimator
         return {i: e.value for i, e in enumerate(Estimator)}
-    from telethermo.control.safety import SafetyState
     return {int(s): s.name.lower() for s in SafetyState}
 
 
@@ -118,8 +122,11 @@ def _note(info: VarInfo, value: int, eds: EdsInfo | None) -> str:
         return "unused" if node == 0 or ms == 0 else f"node {node}, {ms} ms"
     if info.index == 0x1001:
         return ", ".join(error_register_names(value)) or "no error"
+    if info.index == 0x1003 and info.subindex >= 1:   # error field: EMCY code in the low 16 bits
+        return f"EMCY 0x{value & 0xFFFF:04X} {emcy_code_text(value & 0xFFFF)}" if value else "none"
+    if "emcy code" in info.description.lower() or "error code" in name:
+        return emcy_code_text(value & 0xFFFF) if value else "none"
     if info.name in ("active_trips", "fault_reset_blocked_by") and info.index >= 0x2000:
-        from telethermo.control.safety import Trip
         trips = [t.value for i, t in enumerate(Trip) if value >> i & 1]
         return ", ".join(trips) or "none"
     return ""
@@ -166,3 +173,43 @@ def rule_keys(info: VarInfo, eds: EdsInfo) -> list[str]:
         if w != info.key and w in eds.by_key and "_" in w and w not in out:
             out.append(w)
     return out
+
+
+def parse_value(info: VarInfo, text: str) -> float | int | bool:
+    """Parse an operator's value for ``info``'s type; UserError naming the parameter otherwise."""
+    t = text.strip()
+    try:
+        if info.data_type in (0x0008, 0x0011):
+            v: Any = float(t)
+        elif info.data_type == 0x0001:
+            low = t.lower()
+            if low in ("1", "true", "on", "yes"):
+                return True
+            if low in ("0", "false", "off", "no"):
+                return False
+            raise ValueError
+        elif struct_of(info) is not None:
+            v = int(t, 0)
+        else:
+            raise UserError(f"{info.key}: setting a {info.type_name} is not supported here")
+    except ValueError:
+        raise UserError(f"{info.key}: expected a {info.type_name} value, got {text!r}") from None
+    if isinstance(v, float) and not math.isfinite(v) and not math.isnan(v):
+        raise UserError(f"{info.key}: expected a finite number, got {text!r}")
+    return v
+
+
+def check_range(info: VarInfo, value: float | int | bool) -> None:
+    """Refuse locally what the node would refuse: out of the EDS range, or out of the type's range."""
+    if isinstance(value, bool):
+        return
+    if isinstance(value, float) and math.isnan(value):
+        raise UserError(f"{info.key}: NaN is not a value; allowed range {info.range_text() or 'any number'}")
+    if info.low is not None and value < info.low or info.high is not None and value > info.high:
+        raise UserError(f"{info.key} = {value:g} is out of range {info.range_text()}; not sent")
+    st = struct_of(info)
+    if st is not None and isinstance(value, int):
+        try:
+            st.pack(value)
+        except struct.error:
+            raise UserError(f"{info.key} = {value} does not fit a {info.type_name}; not sent") from None

@@ -1,0 +1,54 @@
+"""What ``telethermo identify`` prints, on a simulated rig or a live node: the progress bar of the experiment
+and the report of the fit."""
+from __future__ import annotations
+
+import sys
+import time
+
+
+class ProgressBar:
+    """A one-line progress bar on a stream (stderr)."""
+
+    def __init__(self, label: str, stream=None, width: int = 40) -> None:
+        # the stream is looked up when the bar is made, not when this module was imported: a default
+        # argument would pin whatever sys.stderr was at import time (closed since, under a test runner)
+        self.label, self.stream, self.width = label, stream if stream is not None else sys.stderr, width
+        self.t0 = time.perf_counter()
+        self._last = -1
+
+    def __call__(self, done: int, total: int) -> None:
+        frac = done / total if total else 1.0
+        pct = int(frac * 100)
+        if pct == self._last and done < total:
+            return
+        self._last = pct
+        fill = int(frac * self.width)
+        self.stream.write(f"\r{self.label} [{'#' * fill}{'.' * (self.width - fill)}] {pct:3d}% "
+                          f"{done}/{total} samples {time.perf_counter() - self.t0:5.1f} s")
+        if done >= total:
+            self.stream.write("\n")
+        self.stream.flush()
+
+
+def print_report(rep: dict) -> None:
+    o = rep["orders"]
+    lines = [
+        f"orders n,m,p,q            {o['n']},{o['m']},{o['p']},{o['q']}  (fit: {rep['fit_method']})",
+        f"samples                   {rep['n_train']} training + {rep['n_validation']} held-out at {rep['period_s']} s",
+        f"reference temperature     {rep['T_ref_C']:.3f} °C (drift over the rest samples "
+        f"{rep['rest_drift_C']:+.4f} °C{'' if abs(rep['rest_drift_C']) < 0.05 else ': NOT AT REST'})",
+        f"held-out free run         worst {rep['heldout_free_run_max_C']:.4f} °C, rms {rep['heldout_free_run_rms_C']:.4f} °C",
+        f"held-out one-step         worst {rep['heldout_one_step_max_C']:.4f} °C",
+        f"heat flux (held-out)      worst {rep['flux_heldout_max_W']:.4f} W, rms {rep['flux_heldout_rms_W']:.4f} W"
+        f"{' (with current terms)' if rep['flux_with_current'] else ''}",
+        f"stability                 {'stable' if rep['stable'] else 'UNSTABLE: ' + rep['stability_reason']}, "
+        f"max local pole |z| = {rep['max_pole_modulus']:.6f}",
+        f"safety guard              {rep['guard_interventions']} interventions; T {rep['T_range_C'][0]:.2f}.."
+        f"{rep['T_range_C'][1]:.2f} °C, I {rep['current_range_A'][0]:+.2f}..{rep['current_range_A'][1]:+.2f} A",
+        f"time                      experiment {rep['experiment_wall_s']:.2f} s, fit {rep['fit_wall_s']:.2f} s",
+    ]
+    if "capacity_points" in rep:
+        lines.append(f"capacity (eq. 13)         {rep['capacity_points']} steady states, I "
+                     f"{rep['capacity_current_range_A'][0]:+.3f}..{rep['capacity_current_range_A'][1]:+.3f} A, "
+                     f"fit residual max {rep['capacity_max_abs_W']:.2e} W")
+    print("\n".join(lines))

@@ -1,0 +1,69 @@
+"""The nodes as the operator names them: ``master``, ``slave``, a node-ID, from the network file, each with
+its EDS (parsed once per file version) and its objects by name."""
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+from pathlib import Path
+
+from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
+from telethermo.canopen_dev.netconfig import NetworkConfig
+from telethermo.remote.errors import UserError
+
+
+@dataclass(frozen=True)
+class Target:
+    """A node as the operator names it (``eds`` None: a node-ID outside the network file, e.g. for ``sdo``)."""
+
+    role: str
+    node_id: int
+    eds: Path | None
+
+
+def node_targets(net: NetworkConfig) -> list[Target]:
+    """Every node of the network file, by node-ID."""
+    return sorted((Target(role, n.node_id, Path(n.eds)) for role, n in net.nodes.items()), key=lambda t: t.node_id)
+
+
+def resolve_node(net: NetworkConfig, text: str) -> Target:
+    """``master`` / ``slave`` / a node-ID -> Target; UserError listing the known nodes otherwise."""
+    known = node_targets(net)
+    for t in known:
+        if text.lower() == t.role or text == str(t.node_id) or (text.lower().startswith("0x") and
+                                                                 _int(text) == t.node_id):
+            return t
+    names = ", ".join(f"{t.role} ({t.node_id})" for t in known)
+    raise UserError(f"unknown node {text!r}; expected one of {names} (from {net.path})")
+
+
+def _int(text: str) -> int | None:
+    try:
+        return int(text, 0)
+    except ValueError:
+        return None
+
+
+@functools.lru_cache(maxsize=16)
+def _parsed_eds(path: str, mtime_ns: int) -> EdsInfo:
+    return EdsInfo(path)
+
+
+def eds_info(target: Target) -> EdsInfo:
+    """The node's EDS, parsed once per file version (a parse takes ~20 ms; a command may look up hundreds
+    of names, e.g. identify's SDO set-up and model load)."""
+    try:
+        try:
+            mtime = Path(target.eds).stat().st_mtime_ns
+        except OSError:
+            return EdsInfo(target.eds)   # names the file and what is wrong with it
+        return _parsed_eds(str(target.eds), mtime)
+    except EdsError as exc:
+        raise UserError(str(exc)) from None
+
+
+def lookup(target: Target, name: str | int | tuple[int, int]) -> VarInfo:
+    """A variable of the node's EDS by name or number; UserError with suggestions if unknown."""
+    try:
+        return eds_info(target).get(name)
+    except KeyError as exc:
+        raise UserError(exc.args[0]) from None
