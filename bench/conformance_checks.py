@@ -16,7 +16,7 @@ from typing import Callable
 
 from canopen import SdoAbortedError, SdoCommunicationError
 
-from telethermo.canopen_dev.cia301 import (
+from telethermo.cia301 import (
     ABORT_NO_OBJECT, ABORT_NO_SUBINDEX, ABORT_RANGE, ABORT_READ_ONLY, ABORT_TOO_HIGH, ABORT_TOO_LOW, EMCY_HEARTBEAT,
 )
 

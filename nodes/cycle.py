@@ -19,7 +19,7 @@ import math
 import time
 from typing import TYPE_CHECKING
 
-from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE
+from telethermo.cia301 import ABORT_DEVICE_STATE
 from telethermo.canopen_dev.device import SyncTick
 from telethermo.control import safety as sf
 from telethermo.control.core import CoreState, StepResult, clear_faults, init_state, initial_peer, replace_model, step

@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from telethermo.canopen_dev.cia301 import ABORT_NO_DATA
+from telethermo.cia301 import ABORT_NO_DATA
 from telethermo.canopen_dev.device import WriteEvent
 from telethermo.control.core import CoreState, StepResult
 from telethermo.control.types import Mode

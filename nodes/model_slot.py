@@ -11,7 +11,7 @@ from __future__ import annotations
 import logging
 from typing import TYPE_CHECKING
 
-from telethermo.canopen_dev.cia301 import ABORT_APPLICATION as ABORT_MODEL_REFUSED, ABORT_DEVICE_STATE
+from telethermo.cia301 import ABORT_APPLICATION as ABORT_MODEL_REFUSED, ABORT_DEVICE_STATE
 from telethermo.canopen_dev.device import WriteEvent
 from telethermo.control.core import Feedback
 from telethermo.control.estimators import Estimator

@@ -24,7 +24,7 @@ import canopen
 from canopen import objectdictionary as odmod
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev.cia301 import ABORT_LENGTH, ABORT_NO_SUBINDEX, ABORT_READ_ONLY
+from telethermo.cia301 import ABORT_LENGTH, ABORT_NO_SUBINDEX, ABORT_READ_ONLY
 
 #: ``write(var, data)``: the device's check-store-apply path of one SDO write
 WriteHook = Callable[[odmod.ODVariable, bytes], None]

@@ -213,7 +213,7 @@ class Device:
 
         Called in the SDO download path (notifier thread, device lock held) after the EDS range
         check, with the decoded value; returning an abort code (e.g.
-        :data:`telethermo.canopen_dev.cia301.ABORT_DEVICE_STATE`, 0x08000022, for a value the device
+        :data:`telethermo.cia301.ABORT_DEVICE_STATE`, 0x08000022, for a value the device
         cannot take in its present state) refuses the write: the client gets that SDO abort and the
         object keeps its value. ``None`` accepts. A validator that raises refuses the write with
         0x08000000 (general error) and counts a callback error. Local :meth:`write` calls of

@@ -18,7 +18,7 @@ from configparser import RawConfigParser
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from telethermo.canopen_dev.cia301 import ABORT_RANGE, ABORT_TOO_HIGH, ABORT_TOO_LOW
+from telethermo.cia301 import ABORT_RANGE, ABORT_TOO_HIGH, ABORT_TOO_LOW
 
 REAL_TYPES = {0x0008, 0x0011}  # REAL32, REAL64
 SIGNED_BITS = {0x0002: 8, 0x0003: 16, 0x0004: 32, 0x0015: 64}

@@ -6,7 +6,7 @@ from __future__ import annotations
 from canopen.sdo import SdoAbortedError
 
 from telethermo.canopen_dev import emcy as emcy_mod
-from telethermo.canopen_dev.cia301 import ABORT_RANGE, EMCY_NO_ERROR
+from telethermo.cia301 import ABORT_RANGE, EMCY_NO_ERROR
 from telethermo.canopen_dev.context import SERVING, DeviceCore
 from telethermo.canopen_dev.pdo import PDO_INVALID
 

@@ -7,7 +7,7 @@ from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev.cia301 import ABORT_INCOMPATIBLE, EMCY_HEARTBEAT
+from telethermo.cia301 import ABORT_INCOMPATIBLE, EMCY_HEARTBEAT
 from telethermo.canopen_dev.context import DeviceCore, NmtState
 from telethermo.canopen_dev.emcy_producer import EmcyProducer
 from telethermo.canopen_dev.events import PeerEvent

@@ -13,7 +13,7 @@ from canopen import objectdictionary as odmod
 from canopen.sdo import SdoAbortedError
 
 from telethermo.canopen_dev.canopen_adapter import GatedLocalNode
-from telethermo.canopen_dev.cia301 import ABORT_GENERAL, ABORT_RANGE
+from telethermo.cia301 import ABORT_GENERAL, ABORT_RANGE
 from telethermo.canopen_dev.context import DeviceCore
 from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo, parse_index_key
 from telethermo.canopen_dev.events import OdWriteError, WriteEvent

@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev.cia301 import ABORT_CANNOT_MAP, ABORT_INCOMPATIBLE, ABORT_PDO_TOO_LONG, ABORT_RANGE
+from telethermo.cia301 import ABORT_CANNOT_MAP, ABORT_INCOMPATIBLE, ABORT_PDO_TOO_LONG, ABORT_RANGE
 
 PDO_INVALID = 1 << 31
 RTR_NOT_ALLOWED = 1 << 30

@@ -11,7 +11,7 @@ from typing import Callable
 from canopen.sdo import SdoAbortedError
 
 from telethermo.canopen_dev import pdo as pdo_mod
-from telethermo.canopen_dev.cia301 import ABORT_PDO_TOO_LONG, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED
+from telethermo.cia301 import ABORT_PDO_TOO_LONG, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED
 from telethermo.canopen_dev.context import DeviceCore, NmtState
 from telethermo.canopen_dev.emcy_producer import EmcyProducer
 from telethermo.canopen_dev.events import RpdoEvent

@@ -46,7 +46,7 @@ from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev.cia301 import (
+from telethermo.cia301 import (
     ABORT_BLOCK_SIZE, ABORT_COMMAND_SPECIFIER, ABORT_CRC, ABORT_LENGTH, ABORT_NO_DATA, ABORT_SEQNO,
     ABORT_TIMEOUT,
 )

@@ -7,7 +7,7 @@ from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE, ABORT_RANGE
+from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_RANGE
 from telethermo.canopen_dev.context import DeviceCore, NmtState
 from telethermo.canopen_dev.events import SyncTick
 from telethermo.canopen_dev.pdo_engine import PdoEngine

@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from telethermo.canopen_dev.cia301 import ABORT_DEVICE_STATE
+from telethermo.cia301 import ABORT_DEVICE_STATE
 from telethermo.cli import common
 from telethermo.control.safety import trips_from_mask
 from telethermo.remote import values

@@ -9,7 +9,7 @@ import sys
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
 from telethermo.cli import common
-from telethermo.monitor.cia301 import NMT_UNKNOWN
+from telethermo.cia301 import NMT_UNKNOWN
 from telethermo.remote.client import remote_node
 from telethermo.remote.errors import Failure
 from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from telethermo.cli import common
-from telethermo.monitor.cia301 import NMT_STATES
+from telethermo.cia301 import NMT_STATES
 from telethermo.remote.errors import Failure
 from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
 from telethermo.remote.targets import node_targets, resolve_node

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import argparse
 
-from telethermo.canopen_dev.cia301 import ABORT_TOO_HIGH, ABORT_TOO_LOW
+from telethermo.cia301 import ABORT_TOO_HIGH, ABORT_TOO_LOW
 from telethermo.cli import common
 from telethermo.cli.main import UserError
 from telethermo.remote import values

@@ -25,7 +25,7 @@ from nodes.merge import MergeError, merge_recordings
 from telethermo.atomic import write_json_atomic
 from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
-from telethermo.control.tuning import load_gains
+from telethermo.control.gainsfile import load_gains
 from telethermo.session.figures import compute_figures
 from telethermo.session.plot import write_session_png
 from telethermo.session.recording import RecordingError, write_recording_csv

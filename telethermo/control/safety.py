@@ -33,6 +33,8 @@ import math
 from dataclasses import dataclass, replace
 from enum import Enum, IntEnum
 
+from telethermo.cia301 import EMCY_HEARTBEAT, EMCY_PDO_LENGTH
+
 # ---------------------------------------------------------------------------------------------
 # trips, EMCY codes and error-register bits
 
@@ -93,8 +95,8 @@ EMCY_CODES: dict[Trip, int] = {
     Trip.TIME_AT_TEMPERATURE: 0x4211,
     Trip.HEAT_SINK: 0x4230,
     Trip.OVERCURRENT: 0x2310,
-    Trip.PEER_LOST: 0x8130,
-    Trip.PEER_INVALID: 0x8210,
+    Trip.PEER_LOST: EMCY_HEARTBEAT,
+    Trip.PEER_INVALID: EMCY_PDO_LENGTH,
 }
 
 #: Error-register bits each trip sets (GENERIC is always set while any trip is active).

@@ -1,6 +1,6 @@
 """The CANopen bus monitor: decode frames (CiA 301) into per-node state, bus statistics and events.
 
-Modules, one concept each: :mod:`.cia301` (tables: abort codes, EMCY codes, NMT states),
+Modules, one concept each: :mod:`telethermo.cia301` (tables: abort codes, EMCY codes, NMT states),
 :mod:`.decoder` (one frame → kind, node, fields), :mod:`.sdo` (one SDO state machine per node),
 :mod:`.pdo` (PDO mapping from the EDS and from remapping seen on the bus), :mod:`.busload` (frame
 length on the wire with bit stuffing), :mod:`.events` (event log with severity), :mod:`.state`

@@ -14,9 +14,9 @@ import struct
 from dataclasses import dataclass, field
 from typing import Any
 
-from telethermo.canopen_dev.cia301 import emcy_code_text
+from telethermo.cia301 import emcy_code_text
 
-from . import cia301
+from telethermo import cia301
 
 # frame kinds
 NMT, SYNC, EMCY, TIME, PDO, SDO_REQ, SDO_RESP, HEARTBEAT, NODE_GUARD, LSS, ERROR_FRAME, UNKNOWN = (

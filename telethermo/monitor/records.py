@@ -9,7 +9,7 @@ from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
 
-from . import cia301
+from telethermo import cia301
 from .pdo import PdoDef, PdoValue, format_value
 from .sdo import SdoChannel, SdoTransfer
 

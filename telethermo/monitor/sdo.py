@@ -17,7 +17,7 @@ import struct
 from dataclasses import dataclass, field
 from typing import Any
 
-from telethermo.canopen_dev.cia301 import sdo_abort_text
+from telethermo.cia301 import sdo_abort_text
 
 IDLE = "idle"
 DL_INIT, DL_SEG_REQ, DL_SEG_RESP = "dl_init", "dl_seg_req", "dl_seg_resp"

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections import deque
 from typing import Any
 
-from . import cia301
+from telethermo import cia301
 from . import decoder as dec
 from .busload import message_length_bits
 from .events import ERROR, INFO, WARN, Event, EventLog

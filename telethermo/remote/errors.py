@@ -6,7 +6,7 @@ abort): one line, exit 1. :class:`Refused` is a Failure with the node's SDO abor
 """
 from __future__ import annotations
 
-from telethermo.monitor.cia301 import sdo_abort_text
+from telethermo.cia301 import sdo_abort_text
 
 
 class UserError(Exception):

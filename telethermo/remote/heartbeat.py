@@ -8,7 +8,7 @@ import can
 import canopen
 
 from telethermo.canopen_dev.netconfig import NetworkConfig
-from telethermo.monitor.cia301 import NMT_UNKNOWN, nmt_state_name
+from telethermo.cia301 import NMT_UNKNOWN, nmt_state_name
 
 
 class HeartbeatWatch(can.Listener):

@@ -28,7 +28,7 @@ from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo
 from telethermo.control.estimators import Estimator
 from telethermo.control.safety import SafetyState, Trip
 from telethermo.control.types import Mode
-from telethermo.monitor.cia301 import emcy_code_text, error_register_names
+from telethermo.cia301 import emcy_code_text, error_register_names
 from telethermo.remote.codec import struct_of
 from telethermo.remote.errors import UserError
 
