@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import minimize
 
-from sim.rig import SimRig, plate_heats
+from telethermo.sim.rig import SimRig, plate_heats
 
 EPS_C = 0.01
 FD_STEP_A = 1e-5
@@ -137,7 +137,7 @@ def _pad(ref: np.ndarray) -> np.ndarray:
 
 
 def window_errors(skin: np.ndarray, w: Window) -> dict[str, float]:
-    """pre / early / window mean |skin − ref| (the figures of telethermo.session.transparency)."""
+    """pre / early / window mean |skin − ref| (the figures of telethermo.offline.transparency)."""
     e = np.abs(skin[: w.n_pre + w.n_early] - w.ref_C)
     return {"pre_C": float(e[: w.n_pre].mean()), "early_C": float(e[w.n_pre:].mean()),
             "window_C": float(e.mean())}

@@ -85,9 +85,9 @@ def interleaved(a: list[str], b: list[str], repeats: int) -> tuple[list[float], 
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-    from nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
-    from bus_config import path as cfg_path
-    from telethermo.canopen_dev.eds_info import EdsInfo
+    from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
+    from telethermo.bus_config import path as cfg_path
+    from telethermo.device.eds_info import EdsInfo
 
     repeats = 5 if quick else 11
     tt = telethermo_command()

@@ -40,7 +40,7 @@ PERIODS_MS = (1, 2, 5, 10, 20)
 
 
 def _scene(period_s: float):
-    import sim
+    from telethermo import sim
     sc = sim.load_scene(SCENE)
     return dataclasses.replace(sc, period_s=period_s) if abs(sc.period_s - period_s) > 1e-12 else sc
 
@@ -89,7 +89,7 @@ class RowConfig:
         return pm, ps
 
     def session(self, duration_s: float | None):
-        from telethermo.session import run_offline_session
+        from telethermo.offline import run_offline_session
         pm, ps = self.params()
         return run_offline_session(_scene(self.period_s), master_params=pm, slave_params=ps, master_model=self.model,
                                    slave_model=self.model, duration_s=duration_s, rounding=self.rounding)
@@ -136,7 +136,7 @@ def _order(model: Any) -> str | None:
 
 def _models(quick: bool) -> list[Any]:
     """The shipped model and, unless quick, models of other orders identified on the free pad."""
-    import sim
+    from telethermo import sim
     from telethermo.ident import NarmaOrders, default_model_path, load_model
     from telethermo.ident.experiment import identify_rig
     out = [load_model(default_model_path())]
@@ -156,8 +156,8 @@ def oracle_bound(duration_s: float | None = None, kp_A_per_C: float = 5.0, ki_A_
     envelope's current limit (0.8·I_max). Its early-phase error is a hardware bound, not a controller."""
     import numpy as np
 
-    import sim
-    from telethermo.session.figures import EARLY_S, LATE_S
+    from telethermo import sim
+    from telethermo.offline.figures import EARLY_S, LATE_S
     sc = _scene(0.01)
     rig = sim.build_rig(sc, "master", seed=0)
     ref = sim.build_reference(sc)

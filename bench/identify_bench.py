@@ -30,7 +30,7 @@ ORDER3 = (3, 3, 3, 3)
 
 
 def _record(n_train: int, n_val: int, seed: int = 0):
-    import sim
+    from telethermo import sim
     from telethermo.ident.experiment import ExperimentSettings, _concat, run_excitation
     from telethermo.ident.prbs import prbs
 
@@ -174,7 +174,7 @@ def _flux_table(rec, rest: int, start_val: int, T_ref: float) -> list[dict]:
 
 def _capacity_error(rec, rest: int, T_ref: float, just: dict) -> float:
     """Capacity model (eq. 13) against the simulator's steady state at 13 held-out currents, relative."""
-    import sim
+    from telethermo import sim
     from telethermo.ident import NarmaOrders, fit_narma
     from telethermo.ident.experiment import identify_capacity, steady_state_points
 

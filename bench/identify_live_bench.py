@@ -44,8 +44,8 @@ def _read_samples(path: Path) -> tuple[dict[str, str], np.ndarray, np.ndarray]:
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-    import sim
-    from nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
+    from telethermo import sim
+    from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
     from telethermo.ident import NarmaOrders
     from telethermo.ident.experiment import ExperimentSettings, fit_experiment, run_excitation
 

@@ -28,12 +28,12 @@ from typing import Any
 import numpy as np
 
 from bench.common import print_table, write_results
-from sim.materials import material
-from sim.measurement import NoiseParams
-from sim.plant import Body, GridSettings
-from sim.rig import SimRig
-from sim.tem import load_rig_params
-from sim.touch import BodySpec, Schedule, Touch
+from telethermo.sim.materials import material
+from telethermo.sim.measurement import NoiseParams
+from telethermo.sim.plant import Body, GridSettings
+from telethermo.sim.rig import SimRig
+from telethermo.sim.tem import load_rig_params
+from telethermo.sim.touch import BodySpec, Schedule, Touch
 from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params

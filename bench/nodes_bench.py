@@ -48,7 +48,7 @@ VCAN_RUN = ROOT.parent / "shared" / "tools" / "vcan-run"
 # ---------------------------------------------------------------------------------------- helpers
 def _network_file(folder: Path, *, period_s: float = 0.01, interface: str = "virtual", channel: str = "telethermo",
                   producer_ms: int = 100, consumer_ms: int = 250) -> Path:
-    from bus_config import path as bc
+    from telethermo.bus_config import path as bc
     p = folder / f"network_{int(round(1 / period_s))}hz_{interface}.toml"
     p.write_text(f"""[bus]
 interface = "{interface}"
@@ -87,9 +87,9 @@ def _scene_at(folder: Path, period_s: float) -> Path:
 def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[float | None, str]:
     """Largest |recorded - offline runner (REAL32 exchange)| over every numeric column, and a note
     (None and the reason when the recordings do not even line up)."""
-    from nodes.merge import SYNC_CYCLE, merge_recordings
-    from telethermo.session import run_offline_session
-    from telethermo.session.recording import TEXT_COLUMNS
+    from telethermo.nodes.merge import SYNC_CYCLE, merge_recordings
+    from telethermo.offline import run_offline_session
+    from telethermo.offline.recording import TEXT_COLUMNS
     rec = merge_recordings(master_csv, slave_csv, scene=SCENE)
     off = run_offline_session(SCENE, duration_s=cycles * 0.01, rounding="real32", seed=0).recording
     if len(rec) != len(off):
@@ -117,15 +117,15 @@ def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[
 # ---------------------------------------------------------------------------------------- lockstep
 def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
     """Both nodes in this process on python-can's virtual bus; cycles/s of the SYNC producer's loop."""
-    from nodes.main import run_result
-    from nodes.merge import SYNC_CYCLE
-    from nodes.options import NodeOptions
-    from nodes.parts import build_parts
-    from telethermo.session.recording_journal import CsvRecorder
-    from nodes.runtime import NodeRuntime
-    from telethermo.canopen_dev.netconfig import load_network
+    from telethermo.nodes.main import run_result
+    from telethermo.nodes.merge import SYNC_CYCLE
+    from telethermo.nodes.options import NodeOptions
+    from telethermo.nodes.parts import build_parts
+    from telethermo.offline.recording_journal import CsvRecorder
+    from telethermo.nodes.runtime import NodeRuntime
+    from telethermo.device.netconfig import load_network
     from telethermo.control.types import Mode, Role
-    from telethermo.session.recording import COLUMNS, MAGIC
+    from telethermo.offline.recording import COLUMNS, MAGIC
     from telethermo.transport.bus import TransportSettings
 
     net = load_network()
@@ -159,7 +159,7 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
 def lockstep_processes(cycles: int, folder: Path, *, bus: str | None = None, timing: str = "lockstep",
                        scene: Path = SCENE, network: Path | None = None, observe: bool = False) -> dict[str, Any]:
     """The two node programs as processes (our hub unless ``bus``); the master's result line."""
-    from nodes.launch import NodePair, PairConfig
+    from telethermo.nodes.launch import NodePair, PairConfig
     pair = NodePair(PairConfig(scene=scene, out_dir=folder, bus=bus, timing=timing, cycles=cycles, seed=0,
                                network=network, master_args=["--wait-peer", "600"]))
     obs = None
@@ -263,7 +263,7 @@ def anchor_hub(cycles: int) -> float:
     """Raw ping-pong cycles/s over our hub (the same program the node pair uses), the responder in
     another process (bench.raw_anchor)."""
     from bench.raw_anchor import anchor_process
-    from nodes.launch import HubProcess
+    from telethermo.nodes.launch import HubProcess
     hub = HubProcess()
     hub.start()
     try:

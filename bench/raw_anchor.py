@@ -142,7 +142,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.respond:
         return _responder_main(args.respond)
     print(f"virtual: {anchor_virtual(args.cycles, f'anchor-{time.monotonic_ns()}'):.0f} cycles/s")
-    from nodes.launch import HubProcess
+    from telethermo.nodes.launch import HubProcess
     hub = HubProcess()
     hub.start()
     try:

@@ -19,15 +19,15 @@ from pathlib import Path
 
 import numpy as np
 
-from sim.bodies import lump, slab
-from sim.chain import ADIABATIC, Boundary, assemble
-from sim.contact import contact_resistance_m2K_W
-from sim.expint import Modal
-from sim.materials import material
-from sim.pair import reversed_segment
-from sim.plant import Body, GridSettings
-from sim.tem import load_rig_params
-from sim.touch import BodySpec
+from telethermo.sim.bodies import lump, slab
+from telethermo.sim.chain import ADIABATIC, Boundary, assemble
+from telethermo.sim.contact import contact_resistance_m2K_W
+from telethermo.sim.expint import Modal
+from telethermo.sim.materials import material
+from telethermo.sim.pair import reversed_segment
+from telethermo.sim.plant import Body, GridSettings
+from telethermo.sim.tem import load_rig_params
+from telethermo.sim.touch import BodySpec
 from telethermo.atomic import write_text_atomic
 from telethermo.control.later_rc import DEFAULT_RC_TABLE, fit_exponential
 

@@ -25,11 +25,11 @@ from typing import Any
 
 import numpy as np
 
-import sim
+from telethermo import sim
 from bench.common import current_results_dir, print_table, write_results
 from telethermo.atomic import write_bytes_atomic
-from telethermo.session.render_script import RenderScript
-from telethermo.session.runner import run_offline_session
+from telethermo.offline.render_script import RenderScript
+from telethermo.offline.runner import run_offline_session
 
 #: (label, sim material, thickness mm)
 OBJECTS = (("aluminium", "aluminium", 1.0), ("aluminium", "aluminium", 20.0),

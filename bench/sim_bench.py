@@ -27,10 +27,10 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
-import sim
+from telethermo import sim
 from bench.common import median_time_s, print_table, write_results
-from sim.plant import GRID_PRESETS, GridSettings
-from sim.tem import KELVIN
+from telethermo.sim.plant import GRID_PRESETS, GridSettings
+from telethermo.sim.tem import KELVIN
 
 SCENE = "probe_touches_al_steel_wood"
 DURATION_S = 10.0

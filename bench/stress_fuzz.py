@@ -19,7 +19,7 @@ from typing import Any
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-import sim
+from telethermo import sim
 from bench import stress_toml
 from bench.stress_case import Case
 from bench.stress_fuzz_frames import KNOWN_FINDINGS, case_fuzz_frames

@@ -1,7 +1,7 @@
 """Fuzz case (hypothesis): the device's frame handling.
 
 Random COB-IDs (11- and 29-bit, biased to the contract's services), DLCs 0..8, payloads and remote frames
-sent on a python-can ``virtual`` bus to a real ``telethermo.canopen_dev.Device`` (master.eds, OPERATIONAL).
+sent on a python-can ``virtual`` bus to a real ``telethermo.device.Device`` (master.eds, OPERATIONAL).
 Never a crash: no exception reaches canopen's notifier safety net (it logs them at ERROR on the ``canopen``
 loggers), no callback error, the device still answers SDO (canopen's own RemoteNode client) afterwards;
 frames counted: every frame on a COB-ID no service uses is counted as unknown, every frame of a wrong length
@@ -22,20 +22,20 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from bench.stress_case import Case
-from bus_config import path
-from telethermo.canopen_dev import Device, DeviceSettings
+from telethermo.bus_config import path
+from telethermo.device import Device, DeviceSettings
 
 MASTER_ID, SLAVE_ID = 1, 2
 
-#: Contract breaks of telethermo/canopen_dev found by this fuzz (reported to the lead; the case fails while
+#: Contract breaks of telethermo/device found by this fuzz (reported to the lead; the case fails while
 #: they stand). Keys are used by the tests to tell these apart from anything new.
 KNOWN_FINDINGS = {
-    "29bit": "FINDING (telethermo/canopen_dev/device.py): a 29-bit (extended) frame whose identifier equals a "
+    "29bit": "FINDING (telethermo/device/device.py): a 29-bit (extended) frame whose identifier equals a "
              "CANopen COB-ID is handled as the 11-bit service (canopen's Network.notify dispatches by "
              "arbitration_id only): e.g. extended ID 0x000 with data 02 01 puts the node in STOPPED, extended "
              "0x000 with DLC 0 is counted as a malformed NMT frame. CiA 301 uses 11-bit identifiers only: "
              "extended frames should be counted as unknown and ignored.",
-    "sdo_segment": "FINDING (telethermo/canopen_dev/device.py _on_sdo_frame -> canopen SdoServer): an SDO "
+    "sdo_segment": "FINDING (telethermo/device/device.py _on_sdo_frame -> canopen SdoServer): an SDO "
                    "upload-segment (0x60/0x70) or download-segment (0x00..) request with no transfer in progress "
                    "raises TypeError('required argument is not an integer') out of the device's handler (caught "
                    "and logged at ERROR by canopen's MessageListener) and no SDO abort is sent; CiA 301 expects "

@@ -11,7 +11,7 @@ twice; the finger rests on the display, which starts neutral at the finger's nat
   foreknowledge of the touch; and its **front** with foreknowledge (pre-contact vs early error);
 - R_sensor ×0.9 / ×1.1 given to the controller (the plant unchanged), and the **drift** of both pads over
   10 min in air after the scene (finger lifted, probe in air).
-The figures are those of :mod:`telethermo.session.transparency`.
+The figures are those of :mod:`telethermo.offline.transparency`.
 """
 from __future__ import annotations
 
@@ -24,18 +24,18 @@ from typing import Any
 
 import numpy as np
 
-import sim
+from telethermo import sim
 from bench.bound import BatchedPlant, Window, causal_bound, foresight_bound, matched_start, replay, window_errors
 from bench.common import current_results_dir, print_table, write_results
-from sim.compile import finger_natural_C
+from telethermo.sim.compile import finger_natural_C
 from telethermo.atomic import write_bytes_atomic
 from telethermo.control.core import init_state, step
 from telethermo.control.defaults import HOLD_GAINS, PAPER_GAINS
 from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
-from telethermo.session.figures import contacts_of
-from telethermo.session.runner import run_offline_session
-from telethermo.session.transparency import DSKIN_AT_S, cue_discrimination, transparency_figures
+from telethermo.offline.figures import contacts_of
+from telethermo.offline.runner import run_offline_session
+from telethermo.offline.transparency import DSKIN_AT_S, cue_discrimination, transparency_figures
 
 SCENE = "probe_touches_al_steel_wood"
 PRE_N, EARLY_N = 50, 100          # samples at 10 ms: 0.5 s before, 1 s after each touch

@@ -3,8 +3,8 @@
 ``bus_config/master.eds`` and ``bus_config/slave.eds`` are generated from the tables below (and
 checked in: they are the contract other tools read). Regenerate after editing this file::
 
-    python -m bus_config.edsgen          # rewrites master.eds and slave.eds (atomically)
-    python -m bus_config.edsgen --check  # exit 1 if the checked-in files differ
+    python -m telethermo.bus_config.edsgen          # rewrites master.eds and slave.eds (atomically)
+    python -m telethermo.bus_config.edsgen --check  # exit 1 if the checked-in files differ
 
 Naming convention (the operator CLI ``get``/``set`` and the bus monitor rely on it):
 
@@ -15,7 +15,7 @@ Naming convention (the operator CLI ``get``/``set`` and the bus monitor rely on 
   (count, code, flag, model order). The same unit is in the non-standard ``Unit=`` key (ASCII:
   ``degC``, ``W``, ...), which canopen reads into ``ODVariable.unit``.
 - Every writable manufacturer object has ``LowLimit``/``HighLimit``. REAL32 limits are written as
-  decimals (canopen's parser drops them; telethermo.canopen_dev.eds_info re-reads them).
+  decimals (canopen's parser drops them; telethermo.device.eds_info re-reads them).
 """
 from __future__ import annotations
 
@@ -24,7 +24,7 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from bus_config import path as _path
+from telethermo.bus_config import path as _path
 
 # CiA 301 data types
 BOOLEAN, INTEGER8, INTEGER16, INTEGER32 = 0x0001, 0x0002, 0x0003, 0x0004
@@ -285,7 +285,7 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
                                     "(0x080 heat_sink, 0x200 peer_lost, ...)")),
         V(0x2707, _uint("fault_reset_blocked_by", UNSIGNED16, "ro", 0,
                         description="the trips whose cause persisted at the last refused fault reset (same bits)")),
-        # -- device-layer diagnostics (written by telethermo.canopen_dev)
+        # -- device-layer diagnostics (written by telethermo.device)
         V(0x2710, _uint("malformed_frames", UNSIGNED32, "ro", 0, description="frames with a wrong length, ignored")),
         V(0x2711, _uint("unknown_cobid_frames", UNSIGNED32, "ro", 0, description="frames with a COB-ID outside the contract")),
         V(0x2712, _uint("callback_errors", UNSIGNED32, "ro", 0, description="exceptions caught in application callbacks")),
@@ -457,7 +457,7 @@ def main(argv: list[str] | None = None) -> int:
         else:
             write_text_atomic(target, text)
     if stale:
-        print("stale EDS (run python -m bus_config.edsgen): " + ", ".join(stale), file=sys.stderr)
+        print("stale EDS (run python -m telethermo.bus_config.edsgen): " + ", ".join(stale), file=sys.stderr)
         return 1
     return 0
 

@@ -20,17 +20,17 @@ import time
 from typing import TYPE_CHECKING
 
 from telethermo.cia301 import ABORT_DEVICE_STATE
-from telethermo.canopen_dev.device import SyncTick
+from telethermo.device.device import SyncTick
 from telethermo.control import safety as sf
 from telethermo.control.core import CoreState, StepResult, clear_faults, init_state, initial_peer, replace_model, step
 from telethermo.control.peer_policy import PeerResume, peer_resume, resume
 from telethermo.control.types import Mode, PeerValues
 from telethermo.rig import RigSample
-from telethermo.session.runner import side_row, truth_row
+from telethermo.offline.runner import side_row, truth_row
 
 
 if TYPE_CHECKING:
-    from nodes.runtime import NodeRuntime
+    from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
 

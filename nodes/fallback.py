@@ -9,12 +9,12 @@ import threading
 import time
 from typing import TYPE_CHECKING
 
-from telethermo.canopen_dev.device import NmtState, SyncTick
+from telethermo.device.device import NmtState, SyncTick
 
-from nodes.schedule import RealtimeTicker
+from telethermo.nodes.schedule import RealtimeTicker
 
 if TYPE_CHECKING:
-    from nodes.runtime import NodeRuntime
+    from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
 

@@ -10,13 +10,13 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from telethermo.cia301 import ABORT_NO_DATA
-from telethermo.canopen_dev.device import WriteEvent
+from telethermo.device.device import WriteEvent
 from telethermo.control.core import CoreState, StepResult
 from telethermo.control.types import Mode
 from telethermo.rig import RigSample
 
 if TYPE_CHECKING:
-    from nodes.runtime import NodeRuntime
+    from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
 

@@ -103,7 +103,7 @@ def stop_process(proc: subprocess.Popen | None, *, timeout_s: float = 10.0, sig:
 
 def node_command(role: str, *args: str) -> list[str]:
     """The command line of a node program run with this interpreter (same as the console script)."""
-    return [sys.executable, "-m", f"nodes.{role}", *args]
+    return [sys.executable, "-m", f"telethermo.nodes.{role}", *args]
 
 
 def start_lone_node(role: str, scene: Path, out_dir: Path, *bus_args: str, mode: str = "idle",

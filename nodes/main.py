@@ -16,17 +16,17 @@ from typing import Callable
 
 import numpy as np
 
-from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
+from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.control.types import Mode, Role
-from telethermo.session.recording import COLUMNS, MAGIC
-from telethermo.session.recording_journal import CsvRecorder, RecorderError, recover_journal
+from telethermo.offline.recording import COLUMNS, MAGIC
+from telethermo.offline.recording_journal import CsvRecorder, RecorderError, recover_journal
 from telethermo.transport.bus import TransportError
 from telethermo.transport.resolve import resolve_bus
 
-from nodes.merge import SYNC_CYCLE
-from nodes.options import OptionError, build_parser, options_from_args
-from nodes.parts import build_parts
-from nodes.runtime import NodeRuntime
+from telethermo.nodes.merge import SYNC_CYCLE
+from telethermo.nodes.options import OptionError, build_parser, options_from_args
+from telethermo.nodes.parts import build_parts
+from telethermo.nodes.runtime import NodeRuntime
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 

@@ -12,7 +12,7 @@ import logging
 from typing import TYPE_CHECKING
 
 from telethermo.cia301 import ABORT_APPLICATION as ABORT_MODEL_REFUSED, ABORT_DEVICE_STATE
-from telethermo.canopen_dev.device import WriteEvent
+from telethermo.device.device import WriteEvent
 from telethermo.control.core import Feedback
 from telethermo.control.estimators import Estimator
 from telethermo.control.types import Mode
@@ -21,7 +21,7 @@ from telethermo.ident.modelfile import ModelFileError
 
 
 if TYPE_CHECKING:
-    from nodes.runtime import NodeRuntime
+    from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
 

@@ -22,7 +22,7 @@ writes into its object dictionary so that ``telethermo get`` shows the running c
 Rendering: ``material_code`` 0 is a custom material (β = ``material_beta``), k >= 1 the k-th entry of
 the rendering table (``telethermo/data/render_materials.toml``, in file order); writing a code sets
 ``material_beta`` to the table's β, writing ``material_beta`` sets the code to 0. On a render scene the
-node follows the scene's :class:`~telethermo.session.render_script.RenderScript` (per-touch material,
+node follows the scene's :class:`~telethermo.offline.render_script.RenderScript` (per-touch material,
 finger thermometer) and the OD shows the settings in force; once the operator writes a material
 (``material_code``, ``material_beta`` or ``object_T0_C``), the written settings replace the script's.
 A written ``pad_beta`` (the user's calibration) or ``finger_T0_C`` applies on top of the script's

@@ -11,14 +11,14 @@ import dataclasses
 import logging
 from typing import TYPE_CHECKING
 
-from telethermo.canopen_dev.device import Device, WriteEvent
+from telethermo.device.device import Device, WriteEvent
 from telethermo.control.rendering import load_render_table
 from telethermo.control.types import Mode
 
-from nodes.odparams import PARAM_KEYS, ParamBook, od_image
+from telethermo.nodes.odparams import PARAM_KEYS, ParamBook, od_image
 
 if TYPE_CHECKING:
-    from nodes.runtime import NodeRuntime
+    from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
 

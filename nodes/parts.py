@@ -1,7 +1,7 @@
 """What one node runs, built from its options: the rig, the controller parameters, the model, and
 the recording's meta. The only module of nodes/ that knows the simulator.
 
-Built exactly as the offline runner (telethermo.session.runner) builds them, so that a two-process
+Built exactly as the offline runner (telethermo.offline.runner) builds them, so that a two-process
 session and an offline session of the same scene give the same trajectories up to REAL32 rounding:
 the same rigs (``sim.build_rig(scene, role, seed)``; seeds master 0, slave 1 by default), the same
 default parameters (``telethermo.control.params.default_params``), the same cycle-0 peer values.
@@ -13,17 +13,17 @@ import importlib
 from dataclasses import dataclass
 from typing import Any, Callable
 
-import sim
+from telethermo import sim
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.gainsfile import load_gains
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.ident import load_model
 from telethermo.rig import Rig
-from telethermo.session.render_script import RenderScript
-from telethermo.session.runner import finger_skin_C
+from telethermo.offline.render_script import RenderScript
+from telethermo.offline.runner import finger_skin_C
 
-from nodes.options import NodeOptions, OptionError
+from telethermo.nodes.options import NodeOptions, OptionError
 
 #: default noise seeds, as the offline runner's default (seed=0: master 0, slave 1)
 DEFAULT_SEEDS = {Role.MASTER: 0, Role.SLAVE: 1}
@@ -54,7 +54,7 @@ class NodeParts:
     meta: dict[str, Any]
     truth: Callable[[], Any] | None
     render_script: Any = None
-    """Render scenes (master): :class:`telethermo.session.render_script.RenderScript`, the same script
+    """Render scenes (master): :class:`telethermo.offline.render_script.RenderScript`, the same script
     the offline runner follows (the next touch's material once the previous touch has ended; the
     finger's skin read before each touch)."""
     finger_skin: Callable[[], float] | None = None

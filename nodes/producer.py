@@ -21,13 +21,13 @@ import logging
 import time
 from typing import TYPE_CHECKING, Callable
 
-from telethermo.canopen_dev.device import NmtCommand, NmtState
+from telethermo.device.device import NmtCommand, NmtState
 from telethermo.control.types import Mode
 
-from nodes.schedule import LateCycleLog, RealtimeTicker
+from telethermo.nodes.schedule import LateCycleLog, RealtimeTicker
 
 if TYPE_CHECKING:
-    from nodes.runtime import NodeRuntime
+    from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
 

@@ -1,4 +1,4 @@
-"""The node runtime shared by the master and the slave: a CANopen device (telethermo.canopen_dev)
+"""The node runtime shared by the master and the slave: a CANopen device (telethermo.device)
 on a python-can bus, a rig, the control core, the peer link and the recording, composed of one part
 per concept:
 
@@ -30,22 +30,22 @@ from typing import Callable
 
 import canopen
 
-from telethermo.canopen_dev.device import Device, NmtCommand, NmtState, PeerEvent, SyncTick, WriteEvent
-from telethermo.canopen_dev.netconfig import NetworkConfig
-from telethermo.canopen_dev.sync import SyncProducer
+from telethermo.device.device import Device, NmtCommand, NmtState, PeerEvent, SyncTick, WriteEvent
+from telethermo.device.netconfig import NetworkConfig
+from telethermo.device.sync import SyncProducer
 from telethermo.control.types import Mode, Role
-from telethermo.session.recording_journal import CsvRecorder
+from telethermo.offline.recording_journal import CsvRecorder
 from telethermo.transport.bus import TransportSettings, open_bus
 
-from nodes.cycle import MAX_TIMING_SAMPLES, ControlCycle
-from nodes.fallback import FallbackCycles
-from nodes.ident_service import IdentService
-from nodes.model_slot import ModelSlot
-from nodes.param_slot import ParamSlot
-from nodes.parts import NodeParts
-from nodes.peer import PeerLink
-from nodes.producer import run_producer, wait_for_peer
-from nodes.schedule import RealtimeTicker, SyncNumbering
+from telethermo.nodes.cycle import MAX_TIMING_SAMPLES, ControlCycle
+from telethermo.nodes.fallback import FallbackCycles
+from telethermo.nodes.ident_service import IdentService
+from telethermo.nodes.model_slot import ModelSlot
+from telethermo.nodes.param_slot import ParamSlot
+from telethermo.nodes.parts import NodeParts
+from telethermo.nodes.peer import PeerLink
+from telethermo.nodes.producer import run_producer, wait_for_peer
+from telethermo.nodes.schedule import RealtimeTicker, SyncNumbering
 
 log = logging.getLogger("telethermo.node")
 

@@ -5,7 +5,7 @@ import sys
 
 from telethermo.control.types import Role
 
-from nodes.main import run_node
+from telethermo.nodes.main import run_node
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -12,8 +12,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.grid import first_cell_m, graded_widths, symmetric_graded_widths
-from sim.materials import Material, material
+from telethermo.sim.grid import first_cell_m, graded_widths, symmetric_graded_widths
+from telethermo.sim.materials import Material, material
 
 # Blood (benali-khoudja eq. 3: conducto-convective exchange with blood; Pennes perfusion term)
 RHO_C_BLOOD_J_m3K = 1060.0 * 3770.0

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.bodies import Segment
+from telethermo.sim.bodies import Segment
 
 
 @dataclass(frozen=True, slots=True)

@@ -4,14 +4,14 @@ from __future__ import annotations
 import math
 from dataclasses import replace
 
-from sim.errors import SceneError
-from sim.materials import material
-from sim.measurement import NoiseParams
-from sim.plant import Body, GridSettings
-from sim.rig import SimRig
-from sim.scene import Scene
-from sim.tem import RigParams, load_rig_params
-from sim.touch import BodySpec, Schedule
+from telethermo.sim.errors import SceneError
+from telethermo.sim.materials import material
+from telethermo.sim.measurement import NoiseParams
+from telethermo.sim.plant import Body, GridSettings
+from telethermo.sim.rig import SimRig
+from telethermo.sim.scene import Scene
+from telethermo.sim.tem import RigParams, load_rig_params
+from telethermo.sim.touch import BodySpec, Schedule
 
 LUMP_BUDGET_C = 0.01
 """A slab is lumped only when the estimated internal non-uniformity at the first sample is below this, °C."""

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
-from sim.errors import SceneError
+from telethermo.sim.errors import SceneError
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
 MATERIALS_FILE = DATA_DIR / "materials.toml"

@@ -7,9 +7,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.bodies import Segment
-from sim.chain import ADIABATIC, Boundary, assemble
-from sim.expint import Modal
+from telethermo.sim.bodies import Segment
+from telethermo.sim.chain import ADIABATIC, Boundary, assemble
+from telethermo.sim.expint import Modal
 
 
 def reversed_segment(sg: Segment) -> Segment:

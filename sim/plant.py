@@ -14,13 +14,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim import bodies as B
-from sim.chain import ADIABATIC, Boundary, System, assemble
-from sim.contact import contact_resistance_m2K_W
-from sim.expint import Modal
-from sim.materials import material
-from sim.tem import RigParams
-from sim.touch import BodySpec
+from telethermo.sim import bodies as B
+from telethermo.sim.chain import ADIABATIC, Boundary, System, assemble
+from telethermo.sim.contact import contact_resistance_m2K_W
+from telethermo.sim.expint import Modal
+from telethermo.sim.materials import material
+from telethermo.sim.tem import RigParams
+from telethermo.sim.touch import BodySpec
 
 
 @dataclass(frozen=True, slots=True)

@@ -9,15 +9,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from sim.bodies import FingerParams
-from sim.chain import assemble
-from sim.contact import contact_resistance_m2K_W
-from sim.expint import Modal
-from sim.pair import reversed_segment
-from sim.plant import Body, GridSettings
-from sim.scene import Scene
-from sim.tem import RigParams
-from sim.touch import BodySpec, Schedule, Touch
+from telethermo.sim.bodies import FingerParams
+from telethermo.sim.chain import assemble
+from telethermo.sim.contact import contact_resistance_m2K_W
+from telethermo.sim.expint import Modal
+from telethermo.sim.pair import reversed_segment
+from telethermo.sim.plant import Body, GridSettings
+from telethermo.sim.scene import Scene
+from telethermo.sim.tem import RigParams
+from telethermo.sim.touch import BodySpec, Schedule, Touch
 
 _SNAP_S = 1e-9
 

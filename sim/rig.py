@@ -6,11 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from sim.bodies import Segment, sensor_segment
-from sim.materials import material
-from sim.measurement import Channel, NoiseParams
-from sim.plant import Body, Config, GridSettings
-from sim.tem import KELVIN, RigParams
+from telethermo.sim.bodies import Segment, sensor_segment
+from telethermo.sim.materials import material
+from telethermo.sim.measurement import Channel, NoiseParams
+from telethermo.sim.plant import Body, Config, GridSettings
+from telethermo.sim.tem import KELVIN, RigParams
 from telethermo.rig import RigSample
 
 _SNAP_S = 1e-9

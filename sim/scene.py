@@ -71,12 +71,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from sim.bodies import FingerParams
-from sim.errors import SceneError
-from sim.materials import materials
-from sim.measurement import NoiseParams
-from sim.tem import RigParams, load_rig_params, parse_tem_section
-from sim.touch import BodySpec, Touch
+from telethermo.sim.bodies import FingerParams
+from telethermo.sim.errors import SceneError
+from telethermo.sim.materials import materials
+from telethermo.sim.measurement import NoiseParams
+from telethermo.sim.tem import RigParams, load_rig_params, parse_tem_section
+from telethermo.sim.touch import BodySpec, Touch
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 KINDS = ("telepresence", "virtual")

@@ -19,7 +19,7 @@ import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
-from sim.errors import SceneError
+from telethermo.sim.errors import SceneError
 
 KELVIN = 273.15
 DATA_DIR = Path(__file__).resolve().parent / "data"

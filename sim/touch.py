@@ -5,7 +5,7 @@ import bisect
 import math
 from dataclasses import dataclass
 
-from sim.bodies import FingerParams
+from telethermo.sim.bodies import FingerParams
 
 
 @dataclass(frozen=True)

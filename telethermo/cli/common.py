@@ -23,7 +23,7 @@ from typing import Callable, Iterator
 import can
 import canopen
 
-from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, load_network
+from telethermo.device.netconfig import NetworkConfig, NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL
 from telethermo.remote.errors import Failure, UserError
 from telethermo.transport.bus import TransportError, TransportSettings, open_bus

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-import sim
+from telethermo import sim
 from telethermo.cli import common
 from telethermo.cli.identify_live import parse_amplitude, run_live
 from telethermo.cli.identify_output import ProgressBar, print_report

@@ -38,7 +38,7 @@ from pathlib import Path
 import canopen
 import numpy as np
 
-from telethermo.canopen_dev.netconfig import NetworkConfig
+from telethermo.device.netconfig import NetworkConfig
 from telethermo.cli import common
 from telethermo.cli.identify_output import ProgressBar, print_report
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from canopen.objectdictionary import import_od
 
-from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError
+from telethermo.device.netconfig import NetworkConfig, NetworkConfigError
 from telethermo.cli.main import UserError
 from telethermo.monitor.records import MonitorConfig, NodeInfo
 from telethermo.remote.targets import node_targets

@@ -1,6 +1,6 @@
 """``telethermo plot FILE``: a picture of a recording, the same plot as a session's session.png.
 
-FILE is any recording in the telethermo.session.recording format: an offline or two-process session's
+FILE is any recording in the telethermo.offline.recording format: an offline or two-process session's
 ``recording.csv`` or one node's ``--record`` CSV (``master.csv``, ``slave.csv``). matplotlib (the
 ``plot`` extra) and numpy are imported only when the command runs.
 """
@@ -10,8 +10,8 @@ import argparse
 from pathlib import Path
 
 from telethermo.cli.main import UserError
-from telethermo.session.plot import write_session_png
-from telethermo.session.recording import RecordingError, read_recording_csv
+from telethermo.offline.plot import write_session_png
+from telethermo.offline.recording import RecordingError, read_recording_csv
 
 BUS_LOGS = (".log", ".asc", ".blf", ".trc")
 

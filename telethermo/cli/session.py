@@ -19,16 +19,16 @@ import sys
 import time
 from pathlib import Path
 
-import sim
-from nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
-from nodes.merge import MergeError, merge_recordings
+from telethermo import sim
+from telethermo.nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
+from telethermo.nodes.merge import MergeError, merge_recordings
 from telethermo.atomic import write_json_atomic
-from telethermo.canopen_dev.netconfig import NetworkConfigError, load_network
+from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
 from telethermo.control.gainsfile import load_gains
-from telethermo.session.figures import compute_figures
-from telethermo.session.plot import write_session_png
-from telethermo.session.recording import RecordingError, write_recording_csv
+from telethermo.offline.figures import compute_figures
+from telethermo.offline.plot import write_session_png
+from telethermo.offline.recording import RecordingError, write_recording_csv
 from telethermo.transport.bus import TransportError
 from telethermo.transport.busargs import add_bus_arguments
 from telethermo.transport.published import publish, unpublish

@@ -2,7 +2,7 @@
 
     telethermo tune --scene probe_touches_al_steel_wood --budget 80 --out gains.json
 
-Runs offline sessions (telethermo.session.run_offline_session) of the scene and of a perturbed variant
+Runs offline sessions (telethermo.offline.run_offline_session) of the scene and of a perturbed variant
 (another room, finger, force and objects; --no-perturbed to skip it), searches the log-gains of both
 sides with bounded Nelder-Mead (or --method de) within --budget evaluations, then checks the best
 few points at ±30 % on each gain and keeps the one with the best worst case. Prints progress, the
@@ -21,7 +21,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-import sim
+from telethermo import sim
 from telethermo import tuning as tn
 from telethermo.atomic import write_json_atomic
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE, UserError

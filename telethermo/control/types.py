@@ -1,7 +1,7 @@
 """Data types of the control core's step-function contract (DESIGN.md §2).
 
 The control core is pure: ``telethermo.control.core.step(sample, peer, params, state) -> StepResult``.
-The same function runs offline (telethermo.session) and inside the CANopen nodes (nodes/): a node
+The same function runs offline (telethermo.offline) and inside the CANopen nodes (nodes/): a node
 fills :class:`PeerValues` from its RPDO1 and the heartbeat consumer, calls ``step`` on every SYNC,
 applies ``StepResult.current_A`` to the rig and sends ``StepResult.out`` in its TPDO1.
 """

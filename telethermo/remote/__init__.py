@@ -1,7 +1,7 @@
 """The client side of a remote CANopen node: what the operator CLI, ``identify`` and the monitor use to
 talk to (or name) a node on the bus. A layer below the programs (``telethermo/cli``, ``telethermo/monitor``)
 and above the device and transport layers (it uses canopen's ``RemoteNode`` and the EDS reader of
-``telethermo.canopen_dev``).
+``telethermo.device``).
 
 - :mod:`~telethermo.remote.errors`: the two kinds of failure (operator input, exit 2; node, exit 1).
 - :mod:`~telethermo.remote.targets`: the nodes of the network file by name or node-ID, their EDS.

@@ -14,7 +14,7 @@ from typing import Any
 import canopen
 from canopen.sdo.exceptions import SdoAbortedError, SdoCommunicationError
 
-from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo
+from telethermo.device.eds_info import EdsInfo, VarInfo
 from telethermo.remote.codec import decode, struct_of
 from telethermo.remote.errors import Failure, Refused, UserError, abort_text
 from telethermo.remote.targets import Target, eds_info, lookup

@@ -6,7 +6,7 @@ from __future__ import annotations
 import struct
 from typing import Any
 
-from telethermo.canopen_dev.eds_info import VarInfo
+from telethermo.device.eds_info import VarInfo
 from telethermo.remote.errors import Failure, UserError
 
 #: CiA 301 data type code -> its encoding (BOOLEAN .. UNSIGNED64; VISIBLE_STRING and others: none)

@@ -7,7 +7,7 @@ from typing import Callable
 import can
 import canopen
 
-from telethermo.canopen_dev.netconfig import NetworkConfig
+from telethermo.device.netconfig import NetworkConfig
 from telethermo.cia301 import NMT_UNKNOWN, nmt_state_name
 
 

@@ -6,8 +6,8 @@ import functools
 from dataclasses import dataclass
 from pathlib import Path
 
-from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
-from telethermo.canopen_dev.netconfig import NetworkConfig
+from telethermo.device.eds_info import EdsError, EdsInfo, VarInfo
+from telethermo.device.netconfig import NetworkConfig
 from telethermo.remote.errors import UserError
 
 

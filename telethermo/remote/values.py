@@ -24,7 +24,7 @@ import re
 import struct
 from typing import Any
 
-from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo
+from telethermo.device.eds_info import EdsInfo, VarInfo
 from telethermo.control.estimators import Estimator
 from telethermo.control.safety import SafetyState, Trip
 from telethermo.control.types import Mode

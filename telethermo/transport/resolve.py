@@ -91,7 +91,7 @@ def resolve_bus(net, *, bus: str | None = None, interface: str | None = None, ch
                 bitrate: int | None = None, config_path: str | None = None, use_published: bool = True
                 ) -> ResolvedBus:
     """The bus to open (see the module docstring). ``net``: the loaded network settings
-    (:class:`telethermo.canopen_dev.netconfig.NetworkConfig`). Raises :class:`TransportError` (one line
+    (:class:`telethermo.device.netconfig.NetworkConfig`). Raises :class:`TransportError` (one line
     naming the source and what was expected)."""
     if bus and (interface or channel):
         raise TransportError("--bus and -i/-c both name the bus; give one of them")

@@ -1,6 +1,6 @@
 """The tuning objective: J(gains) from offline sessions of the tuning scenes (lower is better).
 
-Each figure comes from :func:`telethermo.session.figures.compute_figures` of an offline session,
+Each figure comes from :func:`telethermo.offline.figures.compute_figures` of an offline session,
 averaged over the scenes::
 
     J = early_C / 0.5 + tracking_rms_C / 0.1                     (the issue's targets: 2 meets both)
@@ -24,7 +24,7 @@ import numpy as np
 from telethermo.control.gainsfile import GAIN_FIELDS
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
-from telethermo.session.runner import run_offline_session
+from telethermo.offline.runner import run_offline_session
 from telethermo.tuning.space import DEFAULT_SPACE, GainSpec, clip_gains
 
 UNSTABLE_J = 100.0

@@ -1,6 +1,6 @@
 """The scenes a tuning objective averages over: the given telepresence scene and a perturbed variant.
 
-The tuner sees the simulator only here and through the offline session (telethermo.session): the
+The tuner sees the simulator only here and through the offline session (telethermo.offline): the
 control package itself never imports ``sim``.
 """
 from __future__ import annotations
@@ -9,8 +9,8 @@ import dataclasses
 import os
 from typing import Any
 
-import sim
-from sim.bodies import FingerParams
+from telethermo import sim
+from telethermo.sim.bodies import FingerParams
 
 
 def perturbed_scene(scene: Any) -> Any:

@@ -3,7 +3,7 @@ sim.SimRig agrees to 1e-9 °C), the matched start is the direct-touch finger, an
 import numpy as np
 import pytest
 
-import sim
+from telethermo import sim
 from bench.bound import BatchedPlant, Window, causal_bound, matched_start, replay, window_errors
 
 PERIOD = 0.01

@@ -14,8 +14,8 @@ import can
 import canopen
 import pytest
 
-from bus_config import path
-from telethermo.canopen_dev import Device, DeviceSettings
+from telethermo.bus_config import path
+from telethermo.device import Device, DeviceSettings
 
 NODE_IDS = {"master": 1, "slave": 2}
 

@@ -10,8 +10,8 @@ import warnings
 import canopen
 import pytest
 
-from bus_config import edsgen, path
-from telethermo.canopen_dev.eds_info import EdsError, EdsInfo
+from telethermo.bus_config import edsgen, path
+from telethermo.device.eds_info import EdsError, EdsInfo
 
 ROLES = ("master", "slave")
 
@@ -143,4 +143,4 @@ def test_docs_table_is_the_generated_one():
     from pathlib import Path
 
     doc = (Path(__file__).resolve().parents[2] / "docs" / "canopen.md").read_text(encoding="utf-8")
-    assert edsgen.markdown_table("master") in doc  # regenerate: python -m bus_config.edsgen --table master
+    assert edsgen.markdown_table("master") in doc  # regenerate: python -m telethermo.bus_config.edsgen --table master

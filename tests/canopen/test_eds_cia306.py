@@ -11,7 +11,7 @@ import struct
 
 import pytest
 
-from bus_config import path
+from telethermo.bus_config import path
 
 ROLES = ("master", "slave")
 

@@ -7,7 +7,7 @@ import time
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.canopen_dev import NmtCommand
+from telethermo.device import NmtCommand
 
 
 def wait_log(node, n: int, timeout: float = 3.0) -> list:

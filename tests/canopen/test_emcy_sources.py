@@ -11,7 +11,7 @@ from __future__ import annotations
 import threading
 import time
 
-from telethermo.canopen_dev import DeviceSettings
+from telethermo.device import DeviceSettings
 
 HB_MS = 150
 

@@ -9,7 +9,7 @@ import time
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.canopen_dev import DeviceSettings
+from telethermo.device import DeviceSettings
 
 
 def heartbeats(lab, bus, cob_id: int, n: int, timeout: float = 5.0) -> list[float]:

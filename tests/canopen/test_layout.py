@@ -5,7 +5,7 @@ from __future__ import annotations
 import ast
 from pathlib import Path
 
-import telethermo.canopen_dev as package
+import telethermo.device as package
 
 PACKAGE = Path(package.__file__).parent
 ADAPTER = "canopen_adapter.py"

@@ -6,7 +6,7 @@ import struct
 
 import can
 
-from telethermo.canopen_dev import DeviceSettings, NmtCommand, SyncProducer
+from telethermo.device import DeviceSettings, NmtCommand, SyncProducer
 
 PAIR = DeviceSettings(known_node_ids=(1, 2))  # the network: nodes 1 and 2 only
 

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from bus_config import path
-from telethermo.canopen_dev import NetworkConfigError, load_network
+from telethermo.bus_config import path
+from telethermo.device import NetworkConfigError, load_network
 
 SHIPPED = path("network.toml").read_text()
 

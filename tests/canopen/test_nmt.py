@@ -8,7 +8,7 @@ import can
 import pytest
 from canopen.sdo import SdoCommunicationError
 
-from telethermo.canopen_dev import DeviceSettings, NmtCommand, NmtState
+from telethermo.device import DeviceSettings, NmtCommand, NmtState
 
 FAST_HB = DeviceSettings(heartbeat_producer_ms=20)
 

@@ -11,7 +11,7 @@ import can
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.canopen_dev import NmtCommand, NmtState, SyncProducer
+from telethermo.device import NmtCommand, NmtState, SyncProducer
 
 
 def drain(bus) -> list[can.Message]:

@@ -11,9 +11,9 @@ import pytest
 from canopen import SdoAbortedError
 from hypothesis import given, settings, strategies as st
 
-from bus_config import path
-from telethermo.canopen_dev import Device
-from telethermo.canopen_dev.eds_info import EdsInfo
+from telethermo.bus_config import path
+from telethermo.device import Device
+from telethermo.device.eds_info import EdsInfo
 
 INFO = EdsInfo(path("master.eds"))
 REALS = sorted(v.key for (i, _), v in INFO.vars.items()

@@ -7,7 +7,7 @@ import math
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.canopen_dev import OdWriteError
+from telethermo.device import OdWriteError
 
 
 def abort_code(fn) -> int:

@@ -19,7 +19,7 @@ from canopen import SdoAbortedError
 from canopen.sdo.base import CrcXmodem
 from canopen.sdo.client import BlockUploadStream
 
-from telethermo.canopen_dev.sdo_block import BlockServer, crc16
+from telethermo.device.sdo_block import BlockServer, crc16
 
 REQ, RESP = 0x601, 0x581
 THETA1 = (0x2310, 1)        # REAL64 model coefficient, range [-1e6, 1e6]

@@ -11,8 +11,8 @@ import canopen
 import pytest
 from canopen import SdoAbortedError
 
-from bus_config import path
-from telethermo.canopen_dev import Device, DeviceSettings, NmtCommand, SyncProducer
+from telethermo.bus_config import path
+from telethermo.device import Device, DeviceSettings, NmtCommand, SyncProducer
 
 pytestmark = pytest.mark.vcan
 

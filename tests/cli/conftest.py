@@ -1,4 +1,4 @@
-"""Two real CiA 301 devices (telethermo.canopen_dev.Device over canopen LocalNode, from
+"""Two real CiA 301 devices (telethermo.device.Device over canopen LocalNode, from
 bus_config's EDS and network settings) on a python-can virtual bus, for the CLI's tests."""
 from __future__ import annotations
 
@@ -10,10 +10,10 @@ from pathlib import Path
 import canopen
 import pytest
 
-from nodes.launch import HubProcess, start_lone_node, stop_process
+from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process
 
-from telethermo.canopen_dev.device import Device
-from telethermo.canopen_dev.netconfig import load_network
+from telethermo.device.device import Device
+from telethermo.device.netconfig import load_network
 from telethermo.cli.main import main
 
 _n = itertools.count()

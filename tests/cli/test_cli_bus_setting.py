@@ -14,8 +14,8 @@ import can.util
 import canopen
 import pytest
 
-from bus_config import path as cfg_path
-from telethermo.canopen_dev.netconfig import load_network
+from telethermo.bus_config import path as cfg_path
+from telethermo.device.netconfig import load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
 from telethermo.transport.bus import TransportError
 from telethermo.transport.published import publish, running, state_file
@@ -135,7 +135,7 @@ def test_an_unknown_interface_is_one_line_and_exit_2(where, isolated, tmp_path, 
 def test_a_node_program_refuses_an_unknown_interface_in_one_line(isolated):
     scene = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
     env = dict(os.environ, CAN_INTERFACE="kvasr", CAN_CHANNEL="0")
-    proc = subprocess.run([sys.executable, "-m", "nodes.master", "--scene", str(scene), "--cycles", "1"],
+    proc = subprocess.run([sys.executable, "-m", "telethermo.nodes.master", "--scene", str(scene), "--cycles", "1"],
                           capture_output=True, text=True, env=env, timeout=60)
     assert proc.returncode == EXIT_USAGE, proc.stderr
     assert proc.stderr.strip().splitlines() == [
@@ -173,8 +173,8 @@ def test_get_finds_the_nodes_through_each_layer(nodes, isolated, tmp_path, monke
 
 # --- a running hub: no flag needed --------------------------------------------------------------------
 def test_a_running_hub_is_found_with_no_flag_and_forgotten_when_it_stops(isolated, cli):
-    from nodes.launch import HubProcess
-    from telethermo.canopen_dev.device import Device
+    from telethermo.nodes.launch import HubProcess
+    from telethermo.device.device import Device
 
     code, out, err = cli("get", "--timeout", "0.1", "master", "kp_A_per_C")
     assert code == EXIT_FAIL and "no hub or session is running" in err and "bus inside this process only" in err

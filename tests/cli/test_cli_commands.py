@@ -44,7 +44,7 @@ def test_node_refusal_shows_abort_code_and_meaning(nodes, cli, tmp_path):
     (whose envelope stops at 43 °C) refuses, and the CLI shows the abort code and its meaning."""
     import re
     import shutil
-    from bus_config import path as cfg_path
+    from telethermo.bus_config import path as cfg_path
     eds = (cfg_path("master.eds")).read_text()
     eds = re.sub(r"(\[2401\][^\[]*?HighLimit=)43\.0", r"\g<1>60.0", eds, flags=re.S)
     assert "HighLimit=60.0" in eds

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from nodes.launch import NodePair, PairConfig, wait_for
+from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.cli.main import EXIT_OK, main
 
 pytestmark = pytest.mark.slow

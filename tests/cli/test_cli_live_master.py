@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from nodes.launch import wait_for
+from telethermo.nodes.launch import wait_for
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, main
 
 pytestmark = pytest.mark.slow

@@ -13,8 +13,8 @@ from pathlib import Path
 import can
 import pytest
 
-from bus_config import path as cfg_path
-from nodes.launch import NodePair, PairConfig, wait_for
+from telethermo.bus_config import path as cfg_path
+from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
 
 pytestmark = pytest.mark.slow
@@ -154,7 +154,7 @@ def test_calibrate_finger_live_on_the_rendering_master(tmp_path, capsys):
     temperature given (yamamoto measures it with a radiation thermometer): the contact temperature
     must lie between the pad's and the finger's (eq. 1), β_pad = (T_f0 - T_c)/(T_c - T_pad0) must
     come out positive and be written into the node."""
-    from nodes.launch import HubProcess, node_command, stop_process
+    from telethermo.nodes.launch import HubProcess, node_command, stop_process
     hub = HubProcess(idle_timeout_s=60)
     hub.start()
     scene = SCENE.parent / "virtual_materials.toml"
@@ -219,7 +219,7 @@ def test_monitor_keeps_up_with_a_lockstep_session(tmp_path):
     decoded by then). Under load the monitor took more than the former fixed 1 s to connect and missed
     the first SYNCs."""
     import signal
-    from nodes.launch import HubProcess, stop_process
+    from telethermo.nodes.launch import HubProcess, stop_process
     hub = HubProcess(idle_timeout_s=60)
     hub.start()
     out = tmp_path / "mon.jsonl"

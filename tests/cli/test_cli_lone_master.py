@@ -13,9 +13,9 @@ import canopen
 import numpy as np
 import pytest
 
-import sim
-from nodes.launch import wait_for
-from telethermo.canopen_dev.netconfig import load_network
+from telethermo import sim
+from telethermo.nodes.launch import wait_for
+from telethermo.device.netconfig import load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
 from telethermo.ident import default_model_path, load_model, odmodel
 from telethermo.ident.experiment import ExperimentSettings, run_excitation
@@ -116,7 +116,7 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     from telethermo.remote.client import NodeClient
     from telethermo.remote.identify import Stream, fetch_lost
     from telethermo.remote.targets import resolve_node
-    from telethermo.canopen_dev.netconfig import load_network
+    from telethermo.device.netconfig import load_network
     Q_bus = np.array([float(r[5]) for r in rows])
     stream = Stream([0x281, 0x381, 0x481], len(rows))
     stream.values[:] = (T_bus, I_bus, Q_bus)

@@ -26,7 +26,7 @@ def png_size(path: Path) -> tuple[int, int]:
 
 @pytest.fixture(scope="module")
 def offline_csv(tmp_path_factory) -> Path:
-    from telethermo.session import run_offline_session, write_session
+    from telethermo.offline import run_offline_session, write_session
     out = tmp_path_factory.mktemp("offline")
     write_session(out, run_offline_session("probe_touches_al_steel_wood", duration_s=3.0), png=False)
     return out / "recording.csv"
@@ -34,7 +34,7 @@ def offline_csv(tmp_path_factory) -> Path:
 
 @pytest.fixture(scope="module")
 def node_csvs(tmp_path_factory) -> dict[str, Path]:
-    from nodes.launch import NodePair, PairConfig
+    from telethermo.nodes.launch import NodePair, PairConfig
     out = tmp_path_factory.mktemp("pair")
     with NodePair(PairConfig(scene=SCENE, out_dir=out, cycles=CYCLES, progress_every=0)) as pair:
         assert pair.wait_master(120) == 0

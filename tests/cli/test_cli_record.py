@@ -81,7 +81,7 @@ def test_files_get_the_mode_a_new_file_gets(cli, tmp_path, umask):
 
 
 def test_ctrl_c_is_the_normal_stop(tmp_path):
-    from nodes.launch import HubProcess, stop_process
+    from telethermo.nodes.launch import HubProcess, stop_process
     hub = HubProcess()
     hub.start()
     sender = None

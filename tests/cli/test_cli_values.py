@@ -6,9 +6,9 @@ import dataclasses
 
 import pytest
 
-from bus_config import edsgen
-from bus_config import path as cfg_path
-from telethermo.canopen_dev.eds_info import EdsInfo
+from telethermo.bus_config import edsgen
+from telethermo.bus_config import path as cfg_path
+from telethermo.device.eds_info import EdsInfo
 from telethermo.remote import values
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
 
@@ -52,7 +52,7 @@ def test_enumerations_by_name():
 
 
 def test_estimator_codes_are_the_nodes():
-    from nodes.odparams import ESTIMATOR_CODES
+    from telethermo.nodes.odparams import ESTIMATOR_CODES
     names = values.enum_names(EDS.get("estimator"))
     assert names == {code: est.value for est, code in ESTIMATOR_CODES.items()}
 

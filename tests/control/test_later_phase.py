@@ -9,11 +9,11 @@ import numpy as np
 import pytest
 
 from bench.rc_identify import FIT_FROM_S, cooling_curve, identify
-from sim.bodies import slab
-from sim.chain import ADIABATIC, assemble
-from sim.closed_forms import semi_infinite_surface_constant_flux_C, slab_surface_constant_flux_C
-from sim.expint import Modal
-from sim.materials import material
+from telethermo.sim.bodies import slab
+from telethermo.sim.chain import ADIABATIC, assemble
+from telethermo.sim.closed_forms import semi_infinite_surface_constant_flux_C, slab_surface_constant_flux_C
+from telethermo.sim.expint import Modal
+from telethermo.sim.materials import material
 from telethermo.control.core import CoreParams, RenderPhase, RenderSettings, init_state, step
 from telethermo.control.later_conduction import conduction_model, conduction_start, conduction_step
 from telethermo.control.later_phase import (LaterModel, later_from_key, later_key, later_od_values, later_phase,

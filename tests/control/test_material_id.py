@@ -6,12 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from sim.materials import material
-from sim.measurement import NoiseParams, butter2_lowpass as sim_butter2
-from sim.plant import Body, GridSettings
-from sim.rig import SimRig
-from sim.tem import load_rig_params
-from sim.touch import BodySpec, Schedule, Touch
+from telethermo.sim.materials import material
+from telethermo.sim.measurement import NoiseParams, butter2_lowpass as sim_butter2
+from telethermo.sim.plant import Body, GridSettings
+from telethermo.sim.rig import SimRig
+from telethermo.sim.tem import load_rig_params
+from telethermo.sim.touch import BodySpec, Schedule, Touch
 from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params

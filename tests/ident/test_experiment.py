@@ -3,7 +3,7 @@ the shipped model against the current simulator, the safety guard."""
 import numpy as np
 import pytest
 
-import sim
+from telethermo import sim
 from telethermo.ident import NarmaOrders, default_model_path, load_model, prbs
 from telethermo.ident.experiment import (ExperimentSettings, identify_capacity, identify_rig, run_excitation,
                                          steady_state_points)

@@ -6,7 +6,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-import sim
+from telethermo import sim
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role

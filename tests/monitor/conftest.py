@@ -11,7 +11,7 @@ import canopen
 import pytest
 from canopen.objectdictionary import import_od
 
-import bus_config
+from telethermo import bus_config
 from telethermo.monitor.records import MonitorConfig, NodeInfo
 
 EDS_DIR = Path(bus_config.__file__).resolve().parent

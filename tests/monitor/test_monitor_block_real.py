@@ -1,6 +1,6 @@
 """The monitor's SDO decoding on real block transfers (CiA 301 §7.2.4.3.9 ff.).
 
-The device layer serves SDO block upload and download (telethermo.canopen_dev.sdo_block): the
+The device layer serves SDO block upload and download (telethermo.device.sdo_block): the
 frames recorded here are those of real transfers between canopen's SDO client (BlockUploadStream /
 BlockDownloadStream) and the master Device on one python-can virtual bus, plus raw-frame clients for
 what canopen's client never does (a lost segment, a bad CRC, a partial acknowledge, an abort or a
@@ -20,8 +20,8 @@ import pytest
 from canopen import SdoAbortedError
 from canopen.sdo.client import BlockUploadStream
 
-from telethermo.canopen_dev import Device
-from telethermo.canopen_dev.sdo_block import crc16
+from telethermo.device import Device
+from telethermo.device.sdo_block import crc16
 from telethermo.monitor.state import Monitor
 
 from .conftest import MASTER_EDS, monitor_config

@@ -1,7 +1,7 @@
 """Hardware-rig factories that go wrong, for tests/nodes/test_hardware_rig_path.py (``--rig MODULE:FACTORY``)."""
 from __future__ import annotations
 
-from sim.wallclock import pads_in_air_master
+from telethermo.sim.wallclock import pads_in_air_master
 
 
 def wrong_period():

@@ -24,7 +24,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodes.launch import HubProcess, node_command, stop_process, wait_for
+from telethermo.nodes.launch import HubProcess, node_command, stop_process, wait_for
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK
 from telethermo.transport.bus import FrameLog
 
@@ -36,7 +36,7 @@ AMBIENT_C = 25.0          # scene pads_in_air
 REST_TOL_C = 0.25         # pads at rest: noise (σ 0.02 °C, filtered) and ADC steps, far below this
 SETTLED_C = 0.15          # the rendering master's pad at its pre-set: noise and a settled PI, well below this
 HUB_GRACE_CYCLES = 25     # the hub holds a new client's first 0.2 s of frames (docs/nodes.md): 20 cycles + margin
-RIG = {"master": "sim.wallclock:pads_in_air_master", "slave": "sim.wallclock:pads_in_air_slave"}
+RIG = {"master": "telethermo.sim.wallclock:pads_in_air_master", "slave": "telethermo.sim.wallclock:pads_in_air_slave"}
 NODE_ID = {"master": 1, "slave": 2}
 
 

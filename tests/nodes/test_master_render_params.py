@@ -18,11 +18,11 @@ import can
 import canopen
 import pytest
 
-from bus_config import path as bus_config_path
-from nodes.launch import node_command, stop_process, wait_for
+from telethermo.bus_config import path as bus_config_path
+from telethermo.nodes.launch import node_command, stop_process, wait_for
 from telethermo.control.core import RenderSettings
 from telethermo.control.rendering import load_render_table
-from telethermo.session.recording import read_recording_csv
+from telethermo.offline.recording import read_recording_csv
 from telethermo.transport.hub import HubThread
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -144,8 +144,8 @@ def test_the_master_renders_the_material_written_into_its_od(master):
 
 
 def test_on_a_render_scene_the_od_shows_the_script_and_a_written_pad_beta_applies_to_it(master):
-    import sim
-    from telethermo.session.render_script import RenderScript
+    from telethermo import sim
+    from telethermo.offline.render_script import RenderScript
 
     scene = "virtual_materials.toml"
     first = RenderScript(sim.load_scene(SCENES / scene)).first

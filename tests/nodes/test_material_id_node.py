@@ -9,8 +9,8 @@ from pathlib import Path
 import can
 import canopen
 
-from bus_config import path as bus_config_path
-from nodes.launch import node_command, stop_process, wait_for
+from telethermo.bus_config import path as bus_config_path
+from telethermo.nodes.launch import node_command, stop_process, wait_for
 from telethermo.control.material_id import load_effusivity_table
 from telethermo.control.rendering import load_render_table
 from telethermo.transport.hub import HubThread

@@ -15,7 +15,7 @@ from pathlib import Path
 import can
 import pytest
 
-from nodes.launch import NodePair, PairConfig, wait_for
+from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 
 pytestmark = pytest.mark.slow  # starts processes
 

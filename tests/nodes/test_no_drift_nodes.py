@@ -7,8 +7,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodes.launch import NodePair, PairConfig
-from nodes.merge import merge_recordings
+from telethermo.nodes.launch import NodePair, PairConfig
+from telethermo.nodes.merge import merge_recordings
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
 

@@ -8,12 +8,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodes.launch import NodePair, PairConfig
-from nodes.merge import merge_recordings
+from telethermo.nodes.launch import NodePair, PairConfig
+from telethermo.nodes.merge import merge_recordings
 from telethermo.control.gainsfile import GAINS_FORMAT, load_gains
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
-from telethermo.session import run_offline_session
+from telethermo.offline import run_offline_session
 
 pytestmark = pytest.mark.slow  # starts processes
 

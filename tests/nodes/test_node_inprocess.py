@@ -13,12 +13,12 @@ import canopen
 import numpy as np
 import pytest
 
-from nodes.launch import wait_for
-from nodes.options import NodeOptions
-from nodes.parts import build_parts
-from nodes.runtime import NodeRuntime
-from telethermo.canopen_dev.device import NmtState
-from telethermo.canopen_dev.netconfig import load_network
+from telethermo.nodes.launch import wait_for
+from telethermo.nodes.options import NodeOptions
+from telethermo.nodes.parts import build_parts
+from telethermo.nodes.runtime import NodeRuntime
+from telethermo.device.device import NmtState
+from telethermo.device.netconfig import load_network
 from telethermo.control.safety import EMCY_CODES, Trip
 from telethermo.control.types import Mode, Role
 from telethermo.ident.modelfile import default_model_path

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import math
 
-from nodes.peer import PeerLink
+from telethermo.nodes.peer import PeerLink
 
 
 def test_none_until_first_pdo_then_fresh_values():

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import io
 
-from nodes.launch import ProgressLine
+from telethermo.nodes.launch import ProgressLine
 
 
 def test_not_a_tty_prints_a_line_every_ten_percent_and_the_end():

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from nodes.schedule import RealtimeTicker
+from telethermo.nodes.schedule import RealtimeTicker
 
 
 class FakeClock:
@@ -51,7 +51,7 @@ class Lines:
 
 
 def test_late_cycles_are_logged_as_one_summary_per_second_at_most():
-    from nodes.schedule import LateCycleLog
+    from telethermo.nodes.schedule import LateCycleLog
     clock, out = FakeClock(), Lines()
     late_log = LateCycleLog(out, interval_s=1.0, clock=clock)
     late_log.cycle(0, False, 0.001)
@@ -77,7 +77,7 @@ def test_late_cycles_are_logged_as_one_summary_per_second_at_most():
 
 
 def test_the_summary_window_follows_the_injected_clock_not_the_cycle_count():
-    from nodes.schedule import LateCycleLog
+    from telethermo.nodes.schedule import LateCycleLog
     clock, out = FakeClock(), Lines()
     late_log = LateCycleLog(out, clock=clock)
     late_log.cycle(0, True, 0.01)
@@ -89,7 +89,7 @@ def test_the_summary_window_follows_the_injected_clock_not_the_cycle_count():
 
 
 def test_sync_numbering_unwraps_the_counter_alike_on_every_node():
-    from nodes.schedule import SyncNumbering
+    from telethermo.nodes.schedule import SyncNumbering
     master, slave = SyncNumbering(240), SyncNumbering(240)
     counters = [(k % 240) + 1 for k in range(1000)]
     got_s = []

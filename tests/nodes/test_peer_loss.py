@@ -9,8 +9,8 @@ import can
 import numpy as np
 import pytest
 
-from nodes.launch import NodePair, PairConfig, wait_for
-from telethermo.session.recording import read_recording_csv
+from telethermo.nodes.launch import NodePair, PairConfig, wait_for
+from telethermo.offline.recording import read_recording_csv
 from telethermo.transport.bus import FrameLog
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -132,7 +132,7 @@ def test_real_time_resume_after_the_slave_is_killed_and_restarted(tmp_path):
     trip is cleared on the slave's return and the current comes back from the cut, without a jump."""
     import canopen
 
-    from bus_config import path as bus_config_path
+    from telethermo.bus_config import path as bus_config_path
 
     pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="realtime", cycles=0, seed=0, progress_every=10))
     pair.start()

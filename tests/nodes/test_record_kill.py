@@ -11,10 +11,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodes.launch import NodePair, PairConfig, node_command, wait_for
-from nodes.merge import merge_recordings
-from telethermo.session.recording_journal import journal_path
-from telethermo.session.recording import read_recording_csv
+from telethermo.nodes.launch import NodePair, PairConfig, node_command, wait_for
+from telethermo.nodes.merge import merge_recordings
+from telethermo.offline.recording_journal import journal_path
+from telethermo.offline.recording import read_recording_csv
 
 pytestmark = pytest.mark.slow  # starts processes
 

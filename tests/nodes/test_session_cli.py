@@ -11,8 +11,8 @@ from pathlib import Path
 
 import pytest
 
-from nodes.launch import wait_for
-from telethermo.session import run_offline_session
+from telethermo.nodes.launch import wait_for
+from telethermo.offline import run_offline_session
 
 pytestmark = pytest.mark.slow  # starts processes
 

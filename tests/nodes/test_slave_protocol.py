@@ -14,8 +14,8 @@ import can
 import canopen
 import pytest
 
-from bus_config import path as bus_config_path
-from nodes.launch import node_command, stop_process, wait_for
+from telethermo.bus_config import path as bus_config_path
+from telethermo.nodes.launch import node_command, stop_process, wait_for
 from telethermo.transport.hub import HubThread
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -226,7 +226,7 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
     I_max), not the EDS placeholders; a write is taken at the next SYNC, not before; a value the
     controller refuses (or cannot run in its present state) is aborted and left unchanged; reset
     node brings the program's power-on parameters back."""
-    import sim
+    from telethermo import sim
     from telethermo.control.params import default_params
     from telethermo.control.types import Role
 

@@ -7,10 +7,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodes.launch import NodePair, PairConfig
-from nodes.merge import merge_recordings
-from telethermo.session import run_offline_session
-from telethermo.session.recording import TEXT_COLUMNS
+from telethermo.nodes.launch import NodePair, PairConfig
+from telethermo.nodes.merge import merge_recordings
+from telethermo.offline import run_offline_session
+from telethermo.offline.recording import TEXT_COLUMNS
 
 pytestmark = pytest.mark.slow  # starts processes
 
@@ -90,8 +90,8 @@ def test_a_stalled_slave_is_waited_for_and_stays_in_step(tmp_path):
     import signal
     import time
 
-    from bus_config import path as bc
-    from nodes.launch import wait_for
+    from telethermo.bus_config import path as bc
+    from telethermo.nodes.launch import wait_for
 
     net = tmp_path / "network.toml"
     net.write_text(f'[bus]\ninterface = "virtual"\nchannel = "x"\n[sync]\nperiod_s = 0.01\n'

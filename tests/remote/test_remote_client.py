@@ -1,4 +1,4 @@
-"""The remote-node client (telethermo.remote) against a real CiA 301 device (telethermo.canopen_dev.Device
+"""The remote-node client (telethermo.remote) against a real CiA 301 device (telethermo.device.Device
 over canopen's LocalNode, from the shipped master EDS) on a python-can virtual bus: SDO by EDS name, the
 local range check, the node's refusals and silence, the TPDO remapping and its restoration, heartbeats."""
 from __future__ import annotations
@@ -9,8 +9,8 @@ import time
 import canopen
 import pytest
 
-from telethermo.canopen_dev.device import Device
-from telethermo.canopen_dev.netconfig import load_network
+from telethermo.device.device import Device
+from telethermo.device.netconfig import load_network
 from telethermo.remote import pdo
 from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, Refused, UserError

@@ -5,9 +5,9 @@ import pytest
 from telethermo.control.rendering import relative_effusivity_from_profiles
 
 sim = pytest.importorskip("sim")
-from sim.bodies import FingerParams, finger_segment, slab  # noqa: E402
-from sim.materials import material  # noqa: E402
-from sim.pair import ContactPair  # noqa: E402
+from telethermo.sim.bodies import FingerParams, finger_segment, slab  # noqa: E402
+from telethermo.sim.materials import material  # noqa: E402
+from telethermo.sim.pair import ContactPair  # noqa: E402
 
 
 @pytest.mark.parametrize("mat", ["eps", "oak", "ceramic", "brass", "aluminium"])
@@ -27,7 +27,7 @@ def test_beta_from_simulated_finger_object_profiles(mat):
 
 
 def test_finger_calibration_on_the_simulated_display():
-    from telethermo.session.calibration import calibrate_finger_offline
+    from telethermo.offline.calibration import calibrate_finger_offline
     cal, rec = calibrate_finger_offline(presets_C=(28.0, 38.0, 29.0, 37.0))
     assert cal.n_touches == 4
     # eq. 1 explains the four touches to < 0.15 °C with one beta_pad (the pad with its current held)

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 
 from telethermo.atomic import write_text_atomic
-from telethermo.session import (RecordingBuilder, RecordingError, compute_figures, read_recording_csv,
+from telethermo.offline import (RecordingBuilder, RecordingError, compute_figures, read_recording_csv,
                                 write_recording_csv)
-from telethermo.session.transparency import transparency_figures
+from telethermo.offline.transparency import transparency_figures
 
 DT = 0.01
 CONTACTS = [dict(t_on_s=1.0, t_off_s=4.0, object="aluminium"), dict(t_on_s=5.0, t_off_s=8.0, object="steel"),
@@ -143,7 +143,7 @@ def test_bad_csv_names_file_line_and_column(tmp_path):
 
 
 def test_plot_is_a_png(tmp_path):
-    from telethermo.session.plot import write_session_png
+    from telethermo.offline.plot import write_session_png
     p = write_session_png(tmp_path / "s.png", make())
     assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
 

@@ -5,7 +5,7 @@ import pytest
 
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
-from telethermo.session import run_offline_session
+from telethermo.offline import run_offline_session
 
 pytestmark = pytest.mark.slow
 

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from telethermo.control.rendering import load_render_table, pad_preset_temperature
-from telethermo.session import compute_figures, read_recording_csv, run_offline_session, write_session
+from telethermo.offline import compute_figures, read_recording_csv, run_offline_session, write_session
 
 sim = pytest.importorskip("sim")
 

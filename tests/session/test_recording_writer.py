@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from telethermo.session.recording import Recording, read_recording_csv, write_recording_csv
-from telethermo.session.recording_journal import journal_path
+from telethermo.offline.recording import Recording, read_recording_csv, write_recording_csv
+from telethermo.offline.recording_journal import journal_path
 
 
 def _rec() -> Recording:

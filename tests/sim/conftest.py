@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from sim.scene import parse_scene
+from telethermo.sim.scene import parse_scene
 
 
 def make_scene(master=(), slave=(), objects=None, kind=None, duration=5.0, period=0.01, ambient=25.0,

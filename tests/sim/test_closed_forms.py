@@ -7,12 +7,12 @@ import numpy as np
 import pytest
 from scipy.special import erf
 
-from sim import bodies as B
-from sim.closed_forms import contact_temperature_C, semi_infinite_flux_W_m2, surface_temperatures_finite_h_C
-from sim.contact import contact_resistance_m2K_W
-from sim.materials import materials
-from sim.pair import ContactPair
-from sim.plant import GridSettings
+from telethermo.sim import bodies as B
+from telethermo.sim.closed_forms import contact_temperature_C, semi_infinite_flux_W_m2, surface_temperatures_finite_h_C
+from telethermo.sim.contact import contact_resistance_m2K_W
+from telethermo.sim.materials import materials
+from telethermo.sim.pair import ContactPair
+from telethermo.sim.plant import GridSettings
 
 A_M2 = 2.25e-4
 MATS = ["eps", "oak", "glass", "brass", "aluminium", "copper"]

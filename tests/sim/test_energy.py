@@ -4,9 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import sim
-
-
+from telethermo import sim
 def prbs(rng, n, hold=20, amp=1.5):
     return np.repeat(rng.choice([-amp, amp], size=n // hold + 1), hold)[:n]
 

@@ -5,8 +5,8 @@ import math
 
 import pytest
 
-import sim
-from sim.materials import materials
+from telethermo import sim
+from telethermo.sim.materials import materials
 from tests.sim.conftest import make_scene
 
 REQUIRED = ["skin", "eps", "oak", "pvc", "glass", "ceramic", "alumina", "stainless_steel", "carbon_steel", "brass",

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from scipy.signal import freqz
 
-import sim
-from sim.measurement import Biquad, Channel, butter2_lowpass
+from telethermo import sim
+from telethermo.sim.measurement import Biquad, Channel, butter2_lowpass
 
 
 def test_filter_is_2nd_order_butterworth_at_the_cutoff():

@@ -6,7 +6,7 @@ import math
 import numpy as np
 from hypothesis import given, settings, strategies as st, HealthCheck
 
-import sim
+from telethermo import sim
 from tests.sim.conftest import make_scene
 
 MATERIALS = ["eps", "oak", "pvc", "glass", "ceramic", "stainless_steel", "carbon_steel", "brass", "aluminium", "copper"]

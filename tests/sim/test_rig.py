@@ -7,10 +7,10 @@ import math
 import numpy as np
 import pytest
 
-import sim
-from sim.closed_forms import contact_temperature_C
-from sim.materials import materials
-from sim.plant import GridSettings
+from telethermo import sim
+from telethermo.sim.closed_forms import contact_temperature_C
+from telethermo.sim.materials import materials
+from telethermo.sim.plant import GridSettings
 from telethermo.rig import RigSample, SimulatedRig
 from tests.sim.conftest import make_scene
 
@@ -166,7 +166,7 @@ def test_finger_starts_at_its_own_steady_state():
 
 def test_perfusion_rewarms_the_finger_after_a_cold_touch():
     """Pennes perfusion (blood at 37 °C) brings the skin back faster than conduction alone."""
-    from sim.bodies import FingerParams
+    from telethermo.sim.bodies import FingerParams
     cold = {"al": {"material": "aluminium", "thickness_mm": 20.0, "T0_C": 10.0}}
     base = FingerParams()
     still = FingerParams(layers=tuple((m, t, 0.0) for m, t, _ in base.layers))

@@ -3,9 +3,9 @@ from __future__ import annotations
 
 import pytest
 
-import sim
-from sim.errors import SceneError
-from sim.scene import SCENES_DIR
+from telethermo import sim
+from telethermo.sim.errors import SceneError
+from telethermo.sim.scene import SCENES_DIR
 
 
 def test_shipped_scenes_load():

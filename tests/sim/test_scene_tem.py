@@ -6,9 +6,9 @@ import dataclasses
 
 import pytest
 
-import sim
-from sim.errors import SceneError
-from sim.tem import load_rig_params, load_tem_file, tem_section
+from telethermo import sim
+from telethermo.sim.errors import SceneError
+from telethermo.sim.tem import load_rig_params, load_tem_file, tem_section
 from telethermo.cli.main import main as cli_main
 
 BASE = """[scene]

@@ -5,9 +5,9 @@ import dataclasses
 import numpy as np
 import pytest
 
-import sim
-from sim.compile import finger_natural_C
-from sim.errors import SceneError
+from telethermo import sim
+from telethermo.sim.compile import finger_natural_C
+from telethermo.sim.errors import SceneError
 
 
 @pytest.fixture(scope="module")

@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import sim
-from sim.compile import build_rig
-from sim.tem import KELVIN, TEMParams, load_rig_params
+from telethermo import sim
+from telethermo.sim.compile import build_rig
+from telethermo.sim.tem import KELVIN, TEMParams, load_rig_params
 from tests.sim.conftest import make_scene
 
 

@@ -12,8 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-import sim
-from sim.wallclock import (DEFAULT_MAX_CATCH_UP_S, WallClockRig, pads_in_air_master, pads_in_air_slave,
+from telethermo import sim
+from telethermo.sim.wallclock import (DEFAULT_MAX_CATCH_UP_S, WallClockRig, pads_in_air_master, pads_in_air_slave,
                            probe_master, probe_slave, wall_clock_rig)
 from telethermo.rig import Rig, RigSample, SimulatedRig
 

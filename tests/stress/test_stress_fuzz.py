@@ -70,8 +70,7 @@ def test_model_loader_only_model_or_model_file_error():
 
 
 def test_scene_huge_integer_is_a_scene_error(tmp_path):
-    import sim
-
+    from telethermo import sim
     p = tmp_path / "huge.toml"
     text = (sim.scene.SCENES_DIR / "finger_on_display.toml").read_text(encoding="utf-8")
     p.write_text(text.replace("period_s = 0.01", "period_s = 1" + "0" * 400), encoding="utf-8")

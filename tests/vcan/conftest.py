@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from bus_config import path as bus_config_path
+from telethermo.bus_config import path as bus_config_path
 
 
 def slow_machine_network(tmp_path: Path, channel: str = "vcan0") -> Path:

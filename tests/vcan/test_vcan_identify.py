@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodes.launch import start_lone_node, stop_process, wait_for
+from telethermo.nodes.launch import start_lone_node, stop_process, wait_for
 from telethermo.cli.main import EXIT_OK, main
 from telethermo.ident import load_model, odmodel
 

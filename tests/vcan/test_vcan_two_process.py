@@ -10,10 +10,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from nodes.launch import NodePair, PairConfig
-from nodes.merge import merge_recordings
-from telethermo.session import run_offline_session
-from telethermo.session.recording import TEXT_COLUMNS
+from telethermo.nodes.launch import NodePair, PairConfig
+from telethermo.nodes.merge import merge_recordings
+from telethermo.offline import run_offline_session
+from telethermo.offline.recording import TEXT_COLUMNS
 
 pytestmark = [pytest.mark.vcan, pytest.mark.slow]
 

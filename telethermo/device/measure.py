@@ -1,4 +1,4 @@
-"""Speed of the device layer alone: ``python -m telethermo.canopen_dev.measure``.
+"""Speed of the device layer alone: ``python -m telethermo.device.measure``.
 
 Two bare devices on a python-can ``virtual`` bus in one process, a trivial SYNC handler on each
 (``estimate = peer + 1``), N cycles of SYNC k+1 after the peer's PDO k; it prints the median cycles/s
@@ -14,10 +14,10 @@ import uuid
 
 import canopen
 
-from bus_config import path
-from telethermo.canopen_dev.device import Device, NmtCommand
-from telethermo.canopen_dev.netconfig import load_network
-from telethermo.canopen_dev.sync import SyncProducer
+from telethermo.bus_config import path
+from telethermo.device.device import Device, NmtCommand
+from telethermo.device.netconfig import load_network
+from telethermo.device.sync import SyncProducer
 
 
 def _virtual_network(channel: str) -> canopen.Network:

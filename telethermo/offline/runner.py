@@ -1,6 +1,6 @@
 """Offline session: scene + both controllers + both simulated rigs + the direct-touch reference, lockstep.
 
-    from telethermo.session import run_offline_session, write_session
+    from telethermo.offline import run_offline_session, write_session
     res = run_offline_session("probe_touches_al_steel_wood")
     write_session("out/session", res)            # recording.csv, summary.json, session.png (atomic)
 
@@ -31,10 +31,10 @@ from telethermo.control.defaults import HOLD_GAINS
 from telethermo.control.later_phase import DEFAULT_LATER_MODEL
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, PeerValues, Role
-from telethermo.session.figures import compute_figures
-from telethermo.session.plot import write_session_png
-from telethermo.session.recording import Recording, RecordingBuilder, write_recording_csv
-from telethermo.session.render_script import RenderScript
+from telethermo.offline.figures import compute_figures
+from telethermo.offline.plot import write_session_png
+from telethermo.offline.recording import Recording, RecordingBuilder, write_recording_csv
+from telethermo.offline.render_script import RenderScript
 
 ROUNDINGS = ("none", "real32")
 
@@ -113,8 +113,7 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     ``render_options``: ``beta_pad`` (the calibrated pad β), ``T_finger0_C``, ``finger_thermometer``,
     ``thermometer_lead_s``, ``later_model`` (see :func:`_run_render`).
     """
-    import sim
-
+    from telethermo import sim
     if rounding not in ROUNDINGS:
         raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
     sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene

@@ -12,12 +12,12 @@ from typing import Any, Callable
 from canopen import objectdictionary as odmod
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev.canopen_adapter import GatedLocalNode
+from telethermo.device.canopen_adapter import GatedLocalNode
 from telethermo.cia301 import ABORT_GENERAL, ABORT_RANGE
-from telethermo.canopen_dev.context import DeviceCore
-from telethermo.canopen_dev.eds_info import EdsInfo, VarInfo, parse_index_key
-from telethermo.canopen_dev.events import OdWriteError, WriteEvent
-from telethermo.canopen_dev.settings import DeviceSettings
+from telethermo.device.context import DeviceCore
+from telethermo.device.eds_info import EdsInfo, VarInfo, parse_index_key
+from telethermo.device.events import OdWriteError, WriteEvent
+from telethermo.device.settings import DeviceSettings
 
 # diagnostics objects served live from DeviceStats (see bus_config/edsgen.py)
 DIAG_OBJECTS = {0x2710: "malformed_frames", 0x2711: "unknown_cobid_frames", 0x2712: "callback_errors",

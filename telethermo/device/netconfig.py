@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from telethermo.canopen_dev.settings import DeviceSettings
+from telethermo.device.settings import DeviceSettings
 
 ROLES = ("master", "slave")
 
@@ -92,7 +92,7 @@ class NetworkConfig:
 
 
 def default_path() -> Path:
-    from bus_config import path
+    from telethermo.bus_config import path
     return path("network.toml")
 
 

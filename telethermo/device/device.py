@@ -22,11 +22,11 @@ composes one module per CiA 301 service on top of it, as canopen's own ``LocalNo
   receive thread.
 
 canopen's private state is touched in :mod:`.canopen_adapter` only; the services share
-:class:`~telethermo.canopen_dev.context.DeviceCore` (NMT state, lock, counters, timer thread).
+:class:`~telethermo.device.context.DeviceCore` (NMT state, lock, counters, timer thread).
 
 Threads: frames are handled in the canopen notifier thread; timers (heartbeat, consumer timeouts,
 EMCY inhibit, event timers) in the device's scheduler thread; the SYNC producer's own tick in the
-thread that calls :meth:`telethermo.canopen_dev.sync.SyncProducer.transmit`. SYNC processing,
+thread that calls :meth:`telethermo.device.sync.SyncProducer.transmit`. SYNC processing,
 RPDO commits and SDO writes are serialised by one lock. Callbacks must not block (never a blocking
 SDO call from a callback).
 """
@@ -39,20 +39,20 @@ from typing import Any, Callable
 
 import canopen
 
-from telethermo.canopen_dev import canopen_adapter as adapter
-from telethermo.canopen_dev import emcy as emcy_mod
-from telethermo.canopen_dev.context import DeviceCore, DeviceStats, NmtCommand, NmtState
-from telethermo.canopen_dev.eds_info import EdsInfo
-from telethermo.canopen_dev.emcy_producer import EmcyProducer
-from telethermo.canopen_dev.events import OdWriteError, PeerEvent, RpdoEvent, SyncTick, WriteEvent
-from telethermo.canopen_dev.frames import FrameWatch
-from telethermo.canopen_dev.heartbeat import Heartbeat
-from telethermo.canopen_dev.nmt import NmtSlave
-from telethermo.canopen_dev.od_access import OdAccess
-from telethermo.canopen_dev.pdo_engine import PdoEngine
-from telethermo.canopen_dev.sdo_gate import SdoGate
-from telethermo.canopen_dev.settings import DeviceSettings
-from telethermo.canopen_dev.sync_consumer import SyncConsumer
+from telethermo.device import canopen_adapter as adapter
+from telethermo.device import emcy as emcy_mod
+from telethermo.device.context import DeviceCore, DeviceStats, NmtCommand, NmtState
+from telethermo.device.eds_info import EdsInfo
+from telethermo.device.emcy_producer import EmcyProducer
+from telethermo.device.events import OdWriteError, PeerEvent, RpdoEvent, SyncTick, WriteEvent
+from telethermo.device.frames import FrameWatch
+from telethermo.device.heartbeat import Heartbeat
+from telethermo.device.nmt import NmtSlave
+from telethermo.device.od_access import OdAccess
+from telethermo.device.pdo_engine import PdoEngine
+from telethermo.device.sdo_gate import SdoGate
+from telethermo.device.settings import DeviceSettings
+from telethermo.device.sync_consumer import SyncConsumer
 
 __all__ = ["Device", "DeviceStats", "NmtCommand", "NmtState", "OdWriteError", "PeerEvent", "RpdoEvent",
            "SyncTick", "WriteEvent"]

@@ -1,7 +1,7 @@
 """The session recording: one row per control step, one documented CSV format for every path.
 
-The offline runner (telethermo.session.runner) and the two-process node session write the same
-format, so :func:`telethermo.session.figures.compute_figures` works on either.
+The offline runner (telethermo.offline.runner) and the two-process node session write the same
+format, so :func:`telethermo.offline.figures.compute_figures` works on either.
 
 File layout (UTF-8, ``\\n`` line ends)::
 
@@ -69,7 +69,7 @@ from typing import Any
 
 import numpy as np
 
-from telethermo.session.recording_journal import CsvRecorder
+from telethermo.offline.recording_journal import CsvRecorder
 
 MAGIC = "# telethermo-recording 1"
 
@@ -156,7 +156,7 @@ def _rows(rec: Recording):
 
 def write_recording_csv(path: str | os.PathLike, rec: Recording) -> Path:
     """Write ``rec`` to ``path`` atomically, through the recordings' one writer
-    (:class:`telethermo.session.recording_journal.CsvRecorder`, as the nodes)."""
+    (:class:`telethermo.offline.recording_journal.CsvRecorder`, as the nodes)."""
     head = header_comments(rec.meta)
     writer = CsvRecorder(path, list(rec.columns), comments=head, flush_every=1 << 30)
     try:

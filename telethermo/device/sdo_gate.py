@@ -8,10 +8,10 @@ from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev import canopen_adapter as adapter
+from telethermo.device import canopen_adapter as adapter
 from telethermo.cia301 import ABORT_COMMAND_SPECIFIER, ABORT_GENERAL, ABORT_READ_ONLY
-from telethermo.canopen_dev.context import SERVING, DeviceCore
-from telethermo.canopen_dev.sdo_block import BlockServer
+from telethermo.device.context import SERVING, DeviceCore
+from telethermo.device.sdo_block import BlockServer
 
 
 class SdoGate:

@@ -1,10 +1,10 @@
-"""The figures of a session, each a pure function of a :class:`~telethermo.session.recording.Recording`.
+"""The figures of a session, each a pure function of a :class:`~telethermo.offline.recording.Recording`.
 
 Telepresence (guiatni §5.3; issue 4):
 
 - **transparency**: what the operator's finger feels on the master (``m_true_surface_C``, the skin on
   the pad) against the direct-touch reference (``ref_T_contact_C``, the same finger on the same
-  object), per touch of the probe (:mod:`telethermo.session.transparency`): ``pre`` (0.5 s before),
+  object), per touch of the probe (:mod:`telethermo.offline.transparency`): ``pre`` (0.5 s before),
   ``early`` (0–1 s), ``early01`` (0.1–1 s), ``late`` (1–3 s) and the **headline** ``headline_error_C``
   (mean over [t_on − 0.5 s, t_on + 1 s]: a display that ignores the probe cannot game it), the cue
   (heat drawn from the finger over 0–1 s, J) and the skin change, display vs direct. ``per_contact``
@@ -34,8 +34,8 @@ from typing import Any
 
 import numpy as np
 
-from telethermo.session.recording import Recording
-from telethermo.session.transparency import transparency_figures
+from telethermo.offline.recording import Recording
+from telethermo.offline.transparency import transparency_figures
 
 EARLY_S = (0.1, 1.0)
 LATE_S = (1.0, 3.0)
@@ -163,7 +163,7 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         return float(np.mean(vals)) if stat == "mean_abs" else float(np.max(vals))
 
     out["transparency"] = {
-        # what the operator feels (telethermo.session.transparency): the headline is the mean |skin − direct
+        # what the operator feels (telethermo.offline.transparency): the headline is the mean |skin − direct
         # skin| over [t_on − 0.5 s, t_on + 1 s]; early = 0–1 s, early01 = 0.1–1 s, late = 1–3 s
         "headline_error_C": honest["headline_error_C"],
         "pre_contact_mean_error_C": honest["pre_contact_mean_error_C"],

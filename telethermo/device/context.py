@@ -2,7 +2,7 @@
 
 :class:`DeviceCore` is handed to every service module (:mod:`.nmt`, :mod:`.sdo_gate`,
 :mod:`.pdo_engine`, :mod:`.sync_consumer`, :mod:`.heartbeat`, :mod:`.emcy_producer`,
-:mod:`.od_access`); the thin :class:`telethermo.canopen_dev.device.Device` composes them, hands
+:mod:`.od_access`); the thin :class:`telethermo.device.device.Device` composes them, hands
 each the few services it calls (the heartbeat consumer and the PDO length check raise EMCYs, the SYNC
 consumer runs the PDOs) and wires the NMT transitions and the SDO write side effects.
 """
@@ -17,9 +17,9 @@ from typing import Callable
 import can
 import canopen
 
-from telethermo.canopen_dev.scheduler import Scheduler
+from telethermo.device.scheduler import Scheduler
 
-logger = logging.getLogger("telethermo.canopen_dev.device")
+logger = logging.getLogger("telethermo.device.device")
 
 
 class NmtState(IntEnum):

@@ -5,10 +5,10 @@ from __future__ import annotations
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev import emcy as emcy_mod
+from telethermo.device import emcy as emcy_mod
 from telethermo.cia301 import ABORT_RANGE, EMCY_NO_ERROR
-from telethermo.canopen_dev.context import SERVING, DeviceCore
-from telethermo.canopen_dev.pdo import PDO_INVALID
+from telethermo.device.context import SERVING, DeviceCore
+from telethermo.device.pdo import PDO_INVALID
 
 
 class EmcyProducer:

@@ -8,9 +8,9 @@ from typing import Callable
 from canopen.sdo import SdoAbortedError
 
 from telethermo.cia301 import ABORT_INCOMPATIBLE, EMCY_HEARTBEAT
-from telethermo.canopen_dev.context import DeviceCore, NmtState
-from telethermo.canopen_dev.emcy_producer import EmcyProducer
-from telethermo.canopen_dev.events import PeerEvent
+from telethermo.device.context import DeviceCore, NmtState
+from telethermo.device.emcy_producer import EmcyProducer
+from telethermo.device.events import PeerEvent
 
 #: 1 while every consumed peer is alive (manufacturer object, see bus_config/edsgen.py)
 PEER_ALIVE_INDEX = 0x2705

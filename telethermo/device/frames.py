@@ -6,7 +6,7 @@ from typing import Iterable
 
 import can
 
-from telethermo.canopen_dev.context import DeviceCore
+from telethermo.device.context import DeviceCore
 
 #: COB-ID bases of the services of one node (EMCY, PDOs 1..4, SDO, heartbeat), + node-ID
 NODE_SERVICE_BASES = (0x080, 0x180, 0x200, 0x280, 0x300, 0x380, 0x400, 0x480, 0x500, 0x580, 0x600, 0x700)

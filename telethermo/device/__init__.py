@@ -9,13 +9,13 @@ producer), :mod:`.measure` (a device-only lockstep speed check),
 :mod:`.eds_info` (limits, units and names from the EDS text), :mod:`.netconfig` (network.toml),
 :mod:`.settings` (power-on overrides). See docs/canopen.md.
 """
-from telethermo.canopen_dev.device import (
+from telethermo.device.device import (
     Device, DeviceStats, NmtCommand, NmtState, OdWriteError, PeerEvent, RpdoEvent, SyncTick, WriteEvent,
 )
-from telethermo.canopen_dev.eds_info import EdsError, EdsInfo, VarInfo
-from telethermo.canopen_dev.netconfig import NetworkConfig, NetworkConfigError, load_network
-from telethermo.canopen_dev.settings import DeviceSettings
-from telethermo.canopen_dev.sync import SyncProducer
+from telethermo.device.eds_info import EdsError, EdsInfo, VarInfo
+from telethermo.device.netconfig import NetworkConfig, NetworkConfigError, load_network
+from telethermo.device.settings import DeviceSettings
+from telethermo.device.sync import SyncProducer
 
 __all__ = [
     "Device", "DeviceStats", "NmtCommand", "NmtState", "OdWriteError", "PeerEvent", "RpdoEvent", "SyncTick",

@@ -8,9 +8,9 @@ from typing import Callable
 from canopen.sdo import SdoAbortedError
 
 from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_RANGE
-from telethermo.canopen_dev.context import DeviceCore, NmtState
-from telethermo.canopen_dev.events import SyncTick
-from telethermo.canopen_dev.pdo_engine import PdoEngine
+from telethermo.device.context import DeviceCore, NmtState
+from telethermo.device.events import SyncTick
+from telethermo.device.pdo_engine import PdoEngine
 
 
 class SyncConsumer:

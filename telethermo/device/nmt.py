@@ -5,8 +5,8 @@ from __future__ import annotations
 
 from typing import Callable
 
-from telethermo.canopen_dev import canopen_adapter as adapter
-from telethermo.canopen_dev.context import DeviceCore, NmtCommand, NmtState
+from telethermo.device import canopen_adapter as adapter
+from telethermo.device.context import DeviceCore, NmtCommand, NmtState
 
 #: ``fn(old, new, command)`` on every NMT state change (command None on power-on)
 NmtListener = Callable[[NmtState, NmtState, "int | None"], None]

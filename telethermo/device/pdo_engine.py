@@ -10,12 +10,12 @@ from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.canopen_dev import pdo as pdo_mod
+from telethermo.device import pdo as pdo_mod
 from telethermo.cia301 import ABORT_PDO_TOO_LONG, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED
-from telethermo.canopen_dev.context import DeviceCore, NmtState
-from telethermo.canopen_dev.emcy_producer import EmcyProducer
-from telethermo.canopen_dev.events import RpdoEvent
-from telethermo.canopen_dev.frames import FrameWatch
+from telethermo.device.context import DeviceCore, NmtState
+from telethermo.device.emcy_producer import EmcyProducer
+from telethermo.device.events import RpdoEvent
+from telethermo.device.frames import FrameWatch
 
 
 class PdoEngine:

@@ -3,12 +3,12 @@
 A node never receives its own frames, so :meth:`SyncProducer.transmit` sends the SYNC and then runs
 the producing device's own SYNC processing (RPDO commit, SYNC handlers, TPDOs) in the caller's
 thread. The schedule (lockstep: SYNC k+1 after the peer's PDO k, seen with
-:meth:`telethermo.canopen_dev.device.Device.wait_rpdo`; or real time) is the node program's: the one
+:meth:`telethermo.device.device.Device.wait_rpdo`; or real time) is the node program's: the one
 SYNC scheduler is ``nodes.runtime.NodeRuntime.run_producer``.
 """
 from __future__ import annotations
 
-from telethermo.canopen_dev.device import Device, NmtState, SyncTick
+from telethermo.device.device import Device, NmtState, SyncTick
 
 
 class SyncProducer:
