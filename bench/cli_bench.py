@@ -28,6 +28,10 @@ from pathlib import Path
 from typing import Any
 
 from bench.common import print_table, write_results
+import struct
+from telethermo.bus_config import path as cfg_path
+from telethermo.device.eds_info import EdsInfo
+from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "sim" / "scenes" / "free_pad_identification.toml"
@@ -85,9 +89,6 @@ def interleaved(a: list[str], b: list[str], repeats: int) -> tuple[list[float], 
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-    from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
-    from telethermo.bus_config import path as cfg_path
-    from telethermo.device.eds_info import EdsInfo
 
     repeats = 5 if quick else 11
     tt = telethermo_command()
@@ -113,7 +114,6 @@ def run(quick: bool = False) -> dict[str, Any]:
         hub.stop()
     shutil.rmtree(work, ignore_errors=True)
     # the two read the same thing: the CLI's printed value is the raw script's REAL32
-    import struct
     raw_value = struct.unpack("<f", bytes.fromhex(out_raw.strip()))[0]
     shown = out_tt.split(" = ", 1)[1].split()[0]
     if abs(float(shown) - raw_value) > 1e-4 * max(1.0, abs(raw_value)):

@@ -21,6 +21,7 @@ import can
 import canopen
 
 from telethermo.bus_config import path as bus_config_path
+from telethermo.nodes.launch import NodePair, PairConfig
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
@@ -128,7 +129,6 @@ class Lab:
 def live_pair(out_dir: Path, *, timing: str = "realtime", start_timeout_s: float = 120.0) -> Iterator[Lab]:
     """The master and slave programs (simulated rigs, telepresence) over a fresh hub, running until the end
     of the block; yields the client side once the master has run 100 cycles."""
-    from telethermo.nodes.launch import NodePair, PairConfig
 
     pair = NodePair(PairConfig(scene=SCENE, out_dir=Path(out_dir), timing=timing, cycles=0, seed=0, progress_every=10))
     pair.start()

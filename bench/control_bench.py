@@ -34,13 +34,18 @@ from telethermo.control.params import default_params
 from telethermo.control.estimators import Estimator
 from telethermo.control.types import PeerValues, Role
 from telethermo.rig import RigSample
+import numpy as np
+from telethermo import sim
+from telethermo.ident import NarmaOrders, default_model_path, load_model
+from telethermo.ident.experiment import identify_rig
+from telethermo.offline import run_offline_session
+from telethermo.offline.figures import EARLY_S, LATE_S
 
 SCENE = "probe_touches_al_steel_wood"
 PERIODS_MS = (1, 2, 5, 10, 20)
 
 
 def _scene(period_s: float):
-    from telethermo import sim
     sc = sim.load_scene(SCENE)
     return dataclasses.replace(sc, period_s=period_s) if abs(sc.period_s - period_s) > 1e-12 else sc
 
@@ -89,7 +94,6 @@ class RowConfig:
         return pm, ps
 
     def session(self, duration_s: float | None):
-        from telethermo.offline import run_offline_session
         pm, ps = self.params()
         return run_offline_session(_scene(self.period_s), master_params=pm, slave_params=ps, master_model=self.model,
                                    slave_model=self.model, duration_s=duration_s, rounding=self.rounding)
@@ -136,9 +140,6 @@ def _order(model: Any) -> str | None:
 
 def _models(quick: bool) -> list[Any]:
     """The shipped model and, unless quick, models of other orders identified on the free pad."""
-    from telethermo import sim
-    from telethermo.ident import NarmaOrders, default_model_path, load_model
-    from telethermo.ident.experiment import identify_rig
     out = [load_model(default_model_path())]
     if not quick:
         for o in ((1, 1, 0, 0), (2, 2, 1, 1), (3, 3, 3, 3)):
@@ -154,10 +155,7 @@ def oracle_bound(duration_s: float | None = None, kp_A_per_C: float = 5.0, ki_A_
     """What the display's TEM can do at best: an *oracle* PI on the master that sees the true skin
     temperature and the direct-touch reference (no filter, no delay, no bilateral loop), with the
     envelope's current limit (0.8·I_max). Its early-phase error is a hardware bound, not a controller."""
-    import numpy as np
 
-    from telethermo import sim
-    from telethermo.offline.figures import EARLY_S, LATE_S
     sc = _scene(0.01)
     rig = sim.build_rig(sc, "master", seed=0)
     ref = sim.build_reference(sc)

@@ -25,14 +25,18 @@ from typing import Any  # noqa: E402
 import numpy as np  # noqa: E402
 
 from bench.common import median_time_s, print_table, write_results
+from telethermo import sim
+from telethermo.ident import NarmaOrders, Rls, UnstableModelError, fit_narma
+from telethermo.ident.experiment import ExperimentSettings, _concat, identify_capacity, run_excitation, steady_state_points
+from telethermo.ident.flux import fit_flux_arma
+from telethermo.ident.narma import narma_regressors, solve_scaled_lstsq
+from telethermo.ident.online import OnlineNarma
+from telethermo.ident.prbs import prbs
 
 ORDER3 = (3, 3, 3, 3)
 
 
 def _record(n_train: int, n_val: int, seed: int = 0):
-    from telethermo import sim
-    from telethermo.ident.experiment import ExperimentSettings, _concat, run_excitation
-    from telethermo.ident.prbs import prbs
 
     s = ExperimentSettings()
     rig = sim.free_pad_rig(period_s=0.01, ambient_C=25.0, seed=seed, noise=True)
@@ -51,7 +55,6 @@ def _heldout(model, rec, start_val: int) -> tuple[float, float]:
 
 
 def _fit_eval(rec, rest: int, n_train: int, start_val: int, orders, method: str) -> dict[str, Any]:
-    from telethermo.ident import NarmaOrders, UnstableModelError, fit_narma
 
     o = NarmaOrders(*orders)
     T_ref = float(np.mean(rec.T_C[:rest]))
@@ -71,9 +74,6 @@ def _fit_eval(rec, rest: int, n_train: int, start_val: int, orders, method: str)
 
 def _timings(rec, rest: int, T_ref: float, quick: bool) -> dict[str, float]:
     """Batch LS fit of order 3 on 10,000 samples (ms) and the RLS/streaming update (µs), same run."""
-    from telethermo.ident import NarmaOrders, Rls, fit_narma
-    from telethermo.ident.narma import narma_regressors, solve_scaled_lstsq
-    from telethermo.ident.online import OnlineNarma
 
     sl = slice(0, rest + 10_000)
     I10, T10 = rec.current_A[sl], rec.T_C[sl]
@@ -154,7 +154,6 @@ def _length_table(rec, rest: int, start_val: int, lengths: list[int], just: dict
 
 def _flux_table(rec, rest: int, start_val: int, T_ref: float) -> list[dict]:
     """Heat-flux ARMA (3, 3) with and without the current terms, held-out free run, W."""
-    from telethermo.ident.flux import fit_flux_arma
 
     fsl = slice(0, rest + 10_000)
     flux_rows = []
@@ -174,9 +173,6 @@ def _flux_table(rec, rest: int, start_val: int, T_ref: float) -> list[dict]:
 
 def _capacity_error(rec, rest: int, T_ref: float, just: dict) -> float:
     """Capacity model (eq. 13) against the simulator's steady state at 13 held-out currents, relative."""
-    from telethermo import sim
-    from telethermo.ident import NarmaOrders, fit_narma
-    from telethermo.ident.experiment import identify_capacity, steady_state_points
 
     fsl = slice(0, rest + 10_000)
     m_just = fit_narma(current_A=rec.current_A[fsl], T_C=rec.T_C[fsl], orders=NarmaOrders(*just["orders"]),

@@ -25,6 +25,10 @@ from typing import Any
 import numpy as np
 
 from bench.common import print_table, write_results
+from telethermo import sim
+from telethermo.ident import NarmaOrders
+from telethermo.ident.experiment import ExperimentSettings, fit_experiment, run_excitation
+from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "sim" / "scenes" / "free_pad_identification.toml"
@@ -44,10 +48,6 @@ def _read_samples(path: Path) -> tuple[dict[str, str], np.ndarray, np.ndarray]:
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-    from telethermo import sim
-    from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
-    from telethermo.ident import NarmaOrders
-    from telethermo.ident.experiment import ExperimentSettings, fit_experiment, run_excitation
 
     # >= 10,000 training samples (guiatni's M): shorter experiments give marginally unstable 4,4,1,1 models too
     # often to be a CI benchmark (2,500: 3 of 12 experiments refused; 4,000: 1 of 12; 10,000: 0 of 12)

@@ -39,6 +39,21 @@ from typing import Any
 import numpy as np
 
 from bench.common import print_table, write_results
+import tomllib
+from bench.raw_anchor import anchor_process, anchor_virtual as run_anchor
+from telethermo.bus_config import path as bc
+from telethermo.control.types import Mode, Role
+from telethermo.device.netconfig import load_network
+from telethermo.nodes.launch import HubProcess, NodePair, PairConfig
+from telethermo.nodes.main import run_result
+from telethermo.nodes.merge import SYNC_CYCLE, merge_recordings
+from telethermo.nodes.options import NodeOptions
+from telethermo.nodes.parts import build_parts
+from telethermo.nodes.runtime import NodeRuntime
+from telethermo.offline import run_offline_session
+from telethermo.offline.recording import COLUMNS, MAGIC, TEXT_COLUMNS
+from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.transport.bus import FrameLog, TransportSettings, bus_load, frame_bits
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
@@ -48,7 +63,6 @@ VCAN_RUN = ROOT.parent / "shared" / "tools" / "vcan-run"
 # ---------------------------------------------------------------------------------------- helpers
 def _network_file(folder: Path, *, period_s: float = 0.01, interface: str = "virtual", channel: str = "telethermo",
                   producer_ms: int = 100, consumer_ms: int = 250) -> Path:
-    from telethermo.bus_config import path as bc
     p = folder / f"network_{int(round(1 / period_s))}hz_{interface}.toml"
     p.write_text(f"""[bus]
 interface = "{interface}"
@@ -73,7 +87,6 @@ eds = "{bc('slave.eds')}"
 
 def _scene_at(folder: Path, period_s: float) -> Path:
     """The benchmark scene with another control period (the scene's period must equal the SYNC period)."""
-    import tomllib
     text = SCENE.read_text()
     doc = tomllib.loads(text)
     old = doc.get("scene", {}).get("period_s", 0.01)
@@ -87,9 +100,6 @@ def _scene_at(folder: Path, period_s: float) -> Path:
 def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[float | None, str]:
     """Largest |recorded - offline runner (REAL32 exchange)| over every numeric column, and a note
     (None and the reason when the recordings do not even line up)."""
-    from telethermo.nodes.merge import SYNC_CYCLE, merge_recordings
-    from telethermo.offline import run_offline_session
-    from telethermo.offline.recording import TEXT_COLUMNS
     rec = merge_recordings(master_csv, slave_csv, scene=SCENE)
     off = run_offline_session(SCENE, duration_s=cycles * 0.01, rounding="real32", seed=0).recording
     if len(rec) != len(off):
@@ -117,16 +127,6 @@ def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[
 # ---------------------------------------------------------------------------------------- lockstep
 def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
     """Both nodes in this process on python-can's virtual bus; cycles/s of the SYNC producer's loop."""
-    from telethermo.nodes.main import run_result
-    from telethermo.nodes.merge import SYNC_CYCLE
-    from telethermo.nodes.options import NodeOptions
-    from telethermo.nodes.parts import build_parts
-    from telethermo.offline.recording_journal import CsvRecorder
-    from telethermo.nodes.runtime import NodeRuntime
-    from telethermo.device.netconfig import load_network
-    from telethermo.control.types import Mode, Role
-    from telethermo.offline.recording import COLUMNS, MAGIC
-    from telethermo.transport.bus import TransportSettings
 
     net = load_network()
     transport = TransportSettings("virtual", f"bench-{tag}-{time.monotonic_ns()}")
@@ -159,7 +159,6 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
 def lockstep_processes(cycles: int, folder: Path, *, bus: str | None = None, timing: str = "lockstep",
                        scene: Path = SCENE, network: Path | None = None, observe: bool = False) -> dict[str, Any]:
     """The two node programs as processes (our hub unless ``bus``); the master's result line."""
-    from telethermo.nodes.launch import NodePair, PairConfig
     pair = NodePair(PairConfig(scene=scene, out_dir=folder, bus=bus, timing=timing, cycles=cycles, seed=0,
                                network=network, master_args=["--wait-peer", "600"]))
     obs = None
@@ -182,7 +181,6 @@ class _Observer:
     """A third client on the hub: every frame, for the bus load."""
 
     def __init__(self, port: int) -> None:
-        from telethermo.transport.bus import FrameLog
         self.log = FrameLog(f"socketcand://127.0.0.1:{port}/telethermo")
 
     @property
@@ -195,7 +193,6 @@ class _Observer:
 
     def load(self) -> dict[str, Any]:
         """Bus load at 1 Mbit/s between the first and the last SYNC seen (hub timestamps)."""
-        from telethermo.transport.bus import frame_bits
         frames = self.frames
         syncs = [t for t, cob, _ in frames if cob == 0x080]
         if len(syncs) < 2:
@@ -213,7 +210,6 @@ class _Observer:
 def nominal_bus_load(period_s: float) -> float:
     """The contract's load at 1 Mbit/s: SYNC (1 byte), two TPDO1 (8) and two contact TPDO5 (1) per cycle,
     each node's three status TPDOs (8 bytes) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
-    from telethermo.transport.bus import bus_load
     f = 1.0 / period_s
     return bus_load({1: 3 * f + 2 * 10.0, 8: 2 * f + 2 * 3 * f / 10})
 
@@ -255,15 +251,12 @@ ANCHOR_FRAMES = ("per cycle, raw python-can: SYNC 0x080 (1 byte) + 0x181 (8) + 0
 
 def anchor_virtual(cycles: int, channel: str) -> float:
     """Raw ping-pong cycles/s on the virtual bus, the responder in a thread (bench.raw_anchor)."""
-    from bench.raw_anchor import anchor_virtual as run_anchor
     return run_anchor(cycles, channel)
 
 
 def anchor_hub(cycles: int) -> float:
     """Raw ping-pong cycles/s over our hub (the same program the node pair uses), the responder in
     another process (bench.raw_anchor)."""
-    from bench.raw_anchor import anchor_process
-    from telethermo.nodes.launch import HubProcess
     hub = HubProcess()
     hub.start()
     try:

@@ -26,6 +26,8 @@ import threading
 import time
 
 import can
+from telethermo.nodes.launch import HubProcess
+from telethermo.transport.bus import TransportSettings, open_bus, parse_bus_string
 
 SYNC_ID = 0x080
 OUT_FRAMES = ((0x181, 8), (0x681, 1))     # the pinger's own TPDO1, TPDO5 (master, node 1)
@@ -74,7 +76,6 @@ def ping(bus: can.BusABC, cycles: int, *, timeout_s: float = 5.0) -> float:
 
 def anchor_virtual(cycles: int, channel: str) -> float:
     """Cycles/s of the ping-pong on python-can's virtual bus, the responder in a thread of this process."""
-    from telethermo.transport.bus import TransportSettings, open_bus
     settings = TransportSettings("virtual", channel)
     a, b = open_bus(settings), open_bus(settings)
     stop = threading.Event()
@@ -92,7 +93,6 @@ def anchor_virtual(cycles: int, channel: str) -> float:
 
 def anchor_process(cycles: int, bus: str) -> float:
     """Cycles/s of the ping-pong over ``bus`` (e.g. our hub), the responder in another process."""
-    from telethermo.transport.bus import open_bus, parse_bus_string
     proc = subprocess.Popen([sys.executable, "-m", "bench.raw_anchor", "--respond", bus], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, text=True, start_new_session=True)
     try:
@@ -116,7 +116,6 @@ def anchor_process(cycles: int, bus: str) -> float:
 
 
 def _responder_main(bus_text: str) -> int:
-    from telethermo.transport.bus import open_bus, parse_bus_string
     bus = open_bus(parse_bus_string(bus_text))
     stop = threading.Event()
 
@@ -142,7 +141,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.respond:
         return _responder_main(args.respond)
     print(f"virtual: {anchor_virtual(args.cycles, f'anchor-{time.monotonic_ns()}'):.0f} cycles/s")
-    from telethermo.nodes.launch import HubProcess
     hub = HubProcess()
     hub.start()
     try:

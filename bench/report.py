@@ -8,6 +8,8 @@ import json
 from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
+import io
+from telethermo.atomic import write_bytes_atomic
 
 DOCS = Path(__file__).resolve().parent.parent / "docs" / "benchmarks.md"
 BEGIN, END = "<!-- BEGIN GENERATED TABLE -->", "<!-- END GENERATED TABLE -->"
@@ -126,8 +128,6 @@ def write_plots(results_dir: Path) -> list[Path]:
     except ImportError:
         print("bench: matplotlib not installed (pip install '.[plot]'): no plots")
         return []
-    import io
-    from telethermo.atomic import write_bytes_atomic
 
     out = []
     for name in ("sim", "identify", "control"):

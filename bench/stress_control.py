@@ -16,6 +16,9 @@ from telethermo.control import safety as sf
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
+from bench.stress_sim import load_scene_doc
+from telethermo import sim
+from telethermo.offline.runner import run_offline_session
 
 PERIOD_S = 0.01
 PAD_TOL_C = 0.5
@@ -23,8 +26,6 @@ PAD_TOL_C = 0.5
 
 def master_rig(duration_s: float, seed: int = 0):
     """A master rig with the operator's finger on the pad for the whole run (noise on)."""
-    from bench.stress_sim import load_scene_doc
-    from telethermo import sim
     doc = {"scene": {"name": "finger_hold", "kind": "telepresence", "duration_s": duration_s, "period_s": PERIOD_S,
                      "ambient_C": 25.0},
            "master": {"contacts": [{"start_s": 0.0, "end_s": duration_s + 1.0, "force_N": 8.0}]},
@@ -246,7 +247,6 @@ def case_sync_loss_bursts(duration_s: float = 120.0, seed: int = 3) -> dict:
 
 def case_real32(duration_s: float = 15.0) -> dict:
     """REAL32 rounding of the exchanged values changes the session by less than 1e-3."""
-    from telethermo.offline.runner import run_offline_session
 
     c = Case("control_real32_rounding",
              "the guiatni §5.3 scene run offline twice, the exchanged estimates and fluxes exact or rounded to "

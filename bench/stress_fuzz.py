@@ -23,6 +23,9 @@ from telethermo import sim
 from bench import stress_toml
 from bench.stress_case import Case
 from bench.stress_fuzz_frames import KNOWN_FINDINGS, case_fuzz_frames
+from bench.stress_model import identified_model
+from telethermo.ident import ModelFileError, TemModel, load_model
+from telethermo.ident.modelfile import model_to_dict
 
 HUGE_INT = 10 ** 400
 SWEEP_VALUES = (HUGE_INT, -HUGE_INT, math.nan, math.inf, -math.inf, 1e308, -1e308, 5e-324, -0.0, True, "1", [], {})
@@ -211,16 +214,12 @@ def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict
 # ------------------------------------------------------------------------------------------------ models
 def base_model_doc() -> dict:
     """The JSON document of the model identified on the simulated rig (bench.stress_model)."""
-    from bench.stress_model import identified_model
-    from telethermo.ident import TemModel
-    from telethermo.ident.modelfile import model_to_dict
 
     return model_to_dict(TemModel(temperature=identified_model(), meta={"rig": "sim.free_pad_rig", "seed": 1}))
 
 
 def case_fuzz_model_loader(max_examples: int = 200) -> dict:
     """Mutated model files: a TemModel or a ModelFileError naming the file."""
-    from telethermo.ident import ModelFileError, TemModel, load_model
 
     c = Case("fuzz_model_loader",
              "mutated model files (values of other types, NaN/Infinity, ints beyond float range, keys dropped or "

@@ -15,6 +15,7 @@ import numpy as np
 from bench.stress_case import Case
 from telethermo.ident import (ModelFileError, NarmaModel, NarmaOrders, TemModel, UnstableModelError, check_stability,
                               fit_narma, load_model, prbs, save_model)
+from telethermo import sim
 
 PERIOD_S = 0.01
 
@@ -22,7 +23,6 @@ PERIOD_S = 0.01
 @functools.lru_cache(maxsize=2)
 def identified_model(n_samples: int = 20_000, seed: int = 1) -> NarmaModel:
     """Order-3 NARMA model of the default simulated rig, from a PRBS (±0..1 A, 0.1 s bits) on the free pad."""
-    from telethermo import sim
     rig = sim.free_pad_rig(period_s=PERIOD_S, seed=seed)
     u = prbs(n_samples, amplitude_A=(0.0, 1.0), hold_samples=10, seed=seed)
     u[:200] = 0.0  # at rest first: T_ref = the free pad's rest temperature
@@ -152,7 +152,6 @@ def long_current(n: int, seed: int = 11) -> np.ndarray:
 def physical_band_C(lo_A: float, hi_A: float) -> tuple[float, float]:
     """Steady sensor temperatures of the simulated free pad (the truth) at constant lo_A and hi_A, °C (1 h at
     each, 0.5 s steps, no noise)."""
-    from telethermo import sim
     temps = []
     for I in (lo_A, 0.0, hi_A):
         rig = sim.free_pad_rig(period_s=PERIOD_S, noise=False)

@@ -23,6 +23,8 @@ import numpy as np
 from bench import stress_toml
 from bench.stress_case import Case
 from telethermo.ident import prbs
+from bench.stress_model import physical_band_C
+from telethermo import sim
 
 PERIOD_S = 0.01
 ENERGY_REL_TOL = 1e-6   # residual / throughput; the sim's own target is 0.1 % (issue 2), this is far tighter
@@ -30,7 +32,6 @@ ENERGY_REL_TOL = 1e-6   # residual / throughput; the sim's own target is 0.1 % (
 
 def load_scene_doc(doc: dict, name: str):
     """Write ``doc`` as TOML to a temporary file and load it with sim.load_scene."""
-    from telethermo import sim
     with tempfile.TemporaryDirectory() as td:
         p = Path(td) / f"{name}.toml"
         p.write_text(stress_toml.dumps(doc), encoding="utf-8")
@@ -102,14 +103,12 @@ def _check_run(c: Case, label: str, run: dict, en: dict, *, bounds: tuple[float,
 
 
 def _band() -> tuple[float, float]:
-    from bench.stress_model import physical_band_C
     lo, hi = physical_band_C(-1.0, 1.0)
     return lo - 2.0, hi + 2.0
 
 
 def case_extreme_materials(duration_s: float = 40.0) -> dict:
     """Copper at 5 °C and EPS at 50 °C on the probe: maximum principle, energy balance."""
-    from telethermo import sim
     c = Case("sim_extreme_materials",
              "copper at 5 °C and EPS at 50 °C touching the probe (0 A: every temperature stays within [5, 50] °C, "
              f"the maximum principle; ±1 A PRBS: within the rig's steady band) with energy residual <= "
@@ -133,7 +132,6 @@ def case_extreme_materials(duration_s: float = 40.0) -> dict:
 
 def case_many_touches(n_touches: int = 10_000) -> dict:
     """10,000 touches: energy balance, contact flags exactly per schedule."""
-    from telethermo import sim
     c = Case("sim_10000_touches",
              f"{n_touches} touches (30 ms each, 20 ms apart, alternating aluminium at 15 °C and oak at 40 °C, "
              "make/break between samples) under a ±1 A PRBS: no NaN, temperatures within the rig's steady band, "
@@ -164,7 +162,6 @@ def case_many_touches(n_touches: int = 10_000) -> dict:
 
 def case_chatter(duration_s: float = 2.0) -> dict:
     """1 ms contact chatter inside 10 ms steps: bounded, energy balanced."""
-    from telethermo import sim
     c = Case("sim_contact_chatter_1ms",
              f"the probe chatters on copper at 10 °C: 1 ms contact, 1 ms off, for {duration_s:g} s (5 make/break "
              "events inside every 10 ms step): no NaN, within [10, 25] °C at 0 A, within the rig's band with "
@@ -193,7 +190,6 @@ def case_chatter(duration_s: float = 2.0) -> dict:
 
 def case_force_steps(n_steps: int = 20) -> dict:
     """Force steps 0.2 N <-> 100 N: the heat flow follows, energy balanced."""
-    from telethermo import sim
     c = Case("sim_force_steps",
              "the probe holds copper at 5 °C with the force stepping 0.2 N <-> 100 N every 0.5 s (adjacent touches): "
              "the heat flow into the copper jumps up on every step up and down on every step down (contact "
@@ -234,7 +230,6 @@ def case_force_steps(n_steps: int = 20) -> dict:
 
 def case_soak(hours: float = 24.0) -> dict:
     """24 simulated hours at the default step: bounded, energy still balanced."""
-    from telethermo import sim
     n = int(round(hours * 3600 / PERIOD_S))
     c = Case("sim_long_soak",
              f"{hours:g} simulated hours at the default 10 ms step ({n} steps) of a probe touching aluminium, steel "

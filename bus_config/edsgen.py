@@ -25,6 +25,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from telethermo.bus_config import path as _path
+from telethermo.atomic import write_text_atomic
 
 # CiA 301 data types
 BOOLEAN, INTEGER8, INTEGER16, INTEGER32 = 0x0001, 0x0002, 0x0003, 0x0004
@@ -438,7 +439,6 @@ def markdown_table(role: str = "master") -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    from telethermo.atomic import write_text_atomic
 
     parser = argparse.ArgumentParser(description="Generate bus_config/master.eds and slave.eds.")
     parser.add_argument("--check", action="store_true", help="only compare; exit 1 if a file differs")

@@ -42,6 +42,8 @@ from dataclasses import dataclass
 from typing import Callable
 
 from telethermo.rig import RigSample
+from telethermo.sim.compile import build_rig
+from telethermo.sim.scene import load_scene
 
 DEFAULT_MAX_CATCH_UP_S = 1.0
 """The longest stretch of wall time one read simulates, s (a longer gap is skipped beyond it, and counted)."""
@@ -152,8 +154,6 @@ class WallClockRig:
 def wall_clock_rig(scene: str, role: str, seed: int | None = None, **kw) -> WallClockRig:
     """The ``role`` rig ("master"/"slave") of ``scene`` (a shipped scene's name or a TOML path) in real time;
     ``seed`` defaults to the node programs' (master 0, slave 1); ``kw`` go to :class:`WallClockRig`."""
-    from telethermo.sim.compile import build_rig
-    from telethermo.sim.scene import load_scene
     if role not in SEEDS:
         raise ValueError(f"wall_clock_rig: role must be 'master' or 'slave', got {role!r}")
     inner = build_rig(load_scene(scene), role, seed=SEEDS[role] if seed is None else seed)

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from telethermo.device.settings import DeviceSettings
+from telethermo.bus_config import path
 
 ROLES = ("master", "slave")
 
@@ -92,7 +93,6 @@ class NetworkConfig:
 
 
 def default_path() -> Path:
-    from telethermo.bus_config import path
     return path("network.toml")
 
 

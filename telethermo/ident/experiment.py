@@ -37,6 +37,7 @@ from telethermo.ident.narma_fit import fit_narma
 from telethermo.ident.plan import IdentifyPlan, guarded_current
 from telethermo.ident.stability import check_stability
 from telethermo.rig import Rig
+from telethermo.atomic import write_text_atomic
 
 Progress = Callable[[int, int], None]
 
@@ -221,7 +222,6 @@ def save_record_csv(path, rec: Record, plan: IdentifyPlan, *, comments: dict[str
     """Write the experiment's samples as CSV, atomically: ``j, phase, t_s, current_A, T_sensor_C, Q_W`` (one row
     per sample of ``plan``; ``current_A`` is the current commanded after sample j). ``comments`` become
     ``# key: value`` lines first. Returns the path."""
-    from telethermo.atomic import write_text_atomic
     lines = [f"# {k}: {v}" for k, v in (comments or {}).items()]
     lines.append("j,phase,t_s,current_A,T_sensor_C,Q_W")
     lines += [f"{j},{plan.phase(j)},{t!r},{i!r},{T!r},{q!r}" for j, (t, i, T, q) in

@@ -39,6 +39,7 @@ from telethermo.atomic import write_json_atomic
 from telethermo.ident.capacity import CapacityModel
 from telethermo.ident.flux import FluxArma
 from telethermo.ident.narma import MAX_ORDER, NarmaModel, NarmaOrders
+from telethermo.ident.stability import check_stability as _check
 
 FORMAT = "telethermo-tem-model"
 FORMAT_VERSION = 1
@@ -244,7 +245,6 @@ def model_from_dict(doc: Any, *, path: str | os.PathLike = "<dict>", check_stabi
     temp = NarmaModel(orders=orders, theta=theta, period_s=period, T_ref_C=T_ref, current_range_A=cr,
                       T_range_C=Tr, metrics=r.metrics(t, "temperature.metrics"), data_sha256=sha)
     if check_stability:
-        from telethermo.ident.stability import check_stability as _check
         rep = _check(temp)
         if not rep.stable:
             raise r.err("temperature.theta", "a stable model", rep.reason)

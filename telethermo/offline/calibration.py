@@ -17,6 +17,7 @@ import numpy as np
 from telethermo.control.rendering import FingerCalibration, calibrate_finger
 from telethermo.offline.figures import EARLY_S
 from telethermo.offline.recording import Recording
+from telethermo.offline.runner import run_offline_session
 
 
 def contact_temperatures_from_recording(rec: Recording, window_s: tuple[float, float] = EARLY_S) -> list[float]:
@@ -37,7 +38,6 @@ def calibrate_finger_offline(scene: Any = "virtual_materials", presets_C: tuple[
                              *, params=None, seed: int | None = 0, beta_pad_guess: float = 2.23,
                              thermometer_lead_s: float = 1.0) -> tuple[FingerCalibration, Recording]:
     """Run a calibration session on ``scene``'s touches and fit (β_pad, T_finger0)."""
-    from telethermo.offline.runner import run_offline_session
     res = run_offline_session(scene, master_params=params, seed=seed, mode="render",
                               render_options=dict(calibration_presets_C=list(presets_C), beta_pad=beta_pad_guess,
                                                   finger_thermometer=False))

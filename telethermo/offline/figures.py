@@ -36,6 +36,7 @@ import numpy as np
 
 from telethermo.offline.recording import Recording
 from telethermo.offline.transparency import transparency_figures
+from telethermo.control.safety import EMCY_CODES, Trip
 
 EARLY_S = (0.1, 1.0)
 LATE_S = (1.0, 3.0)
@@ -117,7 +118,6 @@ def _safety(rec: Recording) -> dict[str, Any]:
         for k, cell in enumerate(rec.text(f"{side}_new_trips")):
             for trip in filter(None, cell.split("|")):
                 out["trips"].append({"t_s": float(t[k]), "side": name, "trip": trip})
-    from telethermo.control.safety import EMCY_CODES, Trip
     for tr in out["trips"]:
         try:
             tr["emcy_code"] = f"0x{EMCY_CODES[Trip(tr['trip'])]:04X}"

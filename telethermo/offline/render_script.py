@@ -21,6 +21,7 @@ from typing import Any, Callable
 from telethermo.control.core import RenderSettings
 from telethermo.control.later_phase import DEFAULT_LATER_MODEL, LaterModel, later_phase
 from telethermo.control.virtual_object import VirtualObject, load_object_table
+from telethermo.control.rendering import load_render_table
 
 
 def _object_beta(sc, name: str, spec, table: dict[str, float], objects) -> float:
@@ -41,7 +42,6 @@ def render_touches(sc, table: dict[str, float] | None = None, *, beta_pad: float
                    period_s: float | None = None) -> list[dict[str, Any]]:
     """Render settings of each touch of a virtual scene (β from the rendering table; ``later_model``:
     the later-phase model, built from the scene object's material, thickness and back)."""
-    from telethermo.control.rendering import load_render_table
     table = table or load_render_table()
     objects = load_object_table()
     out = []

@@ -35,6 +35,8 @@ from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
 from telethermo.offline.recording import Recording, RecordingBuilder, write_recording_csv
 from telethermo.offline.render_script import RenderScript
+from telethermo import sim
+from telethermo.ident import load_model
 
 ROUNDINGS = ("none", "real32")
 
@@ -95,7 +97,6 @@ def ref_row(ref) -> dict[str, Any]:
 def _load_model(model: Any) -> Any:
     if model is None or not isinstance(model, (str, os.PathLike)):
         return model
-    from telethermo.ident import load_model
     return load_model(model)
 
 
@@ -113,7 +114,6 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     ``render_options``: ``beta_pad`` (the calibrated pad β), ``T_finger0_C``, ``finger_thermometer``,
     ``thermometer_lead_s``, ``later_model`` (see :func:`_run_render`).
     """
-    from telethermo import sim
     if rounding not in ROUNDINGS:
         raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
     sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene

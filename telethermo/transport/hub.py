@@ -35,9 +35,13 @@ import selectors
 import socket
 import sys
 import threading
+import signal
 import time
 from collections import deque
 from dataclasses import dataclass, field
+
+from telethermo.atomic import write_text_atomic
+from telethermo.transport.published import publish, unpublish
 
 log = logging.getLogger(__name__)
 
@@ -423,7 +427,6 @@ DEFAULT_CHANNEL = "telethermo"
 
 def main(argv: list[str] | None = None) -> int:
     """``telethermo-hub``: run the hub until its parent ends, the idle timeout, or SIGINT/SIGTERM."""
-    import signal
 
     parser = argparse.ArgumentParser(
         prog="telethermo-hub",
@@ -462,11 +465,9 @@ def main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGTERM, lambda *_: hub.stop("SIGTERM"))
     signal.signal(signal.SIGINT, lambda *_: hub.stop("SIGINT"))
     if args.port_file:
-        from telethermo.atomic import write_text_atomic
         write_text_atomic(args.port_file, f"{port}\n")
     where = f"socketcand://{'[' + args.host + ']' if ':' in args.host else args.host}:{port}/{args.channel}"
     if not args.no_publish:
-        from telethermo.transport.published import publish, unpublish
         try:
             state = publish(where, "telethermo-hub")
         except OSError as exc:   # the hub works without it; the clients then need --bus

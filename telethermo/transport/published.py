@@ -15,6 +15,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
+from telethermo.atomic import write_json_atomic
 
 
 def state_file() -> Path:
@@ -34,7 +35,6 @@ class Published:
 
 def publish(bus: str, by: str, *, pid: int | None = None) -> Path:
     """Record that ``by`` (e.g. "telethermo-hub") listens on ``bus``; returns the file written."""
-    from telethermo.atomic import write_json_atomic
     doc = {"bus": bus, "pid": pid or os.getpid(), "by": by,
            "since": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
     return write_json_atomic(state_file(), doc)

@@ -23,9 +23,12 @@ import os
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from telethermo.transport.published import running
 from telethermo.transport.bus import (
     TransportError, TransportSettings, check_interface, parse_bus_string, validate,
 )
+import can
+import can.util
 
 CONTEXT = "telethermo"   # the section of python-can's config file, and the env suffix (CAN_INTERFACE_telethermo)
 _FLAG = "-i/-c/-b"
@@ -40,7 +43,6 @@ class ResolvedBus:
 
 
 def _config_files() -> str:
-    import can.util
     found = [p for p in can.util.CONFIG_FILES if os.path.isfile(os.path.expanduser(p))]
     return ", ".join(found) if found else "python-can config file"
 
@@ -49,8 +51,6 @@ def python_can_layers(given: Mapping[str, Any], config_path: str | None = None
                       ) -> tuple[dict[str, Any], dict[str, str]]:
     """python-can's sources merged key by key, first wins: ``given`` (flags), ``can.rc``, the environment
     (``_telethermo`` suffix first), the config file (``[telethermo]`` first). Returns (config, key -> source)."""
-    import can
-    import can.util
 
     layers: list[tuple[str, Any]] = [
         (_FLAG, lambda: dict(given)),
@@ -103,7 +103,6 @@ def resolve_bus(net, *, bus: str | None = None, interface: str | None = None, ch
         return ResolvedBus(parse_bus_string(bus, bitrate=rate), "--bus")
     if "interface" not in cfg:
         if use_published and file_bus.interface == "virtual" and not ({"channel", "host", "port"} & set(cfg)):
-            from telethermo.transport.published import running
             pub = running()
             if pub is not None:
                 try:
