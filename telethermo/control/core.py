@@ -34,224 +34,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from enum import Enum
 from typing import Any
 
 from telethermo.control import safety as sf
-from telethermo.control.contact import ContactParams, ContactState, contact_step
-from telethermo.control.defaults import CORE
+from telethermo.control.contact import ContactState, contact_step
+from telethermo.control.coreparams import NO_GAINS, CoreParams, Feedback, RenderPhase, RenderSettings
 from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
-from telethermo.control.later_phase import LaterPhase, later_setpoint, later_start
-from telethermo.ident.plan import IdentifyPlan, guarded_current
-from telethermo.control.pi import FluxPIGains, PIComponents, PIGains, PIState, bumpless, pi_step
-from telethermo.control.material_stream import MaterialEstimate, MaterialIdParams, MaterialState, material_step
-from telethermo.control.rendering import contact_temperature, pad_preset_temperature
+from telethermo.control.later_phase import later_setpoint, later_start
+from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step
+from telethermo.control.pi import PIComponents, PIState, bumpless, pi_step
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
+from telethermo.ident.plan import guarded_current
 from telethermo.rig import RigSample
 
-
-class Feedback(str, Enum):
-    """What the PI compares with the setpoint."""
-
-    ESTIMATE = "estimate"  # the own contact-side estimate (the pad surface the finger/object touches)
-    MODEL = "model"        # the model's T_pred (guiatni eq. 34/35 taken literally)
-
-
-class RenderPhase(str, Enum):
-    """Where virtual rendering is."""
-
-    PRESET = "preset"    # no contact: pad held at T_pad0 (eq. 7)
-    CONTACT = "contact"  # contact detected: pad held at T_contact (eq. 1)
-
-
-@dataclass(frozen=True, slots=True)
-class RenderSettings:
-    """What the master renders with no slave (yamamoto).
-
-    Attributes:
-        beta_object: relative effusivity of the virtual object (β = b/b_finger).
-        T_object0_C: the virtual object's initial temperature, °C.
-        beta_pad: the pad's effective β for this user (from :func:`calibrate_finger`).
-        T_finger0_C: the finger's initial surface temperature, °C.
-        hold_current_on_contact: calibration touch: on contact hold the current instead of
-            switching the command (the pad responds naturally; see ``calibrate_finger``).
-        settle_s: after the detected touch the current is held this long, s, while the filtered
-            measurements catch up with the skin's natural jump (≈ 2 × the filter's group delay);
-            then the PI resumes, bumpless, on T_contact.
-        material: name, for the records.
-        later: the later-phase model (:mod:`telethermo.control.later_phase`); None = eq. 1's T_contact
-            for the whole touch (semi-infinite object).
-    """
-
-    beta_object: float
-    T_object0_C: float
-    beta_pad: float = 2.23
-    T_finger0_C: float = 33.0
-    hold_current_on_contact: bool = False
-    settle_s: float = 0.1
-    material: str = ""
-    later: LaterPhase | None = None
-
-    def __post_init__(self) -> None:
-        for name in ("beta_object", "beta_pad"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"RenderSettings.{name}: expected a finite number > 0, got {v!r}")
-        if not (isinstance(self.settle_s, (int, float)) and 0 <= self.settle_s <= 2.0):
-            raise ValueError(f"RenderSettings.settle_s: expected a time in [0, 2] s, got {self.settle_s!r}")
-        for name in ("T_object0_C", "T_finger0_C"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and -20 <= v <= 90):
-                raise ValueError(f"RenderSettings.{name}: expected a temperature in [-20, 90] °C, got {v!r}")
-
-    @property
-    def T_pad0_C(self) -> float:
-        """Pad pre-set temperature (eq. 7), °C."""
-        return pad_preset_temperature(self.T_finger0_C, self.T_object0_C, self.beta_object, self.beta_pad)
-
-    @property
-    def T_contact_C(self) -> float:
-        """Contact temperature to render (eq. 1 with relative effusivities), °C."""
-        return contact_temperature(self.T_finger0_C, 1.0, self.T_object0_C, self.beta_object)
-
-
-_NO_GAINS = PIGains(0.0, 0.0)
-
-
-def _finite_number(owner: str, name: str, v: Any, *, lo: float | None = None, hi: float | None = None,
-                   lo_open: bool = False) -> None:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise ValueError(f"{owner}.{name}: expected a finite number, got {v!r}")
-    if lo is not None and (v <= lo if lo_open else v < lo):
-        raise ValueError(f"{owner}.{name}: expected {'>' if lo_open else '>='} {lo}, got {v!r}")
-    if hi is not None and v > hi:
-        raise ValueError(f"{owner}.{name}: expected <= {hi}, got {v!r}")
-
-
-@dataclass(frozen=True, slots=True)
-class CoreParams:
-    """Everything a controller is configured with. Frozen; validated on construction.
-
-    Attributes:
-        role: MASTER (display, estimates T_f, tracks T_o) or SLAVE (probe, estimates T_o, tracks T_f).
-        mode: :class:`Mode`.
-        period_s: control period, s.
-        kp_A_per_C, ki_A_per_C_s: PI gains on the temperature error (A/°C, A/(°C·s)).
-        kQ_A_per_W: heat-flux feed-forward gain, A/W: u_ff = -kQ·Q_peer (see module docstring).
-        kpQ_A_per_W, kiQ_A_per_W_s: heat-flux tracking loop (0 = off): the pad's own flux Q is driven
-            towards the mirror of the peer's, -Q_peer (telepresence), sharing the PI's integrator.
-            On the master this makes the display a flux source (the finger feels the flux the
-            object draws), the slave stays a temperature source (see docs/control.md).
-        kQ_render_A_per_W: RENDER mode's disturbance feed-forward on the pad's own flux, A/W:
-            u_ff = +kQ_render·Q (the finger draws heat out of the pad -> more current).
-        estimator: :class:`Estimator` (FLUX default; MODEL = the paper's eq. 30/31).
-        feedback: :class:`Feedback`: what the PI controls.
-        R_sensor_K_per_W: thermal resistance of the heat-flux sensor, K/W (flux estimator).
-        fused_weight: weight of the model estimate in FUSED.
-        safety: :class:`telethermo.control.safety.SafetyLimits`.
-        render: :class:`RenderSettings` (required in RENDER mode).
-        contact: :class:`telethermo.control.contact.ContactParams`.
-        idle_ramp_A_per_s: how fast IDLE brings the current to 0, A/s.
-        identify: the identification experiment run in IDENTIFY mode
-            (:class:`telethermo.ident.plan.IdentifyPlan`).
-        echo_peer_when_free: (slave, telepresence) while no contact is detected, send back the
-            peer's estimate instead of the own (an object estimate in air means nothing): the
-            display then only mirrors the probe's flux, and the finger rests as in air.
-        air_rendering: (master, telepresence) render *air* while the probe touches nothing (the
-            peer's contact flag is False): no temperature tracking, the flux loop
-            (``air_kpQ_A_per_W``, ``air_kiQ_A_per_W_s``) draws from the finger only what air would,
-            ``G_air_W_per_K·(T_f − T_air_C)``, so the finger stays at its natural temperature; once the
-            finger is lifted (own contact detector and the rig's flag both off after a touch) hold
-            ``safety.neutral_C`` (no drift); before any finger the pad renders air too, i.e. rests at
-            ambient. In contact the published law runs (track T_o, flux mirror).
-        G_air_W_per_K: conductance of still air over the contact area (h·A = 15 W/(m²·K) · 15 × 15 mm), W/K.
-        T_air_C: the air's temperature for air rendering, °C.
-        material_id: (slave) material identification from each touch's first samples
-            (:mod:`telethermo.control.material_stream`); None turns it off.
-    """
-
-    role: Role
-    mode: Mode = Mode.TELEPRESENCE
-    period_s: float = CORE["period_s"]
-    kp_A_per_C: float = CORE["kp_A_per_C"]
-    ki_A_per_C_s: float = CORE["ki_A_per_C_s"]
-    kQ_A_per_W: float = CORE["kQ_A_per_W"]
-    kpQ_A_per_W: float = CORE["kpQ_A_per_W"]
-    kiQ_A_per_W_s: float = CORE["kiQ_A_per_W_s"]
-    kQ_render_A_per_W: float = CORE["kQ_render_A_per_W"]
-    estimator: Estimator = Estimator.FLUX
-    feedback: Feedback = Feedback.ESTIMATE
-    R_sensor_K_per_W: float = CORE["R_sensor_K_per_W"]
-    fused_weight: float = CORE["fused_weight"]
-    safety: sf.SafetyLimits = field(default_factory=sf.SafetyLimits)
-    render: RenderSettings | None = None
-    contact: ContactParams = field(default_factory=ContactParams)
-    idle_ramp_A_per_s: float = CORE["idle_ramp_A_per_s"]
-    identify: IdentifyPlan = field(default_factory=IdentifyPlan)
-    echo_peer_when_free: bool = False
-    air_rendering: bool = False
-    air_kpQ_A_per_W: float = CORE["air_kpQ_A_per_W"]
-    air_kiQ_A_per_W_s: float = CORE["air_kiQ_A_per_W_s"]
-    G_air_W_per_K: float = CORE["G_air_W_per_K"]
-    T_air_C: float = CORE["T_air_C"]
-    material_id: MaterialIdParams | None = field(default_factory=MaterialIdParams)
-    _gains: Any = field(default=None, init=False, repr=False, compare=False)
-    _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
-    _air_gains: Any = field(default=None, init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        o = "CoreParams"
-        try:
-            object.__setattr__(self, "role", Role(self.role))
-            object.__setattr__(self, "mode", Mode(self.mode))
-            object.__setattr__(self, "estimator", Estimator(self.estimator))
-            object.__setattr__(self, "feedback", Feedback(self.feedback))
-        except ValueError as exc:
-            raise ValueError(f"{o}: {exc}") from exc
-        _finite_number(o, "period_s", self.period_s, lo=0.0, hi=1.0, lo_open=True)
-        _finite_number(o, "kp_A_per_C", self.kp_A_per_C, lo=0.0, hi=100.0)
-        _finite_number(o, "ki_A_per_C_s", self.ki_A_per_C_s, lo=0.0, hi=1000.0)
-        _finite_number(o, "kQ_A_per_W", self.kQ_A_per_W, lo=-100.0, hi=100.0)
-        _finite_number(o, "kpQ_A_per_W", self.kpQ_A_per_W, lo=0.0, hi=100.0)
-        _finite_number(o, "kQ_render_A_per_W", self.kQ_render_A_per_W, lo=-100.0, hi=100.0)
-        _finite_number(o, "kiQ_A_per_W_s", self.kiQ_A_per_W_s, lo=0.0, hi=1000.0)
-        _finite_number(o, "R_sensor_K_per_W", self.R_sensor_K_per_W, lo=0.0, hi=1000.0)
-        _finite_number(o, "fused_weight", self.fused_weight, lo=0.0, hi=1.0)
-        _finite_number(o, "idle_ramp_A_per_s", self.idle_ramp_A_per_s, lo=0.0, lo_open=True)
-        _finite_number(o, "air_kpQ_A_per_W", self.air_kpQ_A_per_W, lo=0.0, hi=100.0)
-        _finite_number(o, "air_kiQ_A_per_W_s", self.air_kiQ_A_per_W_s, lo=0.0, hi=1000.0)
-        _finite_number(o, "G_air_W_per_K", self.G_air_W_per_K, lo=0.0, hi=1.0)
-        _finite_number(o, "T_air_C", self.T_air_C, lo=-20.0, hi=60.0)
-        if not isinstance(self.air_rendering, bool):
-            raise ValueError(f"{o}.air_rendering: expected True or False, got {self.air_rendering!r}")
-        if not isinstance(self.identify, IdentifyPlan):
-            raise ValueError(f"{o}.identify: expected an IdentifyPlan, got {type(self.identify).__name__}")
-        if not isinstance(self.safety, sf.SafetyLimits):
-            raise ValueError(f"{o}.safety: expected SafetyLimits, got {type(self.safety).__name__}")
-        if self.mode is Mode.RENDER and self.render is None:
-            raise ValueError(f"{o}.render: RENDER mode needs RenderSettings")
-        if self.mode is Mode.RENDER and self.role is not Role.MASTER:
-            raise ValueError(f"{o}.mode: RENDER runs on the master only")
-        # built once: step() runs every SYNC
-        object.__setattr__(self, "_gains", PIGains(self.kp_A_per_C, self.ki_A_per_C_s))
-        fg = None if (self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0) else \
-            FluxPIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
-        object.__setattr__(self, "_flux_gains", fg)
-        object.__setattr__(self, "_air_gains", FluxPIGains(self.air_kpQ_A_per_W, self.air_kiQ_A_per_W_s))
-
-    @property
-    def gains(self) -> PIGains:
-        """Temperature PI gains."""
-        return self._gains
-
-    @property
-    def flux_gains(self) -> FluxPIGains | None:
-        """Heat-flux loop gains (kp in A/W, ki in A/(W·s)), None when off."""
-        return self._flux_gains
-
-
-# ---------------------------------------------------------------------------------------------
-# predictor cell: carries a stateful predictor through pure steps
+__all__ = ["CoreParams", "CoreState", "Feedback", "RenderPhase", "RenderSettings", "StepResult", "StepStatus",
+           "clear_faults", "init_state", "initial_peer", "replace_model", "step"]
 
 
 class _PredictorCell:
@@ -435,16 +232,35 @@ def _predict(state: CoreState, current_A: float) -> tuple[float, int, Any]:
     return T, cell.tick, snap
 
 
-def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> StepResult:
-    """One control step (pure). See the module docstring for the sequence."""
-    dt = params.period_s
-    lim = params.safety
-    I_lim = lim.I_limit_A
+@dataclass(frozen=True, slots=True)
+class _Estimates:
+    """Stage 2: the estimates (°C), the credible surface band (°C) and the contact detector's state."""
 
-    # 1. model prediction with the measured current (what really flowed)
-    T_pred, tick, snap = _predict(state, sample.current_A)
+    est: float
+    e_flux: float
+    e_model: float
+    s_hi: float
+    s_lo: float
+    cst: ContactState
 
-    # 2. estimates, credible surface band, contact
+
+@dataclass(frozen=True, slots=True)
+class _Request:
+    """Stage 3: what the mode asks for: setpoint (°C), feed-forward (A), flux error (W), the gains in use,
+    the render phase, whether to hold the current, the later-phase model and the setpoint source key."""
+
+    req: float
+    ff: float
+    eQ: float
+    gains: Any
+    fg: Any
+    phase: RenderPhase
+    hold_current: bool
+    later_st: Any
+    source: tuple
+
+
+def _estimates(sample: RigSample, params: CoreParams, state: CoreState, T_pred: float) -> _Estimates:
     Ts, Q = sample.T_sensor_C, sample.Q_W
     e_flux = estimate_flux(Ts, Q, params.R_sensor_K_per_W)
     e_model = estimate_model(Ts, T_pred) if math.isfinite(T_pred) else math.nan
@@ -462,124 +278,164 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         s_hi, s_lo = max(cands), min(cands)
     else:
         s_hi = s_lo = math.nan
-    cst = contact_step(params.contact, state.contact, Q, sample.contact, dt, Ts)
+    cst = contact_step(params.contact, state.contact, Q, sample.contact, params.period_s, Ts)
+    return _Estimates(est, e_flux, e_model, s_hi, s_lo, cst)
 
-    # 3. what the mode asks for
-    mode = params.mode
-    peer_required = mode is Mode.TELEPRESENCE
-    peer_alive = peer is not None and bool(peer.alive)
-    peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
-    ff = 0.0
-    eQ = 0.0
-    phase = state.render_phase
-    hold_current = False
-    later_st = None   # RENDER: (the later-phase model, its state)
-    gains = params.gains
-    fg = params.flux_gains if mode is Mode.TELEPRESENCE else None
-    if mode is Mode.TELEPRESENCE:
-        phase_t = "contact"
-        if peer_alive and peer_ok:
-            req = peer.estimate_C
-            ff = -params.kQ_A_per_W * peer.flux_W
-            eQ = -peer.flux_W - Q
-            if params.air_rendering and params.role is Role.MASTER:
-                if not (cst.contact or sample.contact) and state.finger_seen:
-                    phase_t = "no_finger"      # the finger was lifted: hold neutral, no flux terms
-                    req, ff, eQ, fg = lim.neutral_C, 0.0, 0.0, None
-                elif peer.contact is False or not (cst.contact or sample.contact):
-                    phase_t = "air"            # the probe touches nothing: render air
-                    req, ff = est, 0.0
-                    eQ = -params.G_air_W_per_K * (est - params.T_air_C) - Q
-                    gains, fg = _NO_GAINS, params._air_gains
-        else:
-            req = math.nan
-        source = (mode, phase_t)
-    elif mode is Mode.RENDER:
-        rs = params.render
-        phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
-        req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
-        if phase is RenderPhase.CONTACT and rs.later is not None:   # after the first instant (eq. 1)
-            prev = state.render_later       # (the model it belongs to, its state): restart on a new touch/object
-            ls = prev[1] if prev is not None and prev[0] is rs.later and state.render_phase is phase else \
-                later_start(rs.later, rs.T_object0_C)
-            req, ls = later_setpoint(rs.later, ls, rs.T_contact_C, rs.T_finger0_C, rs.T_object0_C, cst.since_s,
-                                     -Q, e_flux)
-            later_st = (rs.later, ls)
-        settling = phase is RenderPhase.CONTACT and cst.since_s < rs.settle_s - 1e-12
-        hold_current = phase is RenderPhase.CONTACT and (rs.hold_current_on_contact or settling)
-        ff = params.kQ_render_A_per_W * Q if phase is RenderPhase.CONTACT else 0.0
-        source = (mode, phase, settling)
-    else:  # IDLE, IDENTIFY: the setpoint follows the surface (keeps the envelope's ramp bumpless)
-        req = 0.5 * (s_hi + s_lo)
-        source = (mode,)
 
-    # 4. envelope on setpoint; bumpless re-seed of the ramp at the render contact switch
-    env_in = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, s_hi, s_lo, T_pred,
-                              peer_required, peer_alive, peer_ok)
+def _telepresence_request(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState,
+                          e: _Estimates, peer_usable: bool) -> _Request:
+    """TELEPRESENCE: the peer's estimate and the mirror of its flux (eq. 34/35); air rendering on the master."""
+    lim, Q, cst = params.safety, sample.Q_W, e.cst
+    gains, fg = params.gains, params.flux_gains
+    ff = eQ = 0.0
+    phase_t = "contact"
+    if peer_usable:
+        req = peer.estimate_C
+        ff = -params.kQ_A_per_W * peer.flux_W
+        eQ = -peer.flux_W - Q
+        if params.air_rendering and params.role is Role.MASTER:
+            if not (cst.contact or sample.contact) and state.finger_seen:
+                phase_t = "no_finger"      # the finger was lifted: hold neutral, no flux terms
+                req, ff, eQ, fg = lim.neutral_C, 0.0, 0.0, None
+            elif peer.contact is False or not (cst.contact or sample.contact):
+                phase_t = "air"            # the probe touches nothing: render air
+                req, ff = e.est, 0.0
+                eQ = -params.G_air_W_per_K * (e.est - params.T_air_C) - Q
+                gains, fg = NO_GAINS, params._air_gains
+    else:
+        req = math.nan
+    return _Request(req, ff, eQ, gains, fg, state.render_phase, False, None, (params.mode, phase_t))
+
+
+def _render_request(sample: RigSample, params: CoreParams, state: CoreState, e: _Estimates) -> _Request:
+    """RENDER: T_pad0 (eq. 7) before contact, T_contact (eq. 1) and the later-phase model in contact."""
+    rs, cst, Q = params.render, e.cst, sample.Q_W
+    phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
+    req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
+    later_st = None
+    if phase is RenderPhase.CONTACT and rs.later is not None:   # after the first instant (eq. 1)
+        prev = state.render_later       # (the model it belongs to, its state): restart on a new touch/object
+        ls = prev[1] if prev is not None and prev[0] is rs.later and state.render_phase is phase else \
+            later_start(rs.later, rs.T_object0_C)
+        req, ls = later_setpoint(rs.later, ls, rs.T_contact_C, rs.T_finger0_C, rs.T_object0_C, cst.since_s,
+                                 -Q, e.e_flux)
+        later_st = (rs.later, ls)
+    settling = phase is RenderPhase.CONTACT and cst.since_s < rs.settle_s - 1e-12
+    hold_current = phase is RenderPhase.CONTACT and (rs.hold_current_on_contact or settling)
+    ff = params.kQ_render_A_per_W * Q if phase is RenderPhase.CONTACT else 0.0
+    return _Request(req, ff, 0.0, params.gains, None, phase, hold_current, later_st, (params.mode, phase, settling))
+
+
+def _request(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState, e: _Estimates,
+             peer_usable: bool) -> _Request:
+    """Stage 3: what the mode asks for."""
+    if params.mode is Mode.TELEPRESENCE:
+        return _telepresence_request(sample, peer, params, state, e, peer_usable)
+    if params.mode is Mode.RENDER:
+        return _render_request(sample, params, state, e)
+    # IDLE, IDENTIFY: the setpoint follows the surface (keeps the envelope's ramp bumpless)
+    return _Request(0.5 * (e.s_hi + e.s_lo), 0.0, 0.0, params.gains, None, state.render_phase, False, None,
+                    (params.mode,))
+
+
+def _seeded_envelope(params: CoreParams, state: CoreState, r: _Request, est: float, switched: bool) -> sf.EnvelopeState:
+    """Stage 4's bumpless re-seed of the ramp at the render contact switch.
+
+    yamamoto's command switch: at the touch the skin (at T_finger0) and the pad (at T_pad0) meet at
+    T_contact, which lies between the two by eq. 3/7: the setpoint jumps there without the ramp (the jump
+    is the natural contact, not a drive). Otherwise restart from the surface.
+    """
     env0 = state.env
-    switched = source != state.source
-    if switched and mode is Mode.RENDER and phase is RenderPhase.CONTACT and source[2]:
-        # yamamoto's command switch: at the touch the skin (at T_finger0) and the pad (at T_pad0) meet
-        # at T_contact, which lies between the two by eq. 3/7: the setpoint jumps there without the
-        # ramp (the jump is the natural contact, not a drive). Otherwise restart from the surface.
-        rs = params.render
+    if switched and params.mode is Mode.RENDER and r.phase is RenderPhase.CONTACT and r.source[2]:
+        rs, lim = params.render, params.safety
         lo_c, hi_c = sorted((rs.T_pad0_C, rs.T_finger0_C))
         T_c = rs.T_contact_C
         seed = T_c if lo_c - 1e-9 <= T_c <= hi_c + 1e-9 else est
         if math.isfinite(seed):
             env0 = replace(env0, setpoint_C=min(max(seed, lim.T_min_C), lim.T_max_C))
-    sp, env, env_active, new_trips = sf.envelope_step(lim, env0, env_in, req, dt)
+    return env0
 
-    # 5. controller
-    y = T_pred if params.feedback is Feedback.MODEL else est
-    err = sp - y
+
+def _control(sample: RigSample, params: CoreParams, state: CoreState, r: _Request, err: float, env,
+             switched: bool) -> tuple[float, PIState, PIComponents, int, int]:
+    """Stage 5: the current the mode's controller asks for, A, its PI state and components, and the
+    identification experiment's counters."""
+    dt, lim = params.period_s, params.safety
+    I_lim = lim.I_limit_A
     pi_st = state.pi
     if switched or env.cut:
-        pi_st = bumpless(gains, state.u_prev_A if not env.cut else 0.0, err, ff, -I_lim, I_lim,
-                         flux_error_W=eQ, flux_gains=fg)
+        pi_st = bumpless(r.gains, state.u_prev_A if not env.cut else 0.0, err, r.ff, -I_lim, I_lim,
+                         flux_error_W=r.eQ, flux_gains=r.fg)
     ident_k, ident_guard = 0, 0
-    if mode is Mode.IDLE:
+    if params.mode is Mode.IDLE:
         stepA = params.idle_ramp_A_per_s * dt
         u_req = min(max(0.0, state.u_prev_A - stepA), state.u_prev_A + stepA) if math.isfinite(state.u_prev_A) else 0.0
         comps = PIComponents(0.0, 0.0, 0.0, u_req, u_req, False)
-    elif mode is Mode.IDENTIFY:
+    elif params.mode is Mode.IDENTIFY:
         plan = params.identify
         j = 0 if switched else state.ident_k
         guard = 0 if switched else state.ident_guard
         if j < plan.total:
-            u_req, guarded = guarded_current(plan.current_at(j), Ts, I_limit_A=I_lim, T_min_C=lim.T_min_C,
-                                             T_max_C=lim.T_max_C, margin_C=plan.margin_C)
+            u_req, guarded = guarded_current(plan.current_at(j), sample.T_sensor_C, I_limit_A=I_lim,
+                                             T_min_C=lim.T_min_C, T_max_C=lim.T_max_C, margin_C=plan.margin_C)
             ident_k, ident_guard = j + 1, guard + int(guarded)
         else:  # done: hold 0 A until the mode changes (the count goes on: ident_k > total means done)
             u_req, ident_k, ident_guard = 0.0, j + 1, guard
         comps = PIComponents(0.0, 0.0, 0.0, u_req, u_req, False)
-    elif hold_current:
+    elif r.hold_current:
         u_req = state.u_prev_A
         comps = PIComponents(0.0, pi_st.integral_A, 0.0, u_req, u_req, False)
     else:
-        u_req, pi_st, comps = pi_step(gains, pi_st, err, ff, dt, -I_lim, I_lim, flux_error_W=eQ, flux_gains=fg)
+        u_req, pi_st, comps = pi_step(r.gains, pi_st, err, r.ff, dt, -I_lim, I_lim, flux_error_W=r.eQ,
+                                      flux_gains=r.fg)
+    return u_req, pi_st, comps, ident_k, ident_guard
 
+
+def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> StepResult:
+    """One control step (pure). See the module docstring for the sequence."""
+    dt, lim = params.period_s, params.safety
+    I_lim = lim.I_limit_A
+    mode = params.mode
+    Ts, Q = sample.T_sensor_C, sample.Q_W
+
+    # 1. model prediction with the measured current (what really flowed)
+    T_pred, tick, snap = _predict(state, sample.current_A)
+    # 2. estimates, credible surface band, contact
+    e = _estimates(sample, params, state, T_pred)
+    cst, est = e.cst, e.est
+    # 3. what the mode asks for
+    peer_alive = peer is not None and bool(peer.alive)
+    peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
+    r = _request(sample, peer, params, state, e, peer_alive and peer_ok)
+    # 4. envelope on setpoint; bumpless re-seed of the ramp at the render contact switch
+    env_in = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, e.s_hi, e.s_lo, T_pred,
+                              mode is Mode.TELEPRESENCE, peer_alive, peer_ok)
+    switched = r.source != state.source
+    env0 = _seeded_envelope(params, state, r, est, switched)
+    sp, env, env_active, new_trips = sf.envelope_step(lim, env0, env_in, r.req, dt)
+    # 5. controller
+    y = T_pred if params.feedback is Feedback.MODEL else est
+    err = sp - y
+    u_req, pi_st, comps, ident_k, ident_guard = _control(sample, params, state, r, err, env, switched)
     # 6. envelope on current
-    current, cur_active = sf.limit_current(lim, env, u_req, s_hi, s_lo)
+    current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo)
     if current != u_req:
         # the envelope overrode the controller: keep the integrator consistent (no windup behind it)
-        pi_st = bumpless(gains, current, err, ff, -I_lim, I_lim, flux_error_W=eQ, flux_gains=fg)
+        pi_st = bumpless(r.gains, current, err, r.ff, -I_lim, I_lim, flux_error_W=r.eQ, flux_gains=r.fg)
 
     active = env_active + tuple(a for a in cur_active if a not in env_active)
-    mat = state.material
-    if params.role is Role.SLAVE and params.material_id is not None:
-        mat = material_step(params.material_id, mat, Ts, Q, cst.contact, dt)
-    status_env = sf.summarize(env, new_trips, active)
+    identifying = params.role is Role.SLAVE and params.material_id is not None
+    mat = material_step(params.material_id, state.material, Ts, Q, cst.contact, dt) if identifying else state.material
     new_state = CoreState(k=state.k + 1, t_s=sample.t_s, env=env, pi=pi_st, contact=cst, u_prev_A=current,
-                          source=source, render_phase=phase, T_pred_C=T_pred, ident_k=ident_k,
+                          source=r.source, render_phase=r.phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
                           finger_seen=state.finger_seen or cst.contact or bool(sample.contact),
-                          pred_snapshot=snap, cell=state.cell,
-                          render_later=later_st, material=mat)
-    status = StepStatus(safety=status_env, requested_setpoint_C=req, setpoint_C=sp, feedback_C=y, T_pred_C=T_pred,
-                        estimate_C=est, estimate_model_C=e_model, estimate_flux_C=e_flux, contact=cst.contact,
-                        render_phase=phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req,
-                        material=mat.last if params.role is Role.SLAVE and params.material_id is not None else None)
+                          pred_snapshot=snap, cell=state.cell, render_later=r.later_st, material=mat)
+    status = StepStatus(safety=sf.summarize(env, new_trips, active), requested_setpoint_C=r.req, setpoint_C=sp,
+                        feedback_C=y, T_pred_C=T_pred, estimate_C=est, estimate_model_C=e.e_model,
+                        estimate_flux_C=e.e_flux, contact=cst.contact,
+                        render_phase=r.phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req,
+                        material=mat.last if identifying else None)
     sent = est
     if (params.echo_peer_when_free and mode is Mode.TELEPRESENCE and not cst.contact and peer_ok and peer_alive
             and math.isfinite(est)):
