@@ -207,20 +207,8 @@ def _contacts(r: _R, raw: list, prefix: str, duration: float, objects: dict, kin
     return tuple(out)
 
 
-def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Scene:
-    """Validate a scene given as a dict (as read from TOML); ``path`` names it in errors."""
-    r = _R(path)
-    r.known(raw, ("scene", "finger", "objects", "master", "slave", "noise", "record", "numerics", "tem"), "")
-    sc = r.table(raw, "scene", required=True)
-    r.known(sc, ("name", "kind", "description", "duration_s", "period_s", "ambient_C"), "scene.")
-    name = r.string(sc, "name", "scene.", default=Path(path).stem)
-    kind = r.string(sc, "kind", "scene.", default="telepresence", choices=KINDS)
-    duration = r.num(sc, "duration_s", "scene.", lo=0.0, hi=1e6, lo_open=True)
-    period = r.num(sc, "period_s", "scene.", default=0.01, lo=1e-4, hi=1.0)
-    ambient = r.num(sc, "ambient_C", "scene.", default=25.0, lo=-20.0, hi=60.0)
-    mats = materials()
-    known = set(mats)
-
+def _finger(r: _R, raw: dict, path: str, known: set[str]) -> FingerParams:
+    """[finger]: its layers [material, thickness_mm, perfusion_1_s], blood and core temperatures, °C."""
     fr = r.table(raw, "finger")
     r.known(fr, ("layers", "T_blood_C", "core_C"), "finger.")
     defaults = FingerParams()
@@ -240,10 +228,13 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
                 raise SceneError(path, f"finger.layers[{k}]", "thickness_mm > 0 and perfusion_1_s >= 0", L)
             layers.append((L[0], float(L[1]) * 1e-3, float(L[2])))
         layers = tuple(layers)
-    finger = FingerParams(layers=layers,
-                          T_blood_C=r.num(fr, "T_blood_C", "finger.", default=defaults.T_blood_C, lo=30.0, hi=42.0),
-                          core_C=r.num(fr, "core_C", "finger.", default=defaults.core_C, lo=30.0, hi=42.0))
+    return FingerParams(layers=layers,
+                        T_blood_C=r.num(fr, "T_blood_C", "finger.", default=defaults.T_blood_C, lo=30.0, hi=42.0),
+                        core_C=r.num(fr, "core_C", "finger.", default=defaults.core_C, lo=30.0, hi=42.0))
 
+
+def _objects(r: _R, raw: dict, path: str, known: set[str], ambient: float) -> dict[str, BodySpec]:
+    """[objects.NAME]: material, thickness_mm, T0_C (°C), back."""
     objects: dict[str, BodySpec] = {}
     for oname, o in r.table(raw, "objects").items():
         p = f"objects.{oname}."
@@ -259,35 +250,43 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
                                   thickness_m=r.num(o, "thickness_mm", p, lo=0.0, hi=1000.0, lo_open=True) * 1e-3,
                                   T0_C=r.num(o, "T0_C", p, default=ambient, lo=-20.0, hi=100.0),
                                   back=r.string(o, "back", p, default="adiabatic", choices=("adiabatic", "ambient")))
+    return objects
 
+
+def _start(r: _R, table: dict, path: str, side: str) -> Any:
+    """[master]/[slave] start: "finger" or a temperature in [15, 43] °C (None: not given)."""
+    start = table.get("start")
+    if start is None:
+        return None
+    if isinstance(start, str):
+        if start != "finger":
+            raise SceneError(path, f"{side}.start", "\"finger\" or a temperature in [15, 43] °C", start)
+        return start
+    return r.num(table, "start", f"{side}.", lo=15.0, hi=43.0)
+
+
+def _sides(r: _R, raw: dict, path: str, kind: str, duration: float, objects: dict, known: set[str]) -> tuple:
+    """[master] and [slave]: (master contacts, slave contacts, master start, slave start)."""
     mr = r.table(raw, "master")
     r.known(mr, ("contacts", "start"), "master.")
-    master_start = mr.get("start")
-    if master_start is not None:
-        if isinstance(master_start, str):
-            if master_start != "finger":
-                raise SceneError(path, "master.start", "\"finger\" or a temperature in [15, 43] °C", master_start)
-        else:
-            master_start = r.num(mr, "start", "master.", lo=15.0, hi=43.0)
+    master_start = _start(r, mr, path, "master")
     master = _contacts(r, mr.get("contacts", []), "master.contacts", duration, objects, kind, True, known)
     if master_start == "finger" and not any(t.start_s <= 1e-9 < t.end_s for t in master):
         raise SceneError(path, "master.start", "\"finger\" only with the finger on the display at t = 0 "
                          "(a master contact from 0 s)", master_start)
     sr = r.table(raw, "slave")
     r.known(sr, ("contacts", "start"), "slave.")
-    slave_start = sr.get("start")
-    if slave_start is not None:
-        if kind != "telepresence":
-            raise SceneError(path, "slave.start", "no slave settings in a 'virtual' scene (master only)")
-        if isinstance(slave_start, str):
-            if slave_start != "finger":
-                raise SceneError(path, "slave.start", "\"finger\" or a temperature in [15, 43] °C", slave_start)
-        else:
-            slave_start = r.num(sr, "start", "slave.", lo=15.0, hi=43.0)
+    if sr.get("start") is not None and kind != "telepresence":
+        raise SceneError(path, "slave.start", "no slave settings in a 'virtual' scene (master only)")
+    slave_start = _start(r, sr, path, "slave")
     if kind == "virtual" and sr.get("contacts"):
         raise SceneError(path, "slave.contacts", "no slave contacts in a 'virtual' scene (master only)")
     slave = _contacts(r, sr.get("contacts", []), "slave.contacts", duration, objects, kind, False, known)
+    return master, slave, master_start, slave_start
 
+
+def _noise(r: _R, raw: dict, path: str) -> tuple[NoiseParams, int | None]:
+    """[noise]: the measurement chain's noise and its seed."""
     nz = r.table(raw, "noise")
     r.known(nz, ("seed", "T_sigma_C", "Q_sigma_W", "T_lsb_C", "Q_lsb_W", "cutoff_Hz", "enabled"), "noise.")
     if not isinstance(nz.get("enabled", True), bool):
@@ -302,7 +301,11 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
     seed = nz.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise SceneError(path, "noise.seed", "a non-negative integer", seed)
+    return noise, seed
 
+
+def _record(r: _R, raw: dict, path: str, period: float, duration: float) -> tuple[list[str], float]:
+    """[record]: the signals to record and how often, s."""
     rec = r.table(raw, "record")
     r.known(rec, ("signals", "every_s"), "record.")
     signals = rec.get("signals", ["T_sensor_C", "Q_W", "current_A", "contact"])
@@ -311,8 +314,26 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
     for s in signals:
         if s not in RECORDABLE:
             raise SceneError(path, "record.signals", f"names among {', '.join(RECORDABLE)}", s)
-    every = r.num(rec, "every_s", "record.", default=period, lo=period, hi=duration)
+    return signals, r.num(rec, "every_s", "record.", default=period, lo=period, hi=duration)
 
+
+def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Scene:
+    """Validate a scene given as a dict (as read from TOML); ``path`` names it in errors."""
+    r = _R(path)
+    r.known(raw, ("scene", "finger", "objects", "master", "slave", "noise", "record", "numerics", "tem"), "")
+    sc = r.table(raw, "scene", required=True)
+    r.known(sc, ("name", "kind", "description", "duration_s", "period_s", "ambient_C"), "scene.")
+    name = r.string(sc, "name", "scene.", default=Path(path).stem)
+    kind = r.string(sc, "kind", "scene.", default="telepresence", choices=KINDS)
+    duration = r.num(sc, "duration_s", "scene.", lo=0.0, hi=1e6, lo_open=True)
+    period = r.num(sc, "period_s", "scene.", default=0.01, lo=1e-4, hi=1.0)
+    ambient = r.num(sc, "ambient_C", "scene.", default=25.0, lo=-20.0, hi=60.0)
+    known = set(materials())
+    finger = _finger(r, raw, path, known)
+    objects = _objects(r, raw, path, known, ambient)
+    master, slave, master_start, slave_start = _sides(r, raw, path, kind, duration, objects, known)
+    noise, seed = _noise(r, raw, path)
+    signals, every = _record(r, raw, path, period, duration)
     num = r.table(raw, "numerics")
     r.known(num, ("tolerance_C",), "numerics.")
     tolerance = r.num(num, "tolerance_C", "numerics.", default=0.05, lo=0.0, hi=10.0, lo_open=True)
