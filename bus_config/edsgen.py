@@ -23,9 +23,10 @@ import argparse
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Callable
 
-from telethermo.bus_config import path as _path
 from telethermo.atomic import write_text_atomic
+from telethermo.bus_config import path as _path
 
 # CiA 301 data types
 BOOLEAN, INTEGER8, INTEGER16, INTEGER32 = 0x0001, 0x0002, 0x0003, 0x0004
@@ -133,13 +134,11 @@ def _mapping(index: int, sub: int, bits: int) -> int:
 # and after a reset node. (The CLI tests read these values; changing them needs tests/cli updated too.)
 GAINS = {"master": (0.5, 0.1, 0.0), "slave": (0.5, 0.1, 0.0)}
 
-
-def manufacturer_objects(role: str = "master") -> list[Obj]:
-    """0x2000..: measurements, estimates, gains, model, safety, mode, rendering, status, diagnostics."""
+def _measurement_and_control_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
+    """Measurements, estimates and the controller's gains (eq. 33-35)."""
     kp, ki, kq = GAINS[role]
-    V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
     ro_pdo = dict(pdo=True)
-    objs = [
+    return [
         # -- measurements (written by the node from its rig each cycle; read-only on the bus)
         V(0x2000, _real("T_sensor_C", "ro", 0.0, **ro_pdo, description="flux-sensor mid-plane thermocouple, filtered")),
         V(0x2001, _real("Q_W", "ro", 0.0, **ro_pdo, description="heat flux out of the pad into what touches it (>0 warms it)")),
@@ -168,6 +167,12 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
                         description="eq. 30/31, 2*T_sensor - T_pred, with T_pred from: 0 the NARMA model (eq. 32), "
                                     "1 the flux sensor, T1 of eq. 28 as T_sensor + Q*R_sensor/2 (default), 2 both fused "
                                     "(0 and 2 need a loaded model: model_status 1)")),
+    ]
+
+
+def _model_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
+    """The TEM model's parameters (NARMA eq. 10, flux ARMA eq. 12)."""
+    return [
         # -- model parameters (NARMA eq. 10, flux ARMA eq. 12)
         V(0x2300, _uint("narma_n", UNSIGNED8, "rw", 3, 0, 8, description="output lags n")),
         V(0x2301, _uint("narma_m", UNSIGNED8, "rw", 3, 0, 8, description="input lags m")),
@@ -199,6 +204,12 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
             0: _uint("Highest sub-index supported", UNSIGNED8, "const", 16),
             **{i: _real64(f"flux_coeff{i}", "rw", 0.0, -1.0e6, 1.0e6, description="c_1..c_n, d_0..d_m (eq. 12), then e, g, h if flux_with_current")
                for i in range(1, 17)}}),
+    ]
+
+
+def _safety_mode_render_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
+    """Safety envelope, mode, virtual rendering and its later phase, material identification."""
+    return [
         # -- safety envelope (DESIGN.md section 6): ranges only allow narrowing the defaults
         V(0x2400, _real("T_min_C", "rw", 15.0, 15.0, 43.0,
                         description="lowest surface setpoint, must not exceed neutral_C and must stay more than 1 degC "
@@ -247,6 +258,13 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
                         description="standard error of ln(effusivity), about its relative error (0 none)")),
         V(0x2613, _real("identified_posterior", "ro", 0.0, description="posterior of identified_material")),
         V(0x2614, _uint("identified_touches", UNSIGNED16, "ro", 0, description="touches evaluated (wraps)")),
+    ]
+
+
+def _identification_status_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
+    """Identification experiment, status and device-layer diagnostics."""
+    ro_pdo = dict(pdo=True)
+    return [
         # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
         V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
         V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),
@@ -294,7 +312,13 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2714, _uint("rpdo_count", UNSIGNED32, "ro", 0, description="RPDOs accepted")),
         V(0x2715, _uint("peer_losses", UNSIGNED32, "ro", 0, description="heartbeat-consumer timeouts")),
     ]
-    return objs
+
+
+def manufacturer_objects(role: str = "master") -> list[Obj]:
+    """0x2000..: measurements, estimates, gains, model, safety, mode, rendering, status, diagnostics."""
+    V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
+    return [*_measurement_and_control_objects(V, role), *_model_objects(V, role),
+            *_safety_mode_render_objects(V, role), *_identification_status_objects(V, role)]
 
 
 def communication_objects(role: str) -> list[Obj]:
