@@ -136,9 +136,9 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
         parts = build_parts(opts, period_s=net.sync.period_s)
         p = "m_" if role is Role.MASTER else "s_"
         meta = dict(parts.meta, period_s=parts.period_s, mode="telepresence", rounding="real32")
-        rec = CsvRecorder(folder / f"{role.value}.csv", ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)],
+        rec = CsvRecorder(folder / f"{role}.csv", ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)],
                           comments=[MAGIC[2:], "meta " + json.dumps(meta)])
-        rt = NodeRuntime(role, net.node(role.value).node_id, net, transport, parts, mode=Mode.TELEPRESENCE,
+        rt = NodeRuntime(role, net.node(role).node_id, net, transport, parts, mode=Mode.TELEPRESENCE,
                          lockstep=True, produce_sync=role is Role.MASTER, recorder=rec)
         rt.start()
         runtimes[role] = rt

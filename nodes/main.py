@@ -32,7 +32,7 @@ EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 
 
 def _setup_logging(role: Role, verbose: bool, log_path) -> None:
-    fmt = f"%(asctime)s telethermo-{role.value} %(levelname)s %(message)s"
+    fmt = f"%(asctime)s telethermo-{role} %(levelname)s %(message)s"
     handlers: list[logging.Handler] = [logging.StreamHandler(sys.stderr)]
     handlers[0].setLevel(logging.INFO if verbose else logging.WARNING)
     if log_path is not None:
@@ -47,7 +47,7 @@ def _setup_logging(role: Role, verbose: bool, log_path) -> None:
 
 def run_node(role: Role, argv: list[str] | None = None) -> int:
     args = build_parser(role).parse_args(argv)
-    prog = f"telethermo-{role.value}"
+    prog = f"telethermo-{role}"
     try:
         opts = options_from_args(role, args)
     except OptionError as exc:
@@ -62,7 +62,7 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         net = load_network(opts.network)
         transport = resolve_bus(net, bus=opts.bus, interface=opts.interface, channel=opts.channel,
                                 bitrate=opts.bitrate).settings
-        node_id = opts.node_id or net.node(role.value).node_id
+        node_id = opts.node_id or net.node(role).node_id
         parts = build_parts(opts, period_s=net.sync.period_s)
     except (OptionError, NetworkConfigError, TransportError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)

@@ -74,8 +74,8 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     what = ("thermal display under the operator's finger; produces SYNC by default"
             if role is Role.MASTER else "robotic thermal probe; follows the master's SYNC by default")
     p = argparse.ArgumentParser(
-        prog=f"telethermo-{role.value}",
-        description=f"The telethermo {role.value} CANopen node ({what}). On each SYNC: read the rig, run the "
+        prog=f"telethermo-{role}",
+        description=f"The telethermo {role} CANopen node ({what}). On each SYNC: read the rig, run the "
                     f"control core, apply the current, send TPDO1 (estimate, heat flux) to the {other}. "
                     "SIGINT/SIGTERM stop it cleanly (current to zero, last heartbeat, recording flushed).",
         epilog="exit codes: 0 ok, 1 runtime failure, 2 bad option or file, 130 interrupted")

@@ -75,7 +75,7 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
             gains = dict(load_gains(opts.gains)[opts.role])
         except (ValueError, KeyError) as exc:  # load_gains names the file and the field
             raise OptionError(f"--gains: {exc}") from None
-    meta: dict[str, Any] = {"role": opts.role.value}
+    meta: dict[str, Any] = {"role": opts.role}
     if gains:
         meta["gains"] = {"file": str(opts.gains), **gains}
     if opts.scene is not None:
@@ -120,7 +120,7 @@ def _scene_rig(opts: NodeOptions, period_s: float, meta: dict[str, Any]):
     except ValueError as exc:  # SceneError names the file and the field
         raise OptionError(str(exc)) from None
     seed = opts.seed if opts.seed is not None else DEFAULT_SEEDS[opts.role]
-    rig = sim.build_rig(scene, opts.role.value, seed=seed)
+    rig = sim.build_rig(scene, opts.role, seed=seed)
     if abs(rig.period_s - period_s) > 1e-12:
         raise OptionError(f"--scene {str(opts.scene)!r}: period_s = {rig.period_s} s but the network's SYNC "
                           f"period is {period_s} s (network settings [sync] period_s); they must agree")

@@ -86,7 +86,7 @@ class NodeRuntime:
         self.produce_sync = produce_sync
         self.recorder = recorder
         self.record_timing = record_timing
-        self.peer_id = net.peer(role.value).node_id
+        self.peer_id = net.peer(role).node_id
         self.stats = RuntimeStats()
         self.stop_event = threading.Event()
         self.settings = ParamSlot(self, mode)
@@ -134,8 +134,8 @@ class NodeRuntime:
         bus = open_bus(self.transport)
         self.network = canopen.Network(bus)
         self.network.connect()
-        settings = dataclasses.replace(self.net.device_settings(self.role.value), sync_producer=self.produce_sync)
-        eds = self.net.node(self.role.value).eds
+        settings = dataclasses.replace(self.net.device_settings(self.role), sync_producer=self.produce_sync)
+        eds = self.net.node(self.role).eds
         dev = Device(self.network, self.node_id, eds, settings=settings)
         self.device = dev
         dev.add_sync_handler(self._on_sync)
@@ -155,7 +155,7 @@ class NodeRuntime:
             self.sync = SyncProducer(dev)
         dev.start()
         log.info("node %d (%s) on %s: pre-operational, heartbeat every %d ms, peer %d watched for %d ms",
-                 self.node_id, self.role.value, self.transport.describe(), self.net.heartbeat.producer_ms,
+                 self.node_id, self.role, self.transport.describe(), self.net.heartbeat.producer_ms,
                  self.peer_id, self.net.heartbeat.consumer_ms)
 
     def _power_on(self) -> None:

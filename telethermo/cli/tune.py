@@ -112,7 +112,7 @@ def _start_gains(path: Path | None) -> dict[str, float] | None:
         loaded = tn.load_gains(path)
     except ValueError as exc:
         raise UserError(f"--start: {exc}") from None
-    return {f"{role.value}.{k}": v for role, gains in loaded.items() for k, v in gains.items()}
+    return {f"{role}.{k}": v for role, gains in loaded.items() for k, v in gains.items()}
 
 
 def _weights(args: argparse.Namespace) -> tn.Weights:

@@ -30,15 +30,15 @@ def parse_gains(doc: Any, where: str = "gains") -> dict[Role, dict[str, float]]:
         raise ValueError(f"{where}: expected a JSON object with \"format\": \"{GAINS_FORMAT}\"")
     out: dict[Role, dict[str, float]] = {}
     for role in (Role.MASTER, Role.SLAVE):
-        r = doc.get(role.value)
+        r = doc.get(role)
         if not isinstance(r, dict):
-            raise ValueError(f"{where}: {role.value}: expected an object of gains")
+            raise ValueError(f"{where}: {role}: expected an object of gains")
         vals: dict[str, float] = {}
         for k, v in r.items():
             if k not in GAIN_FIELDS:
-                raise ValueError(f"{where}: {role.value}.{k}: unknown gain (expected one of {', '.join(GAIN_FIELDS)})")
+                raise ValueError(f"{where}: {role}.{k}: unknown gain (expected one of {', '.join(GAIN_FIELDS)})")
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-                raise ValueError(f"{where}: {role.value}.{k}: expected a finite number, got {v!r}")
+                raise ValueError(f"{where}: {role}.{k}: expected a finite number, got {v!r}")
             vals[k] = float(v)
         default_params(role, **vals)  # CoreParams validates the ranges (ValueError names the field)
         out[role] = vals

@@ -8,11 +8,12 @@ applies ``StepResult.current_A`` to the rig and sends ``StepResult.out`` in its 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from enum import Enum, IntEnum
+from enum import IntEnum, StrEnum
 
 
-class Role(str, Enum):
-    """Which side a controller runs on."""
+class Role(StrEnum):
+    """Which side a controller runs on. A ``StrEnum``: it is its value wherever a string is expected (file
+    keys, EDS/network sections, sim.build_rig, log lines), so no code converts between the two."""
 
     MASTER = "master"  # thermal display under the operator's finger; estimates T_f, tracks T_o
     SLAVE = "slave"    # robotic thermal probe; estimates T_o, tracks T_f

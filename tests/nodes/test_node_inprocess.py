@@ -149,13 +149,14 @@ def test_peer_loss_trips_the_master_and_its_return_resumes(bench):
         slave.stop("killed")                                                 # its heartbeat and PDOs stop
         lost = EMCY_CODES[Trip.PEER_LOST]
         assert wait_for(lambda: any(e.code == lost for e in node_m.emcy.log), 10), "no EMCY 0x8130"
-        assert Trip.PEER_LOST in master.cycle.state.env.trips
-        assert node_m.sdo["active_trips"].raw != 0
+        # the heartbeat consumer's EMCY can come before the cycle that latches the trip: wait for that cycle
+        assert wait_for(lambda: Trip.PEER_LOST in master.cycle.state.env.trips, 5)
+        assert wait_for(lambda: node_m.sdo["active_trips"].raw != 0, 5)
 
         bench.node(Role.SLAVE)                                               # the slave boots again
         assert wait_for(lambda: master.stats.peer_resumes == 1, 20), "the master did not resume"
         assert wait_for(lambda: any(e.code == 0x0000 for e in node_m.emcy.log), 5), "no error-reset EMCY"
-        assert not master.cycle.state.env.trips
+        assert wait_for(lambda: not master.cycle.state.env.trips, 5)
         assert master.stats.nmt_starts_sent >= 1                              # it started the rebooted slave
     finally:
         master.stop_event.set()
