@@ -215,9 +215,8 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     }
 
 
-def run(quick: bool) -> dict[str, Any]:
-    """The suite's entry (bench/__main__.py): figures, printed table, bench/results/material_id.json."""
-    fig = material_id_figures(quick)
+def print_material_id(fig: dict[str, Any]) -> None:
+    """The confusion matrix and the headline figures."""
     c = fig["confusion"]
     rows = [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])]
     print_table(["truth \\ est"] + c["columns"], rows)
@@ -225,6 +224,13 @@ def run(quick: bool) -> dict[str, Any]:
                 "effusivity_error_median_pct", "material_id_baseline_majority_accuracy",
                 "material_id_baseline_eq1_ambient_accuracy", "material_id_ci95_coverage", "material_id_run_s"):
         print(f"{key}: {fig[key]}")
+
+
+def run(quick: bool) -> dict[str, Any]:
+    """Figures, printed table, bench/results/material_id.json (``python -m bench.material_id_bench``; the
+    suite runs them inside the rendering benchmark, into rendering.json)."""
+    fig = material_id_figures(quick)
+    print_material_id(fig)
     print(f"wrote {write_results('material_id', fig)}")
     return fig
 

@@ -11,14 +11,13 @@ the touch.
 
     python -m bench.rendering_bench [--quick]      # bench/results/rendering.json key later_phase, rendering.png
 
-``later_phase_figures(quick)`` returns the figures; other keys of rendering.json (material identification)
-are kept when this bench rewrites it.
+``later_phase_figures(quick)`` returns the later-phase figures; ``run`` measures the slave's material
+identification in the same run (bench/material_id_bench.py) and writes both into rendering.json.
 """
 from __future__ import annotations
 
 import argparse
 import io
-import json
 import sys
 from pathlib import Path
 from typing import Any
@@ -27,6 +26,7 @@ import numpy as np
 
 from telethermo import sim
 from bench.common import current_results_dir, print_table, write_results
+from bench.material_id_bench import material_id_figures, print_material_id
 from telethermo.atomic import write_bytes_atomic
 from telethermo.offline.render_script import RenderScript
 from telethermo.offline.runner import run_offline_session
@@ -123,17 +123,15 @@ def write_plot(path: Path, traces: dict) -> Path | None:
 
 
 def run(quick: bool) -> dict[str, Any]:
-    """Measure, print the table, write rendering.json (other keys kept) and rendering.png; the data."""
+    """Measure the later phase and the slave's material identification in one run, print both, write
+    rendering.json and rendering.png; the data."""
     rows, traces = measure(quick)
-    figs = {"later_phase": rows}
     print_table(["material", "mm", "model", "early RMS °C", "late RMS °C"],
                 [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in rows])
+    mat = material_id_figures(quick)
+    print_material_id(mat)
     out_dir = current_results_dir()
-    old = out_dir / "rendering.json"
-    data: dict[str, Any] = {}
-    if old.exists():
-        data = {k: v for k, v in json.loads(old.read_text(encoding="utf-8")).items() if k != "provenance"}
-    data.update(figs, later_phase_quick=quick)
+    data: dict[str, Any] = {"quick": quick, "later_phase": rows, **mat}
     print(f"wrote {write_results('rendering', data)}")
     png = write_plot(out_dir / "rendering.png", traces)
     if png:
