@@ -31,6 +31,8 @@ class NodeOptions:
         interface, channel, bitrate: ``-i/-c/-b`` (python-can's names); see telethermo.transport.resolve.
         scene: scene file of a simulated rig (lockstep by default).
         rig: ``module:factory`` of a hardware rig driver (real time).
+        rig_config: TOML file whose top-level keys are the rig factory's keyword arguments (a driver's port,
+            gains, calibration), or None.
         model: identified model file (None: the packaged sim_tem.json).
         gains: tuned gains file of `telethermo tune` (None: the shipped defaults); telepresence mode only.
         mode: initial mode (changeable by SDO on object 0x2500).
@@ -54,6 +56,7 @@ class NodeOptions:
     bitrate: int | None = None
     scene: Path | None = None
     rig: str | None = None
+    rig_config: Path | None = None
     model: Path | None = None
     gains: Path | None = None
     mode: Mode = Mode.TELEPRESENCE
@@ -84,7 +87,9 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     add_bus_arguments(p)
     rig = p.add_mutually_exclusive_group()   # one of them is required, except with --recover
     rig.add_argument("--scene", type=Path, help="scene file (TOML): simulated rig")
-    rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY() returns a telethermo.rig.Rig")
+    rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY(**settings) returns a telethermo.rig.Rig")
+    p.add_argument("--rig-config", type=Path, metavar="FILE.toml",
+                   help="settings of the --rig driver: the TOML file's top-level keys are FACTORY's keyword arguments")
     p.add_argument("--model", type=Path, help="identified model file (default: packaged sim_tem.json)")
     p.add_argument("--gains", type=Path, help="tuned gains file written by `telethermo tune --out` "
                                               "(telepresence gains of this node's role; default: the shipped ones)")
@@ -132,6 +137,8 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         raise OptionError(f"--cycles {args.cycles}: expected >= 0")
     if args.rig is not None and ":" not in args.rig:
         raise OptionError(f"--rig {args.rig!r}: expected MODULE:FACTORY")
+    if args.rig_config is not None and args.rig is None:
+        raise OptionError("--rig-config: settings of a hardware rig driver, only with --rig")
     if not args.wait_peer >= 0:
         raise OptionError(f"--wait-peer {args.wait_peer}: expected >= 0 s")
     produce_sync = args.produce_sync if args.produce_sync is not None else role is Role.MASTER
@@ -146,7 +153,8 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
     return NodeOptions(
         role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
         interface=args.interface, channel=args.channel, bitrate=args.bitrate,
-        scene=existing(args.scene, "--scene"), rig=args.rig, model=existing(args.model, "--model"),
+        scene=existing(args.scene, "--scene"), rig=args.rig,
+        rig_config=existing(args.rig_config, "--rig-config"), model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
         wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), log=args.log, verbose=args.verbose)

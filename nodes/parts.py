@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
+import tomllib
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Callable
 
 from telethermo import sim
@@ -139,6 +141,18 @@ def _scene_rig(opts: NodeOptions, period_s: float, meta: dict[str, Any]):
     return rig, cycles, truth, script, finger_skin
 
 
+def rig_settings(path: Path | None) -> dict[str, Any]:
+    """The rig driver's keyword arguments from ``--rig-config FILE.toml`` (its top-level keys); {} without."""
+    if path is None:
+        return {}
+    try:
+        return tomllib.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise OptionError(f"--rig-config {str(path)!r}: cannot read it: {exc.strerror or exc}") from None
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise OptionError(f"--rig-config {str(path)!r}: not a TOML file: {exc}") from None
+
+
 def _hardware_rig(opts: NodeOptions, period_s: float) -> Rig:
     """The hardware rig of ``opts.rig`` (``module:factory``), checked against the Rig protocol and the period."""
     module, _, factory = opts.rig.partition(":")
@@ -146,8 +160,9 @@ def _hardware_rig(opts: NodeOptions, period_s: float) -> Rig:
         make = getattr(importlib.import_module(module), factory)
     except (ImportError, AttributeError) as exc:
         raise OptionError(f"--rig {opts.rig!r}: cannot load the rig factory: {exc}") from None
+    settings = rig_settings(opts.rig_config)
     try:
-        rig = make()
+        rig = make(**settings)
     except Exception as exc:  # a driver's own error (no device, bad port, ...): one named line
         raise OptionError(f"--rig {opts.rig!r}: the rig factory failed: {type(exc).__name__}: {exc}") from None
     missing = [a for a in ("read", "apply_current", "period_s", "I_max_A") if not hasattr(rig, a)]

@@ -13,6 +13,7 @@ the lateness the producer itself measured) and what it counts (late cycles are c
 from __future__ import annotations
 
 import csv
+import dataclasses
 import json
 import math
 import re
@@ -24,7 +25,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from telethermo.control.types import Role
 from telethermo.nodes.launch import HubProcess, node_command, stop_process, wait_for
+from telethermo.nodes.options import OptionError, build_parser, options_from_args
+from telethermo.nodes.parts import _hardware_rig
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK
 from telethermo.transport.bus import FrameLog
 
@@ -253,6 +257,32 @@ def test_a_bad_hardware_rig_is_a_named_usage_error(factory, expected, tmp_path):
                        text=True, timeout=60, env=env, cwd=root)
     assert p.returncode == 2, p.stderr
     assert expected in p.stderr and "Traceback" not in p.stderr, p.stderr
+
+
+def parse_options(role: Role, argv: list[str]):
+    """The node program's own command line (build_parser + options_from_args), as its main parses it."""
+    return options_from_args(role, build_parser(role).parse_args(argv))
+
+
+def test_rig_config_gives_the_driver_its_settings(tmp_path):
+    """``--rig-config FILE.toml``: its top-level keys are the factory's keyword arguments (a port, a gain);
+    a file that is not TOML, or settings the driver refuses, are one named line (exit 2)."""
+    good = tmp_path / "rig.toml"
+    good.write_text('port = "/dev/ttyTT0"\ngain = 2.5\n')
+    opts = parse_options(Role.MASTER, ["--bus", "virtual:tt-rigcfg", "--rig", "tests.nodes.rig_factories:configured",
+                                       "--rig-config", str(good)])
+    rig = _hardware_rig(opts, 0.01)
+    assert rig.gain == 2.5 and rig.period_s == 0.01
+    wrong = tmp_path / "wrong.toml"
+    wrong.write_text('port = "/dev/ttyUSB9"\n')
+    with pytest.raises(OptionError, match="the rig factory failed: OSError: no thermal display on /dev/ttyUSB9"):
+        _hardware_rig(dataclasses.replace(opts, rig_config=wrong), 0.01)
+    broken = tmp_path / "broken.toml"
+    broken.write_text("port = \n")
+    with pytest.raises(OptionError, match=r"--rig-config '.*broken.toml': not a TOML file"):
+        _hardware_rig(dataclasses.replace(opts, rig_config=broken), 0.01)
+    with pytest.raises(OptionError, match="only with --rig"):
+        parse_options(Role.MASTER, ["--scene", "sim/scenes/pads_in_air.toml", "--rig-config", str(good)])
 
 
 # The experiment of `telethermo identify master` here: 650 samples, 6.5 s of real time. Orders 2,2,0,0 fitted by
