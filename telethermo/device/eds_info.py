@@ -95,6 +95,33 @@ def _number(text: str, data_type: int, where: str) -> float | int:
         raise EdsError(f"{where}: expected a number for a {TYPE_NAMES.get(data_type, hex(data_type))}, got {text!r}") from None
 
 
+OBJECT_LISTS = ("MandatoryObjects", "OptionalObjects", "ManufacturerObjects")
+
+
+def _check_object_lists(parser: RawConfigParser, path: Path) -> None:
+    """CiA 306: an EDS lists its objects in [MandatoryObjects]/[OptionalObjects]/[ManufacturerObjects]
+    (SupportedObjects = N, then 1..N = index) and describes each in its own section. An empty file, a file
+    without the lists, or a truncated one (listed objects without their section) is refused here, naming
+    what is missing, instead of giving a partial dictionary."""
+    if not parser.has_section("MandatoryObjects"):
+        what = "an empty file" if not parser.sections() else "no [MandatoryObjects] section"
+        raise EdsError(f"{path}: not an EDS file ({what}; CiA 306 lists the objects in [MandatoryObjects])")
+    missing = []
+    for lst in OBJECT_LISTS:
+        if not parser.has_section(lst):
+            continue
+        try:
+            n = int(parser.get(lst, "SupportedObjects", fallback="0"), 0)
+            listed = [int(parser.get(lst, str(k)), 0) for k in range(1, n + 1)]
+        except (ValueError, TypeError) as exc:
+            raise EdsError(f"{path}: [{lst}]: expected SupportedObjects = N and entries 1..N = index "
+                           f"({' '.join(str(exc).split())})") from None
+        missing += [f"0x{i:04X}" for i in listed if not parser.has_section(f"{i:04X}")]
+    if missing:
+        shown = ", ".join(missing[:5]) + (f" and {len(missing) - 5} more" if len(missing) > 5 else "")
+        raise EdsError(f"{path}: {len(missing)} listed object(s) have no section ({shown}): truncated or damaged EDS")
+
+
 class EdsInfo:
     """All variables of one EDS file, by (index, subindex) and by CLI key."""
 
@@ -107,8 +134,9 @@ class EdsInfo:
                 parser.read_file(fh)
         except (OSError, UnicodeDecodeError) as exc:
             raise EdsError(f"{self.path}: cannot read EDS ({exc})") from exc
-        except Exception as exc:  # configparser errors
-            raise EdsError(f"{self.path}: not an INI/EDS file ({exc})") from exc
+        except Exception as exc:  # configparser errors: one line, however many the parser wrote
+            raise EdsError(f"{self.path}: not an INI/EDS file ({' '.join(str(exc).split())})") from exc
+        _check_object_lists(parser, self.path)
         self.vars: dict[tuple[int, int], VarInfo] = {}
         self.by_key: dict[str, VarInfo] = {}
         self.object_names: dict[int, str] = {}

@@ -25,6 +25,7 @@ or as one string (command-line override ``--bus``)::
 from __future__ import annotations
 
 import logging
+import errno
 import os
 from dataclasses import dataclass, field, replace
 from typing import Any, Mapping
@@ -154,7 +155,10 @@ def open_bus(settings: TransportSettings) -> can.BusABC:
     validate(settings)
     kwargs: dict[str, Any] = dict(settings.options)
     if settings.interface == "socketcan":
-        bus = can.Bus(interface="socketcan", channel=settings.channel, **kwargs)
+        try:
+            bus = can.Bus(interface="socketcan", channel=settings.channel, **kwargs)
+        except OSError as exc:
+            raise OSError(exc.errno, socketcan_hint(exc, settings.channel)) from None
         enlarge_receive_buffer(bus)
         return bus
     if settings.interface == "virtual":
@@ -165,6 +169,18 @@ def open_bus(settings: TransportSettings) -> can.BusABC:
         return can.Bus(interface="socketcand", channel=settings.channel, host=settings.host,
                        port=settings.port, **kwargs)
     return can.Bus(interface=settings.interface, channel=settings.channel, bitrate=settings.bitrate, **kwargs)
+
+
+def socketcan_hint(exc: OSError, channel: str) -> str:
+    """What a SocketCAN open error means for an operator (the kernel's errno alone says little)."""
+    if exc.errno == errno.EAFNOSUPPORT:
+        return ("this kernel has no SocketCAN (address family AF_CAN not supported): use a Linux kernel with CAN "
+                "support (modprobe can vcan) or another interface (-i, e.g. socketcand or virtual)")
+    if exc.errno in (errno.ENODEV, errno.ENXIO):
+        return f"no CAN interface {channel!r} on this machine (ip -details link show type can, or type vcan)"
+    if exc.errno == errno.ENETDOWN:
+        return f"CAN interface {channel!r} is down (ip link set {channel} up)"
+    return str(exc)
 
 
 #: SocketCAN receive buffer asked for, bytes (the kernel default, ~208 kB, holds only ~250 frames)
