@@ -180,7 +180,7 @@ def socketcan_hint(exc: OSError, channel: str) -> str:
         return f"no CAN interface {channel!r} on this machine (ip -details link show type can, or type vcan)"
     if exc.errno == errno.ENETDOWN:
         return f"CAN interface {channel!r} is down (ip link set {channel} up)"
-    return str(exc)
+    return exc.strerror or str(exc)
 
 
 #: SocketCAN receive buffer asked for, bytes (the kernel default, ~208 kB, holds only ~250 frames)
