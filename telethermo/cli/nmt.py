@@ -7,7 +7,7 @@ from telethermo.cli import common
 from telethermo.cia301 import NMT_STATES
 from telethermo.remote.errors import Failure
 from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
-from telethermo.remote.targets import node_targets, resolve_node
+from telethermo.remote.targets import node_targets, resolve_any_node
 
 #: command -> (NMT command specifier, heartbeat state confirming it)
 COMMANDS = {"start": (0x01, 0x05), "stop": (0x02, 0x04), "preop": (0x80, 0x7F),
@@ -29,7 +29,7 @@ def register(subparsers) -> None:
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
     cs, want = COMMANDS[args.command]
-    targets = node_targets(net) if args.node == "all" else [resolve_node(net, args.node)]
+    targets = node_targets(net) if args.node == "all" else [resolve_any_node(net, args.node)]
     dest = 0 if args.node == "all" else targets[0].node_id
     with common.canopen_network(args, net) as nw:
         hb = watch_heartbeats(nw)

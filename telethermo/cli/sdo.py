@@ -20,7 +20,7 @@ from telethermo.remote import codec, values
 from telethermo.remote.codec import EDS_TYPES, TYPES, decode_as, encode_as, raw_text
 from telethermo.remote.client import remote_node
 from telethermo.remote.errors import Failure, abort_text
-from telethermo.remote.targets import Target, eds_info, node_targets, resolve_node
+from telethermo.remote.targets import eds_info, resolve_any_node
 
 
 def register(subparsers) -> None:
@@ -49,25 +49,10 @@ def parse_object(text: str) -> tuple[int, int]:
     return int(m.group(1), 16), sub
 
 
-def target_of(net, text: str) -> Target:
-    """A node of the network file (by name or ID, with its EDS), or any other node-ID 1..127 (no EDS)."""
-    try:
-        return resolve_node(net, text)
-    except UserError:
-        try:
-            node_id = int(text, 0)
-        except ValueError:
-            node_id = None
-        if node_id is None or not 1 <= node_id <= 127:
-            names = ", ".join(t.role for t in node_targets(net))
-            raise UserError(f"node {text!r}: expected a node-ID 1..127 or one of {names}") from None
-        return Target(f"node {node_id}", node_id, None)
-
-
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    t = target_of(net, args.node)
+    t = resolve_any_node(net, args.node)
     index, sub = parse_object(args.object)
     where = f"0x{index:04X}:{sub:02X}"
     info = None

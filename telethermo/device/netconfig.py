@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 import tomllib
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -53,9 +54,16 @@ class HeartbeatConfig:
 
 @dataclass(frozen=True, slots=True)
 class NodeConfig:
+    """A node of the network file: ``master`` and ``slave`` (this system's pair, EDS required) or another
+    device on the same bus (a robot arm, I/O modules, a thermocouple amplifier: ``eds`` optional)."""
+
     role: str
     node_id: int
-    eds: Path
+    eds: Path | None
+
+
+#: names of other nodes: lower-case, a letter first (they become CLI words: telethermo get arm 0x1018:1)
+OTHER_NODE_NAME = re.compile(r"[a-z][a-z0-9_-]{0,31}")
 
 
 @dataclass(frozen=True, slots=True)
@@ -176,17 +184,52 @@ def load_network(path: str | Path | None = None) -> NetworkConfig:
         raise h.error("consumer_ms", f"an integer > producer_ms ({producer_ms}) so that one late heartbeat is not a loss", consumer_ms)
     heartbeat = HeartbeatConfig(producer_ms=producer_ms, consumer_ms=consumer_ms)
 
-    n = _Section(file, "nodes", top.table.get("nodes", {}), set(ROLES))
+    table = top.table.get("nodes", {})
+    nodes = _pair(file, table)
+    for name, t in table.items():
+        if name not in ROLES:
+            nodes[name] = _other_node(file, name, t, nodes)
+    return NetworkConfig(path=file, bus=bus, sync=sync, heartbeat=heartbeat, nodes=nodes)
+
+
+def _eds_path(file: Path, t: "_Section", default: str | None) -> Path | None:
+    """The node's EDS (relative to the network file), checked to exist; None when optional and not given."""
+    given = t.table.get("eds", default)
+    if given is None:
+        return None
+    eds = Path(t.str("eds", default))
+    eds = eds if eds.is_absolute() else (file.parent / eds)
+    if not eds.is_file():
+        raise t.error("eds", f"an existing EDS file (looked for {eds})", given)
+    return eds.resolve()
+
+
+def _pair(file: Path, table: dict) -> dict[str, NodeConfig]:
+    """[nodes.master] and [nodes.slave]: this system's two nodes (defaults: node-IDs 1 and 2, the shipped EDS)."""
     nodes: dict[str, NodeConfig] = {}
     defaults = {"master": 1, "slave": 2}
     for role in ROLES:
-        t = _Section(file, f"nodes.{role}", n.table.get(role, {}), {"node_id", "eds"})
-        eds = Path(t.str("eds", f"{role}.eds"))
-        eds = eds if eds.is_absolute() else (file.parent / eds)
-        if not eds.is_file():
-            raise t.error("eds", f"an existing EDS file (looked for {eds})", t.table.get("eds", f"{role}.eds"))
-        nodes[role] = NodeConfig(role, t.int("node_id", defaults[role], 1, 127), eds.resolve())
+        t = _Section(file, f"nodes.{role}", table.get(role, {}), {"node_id", "eds"})
+        nodes[role] = NodeConfig(role, t.int("node_id", defaults[role], 1, 127), _eds_path(file, t, f"{role}.eds"))
     if nodes["master"].node_id == nodes["slave"].node_id:
         raise NetworkConfigError(f"{file}: [nodes.slave] node_id: expected a node-ID different from the master's "
                                  f"({nodes['master'].node_id}), got {nodes['slave'].node_id}")
-    return NetworkConfig(path=file, bus=bus, sync=sync, heartbeat=heartbeat, nodes=nodes)
+    return nodes
+
+
+def _other_node(file: Path, name: str, raw: Any, nodes: dict[str, NodeConfig]) -> NodeConfig:
+    """[nodes.NAME]: another device on the bus: node_id required, eds optional."""
+    if not OTHER_NODE_NAME.fullmatch(name):
+        raise NetworkConfigError(f"{file}: [nodes.{name}]: expected a node name of lower-case letters, digits, "
+                                 "'_' or '-', starting with a letter")
+    if not isinstance(raw, dict):
+        raise NetworkConfigError(f"{file}: [nodes.{name}]: expected a table (node_id, eds), got {raw!r}")
+    t = _Section(file, f"nodes.{name}", raw, {"node_id", "eds"})
+    if "node_id" not in raw:
+        raise NetworkConfigError(f"{file}: [nodes.{name}] node_id: missing (a node other than master and slave "
+                                 "needs its node-ID, an integer in [1, 127])")
+    node_id = t.int("node_id", 0, 1, 127)
+    for other in nodes.values():
+        if other.node_id == node_id:
+            raise t.error("node_id", f"a node-ID not used by [nodes.{other.role}] ({node_id})", node_id)
+    return NodeConfig(name, node_id, _eds_path(file, t, None))

@@ -22,7 +22,8 @@ class Target:
 
 def node_targets(net: NetworkConfig) -> list[Target]:
     """Every node of the network file, by node-ID."""
-    return sorted((Target(role, n.node_id, Path(n.eds)) for role, n in net.nodes.items()), key=lambda t: t.node_id)
+    return sorted((Target(role, n.node_id, Path(n.eds) if n.eds is not None else None) for role, n in net.nodes.items()),
+                  key=lambda t: t.node_id)
 
 
 def resolve_node(net: NetworkConfig, text: str) -> Target:
@@ -34,6 +35,18 @@ def resolve_node(net: NetworkConfig, text: str) -> Target:
             return t
     names = ", ".join(f"{t.role} ({t.node_id})" for t in known)
     raise UserError(f"unknown node {text!r}; expected one of {names} (from {net.path})")
+
+
+def resolve_any_node(net: NetworkConfig, text: str) -> Target:
+    """Like :func:`resolve_node`, and also any node-ID 1..127 outside the network file (no EDS: raw SDO, NMT)."""
+    try:
+        return resolve_node(net, text)
+    except UserError:
+        node_id = _int(text)
+        if node_id is None or not 1 <= node_id <= 127:
+            names = ", ".join(t.role for t in node_targets(net))
+            raise UserError(f"node {text!r}: expected a node-ID 1..127 or one of {names}") from None
+        return Target(f"node {node_id}", node_id, None)
 
 
 def _int(text: str) -> int | None:
@@ -51,6 +64,10 @@ def _parsed_eds(path: str, mtime_ns: int) -> EdsInfo:
 def eds_info(target: Target) -> EdsInfo:
     """The node's EDS, parsed once per file version (a parse takes ~20 ms; a command may look up hundreds
     of names, e.g. identify's SDO set-up and model load)."""
+    if target.eds is None:
+        raise UserError(f"{target.role} (node {target.node_id}) has no EDS (give one in the network file, "
+                        f"[nodes.{target.role}] eds = ...), so its objects have no names: use "
+                        f"telethermo sdo {target.node_id} INDEX:SUB")
     try:
         try:
             mtime = Path(target.eds).stat().st_mtime_ns

@@ -1,0 +1,88 @@
+"""Other devices on the bus (issue 13: a bench also has a robot arm, I/O modules, thermocouple amplifiers):
+the network file names them (``[nodes.NAME]``, node-ID required, EDS optional); the CLI reaches them by name,
+by object name when their EDS is given, by raw SDO and NMT when it is not, and by any node-ID 1..127 even
+outside the file. Checked against real CiA 301 devices on a python-can virtual bus, read back through
+canopen's own client."""
+from __future__ import annotations
+
+import pytest
+
+from telethermo.bus_config import path as bc
+from telethermo.device.device import Device
+from telethermo.device.netconfig import NetworkConfigError, load_network
+from telethermo.device.settings import DeviceSettings
+
+import canopen
+
+NET = """
+[bus]
+interface = "virtual"
+channel = "tt-other"
+[nodes.master]
+eds = "{master}"
+[nodes.slave]
+eds = "{slave}"
+[nodes.arm]
+node_id = 5
+[nodes.amplifier]
+node_id = 6
+eds = "{slave}"
+"""
+
+
+def network(tmp_path, text=NET):
+    p = tmp_path / "network.toml"
+    p.write_text(text.format(master=bc("master.eds"), slave=bc("slave.eds")), encoding="utf-8")
+    return p
+
+
+def test_other_nodes_load_with_their_id_and_optional_eds(tmp_path):
+    net = load_network(network(tmp_path))
+    assert net.node("arm").node_id == 5 and net.node("arm").eds is None
+    assert net.node("amplifier").eds == bc("slave.eds").resolve()
+    assert set(net.device_settings("master").known_node_ids) == {1, 2, 5, 6}
+
+
+@pytest.mark.parametrize("extra, message", [
+    ("[nodes.arm2]\neds = \"x\"\n", r"\[nodes.arm2\] node_id: missing"),
+    ("[nodes.arm2]\nnode_id = 5\n", r"\[nodes.arm2\] node_id: expected a node-ID not used by \[nodes.arm\] \(5\), got 5"),
+    ("[nodes.Arm]\nnode_id = 9\n", r"\[nodes.Arm\]: expected a node name of lower-case letters"),
+    ("[nodes.arm2]\nnode_id = 9\ncolour = 1\n", r"\[nodes.arm2\] colour: unknown key"),
+    ("[nodes.arm2]\nnode_id = 200\n", r"\[nodes.arm2\] node_id: expected an integer in \[1, 127\], got 200"),
+])
+def test_a_bad_other_node_is_refused_naming_the_field(tmp_path, extra, message):
+    with pytest.raises(NetworkConfigError, match=message):
+        load_network(network(tmp_path, NET + extra))
+
+
+@pytest.fixture
+def bench(tmp_path):
+    """The arm (node 5, slave EDS on the device side, none in the network file) and the amplifier (node 6)."""
+    nw = canopen.Network()
+    nw.NOTIFIER_CYCLE = 0.05
+    nw.connect(interface="virtual", channel="tt-other")
+    devs = [Device(nw, nid, bc("slave.eds"), settings=DeviceSettings(heartbeat_producer_ms=50)) for nid in (5, 6)]
+    for d in devs:
+        d.start()
+    try:
+        yield network(tmp_path)
+    finally:
+        for d in devs:
+            d.close()
+        nw.disconnect()
+
+
+def test_the_cli_reaches_other_nodes(bench, cli):
+    net = str(bench)
+    code, out, err = cli("get", "amplifier", "T_sensor_C", "--network", net, "--timeout", "1")
+    assert code == 0 and out.startswith("amplifier 0x2000 T_sensor_C"), err
+    code, out, err = cli("get", "arm", "T_sensor_C", "--network", net, "--timeout", "1")
+    assert code == 2 and "arm (node 5) has no EDS" in err and "telethermo sdo 5" in err
+    code, out, err = cli("sdo", "arm", "0x1017:0", "--network", net, "--timeout", "1")
+    assert code == 0 and "0x1017:00" in out, err
+    code, out, err = cli("sdo", "7", "0x1017:0", "--network", net, "--timeout", "0.3")   # nobody at 7
+    assert code == 1 and "node 7" in err
+    code, out, err = cli("nmt", "preop", "arm", "--network", net)
+    assert code == 0, err
+    code, out, err = cli("status", "arm", "amplifier", "--network", net, "--timeout", "1")
+    assert "arm (node 5): NMT PRE-OPERATIONAL" in out, out + err
