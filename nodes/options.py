@@ -10,6 +10,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from telethermo.control.types import Mode, Role
+from telethermo.sim.errors import SceneError
+from telethermo.sim.scene import scene_path
 from telethermo.transport.busargs import add_bus_arguments
 
 MODE_NAMES = {"idle": Mode.IDLE, "telepresence": Mode.TELEPRESENCE, "render": Mode.RENDER, "identify": Mode.IDENTIFY}
@@ -86,7 +88,7 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
     add_bus_arguments(p)
     rig = p.add_mutually_exclusive_group()   # one of them is required, except with --recover
-    rig.add_argument("--scene", type=Path, help="scene file (TOML): simulated rig")
+    rig.add_argument("--scene", type=Path, help="scene file (TOML) or the name of a shipped scene: simulated rig")
     rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY(**settings) returns a telethermo.rig.Rig")
     p.add_argument("--rig-config", type=Path, metavar="FILE.toml",
                    help="settings of the --rig driver: the TOML file's top-level keys are FACTORY's keyword arguments")
@@ -116,6 +118,19 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     p.add_argument("--log", type=Path, help="also write the log to this file")
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
+
+
+def _scene_file(arg: Path | None) -> Path | None:
+    """--scene: a scene file, or the name of a shipped scene (as ``telethermo session`` takes it)."""
+    if arg is None:
+        return None
+    try:
+        path = scene_path(arg)
+    except SceneError as exc:
+        raise OptionError(f"--scene {str(arg)!r}: {exc}") from None
+    if not path.is_file():
+        raise OptionError(f"--scene {str(arg)!r}: no such file")
+    return path
 
 
 def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
@@ -153,7 +168,7 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
     return NodeOptions(
         role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
         interface=args.interface, channel=args.channel, bitrate=args.bitrate,
-        scene=existing(args.scene, "--scene"), rig=args.rig,
+        scene=_scene_file(args.scene), rig=args.rig,
         rig_config=existing(args.rig_config, "--rig-config"), model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,

@@ -349,17 +349,23 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
                  slave_start=slave_start)
 
 
-def load_scene(path_or_name: str | Path) -> Scene:
-    """Load a scene from a TOML path, or a shipped scene by name (e.g. "probe_touches_al_steel_wood").
-
-    Raises SceneError (a ValueError) naming the file, the field and what was expected.
-    """
+def scene_path(path_or_name: str | Path) -> Path:
+    """The file of a scene given as a path, or as the name of a shipped scene (no suffix, no such file)."""
     p = Path(path_or_name)
     if not p.suffix and not p.exists():
         cand = SCENES_DIR / f"{p.name}.toml"
         if not cand.exists():
             raise SceneError(str(path_or_name), "<name>", f"a scene file or a shipped scene ({', '.join(shipped_scenes())})")
         p = cand
+    return p
+
+
+def load_scene(path_or_name: str | Path) -> Scene:
+    """Load a scene from a TOML path, or a shipped scene by name (e.g. "probe_touches_al_steel_wood").
+
+    Raises SceneError (a ValueError) naming the file, the field and what was expected.
+    """
+    p = scene_path(path_or_name)
     try:
         with open(p, "rb") as fh:
             raw = tomllib.load(fh)
