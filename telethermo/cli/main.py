@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import re
 import signal
 import sys
 from typing import NamedTuple
@@ -62,7 +63,21 @@ class _Subparsers:
 
     def add_parser(self, name: str, **kw) -> argparse.ArgumentParser:
         kw.setdefault("help", COMMANDS[name].help)
+        if kw.get("description"):
+            kw["description"] = plain_text(kw["description"])
+        if kw.get("epilog"):
+            kw["epilog"] = plain_text(kw["epilog"])
         return self._action.add_parser(name, **kw)
+
+
+_ROLE = re.compile(r":(?:func|mod|class|meth|data|attr|obj):`~?([^`]+)`")
+
+
+def plain_text(doc: str) -> str:
+    """A module docstring as a person reads it in ``--help``: reST roles and literals without their marks
+    (``:func:`a.b.c``` -> ``a.b.c``, double back-quotes -> the text, ``**bold**`` -> bold)."""
+    text = _ROLE.sub(lambda m: m.group(1), doc)
+    return text.replace("``", "").replace("**", "")
 
 
 class _VersionAction(argparse.Action):
