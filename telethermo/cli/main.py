@@ -51,6 +51,7 @@ COMMANDS: dict[str, Command] = {
     "record": Command("record", "record the bus to a .log/.asc/.blf file plus a decoded CSV"),
     "plot": Command("plot", "plot a recording (a session's recording.csv, a node's --record CSV) to a PNG"),
     "bench": Command("bench", "run the benchmark suite, write bench/results/*.json and docs/benchmarks.md"),
+    "completion": Command("completion", "print a bash/zsh completion script (commands, options, nodes, scenes)"),
 }
 
 
