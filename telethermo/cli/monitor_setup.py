@@ -18,6 +18,9 @@ def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_perio
     power-on overrides (heartbeat and consumer times, SYNC), bitrate and SYNC period (real time only)."""
     nodes = {}
     for t in node_targets(net):
+        if t.eds is None:   # another device named without an EDS: known by name, its PDOs not decoded
+            nodes[t.node_id] = NodeInfo(t.role, None)
+            continue
         try:
             od = import_od(str(t.eds), t.node_id)
         except Exception as exc:  # canopen raises assorted errors for a bad EDS

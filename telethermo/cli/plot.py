@@ -1,15 +1,22 @@
 """``telethermo plot FILE``: a picture of a recording, the same plot as a session's session.png.
 
-FILE is any recording in the telethermo.offline.recording format: an offline or two-process session's
-``recording.csv`` or one node's ``--record`` CSV (``master.csv``, ``slave.csv``). matplotlib (the
-``plot`` extra) and numpy are imported only when the command runs.
+FILE is any recording in the telethermo.offline.recording format (an offline or two-process session's
+``recording.csv`` or one node's ``--record`` CSV: ``master.csv``, ``slave.csv``), or a bus log
+(``telethermo record`` / python-can: .log, .asc, .blf, .trc): its PDO values decoded by the EDS mappings
+of the network file's nodes, one panel per unit, EMCYs marked. matplotlib (the ``plot`` extra) is
+imported only when the command runs.
 """
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
 
+from telethermo.atomic import write_bytes_atomic
+from telethermo.cli import common
 from telethermo.cli.main import UserError
+from telethermo.cli.monitor_setup import monitor_config
+from telethermo.monitor.busplot import decode_bus_log, plot_bus_log_png
+from telethermo.monitor.replay import ReplayError, read_log
 from telethermo.offline.plot import write_session_png
 from telethermo.offline.recording import RecordingError, read_recording_csv
 
@@ -20,8 +27,12 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("plot", description="Plot a recording as session.png shows a session: temperatures, "
                                                   "estimates, flux, current, contact and safety state. FILE: a "
                                                   "session's recording.csv or a node's --record CSV (master.csv, "
-                                                  "slave.csv). A damaged file is named with its line (exit 2).")
-    p.add_argument("file", metavar="FILE", type=Path, help="the recording (CSV)")
+                                                  "slave.csv), or a bus log (.log/.asc/.blf/.trc: the PDO values "
+                                                  "by the EDS mappings, one panel per unit, EMCYs marked). A "
+                                                  "damaged file is named with its line (exit 2).")
+    p.add_argument("file", metavar="FILE", type=Path, help="the recording (CSV) or a bus log")
+    p.add_argument("--network", metavar="FILE", help="bus log: the network file whose nodes' EDS decode the PDOs "
+                                                     "(default: the shipped one)")
     p.add_argument("-o", "--out", metavar="OUT.png", type=Path,
                    help="the picture (default: FILE with the suffix .png, e.g. master.csv -> master.png)")
     p.set_defaults(func=run)
@@ -38,14 +49,13 @@ def out_path(args: argparse.Namespace) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     src: Path = args.file
-    if src.suffix.lower() in BUS_LOGS:
-        raise UserError(f"{src}: a bus log; expected a recording CSV (a session's recording.csv or a node's "
-                        "--record CSV): bus logs are not plotted")
     out = out_path(args)
     try:
         import matplotlib  # noqa: F401  (the optional extra: say so before reading anything)
     except ImportError:
         raise UserError("matplotlib is not installed; install the plot extra: pip install 'telethermo[plot]'") from None
+    if src.suffix.lower() in BUS_LOGS:
+        return plot_bus_log(args, src, out)
     try:
         rec = read_recording_csv(src)
     except RecordingError as exc:
@@ -59,4 +69,25 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UserError(f"{out}: cannot write the picture ({exc.strerror or exc})") from None
     print(f"{path}: {len(rec)} rows, {rec.col('t_s')[-1] - rec.col('t_s')[0]:.2f} s")
+    return 0
+
+
+def plot_bus_log(args: argparse.Namespace, src: Path, out: Path) -> int:
+    """A bus log's PDO values (by the network file's EDS mappings) and EMCYs, as a PNG."""
+    cfg = monitor_config(common.network(args))
+    ods = {nid: n.od for nid, n in cfg.nodes.items()}
+    names = {nid: n.name for nid, n in cfg.nodes.items()}
+    try:
+        data = decode_bus_log(read_log(src), ods, names)
+    except ReplayError as exc:
+        raise UserError(str(exc)) from None
+    try:
+        png = plot_bus_log_png(data, f"{src.name}: {data.frames} frames, {data.pdo_frames} PDOs decoded")
+    except ValueError as exc:
+        raise UserError(f"{src}: {exc}") from None
+    try:
+        path = write_bytes_atomic(out, png)
+    except OSError as exc:
+        raise UserError(f"{out}: cannot write the picture ({exc.strerror or exc})") from None
+    print(f"{path}: {data.frames} frames, {len(data.series)} series, {len(data.emcys)} EMCY")
     return 0

@@ -84,8 +84,8 @@ def test_not_a_recording(cli, tmp_path):
     assert "frames.csv: line 1: expected '# telethermo-recording 1'" in err
     code, _, err = cli("plot", str(tmp_path / "missing.csv"))
     assert code == EXIT_USAGE and "missing.csv: cannot read" in err
-    code, _, err = cli("plot", str(tmp_path / "s.blf"))
-    assert code == EXIT_USAGE and "s.blf: a bus log" in err
+    code, _, err = cli("plot", str(tmp_path / "s.blf"))      # a bus log that is not there
+    assert code == EXIT_USAGE and "s.blf: no such log file" in err
 
 
 def test_without_matplotlib_one_line_and_exit_2(cli, offline_csv, tmp_path, monkeypatch):
