@@ -26,6 +26,7 @@ from telethermo.transport.resolve import resolve_bus
 from telethermo.nodes.merge import SYNC_CYCLE
 from telethermo.nodes.options import OptionError, build_parser, options_from_args
 from telethermo.nodes.parts import build_parts
+from telethermo.nodes.realtime import apply_realtime
 from telethermo.nodes.runtime import NodeRuntime
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
@@ -96,6 +97,8 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
             print(f"{prog}: error: cannot start node {node_id} on {transport.describe()}: {exc}", file=sys.stderr)
             code = EXIT_FAIL
             return code
+        for note in apply_realtime(opts.realtime):   # after start-up: what is frozen/locked is the running node
+            (log.warning if note.startswith("WARNING") else log.info)(note.removeprefix("WARNING "))
         if opts.produce_sync:
             _produce(rt, opts, parts, log)
         else:

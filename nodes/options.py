@@ -10,6 +10,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from telethermo.control.types import Mode, Role
+from telethermo.nodes.realtime import RealtimeOptions, parse_cpus
 from telethermo.sim.errors import SceneError
 from telethermo.sim.scene import scene_path
 from telethermo.transport.busargs import add_bus_arguments
@@ -59,6 +60,7 @@ class NodeOptions:
     scene: Path | None = None
     rig: str | None = None
     rig_config: Path | None = None
+    realtime: RealtimeOptions = RealtimeOptions()
     model: Path | None = None
     gains: Path | None = None
     mode: Mode = Mode.TELEPRESENCE
@@ -115,6 +117,13 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     p.add_argument("--wait-peer", type=float, default=30.0, metavar="S",
                    help="SYNC producer: wait up to S s for the peer's boot-up before starting (default 30)")
     p.add_argument("--progress", type=int, default=0, metavar="K", help="print 'progress k n' every K cycles")
+    rt = p.add_argument_group("real time (lab PC; each knob is applied as far as the system permits, else a warning)")
+    rt.add_argument("--cpu", metavar="N[,M]", help="pin the node to these CPUs (e.g. 1, or 2,3)")
+    rt.add_argument("--rt-priority", type=int, metavar="P", help="SCHED_FIFO priority 1..99 (needs CAP_SYS_NICE)")
+    rt.add_argument("--nice", type=int, metavar="N", help="nice value -20..19 (negative needs CAP_SYS_NICE)")
+    rt.add_argument("--mlock", action="store_true", help="lock the node's memory (no page faults in a cycle)")
+    rt.add_argument("--gc", choices=["default", "freeze"], default="default",
+                    help="freeze: move start-up objects out of the garbage collector, rarer generation-0 runs")
     p.add_argument("--log", type=Path, help="also write the log to this file")
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
@@ -131,6 +140,19 @@ def _scene_file(arg: Path | None) -> Path | None:
     if not path.is_file():
         raise OptionError(f"--scene {str(arg)!r}: no such file")
     return path
+
+
+def _realtime_options(args: argparse.Namespace) -> RealtimeOptions:
+    try:
+        cpus = parse_cpus(args.cpu) if args.cpu is not None else None
+    except ValueError as exc:
+        raise OptionError(str(exc)) from None
+    if args.rt_priority is not None and not 1 <= args.rt_priority <= 99:
+        raise OptionError(f"--rt-priority {args.rt_priority}: expected 1..99")
+    if args.nice is not None and not -20 <= args.nice <= 19:
+        raise OptionError(f"--nice {args.nice}: expected -20..19")
+    return RealtimeOptions(cpus=cpus, rt_priority=args.rt_priority, nice=args.nice, mlock=args.mlock,
+                           gc_freeze=args.gc == "freeze")
 
 
 def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
@@ -169,7 +191,7 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
         interface=args.interface, channel=args.channel, bitrate=args.bitrate,
         scene=_scene_file(args.scene), rig=args.rig,
-        rig_config=existing(args.rig_config, "--rig-config"), model=existing(args.model, "--model"),
+        rig_config=existing(args.rig_config, "--rig-config"), realtime=_realtime_options(args), model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
         wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), log=args.log, verbose=args.verbose)
