@@ -10,7 +10,7 @@ from telethermo.cli import common
 from telethermo.cli.main import UserError
 from telethermo.cli.monitor_setup import monitor_config
 from telethermo.monitor.replay import Pacer, ReplayError, live, paced, read_log
-from telethermo.monitor.run import run_curses, run_lines
+from telethermo.monitor.run import bus_state_poller, run_curses, run_lines
 from telethermo.monitor.state import Monitor
 from telethermo.monitor.view import ViewState
 from telethermo.remote.errors import Failure
@@ -66,11 +66,13 @@ def run(args: argparse.Namespace) -> int:
             bus, ts = common.open_can(args, net)
             source, desc, mode, now = live(bus), ts.describe(), "LIVE", time.time
             speed = 0.0
+        poll = bus_state_poller(bus) if bus is not None else None
         try:
             if scripted:
                 src = paced(source, speed=speed) if args.replay else source
                 run_lines(src, mon, sys.stdout, as_json=args.json, frames=not args.no_frames,
-                          status_every_s=args.status_every, max_frames=args.count, until=until, now=now)
+                          status_every_s=args.status_every, max_frames=args.count, until=until, now=now,
+                          poll=poll)
             else:
                 if not sys.stdout.isatty():
                     raise UserError("the view needs a terminal; use --json or --lines for scripts")
@@ -86,7 +88,7 @@ def run(args: argparse.Namespace) -> int:
                             return
 
                 curses.wrapper(run_curses, limited(), mon, vs, pacer=Pacer(speed) if args.replay else None,
-                               now=now, until=until)
+                               now=now, until=until, poll=poll)
         except ReplayError as exc:
             raise Failure(str(exc)) from None
     finally:

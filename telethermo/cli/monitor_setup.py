@@ -15,20 +15,33 @@ from telethermo.remote.targets import node_targets
 def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None
                    ) -> MonitorConfig:
     """The monitor's view of the network: node names, EDS dictionaries with the network file's
-    power-on overrides (heartbeat and consumer times, SYNC), bitrate and SYNC period (real time only)."""
+    power-on overrides (heartbeat and consumer times, SYNC), bitrate and the nominal SYNC period
+    (``sync_period_s``, else the network file's, in lockstep too: late cycles are then counted
+    against the period the nodes were configured with, and the view says "lockstep")."""
     nodes = {}
     for t in node_targets(net):
         try:
             od = import_od(str(t.eds), t.node_id)
         except Exception as exc:  # canopen raises assorted errors for a bad EDS
             raise UserError(f"{t.eds}: cannot parse EDS ({exc})") from None
-        try:
-            for (index, sub), value in net.device_settings(t.role).overrides().items():
-                obj = od[index]
-                var = obj if sub == 0 and not hasattr(obj, "subindices") else obj[sub]
-                var.value = value
-        except (KeyError, NetworkConfigError):
-            pass  # an override for an object this EDS lacks: keep the EDS value
+        _apply_overrides(net, t.role, od)
         nodes[t.node_id] = NodeInfo(t.role, od)
-    period = sync_period_s if sync_period_s is not None else (None if net.sync.lockstep else net.sync.period_s)
-    return MonitorConfig(nodes=nodes, bitrate_bps=bitrate or net.bus.bitrate, sync_period_s=period)
+    period = sync_period_s if sync_period_s is not None else net.sync.period_s
+    return MonitorConfig(nodes=nodes, bitrate_bps=bitrate or net.bus.bitrate, sync_period_s=period,
+                         sync_lockstep=net.sync.lockstep)
+
+
+def _apply_overrides(net: NetworkConfig, role: str, od) -> None:
+    """Write the network file's power-on values (0x1016 consumer and 0x1017 producer heartbeat times,
+    SYNC) into the node's dictionary, as the node does at start; one the EDS lacks keeps the EDS value."""
+    try:
+        overrides = net.device_settings(role).overrides()
+    except (KeyError, NetworkConfigError):
+        return   # a node without device settings in the file (a further node): its EDS values
+    for (index, sub), value in overrides.items():
+        try:
+            obj = od[index]
+            var = obj if sub == 0 and not hasattr(obj, "subindices") else obj[sub]
+        except KeyError:
+            continue
+        var.value = value

@@ -15,6 +15,8 @@ from telethermo import cia301
 from . import decoder as dec
 from .busload import message_length_bits
 from .events import ERROR, INFO, WARN, Event, EventLog
+from .frames import FrameTable
+from .health import ControllerHealth, decode_error_frame
 from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo, format_value
 from .records import BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
@@ -31,6 +33,8 @@ class Monitor:
         self.nodes: dict[int, NodeState] = {}
         self.stats = BusStats()
         self.log = EventLog()
+        self.frames = FrameTable()
+        self.controller = ControllerHealth()
         self.pdo_map = PdoMap({n: info.od for n, info in self.config.nodes.items() if info.od is not None})
         self.pdos: dict[tuple[int, str, int], PdoState] = {}
         self._window: deque[tuple[float, int]] = deque()
@@ -64,14 +68,10 @@ class Monitor:
             v = _value(info.od, 0x1017, 0)
             if v:
                 self._node(n).producer_time_s = v / 1000.0
-            if 0x1016 in info.od:
-                obj = info.od[0x1016]
-                for sub in range(1, 128):
-                    try:
-                        var = obj[sub]
-                    except (KeyError, TypeError):
-                        break
-                    self._set_consumer(_value(info.od, 0x1016, sub) or 0)
+            # only the entries 0x1016:00 declares: canopen's ODArray makes up any further subindex
+            # from the first one's EDS default (which would undo the network file's consumer time)
+            for sub in range(1, min(_value(info.od, 0x1016, 0) or 0, 127) + 1):
+                self._set_consumer(_value(info.od, 0x1016, sub) or 0)
             v = _value(info.od, 0x1005, 0)
             if v:
                 self._sync_cob = v & 0x7FF
@@ -96,6 +96,7 @@ class Monitor:
         frame = dec.Frame(t, msg.arbitration_id, data, kind, node)
         handler = getattr(self, f"_on_{kind.lower()}")
         handler(frame, events)
+        self.frames.add(frame, bool(msg.is_extended_id))
         events += self._check_timeouts(t)
         self.log.add(events)
         return frame, events
@@ -106,6 +107,10 @@ class Monitor:
         self._update_rates(now_s)
         self.log.add(events)
         return events
+
+    def set_bus_state(self, name: str | None, reason: str = "") -> None:
+        """The interface's controller state (python-can ``BusState`` name), or None and why not."""
+        self.controller.from_bus_state(name, reason)
 
     # -- bookkeeping -----------------------------------------------------------------------------
     def _account(self, t: float, msg, events: list[Event]) -> None:
@@ -150,8 +155,17 @@ class Monitor:
     # -- per service -----------------------------------------------------------------------------
     def _on_error_frame(self, f: dec.Frame, ev: list[Event]) -> None:
         self.stats.error_frames += 1
-        f.text = "error frame"
-        ev.append(Event(f.t_s, WARN, "error_frame", None, "CAN error frame", {"data": f.data.hex()}))
+        info = decode_error_frame(f.cob_id, f.data)
+        before = self.controller.state
+        self.controller.from_error_frame(info)
+        f.fields = info
+        f.text = "error frame: " + (", ".join(info["classes"] + info["controller"]) or "no class bits")
+        if info["tx_errors"] is not None:
+            f.text += f"; TX errors {info['tx_errors']}, RX errors {info['rx_errors']}"
+        ev.append(Event(f.t_s, WARN, "error_frame", None, "CAN " + f.text, {"data": f.data.hex(), **info}))
+        if info["state"] is not None and info["state"] != before:
+            ev.append(Event(f.t_s, ERROR if info["state"] == "BUS-OFF" else WARN, "controller_state", None,
+                            f"CAN controller {before or 'unknown'} -> {info['state']}", {"state": info["state"]}))
 
     def _on_unknown(self, f: dec.Frame, ev: list[Event]) -> None:
         self.stats.unknown_frames += 1
@@ -407,7 +421,8 @@ class Monitor:
                 "error_frames": s.error_frames, "unknown_frames": s.unknown_frames, "malformed": s.malformed,
                 "syncs": s.syncs, "sync_counter": s.sync_counter, "sync_counter_errors": s.sync_counter_errors,
                 "sync": s.sync_summary(), "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
-                "events": dict(self.log.counts),
+                "events": dict(self.log.counts), "controller": self.controller.to_json(),
+                "cob_ids": [r.to_json() for r in self.frames.sorted_rows()],
                 "nodes": [st.to_json() for _, st in sorted(self.nodes.items())],
                 "pdos": [{"node": p.pdef.node, "pdo": p.pdef.label, "cob_id": p.pdef.cob_id, "count": p.count,
                           "missing": p.missing, "values": [v.to_json() for v in p.values]}

@@ -41,6 +41,10 @@ def _capture(sock: str) -> str:
                           check=True).stdout
 
 
+def keys(sock: str, *names: str) -> None:
+    subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", *names], check=True)
+
+
 def _wait_screen(sock: str, text: str, timeout_s: float = 20.0) -> str:
     deadline = time.monotonic() + timeout_s
     screen = ""
@@ -69,13 +73,30 @@ def test_view_in_a_real_terminal(tmp_path):
         assert "SYNC 10.00 ms" in screen and "#59" in screen
         assert "0x4210 Device temperature" in screen
         assert "T_max_C ABORT 0x06090031 Value of parameter written too high" in screen
-        assert screen.splitlines()[-1].startswith("[p] pause")
+        assert screen.splitlines()[-1].startswith("[?] help")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "f"], check=True)
         _wait_screen(sock, "filter (text, node=N")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "emcy", "Enter"], check=True)
         screen = _wait_screen(sock, "EVENTS (filter: emcy)")
         events = screen.split("EVENTS (filter: emcy)")[1]
         assert "EMCY 0x4210" in events and "boot-up" not in events and "ABORT" not in events
+        keys(sock, "?")
+        screen = _wait_screen(sock, "HELP: keys of telethermo monitor")
+        assert "raw frame list: one row per COB-ID" in screen and "PgUp/PgDn" in screen
+        keys(sock, "r")
+        screen = _wait_screen(sock, "RAW FRAME LIST")
+        sync_row = next(ln for ln in screen.splitlines() if ln.startswith("     080"))
+        assert sync_row.split()[1:4] == ["SYNC", "-", "59"] and "10.00" in sync_row
+        keys(sock, "l")
+        _wait_screen(sock, "FRAME LOG (last 2000 frames kept)")
+        keys(sock, "Home")
+        screen = _wait_screen(sock, "newer below (End to follow)")
+        assert "boot-up node 1" in screen          # the first frame of the log, scrolled back to
+        keys(sock, "End")
+        screen = _wait_screen(sock, "0x581")      # the newest frame again
+        assert "newer below" not in screen
+        keys(sock, "m")
+        _wait_screen(sock, "CHECK FIRST")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "p"], check=True)
         _wait_screen(sock, "[PAUSED]")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "q"], check=True)

@@ -1,0 +1,205 @@
+"""The monitor's lab tools without a terminal: the raw frame list, bounded scrollback of frames and
+events, the pages and keys, the controller state (error frames, python-can bus.state), the incident
+hints, the readable status counters and the timing taken from the network file."""
+from __future__ import annotations
+
+import curses
+import struct
+from pathlib import Path
+
+import can
+import pytest
+
+from telethermo import bus_config
+from telethermo.cli.monitor_setup import monitor_config as net_monitor_config
+from telethermo.device.netconfig import load_network
+from telethermo.monitor.frames import FRAME_HISTORY
+from telethermo.monitor.health import decode_error_frame
+from telethermo.monitor.hints import HEARTBEAT_LOST, emcy_hint, incident_hints
+from telethermo.monitor.pages import KEYS, scroll_window
+from telethermo.monitor.run import bus_state_poller
+from telethermo.monitor.state import Monitor
+from telethermo.monitor.view import ViewState, handle_key, render_lines
+
+from .conftest import monitor_config
+
+
+def msg(t, cob, data=b"", **kw):
+    return can.Message(timestamp=t, arbitration_id=cob, data=bytes(data), is_extended_id=False, **kw)
+
+
+def cycles(mon: Monitor, n: int, period_s: float = 0.01, t0: float = 0.0) -> None:
+    """Heartbeats of both nodes, then ``n`` SYNC cycles with both nodes' synchronous TPDO1 and TPDO5."""
+    mon.feed(msg(t0, 0x701, [0x05]))
+    mon.feed(msg(t0, 0x702, [0x05]))
+    for k in range(1, n + 1):
+        t = t0 + k * period_s
+        mon.feed(msg(t, 0x080, [(k - 1) % 240 + 1]))
+        mon.feed(msg(t + 0.001, 0x181, struct.pack("<ff", 30.0, -0.5)))
+        mon.feed(msg(t + 0.002, 0x182, struct.pack("<ff", 24.0, 0.5)))
+        mon.feed(msg(t + 0.003, 0x681, [1]))
+        mon.feed(msg(t + 0.004, 0x682, [1]))
+
+
+def no_prompt(label: str) -> str:
+    raise AssertionError("no prompt expected")
+
+
+def test_raw_frame_list_has_one_row_per_cob_id_with_count_period_and_last_data():
+    mon = Monitor(monitor_config(sync_period_s=0.01))
+    cycles(mon, 50)
+    rows = {r.cob_id: r for r in mon.frames.sorted_rows()}
+    assert set(rows) == {0x701, 0x702, 0x080, 0x181, 0x182, 0x681, 0x682}
+    sync = rows[0x080]
+    assert sync.count == 50 and sync.kind == "SYNC" and sync.data == bytes([50])
+    assert sync.period_mean_s == pytest.approx(0.01) and sync.period_max_s == pytest.approx(0.01)
+    assert rows[0x181].node == 1 and "estimate_C=30.000" in rows[0x181].text
+    vs = ViewState(page="raw")
+    text = "\n".join(render_lines(mon, vs, 160, 20))
+    assert "RAW FRAME LIST (7 identifiers)" in text
+    line = next(ln for ln in text.splitlines() if ln.startswith("     080"))
+    assert line.split()[1:4] == ["SYNC", "-", "50"] and "10.00" in line and "[1] 32" in line
+    assert mon.snapshot()["cob_ids"][0]["cob_id"] == 0x080
+
+
+def test_frame_history_is_bounded_and_scrolls_back_to_the_oldest_kept():
+    mon = Monitor(monitor_config(sync_period_s=0.01))
+    cycles(mon, 1000)       # 5002 frames
+    hist = mon.frames.history
+    assert len(hist) == FRAME_HISTORY and hist[-1].cob_id == 0x682
+    vs = ViewState(page="log")
+    newest = render_lines(mon, vs, 140, 20)
+    assert f"lines {FRAME_HISTORY - 15}-{FRAME_HISTORY} of {FRAME_HISTORY}" in newest[2]
+    assert handle_key(vs, mon, curses.KEY_HOME, 15, no_prompt) and vs.scroll > 0
+    oldest = render_lines(mon, vs, 140, 20)
+    assert f"lines 1-16 of {FRAME_HISTORY}" in oldest[2] and "newer below" in oldest[2]
+    first_kept = hist[0]
+    assert f"0x{first_kept.cob_id:03X}" in oldest[3] and oldest[3] != newest[3]
+    handle_key(vs, mon, curses.KEY_NPAGE, 15, no_prompt)
+    assert vs.scroll > 0
+    handle_key(vs, mon, curses.KEY_END, 15, no_prompt)
+    assert vs.scroll == 0 and render_lines(mon, vs, 140, 20) == newest
+
+
+def test_events_scroll_back_on_the_main_page_and_the_event_page():
+    mon = Monitor(monitor_config(sync_period_s=0.01))
+    cycles(mon, 5)
+    for k in range(40):      # 40 SDO aborts: 40 warnings
+        mon.feed(msg(1.0 + k, 0x601, struct.pack("<BHBf", 0x23, 0x2200, 0, 25.0)))
+        mon.feed(msg(1.0 + k + 0.001, 0x581, struct.pack("<BHBL", 0x80, 0x2200, 0, 0x06090031)))
+    vs = ViewState()
+    last = "\n".join(render_lines(mon, vs, 140, 30))
+    n = len(mon.log.events)
+    assert n == 44 and f"of {n}" in last and "newer below" not in last
+    handle_key(vs, mon, curses.KEY_UP, 10, no_prompt)
+    handle_key(vs, mon, ord("k"), 10, no_prompt)
+    assert vs.scroll == 2 and "2 newer below" in "\n".join(render_lines(mon, vs, 140, 30))
+    handle_key(vs, mon, ord("e"), 10, no_prompt)
+    assert vs.page == "events" and vs.scroll == 0
+    page = render_lines(mon, vs, 140, 30)
+    assert page[2].startswith("EVENT LOG (last 1000 kept)") and sum(" WARN " in ln for ln in page) == 26
+    handle_key(vs, mon, ord("c"), 10, no_prompt)
+    assert not mon.log.events and not mon.frames.history and mon.frames.rows
+
+
+def test_help_page_lists_every_key_and_toggles_back():
+    mon = Monitor(monitor_config())
+    vs = ViewState()
+    assert handle_key(vs, mon, ord("?"), 10, no_prompt) and vs.page == "help"
+    text = "\n".join(render_lines(mon, vs, 140, 40))
+    for key, what in KEYS:
+        assert key in text and what in text
+    handle_key(vs, mon, ord("h"), 10, no_prompt)
+    assert vs.page == "main"
+    handle_key(vs, mon, ord("?"), 10, no_prompt)
+    handle_key(vs, mon, 27, 10, no_prompt)
+    assert vs.page == "main"
+    assert not handle_key(vs, mon, ord("q"), 10, no_prompt)
+
+
+def test_scroll_window_clamps():
+    assert scroll_window(list(range(5)), 10, 3) == ([0, 1, 2, 3, 4], "")
+    assert scroll_window(list(range(20)), 5, 100) == ([0, 1, 2, 3, 4], "lines 1-5 of 20, 15 newer below (End to follow)")
+    assert scroll_window(list(range(20)), 0, 0) == ([], "")
+
+
+def test_socketcan_error_frames_give_controller_state_and_counters():
+    # linux/can/error.h: CAN_ERR_CRTL (0x4) | CAN_ERR_CNT (0x200); data[1] = CAN_ERR_CRTL_RX_PASSIVE (0x10)
+    passive = decode_error_frame(0x204, bytes([0, 0x10, 0, 0, 0, 0, 96, 130]))
+    assert passive["state"] == "ERROR-PASSIVE" and (passive["tx_errors"], passive["rx_errors"]) == (96, 130)
+    assert passive["classes"] == ["controller", "counters"] and passive["controller"] == ["RX passive"]
+    assert decode_error_frame(0x040, bytes(8))["state"] == "BUS-OFF"
+    mon = Monitor(monitor_config())
+    evs = mon.feed(can.Message(timestamp=1.0, arbitration_id=0x204, is_error_frame=True,
+                               data=bytes([0, 0x10, 0, 0, 0, 0, 96, 130])))[1]
+    assert [e.kind for e in evs] == ["error_frame", "controller_state"]
+    assert "unknown -> ERROR-PASSIVE" in evs[1].text
+    head = render_lines(mon, ViewState(), 200, 10)[0]
+    assert "controller: ERROR-PASSIVE (from error frame)  TX errors 96  RX errors 130" in head
+    assert mon.snapshot()["controller"]["rx_errors"] == 130
+    hints = incident_hints(mon)
+    assert any("error-passive" in h for h in hints) and any("termination" in h for h in hints)
+
+
+def test_virtual_bus_says_its_controller_state_is_unavailable():
+    bus = can.Bus(interface="virtual", channel="tt-monitor-pages-state")
+    try:
+        mon = Monitor(monitor_config())
+        bus_state_poller(bus)(mon)
+        assert mon.controller.state is None
+        assert "controller: unavailable (virtual bus: no controller)" in render_lines(mon, ViewState(), 200, 5)[0]
+    finally:
+        bus.shutdown()
+    mon.set_bus_state("PASSIVE")        # an interface that implements bus.state (pcan, ixxat, ...)
+    assert mon.controller.text() == "controller: ERROR-PASSIVE (from bus.state)"
+
+
+def test_incident_hints_for_heartbeat_loss_emcy_jitter_late_cycles_and_load():
+    mon = Monitor(monitor_config(sync_period_s=0.01))
+    cycles(mon, 20)
+    assert incident_hints(mon) == []
+    mon.feed(msg(0.30, 0x082, struct.pack("<HB5s", 0x4210, 0x09, b"\x00" * 5)))
+    mon.tick(5.0)           # no heartbeat for > the timeout
+    hints = incident_hints(mon)
+    assert f"node 1 master: {HEARTBEAT_LOST}" in hints and f"node 2 slave: {HEARTBEAT_LOST}" in hints
+    assert "node 2 slave: " + emcy_hint(0x4210) in hints and "heat sink" in emcy_hint(0x4210)
+    assert emcy_hint(0x8130).startswith("EMCY communication") and emcy_hint(0x2310).startswith("EMCY current")
+    jittery = Monitor(monitor_config(sync_period_s=0.01))
+    t = 0.0
+    for k in range(40):
+        t += 0.006 if k % 2 else 0.016        # mean 11 ms, jitter 5 ms, every other cycle late
+        jittery.feed(msg(t, 0x080, [k % 240 + 1]))
+    text = " | ".join(incident_hints(jittery))
+    assert "SYNC jitter 5.00 ms (50% of 10.00 ms)" in text and "19 late SYNC cycles" in text
+    busy = Monitor(monitor_config(bitrate_bps=125_000))
+    for k in range(2000):
+        busy.feed(msg(k * 0.001, 0x181, bytes(8)))
+    assert any(h.startswith("bus load") for h in incident_hints(busy))
+    screen = "\n".join(render_lines(mon, ViewState(), 200, 50))
+    assert "CHECK FIRST (3; [i] for all)" in screen
+
+
+def test_status_bar_names_its_counters():
+    mon = Monitor(monitor_config(sync_period_s=0.01))
+    cycles(mon, 3)
+    mon.feed(msg(0.1, 0x082, struct.pack("<HB5s", 0x4210, 0x09, b"\x00" * 5)))
+    status = render_lines(mon, ViewState(), 300, 5)[1]
+    assert "events: 0 warnings, 1 errors" in status and "late cycles 0" in status
+    assert "missed PDOs 0" in status and "error frames 0" in status and "(nominal 10.00)" in status
+
+
+def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_path):
+    src = Path(bus_config.__file__).resolve().parent
+    text = (src / "network.toml").read_text()
+    text = text.replace("period_s = 0.010", "period_s = 0.020").replace("consumer_ms = 250", "consumer_ms = 400")
+    assert "lockstep = true" in text
+    for eds in ("master.eds", "slave.eds"):
+        (tmp_path / eds).write_bytes((src / eds).read_bytes())
+    (tmp_path / "network.toml").write_text(text)
+    mon = Monitor(net_monitor_config(load_network(tmp_path / "network.toml")))
+    assert mon.config.sync_period_s == 0.020 and mon.config.sync_lockstep
+    assert mon.nodes[1].consumer_time_s == 0.4 and mon.nodes[2].hb_timeout_s == 0.4
+    for k, t in enumerate((0.0, 0.02, 0.04, 0.10)):       # the last SYNC 60 ms after the one before
+        mon.feed(msg(t, 0x080, [k + 1]))
+    assert mon.stats.late_cycles == 1
+    assert "(nominal 20.00, lockstep)" in render_lines(mon, ViewState(), 300, 5)[1]
