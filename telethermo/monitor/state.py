@@ -21,6 +21,9 @@ from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo,
 from .records import BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
 
+#: frame lengths kept by content (periodic traffic repeats its frames: SYNC counters, heartbeats, flags)
+BITS_CACHE = 4096
+
 #: a repeated WARN of the same kind (late cycle, missing PDO) is logged at most once per this bus time, s
 EVENT_HOLDOFF_S = 1.0
 
@@ -43,6 +46,7 @@ class Monitor:
         self._late_event_t: float | None = None
         self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
+        self._bits: dict[tuple, int] = {}
         for n, info in self.config.nodes.items():
             self._node(n).name = info.name
         self._load_heartbeat_config()
@@ -89,7 +93,7 @@ class Monitor:
         t = float(msg.timestamp or 0.0)
         data = bytes(msg.data or b"")
         events: list[Event] = []
-        self._account(t, msg, events)
+        self._account(t, msg, data)
         kind, node = dec.classify(msg.arbitration_id, extended=bool(msg.is_extended_id),
                                   remote=bool(msg.is_remote_frame), error=bool(msg.is_error_frame),
                                   sync_cob_id=self._sync_cob, pdo_cob_ids=self.pdo_map.table)
@@ -113,9 +117,14 @@ class Monitor:
         self.controller.from_bus_state(name, reason)
 
     # -- bookkeeping -----------------------------------------------------------------------------
-    def _account(self, t: float, msg, events: list[Event]) -> None:
+    def _account(self, t: float, msg, data: bytes) -> None:
         s = self.stats
-        bits = message_length_bits(msg)
+        key = (msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame, msg.is_error_frame, msg.dlc, data)
+        bits = self._bits.get(key)
+        if bits is None:
+            if len(self._bits) >= BITS_CACHE:
+                self._bits.clear()
+            bits = self._bits[key] = message_length_bits(msg)
         s.frames += 1
         s.bits += bits
         if s.t_first is None:
