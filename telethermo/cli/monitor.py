@@ -21,9 +21,11 @@ def register(subparsers) -> None:
         "monitor", description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
                     "transfers (one state machine per node), PDOs by the EDS mapping and by remapping seen on "
                     "the bus, SYNC period/jitter, bus load, events. Curses view by default; --json or --lines "
-                    "for scripts.")
+                    "for scripts. Keys in the view: ? for help; r raw frame list, l frame log, e event log, i incident hints, "
+                    "arrows/PgUp/Home/End scroll.")
     common.add_bus_options(p)
-    p.add_argument("--replay", metavar="LOG", help="replay a python-can log (.log .asc .blf .csv .trc) instead of a live bus")
+    p.add_argument("--replay", metavar="LOG", help="replay a python-can log (.log .asc .blf .csv .trc) or the "
+                                                   "decoded CSV of telethermo record, instead of a live bus")
     p.add_argument("--speed", type=float, default=None, metavar="X",
                    help="replay speed: 1 = as recorded, 0 = as fast as possible "
                         "(default 1 in the view, 0 with --json/--lines)")
@@ -36,7 +38,7 @@ def register(subparsers) -> None:
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (live)")
     p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
     p.add_argument("--sync-period", type=float, metavar="S",
-                   help="nominal SYNC period for late cycles, s (default: the network file's, unless lockstep)")
+                   help="nominal SYNC period for late cycles, s (default: the network file's [sync] period_s, in lockstep too)")
     p.set_defaults(func=run)
 
 
