@@ -91,6 +91,8 @@ def run(args: argparse.Namespace) -> int:
 
                 curses.wrapper(run_curses, limited(), mon, vs, pacer=Pacer(speed) if args.replay else None,
                                now=now, until=until, poll=poll)
+                if vs.error:
+                    raise ReplayError(vs.error)     # shown in the view until q; the exit says it too
         except ReplayError as exc:
             raise Failure(str(exc)) from None
     finally:

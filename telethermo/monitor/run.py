@@ -8,7 +8,8 @@ from typing import Any, Callable, Iterable, TextIO
 
 import can
 
-from .replay import Pacer
+from .events import ERROR, Event
+from .replay import Pacer, ReplayError
 from .state import Monitor
 from .view import CursesView, ViewState, fmt_time
 
@@ -117,7 +118,9 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
                refresh_s: float = 0.2, until: Callable[[], bool] | None = None,
                poll: Callable[[Monitor], None] | None = None) -> int:
     """The live view. ``pacer`` paces a replay (pausing stops it); for a live bus ``now`` gives the
-    time for ticks and a pause only freezes the screen. Returns the number of frames decoded."""
+    time for ticks and a pause only freezes the screen. A damaged log ends the replay with the frames
+    decoded so far still shown and the error in ``vs.error`` (and the event log). Returns the number of
+    frames decoded."""
     view = CursesView(stdscr, vs)
     it = iter(source)
     n = 0
@@ -152,6 +155,10 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
                 pending = next(it)
             except StopIteration:
                 vs.done = True
+                continue
+            except ReplayError as exc:    # a damaged log: keep what was decoded on the screen, say why it stopped
+                vs.done, vs.error = True, str(exc)
+                mon.log.add([Event(mon.stats.t_last or 0.0, ERROR, "replay_error", None, str(exc))])
                 continue
             idle = pending is None
         if pending is not None and pacer is not None:

@@ -67,6 +67,7 @@ class ViewState:
     paused: bool = False
     filter: str = ""
     done: bool = False
+    error: str = ""        # why a replay stopped early (a damaged log)
     page: str = "main"
     scroll: int = 0
 
@@ -75,7 +76,9 @@ def status_lines(mon: Monitor, vs: ViewState) -> list[str]:
     """The two header lines: source and controller; rates, SYNC timing and the counters, named."""
     s = mon.stats
     sync = s.sync_summary()
-    flags = ("  [PAUSED]" if vs.paused else "") + ("  [END OF LOG]" if vs.done else "")
+    flags = ("  [PAUSED]" if vs.paused else "") + ("  [END OF LOG]" if vs.done and not vs.error else "")
+    if vs.error:
+        flags += f"  [LOG DAMAGED, replay stopped: {vs.error}]"
     per = mon.config.sync_period_s
     nominal = (f" (nominal {per * 1e3:.2f}{', lockstep' if mon.config.sync_lockstep else ''})" if per
                else " (no nominal period)")

@@ -106,3 +106,34 @@ def test_view_in_a_real_terminal(tmp_path):
         assert done.read_text().strip() == "0"
     finally:
         subprocess.run(["tmux", "-L", sock, "kill-server"], capture_output=True)
+
+
+def test_damaged_log_keeps_the_decoded_screen_and_says_where(tmp_path):
+    """A damaged row stops the replay; the view keeps what it decoded and names the file and line;
+    quitting exits 1 with the same line on stderr."""
+    rows = ["t_s,cob_id,kind,node,dlc,data,text,fields", "0.000000,0x701,HEARTBEAT,1,1,05,,{}",
+            "0.001000,0x702,HEARTBEAT,2,1,05,,{}"]
+    rows += [f"{0.01 * k:.6f},0x080,SYNC,,1,{k:02x},,{{}}" for k in range(1, 30)]
+    rows += ["0.300000,0x080,SYNC,,1,zz,,{}"]          # line 33: not hex
+    rows += [f"{0.31 + 0.01 * k:.6f},0x080,SYNC,,1,{k:02x},,{{}}" for k in range(1, 5)]
+    log = tmp_path / "bad.csv"
+    log.write_text("\n".join(rows) + "\n")
+    sock = f"tt-test-{time.monotonic_ns()}"
+    done, err = tmp_path / "rc", tmp_path / "err"
+    cmd = (f"{sys.executable} -m telethermo.cli.main monitor --replay {log} --speed 0 2> {err}; "
+           f"echo $? > {done}; sleep 30")
+    env = {k: v for k, v in os.environ.items() if k not in ("LINES", "COLUMNS")}
+    subprocess.run(["tmux", "-L", sock, "new-session", "-d", "-s", "mon", "-x", "200", "-y", "40", "-c", str(ROOT), cmd],
+                   check=True, env=env)
+    try:
+        screen = _wait_screen(sock, "LOG DAMAGED")
+        assert f"{log}:33: damaged row" in screen and "[END OF LOG]" not in screen
+        assert "1 master   OPERATIONAL" in screen and "#29" in screen          # what was decoded stays
+        keys(sock, "q")
+        deadline = time.monotonic() + 10
+        while not done.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert done.read_text().strip() == "1"
+        assert f"{log}:33: damaged row" in err.read_text() and "Traceback" not in err.read_text()
+    finally:
+        subprocess.run(["tmux", "-L", sock, "kill-server"], capture_output=True)
