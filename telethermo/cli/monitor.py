@@ -21,7 +21,7 @@ def register(subparsers) -> None:
         "monitor", description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
                     "transfers (one state machine per node), PDOs by the EDS mapping and by remapping seen on "
                     "the bus, SYNC period/jitter, bus load, events. Curses view by default; --json or --lines "
-                    "for scripts. Keys in the view: ? for help; r raw frame list, l frame log, e event log, i incident hints, "
+                    "for scripts. Keys in the view: ? for help; r raw frame list, l frame log, e event log, i incident hints, t temperatures, "
                     "arrows/PgUp/Home/End scroll.")
     common.add_bus_options(p)
     p.add_argument("--replay", metavar="LOG", help="replay a python-can log (.log .asc .blf .csv .trc) or the "

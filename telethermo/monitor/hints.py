@@ -9,6 +9,9 @@ from .state import Monitor
 
 #: SYNC jitter (standard deviation) above this fraction of the nominal period gets a hint
 JITTER_FRACTION = 0.10
+#: a live bus without frames for this long gets a hint, s
+SILENT_S = 3.0
+
 #: bus load above this fraction of the bitrate gets a hint (CiA recommends staying well below 100 %)
 LOAD_FRACTION = 0.70
 
@@ -27,6 +30,9 @@ LATE_HINT = ("{n} late SYNC cycles (period {per:.2f} ms): the SYNC producer miss
              "priority, a slow rig read; in lockstep: the slower node waits for the other's PDOs")
 PDO_MISSING_HINT = ("{n} synchronous PDOs missed: the producer is late or not OPERATIONAL; check its "
                     "heartbeat, its CPU load, its TPDO transmission type (0x1800:02)")
+NO_TRAFFIC = ("no frame on the bus for {s:.0f} s: check the bus setting (--bus or -i/-c, CAN_INTERFACE/"
+              "CAN_CHANNEL, ~/.canrc, network.toml [bus]), that the nodes run, and the bitrate")
+SILENT = "no frame for {s:.0f} s since the last one: the nodes stopped, or the adapter lost the bus"
 EMCY_CLASS_HINTS = (
     (0xFF00, 0x8100, "EMCY communication: bus errors, overruns or a lost peer; check the bus and heartbeats"),
     (0xFF00, 0x4200, "EMCY device temperature: check the pad's heat sink, fan and the coolant flow"),
@@ -51,6 +57,12 @@ def emcy_hint(code: int) -> str:
 def incident_hints(mon: Monitor) -> list[str]:
     """Hints for what is wrong now (lost heartbeats, active EMCY, controller state, load, SYNC timing)."""
     out: list[str] = []
+    now, s = mon.now_s, mon.stats
+    if now is not None and mon.first_tick_s is not None:
+        if s.t_last is None and now - mon.first_tick_s >= SILENT_S:
+            out.append(NO_TRAFFIC.format(s=now - mon.first_tick_s))
+        elif s.t_last is not None and now - s.t_last >= SILENT_S:
+            out.append(SILENT.format(s=now - s.t_last))
     for n, st in sorted(mon.nodes.items()):
         who = f"node {n}{' ' + st.name if st.name else ''}"
         if st.hb_lost:
@@ -59,7 +71,7 @@ def incident_hints(mon: Monitor) -> list[str]:
             out.append(f"{who}: {emcy_hint(st.last_emcy['code'])}")
     if any(e.kind == "boot_up" and e.severity == WARN for e in mon.log.events):
         out.append(UNEXPECTED_BOOT)
-    health, s = mon.controller, mon.stats
+    health = mon.controller
     if health.state == BUS_OFF:
         out.append(BUS_OFF_HINT)
     elif health.state in (PASSIVE, WARNING):

@@ -3,6 +3,7 @@ frame list (one row per COB-ID), the frame history and the event log with scroll
 hints and the help screen. Each returns the body lines; the view adds the header and footer."""
 from __future__ import annotations
 
+import math
 from itertools import islice
 from typing import Callable, Sequence
 
@@ -18,6 +19,7 @@ KEYS = (
     ("l", "frame log: the last decoded frames, scrollable"),
     ("e", "event log: every event kept, scrollable"),
     ("i", "incident hints: what to check first for what is wrong now"),
+    ("t", "temperatures: strip chart of every temperature the PDOs carry"),
     ("Up/Down  k/j", "scroll one line (back in time / forward)"),
     ("PgUp/PgDn", "scroll one page"),
     ("Home/End  g/G", "oldest / newest (End follows new lines again)"),
@@ -27,7 +29,7 @@ KEYS = (
     ("q", "quit"),
 )
 
-FOOTER = "[?] help  [m]ain [r]aw [l]og [e]vents [i]hints  [arrows/PgUp] scroll  [p]ause [f]ilter [q]uit"
+FOOTER = "[?] help  [m]ain [r]aw [l]og [e]vents [i]hints [t]emps  [arrows/PgUp] scroll  [p]ause [f]ilter [q]uit"
 
 
 def scroll_window(items: Sequence, room: int, scroll: int) -> tuple[list, str]:
@@ -98,3 +100,47 @@ def page_help(room: int) -> list[str]:
               "file) by more than half a period; missed PDO = synchronous PDOs not seen before the next SYNC;",
               "error frames = CAN error frames received; warnings/errors = events of that severity so far."]
     return lines[:room]
+
+
+#: rows of one signal's strip chart
+STRIP_ROWS = 4
+TEMPERATURE_UNITS = ("degC", "°C")
+
+
+def strip_chart(values: list[float], width: int, rows: int = STRIP_ROWS) -> list[str]:
+    """An ASCII strip chart of ``values`` (oldest left), the last ``width`` of them, ``rows`` high, scaled
+    to their own min..max; NaN and inf leave a gap."""
+    vals = values[-width:]
+    finite = [v for v in vals if math.isfinite(v)]
+    if not finite:
+        return [" " * len(vals)] * rows
+    lo, hi = min(finite), max(finite)
+    span = hi - lo or 1.0
+    grid = [[" "] * len(vals) for _ in range(rows)]
+    for x, v in enumerate(vals):
+        if math.isfinite(v):
+            level = round((v - lo) / span * (rows - 1))
+            grid[rows - 1 - level][x] = "*"
+    return ["".join(r) for r in grid]
+
+
+def page_temperatures(mon: Monitor, room: int, scroll: int, width: int) -> list[str]:
+    """The strip chart of every temperature a PDO carries (unit degC), sampled every 0.1 s of bus time."""
+    lines: list[str] = []
+    for _, p in sorted(mon.pdos.items()):
+        name = mon.nodes[p.pdef.node].name if p.pdef.node in mon.nodes else f"node {p.pdef.node}"
+        for i, v in enumerate(p.values):
+            if v.unit not in TEMPERATURE_UNITS:
+                continue
+            series = [float(vals[i]) for _, vals in p.trace if i < len(vals) and isinstance(vals[i], (int, float))]
+            finite = [x for x in series if math.isfinite(x)]
+            rng = f"{min(finite):.3f}..{max(finite):.3f} degC" if finite else "no value"
+            lines.append(f"  {name} {p.pdef.label} {v.name} = {v.value:.3f} degC   [{rng}, last "
+                         f"{len(series) * 0.1:.0f} s]" if isinstance(v.value, float) else f"  {name} {v.name}")
+            chart = strip_chart(series, max(10, width - 14))
+            hi = f"{max(finite):9.3f} " if finite else " " * 10
+            lo = f"{min(finite):9.3f} " if finite else " " * 10
+            lines += [(hi if k == 0 else lo if k == len(chart) - 1 else " " * 10) + "|" + row
+                      for k, row in enumerate(chart)]
+    shown, note = scroll_window(lines or ["  no temperature PDO seen yet"], room - 1, scroll)
+    return [f"TEMPERATURES (strip chart, one sample per 0.1 s of bus time){'  ' + note if note else ''}", *shown]

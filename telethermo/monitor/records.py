@@ -135,9 +135,15 @@ class NodeState:
                 "pdo_frames": dict(self.pdo_frames)}
 
 
+#: the strip chart's sampling: one sample of a PDO's values per this bus time, s, the last STRIP_POINTS kept
+STRIP_DT_S = 0.1
+STRIP_POINTS = 300
+
+
 @dataclass
 class PdoState:
-    """Last values of one PDO as seen on the bus."""
+    """Last values of one PDO as seen on the bus, and a sampled trace of them for the strip chart
+    (``trace``: (t_s, values) every :data:`STRIP_DT_S` of bus time)."""
 
     pdef: PdoDef
     count: int = 0
@@ -148,6 +154,8 @@ class PdoState:
     armed: bool = False
     unreported: int = 0            # missing cycles not yet in an event
     event_t: float | None = None   # time of the last pdo_missing event
+    trace: deque = field(default_factory=lambda: deque(maxlen=STRIP_POINTS))
+    trace_t: float | None = None   # time of the last sample in ``trace``
 
 
 @dataclass

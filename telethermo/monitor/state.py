@@ -18,7 +18,7 @@ from .events import ERROR, INFO, WARN, Event, EventLog
 from .frames import FrameTable
 from .health import ControllerHealth, decode_error_frame
 from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo, format_value
-from .records import BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
+from .records import STRIP_DT_S, BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
 
 #: frame lengths kept by content (periodic traffic repeats its frames: SYNC counters, heartbeats, flags)
@@ -47,6 +47,8 @@ class Monitor:
         self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
         self._bits: dict[tuple, int] = {}
+        self.first_tick_s: float | None = None   # live: the first tick's time (a replay never ticks), s
+        self.now_s: float | None = None          # live: the last tick's time, s
         for n, info in self.config.nodes.items():
             self._node(n).name = info.name
         self._load_heartbeat_config()
@@ -107,6 +109,9 @@ class Monitor:
 
     def tick(self, now_s: float) -> list[Event]:
         """Advance the monitor's idea of time with no frame (live view refresh); new events."""
+        if self.first_tick_s is None:
+            self.first_tick_s = now_s
+        self.now_s = now_s
         events = self._check_timeouts(now_s)
         self._update_rates(now_s)
         self.log.add(events)
@@ -356,6 +361,9 @@ class Monitor:
         p.count += 1
         p.last_t = f.t_s
         p.values = values
+        if p.trace_t is None or f.t_s - p.trace_t >= 0.99 * STRIP_DT_S:    # 1 %: float bus times
+            p.trace.append((f.t_s, tuple(v.value for v in values)))
+            p.trace_t = f.t_s
         p.armed = False
         p.missing_streak = 0
         f.fields = {"pdo": pdef.label, "producer" if pdef.direction == "TPDO" else "consumer": pdef.node,

@@ -16,7 +16,8 @@ from dataclasses import dataclass
 
 from .events import ERROR, WARN, Event
 from .hints import incident_hints
-from .pages import FOOTER, page_events, page_help, page_hints, page_log, page_raw, scroll_window
+from .pages import (FOOTER, page_events, page_help, page_hints, page_log, page_raw, page_temperatures,
+                    scroll_window)
 from .pdo import format_value
 from .state import Monitor
 
@@ -54,7 +55,7 @@ def event_matches(ev: Event, filt: str) -> bool:
     return True
 
 
-PAGES = ("main", "raw", "log", "events", "hints", "help")
+PAGES = ("main", "raw", "log", "events", "hints", "temps", "help")
 
 
 @dataclass
@@ -145,6 +146,8 @@ def render_lines(mon: Monitor, vs: ViewState, width: int, height: int) -> list[s
                              (lambda e: event_matches(e, vs.filter)) if vs.filter else None, vs.filter)
     elif vs.page == "hints":
         lines += page_hints(incident_hints(mon), room, vs.scroll)
+    elif vs.page == "temps":
+        lines += page_temperatures(mon, room, vs.scroll, width)
     elif vs.page == "help":
         lines += page_help(room)
     else:
@@ -235,7 +238,7 @@ class CursesView:
         return max(1, self.scr.getmaxyx()[0] - 5)
 
 
-PAGE_KEYS = {"m": "main", "r": "raw", "l": "log", "e": "events", "i": "hints", "?": "help", "h": "help"}
+PAGE_KEYS = {"m": "main", "r": "raw", "l": "log", "e": "events", "i": "hints", "t": "temps", "?": "help", "h": "help"}
 
 
 def handle_key(vs: ViewState, mon: Monitor, k: int, page_rows: int, prompt) -> bool:

@@ -16,7 +16,7 @@ from telethermo.device.netconfig import load_network
 from telethermo.monitor.frames import FRAME_HISTORY
 from telethermo.monitor.health import decode_error_frame
 from telethermo.monitor.hints import HEARTBEAT_LOST, emcy_hint, incident_hints
-from telethermo.monitor.pages import KEYS, scroll_window
+from telethermo.monitor.pages import KEYS, scroll_window, strip_chart
 from telethermo.monitor.run import bus_state_poller
 from telethermo.monitor.state import Monitor
 from telethermo.monitor.view import ViewState, handle_key, render_lines
@@ -176,7 +176,7 @@ def test_incident_hints_for_heartbeat_loss_emcy_jitter_late_cycles_and_load():
         busy.feed(msg(k * 0.001, 0x181, bytes(8)))
     assert any(h.startswith("bus load") for h in incident_hints(busy))
     screen = "\n".join(render_lines(mon, ViewState(), 200, 50))
-    assert "CHECK FIRST (3; [i] for all)" in screen
+    assert "CHECK FIRST (4; [i] for all)" in screen and "no frame for 5 s since the last one" in screen
 
 
 def test_status_bar_names_its_counters():
@@ -203,3 +203,38 @@ def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_
         mon.feed(msg(t, 0x080, [k + 1]))
     assert mon.stats.late_cycles == 1
     assert "(nominal 20.00, lockstep)" in render_lines(mon, ViewState(), 300, 5)[1]
+
+
+def test_a_silent_live_bus_gets_a_hint_and_a_replay_does_not():
+    mon = Monitor(monitor_config())
+    mon.tick(100.0)
+    mon.tick(102.0)
+    assert incident_hints(mon) == []
+    mon.tick(103.5)
+    assert incident_hints(mon)[0].startswith("no frame on the bus for 4 s: check the bus setting")
+    mon.feed(msg(104.0, 0x701, [0x05]))
+    assert not any(h.startswith("no frame") for h in incident_hints(mon))
+    mon.tick(110.0)
+    assert any(h.startswith("no frame for 6 s since the last one") for h in incident_hints(mon))
+    replay = Monitor(monitor_config())
+    replay.feed(msg(1.0, 0x701, [0x05]))
+    replay.feed(msg(100.0, 0x702, [0x05]))
+    assert not any(h.startswith("no frame") for h in incident_hints(replay))
+
+
+def test_strip_chart_of_the_exchanged_temperatures():
+    assert strip_chart([0.0, 1.0, 2.0, 3.0, float("nan"), 3.0], 10, rows=4) == [
+        "   * *", "  *   ", " *    ", "*     "]
+    mon = Monitor(monitor_config(sync_period_s=0.01))
+    for k in range(500):          # 5 s of bus time: a ramp on the master, constant on the slave
+        mon.feed(msg(k * 0.01, 0x181, struct.pack("<ff", 30.0 + 0.002 * k, -0.5)))
+        mon.feed(msg(k * 0.01 + 0.001, 0x182, struct.pack("<ff", 24.0, 0.5)))
+    trace = mon.pdos[(1, "TPDO", 1)].trace
+    assert len(trace) == 50 and trace[1][0] - trace[0][0] == pytest.approx(0.1)
+    vs = ViewState()
+    handle_key(vs, mon, ord("t"), 10, no_prompt)
+    lines = render_lines(mon, vs, 100, 20)
+    assert lines[2].startswith("TEMPERATURES")
+    assert "master TPDO1 estimate_C = 30.998 degC   [30.000..30.980 degC, last 5 s]" in lines[3]
+    assert lines[4].startswith("   30.980 |") and lines[4].rstrip().endswith("*") and lines[7].startswith("   30.000 |*")
+    assert "slave TPDO1 estimate_C = 24.000 degC" in "\n".join(lines)

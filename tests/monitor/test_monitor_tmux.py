@@ -95,6 +95,9 @@ def test_view_in_a_real_terminal(tmp_path):
         keys(sock, "End")
         screen = _wait_screen(sock, "0x581")      # the newest frame again
         assert "newer below" not in screen
+        keys(sock, "t")
+        screen = _wait_screen(sock, "TEMPERATURES (strip chart")
+        assert "master TPDO1 estimate_C = 30.590 degC" in screen and "|*" in screen
         keys(sock, "m")
         _wait_screen(sock, "CHECK FIRST")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "p"], check=True)
