@@ -37,6 +37,9 @@ def register(subparsers) -> None:
                    help="with --json/--lines: a status line every S s of bus time (0: only at the end)")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (live)")
     p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
+    p.add_argument("--eds", action="append", default=[], metavar="NODE=FILE",
+                   help="decode a further node (not in the network file) by its EDS: PDOs by mapping, SDO by "
+                        "object name; repeatable, e.g. --eds 5=arm.eds")
     p.add_argument("--sync-period", type=float, metavar="S",
                    help="nominal SYNC period for late cycles, s (default: the network file's [sync] period_s, in lockstep too)")
     p.set_defaults(func=run)
@@ -51,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     if args.count is not None and args.count <= 0:
         raise UserError(f"--count: expected a positive number of frames, got {args.count}")
     net = common.network(args)
-    mon = Monitor(monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period))
+    mon = Monitor(monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period, extra_eds=args.eds))
     scripted = args.json or args.lines
     bus = None
     deadline = time.monotonic() + args.duration if args.duration else None
