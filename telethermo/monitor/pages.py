@@ -65,7 +65,7 @@ def raw_rows(rows: list[CobRow]) -> list[str]:
 RAW_HEAD = "  COB-ID KIND       NODE     COUNT   mean ms    min ms    max ms  DLC DATA                      DECODED"
 
 
-def page_raw(mon: Monitor, fmt_time: Callable, room: int, scroll: int) -> list[str]:
+def page_raw(mon: Monitor, room: int, scroll: int) -> list[str]:
     rows, note = scroll_window(raw_rows(mon.frames.sorted_rows()), room - 2, scroll)
     return [f"RAW FRAME LIST ({len(mon.frames.rows)} identifiers){'  ' + note if note else ''}", RAW_HEAD, *rows]
 

@@ -74,7 +74,8 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
             sync = f"SYNC {sy['period_s'] * 1e3:.2f}±{sy['jitter_s'] * 1e3:.2f} ms" if sy["period_s"] else "SYNC --"
             out.write(f"{fmt_time(snap['t_s'])} STATUS frames/s {snap['frames_per_s']:.0f} load "
                       f"{snap['bus_load_pct']:.1f}% {sync} late {snap['late_cycles']} missed {snap['missed_pdos']} "
-                      f"err {snap['error_frames']} | {nodes}\n")
+                      f"err {snap['error_frames']} | {nodes}"
+                      + (f" | controller {ctl['state']}" if (ctl := snap["controller"])["state"] else "") + "\n")
 
     try:
         for msg in source:

@@ -138,7 +138,7 @@ def render_lines(mon: Monitor, vs: ViewState, width: int, height: int) -> list[s
     lines = status_lines(mon, vs)
     room = max(0, height - len(lines) - 1)
     if vs.page == "raw":
-        lines += page_raw(mon, fmt_time, room, vs.scroll)
+        lines += page_raw(mon, room, vs.scroll)
     elif vs.page == "log":
         lines += page_log(mon, fmt_time, room, vs.scroll)
     elif vs.page == "events":
@@ -184,7 +184,7 @@ class CursesView:
             return c.A_BOLD | c.color_pair(3)
         if " ERROR " in line or " LOST" in line:
             return c.color_pair(2)
-        if " WARN " in line:
+        if " WARN " in line or line.startswith("  - ") or "BUS-OFF" in line or "ERROR-PASSIVE" in line:
             return c.color_pair(1)
         return 0
 
