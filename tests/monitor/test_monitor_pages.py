@@ -4,6 +4,7 @@ hints, the readable status counters and the timing taken from the network file."
 from __future__ import annotations
 
 import curses
+import io
 import struct
 from pathlib import Path
 
@@ -17,7 +18,7 @@ from telethermo.monitor.frames import FRAME_HISTORY
 from telethermo.monitor.health import decode_error_frame
 from telethermo.monitor.hints import HEARTBEAT_LOST, emcy_hint, incident_hints
 from telethermo.monitor.pages import KEYS, scroll_window, strip_chart
-from telethermo.monitor.run import bus_state_poller
+from telethermo.monitor.run import bus_state_poller, run_lines
 from telethermo.monitor.state import Monitor
 from telethermo.monitor.view import ViewState, handle_key, render_lines
 
@@ -238,3 +239,13 @@ def test_strip_chart_of_the_exchanged_temperatures():
     assert "master TPDO1 estimate_C = 30.998 degC   [30.000..30.980 degC, last 5 s]" in lines[3]
     assert lines[4].startswith("   30.980 |") and lines[4].rstrip().endswith("*") and lines[7].startswith("   30.000 |*")
     assert "slave TPDO1 estimate_C = 24.000 degC" in "\n".join(lines)
+
+
+def test_lines_status_names_the_controller_state_once_known():
+    frames = [msg(0.0, 0x701, [0x05]),
+              can.Message(timestamp=0.5, arbitration_id=0x004, is_error_frame=True, data=bytes([0, 0x20, 0, 0, 0, 0, 0, 0]))]
+    out = io.StringIO()
+    run_lines(iter(frames), Monitor(monitor_config()), out, as_json=False, frames=False, status_every_s=0)
+    status = out.getvalue().strip().splitlines()[-1]
+    assert " STATUS " in status and status.endswith("| controller ERROR-PASSIVE")
+    assert "WARN  CAN controller unknown -> ERROR-PASSIVE" in out.getvalue()
