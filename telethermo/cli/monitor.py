@@ -72,6 +72,8 @@ def run(args: argparse.Namespace) -> int:
             source, desc, mode, now = live(bus), ts.describe(), "LIVE", time.time
             speed = 0.0
         poll = bus_state_poller(bus) if bus is not None else None
+        if bus is None:
+            mon.set_bus_state(None, "a log replay")
         try:
             if scripted:
                 src = paced(source, speed=speed) if args.replay else source

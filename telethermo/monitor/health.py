@@ -54,7 +54,7 @@ class ControllerHealth:
     """
 
     state: str | None = None
-    source: str = "no state reported: a log replay, or not polled yet"
+    source: str = "not polled yet"
     tx_errors: int | None = None
     rx_errors: int | None = None
 

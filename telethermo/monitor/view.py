@@ -74,7 +74,8 @@ class ViewState:
 
 
 def status_lines(mon: Monitor, vs: ViewState) -> list[str]:
-    """The two header lines: source and controller; rates, SYNC timing and the counters, named."""
+    """The three header lines: mode and source; rates and SYNC timing; the counters, named, and the
+    CAN controller."""
     s = mon.stats
     sync = s.sync_summary()
     flags = ("  [PAUSED]" if vs.paused else "") + ("  [END OF LOG]" if vs.done and not vs.error else "")
@@ -86,11 +87,11 @@ def status_lines(mon: Monitor, vs: ViewState) -> list[str]:
     sync_txt = (f"SYNC {sync['period_s'] * 1e3:.2f} ms ±{sync['jitter_s'] * 1e3:.2f} "
                 f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] #{s.sync_counter if s.sync_counter is not None else '-'}"
                 if sync["period_s"] is not None else "SYNC --") + nominal
-    return [f"telethermo monitor | {vs.mode}{flags} | {mon.config.bitrate_bps / 1000:g} kbit/s | {vs.source} | "
-            f"{mon.controller.text()}",
-            f"frames/s {s.frames_per_s:7.0f}  load {100 * s.bus_load:5.1f}%  {sync_txt}  "
+    return [f"telethermo monitor | {vs.mode}{flags} | {mon.config.bitrate_bps / 1000:g} kbit/s | {vs.source}",
+            f"frames/s {s.frames_per_s:7.0f}  load {100 * s.bus_load:5.1f}%  {sync_txt}",
             f"late cycles {s.late_cycles}  missed PDOs {s.missed_pdos}  error frames {s.error_frames}  "
-            f"frames {s.frames}  events: {mon.log.counts[WARN]} warnings, {mon.log.counts[ERROR]} errors"]
+            f"frames {s.frames}  events: {mon.log.counts[WARN]} warnings, {mon.log.counts[ERROR]} errors  |  "
+            f"{mon.controller.text()}"]
 
 
 def _node_lines(mon: Monitor) -> list[str]:
@@ -179,8 +180,8 @@ class CursesView:
     def _attr(self, row: int, line: str) -> int:
         c = self.curses
         if not c.has_colors():
-            return c.A_BOLD if row < 2 else 0
-        if row < 2:
+            return c.A_BOLD if row < 3 else 0
+        if row < 3:
             return c.A_BOLD | c.color_pair(3)
         if " ERROR " in line or " LOST" in line:
             return c.color_pair(2)
@@ -235,7 +236,7 @@ class CursesView:
                 self.prev = []
 
     def _page_rows(self) -> int:
-        return max(1, self.scr.getmaxyx()[0] - 5)
+        return max(1, self.scr.getmaxyx()[0] - 6)
 
 
 PAGE_KEYS = {"m": "main", "r": "raw", "l": "log", "e": "events", "i": "hints", "t": "temps", "?": "help", "h": "help"}

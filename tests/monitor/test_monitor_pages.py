@@ -70,12 +70,12 @@ def test_frame_history_is_bounded_and_scrolls_back_to_the_oldest_kept():
     assert len(hist) == FRAME_HISTORY and hist[-1].cob_id == 0x682
     vs = ViewState(page="log")
     newest = render_lines(mon, vs, 140, 20)
-    assert f"lines {FRAME_HISTORY - 15}-{FRAME_HISTORY} of {FRAME_HISTORY}" in newest[2]
+    assert f"lines {FRAME_HISTORY - 14}-{FRAME_HISTORY} of {FRAME_HISTORY}" in newest[3]
     assert handle_key(vs, mon, curses.KEY_HOME, 15, no_prompt) and vs.scroll > 0
     oldest = render_lines(mon, vs, 140, 20)
-    assert f"lines 1-16 of {FRAME_HISTORY}" in oldest[2] and "newer below" in oldest[2]
+    assert f"lines 1-15 of {FRAME_HISTORY}" in oldest[3] and "newer below" in oldest[3]
     first_kept = hist[0]
-    assert f"0x{first_kept.cob_id:03X}" in oldest[3] and oldest[3] != newest[3]
+    assert f"0x{first_kept.cob_id:03X}" in oldest[4] and oldest[4] != newest[4]
     handle_key(vs, mon, curses.KEY_NPAGE, 15, no_prompt)
     assert vs.scroll > 0
     handle_key(vs, mon, curses.KEY_END, 15, no_prompt)
@@ -98,7 +98,7 @@ def test_events_scroll_back_on_the_main_page_and_the_event_page():
     handle_key(vs, mon, ord("e"), 10, no_prompt)
     assert vs.page == "events" and vs.scroll == 0
     page = render_lines(mon, vs, 140, 30)
-    assert page[2].startswith("EVENT LOG (last 1000 kept)") and sum(" WARN " in ln for ln in page) == 26
+    assert page[3].startswith("EVENT LOG (last 1000 kept)") and sum(" WARN " in ln for ln in page) == 25
     handle_key(vs, mon, ord("c"), 10, no_prompt)
     assert not mon.log.events and not mon.frames.history and mon.frames.rows
 
@@ -135,7 +135,7 @@ def test_socketcan_error_frames_give_controller_state_and_counters():
                                data=bytes([0, 0x10, 0, 0, 0, 0, 96, 130])))[1]
     assert [e.kind for e in evs] == ["error_frame", "controller_state"]
     assert "unknown -> ERROR-PASSIVE" in evs[1].text
-    head = render_lines(mon, ViewState(), 200, 10)[0]
+    head = render_lines(mon, ViewState(), 200, 10)[2]
     assert "controller: ERROR-PASSIVE (from error frame)  TX errors 96  RX errors 130" in head
     assert mon.snapshot()["controller"]["rx_errors"] == 130
     hints = incident_hints(mon)
@@ -148,7 +148,7 @@ def test_virtual_bus_says_its_controller_state_is_unavailable():
         mon = Monitor(monitor_config())
         bus_state_poller(bus)(mon)
         assert mon.controller.state is None
-        assert "controller: unavailable (virtual bus: no controller)" in render_lines(mon, ViewState(), 200, 5)[0]
+        assert "controller: unavailable (virtual bus: no controller)" in render_lines(mon, ViewState(), 200, 5)[2]
     finally:
         bus.shutdown()
     mon.set_bus_state("PASSIVE")        # an interface that implements bus.state (pcan, ixxat, ...)
@@ -184,9 +184,9 @@ def test_status_bar_names_its_counters():
     mon = Monitor(monitor_config(sync_period_s=0.01))
     cycles(mon, 3)
     mon.feed(msg(0.1, 0x082, struct.pack("<HB5s", 0x4210, 0x09, b"\x00" * 5)))
-    status = render_lines(mon, ViewState(), 300, 5)[1]
+    rates, status = render_lines(mon, ViewState(), 300, 5)[1:3]
     assert "events: 0 warnings, 1 errors" in status and "late cycles 0" in status
-    assert "missed PDOs 0" in status and "error frames 0" in status and "(nominal 10.00)" in status
+    assert "missed PDOs 0" in status and "error frames 0" in status and "(nominal 10.00)" in rates
 
 
 def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_path):
@@ -235,9 +235,9 @@ def test_strip_chart_of_the_exchanged_temperatures():
     vs = ViewState()
     handle_key(vs, mon, ord("t"), 10, no_prompt)
     lines = render_lines(mon, vs, 100, 20)
-    assert lines[2].startswith("TEMPERATURES")
-    assert "master TPDO1 estimate_C = 30.998 degC   [30.000..30.980 degC, last 5 s]" in lines[3]
-    assert lines[4].startswith("   30.980 |") and lines[4].rstrip().endswith("*") and lines[7].startswith("   30.000 |*")
+    assert lines[3].startswith("TEMPERATURES")
+    assert "master TPDO1 estimate_C = 30.998 degC   [30.000..30.980 degC, last 5 s]" in lines[4]
+    assert lines[5].startswith("   30.980 |") and lines[5].rstrip().endswith("*") and lines[8].startswith("   30.000 |*")
     assert "slave TPDO1 estimate_C = 24.000 degC" in "\n".join(lines)
 
 
