@@ -203,6 +203,8 @@ def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_
     for k, t in enumerate((0.0, 0.02, 0.04, 0.10)):       # the last SYNC 60 ms after the one before
         mon.feed(msg(t, 0x080, [k + 1]))
     assert mon.stats.late_cycles == 1
+    snap = mon.snapshot()
+    assert snap["sync_period_nominal_s"] == 0.020 and snap["sync_lockstep"] is True
     assert "(nominal 20.00, lockstep)" in render_lines(mon, ViewState(), 300, 5)[1]
 
 
