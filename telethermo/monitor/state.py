@@ -47,6 +47,7 @@ class Monitor:
         self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
         self._bits: dict[tuple, int] = {}
+        self._handlers = {k: getattr(self, f"_on_{k.lower()}") for k in dec.KINDS}
         self.first_tick_s: float | None = None   # live: the first tick's time (a replay never ticks), s
         self.now_s: float | None = None          # live: the last tick's time, s
         for n, info in self.config.nodes.items():
@@ -100,8 +101,7 @@ class Monitor:
                                   remote=bool(msg.is_remote_frame), error=bool(msg.is_error_frame),
                                   sync_cob_id=self._sync_cob, pdo_cob_ids=self.pdo_map.table)
         frame = dec.Frame(t, msg.arbitration_id, data, kind, node)
-        handler = getattr(self, f"_on_{kind.lower()}")
-        handler(frame, events)
+        self._handlers[kind](frame, events)
         self.frames.add(frame, bool(msg.is_extended_id))
         events += self._check_timeouts(t)
         self.log.add(events)
