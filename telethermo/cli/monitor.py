@@ -10,7 +10,7 @@ from telethermo.cli import common
 from telethermo.cli.main import UserError
 from telethermo.cli.monitor_setup import monitor_config
 from telethermo.monitor.replay import Pacer, ReplayError, live, paced, read_log
-from telethermo.monitor.run import run_curses, run_lines
+from telethermo.monitor.run import bus_state_poller, run_curses, run_lines
 from telethermo.monitor.state import Monitor
 from telethermo.monitor.view import ViewState
 from telethermo.remote.errors import Failure
@@ -21,9 +21,11 @@ def register(subparsers) -> None:
         "monitor", description="Decode the CANopen bus: NMT states, heartbeats against the consumer time, EMCY, SDO "
                     "transfers (one state machine per node), PDOs by the EDS mapping and by remapping seen on "
                     "the bus, SYNC period/jitter, bus load, events. Curses view by default; --json or --lines "
-                    "for scripts.")
+                    "for scripts. Keys in the view: ? for help; r raw frame list, l frame log, e event log, i incident hints, t temperatures, "
+                    "arrows/PgUp/Home/End scroll.")
     common.add_bus_options(p)
-    p.add_argument("--replay", metavar="LOG", help="replay a python-can log (.log .asc .blf .csv .trc) instead of a live bus")
+    p.add_argument("--replay", metavar="LOG", help="replay a python-can log (.log .asc .blf .csv .trc) or the "
+                                                   "decoded CSV of telethermo record, instead of a live bus")
     p.add_argument("--speed", type=float, default=None, metavar="X",
                    help="replay speed: 1 = as recorded, 0 = as fast as possible "
                         "(default 1 in the view, 0 with --json/--lines)")
@@ -35,8 +37,11 @@ def register(subparsers) -> None:
                    help="with --json/--lines: a status line every S s of bus time (0: only at the end)")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds (live)")
     p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
+    p.add_argument("--eds", action="append", default=[], metavar="NODE=FILE",
+                   help="decode a further node (not in the network file) by its EDS: PDOs by mapping, SDO by "
+                        "object name; repeatable, e.g. --eds 5=arm.eds")
     p.add_argument("--sync-period", type=float, metavar="S",
-                   help="nominal SYNC period for late cycles, s (default: the network file's, unless lockstep)")
+                   help="nominal SYNC period for late cycles, s (default: the network file's [sync] period_s, in lockstep too)")
     p.set_defaults(func=run)
 
 
@@ -49,7 +54,7 @@ def run(args: argparse.Namespace) -> int:
     if args.count is not None and args.count <= 0:
         raise UserError(f"--count: expected a positive number of frames, got {args.count}")
     net = common.network(args)
-    mon = Monitor(monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period))
+    mon = Monitor(monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period, extra_eds=args.eds))
     scripted = args.json or args.lines
     bus = None
     deadline = time.monotonic() + args.duration if args.duration else None
@@ -66,11 +71,15 @@ def run(args: argparse.Namespace) -> int:
             bus, ts = common.open_can(args, net)
             source, desc, mode, now = live(bus), ts.describe(), "LIVE", time.time
             speed = 0.0
+        poll = bus_state_poller(bus) if bus is not None else None
+        if bus is None:
+            mon.set_bus_state(None, "a log replay")
         try:
             if scripted:
                 src = paced(source, speed=speed) if args.replay else source
                 run_lines(src, mon, sys.stdout, as_json=args.json, frames=not args.no_frames,
-                          status_every_s=args.status_every, max_frames=args.count, until=until, now=now)
+                          status_every_s=args.status_every, max_frames=args.count, until=until, now=now,
+                          poll=poll)
             else:
                 if not sys.stdout.isatty():
                     raise UserError("the view needs a terminal; use --json or --lines for scripts")
@@ -86,7 +95,9 @@ def run(args: argparse.Namespace) -> int:
                             return
 
                 curses.wrapper(run_curses, limited(), mon, vs, pacer=Pacer(speed) if args.replay else None,
-                               now=now, until=until)
+                               now=now, until=until, poll=poll)
+                if vs.error:
+                    raise ReplayError(vs.error)     # shown in the view until q; the exit says it too
         except ReplayError as exc:
             raise Failure(str(exc)) from None
     finally:

@@ -4,6 +4,8 @@ that the SDO commands do not import the monitor's decoders; the nodes are named 
 them (:mod:`telethermo.remote.targets`)."""
 from __future__ import annotations
 
+from pathlib import Path
+
 from canopen.objectdictionary import import_od
 
 from telethermo.device.netconfig import NetworkConfig, NetworkConfigError
@@ -12,10 +14,13 @@ from telethermo.monitor.records import MonitorConfig, NodeInfo
 from telethermo.remote.targets import node_targets
 
 
-def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None
-                   ) -> MonitorConfig:
-    """The monitor's view of the network: node names, EDS dictionaries with the network file's
-    power-on overrides (heartbeat and consumer times, SYNC), bitrate and SYNC period (real time only)."""
+def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None,
+                   extra_eds: list[str] | tuple[str, ...] = ()) -> MonitorConfig:
+    """The monitor's view of the network: node names, EDS dictionaries (``extra_eds``: ``NODE=FILE`` of
+    further nodes, named by the file) with the network file's
+    power-on overrides (heartbeat and consumer times, SYNC), bitrate and the nominal SYNC period
+    (``sync_period_s``, else the network file's, in lockstep too: late cycles are then counted
+    against the period the nodes were configured with, and the view says "lockstep")."""
     nodes = {}
     for t in node_targets(net):
         if t.eds is None:   # another device named without an EDS: known by name, its PDOs not decoded
@@ -25,13 +30,49 @@ def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_perio
             od = import_od(str(t.eds), t.node_id)
         except Exception as exc:  # canopen raises assorted errors for a bad EDS
             raise UserError(f"{t.eds}: cannot parse EDS ({exc})") from None
-        try:
-            for (index, sub), value in net.device_settings(t.role).overrides().items():
-                obj = od[index]
-                var = obj if sub == 0 and not hasattr(obj, "subindices") else obj[sub]
-                var.value = value
-        except (KeyError, NetworkConfigError):
-            pass  # an override for an object this EDS lacks: keep the EDS value
+        _apply_overrides(net, t.role, od)
         nodes[t.node_id] = NodeInfo(t.role, od)
-    period = sync_period_s if sync_period_s is not None else (None if net.sync.lockstep else net.sync.period_s)
-    return MonitorConfig(nodes=nodes, bitrate_bps=bitrate or net.bus.bitrate, sync_period_s=period)
+    for spec in extra_eds:
+        node_id, info = _extra_node(spec)
+        if node_id in nodes:
+            raise UserError(f"--eds {spec}: node {node_id} is the network file's {nodes[node_id].name}, "
+                            f"whose EDS is {net.nodes[nodes[node_id].name].eds}")
+        nodes[node_id] = info
+    period = sync_period_s if sync_period_s is not None else net.sync.period_s
+    return MonitorConfig(nodes=nodes, bitrate_bps=bitrate or net.bus.bitrate, sync_period_s=period,
+                         sync_lockstep=net.sync.lockstep)
+
+
+def _extra_node(spec: str) -> tuple[int, NodeInfo]:
+    """``NODE=FILE`` (``--eds``): a node outside the network file, named by its EDS file's stem."""
+    node, sep, path = spec.partition("=")
+    try:
+        node_id = int(node, 0)
+    except ValueError:
+        node_id = 0
+    if not sep or not path or not 1 <= node_id <= 127:
+        raise UserError(f"--eds {spec!r}: expected NODE=FILE with NODE a node-ID 1..127, e.g. 5=arm.eds")
+    eds = Path(path)
+    if not eds.is_file():
+        raise UserError(f"--eds {spec}: {eds}: no such EDS file")
+    try:
+        od = import_od(str(eds), node_id)
+    except Exception as exc:  # canopen raises assorted errors for a bad EDS
+        raise UserError(f"{eds}: cannot parse EDS ({exc})") from None
+    return node_id, NodeInfo(eds.stem, od)
+
+
+def _apply_overrides(net: NetworkConfig, role: str, od) -> None:
+    """Write the network file's power-on values (0x1016 consumer and 0x1017 producer heartbeat times,
+    SYNC) into the node's dictionary, as the node does at start; one the EDS lacks keeps the EDS value."""
+    try:
+        overrides = net.device_settings(role).overrides()
+    except (KeyError, NetworkConfigError):
+        return   # a node without device settings in the file (a further node): its EDS values
+    for (index, sub), value in overrides.items():
+        try:
+            obj = od[index]
+            var = obj if sub == 0 and not hasattr(obj, "subindices") else obj[sub]
+        except KeyError:
+            continue
+        var.value = value

@@ -1,4 +1,4 @@
-"""``telethermo record``: record the bus to a python-can log (.log .asc .blf) plus a decoded CSV."""
+"""``telethermo record``: record the bus to a python-can log (.log .asc .blf .trc) plus a decoded CSV."""
 from __future__ import annotations
 
 import argparse
@@ -15,13 +15,13 @@ from telethermo.monitor.state import Monitor
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("record", description="Record every frame to a python-can log file, the format chosen "
-                                          "by the extension (.log candump, .asc Vector ASC, .blf Vector BLF), "
+                                          "by the extension (.log candump, .asc Vector ASC, .blf Vector BLF, .trc PEAK trace), "
                                           "and the decoded frames to a CSV beside it (FILE.csv: s.blf -> s.blf.csv). "
                                           "Existing files are kept unless --force. Stops after --duration "
                                           "or --count, or on Ctrl-C (exit 0: the normal stop); the files are "
                                           "complete in every case.")
     common.add_bus_options(p)
-    p.add_argument("out", metavar="FILE", help="log file: .log, .asc or .blf")
+    p.add_argument("out", metavar="FILE", help="log file: .log, .asc, .blf or .trc")
     p.add_argument("--csv", metavar="CSV", help="decoded CSV (default: FILE.csv, e.g. s.blf.csv)")
     p.add_argument("--force", action="store_true", help="replace existing files")
     p.add_argument("--no-csv", action="store_true", help="no decoded CSV")

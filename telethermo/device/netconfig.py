@@ -82,13 +82,15 @@ class NetworkConfig:
         return self.nodes[role]
 
     def peer(self, role: str) -> NodeConfig:
-        """The other node of the pair."""
+        """The other node of the pair (master and slave only: another device on the bus has no peer here)."""
         self.node(role)
+        if role not in ROLES:
+            raise NetworkConfigError(f"{self.path}: [nodes.{role}]: not one of the pair (master, slave): no peer")
         return self.node("slave" if role == "master" else "master")
 
     def device_settings(self, role: str) -> DeviceSettings:
         """Power-on settings of ``role``'s device: heartbeat times, SYNC role/period/counter, peers."""
-        me, peer = self.node(role), self.peer(role)
+        peer = self.peer(role)
         return DeviceSettings(
             heartbeat_producer_ms=self.heartbeat.producer_ms,
             heartbeat_consumers=((peer.node_id, self.heartbeat.consumer_ms),),

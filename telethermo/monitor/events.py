@@ -18,7 +18,7 @@ class Event:
         severity: INFO, WARN or ERROR.
         kind: short machine name: nmt, nmt_state, boot_up, heartbeat_lost, heartbeat_back, emcy,
             emcy_reset, sdo_abort, sdo_error, pdo_remap, pdo_length, pdo_missing, sync_counter,
-            late_cycle, error_frame, malformed.
+            late_cycle, error_frame, controller_state, malformed, replay_error.
         node: the node concerned (None for the bus).
         text: one line for a person.
         fields: details (JSON-able).

@@ -19,8 +19,8 @@ from can.util import channel2int
 
 from .state import Monitor
 
-#: log formats by extension (python-can writers): candump text, Vector ASC, Vector BLF
-LOG_FORMATS = {".log": "candump -L text", ".asc": "Vector ASC", ".blf": "Vector BLF"}
+#: log formats by extension (python-can writers): candump text, Vector ASC, Vector BLF, PEAK trace
+LOG_FORMATS = {".log": "candump -L text", ".asc": "Vector ASC", ".blf": "Vector BLF", ".trc": "PEAK trace 2.1"}
 CSV_COLUMNS = ("t_s", "cob_id", "kind", "node", "dlc", "data", "text", "fields")
 
 

@@ -30,7 +30,9 @@ class MonitorConfig:
         nodes: node-ID -> NodeInfo (name, EDS object dictionary); unknown nodes are still decoded.
         bitrate_bps: the bus bitrate, bit/s (for the bus load).
         sync_period_s: nominal SYNC period, s; a SYNC interval longer than
-            ``sync_period_s * (1 + late_tolerance)`` is a late cycle. None: no late-cycle count (lockstep).
+            ``sync_period_s * (1 + late_tolerance)`` is a late cycle. None: no late-cycle count.
+        sync_lockstep: the network runs in lockstep (SYNC k+1 after cycle k's PDOs): a late cycle is
+            then the simulation running slower than real time, not a fault.
         late_tolerance: fraction of the period a SYNC may be late before the cycle counts as late.
         window_s: window of frames/s and bus load, s.
         heartbeat_timeout_factor: without a consumer time (0x1016) for a node, its heartbeat times out
@@ -40,6 +42,7 @@ class MonitorConfig:
     nodes: dict[int, NodeInfo] = field(default_factory=dict)
     bitrate_bps: int = 1_000_000
     sync_period_s: float | None = None
+    sync_lockstep: bool = False
     late_tolerance: float = 0.5
     window_s: float = 1.0
     heartbeat_timeout_factor: float = 1.5
@@ -132,9 +135,15 @@ class NodeState:
                 "pdo_frames": dict(self.pdo_frames)}
 
 
+#: the strip chart's sampling: one sample of a PDO's values per this bus time, s, the last STRIP_POINTS kept
+STRIP_DT_S = 0.1
+STRIP_POINTS = 300
+
+
 @dataclass
 class PdoState:
-    """Last values of one PDO as seen on the bus."""
+    """Last values of one PDO as seen on the bus, and a sampled trace of them for the strip chart
+    (``trace``: (t_s, values) every :data:`STRIP_DT_S` of bus time)."""
 
     pdef: PdoDef
     count: int = 0
@@ -145,6 +154,8 @@ class PdoState:
     armed: bool = False
     unreported: int = 0            # missing cycles not yet in an event
     event_t: float | None = None   # time of the last pdo_missing event
+    trace: deque = field(default_factory=lambda: deque(maxlen=STRIP_POINTS))
+    trace_t: float | None = None   # time of the last sample in ``trace``
 
 
 @dataclass

@@ -8,7 +8,8 @@ from typing import Any, Callable, Iterable, TextIO
 
 import can
 
-from .replay import Pacer
+from .events import ERROR, Event
+from .replay import Pacer, ReplayError
 from .state import Monitor
 from .view import CursesView, ViewState, fmt_time
 
@@ -26,20 +27,44 @@ def _clean(obj: Any) -> Any:
     return obj
 
 
+#: why an interface gives no controller state (python-can's base class answers ACTIVE whatever happens)
+NO_STATE = {"VirtualBus": "virtual bus: no controller", "SocketCanDaemonBus": "socketcand does not forward it",
+            "SocketcanBus": "SocketCAN: only from error frames"}
+
+
+def bus_state_poller(bus: can.BusABC) -> Callable[[Monitor], None]:
+    """A function that copies ``bus.state`` into the monitor, or says why the interface has none."""
+    name = type(bus).__name__
+    if getattr(type(bus), "state", None) is can.BusABC.__dict__["state"]:
+        reason = NO_STATE.get(name, f"{name} does not report it")
+        return lambda mon: mon.set_bus_state(None, reason)
+
+    def poll(mon: Monitor) -> None:
+        try:
+            mon.set_bus_state(bus.state.name)
+        except (can.CanError, NotImplementedError, OSError) as exc:
+            mon.set_bus_state(None, f"bus.state failed: {exc}")
+    return poll
+
+
 def dumps(obj: dict) -> str:
     return json.dumps(_clean(obj), allow_nan=False, separators=(",", ":"))
 
 
 def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *, as_json: bool,
               frames: bool = True, status_every_s: float = 1.0, max_frames: int | None = None,
-              until: Callable[[], bool] | None = None, now: Callable[[], float] | None = None) -> int:
+              until: Callable[[], bool] | None = None, now: Callable[[], float] | None = None,
+              poll: Callable[[Monitor], None] | None = None) -> int:
     """Print decoded frames (if ``frames``), events and a status line every ``status_every_s`` of bus
     time; a final status at the end. ``source`` yields None when a live bus is idle; ``now`` then
-    gives the bus clock for heartbeat timeouts. Returns the number of frames processed."""
+    gives the bus clock for heartbeat timeouts; ``poll`` reads the controller state before each
+    status. Returns the number of frames processed."""
     n = 0
     next_status: float | None = None
 
     def emit_status() -> None:
+        if poll is not None:
+            poll(mon)
         snap = mon.snapshot()
         if as_json:
             out.write(dumps(snap) + "\n")
@@ -49,7 +74,8 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
             sync = f"SYNC {sy['period_s'] * 1e3:.2f}±{sy['jitter_s'] * 1e3:.2f} ms" if sy["period_s"] else "SYNC --"
             out.write(f"{fmt_time(snap['t_s'])} STATUS frames/s {snap['frames_per_s']:.0f} load "
                       f"{snap['bus_load_pct']:.1f}% {sync} late {snap['late_cycles']} missed {snap['missed_pdos']} "
-                      f"err {snap['error_frames']} | {nodes}\n")
+                      f"err {snap['error_frames']} | {nodes}"
+                      + (f" | controller {ctl['state']}" if (ctl := snap["controller"])["state"] else "") + "\n")
 
     try:
         for msg in source:
@@ -90,9 +116,12 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
 
 def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: ViewState, *,
                pacer: Pacer | None = None, now: Callable[[], float] | None = None,
-               refresh_s: float = 0.2, until: Callable[[], bool] | None = None) -> int:
+               refresh_s: float = 0.2, until: Callable[[], bool] | None = None,
+               poll: Callable[[Monitor], None] | None = None) -> int:
     """The live view. ``pacer`` paces a replay (pausing stops it); for a live bus ``now`` gives the
-    time for ticks and a pause only freezes the screen. Returns the number of frames decoded."""
+    time for ticks and a pause only freezes the screen. A damaged log ends the replay with the frames
+    decoded so far still shown and the error in ``vs.error`` (and the event log). Returns the number of
+    frames decoded."""
     view = CursesView(stdscr, vs)
     it = iter(source)
     n = 0
@@ -104,6 +133,8 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
         if t - last_draw >= refresh_s or vs.done:
             if not view.handle_keys(mon):
                 return n
+            if poll is not None:
+                poll(mon)
             if now is not None and idle:
                 mon.tick(now())   # only with no frame waiting: a backlog must not look like silence
             if not vs.paused:
@@ -125,6 +156,10 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
                 pending = next(it)
             except StopIteration:
                 vs.done = True
+                continue
+            except ReplayError as exc:    # a damaged log: keep what was decoded on the screen, say why it stopped
+                vs.done, vs.error = True, str(exc)
+                mon.log.add([Event(mon.stats.t_last or 0.0, ERROR, "replay_error", None, str(exc))])
                 continue
             idle = pending is None
         if pending is not None and pacer is not None:

@@ -15,9 +15,14 @@ from telethermo import cia301
 from . import decoder as dec
 from .busload import message_length_bits
 from .events import ERROR, INFO, WARN, Event, EventLog
+from .frames import FrameTable
+from .health import ControllerHealth, decode_error_frame
 from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo, format_value
-from .records import BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
+from .records import STRIP_DT_S, BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
+
+#: frame lengths kept by content (periodic traffic repeats its frames: SYNC counters, heartbeats, flags)
+BITS_CACHE = 4096
 
 #: a repeated WARN of the same kind (late cycle, missing PDO) is logged at most once per this bus time, s
 EVENT_HOLDOFF_S = 1.0
@@ -31,6 +36,8 @@ class Monitor:
         self.nodes: dict[int, NodeState] = {}
         self.stats = BusStats()
         self.log = EventLog()
+        self.frames = FrameTable()
+        self.controller = ControllerHealth()
         self.pdo_map = PdoMap({n: info.od for n, info in self.config.nodes.items() if info.od is not None})
         self.pdos: dict[tuple[int, str, int], PdoState] = {}
         self._window: deque[tuple[float, int]] = deque()
@@ -39,6 +46,10 @@ class Monitor:
         self._late_event_t: float | None = None
         self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
+        self._bits: dict[tuple, int] = {}
+        self._handlers = {k: getattr(self, f"_on_{k.lower()}") for k in dec.KINDS}
+        self.first_tick_s: float | None = None   # live: the first tick's time (a replay never ticks), s
+        self.now_s: float | None = None          # live: the last tick's time, s
         for n, info in self.config.nodes.items():
             self._node(n).name = info.name
         self._load_heartbeat_config()
@@ -64,14 +75,10 @@ class Monitor:
             v = _value(info.od, 0x1017, 0)
             if v:
                 self._node(n).producer_time_s = v / 1000.0
-            if 0x1016 in info.od:
-                obj = info.od[0x1016]
-                for sub in range(1, 128):
-                    try:
-                        var = obj[sub]
-                    except (KeyError, TypeError):
-                        break
-                    self._set_consumer(_value(info.od, 0x1016, sub) or 0)
+            # only the entries 0x1016:00 declares: canopen's ODArray makes up any further subindex
+            # from the first one's EDS default (which would undo the network file's consumer time)
+            for sub in range(1, min(_value(info.od, 0x1016, 0) or 0, 127) + 1):
+                self._set_consumer(_value(info.od, 0x1016, sub) or 0)
             v = _value(info.od, 0x1005, 0)
             if v:
                 self._sync_cob = v & 0x7FF
@@ -89,28 +96,40 @@ class Monitor:
         t = float(msg.timestamp or 0.0)
         data = bytes(msg.data or b"")
         events: list[Event] = []
-        self._account(t, msg, events)
+        self._account(t, msg, data)
         kind, node = dec.classify(msg.arbitration_id, extended=bool(msg.is_extended_id),
                                   remote=bool(msg.is_remote_frame), error=bool(msg.is_error_frame),
                                   sync_cob_id=self._sync_cob, pdo_cob_ids=self.pdo_map.table)
         frame = dec.Frame(t, msg.arbitration_id, data, kind, node)
-        handler = getattr(self, f"_on_{kind.lower()}")
-        handler(frame, events)
+        self._handlers[kind](frame, events)
+        self.frames.add(frame, bool(msg.is_extended_id))
         events += self._check_timeouts(t)
         self.log.add(events)
         return frame, events
 
     def tick(self, now_s: float) -> list[Event]:
         """Advance the monitor's idea of time with no frame (live view refresh); new events."""
+        if self.first_tick_s is None:
+            self.first_tick_s = now_s
+        self.now_s = now_s
         events = self._check_timeouts(now_s)
         self._update_rates(now_s)
         self.log.add(events)
         return events
 
+    def set_bus_state(self, name: str | None, reason: str = "") -> None:
+        """The interface's controller state (python-can ``BusState`` name), or None and why not."""
+        self.controller.from_bus_state(name, reason)
+
     # -- bookkeeping -----------------------------------------------------------------------------
-    def _account(self, t: float, msg, events: list[Event]) -> None:
+    def _account(self, t: float, msg, data: bytes) -> None:
         s = self.stats
-        bits = message_length_bits(msg)
+        key = (msg.arbitration_id, msg.is_extended_id, msg.is_remote_frame, msg.is_error_frame, msg.dlc, data)
+        bits = self._bits.get(key)
+        if bits is None:
+            if len(self._bits) >= BITS_CACHE:
+                self._bits.clear()
+            bits = self._bits[key] = message_length_bits(msg)
         s.frames += 1
         s.bits += bits
         if s.t_first is None:
@@ -150,8 +169,17 @@ class Monitor:
     # -- per service -----------------------------------------------------------------------------
     def _on_error_frame(self, f: dec.Frame, ev: list[Event]) -> None:
         self.stats.error_frames += 1
-        f.text = "error frame"
-        ev.append(Event(f.t_s, WARN, "error_frame", None, "CAN error frame", {"data": f.data.hex()}))
+        info = decode_error_frame(f.cob_id, f.data)
+        before = self.controller.state
+        self.controller.from_error_frame(info)
+        f.fields = info
+        f.text = "error frame: " + (", ".join(info["classes"] + info["controller"]) or "no class bits")
+        if info["tx_errors"] is not None:
+            f.text += f"; TX errors {info['tx_errors']}, RX errors {info['rx_errors']}"
+        ev.append(Event(f.t_s, WARN, "error_frame", None, "CAN " + f.text, {"data": f.data.hex(), **info}))
+        if info["state"] is not None and info["state"] != before:
+            ev.append(Event(f.t_s, ERROR if info["state"] == "BUS-OFF" else WARN, "controller_state", None,
+                            f"CAN controller {before or 'unknown'} -> {info['state']}", {"state": info["state"]}))
 
     def _on_unknown(self, f: dec.Frame, ev: list[Event]) -> None:
         self.stats.unknown_frames += 1
@@ -333,6 +361,9 @@ class Monitor:
         p.count += 1
         p.last_t = f.t_s
         p.values = values
+        if p.trace_t is None or f.t_s - p.trace_t >= 0.99 * STRIP_DT_S:    # 1 %: float bus times
+            p.trace.append((f.t_s, tuple(v.value for v in values)))
+            p.trace_t = f.t_s
         p.armed = False
         p.missing_streak = 0
         f.fields = {"pdo": pdef.label, "producer" if pdef.direction == "TPDO" else "consumer": pdef.node,
@@ -406,8 +437,10 @@ class Monitor:
                 "bus_load_pct": 100.0 * s.bus_load, "bitrate_bps": self.config.bitrate_bps,
                 "error_frames": s.error_frames, "unknown_frames": s.unknown_frames, "malformed": s.malformed,
                 "syncs": s.syncs, "sync_counter": s.sync_counter, "sync_counter_errors": s.sync_counter_errors,
-                "sync": s.sync_summary(), "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
-                "events": dict(self.log.counts),
+                "sync": s.sync_summary(), "sync_period_nominal_s": self.config.sync_period_s,
+                "sync_lockstep": self.config.sync_lockstep, "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
+                "events": dict(self.log.counts), "controller": self.controller.to_json(),
+                "cob_ids": [r.to_json() for r in self.frames.sorted_rows()],
                 "nodes": [st.to_json() for _, st in sorted(self.nodes.items())],
                 "pdos": [{"node": p.pdef.node, "pdo": p.pdef.label, "cob_id": p.pdef.cob_id, "count": p.count,
                           "missing": p.missing, "values": [v.to_json() for v in p.values]}

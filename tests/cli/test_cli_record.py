@@ -4,6 +4,7 @@ recording, exits 0 with complete files. Real frames on a python-can virtual bus,
 on a real hub for Ctrl-C."""
 from __future__ import annotations
 
+import json
 import os
 import signal
 import stat
@@ -114,3 +115,21 @@ def test_ctrl_c_is_the_normal_stop(tmp_path):
         if sender is not None:
             sender.shutdown()
         hub.stop()
+
+
+def test_record_trc_and_its_csv_replay_through_the_monitor(cli, tmp_path):
+    channel = f"tt-rec-trc-{time.monotonic_ns()}"
+    code, out, err = record_with_sync(cli, channel, tmp_path / "s.trc", frames=25)
+    assert code == EXIT_OK, err
+    assert (tmp_path / "s.trc").read_text().startswith(";$FILEVERSION=2.1")       # PEAK trace, python-can's writer
+    for log in ("s.trc", "s.trc.csv"):
+        code, out, err = cli("monitor", "--replay", str(tmp_path / log), "--json", "--no-frames")
+        assert code == EXIT_OK, err
+        status = json.loads(out.strip().splitlines()[-1])
+        assert status["type"] == "status" and status["frames"] == 25 and status["syncs"] == 25, log
+        assert status["sync_counter_errors"] == 0 and status["malformed"] == 0, log
+    rows = (tmp_path / "s.trc.csv").read_text().splitlines()
+    rows[7] = rows[7].replace(",1,", ",3,", 1)                   # dlc 3 with one data byte
+    (tmp_path / "bad.csv").write_text("\n".join(rows) + "\n")
+    code, out, err = cli("monitor", "--replay", str(tmp_path / "bad.csv"), "--json", "--no-frames")
+    assert code != EXIT_OK and f"{tmp_path / 'bad.csv'}:8: damaged row (dlc 3 but 1 data bytes)" in err

@@ -41,6 +41,10 @@ def _capture(sock: str) -> str:
                           check=True).stdout
 
 
+def keys(sock: str, *names: str) -> None:
+    subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", *names], check=True)
+
+
 def _wait_screen(sock: str, text: str, timeout_s: float = 20.0) -> str:
     deadline = time.monotonic() + timeout_s
     screen = ""
@@ -69,13 +73,33 @@ def test_view_in_a_real_terminal(tmp_path):
         assert "SYNC 10.00 ms" in screen and "#59" in screen
         assert "0x4210 Device temperature" in screen
         assert "T_max_C ABORT 0x06090031 Value of parameter written too high" in screen
-        assert screen.splitlines()[-1].startswith("[p] pause")
+        assert screen.splitlines()[-1].startswith("[?] help")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "f"], check=True)
         _wait_screen(sock, "filter (text, node=N")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "emcy", "Enter"], check=True)
         screen = _wait_screen(sock, "EVENTS (filter: emcy)")
         events = screen.split("EVENTS (filter: emcy)")[1]
         assert "EMCY 0x4210" in events and "boot-up" not in events and "ABORT" not in events
+        keys(sock, "?")
+        screen = _wait_screen(sock, "HELP: keys of telethermo monitor")
+        assert "raw frame list: one row per COB-ID" in screen and "PgUp/PgDn" in screen
+        keys(sock, "r")
+        screen = _wait_screen(sock, "RAW FRAME LIST")
+        sync_row = next(ln for ln in screen.splitlines() if ln.startswith("     080"))
+        assert sync_row.split()[1:4] == ["SYNC", "-", "59"] and "10.00" in sync_row
+        keys(sock, "l")
+        _wait_screen(sock, "FRAME LOG (last 2000 frames kept)")
+        keys(sock, "Home")
+        screen = _wait_screen(sock, "newer below (End to follow)")
+        assert "boot-up node 1" in screen          # the first frame of the log, scrolled back to
+        keys(sock, "End")
+        screen = _wait_screen(sock, "0x581")      # the newest frame again
+        assert "newer below" not in screen
+        keys(sock, "t")
+        screen = _wait_screen(sock, "TEMPERATURES (strip chart")
+        assert "master TPDO1 estimate_C = 30.590 degC" in screen and "|*" in screen
+        keys(sock, "m")
+        _wait_screen(sock, "CHECK FIRST")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "p"], check=True)
         _wait_screen(sock, "[PAUSED]")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "q"], check=True)
@@ -83,5 +107,36 @@ def test_view_in_a_real_terminal(tmp_path):
         while not done.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
         assert done.read_text().strip() == "0"
+    finally:
+        subprocess.run(["tmux", "-L", sock, "kill-server"], capture_output=True)
+
+
+def test_damaged_log_keeps_the_decoded_screen_and_says_where(tmp_path):
+    """A damaged row stops the replay; the view keeps what it decoded and names the file and line;
+    quitting exits 1 with the same line on stderr."""
+    rows = ["t_s,cob_id,kind,node,dlc,data,text,fields", "0.000000,0x701,HEARTBEAT,1,1,05,,{}",
+            "0.001000,0x702,HEARTBEAT,2,1,05,,{}"]
+    rows += [f"{0.01 * k:.6f},0x080,SYNC,,1,{k:02x},,{{}}" for k in range(1, 30)]
+    rows += ["0.300000,0x080,SYNC,,1,zz,,{}"]          # line 33: not hex
+    rows += [f"{0.31 + 0.01 * k:.6f},0x080,SYNC,,1,{k:02x},,{{}}" for k in range(1, 5)]
+    log = tmp_path / "bad.csv"
+    log.write_text("\n".join(rows) + "\n")
+    sock = f"tt-test-{time.monotonic_ns()}"
+    done, err = tmp_path / "rc", tmp_path / "err"
+    cmd = (f"{sys.executable} -m telethermo.cli.main monitor --replay {log} --speed 0 2> {err}; "
+           f"echo $? > {done}; sleep 30")
+    env = {k: v for k, v in os.environ.items() if k not in ("LINES", "COLUMNS")}
+    subprocess.run(["tmux", "-L", sock, "new-session", "-d", "-s", "mon", "-x", "200", "-y", "40", "-c", str(ROOT), cmd],
+                   check=True, env=env)
+    try:
+        screen = _wait_screen(sock, "LOG DAMAGED")
+        assert f"{log}:33: damaged row" in screen and "[END OF LOG]" not in screen
+        assert "1 master   OPERATIONAL" in screen and "#29" in screen          # what was decoded stays
+        keys(sock, "q")
+        deadline = time.monotonic() + 10
+        while not done.exists() and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert done.read_text().strip() == "1"
+        assert f"{log}:33: damaged row" in err.read_text() and "Traceback" not in err.read_text()
     finally:
         subprocess.run(["tmux", "-L", sock, "kill-server"], capture_output=True)

@@ -41,7 +41,7 @@ def test_screen_shows_nodes_pdos_sdo_events_and_fits_the_terminal():
     assert "estimate_C=33.500 degC" in text and "Q_W=-0.250 W" in text
     assert "0x4210 Device temperature reg 0x09" in text
     assert "ABORT 0x06090031 Value of parameter written too high" in text
-    assert lines[-1].startswith("[p] pause")
+    assert lines[-1].startswith("[?] help")
     small = render_lines(mon, ViewState(), 40, 8)
     assert len(small) == 8 and all(len(ln) <= 40 for ln in small)
 
