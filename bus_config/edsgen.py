@@ -246,7 +246,21 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2612, _real("identified_se_ln_b", "ro", 0.0,
                         description="standard error of ln(effusivity), about its relative error (0 none)")),
         V(0x2613, _real("identified_posterior", "ro", 0.0, description="posterior of identified_material")),
-        V(0x2614, _uint("identified_touches", UNSIGNED16, "ro", 0, description="touches evaluated (wraps)")),
+        V(0x2614, _uint("identified_touches", UNSIGNED16, "ro", 0, pdo=True, description="touches evaluated (wraps)")),
+        # -- graceful link loss (issue 15; telethermo.control.link_fallback): the slave's identification, received
+        # by the master in RPDO2 with the contact flag (the slave's TPDO5), and the master's fallback
+        V(0x2615, _uint("peer_identified_material", UNSIGNED8, "rww", 0, 0, 255, pdo=True,
+                        description="the slave's identified_material, received in RPDO2 (master)")),
+        V(0x2616, _uint("peer_identified_touches", UNSIGNED16, "rww", 0, 0, 0xFFFF, pdo=True,
+                        description="the slave's identified_touches, received in RPDO2 (a change: a new identification)")),
+        V(0x2617, _real("peer_identified_beta", "rww", 0.0, -1.0e6, 1.0e6, pdo=True,
+                        description="the slave's identified_beta, received in RPDO2 (limits apply to SDO writes only)")),
+        V(0x2618, _real("link_loss_render_s", "rw", 5.0, 0.0, 60.0,
+                        description="(master, telepresence) slave lost while the operator touches an identified "
+                                    "material: render it locally this long before the ramp to neutral (0: at once)")),
+        V(0x2619, _uint("link_fallback_active", BOOLEAN, "ro", 0, **ro_pdo,
+                        description="1 while the master renders the last identified material because the slave is "
+                                    "lost (EMCY 0xFF01 when it starts)")),
         # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
         V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
         V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),
@@ -297,6 +311,14 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
     return objs
 
 
+def _contact_pdo(contact: int, material: int, touches: int, beta: int, identification: bool) -> list[int]:
+    """The contact PDO's mapping (slave TPDO5 -> master RPDO2): the contact flag, and from the slave to the master
+    its identified material (code, touch counter, beta: 8 bytes in all); the other direction the flag alone."""
+    flag = [_mapping(contact, 0, 8)]
+    return flag + [_mapping(material, 0, 8), _mapping(touches, 0, 16), _mapping(beta, 0, 32)] if identification \
+        else flag
+
+
 def communication_objects(role: str) -> list[Obj]:
     """0x1000..0x1FFF for ``role`` (master: node 1, SYNC producer; slave: node 2)."""
     own, peer = NODE_IDS[role], NODE_IDS["slave" if role == "master" else "master"]
@@ -333,7 +355,7 @@ def communication_objects(role: str) -> list[Obj]:
         _pdo_comm(0x1400, "RPDO1 communication parameter", f"0x{0x180 + peer:X}", 1, tpdo=False),
         _pdo_map(0x1600, "RPDO1 mapping parameter", [_mapping(0x2103, 0, 32), _mapping(0x2104, 0, 32)]),
         _pdo_comm(0x1401, "RPDO2 communication parameter", f"0x{CONTACT_PDO_BASE + peer:X}", 1, tpdo=False),
-        _pdo_map(0x1601, "RPDO2 mapping parameter", [_mapping(0x2105, 0, 8)]),
+        _pdo_map(0x1601, "RPDO2 mapping parameter", _contact_pdo(0x2105, 0x2615, 0x2616, 0x2617, role == "master")),
         _pdo_comm(0x1800, "TPDO1 communication parameter", "$NODEID+0x180", 1, tpdo=True),
         _pdo_comm(0x1801, "TPDO2 communication parameter", "$NODEID+0x280", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
         _pdo_comm(0x1802, "TPDO3 communication parameter", "$NODEID+0x380", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
@@ -345,7 +367,7 @@ def communication_objects(role: str) -> list[Obj]:
         _pdo_map(0x1A03, "TPDO4 mapping parameter", [_mapping(0x2702, 0, 32), _mapping(0x2700, 0, 8),
                                                      _mapping(0x2500, 0, 8), _mapping(0x2004, 0, 8),
                                                      _mapping(0x2705, 0, 8)]),
-        _pdo_map(0x1A04, "TPDO5 mapping parameter", [_mapping(0x2006, 0, 8)]),
+        _pdo_map(0x1A04, "TPDO5 mapping parameter", _contact_pdo(0x2006, 0x2610, 0x2614, 0x2611, role == "slave")),
     ]
     return objs
 
