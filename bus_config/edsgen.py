@@ -46,6 +46,11 @@ NODE_IDS = {"master": 1, "slave": 2}
 #: connection set and its restricted COB-IDs (0x680..0x6DF are free), so no other device's default uses it.
 #: It is sent after TPDO1 in the same SYNC, so a peer that has it has the TPDO1 of the same cycle too.
 CONTACT_PDO_BASE = 0x680
+#: the slave's TPDO6 (its identified object's temperature, every 10th SYNC) goes on 0x6C0 + node-ID (in the same
+#: free range, clear of the contact PDOs for node-IDs below 0x40); the master receives it as RPDO3, event-driven
+#: (type 255: into the OD at once), so the lockstep producer, which waits for the last synchronous RPDO, never
+#: waits for it
+IDENT_PDO_BASE = 0x6C0
 TPDO_STATUS_TRANSMISSION_TYPE = 10  # status TPDOs 2..4 go with every 10th SYNC (bus load at 1 kHz)
 
 
@@ -261,6 +266,11 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
         V(0x2619, _uint("link_fallback_active", BOOLEAN, "ro", 0, **ro_pdo,
                         description="1 while the master renders the last identified material because the slave is "
                                     "lost (EMCY 0xFF01 when it starts)")),
+        V(0x261A, _real("identified_T_object0_C", "ro", 0.0, pdo=True,
+                        description="(slave) initial temperature of the last touched object, from the same fit "
+                                    "(0 none), sent in TPDO6")),
+        V(0x261B, _real("peer_identified_T_object0_C", "rww", 0.0, -273.15, 1000.0, pdo=True,
+                        description="the slave's identified_T_object0_C, received in RPDO3 (master)")),
         # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
         V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
         V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),
@@ -356,11 +366,15 @@ def communication_objects(role: str) -> list[Obj]:
         _pdo_map(0x1600, "RPDO1 mapping parameter", [_mapping(0x2103, 0, 32), _mapping(0x2104, 0, 32)]),
         _pdo_comm(0x1401, "RPDO2 communication parameter", f"0x{CONTACT_PDO_BASE + peer:X}", 1, tpdo=False),
         _pdo_map(0x1601, "RPDO2 mapping parameter", _contact_pdo(0x2105, 0x2615, 0x2616, 0x2617, role == "master")),
+        *([_pdo_comm(0x1402, "RPDO3 communication parameter", f"0x{IDENT_PDO_BASE + peer:X}", 255, tpdo=False),
+           _pdo_map(0x1602, "RPDO3 mapping parameter", [_mapping(0x261B, 0, 32)])] if role == "master" else []),
         _pdo_comm(0x1800, "TPDO1 communication parameter", "$NODEID+0x180", 1, tpdo=True),
         _pdo_comm(0x1801, "TPDO2 communication parameter", "$NODEID+0x280", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
         _pdo_comm(0x1802, "TPDO3 communication parameter", "$NODEID+0x380", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
         _pdo_comm(0x1803, "TPDO4 communication parameter", "$NODEID+0x480", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
         _pdo_comm(0x1804, "TPDO5 communication parameter", f"$NODEID+0x{CONTACT_PDO_BASE:X}", 1, tpdo=True),
+        *([_pdo_comm(0x1805, "TPDO6 communication parameter", f"$NODEID+0x{IDENT_PDO_BASE:X}",
+                     TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True)] if role == "slave" else []),
         _pdo_map(0x1A00, "TPDO1 mapping parameter", [_mapping(0x2100, 0, 32), _mapping(0x2001, 0, 32)]),
         _pdo_map(0x1A01, "TPDO2 mapping parameter", [_mapping(0x2000, 0, 32), _mapping(0x2002, 0, 32)]),
         _pdo_map(0x1A02, "TPDO3 mapping parameter", [_mapping(0x2101, 0, 32), _mapping(0x2102, 0, 32)]),
@@ -368,6 +382,7 @@ def communication_objects(role: str) -> list[Obj]:
                                                      _mapping(0x2500, 0, 8), _mapping(0x2004, 0, 8),
                                                      _mapping(0x2705, 0, 8)]),
         _pdo_map(0x1A04, "TPDO5 mapping parameter", _contact_pdo(0x2006, 0x2610, 0x2614, 0x2611, role == "slave")),
+        *([_pdo_map(0x1A05, "TPDO6 mapping parameter", [_mapping(0x261A, 0, 32)])] if role == "slave" else []),
     ]
     return objs
 

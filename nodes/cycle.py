@@ -40,17 +40,19 @@ MAX_TIMING_SAMPLES = 1_000_000
 _WRITERS = ("T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_decision", "force_N", "estimate_C",
             "T_pred_C", "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "active_trips",
             "fault_reset", "fault_reset_blocked_by", "identified_material", "identified_beta", "identified_se_ln_b",
-            "identified_posterior", "identified_touches", "link_fallback_active")
+            "identified_posterior", "identified_touches", "identified_T_object0_C", "link_fallback_active")
 
 
 def material_status(w, m) -> None:
-    """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614."""
+    """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614
+    and 0x261A."""
     ok = math.isfinite(m.effusivity)
     w["identified_material"](m.code)
     w["identified_beta"](m.beta if ok else 0.0)
     w["identified_se_ln_b"](m.se_ln_b if ok else 0.0)
     w["identified_posterior"](m.posterior)
     w["identified_touches"](m.touch & 0xFFFF)
+    w["identified_T_object0_C"](m.T_object0_C if ok else 0.0)
 
 
 class ControlCycle:
@@ -81,7 +83,7 @@ class ControlCycle:
         self._r_peer_q = dev.reader("peer_Q_W")
         self._r_peer_contact = dev.reader("peer_contact")
         self._r_peer_material = tuple(dev.reader(n) for n in ("peer_identified_material", "peer_identified_beta",
-                                                              "peer_identified_touches"))
+                                                              "peer_identified_touches", "peer_identified_T_object0_C"))
         dev.add_write_validator("fault_reset", self.check_fault_reset)
 
     def swap_model(self, tem, neutral_C: float) -> None:
@@ -142,9 +144,10 @@ class ControlCycle:
         if 2 in tick.fresh_rpdos:
             rt.peer.on_contact(bool(self._r_peer_contact()))
         peer = rt.peer.take()
-        if peer is not None:   # the slave's identification, as its contact PDO (RPDO2) last brought it
-            code, beta, touch = (r() for r in self._r_peer_material)
-            peer = dataclasses.replace(peer, material_code=int(code), material_beta=float(beta), material_touch=int(touch))
+        if peer is not None:   # the slave's identification, as its contact PDO (RPDO2) and RPDO3 last brought it
+            code, beta, touch, T_o0 = (r() for r in self._r_peer_material)
+            peer = dataclasses.replace(peer, material_code=int(code), material_beta=float(beta), material_touch=int(touch),
+                                       material_T_object0_C=float(T_o0) if code else float("nan"))
         if rt.settings.mode is Mode.RENDER:
             peer = None  # rendering needs no peer (as offline)
             rt.settings.select_render_touch(sample.t_s)

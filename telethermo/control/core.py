@@ -41,7 +41,7 @@ from telethermo.control.contact import ContactState, contact_step
 from telethermo.control.coreparams import NO_GAINS, CoreParams, Feedback, RenderPhase, RenderSettings
 from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
 from telethermo.control.later_phase import later_setpoint, later_start
-from telethermo.control.link_fallback import LinkState, link_step
+from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
 from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step
 from telethermo.control.pi import PIComponents, PIState, bumpless, pi_step
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
@@ -348,7 +348,7 @@ def _request(sample: RigSample, peer: PeerValues | None, params: CoreParams, sta
 def _link(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState, e: _Estimates,
           peer_usable: bool, r: _Request) -> tuple[_Request, LinkState, bool, bool]:
     """Stage 3b (master, telepresence): graceful link loss (:mod:`telethermo.control.link_fallback`): while it
-    renders, its setpoint replaces the request (render gains: temperature PI and the render feed-forward).
+    renders, its setpoint replaces the request (a temperature PI, no flux terms: ``fallback_gains``).
     Returns the request, the link state, whether the fallback renders and whether it started now."""
     if params.role is not Role.MASTER or params.mode is not Mode.TELEPRESENCE:
         return r, state.link, False, False
@@ -356,8 +356,8 @@ def _link(sample: RigSample, peer: PeerValues | None, params: CoreParams, state:
                    est_C=e.est, q_in_W=-sample.Q_W, T_surface_est_C=e.e_flux, render_s=params.link_loss_render_s,
                    dt_s=params.period_s, peer_tripped=bool(state.env.trips & sf.PEER_TRIPS))
     if lr.active:
-        r = _Request(lr.setpoint_C, params.kQ_render_A_per_W * sample.Q_W, 0.0, params.gains, None,
-                     state.render_phase, False, None, (params.mode, "link_fallback"))
+        r = _Request(lr.setpoint_C, 0.0, 0.0, fallback_gains(params.kp_A_per_C), None, state.render_phase, False, None,
+                     (params.mode, "link_fallback"))
     return r, lr.state, lr.active, lr.started
 
 
@@ -468,7 +468,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         sent = peer.estimate_C
     ml = mat.last
     out = Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact, material_code=ml.code, material_beta=ml.beta,
-                   material_touch=ml.touch) if identifying else Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact)
+                   material_touch=ml.touch, material_T_object0_C=ml.T_object0_C) if identifying else Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact)
     return StepResult(current_A=current, out=out, state=new_state, status=status)
 
 

@@ -8,13 +8,18 @@ sent in its contact PDO), the master instead renders that material itself, as th
 (yamamoto §III, benali-khoudja §4):
 
 - eq. 1: T_contact = (T_f0 + β·T_o0)/(1 + β), with T_f0 the finger's temperature before the touch (the
-  master's own estimate while the probe was in the air) and β the identified relative effusivity. The
-  object's initial temperature T_o0 is eq. 1 inverted from the object's surface temperature the slave sent
-  last (its estimate, eq. 31: the contact face), T_o0 = T_s + (T_s − T_f0)/β, so that the render starts at
-  the temperature telepresence was showing (bumpless) and the identified β carries the rest;
+  master's own estimate while the probe was in the air), β the identified relative effusivity and T_o0 the
+  object's initial temperature the same identification fitted (sent with it). Without a T_o0 (or without
+  T_f0), T_o0 is eq. 1 inverted from the object's surface temperature the slave sent last (its estimate,
+  eq. 31: the contact face), T_o0 = T_s + (T_s − T_f0)/β: the render then starts at the temperature
+  telepresence was showing. Either way the envelope's ramp limit carries the setpoint from telepresence's
+  last value to the render;
 - then the later-phase model (:mod:`telethermo.control.later_phase`, the render default: the conduction model
   of a :data:`FALLBACK_THICKNESS_MM` block of the material, adiabatic back), driven by the flux the finger
-  sends into the pad, from the instant of the loss.
+  sends into the pad, from the instant of the loss;
+- tracked by a temperature PI with telepresence's proportional gain and the render mode's integral gain
+  (:func:`fallback_gains`; no flux terms: they need the peer). Measured by bench/link_loss_bench.py (mean skin
+  error over five 20 mm objects): render gains 0.89 °C, telepresence gains 0.88 °C, this mix 0.72 °C.
 
 This lasts at most ``render_s`` (CoreParams.link_loss_render_s; 0 disables) and while the finger stays on the
 pad; then the envelope's peer trip takes over as before (ramp to neutral, cut, EMCY 0x8130). While the
@@ -32,13 +37,18 @@ import math
 from dataclasses import dataclass, replace
 from typing import Any
 
+from telethermo.control.defaults import RENDER_GAINS
 from telethermo.control.later_phase import (DEFAULT_LATER_MODEL, DEFAULT_THICKNESS_MM, LaterPhase, later_phase,
                                             later_setpoint, later_start)
+from telethermo.control.pi import PIGains
 from telethermo.control.rendering import contact_temperature, load_render_table
 from telethermo.control.virtual_object import VirtualObject, load_object_table
 
 #: thickness of the object the fallback renders, mm (the slave does not measure it: a block)
 FALLBACK_THICKNESS_MM = DEFAULT_THICKNESS_MM
+#: the fallback's integral gain, A/(°C·s): the render mode's (telepresence's small one leaves the load to the
+#: flux terms, which need the peer)
+FALLBACK_KI_A_PER_C_S = RENDER_GAINS["ki_A_per_C_s"]
 #: plausible range of the inverted object temperature, °C (the envelope clamps the setpoint anyway)
 T_OBJECT_RANGE_C = (-20.0, 90.0)
 
@@ -54,6 +64,8 @@ class LinkState:
             in the air), NaN unknown.
         T_surface_C: the object's surface temperature last received in this touch (the slave's estimate), °C.
         code, beta: the last identified material (rendering-table code, 0 none; β = b/b_skin).
+        T_object0_id_C: the object's initial temperature the slave's identification fitted, °C (the latest
+            received; NaN none).
         id_touch: the touch during which that identification arrived (-2: never).
         peer_touch: the slave's touch counter last received.
         active: the fallback renders now. t_s: time since it started, s. spent: it ran out (or could not
@@ -67,6 +79,7 @@ class LinkState:
     T_surface_C: float = math.nan
     code: int = 0
     beta: float = math.nan
+    T_object0_id_C: float = math.nan
     id_touch: int = -2
     peer_touch: int = 0
     active: bool = False
@@ -104,6 +117,11 @@ def fallback_later_phase(code: int, dt_s: float) -> LaterPhase:
     return later_phase(DEFAULT_LATER_MODEL, VirtualObject(name, FALLBACK_THICKNESS_MM), dt_s)
 
 
+def fallback_gains(kp_A_per_C: float) -> PIGains:
+    """The fallback's PI: ``kp_A_per_C`` (telepresence's, A/°C) and :data:`FALLBACK_KI_A_PER_C_S`."""
+    return PIGains(kp_A_per_C, FALLBACK_KI_A_PER_C_S)
+
+
 def object_temperature(T_finger0_C: float, T_surface_C: float, beta: float) -> float:
     """Eq. 1 inverted: the object's initial temperature, °C, whose contact with a finger at ``T_finger0_C``
     gives the surface temperature ``T_surface_C`` (relative effusivity ``beta``); ``T_surface_C`` when the
@@ -121,7 +139,9 @@ def _track(st: LinkState, peer, peer_usable: bool, contact: bool, est_C: float) 
     touch = st.touch + (1 if touching and not st.touching else 0)
     T_f0, T_s, code, beta, id_touch, peer_touch = (st.T_finger0_C, st.T_surface_C, st.code, st.beta, st.id_touch,
                                                    st.peer_touch)
+    T_o0 = st.T_object0_id_C
     if peer_usable:
+        T_o0 = peer.material_T_object0_C     # the latest (it may come a few cycles after the counter)
         if probe is False and math.isfinite(est_C):
             T_f0 = est_C            # the probe in the air: the master's estimate is the finger's own temperature
         T_s = peer.estimate_C if touching else math.nan
@@ -133,7 +153,7 @@ def _track(st: LinkState, peer, peer_usable: bool, contact: bool, est_C: float) 
     elif not touching:
         T_s = math.nan
     return replace(st, touch=touch, touching=touching, T_finger0_C=T_f0, T_surface_C=T_s, code=code, beta=beta,
-                   id_touch=id_touch, peer_touch=peer_touch)
+                   T_object0_id_C=T_o0, id_touch=id_touch, peer_touch=peer_touch)
 
 
 def _can_start(st: LinkState, render_s: float, peer_tripped: bool) -> bool:
@@ -163,8 +183,11 @@ def link_step(st: LinkState, peer, *, peer_usable: bool, contact: bool, est_C: f
             return LinkResult(replace(st, active=False, spent=True, later=None), math.nan)
         st = replace(st, t_s=t)
     elif _can_start(st, render_s, peer_tripped):
-        T_o0 = object_temperature(st.T_finger0_C, st.T_surface_C, st.beta)
         T_f0 = st.T_finger0_C if math.isfinite(st.T_finger0_C) else st.T_surface_C
+        T_o0 = st.T_object0_id_C
+        if not (math.isfinite(T_o0) and math.isfinite(st.T_finger0_C)):
+            T_o0 = object_temperature(st.T_finger0_C, st.T_surface_C, st.beta)
+        T_o0 = min(max(T_o0, T_OBJECT_RANGE_C[0]), T_OBJECT_RANGE_C[1])
         T_c = contact_temperature(T_f0, 1.0, T_o0, st.beta)
         lp = fallback_later_phase(st.code, dt_s)
         st = replace(st, active=True, t_s=0.0, T_object0_C=T_o0, T_contact_C=T_c, later=(lp, later_start(lp, T_o0)))

@@ -44,6 +44,7 @@ class PeerValues:
             table (1-based, as the OD's material_code), 0 none.
         material_beta: that material's relative effusivity b/b_skin as the slave estimated it (NaN none).
         material_touch: the slave's count of evaluated touches (a change = a new identification).
+        material_T_object0_C: the identified object's initial temperature (the same fit), °C (NaN none).
     """
 
     estimate_C: float
@@ -54,6 +55,7 @@ class PeerValues:
     material_code: int = 0
     material_beta: float = float("nan")
     material_touch: int = 0
+    material_T_object0_C: float = float("nan")
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,3 +69,4 @@ class Outgoing:
     material_code: int = 0
     material_beta: float = float("nan")
     material_touch: int = 0
+    material_T_object0_C: float = float("nan")

@@ -185,7 +185,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
 def _received(out: Outgoing, rnd) -> PeerValues:
     """What the peer receives of ``out`` in the next cycle (TPDO1 and the contact PDO; REAL32 with ``rnd``)."""
     return PeerValues(rnd(out.estimate_C), rnd(out.flux_W), contact=out.contact, material_code=out.material_code,
-                      material_beta=rnd(out.material_beta), material_touch=out.material_touch)
+                      material_beta=rnd(out.material_beta), material_touch=out.material_touch,
+                      material_T_object0_C=rnd(out.material_T_object0_C))
 
 
 def _lost(peer: PeerValues) -> PeerValues:
