@@ -11,6 +11,10 @@ the touch.
 
     python -m bench.rendering_bench [--quick]      # bench/results/rendering.json key later_phase, rendering.png
 
+It also measures the graceful link loss (bench/link_loss_bench.py): ``link_loss_fallback_error_C`` and
+``link_loss_neutral_ramp_error_C`` (the skin error while the slave is lost during a touch, with the fallback and
+with the ramp to neutral as before), ``link_loss`` (per object).
+
 ``later_phase_figures(quick)`` returns the figures; other keys of rendering.json (material identification)
 are kept when this bench rewrites it.
 """
@@ -27,6 +31,7 @@ import numpy as np
 
 from telethermo import sim
 from bench.common import current_results_dir, print_table, write_results
+from bench.link_loss_bench import link_loss_figures, print_figures
 from telethermo.atomic import write_bytes_atomic
 from telethermo.offline.render_script import RenderScript
 from telethermo.offline.runner import run_offline_session
@@ -134,6 +139,9 @@ def run(quick: bool) -> dict[str, Any]:
     if old.exists():
         data = {k: v for k, v in json.loads(old.read_text(encoding="utf-8")).items() if k != "provenance"}
     data.update(figs, later_phase_quick=quick)
+    link = link_loss_figures(quick)
+    print_figures(link)
+    data.update(link)
     print(f"wrote {write_results('rendering', data)}")
     png = write_plot(out_dir / "rendering.png", traces)
     if png:

@@ -46,10 +46,8 @@ NODE_IDS = {"master": 1, "slave": 2}
 #: connection set and its restricted COB-IDs (0x680..0x6DF are free), so no other device's default uses it.
 #: It is sent after TPDO1 in the same SYNC, so a peer that has it has the TPDO1 of the same cycle too.
 CONTACT_PDO_BASE = 0x680
-#: the slave's TPDO6 (its identified object's temperature, every 10th SYNC) goes on 0x6C0 + node-ID (in the same
-#: free range, clear of the contact PDOs for node-IDs below 0x40); the master receives it as RPDO3, event-driven
-#: (type 255: into the OD at once), so the lockstep producer, which waits for the last synchronous RPDO, never
-#: waits for it
+#: the slave's TPDO6 (identified object temperature, every 10th SYNC) on 0x6C0 + node-ID (free range); the master's
+#: RPDO3 takes it event-driven (type 255), so the lockstep producer (waits for the last synchronous RPDO) does not
 IDENT_PDO_BASE = 0x6C0
 TPDO_STATUS_TRANSMISSION_TYPE = 10  # status TPDOs 2..4 go with every 10th SYNC (bus load at 1 kHz)
 
@@ -322,11 +320,9 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
 
 
 def _contact_pdo(contact: int, material: int, touches: int, beta: int, identification: bool) -> list[int]:
-    """The contact PDO's mapping (slave TPDO5 -> master RPDO2): the contact flag, and from the slave to the master
-    its identified material (code, touch counter, beta: 8 bytes in all); the other direction the flag alone."""
-    flag = [_mapping(contact, 0, 8)]
-    return flag + [_mapping(material, 0, 8), _mapping(touches, 0, 16), _mapping(beta, 0, 32)] if identification \
-        else flag
+    """The contact PDO's mapping: the flag, slave -> master also its identification (code, touches, beta: 8 bytes)."""
+    extra = [_mapping(material, 0, 8), _mapping(touches, 0, 16), _mapping(beta, 0, 32)] if identification else []
+    return [_mapping(contact, 0, 8)] + extra
 
 
 def communication_objects(role: str) -> list[Obj]:
