@@ -10,9 +10,11 @@ from hypothesis import given, settings, strategies as st
 
 from telethermo.control.core import CoreParams, init_state, step
 from telethermo.control.link_fallback import LinkState, link_step, object_temperature
+from telethermo.control.params import default_params
 from telethermo.control.rendering import contact_temperature
 from telethermo.control.safety import SafetyState, Trip
-from telethermo.control.types import PeerValues, Role
+from telethermo.control.types import Mode, PeerValues, Role
+from telethermo.nodes.odparams import ParamBook, od_image
 from telethermo.rig import RigSample
 
 DT = 0.01
@@ -143,3 +145,19 @@ def test_link_loss_during_a_touch_keeps_the_envelope(est, beta, code, render_s, 
     assert sum(fb) <= round(render_s / DT) + 1 and fb == sorted(fb, reverse=True)   # one episode, from the loss
     if not fb[-1]:
         assert Trip.PEER_LOST in res[-1].status.trips or Trip.PEER_INVALID in res[-1].status.trips
+
+
+def test_link_loss_render_s_is_an_od_parameter_of_the_node():
+    """0x2618 link_loss_render_s: a node's SDO write reaches CoreParams (all modes), the OD image shows it, and an
+    out-of-range value is refused (CoreParams' own check: the EDS range is 0..60 s)."""
+    def params_for(mode, render=None):
+        return default_params(Role.MASTER, mode=mode, render=render) if render is not None else \
+            default_params(Role.MASTER, mode=mode)
+
+    book = ParamBook(Role.MASTER, params_for, has_model=False, table={"wood": 0.4}, od_material=(1, 0.4, 25.0))
+    assert book.params().link_loss_render_s == 5.0
+    assert book.check("link_loss_render_s", 2.5) is None
+    book.apply("link_loss_render_s", 2.5)
+    assert book.params().link_loss_render_s == 2.5 and book.params(Mode.IDLE).link_loss_render_s == 2.5
+    assert od_image(book.params(), None, material_code=0, peer_miss_limit=10)["link_loss_render_s"] == 2.5
+    assert book.check("link_loss_render_s", 61.0) is not None
