@@ -208,10 +208,11 @@ class _Observer:
 
 
 def nominal_bus_load(period_s: float) -> float:
-    """The contract's load at 1 Mbit/s: SYNC (1 byte), two TPDO1 (8) and two contact TPDO5 (1) per cycle,
-    each node's three status TPDOs (8 bytes) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
+    """The contract's load at 1 Mbit/s: SYNC (1 byte), two TPDO1 (8), the master's contact TPDO5 (1) and the
+    slave's (8: the flag and its identified material) per cycle, each node's three status TPDOs (8 bytes) every
+    10th SYNC and the slave's TPDO6 (4 bytes, counted as 8) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
     f = 1.0 / period_s
-    return bus_load({1: 3 * f + 2 * 10.0, 8: 2 * f + 2 * 3 * f / 10})
+    return bus_load({1: 2 * f + 2 * 10.0, 8: 3 * f + 2 * 3 * f / 10 + f / 10})
 
 
 def vcan_lockstep(cycles: int, timeout_s: float = 1200) -> tuple[float | None, str]:
@@ -244,7 +245,7 @@ def _vcan_child(cycles: int) -> int:
 
 
 # ---------------------------------------------------------------------------------------- the anchor
-ANCHOR_FRAMES = ("per cycle, raw python-can: SYNC 0x080 (1 byte) + 0x181 (8) + 0x681 (1) out, 0x182 (8) + 0x682 (1) "
+ANCHOR_FRAMES = ("per cycle, raw python-can: SYNC 0x080 (1 byte) + 0x181 (8) + 0x681 (1) out, 0x182 (8) + 0x682 (8) "
                  "back, the next SYNC after 0x682 (the frames of one lockstep node cycle, without the status "
                  "TPDOs every 10th SYNC and the heartbeats)")
 

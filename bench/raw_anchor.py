@@ -5,7 +5,7 @@ One cycle is the frames a lockstep node cycle puts on the bus, sent and received
 python-can: the pinger (the master's place) sends SYNC (COB-ID 0x080, 1 byte: the counter, as
 0x1019 = 240 gives) and its own TPDO1 (0x181, 8 bytes) and TPDO5 (0x681, 1 byte: the contact flag);
 the responder (the slave's place) answers each SYNC with its TPDO1 (0x182, 8 bytes) and TPDO5 (0x682,
-1 byte) and ignores everything else; the pinger sends the next SYNC once the responder's last frame
+8 bytes: the contact flag and its identified material) and ignores everything else; the pinger sends the next SYNC once the responder's last frame
 (0x682) is in, as the lockstep master waits for the slave's last synchronous RPDO. Not in the anchor:
 the status TPDOs every 10th SYNC and the heartbeats (a node's own work).
 
@@ -31,7 +31,7 @@ from telethermo.transport.bus import TransportSettings, open_bus, parse_bus_stri
 
 SYNC_ID = 0x080
 OUT_FRAMES = ((0x181, 8), (0x681, 1))     # the pinger's own TPDO1, TPDO5 (master, node 1)
-BACK_FRAMES = ((0x182, 8), (0x682, 1))    # the responder's TPDO1, TPDO5 (slave, node 2)
+BACK_FRAMES = ((0x182, 8), (0x682, 8))    # the responder's TPDO1, TPDO5 (slave, node 2: flag + identification)
 LAST_BACK_ID = BACK_FRAMES[-1][0]
 COUNTER_OVERFLOW = 240
 

@@ -13,6 +13,9 @@ the touch.
 
 ``later_phase_figures(quick)`` returns the later-phase figures; ``run`` measures the slave's material
 identification in the same run (bench/material_id_bench.py) and writes both into rendering.json.
+It also measures the graceful link loss (bench/link_loss_bench.py): ``link_loss_fallback_error_C`` and
+``link_loss_neutral_ramp_error_C`` (the skin error while the slave is lost during a touch, with the fallback and
+with the ramp to neutral as before), ``link_loss`` (per object).
 """
 from __future__ import annotations
 
@@ -26,6 +29,7 @@ import numpy as np
 
 from telethermo import sim
 from bench.common import current_results_dir, print_table, write_results
+from bench.link_loss_bench import link_loss_figures, print_figures
 from bench.material_id_bench import material_id_figures, print_material_id
 from telethermo.atomic import write_bytes_atomic
 from telethermo.offline.render_script import RenderScript
@@ -132,6 +136,9 @@ def run(quick: bool) -> dict[str, Any]:
     print_material_id(mat)
     out_dir = current_results_dir()
     data: dict[str, Any] = {"quick": quick, "later_phase": rows, **mat}
+    link = link_loss_figures(quick)
+    print_figures(link)
+    data.update(link)
     print(f"wrote {write_results('rendering', data)}")
     png = write_plot(out_dir / "rendering.png", traces)
     if png:

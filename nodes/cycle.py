@@ -19,7 +19,9 @@ import math
 import time
 from typing import TYPE_CHECKING
 
-from telethermo.cia301 import ABORT_DEVICE_STATE
+import dataclasses
+
+from telethermo.cia301 import ABORT_DEVICE_STATE, EMCY_LINK_FALLBACK
 from telethermo.device.device import SyncTick
 from telethermo.control import safety as sf
 from telethermo.control.core import CoreState, StepResult, clear_faults, init_state, initial_peer, replace_model, step
@@ -38,17 +40,19 @@ MAX_TIMING_SAMPLES = 1_000_000
 _WRITERS = ("T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_decision", "force_N", "estimate_C",
             "T_pred_C", "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "active_trips",
             "fault_reset", "fault_reset_blocked_by", "identified_material", "identified_beta", "identified_se_ln_b",
-            "identified_posterior", "identified_touches")
+            "identified_posterior", "identified_touches", "identified_T_object0_C", "link_fallback_active")
 
 
 def material_status(w, m) -> None:
-    """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614."""
+    """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614
+    and 0x261A."""
     ok = math.isfinite(m.effusivity)
     w["identified_material"](m.code)
     w["identified_beta"](m.beta if ok else 0.0)
     w["identified_se_ln_b"](m.se_ln_b if ok else 0.0)
     w["identified_posterior"](m.posterior)
     w["identified_touches"](m.touch & 0xFFFF)
+    w["identified_T_object0_C"](m.T_object0_C if ok else 0.0)
 
 
 class ControlCycle:
@@ -69,6 +73,7 @@ class ControlCycle:
         self._last_peer: PeerValues | None = None
         self._fault_reset_pending = False
         self._fault_reset_index = -1
+        self._link_fallback = False
         self.w: dict = {}
 
     def bind(self, dev) -> None:
@@ -77,6 +82,8 @@ class ControlCycle:
         self._r_peer_est = dev.reader("peer_estimate_C")
         self._r_peer_q = dev.reader("peer_Q_W")
         self._r_peer_contact = dev.reader("peer_contact")
+        self._r_peer_material = tuple(dev.reader(n) for n in ("peer_identified_material", "peer_identified_beta",
+                                                              "peer_identified_touches", "peer_identified_T_object0_C"))
         dev.add_write_validator("fault_reset", self.check_fault_reset)
 
     def swap_model(self, tem, neutral_C: float) -> None:
@@ -137,6 +144,10 @@ class ControlCycle:
         if 2 in tick.fresh_rpdos:
             rt.peer.on_contact(bool(self._r_peer_contact()))
         peer = rt.peer.take()
+        if peer is not None:   # the slave's identification, as its contact PDO (RPDO2) and RPDO3 last brought it
+            code, beta, touch, T_o0 = (r() for r in self._r_peer_material)
+            peer = dataclasses.replace(peer, material_code=int(code), material_beta=float(beta), material_touch=int(touch),
+                                       material_T_object0_C=float(T_o0) if code else float("nan"))
         if rt.settings.mode is Mode.RENDER:
             peer = None  # rendering needs no peer (as offline)
             rt.settings.select_render_touch(sample.t_s)
@@ -177,6 +188,7 @@ class ControlCycle:
         w["T_cmd_C"](st.setpoint_C)
         w["safety_state"](int(st.safety.state))
         w["active_trips"](sf.trips_mask(res.state.env.trips))
+        w["link_fallback_active"](bool(st.link_fallback))
         if st.safety.state != self._safety_state:
             if self._safety_state is not None:
                 log.info("cycle %d: safety state %s -> %s", self.rt.stats.cycles, self._safety_state.name,
@@ -187,8 +199,19 @@ class ControlCycle:
             self._material_touch = st.material.touch
 
     def _raise_trips(self, res: StepResult) -> None:
-        """An EMCY for every new trip (and last_trip_code)."""
+        """An EMCY for every new trip (and last_trip_code); the link-loss fallback's EMCY when it starts (cleared
+        when it ends)."""
         stats = self.rt.stats
+        fb = res.status.link_fallback
+        if res.status.link_fallback_started:
+            self.rt.device.raise_emcy(EMCY_LINK_FALLBACK)
+            stats.emcy_raised += 1
+            log.warning("cycle %d: peer lost while the operator touches: rendering the last identified material "
+                        "locally (EMCY 0x%04X)", stats.cycles - 1, EMCY_LINK_FALLBACK)
+        elif self._link_fallback and not fb:
+            self.rt.device.clear_emcy(EMCY_LINK_FALLBACK)
+            log.warning("cycle %d: link-loss fallback ended", stats.cycles - 1)
+        self._link_fallback = fb
         for trip in res.status.safety.new_trips:
             code = sf.EMCY_CODES[trip]
             self.w["last_trip_code"](code)

@@ -15,6 +15,7 @@ writes into its object dictionary so that ``telethermo get`` shows the running c
 | ramp_limit_C_per_s (0x2402) | ``safety.ramp_up_C_per_s`` and ``ramp_down_C_per_s`` (shown: the smaller) | all modes |
 | current_limit_A (0x2405) | ``safety.current_fraction`` × ``safety.I_max_A`` | all modes |
 | mode (0x2500) | ``mode`` | |
+| link_loss_render_s (0x2618) | ``link_loss_render_s`` (graceful link loss, :mod:`telethermo.control.link_fallback`) | all modes (acts in master telepresence) |
 | material_code, material_beta, object_T0_C, finger_T0_C, pad_beta (0x2600..0x2604) | ``render`` (:class:`RenderSettings`) | RENDER |
 | later_model, object_thickness_mm, object_back (0x2605..0x2607) | ``render.later`` (:mod:`telethermo.control.later_phase`) | RENDER |
 | ident_seed, ident_rest_samples, ident_train_samples, ident_validation_samples, ident_amplitude_min_A, ident_amplitude_max_A, ident_hold_samples (0x2800..0x2806) | ``identify`` (:class:`~telethermo.ident.plan.IdentifyPlan`) | IDENTIFY |
@@ -51,7 +52,7 @@ SAFETY_KEYS: dict[str, tuple[str, ...]] = {
 LATER_KEYS = ("later_model", "object_thickness_mm", "object_back")   # 0x2605..0x2607, on top of any render
 RENDER_KEYS = ("material_code", "material_beta", "object_T0_C", "finger_T0_C", "pad_beta") + LATER_KEYS
 MATERIAL_KEYS = ("material_code", "material_beta", "object_T0_C")
-OTHER_KEYS = ("estimator", "R_sensor_C_per_W", "current_limit_A", "peer_pdo_miss_limit", "mode")
+OTHER_KEYS = ("estimator", "R_sensor_C_per_W", "current_limit_A", "peer_pdo_miss_limit", "mode", "link_loss_render_s")
 #: OD name -> IdentifyPlan field (the amplitudes are the two ends of ``amplitude_A``)
 IDENT_KEYS: dict[str, str] = {
     "ident_seed": "seed", "ident_rest_samples": "rest_samples", "ident_train_samples": "train_samples",
@@ -207,6 +208,8 @@ class ParamBook:
             self.common["estimator"] = est
         elif key == "R_sensor_C_per_W":
             self.common["R_sensor_K_per_W"] = float(value)
+        elif key == "link_loss_render_s":
+            self.common["link_loss_render_s"] = float(value)
         elif key in SAFETY_KEYS:
             for f in SAFETY_KEYS[key]:
                 self.safety[f] = float(value)
@@ -258,6 +261,7 @@ def od_image(params: CoreParams, render: RenderSettings | None, *, material_code
     img: dict[str, Any] = {k: getattr(params, k) for k in GAIN_KEYS}
     img["estimator"] = ESTIMATOR_CODES[params.estimator]
     img["R_sensor_C_per_W"] = params.R_sensor_K_per_W
+    img["link_loss_render_s"] = params.link_loss_render_s
     for key, fields in SAFETY_KEYS.items():
         img[key] = min(getattr(s, f) for f in fields)
     img["current_limit_A"] = s.I_limit_A

@@ -86,6 +86,8 @@ EMCY_NO_ERROR = 0x0000                    # error reset or no error
 EMCY_HEARTBEAT = 0x8130                   # life guard / heartbeat error (consumer timeout)
 EMCY_PDO_LENGTH = 0x8210                  # PDO not processed due to length error
 EMCY_PDO_LENGTH_EXCEEDED = 0x8220         # PDO length exceeded
+EMCY_LINK_FALLBACK = 0xFF01               # manufacturer-specific: slave lost, the master renders the last
+                                          # identified material locally (telethermo.control.link_fallback)
 
 EMCY_CODE_TEXTS = {
     EMCY_NO_ERROR: "Error reset or no error",
@@ -100,6 +102,7 @@ EMCY_CODE_TEXTS = {
     0x8230: "DAM MPDO not processed, destination object not available",
     0x8240: "Unexpected SYNC data length",
     0x8250: "RPDO timeout",
+    EMCY_LINK_FALLBACK: "Device specific: peer lost, rendering the last identified material locally",
 }
 #: the class of an EMCY code by its high byte (xx = any)
 EMCY_CLASS_TEXTS = {

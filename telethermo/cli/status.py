@@ -21,7 +21,8 @@ FIELDS = (
     ("T_pred", "T_pred_C"), ("T_cmd", "T_cmd_C"), ("peer estimate", "peer_estimate_C"), ("flux", "Q_W"),
     ("peer flux", "peer_Q_W"), ("current", "current_A"), ("contact", "contact"), ("safety", "safety_state"),
     ("last trip", "last_trip_code"), ("latched trips", "active_trips"), ("cycles", "cycle_counter"), ("late cycles", "late_cycles"),
-    ("lockstep", "lockstep"), ("peer alive", "peer_alive"), ("error register", "0x1001"),
+    ("lockstep", "lockstep"), ("peer alive", "peer_alive"), ("link fallback", "link_fallback_active"),
+    ("error register", "0x1001"),
     ("last EMCY", "0x1003sub1"), ("model", "model_status"), ("model CRC-32", "model_crc32"),
     ("identification", "ident_state"),
 )

@@ -41,6 +41,7 @@ from telethermo.control.contact import ContactState, contact_step
 from telethermo.control.coreparams import NO_GAINS, CoreParams, Feedback, RenderPhase, RenderSettings
 from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
 from telethermo.control.later_phase import later_setpoint, later_start
+from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
 from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step
 from telethermo.control.pi import PIComponents, PIState, bumpless, pi_step
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
@@ -83,6 +84,7 @@ class CoreState:
         render_later: RENDER in contact: (the render's ``LaterPhase``, its model state); restarted at each
             touch and whenever the rendered object changes.
         material: (slave) the material identification's collector and last result.
+        link: (master, telepresence) the graceful link loss's memory (:mod:`telethermo.control.link_fallback`).
     """
 
     k: int
@@ -102,6 +104,7 @@ class CoreState:
     render_later: Any = None
     cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
     material: MaterialState = field(default_factory=MaterialState)
+    link: LinkState = field(default_factory=LinkState)
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,6 +124,8 @@ class StepStatus:
         pi: :class:`telethermo.control.pi.PIComponents`.
         current_requested_A: the controller's output before the envelope's current limits, A.
         material: (slave) the last identified material (None on the master or with identification off).
+        link_fallback: (master) the slave is lost and the master renders the last identified material itself;
+            link_fallback_started: it started in this step (raise its EMCY once).
     """
 
     safety: sf.EnvelopeStatus
@@ -136,6 +141,8 @@ class StepStatus:
     pi: PIComponents
     current_requested_A: float
     material: MaterialEstimate | None = None
+    link_fallback: bool = False
+    link_fallback_started: bool = False
 
     # convenience for the node layer
     @property
@@ -338,6 +345,22 @@ def _request(sample: RigSample, peer: PeerValues | None, params: CoreParams, sta
                     (params.mode,))
 
 
+def _link(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState, e: _Estimates,
+          peer_usable: bool, r: _Request) -> tuple[_Request, LinkState, bool, bool]:
+    """Stage 3b (master, telepresence): graceful link loss (:mod:`telethermo.control.link_fallback`): while it
+    renders, its setpoint replaces the request (a temperature PI, no flux terms: ``fallback_gains``).
+    Returns the request, the link state, whether the fallback renders and whether it started now."""
+    if params.role is not Role.MASTER or params.mode is not Mode.TELEPRESENCE:
+        return r, state.link, False, False
+    lr = link_step(state.link, peer, peer_usable=peer_usable, contact=e.cst.contact or bool(sample.contact),
+                   est_C=e.est, q_in_W=-sample.Q_W, T_surface_est_C=e.e_flux, render_s=params.link_loss_render_s,
+                   dt_s=params.period_s, peer_tripped=bool(state.env.trips & sf.PEER_TRIPS))
+    if lr.active:
+        r = _Request(lr.setpoint_C, 0.0, 0.0, fallback_gains(params.kp_A_per_C), None, state.render_phase, False, None,
+                     (params.mode, "link_fallback"))
+    return r, lr.state, lr.active, lr.started
+
+
 def _seeded_envelope(params: CoreParams, state: CoreState, r: _Request, est: float, switched: bool) -> sf.EnvelopeState:
     """Stage 4's bumpless re-seed of the ramp at the render contact switch.
 
@@ -407,9 +430,11 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     peer_alive = peer is not None and bool(peer.alive)
     peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
     r = _request(sample, peer, params, state, e, peer_alive and peer_ok)
-    # 4. envelope on setpoint; bumpless re-seed of the ramp at the render contact switch
+    r, link, fallback, fb_started = _link(sample, peer, params, state, e, peer_alive and peer_ok, r)
+    # 4. envelope on setpoint (no peer needed while the link-loss fallback renders); bumpless re-seed of the
+    # ramp at the render contact switch
     env_in = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, e.s_hi, e.s_lo, T_pred,
-                              mode is Mode.TELEPRESENCE, peer_alive, peer_ok)
+                              mode is Mode.TELEPRESENCE and not fallback, peer_alive, peer_ok)
     switched = r.source != state.source
     env0 = _seeded_envelope(params, state, r, est, switched)
     sp, env, env_active, new_trips = sf.envelope_step(lim, env0, env_in, r.req, dt)
@@ -430,18 +455,21 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
                           source=r.source, render_phase=r.phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
                           finger_seen=state.finger_seen or cst.contact or bool(sample.contact),
-                          pred_snapshot=snap, cell=state.cell, render_later=r.later_st, material=mat)
+                          pred_snapshot=snap, cell=state.cell, render_later=r.later_st, material=mat, link=link)
     status = StepStatus(safety=sf.summarize(env, new_trips, active), requested_setpoint_C=r.req, setpoint_C=sp,
                         feedback_C=y, T_pred_C=T_pred, estimate_C=est, estimate_model_C=e.e_model,
                         estimate_flux_C=e.e_flux, contact=cst.contact,
                         render_phase=r.phase if mode is Mode.RENDER else None, pi=comps, current_requested_A=u_req,
-                        material=mat.last if identifying else None)
+                        material=mat.last if identifying else None, link_fallback=fallback,
+                        link_fallback_started=fb_started)
     sent = est
     if (params.echo_peer_when_free and mode is Mode.TELEPRESENCE and not cst.contact and peer_ok and peer_alive
             and math.isfinite(est)):
         sent = peer.estimate_C
-    return StepResult(current_A=current, out=Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact), state=new_state,
-                      status=status)
+    ml = mat.last
+    out = Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact, material_code=ml.code, material_beta=ml.beta,
+                   material_touch=ml.touch, material_T_object0_C=ml.T_object0_C) if identifying else Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact)
+    return StepResult(current_A=current, out=out, state=new_state, status=status)
 
 
 def clear_faults(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> CoreState:

@@ -137,6 +137,10 @@ class CoreParams:
         T_air_C: the air's temperature for air rendering, °C.
         material_id: (slave) material identification from each touch's first samples
             (:mod:`telethermo.control.material_stream`); None turns it off.
+        link_loss_render_s: (master, telepresence) graceful link loss: when the slave is lost while the
+            operator touches and it identified the material in this touch or the last, render that material
+            locally for at most this long, s, before the ramp to neutral (0: ramp at once, as before;
+            :mod:`telethermo.control.link_fallback`).
     """
 
     role: Role
@@ -164,6 +168,7 @@ class CoreParams:
     G_air_W_per_K: float = CORE["G_air_W_per_K"]
     T_air_C: float = CORE["T_air_C"]
     material_id: MaterialIdParams | None = field(default_factory=MaterialIdParams)
+    link_loss_render_s: float = CORE["link_loss_render_s"]
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
     _air_gains: Any = field(default=None, init=False, repr=False, compare=False)
@@ -191,6 +196,7 @@ class CoreParams:
         _finite_number(o, "air_kiQ_A_per_W_s", self.air_kiQ_A_per_W_s, lo=0.0, hi=1000.0)
         _finite_number(o, "G_air_W_per_K", self.G_air_W_per_K, lo=0.0, hi=1.0)
         _finite_number(o, "T_air_C", self.T_air_C, lo=-20.0, hi=60.0)
+        _finite_number(o, "link_loss_render_s", self.link_loss_render_s, lo=0.0, hi=60.0)
         if not isinstance(self.air_rendering, bool):
             raise ValueError(f"{o}.air_rendering: expected True or False, got {self.air_rendering!r}")
         if not isinstance(self.identify, IdentifyPlan):

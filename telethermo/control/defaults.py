@@ -36,6 +36,7 @@ CORE: dict[str, float] = dict(
     air_kpQ_A_per_W=0.1, air_kiQ_A_per_W_s=1.0,
     G_air_W_per_K=15.0 * 0.015 * 0.015,                    # still air, h = 15 W/(m²·K) over 15 × 15 mm
     T_air_C=25.0,
+    link_loss_render_s=5.0,                                # graceful link loss: render locally this long, s
 )
 
 #: role -> parameters at the reference period of 10 ms (telepresence), tuned on probe_touches_al_steel_wood

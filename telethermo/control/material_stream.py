@@ -30,6 +30,7 @@ class MaterialEstimate:
         code: the material's position in the rendering table (1-based, the OD's material code), 0: none.
         posterior: the class's posterior probability (0 without an estimate).
         touch: how many touches have been evaluated (counts also those without an estimate).
+        T_object0_C: the object's initial temperature the same fit gives, °C (NaN without an estimate).
     """
 
     effusivity: float = math.nan
@@ -37,6 +38,7 @@ class MaterialEstimate:
     code: int = 0
     posterior: float = 0.0
     touch: int = 0
+    T_object0_C: float = math.nan
 
     @property
     def beta(self) -> float:
@@ -96,4 +98,5 @@ def material_step(p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W
     table = {name: b for _, name, b in p.classes}
     c = classify(est, table, p.probe.floor_ln)
     code = p.classes[c.index - 1][0]
-    return MaterialState(pre=st.pre, done=True, last=MaterialEstimate(est.b, est.se_ln_b, code, c.posterior, n))
+    return MaterialState(pre=st.pre, done=True, last=MaterialEstimate(est.b, est.se_ln_b, code, c.posterior, n,
+                                                                               est.T_object0_C))

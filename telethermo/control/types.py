@@ -41,6 +41,11 @@ class PeerValues:
             the safety envelope then ramps to neutral and cuts current.
         contact: the peer's contact detector (the probe touches something), or None when the peer
             does not say (then the master treats the probe as touching: the published law).
+        material_code: (from the slave) the material its last touch identified: code in the rendering
+            table (1-based, as the OD's material_code), 0 none.
+        material_beta: that material's relative effusivity b/b_skin as the slave estimated it (NaN none).
+        material_touch: the slave's count of evaluated touches (a change = a new identification).
+        material_T_object0_C: the identified object's initial temperature (the same fit), °C (NaN none).
     """
 
     estimate_C: float
@@ -48,13 +53,21 @@ class PeerValues:
     fresh: bool = True
     alive: bool = True
     contact: bool | None = None
+    material_code: int = 0
+    material_beta: float = float("nan")
+    material_touch: int = 0
+    material_T_object0_C: float = float("nan")
 
 
 @dataclass(frozen=True, slots=True)
 class Outgoing:
-    """What a controller sends to its peer each cycle (TPDO1: REAL32 on the bus; the contact flag in
-    the contact PDO)."""
+    """What a controller sends to its peer each cycle (TPDO1: REAL32 on the bus; the contact flag and, from
+    the slave, the last identified material in the contact PDO: fields as in :class:`PeerValues`)."""
 
     estimate_C: float
     flux_W: float
     contact: bool = False
+    material_code: int = 0
+    material_beta: float = float("nan")
+    material_touch: int = 0
+    material_T_object0_C: float = float("nan")

@@ -16,6 +16,7 @@ from typing import Any
 
 from telethermo.device.settings import DeviceSettings
 from telethermo.bus_config import path
+from telethermo.bus_config.edsgen import CONTACT_PDO_BASE, IDENT_PDO_BASE
 
 ROLES = ("master", "slave")
 
@@ -98,7 +99,9 @@ class NetworkConfig:
             sync_period_us=round(self.sync.period_s * 1e6),
             sync_counter_overflow=self.sync.counter_overflow,
             known_node_ids=tuple(sorted(n.node_id for n in self.nodes.values())),
-            rpdo_cob_ids=(0x180 + peer.node_id,),
+            # RPDO1 <- the peer's TPDO1, RPDO2 <- its contact TPDO5, the master's RPDO3 <- the slave's TPDO6
+            rpdo_cob_ids=(0x180 + peer.node_id, CONTACT_PDO_BASE + peer.node_id)
+            + ((IDENT_PDO_BASE + peer.node_id,) if role == "master" else ()),
         )
 
 

@@ -30,7 +30,7 @@ from telethermo.control.core import CoreParams, StepResult, init_state, initial_
 from telethermo.control.defaults import HOLD_GAINS
 from telethermo.control.later_phase import DEFAULT_LATER_MODEL
 from telethermo.control.params import default_params
-from telethermo.control.types import Mode, PeerValues, Role
+from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
 from telethermo.offline.recording import Recording, RecordingBuilder, write_recording_csv
@@ -103,7 +103,8 @@ def _load_model(model: Any) -> Any:
 def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, slave_params: CoreParams | None = None,
                         master_model: Any = None, slave_model: Any = None, duration_s: float | None = None,
                         rounding: str = "none", seed: int | None = 0, mode: str | None = None,
-                        render_options: dict[str, Any] | None = None) -> SessionResult:
+                        render_options: dict[str, Any] | None = None,
+                        peer_loss_s: tuple[float, float] | None = None) -> SessionResult:
     """Run a scene offline and return the recording and its figures.
 
     ``scene``: a name or path (``sim.load_scene``) or a loaded scene. ``*_params``: controller
@@ -113,6 +114,9 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     ``mode``: "telepresence" or "render" (default: render for a "virtual" scene).
     ``render_options``: ``beta_pad`` (the calibrated pad β), ``T_finger0_C``, ``finger_thermometer``,
     ``thermometer_lead_s``, ``later_model`` (see :func:`_run_render`).
+    ``peer_loss_s``: (telepresence) a scripted link loss (start, end), s: the samples of cycles at
+    start <= t < end see their peer lost (the last values received, not fresh, not alive), as a node does
+    once its heartbeat consumer or the PDO-miss limit declares the peer lost.
     """
     if rounding not in ROUNDINGS:
         raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
@@ -155,6 +159,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     b = RecordingBuilder(meta)
     for _k in range(n_steps):
         sm, ss = rig_m.read(), rig_s.read()
+        if peer_loss_s is not None and peer_loss_s[0] <= sm.t_s < peer_loss_s[1]:
+            peer_m, peer_s = _lost(peer_m), _lost(peer_s)
         rm = step(sm, peer_m, pm, st_m)
         rs = step(ss, peer_s, ps, st_s)
         row = {"t_s": sm.t_s}
@@ -166,8 +172,7 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
         b.add(row)
         st_m, st_s = rm.state, rs.state
         # values sent in this cycle, received by the peer in the next one
-        peer_m = PeerValues(rnd(rs.out.estimate_C), rnd(rs.out.flux_W), contact=rs.out.contact)
-        peer_s = PeerValues(rnd(rm.out.estimate_C), rnd(rm.out.flux_W), contact=rm.out.contact)
+        peer_m, peer_s = _received(rs.out, rnd), _received(rm.out, rnd)
         rig_m.apply_current(rm.current_A)
         rig_s.apply_current(rs.current_A)
         rig_m.advance(period)
@@ -175,6 +180,18 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
         ref.advance(period)
     rec = b.build()
     return SessionResult(rec, compute_figures(rec))
+
+
+def _received(out: Outgoing, rnd) -> PeerValues:
+    """What the peer receives of ``out`` in the next cycle (TPDO1 and the contact PDO; REAL32 with ``rnd``)."""
+    return PeerValues(rnd(out.estimate_C), rnd(out.flux_W), contact=out.contact, material_code=out.material_code,
+                      material_beta=rnd(out.material_beta), material_touch=out.material_touch,
+                      material_T_object0_C=rnd(out.material_T_object0_C))
+
+
+def _lost(peer: PeerValues) -> PeerValues:
+    """The peer as a node sees it once declared lost: its last values, not fresh, not alive."""
+    return dataclasses.replace(peer, fresh=False, alive=False)
 
 
 def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, beta_pad: float = 2.23,

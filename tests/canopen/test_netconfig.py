@@ -17,7 +17,7 @@ def test_shipped_file_loads_and_agrees_with_the_design():
     assert (cfg.heartbeat.producer_ms, cfg.heartbeat.consumer_ms) == (100, 250)
     assert cfg.node("master").eds == path("master.eds")
     s = cfg.device_settings("slave")
-    assert s.heartbeat_consumers == ((1, 250),) and s.sync_producer is False and s.rpdo_cob_ids == (0x181,)
+    assert s.heartbeat_consumers == ((1, 250),) and s.sync_producer is False and s.rpdo_cob_ids == (0x181, 0x681)
     assert cfg.device_settings("master").sync_producer is True
     assert cfg.bus.can_kwargs() == {"interface": "virtual", "channel": "telethermo", "bitrate": 1_000_000}
 
@@ -53,7 +53,7 @@ def test_missing_file(tmp_path):
 
 
 def test_node_ids_from_the_file_reach_the_device(lab, tmp_path):
-    """Renumbered nodes: RPDO1 follows the peer's TPDO1, the consumer watches the peer."""
+    """Renumbered nodes: RPDO1..3 follow the peer's TPDO1, TPDO5, TPDO6, the consumer watches the peer."""
     text = SHIPPED.replace("node_id = 1", "node_id = 11").replace("node_id = 2", "node_id = 12")
     (tmp_path / "network.toml").write_text(text)
     for role in ("master", "slave"):
@@ -61,6 +61,8 @@ def test_node_ids_from_the_file_reach_the_device(lab, tmp_path):
     cfg = load_network(tmp_path / "network.toml")
     dev = lab.device("master", node_id=11, settings=cfg.device_settings("master"))
     assert dev.read("RPDO1 communication parameter.COB-ID used by RPDO") == 0x180 + 12
+    assert dev.read("RPDO2 communication parameter.COB-ID used by RPDO") == 0x680 + 12   # the contact PDO
+    assert dev.read("RPDO3 communication parameter.COB-ID used by RPDO") == 0x6C0 + 12   # the identified T_o0
     assert dev.read("Consumer heartbeat time.Consumer heartbeat time 1") == (12 << 16) | 250
     assert dev.read("TPDO1 communication parameter.COB-ID used by TPDO") == 0x180 + 11
     assert dev.is_sync_producer

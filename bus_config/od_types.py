@@ -1,0 +1,69 @@
+"""The object-dictionary entries the EDS generator writes: CiA 301 data types, a variable (``Var``) and an
+object (``Obj``), and their constructors (REAL32/REAL64/UNSIGNED with limits, PDO flag, description)."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+
+# CiA 301 data types
+BOOLEAN, INTEGER8, INTEGER16, INTEGER32 = 0x0001, 0x0002, 0x0003, 0x0004
+UNSIGNED8, UNSIGNED16, UNSIGNED32, REAL32, VISIBLE_STRING = 0x0005, 0x0006, 0x0007, 0x0008, 0x0009
+REAL64 = 0x0011
+
+UNIT_TEXT = {  # name suffix -> ASCII unit for the Unit= key (longest suffixes first when matching)
+    "_A_per_C_s": "A/(degC*s)", "_A_per_C": "A/degC", "_A_per_W": "A/W", "_C_per_s": "degC/s",
+    "_C_per_W": "degC/W", "_C": "degC", "_W": "W", "_A": "A", "_N": "N", "_s": "s", "_mm": "mm",
+}
+
+
+@dataclass(frozen=True)
+class Var:
+    """One variable (a VAR object, or one sub-entry of an ARRAY/RECORD)."""
+
+    name: str
+    data_type: int
+    access: str  # ro, wo, rw, rwr, rww, const
+    default: str
+    low: str | None = None
+    high: str | None = None
+    pdo: bool = False
+    description: str = ""
+
+    @property
+    def unit(self) -> str:
+        for suffix, text in UNIT_TEXT.items():
+            if self.name.endswith(suffix):
+                return text
+        return ""
+
+
+@dataclass(frozen=True)
+class Obj:
+    """An object: a VAR (``var``) or an ARRAY/RECORD (``subs``, sub-index -> Var)."""
+
+    index: int
+    name: str
+    var: Var | None = None
+    subs: dict[int, Var] = field(default_factory=dict)
+    object_type: int = 0x7  # 0x7 VAR, 0x8 ARRAY, 0x9 RECORD
+
+
+def _f(x: float) -> str:
+    return repr(float(x))
+
+
+def _real(name, access, default, low=None, high=None, pdo=False, description=""):
+    return Var(name, REAL32, access, _f(default), None if low is None else _f(low),
+               None if high is None else _f(high), pdo, description)
+
+
+def _real64(name, access, default, low=None, high=None, description=""):
+    """A REAL64 entry: identified model coefficients cancel to ~1e-8 (see docs/identification.md), so
+    REAL32 would make a transferred NARMA model unstable; they are SDO-only (never PDO-mapped)."""
+    return Var(name, REAL64, access, _f(default), None if low is None else _f(low),
+               None if high is None else _f(high), False, description)
+
+
+def _uint(name, data_type, access, default, low=None, high=None, pdo=False, description=""):
+    return Var(name, data_type, access, f"0x{default:X}" if isinstance(default, int) else default,
+               None if low is None else f"0x{low:X}", None if high is None else f"0x{high:X}", pdo, description)
