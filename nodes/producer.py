@@ -122,7 +122,7 @@ def run_producer(rt: "NodeRuntime", cycles: int, *, progress_every: int = 0,
             if late:
                 rt.stats.late_cycles = ticker.stats.late_cycles
             late_log.cycle(k, late, lateness)
-        status = dev.peer_status(rt.peer_id)
+        status = dev.peer_status(rt.peer_id) if not rt.bus_outage.down else "lost"   # no bus: nobody answers
         debt.refresh(status)
         if rt.peer_paused:
             status = "paused"

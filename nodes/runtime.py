@@ -35,8 +35,10 @@ from telethermo.device.netconfig import NetworkConfig
 from telethermo.device.sync import SyncProducer
 from telethermo.control.types import Mode, Role
 from telethermo.offline.recording_journal import CsvRecorder
-from telethermo.transport.bus import TransportSettings, open_bus
+from telethermo.transport.bus import TransportSettings
+from telethermo.transport.resilient import ResilientBus
 
+from telethermo.nodes.bus_outage import BusOutage
 from telethermo.nodes.cycle import MAX_TIMING_SAMPLES, ControlCycle
 from telethermo.nodes.fallback import FallbackCycles
 from telethermo.nodes.ident_service import IdentService
@@ -94,6 +96,8 @@ class NodeRuntime:
         self.ident = IdentService(self)
         self.cycle = ControlCycle(self)
         self.fallback = FallbackCycles(self)
+        self.bus_outage = BusOutage(self)
+        self.bus: ResilientBus | None = None
         self.sync_cycle = -1
         """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
         self._sync_numbering = SyncNumbering(None)
@@ -130,8 +134,9 @@ class NodeRuntime:
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
-        """Open the bus, power the device on (boot-up, heartbeat), install the handlers."""
-        bus = open_bus(self.transport)
+        """Open the bus, power the device on (boot-up, heartbeat), install the handlers. The bus is reopened
+        by itself when it is lost (:mod:`nodes.bus_outage`)."""
+        self.bus = bus = ResilientBus(self.transport, on_change=self.bus_outage.on_change)
         self.network = canopen.Network(bus)
         self.network.connect()
         settings = dataclasses.replace(self.net.device_settings(self.role.value), sync_producer=self.produce_sync)
@@ -207,9 +212,9 @@ class NodeRuntime:
                     self.network.disconnect()
                 except Exception as exc:  # the bus may already be gone (hub ended)
                     log.warning("disconnect: %s", exc)
-            log.info("node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s",
+            log.info("node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s, bus %s",
                      self.node_id, reason, self.stats.cycles, self.stats.late_cycles, self.stats.lockstep_timeouts,
-                     self.stats.emcy_raised, self.peer.counters)
+                     self.stats.emcy_raised, self.peer.counters, self.bus.stats if self.bus else None)
 
     def safe_current(self) -> None:
         """The rig's current to 0 A (a failure is logged, never raised)."""
