@@ -77,7 +77,8 @@ class _PeerDebt:
         while not arrived and waited < patience_s and not rt.stop_event.is_set():
             arrived = dev.wait_rpdo(self.last, after=self.base + self.owed - 1, timeout=wait_s)
             waited += wait_s
-            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or rt.peer_paused or self.left_operational()):
+            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or rt.peer_paused or rt.bus_outage.down
+                                or self.left_operational()):
                 break
         if arrived:
             self.base, self.owed = dev.rpdo_count(self.last), 0

@@ -86,6 +86,12 @@ def link_down_reason(settings: TransportSettings, sysfs: Path = Path("/sys/class
     return None
 
 
+def _first_line(exc: BaseException) -> str:
+    """An exception as one line (python-can puts a whole traceback into some messages)."""
+    text = str(exc).strip()
+    return text.splitlines()[0].strip() if text else type(exc).__name__
+
+
 def _server_closed(bus: can.BusABC) -> bool:
     """A socketcand client whose server closed the TCP stream (readable with 0 bytes to read)."""
     sock = getattr(bus, "_SocketCanDaemonBus__socket", None)   # python-can keeps it private
@@ -133,7 +139,7 @@ class ResilientBus(can.BusABC):
         try:
             msg = inner.recv(timeout)
         except (can.CanError, OSError, ValueError) as exc:
-            self._went_down(inner, f"receive failed: {exc}")
+            self._went_down(inner, f"receive failed: {_first_line(exc)}")
             return None, True
         if msg is not None and msg.is_error_frame and msg.arbitration_id & CAN_ERR_BUSOFF:
             self._went_down(inner, "bus-off (error frame)")
@@ -160,7 +166,7 @@ class ResilientBus(can.BusABC):
             if reason is None:
                 raise
             self.stats.frames_dropped += 1
-            self._went_down(inner, f"send failed: {exc} ({reason})")
+            self._went_down(inner, f"send failed: {_first_line(exc)} ({reason})")
 
     def shutdown(self) -> None:
         self._closed.set()
@@ -211,7 +217,7 @@ class ResilientBus(can.BusABC):
             try:
                 inner = self._open(self.settings)
             except (can.CanError, OSError, ValueError) as exc:
-                reason = f"reopen failed: {exc}"
+                reason = f"reopen failed: {_first_line(exc)}"
         if inner is None:
             self._backoff_s = min(2 * self._backoff_s, BACKOFF_MAX_S)
             self._next_try = time.monotonic() + self._backoff_s
