@@ -48,10 +48,13 @@ from telethermo.nodes.parts import NodeParts
 from telethermo.nodes.peer import PeerLink
 from telethermo.nodes.producer import run_producer, wait_for_peer
 from telethermo.nodes.schedule import RealtimeTicker, SyncNumbering
+from telethermo.nodes.sync_anchor import read_producer_sync_count
 
 log = logging.getLogger("telethermo.node")
 
 LOCKSTEP_INDEX = 0x2704
+#: a SYNC consumer at start waits this long for a SYNC to tell whether the producer runs already, s
+ANCHOR_WAIT_S = 0.25
 
 
 @dataclass
@@ -147,6 +150,7 @@ class NodeRuntime:
         self._sync_numbering = SyncNumbering(int(dev.read(0x1019)) if 0x1019 in dev.od else 0)
         if not self.produce_sync:   # SYNCs the device ignores (STOPPED) still count (recordings' sync_cycle)
             self.network.subscribe(dev.sync_cob_id, self._on_sync_frame_ignored)
+            self._anchor_sync_numbering()
         if self.produce_sync and self.record_timing:
             dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
@@ -162,6 +166,20 @@ class NodeRuntime:
         log.info("node %d (%s) on %s: pre-operational, heartbeat every %d ms, peer %d watched for %d ms",
                  self.node_id, self.role.value, self.transport.describe(), self.net.heartbeat.producer_ms,
                  self.peer_id, self.net.heartbeat.consumer_ms)
+
+    def _anchor_sync_numbering(self) -> None:
+        """Before the boot-up: if the SYNC producer runs already (a SYNC within 0.25 s; this node was
+        restarted), number its SYNCs as it does (nodes.sync_anchor), not modulo the counter's wrap."""
+        deadline = time.monotonic() + ANCHOR_WAIT_S
+        while self._sync_numbering.number < 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if self._sync_numbering.number < 0:
+            return   # no producer yet: its first SYNC will be number 0 here as there
+        count = read_producer_sync_count(self.network, self.peer_id)
+        if count:
+            self._sync_numbering.anchor(count - 1)
+            log.info("SYNC producer %d has sent %d SYNCs: this node numbers them from there (now %d)",
+                     self.peer_id, count, self._sync_numbering.number)
 
     def _power_on(self) -> None:
         """This program's power-on configuration into the controller and the OD; on start and after a reset
