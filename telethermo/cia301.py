@@ -87,6 +87,7 @@ EMCY_HEARTBEAT = 0x8130                   # life guard / heartbeat error (consum
 EMCY_BUS_OFF_RECOVERED = 0x8140           # recovered from bus off (telethermo: the node's bus is back)
 EMCY_PDO_LENGTH = 0x8210                  # PDO not processed due to length error
 EMCY_PDO_LENGTH_EXCEEDED = 0x8220         # PDO length exceeded
+EMCY_SYNC_LENGTH = 0x8240                 # unexpected SYNC data length
 
 EMCY_CODE_TEXTS = {
     EMCY_NO_ERROR: "Error reset or no error",
@@ -99,7 +100,7 @@ EMCY_CODE_TEXTS = {
     EMCY_PDO_LENGTH: "PDO not processed due to length error",
     EMCY_PDO_LENGTH_EXCEEDED: "PDO length exceeded",
     0x8230: "DAM MPDO not processed, destination object not available",
-    0x8240: "Unexpected SYNC data length",
+    EMCY_SYNC_LENGTH: "Unexpected SYNC data length",
     0x8250: "RPDO timeout",
 }
 #: the class of an EMCY code by its high byte (xx = any)

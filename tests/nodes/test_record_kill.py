@@ -128,7 +128,7 @@ def test_a_restarted_slave_continues_the_masters_sync_numbering(tmp_path):
     assert np.all(np.diff(s) == 1)
     merged = merge_recordings(pair.recording("master"), pair.recording("slave"))
     c = merged.col("sync_cycle")
-    assert len(c) == len(s) and c[0] == s[0]
+    assert c[0] == s[0] and len(c) >= len(s) - 2 and np.all(np.isin(c, s))   # the master may stop a row early
     after = np.flatnonzero(c > s[0] + 20)                      # settled after the return
     got = merged.col("m_peer_estimate_C")[after]
     sent = merged.col("s_estimate_C")[after - 1].astype(np.float32).astype(float)
