@@ -172,6 +172,97 @@ def sync_counter(lab: Lab) -> str:
     return f"{len(values)} SYNCs, counter 1..{overflow} consecutive"
 
 
+def _sync_counters_before(lab: Lab, mark: int, cob: int) -> list[int]:
+    """For each frame ``cob`` since ``mark``: the counter of the SYNC just before it (-1: none yet)."""
+    last, out = -1, []
+    for c, d in lab.frames.since(mark):
+        if c == 0x80 and len(d) == 1:
+            last = d[0]
+        elif c == cob:
+            out.append(last)
+    return out
+
+
+def _remap(sdo, comm: int, mapping: int, entries: list[int], *, start: int | None = None) -> None:
+    """CiA 301 7.5.2.36: PDO invalid, sub 0 = 0, the entries, sub 0 = their count, (SYNC start,) PDO valid."""
+    cob = sdo[comm][1].raw
+    sdo[comm][1].raw = cob | 0x80000000
+    sdo[mapping][0].raw = 0
+    for i, e in enumerate(entries, 1):
+        sdo[mapping][i].raw = e
+    sdo[mapping][0].raw = len(entries)
+    if start is not None:
+        sdo[comm][6].raw = start
+    sdo[comm][1].raw = cob & ~0x80000000
+
+
+def pdo_mapping_procedure(lab: Lab) -> str:
+    """The slave's TPDO2 (status, type 10): mapping and SYNC start value refused while valid; the procedure
+    remaps it (cycle_counter alone, 4 bytes) and back."""
+    sdo = lab.sdo(SLAVE)
+    saved = [sdo[0x1A01][i].raw for i in range(1, sdo[0x1A01][0].raw + 1)]
+    for sub, index, code in ((0, 0x1A01, 0x06010000), (1, 0x1A01, 0x06010000), (6, 0x1801, ABORT_RANGE)):
+        got = _abort(lambda: setattr(sdo[index][sub], "raw", 0 if sub == 0 else (0x27020020 if sub == 1 else 3)))
+        expect(got == code, f"0x{index:04X} sub {sub} written while the PDO is valid: abort {got} (0x{code:08X})")
+    _remap(sdo, 0x1801, 0x1A01, [0x27020020])
+    mark = lab.frames.mark()
+    expect(lab.wait_frames(0x282, 3, since=mark), "TPDO2 does not come after the remap")
+    frames = [d for c, d in lab.frames.since(mark) if c == 0x282]
+    counts = [int.from_bytes(d, "little") for d in frames]
+    expect(all(len(d) == 4 for d in frames) and counts == sorted(counts), f"TPDO2 after the remap: {frames[:3]}")
+    _remap(sdo, 0x1801, 0x1A01, saved)
+    mark = lab.frames.mark()
+    expect(lab.wait_frames(0x282, 2, since=mark), "TPDO2 does not come after the mapping was put back")
+    expect(all(len(d) == 4 * len(saved) for c, d in lab.frames.since(mark) if c == 0x282), "length after the restore")
+    return "refused while valid (0x06010000, 0x06090030); remapped to 4 bytes and back"
+
+
+def pdo_transmission_types(lab: Lab) -> str:
+    """TPDO2 of the slave at type 1 comes on every SYNC, at type 10 on every 10th."""
+    sdo = lab.sdo(SLAVE)
+    sdo[0x1801][2].raw = 1
+    mark = lab.frames.mark()
+    expect(lab.wait_frames(0x80, 41, since=mark), "fewer than 41 SYNCs")
+    every = _sync_counters_before(lab, mark, 0x282)[1:]
+    sdo[0x1801][2].raw = 10
+    mark = lab.frames.mark()
+    expect(lab.wait_frames(0x282, 5, since=mark), "TPDO2 at type 10 does not come")
+    tenth = _sync_counters_before(lab, mark, 0x282)[1:]
+    steps1 = {(b - a) % 240 for a, b in zip(every, every[1:])}
+    steps10 = {(b - a) % 240 for a, b in zip(tenth, tenth[1:])}
+    expect(steps1 == {1} and steps10 == {10}, f"SYNCs between TPDO2 frames: type 1 {steps1}, type 10 {steps10}")
+    return "type 1: every SYNC; type 10: every 10th"
+
+
+def sync_start_value(lab: Lab) -> str:
+    """SYNC start value 7 on the slave's TPDO2: after NMT start its first TPDO2 follows the SYNC counter 7."""
+    sdo = lab.sdo(SLAVE)
+    _remap(sdo, 0x1801, 0x1A01, [sdo[0x1A01][i].raw for i in range(1, sdo[0x1A01][0].raw + 1)], start=7)
+    lab.nmt(ENTER_PREOP, SLAVE)
+    mark = lab.frames.mark()
+    expect(lab.wait_heartbeat(SLAVE, PRE_OPERATIONAL, since=mark), "the slave did not enter PRE-OPERATIONAL")
+    lab.nmt(START, SLAVE)
+    mark = lab.frames.mark()
+    expect(lab.wait_frames(0x282, 3, since=mark, timeout_s=30), "TPDO2 does not come after NMT start")
+    before = _sync_counters_before(lab, mark, 0x282)
+    _remap(sdo, 0x1801, 0x1A01, [sdo[0x1A01][i].raw for i in range(1, sdo[0x1A01][0].raw + 1)], start=0)
+    expect(before[0] == 7 and {(b - a) % 240 for a, b in zip(before, before[1:])} == {10},
+           f"TPDO2 after the SYNCs with counters {before[:4]} (expected 7, 17, 27, ...)")
+    return f"first TPDO2 after SYNC counter {before[0]}; {recovered(lab)}"
+
+
+def sync_length(lab: Lab) -> str:
+    """A SYNC of the wrong length (0x1019 > 0: DLC 1): not processed, EMCY 0x8240 with the length, then reset."""
+    mark = lab.frames.mark()
+    for data in (b"", b"\x01\x02"):
+        lab.net.send_message(0x80, data)
+    expect(wait_for(lambda: lab.emcy_codes(SLAVE, mark).count(0x8240) >= 2, 10), "no EMCY 0x8240 from the slave "
+           f"(EMCYs {[hex(c) for c in lab.emcy_codes(SLAVE, mark)]})")
+    lengths = [d[3] for c, d in lab.frames.since(mark) if c == 0x82 and len(d) == 8 and d[:2] == b"\x40\x82"]
+    expect(lengths == [0, 2], f"EMCY 0x8240 data: lengths {lengths}")
+    return f"EMCY 0x8240 for DLC {lengths}; {recovered(lab)}"
+
+
 # ------------------------------------------------------------------ heartbeat
 def _hb_ratio(lab: Lab, nid: int, other_beats: int = 10) -> float:
     """Heartbeats of ``nid`` per heartbeat of the other node (its 0x1017 unchanged), over ``other_beats`` of
@@ -375,6 +466,12 @@ CHECKS: list[Check] = [
     Check("sdo_abort_read_only", "CiA 301 7.2.4 SDO abort codes: 0x06010002 write to a read-only object", sdo_abort_read_only),
     Check("sdo_abort_out_of_range", "CiA 301 7.2.4 SDO abort codes: 0x06090030/31/32 value range", sdo_abort_out_of_range),
     Check("sync_counter", "CiA 301 7.2.5 SYNC with counter; object 0x1019", sync_counter),
+    Check("pdo_mapping_procedure", "CiA 301 7.5.2.36 PDO mapping procedure; 7.5.2.35 SYNC start value only while invalid",
+          pdo_mapping_procedure),
+    Check("pdo_transmission_types", "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)",
+          pdo_transmission_types),
+    Check("sync_start_value", "CiA 301 7.5.2.35 TPDO SYNC start value", sync_start_value),
+    Check("sync_length", "CiA 301 7.2.5 SYNC length; EMCY 0x8240", sync_length),
     Check("heartbeat_producer", "CiA 301 7.2.8.3 heartbeat producer; object 0x1017", heartbeat_producer),
     Check("emcy_consistency", "CiA 301 7.2.7 EMCY, 7.2.8.3 heartbeat consumer; objects 0x1001, 0x1003, 0x1016", emcy_consistency),
     *[Check(f"nmt_stop_start_node{n}", "CiA 301 7.3.2 NMT state machine: STOPPED, start", _nmt_stop(n))

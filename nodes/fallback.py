@@ -1,4 +1,4 @@
-"""A SYNC consumer without SYNC: when the SYNC producer is gone (its heartbeat lost), the node runs its
+"""A SYNC consumer without SYNC: when the SYNC producer is gone (its heartbeat lost, or this node's bus), the node runs its
 cycles on a local timer (peer lost: the envelope ramps to neutral, then cuts) until SYNC or the peer's
 heartbeat come back. Fallback cycles are recorded with ``sync_cycle`` -1.
 """
@@ -40,7 +40,7 @@ class FallbackCycles:
         ticker = RealtimeTicker(period)
         log.warning("no SYNC producer: local fallback cycles every %g ms", period * 1e3)
         n = 0
-        while not rt.stop_event.is_set() and dev.peer_status(rt.peer_id) == "lost":
+        while not rt.stop_event.is_set() and (dev.peer_status(rt.peer_id) == "lost" or rt.bus_outage.down):
             ticker.wait_next()
             if time.monotonic() - rt.cycle.last_sync_at < 2 * period:
                 continue  # SYNC still arrives (only the heartbeat is missing)

@@ -31,17 +31,20 @@ class LaunchError(RuntimeError):
 class HubProcess:
     """``telethermo-hub`` as a child process on a free loopback port."""
 
-    def __init__(self, *, idle_timeout_s: float = 60.0, log_path: Path | None = None, publish: bool = False) -> None:
+    def __init__(self, *, idle_timeout_s: float = 60.0, log_path: Path | None = None, publish: bool = False,
+                 port: int = 0) -> None:
         """``publish``: let the hub publish where it listens (telethermo.transport.published); off for
-        tests and benchmarks, which give their clients ``--bus`` and must not redirect the user's commands."""
+        tests and benchmarks, which give their clients ``--bus`` and must not redirect the user's commands.
+        ``port``: the TCP port (0: a free one), e.g. a hub restarted where the nodes look for it."""
         self.idle_timeout_s = idle_timeout_s
+        self.requested_port = port
         self.publish = publish
         self.log_path = log_path
         self.proc: subprocess.Popen | None = None
         self.port: int | None = None
 
     def start(self, timeout_s: float = 30.0) -> int:
-        cmd = [sys.executable, "-m", "telethermo.transport.hub", "--port", "0",
+        cmd = [sys.executable, "-m", "telethermo.transport.hub", "--port", str(self.requested_port),
                "--parent-pid", str(os.getpid()), "--idle-timeout", f"{self.idle_timeout_s:g}", "--channel", HUB_CHANNEL]
         if not self.publish:
             cmd.append("--no-publish")

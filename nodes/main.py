@@ -171,6 +171,7 @@ def run_result(rt, cycles: int, wall_s: float) -> dict:
             "sync_to_tpdo_n": len(s.latencies_s),
             "cycle_ms_p50": pct(s.cycle_s, 50), "cycle_ms_p99": pct(s.cycle_s, 99),
             "emcy_raised": s.emcy_raised, "peer": rt.peer.counters.__dict__,
+            "bus": dict(rt.bus.stats.__dict__) if rt.bus is not None else None,
             **({"lateness_ms_p50": pct(rt.ticker.stats.lateness_s, 50), "lateness_ms_p99": pct(rt.ticker.stats.lateness_s, 99),
                 "lateness_ms_max": rt.ticker.stats.max_lateness_s * 1e3, "overruns": rt.ticker.stats.overruns,
                 "late_tolerance_ms": rt.ticker.tolerance_s * 1e3} if rt.ticker is not None else {})}

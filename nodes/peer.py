@@ -2,7 +2,8 @@
 sees them each cycle (:class:`telethermo.control.types.PeerValues`).
 
 The peer is *lost* when the heartbeat consumer (0x1016) reports a timeout, or when its TPDO1 has
-been missing for more than ``max_missed_cycles`` consecutive cycles; it is back when its heartbeat
+been missing for more than ``max_missed_cycles`` consecutive cycles, or at once when this node's own bus
+is lost (:meth:`PeerLink.on_bus_down`); it is back when its heartbeat
 is seen again and a fresh PDO arrives (the rule: :func:`telethermo.control.peer_policy.peer_alive`). Thread-safe: the bus's receive thread writes, the cycle reads.
 """
 from __future__ import annotations
@@ -45,6 +46,7 @@ class PeerLink:
         self._fresh = False
         self._missed = 0
         self._hb_ok = True
+        self._bus_ok = True
         self._alive_reported: bool | None = None  # None until the first PDO
         self._contact: bool | None = None  # the peer's contact flag (RPDO2); None until it arrives
         self.counters = PeerCounters()
@@ -83,13 +85,29 @@ class PeerLink:
         with self._lock:
             self._hb_ok = True
 
+    def on_bus_down(self) -> None:
+        """This node's bus is gone (telethermo.transport.resilient): the peer is lost at once, not only after
+        the heartbeat consumer time."""
+        with self._lock:
+            self._bus_ok = False
+
+    def on_bus_up(self) -> None:
+        """The bus is back; the peer is alive again when its heartbeat and fresh PDOs say so."""
+        with self._lock:
+            self._bus_ok = True
+
+    @property
+    def bus_ok(self) -> bool:
+        with self._lock:
+            return self._bus_ok
+
     @property
     def alive(self) -> bool:
         with self._lock:
             return self._alive_locked()
 
     def _alive_locked(self) -> bool:
-        return peer_alive(heartbeat_ok=self._hb_ok, seen=self._ever, missed_cycles=self._missed,
+        return peer_alive(heartbeat_ok=self._hb_ok and self._bus_ok, seen=self._ever, missed_cycles=self._missed,
                           max_missed_cycles=self.max_missed_cycles)
 
     def take(self) -> PeerValues | None:

@@ -35,8 +35,10 @@ from telethermo.device.netconfig import NetworkConfig
 from telethermo.device.sync import SyncProducer
 from telethermo.control.types import Mode, Role
 from telethermo.offline.recording_journal import CsvRecorder
-from telethermo.transport.bus import TransportSettings, open_bus
+from telethermo.transport.bus import TransportSettings
+from telethermo.transport.resilient import ResilientBus
 
+from telethermo.nodes.bus_outage import BusOutage
 from telethermo.nodes.cycle import MAX_TIMING_SAMPLES, ControlCycle
 from telethermo.nodes.fallback import FallbackCycles
 from telethermo.nodes.ident_service import IdentService
@@ -46,10 +48,13 @@ from telethermo.nodes.parts import NodeParts
 from telethermo.nodes.peer import PeerLink
 from telethermo.nodes.producer import run_producer, wait_for_peer
 from telethermo.nodes.schedule import RealtimeTicker, SyncNumbering
+from telethermo.nodes.sync_anchor import read_producer_sync_count
 
 log = logging.getLogger("telethermo.node")
 
 LOCKSTEP_INDEX = 0x2704
+#: a SYNC consumer at start waits this long for a SYNC to tell whether the producer runs already, s
+ANCHOR_WAIT_S = 0.25
 
 
 @dataclass
@@ -94,6 +99,8 @@ class NodeRuntime:
         self.ident = IdentService(self)
         self.cycle = ControlCycle(self)
         self.fallback = FallbackCycles(self)
+        self.bus_outage = BusOutage(self)
+        self.bus: ResilientBus | None = None
         self.sync_cycle = -1
         """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
         self._sync_numbering = SyncNumbering(None)
@@ -130,8 +137,9 @@ class NodeRuntime:
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
-        """Open the bus, power the device on (boot-up, heartbeat), install the handlers."""
-        bus = open_bus(self.transport)
+        """Open the bus, power the device on (boot-up, heartbeat), install the handlers. The bus is reopened
+        by itself when it is lost (:mod:`nodes.bus_outage`)."""
+        self.bus = bus = ResilientBus(self.transport, on_change=self.bus_outage.on_change)
         self.network = canopen.Network(bus)
         self.network.connect()
         settings = dataclasses.replace(self.net.device_settings(self.role), sync_producer=self.produce_sync)
@@ -142,6 +150,7 @@ class NodeRuntime:
         self._sync_numbering = SyncNumbering(int(dev.read(0x1019)) if 0x1019 in dev.od else 0)
         if not self.produce_sync:   # SYNCs the device ignores (STOPPED) still count (recordings' sync_cycle)
             self.network.subscribe(dev.sync_cob_id, self._on_sync_frame_ignored)
+            self._anchor_sync_numbering()
         if self.produce_sync and self.record_timing:
             dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
@@ -157,6 +166,20 @@ class NodeRuntime:
         log.info("node %d (%s) on %s: pre-operational, heartbeat every %d ms, peer %d watched for %d ms",
                  self.node_id, self.role, self.transport.describe(), self.net.heartbeat.producer_ms,
                  self.peer_id, self.net.heartbeat.consumer_ms)
+
+    def _anchor_sync_numbering(self) -> None:
+        """Before the boot-up: if the SYNC producer runs already (a SYNC within 0.25 s; this node was
+        restarted), number its SYNCs as it does (nodes.sync_anchor), not modulo the counter's wrap."""
+        deadline = time.monotonic() + ANCHOR_WAIT_S
+        while self._sync_numbering.number < 0 and time.monotonic() < deadline:
+            time.sleep(0.01)
+        if self._sync_numbering.number < 0:
+            return   # no producer yet: its first SYNC will be number 0 here as there
+        count = read_producer_sync_count(self.network, self.peer_id)
+        if count:
+            self._sync_numbering.anchor(count - 1)
+            log.info("SYNC producer %d has sent %d SYNCs: this node numbers them from there (now %d)",
+                     self.peer_id, count, self._sync_numbering.number)
 
     def _power_on(self) -> None:
         """This program's power-on configuration into the controller and the OD; on start and after a reset
@@ -207,9 +230,9 @@ class NodeRuntime:
                     self.network.disconnect()
                 except Exception as exc:  # the bus may already be gone (hub ended)
                     log.warning("disconnect: %s", exc)
-            log.info("node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s",
+            log.info("node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s, bus %s",
                      self.node_id, reason, self.stats.cycles, self.stats.late_cycles, self.stats.lockstep_timeouts,
-                     self.stats.emcy_raised, self.peer.counters)
+                     self.stats.emcy_raised, self.peer.counters, self.bus.stats if self.bus else None)
 
     def safe_current(self) -> None:
         """The rig's current to 0 A (a failure is logged, never raised)."""

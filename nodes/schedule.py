@@ -8,6 +8,7 @@ schedule (an *overrun*), so that a stall does not produce a burst of back-to-bac
 """
 from __future__ import annotations
 
+import threading
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -138,8 +139,9 @@ class SyncNumbering:
     the SYNC frames its device ignores in STOPPED); the time that passed cannot tell how many wraps were
     missed (the producer itself pauses in lockstep and in STOPPED).
     The first SYNC a node sees is number counter - 1 (right for a node that was there from the producer's
-    first SYNC; a node that joins later is right modulo ``overflow``). Without a counter every SYNC seen
-    counts one.
+    first SYNC; a node that joins later is right modulo ``overflow``, unless :meth:`anchor` gives it the
+    producer's count: a restarted slave reads the master's 0x2713 at start, nodes.sync_anchor). Without a
+    counter every SYNC seen counts one.
 
     Args:
         overflow: the counter's overflow value (0x1019; 0 or None: the largest counter seen so far).
@@ -149,16 +151,39 @@ class SyncNumbering:
         self.overflow = overflow or 0
         self.number = -1
         self._counter: int | None = None
+        self._hint: int | None = None
+        self._lock = threading.Lock()
+
+    def anchor(self, producer_number: int) -> None:
+        """The producer's number of a SYNC sent about now (its count of SYNCs - 1, read by SDO within a few
+        cycles): the numbers this node gives become the ones congruent to the counter modulo ``overflow``
+        nearest to it, exact while the read took less than half a wrap (120 SYNCs). Without a known
+        ``overflow`` (or no counter) it cannot be placed and is ignored."""
+        if self.overflow <= 0:
+            return
+        with self._lock:
+            self._hint = producer_number
+            if self._counter is not None:
+                self.number = _nearest_congruent(self.number, producer_number, self.overflow)
 
     def on_sync(self, counter: int | None) -> int:
         """Number of the SYNC that just came with ``counter``."""
-        last = self._counter
-        if counter is None:
-            self.number += 1
-        elif last is None:
-            self.number = counter - 1 if self.number < 0 else self.number + 1
-        else:
-            wrap = self.overflow or max(counter, last)
-            self.number += (counter - last) % wrap or wrap
-        self._counter = counter
-        return self.number
+        with self._lock:
+            last = self._counter
+            if counter is None:
+                self.number += 1
+            elif last is None:
+                self.number = counter - 1 if self.number < 0 else self.number + 1
+                if self._hint is not None and self.overflow > 0:
+                    self.number = _nearest_congruent(self.number, self._hint, self.overflow)
+            else:
+                wrap = self.overflow or max(counter, last)
+                self.number += (counter - last) % wrap or wrap
+            self._counter = counter
+            return self.number
+
+
+def _nearest_congruent(x: int, near: int, modulus: int) -> int:
+    """The integer >= 0 congruent to ``x`` modulo ``modulus`` nearest to ``near`` (ties: the larger)."""
+    y = near + (x - near + modulus // 2) % modulus - modulus // 2
+    return y if y >= 0 else y % modulus

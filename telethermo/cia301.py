@@ -84,8 +84,10 @@ def sdo_abort_text(code: int) -> str:
 # --- EMCY error codes (CiA 301 v4.2 table 21) -----------------------------------------------------
 EMCY_NO_ERROR = 0x0000                    # error reset or no error
 EMCY_HEARTBEAT = 0x8130                   # life guard / heartbeat error (consumer timeout)
+EMCY_BUS_OFF_RECOVERED = 0x8140           # recovered from bus off (telethermo: the node's bus is back)
 EMCY_PDO_LENGTH = 0x8210                  # PDO not processed due to length error
 EMCY_PDO_LENGTH_EXCEEDED = 0x8220         # PDO length exceeded
+EMCY_SYNC_LENGTH = 0x8240                 # unexpected SYNC data length
 EMCY_LINK_FALLBACK = 0xFF01               # manufacturer-specific: slave lost, the master renders the last
                                           # identified material locally (telethermo.control.link_fallback)
 
@@ -95,12 +97,12 @@ EMCY_CODE_TEXTS = {
     0x8110: "CAN overrun (objects lost)",
     0x8120: "CAN in error passive mode",
     EMCY_HEARTBEAT: "Life guard error or heartbeat error",
-    0x8140: "Recovered from bus off",
+    EMCY_BUS_OFF_RECOVERED: "Recovered from bus off",
     0x8150: "CAN-ID collision",
     EMCY_PDO_LENGTH: "PDO not processed due to length error",
     EMCY_PDO_LENGTH_EXCEEDED: "PDO length exceeded",
     0x8230: "DAM MPDO not processed, destination object not available",
-    0x8240: "Unexpected SYNC data length",
+    EMCY_SYNC_LENGTH: "Unexpected SYNC data length",
     0x8250: "RPDO timeout",
     EMCY_LINK_FALLBACK: "Device specific: peer lost, rendering the last identified material locally",
 }

@@ -92,7 +92,7 @@ class Device:
         self.heartbeat = Heartbeat(core, self.emcy)
         self.pdos = PdoEngine(core, self.emcy, self.watch, lambda: self.sync_consumer.last_counter)
         self.tpdos, self.rpdos = self.pdos.tpdos, self.pdos.rpdos
-        self.sync_consumer = SyncConsumer(core, self.pdos)
+        self.sync_consumer = SyncConsumer(core, self.pdos, self.emcy)
         self.sdo = SdoGate(core, self.node, block_size=lambda: self.SDO_BLOCK_SIZE,
                            block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S)
         self.nmt = NmtSlave(core, reset=self._reset_services, booted=self.heartbeat.arm,

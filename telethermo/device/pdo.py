@@ -152,5 +152,5 @@ def check_comm_write(plan: PdoPlan, sub: int, new: int) -> None:
             raise SdoAbortedError(ABORT_RANGE)
     elif sub == 3 and plan.valid:
         raise SdoAbortedError(ABORT_INCOMPATIBLE)  # inhibit time only while invalid (CiA 301 7.5.2.35)
-    elif sub == 6 and new > 240:
+    elif sub == 6 and (new > 240 or plan.valid):   # SYNC start value only while invalid (as CANopenNode)
         raise SdoAbortedError(ABORT_RANGE)

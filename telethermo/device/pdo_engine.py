@@ -11,7 +11,7 @@ from typing import Callable
 from canopen.sdo import SdoAbortedError
 
 from telethermo.device import pdo as pdo_mod
-from telethermo.cia301 import ABORT_PDO_TOO_LONG, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED
+from telethermo.cia301 import ABORT_PDO_TOO_LONG, ABORT_UNSUPPORTED_ACCESS, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED
 from telethermo.device.context import DeviceCore, NmtState
 from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import RpdoEvent
@@ -53,6 +53,10 @@ class PdoEngine:
             return
         if not is_map:
             pdo_mod.check_comm_write(plan, sub, int(value))  # ``plan`` still holds the values before this write
+        elif plan.valid or (sub > 0 and self.core.u(plan.map_index, 0) != 0):
+            # CiA 301 7.5.2.36 mapping procedure: PDO invalid (COB-ID bit 31), sub 0 to 0, the entries, sub 0 to
+            # their count, PDO valid; a write out of that order is refused as CANopenNode does (0x06010000)
+            raise SdoAbortedError(ABORT_UNSUPPORTED_ACCESS)
         elif sub > 0 and value:
             pdo_mod.mappable(self.core.node, value >> 16, (value >> 8) & 0xFF, value & 0xFF, tx=tx)
         elif sub == 0 and value > 8:

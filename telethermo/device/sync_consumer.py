@@ -1,14 +1,19 @@
 """SYNC consumer of a device (0x1005, 0x1019): on each SYNC in PRE-OPERATIONAL or OPERATIONAL, commit
 the synchronous RPDOs, run the SYNC handlers, send the due synchronous TPDOs. The producing side is
-:mod:`.sync` (a node never receives its own SYNC: the producer ticks its own device)."""
+:mod:`.sync` (a node never receives its own SYNC: the producer ticks its own device).
+
+A SYNC of the wrong length (CiA 301 7.2.5: DLC 1 with a counter when 0x1019 > 0, else DLC 0) is not
+processed and raises EMCY 0x8240 "unexpected SYNC data length" (data byte 0: the length received), cleared
+at once like an event (0x1003 keeps it), as CANopenNode does not process it either (CO_EM_SYNC_LENGTH)."""
 from __future__ import annotations
 
 from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_RANGE
+from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_RANGE, EMCY_SYNC_LENGTH
 from telethermo.device.context import DeviceCore, NmtState
+from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import SyncTick
 from telethermo.device.pdo_engine import PdoEngine
 
@@ -16,9 +21,12 @@ from telethermo.device.pdo_engine import PdoEngine
 class SyncConsumer:
     """SYNC handling of one device."""
 
-    def __init__(self, core: DeviceCore, pdos: PdoEngine):
+    def __init__(self, core: DeviceCore, pdos: PdoEngine, emcy: EmcyProducer):
         self.core = core
         self.pdos = pdos
+        self.emcy = emcy
+        self.wrong_length = 0
+        """SYNC frames refused for their length."""
         self.handlers: list[Callable[[SyncTick], None]] = []
         self.last_counter: int | None = None
         self._sub: tuple[int, Callable] | None = None
@@ -62,8 +70,13 @@ class SyncConsumer:
         core = self.core
         if core.extended:
             return  # a 29-bit ID is no service of ours (counted as unknown)
-        if len(data) > 1:
+        expected = 1 if 0x1019 in core.store and core.u(0x1019, 0) else 0
+        if len(data) != expected:
             core.stats.malformed_frames += 1
+            self.wrong_length += 1
+            if core.state in (NmtState.OPERATIONAL, NmtState.PRE_OPERATIONAL):
+                self.emcy.raise_error(EMCY_SYNC_LENGTH, data=bytes((len(data),)), source="sync")
+                self.emcy.clear(EMCY_SYNC_LENGTH, source="sync")
             return
         self.process(data[0] if data else None)
 

@@ -62,7 +62,11 @@ def test_transmission_types_are_counted(lab):
 def test_sync_start_value_delays_the_first_transmission(lab):
     lab.device("slave")
     node = lab.client("slave")
-    node.sdo["TPDO2 communication parameter"]["SYNC start value"].raw = 7
+    comm = node.sdo["TPDO2 communication parameter"]
+    cob = comm["COB-ID used by TPDO"].raw
+    comm["COB-ID used by TPDO"].raw = cob | 0x80000000     # only while the PDO is invalid (CiA 301, CANopenNode)
+    comm["SYNC start value"].raw = 7
+    comm["COB-ID used by TPDO"].raw = cob
     bus = lab.raw_bus()
     node.nmt.state = "OPERATIONAL"
     barrier(node)
@@ -74,6 +78,60 @@ def test_sync_start_value_delays_the_first_transmission(lab):
         if any(m.arbitration_id == 0x282 for m in drain(bus)):
             seen.append(k)
     assert seen == [7, 17, 27]
+
+
+def test_sync_start_value_and_mapping_change_only_while_the_pdo_is_invalid(lab):
+    """CiA 301 7.5.2.35/36: SYNC start value and mapping of a valid PDO are refused (0x06090030, 0x06010000, as
+    CANopenNode); the mapping procedure (invalid, sub 0 = 0, entries, sub 0 = n, valid) is accepted."""
+    lab.device("slave")
+    node = lab.client("slave")
+    comm, mapping = node.sdo[0x1801], node.sdo[0x1A01]
+    before = (comm[6].raw, mapping[0].raw, mapping[1].raw)
+    for fn, code in ((lambda: setattr(comm[6], "raw", 3), 0x06090030),
+                     (lambda: setattr(mapping[0], "raw", 0), 0x06010000),
+                     (lambda: setattr(mapping[1], "raw", 0x20000020), 0x06010000)):
+        with pytest.raises(SdoAbortedError) as exc:
+            fn()
+        assert exc.value.code == code
+    assert (comm[6].raw, mapping[0].raw, mapping[1].raw) == before
+    cob = comm[1].raw
+    comm[1].raw = cob | 0x80000000
+    with pytest.raises(SdoAbortedError) as exc:       # entries only while sub 0 is 0
+        mapping[1].raw = 0x20000020
+    assert exc.value.code == 0x06010000
+    mapping[0].raw = 0
+    mapping[1].raw = 0x20000020
+    mapping[0].raw = 1
+    comm[6].raw = 3
+    comm[1].raw = cob
+    assert (comm[6].raw, mapping[0].raw, mapping[1].raw, comm[1].raw) == (3, 1, 0x20000020, cob)
+
+
+def test_a_sync_of_the_wrong_length_is_not_processed_and_raises_emcy_0x8240(lab):
+    """CiA 301 7.2.5: with 0x1019 > 0 a SYNC carries the counter (DLC 1); DLC 0 or 2 is refused (no TPDO) with
+    EMCY 0x8240 "unexpected SYNC data length" (byte 3: the length), its error reset at once (0x1003 keeps it)."""
+    lab.device("slave")
+    node = lab.client("slave")
+    bus = lab.raw_bus()
+    node.nmt.state = "OPERATIONAL"
+    barrier(node)
+    drain(bus)
+    for data in (b"", b"\x01\x02"):
+        bus.send(can.Message(arbitration_id=0x80, data=data, is_extended_id=False))
+    barrier(node)
+    frames = drain(bus)
+    emcy = [bytes(m.data) for m in frames if m.arbitration_id == 0x82]
+    deadline = time.monotonic() + 5.0     # EMCYs are spaced by the inhibit time 0x1015
+    while sum(d[:2] == b"\x40\x82" for d in emcy) < 2 and time.monotonic() < deadline:
+        m = bus.recv(0.1)
+        if m is not None:
+            frames.append(m)
+            emcy += [bytes(m.data)] if m.arbitration_id == 0x82 else []
+    assert not any(m.arbitration_id == 0x182 for m in frames), "a wrong-length SYNC was processed"
+    assert [(int.from_bytes(d[:2], "little"), d[3]) for d in emcy if d[:2] != b"\0\0"] == [(0x8240, 0), (0x8240, 2)]
+    assert node.sdo[0x1001].raw == 0 and node.sdo[0x1003][1].raw & 0xFFFF == 0x8240
+    node.network.sync.transmit(1)                              # the right length: processed
+    assert lab.recv_until(bus, lambda m: m.arbitration_id == 0x182) is not None
 
 
 def test_sync_counter_wraps_at_0x1019_and_the_producer_ticks_itself(lab):

@@ -104,3 +104,26 @@ def test_sync_numbering_unwraps_the_counter_alike_on_every_node():
     assert [none.on_sync(None) for _ in range(3)] == [0, 1, 2]
     guess = SyncNumbering(0)                          # 0x1019 unknown: the largest counter seen is the wrap
     assert [guess.on_sync(c) for c in (1, 2, 3, 1, 2)] == [0, 1, 2, 3, 4]
+
+
+def test_sync_numbering_anchored_on_the_producers_count_continues_its_numbers():
+    from telethermo.nodes.schedule import SyncNumbering
+    counters = [(k % 240) + 1 for k in range(2000)]
+    before = SyncNumbering(240)                       # anchored before its first SYNC (a restarted slave)
+    before.anchor(1234 - 3)                           # the producer's count read 3 SYNCs before SYNC 1234
+    assert [before.on_sync(c) for c in counters[1234:1300]] == list(range(1234, 1300))
+    after = SyncNumbering(240)                        # SYNCs seen while the SDO answer was on its way
+    got = [after.on_sync(c) for c in counters[700:705]]
+    assert got == [k % 240 for k in range(700, 705)]
+    after.anchor(706)                                 # read a little later than the SYNCs seen: still exact
+    assert after.on_sync(counters[705]) == 705
+    for hint in (1000 - 119, 1000 + 119):             # off by less than half a wrap either way: exact
+        s = SyncNumbering(240)
+        s.anchor(hint)
+        assert s.on_sync(counters[1000]) == 1000
+    first = SyncNumbering(240)                        # the producer's first SYNC: count 1, number 0
+    first.anchor(0)
+    assert first.on_sync(1) == 0
+    none = SyncNumbering(0)                           # no known wrap: the anchor cannot place it, ignored
+    none.anchor(500)
+    assert none.on_sync(5) == 4

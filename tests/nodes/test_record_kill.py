@@ -104,3 +104,32 @@ def test_a_slave_stopped_for_more_than_a_counter_wrap_keeps_the_sync_numbering(t
     got = merged.col("m_peer_estimate_C")[after]
     sent = merged.col("s_estimate_C")[prev].astype(np.float32).astype(float)
     assert np.count_nonzero(got == sent) >= 0.95 * len(after), "the merge pairs rows of different SYNCs"
+
+
+def test_a_restarted_slave_continues_the_masters_sync_numbering(tmp_path):
+    """The slave killed after more than a counter wrap (240 SYNCs) and started again: its new recording
+    numbers the SYNCs as the master does (it read the master's SYNC count, 0x2713, before its boot-up), not
+    modulo 240, so the merge pairs the rows of one SYNC (the exchanged values prove it)."""
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=1))
+    with pair:
+        assert wait_for(lambda: pair.progress[0] >= 400, 120), "session did not start"
+        pair.slave.kill()
+        pair.slave.wait()
+        k_kill = pair.progress[0]
+        pair.start_slave()
+        assert wait_for(lambda: "numbers them from there" in pair.log("slave").read_text(), 60), \
+            "the restarted slave did not read the master's SYNC count"
+        k = pair.progress[0]
+        assert wait_for(lambda: pair.progress[0] >= k + 300, 120), "the session did not go on"
+    pair.stop()
+    s = read_recording_csv(pair.recording("slave")).col("sync_cycle")   # the restarted slave's rows only
+    s = s[s >= 0]
+    assert s[0] >= k_kill > 240, f"the restarted slave numbered from {s[0]}, the master was at {k_kill}"
+    assert np.all(np.diff(s) == 1)
+    merged = merge_recordings(pair.recording("master"), pair.recording("slave"))
+    c = merged.col("sync_cycle")
+    assert c[0] == s[0] and len(c) >= len(s) - 2 and np.all(np.isin(c, s))   # the master may stop a row early
+    after = np.flatnonzero(c > s[0] + 20)                      # settled after the return
+    got = merged.col("m_peer_estimate_C")[after]
+    sent = merged.col("s_estimate_C")[after - 1].astype(np.float32).astype(float)
+    assert np.count_nonzero(got == sent) >= 0.95 * len(after), "the merge pairs rows of different SYNCs"

@@ -1,0 +1,64 @@
+"""What a node does when its own bus goes away and comes back (issue 12; the bus:
+:class:`telethermo.transport.resilient.ResilientBus`).
+
+- **Bus lost** (hub killed, socketcand disconnect, interface down, bus-off): the peer counts as lost at
+  once (:meth:`nodes.peer.PeerLink.on_bus_down`), so the next control cycle trips ``peer_lost``: the
+  envelope ramps to neutral and cuts, as for a peer whose heartbeat stopped. The SYNC producer keeps
+  running its own cycles (its SYNCs are dropped, counted by the bus); a SYNC consumer gets no SYNC and
+  starts its local fallback cycles at once. One log line.
+- **Bus back**: the bus reopened by itself; one log line and EMCY 0x8140 ("recovered from bus off", CiA
+  301), whose error is cleared at once (0x1003 keeps it; the error-reset EMCY follows when no other error,
+  e.g. the peer trip's 0x8130, is active). The peer is alive again when its heartbeat and fresh PDOs are
+  seen; then the peer trips are cleared as for any peer return (telethermo.control.peer_policy).
+"""
+from __future__ import annotations
+
+import logging
+import threading
+from typing import TYPE_CHECKING
+
+from telethermo.cia301 import EMCY_BUS_OFF_RECOVERED
+
+if TYPE_CHECKING:
+    from telethermo.nodes.runtime import NodeRuntime
+
+log = logging.getLogger("telethermo.node")
+
+#: the EMCY bookkeeping's source name for the bus's own errors
+EMCY_SOURCE = "bus"
+
+
+class BusOutage:
+    """The node's bus state as its reopening bus reports it (``on_change`` is that bus's callback)."""
+
+    def __init__(self, rt: "NodeRuntime") -> None:
+        self.rt = rt
+        self.down = False
+        self.outages = 0
+        self.returns = 0
+        self._lock = threading.Lock()
+
+    def on_change(self, up: bool, reason: str) -> None:
+        """The bus went down (``up`` False) or is back; runs in the thread that noticed (quick, never raises)."""
+        with self._lock:
+            if up == (not self.down):
+                return
+            self.down = not up
+            if up:
+                self.returns += 1
+            else:
+                self.outages += 1
+        rt = self.rt
+        if not up:
+            rt.peer.on_bus_down()
+            log.warning("bus lost (%s): peer %d counts as lost; the envelope goes safe; retrying", reason,
+                        rt.peer_id)
+            if not rt.produce_sync and rt.device is not None:
+                rt.fallback.start()
+            return
+        rt.peer.on_bus_up()
+        log.warning("bus back (%s): waiting for peer %d's heartbeat and PDOs", reason, rt.peer_id)
+        dev = rt.device
+        if dev is not None:
+            dev.emcy.raise_error(EMCY_BUS_OFF_RECOVERED, source=EMCY_SOURCE)
+            dev.emcy.clear(EMCY_BUS_OFF_RECOVERED, source=EMCY_SOURCE)
