@@ -9,6 +9,7 @@ import json
 import math
 
 from telethermo.cli import common
+from telethermo.control.rendering import load_render_table
 from telethermo.remote import values
 from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, UserError
@@ -25,6 +26,8 @@ FIELDS = (
     ("error register", "0x1001"),
     ("last EMCY", "0x1003sub1"), ("model", "model_status"), ("model CRC-32", "model_crc32"),
     ("identification", "ident_state"),
+    ("material (id)", "identified_material"), ("material beta", "identified_beta"),
+    ("material touches", "identified_touches"),
 )
 
 
@@ -39,8 +42,15 @@ def register(subparsers) -> None:
 
 
 def pretty(value, info, eds) -> str:
-    """A value as ``get`` prints it (:func:`telethermo.remote.values.fmt`); '-' for one the node refused."""
-    return "-" if value is None else values.fmt(value, info, eds)
+    """A value as ``get`` prints it (:func:`telethermo.remote.values.fmt`); '-' for one the node refused; an
+    identified material's code with its name in the rendering table (1-based, as material_code)."""
+    if value is None:
+        return "-"
+    text = values.fmt(value, info, eds)
+    if info.key == "identified_material":
+        names = list(load_render_table())
+        text += f" ({names[value - 1]})" if 1 <= value <= len(names) else " (none)"
+    return text
 
 
 @common.failures
