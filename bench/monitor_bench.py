@@ -56,7 +56,7 @@ def traffic(n_frames: int) -> list[can.Message]:
         add(0.0001, 0x181, struct.pack("<ff", 30.0 + 1e-4 * (k % 1000), -0.5))
         add(0.0002, 0x182, struct.pack("<ff", 24.0, 0.5))
         add(0.0003, 0x681, b"\x01")
-        add(0.0004, 0x682, b"\x01")
+        add(0.0004, 0x682, b"\x01\x00\x00\x00\x00\x00\x00\x00")   # slave TPDO5: contact + identification
         if k % 100 == 0:
             add(0.0005, 0x701, b"\x05")
             add(0.0005, 0x702, b"\x05")
@@ -125,7 +125,7 @@ def measure(quick: bool, n_frames: int | None = None) -> dict[str, Any]:
             "target_frames_per_s": TARGET_FRAMES_PER_S, "frames": n, "repeats": repeats, "quick": quick,
             "runs_frames_per_s": {k: [round(x) for x in v] for k, v in runs.items()},
             "anchor": "python-can virtual bus recv() of the same frames, same run",
-            "mix": "1 ms SYNC cycle: SYNC, 2x TPDO1 (8 B), 2x TPDO5 (1 B); heartbeats and an SDO read every "
+            "mix": "1 ms SYNC cycle: SYNC, 2x TPDO1 (8 B), TPDO5 (master 1 B, slave 8 B); heartbeats and an SDO read every "
                    "100 cycles; an EMCY and its reset every 1000"}
 
 

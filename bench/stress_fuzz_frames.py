@@ -148,9 +148,10 @@ def frame_strategy(dev) -> st.SearchStrategy:
     )
 
 
-def expected_counts(frames: list[tuple], known: set[int], rp: tuple[int, int]) -> dict[str, int]:
+def expected_counts(frames: list[tuple], known: set[int], rp: tuple[int, int], sync_len: int = 1) -> dict[str, int]:
     """Unknown and malformed frames by CiA 301 (independent of the device's code) for frames that do not
-    change the device's state (no SDO requests, no well-formed NMT commands)."""
+    change the device's state (no SDO requests, no well-formed NMT commands). ``sync_len``: the SYNC's
+    length by CiA 301 §7.2.5, 1 byte (the counter) when 0x1019 > 0, else 0."""
     rp_cob, rp_len = rp
     unknown = malformed = 0
     for cob, ext, data, remote in frames:
@@ -161,7 +162,7 @@ def expected_counts(frames: list[tuple], known: set[int], rp: tuple[int, int]) -
         n = len(data)
         if cob == 0x000 and n != 2:
             malformed += 1
-        elif cob == 0x080 and n > 1:
+        elif cob == 0x080 and n != sync_len:
             malformed += 1
         elif cob == 0x700 + SLAVE_ID and n != 1:
             malformed += 1
@@ -184,6 +185,7 @@ class _FrameFuzz:
         self.dev, self.raw, self.counter, self.log = dev, raw, counter, log
         self.known = set(dev.known_cobids)
         self.rp = _rpdo1(dev)
+        self.sync_len = 1 if dev.read(0x1019) else 0
         self.service_ids = {0x000, 0x080, 0x600 + MASTER_ID, 0x700 + SLAVE_ID, self.rp[0]}
         self.sent = 0
         self.stats = {"examples": 0, "frames": 0, "unknown_counted": 0, "malformed_counted": 0, "mismatches": [],
@@ -221,7 +223,7 @@ class _FrameFuzz:
         self.note_escape(frames, n_log)
         du = dev.stats.unknown_cobid_frames - s0[0]
         dm = dev.stats.malformed_frames - s0[1]
-        exp = expected_counts(frames, self.known, self.rp)
+        exp = expected_counts(frames, self.known, self.rp, self.sync_len)
         stats["examples"] += 1
         stats["frames"] += len(frames)
         stats["unknown_counted"] += du

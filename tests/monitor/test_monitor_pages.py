@@ -39,7 +39,8 @@ def cycles(mon: Monitor, n: int, period_s: float = 0.01, t0: float = 0.0) -> Non
         mon.feed(msg(t + 0.001, 0x181, struct.pack("<ff", 30.0, -0.5)))
         mon.feed(msg(t + 0.002, 0x182, struct.pack("<ff", 24.0, 0.5)))
         mon.feed(msg(t + 0.003, 0x681, [1]))
-        mon.feed(msg(t + 0.004, 0x682, [1]))
+        # the slave's TPDO5: contact flag, identified material, touches, beta (8 bytes, issue 15)
+        mon.feed(msg(t + 0.004, 0x682, struct.pack("<BBHf", 1, 0, 0, 0.0)))
 
 
 def no_prompt(label: str) -> str:

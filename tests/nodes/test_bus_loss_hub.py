@@ -49,7 +49,9 @@ def test_hub_killed_and_restarted_the_pair_goes_safe_and_resumes_by_itself(tmp_p
     pair.start()
     net = None
     try:
-        assert wait_for(lambda: pair.progress[0] >= 150, 120), "session did not start"
+        # before the probe's first touch (1.0 s): no material identified yet, so the master's graceful link-loss
+        # rendering (issue 15) does not apply and the loss must trip at once
+        assert wait_for(lambda: pair.progress[0] >= 60, 120), "session did not start"
         port = pair.hub.port
         pair.hub.proc.kill()                                   # SIGKILL: every TCP stream ends at once
         pair.hub.proc.wait()
