@@ -82,7 +82,7 @@ def link_down_reason(settings: TransportSettings, sysfs: Path = Path("/sys/class
         if not flags & 0x1:
             return f"interface {settings.channel} is down"
         if oper not in ("up", "unknown"):   # vcan says "unknown" when up; bus-off: carrier off, "down"
-            return f"interface {settings.channel}: link {oper} (bus-off?)"
+            return f"interface {settings.channel}: link {oper} (going down, or bus-off)"
     return None
 
 
