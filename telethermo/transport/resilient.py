@@ -124,7 +124,7 @@ class ResilientBus(can.BusABC):
         self._next_try = 0.0
         self._next_health = time.monotonic() + HEALTH_EVERY_S
         super().__init__(channel=settings.channel)
-        self.channel_info = f"{settings.describe()} (reopened when lost)"
+        self.channel_info = f"{settings.describe()} (reconnecting)"
 
     @property
     def is_up(self) -> bool:
