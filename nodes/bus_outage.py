@@ -6,7 +6,10 @@
   envelope ramps to neutral and cuts, as for a peer whose heartbeat stopped. The SYNC producer keeps
   running its own cycles (its SYNCs are dropped, counted by the bus); a SYNC consumer gets no SYNC and
   starts its local fallback cycles at once. One log line.
-- **Bus back**: the bus reopened by itself; one log line and EMCY 0x8140 ("recovered from bus off", CiA
+- **Bus back**: the bus reopened by itself; until the peer's first heartbeat after that
+  (:attr:`BusOutage.awaiting_peer`) the peer may still be without its bus (the two nodes reopen at
+  different times), so the SYNC producer owes it nothing for the SYNCs it sends meanwhile (a SYNC the
+  peer never saw would otherwise be waited for in lockstep forever); one log line and EMCY 0x8140 ("recovered from bus off", CiA
   301), whose error is cleared at once (0x1003 keeps it; the error-reset EMCY follows when no other error,
   e.g. the peer trip's 0x8130, is active). The peer is alive again when its heartbeat and fresh PDOs are
   seen; then the peer trips are cleared as for any peer return (telethermo.control.peer_policy).
@@ -34,9 +37,20 @@ class BusOutage:
     def __init__(self, rt: "NodeRuntime") -> None:
         self.rt = rt
         self.down = False
+        self.awaiting_peer = False
+        """The bus is back but no heartbeat of the peer was seen since: it may not hear us yet."""
         self.outages = 0
         self.returns = 0
         self._lock = threading.Lock()
+
+    @property
+    def peer_unreachable(self) -> bool:
+        """The bus is down, or back without a heartbeat of the peer yet."""
+        return self.down or self.awaiting_peer
+
+    def on_peer_heartbeat(self, can_id: int, data: bytes, timestamp: float) -> None:
+        """A heartbeat frame of the peer (subscribed by the runtime): the peer hears the bus again."""
+        self.awaiting_peer = False
 
     def on_change(self, up: bool, reason: str) -> None:
         """The bus went down (``up`` False) or is back; runs in the thread that noticed (quick, never raises)."""
@@ -48,6 +62,7 @@ class BusOutage:
                 self.returns += 1
             else:
                 self.outages += 1
+            self.awaiting_peer = True
         rt = self.rt
         if not up:
             rt.peer.on_bus_down()

@@ -77,8 +77,8 @@ class _PeerDebt:
         while not arrived and waited < patience_s and not rt.stop_event.is_set():
             arrived = dev.wait_rpdo(self.last, after=self.base + self.owed - 1, timeout=wait_s)
             waited += wait_s
-            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or rt.peer_paused or rt.bus_outage.down
-                                or self.left_operational()):
+            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or rt.peer_paused
+                                or rt.bus_outage.peer_unreachable or self.left_operational()):
                 break
         if arrived:
             self.base, self.owed = dev.rpdo_count(self.last), 0
@@ -123,7 +123,8 @@ def run_producer(rt: "NodeRuntime", cycles: int, *, progress_every: int = 0,
             if late:
                 rt.stats.late_cycles = ticker.stats.late_cycles
             late_log.cycle(k, late, lateness)
-        status = dev.peer_status(rt.peer_id) if not rt.bus_outage.down else "lost"   # no bus: nobody answers
+        # no bus, or back before the peer's: nobody answers (nodes.bus_outage)
+        status = dev.peer_status(rt.peer_id) if not rt.bus_outage.peer_unreachable else "lost"
         debt.refresh(status)
         if rt.peer_paused:
             status = "paused"

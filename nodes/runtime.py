@@ -154,6 +154,7 @@ class NodeRuntime:
         if self.produce_sync and self.record_timing:
             dev.add_rpdo_listener(self._on_rpdo)
         dev.add_peer_listener(self._on_peer)
+        self.network.subscribe(0x700 + self.peer_id, self.bus_outage.on_peer_heartbeat)
         dev.add_write_listener(self._on_write)
         dev.add_nmt_listener(self._on_nmt)
         self._w_current = dev.writer("current_A")

@@ -82,7 +82,7 @@ def link_down_reason(settings: TransportSettings, sysfs: Path = Path("/sys/class
         if not flags & 0x1:
             return f"interface {settings.channel} is down"
         if oper not in ("up", "unknown"):   # vcan says "unknown" when up; bus-off: carrier off, "down"
-            return f"interface {settings.channel}: link {oper} (bus-off?)"
+            return f"interface {settings.channel}: link {oper} (going down, or bus-off)"
     return None
 
 
@@ -124,7 +124,7 @@ class ResilientBus(can.BusABC):
         self._next_try = 0.0
         self._next_health = time.monotonic() + HEALTH_EVERY_S
         super().__init__(channel=settings.channel)
-        self.channel_info = f"{settings.describe()} (reopened by itself)"
+        self.channel_info = f"{settings.describe()} (reconnecting)"
 
     @property
     def is_up(self) -> bool:

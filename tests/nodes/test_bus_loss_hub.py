@@ -14,6 +14,7 @@ import pytest
 
 from telethermo.bus_config import path as bus_config_path
 from telethermo.nodes.launch import HubProcess, NodePair, PairConfig, wait_for
+from telethermo.transport.hub import HubConfig, HubThread
 from telethermo.offline.recording import read_recording_csv
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -99,3 +100,41 @@ def test_hub_killed_and_restarted_the_pair_goes_safe_and_resumes_by_itself(tmp_p
         assert np.count_nonzero(np.diff(peer[after])) > 0.9 * (len(rec) - k_resume - 1), f"{role}: peer stale"
     slave_sync = read_recording_csv(pair.recording("slave")).col("sync_cycle")
     assert np.any(slave_sync == -1), "the slave ran no local fallback cycle while its bus was away"
+
+
+def _lockstep_timeouts(log_text: str) -> int:
+    line = next(l for l in log_text.splitlines() if "stopped (" in l and "lockstep timeouts" in l)
+    return int(line.split(" late, ")[1].split(" lockstep")[0])
+
+
+def test_a_short_outage_does_not_leave_lockstep_waiting_for_a_sync_the_slave_never_saw(tmp_path):
+    """The hub gone for a few milliseconds (a new one on the same port at once, in this process): shorter
+    than the heartbeat consumer time, so neither node need see the other lost, and the two reopen at
+    different times. The session goes on with few lockstep timeouts. (A SYNC the master sends before the slave
+    is back is never answered, and lockstep then waited its patience bound on every later cycle, for good: seen
+    in the vcan VM, tests/vcan/test_vcan_bus_loss.py; on this fast host the two reopen too close together for
+    it to happen reliably, so this test guards the quick-outage path, not that race.)"""
+    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, cycles=0, seed=0, progress_every=10))
+    pair.start()
+    hub = None
+    try:
+        assert wait_for(lambda: pair.progress[0] >= 150, 120), "session did not start"
+        port = pair.hub.port
+        pair.hub.proc.kill()
+        pair.hub.proc.wait()
+        pair.hub = None
+        for i in range(5):
+            if hub is not None:
+                hub.__exit__(None, None, None)          # closes every client's stream, as a killed hub
+            hub = HubThread(HubConfig(port=port, idle_timeout_s=0)).__enter__()
+            for role in ("master", "slave"):
+                assert wait_for(lambda: _log(pair, role).count("bus back") > i, 30), f"{role} not back"
+            k = pair.progress[0]
+            assert wait_for(lambda: pair.progress[0] >= k + 100, 120), "the session did not go on"
+    finally:
+        codes = pair.stop()
+        if hub is not None:
+            hub.__exit__(None, None, None)
+    assert codes["master"] == 0
+    timeouts = _lockstep_timeouts(_log(pair, "master"))
+    assert timeouts <= 2 * 5, f"{timeouts} lockstep timeouts after 5 outages"
