@@ -9,7 +9,7 @@ import json
 import math
 
 from telethermo.cli import common
-from telethermo.control.rendering import load_render_table
+from telethermo.control.render_table import load_render_table
 from telethermo.remote import values
 from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, UserError

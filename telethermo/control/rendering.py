@@ -15,14 +15,12 @@
 """
 from __future__ import annotations
 
-import math
-import tomllib
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
-DEFAULT_RENDER_TABLE = Path(__file__).resolve().parent.parent / "data" / "render_materials.toml"
+from telethermo.control.render_table import DEFAULT_RENDER_TABLE, load_render_table  # noqa: F401 (re-exported)
+
 
 
 def contact_temperature(T1_C: float, b1: float, T2_C: float, b2: float) -> float:
@@ -150,25 +148,3 @@ def calibrate_finger(T_pad0_C, T_contact_C, T_finger0_C=None) -> FingerCalibrati
     else:
         res = float(np.sqrt(np.mean((a + k * p - c) ** 2)))
     return FingerCalibration(beta_pad=beta, T_finger0_C=T_f0, residual_C=res, n_touches=int(p.size))
-
-
-def load_render_table(path: str | Path | None = None) -> dict[str, float]:
-    """Material -> β from a rendering table (TOML); errors name the file and the field."""
-    path = Path(path) if path is not None else DEFAULT_RENDER_TABLE
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read rendering table: {exc}") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from exc
-    out: dict[str, float] = {}
-    for name, entry in data.items():
-        if not isinstance(entry, dict):
-            raise ValueError(f"{path}: [{name}]: expected a table with 'beta', got {type(entry).__name__}")
-        beta = entry.get("beta")
-        if isinstance(beta, bool) or not isinstance(beta, (int, float)) or not math.isfinite(beta) or beta <= 0:
-            raise ValueError(f"{path}: [{name}].beta: expected a number > 0, got {beta!r}")
-        out[name] = float(beta)
-    if not out:
-        raise ValueError(f"{path}: no materials")
-    return out
