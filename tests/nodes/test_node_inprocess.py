@@ -124,6 +124,9 @@ def test_lockstep_cycles_send_both_tpdo1_after_each_sync(bench):
     assert master.run_producer(n) == n
     assert master.stats.cycles == n and slave.stats.cycles == n
     assert master.stats.lockstep_timeouts == 0
+    # the watching client's own notifier thread may still be handing over the last frames
+    assert wait_for(lambda: bench.sequence().count(SYNC_COB) == n
+                    and bench.sequence().count(tpdo1_m.cob_id) == n and bench.sequence().count(tpdo1_s_cob) == n, 5)
     seq = bench.sequence()
     assert seq.count(SYNC_COB) == n
     syncs = [i for i, cob in enumerate(seq) if cob == SYNC_COB] + [len(seq)]
