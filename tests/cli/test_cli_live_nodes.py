@@ -47,7 +47,9 @@ def status(capsys, bus):
 
 def both_operational(capsys, bus) -> bool:
     """True once both nodes answer and their heartbeats say OPERATIONAL (they take a while to start)."""
-    code, out, _ = run_cli(capsys, "status", "--bus", bus, "--json", "--timeout", "0.2")
+    # 1 s per SDO read: status reads about thirty objects of each node, and a node busy starting its session
+    # may take longer than 0.2 s for one of them (every poll then failed for 30 s in one clean run)
+    code, out, _ = run_cli(capsys, "status", "--bus", bus, "--json", "--timeout", "1")
     return code == EXIT_OK and all(n["nmt_state"] == "OPERATIONAL" for n in json.loads(out)["nodes"])
 
 
