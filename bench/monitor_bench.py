@@ -22,56 +22,17 @@ from __future__ import annotations
 
 import argparse
 import statistics
-import struct
 import time
 from typing import Any
 
 import can
-from canopen.objectdictionary import import_od
 
 from bench.common import print_table, write_results
-from telethermo.device.netconfig import load_network
-from telethermo.monitor.records import MonitorConfig, NodeInfo
+from bench.monitor_hub import measure_hub
+from bench.monitor_traffic import monitor_config, traffic
 from telethermo.monitor.state import Monitor
-from telethermo.remote.targets import node_targets
 
 TARGET_FRAMES_PER_S = 8000
-PERIOD_S = 0.001
-
-
-def traffic(n_frames: int) -> list[can.Message]:
-    """``n_frames`` frames of the mix described in the module docstring."""
-    out: list[can.Message] = []
-    t, k = 1_700_000_000.0, 0
-
-    def add(dt: float, cob: int, data: bytes) -> None:
-        out.append(can.Message(timestamp=t + dt, arbitration_id=cob, data=data, is_extended_id=False))
-
-    add(0.0, 0x701, b"\x05")
-    add(0.0, 0x702, b"\x05")
-    while len(out) < n_frames:
-        k += 1
-        t += PERIOD_S
-        add(0.0, 0x080, bytes([(k - 1) % 240 + 1]))
-        add(0.0001, 0x181, struct.pack("<ff", 30.0 + 1e-4 * (k % 1000), -0.5))
-        add(0.0002, 0x182, struct.pack("<ff", 24.0, 0.5))
-        add(0.0003, 0x681, b"\x01")
-        add(0.0004, 0x682, b"\x01\x00\x00\x00\x00\x00\x00\x00")   # slave TPDO5: contact + identification
-        if k % 100 == 0:
-            add(0.0005, 0x701, b"\x05")
-            add(0.0005, 0x702, b"\x05")
-            add(0.0006, 0x601, struct.pack("<BHB4x", 0x40, 0x1017, 0))
-            add(0.0007, 0x581, struct.pack("<BHBL", 0x4B, 0x1017, 0, 100))
-        if k % 1000 == 500:
-            add(0.0008, 0x082, struct.pack("<HB5s", 0x4210, 0x09, bytes(5)))
-            add(0.0009, 0x082, bytes(8))
-    return out[:n_frames]
-
-
-def monitor_config() -> MonitorConfig:
-    """Both shipped nodes by their EDS, 1 Mbit/s, the 1 ms period of the traffic."""
-    nodes = {t.node_id: NodeInfo(t.role, import_od(str(t.eds), t.node_id)) for t in node_targets(load_network())}
-    return MonitorConfig(nodes=nodes, bitrate_bps=1_000_000, sync_period_s=PERIOD_S)
 
 
 def _fill(frames: list[can.Message], channel: str) -> tuple[can.BusABC, can.BusABC]:
@@ -132,11 +93,16 @@ def measure(quick: bool, n_frames: int | None = None) -> dict[str, Any]:
 def run(quick: bool, n_frames: int | None = None) -> dict[str, Any]:
     """Measure (``n_frames``: another traffic length, for tests), print the table, write monitor.json."""
     data = measure(quick, n_frames)
+    data.update(measure_hub(*((5_000, 1) if quick else (30_000, 5))))
     print_table(["measure", "frames/s", "vs anchor"],
                 [["python-can recv (anchor)", data["anchor_frames_per_s"], 1.0],
                  ["Monitor.feed (decode)", data["decode_frames_per_s"], data["ratio_vs_anchor"]],
-                 ["recv + feed (live)", data["live_frames_per_s"], data["live_ratio_vs_anchor"]]])
-    print(f"keeps up with {TARGET_FRAMES_PER_S} frames/s: {data['keeps_up_8k']}")
+                 ["recv + feed (live)", data["live_frames_per_s"], data["live_ratio_vs_anchor"]],
+                 ["hub: socketcand recv (anchor)", data["hub_anchor_frames_per_s"], 1.0],
+                 ["hub: recv + feed (live)", data["hub_live_frames_per_s"], data["hub_live_ratio_vs_anchor"]]])
+    data["hub_keeps_up_8k"] = data["hub_live_frames_per_s"] >= TARGET_FRAMES_PER_S and data["hub_frames_lost"] == 0
+    print(f"keeps up with {TARGET_FRAMES_PER_S} frames/s: {data['keeps_up_8k']} (virtual), "
+          f"{data['hub_keeps_up_8k']} (live over the hub)")
     print(f"wrote {write_results('monitor', data)}")
     return data
 

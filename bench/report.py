@@ -53,6 +53,10 @@ HEADLINE = [
     ("monitor", "ratio_vs_anchor", "that rate / python-can's raw `recv()` rate of the same frames, same run",
      "report"),
     ("monitor", "live_frames_per_s", "`recv()` + `feed()` per frame, virtual bus, frames/s", "≥ 8000"),
+    ("monitor", "hub_live_frames_per_s", "the same live over a hub process, fed by a sender process, frames/s "
+     "(0 frames lost)", "≥ 8000"),
+    ("monitor", "hub_live_ratio_vs_anchor", "that rate / python-can's socketcand `recv()` over the same hub, same run",
+     "report"),
     ("conformance", "n_fail", "CiA 301 checks failed through an independent client (of n_checks), live pair",
      "0"),
     ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),

@@ -31,3 +31,7 @@ def test_quick_run_writes_the_result_keys(tmp_path, monkeypatch):
     assert abs(data["ratio_vs_anchor"] - data["decode_frames_per_s"] / data["anchor_frames_per_s"]) < 1e-3
     assert data["keeps_up_8k"] == (min(data["decode_frames_per_s"], data["live_frames_per_s"]) >= 8000)
     assert "monitor" in SUITE
+    # live over a real hub process, fed by a separate sender process: nothing lost, both rates measured
+    assert data["hub_frames_lost"] == 0 and data["hub_frames"] == 5000
+    assert data["hub_anchor_frames_per_s"] > 0 and data["hub_live_frames_per_s"] > 0
+    assert data["hub_keeps_up_8k"] == (data["hub_live_frames_per_s"] >= 8000)
