@@ -6,7 +6,9 @@ Values not given on the command line come from the network settings file (bus_co
 from __future__ import annotations
 
 import argparse
+import tomllib
 from dataclasses import dataclass
+from typing import Any
 from pathlib import Path
 
 from telethermo.control.types import Mode, Role
@@ -36,6 +38,7 @@ class NodeOptions:
         rig: ``module:factory`` of a hardware rig driver (real time).
         rig_config: TOML file whose top-level keys are the rig factory's keyword arguments (a driver's port,
             gains, calibration), or None.
+        rig_args: ``--rig-arg KEY=VALUE`` settings, over those of ``rig_config``.
         model: identified model file (None: the packaged sim_tem.json).
         gains: tuned gains file of `telethermo tune` (None: the shipped defaults); telepresence mode only.
         mode: initial mode (changeable by SDO on object 0x2500).
@@ -60,6 +63,7 @@ class NodeOptions:
     scene: Path | None = None
     rig: str | None = None
     rig_config: Path | None = None
+    rig_args: tuple[tuple[str, Any], ...] = ()
     realtime: RealtimeOptions = RealtimeOptions()
     model: Path | None = None
     gains: Path | None = None
@@ -94,6 +98,9 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY(**settings) returns a telethermo.rig.Rig")
     p.add_argument("--rig-config", type=Path, metavar="FILE.toml",
                    help="settings of the --rig driver: the TOML file's top-level keys are FACTORY's keyword arguments")
+    p.add_argument("--rig-arg", action="append", default=[], metavar="KEY=VALUE",
+                   help="one setting of the --rig driver (repeatable; over --rig-config's): VALUE is read as a TOML "
+                        "value (2.5, true, \"text\") or else taken as text, e.g. --rig-arg port=/dev/ttyUSB0")
     p.add_argument("--model", type=Path, help="identified model file (default: packaged sim_tem.json)")
     p.add_argument("--gains", type=Path, help="tuned gains file written by `telethermo tune --out` "
                                               "(telepresence gains of this node's role; default: the shipped ones)")
@@ -176,6 +183,8 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         raise OptionError(f"--rig {args.rig!r}: expected MODULE:FACTORY")
     if args.rig_config is not None and args.rig is None:
         raise OptionError("--rig-config: settings of a hardware rig driver, only with --rig")
+    if args.rig_arg and args.rig is None:
+        raise OptionError("--rig-arg: a setting of a hardware rig driver, only with --rig")
     if not args.wait_peer >= 0:
         raise OptionError(f"--wait-peer {args.wait_peer}: expected >= 0 s")
     produce_sync = args.produce_sync if args.produce_sync is not None else role is Role.MASTER
@@ -191,7 +200,20 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
         interface=args.interface, channel=args.channel, bitrate=args.bitrate,
         scene=_scene_file(args.scene), rig=args.rig,
-        rig_config=existing(args.rig_config, "--rig-config"), realtime=_realtime_options(args), model=existing(args.model, "--model"),
+        rig_config=existing(args.rig_config, "--rig-config"), rig_args=tuple(rig_arg(a) for a in args.rig_arg),
+        realtime=_realtime_options(args), model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
         wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), log=args.log, verbose=args.verbose)
+
+
+def rig_arg(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` of ``--rig-arg``: VALUE as a TOML value when it is one (2.5, true, "x", [1, 2]), else text."""
+    key, sep, value = text.partition("=")
+    key = key.strip()
+    if not sep or not key.isidentifier():
+        raise OptionError(f"--rig-arg {text!r}: expected KEY=VALUE with KEY a Python identifier (e.g. port=/dev/ttyUSB0)")
+    try:
+        return key, tomllib.loads(f"v = {value}")["v"]
+    except tomllib.TOMLDecodeError:
+        return key, value

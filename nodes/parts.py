@@ -160,7 +160,7 @@ def _hardware_rig(opts: NodeOptions, period_s: float) -> Rig:
         make = getattr(importlib.import_module(module), factory)
     except (ImportError, AttributeError) as exc:
         raise OptionError(f"--rig {opts.rig!r}: cannot load the rig factory: {exc}") from None
-    settings = rig_settings(opts.rig_config)
+    settings = rig_settings(opts.rig_config) | dict(opts.rig_args)
     try:
         rig = make(**settings)
     except Exception as exc:  # a driver's own error (no device, bad port, ...): one named line

@@ -458,3 +458,22 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
         witness.close()
         hub.stop()
         print("\n" + "\n".join(notes))
+
+
+def test_rig_arg_sets_one_driver_setting_over_the_config_file(tmp_path):
+    """``--rig-arg KEY=VALUE`` (repeatable): VALUE read as TOML (a number stays a number) or else text,
+    over the file's keys; a malformed one, or one without --rig, is one named line."""
+    cfg = tmp_path / "rig.toml"
+    cfg.write_text('port = "/dev/ttyUSB9"\ngain = 2.5\n')
+    opts = parse_options(Role.MASTER, ["--bus", "virtual:tt-rigarg", "--rig", "tests.nodes.rig_factories:configured",
+                                       "--rig-config", str(cfg), "--rig-arg", "port=/dev/ttyTT0", "--rig-arg", "gain=4"])
+    assert dict(opts.rig_args) == {"port": "/dev/ttyTT0", "gain": 4}
+    rig = _hardware_rig(opts, 0.01)
+    assert rig.gain == 4 and isinstance(rig.gain, int)
+    quoted = parse_options(Role.MASTER, ["--bus", "virtual:tt-rigarg", "--rig", "tests.nodes.rig_factories:configured",
+                                         "--rig-arg", 'port="/dev/ttyTT0"', "--rig-arg", "gain=0.5"])
+    assert _hardware_rig(quoted, 0.01).gain == 0.5
+    with pytest.raises(OptionError, match=r"--rig-arg 'gain': expected KEY=VALUE"):
+        parse_options(Role.MASTER, ["--rig", "tests.nodes.rig_factories:configured", "--rig-arg", "gain"])
+    with pytest.raises(OptionError, match="only with --rig"):
+        parse_options(Role.MASTER, ["--scene", "sim/scenes/pads_in_air.toml", "--rig-arg", "gain=1"])
