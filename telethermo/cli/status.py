@@ -9,7 +9,7 @@ import json
 import math
 
 from telethermo.cli import common
-from telethermo.control.render_table import load_render_table
+from telethermo.control.render_table import material_name
 from telethermo.remote import values
 from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, UserError
@@ -48,8 +48,7 @@ def pretty(value, info, eds) -> str:
         return "-"
     text = values.fmt(value, info, eds)
     if info.key == "identified_material":
-        names = list(load_render_table())
-        text += f" ({names[value - 1]})" if 1 <= value <= len(names) else " (none)"
+        text += f" ({material_name(value)})"
     return text
 
 

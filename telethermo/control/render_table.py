@@ -3,6 +3,7 @@ eq. 6), in file order (a material's position is its code in the object dictionar
 so the light CLI commands (``telethermo status``) can name a material without importing numpy."""
 from __future__ import annotations
 
+import functools
 import math
 import tomllib
 from pathlib import Path
@@ -30,3 +31,15 @@ def load_render_table(path: str | Path | None = None) -> dict[str, float]:
     if not out:
         raise ValueError(f"{path}: no materials")
     return out
+
+
+@functools.lru_cache(maxsize=4)
+def _names(path: Path) -> tuple[str, ...]:
+    return tuple(load_render_table(path))
+
+
+def material_name(code: int, path: str | Path | None = None) -> str:
+    """The name of material ``code`` of a rendering table (1-based, in file order: the object dictionary's
+    material codes 0x2600/0x2610/0x2615); "none" for 0 and for a code past the table's end."""
+    names = _names(Path(path) if path is not None else DEFAULT_RENDER_TABLE)
+    return names[code - 1] if 1 <= code <= len(names) else "none"

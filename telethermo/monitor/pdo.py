@@ -15,7 +15,14 @@ from typing import Any
 
 from canopen import objectdictionary as od_mod
 
+from telethermo.control.render_table import material_name
+
 TPDO_COMM, TPDO_MAP, RPDO_COMM, RPDO_MAP = 0x1800, 0x1A00, 0x1400, 0x1600
+
+#: our objects whose value is a material code of the rendering table (the master's rendered material, the slave's
+#: identified one and the master's copy of it): (index, EDS name), so that another vendor's 0x26xx is left alone
+MATERIAL_CODE_OBJECTS = frozenset({(0x2600, "material_code"), (0x2610, "identified_material"),
+                                   (0x2615, "peer_identified_material")})
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,7 +74,23 @@ class PdoValue:
             v = "NaN"
         elif isinstance(v, float) and v in (float("inf"), float("-inf")):
             v = str(v)
-        return {"name": self.name, "value": v, "unit": self.unit, "index": self.index, "subindex": self.subindex}
+        out = {"name": self.name, "value": v, "unit": self.unit, "index": self.index, "subindex": self.subindex}
+        meaning = self.meaning()
+        if meaning:
+            out["meaning"] = meaning
+        return out
+
+    def meaning(self) -> str:
+        """What the value stands for, where the object is an enumeration the monitor knows (a material code's
+        name in the rendering table); '' otherwise."""
+        if (self.index, self.name) in MATERIAL_CODE_OBJECTS and isinstance(self.value, int):
+            return material_name(self.value)
+        return ""
+
+    def text(self) -> str:
+        """``name=value unit`` for a person, with the value's meaning in parentheses where known."""
+        meaning = self.meaning()
+        return f"{self.name}={format_value(self.value, self.unit)}" + (f" ({meaning})" if meaning else "")
 
 
 def od_var(od, index: int, sub: int):

@@ -17,7 +17,7 @@ from .busload import message_length_bits
 from .events import ERROR, INFO, WARN, Event, EventLog
 from .frames import FrameTable
 from .health import ControllerHealth, decode_error_frame
-from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo, format_value
+from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo
 from .records import STRIP_DT_S, BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
 
@@ -369,7 +369,7 @@ class Monitor:
         f.fields = {"pdo": pdef.label, "producer" if pdef.direction == "TPDO" else "consumer": pdef.node,
                     "values": [v.to_json() for v in values]}
         f.text = f"{pdef.label} node {pdef.node}: " + ", ".join(
-            f"{v.name}={format_value(v.value, v.unit)}" for v in values)
+            v.text() for v in values)
         if err:
             f.fields["error"] = err
             ev.append(Event(f.t_s, WARN, "pdo_length", pdef.node, err, {"cob_id": f.cob_id}))

@@ -18,7 +18,6 @@ from .events import ERROR, WARN, Event
 from .hints import incident_hints
 from .pages import (FOOTER, page_events, page_help, page_hints, page_log, page_raw, page_temperatures,
                     scroll_window)
-from .pdo import format_value
 from .state import Monitor
 
 #: incident hints shown on the main page (all of them on the hints page)
@@ -113,7 +112,7 @@ def _node_lines(mon: Monitor) -> list[str]:
 def _main_body(mon: Monitor, vs: ViewState, room: int) -> list[str]:
     lines = ["", *_node_lines(mon), "", "PDO"]
     for key, p in sorted(mon.pdos.items()):
-        vals = "  ".join(f"{v.name}={format_value(v.value, v.unit)}" for v in p.values)
+        vals = "  ".join(v.text() for v in p.values)
         name = mon.nodes[p.pdef.node].name if p.pdef.node in mon.nodes else ""
         lines.append(f"  0x{p.pdef.cob_id:03X} {p.pdef.label:6s} {name[:8]:8s} n={p.count:<7d} miss={p.missing:<4d} {vals}")
     lines += ["", "SDO (last transfer per node)"]
