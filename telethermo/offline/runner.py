@@ -21,7 +21,7 @@ import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Callable
 
 import numpy as np
 
@@ -217,21 +217,12 @@ def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, bet
     meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "render", "rounding": rounding,
             "contacts": scene_contacts(sc, "master"), "finger_thermometer": finger_thermometer, "later_model": later_model,
             "master_params": _params_meta(base)}
-    b = RecordingBuilder(meta)
-    for _k in range(n_steps):
-        smp = rig_m.read()
+
+    def params_at(smp) -> CoreParams:
         rs = script.settings_at(smp.t_s, period, lambda: finger_skin_C(rig_m, rig_m.truth()))
-        r = step(smp, None, dataclasses.replace(base, mode=Mode.RENDER, render=rs), state)
-        row = {"t_s": smp.t_s}
-        row.update(side_row("m", smp, r, None))
-        row.update(truth_row("m", rig_m))
-        row.update(ref_row(ref))
-        b.add(row)
-        state = r.state
-        rig_m.apply_current(r.current_A)
-        rig_m.advance(period)
-        ref.advance(period)
-    rec = b.build()
+        return dataclasses.replace(base, mode=Mode.RENDER, render=rs)
+
+    rec = _lone_master(RecordingBuilder(meta), rig_m, ref, state, n_steps, period, params_at, None, with_ref=True)
     rec.meta["render"] = script.meta()
     return SessionResult(rec, compute_figures(rec))
 
@@ -250,20 +241,29 @@ def _run_hold(sc, rig_m, ref, params, model, n_steps, period, rounding, *, hold_
     meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "hold", "rounding": rounding,
             "hold_C": T_hold, "master_params": _params_meta(base),
             "contacts": [{"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.body} for t in sc.master_contacts]}
-    b = RecordingBuilder(meta)
+    rec = _lone_master(RecordingBuilder(meta), rig_m, ref, state, n_steps, period, lambda _smp: base, peer,
+                       with_ref=False)
+    return SessionResult(rec, compute_figures(rec))
+
+
+def _lone_master(b: RecordingBuilder, rig_m, ref, state, n_steps: int, period: float,
+                 params_at: Callable[[Any], CoreParams], peer: PeerValues | None, *, with_ref: bool) -> Recording:
+    """The master alone for ``n_steps`` periods (render or hold): each sample's parameters from
+    ``params_at(sample)``, a fixed (or no) peer; the reference rig advances alongside (its row with ``with_ref``)."""
     for _k in range(n_steps):
         smp = rig_m.read()
-        r = step(smp, peer, base, state)
+        r = step(smp, peer, params_at(smp), state)
         row = {"t_s": smp.t_s}
         row.update(side_row("m", smp, r, peer))
         row.update(truth_row("m", rig_m))
+        if with_ref:
+            row.update(ref_row(ref))
         b.add(row)
         state = r.state
         rig_m.apply_current(r.current_A)
         rig_m.advance(period)
         ref.advance(period)
-    rec = b.build()
-    return SessionResult(rec, compute_figures(rec))
+    return b.build()
 
 
 def _with_rig_limits(p: CoreParams, rig) -> CoreParams:
