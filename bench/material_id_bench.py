@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from bench.common import print_table, write_results
+from bench.material_id_bound import bound_figures
 from telethermo.sim.materials import material
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.plant import Body, GridSettings
@@ -168,6 +169,7 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     err_pct, within_ci, se_ln = [], [], []
     ln_err: list[list[float]] = [[] for _ in range(k)]
     touches: list[tuple[bool, float, float, float, bool]] = []     # (right, force, |ΔT|, thickness, metal)
+    draws: list[dict] = []
     for i in range(n_touches):
         j = i % k
         mat = sims[j]
@@ -176,6 +178,7 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
         d = float(rng.uniform(1.0, 20.0)) * 1e-3
         t_on = PRE_S + float(rng.uniform(0.0, PERIOD_S))
         T, Q, i0, est = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=1000 + i, t_on_s=t_on)
+        draws.append({"class": j, "force_N": force, "T_object_C": T_obj, "thickness_m": d, "t_on_s": t_on})
         b_true = material(mat).b
         b_est = est.effusivity if est is not None and est.touch == 1 else math.nan
         if math.isfinite(b_est):
@@ -192,7 +195,8 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     merged_ok = sum(int(conf[a, b]) for a in range(k) for b in range(k) if group_of[a] == group_of[b])
     majority = float(conf.sum(axis=1).max() / n_touches)
     pairs = pair_table(conf, names, lb, ln_err)
-    return {
+    bound = bound_figures(params, sims, draws, T_probe, PERIOD_S, AMBIENT_C, [t[0] for t in touches])
+    return bound | {
         "material_id_accuracy": correct / n_touches,
         "material_id_n_touches": n_touches,
         "effusivity_error_median_pct": float(np.median(err_pct)) if err_pct else math.nan,
@@ -220,7 +224,8 @@ def print_material_id(fig: dict[str, Any]) -> None:
     c = fig["confusion"]
     rows = [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])]
     print_table(["truth \\ est"] + c["columns"], rows)
-    for key in ("material_id_accuracy", "material_id_accuracy_merged", "material_id_merged_groups",
+    for key in ("material_id_accuracy", "material_id_accuracy_bound", "material_id_accuracy_bound_known_nuisance",
+                "material_id_unidentifiable_fraction", "material_id_accuracy_identifiable", "material_id_accuracy_merged", "material_id_merged_groups",
                 "effusivity_error_median_pct", "material_id_baseline_majority_accuracy",
                 "material_id_baseline_eq1_ambient_accuracy", "material_id_ci95_coverage", "material_id_run_s"):
         print(f"{key}: {fig[key]}")
