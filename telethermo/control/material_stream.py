@@ -18,7 +18,8 @@ import math
 from dataclasses import dataclass, field, replace
 
 from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form, classify,
-                                            fit_form, fit_input, load_effusivity_table, noise_deviation, noise_draws,
+                                            filter_release, fit_form, fit_input, half_integral_matrix,
+                                            load_effusivity_table, noise_deviation, noise_draws,
                                             with_noise_spread)
 from telethermo.control.rendering import load_render_table
 
@@ -96,6 +97,15 @@ class MaterialState:
     done: bool = False
     last: MaterialEstimate = field(default_factory=MaterialEstimate)
     job: FitJob | None = None
+
+
+def prepare(p: MaterialIdParams, dt_s: float) -> None:
+    """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release)
+    now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls it)."""
+    n_win = int(round(p.probe.window_s / dt_s))
+    if n_win >= 6:
+        half_integral_matrix(n_win, dt_s, 0.5 * dt_s)
+        filter_release(n_win, p.probe.cutoff_Hz, dt_s)
 
 
 def material_step(p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W: float, contact: bool,
