@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from bench.common import print_table, write_results
+from bench.material_id_bound import bound_figures
 from telethermo.sim.materials import material
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.plant import Body, GridSettings
@@ -58,9 +59,9 @@ def finger_natural_C(params) -> float:
 
 
 def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
-                   seed: int, t_on_s: float) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None]:
+                   seed: int, t_on_s: float) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
     """(T_sensor_C, Q_W, index of the first contact sample, the material the slave's core published at the
-    end) of one touch under the slave's default control."""
+    end, the wall time of each core step, s) of one touch under the slave's default control."""
     grid = GridSettings(t_min_s=PERIOD_S)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, AMBIENT_C, params.h_air_W_m2K, grid)
@@ -71,15 +72,39 @@ def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, forc
     st = init_state(cp, None, s)
     peer = PeerValues(estimate_C=T_probe_C, flux_W=0.0)
     n = int(round((t_on_s + POST_S) / PERIOD_S))
-    T, Q, flag = np.empty(n), np.empty(n), np.zeros(n, bool)
+    T, Q, flag, step_s = np.empty(n), np.empty(n), np.zeros(n, bool), np.empty(n)
     for k in range(n):
         s = rig.read()
         T[k], Q[k], flag[k] = s.T_sensor_C, s.Q_W, s.contact
+        t0 = time.perf_counter()
         r = step(s, peer, cp, st)
+        step_s[k] = time.perf_counter() - t0
         st = r.state
         rig.apply_current(r.current_A)
         rig.advance(PERIOD_S)
-    return T, Q, int(np.argmax(flag)) if flag.any() else -1, r.status.material
+    return T, Q, int(np.argmax(flag)) if flag.any() else -1, r.status.material, step_s
+
+
+def tick_figures(step_s: list[np.ndarray], fit_cycles: list[slice], batch_s: list[float]) -> dict[str, Any]:
+    """The slave core's step time, same run: the median step (the anchor), per touch the worst of the cycles
+    that carry the fit's units (``fit_cycles``; the median over touches: a random scheduler spike on this
+    shared machine hits any cycle, the fit's work hits these), and the whole fit in one call (what the
+    window's last cycle carried before the fit was spread)."""
+    all_s = np.concatenate(step_s)
+    med = float(np.median(all_s))
+    worst_fit = float(np.median([float(np.max(s[c])) for s, c in zip(step_s, fit_cycles) if s[c].size]))
+    batch = float(np.median(batch_s))
+    return {"material_id_core_step_median_ms": round(1e3 * med, 3),
+            "material_id_fit_cycle_worst_ms": round(1e3 * worst_fit, 3),
+            "material_id_batch_fit_ms": round(1e3 * batch, 3),
+            "material_id_core_step_max_ms": round(1e3 * float(np.max(all_s)), 3),
+            "material_id_fit_cycle_worst_over_step_median": round(worst_fit / med, 1),
+            "material_id_batch_fit_over_step_median": round(batch / med, 1),
+            "material_id_tick_note": ("the fit runs spread over 3 + noise_draws cycles after the window "
+                                      "(telethermo.control.material_stream); fit_cycle_worst: per touch the slowest "
+                                      "of those cycles' core steps, median over touches; batch_fit: the whole fit in "
+                                      "one call (the window's last cycle before); core_step_max: the slowest step of "
+                                      "the run (scheduler spikes included); wall times on this machine")}
 
 
 def eq1_baseline(T: np.ndarray, Q: np.ndarray, i0: int, R_sensor: float, b_probe: float) -> float:
@@ -168,6 +193,10 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     err_pct, within_ci, se_ln = [], [], []
     ln_err: list[list[float]] = [[] for _ in range(k)]
     touches: list[tuple[bool, float, float, float, bool]] = []     # (right, force, |ΔT|, thickness, metal)
+    draws: list[dict] = []
+    step_s: list[np.ndarray] = []
+    batch_s: list[float] = []
+    fit_cycles: list[slice] = []
     for i in range(n_touches):
         j = i % k
         mat = sims[j]
@@ -175,7 +204,14 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
         T_obj = float(rng.uniform(15.0, 35.0))
         d = float(rng.uniform(1.0, 20.0)) * 1e-3
         t_on = PRE_S + float(rng.uniform(0.0, PERIOD_S))
-        T, Q, i0, est = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=1000 + i, t_on_s=t_on)
+        T, Q, i0, est, st_s = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=1000 + i, t_on_s=t_on)
+        step_s.append(st_s)
+        n_win = int(round(mi.ProbeParams().window_s / PERIOD_S))
+        fit_cycles.append(slice(i0 + n_win, i0 + n_win + 3 + mi.noise_draws(mi.ProbeParams())))
+        t0 = time.perf_counter()
+        mi.estimate_effusivity(T, Q, i0, PERIOD_S)
+        batch_s.append(time.perf_counter() - t0)
+        draws.append({"class": j, "force_N": force, "T_object_C": T_obj, "thickness_m": d, "t_on_s": t_on})
         b_true = material(mat).b
         b_est = est.effusivity if est is not None and est.touch == 1 else math.nan
         if math.isfinite(b_est):
@@ -192,7 +228,8 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     merged_ok = sum(int(conf[a, b]) for a in range(k) for b in range(k) if group_of[a] == group_of[b])
     majority = float(conf.sum(axis=1).max() / n_touches)
     pairs = pair_table(conf, names, lb, ln_err)
-    return {
+    bound = bound_figures(params, sims, draws, T_probe, PERIOD_S, AMBIENT_C, [t[0] for t in touches])
+    return bound | tick_figures(step_s, fit_cycles, batch_s) | {
         "material_id_accuracy": correct / n_touches,
         "material_id_n_touches": n_touches,
         "effusivity_error_median_pct": float(np.median(err_pct)) if err_pct else math.nan,
@@ -220,7 +257,8 @@ def print_material_id(fig: dict[str, Any]) -> None:
     c = fig["confusion"]
     rows = [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])]
     print_table(["truth \\ est"] + c["columns"], rows)
-    for key in ("material_id_accuracy", "material_id_accuracy_merged", "material_id_merged_groups",
+    for key in ("material_id_accuracy", "material_id_accuracy_bound", "material_id_accuracy_bound_known_nuisance",
+                "material_id_unidentifiable_fraction", "material_id_accuracy_identifiable", "material_id_accuracy_merged", "material_id_merged_groups",
                 "effusivity_error_median_pct", "material_id_baseline_majority_accuracy",
                 "material_id_baseline_eq1_ambient_accuracy", "material_id_ci95_coverage", "material_id_run_s"):
         print(f"{key}: {fig[key]}")

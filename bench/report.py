@@ -48,6 +48,12 @@ HEADLINE = [
     ("cli", "help_ratio_vs_can_viewer", "`telethermo --help` / `python -m can.viewer --help`, medians, one run", "≤ 1.5"),
     ("cli", "get_ratio_vs_raw_canopen", "one `telethermo get master kp_A_per_C` (live node, hub) / a minimal canopen "
      "script's SDO read, medians, one run", "≤ 1.5"),
+    ("rendering", "material_id_accuracy", "slave material identification, 600 simulated touches (10 materials, "
+     "2-10 N, 15-35 °C, 1-20 mm)", "≥ 0.95"),
+    ("rendering", "material_id_accuracy_bound", "the same touches: oracle that knows the simulator, object temperature, "
+     "contact resistance, thickness unknown (physical ceiling)", "report"),
+    ("rendering", "material_id_accuracy_merged", "accuracy with the pairs the probe confuses merged (second figure)",
+     "report"),
     ("monitor", "decode_frames_per_s", "`Monitor.feed` on a 1 ms-cycle mix of the pair (EDS-decoded), frames/s",
      "≥ 8000"),
     ("monitor", "ratio_vs_anchor", "that rate / python-can's raw `recv()` rate of the same frames, same run",

@@ -42,7 +42,7 @@ from telethermo.control.coreparams import NO_GAINS, CoreParams, Feedback, Render
 from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
 from telethermo.control.later_phase import later_setpoint, later_start
 from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
-from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step
+from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step, prepare
 from telethermo.control.pi import PIComponents, PIState, bumpless, pi_step
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.ident.plan import guarded_current
@@ -204,6 +204,8 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
     # bumpless from the current the rig is already driving (a display that was holding its pad)
     I0 = first_sample.current_A if math.isfinite(first_sample.current_A) else 0.0
     I0 = min(max(I0, -params.safety.I_limit_A), params.safety.I_limit_A)
+    if params.role is Role.SLAVE and params.material_id is not None:
+        prepare(params.material_id, params.period_s)           # the fit's constants, outside any touch's cycle
     return CoreState(k=0, t_s=first_sample.t_s, env=sf.EnvelopeState(), pi=PIState(0.0), contact=ContactState(),
                      u_prev_A=I0, source=(), render_phase=RenderPhase.PRESET, T_pred_C=T0 if pred else math.nan,
                      pred_tick=0, pred_snapshot=snap, cell=cell)

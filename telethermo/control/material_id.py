@@ -46,6 +46,7 @@ to the second nearest, in units of that σ.
 """
 from __future__ import annotations
 
+import functools
 import math
 import tomllib
 from dataclasses import dataclass, replace
@@ -159,8 +160,10 @@ def butter2_lowpass(cutoff_Hz: float, fs_Hz: float) -> tuple[tuple[float, float,
     return (b0, 2.0 * b0, b0), (2.0 * (k * k - 1.0) * norm, (1.0 - k / q + k * k) * norm)
 
 
+@functools.lru_cache(maxsize=16)
 def filter_release(n: int, cutoff_Hz: float, dt_s: float) -> np.ndarray:
-    """The filter's output for an input that is 1 before sample 0 (at rest) and 0 from sample 0 on."""
+    """The filter's output for an input that is 1 before sample 0 (at rest) and 0 from sample 0 on
+    (cached: read-only)."""
     if cutoff_Hz <= 0:
         return np.zeros(n)
     (b0, b1, b2), (a1, a2) = butter2_lowpass(cutoff_Hz, 1.0 / dt_s)
@@ -170,20 +173,23 @@ def filter_release(n: int, cutoff_Hz: float, dt_s: float) -> np.ndarray:
         y = z1                           # input 0
         z1, z2 = -a1 * y + z2, -a2 * y
         out[i] = y
+    out.flags.writeable = False
     return out
 
 
+@functools.lru_cache(maxsize=16)
 def half_integral_matrix(n: int, dt_s: float, onset_s: float) -> np.ndarray:
     """Lower-triangular M with (M·f)[k] = I½[f](t_k) = 1/√π ∫ f(σ)/√(t_k − σ) dσ, s^½, sample j's value
     held over its cell [t_j − dt/2, t_j + dt/2], the first cell starting at the touch, ``onset_s`` before
-    sample 0 (the rig flags the touch at the first sample after it)."""
+    sample 0 (the rig flags the touch at the first sample after it). Cached: read-only."""
     t = np.arange(n) * dt_s
     a = t - 0.5 * dt_s
     a[0] = -onset_s
     b = t + 0.5 * dt_s
     tk, aj, bj = t[:, None], a[None, :], np.minimum(b[None, :], t[:, None])
-    M = 2.0 * (np.sqrt(np.maximum(tk - aj, 0.0)) - np.sqrt(np.maximum(tk - bj, 0.0))) / math.sqrt(math.pi)
-    return np.tril(M)
+    M = np.tril(2.0 * (np.sqrt(np.maximum(tk - aj, 0.0)) - np.sqrt(np.maximum(tk - bj, 0.0))) / math.sqrt(math.pi))
+    M.flags.writeable = False                # cached: shared by every fit with these settings
+    return M
 
 
 def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbeParams):
@@ -212,20 +218,25 @@ def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbePara
     return E, top_H, q, s
 
 
-def estimate_effusivity(T_sensor_C, Q_W, i_contact: int, dt_s: float,
-                        probe: ProbeParams = ProbeParams()) -> EffusivityEstimate | None:
-    """Fit the object's effusivity from the samples around a touch (pure).
+@dataclass(frozen=True, eq=False)
+class FitInput:
+    """The samples of one touch's fit: ``T``, ``Q`` the window with ``n_pre`` samples before the touch,
+    ``dt_s`` their period, s; ``w`` the window's signals (:func:`_window`)."""
 
-    ``T_sensor_C``, ``Q_W``: the rig's samples, period ``dt_s`` s; ``i_contact``: index of the first sample
-    with the contact flag. Uses ``probe.pre_s`` before and ``probe.window_s`` after. Energy form of the
-    module docstring's relation (smooth where the flux is singular): the heat into a semi-infinite object
-    is E = b·A·I½[T_os − T_o0], I½ the half-integral, T_os = T_top − R_c·q, so
+    T: np.ndarray
+    Q: np.ndarray
+    n_pre: int
+    dt_s: float
+    w: tuple
 
-        E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H],
 
-    linear in (b, b·T_o0, b·R_c). Returns None when the samples are too few, not finite, or carry no
-    information.
-    """
+#: the two model forms, in the order they are fitted (one unit of work each, see :func:`fit_form`)
+FORMS = ("energy", "flux")
+
+
+def fit_input(T_sensor_C, Q_W, i_contact: int, dt_s: float, probe: ProbeParams = ProbeParams()) -> FitInput | None:
+    """The touch's window (``probe.pre_s`` before the first contact sample ``i_contact``, ``probe.window_s``
+    after), or None when the samples are too few or not finite."""
     T, Q = np.asarray(T_sensor_C, float), np.asarray(Q_W, float)
     n_pre = max(1, int(round(probe.pre_s / dt_s)))
     i0 = int(i_contact)
@@ -234,35 +245,74 @@ def estimate_effusivity(T_sensor_C, Q_W, i_contact: int, dt_s: float,
     i1 = i0 + int(round(probe.window_s / dt_s))
     T, Q = T[i0 - n_pre: i1], Q[i0 - n_pre: i1]
     w = _window(T, Q, n_pre, dt_s, probe)
-    if w is None:
-        return None
-    fits = [(e, f) for f in (_energy_form, _flux_form) if (e := f(*w, dt_s, 0.5 * dt_s, probe)) is not None]
-    if not fits:
-        return None
-    est, form = min(fits, key=lambda ef: ef[0].se_ln_b)
-    spread = _noise_spread(T, Q, n_pre, dt_s, probe, form, math.log(est.b))
+    return FitInput(T, Q, n_pre, dt_s, w) if w is not None else None
+
+
+def fit_form(inp: FitInput, form: str, probe: ProbeParams = ProbeParams()) -> EffusivityEstimate | None:
+    """One model form (``"energy"`` or ``"flux"``) fitted to the window; se_ln_b from the residuals only."""
+    f = _energy_form if form == "energy" else _flux_form
+    return f(*inp.w, inp.dt_s, 0.5 * inp.dt_s, probe)
+
+
+def noise_deviation(inp: FitInput, form: str, ln_b: float, k: int, probe: ProbeParams = ProbeParams()) -> float:
+    """Change of ln b when the ``k``-th realisation of the rig's documented noise (seeded by
+    ``(probe.noise_seed, k)``, filtered like the signals) is added to the window and ``form`` refitted (1.0
+    when the refit fails): the noise enters every later sample through the integrals, which the residuals do
+    not show."""
+    rng = np.random.default_rng((probe.noise_seed, k))
+    n, dt = inp.T.size, inp.dt_s
+    nT = lowpass(probe.T_sigma_C * rng.standard_normal(n + 50), probe.cutoff_Hz, dt)[50:]
+    nQ = lowpass(probe.Q_sigma_W * rng.standard_normal(n + 50), probe.cutoff_Hz, dt)[50:]
+    w = _window(inp.T + nT, inp.Q + nQ, inp.n_pre, dt, probe)
+    e = fit_form(FitInput(inp.T, inp.Q, inp.n_pre, dt, w), form, probe) if w is not None else None
+    return math.log(e.b) - ln_b if e is not None else 1.0
+
+
+def best_form(fits: list[tuple[str, EffusivityEstimate | None]]) -> tuple[str, EffusivityEstimate] | None:
+    """The form with the smaller standard error of ln b (the energy form wins on insulators, the flux form
+    on metals behind a contact resistance), or None when neither fitted."""
+    ok = [(f, e) for f, e in fits if e is not None]
+    return min(ok, key=lambda fe: fe[1].se_ln_b) if ok else None
+
+
+def with_noise_spread(est: EffusivityEstimate, deviations: list[float]) -> EffusivityEstimate:
+    """The estimate with the RMS of the noise deviations combined (in quadrature) into its se_ln_b."""
+    spread = math.sqrt(float(np.mean(np.square(deviations)))) if deviations else 0.0
     return replace(est, se_ln_b=math.hypot(est.se_ln_b, spread))
 
 
-def _noise_spread(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbeParams, form, ln_b: float) -> float:
-    """RMS change of ln b when the rig's documented noise (filtered like the signals) is added again: the
-    noise enters every later sample through the integrals, which the residuals do not show. Seeded: pure."""
-    k = probe.noise_draws
-    if k <= 0 or (probe.T_sigma_C <= 0 and probe.Q_sigma_W <= 0):
-        return 0.0
-    rng = np.random.default_rng(probe.noise_seed)
-    n = T.size
-    dev = []
-    for _ in range(k):
-        nT = _lowpass(probe.T_sigma_C * rng.standard_normal(n + 50), probe.cutoff_Hz, dt_s)[50:]
-        nQ = _lowpass(probe.Q_sigma_W * rng.standard_normal(n + 50), probe.cutoff_Hz, dt_s)[50:]
-        w = _window(T + nT, Q + nQ, i0, dt_s, probe)
-        e = form(*w, dt_s, 0.5 * dt_s, probe) if w is not None else None
-        dev.append(math.log(e.b) - ln_b if e is not None else 1.0)
-    return math.sqrt(float(np.mean(np.square(dev))))
+def noise_draws(probe: ProbeParams) -> int:
+    """How many noise realisations the confidence draws (0 when the probe documents no noise)."""
+    return probe.noise_draws if probe.T_sigma_C > 0 or probe.Q_sigma_W > 0 else 0
 
 
-def _lowpass(x: np.ndarray, cutoff_Hz: float, dt_s: float) -> np.ndarray:
+def estimate_effusivity(T_sensor_C, Q_W, i_contact: int, dt_s: float,
+                        probe: ProbeParams = ProbeParams()) -> EffusivityEstimate | None:
+    """Fit the object's effusivity from the samples around a touch (pure; all stages at once: the slave's
+    core spreads the same stages over several cycles, telethermo.control.material_stream).
+
+    ``T_sensor_C``, ``Q_W``: the rig's samples, period ``dt_s`` s; ``i_contact``: index of the first sample
+    with the contact flag. Uses ``probe.pre_s`` before and ``probe.window_s`` after. Energy form of the
+    module docstring's relation (smooth where the flux is singular): the heat into a semi-infinite object
+    is E = b·A·I½[T_os − T_o0], I½ the half-integral, T_os = T_top − R_c·q, so
+
+        E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H],
+
+    linear in (b, b·T_o0, b·R_c); and its flux form. Returns None when the samples are too few, not finite,
+    or carry no information.
+    """
+    inp = fit_input(T_sensor_C, Q_W, i_contact, dt_s, probe)
+    if inp is None:
+        return None
+    best = best_form([(f, fit_form(inp, f, probe)) for f in FORMS])
+    if best is None:
+        return None
+    form, est = best
+    ln_b = math.log(est.b)
+    return with_noise_spread(est, [noise_deviation(inp, form, ln_b, k, probe) for k in range(noise_draws(probe))])
+
+
+def lowpass(x: np.ndarray, cutoff_Hz: float, dt_s: float) -> np.ndarray:
     """The rig's filter (:func:`butter2_lowpass`) applied to x from rest."""
     if cutoff_Hz <= 0:
         return x

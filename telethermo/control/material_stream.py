@@ -1,18 +1,26 @@
-"""Material identification inside the control core: collect each touch's first samples, fit once, keep the result.
+"""Material identification inside the control core: collect each touch's first samples, fit, keep the result.
 
 The slave's core calls :func:`material_step` every cycle with the sample and its contact decision. While
 nothing touches, the last ``pre_s`` of samples are kept; from the first contact sample on, ``window_s`` of
-samples are collected, then :func:`telethermo.control.material_id.estimate_effusivity` runs once and the
-result (effusivity, standard error of ln b, class) is held until the next touch completes its window (a
-release clears nothing: the operator may ask what was touched last). Pure: the state is an immutable value.
+samples are collected. The fit (:func:`telethermo.control.material_id.estimate_effusivity`'s stages) then
+runs spread over the following cycles, one unit of work per cycle so that no control cycle carries the
+whole fit: the window's signals and the energy form, the flux form, each of the ``noise_draws`` noise
+realisations of the confidence, then the classification. The result (effusivity, standard error of ln b,
+class) is published ``3 + noise_draws`` cycles after the window is complete (11 with the defaults: 0.11 s
+at 100 Hz) and held until the next touch's fit completes (a release clears nothing: the operator may ask
+what was touched last; a fit under way finishes even if the finger leaves). The staged fit equals the
+batch one exactly. Pure: the state is an immutable value.
 """
 from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
-from telethermo.control.material_id import ProbeParams, classify, estimate_effusivity, load_effusivity_table
+from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form, classify,
+                                            filter_release, fit_form, fit_input, half_integral_matrix,
+                                            load_effusivity_table, noise_deviation, noise_draws,
+                                            with_noise_spread)
 from telethermo.control.rendering import load_render_table
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
@@ -67,36 +75,89 @@ def default_classes() -> tuple[tuple[int, str, float], ...]:
 
 
 @dataclass(frozen=True, slots=True)
+class FitJob:
+    """A touch's fit under way: ``inp`` its window (None: not built yet, from ``rows``), ``fits`` the forms
+    fitted so far, ``chosen`` (form, estimate) once both are, ``deviations`` the noise realisations' so far."""
+
+    rows: tuple
+    n_pre: int
+    inp: FitInput | None = None
+    fits: tuple = ()
+    chosen: tuple[str, EffusivityEstimate] | None = None
+    deviations: tuple = ()
+
+
+@dataclass(frozen=True, slots=True)
 class MaterialState:
     """Collector: ``pre`` the last pre-contact (T_sensor_C, Q_W) samples, ``post`` those since the touch,
-    ``done`` the touch's window was evaluated, ``last`` the held result."""
+    ``done`` the touch's window was collected, ``job`` its fit under way, ``last`` the held result."""
 
     pre: tuple = ()
     post: tuple = ()
     done: bool = False
     last: MaterialEstimate = field(default_factory=MaterialEstimate)
+    job: FitJob | None = None
+
+
+def prepare(p: MaterialIdParams, dt_s: float) -> None:
+    """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release)
+    now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls it)."""
+    n_win = int(round(p.probe.window_s / dt_s))
+    if n_win >= 6:
+        half_integral_matrix(n_win, dt_s, 0.5 * dt_s)
+        filter_release(n_win, p.probe.cutoff_Hz, dt_s)
 
 
 def material_step(p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W: float, contact: bool,
                   dt_s: float) -> MaterialState:
-    """Advance the collector by one sample (pure)."""
+    """Advance the collector by one sample and the fit under way by one unit of work (pure)."""
+    job, last = st.job, st.last
+    if job is not None:
+        job, last = _fit_unit(p, job, last, dt_s)
     n_pre = max(1, int(round(p.probe.pre_s / dt_s)))
     n_win = int(round(p.probe.window_s / dt_s))
     x = (float(T_sensor_C), float(Q_W))
     if not contact:
-        return MaterialState(pre=(st.pre + (x,))[-n_pre:], last=st.last)
+        return MaterialState(pre=(st.pre + (x,))[-n_pre:], last=last, job=job)
     if st.done:
-        return st
+        return MaterialState(pre=st.pre, done=True, last=last, job=job)
     post = st.post + (x,)
     if len(post) < n_win:
-        return MaterialState(pre=st.pre, post=post, last=st.last)
-    rows = st.pre + post
-    est = estimate_effusivity([r[0] for r in rows], [r[1] for r in rows], len(st.pre), dt_s, p.probe)
-    n = st.last.touch + 1
-    if est is None or not p.classes:
-        return MaterialState(pre=st.pre, done=True, last=MaterialEstimate(touch=n))
+        return MaterialState(pre=st.pre, post=post, last=last, job=job)
+    # the window is complete: its fit starts next cycle (a previous touch's fit still under way is dropped)
+    return MaterialState(pre=st.pre, done=True, last=last, job=FitJob(rows=st.pre + post, n_pre=len(st.pre)))
+
+
+def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: float
+              ) -> tuple[FitJob | None, MaterialEstimate]:
+    """One unit of the fit: (the job, or None when finished, and the held result, new when finished)."""
+    probe = p.probe
+    n = last.touch + 1
+    if job.inp is None and not job.fits:                                    # window and the energy form
+        inp = fit_input([r[0] for r in job.rows], [r[1] for r in job.rows], job.n_pre, dt_s, probe)
+        if inp is None:
+            return None, MaterialEstimate(touch=n)
+        return replace(job, inp=inp, fits=((FORMS[0], fit_form(inp, FORMS[0], probe)),)), last
+    if job.chosen is None:                                                  # the other form, the better one
+        fits = job.fits + tuple((f, fit_form(job.inp, f, probe)) for f in FORMS[len(job.fits):len(job.fits) + 1])
+        if len(fits) < len(FORMS):
+            return replace(job, fits=fits), last
+        chosen = best_form(list(fits))
+        if chosen is None:
+            return None, MaterialEstimate(touch=n)
+        return replace(job, fits=fits, chosen=chosen), last
+    form, est = job.chosen
+    k = len(job.deviations)
+    if k < noise_draws(probe):                                              # one noise realisation
+        return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
+    return None, _classified(p, with_noise_spread(est, list(job.deviations)), n)
+
+
+def _classified(p: MaterialIdParams, est: EffusivityEstimate, n: int) -> MaterialEstimate:
+    """The held result of touch ``n`` for the estimate ``est``."""
+    if not p.classes:
+        return MaterialEstimate(touch=n)
     table = {name: b for _, name, b in p.classes}
     c = classify(est, table, p.probe.floor_ln)
     code = p.classes[c.index - 1][0]
-    return MaterialState(pre=st.pre, done=True, last=MaterialEstimate(est.b, est.se_ln_b, code, c.posterior, n,
-                                                                               est.T_object0_C))
+    return MaterialEstimate(est.b, est.se_ln_b, code, c.posterior, n, est.T_object0_C)

@@ -153,3 +153,40 @@ def test_master_publishes_no_material():
     first = RigSample(t_s=0.0, T_sensor_C=T_PROBE, Q_W=0.0, current_A=0.0, contact=False, T_sink_C=25.0)
     r = step(first, PeerValues(estimate_C=T_PROBE, flux_W=0.0), cp, init_state(cp, None, first))
     assert r.status.material is None
+
+
+def test_fit_is_spread_over_cycles_and_equals_the_batch_fit():
+    """No cycle carries the whole fit: the window completes, then one unit of work per cycle (window and
+    energy form, flux form, each noise realisation, classification); the result appears exactly
+    3 + noise_draws cycles later and equals the batch estimate."""
+    samples, _, _ = touch("ceramic", noise=True, seed=5)
+    T, Q, i0 = arrays(samples)
+    p = MaterialIdParams()
+    n_win = int(round(p.probe.window_s / DT))
+    units = 3 + mi.noise_draws(p.probe)
+    st = MaterialState()
+    seen = []
+    for k in range(i0 + n_win + units + 2):
+        st = material_step(p, st, T[k], Q[k], k >= i0, DT)
+        seen.append((st.job is not None, st.last.touch))
+    k_full = i0 + n_win - 1                                   # the cycle that completes the window
+    assert all(job for job, _ in seen[k_full: k_full + units])
+    assert [touch for _, touch in seen[: k_full + units]] == [0] * (k_full + units)
+    assert seen[k_full + units] == (False, 1)
+    est = mi.estimate_effusivity(T, Q, i0, DT)
+    assert st.last.effusivity == pytest.approx(est.b, rel=1e-12)
+    assert st.last.se_ln_b == pytest.approx(est.se_ln_b, rel=1e-12)
+
+
+def test_a_new_touch_during_a_fit_does_not_lose_the_held_result():
+    """A release and a new touch while the fit runs: the fit finishes (the release clears nothing)."""
+    samples, _, _ = touch("glass", noise=True, seed=6)
+    T, Q, i0 = arrays(samples)
+    p = MaterialIdParams()
+    n_win = int(round(p.probe.window_s / DT))
+    st = MaterialState()
+    for k in range(i0 + n_win + 2):
+        st = material_step(p, st, T[k], Q[k], k >= i0, DT)
+    for k in range(20):                                       # released: the fit carries on
+        st = material_step(p, st, T[-1], Q[-1], False, DT)
+    assert st.job is None and st.last.touch == 1 and st.last.code != 0
