@@ -323,3 +323,39 @@ def test_peer_trips_never_step_the_current_beyond_the_slew(seq, kp, ki, kq, kpq)
         trips = set(r.status.trips)
         if trips & {Trip.PEER_LOST, Trip.PEER_INVALID} and not trips - {Trip.PEER_LOST, Trip.PEER_INVALID}:
             assert min(prev, 0.0) - step_A - 1e-12 <= I <= max(prev, 0.0) + step_A + 1e-12, (prev, I, trips)
+
+
+@settings(max_examples=150, deadline=None)
+@given(valid=st.lists(st.tuples(st.floats(15, 43), st.floats(-3, 3), st.booleans()), min_size=1, max_size=20),
+       own=st.lists(st.tuples(st.floats(15, 43), st.floats(-3, 3), st.booleans()), min_size=5, max_size=60),
+       pattern=st.lists(st.sampled_from(["frozen", "stale", "burst"]), min_size=5, max_size=60),
+       air=st.booleans())
+def test_a_starved_peer_cannot_make_the_setpoint_climb(valid, own, pattern, air):
+    """The flood aftermath (issue 12): a peer alive but starved (the last values frozen, marked stale, or old
+    values re-delivered in bursts as if fresh) never drives the master's setpoint beyond what it was given: every
+    setpoint lies within [min, max] of the setpoint before, the peer estimates received, the master's own
+    estimates (air rendering tracks them) and neutral. A climb needs a source above that range."""
+    p = CoreParams(role=Role.MASTER, kp_A_per_C=1.66, ki_A_per_C_s=0.04, kQ_A_per_W=0.63, kpQ_A_per_W=0.75,
+                   kiQ_A_per_W_s=0.79, air_rendering=air)
+    r = step(S(), PeerValues(33.0, 0.0), p, init_state(p, None, S()))
+    seen = [33.0, r.status.setpoint_C, r.status.estimate_C, p.safety.neutral_C]
+    k = 1
+    history = []
+    for T_o, q, c in valid:
+        history.append(PeerValues(T_o, q, contact=c))
+        r = step(S(t=0.01 * k, T=33.0, contact=True), history[-1], p, r.state)
+        seen += [T_o, r.status.estimate_C, r.status.setpoint_C]
+        k += 1
+    last = history[-1]
+    for i, (kind, (T, Q, contact)) in enumerate(zip(pattern, own)):
+        if kind == "frozen":
+            peer = last
+        elif kind == "stale":
+            peer = dataclasses.replace(last, fresh=False)
+        else:
+            peer = history[i % len(history)]
+        r = step(S(t=0.01 * k, T=T, Q=Q, contact=contact), peer, p, r.state)
+        k += 1
+        seen.append(r.status.estimate_C)
+        assert min(seen) - 1e-9 <= r.status.setpoint_C <= max(seen) + 1e-9
+        assert not (set(r.status.trips) & {Trip.PEER_LOST, Trip.PEER_INVALID})
