@@ -252,14 +252,27 @@ def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.
         c.note(f"{len(fb)} case(s) exceed {RATE_LIMIT_C_PER_S:g} °C/s during the link-loss fallback (issue 15: the master "
                "renders the identified material before any trip; not a trip, not slewed): "
                + "; ".join(f"{r['contact']} +{r['after_touch_s']} s {r['rate_fallback_C_per_s']:.2f} °C/s" for r in fb))
+    quiet = [r for r in rows if r["rate_no_event_C_per_s"] <= RATE_LIMIT_C_PER_S]
+    head = {}
+    for key, sel in (("", lambda r: not r["immediate_cut"] and r in quiet),
+                     ("_all_peer_trips", lambda r: not r["immediate_cut"]),
+                     ("_immediate_cut", lambda r: r["immediate_cut"] and r in quiet),
+                     ("_immediate_cut_all", lambda r: r["immediate_cut"])):
+        head[f"surface_rate_max{key}_C_per_s"] = _worst(rows, "rate_slew_C_per_s", sel)[0]
+        head[f"surface_rate_max{key}_before_C_per_s"] = _worst(rows, "rate_before_C_per_s", sel)[0]
+    head["surface_rate_max_no_event_C_per_s"] = _worst(rows, "rate_no_event_C_per_s", lambda r: True)[0]
+    head["surface_rate_max_fallback_phase_C_per_s"] = _worst(rows, "rate_fallback_C_per_s", lambda r: True)[0]
+    head["surface_rate_limit_C_per_s"] = RATE_LIMIT_C_PER_S
+    head["surface_rate_cases"] = [[r["contact"], r["event"], r["after_touch_s"], round(r["rate_slew_C_per_s"], 3),
+                                   round(r["rate_before_C_per_s"], 3), round(r["rate_no_event_C_per_s"], 3)]
+                                  for r in rows]
+    head["surface_rate_cases_columns"] = ["contact", "event", "after_touch_s", "slew_C_per_s", "before_C_per_s",
+                                          "no_event_C_per_s"]
+    head["surface_rate_how"] = (f"bench/stress_slew.py: max |slope| of the simulated master pad surface over {WINDOW_S:g} s "
+                                f"windows, trip to +{AFTER_S:g} s; surface_rate_max_C_per_s over the peer trips where the "
+                                "contact alone moves the surface <= the limit (else *_all_*)")
     res = c.result()
-    f = res["figures"]
-    res["headline"] = {"surface_rate_max_C_per_s": f["max_slew_peer_trips_C_per_s"],
-                       "surface_rate_max_before_C_per_s": f["max_before_peer_trips_C_per_s"],
-                       "surface_rate_max_immediate_cut_C_per_s": f["max_slew_immediate_cuts_C_per_s"],
-                       "surface_rate_max_no_event_C_per_s": max(f["max_no_event_peer_trips_C_per_s"],
-                                                                 f["max_no_event_immediate_cuts_C_per_s"]),
-                       "surface_rate_limit_C_per_s": RATE_LIMIT_C_PER_S}
+    res["headline"] = head
     return res
 
 
