@@ -66,6 +66,12 @@ HEADLINE = [
     ("conformance", "n_fail", "CiA 301 checks failed through an independent client (of n_checks), live pair",
      "0"),
     ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),
+    ("stress", "surface_rate_max_C_per_s", "master pad surface rate, peer trip to +5 s, worst case (simulated pair; "
+     "contacts whose own transient stays under the bound), °C/s", "≤ 6 (ramp + 1)"),
+    ("stress", "surface_rate_max_before_C_per_s", "the same without the envelope's trip slew and lead bound, same run, "
+     "°C/s", "baseline"),
+    ("stress", "surface_rate_max_immediate_cut_C_per_s", "the same after an immediate cut (NMT, sensor NaN, heat sink), "
+     "°C/s", "physics (stored heat)"),
 ]
 
 

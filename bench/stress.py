@@ -16,10 +16,10 @@ import time
 import traceback
 from typing import Any, Callable
 
-from bench import stress_control, stress_fuzz, stress_model, stress_rls, stress_sim
+from bench import stress_control, stress_fuzz, stress_model, stress_rls, stress_sim, stress_slew
 from bench.common import print_table, write_results
 
-MODULES = (stress_rls, stress_model, stress_sim, stress_control, stress_fuzz)
+MODULES = (stress_rls, stress_model, stress_sim, stress_control, stress_slew, stress_fuzz)
 
 
 def registry() -> dict[str, tuple[Callable[..., dict], dict, dict]]:
@@ -74,6 +74,8 @@ def main(argv: list[str] | None = None) -> int:
                                                                               else "")] for r in results])
     data = {"mode": "quick" if args.quick else "full", "cases": results, "n_cases": len(results),
             "n_failed": n_failed, "all_passed": n_failed == 0, "wall_s": round(total, 1)}
+    for r in results:   # a case's headline figures (e.g. the surface rate around trips) at the top level
+        data.update(r.pop("headline", {}))
     if args.only:
         data["only"] = list(args.only)
     path = write_results("stress", data)

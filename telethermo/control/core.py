@@ -22,7 +22,7 @@ Per step (guiatni eq. 30-35, yamamoto §III):
    PI;
 5. PI + feed-forward with anti-windup including the feed-forward (:mod:`telethermo.control.pi`),
    bumpless on every change of mode or setpoint source;
-6. the envelope limits the current (cut, surface guard with taper, |I| <= 0.8·Imax).
+6. the envelope limits the current (cut, trip slew, surface guard with taper, |I| <= 0.8·Imax).
 
 ``step`` is pure: the same (sample, peer, params, state) give the same result. The predictor is the
 only stateful object; its state is carried in :class:`CoreState` through ``snapshot()``/``restore()``
@@ -444,8 +444,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     y = T_pred if params.feedback is Feedback.MODEL else est
     err = sp - y
     u_req, pi_st, comps, ident_k, ident_guard = _control(sample, params, state, r, err, env, switched)
-    # 6. envelope on current
-    current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo)
+    # 6. envelope on current (slewed from the previous step's current while a peer trip is latched)
+    current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo, state.u_prev_A, dt)
     if current != u_req:
         # the envelope overrode the controller: keep the integrator consistent (no windup behind it)
         pi_st = bumpless(r.gains, current, err, r.ff, -I_lim, I_lim, flux_error_W=r.eQ, flux_gains=r.fg)

@@ -19,7 +19,15 @@ What the envelope enforces (defaults in :class:`SafetyLimits`):
   out of the plausible range, absurd heat flux, model-vs-sensor mismatch held for
   ``mismatch_time_s``: current cut;
 - **peer**: lost (heartbeat/PDO timeout) or non-finite/absurd values: the setpoint ramps to
-  ``neutral_C`` (32 °C) and then the current is cut. A bad peer value never reaches the command.
+  ``neutral_C`` (32 °C) and then the current is cut. A bad peer value never reaches the command;
+- **trip slew**: while a peer trip is latched (its ramp to neutral and the cut that ends it) the current
+  may fall towards 0 A at once but grows (beyond the previous step's, or beyond 0 A the other way) at most
+  at ``trip_slew_A_per_s`` (:func:`limit_current` with ``previous_A``), and the neutral ramp's setpoint
+  leads the credible surface by at most ``trip_lead_C``. The peer trip removes the controller's
+  feed-forward and flux terms in one step (up to the whole current range: full cooling to full heating);
+  without these two the pad surface then moves faster than the setpoint's ramp limit (measured:
+  bench/stress_slew.py). The hard cuts (:data:`CUT_TRIPS`: sensor, over-temperature, surface
+  beyond a clamp, overcurrent), a non-finite request and the surface guard act at once, slew or not.
 
 Every trip has a CiA 301 emergency error code (:data:`EMCY_CODES`) and the bits it sets in the
 error register 0x1001 (:data:`ERROR_REGISTER_BITS`). Trips latch: they stay active until
@@ -50,6 +58,10 @@ class SafetyState(IntEnum):
 
 DEFAULT_T_MIN_C = 15.0
 DEFAULT_T_MAX_C = 43.0
+#: the trip slew limit, A/s (see :class:`SafetyLimits`; chosen from bench/stress_slew.py's sweep)
+DEFAULT_TRIP_SLEW_A_PER_S = 2.0
+#: how far the neutral ramp's setpoint may lead the pad surface, °C (see :class:`SafetyLimits`)
+DEFAULT_TRIP_LEAD_C = 1.5
 
 
 @dataclass(frozen=True, slots=True)
@@ -73,6 +85,10 @@ class SafetyLimits:
         neutral_C: where the setpoint ramps on peer loss, °C; neutral_tol_C: how close counts as
             reached before the current is cut, °C; neutral_timeout_s: cut anyway after this long, s.
         peer_T_min_C, peer_T_max_C, peer_Q_abs_max_W: plausible peer values (beyond: PEER_INVALID).
+        trip_slew_A_per_s: while a peer trip is latched, the largest change of the current per second, A/s
+            (the ramp limit's counterpart for the current; ``math.inf`` turns it off, research only).
+        trip_lead_C: while a peer trip ramps the setpoint to neutral, the setpoint leads the credible surface by
+            at most this, °C (it waits for a lagging pad; ``math.inf`` turns it off, research only).
         research: allow limits wider than the defaults (a deliberate research flag).
     """
 
@@ -100,16 +116,20 @@ class SafetyLimits:
     peer_T_min_C: float = -20.0
     peer_T_max_C: float = 90.0
     peer_Q_abs_max_W: float = 30.0
+    trip_slew_A_per_s: float = DEFAULT_TRIP_SLEW_A_PER_S
+    trip_lead_C: float = DEFAULT_TRIP_LEAD_C
     research: bool = False
 
     def __post_init__(self) -> None:
         for name in self.__dataclass_fields__:
             v = getattr(self, name)
+            if name in ("trip_slew_A_per_s", "trip_lead_C") and self.research and v == math.inf:
+                continue
             if name != "research" and not (isinstance(v, (int, float)) and math.isfinite(v)):
                 raise ValueError(f"SafetyLimits.{name}: expected a finite number, got {v!r}")
         positive = ("I_max_A", "current_fraction", "ramp_up_C_per_s", "ramp_down_C_per_s", "hot_time_limit_s",
                     "Q_abs_max_W", "mismatch_C", "mismatch_time_s", "neutral_tol_C", "neutral_timeout_s",
-                    "peer_Q_abs_max_W")
+                    "peer_Q_abs_max_W", "trip_slew_A_per_s", "trip_lead_C")
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ValueError(f"SafetyLimits.{name}: expected > 0, got {getattr(self, name)!r}")
@@ -297,6 +317,20 @@ def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     return raised, mismatch_time, hot_time
 
 
+def _lead_bound(limits: SafetyLimits, prev_C: float, sp_C: float, inp: EnvelopeInput) -> float:
+    """The neutral ramp's setpoint, °C, kept within ``trip_lead_C`` ahead of the credible surface in the
+    direction it moves (it waits for a pad that lags, it never moves back): the controller's error stays small,
+    so the surface does not overshoot the ramp's rate catching up a setpoint that ran away."""
+    lead = limits.trip_lead_C
+    if not (math.isfinite(inp.surface_hi_C) and math.isfinite(inp.surface_lo_C)) or lead == math.inf:
+        return sp_C
+    if sp_C > prev_C:
+        return max(prev_C, min(sp_C, inp.surface_lo_C + lead))
+    if sp_C < prev_C:
+        return min(prev_C, max(sp_C, inp.surface_hi_C - lead))
+    return sp_C
+
+
 def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput, requested_C: float,
                   dt_s: float) -> tuple[float, EnvelopeState, tuple[str, ...], frozenset[Trip]]:
     """Judge one step: raise trips, ramp/clamp the requested setpoint.
@@ -335,6 +369,8 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     sp = min(max(clamped, prev - down), prev + up)
     if sp != clamped:
         active.append("ramp")
+    if peer_trip:
+        sp = _lead_bound(limits, prev, sp, inp)
 
     cut = state.cut or bool(trips & CUT_TRIPS)
     if peer_trip and not cut:
@@ -347,47 +383,59 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     return sp, new_state, tuple(active), new_trips
 
 
+def _outward_cap(limits: SafetyLimits, room_C: float) -> float:
+    """Largest current driving the surface outwards with ``room_C`` left to the guard's stop, A (>= 0)."""
+    lim = limits.I_limit_A
+    if room_C <= 0.0:
+        return 0.0
+    return lim if limits.taper_C <= 0.0 or room_C >= limits.taper_C else lim * room_C / limits.taper_C
+
+
+def slewing(state: EnvelopeState) -> bool:
+    """The trip slew limit applies: a peer trip is latched and no hard cut (:data:`CUT_TRIPS`)."""
+    return bool(state.trips & PEER_TRIPS) and not state.trips & CUT_TRIPS
+
+
 def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float, surface_hi_C: float,
-                  surface_lo_C: float) -> tuple[float, tuple[str, ...]]:
+                  surface_lo_C: float, previous_A: float = math.nan,
+                  dt_s: float = 0.0) -> tuple[float, tuple[str, ...]]:
     """The current that may reach the TEM, A, and the limits that acted.
 
     NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
     within ``guard_C`` of T_min_C only heating (I >= 0); over the ``taper_C`` band before that the
     outward current is capped linearly (full at the band's inner edge). Then |I| <= I_limit_A.
+
+    Trip slew: while :func:`slewing` and ``previous_A`` (the current of the previous step, A) is finite, the
+    result may fall towards 0 A at once (as a cut does) but grows beyond ``previous_A`` (or beyond 0 A in the
+    other direction) by at most ``trip_slew_A_per_s``·``dt_s`` ("slew"): the feed-forward that a peer trip
+    removes can no longer flip the drive from full cooling to full heating in one step. The guard's and the
+    current limit's caps still act at once. A hard cut (:data:`CUT_TRIPS`), a non-finite request or surface
+    band give 0 A at once.
     """
+    slew = slewing(state) and math.isfinite(previous_A) and dt_s > 0.0
+    if (state.cut and not slew) or not math.isfinite(requested_A):
+        return 0.0, ("cut",)
+    if not (math.isfinite(surface_hi_C) and math.isfinite(surface_lo_C)):
+        return 0.0, ("cut",)
     active: list[str] = []
-    if state.cut:
-        return 0.0, ("cut",)
-    if not math.isfinite(requested_A):
-        return 0.0, ("cut",)
-    i = requested_A
-    hi_ok = math.isfinite(surface_hi_C)
-    lo_ok = math.isfinite(surface_lo_C)
-    if not (hi_ok and lo_ok):
-        return 0.0, ("cut",)
     lim = limits.I_limit_A
-    hi_stop = limits.T_max_C - limits.guard_C
-    lo_stop = limits.T_min_C + limits.guard_C
-    if i > 0.0:
-        room = hi_stop - surface_hi_C
-        cap = 0.0 if room <= 0.0 else (lim if limits.taper_C <= 0.0 or room >= limits.taper_C
-                                         else lim * room / limits.taper_C)
-        if i > cap:
-            i = cap
-            active.append("guard")
-    elif i < 0.0:
-        room = surface_lo_C - lo_stop
-        cap = 0.0 if room <= 0.0 else (lim if limits.taper_C <= 0.0 or room >= limits.taper_C
-                                         else lim * room / limits.taper_C)
-        if i < -cap:
-            i = -cap
-            active.append("guard")
-    if i > lim:
-        i = lim
-        active.append("current_limit")
-    elif i < -lim:
-        i = -lim
-        active.append("current_limit")
+    hi_cap = min(lim, _outward_cap(limits, limits.T_max_C - limits.guard_C - surface_hi_C))
+    lo_cap = min(lim, _outward_cap(limits, surface_lo_C - (limits.T_min_C + limits.guard_C)))
+    i = 0.0 if state.cut else requested_A
+    if slew:   # towards 0 A at once (as a cut), away from it (beyond the previous current) at the slew rate
+        step = limits.trip_slew_A_per_s * dt_s
+        slewed = min(max(i, min(previous_A, 0.0) - step), max(previous_A, 0.0) + step)
+        if slewed != i:
+            i = slewed
+            active.append("slew")
+    if state.cut:
+        active.append("cut")
+    if i > hi_cap:
+        active.append("guard" if hi_cap < lim else "current_limit")
+        i = hi_cap
+    elif i < -lo_cap:
+        active.append("guard" if lo_cap < lim else "current_limit")
+        i = -lo_cap
     return i, tuple(active)
 
 

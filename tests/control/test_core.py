@@ -7,6 +7,7 @@ from hypothesis import given, settings, strategies as st
 
 from telethermo.control.core import CoreParams, RenderPhase, RenderSettings, init_state, step
 from telethermo.control.estimators import Estimator
+from telethermo.control.params import default_params
 from telethermo.control.safety import EMCY_CODES, SafetyState, Trip
 from telethermo.control.types import Mode, PeerValues, Role
 from telethermo.rig import RigSample
@@ -67,14 +68,27 @@ def test_peer_lost_ramps_to_neutral_then_cuts():
     st = init_state(P, None, S(T=28.0))
     r = step(S(T=28.0), PeerValues(28.0, 0.0), P, st)
     sps = []
-    for k in range(1, 200):
-        r = step(S(t=0.01 * k, T=28.0), PeerValues(28.0, 0.0, alive=False), P, r.state)
+    T = 28.0
+    for k in range(1, 200):   # a pad that follows the setpoint a cycle late (the ramp waits for a lagging one)
+        r = step(S(t=0.01 * k, T=T), PeerValues(28.0, 0.0, alive=False), P, r.state)
         sps.append(r.status.setpoint_C)
+        T = r.status.setpoint_C
         if r.status.safety_state is SafetyState.CUT:
             break
     assert r.current_A == 0.0 and abs(sps[-1] - 32.0) <= 0.3
     assert all(b - a <= 0.05 + 1e-9 for a, b in zip(sps, sps[1:]))
     assert r.status.error_register == 0x11
+
+
+def test_peer_lost_with_a_pad_that_does_not_follow_cuts_at_the_neutral_timeout():
+    st = init_state(P, None, S(T=28.0))
+    r = step(S(T=28.0), PeerValues(28.0, 0.0), P, st)
+    n = int(P.safety.neutral_timeout_s / P.period_s)
+    for k in range(1, n + 2):
+        r = step(S(t=0.01 * k, T=28.0), PeerValues(28.0, 0.0, alive=False), P, r.state)
+        if k < n - 1:
+            assert r.status.setpoint_C <= 28.0 + P.safety.trip_lead_C + 1e-9 and r.current_A > 0.0
+    assert r.status.safety_state is SafetyState.CUT and r.current_A == 0.0
 
 
 def test_no_peer_in_telepresence_is_peer_lost():
@@ -284,3 +298,60 @@ def test_a_fault_reset_does_not_restart_an_identification_experiment():
     assert not st.env.trips
     r = step(S(t=0.21), None, p, st)
     assert r.state.ident_k == 22                               # the plan goes on (it does not restart at 0)
+
+
+@settings(max_examples=150, deadline=None)
+@given(seq=st.lists(st.tuples(st.floats(15, 43), st.floats(-3, 3), st.floats(-20, 50), st.floats(-10, 10),
+                              st.sampled_from(["ok", "ok", "ok", "lost", "nan", "stale"]), st.booleans()),
+                    min_size=5, max_size=80),
+       kp=st.floats(0, 20), ki=st.floats(0, 50), kq=st.floats(-5, 5), kpq=st.floats(0, 5))
+def test_peer_trips_never_step_the_current_beyond_the_slew(seq, kp, ki, kq, kpq):
+    """Random gains, contacts (flux, the contact flag), peers (values, loss, NaN, stale) through the whole core:
+    while a peer trip is latched and no hard cut, the commanded current falls towards 0 A or grows by at most
+    trip_slew_A_per_s·period_s per step; |I| <= I_limit_A and the setpoint within [15, 43] °C always."""
+    p = CoreParams(role=Role.MASTER, kp_A_per_C=kp, ki_A_per_C_s=ki, kQ_A_per_W=kq, kpQ_A_per_W=kpq)
+    lim = p.safety
+    step_A = lim.trip_slew_A_per_s * p.period_s
+    r = step(S(), PeerValues(33.0, 0.0), p, init_state(p, None, S()))
+    for k, (T, Q, pe, pq, kind, contact) in enumerate(seq, start=1):
+        peer = {"ok": PeerValues(pe, pq), "lost": PeerValues(pe, pq, fresh=False, alive=False),
+                "nan": PeerValues(math.nan, pq), "stale": PeerValues(pe, pq, fresh=False)}[kind]
+        prev = r.current_A
+        r = step(S(t=0.01 * k, T=T, Q=Q, I=prev, contact=contact), peer, p, r.state)
+        I = r.current_A
+        assert math.isfinite(I) and abs(I) <= lim.I_limit_A + 1e-12
+        assert 15.0 <= r.status.setpoint_C <= 43.0
+        trips = set(r.status.trips)
+        if trips & {Trip.PEER_LOST, Trip.PEER_INVALID} and not trips - {Trip.PEER_LOST, Trip.PEER_INVALID}:
+            assert min(prev, 0.0) - step_A - 1e-12 <= I <= max(prev, 0.0) + step_A + 1e-12, (prev, I, trips)
+
+
+@settings(max_examples=150, deadline=None)
+@given(valid=st.lists(st.floats(15, 43), min_size=1, max_size=20),
+       own=st.lists(st.tuples(st.floats(15, 43), st.floats(-3, 3)), min_size=5, max_size=80),
+       pattern=st.lists(st.sampled_from(["frozen", "stale", "burst"]), min_size=5, max_size=80))
+def test_a_starved_peer_cannot_make_the_setpoint_climb(valid, own, pattern):
+    """The flood aftermath (issue 12): a peer alive but starved never drives the master's setpoint beyond the values
+    it was given. Values frozen or stale (fresh False): the setpoint moves towards the last one, never past it;
+    old values re-delivered in bursts as if fresh: the setpoint stays within [min, max] of the setpoint when the
+    starvation began and the values received. Any pad temperature, flux, gains of the shipped master."""
+    p = dataclasses.replace(default_params(Role.MASTER, period_s=0.01), air_rendering=False)
+    r = step(S(contact=True), PeerValues(33.0, 0.0), p, init_state(p, None, S(contact=True)))
+    history = []
+    for k, T_o in enumerate(valid, start=1):
+        history.append(PeerValues(T_o, 0.0))
+        r = step(S(t=0.01 * k, contact=True), history[-1], p, r.state)
+    sp0, last = r.status.setpoint_C, history[-1]
+    lo, hi = min([sp0] + [h.estimate_C for h in history]), max([sp0] + [h.estimate_C for h in history])
+    sp = sp0
+    for i, (kind, (T, Q)) in enumerate(zip(pattern, own)):
+        peer = {"frozen": last, "stale": dataclasses.replace(last, fresh=False),
+                "burst": history[i % len(history)]}[kind]
+        r = step(S(t=0.01 * (len(valid) + 1 + i), T=T, Q=Q, contact=True), peer, p, r.state)
+        new = r.status.setpoint_C
+        assert not (set(r.status.trips) & {Trip.PEER_LOST, Trip.PEER_INVALID})
+        assert lo - 1e-9 <= new <= hi + 1e-9
+        if kind != "burst" and all(k != "burst" for k in pattern[:i]):
+            P = last.estimate_C
+            assert abs(new - P) <= abs(sp - P) + 1e-9 and (new - P) * (sp - P) >= -1e-12
+        sp = new

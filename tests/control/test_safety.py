@@ -1,4 +1,5 @@
 """The safety envelope as a pure function: trips, EMCY codes, ramps, guards, peer loss."""
+import dataclasses
 import math
 
 import pytest
@@ -168,3 +169,64 @@ def test_trips_mask_round_trip_and_documented_bits():
     every = list(Trip)
     assert trips_from_mask(trips_mask(every)) == every and trips_mask(every) == (1 << len(every)) - 1
     assert trips_from_mask(0x8000 | 0x008) == [Trip.MODEL_MISMATCH]   # unknown bits ignored
+
+
+def _grows_within_slew(prev, i, step):
+    """The trip slew's promise: towards 0 A at once, beyond the previous current (or 0 A) by <= step."""
+    return min(prev, 0.0) - step - 1e-12 <= i <= max(prev, 0.0) + step + 1e-12
+
+
+@settings(max_examples=300, deadline=None)
+@given(seq=st.lists(st.tuples(st.floats(-5, 5), st.floats(10, 50), st.floats(0, 3), st.booleans(), st.booleans(),
+                              st.sampled_from(["ok", "ok", "ok", "nan_sensor", "hot_sink"])), min_size=2, max_size=60),
+       slew=st.floats(0.1, 20), lead=st.floats(0.1, 5), I0=st.floats(-1.6, 1.6))
+def test_peer_trips_slew_the_current_and_the_envelope_holds(seq, slew, lead, I0):
+    """Random requests (any controller, any gains), surfaces, peers and trips: while a peer trip is latched and
+    no hard cut, the current falls to 0 A at once or grows at most trip_slew_A_per_s; a hard cut is 0 A at once;
+    |I| <= I_limit_A, the setpoint within the clamps, no heating within guard_C of T_max_C."""
+    lim = sf.SafetyLimits(I_max_A=2.0, trip_slew_A_per_s=slew, trip_lead_C=lead)
+    dt = 0.01
+    state, prev = sf.EnvelopeState(setpoint_C=33.0), I0
+    for req_A, T, span, alive, ok, fault in seq:
+        e = inp(T=math.nan if fault == "nan_sensor" else T, hi=T + span, lo=T, req=True, alive=alive, ok=ok,
+                sink=60.0 if fault == "hot_sink" else 26.0)
+        if fault == "nan_sensor":
+            e = dataclasses.replace(e, surface_hi_C=math.nan, surface_lo_C=math.nan)
+        sp, state, _, _ = sf.envelope_step(lim, state, e, T, dt)
+        i, act = sf.limit_current(lim, state, req_A, e.surface_hi_C, e.surface_lo_C, prev, dt)
+        assert math.isfinite(i) and abs(i) <= lim.I_limit_A + 1e-12
+        assert lim.T_min_C <= sp <= lim.T_max_C
+        if state.trips & sf.CUT_TRIPS:
+            assert i == 0.0
+        elif state.trips & sf.PEER_TRIPS:
+            assert _grows_within_slew(prev, i, slew * dt)
+        if math.isfinite(e.surface_hi_C) and e.surface_hi_C >= lim.T_max_C - lim.guard_C:
+            assert i <= 0.0
+        prev = i
+
+
+def test_the_neutral_ramp_waits_for_a_lagging_surface():
+    """A peer trip with the pad at 18 °C: the setpoint leads the surface by at most trip_lead_C (it waits), and
+    without the lead bound (research: inf) it runs ahead at the ramp limit."""
+    for lead, expect in ((1.5, 18.0 + 1.5), (math.inf, 18.0 + 100 * 0.05)):
+        lim = sf.SafetyLimits(I_max_A=2.0, trip_lead_C=lead, research=lead == math.inf)
+        s, out = run(lim, sf.EnvelopeState(setpoint_C=18.0), inp(T=18.0, req=True, alive=False), 18.0, 100)
+        assert out[-1][0] == pytest.approx(expect)
+        assert all(b >= a for a, b in zip([o[0] for o in out], [o[0] for o in out][1:]))
+
+
+def test_slew_off_needs_research_and_hard_cuts_stay_immediate():
+    with pytest.raises(ValueError, match="trip_slew_A_per_s"):
+        sf.SafetyLimits(trip_slew_A_per_s=math.inf)
+    with pytest.raises(ValueError, match="trip_slew_A_per_s"):
+        sf.SafetyLimits(trip_slew_A_per_s=0.0)
+    s = sf.EnvelopeState(setpoint_C=30.0, trips=frozenset({sf.Trip.PEER_LOST}))
+    # full cooling requested to full heating: only one slew step beyond 0 A
+    i, act = sf.limit_current(L, s, 1.6, 30.0, 30.0, -1.6, 0.01)
+    assert i == pytest.approx(L.trip_slew_A_per_s * 0.01) and "slew" in act
+    # a hard cut on top of the peer trip: 0 A at once
+    s2 = dataclasses.replace(s, trips=s.trips | {sf.Trip.HEAT_SINK}, cut=True)
+    assert sf.limit_current(L, s2, 1.6, 30.0, 30.0, 1.6, 0.01) == (0.0, ("cut",))
+    # the peer trip's own cut slews to 0 A? no: towards 0 A is immediate (as a cut), only growth is slewed
+    s3 = dataclasses.replace(s, cut=True)
+    assert sf.limit_current(L, s3, 1.6, 30.0, 30.0, 1.2, 0.01)[0] == 0.0

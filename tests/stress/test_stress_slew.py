@@ -1,0 +1,14 @@
+"""Fast subset of the surface-rate-around-trips case (bench/stress_slew.py)."""
+from bench import stress_slew as s
+from bench.stress_case import assert_passed
+
+
+def test_peer_trip_in_a_cold_contact_keeps_the_surface_within_ramp_plus_one():
+    res = s.case_surface_rate(contacts=("cold_al_18C",), events=("peer_lost_no_fallback", "sensor_nan"),
+                              after_touch_s=(2.0,))
+    assert_passed(res)
+    rows = {r["event"]: r for r in res["figures"]["surface_rate_cases"]}
+    # the case can fail: the code path before the slew moves the surface faster than the bound here
+    assert rows["peer_lost_no_fallback"]["rate_before_C_per_s"] > s.RATE_LIMIT_C_PER_S
+    assert rows["peer_lost_no_fallback"]["rate_slew_C_per_s"] <= s.RATE_LIMIT_C_PER_S
+    assert res["headline"]["surface_rate_limit_C_per_s"] == 6.0
