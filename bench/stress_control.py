@@ -7,6 +7,7 @@ touches, ``RigTruth.T_contact_face_C``), which no controller sees. The envelope 
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -245,26 +246,47 @@ def case_sync_loss_bursts(duration_s: float = 120.0, seed: int = 3) -> dict:
     return c.result()
 
 
-def case_real32(duration_s: float = 15.0) -> dict:
-    """REAL32 rounding of the exchanged values changes the session by less than 1e-3."""
-
-    c = Case("control_real32_rounding",
-             "the guiatni §5.3 scene run offline twice, the exchanged estimates and fluxes exact or rounded to "
-             "REAL32 (as the PDOs carry them): both sides' currents differ by <= 1e-3 A and estimates by "
-             "<= 1e-3 °C at every step (the rounding, ~2e-6 °C at 33 °C, is not amplified by the loop)")
-    a = run_offline_session("probe_touches_al_steel_wood", duration_s=duration_s, rounding="none")
-    b = run_offline_session("probe_touches_al_steel_wood", duration_s=duration_s, rounding="real32")
+def _real32_diffs(c: Case, sc, duration_s: float, tag: str) -> dict[str, tuple[float, float]]:
+    """Run ``sc`` offline exact and REAL32-rounded; per side (max |ΔI| A, max |Δestimate| °C), figures ``tag``."""
+    a = run_offline_session(sc, duration_s=duration_s, rounding="none")
+    b = run_offline_session(sc, duration_s=duration_s, rounding="real32")
     ra, rb = a.recording, b.recording
+    out = {}
     for side in ("m", "s"):
         dIs = np.abs(ra.col(f"{side}_current_A") - rb.col(f"{side}_current_A"))
         dI = float(np.nanmax(dIs))
         dT = float(np.nanmax(np.abs(ra.col(f"{side}_estimate_C") - rb.col(f"{side}_estimate_C"))))
-        c.fig(**{f"{side}_max_current_diff_A": dI, f"{side}_max_estimate_diff_C": dT,
-                 f"{side}_median_current_diff_A": float(np.nanmedian(dIs)),
-                 f"{side}_p99_current_diff_A": float(np.nanpercentile(dIs, 99)),
-                 f"{side}_max_current_diff_at_s": float(ra.col("t_s")[int(np.nanargmax(dIs))])})
-        c.require(dI <= 1e-3, f"{side}: currents differ by {dI:.3g} A <= 1e-3 A")
-        c.require(dT <= 1e-3, f"{side}: estimates differ by {dT:.3g} °C <= 1e-3 °C")
+        c.fig(**{f"{tag}{side}_max_current_diff_A": dI, f"{tag}{side}_max_estimate_diff_C": dT,
+                 f"{tag}{side}_median_current_diff_A": float(np.nanmedian(dIs)),
+                 f"{tag}{side}_p99_current_diff_A": float(np.nanpercentile(dIs, 99)),
+                 f"{tag}{side}_max_current_diff_at_s": float(ra.col("t_s")[int(np.nanargmax(dIs))])})
+        out[side] = (dI, dT)
+    return out
+
+
+def case_real32(duration_s: float = 15.0) -> dict:
+    """REAL32 rounding of the exchanged values changes the session by less than 1e-3, and by no more than
+    two ADC steps' worth where the rigs quantise."""
+    c = Case("control_real32_rounding",
+             "the guiatni §5.3 scene run offline twice, the exchanged estimates and fluxes exact or rounded to "
+             "REAL32 (as the PDOs carry them). With a continuous measurement chain (ADC quantisation off, noise "
+             "on): both sides' currents differ by <= 1e-3 A and estimates by <= 1e-3 °C at every step (the "
+             "rounding, ~2e-6 °C at 33 °C, is not amplified by the loop). With the rigs' 16-bit ADCs: a 2e-6 °C "
+             "difference can flip an ADC code (1.5 mK), a step the loop sees as it would see noise; estimates "
+             "then differ by <= 2 ADC steps and currents by <= 2 steps through the proportional gains "
+             "(kp·T_lsb + kpQ·Q_lsb per step)")
+    sc = sim.load_scene("probe_touches_al_steel_wood")
+    continuous = dataclasses.replace(sc, noise=dataclasses.replace(sc.noise, T_lsb_C=0.0, Q_lsb_W=0.0))
+    for side, (dI, dT) in _real32_diffs(c, continuous, duration_s, "").items():
+        c.require(dI <= 1e-3, f"{side} (no ADC): currents differ by {dI:.3g} A <= 1e-3 A")
+        c.require(dT <= 1e-3, f"{side} (no ADC): estimates differ by {dT:.3g} °C <= 1e-3 °C")
+    T_lsb, Q_lsb = sc.noise.T_lsb_C, sc.noise.Q_lsb_W
+    for side, (dI, dT) in _real32_diffs(c, sc, duration_s, "adc_").items():
+        p = default_params(Role.MASTER if side == "m" else Role.SLAVE)
+        dI_max = 2.0 * (abs(p.kp_A_per_C) * T_lsb + abs(p.kpQ_A_per_W) * Q_lsb)
+        c.fig(**{f"adc_{side}_bound_current_A": dI_max, f"adc_{side}_bound_estimate_C": 2.0 * T_lsb})
+        c.require(dI <= dI_max, f"{side} (16-bit ADC): currents differ by {dI:.3g} A <= {dI_max:.3g} A (2 ADC steps)")
+        c.require(dT <= 2.0 * T_lsb, f"{side} (16-bit ADC): estimates differ by {dT:.3g} °C <= {2 * T_lsb:.3g} °C")
     return c.result()
 
 
