@@ -436,7 +436,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     # 4. envelope on setpoint (no peer needed while the link-loss fallback renders); bumpless re-seed of the
     # ramp at the render contact switch
     env_in = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, e.s_hi, e.s_lo, T_pred,
-                              mode is Mode.TELEPRESENCE and not fallback, peer_alive, peer_ok)
+                              mode is Mode.TELEPRESENCE and not fallback, peer_alive, peer_ok, fallback)
     switched = r.source != state.source
     env0 = _seeded_envelope(params, state, r, est, switched)
     sp, env, env_active, new_trips = sf.envelope_step(lim, env0, env_in, r.req, dt)
@@ -445,7 +445,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     err = sp - y
     u_req, pi_st, comps, ident_k, ident_guard = _control(sample, params, state, r, err, env, switched)
     # 6. envelope on current (slewed from the previous step's current while a peer trip is latched)
-    current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo, state.u_prev_A, dt)
+    current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo, state.u_prev_A, dt, fallback)
     if current != u_req:
         # the envelope overrode the controller: keep the integrator consistent (no windup behind it)
         pi_st = bumpless(r.gains, current, err, r.ff, -I_lim, I_lim, flux_error_W=r.eQ, flux_gains=r.fg)

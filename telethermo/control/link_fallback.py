@@ -13,7 +13,8 @@ sent in its contact PDO), the master instead renders that material itself, as th
   T_f0), T_o0 is eq. 1 inverted from the object's surface temperature the slave sent last (its estimate,
   eq. 31: the contact face), T_o0 = T_s + (T_s − T_f0)/β: the render then starts at the temperature
   telepresence was showing. Either way the envelope's ramp limit carries the setpoint from telepresence's
-  last value to the render;
+  last value to the render, and its trip slew and lead bound (:mod:`telethermo.control.safety`) keep the pad
+  surface within the ramp limit + 1 °C/s where the touch itself does not move faster (bench/stress_slew.py);
 - then the later-phase model (:mod:`telethermo.control.later_phase`, the render default: the conduction model
   of a :data:`FALLBACK_THICKNESS_MM` block of the material, adiabatic back), driven by the flux the finger
   sends into the pad, from the instant of the loss;

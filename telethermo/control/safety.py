@@ -20,7 +20,9 @@ What the envelope enforces (defaults in :class:`SafetyLimits`):
   ``mismatch_time_s``: current cut;
 - **peer**: lost (heartbeat/PDO timeout) or non-finite/absurd values: the setpoint ramps to
   ``neutral_C`` (32 °C) and then the current is cut. A bad peer value never reaches the command;
-- **trip slew**: while a peer trip is latched (its ramp to neutral and the cut that ends it) the current
+- **trip slew**: while a peer trip is latched (its ramp to neutral and the cut that ends it), and while the
+  master's link-loss fallback renders (``EnvelopeInput.link_fallback``: it too drops telepresence's
+  feed-forward and flux terms in one step), the current
   may fall towards 0 A at once but grows (beyond the previous step's, or beyond 0 A the other way) at most
   at ``trip_slew_A_per_s`` (:func:`limit_current` with ``previous_A``), and the neutral ramp's setpoint
   leads the credible surface by at most ``trip_lead_C``. The peer trip removes the controller's
@@ -264,6 +266,9 @@ class EnvelopeInput:
         T_pred_C: the model's prediction, °C (NaN: no mismatch check).
         peer_required: the mode needs a peer (telepresence).
         peer_alive, peer_ok: the node's link state; the peer's values are finite and plausible.
+        link_fallback: the master renders locally because the slave is lost (issue 15's graceful link loss):
+            the same trip slew and lead bound as under a peer trip apply (its start replaces telepresence's
+            feed-forward and flux terms in one step, as a peer trip does).
     """
 
     T_sensor_C: float
@@ -276,6 +281,7 @@ class EnvelopeInput:
     peer_required: bool
     peer_alive: bool
     peer_ok: bool
+    link_fallback: bool = False
 
 
 def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput,
@@ -369,7 +375,7 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     sp = min(max(clamped, prev - down), prev + up)
     if sp != clamped:
         active.append("ramp")
-    if peer_trip:
+    if peer_trip or inp.link_fallback:
         sp = _lead_bound(limits, prev, sp, inp)
 
     cut = state.cut or bool(trips & CUT_TRIPS)
@@ -398,7 +404,7 @@ def slewing(state: EnvelopeState) -> bool:
 
 def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float, surface_hi_C: float,
                   surface_lo_C: float, previous_A: float = math.nan,
-                  dt_s: float = 0.0) -> tuple[float, tuple[str, ...]]:
+                  dt_s: float = 0.0, link_fallback: bool = False) -> tuple[float, tuple[str, ...]]:
     """The current that may reach the TEM, A, and the limits that acted.
 
     NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
@@ -410,9 +416,10 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
     other direction) by at most ``trip_slew_A_per_s``·``dt_s`` ("slew"): the feed-forward that a peer trip
     removes can no longer flip the drive from full cooling to full heating in one step. The guard's and the
     current limit's caps still act at once. A hard cut (:data:`CUT_TRIPS`), a non-finite request or surface
-    band give 0 A at once.
+    band give 0 A at once. ``link_fallback``: the master's link-loss fallback renders (the same slew, no hard cut).
     """
-    slew = slewing(state) and math.isfinite(previous_A) and dt_s > 0.0
+    slew = (slewing(state) or (link_fallback and not state.trips & CUT_TRIPS)) and math.isfinite(previous_A) \
+        and dt_s > 0.0
     if (state.cut and not slew) or not math.isfinite(requested_A):
         return 0.0, ("cut",)
     if not (math.isfinite(surface_hi_C) and math.isfinite(surface_lo_C)):

@@ -178,27 +178,30 @@ def _grows_within_slew(prev, i, step):
 
 @settings(max_examples=300, deadline=None)
 @given(seq=st.lists(st.tuples(st.floats(-5, 5), st.floats(10, 50), st.floats(0, 3), st.booleans(), st.booleans(),
-                              st.sampled_from(["ok", "ok", "ok", "nan_sensor", "hot_sink"])), min_size=2, max_size=60),
+                              st.sampled_from(["ok", "ok", "ok", "nan_sensor", "hot_sink"]), st.booleans()),
+                    min_size=2, max_size=60),
        slew=st.floats(0.1, 20), lead=st.floats(0.1, 5), I0=st.floats(-1.6, 1.6))
 def test_peer_trips_slew_the_current_and_the_envelope_holds(seq, slew, lead, I0):
-    """Random requests (any controller, any gains), surfaces, peers and trips: while a peer trip is latched and
-    no hard cut, the current falls to 0 A at once or grows at most trip_slew_A_per_s; a hard cut is 0 A at once;
-    |I| <= I_limit_A, the setpoint within the clamps, no heating within guard_C of T_max_C."""
+    """Random requests (any controller, any gains), surfaces, peers, trips and link-loss fallbacks: while a peer
+    trip is latched or the fallback renders, and no hard cut, the current falls to 0 A at once or grows at most
+    trip_slew_A_per_s; a hard cut is 0 A at once; |I| <= I_limit_A, the setpoint within the clamps, no heating
+    within guard_C of T_max_C."""
     lim = sf.SafetyLimits(I_max_A=2.0, trip_slew_A_per_s=slew, trip_lead_C=lead)
     dt = 0.01
     state, prev = sf.EnvelopeState(setpoint_C=33.0), I0
-    for req_A, T, span, alive, ok, fault in seq:
-        e = inp(T=math.nan if fault == "nan_sensor" else T, hi=T + span, lo=T, req=True, alive=alive, ok=ok,
+    for req_A, T, span, alive, ok, fault, fallback in seq:
+        e = inp(T=math.nan if fault == "nan_sensor" else T, hi=T + span, lo=T, req=not fallback, alive=alive, ok=ok,
                 sink=60.0 if fault == "hot_sink" else 26.0)
+        e = dataclasses.replace(e, link_fallback=fallback)
         if fault == "nan_sensor":
             e = dataclasses.replace(e, surface_hi_C=math.nan, surface_lo_C=math.nan)
         sp, state, _, _ = sf.envelope_step(lim, state, e, T, dt)
-        i, act = sf.limit_current(lim, state, req_A, e.surface_hi_C, e.surface_lo_C, prev, dt)
+        i, act = sf.limit_current(lim, state, req_A, e.surface_hi_C, e.surface_lo_C, prev, dt, fallback)
         assert math.isfinite(i) and abs(i) <= lim.I_limit_A + 1e-12
         assert lim.T_min_C <= sp <= lim.T_max_C
         if state.trips & sf.CUT_TRIPS:
             assert i == 0.0
-        elif state.trips & sf.PEER_TRIPS:
+        elif state.trips & sf.PEER_TRIPS or fallback:
             assert _grows_within_slew(prev, i, slew * dt)
         if math.isfinite(e.surface_hi_C) and e.surface_hi_C >= lim.T_max_C - lim.guard_C:
             assert i <= 0.0

@@ -12,3 +12,14 @@ def test_peer_trip_in_a_cold_contact_keeps_the_surface_within_ramp_plus_one():
     assert rows["peer_lost_no_fallback"]["rate_before_C_per_s"] > s.RATE_LIMIT_C_PER_S
     assert rows["peer_lost_no_fallback"]["rate_slew_C_per_s"] <= s.RATE_LIMIT_C_PER_S
     assert res["headline"]["surface_rate_limit_C_per_s"] == 6.0
+
+
+def test_link_loss_fallback_start_in_a_warm_touch_keeps_the_surface_within_ramp_plus_one():
+    """The fallback replaces telepresence's feed-forward and flux terms in one step, as a peer trip does: the
+    envelope slews and lead-bounds it the same way (before: 7.5 °C/s in a 40 °C oak touch moving at 3.5 alone)."""
+    res = s.case_surface_rate(contacts=("warm_wood_40C",), events=("peer_lost",), after_touch_s=(0.5,))
+    assert_passed(res)
+    (row,) = res["figures"]["surface_rate_cases"]
+    assert row["rate_fallback_no_event_C_per_s"] < s.RATE_LIMIT_C_PER_S
+    assert row["rate_fallback_before_C_per_s"] > s.RATE_LIMIT_C_PER_S       # the case can fail
+    assert row["rate_fallback_C_per_s"] <= s.RATE_LIMIT_C_PER_S
