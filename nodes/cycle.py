@@ -19,7 +19,6 @@ import math
 import time
 from typing import TYPE_CHECKING
 
-import dataclasses
 
 from telethermo.cia301 import ABORT_DEVICE_STATE, EMCY_LINK_FALLBACK
 from telethermo.device.device import SyncTick
@@ -143,11 +142,9 @@ class ControlCycle:
             rt.peer.on_pdo(self._r_peer_est(), self._r_peer_q())
         if 2 in tick.fresh_rpdos:
             rt.peer.on_contact(bool(self._r_peer_contact()))
-        peer = rt.peer.take()
-        if peer is not None:   # the slave's identification, as its contact PDO (RPDO2) and RPDO3 last brought it
-            code, beta, touch, T_o0 = (r() for r in self._r_peer_material)
-            peer = dataclasses.replace(peer, material_code=int(code), material_beta=float(beta), material_touch=int(touch),
-                                       material_T_object0_C=float(T_o0) if code else float("nan"))
+        # the slave's identification, as its contact PDO (RPDO2) and RPDO3 last brought it
+        code, beta, touch, T_o0 = [r() for r in self._r_peer_material]
+        peer = rt.peer.take((int(code), float(beta), int(touch), float(T_o0) if code else math.nan))
         if rt.settings.mode is Mode.RENDER:
             peer = None  # rendering needs no peer (as offline)
             rt.settings.select_render_touch(sample.t_s)

@@ -110,8 +110,10 @@ class PeerLink:
         return peer_alive(heartbeat_ok=self._hb_ok and self._bus_ok, seen=self._ever, missed_cycles=self._missed,
                           max_missed_cycles=self.max_missed_cycles)
 
-    def take(self) -> PeerValues | None:
-        """The values for this cycle (None before the first PDO or :meth:`start_with`); marks them consumed."""
+    def take(self, material: tuple[int, float, int, float] | None = None) -> PeerValues | None:
+        """The values for this cycle (None before the first PDO or :meth:`start_with`); marks them consumed.
+        ``material``: the slave's identification as its PDOs last brought it (code, beta, touches, T_object0 °C),
+        carried in the same PeerValues (one object per cycle, no copy)."""
         with self._lock:
             if self._fresh:
                 self._missed = 0
@@ -129,5 +131,8 @@ class PeerLink:
                     self.counters.losses += 1
             self._alive_reported = alive
             fresh, self._fresh = self._fresh, False
-            return PeerValues(estimate_C=self._estimate_C, flux_W=self._flux_W, fresh=fresh, alive=alive,
-                              contact=self._contact)
+            if material is None:
+                return PeerValues(estimate_C=self._estimate_C, flux_W=self._flux_W, fresh=fresh, alive=alive,
+                                  contact=self._contact)
+            code, beta, touch, T_o0 = material
+            return PeerValues(self._estimate_C, self._flux_W, fresh, alive, self._contact, code, beta, touch, T_o0)

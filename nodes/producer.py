@@ -30,6 +30,7 @@ if TYPE_CHECKING:
     from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
+_STOPPED = int(NmtState.STOPPED)
 
 
 def wait_for_peer(rt: "NodeRuntime", timeout_s: float) -> bool:
@@ -40,6 +41,12 @@ def wait_for_peer(rt: "NodeRuntime", timeout_s: float) -> bool:
             return True
         rt.stop_event.wait(0.01)
     return False
+
+
+def peer_paused(rt: "NodeRuntime") -> bool:
+    """The peer answers no SYNC: it left OPERATIONAL (its heartbeat said so, ``rt.peer_paused``), or its last
+    heartbeat reports STOPPED, whatever event brought that heartbeat (a stopped node never owes a PDO)."""
+    return rt.peer_paused or rt.device.peer_state(rt.peer_id) == _STOPPED
 
 
 class _PeerDebt:
@@ -60,8 +67,9 @@ class _PeerDebt:
         return self.rt.peer_boots, self.rt.peer_pauses, self.rt.nmt_leaves
 
     def refresh(self, status: str) -> None:
-        """A peer lost, never seen, rebooted, stopped/pre-operational or started again owes nothing (the SYNCs
-        it did not answer are never answered); when we left OPERATIONAL its PDOs were dropped."""
+        """A peer lost, never seen, paused (``status`` "paused": stopped/pre-operational), rebooted or started
+        again owes nothing (the SYNCs it did not answer are never answered); when we left OPERATIONAL its PDOs
+        were dropped."""
         if status != "alive" or self._marks != self._events():
             self.owed, self.base, self._marks = 0, self.rt.device.rpdo_count(self.last), self._events()
 
@@ -77,7 +85,7 @@ class _PeerDebt:
         while not arrived and waited < patience_s and not rt.stop_event.is_set():
             arrived = dev.wait_rpdo(self.last, after=self.base + self.owed - 1, timeout=wait_s)
             waited += wait_s
-            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or rt.peer_paused
+            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or peer_paused(rt)
                                 or rt.bus_outage.peer_unreachable or self.left_operational()):
                 break
         if arrived:
@@ -125,9 +133,9 @@ def run_producer(rt: "NodeRuntime", cycles: int, *, progress_every: int = 0,
             late_log.cycle(k, late, lateness)
         # no bus, or back before the peer's: nobody answers (nodes.bus_outage)
         status = dev.peer_status(rt.peer_id) if not rt.bus_outage.peer_unreachable else "lost"
-        debt.refresh(status)
-        if rt.peer_paused:
+        if peer_paused(rt):
             status = "paused"
+        debt.refresh(status)
         rt.mark_sync_sent()
         if sync.transmit() is None:  # holds the device lock until our own SYNC k is processed (no early PDO k)
             continue   # stopped by an NMT command that came while we waited for the slot: no SYNC sent

@@ -256,7 +256,10 @@ class NodeRuntime:
             if ev.kind == "bootup":
                 self.peer_boots += 1
                 self.peer_paused = False
-            if ev.kind == "state":
+            # the state a heartbeat reports after a loss is news too: a heartbeat late around an NMT STOP turns
+            # the STOPPED report into a "back", not a "state" (the lockstep producer then waited for PDOs the
+            # stopped peer never sends, 2.5 s per cycle); a first heartbeat may report STOPPED as well
+            if ev.kind in ("state", "back") or (ev.kind == "seen" and ev.state == int(NmtState.STOPPED)):
                 self._on_peer_state(ev)
             if ev.kind == "back":
                 log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
@@ -271,7 +274,10 @@ class NodeRuntime:
     def _on_peer_state(self, ev: PeerEvent) -> None:
         """Another NMT master stopped the peer or put it into PRE-OPERATIONAL (or started it again): a peer
         that left OPERATIONAL answers no SYNC, so it owes no PDO (lockstep). Only a change from OPERATIONAL
-        counts: before its first start a peer owes its PDOs from the start on."""
+        counts: before its first start a peer owes its PDOs from the start on. A boot-up (state 0, also as
+        "back" after a loss) is the "bootup" event's."""
+        if not ev.state:
+            return
         paused = ev.state != int(NmtState.OPERATIONAL)
         if paused != self.peer_paused and (paused or self.peer_paused):
             self.peer_paused = paused

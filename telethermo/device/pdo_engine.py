@@ -40,7 +40,10 @@ class PdoEngine:
         self.listeners: list[Callable[[RpdoEvent], None]] = []
         self._subs: list[tuple[int, Callable]] = []
         self._counts: dict[int, int] = {n: 0 for n in self.rpdos}
-        self._cond = threading.Condition()
+        # one condition per RPDO channel (one lock): a waiter for channel n (the lockstep producer waits for
+        # the last synchronous one) is woken by that channel's PDO only, not by every RPDO of the cycle
+        self._count_lock = threading.Lock()
+        self._conds = {n: threading.Condition(self._count_lock) for n in self.rpdos}
 
     # ------------------------------------------------------------------ configuration
     def param_written(self, index: int, sub: int, value: int, old: bytes | None) -> None:
@@ -129,9 +132,10 @@ class PdoEngine:
             plan.bad_length = False
             for code in (EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED):
                 self.emcy.clear(code, source=f"pdo-length{plan.number}")
-        with self._cond:
+        cond = self._conds[plan.number]
+        with cond:
             self._counts[plan.number] += 1
-            self._cond.notify_all()
+            cond.notify_all()
         if self.listeners:
             core.call(self.listeners, RpdoEvent(plan.number, plan.decode(data), self.last_sync_counter(), timestamp))
 
@@ -152,8 +156,9 @@ class PdoEngine:
 
     def wait_rpdo(self, number: int, *, after: int, timeout: float) -> bool:
         """Block until more than ``after`` RPDOs of channel ``number`` were accepted; False on timeout."""
-        with self._cond:
-            return self._cond.wait_for(lambda: self._counts[number] > after, timeout)
+        cond, counts = self._conds[number], self._counts
+        with cond:
+            return cond.wait_for(lambda: counts[number] > after, timeout)
 
     # ------------------------------------------------------------------ TPDO
     def send_sync_tpdos(self, counter: int | None) -> None:

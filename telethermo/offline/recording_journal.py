@@ -122,13 +122,13 @@ class CsvRecorder:
 
     def write(self, row: Mapping[str, Any] | Sequence[Any]) -> None:
         if isinstance(row, Mapping):
-            values = [row[c] for c in self.columns]
+            values = map(row.__getitem__, self.columns)
+        elif len(row) != len(self.columns):
+            raise ValueError(f"{self.path}: row has {len(row)} values, expected {len(self.columns)}")
         else:
-            if len(row) != len(self.columns):
-                raise ValueError(f"{self.path}: row has {len(row)} values, expected {len(self.columns)}")
-            values = list(row)
+            values = row
         # the csv module writes a float as str(), the shortest round-trip form (== repr for a float),
-        # so only booleans need converting (to 0/1): no per-value function call on the per-SYNC path
+        # so only booleans need converting (to 0/1): one pass, no per-value function call on the per-SYNC path
         values = [int(v) if v.__class__ is bool else v for v in values]
         with self._io:
             self._writer.writerow(values)
