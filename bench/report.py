@@ -65,6 +65,14 @@ HEADLINE = [
      "(0 frames lost)", "≥ 8000"),
     ("monitor", "hub_live_ratio_vs_anchor", "that rate / python-can's socketcand `recv()` over the same hub, same run",
      "report"),
+    ("realtime", "peer_lost_trips_10min_loaded", "peer-lost trips, 10 min at 100 Hz real time over the hub, 2 busy "
+     "processes and `telethermo status` every 3 s, nodes with `--rt-priority 50 --gc freeze`", "0"),
+    ("realtime", "late_fraction", "late cycles / cycles in that run", "report"),
+    ("realtime", "latency_p99_ms", "SYNC -> master TPDO1 latency p99 in that run, ms", "report"),
+    ("realtime_no_rt", "peer_lost_trips_10min_loaded", "the same run without the real-time options (`--no-rt`): "
+     "peer-lost trips", "baseline"),
+    ("realtime_no_rt", "late_fraction", "without the options: late cycles / cycles", "baseline"),
+    ("realtime_no_rt", "latency_p99_ms", "without the options: SYNC -> TPDO1 latency p99, ms", "baseline"),
     ("conformance", "n_fail", "CiA 301 checks failed through an independent client (of n_checks), live pair",
      "0"),
     ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),
