@@ -7,11 +7,15 @@ Each touch: the default simulated probe (sim/data/tem_15x15.toml, 10 ms, measure
 filter) rests in air at the finger's natural skin temperature (the pair has been running before: the
 scene start ``"finger"``) under the slave's default controller (telepresence, peer = the finger at that
 temperature), then touches a slab of one of the ten materials, drawn at random: contact force 2–10 N,
-object temperature 15–35 °C, thickness 1–20 mm (uniform), adiabatic back. Only the first 0.5 s after the
-touch is simulated. The estimator (telethermo.control.material_id) sees what the slave's control core sees:
+object temperature 15–35 °C, thickness 1–20 mm (uniform), adiabatic back. Only the first 0.6 s after the
+touch is simulated (the result is published 0.5 s after it). The estimator (telethermo.control.material_id) sees what the slave's control core sees:
 the filtered T_sensor and Q and the rig's contact flag.
 
-Figures: accuracy over all touches (a touch without an estimate counts as wrong), the confusion matrix
+Figures: accuracy over all touches of the class the slave's core published (a touch without an estimate counts
+as wrong; with the shipped calibration, telethermo/data/material_classifier.npz, built by
+bench/material_calibrate.py from reference touches of other seeds: a calibration of unknown or overlapping seeds
+is refused), the physics estimator's alone (``material_id_accuracy_physics``), both again on a held-out set
+of other seeds (``material_id_accuracy_heldout``), the confusion matrix
 (rows: truth, columns: estimate, last column: no estimate), the median |error| of the effusivity, the
 accuracy with the pairs merged that this probe cannot tell apart (mutual confusion ≥ ``MERGE_RATE`` in
 this run), and two baselines in the same run: always the most frequent class, and eq. 1 inverted with the
@@ -21,6 +25,7 @@ slave does not know the object's temperature).
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import time
 from typing import Any
@@ -39,7 +44,7 @@ from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params
 from telethermo.control.estimators import estimate_flux
-from telethermo.control.material_stream import MaterialEstimate
+from telethermo.control.material_stream import MaterialEstimate, MaterialIdParams, calibrated, default_classes, fit_units
 from telethermo.control.types import PeerValues, Role
 
 #: simulator material -> rendering-table name
@@ -47,9 +52,47 @@ SIM_TO_TABLE = {"eps": "eps", "oak": "wood", "pvc": "pvc", "glass": "glass", "ce
                 "stainless_steel": "stainless_steel", "carbon_steel": "carbon_steel", "brass": "brass",
                 "aluminium": "aluminium", "copper": "copper"}
 PERIOD_S = 0.01
-PRE_S, POST_S = 0.2, 0.5
+PRE_S, POST_S = 0.2, 0.6
 AMBIENT_C = 25.0
 MERGE_RATE = 0.2
+#: (draw seed, first simulator seed) of the evaluation touches, of the held-out set (never used for anything but
+#: this report) and of the calibration's reference touches (bench/material_calibrate.py)
+EVALUATION, EVALUATION_N = (15, 1000), 600
+HELDOUT, HELDOUT_N = (2525, 300_000), 600
+CALIBRATION = (1515, 100_000)
+
+
+def draws(n: int, seeds: tuple[int, int]) -> list[dict]:
+    """``n`` touches: material i mod 10, then force 2–10 N, object 15–35 °C, thickness 1–20 mm, onset."""
+    rng = np.random.default_rng(seeds[0])
+    out = []
+    for i in range(n):
+        out.append({"class": i % len(SIM_TO_TABLE), "force_N": float(rng.uniform(2.0, 10.0)),
+                    "T_object_C": float(rng.uniform(15.0, 35.0)), "thickness_m": float(rng.uniform(1.0, 20.0)) * 1e-3,
+                    "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)), "seed": seeds[1] + i})
+    return out
+
+
+def refuse_overlap(n: int, seeds: tuple[int, int]) -> None:
+    """ValueError when a calibration's touch seeds meet the evaluation touches (nothing trained on them is reported)."""
+    lo, hi = EVALUATION[1], EVALUATION[1] + EVALUATION_N
+    if seeds[0] in (EVALUATION[0], HELDOUT[0]) or (seeds[1] < hi and seeds[1] + n > lo) \
+            or (seeds[1] < HELDOUT[1] + HELDOUT_N and seeds[1] + n > HELDOUT[1]):
+        raise ValueError(f"calibration seeds {seeds} (n {n}) overlap the evaluation {EVALUATION} or held-out "
+                         f"{HELDOUT} touches: refused")
+
+
+def check_calibration(p: MaterialIdParams) -> str:
+    """What classifies in this run ("calibrated"/"physics"); refuses a calibration of unknown or overlapping seeds."""
+    if not calibrated(p, PERIOD_S):
+        return "physics"
+    try:
+        info = json.loads(p.calibration.info)
+        n, seeds = int(info["reference_touches"]), (int(info["draw_seed"]), int(info["sim_seed_first"]))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise ValueError(f"calibration of unknown origin (info {p.calibration.info[:80]!r}): refused") from exc
+    refuse_overlap(n, seeds)
+    return "calibrated"
 
 
 def finger_natural_C(params) -> float:
@@ -100,10 +143,10 @@ def tick_figures(step_s: list[np.ndarray], fit_cycles: list[slice], batch_s: lis
             "material_id_core_step_max_ms": round(1e3 * float(np.max(all_s)), 3),
             "material_id_fit_cycle_worst_over_step_median": round(worst_fit / med, 1),
             "material_id_batch_fit_over_step_median": round(batch / med, 1),
-            "material_id_tick_note": ("the fit runs spread over 3 + noise_draws cycles after the window "
-                                      "(telethermo.control.material_stream); fit_cycle_worst: per touch the slowest "
-                                      "of those cycles' core steps, median over touches; batch_fit: the whole fit in "
-                                      "one call (the window's last cycle before); core_step_max: the slowest step of "
+            "material_id_tick_note": ("the fit runs spread over fit_units cycles after the window (2 + noise_draws "
+                                      "+ one per calibrated material, telethermo.control.material_stream); fit_cycle_worst: per touch the slowest "
+                                      "of those cycles' core steps, median over touches; batch_fit: the physics fit in "
+                                      "one call (estimate_effusivity, without the classification); core_step_max: the slowest step of "
                                       "the run (scheduler spikes included); wall times on this machine")}
 
 
@@ -120,6 +163,14 @@ def eq1_baseline(T: np.ndarray, Q: np.ndarray, i0: int, R_sensor: float, b_probe
 def nearest(b: float, names: list[str], lb: np.ndarray) -> int:
     """Index of the nearest table effusivity in ln b, or -1 (no estimate)."""
     return int(np.argmin(np.abs(lb - math.log(b)))) if math.isfinite(b) and b > 0 else -1
+
+
+def published_index(est: MaterialEstimate | None, names: list[str]) -> int:
+    """Index in ``names`` of the material the slave's core published for the touch, or -1 (none)."""
+    if est is None or est.touch != 1 or est.code == 0:
+        return -1
+    name = {code: n for code, n, _ in default_classes()}[est.code]
+    return names.index(name) if name in names else -1
 
 
 def merged_groups(conf: np.ndarray, rate: float) -> list[list[int]]:
@@ -174,11 +225,33 @@ def by_condition(touches: list[tuple[bool, float, float, float, bool]]) -> dict[
     return out
 
 
+def heldout_figures(params, T_probe: float, names: list[str], lb: np.ndarray, n: int) -> dict[str, Any]:
+    """Accuracy of what the slave publishes and of the physics estimator alone on ``n`` held-out touches (same
+    distribution, other seeds: :data:`HELDOUT`), each with its standard error √(p(1−p)/n), and whether the
+    published one beats the physics one by more than two of them."""
+    sims = list(SIM_TO_TABLE)
+    ok, ok_phys = [], []
+    for dr in draws(n, HELDOUT):
+        T, Q, i0, est, _ = simulate_touch(params, sims[dr["class"]], dr["thickness_m"], dr["T_object_C"],
+                                          dr["force_N"], T_probe, seed=dr["seed"], t_on_s=dr["t_on_s"])
+        phys = mi.estimate_effusivity(T, Q, i0, PERIOD_S)
+        ok.append(published_index(est, names) == dr["class"])
+        ok_phys.append(nearest(phys.b if phys is not None else math.nan, names, lb) == dr["class"])
+    p, q = float(np.mean(ok)), float(np.mean(ok_phys))
+    se = math.sqrt(max(q * (1 - q), 1e-12) / n)
+    return {"material_id_accuracy_heldout": p, "material_id_accuracy_physics_heldout": q,
+            "material_id_heldout_se": round(math.sqrt(p * (1 - p) / n), 4), "material_id_physics_heldout_se": round(se, 4),
+            "material_id_heldout_gain_over_2se": bool(p - q > 2.0 * se),
+            "material_id_heldout": {"n": n, "draw_seed": HELDOUT[0], "sim_seed_first": HELDOUT[1],
+                                    "note": "same distribution as the evaluation touches, other seeds; not used to "
+                                            "build or tune anything"}}
+
+
 def material_id_figures(quick: bool) -> dict[str, Any]:
     """Run the touches and return the figures (see the module docstring)."""
     t_start = time.perf_counter()
-    n_touches = 150 if quick else 600
-    rng = np.random.default_rng(15)
+    n_touches = 150 if quick else EVALUATION_N
+    method = check_calibration(MaterialIdParams())
     params = load_rig_params()
     T_probe = finger_natural_C(params)
     table = mi.load_effusivity_table()
@@ -189,38 +262,37 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     b_probe = material(params.sensor_material).b
     k = len(names)
     conf = np.zeros((k, k + 1), int)
+    conf_phys = np.zeros((k, k + 1), int)
     conf_eq1 = np.zeros((k, k + 1), int)
     err_pct, within_ci, se_ln = [], [], []
     ln_err: list[list[float]] = [[] for _ in range(k)]
     touches: list[tuple[bool, float, float, float, bool]] = []     # (right, force, |ΔT|, thickness, metal)
-    draws: list[dict] = []
+    draw_list: list[dict] = []
     step_s: list[np.ndarray] = []
     batch_s: list[float] = []
     fit_cycles: list[slice] = []
-    for i in range(n_touches):
-        j = i % k
+    n_win, units = int(round(mi.ProbeParams().window_s / PERIOD_S)), fit_units(MaterialIdParams(), PERIOD_S)
+    for dr in draws(n_touches, EVALUATION):
+        j, force, T_obj, d, t_on = dr["class"], dr["force_N"], dr["T_object_C"], dr["thickness_m"], dr["t_on_s"]
         mat = sims[j]
-        force = float(rng.uniform(2.0, 10.0))
-        T_obj = float(rng.uniform(15.0, 35.0))
-        d = float(rng.uniform(1.0, 20.0)) * 1e-3
-        t_on = PRE_S + float(rng.uniform(0.0, PERIOD_S))
-        T, Q, i0, est, st_s = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=1000 + i, t_on_s=t_on)
+        T, Q, i0, est, st_s = simulate_touch(params, mat, d, T_obj, force, T_probe, seed=dr["seed"], t_on_s=t_on)
         step_s.append(st_s)
-        n_win = int(round(mi.ProbeParams().window_s / PERIOD_S))
-        fit_cycles.append(slice(i0 + n_win, i0 + n_win + 3 + mi.noise_draws(mi.ProbeParams())))
+        fit_cycles.append(slice(i0 + n_win, i0 + n_win + units))
         t0 = time.perf_counter()
-        mi.estimate_effusivity(T, Q, i0, PERIOD_S)
+        phys = mi.estimate_effusivity(T, Q, i0, PERIOD_S)
         batch_s.append(time.perf_counter() - t0)
-        draws.append({"class": j, "force_N": force, "T_object_C": T_obj, "thickness_m": d, "t_on_s": t_on})
+        conf_phys[j, nearest(phys.b if phys is not None else math.nan, names, lb)] += 1
+        draw_list.append(dr)
         b_true = material(mat).b
         b_est = est.effusivity if est is not None and est.touch == 1 else math.nan
+        got = published_index(est, names)
         if math.isfinite(b_est):
             err_pct.append(100.0 * abs(b_est / b_true - 1.0))
             within_ci.append(abs(math.log(b_est / b_true)) <= 1.96 * est.se_ln_b)
             se_ln.append(est.se_ln_b)
             ln_err[j].append(math.log(b_est / b_true))
-        conf[j, nearest(b_est, names, lb)] += 1
-        touches.append((nearest(b_est, names, lb) == j, force, abs(T_obj - T_probe), d, b_true > 10_000.0))
+        conf[j, got] += 1
+        touches.append((got == j, force, abs(T_obj - T_probe), d, b_true > 10_000.0))
         conf_eq1[j, nearest(eq1_baseline(T, Q, i0, R_sensor, b_probe), names, lb)] += 1
     correct = int(np.trace(conf[:, :k]))
     groups = merged_groups(conf, MERGE_RATE)
@@ -228,9 +300,13 @@ def material_id_figures(quick: bool) -> dict[str, Any]:
     merged_ok = sum(int(conf[a, b]) for a in range(k) for b in range(k) if group_of[a] == group_of[b])
     majority = float(conf.sum(axis=1).max() / n_touches)
     pairs = pair_table(conf, names, lb, ln_err)
-    bound = bound_figures(params, sims, draws, T_probe, PERIOD_S, AMBIENT_C, [t[0] for t in touches])
-    return bound | tick_figures(step_s, fit_cycles, batch_s) | {
+    bound = bound_figures(params, sims, draw_list, T_probe, PERIOD_S, AMBIENT_C, [t[0] for t in touches])
+    held = heldout_figures(params, T_probe, names, lb, 150 if quick else HELDOUT_N)
+    return bound | held | tick_figures(step_s, fit_cycles, batch_s) | {
         "material_id_accuracy": correct / n_touches,
+        "material_id_method": method,
+        "material_id_accuracy_physics": float(np.trace(conf_phys[:, :k]) / n_touches),
+        "confusion_physics": conf_phys.tolist(),
         "material_id_n_touches": n_touches,
         "effusivity_error_median_pct": float(np.median(err_pct)) if err_pct else math.nan,
         "material_id_no_estimate": int(conf[:, k].sum()),
@@ -257,7 +333,8 @@ def print_material_id(fig: dict[str, Any]) -> None:
     c = fig["confusion"]
     rows = [[n] + row for n, row in zip(c["labels"], c["rows_truth_cols_estimate"])]
     print_table(["truth \\ est"] + c["columns"], rows)
-    for key in ("material_id_accuracy", "material_id_accuracy_bound", "material_id_accuracy_bound_known_nuisance",
+    for key in ("material_id_method", "material_id_accuracy", "material_id_accuracy_physics",
+                "material_id_accuracy_heldout", "material_id_accuracy_physics_heldout", "material_id_accuracy_bound", "material_id_accuracy_bound_known_nuisance",
                 "material_id_unidentifiable_fraction", "material_id_accuracy_identifiable", "material_id_accuracy_merged", "material_id_merged_groups",
                 "effusivity_error_median_pct", "material_id_baseline_majority_accuracy",
                 "material_id_baseline_eq1_ambient_accuracy", "material_id_ci95_coverage", "material_id_run_s"):

@@ -5,11 +5,14 @@ nothing touches, the last ``pre_s`` of samples are kept; from the first contact 
 samples are collected. The fit (:func:`telethermo.control.material_id.estimate_effusivity`'s stages) then
 runs spread over the following cycles, one unit of work per cycle so that no control cycle carries the
 whole fit: the window's signals and the energy form, the flux form, each of the ``noise_draws`` noise
-realisations of the confidence, then the classification. The result (effusivity, standard error of ln b,
-class) is published ``3 + noise_draws`` cycles after the window is complete (11 with the defaults: 0.11 s
-at 100 Hz) and held until the next touch's fit completes (a release clears nothing: the operator may ask
+realisations of the confidence, then the classification: with a calibration
+(telethermo.control.material_calib, default the shipped one) one material's local model per cycle, else the
+nearest table effusivity. The result (the physics fit's effusivity and standard error of ln b, the class
+and its posterior) is published :func:`fit_units` cycles after the window is complete (20 with the defaults
+and ten calibrated materials: 0.2 s at 100 Hz; 11 without a calibration) and held until the next touch's fit completes (a release clears nothing: the operator may ask
 what was touched last; a fit under way finishes even if the finger leaves). The staged fit equals the
-batch one exactly. Pure: the state is an immutable value.
+batch one exactly (:func:`telethermo.control.material_id.estimate_effusivity`,
+:func:`telethermo.control.material_calib.classify_vector`). Pure: the state is an immutable value.
 """
 from __future__ import annotations
 
@@ -21,6 +24,8 @@ from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput,
                                             filter_release, fit_form, fit_input, half_integral_matrix,
                                             load_effusivity_table, noise_deviation, noise_draws,
                                             with_noise_spread)
+from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, class_residual, decide,
+                                               load_calibration, project, touch_vector)
 from telethermo.control.rendering import load_render_table
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
@@ -61,10 +66,40 @@ class MaterialIdParams:
     Attributes:
         probe: the estimator's probe model (:class:`ProbeParams`).
         classes: (code, name, effusivity) of the rendering table's entries with an effusivity.
+        calibration: the calibrated classifier (default: the shipped file, telethermo/data/material_classifier.npz,
+            loaded once); None: the nearest table effusivity of the physics fit. Used only when its period and
+            window are the core's (:func:`calibrated`); its materials must be among ``classes``.
     """
 
     probe: ProbeParams = field(default_factory=ProbeParams)
     classes: tuple[tuple[int, str, float], ...] = field(default_factory=lambda: default_classes())
+    calibration: Calibration | None = field(default_factory=lambda: default_calibration())
+
+    def __post_init__(self) -> None:
+        if self.calibration is not None:
+            names = {n for _, n, _ in self.classes}
+            missing = [c for c in self.calibration.classes if c not in names]
+            if missing:
+                raise ValueError(f"material classifier names {missing} that the rendering table has no effusivity for")
+
+
+@functools.lru_cache(maxsize=1)
+def default_calibration() -> Calibration | None:
+    """The shipped calibration (loaded once per process; None while none is shipped, e.g. before
+    bench/material_calibrate.py has written it: the physics classification then; a malformed file raises)."""
+    return load_calibration() if DEFAULT_CALIBRATION.exists() else None
+
+
+def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
+    """Whether the calibration applies at period ``dt_s`` (measured with the same period and window)."""
+    cal = p.calibration
+    return cal is not None and abs(cal.dt_s - dt_s) <= 1e-9 and cal.n_win == int(round(p.probe.window_s / dt_s))
+
+
+def fit_units(p: MaterialIdParams, dt_s: float) -> int:
+    """Cycles from the window's completion to the published result (one unit of work each)."""
+    n_cls = len(p.calibration.classes) if calibrated(p, dt_s) else 1
+    return 2 + noise_draws(p.probe) + n_cls
 
 
 @functools.lru_cache(maxsize=1)
@@ -85,6 +120,7 @@ class FitJob:
     fits: tuple = ()
     chosen: tuple[str, EffusivityEstimate] | None = None
     deviations: tuple = ()
+    residuals: tuple = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -150,11 +186,21 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
     k = len(job.deviations)
     if k < noise_draws(probe):                                              # one noise realisation
         return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
-    return None, _classified(p, with_noise_spread(est, list(job.deviations)), n)
+    est = with_noise_spread(est, list(job.deviations))
+    cal = p.calibration
+    z = project(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes else None
+    if z is not None:                                                       # one material's local model
+        res = job.residuals + (class_residual(cal, z, len(job.residuals)),)
+        if len(res) < len(cal.classes):
+            return replace(job, residuals=res), last
+        i, post = decide(cal, list(res), z)
+        code = next(c for c, name, _ in p.classes if name == cal.classes[i])
+        return None, MaterialEstimate(est.b, est.se_ln_b, code, post, n, est.T_object0_C)
+    return None, _classified(p, est, n)
 
 
 def _classified(p: MaterialIdParams, est: EffusivityEstimate, n: int) -> MaterialEstimate:
-    """The held result of touch ``n`` for the estimate ``est``."""
+    """The held result of touch ``n`` for the estimate ``est`` (nearest table effusivity)."""
     if not p.classes:
         return MaterialEstimate(touch=n)
     table = {name: b for _, name, b in p.classes}

@@ -15,7 +15,7 @@ from telethermo.sim.touch import BodySpec, Schedule, Touch
 from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params
-from telethermo.control.material_stream import MaterialIdParams, MaterialState, default_classes, material_step
+from telethermo.control.material_stream import MaterialIdParams, MaterialState, default_classes, fit_units, material_step
 from telethermo.control.rendering import load_render_table, relative_effusivity_from_contact
 from telethermo.control.types import PeerValues, Role
 from telethermo.rig import RigSample
@@ -30,7 +30,7 @@ SIM_TO_TABLE = {"eps": "eps", "oak": "wood", "pvc": "pvc", "glass": "glass", "ce
 
 def touch(mat: str, *, noise: bool, seed: int = 0, force_N: float = 8.0, thickness_m: float = 0.02):
     """The slave (default controller, peer at T_PROBE) touches a slab at 0.205 s (half a period before the
-    sample that flags it, the estimator's expectation of an unknown instant); 0.7 s of samples.
+    sample that flags it, the estimator's expectation of an unknown instant); 0.8 s of samples.
     Returns (samples, the core's last status, the contact face temperature 10 ms into the touch)."""
     grid = GridSettings(t_min_s=DT)
     body = Body(BodySpec("obj", material=mat, thickness_m=thickness_m, T0_C=T_OBJ), PARAMS.area_m2, 25.0,
@@ -42,7 +42,7 @@ def touch(mat: str, *, noise: bool, seed: int = 0, force_N: float = 8.0, thickne
     st = init_state(cp, None, rig.read())
     peer = PeerValues(estimate_C=T_PROBE, flux_W=0.0)
     samples, T_c = [], math.nan
-    for _ in range(70):
+    for _ in range(80):
         s = rig.read()
         samples.append(s)
         r = step(s, peer, cp, st)
@@ -157,13 +157,13 @@ def test_master_publishes_no_material():
 
 def test_fit_is_spread_over_cycles_and_equals_the_batch_fit():
     """No cycle carries the whole fit: the window completes, then one unit of work per cycle (window and
-    energy form, flux form, each noise realisation, classification); the result appears exactly
-    3 + noise_draws cycles later and equals the batch estimate."""
+    energy form, flux form, each noise realisation, classification: one calibrated material per cycle); the
+    result appears exactly fit_units cycles later and equals the batch estimate."""
     samples, _, _ = touch("ceramic", noise=True, seed=5)
     T, Q, i0 = arrays(samples)
     p = MaterialIdParams()
     n_win = int(round(p.probe.window_s / DT))
-    units = 3 + mi.noise_draws(p.probe)
+    units = fit_units(p, DT)
     st = MaterialState()
     seen = []
     for k in range(i0 + n_win + units + 2):

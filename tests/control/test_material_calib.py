@@ -1,0 +1,119 @@
+"""The calibrated material classifier (telethermo/control/material_calib.py): its file, its errors, its physics."""
+from __future__ import annotations
+
+import json
+import zipfile
+
+import numpy as np
+import pytest
+
+from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S, SIM_TO_TABLE, finger_natural_C,
+                                     refuse_overlap, simulate_touch)
+from telethermo.control import material_id as mi
+from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration,
+                                               save_calibration, touch_vector)
+from telethermo.control.material_stream import (MaterialIdParams, MaterialState, calibrated, default_classes,
+                                                fit_units, material_step)
+from telethermo.sim.tem import load_rig_params
+
+PARAMS = load_rig_params()
+CAL = load_calibration()
+
+
+def test_shipped_calibration_round_trips(tmp_path):
+    out = save_calibration(CAL, tmp_path / "c.npz")
+    back = load_calibration(out)
+    assert back.classes == CAL.classes and back.k == CAL.k and back.dt_s == CAL.dt_s and back.n_win == CAL.n_win
+    assert back.sigma2 == CAL.sigma2 and back.info == CAL.info
+    for name in ("center", "basis", "refs", "labels"):
+        assert np.array_equal(getattr(back, name), getattr(CAL, name)), name
+    assert not list(tmp_path.glob(".c.npz.*"))                          # the temporary file was renamed
+
+
+def _rewrite(src, dst, **change):
+    """A copy of the calibration file ``src`` with fields replaced (None: removed)."""
+    with np.load(src, allow_pickle=False) as d:
+        fields = {k: d[k] for k in d.files}
+    for k, v in change.items():
+        if v is None:
+            fields.pop(k)
+        else:
+            fields[k] = v
+    np.savez(dst, **fields)
+    return dst
+
+
+@pytest.mark.parametrize("change, field", [
+    ({"refs": None}, "refs"),
+    ({"sigma2": np.array(-1.0)}, "sigma2"),
+    ({"labels": np.array([0, 1, 99])}, "refs"),
+    ({"center": np.zeros(7)}, "center"),
+    ({"format": np.array("something else")}, "format"),
+    ({"refs": np.full((3, 2), np.nan)}, "refs"),
+])
+def test_malformed_file_gives_one_line_error_naming_file_and_field(tmp_path, change, field):
+    bad = _rewrite(DEFAULT_CALIBRATION, tmp_path / "bad.npz", **change)
+    with pytest.raises(ValueError) as exc:
+        load_calibration(bad)
+    msg = str(exc.value)
+    assert "\n" not in msg and str(bad) in msg and field in msg, msg
+
+
+def test_a_file_that_is_no_archive_names_the_file(tmp_path):
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"PK\x03\x04 not really")
+    with pytest.raises(ValueError) as exc:
+        load_calibration(bad)
+    assert str(bad) in str(exc.value) and "\n" not in str(exc.value)
+    assert not zipfile.is_zipfile(bad)
+
+
+def test_calibration_seeds_are_disjoint_from_the_evaluation_touches():
+    info = json.loads(CAL.info)
+    refuse_overlap(info["reference_touches"], (info["draw_seed"], info["sim_seed_first"]))  # raises if they meet
+    assert (info["draw_seed"], info["sim_seed_first"]) == CALIBRATION
+    with pytest.raises(ValueError, match="refused"):
+        refuse_overlap(100, (EVALUATION[0] + 1, EVALUATION[1] + 50))
+    with pytest.raises(ValueError, match="refused"):
+        refuse_overlap(100, (HELDOUT[0], 10**7))
+
+
+def test_classifier_names_thick_slabs_at_a_large_temperature_difference():
+    """Ten materials, 20 mm slabs (semi-infinite within 0.3 s), 6 N, object 20 °C below the probe (ΔT ≈ 14 °C),
+    noise on, seeds no calibration touch used: at least 9 of the 10 are named right."""
+    T_probe = finger_natural_C(PARAMS)
+    names = [SIM_TO_TABLE[m] for m in SIM_TO_TABLE]
+    right = 0
+    for i, mat in enumerate(SIM_TO_TABLE):
+        T, Q, i0, _, _ = simulate_touch(PARAMS, mat, 0.02, T_probe - 14.0, 6.0, T_probe, seed=900_000 + i,
+                                        t_on_s=0.205)
+        inp = mi.fit_input(T, Q, i0, PERIOD_S)
+        got, post = classify_vector(CAL, touch_vector(inp, CAL.q_weight_K_per_W))
+        right += CAL.classes[got] == names[i]
+    assert right >= 9, right
+
+
+def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
+    """The staged classification (one material per cycle after the physics fit) equals the batch one."""
+    T_probe = finger_natural_C(PARAMS)
+    T, Q, i0, _, _ = simulate_touch(PARAMS, "glass", 0.02, T_probe - 12.0, 6.0, T_probe, seed=900_100, t_on_s=0.205)
+    assert T.size > i0 + 30 + 20
+    p = MaterialIdParams()
+    assert calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 2 + mi.noise_draws(p.probe) + len(CAL.classes)
+    n_win, units = int(round(p.probe.window_s / PERIOD_S)), fit_units(p, PERIOD_S)
+    st = MaterialState()
+    k_pub = i0 + n_win - 1 + units                         # the window completes at i0 + n_win - 1
+    for k in range(k_pub):
+        st = material_step(p, st, T[k], Q[k], k >= i0, PERIOD_S)
+        assert st.last.touch == 0
+    st = material_step(p, st, T[k_pub], Q[k_pub], True, PERIOD_S)
+    got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
+    codes = {name: code for code, name, _ in default_classes()}
+    assert st.last.touch == 1 and st.last.code == codes[CAL.classes[got]]
+    assert st.last.posterior == pytest.approx(post, rel=1e-12)
+    assert st.last.effusivity == pytest.approx(mi.estimate_effusivity(T, Q, i0, PERIOD_S).b, rel=1e-12)
+
+
+def test_another_period_falls_back_to_the_physics_classification():
+    p = MaterialIdParams()
+    assert not calibrated(p, 0.001) and fit_units(p, 0.001) == 3 + mi.noise_draws(p.probe)
