@@ -177,7 +177,7 @@ def run_event(base: Pair, event: str | None, *, slew: bool, t_event_s: float, ma
             "max_current_step_A": float(np.abs(np.diff(I)).max()) if len(I) > 1 else 0.0, "t_trip_s": t_trip}
 
 
-def sweep(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 2.0, 5.0)) -> list[dict]:
+def sweep(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 0.7, 2.0, 5.0)) -> list[dict]:
     """Every (contact, moment after the touch, event): the rates with the slew limit on, off, and no event."""
     rows = []
     for contact in contacts:
@@ -223,7 +223,7 @@ def _worst(rows: list[dict], key: str, pick) -> tuple[float, dict | None]:
     return r[key], {k: r[k] for k in ("contact", "event", "after_touch_s")}
 
 
-def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 2.0, 5.0)) -> dict:
+def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 0.7, 2.0, 5.0)) -> dict:
     """The pad surface's rate around trips and cuts: at most the ramp limit + 1 °C/s where the physics allows."""
     c = Case("control_trip_surface_rate",
              f"a telepresence pair, the finger on the master, the probe in air or touching an object "
