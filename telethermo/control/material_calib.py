@@ -92,7 +92,9 @@ def class_residual(cal: Calibration, z: np.ndarray, c: int) -> float:
         return math.inf
     d = np.einsum("ij,ij->i", R - z, R - z)
     k = min(cal.k, R.shape[0])
-    nn = R[np.argpartition(d, k - 1)[:k]] if k < R.shape[0] else R
+    # a full stable sort, not np.argpartition: numpy's SIMD selection never returned on some of these inputs
+    # under the vcan VM's emulated CPU (the slave's cycle thread hung in it); timsort takes no SIMD path
+    nn = R[np.argsort(d, kind="stable")[:k]] if k < R.shape[0] else R
     m = nn.mean(axis=0)
     A = (nn - m).T
     coef = np.linalg.lstsq(A, z - m, rcond=None)[0]
