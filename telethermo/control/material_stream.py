@@ -19,6 +19,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form, classify,
                                             filter_release, fit_form, fit_input, half_integral_matrix,
@@ -112,7 +113,8 @@ def default_classes() -> tuple[tuple[int, str, float], ...]:
 @dataclass(frozen=True, slots=True)
 class FitJob:
     """A touch's fit under way: ``inp`` its window (None: not built yet, from ``rows``), ``fits`` the forms
-    fitted so far, ``chosen`` (form, estimate) once both are, ``deviations`` the noise realisations' so far."""
+    fitted so far, ``chosen`` (form, estimate) once both are, ``deviations`` the noise realisations' so far,
+    ``residuals`` the calibrated classes' so far and ``z`` the touch projected on the calibration (None: not yet)."""
 
     rows: tuple
     n_pre: int
@@ -121,6 +123,7 @@ class FitJob:
     chosen: tuple[str, EffusivityEstimate] | None = None
     deviations: tuple = ()
     residuals: tuple = ()
+    z: Any = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -188,11 +191,13 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
         return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
     est = with_noise_spread(est, list(job.deviations))
     cal = p.calibration
-    z = project(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes else None
+    z = job.z                                       # the touch projected once, in the first class unit
+    if z is None and calibrated(p, dt_s) and p.classes:
+        z = project(cal, touch_vector(job.inp, cal.q_weight_K_per_W))
     if z is not None:                                                       # one material's local model
         res = job.residuals + (class_residual(cal, z, len(job.residuals)),)
         if len(res) < len(cal.classes):
-            return replace(job, residuals=res), last
+            return replace(job, residuals=res, z=z), last
         i, post = decide(cal, list(res), z)
         code = next(c for c, name, _ in p.classes if name == cal.classes[i])
         return None, MaterialEstimate(est.b, est.se_ln_b, code, post, n, est.T_object0_C)
