@@ -368,7 +368,7 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
         master = _start_node("master", bus, tmp_path, "--mode", "idle", "--cycles", "0")
 
         def both_operational() -> bool:
-            code, out, _ = _cli(capsys, "status", "--bus", bus, "--json", "--timeout", "0.2")
+            code, out, _ = _cli(capsys, "status", "--bus", bus, "--json", "--timeout", "1")
             return code == EXIT_OK and all(n["nmt_state"] == "OPERATIONAL" for n in json.loads(out)["nodes"])
 
         assert wait_for(both_operational, 60), _logs(tmp_path, "master") + _logs(tmp_path, "slave")
