@@ -28,6 +28,7 @@ import argparse
 import json
 import math
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -89,9 +90,14 @@ def check_calibration(p: MaterialIdParams) -> str:
     try:
         info = json.loads(p.calibration.info)
         n, seeds = int(info["reference_touches"]), (int(info["draw_seed"]), int(info["sim_seed_first"]))
-    except (ValueError, KeyError, TypeError) as exc:
+        dense = info.get("dense") or {}
+        dense_n, dense_seeds = int(dense.get("touches", 0)), (int(dense.get("draw_seed", 0)),
+                                                              int(dense.get("sim_seed_first", 0)))
+    except (ValueError, KeyError, TypeError, AttributeError) as exc:
         raise ValueError(f"calibration of unknown origin (info {p.calibration.info[:80]!r}): refused") from exc
     refuse_overlap(n, seeds)
+    if dense_n:
+        refuse_overlap(dense_n, dense_seeds)
     return "calibrated"
 
 
@@ -102,15 +108,23 @@ def finger_natural_C(params) -> float:
 
 
 def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
-                   seed: int, t_on_s: float) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
-    """(T_sensor_C, Q_W, index of the first contact sample, the material the slave's core published at the
-    end, the wall time of each core step, s) of one touch under the slave's default control."""
+                   seed: int, t_on_s: float, noise: NoiseParams | None = None, identify: bool = True
+                   ) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
+    """(T_sensor_C, Q_W, index of the first sample the slave's contact detector calls contact (−1: none), the
+    material the slave's core published at the end, the wall time of each core step, s) of one touch under the
+    slave's default control. The onset is the detector's, not the rig's flag: the core's window starts there
+    (telethermo.control.material_stream), so every offline fit and every reference touch is aligned the same
+    way. ``noise`` None: the rig's default noise; ``identify`` False: the core without material identification
+    (same current, faster: for reference touches)."""
     grid = GridSettings(t_min_s=PERIOD_S)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, AMBIENT_C, params.h_air_W_m2K, grid)
     rig = SimRig(params, {"object": body}, Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
-                 ambient_C=AMBIENT_C, period_s=PERIOD_S, noise=NoiseParams(), seed=seed, grid=grid, start=T_probe_C)
+                 ambient_C=AMBIENT_C, period_s=PERIOD_S, noise=noise if noise is not None else NoiseParams(), seed=seed,
+                 grid=grid, start=T_probe_C)
     cp = default_params(Role.SLAVE, period_s=PERIOD_S)
+    if not identify:
+        cp = replace(cp, material_id=None)
     s = rig.read()
     st = init_state(cp, None, s)
     peer = PeerValues(estimate_C=T_probe_C, flux_W=0.0)
@@ -118,11 +132,12 @@ def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, forc
     T, Q, flag, step_s = np.empty(n), np.empty(n), np.zeros(n, bool), np.empty(n)
     for k in range(n):
         s = rig.read()
-        T[k], Q[k], flag[k] = s.T_sensor_C, s.Q_W, s.contact
+        T[k], Q[k] = s.T_sensor_C, s.Q_W
         t0 = time.perf_counter()
         r = step(s, peer, cp, st)
         step_s[k] = time.perf_counter() - t0
         st = r.state
+        flag[k] = st.contact.contact
         rig.apply_current(r.current_A)
         rig.advance(PERIOD_S)
     return T, Q, int(np.argmax(flag)) if flag.any() else -1, r.status.material, step_s

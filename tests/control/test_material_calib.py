@@ -11,9 +11,10 @@ from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S,
                                      refuse_overlap, simulate_touch)
 from telethermo.control import material_id as mi
 from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration,
-                                               save_calibration, touch_vector)
+                                               save_calibration, touch_vector, whitener)
 from telethermo.control.material_stream import (MaterialIdParams, MaterialState, calibrated, default_classes,
                                                 fit_units, material_step)
+from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
 
 PARAMS = load_rig_params()
@@ -72,6 +73,8 @@ def test_calibration_seeds_are_disjoint_from_the_evaluation_touches():
     info = json.loads(CAL.info)
     refuse_overlap(info["reference_touches"], (info["draw_seed"], info["sim_seed_first"]))  # raises if they meet
     assert (info["draw_seed"], info["sim_seed_first"]) == CALIBRATION
+    dense = info["dense"]
+    refuse_overlap(dense["touches"], (dense["draw_seed"], dense["sim_seed_first"]))
     with pytest.raises(ValueError, match="refused"):
         refuse_overlap(100, (EVALUATION[0] + 1, EVALUATION[1] + 50))
     with pytest.raises(ValueError, match="refused"):
@@ -117,3 +120,46 @@ def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
 def test_another_period_falls_back_to_the_physics_classification():
     p = MaterialIdParams()
     assert not calibrated(p, 0.001) and fit_units(p, 0.001) == 3 + mi.noise_draws(p.probe)
+
+
+def test_whitener_maps_the_floored_noise_covariance_to_the_identity():
+    rng = np.random.default_rng(3)
+    A = rng.standard_normal((60, 60))
+    S = A @ A.T * 1e-4 + np.diag(np.r_[np.full(30, 1e-12), np.full(30, 1e-6)])    # nearly singular, like a filter's
+    for reg in (0.0, 0.01):
+        W = whitener(S, reg)
+        floored = S + reg * np.mean(np.diag(S)) * np.eye(60)
+        assert np.allclose(W @ floored @ W.T, np.eye(60), atol=1e-6)
+
+
+def test_the_shipped_metric_is_in_units_of_the_rigs_noise():
+    """The difference between a touch with the rig's noise and the same touch without it (seeds no calibration
+    touch used), projected on the shipped calibration: each component's variance is at most about one (the
+    whitening's floor only lowers it), and the largest is near one. A calibration in °C would give 1e-4."""
+    T_probe = finger_natural_C(PARAMS)
+    mats = list(SIM_TO_TABLE)
+    Z = []
+    for i in range(120):
+        mat, f, T_obj = mats[i % 10], 2.0 + 8.0 * ((i * 7) % 11) / 10.0, T_probe - 2.0 - 16.0 * ((i * 3) % 7) / 6.0
+        T, Q, i0, _, _ = simulate_touch(PARAMS, mat, 0.005, T_obj, f, T_probe, seed=910_000 + i, t_on_s=0.203,
+                                        identify=False)
+        Tc, Qc, _, _, _ = simulate_touch(PARAMS, mat, 0.005, T_obj, f, T_probe, seed=910_000 + i, t_on_s=0.203,
+                                         noise=NoiseParams(enabled=False), identify=False)
+        v = touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W)
+        vc = touch_vector(mi.fit_input(Tc, Qc, i0, PERIOD_S), CAL.q_weight_K_per_W)
+        Z.append(CAL.basis @ (v - vc))
+    var = np.var(np.array(Z), axis=0)
+    assert var.max() < 1.6 and var.max() > 0.5, var          # 120 draws: a variance of 1 is estimated within ±0.4
+
+
+def test_the_core_classifies_the_window_the_calibration_was_built_on():
+    """The reference touches' windows start where the slave's contact detector says contact, as the core's
+    own window does: the class the core publishes is the offline classification of that window."""
+    T_probe = finger_natural_C(PARAMS)
+    codes = {name: code for code, name, _ in default_classes()}
+    for i, (mat, f) in enumerate((("brass", 3.0), ("pvc", 8.0))):
+        T, Q, i0, est, _ = simulate_touch(PARAMS, mat, 0.004, T_probe - 9.0, f, T_probe, seed=920_000 + i,
+                                          t_on_s=0.207)
+        got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
+        assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]]
+        assert est.posterior == pytest.approx(post, rel=1e-12)
