@@ -56,7 +56,8 @@ class Calibration:
             whitening folded in when it was built with a noise covariance (then the projection is in units of
             the rig's noise, 1/°C·°C: dimensionless; else °C).
         refs: reference touches projected (N × m; stored as float16 when they fit: 3 significant digits;
-            on the development set 0.818 against 0.820 with float32); labels: their class indices (N).
+            on the development set 0.818 against 0.820 with float32); labels: their class indices (N), in
+            ascending order (each class one contiguous slice).
         info: how it was calibrated (strings), for the record.
     """
 
@@ -92,19 +93,40 @@ def project(cal: Calibration, v: np.ndarray) -> np.ndarray | None:
 def class_residual(cal: Calibration, z: np.ndarray, c: int) -> float:
     """Squared distance (°C²) of the projected touch ``z`` to the affine span of class ``c``'s ``cal.k``
     nearest references (pure; one unit of the slave's staged classification)."""
-    R = cal.refs[cal.labels == c]
+    lo, hi = np.searchsorted(cal.labels, [c, c + 1])          # the references are ordered by class
+    R = cal.refs[lo:hi]
     if R.shape[0] == 0:
         return math.inf
     d = np.einsum("ij,ij->i", R - z, R - z)
-    k = min(cal.k, R.shape[0])
-    # a full stable sort, not np.argpartition: numpy's SIMD selection never returned on some of these inputs
-    # under the vcan VM's emulated CPU (the slave's cycle thread hung in it); timsort takes no SIMD path
-    nn = R[np.argsort(d, kind="stable")[:k]] if k < R.shape[0] else R
+    nn = R[nearest_indices(d, cal.k)]
     m = nn.mean(axis=0)
     A = (nn - m).T
     coef = np.linalg.lstsq(A, z - m, rcond=None)[0]
     r = z - m - A @ coef
     return float(r @ r)
+
+
+def nearest_indices(d: np.ndarray, k: int) -> np.ndarray:
+    """Indices of the ``k`` smallest of ``d``, the same as ``np.argsort(d, kind="stable")[:k]`` (pure).
+
+    Not np.argpartition: numpy's SIMD selection never returned on some of these inputs under the vcan VM's
+    emulated CPU (the slave's cycle thread hung in it); timsort takes no SIMD path. Sorting all of a metal's
+    9000 references cost 0.65 ms, so only the candidates at or below the k-th smallest of every eighth are
+    sorted: that subset's k-th smallest is not below the whole set's, so all k nearest are among them, and a
+    stable sort of the candidates (in index order) breaks ties as the full sort does."""
+    n = d.size
+    if k >= n:
+        return np.argsort(d, kind="stable")
+    sub = d[::8]
+    cand = np.flatnonzero(d <= np.sort(sub)[k - 1]) if sub.size >= k else np.arange(n)
+    return cand[np.argsort(d[cand], kind="stable")[:k]]
+
+
+def by_class(refs: np.ndarray, labels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """References and labels ordered by class (stable: each class keeps its own order), so that a class is one
+    contiguous slice."""
+    order = np.argsort(labels, kind="stable")
+    return refs[order], labels[order]
 
 
 def signal_size(cal: Calibration, z: np.ndarray) -> float:
@@ -159,7 +181,7 @@ def build_calibration(V: np.ndarray, y: np.ndarray, classes: list[str], dt_s: fl
     the stored basis (the projection stays basis·(v − center)), so the nearest references are the likeliest
     under the rig's noise rather than the nearest in °C, where the large slow components of the transient
     (object temperature, force) hide the fast ones that tell the materials apart."""
-    V, y = np.asarray(V, float), np.asarray(y, int)
+    V, y = by_class(np.asarray(V, float), np.asarray(y, int))
     center = V.mean(axis=0)
     W = whitener(noise_cov, reg) if noise_cov is not None else np.eye(V.shape[1])
     basis = np.linalg.svd((V - center) @ W.T, full_matrices=False)[2][:m] @ W
@@ -244,5 +266,6 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
         if labels.dtype.kind != "i" or labels.size == 0 or labels.min() < 0 or labels.max() >= classes.size:
             raise ValueError(f"{path}: field 'labels': expected class indices 0..{classes.size - 1}")
         info = str(data["info"]) if "info" in data.files else ""
+        refs, labels = by_class(refs.astype(float), labels.astype(int))
         return Calibration(tuple(str(c) for c in classes), dt, n_win, qw, k, s2, s2_rel, center.astype(float),
-                           basis.astype(float), refs.astype(float), labels.astype(int), info)
+                           basis.astype(float), refs, labels, info)

@@ -11,7 +11,7 @@ from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S,
                                      refuse_overlap, simulate_touch)
 from telethermo.control import material_id as mi
 from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration,
-                                               save_calibration, touch_vector, whitener)
+                                               nearest_indices, save_calibration, touch_vector, whitener)
 from telethermo.control.material_stream import (MaterialIdParams, MaterialState, calibrated, default_classes,
                                                 fit_units, material_step)
 from telethermo.sim.measurement import NoiseParams
@@ -163,3 +163,11 @@ def test_the_core_classifies_the_window_the_calibration_was_built_on():
         got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
         assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]]
         assert est.posterior == pytest.approx(post, rel=1e-12)
+
+
+def test_nearest_indices_are_those_of_a_full_stable_sort():
+    rng = np.random.default_rng(11)
+    for n, k in ((9000, 8), (4000, 5), (40, 8), (8, 8), (3, 8), (64, 8)):
+        d = rng.standard_normal(n) ** 2
+        d[rng.integers(n, size=n // 3)] = 0.25                       # ties, which the stable sort breaks by index
+        assert np.array_equal(nearest_indices(d, k), np.argsort(d, kind="stable")[:k]), (n, k)
