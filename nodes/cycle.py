@@ -19,7 +19,6 @@ import math
 import time
 from typing import TYPE_CHECKING
 
-
 from telethermo.cia301 import ABORT_DEVICE_STATE, EMCY_LINK_FALLBACK
 from telethermo.device.device import SyncTick
 from telethermo.control import safety as sf

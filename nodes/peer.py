@@ -131,8 +131,4 @@ class PeerLink:
                     self.counters.losses += 1
             self._alive_reported = alive
             fresh, self._fresh = self._fresh, False
-            if material is None:
-                return PeerValues(estimate_C=self._estimate_C, flux_W=self._flux_W, fresh=fresh, alive=alive,
-                                  contact=self._contact)
-            code, beta, touch, T_o0 = material
-            return PeerValues(self._estimate_C, self._flux_W, fresh, alive, self._contact, code, beta, touch, T_o0)
+            return PeerValues(self._estimate_C, self._flux_W, fresh, alive, self._contact, *(material or ()))

@@ -180,6 +180,8 @@ class EnvelopeState:
         mismatch_time_s: continuous time the model-vs-sensor mismatch has been exceeded, s.
         neutral_time_s: time since the peer trip started the ramp to neutral, s.
         cut: current cut (latched with the trips that caused it).
+        link_fallback: the master's link-loss fallback rendered in this step (``EnvelopeInput.link_fallback``),
+            for :func:`slewing`.
     """
 
     setpoint_C: float | None = None
@@ -188,6 +190,7 @@ class EnvelopeState:
     mismatch_time_s: float = 0.0
     neutral_time_s: float = 0.0
     cut: bool = False
+    link_fallback: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -385,7 +388,7 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     if cut:
         active.append("cut")
     new_state = EnvelopeState(setpoint_C=sp, trips=trips, hot_time_s=hot_time, mismatch_time_s=mismatch_time,
-                              neutral_time_s=neutral_time, cut=cut)
+                              neutral_time_s=neutral_time, cut=cut, link_fallback=inp.link_fallback)
     return sp, new_state, tuple(active), new_trips
 
 
@@ -398,13 +401,14 @@ def _outward_cap(limits: SafetyLimits, room_C: float) -> float:
 
 
 def slewing(state: EnvelopeState) -> bool:
-    """The trip slew limit applies: a peer trip is latched and no hard cut (:data:`CUT_TRIPS`)."""
-    return bool(state.trips & PEER_TRIPS) and not state.trips & CUT_TRIPS
+    """The trip slew limit applies: a peer trip is latched or the link-loss fallback renders, and no hard cut
+    (:data:`CUT_TRIPS`)."""
+    return bool(state.trips & PEER_TRIPS or state.link_fallback) and not state.trips & CUT_TRIPS
 
 
 def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float, surface_hi_C: float,
                   surface_lo_C: float, previous_A: float = math.nan,
-                  dt_s: float = 0.0, link_fallback: bool = False) -> tuple[float, tuple[str, ...]]:
+                  dt_s: float = 0.0) -> tuple[float, tuple[str, ...]]:
     """The current that may reach the TEM, A, and the limits that acted.
 
     NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
@@ -416,10 +420,9 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
     other direction) by at most ``trip_slew_A_per_s``·``dt_s`` ("slew"): the feed-forward that a peer trip
     removes can no longer flip the drive from full cooling to full heating in one step. The guard's and the
     current limit's caps still act at once. A hard cut (:data:`CUT_TRIPS`), a non-finite request or surface
-    band give 0 A at once. ``link_fallback``: the master's link-loss fallback renders (the same slew, no hard cut).
+    band give 0 A at once. The link-loss fallback (``state.link_fallback``) slews the same way (:func:`slewing`).
     """
-    slew = (slewing(state) or (link_fallback and not state.trips & CUT_TRIPS)) and math.isfinite(previous_A) \
-        and dt_s > 0.0
+    slew = slewing(state) and math.isfinite(previous_A) and dt_s > 0.0
     if (state.cut and not slew) or not math.isfinite(requested_A):
         return 0.0, ("cut",)
     if not (math.isfinite(surface_hi_C) and math.isfinite(surface_lo_C)):

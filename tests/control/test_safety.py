@@ -196,7 +196,7 @@ def test_peer_trips_slew_the_current_and_the_envelope_holds(seq, slew, lead, I0)
         if fault == "nan_sensor":
             e = dataclasses.replace(e, surface_hi_C=math.nan, surface_lo_C=math.nan)
         sp, state, _, _ = sf.envelope_step(lim, state, e, T, dt)
-        i, act = sf.limit_current(lim, state, req_A, e.surface_hi_C, e.surface_lo_C, prev, dt, fallback)
+        i, act = sf.limit_current(lim, state, req_A, e.surface_hi_C, e.surface_lo_C, prev, dt)
         assert math.isfinite(i) and abs(i) <= lim.I_limit_A + 1e-12
         assert lim.T_min_C <= sp <= lim.T_max_C
         if state.trips & sf.CUT_TRIPS:
