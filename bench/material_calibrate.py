@@ -1,6 +1,6 @@
 """Calibrate the slave's material classifier on simulated reference touches (issue 15).
 
-``python -m bench.material_calibrate [--n 40000] [--dense 30000] [--out telethermo/data/material_classifier.npz]``
+``python -m bench.material_calibrate [--n 100000] [--dense 30000] [--jobs 2] [--out telethermo/data/material_classifier.npz]``
 
 Reference touches are drawn like the bench's (bench/material_id_bench.py: the ten materials in turn, force
 2–10 N, object 15–35 °C, thickness 1–20 mm, noise on, the slave's default controller at rest at the
@@ -11,8 +11,9 @@ touches of ceramic and the metals at 2–6 N (their own seeds, :data:`DENSE`), w
 tell apart. Per touch the slave's own touch vector (telethermo.control.material_calib.touch_vector: the
 filtered signals of the 0.3 s window from the sample the slave's detector calls contact, no truth) is kept
 with its material. The rig's noise covariance in that vector (the first 2000 draws simulated with noise and
-without) whitens it. The local model's size k is chosen on the reference touches alone (every fifth
-classified by the other four fifths), then the classifier is built on all of them and written atomically.
+without) whitens it. The networks (telethermo.control.material_train) are first trained on four fifths of
+the reference touches and scored on the fifth left out (interleaved; recorded in the file's info as the
+validation accuracy), then trained on all of them, and the classifier is written atomically.
 
 On hardware the simulator's calibration does not transfer as such: the same fit on touches of the lab's own
 reference samples is needed (docs/material_id.md).
@@ -20,25 +21,29 @@ reference samples is needed (docs/material_id.md).
 from __future__ import annotations
 
 import argparse
+import io
 import json
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 
 from bench.material_id_bench import (CALIBRATION, PERIOD_S, PRE_S, SIM_TO_TABLE, draws, finger_natural_C,
                                      refuse_overlap, simulate_touch)
+from telethermo.atomic import write_bytes_atomic
 from telethermo.control import material_id as mi
-from telethermo.control.material_calib import (DEFAULT_CALIBRATION, build_calibration, classify_vector,
-                                               save_calibration, touch_vector)
+from telethermo.control.material_calib import DEFAULT_CALIBRATION, save_calibration, touch_vector
+from telethermo.control.material_train import TrainSettings, accuracy, build_calibration
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
 
-#: the flux's weight in the touch vector, K/W; principal components kept; local model sizes tried
-Q_WEIGHT_K_PER_W, COMPONENTS, KS = 3.0, 24, (5, 8, 12)
+#: the flux's weight in the touch vector, K/W
+Q_WEIGHT_K_PER_W = 3.0
 #: touches simulated twice (noise on and off) for the noise covariance; its floor (material_calib.whitener)
 NOISE_TOUCHES, NOISE_FLOOR = 2000, 0.01
 #: the extra reference touches' (draw seed, first simulator seed), classes (ceramic and the five metals: the
-#: effusivity hides behind the contact resistance, where the local models run out of neighbours) and force range
+#: effusivity hides behind the contact resistance, where the classes are hardest to tell apart) and force range
 DENSE, DENSE_CLASSES, DENSE_FORCE_N = (1616, 400_000), (4, 5, 6, 7, 8, 9), 6.0
 
 
@@ -70,22 +75,29 @@ def dense_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     return out
 
 
-def reference_set(n: int, seeds: tuple[int, int], log_every: int = 2000, dense: bool = False
-                  ) -> tuple[np.ndarray, np.ndarray]:
-    """(touch vectors, class indices) of ``n`` reference touches (touches without a window left out); ``dense``:
-    drawn by :func:`dense_draws` instead of the bench's distribution."""
-    refuse_overlap(n, seeds)
+def _vectors(chunk: list[dict]) -> list[tuple[np.ndarray | None, int]]:
+    """(touch vector or None, class) of each draw of ``chunk`` (one worker's share)."""
     params = load_rig_params()
     T_probe = finger_natural_C(params)
+    return [(vector_of(*touch_record(params, T_probe, d)), d["class"]) for d in chunk]
+
+
+def reference_set(n: int, seeds: tuple[int, int], dense: bool = False, jobs: int = 1, chunk: int = 2000
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(touch vectors, class indices) of ``n`` reference touches (touches without a window left out); ``dense``:
+    drawn by :func:`dense_draws` instead of the bench's distribution; simulated in ``jobs`` processes (the same
+    touches in the same order whatever ``jobs``)."""
+    refuse_overlap(n, seeds)
+    todo = dense_draws(n, seeds) if dense else draws(n, seeds)
+    parts = [todo[i:i + chunk] for i in range(0, len(todo), chunk)]
     V, y = [], []
-    for i, d in enumerate(dense_draws(n, seeds) if dense else draws(n, seeds)):
-        T, Q, i0 = touch_record(params, T_probe, d)
-        v = vector_of(T, Q, i0)
-        if v is not None:
-            V.append(v)
-            y.append(d["class"])
-        if log_every and (i + 1) % log_every == 0:
-            print(f"  {i + 1}/{n} reference touches")
+    with ProcessPoolExecutor(max_workers=max(jobs, 1)) as pool:
+        for i, done in enumerate(pool.map(_vectors, parts)):
+            for v, c in done:
+                if v is not None:
+                    V.append(v)
+                    y.append(c)
+            print(f"  {min((i + 1) * chunk, n)}/{n} reference touches", flush=True)
     return np.array(V), np.array(y)
 
 
@@ -105,28 +117,46 @@ def noise_covariance(n: int, seeds: tuple[int, int]) -> np.ndarray:
     return np.cov(np.array(D).T)
 
 
-def choose_k(V: np.ndarray, y: np.ndarray, classes: list[str], noise_cov: np.ndarray) -> tuple[int, dict]:
-    """k with the best accuracy on every fifth reference touch, built on the other four fifths (interleaved:
-    the dense references come last, a final fifth would be only those)."""
+def validate(V: np.ndarray, y: np.ndarray, classes: list[str], noise_cov: np.ndarray, settings: TrainSettings
+             ) -> float:
+    """Accuracy on every fifth reference touch of networks trained on the other four fifths (interleaved: the
+    dense references come last, a final fifth would be only those)."""
     val = np.arange(len(y)) % 5 == 4
-    scores = {}
-    for k in KS:
-        cal = build_calibration(V[~val], y[~val], classes, PERIOD_S, Q_WEIGHT_K_PER_W, k, COMPONENTS,
-                                noise_cov=noise_cov, reg=NOISE_FLOOR)
-        scores[k] = float(np.mean([classify_vector(cal, v)[0] == c for v, c in zip(V[val], y[val])]))
-    return max(scores, key=scores.get), scores
+    cal = build_calibration(V[~val], y[~val], classes, PERIOD_S, Q_WEIGHT_K_PER_W, noise_cov, NOISE_FLOOR, settings)
+    return accuracy(cal, V[val], y[val])
 
 
-def calibrate(n: int, out: Path, n_dense: int = 0) -> dict:
-    """Simulate ``n`` reference touches (and ``n_dense`` extra ones, :func:`dense_draws`), choose k, build, write
-    ``out``; returns what was done."""
-    classes = [SIM_TO_TABLE[m] for m in SIM_TO_TABLE]
-    V, y = reference_set(n, CALIBRATION)
+def touches(n: int, n_dense: int, jobs: int, cache: Path | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(touch vectors, class indices, noise covariance) of the reference touches: read from ``cache`` when it
+    holds the same draws, else simulated (and written there atomically, so that training again with other
+    settings does not simulate again)."""
+    key = np.array([n, n_dense, *CALIBRATION, *DENSE, NOISE_TOUCHES])
+    if cache is not None and cache.exists():
+        with np.load(cache, allow_pickle=False) as c:
+            if "key" in c.files and np.array_equal(c["key"], key):
+                print(f"reference touches read from {cache}")
+                return c["V"], c["y"], c["S"]
+            print(f"{cache} holds other draws: simulated again")
+    V, y = reference_set(n, CALIBRATION, jobs=jobs)
     if n_dense:
-        Vd, yd = reference_set(n_dense, DENSE, dense=True)
+        Vd, yd = reference_set(n_dense, DENSE, dense=True, jobs=jobs)
         V, y = np.concatenate([V, Vd]), np.concatenate([y, yd])
     S = noise_covariance(min(NOISE_TOUCHES, n), CALIBRATION)
-    k, scores = choose_k(V, y, classes, S)
+    if cache is not None:
+        buf = io.BytesIO()
+        np.savez(buf, key=key, V=V, y=y, S=S)
+        write_bytes_atomic(cache, buf.getvalue())
+    return V, y, S
+
+
+def calibrate(n: int, out: Path, n_dense: int = 0, jobs: int = 1, settings: TrainSettings = TrainSettings(),
+              cache: Path | None = None, check: bool = False) -> dict:
+    """Simulate ``n`` reference touches (and ``n_dense`` extra ones, :func:`dense_draws`) in ``jobs`` processes
+    (or read them from ``cache``), with ``check`` validate on a fifth left out, train on all, write ``out``;
+    returns what was done."""
+    classes = [SIM_TO_TABLE[m] for m in SIM_TO_TABLE]
+    V, y, S = touches(n, n_dense, jobs, cache)
+    score = validate(V, y, classes, S, settings) if check else None
     info = {"reference_touches": int(n), "draw_seed": CALIBRATION[0], "sim_seed_first": CALIBRATION[1],
             "dense": {"touches": int(n_dense), "draw_seed": DENSE[0], "sim_seed_first": DENSE[1],
                       "classes": [classes[c] for c in DENSE_CLASSES], "force_N": [2.0, DENSE_FORCE_N]},
@@ -135,22 +165,35 @@ def calibrate(n: int, out: Path, n_dense: int = 0) -> dict:
             "15-35 C, thickness 1-20 mm, noise on, slave default controller, probe at the finger's natural temperature",
             "onset": "the slave's contact detector (as telethermo.control.material_stream)",
             "whitening": {"noise_touches": min(NOISE_TOUCHES, n), "floor": NOISE_FLOOR},
-            "validation_accuracy_by_k": {str(a): round(b, 4) for a, b in scores.items()}, "k": k}
-    cal = build_calibration(V, y, classes, PERIOD_S, Q_WEIGHT_K_PER_W, k, COMPONENTS, json.dumps(info), S, NOISE_FLOOR)
+            "training": dict(vars(settings)),
+            "validation_accuracy": None if score is None else round(score, 4)}
+    cal = build_calibration(V, y, classes, PERIOD_S, Q_WEIGHT_K_PER_W, S, NOISE_FLOOR, settings, json.dumps(info))
     save_calibration(cal, out)
-    print(f"k {k} (validation accuracy by k, reference touches only: {info['validation_accuracy_by_k']}); wrote {out}")
+    if score is not None:
+        print(f"validation accuracy (four fifths of the references trained, the fifth left out) {score:.4f}")
+    print(f"wrote {out}")
     return info
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.material_calibrate", description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--n", type=int, default=40000, help="reference touches (default 40000)")
+    ap.add_argument("--n", type=int, default=200000, help="reference touches (default 200000)")
     ap.add_argument("--dense", type=int, default=30000,
                     help="extra reference touches of ceramic and the metals at 2-6 N (default 30000)")
+    ap.add_argument("--jobs", type=int, default=2, help="simulating processes (default 2)")
+    ap.add_argument("--touches", type=Path, default=None,
+                    help="cache of the simulated reference touches (read when it holds the same draws, else written)")
+    ap.add_argument("--validate", action="store_true", help="first train on four fifths and score the fifth left out")
+    d = TrainSettings()
+    ap.add_argument("--hidden", type=int, default=d.hidden, help=f"units per hidden layer (default {d.hidden})")
+    ap.add_argument("--layers", type=int, default=d.layers, help=f"hidden layers (default {d.layers})")
+    ap.add_argument("--epochs", type=int, default=d.epochs, help=f"training passes (default {d.epochs})")
+    ap.add_argument("--nets", type=int, default=d.n_nets, help=f"ensemble members (default {d.n_nets})")
     ap.add_argument("--out", type=Path, default=DEFAULT_CALIBRATION, help="calibration file to write")
     args = ap.parse_args(argv)
-    calibrate(args.n, args.out, args.dense)
+    settings = replace(d, hidden=args.hidden, layers=args.layers, epochs=args.epochs, n_nets=args.nets)
+    calibrate(args.n, args.out, args.dense, args.jobs, settings, args.touches, args.validate)
     return 0
 
 

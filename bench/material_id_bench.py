@@ -28,7 +28,6 @@ import argparse
 import json
 import math
 import time
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -122,9 +121,9 @@ def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, forc
     rig = SimRig(params, {"object": body}, Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
                  ambient_C=AMBIENT_C, period_s=PERIOD_S, noise=noise if noise is not None else NoiseParams(), seed=seed,
                  grid=grid, start=T_probe_C)
-    cp = default_params(Role.SLAVE, period_s=PERIOD_S)
-    if not identify:
-        cp = replace(cp, material_id=None)
+    # without identification the classifier file is not even read: a calibration can be built without one
+    cp = default_params(Role.SLAVE, period_s=PERIOD_S) if identify else \
+        default_params(Role.SLAVE, period_s=PERIOD_S, material_id=None)
     s = rig.read()
     st = init_state(cp, None, s)
     peer = PeerValues(estimate_C=T_probe_C, flux_W=0.0)
@@ -159,7 +158,7 @@ def tick_figures(step_s: list[np.ndarray], fit_cycles: list[slice], batch_s: lis
             "material_id_fit_cycle_worst_over_step_median": round(worst_fit / med, 1),
             "material_id_batch_fit_over_step_median": round(batch / med, 1),
             "material_id_tick_note": ("the fit runs spread over fit_units cycles after the window (2 + noise_draws "
-                                      "+ one per calibrated material, telethermo.control.material_stream); fit_cycle_worst: per touch the slowest "
+                                      "+ one for the classification, telethermo.control.material_stream); fit_cycle_worst: per touch the slowest "
                                       "of those cycles' core steps, median over touches; batch_fit: the physics fit in "
                                       "one call (estimate_effusivity, without the classification); core_step_max: the slowest step of "
                                       "the run (scheduler spikes included); wall times on this machine")}

@@ -6,10 +6,10 @@ samples are collected. The fit (:func:`telethermo.control.material_id.estimate_e
 runs spread over the following cycles, one unit of work per cycle so that no control cycle carries the
 whole fit: the window's signals and the energy form, the flux form, each of the ``noise_draws`` noise
 realisations of the confidence, then the classification: with a calibration
-(telethermo.control.material_calib, default the shipped one) one material's local model per cycle, else the
-nearest table effusivity. The result (the physics fit's effusivity and standard error of ln b, the class
-and its posterior) is published :func:`fit_units` cycles after the window is complete (20 with the defaults
-and ten calibrated materials: 0.2 s at 100 Hz; 11 without a calibration) and held until the next touch's fit completes (a release clears nothing: the operator may ask
+(telethermo.control.material_calib, default the shipped one) its networks' posterior, else the nearest table
+effusivity. The result (the physics fit's effusivity and standard error of ln b, the class and its posterior)
+is published :func:`fit_units` cycles after the window is complete (11 with the defaults: 0.11 s at 100 Hz)
+and held until the next touch's fit completes (a release clears nothing: the operator may ask
 what was touched last; a fit under way finishes even if the finger leaves). The staged fit equals the
 batch one exactly (:func:`telethermo.control.material_id.estimate_effusivity`,
 :func:`telethermo.control.material_calib.classify_vector`). Pure: the state is an immutable value.
@@ -19,14 +19,13 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
 
 from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form, classify,
                                             filter_release, fit_form, fit_input, half_integral_matrix,
                                             load_effusivity_table, noise_deviation, noise_draws,
                                             with_noise_spread)
-from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, class_residual, decide,
-                                               load_calibration, project, touch_vector)
+from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, classify_vector, load_calibration,
+                                               touch_vector)
 from telethermo.control.rendering import load_render_table
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
@@ -98,9 +97,9 @@ def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
 
 
 def fit_units(p: MaterialIdParams, dt_s: float) -> int:
-    """Cycles from the window's completion to the published result (one unit of work each)."""
-    n_cls = len(p.calibration.classes) if calibrated(p, dt_s) else 1
-    return 2 + noise_draws(p.probe) + n_cls
+    """Cycles from the window's completion to the published result (one unit of work each: the window and the
+    energy form, the flux form, each noise realisation, the classification)."""
+    return 3 + noise_draws(p.probe)
 
 
 @functools.lru_cache(maxsize=1)
@@ -113,8 +112,7 @@ def default_classes() -> tuple[tuple[int, str, float], ...]:
 @dataclass(frozen=True, slots=True)
 class FitJob:
     """A touch's fit under way: ``inp`` its window (None: not built yet, from ``rows``), ``fits`` the forms
-    fitted so far, ``chosen`` (form, estimate) once both are, ``deviations`` the noise realisations' so far,
-    ``residuals`` the calibrated classes' so far and ``z`` the touch projected on the calibration (None: not yet)."""
+    fitted so far, ``chosen`` (form, estimate) once both are, ``deviations`` the noise realisations' so far."""
 
     rows: tuple
     n_pre: int
@@ -122,8 +120,6 @@ class FitJob:
     fits: tuple = ()
     chosen: tuple[str, EffusivityEstimate] | None = None
     deviations: tuple = ()
-    residuals: tuple = ()
-    z: Any = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -190,17 +186,12 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
     if k < noise_draws(probe):                                              # one noise realisation
         return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
     est = with_noise_spread(est, list(job.deviations))
-    cal = p.calibration
-    z = job.z                                       # the touch projected once, in the first class unit
-    if z is None and calibrated(p, dt_s) and p.classes:
-        z = project(cal, touch_vector(job.inp, cal.q_weight_K_per_W))
-    if z is not None:                                                       # one material's local model
-        res = job.residuals + (class_residual(cal, z, len(job.residuals)),)
-        if len(res) < len(cal.classes):
-            return replace(job, residuals=res, z=z), last
-        i, post = decide(cal, list(res), z)
-        code = next(c for c, name, _ in p.classes if name == cal.classes[i])
-        return None, MaterialEstimate(est.b, est.se_ln_b, code, post, n, est.T_object0_C)
+    cal = p.calibration                                                     # the classification
+    got = classify_vector(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
+        else None
+    if got is not None:
+        code = next(c for c, name, _ in p.classes if name == cal.classes[got[0]])
+        return None, MaterialEstimate(est.b, est.se_ln_b, code, got[1], n, est.T_object0_C)
     return None, _classified(p, est, n)
 
 

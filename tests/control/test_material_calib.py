@@ -11,7 +11,7 @@ from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S,
                                      refuse_overlap, simulate_touch)
 from telethermo.control import material_id as mi
 from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration,
-                                               nearest_indices, save_calibration, touch_vector, whitener)
+                                               save_calibration, touch_vector, whitener)
 from telethermo.control.material_stream import (MaterialIdParams, MaterialState, calibrated, default_classes,
                                                 fit_units, material_step)
 from telethermo.sim.measurement import NoiseParams
@@ -24,10 +24,12 @@ CAL = load_calibration()
 def test_shipped_calibration_round_trips(tmp_path):
     out = save_calibration(CAL, tmp_path / "c.npz")
     back = load_calibration(out)
-    assert back.classes == CAL.classes and back.k == CAL.k and back.dt_s == CAL.dt_s and back.n_win == CAL.n_win
-    assert back.sigma2 == CAL.sigma2 and back.info == CAL.info
-    for name in ("center", "basis", "refs", "labels"):
+    assert back.classes == CAL.classes and back.dt_s == CAL.dt_s and back.n_win == CAL.n_win
+    assert back.scale == CAL.scale and back.info == CAL.info and len(back.nets) == len(CAL.nets)
+    for name in ("center", "whiten"):
         assert np.array_equal(getattr(back, name), getattr(CAL, name)), name
+    for net_b, net in zip(back.nets, CAL.nets):
+        assert all(np.array_equal(a, b) for la, lb in zip(net_b, net) for a, b in zip(la, lb))
     assert not list(tmp_path.glob(".c.npz.*"))                          # the temporary file was renamed
 
 
@@ -45,12 +47,13 @@ def _rewrite(src, dst, **change):
 
 
 @pytest.mark.parametrize("change, field", [
-    ({"refs": None}, "refs"),
-    ({"sigma2": np.array(-1.0)}, "sigma2"),
-    ({"labels": np.array([0, 1, 99])}, "refs"),
+    ({"net0_w1": None}, "net0_w1"),
+    ({"scale": np.array(-1.0)}, "scale"),
+    ({"n_nets": np.array(0)}, "n_nets"),
+    ({"net0_w0": np.zeros((7, 3), np.float32)}, "net0_w0"),
     ({"center": np.zeros(7)}, "center"),
     ({"format": np.array("something else")}, "format"),
-    ({"refs": np.full((3, 2), np.nan)}, "refs"),
+    ({"whiten": np.full((60, 60), np.nan)}, "whiten"),
 ])
 def test_malformed_file_gives_one_line_error_naming_file_and_field(tmp_path, change, field):
     bad = _rewrite(DEFAULT_CALIBRATION, tmp_path / "bad.npz", **change)
@@ -97,12 +100,12 @@ def test_classifier_names_thick_slabs_at_a_large_temperature_difference():
 
 
 def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
-    """The staged classification (one material per cycle after the physics fit) equals the batch one."""
+    """The staged fit (the classification in the cycle after the physics fit's) equals the batch one."""
     T_probe = finger_natural_C(PARAMS)
     T, Q, i0, _, _ = simulate_touch(PARAMS, "glass", 0.02, T_probe - 12.0, 6.0, T_probe, seed=900_100, t_on_s=0.205)
     assert T.size > i0 + 30 + 20
     p = MaterialIdParams()
-    assert calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 2 + mi.noise_draws(p.probe) + len(CAL.classes)
+    assert calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 3 + mi.noise_draws(p.probe)
     n_win, units = int(round(p.probe.window_s / PERIOD_S)), fit_units(p, PERIOD_S)
     st = MaterialState()
     k_pub = i0 + n_win - 1 + units                         # the window completes at i0 + n_win - 1
@@ -134,8 +137,8 @@ def test_whitener_maps_the_floored_noise_covariance_to_the_identity():
 
 def test_the_shipped_metric_is_in_units_of_the_rigs_noise():
     """The difference between a touch with the rig's noise and the same touch without it (seeds no calibration
-    touch used), projected on the shipped calibration: each component's variance is at most about one (the
-    whitening's floor only lowers it), and the largest is near one. A calibration in °C would give 1e-4."""
+    touch used), through the shipped calibration's whitening: each component's variance is at most about one
+    (the whitening's floor only lowers it), and the largest is near one. A calibration in °C would give 1e-4."""
     T_probe = finger_natural_C(PARAMS)
     mats = list(SIM_TO_TABLE)
     Z = []
@@ -147,7 +150,7 @@ def test_the_shipped_metric_is_in_units_of_the_rigs_noise():
                                          noise=NoiseParams(enabled=False), identify=False)
         v = touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W)
         vc = touch_vector(mi.fit_input(Tc, Qc, i0, PERIOD_S), CAL.q_weight_K_per_W)
-        Z.append(CAL.basis @ (v - vc))
+        Z.append(CAL.whiten @ (v - vc))
     var = np.var(np.array(Z), axis=0)
     assert var.max() < 1.6 and var.max() > 0.5, var          # 120 draws: a variance of 1 is estimated within ±0.4
 
@@ -163,11 +166,3 @@ def test_the_core_classifies_the_window_the_calibration_was_built_on():
         got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
         assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]]
         assert est.posterior == pytest.approx(post, rel=1e-12)
-
-
-def test_nearest_indices_are_those_of_a_full_stable_sort():
-    rng = np.random.default_rng(11)
-    for n, k in ((9000, 8), (4000, 5), (40, 8), (8, 8), (3, 8), (64, 8)):
-        d = rng.standard_normal(n) ** 2
-        d[rng.integers(n, size=n // 3)] = 0.25                       # ties, which the stable sort breaks by index
-        assert np.array_equal(nearest_indices(d, k), np.argsort(d, kind="stable")[:k]), (n, k)
