@@ -8,8 +8,9 @@ whole fit: the window's signals and the energy form, the flux form, each of the 
 realisations of the confidence, then the classification: with a calibration
 (telethermo.control.material_calib, default the shipped one) its networks' posterior, else the nearest table
 effusivity. The result (the physics fit's effusivity and standard error of ln b, the class and its posterior)
-is published :func:`fit_units` cycles after the window is complete (11 with the defaults: 0.11 s at 100 Hz)
-and held until the next touch's fit completes (a release clears nothing: the operator may ask
+is published :func:`fit_units` cycles after the window is complete (11 with the defaults: 0.11 s at 100 Hz;
+when neither form of the physics fit gives an effusivity, the calibrated class alone, effusivity NaN, after
+the second form's cycle) and held until the next touch's fit completes (a release clears nothing: the operator may ask
 what was touched last; a fit under way finishes even if the finger leaves). The staged fit equals the
 batch one exactly (:func:`telethermo.control.material_id.estimate_effusivity`,
 :func:`telethermo.control.material_calib.classify_vector`). Pure: the state is an immutable value.
@@ -178,21 +179,29 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
         if len(fits) < len(FORMS):
             return replace(job, fits=fits), last
         chosen = best_form(list(fits))
-        if chosen is None:
-            return None, MaterialEstimate(touch=n)
+        if chosen is None:                          # no effusivity; the calibrated classifier needs none
+            got = _calibrated_class(p, job.inp, dt_s)
+            return None, MaterialEstimate(code=got[0], posterior=got[1], touch=n) if got else MaterialEstimate(touch=n)
         return replace(job, fits=fits, chosen=chosen), last
     form, est = job.chosen
     k = len(job.deviations)
     if k < noise_draws(probe):                                              # one noise realisation
         return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
     est = with_noise_spread(est, list(job.deviations))
-    cal = p.calibration                                                     # the classification
-    got = classify_vector(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
-        else None
+    got = _calibrated_class(p, job.inp, dt_s)                              # the classification
     if got is not None:
-        code = next(c for c, name, _ in p.classes if name == cal.classes[got[0]])
-        return None, MaterialEstimate(est.b, est.se_ln_b, code, got[1], n, est.T_object0_C)
+        return None, MaterialEstimate(est.b, est.se_ln_b, got[0], got[1], n, est.T_object0_C)
     return None, _classified(p, est, n)
+
+
+def _calibrated_class(p: MaterialIdParams, inp: FitInput, dt_s: float) -> tuple[int, float] | None:
+    """(material code, posterior) by the calibrated classifier, or None when none applies (another period or
+    window, a touch vector that is not finite)."""
+    cal = p.calibration
+    got = classify_vector(cal, touch_vector(inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes else None
+    if got is None:
+        return None
+    return next(c for c, name, _ in p.classes if name == cal.classes[got[0]]), got[1]
 
 
 def _classified(p: MaterialIdParams, est: EffusivityEstimate, n: int) -> MaterialEstimate:

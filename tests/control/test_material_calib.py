@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import math
 import zipfile
 
 import numpy as np
@@ -166,3 +167,16 @@ def test_the_core_classifies_the_window_the_calibration_was_built_on():
         got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
         assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]]
         assert est.posterior == pytest.approx(post, rel=1e-12)
+
+
+def test_a_touch_without_an_effusivity_is_still_classified():
+    """An object within 0.3 °C of the probe: neither form of the physics fit gives an effusivity (the batch fit
+    says None), yet the window exists, so the calibrated class is published with its posterior and a NaN
+    effusivity (seeds no calibration touch used)."""
+    T_probe = finger_natural_C(PARAMS)
+    T, Q, i0, est, _ = simulate_touch(PARAMS, "glass", 0.001637, 33.909, 3.25, T_probe, seed=950_053, t_on_s=0.2073)
+    assert abs(33.909 - T_probe) < 0.5 and mi.estimate_effusivity(T, Q, i0, PERIOD_S) is None
+    got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
+    codes = {name: code for code, name, _ in default_classes()}
+    assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]] and est.code > 0
+    assert est.posterior == pytest.approx(post, rel=1e-12) and math.isnan(est.effusivity)
