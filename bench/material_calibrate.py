@@ -1,6 +1,7 @@
 """Calibrate the slave's material classifier on simulated reference touches (issue 15).
 
-``python -m bench.material_calibrate [--n 100000] [--dense 30000] [--jobs 2] [--out telethermo/data/material_classifier.npz]``
+``python -m bench.material_calibrate [--n 200000] [--dense 30000] [--jobs 2] [--touches CACHE] [--validate]
+[--hidden 512] [--layers 3] [--epochs 40] [--nets 1] [--out telethermo/data/material_classifier.npz]``
 
 Reference touches are drawn like the bench's (bench/material_id_bench.py: the ten materials in turn, force
 2–10 N, object 15–35 °C, thickness 1–20 mm, noise on, the slave's default controller at rest at the
@@ -11,9 +12,10 @@ touches of ceramic and the metals at 2–6 N (their own seeds, :data:`DENSE`), w
 tell apart. Per touch the slave's own touch vector (telethermo.control.material_calib.touch_vector: the
 filtered signals of the 0.3 s window from the sample the slave's detector calls contact, no truth) is kept
 with its material. The rig's noise covariance in that vector (the first 2000 draws simulated with noise and
-without) whitens it. The networks (telethermo.control.material_train) are first trained on four fifths of
-the reference touches and scored on the fifth left out (interleaved; recorded in the file's info as the
-validation accuracy), then trained on all of them, and the classifier is written atomically.
+without) whitens it. The networks (telethermo.control.material_train) are trained on all of them and the
+classifier is written atomically; with ``--validate`` they are first trained on four fifths and scored on the
+fifth left out (interleaved; recorded in the file's info as the validation accuracy). ``--touches`` keeps the
+simulated touches (about 15 of the 25 minutes on this machine) for training again with other settings.
 
 On hardware the simulator's calibration does not transfer as such: the same fit on touches of the lab's own
 reference samples is needed (docs/material_id.md).

@@ -8,6 +8,7 @@ import zipfile
 import numpy as np
 import pytest
 
+from bench.material_calibrate import calibrate
 from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S, SIM_TO_TABLE, finger_natural_C,
                                      refuse_overlap, simulate_touch)
 from telethermo.control import material_id as mi
@@ -15,6 +16,7 @@ from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vec
                                                save_calibration, touch_vector, whitener)
 from telethermo.control.material_stream import (MaterialIdParams, MaterialState, calibrated, default_classes,
                                                 fit_units, material_step)
+from telethermo.control.material_train import TrainSettings
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
 
@@ -180,3 +182,18 @@ def test_a_touch_without_an_effusivity_is_still_classified():
     codes = {name: code for code, name, _ in default_classes()}
     assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]] and est.code > 0
     assert est.posterior == pytest.approx(post, rel=1e-12) and math.isnan(est.effusivity)
+
+
+def test_the_calibration_command_builds_a_classifier_the_slave_loads(tmp_path, capsys):
+    """bench.material_calibrate end to end on a few touches (tiny networks): the file loads with the bench's
+    classes and window, records its seeds, and a second run reads the cached touches instead of simulating."""
+    small = TrainSettings(hidden=16, layers=1, epochs=2, n_nets=1)
+    info = calibrate(40, tmp_path / "c.npz", 12, 1, small, tmp_path / "touches.npz", check=True)
+    cal = load_calibration(tmp_path / "c.npz")
+    assert cal.classes == CAL.classes and cal.n_win == CAL.n_win and cal.dt_s == CAL.dt_s
+    assert json.loads(cal.info)["references_kept"] == info["references_kept"] == 52
+    assert 0.0 <= info["validation_accuracy"] <= 1.0
+    capsys.readouterr()
+    calibrate(40, tmp_path / "c2.npz", 12, 1, small, tmp_path / "touches.npz")
+    assert "read from" in capsys.readouterr().out
+    assert np.array_equal(load_calibration(tmp_path / "c2.npz").center, cal.center)
