@@ -7,10 +7,11 @@ runs spread over the following cycles, one unit of work per cycle so that no con
 whole fit: the window's signals and the energy form, the flux form, each of the ``noise_draws`` noise
 realisations of the confidence, then the classification: with a calibration
 (telethermo.control.material_calib, default the shipped one) its networks' posterior, else the nearest table
-effusivity. The result (the physics fit's effusivity and standard error of ln b, the class and its posterior)
-is published :func:`fit_units` cycles after the window is complete (11 with the defaults: 0.11 s at 100 Hz;
-when neither form of the physics fit gives an effusivity, the calibrated class alone, effusivity NaN, after
-the second form's cycle) and held until the next touch's fit completes (a release clears nothing: the operator may ask
+effusivity. The networks run one layer per cycle. The result (the physics fit's effusivity and standard error
+of ln b, the class and its posterior) is published :func:`fit_units` cycles after the window is complete (14
+with the defaults and the shipped network of four layers: 0.14 s at 100 Hz; when neither form of the physics
+fit gives an effusivity, the calibrated class alone, effusivity NaN, without the noise realisations' cycles)
+and held until the next touch's fit completes (a release clears nothing: the operator may ask
 what was touched last; a fit under way finishes even if the finger leaves). The staged fit equals the
 batch one exactly (:func:`telethermo.control.material_id.estimate_effusivity`,
 :func:`telethermo.control.material_calib.classify_vector`). Pure: the state is an immutable value.
@@ -20,13 +21,14 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form, classify,
                                             filter_release, fit_form, fit_input, half_integral_matrix,
                                             load_effusivity_table, noise_deviation, noise_draws,
                                             with_noise_spread)
-from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, classify_vector, load_calibration,
-                                               touch_vector)
+from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, decide, load_calibration,
+                                               n_units, network_input, network_unit, touch_vector)
 from telethermo.control.rendering import load_render_table
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
@@ -99,8 +101,9 @@ def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
 
 def fit_units(p: MaterialIdParams, dt_s: float) -> int:
     """Cycles from the window's completion to the published result (one unit of work each: the window and the
-    energy form, the flux form, each noise realisation, the classification)."""
-    return 3 + noise_draws(p.probe)
+    energy form, the flux form, each noise realisation, then the classification: one layer of the calibrated
+    networks per cycle, or the nearest effusivity in one)."""
+    return 2 + noise_draws(p.probe) + (n_units(p.calibration) if calibrated(p, dt_s) else 1)
 
 
 @functools.lru_cache(maxsize=1)
@@ -113,7 +116,9 @@ def default_classes() -> tuple[tuple[int, str, float], ...]:
 @dataclass(frozen=True, slots=True)
 class FitJob:
     """A touch's fit under way: ``inp`` its window (None: not built yet, from ``rows``), ``fits`` the forms
-    fitted so far, ``chosen`` (form, estimate) once both are, ``deviations`` the noise realisations' so far."""
+    fitted so far, ``chosen`` (form, estimate) once both are ((None, None): no effusivity, the calibrated class
+    alone), ``deviations`` the noise realisations' so far, ``x`` the networks' input, ``h`` and ``probs`` the
+    staged classification's state and ``unit`` its next unit."""
 
     rows: tuple
     n_pre: int
@@ -121,6 +126,10 @@ class FitJob:
     fits: tuple = ()
     chosen: tuple[str, EffusivityEstimate] | None = None
     deviations: tuple = ()
+    x: Any = None
+    h: Any = None
+    probs: tuple = ()
+    unit: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -180,28 +189,31 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
             return replace(job, fits=fits), last
         chosen = best_form(list(fits))
         if chosen is None:                          # no effusivity; the calibrated classifier needs none
-            got = _calibrated_class(p, job.inp, dt_s)
-            return None, MaterialEstimate(code=got[0], posterior=got[1], touch=n) if got else MaterialEstimate(touch=n)
+            if not calibrated(p, dt_s) or not p.classes:
+                return None, MaterialEstimate(touch=n)
+            chosen = (None, None)
         return replace(job, fits=fits, chosen=chosen), last
     form, est = job.chosen
     k = len(job.deviations)
-    if k < noise_draws(probe):                                              # one noise realisation
+    if est is not None and k < noise_draws(probe):                          # one noise realisation
         return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
-    est = with_noise_spread(est, list(job.deviations))
-    got = _calibrated_class(p, job.inp, dt_s)                              # the classification
-    if got is not None:
-        return None, MaterialEstimate(est.b, est.se_ln_b, got[0], got[1], n, est.T_object0_C)
-    return None, _classified(p, est, n)
-
-
-def _calibrated_class(p: MaterialIdParams, inp: FitInput, dt_s: float) -> tuple[int, float] | None:
-    """(material code, posterior) by the calibrated classifier, or None when none applies (another period or
-    window, a touch vector that is not finite)."""
-    cal = p.calibration
-    got = classify_vector(cal, touch_vector(inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes else None
-    if got is None:
-        return None
-    return next(c for c, name, _ in p.classes if name == cal.classes[got[0]]), got[1]
+    if est is not None:
+        est = with_noise_spread(est, list(job.deviations))
+    cal = p.calibration                                                     # the classification
+    if job.x is None:
+        x = network_input(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
+            else None
+        if x is None:
+            return None, _classified(p, est, n) if est is not None else MaterialEstimate(touch=n)
+        job = replace(job, x=x)
+    h, probs = network_unit(cal, job.x, job.h, job.probs, job.unit)        # one layer
+    if job.unit + 1 < n_units(cal):
+        return replace(job, h=h, probs=probs, unit=job.unit + 1), last
+    i, post = decide(probs)
+    code = next(c for c, name, _ in p.classes if name == cal.classes[i])
+    if est is None:
+        return None, MaterialEstimate(code=code, posterior=post, touch=n)
+    return None, MaterialEstimate(est.b, est.se_ln_b, code, post, n, est.T_object0_C)
 
 
 def _classified(p: MaterialIdParams, est: EffusivityEstimate, n: int) -> MaterialEstimate:

@@ -12,7 +12,7 @@ from bench.material_calibrate import calibrate
 from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S, SIM_TO_TABLE, finger_natural_C,
                                      refuse_overlap, simulate_touch)
 from telethermo.control import material_id as mi
-from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration,
+from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration, n_units,
                                                save_calibration, touch_vector, whitener)
 from telethermo.control.material_stream import (MaterialIdParams, MaterialState, calibrated, default_classes,
                                                 fit_units, material_step)
@@ -103,12 +103,12 @@ def test_classifier_names_thick_slabs_at_a_large_temperature_difference():
 
 
 def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
-    """The staged fit (the classification in the cycle after the physics fit's) equals the batch one."""
+    """The staged fit (the physics fit's units, then one network layer per cycle) equals the batch one."""
     T_probe = finger_natural_C(PARAMS)
     T, Q, i0, _, _ = simulate_touch(PARAMS, "glass", 0.02, T_probe - 12.0, 6.0, T_probe, seed=900_100, t_on_s=0.205)
     assert T.size > i0 + 30 + 20
     p = MaterialIdParams()
-    assert calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 3 + mi.noise_draws(p.probe)
+    assert calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 2 + mi.noise_draws(p.probe) + n_units(CAL) == 14
     n_win, units = int(round(p.probe.window_s / PERIOD_S)), fit_units(p, PERIOD_S)
     st = MaterialState()
     k_pub = i0 + n_win - 1 + units                         # the window completes at i0 + n_win - 1
