@@ -81,7 +81,12 @@ def network_input(cal: Calibration, v: np.ndarray) -> np.ndarray | None:
     is not finite."""
     if v.shape != cal.center.shape or not np.isfinite(v).all():
         return None
-    return (cal.whiten @ (v - cal.center) / cal.scale).astype(np.float32)
+    return inputs(cal.center, cal.whiten, cal.scale, v)
+
+
+def inputs(center: np.ndarray, whiten: np.ndarray, scale: float, V: np.ndarray) -> np.ndarray:
+    """The networks' inputs (float32) of touch vectors ``V`` (one, or N × 2·n_win; °C), unchecked (pure)."""
+    return ((np.asarray(V, float) - center) @ whiten.T / scale).astype(np.float32)
 
 
 def log_softmax(o: np.ndarray) -> np.ndarray:

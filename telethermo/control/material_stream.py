@@ -197,15 +197,15 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
     k = len(job.deviations)
     if est is not None and k < noise_draws(probe):                          # one noise realisation
         return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
-    if est is not None:
-        est = with_noise_spread(est, list(job.deviations))
     cal = p.calibration                                                     # the classification
-    if job.x is None:
+    if job.x is None:                               # its first unit: the confidence and the networks' input, once
+        est = with_noise_spread(est, list(job.deviations)) if est is not None else None
         x = network_input(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
             else None
         if x is None:
             return None, _classified(p, est, n) if est is not None else MaterialEstimate(touch=n)
-        job = replace(job, x=x)
+        job = replace(job, x=x, chosen=(form, est))
+    est = job.chosen[1]
     h, probs = network_unit(cal, job.x, job.h, job.probs, job.unit)        # one layer
     if job.unit + 1 < n_units(cal):
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from telethermo.control.material_calib import Calibration, input_map, log_softmax, posterior
+from telethermo.control.material_calib import Calibration, input_map, inputs, log_softmax, posterior
 
 
 @dataclass(frozen=True)
@@ -108,8 +108,3 @@ def build_calibration(V: np.ndarray, y: np.ndarray, classes: list[str], dt_s: fl
     return Calibration(tuple(classes), float(dt_s), V.shape[1] // 2, float(q_weight_K_per_W), center, whiten, scale,
                        nets, info)
 
-
-def inputs(center: np.ndarray, whiten: np.ndarray, scale: float, V: np.ndarray) -> np.ndarray:
-    """The networks' inputs (float32) of touch vectors ``V`` (N × 2·n_win, °C), as
-    telethermo.control.material_calib.network_input maps one."""
-    return ((np.asarray(V, float) - center) @ whiten.T / scale).astype(np.float32)

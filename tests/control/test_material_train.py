@@ -6,9 +6,9 @@ import math
 
 import numpy as np
 
-from telethermo.control.material_calib import (Calibration, classify_vector, load_calibration, network_input,
+from telethermo.control.material_calib import (Calibration, classify_vector, inputs, load_calibration, network_input,
                                                save_calibration)
-from telethermo.control.material_train import TrainSettings, accuracy, build_calibration, inputs, train_network
+from telethermo.control.material_train import TrainSettings, accuracy, build_calibration, train_network
 
 SMALL = TrainSettings(hidden=32, layers=2, epochs=30, batch=64, lr=3e-3, warmup=100, n_nets=1)
 
