@@ -51,12 +51,12 @@ def cooling_curve(mat_name: str, thickness_mm: float, *, load_g: float = 0.0, ba
     finger = Body(BodySpec("finger", kind="finger"), A, AMBIENT_C, params.h_air_W_m2K, grid)
     T_f0 = finger.surface_C()
     obj = slab("object", material(mat_name), thickness_mm * 1e-3, A, grid.t_min_s, grid.ratio, grid.cells_per_length)
-    R_f = contact_resistance_m2K_W(FORCE_N, params.R_at_1N_m2K_W, params.F_perfect_N) / A
+    R_f = contact_resistance_m2K_W(FORCE_N, params.R_at_1N_m2K_W, params.force_exponent) / A
     segs, links = [reversed_segment(finger.segment), obj], [R_f]
     if load_g > 0:
         segs.append(lump("load", load_g * 1e-3 * LOAD_C_J_PER_KG_K))
         F_load = load_g * 1e-3 * 9.81
-        links.append(contact_resistance_m2K_W(F_load, params.R_at_1N_m2K_W, params.F_perfect_N) / A)
+        links.append(contact_resistance_m2K_W(F_load, params.R_at_1N_m2K_W, params.force_exponent) / A)
     back_b = Boundary(params.h_air_W_m2K * A, AMBIENT_C) if back == "ambient" else ADIABATIC
     system = assemble(segs, links, finger.back, back_b)
     x = np.concatenate([finger.x[: finger.n][::-1], np.full(system.n - finger.n, T_HOT_C), [0.0]])

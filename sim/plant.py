@@ -129,7 +129,7 @@ class Config:
         links = [1.0 / params.G_sink_plate_W_K, 1.0 / tem.K_W_K, 1.0 / params.G_plate_sensor_W_K]
         if body is not None:
             segs.append(body.segment)
-            links.append(contact_resistance_m2K_W(force_N, params.R_at_1N_m2K_W, params.F_perfect_N) / A)
+            links.append(contact_resistance_m2K_W(force_N, params.R_at_1N_m2K_W, params.force_exponent) / A)
             back = body.back
         else:
             back = Boundary(params.h_air_W_m2K * A, ambient_C)

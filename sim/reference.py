@@ -27,7 +27,7 @@ class _Pair:
 
     def __init__(self, finger: Body, obj: Body, force_N: float, params: RigParams) -> None:
         A = params.area_m2
-        R = contact_resistance_m2K_W(force_N, params.R_at_1N_m2K_W, params.F_perfect_N) / A
+        R = contact_resistance_m2K_W(force_N, params.R_at_1N_m2K_W, params.force_exponent) / A
         # chain: finger core ... finger surface | object front ... object back (the finger seen from its back)
         fs = finger.segment
         self.system = assemble([reversed_segment(fs), obj.segment], [R], finger.back, obj.back)

@@ -100,7 +100,7 @@ class RigParams:
         sensor_thickness_m: heat-flux sensor thickness, m.
         sensor_material: name in the materials table.
         sensor_cells: grid cells across the sensor (odd), or 0: graded from both faces (default).
-        R_at_1N_m2K_W, F_perfect_N: contact law (see :func:`sim.contact.contact_resistance_m2K_W`).
+        R_at_1N_m2K_W, force_exponent: contact law R_at_1N·F^(−n) (see :func:`sim.contact.contact_resistance_m2K_W`).
         detect_threshold_N: the contact detector fires above this force, N.
         h_air_W_m2K: loss of a free surface to ambient, W/(m²·K).
     """
@@ -115,7 +115,7 @@ class RigParams:
     sensor_material: str = "flux_sensor"
     sensor_cells: int = 0
     R_at_1N_m2K_W: float = 5e-4
-    F_perfect_N: float = 6.0
+    force_exponent: float = 2.0
     detect_threshold_N: float = 0.3
     h_air_W_m2K: float = 15.0
 
@@ -163,7 +163,7 @@ def load_rig_params(path: str | Path | None = None) -> RigParams:
         sensor_material=str(raw.get("sensor", {}).get("material", "flux_sensor")),
         sensor_cells=cells,
         R_at_1N_m2K_W=_num(raw, path, "contact", "R_at_1N_m2K_W"),
-        F_perfect_N=_num(raw, path, "contact", "F_perfect_N"),
+        force_exponent=_num(raw, path, "contact", "force_exponent"),
         detect_threshold_N=_num(raw, path, "contact", "detect_threshold_N"),
         h_air_W_m2K=_num(raw, path, "contact", "h_air_W_m2K"),
     )
