@@ -1,6 +1,8 @@
 """Helpers shared by the simulator tests."""
 from __future__ import annotations
 
+import dataclasses
+
 import pytest
 
 from telethermo.sim.scene import parse_scene
@@ -17,6 +19,12 @@ def make_scene(master=(), slave=(), objects=None, kind=None, duration=5.0, perio
     if noise is not None:
         raw["noise"] = noise
     return parse_scene(raw, "<test>")
+
+
+def perfect_contact(scene):
+    """``scene`` with a negligible contact resistance (R''(1 N) = 1e-12 m²K/W): for tests of the bodies'
+    effusivities against eq. 1, which assumes perfect contact (yamamoto measured β with silicone grease)."""
+    return dataclasses.replace(scene, rig_params=scene.rig_params.with_(R_at_1N_m2K_W=1e-12))
 
 
 @pytest.fixture
