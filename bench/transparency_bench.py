@@ -225,6 +225,10 @@ def run(quick: bool = False) -> dict[str, Any]:
         "pre_contact_mean_error_C": f_proj["pre_contact_mean_error_C"],
         "early_mean_error_C": f_proj["early_mean_error_C"], "early01_mean_error_C": f_proj["early01_mean_error_C"],
         "late_mean_error_C": f_proj["late_mean_error_C"],
+        # the figure a limit cycle cannot hide behind (telethermo.offline.oscillation), paper law beside
+        "oscillation_worst_ratio": proj.figures["oscillation"]["worst_ratio"],
+        "oscillation": proj.figures["oscillation"],
+        "paper_law_oscillation_worst_ratio": paper.figures["oscillation"]["worst_ratio"],
         "per_touch": per_touch,
         "null_displays": {k: v["headline_error_C"] for k, v in nulls.items()},
         "null_display_min_ratio_to_project": min(v["headline_error_C"] for v in nulls.values())

@@ -89,17 +89,19 @@ def _model_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
 
 def _safety_mode_render_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
     """Safety envelope, mode, virtual rendering and its later phase, material identification."""
+    # the master's envelope guards skin, the slave's the probe's hardware (telethermo.control.safety_limits)
+    lo, hi, hot = (15.0, 43.0, 41.0) if role == "master" else (0.0, 60.0, 58.0)
     return [
         # -- safety envelope (DESIGN.md section 6): ranges only allow narrowing the defaults
-        V(0x2400, _real("T_min_C", "rw", 15.0, 15.0, 43.0,
+        V(0x2400, _real("T_min_C", "rw", lo, lo, hi,
                         description="lowest surface setpoint, must not exceed neutral_C and must stay more than 1 degC "
                                     "(two 0.5 degC guard bands) below T_max_C")),
-        V(0x2401, _real("T_max_C", "rw", 43.0, 15.0, 43.0,
+        V(0x2401, _real("T_max_C", "rw", hi, lo, hi,
                         description="highest surface setpoint, must not be below neutral_C and must stay more than 1 degC "
                                     "(two 0.5 degC guard bands) above T_min_C")),
         V(0x2402, _real("ramp_limit_C_per_s", "rw", 5.0, 0.01, 5.0, description="setpoint ramp limit")),
-        V(0x2403, _real("hot_threshold_C", "rw", 41.0, 30.0, 43.0, description="time-at-temperature threshold")),
-        V(0x2404, _real("hot_time_limit_s", "rw", 30.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
+        V(0x2403, _real("hot_threshold_C", "rw", hot, 30.0, hi, description="time-at-temperature threshold")),
+        V(0x2404, _real("hot_time_limit_s", "rw", 30.0 if role == "master" else 600.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
         V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit, at most 0.8 Imax of the rig (the node writes its own: 2.4 A on the simulated 3 A rig)")),
         V(0x2406, _real("sink_trip_C", "rw", 55.0, 20.0, 55.0, description="heat-sink trip temperature")),
         V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss, must lie within [T_min_C, T_max_C]")),

@@ -226,6 +226,12 @@ def print_summary(fig: dict) -> None:
         print(f"transparency (|skin - direct-touch skin|): headline {f(tr['headline_error_C'], ' °C')} over "
               f"t_on-0.5..t_on+1 s; pre-contact {f(tr['pre_contact_mean_error_C'], ' °C')}, early "
               f"{f(tr['early_mean_error_C'], ' °C')}, late {f(tr['late_mean_error_C'], ' °C')}")
+    osc = fig.get("oscillation")
+    if osc:
+        verdict = "OSCILLATING" if osc["oscillating"] else "no oscillation"
+        print(f"oscillation in settled contact ({osc['band_Hz'][0]:g}-{osc['band_Hz'][1]:g} Hz): {verdict}: worst "
+              f"skin/direct-touch ratio {f(osc['worst_ratio'])} (limit {osc['limit']:g}), skin "
+              f"{f(osc['skin_band_rms_max_C'], ' °C')} RMS, current {f(osc['current_band_rms_max_A'], ' A')} RMS")
     cue = fig.get("discrimination_cue")
     if cue:
         print(f"material cue (heat drawn in the first second): direct order {' > '.join(cue['direct_order_most_heat_first'])}"

@@ -9,6 +9,7 @@ from typing import Any
 
 from telethermo.control.core import CoreParams
 from telethermo.control.defaults import GAINS, RENDER_GAINS
+from telethermo.control.safety_limits import probe_limits
 from telethermo.control.types import Mode, Role
 
 
@@ -17,5 +18,7 @@ def default_params(role: Role, *, period_s: float = 0.01, mode: Mode = Mode.TELE
     role = Role(role)
     gains = RENDER_GAINS if Mode(mode) is Mode.RENDER else GAINS[role]
     kw: dict[str, Any] = dict(role=role, mode=mode, period_s=period_s, **gains)
+    if role is Role.SLAVE:
+        kw["safety"] = probe_limits()     # the probe's envelope protects its hardware, not skin (DESIGN.md §6)
     kw.update(overrides)
     return CoreParams(**kw)

@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 
 from telethermo.offline.recording import Recording
+from telethermo.offline.oscillation import oscillation_figures
 from telethermo.offline.transparency import transparency_figures
 from telethermo.control.safety import EMCY_CODES, Trip
 
@@ -175,6 +176,7 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         "late_mean_flux_error_W": agg("late_Q", "mean_abs"), "late_max_flux_error_W": agg("late_Q", "max_abs"),
         "per_contact": per,
     }
+    out["oscillation"] = oscillation_figures(t, surf, rec.col("ref_T_contact_C"), rec.col("m_current_A"), contacts)
     out["discrimination_cue"] = honest["cue"]
     out["tracking"] = _tracking(rec, t, contacts)
     out["discrimination"] = _discrimination(per)
