@@ -127,10 +127,13 @@ def test_power_on_values_match_the_control_cores_defaults(role):
     from telethermo.control.safety import SafetyState
     from telethermo.control.types import Mode
 
-    from telethermo.control.safety import SafetyLimits
+    from telethermo.control.safety import SafetyLimits, probe_limits
 
     info = EdsInfo(path(f"{role}.eds"))
-    sp = SafetyLimits()
+    sp = SafetyLimits() if role == "master" else probe_limits()   # skin on the master, the probe's hardware
+    for name, field in (("T_min_C", "T_min_C"), ("T_max_C", "T_max_C"), ("hot_threshold_C", "hot_C")):
+        assert float(info.get(name).default) == getattr(sp, field)
+    assert (info.get("T_min_C").low, info.get("T_max_C").high) == sp.widest_C
     assert float(info.get("hot_time_limit_s").default) == sp.hot_time_limit_s
     assert float(info.get("sink_trip_C").default) == sp.sink_trip_C
     assert float(info.get("current_limit_A").default) == pytest.approx(sp.current_fraction * sp.I_max_A)
