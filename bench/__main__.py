@@ -18,7 +18,7 @@ import os
 from bench.common import RESULTS_DIR, RESULTS_ENV, current_results_dir
 from bench.report import refresh_docs, write_plots
 
-SUITE = ["sim", "identify", "control", "transparency", "nodes", "identify_live", "cli", "rendering", "monitor"]
+SUITE = ["sim", "identify", "control", "transparency", "nodes", "identify_live", "cli", "rendering", "monitor", "envelope"]
 
 
 def main(argv: list[str] | None = None) -> int:

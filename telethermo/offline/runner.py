@@ -104,7 +104,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
                         master_model: Any = None, slave_model: Any = None, duration_s: float | None = None,
                         rounding: str = "none", seed: int | None = 0, mode: str | None = None,
                         render_options: dict[str, Any] | None = None,
-                        peer_loss_s: tuple[float, float] | None = None) -> SessionResult:
+                        peer_loss_s: tuple[float, float] | None = None, slave_rig_params: Any = None,
+                        delay_cycles: int = 0, delay_jitter_cycles: int = 0) -> SessionResult:
     """Run a scene offline and return the recording and its figures.
 
     ``scene``: a name or path (``sim.load_scene``) or a loaded scene. ``*_params``: controller
@@ -117,6 +118,10 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     ``peer_loss_s``: (telepresence) a scripted link loss (start, end), s: the samples of cycles at
     start <= t < end see their peer lost (the last values received, not fresh, not alive), as a node does
     once its heartbeat consumer or the PDO-miss limit declares the peer lost.
+    ``slave_rig_params``: (telepresence) the probe's own rig (a ``sim.tem.RigParams``; default: the scene's).
+    ``delay_cycles``, ``delay_jitter_cycles``: extra one-way transport delay of the exchanged values, in
+    cycles, on both streams: each value arrives ``delay_cycles`` plus a uniform 0..jitter cycles late (seeded
+    by ``seed``), never before a value sent earlier (CAN keeps the order); the peer uses the newest arrived.
     """
     if rounding not in ROUNDINGS:
         raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
@@ -139,7 +144,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
         return _run_render(sc, rig_m, ref, master_params, _load_model(master_model), n_steps, period, rounding,
                            **(render_options or {}))
 
-    rig_s = sim.build_rig(sc, "slave", seed=None if seed is None else seed + 1)
+    sc_s = sc if slave_rig_params is None else dataclasses.replace(sc, rig_params=slave_rig_params)
+    rig_s = sim.build_rig(sc_s, "slave", seed=None if seed is None else seed + 1)
     if rig_s.period_s != period:
         raise ValueError(f"run_offline_session: the rigs' periods differ ({period} s vs {rig_s.period_s} s)")
     pm = master_params or default_params(Role.MASTER, period_s=period)
@@ -157,6 +163,7 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
             "rounding": rounding, "seed": seed, "contacts": scene_contacts(sc, "slave"),
             "master_params": _params_meta(pm), "slave_params": _params_meta(ps)}
     b = RecordingBuilder(meta)
+    link = _DelayLine(delay_cycles, delay_jitter_cycles, seed)
     for _k in range(n_steps):
         sm, ss = rig_m.read(), rig_s.read()
         if peer_loss_s is not None and peer_loss_s[0] <= sm.t_s < peer_loss_s[1]:
@@ -171,8 +178,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
         row.update(ref_row(ref))
         b.add(row)
         st_m, st_s = rm.state, rs.state
-        # values sent in this cycle, received by the peer in the next one
-        peer_m, peer_s = _received(rs.out, rnd), _received(rm.out, rnd)
+        # values sent in this cycle, received by the peer in the next one (later with a delay line)
+        peer_m, peer_s = link.pass_on(_k, _received(rs.out, rnd), _received(rm.out, rnd), peer_m, peer_s)
         rig_m.apply_current(rm.current_A)
         rig_s.apply_current(rs.current_A)
         rig_m.advance(period)
@@ -187,6 +194,31 @@ def _received(out: Outgoing, rnd) -> PeerValues:
     return PeerValues(rnd(out.estimate_C), rnd(out.flux_W), contact=out.contact, material_code=out.material_code,
                       material_beta=rnd(out.material_beta), material_touch=out.material_touch,
                       material_T_object0_C=rnd(out.material_T_object0_C))
+
+
+class _DelayLine:
+    """Extra transport delay of both PDO streams, in cycles, with jitter (order kept, newest arrived wins)."""
+
+    def __init__(self, cycles: int, jitter: int, seed: int | None) -> None:
+        if cycles < 0 or jitter < 0:
+            raise ValueError(f"run_offline_session: delay_cycles/delay_jitter_cycles: expected >= 0, got "
+                             f"{cycles}/{jitter}")
+        self.cycles, self.jitter = int(cycles), int(jitter)
+        self.rng = np.random.default_rng(None if seed is None else seed + 7)
+        self.queue: list[tuple[int, PeerValues, PeerValues]] = []
+        self.last_due = -1
+
+    def pass_on(self, k: int, to_m: PeerValues, to_s: PeerValues, cur_m: PeerValues,
+                cur_s: PeerValues) -> tuple[PeerValues, PeerValues]:
+        """Send (to_m, to_s) in cycle k; return what each side holds for cycle k + 1."""
+        if self.cycles == 0 and self.jitter == 0:
+            return to_m, to_s
+        extra = self.cycles + (int(self.rng.integers(0, self.jitter + 1)) if self.jitter else 0)
+        self.last_due = max(self.last_due, k + extra)
+        self.queue.append((self.last_due, to_m, to_s))
+        while self.queue and self.queue[0][0] <= k:
+            _, cur_m, cur_s = self.queue.pop(0)
+        return cur_m, cur_s
 
 
 def _lost(peer: PeerValues) -> PeerValues:
