@@ -31,7 +31,7 @@ from telethermo.offline.plot import write_session_png
 from telethermo.offline.recording import RecordingError, write_recording_csv
 from telethermo.transport.bus import TransportError
 from telethermo.transport.busargs import add_bus_arguments
-from telethermo.transport.published import publish, unpublish
+from telethermo.transport.published import publish_if_absent, unpublish
 from telethermo.transport.resolve import resolve_bus
 
 
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
                      mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
                      progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args)
     pair = NodePair(cfg)
-    interrupted = False
+    interrupted = published = False
     bar = None
     t0 = time.monotonic()
     old_int = signal.getsignal(signal.SIGINT)
@@ -129,9 +129,14 @@ def run(args: argparse.Namespace) -> int:
         except LaunchError as exc:
             print(f"telethermo session: error: {exc}", file=sys.stderr)
             return EXIT_FAIL
-        # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag
+        # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag, unless
+        # a hub (or another session) published first: that one stays findable, during and after this session
         try:
-            publish(pair.bus, "telethermo session")
+            other = publish_if_absent(pair.bus, "telethermo session")
+            published = other is None
+            if other is not None:
+                print(f"telethermo session: {other.by} (pid {other.pid}) stays the bus other terminals find "
+                      f"({other.bus}); this session's nodes: --bus {pair.bus}", file=sys.stderr)
         except OSError as exc:
             print(f"telethermo session: warning: cannot publish the bus ({exc}); other terminals need --bus {pair.bus}",
                   file=sys.stderr)
@@ -161,7 +166,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
-        unpublish()
+        if published:
+            unpublish()
         codes = pair.stop()
         signal.signal(signal.SIGINT, old_int)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
