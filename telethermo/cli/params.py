@@ -18,7 +18,8 @@ def register(subparsers) -> None:
                                           "(kp_A_per_C, theta3, 'Identity object.Vendor-ID') or number "
                                           "(0x2200, 0x1018:1). --list shows every object with unit and range.")
     common.add_bus_options(g)
-    g.add_argument("node", metavar="NODE", help="master, slave or a node-ID")
+    # NODE is checked in run_get: argparse would name NAME as required too, though --list needs none
+    g.add_argument("node", nargs="?", metavar="NODE", help="master, slave or a node-ID")
     g.add_argument("names", nargs="*", metavar="NAME")
     g.add_argument("--list", action="store_true", help="list the node's objects (from its EDS; no bus needed)")
     g.set_defaults(func=run_get)
@@ -76,6 +77,9 @@ def refusal(exc: Refused, node, t: Target, info, eds) -> str:
 @common.failures
 def run_get(args: argparse.Namespace) -> int:
     net = common.network(args)
+    if args.node is None:
+        raise UserError("give a NODE (master, slave or a node-ID)" + ("" if args.list else
+                                                                      " and at least one parameter NAME, or --list"))
     t = resolve_node(net, args.node)
     if args.list:
         eds = eds_info(t)

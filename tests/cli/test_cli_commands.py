@@ -93,6 +93,10 @@ def test_status_reads_mode_temperatures_safety_and_nmt(nodes, cli):
         v = doc[role]["values"]
         assert {"T_sensor_C", "estimate_C", "Q_W", "current_A", "safety_state", "late_cycles"} <= set(v)
         assert doc[role]["units"]["T_sensor_C"] == "degC" and doc[role]["nmt_state"] == "PRE-OPERATIONAL"
+    # a value the node reports as NaN is null in the JSON (issue 25: it was the string "nan")
+    nodes.devices["master"].write("T_pred_C", float("nan"), check=False)
+    code, out, err = cli("status", *nodes.bus, "--json", "master")
+    assert code == EXIT_OK and '"nan"' not in out and json.loads(out)["nodes"][0]["values"]["T_pred_C"] is None
     code, out, _ = cli("status", *nodes.bus, "master")
     assert "mode            1 (telepresence)" in out and "safety          0 (ok)" in out   # as `get` shows them
 

@@ -124,3 +124,15 @@ def test_mode_and_fault_reset_address_only_the_master_and_the_slave(bench_with_p
         assert [ln.split(":")[0] for ln in out.splitlines()] == ["master (node 1)", "slave (node 2)"]
     finally:
         amp.disconnect()
+
+
+def test_status_of_an_absent_device_exits_1(bench, cli):
+    """Issue 25: `status` of a device named in the file but absent from the bus exited 0 (no EDS: nothing read).
+    Exit 1 like every node that does not answer; a present EDS-less device shows its 0x1000."""
+    net = network(bench.parent, NET + "[nodes.ghost]\nnode_id = 9\n")
+    code, out, err = cli("status", "ghost", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "0.3")
+    assert code == 1, (out, err)
+    assert err == "telethermo status: no SDO answer from ghost\n"
+    assert "ghost (node 9) did not answer reading 0x1000 device type" in out
+    code, out, err = cli("status", "arm", "--network", str(net), "--timeout", "1")
+    assert code == 0 and "  device type     0x" in out, (out, err)
