@@ -234,8 +234,9 @@ def print_summary(fig: dict) -> None:
               f"{f(tr['early_mean_error_C'], ' °C')}, late {f(tr['late_mean_error_C'], ' °C')}")
     cue = fig.get("discrimination_cue")
     if cue:
-        print(f"material cue (heat drawn in the first second): direct order {' > '.join(cue['direct_order_most_heat_first'])}"
-              f" kept {cue['order_kept']}, smallest contrast ratio {f(cue['contrast_ratio_min'])}")
+        print(f"material cue (heat drawn in the first second): cue order (ours) kept the direct-touch order "
+              f"{' > '.join(cue['direct_order_most_heat_first'])}: {_yes(cue['order_kept'])}, smallest contrast ratio "
+              f"{f(cue['contrast_ratio_min'])}")
     rnd = fig.get("render")
     if rnd:
         rows = [["touch", "material", "beta", "T_contact eq.1 °C", "rendered early °C", "error °C"]]
@@ -250,11 +251,17 @@ def print_summary(fig: dict) -> None:
               f"{f(trk.get('master_rms_C'), ' °C')}, slave {f(trk.get('slave_rms_C'), ' °C')}")
     d = fig.get("discrimination")
     if d:
-        print(f"rendered early temperature per material (0.1-1 s, mean over its touches; follows the finger's history): order kept {d['order_kept']} ({' < '.join(d['rendered_order_coldest_first'])}), "
-              f"min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
+        print(f"rendered early temperature per material (0.1-1 s, mean over its touches; follows the finger's "
+              f"history): rendered order {' < '.join(d['rendered_order_coldest_first'])} kept the direct-touch "
+              f"temperature order {' < '.join(d['reference_order_coldest_first'])} with margins > 0: "
+              f"{_yes(d['order_kept'])}, min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
     sfy = fig.get("safety", {})
     if sfy:
         print(f"safety: {sfy.get('n_trips', 0)} trips; time cut {sfy.get('time_cut_s')}")
+
+
+def _yes(flag) -> str:
+    return "yes" if flag else "no"
 
 
 def _table(rows: list[list[str]]) -> None:
