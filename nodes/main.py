@@ -20,6 +20,7 @@ from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.control.types import Mode, Role
 from telethermo.offline.recording import COLUMNS, MAGIC
 from telethermo.offline.recording_journal import CsvRecorder, RecorderError, recover_journal
+from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.transport.bus import TransportError
 from telethermo.transport.resolve import resolve_bus
 
@@ -64,8 +65,9 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         transport = resolve_bus(net, bus=opts.bus, interface=opts.interface, channel=opts.channel,
                                 bitrate=opts.bitrate).settings
         node_id = opts.node_id or net.node(role).node_id
+        EdsInfo(net.node(role).eds)   # a damaged EDS is a bad file (exit 2, its line), not a failed start
         parts = build_parts(opts, period_s=net.sync.period_s)
-    except (OptionError, NetworkConfigError, TransportError) as exc:
+    except (OptionError, NetworkConfigError, TransportError, EdsError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
 

@@ -39,7 +39,7 @@ class NodeOptions:
         rig_config: TOML file whose top-level keys are the rig factory's keyword arguments (a driver's port,
             gains, calibration), or None.
         rig_args: ``--rig-arg KEY=VALUE`` settings, over those of ``rig_config``.
-        model: identified model file (None: the packaged sim_tem.json).
+        model: identified model file (None: no model; the flux estimator needs none).
         gains: tuned gains file of `telethermo tune` (None: the shipped defaults); telepresence mode only.
         mode: initial mode (changeable by SDO on object 0x2500).
         record: CSV file for this node's signals (None: no recording).
@@ -89,7 +89,7 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
         description=f"The telethermo {role} CANopen node ({what}). On each SYNC: read the rig, run the "
                     f"control core, apply the current, send TPDO1 (estimate, heat flux) to the {other}. "
                     "SIGINT/SIGTERM stop it cleanly (current to zero, last heartbeat, recording flushed).",
-        epilog="exit codes: 0 ok, 1 runtime failure, 2 bad option or file, 130 interrupted")
+        epilog="exit codes: 0 ok (also a stop by SIGINT/SIGTERM, Ctrl-C), 1 runtime failure, 2 bad option or file")
     p.add_argument("--node-id", type=int, help="CANopen node-ID 1..127 (default: from the network settings)")
     p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
     add_bus_arguments(p)
@@ -101,7 +101,8 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     p.add_argument("--rig-arg", action="append", default=[], metavar="KEY=VALUE",
                    help="one setting of the --rig driver (repeatable; over --rig-config's): VALUE is read as a TOML "
                         "value (2.5, true, \"text\") or else taken as text, e.g. --rig-arg port=/dev/ttyUSB0")
-    p.add_argument("--model", type=Path, help="identified model file (default: packaged sim_tem.json)")
+    p.add_argument("--model", type=Path, help="identified model file (default: none; the flux estimator, the default, "
+                                              "needs none; `telethermo identify` or a model file loads one)")
     p.add_argument("--gains", type=Path, help="tuned gains file written by `telethermo tune --out` "
                                               "(telepresence gains of this node's role; default: the shipped ones)")
     p.add_argument("--mode", choices=list(MODE_NAMES), default=None,

@@ -267,6 +267,10 @@ def _start(r: _R, table: dict, path: str, side: str) -> Any:
 
 def _sides(r: _R, raw: dict, path: str, kind: str, duration: float, objects: dict, known: set[str]) -> tuple:
     """[master] and [slave]: (master contacts, slave contacts, master start, slave start)."""
+    for side in ("master", "slave"):   # a header with nothing under it: a file cut short, not a choice
+        if side in raw and raw[side] == {}:
+            raise SceneError(path, side, f"contacts ([[{side}.contacts]]) or start under [{side}] (an empty "
+                             f"[{side}] table: is the file cut short?)")
     mr = r.table(raw, "master")
     r.known(mr, ("contacts", "start"), "master.")
     master_start = _start(r, mr, path, "master")

@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             cal = calibrate_finger([p for p, _ in touches], [c for _, c in touches], args.finger_temp)
         except ValueError as exc:
-            raise (Failure if args.live else UserError)(str(exc)) from None
+            raise (Failure if args.live else UserError)(_option_names(str(exc))) from None
         print(f"beta_pad = {cal.beta_pad:.4f}  T_finger0 = {cal.T_finger0_C:.3f} °C  "
               f"(residual {cal.residual_C:.3f} °C, {cal.n_touches} touches)")
         if args.apply:
@@ -122,3 +122,12 @@ def run(args: argparse.Namespace) -> int:
                 node.write(info, value)
                 print(f"{t.role}: {info.key} = {fmt(node.read(info), info)}")
     return 0
+
+
+def _option_names(text: str) -> str:
+    """calibrate_finger's message in the words of this command: its options, not Python argument names."""
+    text = text.removeprefix("calibrate_finger: ")
+    for py, opt in (("give T_finger0_C", "give --finger-temp"), ("T_finger0_C must", "--finger-temp must"),
+                    ("T_pad0_C and T_contact_C", "the touches (--touch T_PAD0:T_CONTACT)")):
+        text = text.replace(py, opt)
+    return text

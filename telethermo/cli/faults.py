@@ -16,7 +16,7 @@ from telethermo.control.safety import trips_from_mask
 from telethermo.remote import values
 from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, Refused, UserError, abort_text
-from telethermo.remote.targets import Target, lookup, node_targets, resolve_node
+from telethermo.remote.targets import Target, lookup, pair_targets, resolve_node
 
 
 def register(subparsers) -> None:
@@ -25,7 +25,8 @@ def register(subparsers) -> None:
                                           "bumplessly from the surface. A node where a cause persists refuses "
                                           "(abort 0x08000022) and clears nothing: exit 1, with the trip named.")
     common.add_bus_options(p)
-    p.add_argument("nodes", nargs="*", metavar="NODE", help="master, slave or a node-ID (default: all)")
+    p.add_argument("nodes", nargs="*", metavar="NODE",
+                   help="master, slave or a node-ID (default: the master and the slave of the network file)")
     p.set_defaults(func=run)
 
 
@@ -58,7 +59,7 @@ def _safety(info, code: int) -> str:
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    targets = [resolve_node(net, n) for n in args.nodes] if args.nodes else node_targets(net)
+    targets = [resolve_node(net, n) for n in args.nodes] if args.nodes else pair_targets(net)
     for t in targets:
         lookup(t, "fault_reset")
     refused = []

@@ -4,7 +4,7 @@ from __future__ import annotations
 import argparse
 
 from telethermo.cia301 import ABORT_TOO_HIGH, ABORT_TOO_LOW
-from telethermo.cli import common
+from telethermo.cli import common, live_writes
 from telethermo.cli.main import UserError
 from telethermo.remote import values
 from telethermo.remote.client import NodeClient
@@ -18,17 +18,24 @@ def register(subparsers) -> None:
                                           "(kp_A_per_C, theta3, 'Identity object.Vendor-ID') or number "
                                           "(0x2200, 0x1018:1). --list shows every object with unit and range.")
     common.add_bus_options(g)
-    g.add_argument("node", metavar="NODE", help="master, slave or a node-ID")
+    # NODE is checked in run_get: argparse would name NAME as required too, though --list needs none
+    g.add_argument("node", nargs="?", metavar="NODE", help="master, slave or a node-ID")
     g.add_argument("names", nargs="*", metavar="NAME")
     g.add_argument("--list", action="store_true", help="list the node's objects (from its EDS; no bus needed)")
     g.set_defaults(func=run_get)
     s = subparsers.add_parser("set", description="Write one parameter of a node by SDO. A value outside the EDS "
                                           "range is refused here (exit 2, nothing sent); a write the node "
-                                          "refuses shows the SDO abort code and its meaning (exit 1).")
+                                          "refuses shows the SDO abort code and its meaning (exit 1). A safety "
+                                          "limit that a node driving current already breaks (its trip would cut "
+                                          "the current) is refused unless --force; a gain says which mode's "
+                                          "gain it wrote (each mode keeps its own).")
     common.add_bus_options(s)
     s.add_argument("node", metavar="NODE", help="master, slave or a node-ID")
     s.add_argument("name", metavar="NAME")
     s.add_argument("value", metavar="VALUE")
+    s.add_argument("--force", action="store_true",
+                   help="send a safety limit that the node's present readings already break (its trip then cuts "
+                        "the current at the next cycle); without it such a write is refused, nothing sent")
     s.set_defaults(func=run_set)
 
 
@@ -70,6 +77,9 @@ def refusal(exc: Refused, node, t: Target, info, eds) -> str:
 @common.failures
 def run_get(args: argparse.Namespace) -> int:
     net = common.network(args)
+    if args.node is None:
+        raise UserError("give a NODE (master, slave or a node-ID)" + ("" if args.list else
+                                                                      " and at least one parameter NAME, or --list"))
     t = resolve_node(net, args.node)
     if args.list:
         eds = eds_info(t)
@@ -108,10 +118,18 @@ def run_set(args: argparse.Namespace) -> int:
     eds = eds_info(t)
     with common.canopen_network(args, net) as nw:
         node = NodeClient(nw, t, args.timeout)
+        effect = live_writes.judge(node, t, info.key, value)
+        if effect is not None and effect.cut and not args.force:
+            raise UserError(f"{effect.text}; not sent: a safety limit the node already breaks needs --force")
         try:
             node.write(info, value)
         except Refused as exc:
             raise Failure(refusal(exc, node, t, info, eds)) from None
         back = node.read(info) if "r" in info.access else value
+        note = live_writes.gain_note(node, t, info.key)
     print(line(t, info, back, eds))
+    if effect is not None:
+        print(f"  {effect.text}")
+    if note is not None:
+        print(note)
     return 0

@@ -31,7 +31,7 @@ from telethermo.offline.plot import write_session_png
 from telethermo.offline.recording import RecordingError, write_recording_csv
 from telethermo.transport.bus import TransportError
 from telethermo.transport.busargs import add_bus_arguments
-from telethermo.transport.published import publish, unpublish
+from telethermo.transport.published import publish_if_absent, unpublish
 from telethermo.transport.resolve import resolve_bus
 
 
@@ -118,7 +118,7 @@ def run(args: argparse.Namespace) -> int:
                      mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
                      progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args)
     pair = NodePair(cfg)
-    interrupted = False
+    interrupted = published = False
     bar = None
     t0 = time.monotonic()
     old_int = signal.getsignal(signal.SIGINT)
@@ -129,9 +129,14 @@ def run(args: argparse.Namespace) -> int:
         except LaunchError as exc:
             print(f"telethermo session: error: {exc}", file=sys.stderr)
             return EXIT_FAIL
-        # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag
+        # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag, unless
+        # a hub (or another session) published first: that one stays findable, during and after this session
         try:
-            publish(pair.bus, "telethermo session")
+            other = publish_if_absent(pair.bus, "telethermo session")
+            published = other is None
+            if other is not None:
+                print(f"telethermo session: {other.by} (pid {other.pid}) stays the bus other terminals find "
+                      f"({other.bus}); this session's nodes: --bus {pair.bus}", file=sys.stderr)
         except OSError as exc:
             print(f"telethermo session: warning: cannot publish the bus ({exc}); other terminals need --bus {pair.bus}",
                   file=sys.stderr)
@@ -161,7 +166,8 @@ def run(args: argparse.Namespace) -> int:
     finally:
         if bar is not None:
             bar.close()
-        unpublish()
+        if published:
+            unpublish()
         codes = pair.stop()
         signal.signal(signal.SIGINT, old_int)
         signal.signal(signal.SIGTERM, signal.SIG_DFL)
@@ -234,8 +240,9 @@ def print_summary(fig: dict) -> None:
               f"{f(osc['skin_band_rms_max_C'], ' °C')} RMS, current {f(osc['current_band_rms_max_A'], ' A')} RMS")
     cue = fig.get("discrimination_cue")
     if cue:
-        print(f"material cue (heat drawn in the first second): direct order {' > '.join(cue['direct_order_most_heat_first'])}"
-              f" kept {cue['order_kept']}, smallest contrast ratio {f(cue['contrast_ratio_min'])}")
+        print(f"material cue (heat drawn in the first second): cue order (ours) kept the direct-touch order "
+              f"{' > '.join(cue['direct_order_most_heat_first'])}: {_yes(cue['order_kept'])}, smallest contrast ratio "
+              f"{f(cue['contrast_ratio_min'])}")
     rnd = fig.get("render")
     if rnd:
         rows = [["touch", "material", "beta", "T_contact eq.1 °C", "rendered early °C", "error °C"]]
@@ -250,11 +257,17 @@ def print_summary(fig: dict) -> None:
               f"{f(trk.get('master_rms_C'), ' °C')}, slave {f(trk.get('slave_rms_C'), ' °C')}")
     d = fig.get("discrimination")
     if d:
-        print(f"rendered early temperature per material (0.1-1 s, mean over its touches; follows the finger's history): order kept {d['order_kept']} ({' < '.join(d['rendered_order_coldest_first'])}), "
-              f"min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
+        print(f"rendered early temperature per material (0.1-1 s, mean over its touches; follows the finger's "
+              f"history): rendered order {' < '.join(d['rendered_order_coldest_first'])} kept the direct-touch "
+              f"temperature order {' < '.join(d['reference_order_coldest_first'])} with margins > 0: "
+              f"{_yes(d['order_kept'])}, min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
     sfy = fig.get("safety", {})
     if sfy:
         print(f"safety: {sfy.get('n_trips', 0)} trips; time cut {sfy.get('time_cut_s')}")
+
+
+def _yes(flag) -> str:
+    return "yes" if flag else "no"
 
 
 def _table(rows: list[list[str]]) -> None:

@@ -8,10 +8,12 @@ import argparse
 import json
 import math
 
+from canopen.sdo import SdoAbortedError, SdoCommunicationError
+
 from telethermo.cli import common
 from telethermo.control.render_table import material_name
 from telethermo.remote import values
-from telethermo.remote.client import NodeClient
+from telethermo.remote.client import NodeClient, remote_node
 from telethermo.remote.errors import Failure, UserError
 from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
 from telethermo.remote.targets import eds_info, lookup, node_targets, resolve_node
@@ -78,6 +80,18 @@ def run(args: argparse.Namespace) -> int:
                 row["values"][info.key] = v
                 row["units"][info.key] = info.unit
                 row.setdefault("text", {})[label] = pretty(v, info, eds_info(t))
+            if not row["values"] and row["error"] is None:   # no EDS: is the device there at all?
+                try:
+                    dt = int.from_bytes(remote_node(nw, t.node_id, args.timeout).sdo.upload(0x1000, 0), "little")
+                    row["values"]["Device type"] = dt
+                    row.setdefault("text", {})["device type"] = f"0x{dt:08X} (0x1000; no EDS: raw SDO only)"
+                except SdoAbortedError as exc:   # it answered
+                    row["values"]["Device type"] = None
+                    row.setdefault("text", {})["device type"] = f"- (0x1000: {exc})"
+                except SdoCommunicationError as exc:
+                    silent.append(t.role)
+                    row["error"] = (f"{t.role} (node {t.node_id}) did not answer reading 0x1000 device type "
+                                    f"({exc})")
             out.append(row)
         hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), heartbeat_wait_s(net))
         for r in out:
@@ -87,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         clean = [{k: v for k, v in r.items() if k != "text"} for r in out]
         for r in clean:
-            r["values"] = {k: (str(v) if isinstance(v, float) and not math.isfinite(v) else v)
+            # JSON has no NaN or infinity: a value the node reports as one is null (as is a refused read)
+            r["values"] = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
                            for k, v in r["values"].items()}
         print(json.dumps({"nodes": clean}, indent=2, allow_nan=False))
     else:

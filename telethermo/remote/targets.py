@@ -26,6 +26,15 @@ def node_targets(net: NetworkConfig) -> list[Target]:
                   key=lambda t: t.node_id)
 
 
+PAIR_ROLES = ("master", "slave")
+
+
+def pair_targets(net: NetworkConfig) -> list[Target]:
+    """Our two nodes, by their role in the network file ([nodes.master], [nodes.slave]): what ``mode`` and
+    ``fault-reset`` address; other devices of the file (an arm, I/O modules) never get our objects."""
+    return [t for t in node_targets(net) if t.role in PAIR_ROLES]
+
+
 def resolve_node(net: NetworkConfig, text: str) -> Target:
     """``master`` / ``slave`` / a node-ID -> Target; UserError listing the known nodes otherwise."""
     known = node_targets(net)

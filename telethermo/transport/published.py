@@ -5,6 +5,11 @@ The file is ``$XDG_RUNTIME_DIR/telethermo/hub.json`` (or ``~/.cache/telethermo/h
 no runtime dir), written atomically by ``telethermo-hub`` and ``telethermo session`` when they start and
 removed when they stop; it holds the bus string, the writer's pid and what wrote it. A file whose pid
 no longer runs (a hub killed with SIGKILL) is ignored.
+
+A session (or anything that runs a hub of its own beside the user's) publishes with
+``publish_if_absent``: a live writer's file is never replaced, so a ``telethermo session`` started while
+a ``telethermo-hub`` runs leaves that hub findable during and after the session. Everyone removes only
+the file it wrote (``unpublish`` compares the pid).
 """
 from __future__ import annotations
 
@@ -38,6 +43,33 @@ def publish(bus: str, by: str, *, pid: int | None = None) -> Path:
     doc = {"bus": bus, "pid": pid or os.getpid(), "by": by,
            "since": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
     return write_json_atomic(state_file(), doc)
+
+
+def publish_if_absent(bus: str, by: str, *, pid: int | None = None) -> Published | None:
+    """Publish ``bus`` unless a live hub or session has published already; returns that one (the file is
+    left as it is) or None when this call published. The state file is created with a hard link of a
+    complete temporary file, so two writers racing here cannot both win, and a reader never sees a torn
+    file; a stale file (its writer gone) is replaced."""
+    path = state_file()
+    doc = {"bus": bus, "pid": pid or os.getpid(), "by": by,
+           "since": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
+    tmp = write_json_atomic(path.with_name(f".{path.name}.{os.getpid()}.new"), doc)
+    try:
+        for _ in range(3):
+            try:
+                os.link(tmp, path)
+                return None
+            except FileExistsError:
+                other = running()
+                if other is not None:
+                    return other
+                try:   # a stale or damaged file: its writer is gone
+                    path.unlink()
+                except FileNotFoundError:
+                    pass
+        raise OSError(f"{path}: replaced by another writer while publishing; try again")
+    finally:
+        tmp.unlink(missing_ok=True)
 
 
 def unpublish(*, pid: int | None = None) -> None:

@@ -18,6 +18,7 @@ resolved interface is the file's. The bitrate falls back to the file's (it is th
 """
 from __future__ import annotations
 
+import configparser
 import json
 import os
 from dataclasses import dataclass
@@ -68,8 +69,11 @@ def python_can_layers(given: Mapping[str, Any], config_path: str | None = None
             cfg = load()
         except json.JSONDecodeError as exc:
             raise TransportError(f"{name}: CAN_CONFIG is not JSON ({exc})") from None
-        except Exception as exc:  # configparser's errors: a damaged config file
-            raise TransportError(f"{name}: cannot read ({exc})") from None
+        except configparser.Error as exc:   # the whole file is unreadable, whichever section was asked
+            raise TransportError(f"{config_path or _config_files()}: not a valid python-can config file "
+                                 f"(INI sections such as [default] or [{CONTEXT}]): {_one_line(exc)}") from None
+        except Exception as exc:
+            raise TransportError(f"{name}: cannot read ({_one_line(exc)})") from None
         if "bustype" in cfg:   # python-can's legacy name
             cfg.setdefault("interface", cfg["bustype"])
             del cfg["bustype"]
@@ -78,6 +82,10 @@ def python_can_layers(given: Mapping[str, Any], config_path: str | None = None
                 config[key] = can.util.cast_from_string(val) if isinstance(val, str) else val
                 source[key] = name
     return config, source
+
+
+def _one_line(exc: Exception) -> str:
+    return " ".join(str(exc).split())
 
 
 def _int(value: Any, what: str, source: str) -> int:

@@ -218,3 +218,14 @@ def test_a_stale_or_damaged_state_file_is_ignored(isolated, tmp_path):
     publish("socketcand://127.0.0.1:2/telethermo", "telethermo session")   # this process: alive
     assert resolve_bus(net).settings.describe() == "socketcand://127.0.0.1:2/telethermo"
     assert resolve_bus(net, use_published=False).settings.describe() == "virtual:telethermo"
+
+
+def test_a_malformed_canrc_is_named_without_a_section_it_does_not_have(isolated, cli):
+    """Issue 25: a damaged ~/.canrc was reported as "[telethermo] of ~/.canrc: cannot read", a section the file
+    does not have (python-can reads the whole file with configparser before any section is looked up)."""
+    canrc(isolated, "[default]\ninterface = virtual\nthis is not a key\n")
+    code, out, err = cli("get", "master", "mode")
+    assert code == 2 and out == ""
+    assert err == ("telethermo get: error: ~/.canrc: not a valid python-can config file (INI sections such as "
+                   "[default] or [telethermo]): Source contains parsing errors: '/HOME/.canrc' [line 3]: "
+                   "'this is not a key\\n'\n".replace("/HOME", str(isolated))), err

@@ -26,7 +26,9 @@ def test_two_touches_recover_beta_pad_and_finger_temperature_and_apply(nodes, cl
 
 def test_one_touch_needs_the_finger_temperature(cli):
     code, _, err = cli("calibrate-finger", "--touch", "28:30.9")
-    assert code == EXIT_USAGE and "need >= 2 touches" in err
+    # the option's name, not the Python argument's (issue 25: it said "give T_finger0_C")
+    assert code == EXIT_USAGE and err == ("telethermo calibrate-finger: error: need >= 2 touches with pre-sets "
+                                          ">= 0.5 °C apart (or give --finger-temp)\n")
     code, out, _ = cli("calibrate-finger", "--touch", f"28:{contact_T(33.0, 28.0, 1.5)}", "--finger-temp", "33")
     assert code == EXIT_OK and "beta_pad = 1.5000" in out
     code, _, err = cli("calibrate-finger", "--touch", "28-30")

@@ -7,6 +7,7 @@ import can
 import pytest
 
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
+from telethermo.control.render_table import load_render_table
 
 
 def test_find_lists_both_nodes_with_identity_and_name(nodes, cli):
@@ -92,6 +93,10 @@ def test_status_reads_mode_temperatures_safety_and_nmt(nodes, cli):
         v = doc[role]["values"]
         assert {"T_sensor_C", "estimate_C", "Q_W", "current_A", "safety_state", "late_cycles"} <= set(v)
         assert doc[role]["units"]["T_sensor_C"] == "degC" and doc[role]["nmt_state"] == "PRE-OPERATIONAL"
+    # a value the node reports as NaN is null in the JSON (issue 25: it was the string "nan")
+    nodes.devices["master"].write("T_pred_C", float("nan"), check=False)
+    code, out, err = cli("status", *nodes.bus, "--json", "master")
+    assert code == EXIT_OK and '"nan"' not in out and json.loads(out)["nodes"][0]["values"]["T_pred_C"] is None
     code, out, _ = cli("status", *nodes.bus, "master")
     assert "mode            1 (telepresence)" in out and "safety          0 (ok)" in out   # as `get` shows them
 
@@ -102,8 +107,19 @@ def test_mode_render_writes_material_beta_and_mode(nodes, cli):
     m = nodes.devices["master"]
     assert m.read("mode") == 2 and m.read("material_beta") == pytest.approx(5.60, rel=1e-6)
     assert m.read("object_T0_C") == pytest.approx(24.0)
+    assert m.read("material_code") == 1 + list(load_render_table()).index("brass")   # not 0 (custom)
+    # the slave is set to idle, and the operator is told
+    assert nodes.devices["slave"].read("mode") == 0
+    assert ("slave (node 2): mode idle (while the master renders alone; `telethermo mode telepresence` couples "
+            "both again)") in out.splitlines()
     code, out, err = cli("mode", *nodes.bus, "telepresence")
     assert code == EXIT_OK and nodes.devices["slave"].read("mode") == 1 and m.read("mode") == 1
+    code, out, err = cli("mode", *nodes.bus, "render", "wood")
+    assert code == EXIT_OK and m.read("material_code") == 1 + list(load_render_table()).index("wood")
+    assert out.splitlines()[-1] == f"mode: render wood (β = 0.74, material_code {m.read('material_code')})"
+    code, out, err = cli("mode", *nodes.bus, "render", "--beta", "3")
+    assert code == EXIT_OK and m.read("material_code") == 0 and m.read("material_beta") == pytest.approx(3)
+    assert out.splitlines()[-1] == "mode: render custom (β = 3, material_code 0 custom)"
     code, _, err = cli("mode", *nodes.bus, "render", "unobtainium")
     assert code == EXIT_USAGE and "brass" in err and "wood" in err
     code, _, err = cli("mode", *nodes.bus, "render", "--beta", "5000")

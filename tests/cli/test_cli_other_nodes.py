@@ -86,3 +86,53 @@ def test_the_cli_reaches_other_nodes(bench, cli):
     assert code == 0, err
     code, out, err = cli("status", "arm", "amplifier", "--network", net, "--timeout", "1")
     assert "arm (node 5): NMT PRE-OPERATIONAL" in out, out + err
+
+
+@pytest.fixture
+def bench_with_pair(bench):
+    """The bench above plus our master (1) and slave (2) as real devices on the same virtual bus."""
+    nw = canopen.Network()
+    nw.NOTIFIER_CYCLE = 0.05
+    nw.connect(interface="virtual", channel="tt-other")
+    devs = {role: Device(nw, nid, bc(f"{role}.eds"), settings=DeviceSettings(heartbeat_producer_ms=50))
+            for role, nid in (("master", 1), ("slave", 2))}
+    for d in devs.values():
+        d.start()
+    try:
+        yield bench, devs
+    finally:
+        for d in devs.values():
+            d.close()
+        nw.disconnect()
+
+
+def test_mode_and_fault_reset_address_only_the_master_and_the_slave(bench_with_pair, cli):
+    """Issue 25: a third device in network.toml (the docs suggest adding one) broke `mode` and `fault-reset`:
+    they wrote `mode` to every node of the file. The amplifier's EDS has a `mode` object: it must not change."""
+    net, devs = bench_with_pair
+    amp = canopen.Network()
+    amp.connect(interface="virtual", channel="tt-other")
+    try:
+        other = amp.add_node(6, str(bc("slave.eds")))     # canopen's own client, not ours
+        other.sdo["mode"].raw = 1
+        code, out, err = cli("mode", "idle", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "1")
+        assert (code, err) == (0, ""), err
+        assert out.splitlines() == ["slave (node 2): mode idle", "master (node 1): mode idle", "mode: idle"]
+        assert other.sdo["mode"].raw == 1                # untouched
+        code, out, err = cli("fault-reset", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "1")
+        assert (code, err) == (0, ""), err
+        assert [ln.split(":")[0] for ln in out.splitlines()] == ["master (node 1)", "slave (node 2)"]
+    finally:
+        amp.disconnect()
+
+
+def test_status_of_an_absent_device_exits_1(bench, cli):
+    """Issue 25: `status` of a device named in the file but absent from the bus exited 0 (no EDS: nothing read).
+    Exit 1 like every node that does not answer; a present EDS-less device shows its 0x1000."""
+    net = network(bench.parent, NET + "[nodes.ghost]\nnode_id = 9\n")
+    code, out, err = cli("status", "ghost", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "0.3")
+    assert code == 1, (out, err)
+    assert err == "telethermo status: no SDO answer from ghost\n"
+    assert "ghost (node 9) did not answer reading 0x1000 device type" in out
+    code, out, err = cli("status", "arm", "--network", str(net), "--timeout", "1")
+    assert code == 0 and "  device type     0x" in out, (out, err)

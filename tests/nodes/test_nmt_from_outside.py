@@ -106,6 +106,27 @@ def test_the_master_starts_a_slave_put_into_pre_operational(realtime_pair):
     assert len(starts) == 1, f"{len(starts)} NMT starts for one pre-operational episode"
 
 
+def test_cli_nmt_preop_slave_says_the_master_started_it_again(realtime_pair, capsys):
+    """Issue 25: `telethermo nmt preop slave` said "NOT confirmed" (and `telethermo preop:`) because the master
+    starts the slave again ~2 ms after its PRE-OPERATIONAL heartbeat. The CLI saw the state; it says who undid it."""
+    from telethermo.cli.main import main
+    pair, bus, frames = realtime_pair
+    mark = frames.mark()
+    code = main(["nmt", "--bus", pair.bus, "preop", "slave"])
+    out, err = capsys.readouterr()
+    assert code == 1, (out, err)
+    assert out == "slave (node 2): OPERATIONAL\n"
+    line = err.strip()
+    assert "\n" not in line and line.startswith("telethermo nmt: slave (node 2) reported PRE-OPERATIONAL, then "
+                                                 "OPERATIONAL: another NMT master sent NMT start "), line
+    assert line.endswith(" ms after its PRE-OPERATIONAL heartbeat (the pair's SYNC producer starts a node that "
+                         "reports PRE-OPERATIONAL or a boot-up: docs/nodes.md); it does not stay there"), line
+    # what the CLI says is on the bus: our NMT PRE-OP, the slave's PRE-OP heartbeat, the master's NMT start
+    seen = frames.since(mark)
+    assert (0x000, bytes([0x80, 0x02])) in seen and (0x702, bytes([0x7F])) in seen
+    assert (0x000, bytes([0x01, 0x02])) in seen
+
+
 def test_the_sync_producer_in_pre_operational_produces_sync_but_no_pdo(realtime_pair):
     """CiA 301: SYNC is produced in PRE-OPERATIONAL and OPERATIONAL (issue 12 deviation: the master stopped
     producing in PRE-OPERATIONAL). No control cycle and no PDO of the master until NMT start."""
