@@ -30,11 +30,13 @@ from scipy.stats import qmc
 from telethermo import sim
 from telethermo.control.core import init_state, step
 from telethermo.control.defaults import HOLD_GAINS
+from telethermo.control.gain_rule import fit_gains, scaled_params
 from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
 from telethermo.offline.figures import contacts_of
 from telethermo.offline.runner import run_offline_session
 from telethermo.offline.transparency import transparency_figures
+from telethermo.ident.experiment import identify_rig
 
 BASE_SCENE = "probe_touches_al_steel_wood"
 #: the table's materials a probe may touch, EPS to copper
@@ -168,18 +170,37 @@ def hold_skin(sc: Any, T_hold_C: float) -> np.ndarray:
     return skin
 
 
-def run_condition(c: Condition, *, with_pads: bool = True) -> dict[str, Any]:
-    """Run condition ``c`` and score it (see the module docstring). JSON-safe."""
+def identified_params(role: Role, rig_params: Any, ambient_C: float, period_s: float, seed: int
+                      ) -> tuple[Any, dict[str, Any]]:
+    """What a lab does after swapping a module: ``telethermo identify`` on the free pad of this rig (the
+    default 10 000-sample PRBS), then the role's gains from the identified model (telethermo.control.gain_rule).
+    Returns (CoreParams, the rule's fit)."""
+    rig = sim.free_pad_rig(period_s=period_s, ambient_C=ambient_C, seed=seed, params=rig_params)
+    model, _ = identify_rig(rig, seed=seed)
+    fit = fit_gains(model, role)
+    return scaled_params(default_params(role, period_s=period_s), fit["rho"]), fit
+
+
+def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identified") -> dict[str, Any]:
+    """Run condition ``c`` and score it (see the module docstring). JSON-safe. ``gains``: "identified" (each
+    side identifies its rig and derives its gains) or "shipped" (the shipped gains whatever the rig)."""
     sc, rig_s = condition_scene(c)
     delay = int(round(c.delay_ms / (1000.0 * sc.period_s)))
-    res = run_offline_session(sc, slave_rig_params=rig_s, delay_cycles=delay,
+    pm = ps = None
+    fits: dict[str, Any] = {}
+    if gains == "identified":
+        pm, fits["master"] = identified_params(Role.MASTER, sc.rig_params, c.ambient_C, sc.period_s, c.seed % 9973)
+        ps, fits["slave"] = identified_params(Role.SLAVE, rig_s, c.ambient_C, sc.period_s, c.seed % 9973 + 1)
+    res = run_offline_session(sc, master_params=pm, slave_params=ps, slave_rig_params=rig_s, delay_cycles=delay,
                               delay_jitter_cycles=2 if delay else 0, seed=c.seed % 100000)
     rec, fig = res.recording, res.figures
     t, ref = rec.col("t_s"), rec.col("ref_T_contact_C")
     contacts = contacts_of(rec)
     tf = transparency_figures(t, rec.col("m_true_surface_C"), ref, rec.col("m_true_Q_into_body_W"),
                               rec.col("ref_Q_into_finger_W"), contacts)
-    out: dict[str, Any] = {"condition": dataclasses.asdict(c), "headline_C": tf["headline_error_C"],
+    out: dict[str, Any] = {"condition": dataclasses.asdict(c), "gains": gains,
+                           "gain_fit": {k: {"rho": v["rho"], **v["margins"]} for k, v in fits.items()},
+                           "headline_C": tf["headline_error_C"],
                            "pre_contact_C": tf["pre_contact_mean_error_C"], "early_C": tf["early_mean_error_C"],
                            "late_C": tf["late_mean_error_C"]}
     cue = tf["cue"]

@@ -176,7 +176,10 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         "late_mean_flux_error_W": agg("late_Q", "mean_abs"), "late_max_flux_error_W": agg("late_Q", "max_abs"),
         "per_contact": per,
     }
-    out["oscillation"] = oscillation_figures(t, surf, rec.col("ref_T_contact_C"), rec.col("m_current_A"), contacts)
+    lim = (rec.meta.get("master_params") or {}).get("safety") or {}
+    I_lim = float(lim.get("current_fraction", 0.8)) * float(lim.get("I_max_A", 3.0))
+    out["oscillation"] = oscillation_figures(t, surf, rec.col("ref_T_contact_C"), rec.col("m_current_A"), contacts,
+                                             I_lim)
     out["discrimination_cue"] = honest["cue"]
     out["tracking"] = _tracking(rec, t, contacts)
     out["discrimination"] = _discrimination(per)

@@ -9,11 +9,14 @@ saturation does not. The **oscillation ratio** of a touch is
 
     ratio = skin_band_rms_C / max(direct_band_rms_C, FLOOR_C)
 
-with FLOOR_C = 0.05 °C: a direct touch's settled skin is almost still (0.001 °C here), and a fluctuation of
+with FLOOR_C = 0.05 °C (a session **oscillates** when a touch's ratio exceeds :data:`OSCILLATION_LIMIT` while the
+display's current swings too, by more than :data:`CURRENT_SWING_FRACTION` of the current limit in the same band:
+a skin that moves under a steady current is the pad's passive settling after a saturated metal touch, not a loop
+oscillation; both figures are reported): a direct touch's settled skin is almost still (0.001 °C here), and a fluctuation of
 0.05 °C RMS (0.14 °C peak to peak for a sine) lies at the skin's ≈ 0.1 °C difference threshold: nothing anyone
 feels as an oscillation. (The base scene's worst touch, the first aluminium after a saturated 1.3 s, leaves
 0.07 °C of its recovery in the window: ratio 1.4; the issue's limit cycle gives ≈ 1.2 °C: ratio ≈ 24.) A session oscillates when its worst ratio
-exceeds :data:`OSCILLATION_LIMIT` (1.5). Pure functions (arrays in, numbers out).
+exceeds :data:`OSCILLATION_LIMIT` (1.5) with the current swinging. Pure functions (arrays in, numbers out).
 """
 from __future__ import annotations
 
@@ -28,6 +31,8 @@ WINDOW_S = 1.5
 DETREND_ORDER = 2
 FLOOR_C = 0.05
 OSCILLATION_LIMIT = 1.5
+#: a current swing (band RMS) below this share of the current limit drives no oscillation
+CURRENT_SWING_FRACTION = 0.02
 
 
 def band_rms(y: np.ndarray, dt_s: float, band_Hz: tuple[float, float] = BAND_HZ) -> float:
@@ -52,7 +57,7 @@ def band_rms(y: np.ndarray, dt_s: float, band_Hz: tuple[float, float] = BAND_HZ)
 
 
 def oscillation_figures(t: np.ndarray, skin_C: np.ndarray, ref_C: np.ndarray, current_A: np.ndarray,
-                        contacts: list[dict[str, Any]]) -> dict[str, Any]:
+                        contacts: list[dict[str, Any]], current_limit_A: float = 2.4) -> dict[str, Any]:
     """Per-touch band RMS of the display's skin, the direct touch's skin and the display's current in settled
     contact, each touch's ratio, and the worst (see the module docstring)."""
     dt = float(t[1] - t[0]) if len(t) > 1 else math.nan
@@ -62,12 +67,16 @@ def oscillation_figures(t: np.ndarray, skin_C: np.ndarray, ref_C: np.ndarray, cu
         if int(m.sum()) < 8:
             continue
         s, r, i = band_rms(skin_C[m], dt), band_rms(ref_C[m], dt), band_rms(current_A[m], dt)
+        ratio = s / max(r, FLOOR_C)
+        swing = i > CURRENT_SWING_FRACTION * current_limit_A
         per.append({"object": c.get("object", ""), "t_on_s": c["t_on_s"], "skin_band_rms_C": s,
-                    "direct_band_rms_C": r, "current_band_rms_A": i, "ratio": s / max(r, FLOOR_C)})
+                    "direct_band_rms_C": r, "current_band_rms_A": i, "ratio": ratio,
+                    "oscillating": bool(ratio > OSCILLATION_LIMIT and swing)})
     ratios = [p["ratio"] for p in per if math.isfinite(p["ratio"])]
     worst = max(ratios) if ratios else math.nan
     return {"band_Hz": list(BAND_HZ), "floor_C": FLOOR_C, "limit": OSCILLATION_LIMIT,
-            "worst_ratio": worst, "oscillating": bool(ratios) and worst > OSCILLATION_LIMIT,
+            "current_swing_A": CURRENT_SWING_FRACTION * current_limit_A,
+            "worst_ratio": worst, "oscillating": any(p["oscillating"] for p in per),
             "skin_band_rms_max_C": max((p["skin_band_rms_C"] for p in per), default=math.nan),
             "current_band_rms_max_A": max((p["current_band_rms_A"] for p in per), default=math.nan),
             "per_touch": per}

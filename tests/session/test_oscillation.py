@@ -34,6 +34,9 @@ def test_a_limit_cycle_is_flagged_and_a_slow_drift_is_not():
     # a fluctuation well below the floor is no oscillation, whatever the direct touch's own stillness
     tiny = oscillation_figures(t, _touch(t, 0.2 * FLOOR_C), ref, np.zeros_like(t), contacts)
     assert not tiny["oscillating"]
+    # a skin that swings under a steady current is the pad settling, not the loop: reported, not flagged
+    passive = oscillation_figures(t, _touch(t, 1.7), ref, np.full_like(t, -0.3), contacts)
+    assert passive["worst_ratio"] > 15 and not passive["oscillating"]
 
 
 def test_band_rms_ignores_what_lies_outside_the_band():
