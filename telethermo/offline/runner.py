@@ -146,6 +146,15 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
 
     sc_s = sc if slave_rig_params is None else dataclasses.replace(sc, rig_params=slave_rig_params)
     rig_s = sim.build_rig(sc_s, "slave", seed=None if seed is None else seed + 1)
+    return _run_telepresence(sc, rig_m, rig_s, ref, master_params, slave_params, _load_model(master_model),
+                             _load_model(slave_model), n_steps, rnd, rounding, seed, peer_loss_s,
+                             _DelayLine(delay_cycles, delay_jitter_cycles, seed))
+
+
+def _run_telepresence(sc, rig_m, rig_s, ref, master_params, slave_params, model_m, model_s, n_steps: int, rnd,
+                      rounding: str, seed: int | None, peer_loss_s, link: "_DelayLine") -> SessionResult:
+    """Both sides in lockstep (see the module docstring)."""
+    period = rig_m.period_s
     if rig_s.period_s != period:
         raise ValueError(f"run_offline_session: the rigs' periods differ ({period} s vs {rig_s.period_s} s)")
     pm = master_params or default_params(Role.MASTER, period_s=period)
@@ -155,15 +164,14 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
             raise ValueError(f"run_offline_session: {name}.period_s = {p.period_s} s but the rig runs at {period} s")
     pm, ps = _with_rig_limits(pm, rig_m), _with_rig_limits(ps, rig_s)
     sm0, ss0 = rig_m.read(), rig_s.read()
-    st_m = init_state(pm, _load_model(master_model), sm0)
-    st_s = init_state(ps, _load_model(slave_model), ss0)
+    st_m = init_state(pm, model_m, sm0)
+    st_s = init_state(ps, model_s, ss0)
     peer_m, peer_s = initial_peer(sm0), initial_peer(ss0)
 
-    meta = {"scene": getattr(sc, "name", str(scene)), "period_s": period, "mode": "telepresence",
+    meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "telepresence",
             "rounding": rounding, "seed": seed, "contacts": scene_contacts(sc, "slave"),
             "master_params": _params_meta(pm), "slave_params": _params_meta(ps)}
     b = RecordingBuilder(meta)
-    link = _DelayLine(delay_cycles, delay_jitter_cycles, seed)
     for _k in range(n_steps):
         sm, ss = rig_m.read(), rig_s.read()
         if peer_loss_s is not None and peer_loss_s[0] <= sm.t_s < peer_loss_s[1]:
