@@ -32,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from bench import material_id_envelope as envelope     # its --envelope run (it uses this module's touches)
 from bench.common import print_table, write_results
 from bench.material_id_bound import bound_figures
 from telethermo.sim.materials import material
@@ -44,7 +45,8 @@ from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params
 from telethermo.control.estimators import estimate_flux
-from telethermo.control.material_stream import MaterialEstimate, MaterialIdParams, calibrated, default_classes, fit_units
+from telethermo.control.material_stream import (UNKNOWN_CODE, MaterialEstimate, MaterialIdParams, calibrated,
+                                                default_classes, fit_units)
 from telethermo.control.types import PeerValues, Role
 
 #: simulator material -> rendering-table name
@@ -100,26 +102,26 @@ def check_calibration(p: MaterialIdParams) -> str:
     return "calibrated"
 
 
-def finger_natural_C(params) -> float:
-    """The default finger's natural skin temperature in still air at ambient, °C (the probe's rest)."""
+def finger_natural_C(params, ambient_C: float = AMBIENT_C) -> float:
+    """The default finger's natural skin temperature in still air at ``ambient_C``, °C (the probe's rest)."""
     grid = GridSettings(t_min_s=PERIOD_S)
-    return Body(BodySpec("finger", kind="finger"), params.area_m2, AMBIENT_C, params.h_air_W_m2K, grid).surface_C()
+    return Body(BodySpec("finger", kind="finger"), params.area_m2, ambient_C, params.h_air_W_m2K, grid).surface_C()
 
 
 def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
-                   seed: int, t_on_s: float, noise: NoiseParams | None = None, identify: bool = True
-                   ) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
+                   seed: int, t_on_s: float, noise: NoiseParams | None = None, identify: bool = True,
+                   ambient_C: float = AMBIENT_C) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
     """(T_sensor_C, Q_W, index of the first sample the slave's contact detector calls contact (−1: none), the
     material the slave's core published at the end, the wall time of each core step, s) of one touch under the
     slave's default control. The onset is the detector's, not the rig's flag: the core's window starts there
     (telethermo.control.material_stream), so every offline fit and every reference touch is aligned the same
     way. ``noise`` None: the rig's default noise; ``identify`` False: the core without material identification
-    (same current, faster: for reference touches)."""
+    (same current, faster: for reference touches); ``ambient_C``: the room, °C."""
     grid = GridSettings(t_min_s=PERIOD_S)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
-    body = Body(spec, params.area_m2, AMBIENT_C, params.h_air_W_m2K, grid)
+    body = Body(spec, params.area_m2, ambient_C, params.h_air_W_m2K, grid)
     rig = SimRig(params, {"object": body}, Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
-                 ambient_C=AMBIENT_C, period_s=PERIOD_S, noise=noise if noise is not None else NoiseParams(), seed=seed,
+                 ambient_C=ambient_C, period_s=PERIOD_S, noise=noise if noise is not None else NoiseParams(), seed=seed,
                  grid=grid, start=T_probe_C)
     # without identification the classifier file is not even read: a calibration can be built without one
     cp = default_params(Role.SLAVE, period_s=PERIOD_S) if identify else \
@@ -181,7 +183,7 @@ def nearest(b: float, names: list[str], lb: np.ndarray) -> int:
 
 def published_index(est: MaterialEstimate | None, names: list[str]) -> int:
     """Index in ``names`` of the material the slave's core published for the touch, or -1 (none)."""
-    if est is None or est.touch != 1 or est.code == 0:
+    if est is None or est.touch != 1 or est.code in (0, UNKNOWN_CODE):
         return -1
     name = {code: n for code, n, _ in default_classes()}[est.code]
     return names.index(name) if name in names else -1
@@ -367,7 +369,12 @@ def run(quick: bool) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.material_id_bench", description=__doc__)
     ap.add_argument("--quick", action="store_true", help="150 touches instead of 600")
+    ap.add_argument("--envelope", action="store_true", help="the envelope's touches instead (issue 23, "
+                    "bench/material_id_envelope.py): its keys merged into material_id.json")
     args = ap.parse_args(argv)
+    if args.envelope:
+        envelope.run(args.quick)
+        return 0
     run(args.quick)
     return 0
 

@@ -4,7 +4,8 @@ In telepresence the master tracks the slave's object estimate. When the slave is
 values invalid) the envelope ramps to neutral and cuts (DESIGN.md §6). If the operator is touching at that
 moment (the master's contact, with the probe touching an object at the last values received) and the slave
 identified the object's material in this touch or the previous one (:mod:`telethermo.control.material_stream`,
-sent in its contact PDO), the master instead renders that material itself, as the render mode does
+sent in its contact PDO), the master instead renders that material itself, as the render mode does (when the
+slave abstained, code "unknown", only the effusivity and object temperature it fitted, never a class)
 (yamamoto §III, benali-khoudja §4):
 
 - eq. 1: T_contact = (T_f0 + β·T_o0)/(1 + β), with T_f0 the finger's temperature before the touch (the
@@ -41,6 +42,7 @@ from typing import Any
 from telethermo.control.defaults import RENDER_GAINS
 from telethermo.control.later_phase import (DEFAULT_LATER_MODEL, DEFAULT_THICKNESS_MM, LaterPhase, later_phase,
                                             later_setpoint, later_start)
+from telethermo.control.material_stream import UNKNOWN_CODE
 from telethermo.control.pi import PIGains
 from telethermo.control.rendering import contact_temperature, load_render_table
 from telethermo.control.virtual_object import VirtualObject, load_object_table
@@ -108,7 +110,11 @@ class LinkResult:
 @functools.lru_cache(maxsize=32)
 def fallback_later_phase(code: int, dt_s: float) -> LaterPhase:
     """The later-phase model the fallback renders material ``code`` with (the render default model of a
-    :data:`FALLBACK_THICKNESS_MM` block; semi-infinite for a material the object table does not know)."""
+    :data:`FALLBACK_THICKNESS_MM` block; semi-infinite for a material the object table does not know, and for
+    the slave's "unknown" (:data:`UNKNOWN_CODE`: it abstained, so no class's block is rendered, only the
+    effusivity and object temperature it measured))."""
+    if code == UNKNOWN_CODE:
+        return later_phase("semi_infinite", None, dt_s)
     names = list(load_render_table())
     name = names[code - 1] if 1 <= code <= len(names) else ""
     try:

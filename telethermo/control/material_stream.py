@@ -29,11 +29,15 @@ from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput,
                                             with_noise_spread)
 from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, decide, load_calibration,
                                                n_units, network_input, network_unit, touch_vector)
+from telethermo.control.material_trust import CalibrationBox, abstain_reason
 from telethermo.control.rendering import load_render_table
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
 #: (sim/data/materials.toml [materials.skin]: √(0.21 · 1200 · 3590); telethermo/data/render_materials.toml)
 B_SKIN_REF = 951.15
+#: the published code of an abstention ("unknown"): the touch lies outside what the classifier was calibrated on, or
+#: its evidence is weak; the effusivity and object temperature the physics fit measured are still published
+UNKNOWN_CODE = 255
 
 
 @dataclass(frozen=True, slots=True)
@@ -47,6 +51,8 @@ class MaterialEstimate:
         posterior: the class's posterior probability (0 without an estimate).
         touch: how many touches have been evaluated (counts also those without an estimate).
         T_object0_C: the object's initial temperature the same fit gives, °C (NaN without an estimate).
+        abstained: why the calibrated classifier said "unknown" (code :data:`UNKNOWN_CODE`, posterior 0;
+            telethermo.control.material_trust), "" when it named a material or did not run.
     """
 
     effusivity: float = math.nan
@@ -55,6 +61,7 @@ class MaterialEstimate:
     posterior: float = 0.0
     touch: int = 0
     T_object0_C: float = math.nan
+    abstained: str = ""
 
     @property
     def beta(self) -> float:
@@ -72,11 +79,14 @@ class MaterialIdParams:
         calibration: the calibrated classifier (default: the shipped file, telethermo/data/material_classifier.npz,
             loaded once); None: the nearest table effusivity of the physics fit. Used only when its period and
             window are the core's (:func:`calibrated`); its materials must be among ``classes``.
+        box: what the calibration was measured on; a touch outside it is published as :data:`UNKNOWN_CODE`
+            (telethermo.control.material_trust); None: the calibrated class is always published.
     """
 
     probe: ProbeParams = field(default_factory=ProbeParams)
     classes: tuple[tuple[int, str, float], ...] = field(default_factory=lambda: default_classes())
     calibration: Calibration | None = field(default_factory=lambda: default_calibration())
+    box: CalibrationBox | None = field(default_factory=CalibrationBox)
 
     def __post_init__(self) -> None:
         if self.calibration is not None:
@@ -211,9 +221,12 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last
     i, post = decide(probs)
     code = next(c for c, name, _ in p.classes if name == cal.classes[i])
+    why = abstain_reason(p.box, job.inp, est, job.x) if p.box is not None else None
+    if why is not None:
+        code, post = UNKNOWN_CODE, 0.0
     if est is None:
-        return None, MaterialEstimate(code=code, posterior=post, touch=n)
-    return None, MaterialEstimate(est.b, est.se_ln_b, code, post, n, est.T_object0_C)
+        return None, MaterialEstimate(code=code, posterior=post, touch=n, abstained=why or "")
+    return None, MaterialEstimate(est.b, est.se_ln_b, code, post, n, est.T_object0_C, why or "")
 
 
 def _classified(p: MaterialIdParams, est: EffusivityEstimate, n: int) -> MaterialEstimate:

@@ -9,7 +9,9 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from telethermo.control.core import CoreParams, init_state, step
+from telethermo.control.later_phase import LaterModel
 from telethermo.control.link_fallback import LinkState, link_step, object_temperature
+from telethermo.control.material_stream import UNKNOWN_CODE
 from telethermo.control.params import default_params
 from telethermo.control.rendering import contact_temperature
 from telethermo.control.safety import SafetyState, Trip
@@ -161,3 +163,16 @@ def test_link_loss_render_s_is_an_od_parameter_of_the_node():
     assert book.params().link_loss_render_s == 2.5 and book.params(Mode.IDLE).link_loss_render_s == 2.5
     assert od_image(book.params(), None, material_code=0, peer_miss_limit=10)["link_loss_render_s"] == 2.5
     assert book.check("link_loss_render_s", 61.0) is not None
+
+
+def test_an_abstained_identification_renders_the_fitted_effusivity_never_a_class():
+    """The slave said "unknown" (issue 23) but fitted β and the object: the fallback renders that β on a
+    semi-infinite object (no class's block); "unknown" without an effusivity renders nothing."""
+    res = touch_then_loss(code=UNKNOWN_CODE, beta=8.0)
+    loss = res[80:]
+    assert loss[0].status.link_fallback and loss[0].status.requested_setpoint_C == pytest.approx(27.0, abs=1e-6)
+    lp, _ = loss[1].state.link.later
+    assert lp.model is LaterModel.SEMI_INFINITE and lp.obj is None
+    assert loss[1].state.link.code == UNKNOWN_CODE and loss[1].state.link.beta == 8.0
+    none = touch_then_loss(code=UNKNOWN_CODE, beta=math.nan)[80:]
+    assert not any(r.status.link_fallback for r in none)

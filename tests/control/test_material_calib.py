@@ -14,7 +14,7 @@ from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S,
 from telethermo.control import material_id as mi
 from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration, n_units,
                                                save_calibration, touch_vector, whitener)
-from telethermo.control.material_stream import (MaterialIdParams, MaterialState, calibrated, default_classes,
+from telethermo.control.material_stream import (UNKNOWN_CODE, MaterialIdParams, MaterialState, calibrated, default_classes,
                                                 fit_units, material_step)
 from telethermo.control.material_train import TrainSettings
 from telethermo.sim.measurement import NoiseParams
@@ -171,17 +171,16 @@ def test_the_core_classifies_the_window_the_calibration_was_built_on():
         assert est.posterior == pytest.approx(post, rel=1e-12)
 
 
-def test_a_touch_without_an_effusivity_is_still_classified():
+def test_a_touch_without_an_effusivity_is_published_unknown():
     """An object within 0.3 °C of the probe: neither form of the physics fit gives an effusivity (the batch fit
-    says None), yet the window exists, so the calibrated class is published with its posterior and a NaN
-    effusivity (seeds no calibration touch used)."""
+    says None); the network would still name a class, but the evidence is weak (issue 23), so the slave publishes
+    "unknown" with posterior 0 and a NaN effusivity, the touch counted (seeds no calibration touch used)."""
     T_probe = finger_natural_C(PARAMS)
     T, Q, i0, est, _ = simulate_touch(PARAMS, "glass", 0.001637, 33.909, 3.25, T_probe, seed=950_053, t_on_s=0.2073)
     assert abs(33.909 - T_probe) < 0.5 and mi.estimate_effusivity(T, Q, i0, PERIOD_S) is None
-    got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
-    codes = {name: code for code, name, _ in default_classes()}
-    assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]] and est.code > 0
-    assert est.posterior == pytest.approx(post, rel=1e-12) and math.isnan(est.effusivity)
+    assert classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W)) is not None
+    assert est is not None and est.touch == 1 and est.code == UNKNOWN_CODE and est.posterior == 0.0
+    assert est.abstained in ("flux_reversed", "no_fit", "weak_evidence") and math.isnan(est.effusivity)
 
 
 def test_the_calibration_command_builds_a_classifier_the_slave_loads(tmp_path, capsys):

@@ -1,0 +1,266 @@
+"""Material identification across the operating envelope (issue 23): accuracy, abstains and honest confidence.
+
+``python -m bench.material_id_bench --envelope [--quick]`` (or ``python -m bench.material_id_envelope``) merges
+the ``material_id_envelope_*`` keys into ``bench/results/material_id.json``.
+
+Touches (:func:`envelope_draws`, seeds :data:`ENVELOPE`, disjoint from the calibration's, the evaluation's and
+the held-out set's: :func:`check_seeds`): the ten materials in turn; object 5–50 °C, room 15–32 °C (uniform);
+force 0.5–20 N and thickness 0.3–20 mm (log-uniform, so that the low strata are populated); the rig's sensor
+noise × 1–3; one touch in four with another probe TEM (:func:`other_tem`: 71 couples instead of 31, the
+same pellets); the probe resting at the finger's natural temperature in that room (where the slave's default
+controller leaves it), the slave's default controller, as bench/material_id_bench.py otherwise.
+
+Figures per stratum (:data:`STRATA`; the band within :data:`NEAR_C` °C of the probe is its own stratum and is left
+out of the others, where a passive probe learns little): accuracy with abstains counted wrong, abstain
+fraction, expected calibration error of the answers (10 bins of the published posterior), confident
+precision (accuracy of the answers with posterior ≥ 0.9, with their count), the commonest-class baseline and,
+in the full run, the oracle of bench/material_id_bound.py (knows the simulator; object temperature, contact
+resistance and thickness profiled out) on a sample of the stratum's touches. The same keys on in-box touches
+(the bench's evaluation draws) for comparison.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+from dataclasses import replace
+from typing import Any, Callable
+
+import numpy as np
+
+from bench import material_id_bench as mb
+from bench.common import current_results_dir, write_results
+from bench.material_id_bound import noise_scale, oracle_correct, touch_candidates
+from telethermo.control.material_stream import MaterialIdParams, UNKNOWN_CODE, default_classes
+from telethermo.sim.materials import material
+from telethermo.sim.measurement import NoiseParams
+from telethermo.sim.tem import load_rig_params
+
+#: (draw seed, first simulator seed) of the envelope's touches; the development set the abstain rule was set on
+ENVELOPE, ENVELOPE_N, ENVELOPE_QUICK_N = (2323, 600_000), 1000, 250
+DEVELOPMENT = (4343, 700_000)
+INBOX_N, INBOX_QUICK_N = 300, 100
+NEAR_C = 2.0
+CONFIDENT = 0.9
+OTHER_TEM_COUPLES, SHIPPED_COUPLES = 71, 31
+ORACLE_EVERY, ORACLE_DRAWS = 4, 100
+
+STRATA: dict[str, Callable[[dict], bool]] = {
+    "object_lt_15C": lambda t: t["T_object_C"] < 15.0,
+    "object_15_35C": lambda t: 15.0 <= t["T_object_C"] <= 35.0,
+    "object_gt_35C": lambda t: t["T_object_C"] > 35.0,
+    "force_lt_2N": lambda t: t["force_N"] < 2.0,
+    "thickness_lt_1mm": lambda t: t["thickness_m"] < 1e-3,
+    "room_lt_20C": lambda t: t["ambient_C"] < 20.0,
+    "room_gt_28C": lambda t: t["ambient_C"] > 28.0,
+    "other_tem": lambda t: t["other_tem"],
+    "noise_gt_x2": lambda t: t["noise_x"] > 2.0,
+    "object_force_thickness_tem_in_box": lambda t: (15.0 <= t["T_object_C"] <= 35.0 and 2.0 <= t["force_N"] <= 10.0
+                                                    and 1e-3 <= t["thickness_m"] <= 20e-3 and not t["other_tem"]),
+}
+
+
+def envelope_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
+    """``n`` touches across the envelope (module docstring); material i mod 10."""
+    rng = np.random.default_rng(seeds[0])
+    out = []
+    for i in range(n):
+        out.append({"class": i % len(mb.SIM_TO_TABLE), "T_object_C": float(rng.uniform(5.0, 50.0)),
+                    "ambient_C": float(rng.uniform(15.0, 32.0)),
+                    "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
+                    "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
+                    "noise_x": float(rng.uniform(1.0, 3.0)), "other_tem": bool(rng.uniform() < 0.25),
+                    "t_on_s": mb.PRE_S + float(rng.uniform(0.0, mb.PERIOD_S)), "seed": seeds[1] + i})
+    return out
+
+
+def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
+    """ValueError when ``n`` touches of ``seeds`` meet the calibration's references, the bench's evaluation or its
+    held-out touches (by draw seed or simulator seed range): nothing trained or tuned on them is reported."""
+    ranges = [(mb.EVALUATION, mb.EVALUATION_N), (mb.HELDOUT, mb.HELDOUT_N)]
+    if p.calibration is not None:
+        info = json.loads(p.calibration.info)
+        ranges.append(((int(info["draw_seed"]), int(info["sim_seed_first"])), int(info["reference_touches"])))
+        d = info.get("dense") or {}
+        if d:
+            ranges.append(((int(d["draw_seed"]), int(d["sim_seed_first"])), int(d["touches"])))
+    for (draw, first), m in ranges:
+        if seeds[0] == draw or (seeds[1] < first + m and seeds[1] + n > first):
+            raise ValueError(f"envelope seeds {seeds} (n {n}) meet another set's {(draw, first)} (n {m}): refused")
+
+
+def other_tem(params):
+    """The rig with a 71-couple module of the same pellets (Seebeck, resistance, conductance × 71/31)."""
+    k = OTHER_TEM_COUPLES / SHIPPED_COUPLES
+    tem = replace(params.tem, alpha_V_K=params.tem.alpha_V_K * k, R_ohm=params.tem.R_ohm * k, K_W_K=params.tem.K_W_K * k)
+    return params.with_(tem=tem)
+
+
+def noise_of(x: float) -> NoiseParams:
+    """The rig's default noise with both sigmas × ``x``."""
+    n = NoiseParams()
+    return replace(n, T_sigma_C=n.T_sigma_C * x, Q_sigma_W=n.Q_sigma_W * x)
+
+
+def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str]) -> dict:
+    """Simulate one touch and return what the slave published, scored (``answer`` −1: none, −2: abstained)."""
+    params = rigs[t["other_tem"]]
+    T_probe = mb.finger_natural_C(params, t["ambient_C"])
+    _, _, _, est, _ = mb.simulate_touch(params, sims[t["class"]], t["thickness_m"], t["T_object_C"], t["force_N"],
+                                        T_probe, seed=t["seed"], t_on_s=t["t_on_s"], noise=noise_of(t["noise_x"]),
+                                        ambient_C=t["ambient_C"])
+    answer = -1
+    if est is not None and est.touch == 1 and est.code == UNKNOWN_CODE:
+        answer = -2
+    else:
+        answer = mb.published_index(est, names)
+    b_true = material(sims[t["class"]]).b
+    ok_b = est is not None and math.isfinite(est.effusivity) and math.isfinite(est.se_ln_b)
+    return t | {"T_probe_C": T_probe, "answer": answer, "posterior": float(est.posterior) if est is not None else 0.0,
+                "within_ci95": (abs(math.log(est.effusivity / b_true)) <= 1.96 * est.se_ln_b) if ok_b else None}
+
+
+def ece(post: np.ndarray, right: np.ndarray, bins: int = 10) -> float | None:
+    """Expected calibration error of answers with posteriors ``post`` (10 equal bins on [0, 1])."""
+    if post.size == 0:
+        return None
+    idx = np.minimum((post * bins).astype(int), bins - 1)
+    return float(sum(abs(post[idx == b].mean() - right[idx == b].mean()) * np.sum(idx == b)
+                     for b in range(bins) if np.any(idx == b)) / post.size)
+
+
+def stratum_figures(rows: list[dict]) -> dict[str, Any]:
+    """Accuracy (abstains wrong), abstain fraction, ECE, confident precision, baseline, oracle of ``rows``."""
+    if not rows:
+        return {"n": 0}
+    truth = np.array([r["class"] for r in rows])
+    ans = np.array([r["answer"] for r in rows])
+    post = np.array([r["posterior"] for r in rows])
+    answered = ans >= 0
+    right = ans == truth
+    conf = answered & (post >= CONFIDENT)
+    cov = [r["within_ci95"] for r in rows if r["within_ci95"] is not None]
+    orc = [r["oracle"] for r in rows if r.get("oracle") is not None]
+    e = ece(post[answered], right[answered])
+    return {"n": len(rows), "accuracy": round(float(right.mean()), 3),
+            "abstain_fraction": round(float(np.mean(ans == -2)), 3),
+            "no_estimate_fraction": round(float(np.mean(ans == -1)), 3),
+            "accuracy_of_answers": round(float(right[answered].mean()), 3) if answered.any() else None,
+            "ece": round(e, 3) if e is not None else None,
+            "confident_n": int(conf.sum()),
+            "confident_precision": round(float(right[conf].mean()), 3) if conf.any() else None,
+            "ci95_coverage": round(float(np.mean(cov)), 3) if cov else None,
+            "baseline_commonest_class": round(float(np.bincount(truth).max() / truth.size), 3),
+            "oracle": round(float(np.mean(orc)), 3) if orc else None, "oracle_n": len(orc)}
+
+
+def oracle(rigs: dict, t: dict, sims: list[str], rng: np.random.Generator) -> float:
+    """The unknown-nuisance oracle's accuracy on touch ``t`` (bench/material_id_bound.py, its noise × noise_x)."""
+    params = rigs[t["other_tem"]]
+    sigma = noise_scale(noise_of(t["noise_x"]), int(round(0.3 / mb.PERIOD_S)))
+    z, G = touch_candidates(params, sims, t, t["T_probe_C"], mb.PERIOD_S, t["ambient_C"], sigma)
+    return oracle_correct(z, G, t["class"], rng, ORACLE_DRAWS)[1]
+
+
+def split(rows: list[dict]) -> dict[str, Any]:
+    """Per-stratum figures: the near-probe band alone, every other stratum without it, and all touches."""
+    near = [r for r in rows if abs(r["T_object_C"] - r["T_probe_C"]) < NEAR_C]
+    far = [r for r in rows if abs(r["T_object_C"] - r["T_probe_C"]) >= NEAR_C]
+    out = {"all_outside_near_band": stratum_figures(far), f"near_probe_lt_{NEAR_C:g}C": stratum_figures(near)}
+    for name, f in STRATA.items():
+        out[name] = stratum_figures([r for r in far if f(r)])
+    return out
+
+
+def worst(strata: dict[str, Any], key: str, high_is_good: bool = True) -> tuple[float | None, str | None]:
+    """The worst value of ``key`` over the target strata (not the near band), and which."""
+    vals = [(v[key], k) for k, v in strata.items() if not k.startswith("near") and v.get(key) is not None]
+    if not vals:
+        return None, None
+    return (min if high_is_good else max)(vals)
+
+
+def envelope_figures(quick: bool) -> dict[str, Any]:
+    """Run the envelope's and the in-box touches and return the keys (module docstring)."""
+    t0 = time.perf_counter()
+    p = MaterialIdParams()
+    n = ENVELOPE_QUICK_N if quick else ENVELOPE_N
+    check_seeds(p, n, ENVELOPE)
+    base = load_rig_params()
+    rigs = {False: base, True: other_tem(base)}
+    sims = list(mb.SIM_TO_TABLE)
+    names = [mb.SIM_TO_TABLE[m] for m in sims]
+    rows = [run_touch(rigs, t, sims, names) for t in envelope_draws(n, ENVELOPE)]
+    inbox = [t | {"ambient_C": mb.AMBIENT_C, "noise_x": 1.0, "other_tem": False}
+             for t in mb.draws(INBOX_QUICK_N if quick else INBOX_N, mb.EVALUATION)]
+    in_rows = [run_touch(rigs, t, sims, names) for t in inbox]
+    if not quick:
+        rng = np.random.default_rng(2323)
+        for i, r in enumerate(rows):
+            if i % ORACLE_EVERY == 0 or abs(r["T_object_C"] - r["T_probe_C"]) < NEAR_C:
+                r["oracle"] = oracle(rigs, r, sims, rng)
+    strata = split(rows)
+    in_fig = stratum_figures([r for r in in_rows if abs(r["T_object_C"] - r["T_probe_C"]) >= NEAR_C])
+    allf = strata["all_outside_near_band"]
+    w_acc, w_acc_name = worst(strata, "accuracy")
+    w_ece, w_ece_name = worst(strata, "ece", high_is_good=False)
+    w_cp, w_cp_name = worst(strata, "confident_precision")
+    return {
+        "material_id_envelope_n_touches": n,
+        "material_id_envelope_accuracy_late": allf["accuracy"],
+        "material_id_envelope_accuracy_early": None,
+        "material_id_abstain_fraction": allf["abstain_fraction"],
+        "material_id_envelope_ece": allf["ece"],
+        "material_id_envelope_confident_precision": allf["confident_precision"],
+        "material_id_envelope_ci95_coverage": allf["ci95_coverage"],
+        "material_id_worst_stratum_accuracy_late": w_acc, "material_id_worst_stratum_accuracy_late_which": w_acc_name,
+        "material_id_ece_worst_stratum": w_ece, "material_id_ece_worst_stratum_which": w_ece_name,
+        "material_id_confident_precision_worst_stratum": w_cp,
+        "material_id_confident_precision_worst_stratum_which": w_cp_name,
+        "material_id_envelope_strata": strata,
+        "material_id_inbox_same_keys": in_fig | {"draws": "bench evaluation draws (15, 1000 + i), first "
+                                                 f"{len(in_rows)}, near-probe band left out"},
+        "material_id_envelope_conditions": {
+            "draw_seed": ENVELOPE[0], "sim_seed_first": ENVELOPE[1], "T_object_C": [5.0, 50.0],
+            "ambient_C": [15.0, 32.0], "force_N": [0.5, 20.0], "thickness_mm": [0.3, 20.0], "noise_x": [1.0, 3.0],
+            "other_tem": f"{OTHER_TEM_COUPLES} couples, one touch in four", "near_band_C": NEAR_C,
+            "confident_posterior": CONFIDENT, "oracle": (f"every {ORACLE_EVERY}th touch and all of the near band, "
+                                                         f"{ORACLE_DRAWS} noise draws" if not quick else "not run"),
+            "early_answer": "not implemented: one answer 0.44 s after contact (0.3 s window + 14 fit cycles)"},
+        "material_id_envelope_run_s": round(time.perf_counter() - t0, 1),
+    }
+
+
+def print_envelope(fig: dict[str, Any]) -> None:
+    """One line per stratum."""
+    cols = ("n", "accuracy", "abstain_fraction", "ece", "confident_precision", "confident_n",
+            "baseline_commonest_class", "oracle")
+    print(f"{'stratum':24s} " + " ".join(f"{c[:12]:>12s}" for c in cols))
+    for name, v in list(fig["material_id_envelope_strata"].items()) + [("inbox", fig["material_id_inbox_same_keys"])]:
+        print(f"{name:24s} " + " ".join(f"{str(v.get(c)):>12s}" for c in cols))
+    for k, v in fig.items():
+        if not isinstance(v, dict):
+            print(f"{k}: {v}")
+
+
+def run(quick: bool) -> dict[str, Any]:
+    """Figures merged into bench/results/material_id.json (the other keys of that file are kept)."""
+    fig = envelope_figures(quick)
+    print_envelope(fig)
+    path = current_results_dir() / "material_id.json"
+    old = json.loads(path.read_text()) if path.exists() else {}
+    print(f"wrote {write_results('material_id', old | fig)}")
+    return fig
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.material_id_envelope", description=__doc__)
+    ap.add_argument("--quick", action="store_true", help=f"{ENVELOPE_QUICK_N} touches instead of {ENVELOPE_N}")
+    args = ap.parse_args(argv)
+    run(args.quick)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,86 @@
+"""When the calibrated classifier may name a material, and when it must say "unknown" (issue 23).
+
+The calibrated network (telethermo.control.material_calib) was trained on reference touches of one box:
+objects at 15–35 °C, 2–10 N, 1–20 mm, the shipped probe TEM, the rig's noise, the probe resting at the finger's
+natural 33.65 °C (room 25 °C). Outside it the network still answers, and confidently: on touches drawn across
+the envelope (bench/material_id_envelope.py) 31 % of its answers at posterior ≥ 0.9 were right. It sees only
+changes since the pre-contact mean, so what matters physically is where the probe rested, the temperature
+difference between the probe and the object, and the direction of the heat flow. :func:`abstain_reason`
+checks what the node measures itself against the calibration's :class:`CalibrationBox`:
+
+- ``probe_rest``: the probe's own temperature before contact (the mean of the pre-contact samples) differs
+  from the calibration's rest by more than ``rest_tol_C`` (the rest moves ~0.28 °C per °C of room under the
+  slave's default controller; on 1000 in-box touches it stayed within 33.63–33.67 °C);
+- ``flux_reversed``: the heat flowed into the probe (mean flux change over the window ≤ 0): the object is
+  hotter than the probe, which the calibration covers only up to 35 °C, where the evidence is weak anyway;
+- ``no_fit``: the physics fit gave no object temperature (an object at the probe's temperature);
+- ``weak_evidence`` / ``object_temperature``: the physics fit's object temperature lies within
+  ``min_dT_C`` of the probe, or farther below it than the calibration's coldest object (with ``dT_margin_C``);
+- ``far_from_references``: the network's whitened input is longer than any but 0.5 % of in-box touches'.
+
+It does not see force, thickness, the noise level or another TEM (none of them measured by the node in the
+window): touches outside the box there are still answered, and the envelope bench reports it per stratum.
+Pure.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from telethermo.control.material_id import EffusivityEstimate, FitInput
+
+
+@dataclass(frozen=True, slots=True)
+class CalibrationBox:
+    """What the calibration knows (defaults: the shipped calibration, telethermo/data/material_classifier.npz).
+
+    Attributes:
+        rest_C: the probe's pre-contact temperature the references were taken at, °C (the finger's natural skin
+            temperature in still air at 25 °C under the slave's default controller, bench/material_id_bench.py).
+        rest_tol_C: the largest |pre-contact mean − rest_C| still answered, °C.
+        T_object_C: the references' object temperatures, °C (lowest, highest).
+        min_dT_C: the smallest fitted probe−object difference still answered, °C (below it the touch draws too
+            little heat: the near band the issue reports on its own).
+        dT_margin_C: allowance for the physics fit's object temperature (median error 1.0 °C, 90 % within
+            6.5 °C on in-box touches), °C.
+        max_input_norm: the longest whitened network input answered (99.5 % quantile of 1000 in-box touches,
+            draw seed 4344, simulator seeds 710000 + i: 21.7).
+    """
+
+    rest_C: float = 33.65
+    rest_tol_C: float = 0.1
+    T_object_C: tuple[float, float] = (15.0, 35.0)
+    min_dT_C: float = 2.0
+    dT_margin_C: float = 2.0
+    max_input_norm: float = 21.7
+
+
+def pre_contact(inp: FitInput) -> tuple[float, float]:
+    """(the probe's mean temperature before contact, °C; the mean flux change over the window, W; > 0: heat
+    leaving the probe into the object)."""
+    n = inp.n_pre
+    T0 = float(np.mean(inp.T[:n]))
+    return T0, float(np.mean(inp.Q[n:]) - np.mean(inp.Q[:n]))
+
+
+def abstain_reason(box: CalibrationBox, inp: FitInput, est: EffusivityEstimate | None, x: np.ndarray) -> str | None:
+    """Why the touch must not be named (module docstring), or None when it lies inside ``box``.
+
+    ``inp`` the touch's window, ``est`` the physics fit (None: none), ``x`` the network's whitened input."""
+    T0, dQ = pre_contact(inp)
+    if not abs(T0 - box.rest_C) <= box.rest_tol_C:
+        return "probe_rest"
+    if not dQ > 0.0:
+        return "flux_reversed"
+    if est is None or not math.isfinite(est.T_object0_C):
+        return "no_fit"
+    dT = T0 - est.T_object0_C
+    if dT < box.min_dT_C:
+        return "weak_evidence"
+    if dT > box.rest_C - box.T_object_C[0] + box.dT_margin_C:
+        return "object_temperature"
+    if not float(np.linalg.norm(x)) <= box.max_input_norm:
+        return "far_from_references"
+    return None
