@@ -56,6 +56,10 @@ class ModelSlot:
         self.model = self.rt.parts.model
         self._candidate = self._pending = None
         self.write_objects(self.model)
+        book = self.rt.settings.book
+        if book is not None:
+            self.rt.parts.fit_model(self.model, book.role)    # and the gains derived from it
+            book.version += 1
 
     def write_objects(self, tem) -> None:
         """The running model into 0x2300..0x2311, its status and CRC (none: status 0, CRC 0)."""
@@ -129,6 +133,9 @@ class ModelSlot:
         self.model = tem
         settings = self.rt.settings
         settings.book.has_model = tem is not None
+        parts = self.rt.parts
+        parts.fit_model(tem, settings.book.role)      # gains that fit the newly identified rig
+        settings.book.version += 1                    # the next SYNC rebuilds the parameters with them
         self.rt.cycle.swap_model(tem, settings.params.safety.neutral_C)
         status = odmodel.STATUS_LOADED if tem is not None else odmodel.STATUS_NONE
         if tem is not None and self._edited:
@@ -143,3 +150,6 @@ class ModelSlot:
             o = tem.temperature.orders
             log.info("model loaded from the OD: orders %d,%d,%d,%d, T_ref %.3f °C, CRC 0x%08X", o.n, o.m, o.p, o.q,
                      tem.temperature.T_ref_C, crc)
+            fit = parts.gain_fit
+            log.info("gains from the model: x%.3f (gain margin %.1f dB, phase margin %.1f° on the model)",
+                     fit["rho"], fit["margins"]["gain_margin_dB"], fit["margins"]["phase_margin_deg"])

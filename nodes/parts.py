@@ -17,6 +17,7 @@ from typing import Any, Callable
 
 from telethermo import sim
 from telethermo.control.core import CoreParams, RenderSettings
+from telethermo.control.gain_rule import fit_gains, scaled_params
 from telethermo.control.gainsfile import load_gains
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
@@ -56,6 +57,13 @@ class NodeParts:
     meta: dict[str, Any]
     truth: Callable[[], Any] | None
     render_script: Any = None
+    gain_fit: dict[str, Any] | None = None
+    """The gains' fit to the loaded model (telethermo.control.gain_rule.fit_gains: ρ and the margins), None
+    without a model: ``params_for`` scales every current gain by ρ. :meth:`fit_model` refreshes it."""
+
+    def fit_model(self, model: Any, role: Role) -> None:
+        """Derive the gains from ``model`` (None: the shipped gains) for the modes built from now on."""
+        self.gain_fit = fit_gains(model, role) if model is not None else None
     """Render scenes (master): :class:`telethermo.offline.render_script.RenderScript`, the same script
     the offline runner follows (the next touch's material once the previous touch has ended; the
     finger's skin read before each touch)."""
@@ -98,10 +106,18 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
         else:
             kw = dict(gains) if mode is Mode.TELEPRESENCE else {}  # tuned gains are telepresence gains
         p = default_params(opts.role, period_s=period_s, mode=mode, **kw)  # ValueError: RENDER without settings
+        fit = parts.gain_fit
+        if fit is not None:      # gains that fit this rig: derived from its identified model (gain_rule)
+            p = scaled_params(p, fit["rho"])
         if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
         return p
 
+    parts = NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,
+                      cycles=cycles, meta=meta, truth=truth, render_script=script, finger_skin=finger_skin)
+    parts.fit_model(model, opts.role)
+    if parts.gain_fit is not None:
+        meta["gain_fit"] = {"rho": parts.gain_fit["rho"], **parts.gain_fit["margins"]}
     if not (opts.mode is Mode.RENDER and script is None):  # without a script, RENDER renders the OD's settings
         try:
             params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC
@@ -109,8 +125,7 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
             raise OptionError(f"--mode {opts.mode.name.lower()}: {exc}") from None
     if script is not None:
         meta["render"] = script.meta()
-    return NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,
-                     cycles=cycles, meta=meta, truth=truth, render_script=script, finger_skin=finger_skin)
+    return parts
 
 
 def _scene_rig(opts: NodeOptions, period_s: float, meta: dict[str, Any]):
