@@ -20,6 +20,7 @@ from .health import ControllerHealth, decode_error_frame
 from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo
 from .records import STRIP_DT_S, BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
+from .material import MaterialSeen
 from .timing import TimingSeen
 
 #: frame lengths kept by content (periodic traffic repeats its frames: SYNC counters, heartbeats, flags)
@@ -48,6 +49,7 @@ class Monitor:
         self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
         self.timing = TimingSeen()   # lockstep or real time, from what the bus shows (never the network file)
+        self.material = MaterialSeen()   # the identified material, its touch and posterior, as seen
         self._bits: dict[tuple, int] = {}
         self._handlers = {k: getattr(self, f"_on_{k.lower()}") for k in dec.KINDS}
         self.first_tick_s: float | None = None   # live: the first tick's time (a replay never ticks), s
@@ -364,7 +366,7 @@ class Monitor:
         p.last_t = f.t_s
         p.values = values
         for v in values:
-            self.timing.observe(pdef.node, v.name, v.value, pdef.label)
+            self._observe_value(pdef.node, v.name, v.value, pdef.label)
         if p.trace_t is None or f.t_s - p.trace_t >= 0.99 * STRIP_DT_S:    # 1 %: float bus times
             p.trace.append((f.t_s, tuple(v.value for v in values)))
             p.trace_t = f.t_s
@@ -397,7 +399,7 @@ class Monitor:
             tr = step.done
             if tr.status == "ok":
                 st.sdo_ok += 1
-                self.timing.observe(f.node, rec.name, rec.value, "SDO")
+                self._observe_value(f.node, rec.name, rec.value, "SDO")
                 self._observe_config(f, tr, ev)
             elif tr.status == "aborted":
                 st.sdo_aborts += 1
@@ -418,6 +420,11 @@ class Monitor:
                 except Exception:  # a length mismatch is shown as raw bytes, never a crash
                     value = tr.data
         return SdoRecord(tr, name, value, unit)
+
+    def _observe_value(self, node: int | None, name: str, value: Any, how: str) -> None:
+        """An object value seen on the bus (``how``: "SDO" or the PDO's label), for timing and material."""
+        self.timing.observe(node, name, value, how)
+        self.material.observe(node, name, value, how)
 
     def _observe_config(self, f: dec.Frame, tr: SdoTransfer, ev: list[Event]) -> None:
         change = self.pdo_map.observe_sdo(tr.node, tr.index, tr.subindex, tr.data)
@@ -450,6 +457,7 @@ class Monitor:
                 "syncs": s.syncs, "sync_counter": s.sync_counter, "sync_counter_errors": s.sync_counter_errors,
                 "sync": s.sync_summary(), "sync_period_nominal_s": self.config.sync_period_s,
                 **self.timing_json(), "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
+                "materials": self.material.to_json(),
                 "events": dict(self.log.counts), "controller": self.controller.to_json(),
                 "cob_ids": [r.to_json() for r in self.frames.sorted_rows()],
                 "nodes": [st.to_json() for _, st in sorted(self.nodes.items())],

@@ -111,7 +111,10 @@ def _node_lines(mon: Monitor) -> list[str]:
 
 
 def _main_body(mon: Monitor, vs: ViewState, room: int) -> list[str]:
-    lines = ["", *_node_lines(mon), "", "PDO"]
+    lines = ["", *_node_lines(mon)]
+    lines += [f"  {mon.nodes[n].name if n in mon.nodes else n} identified {m.text()}"
+              for n, m in sorted(mon.material.by_node.items()) if m.code is not None]
+    lines += ["", "PDO"]
     for key, p in sorted(mon.pdos.items()):
         vals = "  ".join(v.text() for v in p.values)
         name = mon.nodes[p.pdef.node].name if p.pdef.node in mon.nodes else ""
