@@ -29,7 +29,7 @@ def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_perio
         if t.eds is None:   # another device named without an EDS: known by name, its PDOs not decoded
             nodes[t.node_id] = NodeInfo(t.role, None)
             continue
-        eds_info(t)          # the check `get` and the nodes make (UserError naming the file and what is wrong)
+        eds_info(t)   # the check `get` and the nodes make (UserError naming the file and what is wrong)
         od = _import_od(t.eds, t.node_id)
         _apply_overrides(net, t.role, od)
         nodes[t.node_id] = NodeInfo(t.role, od)

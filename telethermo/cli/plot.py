@@ -28,11 +28,11 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("plot", description="Plot a recording as session.png shows a session: temperatures, "
                                                   "estimates, flux, current, contact and safety state. FILE: a "
                                                   "session's recording.csv or a node's --record CSV (master.csv, "
-                                                  "slave.csv), or a bus log (.log/.asc/.blf/.trc, or the CSV "
-                                                  "`telethermo record` writes beside it: the PDO values by the "
-                                                  "EDS mappings, one panel per unit, codes and counters apart, "
-                                                  "EMCYs marked). A damaged file is named with its line or byte "
-                                                  "(exit 2).")
+                                                  "slave.csv), or a bus log (.log/.asc/.blf/.trc, or the "
+                                                  "CSV `telethermo record` writes beside it: the PDO "
+                                                  "values by the EDS mappings, one panel per unit, codes "
+                                                  "and counters apart, EMCYs marked). A damaged file is "
+                                                  "named with its line or byte (exit 2).")
     p.add_argument("file", metavar="FILE", type=Path, help="the recording (CSV) or a bus log")
     p.add_argument("--network", metavar="FILE", help="bus log: the network file whose nodes' EDS decode the PDOs "
                                                      "(default: the shipped one)")

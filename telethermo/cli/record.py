@@ -30,12 +30,13 @@ def register(subparsers) -> None:
     how = p.add_mutually_exclusive_group()
     how.add_argument("--force", action="store_true", help="replace existing files")
     how.add_argument("--append", action="store_true",
-                     help="add to the existing log and CSV (.log and .blf: the formats python-can appends to)")
+                     help="add to the existing log and CSV (.log and .blf: the formats python-can "
+                          "appends to)")
     p.add_argument("--filter", action="append", default=[], metavar="F",
-                   help="record only matching frames; repeatable, or several separated by commas: ID:MASK or "
-                        "ID~MASK in hex (python-can's can_filters, e.g. 180:780 every TPDO1), a node name "
-                        "(master), a service (nmt, sync, emcy, heartbeat, sdo, pdo), a PDO (slave.TPDO5) or an "
-                        "object mapped into a TPDO (cycle_counter)")
+                   help="record only matching frames; repeatable, or several separated by commas: "
+                        "ID:MASK or ID~MASK in hex (python-can's can_filters, e.g. 180:780 every TPDO1), "
+                        "a node name (master), a service (nmt, sync, emcy, heartbeat, sdo, pdo), a PDO "
+                        "(slave.TPDO5) or an object mapped into a TPDO (cycle_counter)")
     p.add_argument("--no-csv", action="store_true", help="no decoded CSV")
     p.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     p.add_argument("--count", type=int, metavar="N", help="stop after N frames")

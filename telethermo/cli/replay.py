@@ -25,7 +25,8 @@ from telethermo.remote.errors import Failure
 def register(subparsers) -> None:
     p = subparsers.add_parser("replay", description=__doc__)
     common.add_bus_options(p)
-    p.add_argument("log", metavar="LOG", help="the log: .log .asc .blf .trc, python-can's .csv or record's CSV")
+    p.add_argument("log", metavar="LOG",
+                   help="the log: .log .asc .blf .trc, python-can's .csv or record's CSV")
     p.add_argument("--speed", type=float, default=1.0, metavar="X",
                    help="1 = the recorded pace (default), 2 = twice as fast, 0 = as fast as possible")
     p.add_argument("--filter", action="append", default=[], metavar="F",

@@ -33,7 +33,8 @@ def _quote(text: str) -> str:
 
 
 def dbc_text(ods: dict[int, Any], names: dict[int, str]) -> str:
-    """The DBC text of the TPDOs of ``ods`` (node-ID -> canopen ObjectDictionary), nodes named by ``names``."""
+    """The DBC text of the TPDOs of ``ods`` (node-ID -> canopen ObjectDictionary), nodes named by
+    ``names``."""
     pmap = PdoMap(ods={k: v for k, v in ods.items() if v is not None})
     node_names = {n: dbc_name(names.get(n, f"node{n}")) for n in ods}
     receivers: dict[int, list[str]] = {}
@@ -41,8 +42,8 @@ def dbc_text(ods: dict[int, Any], names: dict[int, str]) -> str:
         for cob, pdef in PdoMap(ods={node: od}).table.items():
             if pdef.direction == "RPDO" and pdef.valid:
                 receivers.setdefault(cob, []).append(node_names[node])
-    lines = ['VERSION ""', "", "NS_ :", "", "BS_:", "", "BU_: " + " ".join(node_names[n] for n in sorted(node_names)),
-             ""]
+    nodes_line = "BU_: " + " ".join(node_names[n] for n in sorted(node_names))
+    lines = ['VERSION ""', "", "NS_ :", "", "BS_:", "", nodes_line, ""]
     valtypes, comments, tables = [], [], []
     materials = list(load_render_table())
     for cob, pdef in sorted(pmap.table.items()):
@@ -51,7 +52,8 @@ def dbc_text(ods: dict[int, Any], names: dict[int, str]) -> str:
         sender = node_names.get(pdef.node, f"node{pdef.node}")
         size = (pdef.length_bits + 7) // 8
         lines.append(f"BO_ {cob} {sender}_{pdef.label}: {size} {sender}")
-        comments.append(f'CM_ BO_ {cob} "{pdef.label} of node {pdef.node} ({_quote(names.get(pdef.node, ""))})";')
+        who = _quote(names.get(pdef.node, ""))
+        comments.append(f'CM_ BO_ {cob} "{pdef.label} of node {pdef.node} ({who})";')
         to = ",".join(sorted(set(receivers.get(cob, [])) - {sender})) or "Vector__XXX"
         offset = 0
         for e in pdef.entries:
@@ -66,7 +68,8 @@ def dbc_text(ods: dict[int, Any], names: dict[int, str]) -> str:
                 valtypes.append(f"SIG_VALTYPE_ {cob} {sig} : {1 if kind == dt.REAL32 else 2};")
             comments.append(f'CM_ SG_ {cob} {sig} "0x{e.index:04X}:{e.subindex:02X} {_quote(e.name)}";')
             if (e.index, e.name) in MATERIAL_CODE_OBJECTS:
-                vals = [(0, "none"), *((k + 1, m) for k, m in enumerate(materials)), (ABSTAIN_CODE, "unknown")]
+                vals = [(0, "none"), *((k + 1, m) for k, m in enumerate(materials)),
+                        (ABSTAIN_CODE, "unknown")]
                 tables.append(f"VAL_ {cob} {sig} " + " ".join(f'{v} "{_quote(t)}"' for v, t in vals) + " ;")
         lines.append("")
     return "\n".join(lines + comments + [""] + valtypes + [""] + tables) + "\n"

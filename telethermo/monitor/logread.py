@@ -25,7 +25,8 @@ from can.io.blf import BLFParseError, FILE_HEADER_SIZE
 READABLE = (".log", ".asc", ".blf", ".csv", ".trc")
 #: python-can's reader per text format and what one line of it looks like
 TEXT_READERS = {
-    ".log": (can.CanutilsLogReader, "a candump -L line '(TIME) CHANNEL ID#DATA', e.g. '(1.000000) can0 181#00ff'"),
+    ".log": (can.CanutilsLogReader,
+             "a candump -L line '(TIME) CHANNEL ID#DATA', e.g. '(1.000000) can0 181#00ff'"),
     ".asc": (can.ASCReader, "a Vector ASC line, e.g. '1.000000 1 181 Rx d 2 00 FF'"),
     ".trc": (can.TRCReader, "a PEAK trace line, e.g. '1 1000.000 DT 0181 Rx 2 00 FF'"),
     ".csv": (can.CSVReader, "a python-can CSV row 'timestamp,arbitration_id,extended,remote,error,dlc,data'"),
@@ -104,7 +105,8 @@ def _read_text(p: Path, suffix: str) -> Iterator[can.Message]:
         reader = cls(fh)
     except Exception as exc:   # a reader reads the header in its constructor (ASC, TRC)
         fh.close()
-        raise ReplayError(f"{p}:{fh.line}: not a readable {suffix} log ({exc}); expected {expected}") from None
+        raise ReplayError(f"{p}:{fh.line}: not a readable {suffix} log ({exc}); "
+                          f"expected {expected}") from None
 
     def gen() -> Iterator[can.Message]:
         n, first, last = 0, None, None
@@ -114,7 +116,8 @@ def _read_text(p: Path, suffix: str) -> Iterator[can.Message]:
                 first = msg.timestamp if first is None else first
                 yield msg
         except (ValueError, IndexError, KeyError, TypeError, AttributeError, OSError) as exc:
-            raise ReplayError(f"{p}:{fh.line}: damaged line ({_name(exc)}), {_what_was_read(n, first, last)}; "
+            raise ReplayError(f"{p}:{fh.line}: damaged line ({_name(exc)}), "
+                              f"{_what_was_read(n, first, last)}; "
                               f"expected {expected}") from None
         finally:
             fh.close()
@@ -152,8 +155,8 @@ def _read_blf(p: Path) -> Iterator[can.Message]:
             raise ReplayError(f"{p}: truncated BLF: the last object is cut after {left} bytes, "
                               f"{_what_was_read(n, first, last)}; {_BLF_EXPECTED}")
         if promised <= FILE_HEADER_SIZE and size > FILE_HEADER_SIZE:
-            raise ReplayError(f"{p}: unfinished BLF: its header was never completed (the writer did not close "
-                              f"it), {_what_was_read(n, first, last)}; {_BLF_EXPECTED}")
+            raise ReplayError(f"{p}: unfinished BLF: its header was never completed (the writer did not "
+                              f"close it), {_what_was_read(n, first, last)}; {_BLF_EXPECTED}")
     return gen()
 
 

@@ -43,13 +43,15 @@ class NodeMaterial:
     def text(self) -> str:
         if self.code is None:
             return "no identified_material seen yet"
-        what = f"{material_text(self.code)} (code {self.code}, touch {self.touches if self.touches is not None else '?'})"
+        touch = self.touches if self.touches is not None else "?"
+        what = f"{material_text(self.code)} (code {self.code}, touch {touch})"
         j = self.to_json()
         if j["posterior"] is not None:
             return f"{what}, posterior {j['posterior']:.3f} ({j['posterior_source']})"
         if self.code in (0, ABSTAIN_CODE):
             return what
-        return f"{what}, posterior not on the bus (identified_posterior is in no PDO: telethermo get NODE {POSTERIOR})"
+        return (f"{what}, posterior not on the bus (identified_posterior is in no PDO: "
+                f"telethermo get NODE {POSTERIOR})")
 
 
 class MaterialSeen:
@@ -59,7 +61,9 @@ class MaterialSeen:
         self.by_node: dict[int, NodeMaterial] = {}
 
     def observe(self, node: int | None, name: str, value: Any, how: str) -> None:
-        if node is None or name not in (MATERIAL, POSTERIOR, TOUCHES) or isinstance(value, (bytes, bytearray)):
+        if node is None or name not in (MATERIAL, POSTERIOR, TOUCHES):
+            return
+        if isinstance(value, (bytes, bytearray)):   # a length mismatch decoded as raw bytes
             return
         m = self.by_node.setdefault(node, NodeMaterial())
         if name == MATERIAL:

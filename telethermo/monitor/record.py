@@ -54,7 +54,8 @@ def check_folder(path: Path) -> None:
     folder = path.parent
     if not folder.is_dir():
         what = "is not a folder" if folder.exists() else "does not exist"
-        raise RecordError(f"{path}: the folder {folder} {what}; expected an existing folder (create it first)")
+        raise RecordError(f"{path}: the folder {folder} {what}; "
+                          "expected an existing folder (create it first)")
 
 
 def default_csv_path(log_path: str | os.PathLike) -> Path:
@@ -95,8 +96,8 @@ def check_append(log: Path, csv_path: Path | None) -> None:
     """RecordError if ``--append`` cannot keep the rule: a format python-can cannot append to, or an
     existing CSV that is not this recorder's (its header)."""
     if log.suffix.lower() not in APPENDABLE:
-        raise RecordError(f"{log}: cannot append to a {log.suffix} log (python-can's writer cannot); expected "
-                          f"one of {', '.join(APPENDABLE)}")
+        raise RecordError(f"{log}: cannot append to a {log.suffix} log (python-can's writer cannot); "
+                          f"expected one of {', '.join(APPENDABLE)}")
     if csv_path is not None and csv_path.exists():
         with open(csv_path, newline="", encoding="utf-8", errors="replace") as fh:
             head = next(csv.reader(fh), [])

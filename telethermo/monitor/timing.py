@@ -50,8 +50,8 @@ class TimingSeen:
             return False, f"SYNC every {median * 1e3:.2f} ms, the nominal period"
         if ratio < LOCKSTEP_FRACTION:
             return True, f"SYNC every {median * 1e3:.2f} ms, faster than the {nominal_s * 1e3:.2f} ms period"
-        return None, (f"SYNC every {median * 1e3:.2f} ms against a {nominal_s * 1e3:.2f} ms period: a lockstep "
-                      "pair slower than the period, or late real-time cycles")
+        return None, (f"SYNC every {median * 1e3:.2f} ms against a {nominal_s * 1e3:.2f} ms period: "
+                      "a lockstep pair slower than the period, or late real-time cycles")
 
 
 def timing_label(lockstep: bool | None) -> str:

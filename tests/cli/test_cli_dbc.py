@@ -1,6 +1,6 @@
-"""``telethermo dbc --out FILE`` (issue 25: "a DBC export of our PDO layout so cantools and commercial viewers can
-decode our traffic"). cantools is not a dependency, so the file is checked by a structural parse of the DBC
-grammar (every line one of the statements written, names C identifiers, each message's signals inside its
+"""``telethermo dbc --out FILE`` (issue 25: "a DBC export of our PDO layout so cantools and commercial viewers
+can decode our traffic"). cantools is not a dependency, so the file is checked by a structural parse of the
+DBC grammar (every line one of the statements written, names C identifiers, each message's signals inside its
 length and not overlapping), and by decoding frames with the parsed layout alone (little-endian bit fields,
 IEEE floats where SIG_VALTYPE_ says so) against the monitor's EDS decoder on the same bytes."""
 from __future__ import annotations
@@ -18,12 +18,14 @@ IDENT = r"[A-Za-z_][A-Za-z0-9_]*"
 STATEMENTS = [rf'VERSION ""', r"NS_ :", r"BS_:", rf"BU_:( {IDENT})+",
               rf"BO_ (\d+) ({IDENT}): (\d) ({IDENT})",
               rf' SG_ ({IDENT}) : (\d+)\|(\d+)@1([+-]) \(1,0\) \[0\|0\] "([^"]*)" ({IDENT}(,{IDENT})*)',
-              rf'CM_ BO_ \d+ "[^"]*";', rf'CM_ SG_ \d+ {IDENT} "[^"]*";', rf"SIG_VALTYPE_ (\d+) ({IDENT}) : ([12]);",
+              rf'CM_ BO_ \d+ "[^"]*";', rf'CM_ SG_ \d+ {IDENT} "[^"]*";',
+              rf"SIG_VALTYPE_ (\d+) ({IDENT}) : ([12]);",
               rf'VAL_ (\d+) ({IDENT})( \d+ "[^"]*")+ ;', r""]
 
 
 def parse_dbc(text: str):
-    """{cob: (size, sender, {signal: (start, bits, signed, unit)})}, {(cob, signal): 1|2} float types, VAL_ tables."""
+    """{cob: (size, sender, {signal: (start, bits, signed, unit)})}, {(cob, signal): 1|2} float types, VAL_
+    tables."""
     messages, floats, tables, current = {}, {}, {}, None
     for n, line in enumerate(text.splitlines(), 1):
         assert any(re.fullmatch(s, line) for s in STATEMENTS), f"line {n} is not DBC: {line!r}"
@@ -80,7 +82,8 @@ def test_the_dbc_parses_back_and_decodes_as_the_eds_does(cli, tmp_path):
             ours = {v.name: v.value for v in decode_pdo(pdef, bytes(data))[0]}
             theirs = decode(layout, floats, cob, bytes(data))
             for name, v in ours.items():
-                got = bool(theirs[name]) if isinstance(v, bool) else theirs[name]   # BOOLEAN: any non-zero byte
+                # BOOLEAN: any non-zero byte is true
+                got = bool(theirs[name]) if isinstance(v, bool) else theirs[name]
                 assert got == v, (hex(cob), name)
     material = tables[(0x682, "identified_material")]
     assert material[0] == "none" and material[7] == "glass" and material[255] == "unknown"
@@ -88,7 +91,8 @@ def test_the_dbc_parses_back_and_decodes_as_the_eds_does(cli, tmp_path):
 
 def test_dbc_refuses_a_wrong_name_and_an_existing_file(cli, tmp_path):
     code, _, err = cli("dbc", "--out", str(tmp_path / "x.txt"))
-    assert code == EXIT_USAGE and err == f"telethermo dbc: error: --out {tmp_path / 'x.txt'}: expected a .dbc file name\n"
+    assert code == EXIT_USAGE
+    assert err == f"telethermo dbc: error: --out {tmp_path / 'x.txt'}: expected a .dbc file name\n"
     (tmp_path / "x.dbc").write_text("mine")
     code, _, err = cli("dbc", "--out", str(tmp_path / "x.dbc"))
     assert code == EXIT_USAGE and "already exists; give another name, or --force to replace" in err

@@ -71,11 +71,13 @@ def tpdo4(t: float, node: int, counter: int, safety: int, mode: int) -> can.Mess
 
 
 def test_codes_and_counters_have_panels_of_their_own(tmp_path):
-    """Issue 25: cycle_counter (~24,000) shared the axis of the 0..11 codes, which then read as a flat line."""
+    """Issue 25: cycle_counter (~24,000) shared the axis of the 0..11 codes, which then read as a flat
+    line."""
     from telethermo.monitor.busplot import bus_log_figure
     msgs = [tpdo4(10.0 + 0.01 * k, 1, 24_000 + k, k // 20, 1 + k // 50) for k in range(100)]
     cfg = monitor_config(load_network())
-    data = decode_bus_log(msgs, {k: n.od for k, n in cfg.nodes.items()}, {k: n.name for k, n in cfg.nodes.items()})
+    data = decode_bus_log(msgs, {k: n.od for k, n in cfg.nodes.items()},
+                          {k: n.name for k, n in cfg.nodes.items()})
     assert data.panels[("master", "cycle_counter")] == "count"
     assert data.panels[("master", "safety_state")] == data.panels[("master", "mode")] == "code"
     fig = bus_log_figure(data, "t")

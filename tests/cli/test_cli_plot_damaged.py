@@ -87,8 +87,9 @@ def test_a_truncated_blf_is_refused_saying_what_was_read(cli, tmp_path):
     data = good.read_bytes()
     cut = tmp_path / "cut.blf"
     cut.write_bytes(data[:len(data) * 2 // 3])       # a copy that stopped
-    assert_one_line(both(cli, cut), f"{cut}: truncated BLF: {len(data) * 2 // 3} of the {len(data)} bytes its "
-                                    f"header records, {read_before(data[:len(data) * 2 // 3])}; {BLF_EXPECTED}")
+    kept = len(data) * 2 // 3
+    assert_one_line(both(cli, cut), f"{cut}: truncated BLF: {kept} of the {len(data)} bytes its "
+                                    f"header records, {read_before(data[:kept])}; {BLF_EXPECTED}")
 
 
 def test_a_blf_whose_writer_never_closed_it_is_refused(cli, tmp_path):
@@ -97,12 +98,12 @@ def test_a_blf_whose_writer_never_closed_it_is_refused(cli, tmp_path):
     for m in frames(3000):
         writer.on_message_received(m)
     writer.file.flush()
-    snapshot = path.read_bytes()                    # what a killed writer leaves: containers, header unfinished
+    snapshot = path.read_bytes()     # what a killed writer leaves: containers, header unfinished
     writer.stop()
     killed = tmp_path / "killed.blf"
     killed.write_bytes(snapshot)
-    assert_one_line(both(cli, killed), f"{killed}: unfinished BLF: its header was never completed (the writer did "
-                                       f"not close it), {read_before(snapshot)}; {BLF_EXPECTED}")
+    assert_one_line(both(cli, killed), f"{killed}: unfinished BLF: its header was never completed (the "
+                                       f"writer did not close it), {read_before(snapshot)}; {BLF_EXPECTED}")
 
 
 def test_a_bad_candump_line_is_named_by_its_number_in_plot_and_monitor(cli, tmp_path):

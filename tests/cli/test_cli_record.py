@@ -198,8 +198,9 @@ def record_frames(cli, out, frames, *extra: str):
         sender.shutdown()
 
 
-TPDO4 = bytes([0x10, 0x27, 0, 0, 1, 1, 1, 1])      # cycle_counter 10000, safety 1, mode 1, contact, peer alive
-MIX = [(0x080, b"\x01"), (0x181, bytes(8)), (0x481, TPDO4), (0x482, TPDO4), (0x701, b"\x05"), (0x702, b"\x05")]
+TPDO4 = bytes([0x10, 0x27, 0, 0, 1, 1, 1, 1])   # cycle_counter 10000, safety 1, mode 1, contact, peer alive
+MIX = [(0x080, b"\x01"), (0x181, bytes(8)), (0x481, TPDO4), (0x482, TPDO4), (0x701, b"\x05"),
+       (0x702, b"\x05")]
 
 
 @pytest.mark.parametrize("spec,cobs", [("sync", {0x080}), ("181:7FF", {0x181}), ("480:780", {0x481, 0x482}),
@@ -215,9 +216,11 @@ def test_filter_keeps_only_the_matching_frames(cli, tmp_path, spec, cobs):
 
 
 def test_a_bad_filter_is_one_line(cli, tmp_path):
-    code, out, err = cli("record", "--bus", "virtual:tt-rec-badf", str(tmp_path / "f.log"), "--filter", "18x:780")
-    assert code == EXIT_USAGE and err == ("telethermo record: error: --filter '18x:780': '18x' is not hexadecimal; "
-                                          "expected ID:MASK or ID~MASK as python-can's --filter, e.g. 180:780\n")
+    code, out, err = cli("record", "--bus", "virtual:tt-rec-badf", str(tmp_path / "f.log"),
+                         "--filter", "18x:780")
+    assert code == EXIT_USAGE
+    assert err == ("telethermo record: error: --filter '18x:780': '18x' is not hexadecimal; "
+                   "expected ID:MASK or ID~MASK as python-can's --filter, e.g. 180:780\n")
     assert not (tmp_path / "f.log").exists()
 
 
@@ -232,5 +235,6 @@ def test_append_adds_to_the_log_and_its_csv(cli, tmp_path, ext):
     rows = (tmp_path / f"a{ext}.csv").read_text().splitlines()
     assert len(rows) == 26 and rows.count(rows[0]) == 1          # one header, the rows of both recordings
     code, out, err = cli("record", "--bus", "virtual:tt-rec-asc", str(tmp_path / "a.asc"), "--append")
-    assert code == EXIT_USAGE and err == (f"telethermo record: error: {tmp_path / 'a.asc'}: cannot append to a "
-                                          ".asc log (python-can's writer cannot); expected one of .log, .blf\n")
+    assert code == EXIT_USAGE
+    assert err == (f"telethermo record: error: {tmp_path / 'a.asc'}: cannot append to a "
+                   ".asc log (python-can's writer cannot); expected one of .log, .blf\n")

@@ -1,7 +1,7 @@
-"""One EDS loader for all (issue 25): the monitor accepted EDS files that `get` and the nodes refuse. A truncated
-EDS (an object listed in [ManufacturerObjects] without its section) is read by canopen without a word; the
-loader of `get` and the nodes (telethermo.device.eds_info) refuses it, and now the monitor does, in the same
-words, exit 2: for a node of the network file and for a further node given by --eds."""
+"""One EDS loader for all (issue 25): the monitor accepted EDS files that `get` and the nodes refuse. A
+truncated EDS (an object listed in [ManufacturerObjects] without its section) is read by canopen without a
+word; the loader of `get` and the nodes (telethermo.device.eds_info) refuses it, and now the monitor does, in
+the same words, exit 2: for a node of the network file and for a further node given by --eds."""
 from __future__ import annotations
 
 import json
@@ -56,8 +56,8 @@ def test_a_further_nodes_truncated_eds_is_refused(cli, tmp_path):
     eds = truncated_eds(tmp_path / "arm.eds")
     code, out, err = cli("monitor", "--replay", str(a_log(tmp_path / "s.log")), "--eds", f"5={eds}", "--json")
     assert code == EXIT_USAGE and out == ""
-    assert err == (f"telethermo monitor: error: --eds 5={eds}: {eds}: 1 listed object(s) have no section (0x2000): "
-                   "truncated or damaged EDS\n")
+    assert err == (f"telethermo monitor: error: --eds 5={eds}: {eds}: 1 listed object(s) have no section "
+                   "(0x2000): truncated or damaged EDS\n")
     good = tmp_path / "arm_ok.eds"
     good.write_bytes((SRC / "slave.eds").read_bytes())
     code, out, err = cli("monitor", "--replay", str(tmp_path / "s.log"), "--eds", f"5={good}", "--json",

@@ -47,15 +47,16 @@ def _sdo_upload(node: int, index: int, value: bytes, t: float) -> list[can.Messa
 
 def test_the_view_shows_the_material_with_the_posterior_read_for_this_touch():
     """Issue 25: the identified material with its posterior. identified_posterior (0x2613) is in no PDO of the
-    shipped EDS: shown when an SDO read brings it, for the touch it was read in; said to be missing otherwise."""
+    shipped EDS: shown when an SDO read brings it, for the touch it was read in; said to be missing
+    otherwise."""
     from telethermo.monitor.view import ViewState, render_lines
     names = list(load_render_table())
     code = names.index("glass") + 1
     mon = Monitor(monitor_config())
     mon.feed(_tpdo5(code, 7, 1.47))
     line = [ln for ln in render_lines(mon, ViewState(), 200, 40) if "identified glass" in ln]
-    assert line == [f"  slave identified glass (code {code}, touch 7), posterior not on the bus (identified_posterior "
-                    "is in no PDO: telethermo get NODE identified_posterior)"]
+    assert line == [f"  slave identified glass (code {code}, touch 7), posterior not on the bus "
+                    "(identified_posterior is in no PDO: telethermo get NODE identified_posterior)"]
     for m in _sdo_upload(2, 0x2613, struct.pack("<f", 0.875), 1.1):
         mon.feed(m)
     assert mon.snapshot()["materials"] == [{"node": 2, "code": code, "material": "glass", "touches": 7,

@@ -59,8 +59,8 @@ def test_too_few_or_ambiguous_syncs_are_unknown():
 
 
 def test_a_nodes_own_lockstep_object_read_by_canopens_client_decides():
-    """A real device (EDS, canopen LocalNode) answers canopen's SdoClient for `lockstep` (0x2704); the monitor on
-    the same bus takes the node's word over SYNC timing that looks like the other mode."""
+    """A real device (EDS, canopen LocalNode) answers canopen's SdoClient for `lockstep` (0x2704); the monitor
+    on the same bus takes the node's word over SYNC timing that looks like the other mode."""
     channel = f"tt-mon-timing-{time.monotonic_ns()}"
     net = load_network()
     nw = canopen.Network()

@@ -43,8 +43,8 @@ def test_a_killed_writers_journal_is_kept_beside_not_overwritten(tmp_path):
 
 @pytest.mark.parametrize("umask", [0o022, 0o027])
 def test_a_recovered_recording_gets_the_mode_of_a_new_file(tmp_path, umask):
-    """Issue 25: the recovered recording of a killed node was mode 0600 (mkstemp's), where the recording a node
-    closes normally is 0666 less the umask; so was the journal kept beside a new recording."""
+    """Issue 25: the recovered recording of a killed node was mode 0600 (mkstemp's), where the recording a
+    node closes normally is 0666 less the umask; so was the journal kept beside a new recording."""
     journal = journal_path(tmp_path / "slave.csv")
     journal.write_text("# telethermo-recording 1\n# meta {}\nt_s\n0.5\n0.6\n0.7", encoding="utf-8")
     old = os.umask(umask)
