@@ -14,6 +14,12 @@ def _umask() -> int:
     return mask
 
 
+def file_mode() -> int:
+    """The mode ``open(path, "w")`` gives a new file: 0666 less the umask (0644 under the usual 022).
+    For a file made by ``mkstemp`` (0600) that is then renamed into a place the lab reads from."""
+    return 0o666 & ~_umask()
+
+
 def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     """Write ``data`` to ``path`` via a temporary file in the same folder, fsync and rename. The file gets
     the mode a plain ``open(path, "w")`` would give (0666 less the umask; mkstemp's 0600 would hide results
@@ -22,7 +28,7 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        os.fchmod(fd, 0o666 & ~_umask())
+        os.fchmod(fd, file_mode())
         with os.fdopen(fd, "wb") as fh:
             fh.write(data)
             fh.flush()

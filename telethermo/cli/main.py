@@ -49,6 +49,8 @@ COMMANDS: dict[str, Command] = {
     "fault-reset": Command("faults", "clear the latched safety trips whose cause is gone"),
     "calibrate-finger": Command("calibrate", "per-user finger calibration (yamamoto): β_pad and T_finger0"),
     "record": Command("record", "record the bus to a .log/.asc/.blf file plus a decoded CSV"),
+    "replay": Command("replay", "send a recorded log's frames onto a bus (at the recorded pace, filtered)"),
+    "dbc": Command("dbc", "write a DBC file of the PDO layout, for cantools and CAN viewers"),
     "plot": Command("plot", "plot a recording (a session's recording.csv, a node's --record CSV) to a PNG"),
     "bench": Command("bench", "run the benchmark suite, write bench/results/*.json and docs/benchmarks.md"),
     "completion": Command("completion", "print a bash/zsh completion script (commands, options, nodes, scenes)"),

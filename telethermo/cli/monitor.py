@@ -13,7 +13,6 @@ from telethermo.monitor.replay import Pacer, ReplayError, live, paced, read_log
 from telethermo.monitor.run import bus_state_poller, run_curses, run_lines
 from telethermo.monitor.state import Monitor
 from telethermo.monitor.view import ViewState
-from telethermo.remote.errors import Failure
 
 
 def register(subparsers) -> None:
@@ -98,8 +97,8 @@ def run(args: argparse.Namespace) -> int:
                                now=now, until=until, poll=poll)
                 if vs.error:
                     raise ReplayError(vs.error)     # shown in the view until q; the exit says it too
-        except ReplayError as exc:
-            raise Failure(str(exc)) from None
+        except ReplayError as exc:     # a damaged log is bad input (exit 2), as in `plot`
+            raise UserError(str(exc)) from None
     finally:
         if bus is not None:
             bus.shutdown()

@@ -1,17 +1,20 @@
 """The monitor's view of the network (``telethermo monitor`` and ``telethermo record``): node names and
 EDS dictionaries with the network file's power-on overrides. Apart from :mod:`telethermo.cli.common` so
 that the SDO commands do not import the monitor's decoders; the nodes are named as every command names
-them (:mod:`telethermo.remote.targets`)."""
+them (:mod:`telethermo.remote.targets`). Every EDS is read by the one loader `get`, `set` and the nodes use
+(:class:`telethermo.device.eds_info.EdsInfo`, CiA 306 checks) before canopen builds the dictionary from it:
+a file they refuse, the monitor refuses with the same words."""
 from __future__ import annotations
 
 from pathlib import Path
 
 from canopen.objectdictionary import import_od
 
+from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.device.netconfig import NetworkConfig, NetworkConfigError
 from telethermo.cli.main import UserError
 from telethermo.monitor.records import MonitorConfig, NodeInfo
-from telethermo.remote.targets import node_targets
+from telethermo.remote.targets import eds_info, node_targets
 
 
 def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None,
@@ -26,10 +29,8 @@ def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_perio
         if t.eds is None:   # another device named without an EDS: known by name, its PDOs not decoded
             nodes[t.node_id] = NodeInfo(t.role, None)
             continue
-        try:
-            od = import_od(str(t.eds), t.node_id)
-        except Exception as exc:  # canopen raises assorted errors for a bad EDS
-            raise UserError(f"{t.eds}: cannot parse EDS ({exc})") from None
+        eds_info(t)   # the check `get` and the nodes make (UserError naming the file and what is wrong)
+        od = _import_od(t.eds, t.node_id)
         _apply_overrides(net, t.role, od)
         nodes[t.node_id] = NodeInfo(t.role, od)
     for spec in extra_eds:
@@ -56,10 +57,18 @@ def _extra_node(spec: str) -> tuple[int, NodeInfo]:
     if not eds.is_file():
         raise UserError(f"--eds {spec}: {eds}: no such EDS file")
     try:
-        od = import_od(str(eds), node_id)
+        EdsInfo(eds)         # the check `get` and the nodes make
+    except EdsError as exc:
+        raise UserError(f"--eds {spec}: {exc}") from None
+    return node_id, NodeInfo(eds.stem, _import_od(eds, node_id))
+
+
+def _import_od(eds: Path, node_id: int):
+    """canopen's dictionary of an EDS that :class:`EdsInfo` accepted."""
+    try:
+        return import_od(str(eds), node_id)
     except Exception as exc:  # canopen raises assorted errors for a bad EDS
-        raise UserError(f"{eds}: cannot parse EDS ({exc})") from None
-    return node_id, NodeInfo(eds.stem, od)
+        raise UserError(f"{eds}: cannot parse EDS ({' '.join(str(exc).split())})") from None
 
 
 def _apply_overrides(net: NetworkConfig, role: str, od) -> None:

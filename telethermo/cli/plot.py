@@ -2,7 +2,8 @@
 
 FILE is any recording in the telethermo.offline.recording format (an offline or two-process session's
 ``recording.csv`` or one node's ``--record`` CSV: ``master.csv``, ``slave.csv``), or a bus log
-(``telethermo record`` / python-can: .log, .asc, .blf, .trc): its PDO values decoded by the EDS mappings
+(``telethermo record`` / python-can: .log, .asc, .blf, .trc, or the decoded CSV ``telethermo record`` writes
+beside its log, ``s.blf.csv``): its PDO values decoded by the EDS mappings
 of the network file's nodes, one panel per unit, EMCYs marked. matplotlib (the ``plot`` extra) is
 imported only when the command runs.
 """
@@ -16,7 +17,7 @@ from telethermo.cli import common
 from telethermo.cli.main import UserError
 from telethermo.cli.monitor_setup import monitor_config
 from telethermo.monitor.busplot import decode_bus_log, plot_bus_log_png
-from telethermo.monitor.replay import ReplayError, read_log
+from telethermo.monitor.logread import ReplayError, is_record_csv, read_log
 from telethermo.offline.plot import write_session_png
 from telethermo.offline.recording import RecordingError, read_recording_csv
 
@@ -27,9 +28,11 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("plot", description="Plot a recording as session.png shows a session: temperatures, "
                                                   "estimates, flux, current, contact and safety state. FILE: a "
                                                   "session's recording.csv or a node's --record CSV (master.csv, "
-                                                  "slave.csv), or a bus log (.log/.asc/.blf/.trc: the PDO values "
-                                                  "by the EDS mappings, one panel per unit, EMCYs marked). A "
-                                                  "damaged file is named with its line (exit 2).")
+                                                  "slave.csv), or a bus log (.log/.asc/.blf/.trc, or the "
+                                                  "CSV `telethermo record` writes beside it: the PDO "
+                                                  "values by the EDS mappings, one panel per unit, codes "
+                                                  "and counters apart, EMCYs marked). A damaged file is "
+                                                  "named with its line or byte (exit 2).")
     p.add_argument("file", metavar="FILE", type=Path, help="the recording (CSV) or a bus log")
     p.add_argument("--network", metavar="FILE", help="bus log: the network file whose nodes' EDS decode the PDOs "
                                                      "(default: the shipped one)")
@@ -54,7 +57,7 @@ def run(args: argparse.Namespace) -> int:
         import matplotlib  # noqa: F401  (the optional extra: say so before reading anything)
     except ImportError:
         raise UserError("matplotlib is not installed; install the plot extra: pip install 'telethermo[plot]'") from None
-    if src.suffix.lower() in BUS_LOGS:
+    if src.suffix.lower() in BUS_LOGS or (src.suffix.lower() == ".csv" and is_record_csv(src)):
         return plot_bus_log(args, src, out)
     try:
         rec = read_recording_csv(src)

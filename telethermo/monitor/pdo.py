@@ -17,6 +17,8 @@ from canopen import objectdictionary as od_mod
 
 from telethermo.control.render_table import material_name
 
+from .material import ABSTAIN_CODE
+
 TPDO_COMM, TPDO_MAP, RPDO_COMM, RPDO_MAP = 0x1800, 0x1A00, 0x1400, 0x1600
 
 #: our objects whose value is a material code of the rendering table (the master's rendered material, the slave's
@@ -84,7 +86,7 @@ class PdoValue:
         """What the value stands for, where the object is an enumeration the monitor knows (a material code's
         name in the rendering table); '' otherwise."""
         if (self.index, self.name) in MATERIAL_CODE_OBJECTS and isinstance(self.value, int):
-            return material_name(self.value)
+            return "unknown" if self.value == ABSTAIN_CODE else material_name(self.value)
         return ""
 
     def text(self) -> str:

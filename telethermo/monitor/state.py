@@ -20,6 +20,8 @@ from .health import ControllerHealth, decode_error_frame
 from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo
 from .records import STRIP_DT_S, BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
+from .material import MaterialSeen
+from .timing import TimingSeen
 
 #: frame lengths kept by content (periodic traffic repeats its frames: SYNC counters, heartbeats, flags)
 BITS_CACHE = 4096
@@ -46,6 +48,8 @@ class Monitor:
         self._late_event_t: float | None = None
         self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
+        self.timing = TimingSeen()   # lockstep or real time, from what the bus shows (never the network file)
+        self.material = MaterialSeen()   # the identified material, its touch and posterior, as seen
         self._bits: dict[tuple, int] = {}
         self._handlers = {k: getattr(self, f"_on_{k.lower()}") for k in dec.KINDS}
         self.first_tick_s: float | None = None   # live: the first tick's time (a replay never ticks), s
@@ -361,6 +365,8 @@ class Monitor:
         p.count += 1
         p.last_t = f.t_s
         p.values = values
+        for v in values:
+            self._observe_value(pdef.node, v.name, v.value, pdef.label)
         if p.trace_t is None or f.t_s - p.trace_t >= 0.99 * STRIP_DT_S:    # 1 %: float bus times
             p.trace.append((f.t_s, tuple(v.value for v in values)))
             p.trace_t = f.t_s
@@ -393,6 +399,7 @@ class Monitor:
             tr = step.done
             if tr.status == "ok":
                 st.sdo_ok += 1
+                self._observe_value(f.node, rec.name, rec.value, "SDO")
                 self._observe_config(f, tr, ev)
             elif tr.status == "aborted":
                 st.sdo_aborts += 1
@@ -414,6 +421,11 @@ class Monitor:
                     value = tr.data
         return SdoRecord(tr, name, value, unit)
 
+    def _observe_value(self, node: int | None, name: str, value: Any, how: str) -> None:
+        """An object value seen on the bus (``how``: "SDO" or the PDO's label), for timing and material."""
+        self.timing.observe(node, name, value, how)
+        self.material.observe(node, name, value, how)
+
     def _observe_config(self, f: dec.Frame, tr: SdoTransfer, ev: list[Event]) -> None:
         change = self.pdo_map.observe_sdo(tr.node, tr.index, tr.subindex, tr.data)
         if change:
@@ -430,6 +442,12 @@ class Monitor:
             self._sync_cob = raw & 0x7FF
 
     # -- output ----------------------------------------------------------------------------------
+    def timing_json(self) -> dict[str, Any]:
+        """The pair's timing as the bus shows it (:mod:`.timing`), and what the network file says."""
+        lockstep, why = self.timing.verdict(self.stats.sync_intervals_s, self.config.sync_period_s)
+        return {"sync_lockstep": lockstep, "sync_timing_evidence": why,
+                "network_file_lockstep": self.config.sync_lockstep}
+
     def snapshot(self) -> dict[str, Any]:
         """The whole state as JSON-able data (for --json and tests)."""
         s = self.stats
@@ -438,7 +456,8 @@ class Monitor:
                 "error_frames": s.error_frames, "unknown_frames": s.unknown_frames, "malformed": s.malformed,
                 "syncs": s.syncs, "sync_counter": s.sync_counter, "sync_counter_errors": s.sync_counter_errors,
                 "sync": s.sync_summary(), "sync_period_nominal_s": self.config.sync_period_s,
-                "sync_lockstep": self.config.sync_lockstep, "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
+                **self.timing_json(), "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
+                "materials": self.material.to_json(),
                 "events": dict(self.log.counts), "controller": self.controller.to_json(),
                 "cob_ids": [r.to_json() for r in self.frames.sorted_rows()],
                 "nodes": [st.to_json() for _, st in sorted(self.nodes.items())],

@@ -19,6 +19,7 @@ from .hints import incident_hints
 from .pages import (FOOTER, page_events, page_help, page_hints, page_log, page_raw, page_temperatures,
                     scroll_window)
 from .state import Monitor
+from .timing import timing_label
 
 #: incident hints shown on the main page (all of them on the hints page)
 MAIN_HINTS = 3
@@ -81,8 +82,8 @@ def status_lines(mon: Monitor, vs: ViewState) -> list[str]:
     if vs.error:
         flags += f"  [LOG DAMAGED, replay stopped: {vs.error}]"
     per = mon.config.sync_period_s
-    nominal = (f" (nominal {per * 1e3:.2f}{', lockstep' if mon.config.sync_lockstep else ''})" if per
-               else " (no nominal period)")
+    timing = timing_label(mon.timing_json()["sync_lockstep"])   # from the bus, not the network file
+    nominal = f" (nominal {per * 1e3:.2f}, {timing})" if per else f" (no nominal period, {timing})"
     sync_txt = (f"SYNC {sync['period_s'] * 1e3:.2f} ms ±{sync['jitter_s'] * 1e3:.2f} "
                 f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] #{s.sync_counter if s.sync_counter is not None else '-'}"
                 if sync["period_s"] is not None else "SYNC --") + nominal
@@ -110,7 +111,10 @@ def _node_lines(mon: Monitor) -> list[str]:
 
 
 def _main_body(mon: Monitor, vs: ViewState, room: int) -> list[str]:
-    lines = ["", *_node_lines(mon), "", "PDO"]
+    lines = ["", *_node_lines(mon)]
+    lines += [f"  {mon.nodes[n].name if n in mon.nodes else n} identified {m.text()}"
+              for n, m in sorted(mon.material.by_node.items()) if m.code is not None]
+    lines += ["", "PDO"]
     for key, p in sorted(mon.pdos.items()):
         vals = "  ".join(v.text() for v in p.values)
         name = mon.nodes[p.pdef.node].name if p.pdef.node in mon.nodes else ""

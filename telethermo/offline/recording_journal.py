@@ -31,6 +31,8 @@ import threading
 from pathlib import Path
 from typing import Any, Iterable, Mapping, Sequence
 
+from telethermo.atomic import file_mode
+
 try:
     import fcntl
 except ImportError:   # not POSIX: no lock (a journal in use could then be recovered under a running node)
@@ -197,6 +199,7 @@ class CsvRecorder:
 def _write_atomic(path: Path, text: str) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
+        os.fchmod(fd, file_mode())    # mkstemp's 0600 would hide the recording from the lab's group
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
             fh.flush()
@@ -246,6 +249,7 @@ def recover_journal(path: str | os.PathLike, *, target: str | os.PathLike | None
             fh.seek(len(head.encode("utf-8")))
             out_fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
             try:
+                os.fchmod(out_fd, file_mode())   # as the recording a node closes normally, not mkstemp's 0600
                 with os.fdopen(out_fd, "wb") as out:
                     out.write("".join(_mark_meta(c, info) for c in comments).encode("utf-8"))
                     out.write(header.encode("utf-8"))

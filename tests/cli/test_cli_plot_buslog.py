@@ -62,3 +62,45 @@ def test_a_log_without_pdos_is_one_line(cli, tmp_path):
         lg.on_message_received(can.Message(timestamp=1.0, arbitration_id=0x080, data=b"", is_extended_id=False))
     code, _, err = cli("plot", str(log))
     assert code == EXIT_USAGE and "no numeric PDO value in 1 frames" in err and err.count("\n") == 1
+
+
+def tpdo4(t: float, node: int, counter: int, safety: int, mode: int) -> can.Message:
+    """TPDO4 of the shipped EDS: cycle_counter u32, safety_state u8, mode u8, contact, peer_alive."""
+    return can.Message(timestamp=t, arbitration_id=0x480 + node, is_extended_id=False,
+                       data=struct.pack("<IBBBB", counter, safety, mode, 1, 1))
+
+
+def test_codes_and_counters_have_panels_of_their_own(tmp_path):
+    """Issue 25: cycle_counter (~24,000) shared the axis of the 0..11 codes, which then read as a flat
+    line."""
+    from telethermo.monitor.busplot import bus_log_figure
+    msgs = [tpdo4(10.0 + 0.01 * k, 1, 24_000 + k, k // 20, 1 + k // 50) for k in range(100)]
+    cfg = monitor_config(load_network())
+    data = decode_bus_log(msgs, {k: n.od for k, n in cfg.nodes.items()},
+                          {k: n.name for k, n in cfg.nodes.items()})
+    assert data.panels[("master", "cycle_counter")] == "count"
+    assert data.panels[("master", "safety_state")] == data.panels[("master", "mode")] == "code"
+    fig = bus_log_figure(data, "t")
+    by_label = {ax.get_ylabel(): ax for ax in fig.axes}
+    assert set(by_label) == {"state, code", "count"}
+    codes, counts = by_label["state, code"], by_label["count"]
+    assert sorted(line.get_label() for line in codes.get_lines()) == ["master mode", "master safety_state"]
+    assert [line.get_label() for line in counts.get_lines()] == ["master cycle_counter"]
+    assert codes.get_ylim()[1] < 10 and counts.get_ylim()[0] > 23_000   # neither squashes the other
+
+
+def test_plot_reads_the_csv_that_record_writes(cli, tmp_path):
+    """Issue 25: `plot` refused `record`'s own decoded CSV (it expected a session recording)."""
+    from telethermo.monitor.record import Recorder
+    from telethermo.monitor.state import Monitor
+    cfg = monitor_config(load_network())
+    log = tmp_path / "s.log"
+    rec = Recorder(log, tmp_path / "s.log.csv", Monitor(cfg))
+    write_log(tmp_path / "src.log")
+    for m in can.LogReader(str(tmp_path / "src.log")):
+        rec.on_message_received(m)
+    assert rec.stop() == 151
+    code, out, err = cli("plot", str(tmp_path / "s.log.csv"))
+    assert code == EXIT_OK, err
+    assert out.startswith(f"{tmp_path / 's.log.png'}: 151 frames, 4 series, 1 EMCY")
+    assert (tmp_path / "s.log.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -58,7 +58,7 @@ def test_one_csv_per_log_name_and_no_silent_overwrite(cli, tmp_path):
     code, out, err = record_with_sync(cli, channel, tmp_path / "s.blf", frames=5)
     assert code == EXIT_USAGE
     assert err.strip() == (f"telethermo record: error: {tmp_path / 's.blf'} and {tmp_path / 's.blf.csv'} already exist; "
-                           "give another name, or --force to replace")
+                           "give another name, or --force to replace, or --append")
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before     # nothing touched
     # only the CSV there (the log was removed): still refused, naming it
     (tmp_path / "s.log").unlink()
@@ -133,3 +133,108 @@ def test_record_trc_and_its_csv_replay_through_the_monitor(cli, tmp_path):
     (tmp_path / "bad.csv").write_text("\n".join(rows) + "\n")
     code, out, err = cli("monitor", "--replay", str(tmp_path / "bad.csv"), "--json", "--no-frames")
     assert code != EXIT_OK and f"{tmp_path / 'bad.csv'}:8: damaged row (dlc 3 but 1 data bytes)" in err
+
+
+def test_a_candump_log_keeps_the_hub_channel_name(tmp_path):
+    """Issue 25: `record x.log` wrote hub frames as channel vcan0; the hub's channel is `telethermo`."""
+    from telethermo.nodes.launch import HubProcess
+    hub = HubProcess()
+    hub.start()
+    sender = None
+    try:
+        sender = can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo")
+        log = tmp_path / "h.log"
+        proc = subprocess.Popen([sys.executable, "-m", "telethermo", "record", "--bus", hub.bus, str(log),
+                                 "--count", "5", "--duration", "60"],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        assert proc.stderr.readline().startswith("recording socketcand://")
+        while proc.poll() is None:
+            sender.send(can.Message(arbitration_id=0x080, data=[1], is_extended_id=False))
+            time.sleep(0.02)
+        out, err = proc.communicate(timeout=30)
+        assert proc.returncode == 0, err
+        lines = log.read_text().splitlines()
+        assert len(lines) == 5 and all(line.split()[1:3] == ["telethermo", "080#01"] for line in lines), lines
+        assert all(m.channel == "telethermo" for m in can.LogReader(str(log)))
+    finally:
+        if sender is not None:
+            sender.shutdown()
+        hub.stop()
+
+
+def test_a_missing_folder_is_refused_not_created(cli, tmp_path):
+    """Issue 25: `record` created missing parent folders at any depth; a typo now is one line, exit 2."""
+    target = tmp_path / "runs" / "2024" / "s.log"
+    code, out, err = cli("record", "--bus", "virtual:tt-rec-nofolder", str(target), "--duration", "0.1")
+    assert code == EXIT_USAGE
+    assert err == (f"telethermo record: error: {target}: the folder {target.parent} does not exist; "
+                   "expected an existing folder (create it first)\n")
+    assert not (tmp_path / "runs").exists()
+    code, out, err = cli("record", "--bus", "virtual:tt-rec-nofolder", str(tmp_path / "s.log"),
+                         "--csv", str(tmp_path / "csv" / "s.csv"), "--duration", "0.1")
+    assert code == EXIT_USAGE and f"the folder {tmp_path / 'csv'} does not exist" in err
+    assert not (tmp_path / "csv").exists() and not (tmp_path / "s.log").exists()
+
+
+def record_frames(cli, out, frames, *extra: str):
+    """``telethermo record`` on a virtual bus while a thread sends ``frames`` (COB-ID, data) in turn until the
+    recording ends (by --duration)."""
+    channel = f"tt-rec-f-{time.monotonic_ns()}"
+    sender = can.Bus(interface="virtual", channel=channel)
+    stop = threading.Event()
+
+    def send():
+        while not stop.is_set():
+            for cob, data in frames:
+                sender.send(can.Message(arbitration_id=cob, data=data, is_extended_id=False))
+            time.sleep(0.005)
+    th = threading.Thread(target=send)
+    th.start()
+    try:
+        return cli("record", "--bus", f"virtual:{channel}", str(out), "--duration", "60", *extra)
+    finally:
+        stop.set()
+        th.join()
+        sender.shutdown()
+
+
+TPDO4 = bytes([0x10, 0x27, 0, 0, 1, 1, 1, 1])   # cycle_counter 10000, safety 1, mode 1, contact, peer alive
+MIX = [(0x080, b"\x01"), (0x181, bytes(8)), (0x481, TPDO4), (0x482, TPDO4), (0x701, b"\x05"),
+       (0x702, b"\x05")]
+
+
+@pytest.mark.parametrize("spec,cobs", [("sync", {0x080}), ("181:7FF", {0x181}), ("480:780", {0x481, 0x482}),
+                                       ("700~780", {0x080, 0x181, 0x481, 0x482}), ("slave", {0x482, 0x702}),
+                                       ("cycle_counter", {0x481, 0x482}), ("master.TPDO4,heartbeat",
+                                                                           {0x481, 0x701, 0x702})])
+def test_filter_keeps_only_the_matching_frames(cli, tmp_path, spec, cobs):
+    code, out, err = record_frames(cli, tmp_path / "f.log", MIX, "--filter", spec, "--count", "40")
+    assert code == EXIT_OK, err
+    back = list(can.LogReader(str(tmp_path / "f.log")))
+    assert len(back) == 40 and {m.arbitration_id for m in back} == cobs
+    assert len((tmp_path / "f.log.csv").read_text().splitlines()) == 41
+
+
+def test_a_bad_filter_is_one_line(cli, tmp_path):
+    code, out, err = cli("record", "--bus", "virtual:tt-rec-badf", str(tmp_path / "f.log"),
+                         "--filter", "18x:780")
+    assert code == EXIT_USAGE
+    assert err == ("telethermo record: error: --filter '18x:780': '18x' is not hexadecimal; "
+                   "expected ID:MASK or ID~MASK as python-can's --filter, e.g. 180:780\n")
+    assert not (tmp_path / "f.log").exists()
+
+
+@pytest.mark.parametrize("ext", [".log", ".blf"])
+def test_append_adds_to_the_log_and_its_csv(cli, tmp_path, ext):
+    log = tmp_path / f"a{ext}"
+    for n in (10, 15):
+        code, out, err = record_frames(cli, log, [(0x080, b"\x01")], "--count", str(n),
+                                       *(["--append"] if n == 15 else []))
+        assert code == EXIT_OK, err
+    assert len(list(can.LogReader(str(log)))) == 25
+    rows = (tmp_path / f"a{ext}.csv").read_text().splitlines()
+    assert len(rows) == 26 and rows.count(rows[0]) == 1          # one header, the rows of both recordings
+    code, out, err = cli("record", "--bus", "virtual:tt-rec-asc", str(tmp_path / "a.asc"), "--append")
+    assert code == EXIT_USAGE
+    assert err == (f"telethermo record: error: {tmp_path / 'a.asc'}: cannot append to a "
+                   ".asc log (python-can's writer cannot); expected one of .log, .blf\n")

@@ -35,3 +35,40 @@ def test_no_estimate_and_a_code_past_the_table_read_none():
     mon = Monitor(monitor_config())
     assert "identified_material=0 (none)" in mon.feed(_tpdo5(0, 0, 0.0))[0].text
     assert "identified_material=250 (none)" in mon.feed(_tpdo5(250, 1, 0.0))[0].text
+
+
+def _sdo_upload(node: int, index: int, value: bytes, t: float) -> list[can.Message]:
+    """An expedited SDO upload of ``index``:0 as a client and the node exchange it (raw CiA 301 frames)."""
+    req = bytes([0x40, index & 0xFF, index >> 8, 0, 0, 0, 0, 0])
+    resp = bytes([0x43, index & 0xFF, index >> 8, 0]) + value
+    return [can.Message(timestamp=t, arbitration_id=0x600 + node, data=req, is_extended_id=False),
+            can.Message(timestamp=t + 0.001, arbitration_id=0x580 + node, data=resp, is_extended_id=False)]
+
+
+def test_the_view_shows_the_material_with_the_posterior_read_for_this_touch():
+    """Issue 25: the identified material with its posterior. identified_posterior (0x2613) is in no PDO of the
+    shipped EDS: shown when an SDO read brings it, for the touch it was read in; said to be missing
+    otherwise."""
+    from telethermo.monitor.view import ViewState, render_lines
+    names = list(load_render_table())
+    code = names.index("glass") + 1
+    mon = Monitor(monitor_config())
+    mon.feed(_tpdo5(code, 7, 1.47))
+    line = [ln for ln in render_lines(mon, ViewState(), 200, 40) if "identified glass" in ln]
+    assert line == [f"  slave identified glass (code {code}, touch 7), posterior not on the bus "
+                    "(identified_posterior is in no PDO: telethermo get NODE identified_posterior)"]
+    for m in _sdo_upload(2, 0x2613, struct.pack("<f", 0.875), 1.1):
+        mon.feed(m)
+    assert mon.snapshot()["materials"] == [{"node": 2, "code": code, "material": "glass", "touches": 7,
+                                            "posterior": 0.875, "posterior_source": "SDO"}]
+    assert f"slave identified glass (code {code}, touch 7), posterior 0.875 (SDO)" in "\n".join(
+        render_lines(mon, ViewState(), 200, 40))
+    mon.feed(_tpdo5(code, 8, 1.47))      # the next touch: the posterior read for touch 7 is not shown for it
+    assert mon.snapshot()["materials"][0]["posterior"] is None
+
+
+def test_an_abstention_reads_unknown():
+    mon = Monitor(monitor_config())
+    frame, _ = mon.feed(_tpdo5(0xFF, 9, 0.0))
+    assert "identified_material=255 (unknown)" in frame.text
+    assert mon.snapshot()["materials"][0]["material"] == "unknown (abstained)"

@@ -187,7 +187,8 @@ def test_status_bar_names_its_counters():
     mon.feed(msg(0.1, 0x082, struct.pack("<HB5s", 0x4210, 0x09, b"\x00" * 5)))
     rates, status = render_lines(mon, ViewState(), 300, 5)[1:3]
     assert "events: 0 warnings, 1 errors" in status and "late cycles 0" in status
-    assert "missed PDOs 0" in status and "error frames 0" in status and "(nominal 10.00)" in rates
+    assert "missed PDOs 0" in status and "error frames 0" in status
+    assert "(nominal 10.00, timing unknown)" in rates
 
 
 def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_path):
@@ -205,8 +206,11 @@ def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_
         mon.feed(msg(t, 0x080, [k + 1]))
     assert mon.stats.late_cycles == 1
     snap = mon.snapshot()
-    assert snap["sync_period_nominal_s"] == 0.020 and snap["sync_lockstep"] is True
-    assert "(nominal 20.00, lockstep)" in render_lines(mon, ViewState(), 300, 5)[1]
+    assert snap["sync_period_nominal_s"] == 0.020 and snap["network_file_lockstep"] is True
+    # issue 25: the file says lockstep, but 3 SYNC intervals cannot tell the bus's timing
+    assert snap["sync_lockstep"] is None
+    assert snap["sync_timing_evidence"] == "3 SYNC intervals seen, 20 needed to tell"
+    assert "(nominal 20.00, timing unknown)" in render_lines(mon, ViewState(), 300, 5)[1]
 
 
 def test_a_silent_live_bus_gets_a_hint_and_a_replay_does_not():

@@ -113,7 +113,7 @@ def test_view_in_a_real_terminal(tmp_path):
 
 def test_damaged_log_keeps_the_decoded_screen_and_says_where(tmp_path):
     """A damaged row stops the replay; the view keeps what it decoded and names the file and line;
-    quitting exits 1 with the same line on stderr."""
+    quitting exits 2 (a damaged file is bad input, as in `plot`; issue 25) with the same line on stderr."""
     rows = ["t_s,cob_id,kind,node,dlc,data,text,fields", "0.000000,0x701,HEARTBEAT,1,1,05,,{}",
             "0.001000,0x702,HEARTBEAT,2,1,05,,{}"]
     rows += [f"{0.01 * k:.6f},0x080,SYNC,,1,{k:02x},,{{}}" for k in range(1, 30)]
@@ -136,7 +136,7 @@ def test_damaged_log_keeps_the_decoded_screen_and_says_where(tmp_path):
         deadline = time.monotonic() + 10
         while not done.exists() and time.monotonic() < deadline:
             time.sleep(0.1)
-        assert done.read_text().strip() == "1"
+        assert done.read_text().strip() == "2"
         assert f"{log}:33: damaged row" in err.read_text() and "Traceback" not in err.read_text()
     finally:
         subprocess.run(["tmux", "-L", sock, "kill-server"], capture_output=True)

@@ -3,11 +3,14 @@ CsvRecorder, and the file is the documented format, byte for byte."""
 from __future__ import annotations
 
 import math
+import os
+import stat
 
 import numpy as np
+import pytest
 
 from telethermo.offline.recording import Recording, read_recording_csv, write_recording_csv
-from telethermo.offline.recording_journal import journal_path
+from telethermo.offline.recording_journal import journal_path, recover_journal
 
 
 def _rec() -> Recording:
@@ -36,3 +39,23 @@ def test_a_killed_writers_journal_is_kept_beside_not_overwritten(tmp_path):
     killed = [f for f in tmp_path.iterdir() if ".killed-" in f.name]
     assert len(killed) == 1 and killed[0].read_text(encoding="utf-8").splitlines()[2:] == ["t_s", "0.5"]
     assert read_recording_csv(target).meta == {"period_s": 0.01, "scene": "s"}
+
+
+@pytest.mark.parametrize("umask", [0o022, 0o027])
+def test_a_recovered_recording_gets_the_mode_of_a_new_file(tmp_path, umask):
+    """Issue 25: the recovered recording of a killed node was mode 0600 (mkstemp's), where the recording a
+    node closes normally is 0666 less the umask; so was the journal kept beside a new recording."""
+    journal = journal_path(tmp_path / "slave.csv")
+    journal.write_text("# telethermo-recording 1\n# meta {}\nt_s\n0.5\n0.6\n0.7", encoding="utf-8")
+    old = os.umask(umask)
+    try:
+        recovered = recover_journal(tmp_path / "slave.csv")
+        journal_path(tmp_path / "r.csv").write_text("# telethermo-recording 1\n# meta {}\nt_s\n0.5\n0.6",
+                                                    encoding="utf-8")
+        written = write_recording_csv(tmp_path / "r.csv", _rec())
+    finally:
+        os.umask(old)
+    assert read_recording_csv(recovered).col("t_s").tolist() == [0.5, 0.6]      # the torn 0.7 dropped
+    killed = [f for f in tmp_path.iterdir() if ".killed-" in f.name]
+    for f in (recovered, written, *killed):
+        assert stat.S_IMODE(f.stat().st_mode) == 0o666 & ~umask, f.name
