@@ -144,7 +144,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"telethermo identify: {exc}; no model written (a longer experiment, --samples 10000 or more, "
               "gives a better-determined model)", file=sys.stderr)
         return EXIT_FAIL
-    print_report(rep)
+    print_report(rep, tem, ("master", "slave"))
     if not rep["stable"]:
         print(f"telethermo identify: model refused ({rep['stability_reason']}); no model written", file=sys.stderr)
         return EXIT_FAIL

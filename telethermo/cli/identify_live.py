@@ -265,7 +265,7 @@ def _fit_and_load(args: argparse.Namespace, client: NodeClient, plan: IdentifyPl
         path = save_record_csv(args.save_data, rec, plan, comments={**meta, "plan": plan.as_dict(),
                                                                     "guard_interventions": rec.guard_interventions})
         print(f"samples written: {path}", file=sys.stderr)
-    print_report(rep)
+    print_report(rep, tem, (t.role,) if t.role in ("master", "slave") else ("master", "slave"))
     if not rep["stable"]:
         print(f"telethermo identify: model refused ({rep['stability_reason']}); nothing written or loaded",
               file=sys.stderr)

@@ -30,7 +30,23 @@ class ProgressBar:
         self.stream.flush()
 
 
-def print_report(rep: dict) -> None:
+def gain_lines(model, roles: tuple[str, ...]) -> list[str]:
+    """What the node will run on this model: the gain rule's factor and the loop's margins on the model
+    (telethermo.control.gain_rule), one line per role."""
+    from telethermo.control.gain_rule import MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, fit_gains
+    from telethermo.control.types import Role
+    out = []
+    for role in roles:
+        fit = fit_gains(model, Role[role.upper()])
+        m = fit["margins"]
+        ok = "meets" if fit["meets_minimum"] else "BELOW"
+        out.append(f"gains ({role}){' ' * (17 - len(role))}x{fit['rho']:.3f} of the shipped; on this model gain margin "
+                   f"{m['gain_margin_dB']:.1f} dB, phase margin {m['phase_margin_deg']:.1f}°, crossover "
+                   f"{m['crossover_Hz']:.2f} Hz ({ok} the minimum {MIN_GAIN_MARGIN_DB:g} dB / {MIN_PHASE_MARGIN_DEG:g}°)")
+    return out
+
+
+def print_report(rep: dict, model=None, roles: tuple[str, ...] = ()) -> None:
     o = rep["orders"]
     lines = [
         f"orders n,m,p,q            {o['n']},{o['m']},{o['p']},{o['q']}  (fit: {rep['fit_method']})",
@@ -51,4 +67,6 @@ def print_report(rep: dict) -> None:
         lines.append(f"capacity (eq. 13)         {rep['capacity_points']} steady states, I "
                      f"{rep['capacity_current_range_A'][0]:+.3f}..{rep['capacity_current_range_A'][1]:+.3f} A, "
                      f"fit residual max {rep['capacity_max_abs_W']:.2e} W")
+    if model is not None and rep.get("stable", True):
+        lines += gain_lines(model, roles)
     print("\n".join(lines))
