@@ -70,6 +70,8 @@ class Device:
     SDO_BLOCK_SIZE = 127
     #: a block transfer whose client stays silent this long is aborted with 0x05040000 (s)
     SDO_BLOCK_TIMEOUT_S = 1.0
+    #: a segmented transfer whose client stays silent this long is aborted with 0x05040000 (s)
+    SDO_SEGMENT_TIMEOUT_S = 1.0
 
     def __init__(self, network: canopen.Network, node_id: int, eds: str | Path, *,
                  settings: DeviceSettings | None = None, clock: Callable[[], float] = time.monotonic):
@@ -94,7 +96,8 @@ class Device:
         self.tpdos, self.rpdos = self.pdos.tpdos, self.pdos.rpdos
         self.sync_consumer = SyncConsumer(core, self.pdos, self.emcy)
         self.sdo = SdoGate(core, self.node, block_size=lambda: self.SDO_BLOCK_SIZE,
-                           block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S)
+                           block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S,
+                           segment_timeout_s=lambda: self.SDO_SEGMENT_TIMEOUT_S)
         self.nmt = NmtSlave(core, reset=self._reset_services, booted=self.heartbeat.arm,
                             changed=self.pdos.nmt_changed)
         self.od_access = OdAccess(core, self.node, self.info, self.settings)
