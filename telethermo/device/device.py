@@ -291,13 +291,16 @@ class Device:
         self.heartbeat.send_now()
 
     # ------------------------------------------------------------------ EMCY
-    def raise_emcy(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP) -> None:
+    def raise_emcy(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP,
+                   subject: int | None = None) -> None:
         """Record error ``code`` (0x1001, 0x1003) and send its EMCY (inhibit time permitting).
 
         ``source`` tells who holds the error (the program: the default; the device's heartbeat consumer
-        and PDO-length check use their own): a code held by another source already is the same error
-        still present, so no second frame or history entry (see :mod:`.emcy`)."""
-        self.emcy.raise_error(code, data=data, info16=info16, source=source)
+        and PDO-length check use their own); ``subject`` what it concerns (the heartbeat consumer: the
+        lost node; a peer_lost trip should name its peer). A code held by another source already for
+        the same subject (or with none named) is the same error still present, so no second frame or
+        history entry; for another subject it is a new occurrence (see :mod:`.emcy`)."""
+        self.emcy.raise_error(code, data=data, info16=info16, source=source, subject=subject)
 
     def clear_emcy(self, code: int, *, source: str = emcy_mod.APP) -> None:
         """``source`` no longer has error ``code``; the code stays active while another source holds
