@@ -103,6 +103,7 @@ class Device:
         self.od_access = OdAccess(core, self.node, self.info, self.settings)
         for low, high, hook in ((0x1003, 0x1003, self.emcy.history_written),
                                 (0x1005, 0x1005, self.sync_consumer.cob_id_written),
+                                (0x1006, 0x1006, self.sync_consumer.period_written),
                                 (0x1016, 0x1016, self.heartbeat.consumers_written),
                                 (0x1017, 0x1017, self.heartbeat.producer_written),
                                 (0x1019, 0x1019, self.sync_consumer.overflow_written)):
