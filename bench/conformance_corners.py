@@ -28,7 +28,8 @@ CYCLE_COUNTER_MAP = 0x27020020   # 0x2702 cycle_counter, 32 bits
 
 def _cycles_between_tpdo2(lab: Lab, mark: int) -> list[int]:
     """Differences of the slave's cycle_counter between consecutive TPDO2 frames since ``mark``."""
-    counts = [int.from_bytes(d[:4], "little") for c, d in lab.frames.since(mark) if c == 0x282 and len(d) == 4]
+    counts = [int.from_bytes(d[:4], "little") for c, d in lab.frames.since(mark)
+              if c == 0x282 and len(d) == 4]
     return [b - a for a, b in zip(counts, counts[1:])]
 
 
@@ -143,11 +144,12 @@ def emcy_consistency(lab: Lab) -> str:
         fake.close()
         master[0x1016][2].raw = 0
         master["link_loss_render_s"].raw = render_s
-    expect(not sample.bad, f"0x1001 disagreed with what is active (trips, fallback, alive, 0x1001): {sample.bad[:5]}")
+    expect(not sample.bad,
+           f"0x1001 disagreed with what is active (trips, fallback, alive, 0x1001): {sample.bad[:5]}")
     frames = [d for c, d in lab.frames.since(mark) if c == 0x80 + MASTER and len(d) == 8]
     hb_nodes = [d[3] for d in frames if int.from_bytes(d[:2], "little") == EMCY_HEARTBEAT]
-    expect(sorted(hb_nodes) == [2, 5, 5, 5], f"EMCY 0x8130 naming nodes {hb_nodes} (want the peer once, node 5 "
-           "once per loss)")
+    expect(sorted(hb_nodes) == [2, 5, 5, 5],
+           f"EMCY 0x8130 naming nodes {hb_nodes} (want the peer once, node 5 once per loss)")
     codes = [int.from_bytes(d[:2], "little") for d in frames]
     expect(codes[-1] == 0x0000 and codes.count(0x0000) == 1, f"master EMCYs {[hex(c) for c in codes]}")
     recovered(lab)
@@ -173,8 +175,8 @@ def _abort_of(answer: bytes | None) -> int | None:
 
 def sdo_segmented_initiate(lab: Lab) -> str:
     """A segmented download that cannot succeed is aborted in answer to its initiate (CANopenNode does)."""
-    cases = [(0x5FFF, 0, 4, ABORT_NO_OBJECT), (0x1018, 9, 4, ABORT_NO_SUBINDEX), (0x1000, 0, 4, ABORT_READ_ONLY),
-             (0x2200, 0, 8, ABORT_LENGTH_HIGH)]
+    cases = [(0x5FFF, 0, 4, ABORT_NO_OBJECT), (0x1018, 9, 4, ABORT_NO_SUBINDEX),
+             (0x1000, 0, 4, ABORT_READ_ONLY), (0x2200, 0, 8, ABORT_LENGTH_HIGH)]
     for nid in (MASTER, SLAVE):
         kp = lab.sdo(nid).upload(0x2200, 0)
         for index, sub, size, want in cases:
@@ -191,14 +193,16 @@ def sdo_segmented_timeout(lab: Lab) -> str:
     for nid in (MASTER, SLAVE):
         kp = lab.sdo(nid).upload(0x2200, 0)
         answer = _sdo_raw(lab, nid, bytes([0x21]) + struct.pack("<HBL", 0x2200, 0, 4))
-        expect(answer is not None and answer[0] == 0x60, f"node {nid}: initiate answered {answer and answer.hex()}")
+        expect(answer is not None and answer[0] == 0x60,
+               f"node {nid}: initiate answered {answer and answer.hex()}")
         mark = lab.frames.mark()
         expect(wait_for(lambda: any(c == 0x580 + nid for c, _ in lab.frames.since(mark)), 10),
                f"node {nid}: the open transfer was never aborted")
         late = next(d for c, d in lab.frames.since(mark) if c == 0x580 + nid)
         expect(_abort_of(late) == ABORT_TIMEOUT, f"node {nid}: {late.hex()} instead of abort 0x05040000")
         seg = _abort_of(_sdo_raw(lab, nid, bytes([0x01 | 3 << 1]) + kp))
-        expect(seg == ABORT_COMMAND_SPECIFIER, f"node {nid}: a segment after the timeout: abort {seg and hex(seg)}")
+        expect(seg == ABORT_COMMAND_SPECIFIER,
+               f"node {nid}: a segment after the timeout: abort {seg and hex(seg)}")
         expect(lab.sdo(nid).upload(0x2200, 0) == kp, f"node {nid}: 0x2200 changed")
     return "0x05040000 after the server timeout, then 0x05040001 for the late segment"
 
@@ -270,8 +274,8 @@ def _suite() -> list[Check]:
     names = [c.name for c in CHECKS]
     out = list(CHECKS)
     out.insert(names.index("pdo_mapping_procedure") + 1,
-               Check("pdo_transmission_types", "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)",
-                     pdo_transmission_types))
+               Check("pdo_transmission_types",
+                     "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)", pdo_transmission_types))
     at = [c.name for c in out].index("heartbeat_producer") + 1
     out.insert(at, Check("emcy_consistency",
                          "CiA 301 7.2.7 EMCY, 7.2.8.3 heartbeat consumer; objects 0x1001, 0x1003, 0x1016",

@@ -90,7 +90,7 @@ EMCY_PDO_LENGTH_EXCEEDED = 0x8220         # PDO length exceeded
 EMCY_SYNC_LENGTH = 0x8240                 # unexpected SYNC data length
 EMCY_RPDO_TIMEOUT = 0x8250                # RPDO timeout (the RPDO event timer, 0x1400+n sub 5, expired)
 EMCY_PEER_INVALID = 0xFF02                # manufacturer-specific: a peer value (RPDO1) NaN, infinite or
-                                          # implausible: the envelope's peer_invalid trip (telethermo.control.trips)
+                                          # implausible: the envelope's peer_invalid trip (control.trips)
 EMCY_LINK_FALLBACK = 0xFF01               # manufacturer-specific: slave lost, the master renders the last
                                           # identified material locally (telethermo.control.link_fallback)
 

@@ -19,7 +19,8 @@ from canopen.sdo import SdoAbortedError
 
 from telethermo.device import pdo as pdo_mod
 from telethermo.cia301 import (
-    ABORT_PDO_TOO_LONG, ABORT_UNSUPPORTED_ACCESS, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED, EMCY_RPDO_TIMEOUT,
+    ABORT_PDO_TOO_LONG, ABORT_UNSUPPORTED_ACCESS, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED,
+    EMCY_RPDO_TIMEOUT,
 )
 from telethermo.device.context import DeviceCore, NmtState
 from telethermo.device.emcy_producer import EmcyProducer

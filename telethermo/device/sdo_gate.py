@@ -23,7 +23,8 @@ from canopen import objectdictionary as odmod
 
 from telethermo.device import canopen_adapter as adapter
 from telethermo.cia301 import (
-    ABORT_COMMAND_SPECIFIER, ABORT_GENERAL, ABORT_LENGTH_HIGH, ABORT_LENGTH_LOW, ABORT_READ_ONLY, ABORT_TIMEOUT,
+    ABORT_COMMAND_SPECIFIER, ABORT_GENERAL, ABORT_LENGTH_HIGH, ABORT_LENGTH_LOW, ABORT_READ_ONLY,
+    ABORT_TIMEOUT,
 )
 from telethermo.device.context import SERVING, DeviceCore
 from telethermo.device.sdo_block import BlockServer, abort_frame
