@@ -275,7 +275,8 @@ def _suite() -> list[Check]:
     out = list(CHECKS)
     out.insert(names.index("pdo_mapping_procedure") + 1,
                Check("pdo_transmission_types",
-                     "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)", pdo_transmission_types))
+                     "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)",
+                     pdo_transmission_types))
     at = [c.name for c in out].index("heartbeat_producer") + 1
     out.insert(at, Check("emcy_consistency",
                          "CiA 301 7.2.7 EMCY, 7.2.8.3 heartbeat consumer; objects 0x1001, 0x1003, 0x1016",
