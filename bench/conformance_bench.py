@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from bench.common import print_table, write_results
-from bench.conformance_checks import CHECKS, run_check
+from bench.conformance_checks import run_check
+from bench.conformance_corners import SUITE as CHECKS
 from bench.conformance_lab import live_pair
 
 TIMINGS = ("realtime", "lockstep")

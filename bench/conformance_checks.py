@@ -4,12 +4,14 @@ canopen's RemoteNode/SdoClient/NmtMaster from the shipped EDS files and raw fram
 Each check is (name, clause, fn(lab) -> detail); it raises :class:`CheckFailed` on a deviation. Every check
 that disturbs the pair (NMT, peer loss) ends by proving the pair recovered: both nodes OPERATIONAL by their
 heartbeats, both TPDO1 flowing, no error left in 0x1001 and no trip in 0x2706 of either node.
+
+The whole suite, in its order, is ``bench.conformance_corners.SUITE``: these checks, the transmission-type and
+EMCY checks and the protocol corners of issue 25 (bench/conformance_corners.py).
 """
 from __future__ import annotations
 
 import math
 import struct
-import threading
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -17,7 +19,7 @@ from typing import Callable
 from canopen import SdoAbortedError, SdoCommunicationError
 
 from telethermo.cia301 import (
-    ABORT_NO_OBJECT, ABORT_NO_SUBINDEX, ABORT_RANGE, ABORT_READ_ONLY, ABORT_TOO_HIGH, ABORT_TOO_LOW, EMCY_HEARTBEAT,
+    ABORT_NO_OBJECT, ABORT_NO_SUBINDEX, ABORT_RANGE, ABORT_READ_ONLY, ABORT_TOO_HIGH, ABORT_TOO_LOW,
 )
 
 from bench.conformance_lab import MASTER, ROLE, SLAVE, Lab, eds_limits, wait_for
@@ -217,23 +219,6 @@ def pdo_mapping_procedure(lab: Lab) -> str:
     return "refused while valid (0x06010000, 0x06090030); remapped to 4 bytes and back"
 
 
-def pdo_transmission_types(lab: Lab) -> str:
-    """TPDO2 of the slave at type 1 comes on every SYNC, at type 10 on every 10th."""
-    sdo = lab.sdo(SLAVE)
-    sdo[0x1801][2].raw = 1
-    mark = lab.frames.mark()
-    expect(lab.wait_frames(0x80, 41, since=mark), "fewer than 41 SYNCs")
-    every = _sync_counters_before(lab, mark, 0x282)[1:]
-    sdo[0x1801][2].raw = 10
-    mark = lab.frames.mark()
-    expect(lab.wait_frames(0x282, 5, since=mark), "TPDO2 at type 10 does not come")
-    tenth = _sync_counters_before(lab, mark, 0x282)[1:]
-    steps1 = {(b - a) % 240 for a, b in zip(every, every[1:])}
-    steps10 = {(b - a) % 240 for a, b in zip(tenth, tenth[1:])}
-    expect(steps1 == {1} and steps10 == {10}, f"SYNCs between TPDO2 frames: type 1 {steps1}, type 10 {steps10}")
-    return "type 1: every SYNC; type 10: every 10th"
-
-
 def sync_start_value(lab: Lab) -> str:
     """SYNC start value 7 on the slave's TPDO2: after NMT start its first TPDO2 follows the SYNC counter 7."""
     sdo = lab.sdo(SLAVE)
@@ -296,87 +281,6 @@ def heartbeat_producer(lab: Lab) -> str:
         expect(0.5 <= r_same <= 1.5, f"node {nid}: {r_same:.2f} beats per peer beat at equal 0x1017")
         details.append(f"node {nid}: x{r_half:.2f} at half period, 0 when off, x{r_same:.2f} restored")
     return "; ".join(details)
-
-
-# ------------------------------------------------------------------ EMCY / 0x1001 / 0x1003
-class _FakeNode:
-    """Heartbeats of a node that does not exist (raw frames, state OPERATIONAL) every 50 ms while ``on``."""
-
-    def __init__(self, lab: Lab, node_id: int) -> None:
-        self.lab, self.node_id = lab, node_id
-        self.on, self._stop = threading.Event(), threading.Event()
-        self._thread = threading.Thread(target=self._run, daemon=True)
-        self._thread.start()
-
-    def _run(self) -> None:
-        while not self._stop.wait(0.05):
-            if self.on.is_set():
-                self.lab.net.send_message(0x700 + self.node_id, bytes([OPERATIONAL]))
-
-    def close(self) -> None:
-        self._stop.set()
-        self._thread.join(1.0)
-
-
-def emcy_consistency(lab: Lab) -> str:
-    """0x1001/0x1003/EMCY of the master against its latched trips (0x2706) at every sample, while the
-    heartbeat consumer and the trip share EMCY 0x8130. Stop the slave (its heartbeat goes on, its PDOs
-    stop): the master trips peer_lost. Meanwhile an unrelated node 5 watched by 0x1016 sub 2 is lost, comes
-    back (0x8130 must stay: the trip is latched), is lost again and its entry is removed (its heartbeat
-    error must go). NMT start of the slave: the trip clears itself, one error-reset EMCY, 0x1001 = 0.
-    One EMCY 0x8130 in all: the code was active throughout."""
-    master = lab.sdo(MASTER)
-    bad, samples = [], 0
-
-    def sample() -> int:
-        nonlocal samples
-        t1, reg, t2 = master["active_trips"].raw, master[0x1001].raw, master["active_trips"].raw
-        if t1 == t2:   # no trip latched or cleared between the two reads: 0x1001 must agree
-            samples += 1
-            if bool(t1) != bool(reg & 0x01) or (t1 & PEER_LOST_BIT and reg & 0x11 != 0x11):
-                bad.append((t1, reg))
-        return t2
-
-    def alive_is(value: bool) -> bool:
-        sample()
-        return master["peer_alive"].raw is value
-
-    fake = _FakeNode(lab, 5)
-    try:
-        fake.on.set()
-        master[0x1016][2].raw = (5 << 16) | 300
-        expect(wait_for(lambda: alive_is(True), 10, 0.05), "node 5 not seen by the master's consumer")
-        mark = lab.frames.mark()
-        lab.nmt(STOP, SLAVE)
-        expect(wait_for(lambda: sample() & PEER_LOST_BIT, 30, 0.05), "the master never tripped peer_lost")
-        fake.on.clear()                                    # node 5 lost
-        expect(wait_for(lambda: alive_is(False), 10, 0.05), "node 5's loss not seen (0x2705)")
-        fake.on.set()                                      # node 5 back: the trip is still latched
-        expect(wait_for(lambda: alive_is(True), 10, 0.05), "node 5's return not seen (0x2705)")
-        for _ in range(10):
-            sample()
-        fake.on.clear()                                    # lost again, then no longer watched
-        expect(wait_for(lambda: alive_is(False), 10, 0.05), "node 5's second loss not seen")
-        master[0x1016][2].raw = 0
-        for _ in range(10):
-            sample()
-        expect(EMCY_HEARTBEAT in lab.emcy_codes(MASTER, mark), "no EMCY 0x8130 from the master")
-        expect(master[0x1003][1].raw & 0xFFFF == EMCY_HEARTBEAT, "0x1003 newest entry is not 0x8130")
-        lab.nmt(START, SLAVE)
-        expect(wait_for(lambda: sample() == 0, 30, 0.05), "the peer_lost trip did not clear after NMT start")
-        expect(wait_for(lambda: master[0x1001].raw == 0, 10, 0.05),
-               f"0x1001 = 0x{master[0x1001].raw:02X} with no trip latched and no watched node lost")
-        for _ in range(5):
-            sample()
-    finally:
-        fake.close()
-        master[0x1016][2].raw = 0
-    expect(not bad, f"0x1001 disagreed with the latched trips (active_trips, 0x1001): {bad[:5]}")
-    codes = lab.emcy_codes(MASTER, mark)
-    expect(codes.count(EMCY_HEARTBEAT) == 1, f"{codes.count(EMCY_HEARTBEAT)} EMCY 0x8130 for one error episode")
-    expect(codes[-1] == 0x0000 and codes.count(0x0000) == 1, f"master EMCYs {[hex(c) for c in codes]}")
-    recovered(lab)
-    return f"{samples} consistent samples; master EMCYs {[f'0x{c:04X}' for c in codes]}"
 
 
 # ------------------------------------------------------------------ NMT
@@ -468,12 +372,9 @@ CHECKS: list[Check] = [
     Check("sync_counter", "CiA 301 7.2.5 SYNC with counter; object 0x1019", sync_counter),
     Check("pdo_mapping_procedure", "CiA 301 7.5.2.36 PDO mapping procedure; 7.5.2.35 SYNC start value only while invalid",
           pdo_mapping_procedure),
-    Check("pdo_transmission_types", "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)",
-          pdo_transmission_types),
     Check("sync_start_value", "CiA 301 7.5.2.35 TPDO SYNC start value", sync_start_value),
     Check("sync_length", "CiA 301 7.2.5 SYNC length; EMCY 0x8240", sync_length),
     Check("heartbeat_producer", "CiA 301 7.2.8.3 heartbeat producer; object 0x1017", heartbeat_producer),
-    Check("emcy_consistency", "CiA 301 7.2.7 EMCY, 7.2.8.3 heartbeat consumer; objects 0x1001, 0x1003, 0x1016", emcy_consistency),
     *[Check(f"nmt_stop_start_node{n}", "CiA 301 7.3.2 NMT state machine: STOPPED, start", _nmt_stop(n))
       for n in (SLAVE, MASTER)],
     *[Check(f"nmt_preop_start_node{n}", "CiA 301 7.3.2 NMT: PRE-OPERATIONAL (SDO, SYNC, no PDO)", _nmt_preop(n))

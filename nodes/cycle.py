@@ -211,7 +211,11 @@ class ControlCycle:
         for trip in res.status.safety.new_trips:
             code = sf.EMCY_CODES[trip]
             self.w["last_trip_code"](code)
-            self.rt.device.raise_emcy(code)
+            if trip is sf.Trip.PEER_LOST:   # names its peer as the heartbeat consumer names a lost node:
+                # the same loss is one EMCY, another watched node's loss its own (telethermo.device.emcy)
+                self.rt.device.raise_emcy(code, data=bytes([self.rt.peer_id]), subject=self.rt.peer_id)
+            else:
+                self.rt.device.raise_emcy(code)
             stats.emcy_raised += 1
             log.warning("cycle %d: trip %s (EMCY 0x%04X)", stats.cycles - 1, trip.value, code)
 

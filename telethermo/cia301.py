@@ -88,6 +88,9 @@ EMCY_BUS_OFF_RECOVERED = 0x8140           # recovered from bus off (telethermo: 
 EMCY_PDO_LENGTH = 0x8210                  # PDO not processed due to length error
 EMCY_PDO_LENGTH_EXCEEDED = 0x8220         # PDO length exceeded
 EMCY_SYNC_LENGTH = 0x8240                 # unexpected SYNC data length
+EMCY_RPDO_TIMEOUT = 0x8250                # RPDO timeout (the RPDO event timer, 0x1400+n sub 5, expired)
+EMCY_PEER_INVALID = 0xFF02                # manufacturer-specific: a peer value (RPDO1) NaN, infinite or
+                                          # implausible: the envelope's peer_invalid trip (control.trips)
 EMCY_LINK_FALLBACK = 0xFF01               # manufacturer-specific: slave lost, the master renders the last
                                           # identified material locally (telethermo.control.link_fallback)
 
@@ -103,8 +106,9 @@ EMCY_CODE_TEXTS = {
     EMCY_PDO_LENGTH_EXCEEDED: "PDO length exceeded",
     0x8230: "DAM MPDO not processed, destination object not available",
     EMCY_SYNC_LENGTH: "Unexpected SYNC data length",
-    0x8250: "RPDO timeout",
+    EMCY_RPDO_TIMEOUT: "RPDO timeout",
     EMCY_LINK_FALLBACK: "Device specific: peer lost, rendering the last identified material locally",
+    EMCY_PEER_INVALID: "Device specific: peer value not plausible (NaN, infinite or out of range)",
 }
 #: the class of an EMCY code by its high byte (xx = any)
 EMCY_CLASS_TEXTS = {

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from enum import Enum, IntEnum
 
-from telethermo.cia301 import EMCY_HEARTBEAT, EMCY_PDO_LENGTH
+from telethermo.cia301 import EMCY_HEARTBEAT, EMCY_PEER_INVALID
 
 # ---------------------------------------------------------------------------------------------
 # trips, EMCY codes and error-register bits
@@ -55,7 +55,9 @@ class ErrorRegisterBit(IntEnum):
 
 
 #: CiA 301 emergency error code of each trip (Table 21 classes: 0x2xxx current, 0x42xx device
-#: temperature, 0x50xx device hardware, 0x8130 life guard / heartbeat error, 0x82xx protocol).
+#: temperature, 0x50xx device hardware, 0x8130 life guard / heartbeat error). A NaN or implausible peer value
+#: is no CiA 301 communication error (the PDO was received and processed; 0x8210 means a PDO *not* processed
+#: for its length, which the device raises itself): it has the device-specific code 0xFF02.
 EMCY_CODES: dict[Trip, int] = {
     Trip.SENSOR_INVALID: 0x5010,
     Trip.OPEN_THERMOCOUPLE: 0x5011,
@@ -67,7 +69,7 @@ EMCY_CODES: dict[Trip, int] = {
     Trip.HEAT_SINK: 0x4230,
     Trip.OVERCURRENT: 0x2310,
     Trip.PEER_LOST: EMCY_HEARTBEAT,
-    Trip.PEER_INVALID: EMCY_PDO_LENGTH,
+    Trip.PEER_INVALID: EMCY_PEER_INVALID,
 }
 
 #: Error-register bits each trip sets (GENERIC is always set while any trip is active).
@@ -82,7 +84,7 @@ ERROR_REGISTER_BITS: dict[Trip, int] = {
     Trip.HEAT_SINK: ErrorRegisterBit.TEMPERATURE,
     Trip.OVERCURRENT: ErrorRegisterBit.CURRENT,
     Trip.PEER_LOST: ErrorRegisterBit.COMMUNICATION,
-    Trip.PEER_INVALID: ErrorRegisterBit.COMMUNICATION,
+    Trip.PEER_INVALID: ErrorRegisterBit.MANUFACTURER,   # 0xFFxx: as the device's 0x1001 says
 }
 
 #: Trips after which the current is cut at once (the measurement cannot be trusted or the hardware

@@ -70,6 +70,8 @@ class Device:
     SDO_BLOCK_SIZE = 127
     #: a block transfer whose client stays silent this long is aborted with 0x05040000 (s)
     SDO_BLOCK_TIMEOUT_S = 1.0
+    #: a segmented transfer whose client stays silent this long is aborted with 0x05040000 (s)
+    SDO_SEGMENT_TIMEOUT_S = 1.0
 
     def __init__(self, network: canopen.Network, node_id: int, eds: str | Path, *,
                  settings: DeviceSettings | None = None, clock: Callable[[], float] = time.monotonic):
@@ -94,12 +96,14 @@ class Device:
         self.tpdos, self.rpdos = self.pdos.tpdos, self.pdos.rpdos
         self.sync_consumer = SyncConsumer(core, self.pdos, self.emcy)
         self.sdo = SdoGate(core, self.node, block_size=lambda: self.SDO_BLOCK_SIZE,
-                           block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S)
+                           block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S,
+                           segment_timeout_s=lambda: self.SDO_SEGMENT_TIMEOUT_S)
         self.nmt = NmtSlave(core, reset=self._reset_services, booted=self.heartbeat.arm,
                             changed=self.pdos.nmt_changed)
         self.od_access = OdAccess(core, self.node, self.info, self.settings)
         for low, high, hook in ((0x1003, 0x1003, self.emcy.history_written),
                                 (0x1005, 0x1005, self.sync_consumer.cob_id_written),
+                                (0x1006, 0x1006, self.sync_consumer.period_written),
                                 (0x1016, 0x1016, self.heartbeat.consumers_written),
                                 (0x1017, 0x1017, self.heartbeat.producer_written),
                                 (0x1019, 0x1019, self.sync_consumer.overflow_written)):
@@ -288,13 +292,16 @@ class Device:
         self.heartbeat.send_now()
 
     # ------------------------------------------------------------------ EMCY
-    def raise_emcy(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP) -> None:
+    def raise_emcy(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP,
+                   subject: int | None = None) -> None:
         """Record error ``code`` (0x1001, 0x1003) and send its EMCY (inhibit time permitting).
 
         ``source`` tells who holds the error (the program: the default; the device's heartbeat consumer
-        and PDO-length check use their own): a code held by another source already is the same error
-        still present, so no second frame or history entry (see :mod:`.emcy`)."""
-        self.emcy.raise_error(code, data=data, info16=info16, source=source)
+        and PDO-length check use their own); ``subject`` what it concerns (the heartbeat consumer: the
+        lost node; a peer_lost trip should name its peer). A code held by another source already for
+        the same subject (or with none named) is the same error still present, so no second frame or
+        history entry; for another subject it is a new occurrence (see :mod:`.emcy`)."""
+        self.emcy.raise_error(code, data=data, info16=info16, source=source, subject=subject)
 
     def clear_emcy(self, code: int, *, source: str = emcy_mod.APP) -> None:
         """``source`` no longer has error ``code``; the code stays active while another source holds

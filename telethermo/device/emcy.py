@@ -15,6 +15,10 @@
   every source that raised it has cleared it. A source raising a code another source already holds
   is the same error still present: no second frame, no second history entry (CANopenNode reports an
   error only when its status bit was not yet set).
+- Unless the two concern different things: a raise may name its *subject* (the heartbeat consumer: the
+  node it lost). A source raising a code held by other sources for other subjects only is a new
+  occurrence (its own frame and history entry): one EMCY 0x8130 per lost node, even while the program's
+  peer_lost trip (subject: the peer) holds 0x8130. No subject (None) is the same error as any subject.
 """
 from __future__ import annotations
 
@@ -55,6 +59,7 @@ class EmcyState:
     def __init__(self) -> None:
         self.active: dict[int, int] = {}   # code -> register bits
         self.sources: dict[int, set[str]] = {}   # code -> the sources holding it
+        self.subjects: dict[tuple[int, str], int | None] = {}   # (code, source) -> what it concerns
         self.history: deque[int] = deque(maxlen=HISTORY_LEN)  # newest first (0x1003 sub 1 = [0])
 
     @property
@@ -64,14 +69,18 @@ class EmcyState:
             reg |= bits
         return reg
 
-    def raise_error(self, code: int, info16: int = 0, extra_bits: int = 0, *, source: str = APP) -> bool:
-        """``source`` raises ``code``. True: a new occurrence (history entry, EMCY frame to send); False:
-        another source already holds the code (the same error still present: nothing to send)."""
+    def raise_error(self, code: int, info16: int = 0, extra_bits: int = 0, *, source: str = APP,
+                    subject: int | None = None) -> bool:
+        """``source`` raises ``code`` about ``subject`` (e.g. a lost node's ID; None: unspecified). True: a
+        new occurrence (history entry, EMCY frame to send); False: another source already holds the code
+        for the same subject (the same error still present: nothing to send)."""
         if not 0x0100 <= code <= 0xFFFF:
             raise ValueError(f"EMCY code must be in 0x0100..0xFFFF (0x00xx is 'no error'), got 0x{code:04X}")
         holders = self.sources.setdefault(code, set())
-        shared = bool(holders) and source not in holders
+        shared = source not in holders and any(_same(self.subjects.get((code, other)), subject)
+                                               for other in holders)
         holders.add(source)
+        self.subjects[(code, source)] = subject
         self.active[code] = self.active.get(code, 0) | register_bits(code) | extra_bits
         if shared:
             return False
@@ -88,6 +97,7 @@ class EmcyState:
         if not holders or source not in holders:
             return False
         holders.discard(source)
+        self.subjects.pop((code, source), None)
         if holders:
             return False
         del self.sources[code]
@@ -104,7 +114,13 @@ class EmcyState:
         had = bool(self.active)
         self.active.clear()
         self.sources.clear()
+        self.subjects.clear()
         return had
+
+
+def _same(a: int | None, b: int | None) -> bool:
+    """Two subjects of one code name the same error (None: unspecified, the same as any)."""
+    return a is None or b is None or a == b
 
 
 def frame(code: int, register: int, data: bytes = b"") -> bytes:

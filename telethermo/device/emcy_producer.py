@@ -20,11 +20,13 @@ class EmcyProducer:
         self._queue: list[tuple[int, int, bytes]] = []
         self._last_sent = -1e18   # clock time of the last EMCY frame (s)
 
-    def raise_error(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP) -> None:
+    def raise_error(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP,
+                    subject: int | None = None) -> None:
         """Record error ``code`` (0x1001, 0x1003) and send its EMCY; a code another source holds
-        already is the same error still present: no second frame or history entry."""
+        already for the same ``subject`` is the same error still present: no second frame or history
+        entry (see :mod:`.emcy`)."""
         with self.core.lock:
-            new = self.errors.raise_error(code, info16, source=source)
+            new = self.errors.raise_error(code, info16, source=source, subject=subject)
             self.store()
             if new:
                 self._enqueue(code, self.errors.register, data)

@@ -174,7 +174,7 @@ class Heartbeat:
             self._status[peer] = "lost"
             core.stats.peer_losses += 1
             self._store_peer_alive()
-            self.emcy.raise_error(EMCY_HEARTBEAT, data=bytes([peer]), source=hb_source(peer))
+            self.emcy.raise_error(EMCY_HEARTBEAT, data=bytes([peer]), source=hb_source(peer), subject=peer)
         core.call(self.listeners, PeerEvent(peer, "lost", None))
 
     def _store_peer_alive(self) -> None:

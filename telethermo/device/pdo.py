@@ -8,7 +8,8 @@ CiA 301 behaviour implemented here (canopen's LocalNode has none of it):
   time). Data are taken from the object dictionary at transmission time.
 - RPDO transmission types 0..240: the received data are written into the object dictionary at the
   next SYNC (synchronous); 254/255: at once. A frame whose length differs from the mapped length
-  is counted as malformed and ignored.
+  is counted as malformed and ignored. RPDO event timer (sub 5, ms): deadline monitoring from the first
+  RPDO received in OPERATIONAL (as CANopenNode): EMCY 0x8250 when the next one is late, cleared by it.
 - Mapping granularity is 8 bits: every mapped entry covers its whole object (EDS Granularity=8).
 
 Plans are rebuilt whenever an SDO write changes a PDO parameter (dynamic mapping).
@@ -52,6 +53,8 @@ class PdoPlan:
     last_sent: float = -1e18
     pending: bytes | None = None   # synchronous RPDO data awaiting the next SYNC
     bad_length: bool = False       # an EMCY for a length error is outstanding
+    last_rx: float | None = None   # RPDO: clock time of the last one accepted (None: not monitored)
+    timed_out: bool = False        # RPDO: its EMCY 0x8250 is outstanding
 
     @property
     def synchronous(self) -> bool:

@@ -1,7 +1,14 @@
 """PDO service of a device: the channels' plans (:mod:`.pdo`) rebuilt on every parameter write, RPDOs
 into the OD (at the next SYNC if synchronous), TPDOs on SYNC, on trigger and on the event timer, and
 the NMT rules (PDOs only in OPERATIONAL). A frame whose length differs from the mapping is counted as
-malformed, ignored, and raises EMCY 0x8210/0x8220 once until a frame of the right length comes."""
+malformed, ignored, and raises EMCY 0x8210/0x8220 once until a frame of the right length comes.
+
+RPDO timeout (CiA 301 RPDO event timer, 0x1400+n sub 5, ms; 0 = off): as CANopenNode, monitoring of a
+channel starts at its first RPDO received in OPERATIONAL; no RPDO within the event time after the last
+one raises EMCY 0x8250 (data byte 0: the RPDO number; source ``rpdo-timeout<n>``) once, and the next
+RPDO clears it. Leaving OPERATIONAL stops the monitoring (the error stays until an RPDO or a reset);
+making the channel invalid or setting its event timer to 0 removes the error. The node program's own
+peer trip (peer_pdo_miss_limit, heartbeat loss) is independent of it."""
 from __future__ import annotations
 
 import functools
@@ -11,7 +18,10 @@ from typing import Callable
 from canopen.sdo import SdoAbortedError
 
 from telethermo.device import pdo as pdo_mod
-from telethermo.cia301 import ABORT_PDO_TOO_LONG, ABORT_UNSUPPORTED_ACCESS, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED
+from telethermo.cia301 import (
+    ABORT_PDO_TOO_LONG, ABORT_UNSUPPORTED_ACCESS, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED,
+    EMCY_RPDO_TIMEOUT,
+)
 from telethermo.device.context import DeviceCore, NmtState
 from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import RpdoEvent
@@ -84,6 +94,8 @@ class PdoEngine:
         if core.state == NmtState.OPERATIONAL:
             for tp in self.tpdos.values():
                 self._arm_event_timer(tp)
+        for rp in self.rpdos.values():
+            self._arm_rpdo_timeout(rp)
 
     def unsubscribe(self) -> None:
         for cob, cb in self._subs:
@@ -105,6 +117,9 @@ class PdoEngine:
                 self._arm_event_timer(tp)
         if new != NmtState.OPERATIONAL:
             self.core.scheduler.cancel_prefix("tpdo")
+            self.core.scheduler.cancel_prefix("rpdo-timeout")
+            for rp in self.rpdos.values():
+                rp.last_rx = None    # monitoring starts again at the first RPDO in OPERATIONAL
 
     # ------------------------------------------------------------------ RPDO
     def _on_rpdo_frame(self, plan: pdo_mod.PdoPlan, can_id: int, data: bytes, timestamp: float) -> None:
@@ -132,12 +147,52 @@ class PdoEngine:
             plan.bad_length = False
             for code in (EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED):
                 self.emcy.clear(code, source=f"pdo-length{plan.number}")
+        if plan.event_timer_ms:
+            self._rpdo_received(plan)
         cond = self._conds[plan.number]
         with cond:
             self._counts[plan.number] += 1
             cond.notify_all()
         if self.listeners:
             core.call(self.listeners, RpdoEvent(plan.number, plan.decode(data), self.last_sync_counter(), timestamp))
+
+    # ------------------------------------------------------------------ RPDO timeout (event timer)
+    def _rpdo_received(self, plan: pdo_mod.PdoPlan) -> None:
+        """An RPDO of a monitored channel: its deadline moves, an outstanding timeout is cleared."""
+        core = self.core
+        with core.lock:
+            plan.last_rx = core.clock()
+            self._arm_rpdo_timeout(plan)
+            if plan.timed_out:
+                plan.timed_out = False
+                self.emcy.clear(EMCY_RPDO_TIMEOUT, source=f"rpdo-timeout{plan.number}")
+
+    def _arm_rpdo_timeout(self, plan: pdo_mod.PdoPlan) -> None:
+        """(Re)arm the channel's deadline after a reception or a parameter change; a channel no longer
+        monitored (invalid, event timer 0) gives its timeout error back."""
+        core = self.core
+        key = f"rpdo-timeout{plan.number}"
+        if not plan.valid or not plan.event_timer_ms:
+            core.scheduler.cancel(key)
+            plan.last_rx = None
+            if plan.timed_out:
+                plan.timed_out = False
+                self.emcy.clear(EMCY_RPDO_TIMEOUT, source=key)
+            return
+        if plan.last_rx is not None and core.state == NmtState.OPERATIONAL:
+            core.scheduler.set(key, plan.last_rx + plan.event_timer_ms * 1e-3,
+                               functools.partial(self._rpdo_timeout, plan))
+
+    def _rpdo_timeout(self, plan: pdo_mod.PdoPlan) -> None:
+        """Scheduler job: no RPDO within the event time: EMCY 0x8250, once until the next RPDO."""
+        core = self.core
+        with core.lock:
+            if (core.state != NmtState.OPERATIONAL or plan.last_rx is None or plan.timed_out
+                    or not plan.event_timer_ms or core.clock() < plan.last_rx + plan.event_timer_ms * 1e-3):
+                return   # not monitored any more, or an RPDO came meanwhile (it re-armed the job)
+            plan.timed_out = True
+            self.emcy.raise_error(EMCY_RPDO_TIMEOUT, data=bytes([plan.number]),
+                                  source=f"rpdo-timeout{plan.number}", subject=plan.number)
 
     def commit_sync_rpdos(self) -> tuple[int, ...]:
         """At a SYNC in OPERATIONAL: the synchronous RPDOs received since the previous SYNC go into the

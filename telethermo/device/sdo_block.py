@@ -56,7 +56,7 @@ SEG = 7   # data bytes per segment
 
 Reader = Callable[[int, int], bytes]
 Writer = Callable[[int, int, bytes], None]
-Checker = Callable[[int, int], None]
+Checker = Callable[[int, int, int | None], None]
 
 
 def crc16(data: bytes, crc: int = 0) -> int:
@@ -78,8 +78,9 @@ class BlockServer:
     """The block transfers of one SDO server channel (CiA 301 allows one transfer per channel).
 
     ``read(index, sub) -> bytes`` and ``write(index, sub, data)`` access the object dictionary;
-    ``check_download(index, sub)`` is called at a block download's initiate (refuse a read-only or
-    missing object before any data flow). All three refuse by raising ``SdoAbortedError(code)``;
+    ``check_download(index, sub, size)`` is called at a block download's initiate with the indicated size
+    in bytes (None if not indicated): refuse a read-only or missing object, or a wrong size, before any
+    data flow. All three refuse by raising ``SdoAbortedError(code)``;
     the transfer is then aborted with that code. ``blksize``: the sub-block size the server asks
     for in a block download (1..127).
     """
@@ -146,11 +147,12 @@ class BlockServer:
             raise ValueError(f"blksize must be in 1..{MAX_BLKSIZE}, got {self.blksize}")
         self.reset()
         self.index, self.subindex = struct.unpack_from("<HB", data, 1)
+        size = struct.unpack_from("<L", data, 4)[0] if data[0] & 0x02 else None
         if self.check_download is not None:
-            self.check_download(self.index, self.subindex)
+            self.check_download(self.index, self.subindex, size)
         self.direction, self._step = "download", "segments"
         self._crc = bool(data[0] & 0x04)
-        self._size = struct.unpack_from("<L", data, 4)[0] if data[0] & 0x02 else None
+        self._size = size
         self._blk = self.blksize
         sc = 0x04 if self._crc else 0x00
         return [_frame(bytes([0xA0 | sc]), struct.pack("<HBB", self.index, self.subindex, self._blk))]

@@ -21,14 +21,16 @@ class SyncProducer:
         device.add_nmt_listener(self._on_nmt)
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
-        if new is NmtState.PRE_OPERATIONAL and old is NmtState.INITIALISING:
-            self.counter = 0  # CiA 301: the counter restarts at 1 after a reset
+        if new not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
+            # outside PRE-OPERATIONAL/OPERATIONAL (STOPPED, a reset) the counter restarts: the next SYNC
+            # carries 1, as CANopenNode's CO_SYNC_process (counter = 0 while not pre/operational)
+            self.counter = 0
 
     def transmit(self) -> SyncTick | None:
         """Send one SYNC (with the next counter value if 0x1019 > 0) and tick the own device.
 
         Returns the own device's SyncTick, or None without sending anything in STOPPED (CiA 301: a
-        stopped node produces no SYNC; an NMT start resumes it, and the counter goes on). Raises
+        stopped node produces no SYNC; an NMT start resumes it, the counter restarting at 1). Raises
         RuntimeError if this device is not the SYNC producer or is not powered on (INITIALISING:
         before ``start()`` or after ``close()``).
 

@@ -11,7 +11,7 @@ from typing import Callable
 
 from canopen.sdo import SdoAbortedError
 
-from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_RANGE, EMCY_SYNC_LENGTH
+from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_LOCAL_CONTROL, ABORT_RANGE, EMCY_SYNC_LENGTH
 from telethermo.device.context import DeviceCore, NmtState
 from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import SyncTick
@@ -56,6 +56,16 @@ class SyncConsumer:
         if value & (1 << 29):
             raise SdoAbortedError(ABORT_RANGE)
         self.resubscribe()
+
+    def period_written(self, index: int, sub: int, value: int, old: bytes | None) -> None:
+        """SDO write to 0x1006 (communication cycle period, µs). No SYNC of this device runs on a timer of
+        its own: the schedule is the application's (``SyncProducer.transmit``; telethermo's node programs:
+        lockstep, or real time at the control period that the controllers and models share), set by its
+        configuration (network.toml ``[sync] period_s``, :class:`DeviceSettings` ``sync_period_us``). So
+        0x1006 reports that value, and a write of another one is refused with 0x08000021 (data cannot be
+        stored because of local control) rather than accepted and ignored; the same value is accepted."""
+        if old is not None and value != int.from_bytes(old, "little"):
+            raise SdoAbortedError(ABORT_LOCAL_CONTROL)
 
     def overflow_written(self, index: int, sub: int, value: int, old: bytes | None) -> None:
         """SDO write to 0x1019: 1 is no counter overflow value (0x06090030); CiA 301 allows a change

@@ -124,3 +124,29 @@ def test_an_unchanged_entry_keeps_watching_an_alive_node(lab):
     assert dev.peer_status(2) == "alive"
     _lose(dev, peer, 2)                               # its deadline still runs: the loss is detected
     assert _wait(lambda: 0x8130 in _codes(node))
+
+
+def test_one_emcy_per_lost_node_while_the_peer_trip_holds_0x8130(lab):
+    """Issue 25: the program's peer_lost trip (subject: its peer, node 2) holds 0x8130; node 5, also
+    watched, is lost: the consumer's EMCY 0x8130 naming node 5 goes out (a monitor learns node 5 is
+    gone), and again at its second loss. Node 2's own loss stays one error with the trip."""
+    dev, node, peer, other = _setup(lab)
+    _seen(dev, peer, 2)
+    _seen(dev, other, 5)
+    dev.raise_emcy(0x8130, data=b"\x02", subject=2)      # the peer trip (PDOs missing, heartbeat alive)
+    assert _wait(lambda: _codes(node) == [0x8130])
+    _lose(dev, other, 5)
+    assert _wait(lambda: _codes(node) == [0x8130, 0x8130])
+    assert list(node.emcy.log)[-1].data[0] == 5          # manufacturer byte 0: the lost node
+    _seen(dev, other, 5)
+    _lose(dev, other, 5)                                 # lost again: a new occurrence
+    assert _wait(lambda: _codes(node) == [0x8130] * 3)
+    _lose(dev, peer, 2)                                  # the trip's own peer: the same error, no frame
+    time.sleep(0.1)
+    assert _codes(node) == [0x8130] * 3
+    assert node.sdo[0x1003][0].raw == 3 and node.sdo["Error register"].raw == 0x11
+    _seen(dev, other, 5)
+    _seen(dev, peer, 2)
+    dev.clear_emcy(0x8130)
+    assert _wait(lambda: _codes(node)[-1:] == [0x0000])
+    assert node.sdo["Error register"].raw == 0

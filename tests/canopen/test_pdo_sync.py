@@ -11,7 +11,7 @@ import can
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.device import NmtCommand, NmtState, SyncProducer
+from telethermo.device import DeviceSettings, NmtCommand, NmtState, OdWriteError, SyncProducer
 
 
 def drain(bus) -> list[can.Message]:
@@ -135,9 +135,9 @@ def test_a_sync_of_the_wrong_length_is_not_processed_and_raises_emcy_0x8240(lab)
 
 
 def test_sync_counter_wraps_at_0x1019_and_the_producer_ticks_itself(lab):
-    dev = lab.device("master")
+    # CiA 301: 0x1019 may change only while 0x1006 is 0 (a device configured without a cycle period)
+    dev = lab.device("master", settings=DeviceSettings(sync_period_us=0))
     node = lab.client("master")
-    node.sdo["Communication cycle period"].raw = 0   # CiA 301: 0x1019 may change only while 0x1006 is 0
     node.sdo["Synchronous counter overflow value"].raw = 5
     ticks = []
     dev.add_sync_handler(lambda t: ticks.append(t.counter))
@@ -356,18 +356,19 @@ def test_a_stopped_producer_sends_no_sync_and_resumes_on_nmt_start(lab):
     bus = lab.raw_bus()
     sync = SyncProducer(dev)
     dev.nmt_command(NmtCommand.START, 0)
-    sync.transmit()
+    for _ in range(3):
+        sync.transmit()
     node.nmt.send_command(0x02)                    # NMT stop from another master (canopen's NmtMaster)
     end = time.monotonic() + 2
     while dev.state is not NmtState.STOPPED and time.monotonic() < end:
         time.sleep(0.005)
     assert sync.transmit() is None and sync.transmit() is None
-    node.nmt.send_command(0x01)                    # NMT start: SYNC again, the counter goes on
+    node.nmt.send_command(0x01)                    # NMT start: SYNC again, the counter restarts at 1
     while dev.state is not NmtState.OPERATIONAL and time.monotonic() < end + 2:
         time.sleep(0.005)
-    assert sync.transmit() is not None
+    assert sync.transmit() is not None and sync.transmit() is not None
     syncs = [m.data[0] for m in drain(bus) if m.arbitration_id == 0x80]
-    assert syncs == [1, 2]
+    assert syncs == [1, 2, 3, 1, 2]                # before the stop, then CANopenNode's restart at 1
 
 
 def test_0x1019_is_refused_while_the_communication_cycle_period_runs(lab):
@@ -383,7 +384,24 @@ def test_0x1019_is_refused_while_the_communication_cycle_period_runs(lab):
     with pytest.raises(SdoAbortedError) as exc:
         node.sdo["Synchronous counter overflow value"].raw = 1      # an invalid value stays 0x06090030
     assert exc.value.code == 0x06090030
-    node.sdo["Communication cycle period"].raw = 0
-    node.sdo["Synchronous counter overflow value"].raw = 5
-    node.sdo["Communication cycle period"].raw = 10000
-    assert node.sdo["Synchronous counter overflow value"].raw == 5
+    other = lab.device("slave", settings=DeviceSettings(sync_period_us=0))   # configured without a period
+    lab.client("slave").sdo["Synchronous counter overflow value"].raw = 5
+    assert other.read(0x1019) == 5
+
+
+def test_0x1006_reports_the_configured_period_and_refuses_another(lab):
+    """Issue 25: the SYNC schedule is the node program's (lockstep: SYNC k+1 when the PDOs of k are in;
+    real time: the control period, which the controller and the models also use), so a write of another
+    period is refused with 0x08000021 (local control) and 0x1006 keeps the configured value; the same
+    value is accepted. Was: accepted and ignored."""
+    dev = lab.device("master", settings=DeviceSettings(sync_period_us=5000))
+    node = lab.client("master")
+    assert node.sdo["Communication cycle period"].raw == 5000
+    for value in (0, 1000, 10000):
+        with pytest.raises(SdoAbortedError) as exc:
+            node.sdo["Communication cycle period"].raw = value
+        assert exc.value.code == 0x08000021
+        assert node.sdo["Communication cycle period"].raw == 5000 and dev.read(0x1006) == 5000
+    node.sdo["Communication cycle period"].raw = 5000
+    with pytest.raises(OdWriteError):                 # the program's own write too: configure it instead
+        dev.write(0x1006, 1000)

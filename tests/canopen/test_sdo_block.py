@@ -172,10 +172,13 @@ def test_block_download_to_read_only_or_missing_objects_is_refused_at_initiate(l
     assert block_read(node, 0x1008, 0) == b"telethermo master"
 
 
-def test_block_download_of_a_wrong_length_is_refused(lab):
+def test_block_download_of_a_wrong_length_is_refused_at_initiate(lab):
+    """An indicated size other than the object's is refused at the initiate, as CANopenNode does:
+    shorter 0x06070013, longer 0x06070012 (the client sends no data)."""
     dev = lab.device("master")
     node = lab.client("master")
-    assert abort_code(lambda: block_write(node, *THETA1, b"\x00" * 4)) == 0x06070010   # 4 bytes to a REAL64
+    assert abort_code(lambda: block_write(node, *THETA1, b"\x00" * 4)) == 0x06070013   # 4 bytes to a REAL64
+    assert abort_code(lambda: block_write(node, *THETA1, b"\x00" * 12)) == 0x06070012
     assert dev.read("theta1") == 0.0
 
 

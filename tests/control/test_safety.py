@@ -36,12 +36,17 @@ def test_limits_validation_names_the_field():
 
 
 def test_every_trip_has_a_cia301_code_and_register_bits():
+    from telethermo.device.emcy import register_bits
     for t in sf.Trip:
         code = sf.EMCY_CODES[t]
-        assert 0x1000 <= code <= 0xFFFF and code >> 12 in (0x2, 0x4, 0x5, 0x8)
+        assert 0x1000 <= code <= 0xFFFF and code >> 12 in (0x2, 0x4, 0x5, 0x8, 0xF)
         reg = sf.error_register(frozenset({t}))
         assert reg & sf.ErrorRegisterBit.GENERIC
+        if t in sf.PEER_TRIPS:                 # the core's 0x1001 is the device's for that code
+            assert reg == register_bits(code), t
     assert sf.EMCY_CODES[sf.Trip.PEER_LOST] == 0x8130  # CiA 301 life guard / heartbeat error
+    # a NaN peer value is no "PDO not processed due to length error" (0x8210, the device's own)
+    assert sf.EMCY_CODES[sf.Trip.PEER_INVALID] == 0xFF02
     assert sf.error_register(frozenset({sf.Trip.HEAT_SINK})) == 0x09
     assert sf.error_register(frozenset({sf.Trip.PEER_LOST})) == 0x11
     assert sf.error_register(frozenset()) == 0

@@ -110,7 +110,7 @@ def test_safety_time_at_limits_and_trips():
     s = compute_figures(make())["safety"]
     assert s["time_at_limit_s"]["master"] == {"current_limit": pytest.approx(0.5), "ramp": pytest.approx(0.5)}
     assert s["time_cut_s"]["master"] == pytest.approx(0.2)
-    assert s["trips"] == [{"t_s": 7.0, "side": "master", "trip": "peer_invalid", "emcy_code": "0x8210"}]
+    assert s["trips"] == [{"t_s": 7.0, "side": "master", "trip": "peer_invalid", "emcy_code": "0xFF02"}]
 
 
 def test_csv_round_trip_gives_the_same_figures(tmp_path):
