@@ -181,9 +181,11 @@ def identified_params(role: Role, rig_params: Any, ambient_C: float, period_s: f
     return scaled_params(default_params(role, period_s=period_s), fit["rho"]), fit
 
 
-def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identified") -> dict[str, Any]:
+def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identified",
+                  with_shipped: bool = False) -> dict[str, Any]:
     """Run condition ``c`` and score it (see the module docstring). JSON-safe. ``gains``: "identified" (each
-    side identifies its rig and derives its gains) or "shipped" (the shipped gains whatever the rig)."""
+    side identifies its rig and derives its gains) or "shipped" (the shipped gains whatever the rig);
+    ``with_shipped``: also the shipped gains' headline and oscillation, as the before-figure of the same draw."""
     sc, rig_s = condition_scene(c)
     delay = int(round(c.delay_ms / (1000.0 * sc.period_s)))
     pm = ps = None
@@ -218,6 +220,12 @@ def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identif
     out["time_cut_s"] = sfy["time_cut_s"]
     out["session_long_cut"] = any(v >= SESSION_LONG_CUT_S for v in sfy["time_cut_s"].values())
     out["time_at_limit_s"] = sfy["time_at_limit_s"]
+    if with_shipped and gains != "shipped":
+        sh = run_condition(c, with_pads=False, gains="shipped")
+        out["shipped"] = {k: sh[k] for k in ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_ratio",
+                                             "oscillating", "current_band_rms_max_A", "cue_order_kept")}
+        out["shipped"]["trips"] = len(sh["trips"])
+        out["shipped"]["session_long_cut"] = sh["session_long_cut"]
     if with_pads:
         pads = {}
         for name, T in (("ambient", c.ambient_C), ("objects", c.object_T_C), ("neutral", NEUTRAL_C)):
