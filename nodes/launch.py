@@ -209,7 +209,7 @@ class NodePair:
             self.bus = self.hub.bus
         if c.mode != "render":  # virtual rendering: the master alone
             self.start_slave()
-        margs = self._common("master") + ["--progress", str(c.progress_every)]
+        margs = self._common("master") + ["--progress", str(c.progress_every), "--json"]   # the result line
         if c.cycles is not None:
             margs += ["--cycles", str(c.cycles)]
         self.master = subprocess.Popen(node_command("master", *margs, *c.master_args), stdout=subprocess.PIPE,
