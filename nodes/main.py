@@ -44,8 +44,8 @@ def _setup_logging(role: Role, verbose: bool, log_path) -> None:
         handlers.append(fh)
     logging.basicConfig(level=logging.INFO, format=fmt, handlers=handlers, force=True)
     # python-can's socketcand client warns about every TCP read that ends mid-frame (normal under load), and
-    # logs a lost hub as an ERROR with a whole traceback: the reconnecting bus (transport.resilient) says it in
-    # one line ("bus ... lost: ...; retrying", then "bus ... back")
+    # logs a lost hub as an ERROR with a whole traceback: the reconnecting bus (transport.resilient) says
+    # it in one line ("bus ... lost: ...; retrying", then "bus ... back")
     logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.CRITICAL)
 
 
@@ -164,7 +164,8 @@ def _ready_line(role: Role, node_id: int, bus: str, opts) -> str:
 
 
 def summary_table(r: dict) -> str:
-    """The producer's :func:`run_result` as a terminal shows it: a few lines, not 1 kB of JSON (``--json``)."""
+    """The producer's :func:`run_result` as a terminal shows it: a few lines, not 1 kB of JSON
+    (that is ``--json``)."""
     def ms(key: str) -> str:
         v = r.get(key)
         return "-" if v is None else f"{v:.2f} ms"
@@ -172,8 +173,8 @@ def summary_table(r: dict) -> str:
     rate = r["cycles_per_s"]
     rows = [("cycles", f"{r['cycles']} in {r['wall_s']:.1f} s ({'-' if rate is None else f'{rate:,.0f}'}/s, "
                        f"{r['timing']}, period {r['period_s'] * 1e3:g} ms)"),
-            ("late cycles", f"{r['late_cycles']}" + (f" (worst {ms('lateness_ms_max')}, {r['overruns']} overruns)"
-                                                     if "overruns" in r else "")),
+            ("late cycles", f"{r['late_cycles']}" + (
+                f" (worst {ms('lateness_ms_max')}, {r['overruns']} overruns)" if "overruns" in r else "")),
             ("lockstep timeouts", str(r["lockstep_timeouts"])),
             ("SYNC -> TPDO", f"p50 {ms('sync_to_tpdo_ms_p50')}, p99 {ms('sync_to_tpdo_ms_p99')}"),
             ("cycle time", f"p50 {ms('cycle_ms_p50')}, p99 {ms('cycle_ms_p99')}"),

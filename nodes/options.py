@@ -128,8 +128,8 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
                    help="SYNC producer: wait up to S s for the peer's boot-up before starting (default 30)")
     p.add_argument("--progress", type=int, default=0, metavar="K", help="print 'progress k n' every K cycles")
     p.add_argument("--json", action="store_true",
-                   help="SYNC producer: end with one 'result {json}' line on stdout (for programs: the launcher of "
-                        "telethermo session reads it) instead of the summary table")
+                   help="SYNC producer: end with one 'result {json}' line on stdout (for programs: the "
+                        "launcher of telethermo session reads it) instead of the summary table")
     rt = p.add_argument_group("real time (lab PC; each knob is applied as far as the system permits, else a warning)")
     rt.add_argument("--cpu", metavar="N[,M]", help="pin the node to these CPUs (e.g. 1, or 2,3)")
     rt.add_argument("--rt-priority", type=int, metavar="P", help="SCHED_FIFO priority 1..99 (needs CAP_SYS_NICE)")
@@ -210,7 +210,8 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         realtime=_realtime_options(args), model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
-        wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), json=args.json, log=args.log, verbose=args.verbose)
+        wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), json=args.json,
+        log=args.log, verbose=args.verbose)
 
 
 def rig_arg(text: str) -> tuple[str, Any]:

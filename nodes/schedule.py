@@ -88,7 +88,8 @@ class LateCycleLog:
         clock: monotonic clock, s (injectable).
     """
 
-    def __init__(self, logger, *, interval_s: float = 10.0, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, logger, *, interval_s: float = 10.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.logger = logger
         self.interval_s = interval_s
         self._clock = clock

@@ -322,7 +322,8 @@ def contact_spans(polls: list[tuple[int, bool]]) -> list[tuple[int, int]]:
 
 
 def contact_reason(spans: list[tuple[int, int]], period_s: float) -> str:
-    """``contact at 12.3-14.1 s`` (and the next runs, at most three) of the experiment: sample k at (k-1)·period."""
+    """``contact at 12.3-14.1 s`` (and the next runs, at most three) of the experiment: sample k at
+    (k-1)·period."""
     def at(a: int, b: int) -> str:
         ta, tb = max(a - 1, 0) * period_s, max(b - 1, 0) * period_s
         return f"{ta:.1f} s" if round(ta, 1) == round(tb, 1) else f"{ta:.1f}-{tb:.1f} s"

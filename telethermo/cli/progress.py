@@ -24,7 +24,8 @@ def is_tty(stream) -> bool:
 
 class Progress:
     """Progress of ``total`` steps of ``unit`` (0: unknown, then a line every ``unknown_every`` steps off a
-    terminal). ``stream``: sys.stderr when the display is made; ``tty``: override ``stream.isatty()`` (tests)."""
+    terminal). ``stream``: sys.stderr when the display is made; ``tty``: override ``stream.isatty()``
+    (tests)."""
 
     def __init__(self, label: str, total: int, *, unit: str = "steps", stream=None, step_pct: float = 10.0,
                  tty: bool | None = None, unknown_every: int = 1000) -> None:
@@ -57,7 +58,8 @@ class Progress:
             self._open = True
             return
         pct = 100.0 * k / total if total else 0.0
-        if (total and (pct >= self._next_pct or k >= total)) or (not total and k and k % self.unknown_every == 0):
+        unknown_due = not total and k and k % self.unknown_every == 0
+        if (total and (pct >= self._next_pct or k >= total)) or unknown_due:
             self.stream.write(self.text(k, total, rate) + "\n")
             self.stream.flush()
             while total and self._next_pct <= pct:

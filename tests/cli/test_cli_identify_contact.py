@@ -49,7 +49,8 @@ def test_a_touch_during_the_experiment_is_refused_with_when(tmp_path, capsys):
     hub = HubProcess(idle_timeout_s=60, log_path=tmp_path / "hub.log")
     hub.start()
     env = dict(os.environ, PYTHONPATH=str(ROOT))
-    node = subprocess.Popen(node_command("master", "--bus", hub.bus, "--rig", "tests.nodes.rig_factories:touched_while_file",
+    rig = "tests.nodes.rig_factories:touched_while_file"
+    node = subprocess.Popen(node_command("master", "--bus", hub.bus, "--rig", rig,
                                          "--rig-arg", f'flag="{flag}"', "--mode", "idle", "--cycles", "0",
                                          "--wait-peer", "0", "--log", str(tmp_path / "master.log")),
                             stdout=subprocess.DEVNULL, stderr=open(tmp_path / "master-stderr.log", "ab"), env=env,
