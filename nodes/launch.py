@@ -209,7 +209,7 @@ class NodePair:
             self.bus = self.hub.bus
         if c.mode != "render":  # virtual rendering: the master alone
             self.start_slave()
-        margs = self._common("master") + ["--progress", str(c.progress_every)]
+        margs = self._common("master") + ["--progress", str(c.progress_every), "--json"]   # the result line
         if c.cycles is not None:
             margs += ["--cycles", str(c.cycles)]
         self.master = subprocess.Popen(node_command("master", *margs, *c.master_args), stdout=subprocess.PIPE,
@@ -257,63 +257,6 @@ class NodePair:
 
     def __exit__(self, *exc: object) -> None:
         self.stop()
-
-
-class ProgressLine:
-    """A session's progress on ``stream``: one line rewritten in place (carriage return) on a terminal;
-    elsewhere (a log file, a pipe, CI) a plain line each time another ``step_pct`` % of the cycles is
-    done, and the last one, so that a log gets ~10 lines, not one per poll.
-
-        bar = ProgressLine(sys.stderr, total=cycles)
-        bar.update(k, rate=cycles_per_s)     # as often as you like
-        bar.close()                          # ends the line on a terminal
-
-    ``tty``: override the stream's ``isatty()`` (tests).
-    """
-
-    def __init__(self, stream, total: int, *, step_pct: float = 10.0, tty: bool | None = None) -> None:
-        self.stream = stream
-        self.total = max(0, int(total))
-        self.step_pct = step_pct
-        if tty is None:
-            try:
-                tty = bool(stream.isatty())
-            except (AttributeError, ValueError):
-                tty = False
-        self.tty = tty
-        self._next_pct = step_pct
-        self._last_k = -1
-        self._open = False
-
-    @staticmethod
-    def text(k: int, total: int, rate: float | None = None) -> str:
-        pct = 100.0 * k / max(1, total) if total else 0.0
-        tail = f", {rate:,.0f} cycles/s" if rate is not None else ""
-        return f"  cycle {k}/{total or '?'}  ({pct:5.1f} %{tail})"
-
-    def update(self, k: int, total: int | None = None, *, rate: float | None = None) -> None:
-        total = self.total if not total else int(total)
-        if self.tty:
-            self.stream.write("\r" + self.text(k, total, rate))
-            self.stream.flush()
-            self._open = True
-            return
-        if k == self._last_k:
-            return
-        pct = 100.0 * k / total if total else 0.0
-        if (total and (pct >= self._next_pct or k >= total)) or (not total and k and k % 1000 == 0):
-            self.stream.write(self.text(k, total, rate) + "\n")
-            self.stream.flush()
-            self._last_k = k
-            while total and self._next_pct <= pct:
-                self._next_pct += self.step_pct
-
-    def close(self) -> None:
-        """End the rewritten line (terminal only)."""
-        if self.tty and self._open:
-            self.stream.write("\n")
-            self.stream.flush()
-            self._open = False
 
 
 def wait_for(predicate, timeout_s: float, poll_s: float = 0.05) -> bool:

@@ -43,8 +43,10 @@ def _setup_logging(role: Role, verbose: bool, log_path) -> None:
         fh.setLevel(logging.INFO)
         handlers.append(fh)
     logging.basicConfig(level=logging.INFO, format=fmt, handlers=handlers, force=True)
-    # python-can's socketcand client warns about every TCP read that ends mid-frame (normal under load)
-    logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.ERROR)
+    # python-can's socketcand client warns about every TCP read that ends mid-frame (normal under load), and
+    # logs a lost hub as an ERROR with a whole traceback: the reconnecting bus (transport.resilient) says
+    # it in one line ("bus ... lost: ...; retrying", then "bus ... back")
+    logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.CRITICAL)
 
 
 def run_node(role: Role, argv: list[str] | None = None) -> int:
@@ -99,6 +101,7 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
             print(f"{prog}: error: cannot start node {node_id} on {transport.describe()}: {exc}", file=sys.stderr)
             code = EXIT_FAIL
             return code
+        print(_ready_line(role, node_id, transport.describe(), opts), file=sys.stderr, flush=True)
         for note in apply_realtime(opts.realtime):   # after start-up: what is frozen/locked is the running node
             (log.warning if note.startswith("WARNING") else log.info)(note.removeprefix("WARNING "))
         if opts.produce_sync:
@@ -146,7 +149,37 @@ def _produce(rt: NodeRuntime, opts, parts, log: logging.Logger) -> None:
     done = rt.run_producer(cycles, progress_every=opts.progress_every, progress=progress)
     wall = time.perf_counter() - t0
     log.info("SYNC producer: %d of %d cycles run in %.3f s", done, cycles, wall)
-    print("result " + json.dumps(run_result(rt, done, wall)), flush=True)
+    result = run_result(rt, done, wall)
+    print("result " + json.dumps(result) if opts.json else summary_table(result), flush=True)
+
+
+def _ready_line(role: Role, node_id: int, bus: str, opts) -> str:
+    """What a terminal says once the node runs: on which bus, and what it waits for."""
+    if not opts.produce_sync:
+        return f"node {node_id} ready on {bus}, waiting for the master's SYNC"
+    if opts.mode is Mode.TELEPRESENCE and opts.wait_peer_s > 0:
+        peer = "slave" if role is Role.MASTER else "master"
+        return f"node {node_id} ready on {bus}, waiting for the {peer}"
+    return f"node {node_id} ready on {bus}, producing SYNC ({opts.mode.name.lower()})"
+
+
+def summary_table(r: dict) -> str:
+    """The producer's :func:`run_result` as a terminal shows it: a few lines, not 1 kB of JSON
+    (that is ``--json``)."""
+    def ms(key: str) -> str:
+        v = r.get(key)
+        return "-" if v is None else f"{v:.2f} ms"
+
+    rate = r["cycles_per_s"]
+    rows = [("cycles", f"{r['cycles']} in {r['wall_s']:.1f} s ({'-' if rate is None else f'{rate:,.0f}'}/s, "
+                       f"{r['timing']}, period {r['period_s'] * 1e3:g} ms)"),
+            ("late cycles", f"{r['late_cycles']}" + (
+                f" (worst {ms('lateness_ms_max')}, {r['overruns']} overruns)" if "overruns" in r else "")),
+            ("lockstep timeouts", str(r["lockstep_timeouts"])),
+            ("SYNC -> TPDO", f"p50 {ms('sync_to_tpdo_ms_p50')}, p99 {ms('sync_to_tpdo_ms_p99')}"),
+            ("cycle time", f"p50 {ms('cycle_ms_p50')}, p99 {ms('cycle_ms_p99')}"),
+            ("EMCY raised", str(r["emcy_raised"]))]
+    return "\n".join(f"  {k:<18} {v}" for k, v in rows) + "\n  (--json: all figures as one JSON line)"
 
 
 def _recover(prog: str, record) -> int:

@@ -49,6 +49,7 @@ class NodeOptions:
         seed: seed of the simulated rig's noise (None: the scene's).
         wait_peer_s: SYNC producer: wait this long for the peer's boot before starting anyway, s.
         progress_every: print ``progress K N`` every this many cycles (0: never).
+        json: the SYNC producer ends with one ``result {json}`` line on stdout instead of the summary table.
         verbose: log at INFO level.
         recover: only turn the journal of ``record`` left by a killed node into ``record``, then exit.
     """
@@ -75,6 +76,7 @@ class NodeOptions:
     seed: int | None = None
     wait_peer_s: float = 30.0
     progress_every: int = 0
+    json: bool = False
     log: Path | None = None
     verbose: bool = False
     recover: bool = False
@@ -125,6 +127,9 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     p.add_argument("--wait-peer", type=float, default=30.0, metavar="S",
                    help="SYNC producer: wait up to S s for the peer's boot-up before starting (default 30)")
     p.add_argument("--progress", type=int, default=0, metavar="K", help="print 'progress k n' every K cycles")
+    p.add_argument("--json", action="store_true",
+                   help="SYNC producer: end with one 'result {json}' line on stdout (for programs: the "
+                        "launcher of telethermo session reads it) instead of the summary table")
     rt = p.add_argument_group("real time (lab PC; each knob is applied as far as the system permits, else a warning)")
     rt.add_argument("--cpu", metavar="N[,M]", help="pin the node to these CPUs (e.g. 1, or 2,3)")
     rt.add_argument("--rt-priority", type=int, metavar="P", help="SCHED_FIFO priority 1..99 (needs CAP_SYS_NICE)")
@@ -205,7 +210,8 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         realtime=_realtime_options(args), model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
-        wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), log=args.log, verbose=args.verbose)
+        wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), json=args.json,
+        log=args.log, verbose=args.verbose)
 
 
 def rig_arg(text: str) -> tuple[str, Any]:

@@ -119,7 +119,7 @@ def run_producer(rt: "NodeRuntime", cycles: int, *, progress_every: int = 0,
     wait_s = rt.net.heartbeat.consumer_ms * 0.5e-3 or 0.5
     patience_s = 20 * wait_s  # a peer alive by its heartbeat but silent this long: count, go on
     ticker = rt.ticker = None if rt.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
-    late_log = LateCycleLog(log)   # one summary line per second at most, not one per late cycle
+    late_log = LateCycleLog(log)   # a summary line per 10 s at most, not one per late cycle
     debt = _PeerDebt(rt)
     k = 0
     while not rt.stop_event.is_set() and (cycles == 0 or k < cycles):

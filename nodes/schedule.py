@@ -84,11 +84,12 @@ class LateCycleLog:
 
     Args:
         logger: where the lines go (``warning``).
-        interval_s: at most one line per this many seconds.
+        interval_s: at most one line per this many seconds (10 s: a loaded lab PC's terminal is not flooded).
         clock: monotonic clock, s (injectable).
     """
 
-    def __init__(self, logger, *, interval_s: float = 1.0, clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(self, logger, *, interval_s: float = 10.0,
+                 clock: Callable[[], float] = time.monotonic) -> None:
         self.logger = logger
         self.interval_s = interval_s
         self._clock = clock

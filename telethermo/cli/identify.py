@@ -22,7 +22,8 @@ import numpy as np
 from telethermo import sim
 from telethermo.cli import common
 from telethermo.cli.identify_live import parse_amplitude, run_live
-from telethermo.cli.identify_output import ProgressBar, print_report
+from telethermo.cli.identify_output import print_report
+from telethermo.cli.progress import Progress
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError
 from telethermo.ident import NarmaOrders, UnstableModelError, save_model
 from telethermo.ident.experiment import ExperimentSettings, Record, identify_rig, save_record_csv
@@ -126,12 +127,13 @@ def run(args: argparse.Namespace) -> int:
     if out.exists() and out.is_dir():
         raise UserError(f"--out {out}: is a directory; expected a file name")
     rig, meta = _build_rig(args)
-    bar = None if args.quiet else ProgressBar("identify: experiment")
+    bar = None if args.quiet else Progress("identify: experiment", 0, unit="samples")
 
     def fitting_notice(done: int, total: int) -> None:
         if bar is not None:
-            bar(done, total)
+            bar.update(done, total)
             if done >= total:
+                bar.close()
                 print("identify: fitting (least squares, output-error refinement, stability check) ...",
                       file=sys.stderr, flush=True)
 

@@ -11,7 +11,8 @@ What it does, as a CANopen configuration tool would (every step by SDO, on any p
 4. sets mode 3 (IDENTIFY): the node's control core runs the plan under its safety envelope
    (:mod:`telethermo.ident.plan`), and this command records every value from the bus by its sample
    number; a value lost on the bus is fetched again by SDO from the node's record (0x280B..0x280E);
-   a record in which the envelope cut the current, or with the pad touched, is refused;
+   a record in which the envelope cut the current, or with the pad touched at any time of the experiment
+   (its contact flag, 0x2004, read every :data:`CONTACT_POLL_S` while it runs), is refused;
 5. fits and validates the models on the record (:func:`telethermo.ident.experiment.fit_experiment`,
    the same as offline), prints the report, refuses an unstable model;
 6. loads the model into the node while it still holds 0 A in IDENTIFY (0x2300..0x2311 by SDO, REAL64
@@ -40,7 +41,8 @@ import numpy as np
 
 from telethermo.device.netconfig import NetworkConfig
 from telethermo.cli import common
-from telethermo.cli.identify_output import ProgressBar, print_report
+from telethermo.cli.identify_output import print_report
+from telethermo.cli.progress import Progress
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError
 from telethermo.control.types import Mode
 from telethermo.ident import NarmaOrders, UnstableModelError, save_model
@@ -53,6 +55,10 @@ from telethermo.remote.errors import Failure
 from telethermo.remote.heartbeat import HeartbeatWatch, heartbeat_wait_s, watch_heartbeats
 from telethermo.remote.identify import IDENT_STATE_NAMES, STREAM, Stream, fetch_lost, load_model, write_plan
 from telethermo.remote.targets import Target, lookup, node_targets, resolve_node
+
+#: how often the pad's contact flag (0x2004) is read by SDO while the experiment runs, s (a touch shorter than
+#: this may go unseen; one that disturbs a fit lasts longer)
+CONTACT_POLL_S = 0.1
 
 PLAN_KEYS = ("ident_seed", "ident_rest_samples", "ident_train_samples", "ident_validation_samples",
              "ident_amplitude_min_A", "ident_amplitude_max_A", "ident_hold_samples")
@@ -218,7 +224,7 @@ def _experiment(nw: canopen.Network, client: NodeClient, plan: IdentifyPlan, str
           f"({plan.total * period_s:.0f} s in real time)", file=sys.stderr)
     t0 = time.perf_counter()
     client.set("mode", int(Mode.IDENTIFY))
-    _wait(stream, client, plan, period_s, quiet=args.quiet)
+    touches = _wait(stream, client, plan, period_s, quiet=args.quiet)
     t_exp = time.perf_counter() - t0
     nw.bus.set_filters(None)
     fetched = fetch_lost(stream, client, plan, notice=_notice)
@@ -227,7 +233,7 @@ def _experiment(nw: canopen.Network, client: NodeClient, plan: IdentifyPlan, str
                       "values repeated on the bus; nothing fitted or loaded: run again")
     guard = int(client.get("ident_guard"))
     start_cycle = int(client.get("ident_start_cycle"))
-    _check_record(stream, client, plan, force=args.force)
+    _check_record(stream, client, plan, touches, period_s, force=args.force)
     print("identify: fitting (least squares, output-error refinement, stability check) ...", file=sys.stderr,
           flush=True)
     rec = Record(t_s=np.arange(plan.total) * period_s, current_A=stream.I_A.copy(), T_C=stream.T_C.copy(),
@@ -300,9 +306,37 @@ def _sigint_deferred():
             raise KeyboardInterrupt
 
 
-def _check_record(stream: Stream, client: NodeClient, plan: IdentifyPlan, *, force: bool) -> None:
-    """Refuse a record the envelope cut or a touch disturbed (Failure): the node's safety state and contact
-    now, and the recorded currents against the plan (a planned non-zero current recorded as 0 A is a cut)."""
+def contact_spans(polls: list[tuple[int, bool]]) -> list[tuple[int, int]]:
+    """The (first, last) sample numbers of each run of contact among ``polls`` (sample number reached when the
+    contact flag was read, flag), in the order read."""
+    spans: list[tuple[int, int]] = []
+    start = last = None
+    for k, flag in polls + [(0, False)]:
+        if flag:
+            start = k if start is None else start
+            last = k
+        elif start is not None:
+            spans.append((start, last))
+            start = None
+    return spans
+
+
+def contact_reason(spans: list[tuple[int, int]], period_s: float) -> str:
+    """``contact at 12.3-14.1 s`` (and the next runs, at most three) of the experiment: sample k at
+    (k-1)·period."""
+    def at(a: int, b: int) -> str:
+        ta, tb = max(a - 1, 0) * period_s, max(b - 1, 0) * period_s
+        return f"{ta:.1f} s" if round(ta, 1) == round(tb, 1) else f"{ta:.1f}-{tb:.1f} s"
+    text = ", ".join(at(a, b) for a, b in spans[:3])
+    more = f" and {len(spans) - 3} more" if len(spans) > 3 else ""
+    return f"contact at {text}{more} of the experiment"
+
+
+def _check_record(stream: Stream, client: NodeClient, plan: IdentifyPlan, touches: list[tuple[int, bool]],
+                  period_s: float, *, force: bool) -> None:
+    """Refuse a record the envelope cut or a touch disturbed (Failure): the node's safety state, the contact
+    flag read throughout the experiment (``touches``) and now, and the recorded currents against the plan (a
+    planned non-zero current recorded as 0 A is a cut)."""
     st, trip = int(client.get("safety_state")), int(client.get("last_trip_code"))
     planned = plan.currents()
     cut = int(np.sum((planned != 0.0) & (stream.I_A == 0.0)))
@@ -310,33 +344,47 @@ def _check_record(stream: Stream, client: NodeClient, plan: IdentifyPlan, *, for
         raise Failure(f"{client.t.role}: the safety envelope cut the current during the experiment ({cut} samples "
                       f"at 0 A instead of the plan's; safety state {st}, last trip 0x{trip:04X}); nothing fitted "
                       "or loaded (see telethermo status; telethermo fault-reset once the cause is gone)")
-    if int(client.get("contact")) and not force:
-        raise Failure(f"{client.t.role}: the pad is touched (contact = 1) at the end of the experiment; its record "
-                      "is not of a pad in air: nothing fitted or loaded (or --force)")
+    spans = contact_spans(touches + [(plan.total, bool(int(client.get("contact"))))])
+    if not spans:
+        return
+    reason = contact_reason(spans, period_s)
+    if force:
+        print(f"telethermo identify: {client.t.role}: {reason}; fitted anyway (--force)", file=sys.stderr)
+        return
+    raise Failure(f"{client.t.role}: {reason}: the fit needs a free pad; lift the probe and run again "
+                  "(nothing fitted or loaded)")
 
 
-def _wait(stream: Stream, client: NodeClient, plan: IdentifyPlan, period_s: float, *, quiet: bool) -> None:
+def _wait(stream: Stream, client: NodeClient, plan: IdentifyPlan, period_s: float, *,
+          quiet: bool) -> list[tuple[int, bool]]:
     """Until every sample arrived, or the node says the experiment is done (samples lost on the bus are
-    fetched afterwards); Failure if the node stops running it or interrupts it."""
-    bar = None if quiet else ProgressBar("identify: experiment")
+    fetched afterwards); Failure if the node stops running it or interrupts it. Returns the contact flag read
+    every :data:`CONTACT_POLL_S` meanwhile: (the sample number then reached, flag)."""
+    bar = None if quiet else Progress("identify: experiment", plan.total, unit="samples")
     stall_s = max(5.0, 50 * period_s)
-    last_n, last_t, last_poll = -1, time.monotonic(), 0.0
+    last_n, last_t, last_poll, last_touch = -1, time.monotonic(), 0.0, 0.0
+    touches: list[tuple[int, bool]] = []
     while True:
         with stream.cond:
-            stream.cond.wait_for(lambda: stream.complete >= plan.total, 0.2)
+            stream.cond.wait_for(lambda: stream.complete >= plan.total, CONTACT_POLL_S)
             n, top, done = stream.count, stream.highest, stream.complete
         if bar is not None:
-            bar(min(top, plan.total), plan.total)
+            bar.update(min(top, plan.total))
         if done >= plan.total:
-            return
+            if bar is not None:
+                bar.close()
+            return touches
         now = time.monotonic()
+        if now - last_touch >= CONTACT_POLL_S:
+            last_touch = now
+            touches.append((top, bool(int(client.get("contact")))))
         if n != last_n:
             last_n, last_t = n, now
         if now - last_poll > 1.0:
             last_poll = now
             st = int(client.get("ident_state"))
             if st == 2 and now - last_t > 0.5:
-                return   # done, its last frames lost: fetched by SDO
+                return touches   # done, its last frames lost: fetched by SDO
             if st == 3 or (st == 0 and now - last_t > stall_s):
                 mode = int(client.get("mode"))
                 raise Failure(f"{client.t.role}: the experiment was interrupted (ident_state "

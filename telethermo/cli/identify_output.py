@@ -1,33 +1,6 @@
-"""What ``telethermo identify`` prints, on a simulated rig or a live node: the progress bar of the experiment
-and the report of the fit."""
+"""What ``telethermo identify`` prints, on a simulated rig or a live node: the report of the fit (the
+experiment's progress is :class:`telethermo.cli.progress.Progress`)."""
 from __future__ import annotations
-
-import sys
-import time
-
-
-class ProgressBar:
-    """A one-line progress bar on a stream (stderr)."""
-
-    def __init__(self, label: str, stream=None, width: int = 40) -> None:
-        # the stream is looked up when the bar is made, not when this module was imported: a default
-        # argument would pin whatever sys.stderr was at import time (closed since, under a test runner)
-        self.label, self.stream, self.width = label, stream if stream is not None else sys.stderr, width
-        self.t0 = time.perf_counter()
-        self._last = -1
-
-    def __call__(self, done: int, total: int) -> None:
-        frac = done / total if total else 1.0
-        pct = int(frac * 100)
-        if pct == self._last and done < total:
-            return
-        self._last = pct
-        fill = int(frac * self.width)
-        self.stream.write(f"\r{self.label} [{'#' * fill}{'.' * (self.width - fill)}] {pct:3d}% "
-                          f"{done}/{total} samples {time.perf_counter() - self.t0:5.1f} s")
-        if done >= total:
-            self.stream.write("\n")
-        self.stream.flush()
 
 
 def gain_lines(model, roles: tuple[str, ...]) -> list[str]:

@@ -20,11 +20,12 @@ import time
 from pathlib import Path
 
 from telethermo import sim
-from telethermo.nodes.launch import LaunchError, NodePair, PairConfig, ProgressLine
+from telethermo.nodes.launch import LaunchError, NodePair, PairConfig
 from telethermo.nodes.merge import MergeError, merge_recordings
 from telethermo.atomic import write_json_atomic
 from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
+from telethermo.cli.progress import Progress
 from telethermo.control.gainsfile import load_gains
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
@@ -145,7 +146,7 @@ def run(args: argparse.Namespace) -> int:
             print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
                   f"on {where}", file=sys.stderr)
         if not args.quiet:
-            bar = ProgressLine(sys.stderr, cycles)
+            bar = Progress("session", cycles, unit="cycles")
         while pair.master.poll() is None:
             time.sleep(0.2)
             if bar is not None:

@@ -87,8 +87,9 @@ def link_down_reason(settings: TransportSettings, sysfs: Path = Path("/sys/class
 
 
 def _first_line(exc: BaseException) -> str:
-    """An exception as one line (python-can puts a whole traceback into some messages)."""
-    text = str(exc).strip()
+    """An exception as one line (python-can puts a whole traceback into some messages, after two spaces on
+    the first line: 'Failed to receive: [Errno 104] ...  Traceback (most recent call last):')."""
+    text = str(exc).strip().split("Traceback (most recent call last)", 1)[0].strip()
     return text.splitlines()[0].strip() if text else type(exc).__name__
 
 

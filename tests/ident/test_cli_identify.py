@@ -12,7 +12,7 @@ def test_identify_writes_a_valid_model_and_reports(tmp_path, capsys):
                "--out", str(out), "--plot", str(png)])
     cap = capsys.readouterr()
     assert rc == 0, cap.err
-    assert "100%" in cap.err and "identify: experiment" in cap.err            # progress bar on stderr
+    assert "(100.0 %)" in cap.err and "identify: experiment" in cap.err       # progress on stderr
     for words in ("held-out free run", "heat flux", "stability                 stable", "model written",
                   "capacity (eq. 13)         14 steady states"):
         assert words in cap.out

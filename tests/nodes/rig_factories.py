@@ -1,5 +1,9 @@
-"""Hardware-rig factories that go wrong, for tests/nodes/test_hardware_rig_path.py (``--rig MODULE:FACTORY``)."""
+"""Hardware-rig factories for the node programs' tests (``--rig MODULE:FACTORY``): drivers that go wrong, and a
+pad whose contact flag the test sets (tests/cli/test_cli_identify_contact.py)."""
 from __future__ import annotations
+
+import dataclasses
+import os
 
 from telethermo.sim.wallclock import pads_in_air_master
 
@@ -29,4 +33,18 @@ def configured(port: str, period_s: float = 0.01, gain: float = 1.0):
     rig = pads_in_air_master()
     rig.period_s = period_s
     rig.gain = gain
+    return rig
+
+
+def touched_while_file(flag: str):
+    """The wall-clock master pad in air whose contact detector (the rig's flag) says touched while the file
+    ``flag`` exists: a bench probe put on something and lifted, on the operator's (the test's) cue."""
+    rig = pads_in_air_master()
+    read = rig.read
+
+    def read_with_flag():
+        s = read()
+        return dataclasses.replace(s, contact=True, force_N=2.0) if os.path.exists(flag) else s
+
+    rig.read = read_with_flag
     return rig

@@ -67,6 +67,9 @@ def test_hub_killed_and_restarted_the_pair_goes_safe_and_resumes_by_itself(tmp_p
             assert wait_for(lambda: "bus back" in _log(pair, role), 30), f"{role} did not reopen its bus"
         assert wait_for(lambda: "peer values back: cleared peer_lost" in _log(pair, "master"), 60)
         assert wait_for(lambda: "peer values back: cleared peer_lost" in _log(pair, "slave"), 60)
+        for role in ("master", "slave"):   # issue 25: one line per loss on the terminal, no python-can traceback
+            err = pair.log(f"{role}-stderr").read_text()
+            assert "Traceback" not in err and "bus socketcand://127.0.0.1:" in err and " lost: " in err, err
         k_back = pair.progress[0]
         assert wait_for(lambda: pair.progress[0] >= k_back + 200, 120), "the session did not go on"
 

@@ -84,7 +84,7 @@ def bench(tmp_path_factory):
         # the slave is up (its boot-up / heartbeat on the bus) before the master starts its session
         assert wait_for(lambda: witness.saw(0x700 + NODE_ID["slave"]), 60), _logs(out, "slave")
         t0 = time.monotonic()
-        master = _start_node("master", hub.bus, out, "--mode", "idle", "--cycles", str(CYCLES),
+        master = _start_node("master", hub.bus, out, "--mode", "idle", "--cycles", str(CYCLES), "--json",
                              "--record", str(out / "master.csv"), stdout=subprocess.PIPE)
         stdout, _ = master.communicate(timeout=120)
         wall_total = time.monotonic() - t0

@@ -79,13 +79,26 @@ def test_late_cycles_are_logged_as_one_summary_per_second_at_most():
 def test_the_summary_window_follows_the_injected_clock_not_the_cycle_count():
     from telethermo.nodes.schedule import LateCycleLog
     clock, out = FakeClock(), Lines()
-    late_log = LateCycleLog(out, clock=clock)
+    late_log = LateCycleLog(out, interval_s=1.0, clock=clock)
     late_log.cycle(0, True, 0.01)
     late_log.cycle(1, True, 0.02)                     # same instant: pending
     assert len(out.lines) == 1
     clock.t += 5.0                                    # a stall of 5 s, then a late cycle: summary at once
     late_log.cycle(2, True, 0.03)
     assert out.lines[1] == "2 late cycles (cycles 1..2, 5.0 s), worst late by 30.0 ms"
+
+
+def test_a_node_summarises_late_cycles_per_ten_seconds():
+    """Issue 25: a loaded node printed a late-cycle warning every second; the default window is 10 s."""
+    from telethermo.nodes.schedule import LateCycleLog
+    clock, out = FakeClock(), Lines()
+    late_log = LateCycleLog(out, clock=clock)
+    for k in range(3000):                             # 30 s, every cycle late
+        clock.t += 0.01
+        late_log.cycle(k, True, 0.008)
+    late_log.flush()
+    assert 3 <= len(out.lines) <= 5
+    assert out.lines[1].startswith("1000 late cycles (cycles 1..1000, 10.0 s), worst late by 8.0 ms")
 
 
 def test_sync_numbering_unwraps_the_counter_alike_on_every_node():
