@@ -2,12 +2,13 @@
 experiment's progress is :class:`telethermo.cli.progress.Progress`)."""
 from __future__ import annotations
 
+from telethermo.control.gain_rule import MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, fit_gains
+from telethermo.control.types import Role
+
 
 def gain_lines(model, roles: tuple[str, ...]) -> list[str]:
     """What the node will run on this model: the gain rule's factor and the loop's margins on the model
     (telethermo.control.gain_rule), one line per role."""
-    from telethermo.control.gain_rule import MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, fit_gains
-    from telethermo.control.types import Role
     out = []
     for role in roles:
         fit = fit_gains(model, Role[role.upper()])
