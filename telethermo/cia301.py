@@ -90,6 +90,8 @@ EMCY_PDO_LENGTH_EXCEEDED = 0x8220         # PDO length exceeded
 EMCY_SYNC_LENGTH = 0x8240                 # unexpected SYNC data length
 EMCY_LINK_FALLBACK = 0xFF01               # manufacturer-specific: slave lost, the master renders the last
                                           # identified material locally (telethermo.control.link_fallback)
+EMCY_INPUT_SENTINEL = 0xFF10              # manufacturer-specific: an I/O module's analog input reads its sentinel
+                                          # (overload / open circuit); data: channel, the 16-bit code (iomodule)
 
 EMCY_CODE_TEXTS = {
     EMCY_NO_ERROR: "Error reset or no error",
@@ -105,6 +107,7 @@ EMCY_CODE_TEXTS = {
     EMCY_SYNC_LENGTH: "Unexpected SYNC data length",
     0x8250: "RPDO timeout",
     EMCY_LINK_FALLBACK: "Device specific: peer lost, rendering the last identified material locally",
+    EMCY_INPUT_SENTINEL: "Device specific: an analog input reads its sentinel (overload or open circuit)",
 }
 #: the class of an EMCY code by its high byte (xx = any)
 EMCY_CLASS_TEXTS = {
