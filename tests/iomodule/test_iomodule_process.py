@@ -23,7 +23,7 @@ from telethermo.transport.hub import HubThread
 pytestmark = pytest.mark.slow  # starts processes
 
 MODULE_ID, CONTROLLER_ID = 3, 1
-HERE = Path(__file__).resolve().parent
+STANDIN = Path(__file__).resolve().parents[2] / "bench" / "standin_controller.py"
 EDS = str(path("io_module.eds"))
 TWO_AMPS = round(2.0 * COUNTS_PER_V)   # 1 A/V amplifier: 2 A is 6554 counts
 
@@ -163,7 +163,7 @@ def _kill_controller(rig, *, error_mode: int) -> dict:
     hub, bus, _ = rig
     node = bus.node
     _commission(node, error_mode=error_mode)
-    standin = subprocess.Popen([sys.executable, str(HERE / "standin_controller.py"), str(hub.port), str(MODULE_ID),
+    standin = subprocess.Popen([sys.executable, str(STANDIN), str(hub.port), str(MODULE_ID),
                                 str(CONTROLLER_ID), str(TWO_AMPS)], stdout=subprocess.PIPE, text=True)
     try:
         assert standin.stdout.readline().strip() == "running"
