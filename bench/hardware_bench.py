@@ -5,10 +5,10 @@ others' kept):
 - ``io_module_cut_ms``: the worst of ``runs`` SIGKILLs (≥ 10), ``io_module_cut_ms_median``: their median.
   One run: a stand-in controller (``bench/standin_controller.py``, its own process: SYNC, RPDO of 2 A,
   heartbeat every 50 ms) drives ``telethermo-iomodule`` over the hub until the module applies 2 A; the bench
-  SIGKILLs it and reads the module's output actual (0x2101) by SDO as fast as the SDO round trip allows until it
-  reads 0 counts (0 A). The time from the kill to that SDO answer is an upper bound of the cut (it includes
-  one SDO round trip). Module commissioned as the rig driver does: consumer heartbeat 150 ms on the
-  controller, 0x6443 = 1, 0x6444 = 0, 0x1029 = 0.
+  SIGKILLs it and reads the module's output actual (0x2101) by SDO as fast as the SDO round trip allows
+  until it reads 0 counts (0 A). The time from the kill to that SDO answer is an upper bound of the cut
+  (it includes one SDO round trip). Module commissioned as telethermo.iomodule.commission does: consumer
+  heartbeat 150 ms on the controller, 0x6443 = 1, 0x6444 = 0, 0x1029 = 0.
 - ``io_module_emcy_ms_*``: kill to the module's EMCY 0x8130 (sent just before it applies the substitute);
   ``io_module_silence_ms_min``: the shortest time from the controller's last heartbeat to that EMCY, by the
   hub's time stamps (≥ the 150 ms consumer time: the module never cuts early).
@@ -59,8 +59,8 @@ def measure(runs: int) -> dict:
         exe = Path(sys.executable).with_name("telethermo-iomodule")
         module = subprocess.Popen([str(exe), "--node-id", str(MODULE_ID), "--bus",
                                    f"socketcand://127.0.0.1:{hub.port}/vcan0"], stderr=subprocess.DEVNULL)
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0",
-                                      tcp_tune=True))
+        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
+                                      channel="vcan0", tcp_tune=True))
         net.connect()
         emcys, hbs = [], []
         net.subscribe(0x80 + MODULE_ID, lambda c, d, ts: emcys.append((time.monotonic(), bytes(d), ts)))
@@ -81,7 +81,8 @@ def measure(runs: int) -> dict:
             for _ in range(runs):
                 emcys.clear()
                 standin = subprocess.Popen([sys.executable, str(STANDIN), str(hub.port), str(MODULE_ID),
-                                            str(CONTROLLER_ID), str(TWO_AMPS)], stdout=subprocess.PIPE, text=True)
+                                            str(CONTROLLER_ID), str(TWO_AMPS)],
+                                           stdout=subprocess.PIPE, text=True)
                 standin.stdout.readline()
                 _wait(lambda: node.sdo[0x2101].raw == TWO_AMPS, 20, "2 A applied")
                 time.sleep(0.2)   # a few heartbeats in: the kill lands anywhere in the 50 ms heartbeat period
@@ -89,8 +90,8 @@ def measure(runs: int) -> dict:
                 os.kill(standin.pid, signal.SIGKILL)
                 t_zero = _wait(lambda: node.sdo[0x2101].raw == 0 and time.monotonic(), 10, "0 A")
                 standin.wait()
-                t_emcy, data, ts = _wait(lambda: [e for e in emcys if e[1][:2] == EMCY_HEARTBEAT.to_bytes(2, "little")],
-                                         5, "EMCY 0x8130")[0]
+                loss = EMCY_HEARTBEAT.to_bytes(2, "little")
+                t_emcy, data, ts = _wait(lambda: [e for e in emcys if e[1][:2] == loss], 5, "EMCY 0x8130")[0]
                 cut.append((t_zero - t_kill) * 1e3)
                 emcy.append((t_emcy - t_kill) * 1e3)
                 silence.append((ts - max(h for h in hbs if h <= ts)) * 1e3)

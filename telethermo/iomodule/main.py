@@ -33,14 +33,18 @@ DEFAULT_NODE_ID = 3
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=PROG, description="A simulated CiA 401 analog I/O module (CANopen node) with "
+    p = argparse.ArgumentParser(prog=PROG, description="A simulated CiA 401 analog I/O module (CANopen node) "
+                                "with "
                                 "a simulated rig behind its channels.")
-    p.add_argument("--node-id", type=int, default=DEFAULT_NODE_ID, help=f"node-ID 1..127 (default {DEFAULT_NODE_ID})")
-    p.add_argument("--scene", default="pads_in_air", help="scene name or TOML file of the plant (default pads_in_air)")
+    p.add_argument("--node-id", type=int, default=DEFAULT_NODE_ID,
+                   help=f"node-ID 1..127 (default {DEFAULT_NODE_ID})")
+    p.add_argument("--scene", default="pads_in_air",
+                   help="scene name or TOML file of the plant (default pads_in_air)")
     p.add_argument("--side", choices=("master", "slave"), default="master",
                    help="which rig of the scene is wired to the channels (default master)")
     p.add_argument("--seed", type=int, help="sensor-noise seed (default: the scene's)")
-    p.add_argument("--network", help="network settings file: bus, SYNC period and counter (default: packaged)")
+    p.add_argument("--network",
+                   help="network settings file: bus, SYNC period and counter (default: packaged)")
     add_bus_arguments(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log state changes on stderr")
     return p

@@ -39,7 +39,8 @@ from telethermo.device import (
     Device, DeviceSettings, NmtCommand, NmtState, PeerEvent, RpdoEvent, SyncTick, WriteEvent,
 )
 from telethermo.iomodule.scaling import (
-    DEFAULT_AMPLIFIER_A_PER_V, DEFAULT_WIRING, OVERLOAD_POS, SENTINELS, InputWiring, counts_to_volts, volts_to_counts,
+    DEFAULT_AMPLIFIER_A_PER_V, DEFAULT_WIRING, OVERLOAD_POS, SENTINELS, InputWiring, counts_to_volts,
+    volts_to_counts,
 )
 from telethermo.rig import SimulatedRig
 
@@ -150,7 +151,8 @@ class IoModule:
     def _on_peer(self, event: PeerEvent) -> None:
         dev = self.device
         with dev.lock:
-            self._apply_output(f"node {event.node_id} {event.kind}")   # the output first, whatever 0x1029 says
+            # the output first, whatever 0x1029 says
+            self._apply_output(f"node {event.node_id} {event.kind}")
             if event.kind != "lost":
                 return
             behaviour = int(dev.read((ERROR_BEHAVIOUR, 1)))
@@ -180,7 +182,8 @@ class IoModule:
             bad = code in SENTINELS
             if bad and not self._sentinel[ch - 1]:
                 log.warning("input %d (%s) reads its sentinel %d", ch, wire.signal, code)
-                dev.raise_emcy(EMCY_INPUT_SENTINEL, data=bytes([ch]) + code.to_bytes(2, "little", signed=True),
+                data = bytes([ch]) + code.to_bytes(2, "little", signed=True)
+                dev.raise_emcy(EMCY_INPUT_SENTINEL, data=data,
                                source=input_source(ch))
             elif not bad and self._sentinel[ch - 1]:
                 dev.clear_emcy(EMCY_INPUT_SENTINEL, source=input_source(ch))

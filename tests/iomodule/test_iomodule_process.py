@@ -7,95 +7,20 @@ import os
 import signal
 import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 
-import can
 import canopen
 import pytest
 
-from telethermo.bus_config import path
 from telethermo.cia301 import EMCY_HEARTBEAT, EMCY_INPUT_SENTINEL
 from telethermo.iomodule.scaling import COUNTS_PER_V, OVERLOAD_POS
-from telethermo.transport.hub import HubThread
+from tests.iomodule.helpers import CONTROLLER_ID, MODULE_ID
 
 pytestmark = pytest.mark.slow  # starts processes
 
-MODULE_ID, CONTROLLER_ID = 3, 1
 STANDIN = Path(__file__).resolve().parents[2] / "bench" / "standin_controller.py"
-EDS = str(path("io_module.eds"))
 TWO_AMPS = round(2.0 * COUNTS_PER_V)   # 1 A/V amplifier: 2 A is 6554 counts
-
-
-class Bus:
-    """The test's own view of the bus: a canopen network with the module as a RemoteNode, and the EMCY and
-    heartbeat frames of every node with their arrival time (time.monotonic, the clock the test kills by) and
-    the hub's time stamp of the frame (time.time when the hub took it from its sender: the wire's clock)."""
-
-    def __init__(self, port: int):
-        self.network = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=port,
-                                               channel="vcan0", tcp_tune=True))
-        self.network.connect()
-        self.node = self.network.add_node(MODULE_ID, EDS)
-        self.node.sdo.RESPONSE_TIMEOUT = 1.0
-        self.emcys: list[tuple[float, int, bytes, float]] = []
-        self.heartbeats: list[tuple[float, int, int, float]] = []
-        self.network.subscribe(0x80 + MODULE_ID, self._on_emcy)
-        for node_id in (MODULE_ID, CONTROLLER_ID):
-            self.network.subscribe(0x700 + node_id, self._on_heartbeat)
-
-    def _on_emcy(self, cob, data, ts):
-        self.emcys.append((time.monotonic(), int.from_bytes(data[:2], "little"), bytes(data[3:]), ts))
-
-    def _on_heartbeat(self, cob, data, ts):
-        self.heartbeats.append((time.monotonic(), cob - 0x700, data[0], ts))
-
-    def wait(self, what, timeout_s: float = 10.0, every_s: float = 0.005):
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            got = what()
-            if got:
-                return got
-            time.sleep(every_s)
-        raise AssertionError(f"timed out waiting for {what}")
-
-    def module_state(self) -> int | None:
-        states = [s for _, n, s, _ in self.heartbeats if n == MODULE_ID]
-        return states[-1] if states else None
-
-    def close(self):
-        self.network.disconnect()
-
-
-def _up(bus: Bus) -> bool:
-    try:
-        return bus.node.sdo[0x1000].raw == 0x000C0191
-    except (canopen.SdoCommunicationError, canopen.SdoAbortedError):
-        return False
-
-
-@pytest.fixture
-def rig():
-    """A hub, a running ``telethermo-iomodule`` on it and the test's RemoteNode of it, answering SDO."""
-    with HubThread() as hub:
-        exe = Path(sys.executable).with_name("telethermo-iomodule")
-        proc = subprocess.Popen([str(exe), "--node-id", str(MODULE_ID), "--scene", "pads_in_air",
-                                 "--bus", f"socketcand://127.0.0.1:{hub.port}/vcan0"],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        bus = Bus(hub.port)
-        try:
-            bus.wait(lambda: _up(bus) or proc.poll() is not None, timeout_s=60, every_s=0.1)
-            assert proc.poll() is None, proc.communicate()[1]
-            yield hub, bus, proc
-        finally:
-            bus.close()
-            proc.send_signal(signal.SIGTERM)
-            try:
-                assert proc.wait(timeout=20) == 0, proc.communicate()[1]
-            finally:
-                if proc.poll() is None:
-                    proc.kill()
 
 
 def _commission(node, *, error_mode: int) -> None:
@@ -159,7 +84,8 @@ def test_inputs_on_sync_by_the_eds_tpdos_hold_between_conversions_and_report_a_s
 
 
 def _kill_controller(rig, *, error_mode: int) -> dict:
-    """Commission, run the stand-in controller until the module applies its RPDO, SIGKILL it; what followed."""
+    """Commission, run the stand-in controller until the module applies its RPDO, SIGKILL it; what
+    followed."""
     hub, bus, _ = rig
     node = bus.node
     _commission(node, error_mode=error_mode)
@@ -195,10 +121,12 @@ def test_sigkill_of_the_controller_cuts_the_drive_to_the_substitute_by_the_modul
     assert got["emcy"][2][:1] == bytes([CONTROLLER_ID])                          # 0x8130 names the lost node
     # the module waited for its consumer time after the controller's last heartbeat (the hub's time stamps)
     assert got["silence_ms"] >= 150
-    print(f"cut after SIGKILL: {got['cut_ms']:.1f} ms (SDO-confirmed), EMCY 0x8130 after {got['emcy_ms']:.1f} ms, "
+    print(f"cut after SIGKILL: {got['cut_ms']:.1f} ms (SDO-confirmed), "
+          f"EMCY 0x8130 after {got['emcy_ms']:.1f} ms, "
           f"{got['silence_ms']:.1f} ms after the last heartbeat")
 
 
 def test_with_the_example_eds_error_mode_the_drive_keeps_pumping(rig):
     got = _kill_controller(rig, error_mode=0)
-    assert got["after"] == {"actual": TWO_AMPS, "error": 1, "drive": TWO_AMPS}   # the trap: 2 A after the loss
+    # the trap: 2 A after the loss
+    assert got["after"] == {"actual": TWO_AMPS, "error": 1, "drive": TWO_AMPS}
