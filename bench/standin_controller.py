@@ -1,7 +1,8 @@
 """A stand-in for the controller node, run as its own process by tests/iomodule and bench/hardware_bench.py:
 over the hub it starts the I/O module (NMT), then every 10 ms sends SYNC (with counter), the module's RPDO1
 (0x6411:1 = CODE) and, every 50 ms, its own heartbeat (OPERATIONAL) as node CONTROLLER_ID. It prints
-``running`` once the first cycle went out and runs until killed. Raw python-can frames: no telethermo code on this side.
+``running`` once the first cycle went out and runs until killed. Raw python-can frames: no telethermo code
+on this side.
 
     python standin_controller.py PORT MODULE_ID CONTROLLER_ID CODE
 """
