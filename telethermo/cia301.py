@@ -93,6 +93,8 @@ EMCY_PEER_INVALID = 0xFF02                # manufacturer-specific: a peer value 
                                           # implausible: the envelope's peer_invalid trip (control.trips)
 EMCY_LINK_FALLBACK = 0xFF01               # manufacturer-specific: slave lost, the master renders the last
                                           # identified material locally (telethermo.control.link_fallback)
+EMCY_INPUT_SENTINEL = 0xFF10              # manufacturer-specific: an I/O module's analog input reads its sentinel
+                                          # (overload / open circuit); data: channel, the 16-bit code (iomodule)
 
 EMCY_CODE_TEXTS = {
     EMCY_NO_ERROR: "Error reset or no error",
@@ -109,6 +111,7 @@ EMCY_CODE_TEXTS = {
     EMCY_RPDO_TIMEOUT: "RPDO timeout",
     EMCY_LINK_FALLBACK: "Device specific: peer lost, rendering the last identified material locally",
     EMCY_PEER_INVALID: "Device specific: peer value not plausible (NaN, infinite or out of range)",
+    EMCY_INPUT_SENTINEL: "Device specific: an analog input reads its sentinel (overload or open circuit)",
 }
 #: the class of an EMCY code by its high byte (xx = any)
 EMCY_CLASS_TEXTS = {

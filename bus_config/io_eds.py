@@ -1,0 +1,201 @@
+"""The object dictionary of the simulated CiA 401 I/O module (``telethermo-iomodule``), rendered to
+``bus_config/io_module.eds`` (checked in, as master.eds and slave.eds). Regenerate after editing::
+
+    python -m telethermo.bus_config.io_eds          # rewrites io_module.eds (atomically)
+    python -m telethermo.bus_config.io_eds --check  # exit 1 if the checked-in file differs
+
+What a lab's generic analog I/O module offers (docs/hardware.md, reference/canopen-io-modules.md):
+
+- 0x6401:1..6 analog inputs, INTEGER16 counts of a 16-bit ADC (±10 V = ±32768 counts), read-only,
+  TPDO-mappable: TPDO1 = channels 1..4, TPDO2 = channels 5, 6 and the output actually applied (0x2101),
+  both transmission type 1 (every SYNC).
+- 0x6411:1 analog output (the TEM current amplifier's input), INTEGER16 counts of a 16-bit DAC, RPDO1
+  (type 255: applied on receipt).
+- 0x6443:1 output error mode (0 keep the last value, 1 go to 0x6444) and 0x6444:1 substitute value
+  (INTEGER32, as the public DS401 example EDS): the output's state on a communication error or when the
+  module leaves OPERATIONAL. **The defaults are the trap of the example EDS: 0 (hold).** Commissioning
+  sets 1 and the counts of 0 A.
+- 0x1029:1 error behaviour on a communication error (0 pre-operational, 1 no change, 2 stopped).
+- 0x1016:1..2 consumer heartbeat (0: not watching; commissioning watches the controller).
+- 0x2100 ADC sampling period, ms (default 400 ms: the 2.5 Hz default of real modules; a 100 Hz loop
+  must set it).
+- 0x2101 output actual (the DAC counts applied now), 0x2102 output in its error state (0/1).
+- 0x2110 simulated wiring fault: bit n-1 set = input n open circuit (reads 0x7FFF, EMCY 0xFF10).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from telethermo.atomic import write_text_atomic
+from telethermo.bus_config import path as _path
+from telethermo.bus_config.edsgen import (
+    EDS_DATE, EDS_TIME, _check_value, _mapping, _pdo_comm, _pdo_map, _var_lines,
+)
+from telethermo.bus_config.od_types import (
+    INTEGER16, INTEGER32, UNSIGNED8, UNSIGNED16, UNSIGNED32, VISIBLE_STRING, Obj, Var, _uint,
+)
+
+FILE_NAME = "io_module.eds"
+#: the node-ID the file's $NODEID examples are checked with (the program takes any 1..127)
+DEFAULT_NODE_ID = 3
+#: analog input channels (0x6401:1..N), in the order the simulated rig side wires them (docs/hardware.md)
+N_INPUTS = 6
+#: CiA 301 0x1000: profile 401 (low word 0x0191), additional information AI (0x04) and AO (0x08)
+DEVICE_TYPE = (0x04 | 0x08) << 16 | 0x0191
+SAMPLING_INDEX, OUTPUT_ACTUAL_INDEX, OUTPUT_ERROR_INDEX, OPEN_CIRCUIT_INDEX = 0x2100, 0x2101, 0x2102, 0x2110
+#: Unit= of the manufacturer objects whose name ends in a unit od_types does not know
+_UNITS = {SAMPLING_INDEX: "ms"}
+
+
+def _int(name: str, data_type: int, access: str, default: int, low: int | None = None,
+         high: int | None = None,
+         pdo: bool = False, description: str = "") -> Var:
+    """A signed integer entry (decimal text: CiA 306 allows either)."""
+    return Var(name, data_type, access, str(default), None if low is None else str(low),
+               None if high is None else str(high), pdo, description)
+
+
+def _array(index: int, name: str, subs: list[Var], sub0_access: str = "const") -> Obj:
+    return Obj(index, name, object_type=0x8, subs={
+        0: _uint("Highest sub-index supported", UNSIGNED8, sub0_access, len(subs)),
+        **{i: v for i, v in enumerate(subs, 1)}})
+
+
+def communication_objects() -> list[Obj]:
+    """0x1000..0x1FFF of the I/O module."""
+    V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
+    return [
+        V(0x1000, _uint("Device type", UNSIGNED32, "ro", DEVICE_TYPE,
+                        description="CiA 401 analog inputs and outputs")),
+        V(0x1001, _uint("Error register", UNSIGNED8, "ro", 0, pdo=True)),
+        Obj(0x1003, "Pre-defined error field", object_type=0x8, subs={
+            0: _uint("Number of errors", UNSIGNED8, "rw", 0, description="write 0 to clear the history"),
+            **{i: _uint(f"Standard error field {i}", UNSIGNED32, "ro", 0) for i in range(1, 9)}}),
+        V(0x1005, _uint("COB-ID SYNC", UNSIGNED32, "rw", 0x80, description="consumes SYNC")),
+        V(0x1006, _uint("Communication cycle period", UNSIGNED32, "rw", 10000, 0, 10_000_000,
+                        description="us: the simulated plant advances by this at every SYNC")),
+        V(0x1008, Var("Manufacturer device name", VISIBLE_STRING, "const",
+                       "telethermo io module (simulated)")),
+        V(0x1009, Var("Manufacturer hardware version", VISIBLE_STRING, "const", "sim")),
+        V(0x100A, Var("Manufacturer software version", VISIBLE_STRING, "const", "0.1.0")),
+        V(0x1014, _uint("COB-ID EMCY", UNSIGNED32, "ro", "$NODEID+0x80")),
+        V(0x1015, _uint("Inhibit time EMCY", UNSIGNED16, "rw", 10, 0, 0xFFFF, description="100 us units")),
+        _array(0x1016, "Consumer heartbeat time", [
+            _uint(f"Consumer heartbeat time {i}", UNSIGNED32, "rw", 0,
+                  description="bits 16-23 node-ID, bits 0-15 time in ms (0: unused)") for i in (1, 2)]),
+        V(0x1017, _uint("Producer heartbeat time", UNSIGNED16, "rw", 100, 0, 0xFFFF, description="ms")),
+        Obj(0x1018, "Identity object", object_type=0x9, subs={
+            0: _uint("Highest sub-index supported", UNSIGNED8, "const", 4),
+            1: _uint("Vendor-ID", UNSIGNED32, "ro", 0, description="no CiA vendor-ID assigned"),
+            2: _uint("Product code", UNSIGNED32, "ro", 0x0401),
+            3: _uint("Revision number", UNSIGNED32, "ro", 0x00010000),
+            4: _uint("Serial number", UNSIGNED32, "ro", 0)}),
+        V(0x1019, _uint("Synchronous counter overflow value", UNSIGNED8, "rw", 0, 0, 240,
+                        description="0 no counter, 2..240 counter wraps after this value")),
+        _array(0x1029, "Error behaviour", [
+            _uint("Communication error", UNSIGNED8, "rw", 0, 0, 2,
+                  description="0 pre-operational, 1 no change, 2 stopped")], sub0_access="ro"),
+        _pdo_comm(0x1400, "RPDO1 communication parameter", "$NODEID+0x200", 255, tpdo=False),
+        _pdo_map(0x1600, "RPDO1 mapping parameter", [_mapping(0x6411, 1, 16)]),
+        _pdo_comm(0x1800, "TPDO1 communication parameter", "$NODEID+0x180", 1, tpdo=True),
+        _pdo_comm(0x1801, "TPDO2 communication parameter", "$NODEID+0x280", 1, tpdo=True),
+        _pdo_map(0x1A00, "TPDO1 mapping parameter", [_mapping(0x6401, s, 16) for s in (1, 2, 3, 4)]),
+        _pdo_map(0x1A01, "TPDO2 mapping parameter", [_mapping(0x6401, 5, 16), _mapping(0x6401, 6, 16),
+                                                     _mapping(OUTPUT_ACTUAL_INDEX, 0, 16)]),
+    ]
+
+
+def profile_objects() -> list[Obj]:
+    """The CiA 401 objects 0x6000..: analog inputs and outputs, output error mode and substitute value."""
+    return [
+        _array(0x6401, "Read analog input 16-bit", [
+            _int(f"Analog input {i}", INTEGER16, "ro", 0, pdo=True, description="ADC counts") for i in
+            range(1, N_INPUTS + 1)]),
+        _array(0x6411, "Write analog output 16-bit", [
+            _int("Analog output 1", INTEGER16, "rw", 0, -32768, 32767, pdo=True, description="DAC counts")]),
+        _array(0x6443, "Analog output error mode", [
+            _uint("Error mode output 1", UNSIGNED8, "rw", 0, 0, 1,
+                  description="0 keep the last value (the example EDS default), "
+                              "1 go to the substitute value")]),
+        _array(0x6444, "Analog output error value integer", [
+            _int("Error value output 1", INTEGER32, "rw", 0, -32768, 32767, description="DAC counts")]),
+    ]
+
+
+def manufacturer_objects() -> list[Obj]:
+    V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
+    return [
+        V(SAMPLING_INDEX, _uint("adc_sampling_period_ms", UNSIGNED16, "rw", 400, 1, 1000,
+                                description="period of the ADC conversions of every input")),
+        V(OUTPUT_ACTUAL_INDEX, _int("output_actual", INTEGER16, "ro", 0, pdo=True,
+                                    description="DAC counts applied now (0x6411 or its error value)")),
+        V(OUTPUT_ERROR_INDEX, _uint("output_error_state", UNSIGNED8, "ro", 0,
+                                    description="1 while the output is in its error state")),
+        V(OPEN_CIRCUIT_INDEX, _uint("sim_open_circuit", UNSIGNED8, "rw", 0, 0, (1 << N_INPUTS) - 1,
+                                    description="simulated wiring fault: bit n-1 set opens input n")),
+    ]
+
+
+def render() -> str:
+    """The EDS text of the I/O module."""
+    comm, manu = communication_objects() + profile_objects(), manufacturer_objects()
+    mandatory = [o for o in comm if o.index in (0x1000, 0x1001, 0x1018)]
+    optional = [o for o in comm if o not in mandatory]
+    n_rx = sum(1 for o in comm if 0x1400 <= o.index <= 0x15FF)
+    n_tx = sum(1 for o in comm if 0x1800 <= o.index <= 0x19FF)
+    out = [
+        "[FileInfo]", f"FileName={FILE_NAME}", "FileVersion=1", "FileRevision=0", "EDSVersion=4.0",
+        "Description=telethermo simulated CiA 401 analog I/O module, generated by bus_config/io_eds.py",
+        f"CreationTime={EDS_TIME}", f"CreationDate={EDS_DATE}", "CreatedBy=telethermo",
+        f"ModificationTime={EDS_TIME}", f"ModificationDate={EDS_DATE}", "ModifiedBy=telethermo", "",
+        "[DeviceInfo]", "VendorName=telethermo", "VendorNumber=0x00000000",
+        "ProductName=telethermo io module",
+        "ProductNumber=0x00000401", "RevisionNumber=0x00010000", "OrderCode=telethermo-iomodule",
+        *[f"BaudRate_{r}={int(r in (125, 250, 500, 1000))}" for r in (10, 20, 50, 125, 250, 500, 800, 1000)],
+        "SimpleBootUpMaster=0", "SimpleBootUpSlave=1", "Granularity=8", "DynamicChannelsSupported=0",
+        "GroupMessaging=0", f"NrOfRXPDO={n_rx}", f"NrOfTXPDO={n_tx}", "LSS_Supported=0", "",
+        "[DummyUsage]", *[f"Dummy{i:04d}=0" for i in range(1, 8)], "",
+        "[Comments]", "Lines=2",
+        "Line1=Analog counts: 16-bit, -32768..32767 is -10 V..+10 V (305.2 uV per count).",
+        "Line2=0x6443/0x6444 default to hold (the DS401 example's trap): commissioning sets substitute 0 A.",
+        "",
+    ]
+    lists = (("MandatoryObjects", mandatory), ("OptionalObjects", optional), ("ManufacturerObjects", manu))
+    for title, objs in lists:
+        out += [f"[{title}]", f"SupportedObjects={len(objs)}"]
+        out += [f"{i}=0x{o.index:04X}" for i, o in enumerate(objs, 1)] + [""]
+    for o in comm + manu:
+        if o.var is not None:
+            lines = _var_lines(f"{o.index:04X}", o.var)
+            if o.index in _UNITS:
+                lines.insert(-1, f"Unit={_UNITS[o.index]}")
+            out += lines
+            continue
+        out += [f"[{o.index:04X}]", f"ParameterName={o.name}", f"ObjectType=0x{o.object_type:X}",
+                f"SubNumber=0x{len(o.subs):X}", ""]
+        for sub, var in o.subs.items():
+            out += _var_lines(f"{o.index:04X}sub{sub:X}", var)
+    for line in out:
+        if "=" in line:
+            _check_value(FILE_NAME, line.split("=", 1)[1])
+    return "\n".join(out)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=f"Generate bus_config/{FILE_NAME}.")
+    parser.add_argument("--check", action="store_true", help="only compare; exit 1 if the file differs")
+    args = parser.parse_args(argv)
+    target, text = Path(_path(FILE_NAME)), render()
+    if args.check:
+        if not target.exists() or target.read_text(encoding="ascii") != text:
+            print(f"stale EDS (run python -m telethermo.bus_config.io_eds): {target}", file=sys.stderr)
+            return 1
+        return 0
+    write_text_atomic(target, text)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
