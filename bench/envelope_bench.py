@@ -27,6 +27,7 @@ import numpy as np
 from bench.bound import causal_bound  # noqa: F401  (bench.transparency_bench.run_bound uses it)
 from bench.common import current_results_dir, write_results
 from bench.transparency_bench import reference_track, run_bound
+from telethermo.offline import render_sweep
 from telethermo.offline.envelope import Condition, base_condition, condition_scene, draw_conditions, run_condition
 
 SEED = 22_2026          # the design's seed: nothing is fitted on these draws (the gains are the shipped ones)
@@ -197,25 +198,32 @@ def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> di
     bound_set = [] if a.quick else [base_condition()] + [c for c in conds if c.design == "lhs"
                                                          and c.index % BOUND_EVERY == 0]
 
-    def matrix(ex: Executor) -> tuple[list[dict[str, Any]], dict[str, Any], list[dict[str, Any]]]:
+    grid = [(m, T) for m in render_sweep.MATERIALS for T in render_sweep.OBJECT_T_C]
+    if a.quick:
+        grid = [("aluminium", 10.0), ("oak", 25.0), ("copper", 45.0)]
+
+    def matrix(ex: Executor) -> tuple[list[dict[str, Any]], dict[str, Any], list[dict[str, Any]], list[Any]]:
         fut_base = ex.submit(score, base_condition())
         fut_bounds = [ex.submit(bound_of, c) for c in bound_set]
+        fut_render = [ex.submit(render_sweep.render_touch, m, T) for m, T in grid]
         rows = run_all(ex, conds)
-        return rows, fut_base.result(), [f.result() for f in fut_bounds]
+        return rows, fut_base.result(), [f.result() for f in fut_bounds], [f.result() for f in fut_render]
 
     if a.dask:
         from dask.distributed import Client          # optional extra: pip install '.[cluster]'
         with Client(a.dask) as client:
-            rows, base, bounds = matrix(client.get_executor())
+            rows, base, bounds, render = matrix(client.get_executor())
     else:
         with ProcessPoolExecutor(max_workers=a.workers) as ex:
-            rows, base, bounds = matrix(ex)
+            rows, base, bounds, render = matrix(ex)
     out = {"quick": a.quick, "seed": SEED, **summarise(rows, base), **bound_summary(rows, bounds, base), **speed,
+           **render_sweep.summarise(render), "render_touches": render,
            "matrix_wall_s": time.perf_counter() - t0, "workers": a.workers, "base": base, "conditions": rows}
     out["workers_2_speedup"] = speed.get("workers_2_speedup")
     write_results("envelope", out)
     plot(rows, str(current_results_dir() / "envelope.png"))
-    keys = [k for k in out if k.startswith("envelope_") or k.startswith("base_") or k.startswith("workers_")]
+    keys = [k for k in out if k.startswith(("envelope_", "base_", "workers_", "render_early_rms_worst_C",
+                                            "render_beyond_band_skin"))]
     for k in keys:
         v = out[k]
         print(f"{k:40s} {v if not isinstance(v, float) else f'{v:.4g}'}")
