@@ -32,8 +32,8 @@ def test_read_and_write_by_name_and_by_index(lab):
 
 
 @pytest.mark.parametrize("name, value, code", [
-    ("T_max_C", 43.5, 0x06090031),         # REAL32 above HighLimit (a limit canopen itself drops)
-    ("T_max_C", 14.0, 0x06090032),         # below LowLimit
+    ("T_max_C", 60.5, 0x06090031),         # REAL32 above HighLimit (a limit canopen itself drops): the
+    ("T_max_C", -0.5, 0x06090032),         # probe's [0, 60] °C on the slave; below LowLimit
     ("T_min_C", math.nan, 0x06090030),     # NaN: no place in any range
     ("kp_A_per_C", 20.5, 0x06090031),
     ("ramp_limit_C_per_s", 0.0, 0x06090032),
@@ -53,6 +53,19 @@ def test_out_of_range_write_is_aborted_with_the_exact_code_and_leaves_the_value(
     assert abort_code(write) == code
     assert node.sdo[name].raw == before
     assert dev.read(name) == before
+
+
+@pytest.mark.parametrize("value, code", [(43.5, 0x06090031), (14.0, 0x06090032)])
+def test_the_masters_skin_clamps_refuse_a_wider_range(lab, value, code):
+    """The master guards skin: T_max_C beyond [15, 43] °C is refused (the slave's probe allows [0, 60])."""
+    lab.device("master")
+    node = lab.client("master")
+    before = node.sdo["T_max_C"].raw
+
+    def write():
+        node.sdo["T_max_C"].raw = value
+
+    assert abort_code(write) == code and node.sdo["T_max_C"].raw == before
 
 
 def test_boundaries_are_accepted(lab):
