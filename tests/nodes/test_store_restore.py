@@ -180,13 +180,13 @@ def test_the_cli_saves_and_restores_defaults(rig, capsys):
     assert cli_main(["set", "--bus", rig.bus_text, "master", "kp_A_per_C", str(default_kp + 0.5)]) == 0
     assert cli_main(["save", "--bus", rig.bus_text, "master"]) == 0
     out = capsys.readouterr().out
-    assert "master (node 1): all parameters saved" in out and str(rig.store) in out and "3 (saved)" in out
+    assert "master (node 1): all parameters saved" in out and str(rig.store) in out and "3 (yes - saved)" in out
     rig.stop()
     rig.start()
     assert rig.sdo["kp_A_per_C"].raw == f32(default_kp + 0.5)
     assert cli_main(["status", "--bus", rig.bus_text, "master"]) == 0
     out = capsys.readouterr().out
-    assert "1 (restored at boot)" in out and str(rig.store) in out and " UTC" in out
+    assert "1 (yes - restored at boot)" in out and str(rig.store) in out and " UTC" in out
     assert cli_main(["restore-defaults", "--bus", rig.bus_text, "master"]) == 0
     assert "next reset" in capsys.readouterr().out
     rig.stop()
