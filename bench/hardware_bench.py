@@ -30,6 +30,7 @@ from pathlib import Path
 import can
 import canopen
 
+from bench import hardware_store
 from bench.common import current_results_dir, print_table, write_results
 from telethermo.bus_config import path
 from telethermo.cia301 import EMCY_HEARTBEAT
@@ -118,5 +119,11 @@ def run(quick: bool = False, runs: int | None = None) -> dict:
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=20, help="SIGKILLs (default 20, at least 10)")
+    ap.add_argument("--only", choices=["cut", "store"], action="append",
+                    help="run only this part (repeatable): cut = the SIGKILL cut, store = store/restore "
+                         "(bench/hardware_store.py)")
     a = ap.parse_args()
-    run(runs=max(10, a.runs))
+    if "cut" in (a.only or ["cut"]):
+        run(runs=max(10, a.runs))
+    if "store" in (a.only or ["store"]):
+        sys.exit(hardware_store.main(["--only", "store"]))

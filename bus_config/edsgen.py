@@ -77,6 +77,23 @@ def _contact_pdo(contact: int, material: int, touches: int, beta: int, identific
     return [_mapping(contact, 0, 8)] + extra
 
 
+def _store_restore(index: int, title: str, signature: str) -> Obj:
+    """0x1010 / 0x1011 (CiA 301): sub 1 all, 2 communication, 3 application parameters; each reads 1 (the
+    node saves on command, telethermo.device.storage) and takes the signature written as ASCII."""
+    what = {1: "all parameters", 2: "communication parameters", 3: "application parameters"}
+    names = ({1: "Save all parameters", 2: "Save communication parameters", 3: "Save application parameters"}
+             if signature == "save" else
+             {1: "Restore all default parameters", 2: "Restore communication default parameters",
+              3: "Restore application default parameters"})
+    return Obj(index, title, object_type=0x8, subs={
+        0: _uint("Highest sub-index supported", UNSIGNED8, "const", 3),
+        **{i: _uint(names[i], UNSIGNED32, "rw", 1,
+                    description=f"{what[i]}: reads 1 (saved on command), write '{signature}' "
+                                f"(0x{int.from_bytes(signature.encode(), 'little'):08X}), "
+                                "else abort 0x08000020")
+           for i in (1, 2, 3)}})
+
+
 def communication_objects(role: str) -> list[Obj]:
     """0x1000..0x1FFF for ``role`` (master: node 1, SYNC producer; slave: node 2)."""
     own, peer = NODE_IDS[role], NODE_IDS["slave" if role == "master" else "master"]
@@ -93,6 +110,8 @@ def communication_objects(role: str) -> list[Obj]:
         V(0x1008, Var("Manufacturer device name", VISIBLE_STRING, "const", f"telethermo {role}")),
         V(0x1009, Var("Manufacturer hardware version", VISIBLE_STRING, "const", "sim")),
         V(0x100A, Var("Manufacturer software version", VISIBLE_STRING, "const", "0.1.0")),
+        _store_restore(0x1010, "Store parameters", "save"),
+        _store_restore(0x1011, "Restore default parameters", "load"),
         V(0x1014, _uint("COB-ID EMCY", UNSIGNED32, "ro", "$NODEID+0x80")),
         V(0x1015, _uint("Inhibit time EMCY", UNSIGNED16, "rw", 10, 0, 0xFFFF, description="100 us units")),
         Obj(0x1016, "Consumer heartbeat time", object_type=0x8, subs={

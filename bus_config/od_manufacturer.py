@@ -5,7 +5,8 @@ from __future__ import annotations
 
 from typing import Any, Callable
 
-from telethermo.bus_config.od_types import (BOOLEAN, UNSIGNED8, UNSIGNED16, UNSIGNED32, Obj, _real, _real64, _uint)
+from telethermo.bus_config.od_types import (BOOLEAN, UNSIGNED8, UNSIGNED16, UNSIGNED32, VISIBLE_STRING, Obj,
+                                            Var, _real, _real64, _uint)
 
 
 # power-on gains per role (A/degC, A/(degC*s), A/W). Neutral placeholders: a node program writes its
@@ -212,6 +213,14 @@ def _identification_status_objects(V: Callable[[int, Any], Obj], role: str) -> l
         V(0x2713, _uint("sync_count", UNSIGNED32, "ro", 0, description="SYNC objects processed")),
         V(0x2714, _uint("rpdo_count", UNSIGNED32, "ro", 0, description="RPDOs accepted")),
         V(0x2715, _uint("peer_losses", UNSIGNED32, "ro", 0, description="heartbeat-consumer timeouts")),
+        # -- parameter store (0x1010/0x1011, written by the node: telethermo.nodes.store_slot)
+        V(0x2720, _uint("store_state", UNSIGNED8, "ro", 0,
+                        description="0 no - defaults, 1 yes - restored at boot, 2 no - store file refused at "
+                                    "boot, defaults, 3 yes - saved, 4 no - defaults from the next reset")),
+        V(0x2721, _uint("store_saved_unix_s", UNSIGNED32, "ro", 0,
+                        description="when the store in force was saved, s since 1970-01-01 UTC (0: none)")),
+        V(0x2722, Var("store_file", VISIBLE_STRING, "ro", "-",
+                      description="the node's store file (--store)")),
     ]
 
 

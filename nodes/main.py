@@ -83,7 +83,7 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 
     lockstep = opts.timing == "lockstep"
     rt = NodeRuntime(role, node_id, net, transport, parts, mode=opts.mode, lockstep=lockstep,
-                     produce_sync=opts.produce_sync, recorder=recorder)
+                     produce_sync=opts.produce_sync, recorder=recorder, store_path=opts.store)
     rt.final_comments = final_comments
     reason = ["finished"]
 

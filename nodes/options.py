@@ -52,6 +52,8 @@ class NodeOptions:
         json: the SYNC producer ends with one ``result {json}`` line on stdout instead of the summary table.
         verbose: log at INFO level.
         recover: only turn the journal of ``record`` left by a killed node into ``record``, then exit.
+        store: the node's CiA 301 store file (0x1010/0x1011; None:
+            ``$XDG_STATE_HOME/telethermo/node<ID>.json``).
     """
 
     role: Role
@@ -80,6 +82,7 @@ class NodeOptions:
     log: Path | None = None
     verbose: bool = False
     recover: bool = False
+    store: Path | None = None
 
 
 def build_parser(role: Role) -> argparse.ArgumentParser:
@@ -137,6 +140,10 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     rt.add_argument("--mlock", action="store_true", help="lock the node's memory (no page faults in a cycle)")
     rt.add_argument("--gc", choices=["default", "freeze"], default="default",
                     help="freeze: move start-up objects out of the garbage collector, rarer generation-0 runs")
+    p.add_argument("--store", type=Path, metavar="FILE.json",
+                   help="the node's parameter store (CiA 301 0x1010 save / 0x1011 restore defaults; "
+                        "`telethermo save NODE`): read at boot, written on save (default: "
+                        "$XDG_STATE_HOME/telethermo/node<ID>.json, ~/.local/state/... when unset)")
     p.add_argument("--log", type=Path, help="also write the log to this file")
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
@@ -202,6 +209,8 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         raise OptionError("--mode render: virtual rendering runs on the master alone")
     if args.record is not None and args.record.exists() and args.record.is_dir():
         raise OptionError(f"--record {str(args.record)!r}: is a directory, expected a CSV file path")
+    if args.store is not None and args.store.is_dir():
+        raise OptionError(f"--store {str(args.store)!r}: is a directory, expected a file path (FILE.json)")
     return NodeOptions(
         role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
         interface=args.interface, channel=args.channel, bitrate=args.bitrate,
@@ -211,7 +220,7 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         gains=existing(args.gains, "--gains"), mode=mode,
         record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
         wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), json=args.json,
-        log=args.log, verbose=args.verbose)
+        log=args.log, verbose=args.verbose, store=args.store)
 
 
 def rig_arg(text: str) -> tuple[str, Any]:

@@ -15,7 +15,7 @@ from telethermo.device.device import Device, WriteEvent
 from telethermo.control.rendering import load_render_table
 from telethermo.control.types import Mode
 
-from telethermo.nodes.odparams import PARAM_KEYS, ParamBook, od_image
+from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, ParamBook, od_image
 
 if TYPE_CHECKING:
     from telethermo.nodes.runtime import NodeRuntime
@@ -40,6 +40,10 @@ class ParamSlot:
         self._render_table: dict[str, float] | None = None
         self._w: dict = {}
         self.keys: dict[int, str] = {}
+        self.written: dict[str, object] = {}
+        """Parameters written since the power-on values, last write last: ``name`` -> value, a gain as
+        ``name@MODE`` (each mode has its own); ``mode`` is not kept. What a CiA 301 store saves
+        (:mod:`nodes.store_slot`)."""
 
     def bind(self, dev: Device) -> None:
         """The OD writers of the parameter objects and the book's validators of SDO writes."""
@@ -65,8 +69,18 @@ class ParamSlot:
                               script_first=self.script_rs if parts.render_script is not None else None,
                               mode=self.configured_mode, peer_miss_limit=int(dev.read(PEER_MISS_INDEX)))
         self.mode = self.configured_mode
+        self.written = {}
+        self.rebuild()
+
+    def rebuild(self) -> None:
+        """The controller's parameters from the book now (power-on; after stored values were replayed)."""
         self.params = self.book.params(render=self.scripted_render())
         self.version = self.book.version
+
+    def record(self, tag: str, value) -> None:
+        """A parameter write to keep for a store (see :attr:`written`)."""
+        self.written.pop(tag, None)
+        self.written[tag] = value
 
     def scripted_render(self):
         """The render script's settings in force (with the operator's pad β / finger temperature),
@@ -133,5 +147,8 @@ class ParamSlot:
         except ValueError as exc:
             log.error("%s = %r not applied: %s", key, ev.value, exc)
             self.book.version += 1  # the next SYNC rewrites the OD with the truth
+        else:
+            if key != "mode":
+                self.record(f"{key}@{self.book.mode.name}" if key in GAIN_KEYS else key, ev.value)
         log.info("%s = %r (takes effect at the next SYNC)", key, ev.value)
         return True

@@ -26,11 +26,13 @@ import logging
 import threading
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable
 
 import canopen
 
 from telethermo.device.device import Device, NmtCommand, NmtState, PeerEvent, SyncTick, WriteEvent
+from telethermo.device.storage import default_store_path
 from telethermo.device.netconfig import NetworkConfig
 from telethermo.device.sync import SyncProducer
 from telethermo.control.types import Mode, Role
@@ -48,6 +50,7 @@ from telethermo.nodes.parts import NodeParts
 from telethermo.nodes.peer import PeerLink
 from telethermo.nodes.producer import run_producer, wait_for_peer
 from telethermo.nodes.schedule import RealtimeTicker, SyncNumbering
+from telethermo.nodes.store_slot import StoreSlot
 from telethermo.nodes.sync_anchor import read_producer_sync_count
 
 log = logging.getLogger("telethermo.node")
@@ -80,7 +83,8 @@ class NodeRuntime:
 
     def __init__(self, role: Role, node_id: int, net: NetworkConfig, transport: TransportSettings,
                  parts: NodeParts, *, mode: Mode, lockstep: bool, produce_sync: bool,
-                 recorder: CsvRecorder | None = None, record_timing: bool = True) -> None:
+                 recorder: CsvRecorder | None = None, record_timing: bool = True,
+                 store_path: Path | None = None) -> None:
         self.role = role
         self.prefix = "m" if role is Role.MASTER else "s"
         self.node_id = node_id
@@ -97,6 +101,7 @@ class NodeRuntime:
         self.settings = ParamSlot(self, mode)
         self.models = ModelSlot(self)
         self.ident = IdentService(self)
+        self.store = StoreSlot(self, store_path if store_path is not None else default_store_path(node_id))
         self.cycle = ControlCycle(self)
         self.fallback = FallbackCycles(self)
         self.bus_outage = BusOutage(self)
@@ -146,6 +151,8 @@ class NodeRuntime:
         eds = self.net.node(self.role).eds
         dev = Device(self.network, self.node_id, eds, settings=settings)
         self.device = dev
+        self.store.bind(dev)
+        self.store.load(dev)   # stored communication values before anything reads them or the device starts
         dev.add_sync_handler(self._on_sync)
         self._sync_numbering = SyncNumbering(int(dev.read(0x1019)) if 0x1019 in dev.od else 0)
         if not self.produce_sync:   # SYNCs the device ignores (STOPPED) still count (recordings' sync_cycle)
@@ -187,10 +194,11 @@ class NodeRuntime:
         node (the device has restored the EDS values: a fresh book, a fresh peer link)."""
         dev = self.device
         self.settings.power_on(dev, has_model=self.parts.model is not None)
-        self.peer = PeerLink(max_missed_cycles=self.settings.book.peer_miss_limit)
         dev.write(LOCKSTEP_INDEX, bool(self.lockstep), check=False)
         self.models.power_on()
         self.settings.book.has_model = self.models.model is not None
+        self.store.restore_application()   # the stored model and parameters (nodes.store_slot)
+        self.peer = PeerLink(max_missed_cycles=self.settings.book.peer_miss_limit)
         self.ident.power_on()
         self.settings.write_image()
 

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import time
 
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
@@ -30,6 +31,7 @@ FIELDS = (
     ("identification", "ident_state"),
     ("material (id)", "identified_material"), ("material beta", "identified_beta"),
     ("material touches", "identified_touches"),
+    ("stored", "store_state"), ("stored at", "store_saved_unix_s"), ("store file", "store_file"),
 )
 
 
@@ -51,6 +53,8 @@ def pretty(value, info, eds) -> str:
     text = values.fmt(value, info, eds)
     if info.key == "identified_material":
         text += f" ({material_name(value)})"
+    if info.key == "store_saved_unix_s":   # seconds since 1970 as a person reads them
+        text = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(value)) if value else "-"
     return text
 
 

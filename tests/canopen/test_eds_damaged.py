@@ -24,7 +24,8 @@ def damaged(tmp_path: Path) -> dict[str, tuple[Path, str]]:
     files = {
         "not_ini": ("[FileInfo]\nFileName=x\n[1000\nParameterName=Device type\n", "not an INI/EDS file"),
         "empty": ("", "not an EDS file (an empty file"),
-        "cut_mid_line": (MASTER[: len(MASTER) // 3], "not an INI/EDS file"),
+        # cut inside a section header about a third of the way in (an unterminated "[1A" line)
+        "cut_mid_line": (MASTER[: MASTER.index("\n[", len(MASTER) // 3) + 4], "not an INI/EDS file"),
         "cut_at_a_line": ("".join(lines[: len(lines) // 3]), "listed object(s) have no section"),
         "no_object_lists": ("[FileInfo]\nFileName=x.eds\n", "no [MandatoryObjects] section"),
     }

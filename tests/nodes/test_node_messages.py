@@ -30,7 +30,8 @@ def test_help_tells_the_model_default_and_the_exit_codes():
 
 def test_a_damaged_eds_exits_2_naming_the_file_and_line(tmp_path):
     eds = tmp_path / "master.eds"
-    eds.write_text(bc("master.eds").read_text()[:3000])    # cut in the middle of an entry
+    text = bc("master.eds").read_text()
+    eds.write_text(text[: text.index("\n[", 3000) + 4])    # cut in the middle of a section header
     net = tmp_path / "network.toml"
     net.write_text(f'[nodes.master]\nnode_id = 1\neds = "{eds}"\n[nodes.slave]\nnode_id = 2\neds = "{bc("slave.eds")}"\n')
     p = node("master", "--network", str(net), "--scene", "probe_touches_al_steel_wood", "--bus", "virtual:tt-eds",
