@@ -116,7 +116,8 @@ def start_lone_node(role: str, scene: Path, out_dir: Path, *bus_args: str, mode:
     ``out_dir/<role>.log`` and its stderr to ``out_dir/<role>-stderr.log``. Stop it with :func:`stop_process`."""
     out_dir.mkdir(parents=True, exist_ok=True)
     return subprocess.Popen(node_command(role, *bus_args, "--scene", str(scene), "--mode", mode, "--cycles", "0",
-                                         "--timing", timing, "--wait-peer", "0", "--log", str(out_dir / f"{role}.log")),
+                                         "--timing", timing, "--wait-peer", "0", "--log", str(out_dir / f"{role}.log"),
+                                         "--store", str(out_dir / f"{role}-store.json")),
                             stdout=subprocess.DEVNULL, stderr=open(out_dir / f"{role}-stderr.log", "ab"),
                             start_new_session=True)
 
@@ -180,8 +181,11 @@ class NodePair:
 
     def _common(self, role: str) -> list[str]:
         c = self.config
+        # a session of simulated rigs keeps its parameter store in its own folder: settings a lab saved for its
+        # hardware nodes (the per-user default store) never change a session's figures
         args = ["--bus", self.bus, "--scene", str(c.scene), "--record", str(self.recording(role)),
-                "--mode", c.mode, "--timing", c.timing, "--log", str(self.log(role))]
+                "--mode", c.mode, "--timing", c.timing, "--log", str(self.log(role)),
+                "--store", str(self.out_dir / f"{role}-store.json")]
         if c.network is not None:
             args += ["--network", str(c.network)]
         if c.model is not None:
