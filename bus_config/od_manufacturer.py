@@ -206,6 +206,10 @@ def _identification_status_objects(V: Callable[[int, Any], Obj], role: str) -> l
                                     "(0x080 heat_sink, 0x200 peer_lost, ...)")),
         V(0x2707, _uint("fault_reset_blocked_by", UNSIGNED16, "ro", 0,
                         description="the trips whose cause persisted at the last refused fault reset (same bits)")),
+        V(0x2708, _uint("limits_active", UNSIGNED8, "ro", 0,
+                        description="the envelope's limits that acted in the last cycle: bit 0 setpoint clamp (a "
+                                    "target beyond the clamps saturates there), 1 ramp, 2 hot cap, 3 guard, 4 current "
+                                    "limit, 5 neutral ramp, 6 cut, 7 slew")),
         # -- device-layer diagnostics (written by telethermo.device)
         V(0x2710, _uint("malformed_frames", UNSIGNED32, "ro", 0, description="frames with a wrong length, ignored")),
         V(0x2711, _uint("unknown_cobid_frames", UNSIGNED32, "ro", 0, description="frames with a COB-ID outside the contract")),

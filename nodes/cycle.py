@@ -38,7 +38,8 @@ MAX_TIMING_SAMPLES = 1_000_000
 _WRITERS = ("T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_decision", "force_N", "estimate_C",
             "T_pred_C", "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "active_trips",
             "fault_reset", "fault_reset_blocked_by", "identified_material", "identified_beta", "identified_se_ln_b",
-            "identified_posterior", "identified_touches", "identified_T_object0_C", "link_fallback_active")
+            "identified_posterior", "identified_touches", "identified_T_object0_C", "link_fallback_active",
+            "limits_active")
 
 
 def material_status(w, m) -> None:
@@ -184,6 +185,7 @@ class ControlCycle:
         w["T_cmd_C"](st.setpoint_C)
         w["safety_state"](int(st.safety.state))
         w["active_trips"](sf.trips_mask(res.state.env.trips))
+        w["limits_active"](sf.limits_mask(st.safety.limits_active))
         w["link_fallback_active"](bool(st.link_fallback))
         if st.safety.state != self._safety_state:
             if self._safety_state is not None:

@@ -13,6 +13,7 @@ from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
 from telethermo.cli import common
 from telethermo.control.render_table import material_name
+from telethermo.control.safety_limits import limits_from_mask
 from telethermo.remote import values
 from telethermo.remote.client import NodeClient, remote_node
 from telethermo.remote.errors import Failure, UserError
@@ -24,6 +25,7 @@ FIELDS = (
     ("mode", "mode"), ("T_sensor", "T_sensor_C"), ("T_sink", "T_sink_C"), ("estimate", "estimate_C"),
     ("T_pred", "T_pred_C"), ("T_cmd", "T_cmd_C"), ("peer estimate", "peer_estimate_C"), ("flux", "Q_W"),
     ("peer flux", "peer_Q_W"), ("current", "current_A"), ("contact", "contact"), ("safety", "safety_state"),
+    ("limits", "limits_active"),
     ("last trip", "last_trip_code"), ("latched trips", "active_trips"), ("cycles", "cycle_counter"), ("late cycles", "late_cycles"),
     ("lockstep", "lockstep"), ("peer alive", "peer_alive"), ("link fallback", "link_fallback_active"),
     ("error register", "0x1001"),
@@ -53,6 +55,8 @@ def pretty(value, info, eds) -> str:
     text = values.fmt(value, info, eds)
     if info.key == "identified_material":
         text += f" ({material_name(value)})"
+    if info.key == "limits_active":       # which limit acted: a target beyond the clamps shows setpoint_clamp
+        text = ", ".join(limits_from_mask(int(value))) or "none"
     if info.key == "store_saved_unix_s":   # seconds since 1970 as a person reads them
         text = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(value)) if value else "-"
     return text

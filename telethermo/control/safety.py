@@ -57,7 +57,8 @@ class SafetyState(IntEnum):
 
 from telethermo.control.safety_limits import (DEFAULT_T_MAX_C, DEFAULT_T_MIN_C, DEFAULT_TRIP_LEAD_C,  # noqa: F401
                                               DEFAULT_TRIP_SLEW_A_PER_S, PROBE_T_MAX_C, PROBE_T_MIN_C, PROTECTS,
-                                              SafetyLimits, probe_limits)
+                                              LIMIT_NAMES, SafetyLimits, limits_from_mask, limits_mask,
+                                              probe_limits)
 
 
 # ---------------------------------------------------------------------------------------------

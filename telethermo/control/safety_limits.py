@@ -141,3 +141,26 @@ def probe_limits(**overrides: object) -> SafetyLimits:
                                  hot_time_limit_s=600.0)
     kw.update(overrides)
     return SafetyLimits(**kw)  # type: ignore[arg-type]
+
+
+#: the limits an envelope step reports (``EnvelopeStatus.limits_active``), bit i of the node's ``limits_active``
+#: object (0x2708): a target beyond the clamps saturates there (bit 0) and the operator sees it in ``status``
+LIMIT_NAMES = ("setpoint_clamp", "ramp", "hot_cap", "guard", "current_limit", "neutral_ramp", "cut", "slew")
+
+
+def limits_mask(names: tuple[str, ...] | list[str]) -> int:
+    """Bit mask of limit names (unknown names ignored).
+
+    >>> limits_mask(("setpoint_clamp", "guard"))
+    9
+    """
+    return sum(1 << LIMIT_NAMES.index(n) for n in set(names) if n in LIMIT_NAMES)
+
+
+def limits_from_mask(mask: int) -> list[str]:
+    """The names of the bits set in ``mask``.
+
+    >>> limits_from_mask(9)
+    ['setpoint_clamp', 'guard']
+    """
+    return [n for i, n in enumerate(LIMIT_NAMES) if mask >> i & 1]

@@ -74,3 +74,38 @@ def test_sdo_on_the_running_node(bus, capsys):
                                                 "Invalid value for parameter (download only)")]:
         code, out, err = cli(capsys, "sdo", "--bus", bus, "1", *argv)
         assert code == EXIT_FAIL and out == "" and err == f"telethermo sdo: {expected}\n", argv
+
+
+def test_a_target_beyond_the_skin_clamp_saturates_and_status_says_so(bus, capsys):
+    """Render brass at 60 °C: eq. 7's pre-set lies beyond the skin's 43 °C clamp, so the setpoint saturates at
+    the clamp (no trip, no cut) and `status` names the limit; back to idle, the limit clears (issue 22)."""
+    import canopen
+
+    from telethermo.bus_config import path as eds_path
+    from telethermo.control.safety_limits import limits_from_mask
+
+    assert wait_for(lambda: cli(capsys, "get", "--bus", bus, "--timeout", "0.3", "master", "mode")[0] == EXIT_OK, 30)
+    code, out, err = cli(capsys, "mode", "--bus", bus, "render", "brass", "--object-temp", "60")
+    assert code == EXIT_OK, err
+    net = canopen.Network()
+    host, port_channel = bus.split("://")[1].split(":", 1)
+    port, channel = port_channel.split("/", 1)
+    net.connect(interface="socketcand", host=host, port=int(port), channel=channel)
+    try:
+        node = net.add_node(canopen.RemoteNode(1, str(eds_path("master.eds"))))
+        seen = []
+        assert wait_for(lambda: seen.append(node.sdo["limits_active"].raw) or "setpoint_clamp" in
+                        limits_from_mask(seen[-1]), 20), seen
+        assert node.sdo["safety_state"].raw in (1,)                 # limiting, not cut
+        assert node.sdo["T_cmd_C"].raw <= 43.0 + 1e-4               # the setpoint sits at the clamp
+        assert node.sdo["active_trips"].raw == 0
+        code, out, err = cli(capsys, "status", "--bus", bus, "master")
+        assert code == EXIT_OK, err
+        line = next(ln for ln in out.splitlines() if ln.strip().startswith("limits"))
+        assert "setpoint_clamp" in line, out
+    finally:
+        back = cli(capsys, "set", "--bus", bus, "master", "mode", "idle")   # `mode` wants the slave too
+        net.disconnect()
+    assert back[0] == EXIT_OK, back
+    assert wait_for(lambda: cli(capsys, "get", "--bus", bus, "master", "mode")[1].startswith("master 0x2500 mode = 0"),
+                    20), cli(capsys, "get", "--bus", bus, "master", "mode")
