@@ -10,7 +10,12 @@ import os
 from typing import Any
 
 from telethermo import sim
+from telethermo.offline.envelope import Condition, condition_scene, draw_conditions
 from telethermo.sim.bodies import FingerParams
+
+#: the seed of the tuner's envelope draws: disjoint from the envelope benchmark's evaluation design
+#: (bench/envelope_bench.py, seed 222026), so gains are never judged on the draws they were tuned on
+TUNE_ENVELOPE_SEED = 7
 
 
 def perturbed_scene(scene: Any) -> Any:
@@ -47,9 +52,24 @@ def perturbed_scene(scene: Any) -> Any:
                                seed=(sc.seed or 0) + 100)
 
 
-def tuning_scenes(scene: Any, *, perturbed: bool = True) -> list[Any]:
-    """The scenes an objective averages over: ``scene`` and (default) its :func:`perturbed_scene`."""
+def envelope_scenes(n: int, seed: int = TUNE_ENVELOPE_SEED) -> list[Any]:
+    """``n`` §5.3 scenes drawn across the operating envelope (telethermo.offline.envelope: room, objects'
+    temperature, materials and thickness, force, finger, noise) with the shipped TEM on both rigs: the tuner
+    tunes the reference gains on the reference module, and the gain rule (telethermo.control.gain_rule) carries
+    them to another module through its identified model. Seeded apart from the evaluation design."""
+    shipped = {f: getattr(Condition(index=0, design="", materials=("oak", "oak", "oak")), f)
+               for f in Condition.__dataclass_fields__ if f[:2] in ("m_", "s_")}
+    out = []
+    for c in draw_conditions(n, seed, corners=False):
+        sc, _ = condition_scene(dataclasses.replace(c, delay_ms=0.0, **shipped))
+        out.append(dataclasses.replace(sc, name=f"envelope_tune_{c.index}"))
+    return out
+
+
+def tuning_scenes(scene: Any, *, perturbed: bool = True, envelope: int = 0) -> list[Any]:
+    """The scenes an objective averages over: ``scene``, (default) its :func:`perturbed_scene`, and
+    ``envelope`` draws across the operating envelope (:func:`envelope_scenes`)."""
     sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
     if sc.kind != "telepresence":
         raise ValueError(f"tuning: scene {sc.name!r} is {sc.kind!r}; the bilateral gains need a telepresence scene")
-    return [sc, perturbed_scene(sc)] if perturbed else [sc]
+    return ([sc, perturbed_scene(sc)] if perturbed else [sc]) + (envelope_scenes(envelope) if envelope else [])
