@@ -13,7 +13,10 @@ others' kept):
   ``io_module_silence_ms_min``: the shortest time from the controller's last heartbeat to that EMCY, by the
   hub's time stamps (≥ the 150 ms consumer time: the module never cuts early).
 
-    python -m bench.hardware_bench [--runs N]
+- the I/O rig's figures (``--only io``): bench.io_rig_bench (the §5.3 headline through in-process simulated
+  modules against the direct rig; the bus load of the four-node session at 100 Hz over the hub).
+
+    python -m bench.hardware_bench [--runs N] [--only cut|io]
 """
 from __future__ import annotations
 
@@ -30,7 +33,7 @@ from pathlib import Path
 import can
 import canopen
 
-from bench import hardware_store
+from bench import hardware_store, io_rig_bench
 from bench.common import current_results_dir, print_table, write_results
 from telethermo.bus_config import path
 from telethermo.cia301 import EMCY_HEARTBEAT
@@ -106,11 +109,20 @@ def measure(runs: int) -> dict:
             "io_module_consumer_ms": CONSUMER_MS}
 
 
-def run(quick: bool = False, runs: int | None = None) -> dict:
-    got = measure(runs or (10 if quick else 20))
-    print_table(["figure", "ms"], [[k, got[k]] for k in OWN_KEYS if k not in ("io_module_cut_runs",)])
+def run(quick: bool = False, runs: int | None = None, parts: tuple[str, ...] = ("cut", "io")) -> dict:
+    """The figures of ``parts`` ("cut": the SIGKILL cut; "io": the I/O rig, bench.io_rig_bench), merged into
+    hardware.json (every other key kept: other benches write theirs there too)."""
+    got: dict = {}
+    if "cut" in parts:
+        got.update(measure(runs or (10 if quick else 20)))
+        print_table(["figure", "ms"], [[k, got[k]] for k in OWN_KEYS if k not in ("io_module_cut_runs",)])
+    if "io" in parts:
+        io = {**io_rig_bench.headline(duration_s=5.0 if quick else None),
+              **io_rig_bench.bus_load_4_nodes(cycles=300 if quick else 1000)}
+        print_table(["figure", "value"], [[k, v] for k, v in io.items() if not isinstance(v, dict)])
+        got.update(io)
     target = current_results_dir() / "hardware.json"
-    old = json.loads(target.read_text()) if target.exists() else {}
+    old = json.loads(target.read_text()) if target.exists() else {}   # read just before writing: merge
     old.pop("provenance", None)
     write_results("hardware", {**old, **got})
     return got
@@ -119,11 +131,12 @@ def run(quick: bool = False, runs: int | None = None) -> dict:
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=20, help="SIGKILLs (default 20, at least 10)")
-    ap.add_argument("--only", choices=["cut", "store"], action="append",
-                    help="run only this part (repeatable): cut = the SIGKILL cut, store = store/restore "
-                         "(bench/hardware_store.py)")
+    ap.add_argument("--only", choices=["cut", "io", "store"], action="append",
+                    help="run only this part (repeatable): cut = the SIGKILL cut, io = the I/O rig figures, "
+                         "store = store/restore (bench/hardware_store.py)")
     a = ap.parse_args()
-    if "cut" in (a.only or ["cut"]):
-        run(runs=max(10, a.runs))
-    if "store" in (a.only or ["store"]):
+    parts = tuple(a.only or ("cut", "io", "store"))
+    if {"cut", "io"} & set(parts):
+        run(runs=max(10, a.runs), parts=tuple(p for p in parts if p in ("cut", "io")))
+    if "store" in parts:
         sys.exit(hardware_store.main(["--only", "store"]))

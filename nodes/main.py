@@ -68,7 +68,7 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
                                 bitrate=opts.bitrate).settings
         node_id = opts.node_id or net.node(role).node_id
         EdsInfo(net.node(role).eds)   # a damaged EDS is a bad file (exit 2, its line), not a failed start
-        parts = build_parts(opts, period_s=net.sync.period_s)
+        parts = build_parts(opts, period_s=net.sync.period_s, node_id=node_id, transport=transport)
     except (OptionError, NetworkConfigError, TransportError, EdsError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -113,6 +113,9 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
             code = EXIT_FAIL
     finally:
         rt.stop(reason[0])
+        close_rig = getattr(parts.rig, "close", None)
+        if callable(close_rig):
+            close_rig()
     return code
 
 

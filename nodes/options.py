@@ -100,7 +100,9 @@ def build_parser(role: Role) -> argparse.ArgumentParser:
     add_bus_arguments(p)
     rig = p.add_mutually_exclusive_group()   # one of them is required, except with --recover
     rig.add_argument("--scene", type=Path, help="scene file (TOML) or the name of a shipped scene: simulated rig")
-    rig.add_argument("--rig", metavar="MODULE:FACTORY", help="hardware rig: FACTORY(**settings) returns a telethermo.rig.Rig")
+    rig.add_argument("--rig", metavar="MODULE:FACTORY",
+                     help="hardware rig: FACTORY(**settings) returns a telethermo.rig.Rig; io: CANopen I/O "
+                          "modules described by --rig-config RIG.toml (docs/hardware.md)")
     p.add_argument("--rig-config", type=Path, metavar="FILE.toml",
                    help="settings of the --rig driver: the TOML file's top-level keys are FACTORY's keyword arguments")
     p.add_argument("--rig-arg", action="append", default=[], metavar="KEY=VALUE",
@@ -192,8 +194,8 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         raise OptionError(f"--node-id {args.node_id}: expected 1..127")
     if args.cycles is not None and args.cycles < 0:
         raise OptionError(f"--cycles {args.cycles}: expected >= 0")
-    if args.rig is not None and ":" not in args.rig:
-        raise OptionError(f"--rig {args.rig!r}: expected MODULE:FACTORY")
+    if args.rig is not None and ":" not in args.rig and args.rig != "io":
+        raise OptionError(f"--rig {args.rig!r}: expected MODULE:FACTORY or io (CANopen I/O modules)")
     if args.rig_config is not None and args.rig is None:
         raise OptionError("--rig-config: settings of a hardware rig driver, only with --rig")
     if args.rig_arg and args.rig is None:
@@ -202,8 +204,9 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         raise OptionError(f"--wait-peer {args.wait_peer}: expected >= 0 s")
     produce_sync = args.produce_sync if args.produce_sync is not None else role is Role.MASTER
     timing = args.timing or ("lockstep" if args.scene is not None else "realtime")
-    if timing == "lockstep" and args.scene is None:
-        raise OptionError("--timing lockstep needs a simulated rig (--scene): hardware runs in real time")
+    if timing == "lockstep" and args.scene is None and args.rig != "io":
+        raise OptionError("--timing lockstep needs a simulated rig (--scene) or simulated I/O modules "
+                          "(--rig io): hardware runs in real time")
     mode = MODE_NAMES[args.mode] if args.mode else (Mode.TELEPRESENCE)
     if mode is Mode.RENDER and role is Role.SLAVE:
         raise OptionError("--mode render: virtual rendering runs on the master alone")

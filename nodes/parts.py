@@ -22,12 +22,17 @@ from telethermo.control.gainsfile import load_gains
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.ident import load_model
+from telethermo.iomodule.iorig import IoRig, IoRigError
+from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
 from telethermo.rig import Rig
 from telethermo.offline.render_script import RenderScript
 from telethermo.offline.runner import finger_skin_C
+from telethermo.transport.bus import TransportSettings
 
 from telethermo.nodes.options import NodeOptions, OptionError
 
+#: ``--rig io``: the I/O rig driver (telethermo.iomodule.iorig), configured by ``--rig-config RIG.toml``
+IO_RIG = "io"
 #: default noise seeds, as the offline runner's default (seed=0: master 0, slave 1)
 DEFAULT_SEEDS = {Role.MASTER: 0, Role.SLAVE: 1}
 
@@ -71,8 +76,11 @@ class NodeParts:
     """The finger thermometer of a simulated master rig (skin temperature, °C)."""
 
 
-def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
-    """Rig, parameters and model of ``opts``; ``period_s`` is the network's SYNC period, s."""
+def build_parts(opts: NodeOptions, *, period_s: float, node_id: int | None = None,
+                transport: TransportSettings | None = None) -> NodeParts:
+    """Rig, parameters and model of ``opts``; ``period_s`` is the network's SYNC period, s; ``node_id`` and
+    ``transport`` are the node's (the I/O rig, ``--rig io``, commissions its modules to watch ``node_id`` over
+    its own connection to ``transport``)."""
     model = None
     if opts.model is not None:
         try:
@@ -90,11 +98,15 @@ def build_parts(opts: NodeOptions, *, period_s: float) -> NodeParts:
         meta["gains"] = {"file": str(opts.gains), **gains}
     if opts.scene is not None:
         rig, cycles, truth, script, finger_skin = _scene_rig(opts, period_s, meta)
+    elif opts.rig == IO_RIG:
+        rig = _io_rig(opts, period_s, node_id, transport)
+        cycles = truth = script = finger_skin = None
+        meta.update(rig=opts.rig, rig_config=str(opts.rig_config))
     else:
         rig, cycles, truth, script, finger_skin = _hardware_rig(opts, period_s), None, None, None, None
         meta.update(rig=opts.rig)
     simulated = callable(getattr(rig, "advance", None))
-    if opts.timing == "lockstep" and not simulated:
+    if opts.timing == "lockstep" and not (simulated or getattr(rig, "lockstep", False)):
         raise OptionError("--timing lockstep: this rig cannot advance on request (hardware runs in real time)")
 
     def params_for(mode: Mode, render: RenderSettings | None = None) -> CoreParams:
@@ -166,6 +178,23 @@ def rig_settings(path: Path | None) -> dict[str, Any]:
         raise OptionError(f"--rig-config {str(path)!r}: cannot read it: {exc.strerror or exc}") from None
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise OptionError(f"--rig-config {str(path)!r}: not a TOML file: {exc}") from None
+
+
+def _io_rig(opts: NodeOptions, period_s: float, node_id: int | None,
+            transport: TransportSettings | None) -> IoRig:
+    """``--rig io``: the I/O rig of ``--rig-config RIG.toml``, its modules commissioned and started."""
+    if opts.rig_config is None:
+        raise OptionError("--rig io: needs --rig-config RIG.toml (the modules, signals and drive)")
+    if opts.rig_args:
+        raise OptionError("--rig-arg: the I/O rig takes its settings from --rig-config RIG.toml only")
+    if node_id is None or transport is None:
+        raise OptionError("--rig io: the node's ID and bus are needed to commission its modules")
+    try:
+        config = load_rig_config(opts.rig_config)
+        return IoRig(config, transport=transport, controller_id=node_id, period_s=period_s,
+                     lockstep=opts.timing == "lockstep").start()
+    except (RigConfigError, IoRigError) as exc:
+        raise OptionError(str(exc)) from None
 
 
 def _hardware_rig(opts: NodeOptions, period_s: float) -> Rig:

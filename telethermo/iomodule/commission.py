@@ -43,7 +43,8 @@ class ModuleSetup:
         substitute_counts: 0x6444:1, the output code of 0 A (0 for a 0 V = 0 A amplifier).
         error_behaviour: 0x1029:1 (0 PRE-OPERATIONAL, 1 no change, 2 STOPPED).
         tpdos: per TPDO (1, 2, ...), the (index, sub) of 16-bit inputs it carries, sent on every SYNC.
-        rpdo1: the (index, sub) of the 16-bit output the module's RPDO1 writes.
+        rpdo1: the (index, sub) of the 16-bit output the module's RPDO1 writes (None: an input module; then
+            no output object is written, neither 0x6443/0x6444).
         sampling_index: the sampling-period object (None: none to set).
     """
 
@@ -56,7 +57,7 @@ class ModuleSetup:
     error_behaviour: int = 0
     tpdos: tuple[tuple[tuple[int, int], ...], ...] = (
         ((0x6401, 1), (0x6401, 2), (0x6401, 3), (0x6401, 4)), ((0x6401, 5), (0x6401, 6), (0x2101, 0)))
-    rpdo1: tuple[int, int] = (0x6411, 1)
+    rpdo1: tuple[int, int] | None = (0x6411, 1)
     sampling_index: int | None = 0x2100
 
     def writes(self) -> list[tuple[int, int, int]]:
@@ -66,14 +67,16 @@ class ModuleSetup:
             out.append((self.sampling_index, 0, self.sampling_ms))
         pdos = [(0x1800 + i, 0x1A00 + i, 0x180 + 0x100 * i + self.node_id, 1, m)
                 for i, m in enumerate(self.tpdos)]
-        pdos.append((0x1400, 0x1600, 0x200 + self.node_id, 255, (self.rpdo1,)))
+        if self.rpdo1 is not None:
+            pdos.append((0x1400, 0x1600, 0x200 + self.node_id, 255, (self.rpdo1,)))
         for comm, mapping, cob, ttype, entries in pdos:
             out.append((comm, 1, cob | PDO_INVALID))
             out.append((mapping, 0, 0))
             out += [(mapping, k, _entry(i, s)) for k, (i, s) in enumerate(entries, 1)]
             out += [(mapping, 0, len(entries)), (comm, 2, ttype), (comm, 1, cob)]
-        out += [(0x6443, 1, 1), (0x6444, 1, self.substitute_counts), (0x1029, 1, self.error_behaviour),
-                (0x1016, 1, (self.controller_id << 16) | self.consumer_ms)]
+        if self.rpdo1 is not None:
+            out += [(0x6443, 1, 1), (0x6444, 1, self.substitute_counts)]
+        out += [(0x1029, 1, self.error_behaviour), (0x1016, 1, (self.controller_id << 16) | self.consumer_ms)]
         return out
 
 

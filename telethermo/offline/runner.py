@@ -105,7 +105,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
                         rounding: str = "none", seed: int | None = 0, mode: str | None = None,
                         render_options: dict[str, Any] | None = None,
                         peer_loss_s: tuple[float, float] | None = None, slave_rig_params: Any = None,
-                        delay_cycles: int = 0, delay_jitter_cycles: int = 0) -> SessionResult:
+                        delay_cycles: int = 0, delay_jitter_cycles: int = 0,
+                        rig_path: Callable[[Any, str], Any] | None = None) -> SessionResult:
     """Run a scene offline and return the recording and its figures.
 
     ``scene``: a name or path (``sim.load_scene``) or a loaded scene. ``*_params``: controller
@@ -122,6 +123,9 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     ``delay_cycles``, ``delay_jitter_cycles``: extra one-way transport delay of the exchanged values, in
     cycles, on both streams: each value arrives ``delay_cycles`` plus a uniform 0..jitter cycles late (seeded
     by ``seed``), never before a value sent earlier (CAN keeps the order); the peer uses the newest arrived.
+    ``rig_path``: (telepresence) ``rig_path(rig, role)`` returns what the controller of ``role`` drives instead
+    of the simulated rig itself, e.g. the rig behind simulated I/O modules (bench.io_rig_bench); it keeps the
+    rig's ``truth``/``bodies``/``t_s`` for the recording.
     """
     if rounding not in ROUNDINGS:
         raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
@@ -146,6 +150,8 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
 
     sc_s = sc if slave_rig_params is None else dataclasses.replace(sc, rig_params=slave_rig_params)
     rig_s = sim.build_rig(sc_s, "slave", seed=None if seed is None else seed + 1)
+    if rig_path is not None:
+        rig_m, rig_s = rig_path(rig_m, "master"), rig_path(rig_s, "slave")
     return _run_telepresence(sc, rig_m, rig_s, ref, master_params, slave_params, _load_model(master_model),
                              _load_model(slave_model), n_steps, rnd, rounding, seed, peer_loss_s,
                              _DelayLine(delay_cycles, delay_jitter_cycles, seed))
