@@ -110,13 +110,15 @@ def finger_natural_C(params, ambient_C: float = AMBIENT_C) -> float:
 
 def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
                    seed: int, t_on_s: float, noise: NoiseParams | None = None, identify: bool = True,
-                   ambient_C: float = AMBIENT_C) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
+                   ambient_C: float = AMBIENT_C, post_s: float = POST_S
+                   ) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
     """(T_sensor_C, Q_W, index of the first sample the slave's contact detector calls contact (−1: none), the
     material the slave's core published at the end, the wall time of each core step, s) of one touch under the
     slave's default control. The onset is the detector's, not the rig's flag: the core's window starts there
     (telethermo.control.material_stream), so every offline fit and every reference touch is aligned the same
     way. ``noise`` None: the rig's default noise; ``identify`` False: the core without material identification
-    (same current, faster: for reference touches); ``ambient_C``: the room, °C."""
+    (same current, faster: for reference touches); ``ambient_C``: the room, °C; ``post_s``: simulated after the
+    touch, s."""
     grid = GridSettings(t_min_s=PERIOD_S)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, ambient_C, params.h_air_W_m2K, grid)
@@ -129,7 +131,7 @@ def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, forc
     s = rig.read()
     st = init_state(cp, None, s)
     peer = PeerValues(estimate_C=T_probe_C, flux_W=0.0)
-    n = int(round((t_on_s + POST_S) / PERIOD_S))
+    n = int(round((t_on_s + post_s) / PERIOD_S))
     T, Q, flag, step_s = np.empty(n), np.empty(n), np.zeros(n, bool), np.empty(n)
     for k in range(n):
         s = rig.read()

@@ -32,7 +32,9 @@ import numpy as np
 from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
 from bench.material_id_bound import noise_scale, oracle_correct, touch_candidates
-from telethermo.control.material_stream import MaterialIdParams, UNKNOWN_CODE, default_classes
+from telethermo.control.material_id import noise_draws
+from telethermo.control.material_stream import (MaterialIdParams, UNKNOWN_CODE, default_classes, fit_units,
+                                                late_samples)
 from telethermo.sim.materials import material
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
@@ -45,6 +47,8 @@ NEAR_C = 2.0
 CONFIDENT = 0.9
 OTHER_TEM_COUPLES, SHIPPED_COUPLES = 71, 31
 ORACLE_EVERY, ORACLE_DRAWS = 4, 100
+#: simulated after the touch, s: the refined answer (1.2 s window + its fit) is out by 1.32 s
+POST_S = 1.45
 
 STRATA: dict[str, Callable[[dict], bool]] = {
     "object_lt_15C": lambda t: t["T_object_C"] < 15.0,
@@ -107,18 +111,42 @@ def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str]) -> dict:
     """Simulate one touch and return what the slave published, scored (``answer`` −1: none, −2: abstained)."""
     params = rigs[t["other_tem"]]
     T_probe = mb.finger_natural_C(params, t["ambient_C"])
-    _, _, _, est, _ = mb.simulate_touch(params, sims[t["class"]], t["thickness_m"], t["T_object_C"], t["force_N"],
-                                        T_probe, seed=t["seed"], t_on_s=t["t_on_s"], noise=noise_of(t["noise_x"]),
-                                        ambient_C=t["ambient_C"])
-    answer = -1
-    if est is not None and est.touch == 1 and est.code == UNKNOWN_CODE:
-        answer = -2
-    else:
-        answer = mb.published_index(est, names)
+    _, _, i0, est, step_s = mb.simulate_touch(params, sims[t["class"]], t["thickness_m"], t["T_object_C"],
+                                              t["force_N"], T_probe, seed=t["seed"], t_on_s=t["t_on_s"],
+                                              noise=noise_of(t["noise_x"]), ambient_C=t["ambient_C"], post_s=POST_S)
     b_true = material(sims[t["class"]]).b
     ok_b = est is not None and math.isfinite(est.effusivity) and math.isfinite(est.se_ln_b)
-    return t | {"T_probe_C": T_probe, "answer": answer, "posterior": float(est.posterior) if est is not None else 0.0,
-                "within_ci95": (abs(math.log(est.effusivity / b_true)) <= 1.96 * est.se_ln_b) if ok_b else None}
+    early = replace(est, code=est.early_code, posterior=est.early_posterior) if est is not None else None
+    return t | {"T_probe_C": T_probe, "answer": _answer(est, names), "posterior": _post(est),
+                "answer_early": _answer(early, names), "posterior_early": _post(early),
+                "stage": est.stage if est is not None else "",
+                "within_ci95": (abs(math.log(est.effusivity / b_true)) <= 1.96 * est.se_ln_b) if ok_b else None,
+                "fit_step_ms": _fit_cycles_ms(step_s, i0), "step_median_ms": 1e3 * float(np.median(step_s))}
+
+
+def _answer(est, names: list[str]) -> int:
+    """Index of the published material in ``names``, −2 "unknown", −1 none."""
+    if est is not None and est.touch == 1 and est.code == UNKNOWN_CODE:
+        return -2
+    return mb.published_index(est, names)
+
+
+def _post(est) -> float:
+    return float(est.posterior) if est is not None else 0.0
+
+
+def _fit_cycles_ms(step_s: np.ndarray, i0: int) -> tuple[float | None, float | None]:
+    """The slowest core step of the cycles that carry the early fit's units, and the refined fit's, ms."""
+    if i0 < 0:
+        return None, None
+    p = MaterialIdParams()
+    n_win = int(round(p.probe.window_s / mb.PERIOD_S))
+    cyc = [range(i0 + n_win, i0 + n_win + fit_units(p, mb.PERIOD_S) + 1)]
+    n_late = late_samples(p, mb.PERIOD_S)
+    if n_late:
+        cyc.append(range(i0 + n_late, i0 + n_late + 2 + noise_draws(p.probe) + 1))
+    out = [[k for k in c if k < step_s.size] for c in cyc] + [[]]
+    return tuple(1e3 * float(np.max(step_s[i])) if i else None for i in out[:2])
 
 
 def ece(post: np.ndarray, right: np.ndarray, bins: int = 10) -> float | None:
@@ -131,9 +159,17 @@ def ece(post: np.ndarray, right: np.ndarray, bins: int = 10) -> float | None:
 
 
 def stratum_figures(rows: list[dict]) -> dict[str, Any]:
-    """Accuracy (abstains wrong), abstain fraction, ECE, confident precision, baseline, oracle of ``rows``."""
+    """The refined answer's accuracy (abstains wrong), abstain fraction, ECE, confident precision, baseline,
+    oracle of ``rows``, and the early answer's (``early``)."""
     if not rows:
         return {"n": 0}
+    early = [r | {"answer": r["answer_early"], "posterior": r["posterior_early"]} for r in rows]
+    return _figures(rows) | {"early": {k: v for k, v in _figures(early).items()
+                                       if k in ("accuracy", "abstain_fraction", "ece", "confident_n",
+                                                "confident_precision")}}
+
+
+def _figures(rows: list[dict]) -> dict[str, Any]:
     truth = np.array([r["class"] for r in rows])
     ans = np.array([r["answer"] for r in rows])
     post = np.array([r["posterior"] for r in rows])
@@ -192,6 +228,9 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     sims = list(mb.SIM_TO_TABLE)
     names = [mb.SIM_TO_TABLE[m] for m in sims]
     rows = [run_touch(rigs, t, sims, names) for t in envelope_draws(n, ENVELOPE)]
+    fit_ms = [r["fit_step_ms"][0] for r in rows if r["fit_step_ms"][0] is not None]
+    late_ms = [r["fit_step_ms"][1] for r in rows if r["fit_step_ms"][1] is not None]
+    step_med = float(np.median([r["step_median_ms"] for r in rows]))
     inbox = [t | {"ambient_C": mb.AMBIENT_C, "noise_x": 1.0, "other_tem": False}
              for t in mb.draws(INBOX_QUICK_N if quick else INBOX_N, mb.EVALUATION)]
     in_rows = [run_touch(rigs, t, sims, names) for t in inbox]
@@ -209,7 +248,19 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     return {
         "material_id_envelope_n_touches": n,
         "material_id_envelope_accuracy_late": allf["accuracy"],
-        "material_id_envelope_accuracy_early": None,
+        "material_id_envelope_accuracy_early": allf["early"]["accuracy"],
+        "material_id_abstain_fraction_early": allf["early"]["abstain_fraction"],
+        "material_id_confident_precision_worst_stratum_early": worst(
+            {k: v.get("early", {}) for k, v in strata.items()}, "confident_precision")[0],
+        "material_id_ece_worst_stratum_early": worst({k: v.get("early", {}) for k, v in strata.items()}, "ece",
+                                                     high_is_good=False)[0],
+        "material_id_ci95_coverage": allf["ci95_coverage"],
+        "material_id_fit_cycle_worst_ms": round(float(np.median(fit_ms)), 3),
+        "material_id_core_step_median_ms": round(step_med, 3),
+        "material_id_fit_cycle_worst_over_step_median": round(float(np.median(fit_ms)) / step_med, 1),
+        "material_id_late_fit_cycle_worst_ms": round(float(np.median(late_ms)), 3) if late_ms else None,
+        "material_id_late_fit_cycle_worst_over_step_median": (round(float(np.median(late_ms)) / step_med, 1)
+                                                              if late_ms else None),
         "material_id_abstain_fraction": allf["abstain_fraction"],
         "material_id_envelope_ece": allf["ece"],
         "material_id_envelope_confident_precision": allf["confident_precision"],
@@ -227,7 +278,10 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
             "other_tem": f"{OTHER_TEM_COUPLES} couples, one touch in four", "near_band_C": NEAR_C,
             "confident_posterior": CONFIDENT, "oracle": (f"every {ORACLE_EVERY}th touch and all of the near band, "
                                                          f"{ORACLE_DRAWS} noise draws" if not quick else "not run"),
-            "early_answer": "not implemented: one answer 0.44 s after contact (0.3 s window + 14 fit cycles)"},
+            "early_answer": "0.44 s after contact: 0.3 s window + 14 fit cycles (network in its box, else physics)",
+            "late_answer": "1.31 s after contact: physics posterior over a 1.2 s window + 10 fit cycles",
+            "tick": "fit_cycle_worst: per touch the slowest core step of the early fit's cycles (late_: of the "
+                    "refined fit's), median over touches; core_step_median: median of the touches' median steps"},
         "material_id_envelope_run_s": round(time.perf_counter() - t0, 1),
     }
 

@@ -20,16 +20,19 @@ from __future__ import annotations
 
 import functools
 import math
+
+import numpy as np
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form, classify,
+from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form,
                                             filter_release, fit_form, fit_input, half_integral_matrix,
                                             load_effusivity_table, noise_deviation, noise_draws,
                                             with_noise_spread)
 from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, decide, load_calibration,
                                                n_units, network_input, network_unit, touch_vector)
-from telethermo.control.material_trust import CalibrationBox, abstain_reason
+from telethermo.control import material_physics as mp
+from telethermo.control.material_trust import CalibrationBox, abstain_reason, pre_contact
 from telethermo.control.rendering import load_render_table
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
@@ -51,8 +54,14 @@ class MaterialEstimate:
         posterior: the class's posterior probability (0 without an estimate).
         touch: how many touches have been evaluated (counts also those without an estimate).
         T_object0_C: the object's initial temperature the same fit gives, °C (NaN without an estimate).
-        abstained: why the calibrated classifier said "unknown" (code :data:`UNKNOWN_CODE`, posterior 0;
-            telethermo.control.material_trust), "" when it named a material or did not run.
+        abstained: why the answer is "unknown" (code :data:`UNKNOWN_CODE`; telethermo.control.material_physics
+            .decide), "" when it named a material.
+        early_code, early_posterior: the first answer (0.3 s window; the network in its box, else the physics
+            posterior), kept when the refined one (``stage`` "late", the physics fit over 1.2 s) replaces
+            ``code`` and ``posterior``.
+        stage: "early" or "late" (the answer in ``code``), "" without an answer.
+        by: "network" (the calibrated classifier in its box: the refined answer keeps its class and posterior,
+            the late fit refines the effusivity only) or "physics" (telethermo.control.material_physics).
     """
 
     effusivity: float = math.nan
@@ -62,6 +71,10 @@ class MaterialEstimate:
     touch: int = 0
     T_object0_C: float = math.nan
     abstained: str = ""
+    early_code: int = 0
+    early_posterior: float = 0.0
+    stage: str = ""
+    by: str = ""
 
     @property
     def beta(self) -> float:
@@ -79,14 +92,18 @@ class MaterialIdParams:
         calibration: the calibrated classifier (default: the shipped file, telethermo/data/material_classifier.npz,
             loaded once); None: the nearest table effusivity of the physics fit. Used only when its period and
             window are the core's (:func:`calibrated`); its materials must be among ``classes``.
-        box: what the calibration was measured on; a touch outside it is published as :data:`UNKNOWN_CODE`
-            (telethermo.control.material_trust); None: the calibrated class is always published.
+        box: what the calibration was measured on; a touch outside it is named by the physics posterior
+            (telethermo.control.material_physics) instead of the network; None: the network always names it.
+        early, late: the physics posterior's calibration of the early (0.3 s) and refined answer (1.2 s of
+            contact; ``late`` None: no refined answer).
     """
 
     probe: ProbeParams = field(default_factory=ProbeParams)
     classes: tuple[tuple[int, str, float], ...] = field(default_factory=lambda: default_classes())
     calibration: Calibration | None = field(default_factory=lambda: default_calibration())
     box: CalibrationBox | None = field(default_factory=CalibrationBox)
+    early: mp.PhysicsCalibration = mp.EARLY
+    late: mp.PhysicsCalibration | None = mp.LATE
 
     def __post_init__(self) -> None:
         if self.calibration is not None:
@@ -128,10 +145,12 @@ class FitJob:
     """A touch's fit under way: ``inp`` its window (None: not built yet, from ``rows``), ``fits`` the forms
     fitted so far, ``chosen`` (form, estimate) once both are ((None, None): no effusivity, the calibrated class
     alone), ``deviations`` the noise realisations' so far, ``x`` the networks' input, ``h`` and ``probs`` the
-    staged classification's state and ``unit`` its next unit."""
+    staged classification's state and ``unit`` its next unit; ``late``: the refined answer's fit (physics only,
+    the late window)."""
 
     rows: tuple
     n_pre: int
+    late: bool = False
     inp: FitInput | None = None
     fits: tuple = ()
     chosen: tuple[str, EffusivityEstimate] | None = None
@@ -145,95 +164,138 @@ class FitJob:
 @dataclass(frozen=True, slots=True)
 class MaterialState:
     """Collector: ``pre`` the last pre-contact (T_sensor_C, Q_W) samples, ``post`` those since the touch,
-    ``done`` the touch's window was collected, ``job`` its fit under way, ``last`` the held result."""
+    ``done`` the touch's window was collected, ``job`` its fit under way, ``last`` the held result, ``late`` the
+    refined answer's fit was started."""
 
     pre: tuple = ()
     post: tuple = ()
     done: bool = False
     last: MaterialEstimate = field(default_factory=MaterialEstimate)
     job: FitJob | None = None
+    late: bool = False
+
+
+def late_samples(p: MaterialIdParams, dt_s: float) -> int:
+    """Samples after the touch the refined answer's fit uses (0: no refined answer)."""
+    if p.late is None:
+        return 0
+    n = int(round(p.late.window_s / dt_s))
+    return n if n > int(round(p.probe.window_s / dt_s)) else 0
 
 
 def prepare(p: MaterialIdParams, dt_s: float) -> None:
     """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release)
     now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls it)."""
-    n_win = int(round(p.probe.window_s / dt_s))
-    if n_win >= 6:
-        half_integral_matrix(n_win, dt_s, 0.5 * dt_s)
-        filter_release(n_win, p.probe.cutoff_Hz, dt_s)
+    for n_win in (int(round(p.probe.window_s / dt_s)), late_samples(p, dt_s)):
+        if n_win >= 6:
+            half_integral_matrix(n_win, dt_s, 0.5 * dt_s)
+            filter_release(n_win, p.probe.cutoff_Hz, dt_s)
 
 
 def material_step(p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W: float, contact: bool,
                   dt_s: float) -> MaterialState:
-    """Advance the collector by one sample and the fit under way by one unit of work (pure)."""
+    """Advance the collector by one sample and the fit under way by one unit of work (pure). The early window's
+    fit starts when its ``window_s`` is collected; while the contact lasts the samples go on being collected
+    and the refined answer's fit starts when :func:`late_samples` are (and the early fit is done)."""
     job, last = st.job, st.last
     if job is not None:
         job, last = _fit_unit(p, job, last, dt_s)
     n_pre = max(1, int(round(p.probe.pre_s / dt_s)))
     n_win = int(round(p.probe.window_s / dt_s))
+    n_late = late_samples(p, dt_s)
     x = (float(T_sensor_C), float(Q_W))
     if not contact:
         return MaterialState(pre=(st.pre + (x,))[-n_pre:], last=last, job=job)
     if st.done:
-        return MaterialState(pre=st.pre, done=True, last=last, job=job)
+        post = st.post if len(st.post) >= n_late else st.post + (x,)
+        if st.late or len(post) < n_late or job is not None:
+            return MaterialState(pre=st.pre, post=post, done=True, last=last, job=job, late=st.late)
+        return MaterialState(pre=st.pre, post=post, done=True, last=last, late=True,
+                             job=FitJob(rows=st.pre + post, n_pre=len(st.pre), late=True))
     post = st.post + (x,)
     if len(post) < n_win:
         return MaterialState(pre=st.pre, post=post, last=last, job=job)
     # the window is complete: its fit starts next cycle (a previous touch's fit still under way is dropped)
-    return MaterialState(pre=st.pre, done=True, last=last, job=FitJob(rows=st.pre + post, n_pre=len(st.pre)))
+    return MaterialState(pre=st.pre, post=post, done=True, last=last,
+                         job=FitJob(rows=st.pre + post, n_pre=len(st.pre)))
+
+
+def _physics(p: MaterialIdParams, est: EffusivityEstimate | None, inp: FitInput,
+             cal: mp.PhysicsCalibration) -> tuple[int, float, str]:
+    """(published code, posterior, why abstained) of the physics posterior for fit ``est``."""
+    lb = np.log(np.array([b for _, _, b in p.classes], float))
+    i, post, why = mp.decide(est, pre_contact(inp)[0], lb, cal)
+    return (p.classes[i][0], post, "") if i >= 0 else (UNKNOWN_CODE, post, why)
+
+
+def _result(p: MaterialIdParams, est: EffusivityEstimate | None, code: int, post: float, why: str, n: int,
+            cal: mp.PhysicsCalibration, by: str = "physics") -> MaterialEstimate:
+    """The early answer of touch ``n``; its se_ln_b the calibrated interval's (``cal``)."""
+    if est is None:
+        return MaterialEstimate(code=code, posterior=post, touch=n, abstained=why, early_code=code,
+                                early_posterior=post, stage="early", by=by)
+    return MaterialEstimate(est.b, cal.sigma_ci(est.se_ln_b), code, post, n, est.T_object0_C, why, code, post,
+                            "early", by)
+
+
+def _late_result(p: MaterialIdParams, job: FitJob, last: MaterialEstimate) -> MaterialEstimate:
+    """The refined answer replaces the early one's code, posterior and effusivity (the early answer kept)."""
+    est = job.chosen[1] if job.chosen is not None else None
+    if est is not None:
+        est = with_noise_spread(est, list(job.deviations))
+    code, post, why = _physics(p, est, job.inp, p.late)
+    if last.by == "network":                        # the network's class in its box stands; b is refined
+        code, post, why = last.code, last.posterior, last.abstained
+    if est is None:
+        return replace(last, code=code, posterior=post, abstained=why, stage="late")
+    return replace(last, effusivity=est.b, se_ln_b=p.late.sigma_ci(est.se_ln_b), code=code, posterior=post,
+                   T_object0_C=est.T_object0_C, abstained=why, stage="late")
 
 
 def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: float
               ) -> tuple[FitJob | None, MaterialEstimate]:
     """One unit of the fit: (the job, or None when finished, and the held result, new when finished)."""
-    probe = p.probe
+    probe = replace(p.probe, window_s=p.late.window_s) if job.late else p.probe
     n = last.touch + 1
     if job.inp is None and not job.fits:                                    # window and the energy form
         inp = fit_input([r[0] for r in job.rows], [r[1] for r in job.rows], job.n_pre, dt_s, probe)
         if inp is None:
-            return None, MaterialEstimate(touch=n)
+            return None, (last if job.late else MaterialEstimate(touch=n))
         return replace(job, inp=inp, fits=((FORMS[0], fit_form(inp, FORMS[0], probe)),)), last
     if job.chosen is None:                                                  # the other form, the better one
         fits = job.fits + tuple((f, fit_form(job.inp, f, probe)) for f in FORMS[len(job.fits):len(job.fits) + 1])
         if len(fits) < len(FORMS):
             return replace(job, fits=fits), last
         chosen = best_form(list(fits))
-        if chosen is None:                          # no effusivity; the calibrated classifier needs none
-            if not calibrated(p, dt_s) or not p.classes:
-                return None, MaterialEstimate(touch=n)
+        if chosen is None:
+            if job.late:
+                return None, _late_result(p, replace(job, chosen=None), last)
+            if not calibrated(p, dt_s) or not p.classes:    # no effusivity; the calibrated classifier needs none
+                return None, _result(p, None, UNKNOWN_CODE, 0.0, "no_fit", n, p.early)
             chosen = (None, None)
         return replace(job, fits=fits, chosen=chosen), last
     form, est = job.chosen
     k = len(job.deviations)
     if est is not None and k < noise_draws(probe):                          # one noise realisation
         return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
+    if job.late:
+        return None, _late_result(p, job, last)
     cal = p.calibration                                                     # the classification
     if job.x is None:                               # its first unit: the confidence and the networks' input, once
         est = with_noise_spread(est, list(job.deviations)) if est is not None else None
         x = network_input(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
             else None
         if x is None:
-            return None, _classified(p, est, n) if est is not None else MaterialEstimate(touch=n)
+            if not p.classes:
+                return None, MaterialEstimate(touch=n)
+            return None, _result(p, est, *_physics(p, est, job.inp, p.early), n, p.early)
         job = replace(job, x=x, chosen=(form, est))
     est = job.chosen[1]
     h, probs = network_unit(cal, job.x, job.h, job.probs, job.unit)        # one layer
     if job.unit + 1 < n_units(cal):
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last
     i, post = decide(probs)
-    code = next(c for c, name, _ in p.classes if name == cal.classes[i])
-    why = abstain_reason(p.box, job.inp, est, job.x) if p.box is not None else None
-    if why is not None:
-        code, post = UNKNOWN_CODE, 0.0
-    if est is None:
-        return None, MaterialEstimate(code=code, posterior=post, touch=n, abstained=why or "")
-    return None, MaterialEstimate(est.b, est.se_ln_b, code, post, n, est.T_object0_C, why or "")
-
-
-def _classified(p: MaterialIdParams, est: EffusivityEstimate, n: int) -> MaterialEstimate:
-    """The held result of touch ``n`` for the estimate ``est`` (nearest table effusivity)."""
-    if not p.classes:
-        return MaterialEstimate(touch=n)
-    table = {name: b for _, name, b in p.classes}
-    c = classify(est, table, p.probe.floor_ln)
-    code = p.classes[c.index - 1][0]
-    return MaterialEstimate(est.b, est.se_ln_b, code, c.posterior, n, est.T_object0_C)
+    code, why, by = next(c for c, name, _ in p.classes if name == cal.classes[i]), "", "network"
+    if p.box is not None and abstain_reason(p.box, job.inp, est, job.x) is not None:
+        (code, post, why), by = _physics(p, est, job.inp, p.early), "physics"     # outside the network's box
+    return None, _result(p, est, code, post, why, n, p.early, by)

@@ -33,6 +33,10 @@ def load_render_table(path: str | Path | None = None) -> dict[str, float]:
     return out
 
 
+#: the identified-material code of an abstention (telethermo.control.material_stream.UNKNOWN_CODE, OD 0x2610)
+UNKNOWN_CODE = 255
+
+
 @functools.lru_cache(maxsize=4)
 def _names(path: Path) -> tuple[str, ...]:
     return tuple(load_render_table(path))
@@ -40,6 +44,9 @@ def _names(path: Path) -> tuple[str, ...]:
 
 def material_name(code: int, path: str | Path | None = None) -> str:
     """The name of material ``code`` of a rendering table (1-based, in file order: the object dictionary's
-    material codes 0x2600/0x2610/0x2615); "none" for 0 and for a code past the table's end."""
+    material codes 0x2600/0x2610/0x2615); "unknown" for :data:`UNKNOWN_CODE` (the slave abstained), "none" for 0
+    and for any other code past the table's end."""
+    if code == UNKNOWN_CODE:
+        return "unknown"
     names = _names(Path(path) if path is not None else DEFAULT_RENDER_TABLE)
     return names[code - 1] if 1 <= code <= len(names) else "none"
