@@ -17,6 +17,7 @@ are null.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor
@@ -32,7 +33,7 @@ from telethermo.offline.envelope import Condition, base_condition, condition_sce
 
 SEED = 22_2026          # the design's seed: nothing is fitted on these draws (the gains are the shipped ones)
 N_LHS, N_LHS_QUICK = 200, 3
-WORKERS_PROBE = 8
+WORKERS_PROBE = 6
 FIGURES = ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_ratio", "best_pad_headline_C")
 
 
@@ -42,6 +43,14 @@ BOUND_EVERY = 10         # the bound subset: every 10th Latin-hypercube conditio
 def score(c: Condition) -> dict[str, Any]:
     """One condition: identified gains (scored), the shipped gains on the same draw (before), the pads."""
     return run_condition(c, gains="identified", with_shipped=True)
+
+
+def safe_score(c: Condition) -> dict[str, Any]:
+    """:func:`score`, or a row that says why the condition could not be scored (counted as failing)."""
+    try:
+        return score(c)
+    except Exception as exc:  # one broken condition must not lose the matrix; it is listed, never hidden
+        return {"condition": dataclasses.asdict(c), "error": f"{type(exc).__name__}: {exc}"}
 
 
 def bound_of(c: Condition) -> dict[str, Any]:
@@ -56,7 +65,7 @@ def bound_of(c: Condition) -> dict[str, Any]:
 
 def run_all(executor: Executor, conds: Iterable[Condition]) -> list[dict[str, Any]]:
     """Score every condition on ``executor`` (results in the conditions' order)."""
-    return list(executor.map(score, conds))
+    return list(executor.map(safe_score, conds))
 
 
 def timed(workers: int, conds: list[Condition]) -> float:
@@ -103,7 +112,9 @@ def bound_summary(rows: list[dict[str, Any]], bounds: list[dict[str, Any]], base
     by[base["condition"]["index"]] = base
     per = []
     for b in bounds:
-        r = by[b["index"]]
+        r = by.get(b["index"])
+        if r is None:          # a condition that could not be scored (listed in envelope_conditions_not_scored)
+            continue
         pad, proj, bnd = r["best_pad_headline_C"], r["headline_C"], b["bound_headline_C"]
         per.append({"index": b["index"], "headline_C": proj, "bound_headline_C": bnd, "best_pad_headline_C": pad,
                     "ratio_to_bound": proj / bnd, "captured_fraction": (pad - proj) / (pad - bnd) if pad > bnd else None,
@@ -119,12 +130,17 @@ def bound_summary(rows: list[dict[str, Any]], bounds: list[dict[str, Any]], base
             "bound_conditions": per}
 
 
-def summarise(rows: list[dict[str, Any]], base: dict[str, Any]) -> dict[str, Any]:
+def summarise(all_rows: list[dict[str, Any]], base: dict[str, Any]) -> dict[str, Any]:
+    rows = [r for r in all_rows if "error" not in r]
+    errors = [r for r in all_rows if "error" in r]
     fair = [r for r in rows if r["cue_fair"]]
     fails = [{"condition": r["condition"], "why": failures(r), "headline_C": r["headline_C"],
               "best_pad_headline_C": r.get("best_pad_headline_C")} for r in rows if failures(r)]
     return {
         "envelope_n_conditions": len(rows),
+        "envelope_conditions_not_scored": [{"condition": r["condition"], "error": r["error"]} for r in errors],
+        "envelope_identify_refused": sum(any(f.get("identify_refused") for f in r.get("gain_fit", {}).values())
+                                         for r in rows),
         "envelope_oscillating_conditions": sum(r["oscillating"] for r in rows),
         "envelope_session_long_cuts": sum(r["session_long_cut"] for r in rows),
         "envelope_unexpected_trips": sum(bool(r["trips"]) for r in rows),
@@ -216,18 +232,20 @@ def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> di
     else:
         with ProcessPoolExecutor(max_workers=a.workers) as ex:
             rows, base, bounds, render = matrix(ex)
-    out = {"quick": a.quick, "seed": SEED, **summarise(rows, base), **bound_summary(rows, bounds, base), **speed,
+    ok = [r for r in rows if "error" not in r]
+    out = {"quick": a.quick, "seed": SEED, **summarise(rows, base), **bound_summary(ok, bounds, base), **speed,
            **render_sweep.summarise(render), "render_touches": render,
            "matrix_wall_s": time.perf_counter() - t0, "workers": a.workers, "base": base, "conditions": rows}
     out["workers_2_speedup"] = speed.get("workers_2_speedup")
     write_results("envelope", out)
-    plot(rows, str(current_results_dir() / "envelope.png"))
+    plot(ok, str(current_results_dir() / "envelope.png"))
     keys = [k for k in out if k.startswith(("envelope_", "base_", "workers_", "render_early_rms_worst_C",
                                             "render_beyond_band_skin"))]
     for k in keys:
         v = out[k]
         print(f"{k:40s} {v if not isinstance(v, float) else f'{v:.4g}'}")
-    print(f"failing conditions: {len(out['failing_conditions'])} of {len(rows)}; wall {out['matrix_wall_s']:.0f} s")
+    print(f"failing conditions: {len(out['failing_conditions'])} of {len(rows)} "
+          f"(not scored: {len(out['envelope_conditions_not_scored'])}); wall {out['matrix_wall_s']:.0f} s")
     return out
 
 

@@ -29,4 +29,7 @@ def contact_resistance_m2K_W(force_N: float, R_at_1N_m2K_W: float = DEFAULT_R_AT
     """Specific contact resistance at ``force_N``, m²·K/W (finite for any F > 0; inf = no contact)."""
     if not force_N > 0:
         return math.inf
-    return R_at_1N_m2K_W * force_N ** (-force_exponent)
+    try:
+        return R_at_1N_m2K_W * force_N ** (-force_exponent)
+    except OverflowError:          # a force so small (5e-324 N) that no contact conducts
+        return math.inf

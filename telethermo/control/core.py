@@ -282,7 +282,7 @@ def _estimates(sample: RigSample, params: CoreParams, state: CoreState, T_pred: 
         est = w * e_model + (1.0 - w) * e_flux
     # credible band: the probe's whole pad stack (both sensor faces); the display's bound on the skin
     face = Ts + 0.5 * Q * params.R_sensor_K_per_W      # the sensor's TEM-side face (runs ahead while pumping)
-    cands = (e_flux, est) if params.safety.protects == "skin" else (Ts, e_flux, face, est)
+    cands = (Ts, e_flux, est) if params.safety.protects == "skin" else (Ts, e_flux, face, est)
     if all(math.isfinite(c) for c in cands):
         s_hi, s_lo = max(cands), min(cands)
     else:

@@ -36,6 +36,7 @@ from telethermo.control.types import PeerValues, Role
 from telethermo.offline.figures import contacts_of
 from telethermo.offline.runner import run_offline_session
 from telethermo.offline.transparency import transparency_figures
+from telethermo.ident import UnstableModelError
 from telethermo.ident.experiment import identify_rig
 
 BASE_SCENE = "probe_touches_al_steel_wood"
@@ -173,12 +174,23 @@ def hold_skin(sc: Any, T_hold_C: float) -> np.ndarray:
 def identified_params(role: Role, rig_params: Any, ambient_C: float, period_s: float, seed: int
                       ) -> tuple[Any, dict[str, Any]]:
     """What a lab does after swapping a module: ``telethermo identify`` on the free pad of this rig (the
-    default 10 000-sample PRBS), then the role's gains from the identified model (telethermo.control.gain_rule).
-    Returns (CoreParams, the rule's fit)."""
-    rig = sim.free_pad_rig(period_s=period_s, ambient_C=ambient_C, seed=seed, params=rig_params)
-    model, _ = identify_rig(rig, seed=seed)
-    fit = fit_gains(model, role)
-    return scaled_params(default_params(role, period_s=period_s), fit["rho"]), fit
+    default 10 000-sample PRBS; when the fit is refused as unstable, again with another seed and then with
+    20 000 samples, as its message advises), then the role's gains from the identified model
+    (telethermo.control.gain_rule). Returns (CoreParams, the rule's fit; ``identify_attempts`` says how many
+    runs it took, and a fit of None means every attempt was refused: the shipped gains run)."""
+    attempts = 0
+    for n_samples, s in ((10_000, seed), (10_000, seed + 1000), (20_000, seed + 2000)):
+        attempts += 1
+        rig = sim.free_pad_rig(period_s=period_s, ambient_C=ambient_C, seed=s, params=rig_params)
+        try:
+            model, _ = identify_rig(rig, seed=s, n_samples=n_samples)
+        except UnstableModelError:
+            continue
+        fit = fit_gains(model, role)
+        fit["identify_attempts"] = attempts
+        return scaled_params(default_params(role, period_s=period_s), fit["rho"]), fit
+    return default_params(role, period_s=period_s), {"rho": 1.0, "margins": {}, "identify_attempts": attempts,
+                                                     "identify_refused": True}
 
 
 def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identified",
@@ -201,7 +213,9 @@ def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identif
     tf = transparency_figures(t, rec.col("m_true_surface_C"), ref, rec.col("m_true_Q_into_body_W"),
                               rec.col("ref_Q_into_finger_W"), contacts)
     out: dict[str, Any] = {"condition": dataclasses.asdict(c), "gains": gains,
-                           "gain_fit": {k: {"rho": v["rho"], **v["margins"]} for k, v in fits.items()},
+                           "gain_fit": {k: {"rho": v["rho"], "identify_attempts": v["identify_attempts"],
+                                            "identify_refused": v.get("identify_refused", False), **v["margins"]}
+                                        for k, v in fits.items()},
                            "headline_C": tf["headline_error_C"],
                            "pre_contact_C": tf["pre_contact_mean_error_C"], "early_C": tf["early_mean_error_C"],
                            "late_C": tf["late_mean_error_C"]}
