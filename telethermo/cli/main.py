@@ -43,6 +43,8 @@ COMMANDS: dict[str, Command] = {
     "status": Command("status", "mode, temperatures, estimates, flux, current, safety of each node"),
     "get": Command("params", "read parameters by EDS name (or list them)"),
     "set": Command("params", "write a parameter by EDS name (range-checked)"),
+    "apply-gains": Command("gains", "write a tuned gains file's gains into running nodes by SDO (and name the "
+                                    "ones that need a restart with --gains)"),
     "sdo": Command("sdo", "SDO read/write of one object of any node 1..127 (EDS or not)"),
     "nmt": Command("nmt", "NMT start/stop/preop/reset of one node or all"),
     "mode": Command("mode", "switch the nodes: telepresence | render MATERIAL | idle"),

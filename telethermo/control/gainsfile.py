@@ -3,7 +3,8 @@
     {"format": "telethermo.gains/1", "period_s": 0.01,
      "master": {"kp_A_per_C": 1.66, ...}, "slave": {...}, ...}        (docs/tuning.md)
 
-``default_params(role, **load_gains(path)[role])`` gives the tuned parameters. Other keys (the
+``default_params(role, **load_gains(path)[role])`` gives the tuned parameters. ``"apply"``
+(:func:`apply_marks`) says which keys a running node takes by SDO and which need a restart. Other keys (the
 tuner's objective and search, see :func:`telethermo.tuning.document.gains_document`) are kept for
 the record and ignored here.
 """
@@ -22,6 +23,16 @@ from telethermo.control.types import Role
 GAINS_FORMAT = "telethermo.gains/1"
 #: the gains a gains file may set (CoreParams field names)
 GAIN_FIELDS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W", "kpQ_A_per_W", "kiQ_A_per_W_s")
+#: the gains a running node takes by SDO (objects 0x2200..0x2202 of both EDS, kept per mode by the node);
+#: the others (the flux loop's kpQ, kiQ) have no object and take a node start with ``--gains FILE``
+SDO_GAIN_FIELDS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W")
+RESTART_GAIN_FIELDS = tuple(k for k in GAIN_FIELDS if k not in SDO_GAIN_FIELDS)
+
+
+def apply_marks() -> dict[str, Any]:
+    """The gains file's ``"apply"`` entry: which of its keys ``telethermo apply-gains`` (or ``set``) can write
+    to a running node, which need a node start with ``--gains FILE``, and the mode they are gains of."""
+    return {"mode": "telepresence", "sdo": list(SDO_GAIN_FIELDS), "restart": list(RESTART_GAIN_FIELDS)}
 
 
 def parse_gains(doc: Any, where: str = "gains") -> dict[Role, dict[str, float]]:
