@@ -37,7 +37,7 @@ from typing import Any, Callable
 from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_MAX_BELOW_MIN, ABORT_RANGE, ABORT_TOO_HIGH
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.estimators import Estimator
-from telethermo.control.gainsfile import SDO_GAIN_FIELDS
+from telethermo.control.gain_fields import SDO_GAIN_FIELDS
 from telethermo.control.later_phase import later_from_key, later_key, later_od_values
 from telethermo.control.types import Mode, Role
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from telethermo.control.gainsfile import SDO_GAIN_FIELDS
+from telethermo.control.gain_fields import SDO_GAIN_FIELDS
 from telethermo.control.safety import SafetyLimits
 from telethermo.control.types import Mode
 from telethermo.remote.client import NodeClient

@@ -17,16 +17,11 @@ from pathlib import Path
 from typing import Any
 
 from telethermo.atomic import write_json_atomic
+from telethermo.control.gain_fields import GAIN_FIELDS, RESTART_GAIN_FIELDS, SDO_GAIN_FIELDS
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
 
 GAINS_FORMAT = "telethermo.gains/1"
-#: the gains a gains file may set (CoreParams field names)
-GAIN_FIELDS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W", "kpQ_A_per_W", "kiQ_A_per_W_s")
-#: the gains a running node takes by SDO (objects 0x2200..0x2202 of both EDS, kept per mode by the node);
-#: the others (the flux loop's kpQ, kiQ) have no object and take a node start with ``--gains FILE``
-SDO_GAIN_FIELDS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W")
-RESTART_GAIN_FIELDS = tuple(k for k in GAIN_FIELDS if k not in SDO_GAIN_FIELDS)
 
 
 def apply_marks() -> dict[str, Any]:
