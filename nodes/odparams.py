@@ -37,10 +37,11 @@ from typing import Any, Callable
 from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_MAX_BELOW_MIN, ABORT_RANGE, ABORT_TOO_HIGH
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.estimators import Estimator
+from telethermo.control.gain_fields import SDO_GAIN_FIELDS
 from telethermo.control.later_phase import later_from_key, later_key, later_od_values
 from telethermo.control.types import Mode, Role
 
-GAIN_KEYS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W")
+GAIN_KEYS = SDO_GAIN_FIELDS   # the gains with an object (0x2200..0x2202); the gains file marks them
 ESTIMATOR_CODES: dict[Estimator, int] = {Estimator.MODEL: 0, Estimator.FLUX: 1, Estimator.FUSED: 2}
 CODE_ESTIMATORS = {v: k for k, v in ESTIMATOR_CODES.items()}
 #: OD name -> SafetyLimits fields it sets (current_limit_A is special: fraction of I_max)

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from telethermo.control.gain_fields import SDO_GAIN_FIELDS
 from telethermo.control.safety import SafetyLimits
 from telethermo.control.types import Mode
 from telethermo.remote.client import NodeClient
@@ -21,7 +22,7 @@ from telethermo.remote.errors import Failure, UserError
 from telethermo.remote.targets import Target, lookup
 
 #: gains kept per mode by the node (nodes/odparams.py GAIN_KEYS)
-GAIN_KEYS = frozenset({"kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"})
+GAIN_KEYS = frozenset(SDO_GAIN_FIELDS)
 #: safety limits judged against the node's readings before a write
 SAFETY_KEYS = frozenset({"sink_trip_C", "T_max_C", "T_min_C", "mismatch_limit_C", "current_limit_A"})
 _DEFAULTS = SafetyLimits()

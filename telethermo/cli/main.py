@@ -43,6 +43,8 @@ COMMANDS: dict[str, Command] = {
     "status": Command("status", "mode, temperatures, estimates, flux, current, safety of each node"),
     "get": Command("params", "read parameters by EDS name (or list them)"),
     "set": Command("params", "write a parameter by EDS name (range-checked)"),
+    "apply-gains": Command("gains", "write a tuned gains file's gains into running nodes by SDO (and name the "
+                                    "ones that need a restart with --gains)"),
     "sdo": Command("sdo", "SDO read/write of one object of any node 1..127 (EDS or not)"),
     "nmt": Command("nmt", "NMT start/stop/preop/reset of one node or all"),
     "mode": Command("mode", "switch the nodes: telepresence | render MATERIAL | idle"),
@@ -55,7 +57,8 @@ COMMANDS: dict[str, Command] = {
     "dbc": Command("dbc", "write a DBC file of the PDO layout, for cantools and CAN viewers"),
     "plot": Command("plot", "plot a recording (a session's recording.csv, a node's --record CSV) to a PNG"),
     "bench": Command("bench", "run the benchmark suite, write bench/results/*.json and docs/benchmarks.md"),
-    "completion": Command("completion", "print a bash/zsh completion script (commands, options, nodes, scenes)"),
+    "completion": Command("completion", "print a bash/zsh/fish completion script (commands, options, nodes, "
+                                        "EDS names, materials, scenes)"),
 }
 
 
@@ -137,6 +140,8 @@ def main(argv: list[str] | None = None) -> int:
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     argv = sys.argv[1:] if argv is None else list(argv)
+    if argv[:1] == ["__complete"]:   # the shell completion scripts' hidden entry (telethermo.cli.completion)
+        return importlib.import_module("telethermo.cli.completion").hidden_main(argv[1:])
     parser = build_parser(chosen_command(argv))
     args = parser.parse_args(argv)
     if not getattr(args, "func", None):

@@ -3,7 +3,8 @@
     {"format": "telethermo.gains/1", "period_s": 0.01,
      "master": {"kp_A_per_C": 1.66, ...}, "slave": {...}, ...}        (docs/tuning.md)
 
-``default_params(role, **load_gains(path)[role])`` gives the tuned parameters. Other keys (the
+``default_params(role, **load_gains(path)[role])`` gives the tuned parameters. ``"apply"``
+(:func:`apply_marks`) says which keys a running node takes by SDO and which need a restart. Other keys (the
 tuner's objective and search, see :func:`telethermo.tuning.document.gains_document`) are kept for
 the record and ignored here.
 """
@@ -16,12 +17,17 @@ from pathlib import Path
 from typing import Any
 
 from telethermo.atomic import write_json_atomic
+from telethermo.control.gain_fields import GAIN_FIELDS, RESTART_GAIN_FIELDS, SDO_GAIN_FIELDS
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
 
 GAINS_FORMAT = "telethermo.gains/1"
-#: the gains a gains file may set (CoreParams field names)
-GAIN_FIELDS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W", "kpQ_A_per_W", "kiQ_A_per_W_s")
+
+
+def apply_marks() -> dict[str, Any]:
+    """The gains file's ``"apply"`` entry: which of its keys ``telethermo apply-gains`` (or ``set``) can write
+    to a running node, which need a node start with ``--gains FILE``, and the mode they are gains of."""
+    return {"mode": "telepresence", "sdo": list(SDO_GAIN_FIELDS), "restart": list(RESTART_GAIN_FIELDS)}
 
 
 def parse_gains(doc: Any, where: str = "gains") -> dict[Role, dict[str, float]]:

@@ -8,7 +8,7 @@ import math
 from typing import Any
 
 from telethermo.control.defaults import GAINS
-from telethermo.control.gainsfile import GAIN_FIELDS, GAINS_FORMAT
+from telethermo.control.gainsfile import GAIN_FIELDS, GAINS_FORMAT, apply_marks
 from telethermo.control.types import Role
 from telethermo.tuning.objective import Objective
 from telethermo.tuning.robust import Robustness, TuneResult
@@ -22,7 +22,7 @@ def gains_document(result: TuneResult, objective: Objective, *, extra: dict[str,
         for name in GAIN_FIELDS:  # every gain, searched or default, so the file is complete
             per_role[role][name] = float(g.get(f"{role}.{name}", GAINS[Role(role)][name]))
     doc = {"format": GAINS_FORMAT, "period_s": float(objective.scenes[0].period_s),
-           "master": per_role["master"], "slave": per_role["slave"],
+           "master": per_role["master"], "slave": per_role["slave"], "apply": apply_marks(),
            "objective": {"J": result.best.J, "worst_J_over_box": result.chosen.worst.J, "rel_box": result.rel,
                          "scenes": [s.name for s in objective.scenes], "seed": objective.seed,
                          "weights": dataclasses.asdict(objective.weights)},

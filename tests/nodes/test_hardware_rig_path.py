@@ -31,6 +31,8 @@ from telethermo.nodes.options import OptionError, build_parser, options_from_arg
 from telethermo.nodes.parts import _hardware_rig
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK
 from telethermo.transport.bus import FrameLog
+from telethermo.nodes.merge import merge_recordings
+from tests.nodes.exchange_check import check_exchange
 
 pytestmark = pytest.mark.slow
 
@@ -171,7 +173,20 @@ def test_both_nodes_saw_the_peer(bench):
     assert sum(1 for f in bench["frames"] if f[1] == 0x180 + NODE_ID["slave"]) == CYCLES
     peer = bench["result"]["peer"]
     assert peer["non_finite"] == 0
-    assert peer["pdos"] >= CYCLES - 1 - HUB_GRACE_CYCLES
+    # real time does not wait for the peer (lockstep does): a loaded machine delivers some PDOs a cycle
+    # late, two in one cycle, or after the master's last cycle, so the count of PDOs in time is reported,
+    # not asserted (it was 215 of 274 with the machine three times oversubscribed). What holds: every value
+    # either node used is one its peer sent at an earlier SYNC, in order, and one older than the miss limit
+    # only with a peer-loss trip (docs/nodes.md, "Lockstep and real time")
+    assert 0 < peer["pdos"] <= CYCLES
+    merged = merge_recordings(bench["out"] / "master.csv", bench["out"] / "slave.csv")
+    for me, other in (("m", "s"), ("s", "m")):
+        ex = check_exchange(merged.col(f"{me}_peer_estimate_C"),
+                            merged.col(f"{other}_estimate_C").astype(np.float32), merged.text(f"{me}_new_trips"))
+        print(f"\n{me}: peer values {ex.fresh} of {ex.rows} the previous SYNC's, "
+              f"oldest {ex.staleness_max} behind")
+        assert ex.rows >= len(merged) // 2, ex    # before: the hub's grace and the first PDO (load-dependent)
+        assert not ex.unmatched and not ex.stale_untripped, ex
     assert peer["losses"] - peer["returns"] in (0, 1)   # every loss but possibly one at the very end resumed
     slave_log = _logs(bench["out"], "slave")
     m = re.search(r"stopped \(SIGTERM\): (\d+) cycles.*pdos=(\d+), missed_cycles=(\d+), losses=(\d+)", slave_log)

@@ -15,6 +15,7 @@ from telethermo.nodes.launch import NodePair, PairConfig, node_command, wait_for
 from telethermo.nodes.merge import merge_recordings
 from telethermo.offline.recording_journal import journal_path
 from telethermo.offline.recording import read_recording_csv
+from tests.nodes.exchange_check import check_exchange
 
 pytestmark = pytest.mark.slow  # starts processes
 
@@ -65,10 +66,16 @@ def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):
     np.testing.assert_array_equal(merged.col("sync_cycle"), cycles)
     m = read_recording_csv(pair.recording("master"))
     assert len(m) > len(rec)               # the master ran on after the kill
-    # the exchange lines up: what the master received at SYNC k is what the slave sent at SYNC k-1
-    got = merged.col("m_peer_estimate_C")[1:]
-    sent = merged.col("s_estimate_C")[:-1].astype(np.float32).astype(float)
-    assert np.count_nonzero(got == sent) >= 0.95 * len(got)
+    # the exchange lines up on the SYNC axis: what the master used at SYNC k is what the slave sent at an
+    # earlier SYNC, in order, and older than the miss limit only with a peer-loss trip (real time does not
+    # wait for the peer: how many are the previous SYNC's depends on the machine's load (85 % with it three
+    # times oversubscribed), reported, not asserted)
+    ex = check_exchange(merged.col("m_peer_estimate_C"), merged.col("s_estimate_C").astype(np.float32),
+                        merged.text("m_new_trips"))
+    print(f"\nmaster's peer values: {ex.fresh} of {ex.rows} the previous SYNC's, oldest {ex.staleness_max} "
+          f"SYNCs behind")
+    # the check covers the run (its first rows: the hub's grace and the slave's first PDO, load-dependent)
+    assert ex.rows >= len(merged) // 2 and not ex.unmatched and not ex.stale_untripped, ex
 
 
 def test_a_slave_stopped_for_more_than_a_counter_wrap_keeps_the_sync_numbering(tmp_path):

@@ -182,6 +182,9 @@ def test_gains_file_round_trip(tmp_path):
     res = tn.tune(obj, budget=8, candidates=1, corners=0)
     obj.scenes = [sim.load_scene(SCENE)]
     doc = tn.gains_document(res, obj)
+    # the file marks what a running node takes by SDO and what needs a start with --gains (apply-gains)
+    assert doc["apply"] == {"mode": "telepresence", "sdo": ["kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"],
+                            "restart": ["kpQ_A_per_W", "kiQ_A_per_W_s"]}
     path = tn.write_gains(tmp_path / "gains.json", doc)
     loaded = tn.load_gains(path)
     for role in (Role.MASTER, Role.SLAVE):
