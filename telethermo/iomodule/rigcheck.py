@@ -305,8 +305,8 @@ class RigCheck:
             if abs(dT) < STEP_RISE_C[0]:
                 raise _fail("current step", "drive", f"drive (module {cfg.drive.module} "
                             f"0x{cfg.drive.index:04X}:{cfg.drive.subindex}): {step_A:.2f} A commanded, no "
-                            "current measured and the pad did not move: check the amplifier's enable, its wiring to the TEM and the drive "
-                            "object")
+                            "current measured and the pad did not move: check the amplifier's enable, its "
+                            "wiring to the TEM and the drive object")
             raise _fail("current step", "missing:current_A", f"{self._where('current_A')} reads {got:.3f} A "
                         f"while {step_A:.2f} A moves the pad: the current monitor is not on that input")
         if ratio < 0:

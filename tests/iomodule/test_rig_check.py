@@ -95,3 +95,12 @@ def test_bad_rig_config_is_one_line_exit_2(tmp_path):
                           "virtual:nobody"], capture_output=True, text=True, timeout=60)
     assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
     assert str(bad) in res.stderr and "drive.limit_A" in res.stderr
+
+
+@pytest.mark.slow
+def test_gain_x10_in_the_rig_file_is_named_at_rest(tmp_path):
+    cfg = tmp_path / "RIG.toml"
+    text = SIM_TOML.read_text(encoding="utf-8")
+    cfg.write_text(text.replace("gain = 10.0                  # °C per V", "gain = 100.0"))
+    res, _ = run_check([], rig_config=cfg)
+    assert named(res) == "scale:T_sensor_C", res.stderr
