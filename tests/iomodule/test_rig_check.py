@@ -12,10 +12,12 @@ from pathlib import Path
 import pytest
 
 from telethermo.bus_config import path as bus_config_path
+from telethermo.nodes.launch import node_command, stop_process
 from telethermo.transport.hub import HubThread
 from tests.iomodule.helpers import MODULE_ID, Bus, up
 
 SIM_TOML = bus_config_path("rig_io_sim.toml")
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
 BIN = Path(sys.executable).parent
 
 #: fault name (as in hardware.json) -> (the module's --fault options, the key rig check must name)
@@ -34,24 +36,36 @@ FAULTS = {
 }
 
 
-def run_check(faults: list[str], rig_config: Path = SIM_TOML) -> tuple[subprocess.CompletedProcess, Bus]:
+def run_check(faults: list[str], rig_config: Path = SIM_TOML, store: Path | None = None
+              ) -> tuple[subprocess.CompletedProcess, Bus]:
     """A hub, a module process with ``faults``, ``telethermo rig check`` against it; the CLI's result and the
-    module's state read by the test's own client afterwards (returned closed)."""
+    module's state read by the test's own client afterwards (returned closed). ``store``: a controller node
+    (``telethermo-master --no-sync``, idle) with that store file is up too, and the check runs ``--store``."""
     with HubThread() as hub:
         bus_arg = f"socketcand://127.0.0.1:{hub.port}/vcan0"
         cmd = [str(BIN / "telethermo-iomodule"), "--node-id", str(MODULE_ID), "--bus", bus_arg]
         proc = subprocess.Popen(cmd + [a for f in faults for a in ("--fault", f)],
                                 stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         bus = Bus(hub.port)
+        master = None
         try:
             bus.wait(lambda: up(bus) or proc.poll() is not None, timeout_s=60, every_s=0.1)
             assert proc.poll() is None, proc.communicate()[1]
-            res = subprocess.run([str(BIN / "telethermo"), "rig", "check", "1", "--rig-config",
+            extra = []
+            if store is not None:
+                master = subprocess.Popen(node_command(
+                    "master", "--bus", bus_arg, "--scene", str(SCENE), "--no-sync", "--mode", "idle",
+                    "--cycles", "0", "--store", str(store), "--log", str(store.with_suffix(".log"))),
+                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                bus.wait(lambda: any(n == 1 for _, n, _, _ in bus.heartbeats), timeout_s=60, every_s=0.1)
+                extra = ["--store"]
+            res = subprocess.run([str(BIN / "telethermo"), "rig", "check", "1", *extra, "--rig-config",
                                   str(rig_config),
                                   "--bus", bus_arg], capture_output=True, text=True, timeout=300)
             bus.after = (bus.node.sdo[0x2101].raw, bus.wait(lambda: bus.module_state()))
         finally:
             bus.close()
+            stop_process(master)
             proc.send_signal(signal.SIGTERM)
             try:
                 proc.wait(timeout=20)
@@ -104,3 +118,13 @@ def test_gain_x10_in_the_rig_file_is_named_at_rest(tmp_path):
     cfg.write_text(text.replace("gain = 10.0                  # °C per V", "gain = 100.0"))
     res, _ = run_check([], rig_config=cfg)
     assert named(res) == "scale:T_sensor_C", res.stderr
+
+
+@pytest.mark.slow
+def test_store_saves_on_the_node_only_after_every_step_passed(tmp_path):
+    store = tmp_path / "node1.json"
+    res, _ = run_check(["sign:2"], store=store)
+    assert named(res) == "sign:Q_W" and not store.exists()       # a fault: nothing written to the node
+    res, _ = run_check([], store=store)
+    assert res.returncode == 0, res.stderr
+    assert "master (node 1): all parameters saved" in res.stdout and store.is_file()
