@@ -32,6 +32,7 @@ from telethermo.remote.targets import resolve_node
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("rig", description=__doc__)
+    p.set_defaults(func=run)   # an ACTION is required: argparse refuses `telethermo rig` alone (exit 2)
     sub = p.add_subparsers(dest="rig_command", metavar="ACTION", required=True)
     c = sub.add_parser("check", help="verify an I/O rig's wiring step by step (nothing written to NODE)",
                        description=__doc__)
