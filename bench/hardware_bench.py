@@ -13,10 +13,12 @@ others' kept):
   ``io_module_silence_ms_min``: the shortest time from the controller's last heartbeat to that EMCY, by the
   hub's time stamps (≥ the 150 ms consumer time: the module never cuts early).
 
+- ``rig_check_faults_detected`` (``--only rigcheck``): bench.rig_check_bench, every injected wiring fault
+  named by ``telethermo rig check`` and none on a correct rig.
 - the I/O rig's figures (``--only io``): bench.io_rig_bench (the §5.3 headline through in-process simulated
   modules against the direct rig; the bus load of the four-node session at 100 Hz over the hub).
 
-    python -m bench.hardware_bench [--runs N] [--only cut|io]
+    python -m bench.hardware_bench [--runs N] [--only cut|io|rigcheck|store]
 """
 from __future__ import annotations
 
@@ -33,7 +35,7 @@ from pathlib import Path
 import can
 import canopen
 
-from bench import hardware_store, io_rig_bench
+from bench import hardware_store, io_rig_bench, rig_check_bench
 from bench.common import current_results_dir, print_table, write_results
 from telethermo.bus_config import path
 from telethermo.cia301 import EMCY_HEARTBEAT
@@ -109,7 +111,8 @@ def measure(runs: int) -> dict:
             "io_module_consumer_ms": CONSUMER_MS}
 
 
-def run(quick: bool = False, runs: int | None = None, parts: tuple[str, ...] = ("cut", "io")) -> dict:
+def run(quick: bool = False, runs: int | None = None,
+        parts: tuple[str, ...] = ("cut", "io", "rigcheck")) -> dict:
     """The figures of ``parts`` ("cut": the SIGKILL cut; "io": the I/O rig, bench.io_rig_bench), merged into
     hardware.json (every other key kept: other benches write theirs there too)."""
     got: dict = {}
@@ -121,6 +124,10 @@ def run(quick: bool = False, runs: int | None = None, parts: tuple[str, ...] = (
               **io_rig_bench.bus_load_4_nodes(cycles=300 if quick else 1000)}
         print_table(["figure", "value"], [[k, v] for k, v in io.items() if not isinstance(v, dict)])
         got.update(io)
+    if "rigcheck" in parts:
+        rc = rig_check_bench.run()
+        print_table(["fault", "named"], [[k, v] for k, v in rc["rig_check_faults_detected"].items()])
+        got.update(rc)
     target = current_results_dir() / "hardware.json"
     old = json.loads(target.read_text()) if target.exists() else {}   # read just before writing: merge
     old.pop("provenance", None)
@@ -131,12 +138,13 @@ def run(quick: bool = False, runs: int | None = None, parts: tuple[str, ...] = (
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=20, help="SIGKILLs (default 20, at least 10)")
-    ap.add_argument("--only", choices=["cut", "io", "store"], action="append",
+    ap.add_argument("--only", choices=["cut", "io", "rigcheck", "store"], action="append",
                     help="run only this part (repeatable): cut = the SIGKILL cut, io = the I/O rig figures, "
+                         "rigcheck = rig check names every injected wiring fault (bench/rig_check_bench.py), "
                          "store = store/restore (bench/hardware_store.py)")
     a = ap.parse_args()
-    parts = tuple(a.only or ("cut", "io", "store"))
-    if {"cut", "io"} & set(parts):
-        run(runs=max(10, a.runs), parts=tuple(p for p in parts if p in ("cut", "io")))
+    parts = tuple(a.only or ("cut", "io", "rigcheck", "store"))
+    if {"cut", "io", "rigcheck"} & set(parts):
+        run(runs=max(10, a.runs), parts=tuple(p for p in parts if p in ("cut", "io", "rigcheck")))
     if "store" in parts:
         sys.exit(hardware_store.main(["--only", "store"]))

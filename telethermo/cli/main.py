@@ -49,6 +49,7 @@ COMMANDS: dict[str, Command] = {
     "nmt": Command("nmt", "NMT start/stop/preop/reset of one node or all"),
     "mode": Command("mode", "switch the nodes: telepresence | render MATERIAL | idle"),
     "fault-reset": Command("faults", "clear the latched safety trips whose cause is gone"),
+    "rig": Command("rig", "rig check: verify an I/O rig's wiring (RIG.toml) before a finger goes on the pad"),
     "save": Command("store", "store a node's parameters (CiA 301 0x1010): restored at each start"),
     "restore-defaults": Command("store", "a node's default parameters from its next reset or start (0x1011)"),
     "calibrate-finger": Command("calibrate", "per-user finger calibration (yamamoto): β_pad and T_finger0"),

@@ -160,6 +160,11 @@ class IoRig:
             self._arrived[cob] += 1
             self._cond.notify_all()
 
+    def counts(self) -> dict[str, int]:
+        """The raw 16-bit input codes of the newest TPDOs, by signal name (for commissioning checks)."""
+        with self._cond:
+            return dict(self._counts)
+
     def _complete(self) -> int:
         return min(self._arrived.values()) if self._arrived else 0
 

@@ -18,6 +18,7 @@ import threading
 import canopen
 
 from telethermo.device import DeviceSettings, NetworkConfigError, load_network
+from telethermo.iomodule.faults import FaultError, parse_faults
 from telethermo.iomodule.module import IoModule
 from telethermo.sim.compile import build_rig
 from telethermo.sim.errors import SceneError
@@ -45,6 +46,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, help="sensor-noise seed (default: the scene's)")
     p.add_argument("--network",
                    help="network settings file: bus, SYNC period and counter (default: packaged)")
+    p.add_argument("--fault", action="append", default=[], metavar="KIND:ARGS",
+                   help="inject a wiring fault (repeatable): sign:N, sign:out, scale:N:F, open:N, short:N, "
+                        "swap:A:B, sampling:MS (telethermo.iomodule.faults)")
     add_bus_arguments(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log state changes on stderr")
     return p
@@ -63,7 +67,8 @@ def main(argv: list[str] | None = None) -> int:
         transport = resolve_bus(net, bus=args.bus, interface=args.interface, channel=args.channel,
                                 bitrate=args.bitrate).settings
         rig = build_rig(load_scene(args.scene), args.side, seed=args.seed)
-    except (NetworkConfigError, TransportError, SceneError) as exc:
+        faults = parse_faults(args.fault)
+    except (NetworkConfigError, TransportError, SceneError, FaultError) as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
     except OSError as exc:
@@ -81,7 +86,7 @@ def main(argv: list[str] | None = None) -> int:
         return EXIT_FAIL
     network = canopen.Network(bus)
     network.connect()
-    module = IoModule(network, args.node_id, rig, settings=settings)
+    module = IoModule(network, args.node_id, rig, settings=settings, faults=faults)
     try:
         module.start()
         logging.getLogger("telethermo.iomodule").info("node %d on %s: pre-operational", args.node_id,

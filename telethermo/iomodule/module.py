@@ -38,6 +38,7 @@ from telethermo.cia301 import EMCY_INPUT_SENTINEL
 from telethermo.device import (
     Device, DeviceSettings, NmtCommand, NmtState, PeerEvent, RpdoEvent, SyncTick, WriteEvent,
 )
+from telethermo.iomodule.faults import Faults
 from telethermo.iomodule.scaling import (
     DEFAULT_AMPLIFIER_A_PER_V, DEFAULT_WIRING, OVERLOAD_POS, SENTINELS, InputWiring, counts_to_volts,
     volts_to_counts,
@@ -62,19 +63,21 @@ class IoModule:
     """One simulated I/O module on ``network``: ``IoModule(network, node_id, rig)`` then :meth:`start`.
 
     ``rig`` is a simulated rig (advanced here, one SYNC at a time); ``wiring`` the amplifiers in front of
-    0x6401:1..6; ``amplifier_A_per_V`` the current amplifier behind 0x6411:1.
+    0x6401:1..6; ``amplifier_A_per_V`` the current amplifier behind 0x6411:1; ``faults`` wiring faults
+    injected on purpose (:mod:`.faults`, for commissioning tests).
     """
 
     def __init__(self, network: canopen.Network, node_id: int, rig: SimulatedRig, *,
                  eds: str | Path = EDS_PATH, settings: DeviceSettings | None = None,
                  wiring: tuple[InputWiring, ...] = DEFAULT_WIRING,
                  amplifier_A_per_V: float = DEFAULT_AMPLIFIER_A_PER_V,
-                 clock: Callable[[], float] = time.monotonic):
+                 clock: Callable[[], float] = time.monotonic, faults: Faults | None = None):
         if len(wiring) != N_INPUTS:
             raise ValueError(f"wiring: {N_INPUTS} inputs expected, got {len(wiring)}")
         self.rig = rig
-        self.wiring = wiring
-        self.amplifier_A_per_V = float(amplifier_A_per_V)
+        self.faults = faults = faults or Faults()
+        self.wiring = faults.wiring(wiring)
+        self.amplifier_A_per_V = float(amplifier_A_per_V) * faults.out_sign
         self.clock = clock
         self.device = dev = Device(network, node_id, eds, settings=settings, clock=clock)
         self._since_conversion_s = math.inf
@@ -90,6 +93,8 @@ class IoModule:
         dev.add_peer_listener(self._on_peer)
         dev.add_nmt_listener(self._on_nmt)
         dev.add_write_listener(self._on_write)
+        if faults.opened:
+            dev.write(OPEN_CIRCUIT_INDEX, faults.opened, check=False)
 
     # ------------------------------------------------------------------ life cycle
     def start(self) -> None:
@@ -167,7 +172,8 @@ class IoModule:
         dt_s = int(dev.read(0x1006)) * 1e-6 or self.rig.period_s
         self.rig.advance(dt_s)
         self._since_conversion_s += dt_s
-        if self._since_conversion_s + 1e-9 >= int(dev.read(SAMPLING_INDEX)) * 1e-3:
+        sampling_ms = self.faults.sampling_ms or int(dev.read(SAMPLING_INDEX))
+        if self._since_conversion_s + 1e-9 >= sampling_ms * 1e-3:
             self._since_conversion_s = 0.0
             self._convert()
 
