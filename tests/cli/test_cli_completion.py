@@ -24,6 +24,7 @@ def complete(cli, line: str) -> list[str]:
     return p.stdout.split()
 
 
+@pytest.mark.slow  # starts bash
 def test_the_script_is_valid_bash(cli, tmp_path):
     code, script, _ = cli("completion", "bash")
     f = tmp_path / "telethermo.bash"
@@ -31,6 +32,7 @@ def test_the_script_is_valid_bash(cli, tmp_path):
     assert subprocess.run(["bash", "-n", str(f)], capture_output=True).returncode == 0
 
 
+@pytest.mark.slow  # starts bash
 def test_it_completes_commands_options_nodes_and_scenes(cli):
     assert complete(cli, "telethermo fault") == ["fault-reset"]
     assert "--no-wait" in complete(cli, "telethermo nmt --no")
