@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 OUT    ?= out
 
-.PHONY: install demo test test-host test-vcan bench bench-quick stress stress-quick clean
+.PHONY: install demo test test-fast test-host test-vcan bench bench-quick stress stress-quick clean
 
 install: $(STAMP)
 
@@ -22,6 +22,11 @@ demo: $(STAMP)
 ## All tests: the host group, then the SocketCAN (vcan) group natively or inside vcan-run.
 test: $(STAMP)
 	scripts/run-tests
+
+## The inner loop: no processes, no VM (tests marked `slow` or `vcan` left out; a test that starts a
+## process anyway fails and says to mark it `slow`). A few minutes; `make test` is still what CI runs.
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m "not vcan and not slow" --no-processes tests
 
 test-host: $(STAMP)
 	$(PY) -m pytest -q -m "not vcan" tests

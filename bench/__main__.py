@@ -1,5 +1,7 @@
 """``python -m bench [--quick] [--only NAME ...]``: run every benchmark, write bench/results/*.json,
-then refresh the generated table in docs/benchmarks.md.
+then refresh the generated table in docs/benchmarks.md. ``python -m bench --check [--results-dir DIR]``
+runs nothing: it prints, per target of bench/targets.py, met / short / missing from the result files, and
+exits 1 when any is short.
 
 Each benchmark is a module ``bench.<name>_bench`` exposing ``run(quick: bool) -> dict`` that prints
 its own table and writes ``bench/results/<name>.json`` (through bench.common.write_results).
@@ -14,9 +16,11 @@ import time
 import traceback
 
 import os
+from pathlib import Path
 
 from bench.common import RESULTS_DIR, RESULTS_ENV, current_results_dir
 from bench.report import refresh_docs, write_plots
+from bench.targets import check, check_table
 
 SUITE = ["sim", "identify", "control", "transparency", "nodes", "identify_live", "cli", "rendering", "monitor", "envelope"]
 
@@ -27,7 +31,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="+", choices=SUITE, help="run only these benchmarks")
     ap.add_argument("--results-dir", help="write the result files here instead of bench/results/ "
                                           "(docs/benchmarks.md is then left alone)")
+    ap.add_argument("--check", action="store_true", help="run nothing: per target, met / short / missing "
+                                                         "from the result files; exit 1 when any is short")
     args = ap.parse_args(argv)
+    if args.check:
+        rows = check(Path(args.results_dir) if args.results_dir else RESULTS_DIR)
+        print(check_table(rows))
+        n = {v: sum(r[1] == v for r in rows) for v in ("met", "short", "missing")}
+        print(f"\n{n['met']} met, {n['short']} short, {n['missing']} missing (of {len(rows)} targets)")
+        return 1 if n["short"] else 0
     if args.results_dir:
         os.makedirs(args.results_dir, exist_ok=True)
         os.environ[RESULTS_ENV] = args.results_dir

@@ -5,17 +5,14 @@ machine, the versions, the date and the git commit, so results from different ru
 """
 from __future__ import annotations
 
-import datetime as _dt
 import os
-import platform
 import statistics
-import subprocess
 import time
-from importlib import metadata
 from pathlib import Path
 from typing import Any, Callable
 
 from telethermo.atomic import write_json_atomic
+from telethermo.provenance import provenance
 
 RESULTS_DIR = Path(__file__).resolve().parent / "results"
 RESULTS_ENV = "TELETHERMO_BENCH_RESULTS"
@@ -27,35 +24,6 @@ def current_results_dir() -> Path:
     """Where results go: $TELETHERMO_BENCH_RESULTS if set, else bench/results/."""
     override = os.environ.get(RESULTS_ENV)
     return Path(override) if override else RESULTS_DIR
-
-
-def provenance() -> dict[str, Any]:
-    """Machine, versions, date and commit of this run."""
-    def version(pkg: str) -> str:
-        try:
-            return metadata.version(pkg)
-        except metadata.PackageNotFoundError:
-            return "not installed"
-
-    try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                                cwd=Path(__file__).resolve().parent, timeout=10).stdout.strip() or "unknown"
-        dirty = bool(subprocess.run(["git", "status", "--porcelain"], capture_output=True, text=True,
-                                    cwd=Path(__file__).resolve().parent, timeout=10).stdout.strip())
-    except (OSError, subprocess.SubprocessError):
-        commit, dirty = "unknown", False
-    return {
-        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-        "commit": commit,
-        "dirty_tree": dirty,
-        "machine": {
-            "platform": platform.platform(),
-            "processor": platform.machine(),
-            "cpus": os.cpu_count(),
-            "python": platform.python_version(),
-        },
-        "versions": {p: version(p) for p in ("telethermo", "numpy", "scipy", "python-can", "canopen")},
-    }
 
 
 def write_results(name: str, data: dict[str, Any], *, results_dir: Path | None = None) -> Path:

@@ -1,62 +1,43 @@
 """CiA 301 conformance of the live node pair, through an independent client (canopen's RemoteNode /
-SdoClient / NmtMaster from the shipped EDS files and raw frames; bench/conformance_checks.py, the same
-checks as tests/conformance/).
+SdoClient / NmtMaster from the shipped EDS files and raw frames; the checks are tests/conformance/).
 
     python -m bench.conformance_bench [--quick] [--timing realtime lockstep]
 
-Starts the master and slave programs over a fresh loopback hub for each timing mode (default both; quick:
-real time only), runs every check in order and writes bench/results/conformance.json: ``n_checks``,
-``n_fail`` (FAIL or ERROR) and ``checks`` (name, clause, timing, result, detail). Exit code 1 if a check
-failed.
+Runs tests/conformance/ with pytest in a child process (``--conformance-timing ... --write-results``), so
+neither bench/ nor tests/ imports the other: the master and slave programs over a fresh loopback hub for
+each timing mode (default both; quick: real time only), every check in order, and
+bench/results/conformance.json: ``n_checks``, ``n_fail`` (FAIL or ERROR) and ``checks`` (name, clause,
+timing, result, detail). Exit code 1 if a check failed.
 """
 from __future__ import annotations
 
 import argparse
+import json
+import subprocess
 import sys
-import tempfile
-import time
 from pathlib import Path
 from typing import Any
 
-from bench.common import print_table, write_results
-from bench.conformance_checks import run_check
-from bench.conformance_corners import SUITE as CHECKS
-from bench.conformance_lab import live_pair
+from bench.common import current_results_dir, print_table
 
+ROOT = Path(__file__).resolve().parent.parent
+TESTS = ROOT / "tests" / "conformance"
 TIMINGS = ("realtime", "lockstep")
 
 
 def run(quick: bool = False, timings: tuple[str, ...] | None = None) -> dict[str, Any]:
     timings = timings or (("realtime",) if quick else TIMINGS)
-    results: list[dict] = []
-    t0 = time.perf_counter()
-    for timing in timings:
-        with tempfile.TemporaryDirectory(prefix=f"conformance-{timing}-") as tmp:
-            try:
-                with live_pair(Path(tmp), timing=timing) as lab:
-                    for check in CHECKS:
-                        res = run_check(check, lab)
-                        res["timing"] = timing
-                        results.append(res)
-                        print(f"  {timing:9s} {res['result']:5s} {check.name}: {res['detail']}", flush=True)
-            except Exception as exc:   # the pair itself failed: every check not run counts as an error
-                done = {r["name"] for r in results if r["timing"] == timing}
-                for check in CHECKS:
-                    if check.name not in done:
-                        results.append({"name": check.name, "clause": check.clause, "timing": timing,
-                                        "result": "ERROR", "detail": f"pair failed: {type(exc).__name__}: {exc}"})
-    n_fail = sum(r["result"] != "PASS" for r in results)
-    data = {
-        "n_checks": len(results),
-        "n_fail": n_fail,
-        "timings": list(timings),
-        "client": "canopen RemoteNode/SdoClient/NmtMaster from bus_config/*.eds + raw python-can frames (socketcand hub)",
-        "wall_s": round(time.perf_counter() - t0, 1),
-        "checks": results,
-    }
-    write_results("conformance", data)
+    path = current_results_dir() / "conformance.json"
+    before = path.stat().st_mtime_ns if path.exists() else None
+    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "conformance", str(TESTS),
+           "--conformance-timing", *timings, "--write-results", str(path.parent), "-rf"]
+    code = subprocess.run(cmd, cwd=ROOT).returncode
+    if not path.exists() or path.stat().st_mtime_ns == before:
+        raise RuntimeError(f"conformance: pytest exited {code} and wrote no {path}")
+    data = json.loads(path.read_text(encoding="utf-8"))
+    results = data["checks"]
     print_table(["timing", "check", "result"], [[r["timing"], r["name"], r["result"]] for r in results])
-    print(f"conformance: {len(results)} checks, {n_fail} failed")
+    print(f"conformance: {len(results)} checks, {data['n_fail']} failed")
     return data
 
 

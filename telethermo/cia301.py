@@ -77,7 +77,13 @@ SDO_ABORT_CODES = {
 
 
 def sdo_abort_text(code: int) -> str:
-    """CiA 301 meaning of an SDO abort code ('unknown abort code' if not in table 22)."""
+    """CiA 301 meaning of an SDO abort code ('unknown abort code' if not in table 22).
+
+    >>> sdo_abort_text(ABORT_NO_OBJECT)
+    'Object does not exist in the object dictionary'
+    >>> sdo_abort_text(0x12345678)
+    'unknown abort code'
+    """
     return SDO_ABORT_CODES.get(code, "unknown abort code")
 
 
@@ -131,7 +137,13 @@ EMCY_CLASS_TEXTS = {
 
 
 def emcy_code_text(code: int) -> str:
-    """CiA 301 text of an EMCY error code: the exact entry if there is one, else its class."""
+    """CiA 301 text of an EMCY error code: the exact entry if there is one, else its class.
+
+    >>> emcy_code_text(EMCY_HEARTBEAT)
+    'Life guard error or heartbeat error'
+    >>> emcy_code_text(0x4210)          # no entry of its own: its class, 0x42xx
+    'Device temperature'
+    """
     if code in EMCY_CODE_TEXTS:
         return EMCY_CODE_TEXTS[code]
     return EMCY_CLASS_TEXTS.get(code >> 8) or EMCY_CLASS_TEXTS.get((code >> 8) & 0xF0, "unknown error code")
@@ -166,7 +178,11 @@ NMT_UNKNOWN = "unknown"
 
 
 def nmt_state_name(byte: int) -> str:
-    """Name of a heartbeat state byte (toggle bit ignored); 'invalid 0xNN' for others."""
+    """Name of a heartbeat state byte (toggle bit ignored); 'invalid 0xNN' for others.
+
+    >>> nmt_state_name(0x85), nmt_state_name(0x7F), nmt_state_name(0x03)
+    ('OPERATIONAL', 'PRE-OPERATIONAL', 'invalid 0x03')
+    """
     code = byte & 0x7F
     return NMT_STATES.get(code, f"invalid 0x{code:02X}")
 
@@ -178,5 +194,9 @@ ERROR_REGISTER_BITS = ("generic", "current", "voltage", "temperature", "communic
 
 
 def error_register_names(reg: int) -> list[str]:
-    """Names of the bits set in an error register byte (0x1001), bit 0 first."""
+    """Names of the bits set in an error register byte (0x1001), bit 0 first.
+
+    >>> error_register_names(0x11)
+    ['generic', 'communication']
+    """
     return [name for bit, name in enumerate(ERROR_REGISTER_BITS) if reg & (1 << bit)]

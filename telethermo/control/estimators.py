@@ -40,7 +40,11 @@ class TemperaturePredictor(Protocol):
 
 
 def estimate_model(T_sensor_C: float, T_pred_C: float) -> float:
-    """Contact-side temperature from the mid-plane sensor and the predicted plate, °C (eq. 28)."""
+    """Contact-side temperature from the mid-plane sensor and the predicted plate, °C (eq. 28).
+
+    >>> estimate_model(30.0, 31.0)      # plate at 31 °C, mid-plane at 30 °C: the contact side at 29 °C
+    29.0
+    """
     return 2.0 * T_sensor_C - T_pred_C
 
 
@@ -48,13 +52,20 @@ def estimate_flux(T_sensor_C: float, Q_W: float, R_sensor_K_per_W: float) -> flo
     """Contact-side temperature from the mid-plane sensor and the flux through it, °C (eq. 29).
 
     Q_W > 0 flows from the TEM towards the contact, so the contact side is colder by Q·R/2.
+
+    >>> estimate_flux(30.0, 0.2, 5.0)   # 0.2 W through 5 K/W: the contact is 0.5 °C below the sensor
+    29.5
     """
     return T_sensor_C - 0.5 * Q_W * R_sensor_K_per_W
 
 
 def estimate(kind: Estimator, T_sensor_C: float, Q_W: float, T_pred_C: float, R_sensor_K_per_W: float,
              fused_weight: float = 0.5) -> float:
-    """The estimate of ``kind``, °C. ``fused_weight`` is the weight of the model estimate."""
+    """The estimate of ``kind``, °C. ``fused_weight`` is the weight of the model estimate.
+
+    >>> estimate(Estimator.FUSED, 30.0, 0.2, 31.0, 5.0, fused_weight=0.5)   # halfway between 29.0 and 29.5
+    29.25
+    """
     if kind is Estimator.FLUX:
         return estimate_flux(T_sensor_C, Q_W, R_sensor_K_per_W)
     if kind is Estimator.MODEL:

@@ -95,6 +95,19 @@ def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: f
     ``flux_error_W`` sharing the integrator and the anti-windup.
     Non-finite errors or ``ff_A`` are treated as 0 (the safety envelope trips on their causes);
     the integrator then holds. ``u_min_A < u_max_A`` is required.
+
+    Unsaturated: p = 2 A/°C · 1 °C, the integrator gains 0.5 · 1 · 0.1 A, the feed-forward adds 0.5 A:
+
+    >>> u, st, c = pi_step(PIGains(2.0, 0.5), PIState(), 1.0, 0.5, 0.1, -3.0, 3.0)
+    >>> u, st.integral_A, c.saturated
+    (2.55, 0.05, False)
+
+    Anti-windup with the feed-forward: p + ff = 4.5 A exceed the 3 A limit, so the integrator is clamped
+    to 3 - 4.5 = -1.5 A and the output sits at the limit without the output clamp acting:
+
+    >>> u, st, c = pi_step(PIGains(2.0, 0.5), PIState(), 2.0, 0.5, 0.1, -3.0, 3.0)
+    >>> u, st.integral_A, c.saturated
+    (3.0, -1.5, False)
     """
     if not math.isfinite(error_C):
         error_C = 0.0
@@ -116,7 +129,14 @@ def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: f
 
 def bumpless(gains: PIGains, u_prev_A: float, error_C: float, ff_A: float, u_min_A: float,
              u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: FluxPIGains | None = None) -> PIState:
-    """Integrator that makes ``kp·error + I + ff`` equal the previous output ``u_prev_A`` (clamped)."""
+    """Integrator that makes ``kp·error + I + ff`` equal the previous output ``u_prev_A`` (clamped).
+
+    New gains, same output: the next step (dt 0, so the integrator does not move) gives 1.2 A again.
+
+    >>> st = bumpless(PIGains(4.0, 0.5), 1.2, 0.1, 0.3, -3.0, 3.0)
+    >>> round(st.integral_A, 12), round(pi_step(PIGains(4.0, 0.5), st, 0.1, 0.3, 0.0, -3.0, 3.0)[0], 12)
+    (0.5, 1.2)
+    """
     if not math.isfinite(u_prev_A):
         u_prev_A = 0.0
     e = error_C if math.isfinite(error_C) else 0.0

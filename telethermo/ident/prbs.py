@@ -22,6 +22,12 @@ def lfsr_bits(n_bits: int, *, order: int = 15, state: int = 1) -> np.ndarray:
     """``n_bits`` bits (0/1) of the maximal-length LFSR of ``order`` started at non-zero ``state``.
 
     The sequence has period 2**order - 1 and, over one period, one more 1 than 0.
+
+    >>> bits = lfsr_bits(30, order=4)
+    >>> bits[:15].tolist()
+    [1, 0, 0, 1, 1, 0, 1, 0, 1, 1, 1, 1, 0, 0, 0]
+    >>> int(bits[:15].sum()), bool((bits[15:] == bits[:15]).all())
+    (8, True)
     """
     if order not in _TAPS:
         raise ValueError(f"LFSR order must be one of {sorted(_TAPS)}, got {order}")
@@ -55,6 +61,17 @@ def prbs(n_samples: int, *, amplitude_A: float | tuple[float, float] = (0.2, 1.0
 
     Returns:
         float array of ``n_samples`` currents, A: offset ± amplitude.
+
+    A two-level sequence, each bit held two samples, around an offset of 1 A:
+
+    >>> prbs(6, amplitude_A=0.5, hold_samples=2, seed=1, offset_A=1.0).tolist()
+    [1.5, 1.5, 1.5, 1.5, 0.5, 0.5]
+
+    Variable amplitude: every bit's magnitude lies in the range, constant over its hold:
+
+    >>> x = prbs(40, amplitude_A=(0.2, 1.0), hold_samples=10, seed=3)
+    >>> bool(((abs(x) >= 0.2) & (abs(x) <= 1.0)).all()), len(set(x.tolist()))
+    (True, 4)
     """
     if int(n_samples) != n_samples or n_samples < 0:
         raise ValueError(f"n_samples must be a non-negative integer, got {n_samples!r}")

@@ -41,7 +41,9 @@ def network_with_an_arm(tmp_path) -> Path:
     return f
 
 
-needs_bash = pytest.mark.skipif(shutil.which("bash") is None, reason="no bash on this machine")
+def needs_bash(test):
+    """A test that starts bash: skipped without it, and `slow` (make test-fast starts no process)."""
+    return pytest.mark.slow(pytest.mark.skipif(shutil.which("bash") is None, reason="no bash on this machine")(test))
 
 
 @needs_bash
@@ -94,6 +96,7 @@ def test_the_hidden_entry_prints_one_candidate_a_line(capsys):
     assert main(["__complete", "x"]) == 2 and "usage" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("zsh") is None, reason="zsh is not installed on this machine")
 def test_zsh_script_loads_and_completes(cli, tmp_path):
     code, script, _ = cli("completion", "zsh")
@@ -106,6 +109,7 @@ def test_zsh_script_loads_and_completes(cli, tmp_path):
     assert p.stdout.split() == ["kp_A_per_C"], p.stderr
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(shutil.which("fish") is None, reason="fish is not installed on this machine")
 def test_fish_script_loads_and_completes(cli, tmp_path):
     code, script, _ = cli("completion", "fish")

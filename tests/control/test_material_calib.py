@@ -183,6 +183,7 @@ def test_a_touch_without_an_effusivity_is_published_unknown():
     assert est.abstained in ("flux_reversed", "no_fit", "weak_evidence") and math.isnan(est.effusivity)
 
 
+@pytest.mark.slow  # the calibration runs its touches in a process pool
 def test_the_calibration_command_builds_a_classifier_the_slave_loads(tmp_path, capsys):
     """bench.material_calibrate end to end on a few touches (tiny networks): the file loads with the bench's
     classes and window, records its seeds, and a second run reads the cached touches instead of simulating."""

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 
+import pytest
+
 from bench import monitor_bench
 from bench.__main__ import SUITE
 from telethermo.monitor.state import Monitor
@@ -22,6 +24,7 @@ def test_the_benchmark_traffic_decodes_cleanly():
     assert mon.nodes[2].emcys == 2
 
 
+@pytest.mark.slow  # starts a hub and a sender process
 def test_quick_run_writes_the_result_keys(tmp_path, monkeypatch):
     monkeypatch.setenv("TELETHERMO_BENCH_RESULTS", str(tmp_path))
     monitor_bench.run(quick=True, n_frames=3000)

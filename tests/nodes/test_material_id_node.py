@@ -8,6 +8,7 @@ from pathlib import Path
 
 import can
 import canopen
+import pytest
 
 from telethermo.bus_config import path as bus_config_path
 from telethermo.nodes.launch import node_command, stop_process, wait_for
@@ -17,6 +18,7 @@ from telethermo.transport.hub import HubThread
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 SLAVE = 2
+pytestmark = pytest.mark.slow  # starts the slave program
 
 
 def test_slave_publishes_the_identified_material_by_sdo(tmp_path):

@@ -3,22 +3,16 @@ gives a loop that meets the stated margins on its model and does not oscillate i
 from __future__ import annotations
 
 import dataclasses
-import doctest
 
 import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from telethermo.control import gain_rule
 from telethermo.control.gain_rule import (MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, LinearPlant, gain_scale,
                                           margins, reference_plant)
 from telethermo.control.types import Role
 from telethermo.offline.envelope import base_condition, condition_scene, identified_params
 from telethermo.offline.runner import run_offline_session
-
-
-def test_doctests():
-    assert doctest.testmod(gain_rule).failed == 0
 
 
 @pytest.mark.parametrize("k", [0.5, 2.2])

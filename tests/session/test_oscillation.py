@@ -1,17 +1,10 @@
 """The oscillation figure (issue 22): it tells a limit cycle from a settled touch, and sessions report it."""
 from __future__ import annotations
 
-import doctest
-
 import numpy as np
 
-from telethermo.offline import oscillation
 from telethermo.offline.oscillation import FLOOR_C, OSCILLATION_LIMIT, band_rms, oscillation_figures
 from telethermo.offline.runner import run_offline_session
-
-
-def test_doctests():
-    assert doctest.testmod(oscillation).failed == 0
 
 
 def _touch(t, amplitude_C, f_Hz=1.0):

@@ -1,6 +1,10 @@
-"""Fast subset of the control-core stress cases (bench/stress_control.py)."""
-from bench import stress_control as s
-from bench.stress_case import assert_passed
+"""Fast subset of the control-core stress cases (tests/stress/cases/control.py)."""
+import pytest
+
+from tests.stress.cases import control as s
+from tests.stress.cases.case import assert_passed
+
+pytestmark = pytest.mark.stress
 
 
 def test_bad_peer_values_keep_the_envelope():

@@ -1,7 +1,7 @@
-"""Fast subset of the fuzz cases (bench/stress_fuzz.py): hypothesis against a real Device on a python-can
+"""Fast subset of the fuzz cases (tests/stress/cases/fuzz.py): hypothesis against a real Device on a python-can
 virtual bus, against sim.load_scene and against telethermo.ident.load_model.
 
-The five findings the fuzz made (``bench.stress_fuzz.KNOWN_FINDINGS``: 29-bit frames reaching 11-bit
+The five findings the fuzz made (``tests.stress.cases.fuzz.KNOWN_FINDINGS``: 29-bit frames reaching 11-bit
 services, a stray SDO segment raising instead of aborting, huge integers and absurd current ranges in the
 scene and model-file loaders) are fixed; each keeps a regression test below.
 """
@@ -11,8 +11,10 @@ import time
 import can
 import pytest
 
-from bench import stress_fuzz as s
-from bench import stress_fuzz_frames as fr
+from tests.stress.cases import fuzz as s
+from tests.stress.cases import fuzz_frames as fr
+
+pytestmark = pytest.mark.stress
 
 
 def _sdo_reply(raw, timeout_s: float = 2.0):

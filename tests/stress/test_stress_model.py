@@ -1,6 +1,10 @@
-"""Fast subset of the identified-model stress cases (bench/stress_model.py)."""
-from bench import stress_model as s
-from bench.stress_case import assert_passed
+"""Fast subset of the identified-model stress cases (tests/stress/cases/model.py)."""
+import pytest
+
+from tests.stress.cases import model as s
+from tests.stress.cases.case import assert_passed
+
+pytestmark = pytest.mark.stress
 
 
 def test_unstable_models_refused_with_reason():

@@ -1,6 +1,10 @@
-"""Fast subset of the RLS stress cases (bench/stress_rls.py): same checks, smaller sizes."""
-from bench import stress_rls as s
-from bench.stress_case import assert_passed
+"""Fast subset of the RLS stress cases (tests/stress/cases/rls.py): same checks, smaller sizes."""
+import pytest
+
+from tests.stress.cases import rls as s
+from tests.stress.cases.case import assert_passed
+
+pytestmark = pytest.mark.stress
 
 
 def test_idle_then_step_bounded_no_jump():

@@ -1,6 +1,10 @@
-"""Fast subset of the simulator stress cases (bench/stress_sim.py)."""
-from bench import stress_sim as s
-from bench.stress_case import assert_passed
+"""Fast subset of the simulator stress cases (tests/stress/cases/sim.py)."""
+import pytest
+
+from tests.stress.cases import sim as s
+from tests.stress.cases.case import assert_passed
+
+pytestmark = pytest.mark.stress
 
 
 def test_extreme_materials_maximum_principle_and_energy():

@@ -1,6 +1,10 @@
-"""Fast subset of the surface-rate-around-trips case (bench/stress_slew.py)."""
-from bench import stress_slew as s
-from bench.stress_case import assert_passed
+"""Fast subset of the surface-rate-around-trips case (tests/stress/cases/slew.py)."""
+import pytest
+
+from tests.stress.cases import slew as s
+from tests.stress.cases.case import assert_passed
+
+pytestmark = pytest.mark.stress
 
 
 def test_peer_trip_in_a_cold_contact_keeps_the_surface_within_ramp_plus_one():

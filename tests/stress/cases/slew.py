@@ -1,6 +1,6 @@
 """How fast the master's pad surface moves around trips and cuts (issue 12: ramp limit + 1 °C/s).
 
-A telepresence pair (both control cores, both simulated rigs, the exchange of bench.stress_control's offline
+A telepresence pair (both control cores, both simulated rigs, the exchange of tests.stress.cases.control's offline
 timing: values sent in cycle k are used in cycle k+1) runs with the operator's finger on the master's pad; the
 probe (slave) touches an object of a contact condition (:data:`CONTACTS`) from ``TOUCH_S``. At a chosen moment
 after the touch one event (:data:`EVENTS`) hits the master:
@@ -31,8 +31,8 @@ import math
 
 import numpy as np
 
-from bench.stress_case import Case
-from bench.stress_sim import load_scene_doc
+from tests.stress.cases.case import Case
+from tests.stress.cases.sim import load_scene_doc
 from telethermo import sim
 from telethermo.control.core import init_state, initial_peer, step
 from telethermo.control.params import default_params
@@ -280,7 +280,7 @@ def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.
                                   for r in rows]
     head["surface_rate_cases_columns"] = ["contact", "event", "after_touch_s", "slew_C_per_s", "before_C_per_s",
                                           "no_event_C_per_s"]
-    head["surface_rate_how"] = (f"bench/stress_slew.py: max |slope| of the simulated master pad surface over {WINDOW_S:g} s "
+    head["surface_rate_how"] = (f"tests/stress/cases/slew.py: max |slope| of the simulated master pad surface over {WINDOW_S:g} s "
                                 f"windows, trip to +{AFTER_S:g} s; surface_rate_max_C_per_s over the peer trips where the "
                                 "contact alone moves the surface <= the limit (else *_all_*)")
     res = c.result()

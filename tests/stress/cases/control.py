@@ -12,12 +12,12 @@ import math
 
 import numpy as np
 
-from bench.stress_case import Case
+from tests.stress.cases.case import Case
 from telethermo.control import safety as sf
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
-from bench.stress_sim import load_scene_doc
+from tests.stress.cases.sim import load_scene_doc
 from telethermo import sim
 from telethermo.offline.runner import run_offline_session
 

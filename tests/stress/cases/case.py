@@ -1,9 +1,9 @@
 """One stress case's verdict: what must hold, the measured figures, and the checks that failed.
 
 A case function builds a :class:`Case`, measures, calls :meth:`Case.require` for every fact that must
-hold (each with the measured value in its text) and returns ``case.result()``. The suite runner
-(:mod:`bench.stress`) and the fast test subset (tests/stress) call the same functions, with smaller
-sizes in the tests.
+hold (each with the measured value in its text) and returns ``case.result()``. The whole suite
+(tests/stress/test_stress_suite.py, which ``python -m bench.stress`` runs) and the fast subset (the other
+tests in tests/stress) call the same functions, with smaller sizes in the subset.
 """
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """CiA 301 conformance checks of the live pair, second part: PDO transmission types counted by the slave's
 cycles, EMCY consistency with one EMCY per lost node, and the protocol corners of issue 25 (segmented SDO
 refused at the initiate and timed out, 0x1006, RPDO timeout, the SYNC counter after STOPPED). Same client
-and rules as bench/conformance_checks.py (canopen's RemoteNode/SdoClient/NmtMaster from the shipped EDS
+and rules as tests/conformance/checks.py (canopen's RemoteNode/SdoClient/NmtMaster from the shipped EDS
 files, raw frames); :data:`SUITE` is the whole suite in its order.
 
 What the checks assert is what CiA 301 and docs/canopen.md promise, never the order in which a loaded machine
@@ -18,10 +18,10 @@ from telethermo.cia301 import (
     ABORT_READ_ONLY, ABORT_TIMEOUT, EMCY_HEARTBEAT, EMCY_RPDO_TIMEOUT,
 )
 
-from bench.conformance_checks import (
+from tests.conformance.checks import (
     CHECKS, OPERATIONAL, PEER_LOST_BIT, START, STOP, STOPPED, Check, _abort, _remap, expect, recovered,
 )
-from bench.conformance_lab import MASTER, SLAVE, Lab, wait_for
+from tests.conformance.lab import MASTER, SLAVE, Lab, wait_for
 
 CYCLE_COUNTER_MAP = 0x27020020   # 0x2702 cycle_counter, 32 bits
 

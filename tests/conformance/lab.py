@@ -5,7 +5,7 @@ frames. No project client code: ``nodes.launch`` only starts the processes (the 
     with live_pair(out_dir, timing="realtime") as lab:
         lab.sdo(1)[0x1001].raw; lab.nmt(0x02, 2); lab.wait_heartbeat(2, 4, since=mark)
 
-Used by the conformance checks (bench/conformance_checks.py), their tests (tests/conformance/) and
+Used by the conformance checks (tests/conformance/checks.py), their tests (tests/conformance/) and
 ``python -m bench.conformance_bench``.
 """
 from __future__ import annotations
@@ -23,7 +23,7 @@ import canopen
 from telethermo.bus_config import path as bus_config_path
 from telethermo.nodes.launch import NodePair, PairConfig
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 MASTER, SLAVE = 1, 2
 ROLE = {MASTER: "master", SLAVE: "slave"}

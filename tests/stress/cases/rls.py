@@ -11,7 +11,7 @@ import warnings
 
 import numpy as np
 
-from bench.stress_case import Case
+from tests.stress.cases.case import Case
 from telethermo.ident import Rls
 
 D = 6

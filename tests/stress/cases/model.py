@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bench.stress_case import Case
+from tests.stress.cases.case import Case
 from telethermo.ident import (ModelFileError, NarmaModel, NarmaOrders, TemModel, UnstableModelError, check_stability,
                               fit_narma, load_model, prbs, save_model)
 from telethermo import sim

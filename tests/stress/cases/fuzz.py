@@ -1,6 +1,6 @@
 """Fuzz cases (hypothesis): the device's frame handling, the scene loader and the model-file loader.
 
-- **frames**: see :mod:`bench.stress_fuzz_frames` (its case is listed here with the others).
+- **frames**: see :mod:`tests.stress.cases.fuzz_frames` (its case is listed here with the others).
 - **scenes**: mutated shipped scene files (values replaced by other types, NaN/inf, huge/negative numbers,
   keys dropped, bytes flipped) through ``sim.load_scene``: either a Scene (which then builds a rig and runs
   10 steps with finite output) or ``SceneError`` naming the file and a field; nothing else.
@@ -20,10 +20,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from telethermo import sim
-from bench import stress_toml
-from bench.stress_case import Case
-from bench.stress_fuzz_frames import KNOWN_FINDINGS, case_fuzz_frames
-from bench.stress_model import identified_model
+from tests.stress.cases import toml as stress_toml
+from tests.stress.cases.case import Case
+from tests.stress.cases.fuzz_frames import KNOWN_FINDINGS, case_fuzz_frames
+from tests.stress.cases.model import identified_model
 from telethermo.ident import ModelFileError, TemModel, load_model
 from telethermo.ident.modelfile import model_to_dict
 
@@ -213,7 +213,7 @@ def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict
 
 # ------------------------------------------------------------------------------------------------ models
 def base_model_doc() -> dict:
-    """The JSON document of the model identified on the simulated rig (bench.stress_model)."""
+    """The JSON document of the model identified on the simulated rig (tests.stress.cases.model)."""
 
     return model_to_dict(TemModel(temperature=identified_model(), meta={"rig": "sim.free_pad_rig", "seed": 1}))
 

@@ -1,12 +1,12 @@
-"""CiA 301 conformance checks of the live node pair through an independent client (bench/conformance_lab.py:
+"""CiA 301 conformance checks of the live node pair through an independent client (tests/conformance/lab.py:
 canopen's RemoteNode/SdoClient/NmtMaster from the shipped EDS files and raw frames, no project client code).
 
 Each check is (name, clause, fn(lab) -> detail); it raises :class:`CheckFailed` on a deviation. Every check
 that disturbs the pair (NMT, peer loss) ends by proving the pair recovered: both nodes OPERATIONAL by their
 heartbeats, both TPDO1 flowing, no error left in 0x1001 and no trip in 0x2706 of either node.
 
-The whole suite, in its order, is ``bench.conformance_corners.SUITE``: these checks, the transmission-type and
-EMCY checks and the protocol corners of issue 25 (bench/conformance_corners.py).
+The whole suite, in its order, is ``tests.conformance.corners.SUITE``: these checks, the transmission-type and
+EMCY checks and the protocol corners of issue 25 (tests/conformance/corners.py).
 """
 from __future__ import annotations
 
@@ -22,7 +22,7 @@ from telethermo.cia301 import (
     ABORT_NO_OBJECT, ABORT_NO_SUBINDEX, ABORT_RANGE, ABORT_READ_ONLY, ABORT_TOO_HIGH, ABORT_TOO_LOW,
 )
 
-from bench.conformance_lab import MASTER, ROLE, SLAVE, Lab, eds_limits, wait_for
+from tests.conformance.lab import MASTER, ROLE, SLAVE, Lab, eds_limits, wait_for
 
 STOPPED, OPERATIONAL, PRE_OPERATIONAL = 4, 5, 127
 START, STOP, ENTER_PREOP, RESET_NODE, RESET_COMM = 0x01, 0x02, 0x80, 0x81, 0x82

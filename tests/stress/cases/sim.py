@@ -9,7 +9,7 @@ stressed). Facts checked:
 - **energy balance**: electrical input = heat out to the reservoirs + change of stored heat
   (``SimRig.energy_balance``), reported as the residual relative to the energy throughput;
 - **bounded temperatures** with current: inside the rig's own steady-state band at the extreme
-  currents (``bench.stress_model.physical_band_C``);
+  currents (``tests.stress.cases.model.physical_band_C``);
 - no NaN anywhere, contact flags where the schedule says.
 """
 from __future__ import annotations
@@ -20,10 +20,10 @@ from pathlib import Path
 
 import numpy as np
 
-from bench import stress_toml
-from bench.stress_case import Case
+from tests.stress.cases import toml as stress_toml
+from tests.stress.cases.case import Case
 from telethermo.ident import prbs
-from bench.stress_model import physical_band_C
+from tests.stress.cases.model import physical_band_C
 from telethermo import sim
 
 PERIOD_S = 0.01

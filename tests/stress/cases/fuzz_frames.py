@@ -21,7 +21,7 @@ import canopen
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bench.stress_case import Case
+from tests.stress.cases.case import Case
 from telethermo.bus_config import path
 from telethermo.device import Device, DeviceSettings
 
