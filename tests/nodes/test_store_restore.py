@@ -193,14 +193,3 @@ def test_the_cli_saves_and_restores_defaults(rig, capsys):
     rig.stop()
     rig.start()
     assert rig.sdo["kp_A_per_C"].raw == default_kp
-
-
-def test_the_hardware_bench_merges_its_keys_into_hardware_json(tmp_path):
-    from bench.hardware_store import merge_results
-
-    old = {"io_module_cut_ms": 120.0, "store_restore_roundtrip": False}   # another part's key, an old result
-    (tmp_path / "hardware.json").write_text(json.dumps(old))
-    merge_results({"store_restore_roundtrip": True}, results_dir=tmp_path, part="store")
-    data = json.loads((tmp_path / "hardware.json").read_text())
-    assert data["io_module_cut_ms"] == 120.0 and data["store_restore_roundtrip"] is True
-    assert "store" in data["provenance_by_part"]
