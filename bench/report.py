@@ -79,6 +79,23 @@ HEADLINE = [
     ("realtime_no_rt", "latency_p99_ms", "without the options: SYNC -> TPDO1 latency p99, ms", "baseline"),
     ("conformance", "n_fail", "CiA 301 checks failed through an independent client (of n_checks), live pair",
      "0"),
+    ("envelope", "envelope_n_conditions", "operating envelope: conditions scored (Latin hypercube + corners), each a "
+     "full §5.3 session with gains from its own identified rigs", "≥ 200"),
+    ("envelope", "envelope_oscillating_conditions", "conditions whose skin oscillates in settled contact (> 1.5× the "
+     "direct touch's 0.3–5 Hz RMS, floor 0.05 °C, with the current swinging)", "0"),
+    ("envelope", "envelope_session_long_cuts", "conditions with a current cut of ≥ 5 s", "0"),
+    ("envelope", "envelope_unexpected_trips", "conditions with any trip", "0"),
+    ("envelope", "envelope_beats_best_pad_fraction", "share of conditions whose headline beats the best constant pad "
+     "(ambient, objects' or neutral temperature, clamped)", "≥ 0.9"),
+    ("envelope", "envelope_median_ratio_to_bound", "headline / optimal-current bound, median over the bound subset",
+     "≤ 1.25"),
+    ("envelope", "envelope_captured_fraction_median", "(pad − ours) / (pad − bound), median over the bound subset",
+     "≥ 0.7"),
+    ("envelope", "envelope_cue_order_kept_fraction", "material cue order kept, conditions whose direct cues differ "
+     "≥ 20 %", "≥ 0.95"),
+    ("envelope", "render_early_rms_worst_C", "render mode, early (0–1 s) skin RMS vs direct touch, worst touch whose "
+     "eq. 1 contact lies in the clamps' band, °C", "≤ 0.5"),
+    ("envelope", "workers_2_speedup", "the first conditions on 2 workers vs 1, same run", "≥ 1.7"),
     ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),
     ("stress", "surface_rate_max_C_per_s", "master pad surface rate, peer trip to +5 s, worst case (simulated pair; "
      "contacts whose own transient stays under the bound), °C/s", "≤ 6 (ramp + 1)"),
