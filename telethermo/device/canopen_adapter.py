@@ -23,6 +23,7 @@ import can
 import canopen
 from canopen import objectdictionary as odmod
 from canopen import SdoAbortedError
+from canopen.sdo.server import SdoServer
 
 from telethermo.cia301 import ABORT_LENGTH, ABORT_NO_SUBINDEX, ABORT_READ_ONLY
 
@@ -66,14 +67,14 @@ def set_nmt_state(node: canopen.LocalNode, code: int) -> None:
     node.nmt._state = code
 
 
-def prime_sdo_abort(sdo: canopen.sdo.SdoServer) -> None:
+def prime_sdo_abort(sdo: SdoServer) -> None:
     """canopen's server packs ``_index``/``_subindex`` into its abort frame: None before the first
     transfer made an invalid first request (e.g. command specifier 7) raise instead of abort."""
     if sdo._index is None:
         sdo._index, sdo._subindex = 0, 0
 
 
-def sdo_buffer(sdo: canopen.sdo.SdoServer) -> bytearray | None:
+def sdo_buffer(sdo: SdoServer) -> bytearray | None:
     """The segmented-transfer buffer of canopen's SDO server (None or empty when none is open)."""
     return cast("bytearray | None", sdo._buffer)
 
