@@ -107,7 +107,7 @@ class NetworkConfig:
 
 
 def default_path() -> Path:
-    return cast(Path, path("network.toml"))
+    return Path(path("network.toml"))   # typed Path also where mypy cannot resolve telethermo.bus_config
 
 
 class _Section:
