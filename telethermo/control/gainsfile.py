@@ -40,7 +40,8 @@ def parse_gains(doc: Any, where: str = "gains") -> dict[Role, dict[str, float]]:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{where}: {role}.{k}: expected a finite number, got {v!r}")
             vals[k] = float(v)
-        default_params(role, **cast(dict[str, Any], vals))  # CoreParams validates the ranges (ValueError names the field)
+        # CoreParams validates the ranges (ValueError names the field)
+        default_params(role, **cast(dict[str, Any], vals))
         out[role] = vals
     return out
 

@@ -140,7 +140,8 @@ def object_temperature(T_finger0_C: float, T_surface_C: float, beta: float) -> f
     return min(max(T, T_OBJECT_RANGE_C[0]), T_OBJECT_RANGE_C[1])
 
 
-def _track(st: LinkState, peer: PeerValues | None, peer_usable: bool, contact: bool, est_C: float) -> LinkState:
+def _track(st: LinkState, peer: PeerValues | None, peer_usable: bool, contact: bool,
+           est_C: float) -> LinkState:
     """Follow the touch, the finger's temperature, the object's surface and the identification (link up)."""
     probe = peer.contact if peer is not None else None
     touching = contact and probe is not False
@@ -170,8 +171,9 @@ def _can_start(st: LinkState, render_s: float, peer_tripped: bool) -> bool:
             and st.id_touch >= st.touch - 1 and math.isfinite(st.T_surface_C))
 
 
-def link_step(st: LinkState, peer: PeerValues | None, *, peer_usable: bool, contact: bool, est_C: float, q_in_W: float,
-              T_surface_est_C: float, render_s: float, dt_s: float, peer_tripped: bool) -> LinkResult:
+def link_step(st: LinkState, peer: PeerValues | None, *, peer_usable: bool, contact: bool, est_C: float,
+              q_in_W: float, T_surface_est_C: float, render_s: float, dt_s: float,
+              peer_tripped: bool) -> LinkResult:
     """One master telepresence step.
 
     Args:
