@@ -12,7 +12,7 @@ install: $(STAMP)
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
-	$(PY) -m pip install --quiet -e '.[plot,test]'
+	$(PY) -m pip install --quiet -e '.[plot,test,dev]'
 	touch $(STAMP)
 
 ## The main job: a telepresence session of two node processes with simulated rigs.

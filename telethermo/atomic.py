@@ -20,7 +20,7 @@ def file_mode() -> int:
     return 0o666 & ~_umask()
 
 
-def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
+def write_bytes_atomic(path: str | os.PathLike[str], data: bytes) -> Path:
     """Write ``data`` to ``path`` via a temporary file in the same folder, fsync and rename. The file gets
     the mode a plain ``open(path, "w")`` would give (0666 less the umask; mkstemp's 0600 would hide results
     and recordings from the rest of the lab's group)."""
@@ -43,11 +43,11 @@ def write_bytes_atomic(path: str | os.PathLike, data: bytes) -> Path:
     return path
 
 
-def write_text_atomic(path: str | os.PathLike, text: str) -> Path:
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
     """Write UTF-8 ``text`` to ``path`` atomically."""
     return write_bytes_atomic(path, text.encode("utf-8"))
 
 
-def write_json_atomic(path: str | os.PathLike, obj: Any, *, indent: int = 2) -> Path:
+def write_json_atomic(path: str | os.PathLike[str], obj: Any, *, indent: int = 2) -> Path:
     """Write ``obj`` as JSON (NaN refused: JSON has none) to ``path`` atomically."""
     return write_text_atomic(path, json.dumps(obj, indent=indent, allow_nan=False, sort_keys=False) + "\n")

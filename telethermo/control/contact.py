@@ -74,7 +74,7 @@ class ContactState:
     above: int = 0
     below_s: float = 0.0
     since_s: float = 0.0  # time since the last change of decision, s
-    T_hist: tuple = ()    # last slope_samples + 1 sensor temperatures, °C (newest first)
+    T_hist: tuple[float, ...] = ()    # last slope_samples + 1 sensor temperatures, °C (newest first)
 
 
 def contact_step(p: ContactParams, st: ContactState, Q_W: float, flag: bool, dt_s: float,

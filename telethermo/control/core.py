@@ -7,39 +7,38 @@
 Per step (guiatni eq. 30-35, yamamoto §III):
 
 1. advance the TEM model with the measured current -> T_pred (if a predictor is given);
-2. estimate the contact-side temperature (:mod:`telethermo.control.estimators`): the master's
-   estimate is the finger's T_f, the slave's the object's T_o; detect contact from the flux;
-3. the mode gives the requested setpoint and the feed-forward:
-   TELEPRESENCE: setpoint = the peer's estimate, feed-forward = -kQ·Q_peer (the pad delivers the
-   mirror of the flux the peer's contact draws: eq. 34/35 with the rig sign convention, so kQ > 0);
-   optional flux loop towards -Q_peer; RENDER: T_pad0 (eq. 7) until contact is detected, then
-   T_contact (eq. 1), current held ``settle_s``; IDLE: current ramps to 0; IDENTIFY: the identification
-   experiment ``identify`` (:class:`telethermo.ident.plan.IdentifyPlan`: rest, training PRBS,
-   held-out PRBS, then 0 A), sample by sample from the step that entered the mode, with the plan's
-   guard (sign flipped near the envelope) - the same currents as the offline experiment;
-4. the safety envelope (:mod:`telethermo.control.safety`) judges the sample and the peer, ramps and
-   clamps the setpoint; a bad peer value is replaced by the ramp to neutral before it can reach the
-   PI;
-5. PI + feed-forward with anti-windup including the feed-forward (:mod:`telethermo.control.pi`),
-   bumpless on every change of mode or setpoint source;
+2. estimate the contact-side temperature (:mod:`telethermo.control.estimators`): the master's estimate is
+   the finger's T_f, the slave's the object's T_o; detect contact from the flux;
+3. the mode gives the requested setpoint and the feed-forward: TELEPRESENCE: setpoint = the peer's estimate,
+   feed-forward = -kQ·Q_peer (the pad delivers the mirror of the flux the peer's contact draws: eq. 34/35
+   with the rig sign convention, so kQ > 0); optional flux loop towards -Q_peer; RENDER: T_pad0 (eq. 7)
+   until contact is detected, then T_contact (eq. 1), current held ``settle_s``; IDLE: current ramps to 0;
+   IDENTIFY: the identification experiment ``identify`` (:class:`telethermo.ident.plan.IdentifyPlan`: rest,
+   training PRBS, held-out PRBS, then 0 A), sample by sample from the step that entered the mode, with the
+   plan's guard (sign flipped near the envelope) - the same currents as the offline experiment;
+4. the safety envelope (:mod:`telethermo.control.safety`) judges the sample and the peer, ramps and clamps
+   the setpoint; a bad peer value is replaced by the ramp to neutral before it can reach the PI;
+5. PI + feed-forward with anti-windup including the feed-forward (:mod:`telethermo.control.pi`), bumpless on
+   every change of mode or setpoint source;
 6. the envelope limits the current (cut, trip slew, surface guard with taper, |I| <= 0.8·Imax).
 
-``step`` is pure: the same (sample, peer, params, state) give the same result. The predictor is the
-only stateful object; its state is carried in :class:`CoreState` through ``snapshot()``/``restore()``
-when the predictor offers them (``telethermo.ident``'s NarmaPredictor does); a predictor without
-them makes a state single-use (re-using an old state raises). Pass a *model* (not one predictor
-object) when both sides share it: each ``init_state`` then builds its own predictor.
+``step`` is pure: the same (sample, peer, params, state) give the same result. The predictor is the only
+stateful object; its state is carried in :class:`CoreState` through ``snapshot()``/``restore()`` when the
+predictor offers them (``telethermo.ident``'s NarmaPredictor does); a predictor without them makes a state
+single-use (re-using an old state raises). Pass a *model* (not one predictor object) when both sides share
+it: each ``init_state`` then builds its own predictor.
 """
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 from telethermo.control import safety as sf
 from telethermo.control.contact import ContactState, contact_step
 from telethermo.control.coreparams import NO_GAINS, CoreParams, Feedback, RenderPhase, RenderSettings
-from telethermo.control.estimators import Estimator, TemperaturePredictor, estimate_flux, estimate_model
+from telethermo.control.estimators import (Estimator, SnapshotPredictor, TemperaturePredictor, estimate_flux,
+                                          estimate_model)
 from telethermo.control.later_phase import later_setpoint, later_start
 from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
 from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step, prepare
@@ -69,9 +68,8 @@ class CoreState:
     """Everything ``step`` remembers. Treat as opaque; fields are for introspection and tests.
 
     Attributes:
-        k: steps taken. t_s: time of the last sample, s.
+        k: steps taken. t_s: time of the last sample, s. u_prev_A: the previous step's current command, A.
         env: safety envelope state. pi: PI integrator. contact: contact detector state.
-        u_prev_A: the current commanded by the previous step, A.
         source: key of the setpoint source of the previous step (mode, phase) for bumpless switching.
         render_phase: :class:`RenderPhase` (RENDER mode).
         T_pred_C: the last model prediction, °C (NaN without a model).
@@ -93,7 +91,7 @@ class CoreState:
     pi: PIState
     contact: ContactState
     u_prev_A: float
-    source: tuple
+    source: tuple[Any, ...]
     render_phase: RenderPhase
     T_pred_C: float
     ident_k: int = 0
@@ -181,9 +179,9 @@ def _as_predictor(predictor_or_model: Any, T0_C: float) -> TemperaturePredictor 
         return predictor_or_model
     temp = getattr(predictor_or_model, "temperature", None)
     if temp is not None and callable(getattr(temp, "predictor", None)):
-        return temp.predictor(T0_C=T0_C)
+        return cast(TemperaturePredictor, temp.predictor(T0_C=T0_C))
     if callable(getattr(predictor_or_model, "predictor", None)):
-        return predictor_or_model.predictor(T0_C=T0_C)
+        return cast(TemperaturePredictor, predictor_or_model.predictor(T0_C=T0_C))
     raise TypeError("init_state: expected a TemperaturePredictor (step/reset), a model with "
                     f".temperature.predictor(T0_C=...), or None; got {type(predictor_or_model).__name__}")
 
@@ -200,7 +198,7 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
     T0 = first_sample.T_sensor_C if math.isfinite(first_sample.T_sensor_C) else params.safety.neutral_C
     pred = _as_predictor(predictor_or_model, T0)
     cell = _PredictorCell(pred) if pred is not None else None
-    snap = pred.snapshot() if cell is not None and cell.can_snapshot else None
+    snap = cast(SnapshotPredictor, pred).snapshot() if cell is not None and cell.can_snapshot else None
     # bumpless from the current the rig is already driving (a display that was holding its pad)
     I0 = first_sample.current_A if math.isfinite(first_sample.current_A) else 0.0
     I0 = min(max(I0, -params.safety.I_limit_A), params.safety.I_limit_A)
@@ -218,7 +216,7 @@ def replace_model(state: CoreState, predictor_or_model: Any, T0_C: float) -> Cor
     no model (FLUX estimator, ESTIMATE feedback): the caller checks."""
     pred = _as_predictor(predictor_or_model, T0_C)
     cell = _PredictorCell(pred) if pred is not None else None
-    snap = pred.snapshot() if cell is not None and cell.can_snapshot else None
+    snap = cast(SnapshotPredictor, pred).snapshot() if cell is not None and cell.can_snapshot else None
     return replace(state, cell=cell, pred_tick=0, pred_snapshot=snap, T_pred_C=T0_C if pred is not None else math.nan)
 
 
@@ -234,10 +232,10 @@ def _predict(state: CoreState, current_A: float) -> tuple[float, int, Any]:
         if not cell.can_snapshot:
             raise RuntimeError("control.core.step: this CoreState was already used and its predictor cannot be "
                                "restored (give the predictor snapshot()/restore(), or use each state once)")
-        cell.predictor.restore(state.pred_snapshot)
+        cast(SnapshotPredictor, cell.predictor).restore(state.pred_snapshot)
     T = float(cell.predictor.step(current_A if math.isfinite(current_A) else 0.0))
     cell.tick = state.pred_tick + 1
-    snap = cell.predictor.snapshot() if cell.can_snapshot else None
+    snap = cast(SnapshotPredictor, cell.predictor).snapshot() if cell.can_snapshot else None
     return T, cell.tick, snap
 
 
@@ -266,7 +264,7 @@ class _Request:
     phase: RenderPhase
     hold_current: bool
     later_st: Any
-    source: tuple
+    source: tuple[Any, ...]
 
 
 def _estimates(sample: RigSample, params: CoreParams, state: CoreState, T_pred: float) -> _Estimates:
@@ -299,6 +297,7 @@ def _telepresence_request(sample: RigSample, peer: PeerValues | None, params: Co
     ff = eQ = 0.0
     phase_t = "contact"
     if peer_usable:
+        peer = cast(PeerValues, peer)      # usable: there is one
         req = peer.estimate_C
         ff = -params.kQ_A_per_W * peer.flux_W
         eQ = -peer.flux_W - Q
@@ -318,7 +317,7 @@ def _telepresence_request(sample: RigSample, peer: PeerValues | None, params: Co
 
 def _render_request(sample: RigSample, params: CoreParams, state: CoreState, e: _Estimates) -> _Request:
     """RENDER: T_pad0 (eq. 7) before contact, T_contact (eq. 1) and the later-phase model in contact."""
-    rs, cst, Q = params.render, e.cst, sample.Q_W
+    rs, cst, Q = cast(RenderSettings, params.render), e.cst, sample.Q_W
     phase = RenderPhase.CONTACT if cst.contact else RenderPhase.PRESET
     req = rs.T_contact_C if phase is RenderPhase.CONTACT else rs.T_pad0_C
     later_st = None
@@ -367,12 +366,12 @@ def _seeded_envelope(params: CoreParams, state: CoreState, r: _Request, est: flo
     """Stage 4's bumpless re-seed of the ramp at the render contact switch.
 
     yamamoto's command switch: at the touch the skin (at T_finger0) and the pad (at T_pad0) meet at
-    T_contact, which lies between the two by eq. 3/7: the setpoint jumps there without the ramp (the jump
-    is the natural contact, not a drive). Otherwise restart from the surface.
+    T_contact, which lies between the two by eq. 3/7: the setpoint jumps there without the ramp (the jump is
+    the natural contact, not a drive). Otherwise restart from the surface.
     """
     env0 = state.env
     if switched and params.mode is Mode.RENDER and r.phase is RenderPhase.CONTACT and r.source[2]:
-        rs, lim = params.render, params.safety
+        rs, lim = cast(RenderSettings, params.render), params.safety
         lo_c, hi_c = sorted((rs.T_pad0_C, rs.T_finger0_C))
         T_c = rs.T_contact_C
         seed = T_c if lo_c - 1e-9 <= T_c <= hi_c + 1e-9 else est
@@ -381,8 +380,8 @@ def _seeded_envelope(params: CoreParams, state: CoreState, r: _Request, est: flo
     return env0
 
 
-def _control(sample: RigSample, params: CoreParams, state: CoreState, r: _Request, err: float, env,
-             switched: bool) -> tuple[float, PIState, PIComponents, int, int]:
+def _control(sample: RigSample, params: CoreParams, state: CoreState, r: _Request, err: float,
+             env: sf.EnvelopeState, switched: bool) -> tuple[float, PIState, PIComponents, int, int]:
     """Stage 5: the current the mode's controller asks for, A, its PI state and components, and the
     identification experiment's counters."""
     dt, lim = params.period_s, params.safety
@@ -451,8 +450,9 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         pi_st = bumpless(r.gains, current, err, r.ff, -I_lim, I_lim, flux_error_W=r.eQ, flux_gains=r.fg)
 
     active = env_active + tuple(a for a in cur_active if a not in env_active)
-    identifying = params.role is Role.SLAVE and params.material_id is not None
-    mat = material_step(params.material_id, state.material, Ts, Q, cst.contact, dt) if identifying else state.material
+    mid = params.material_id if params.role is Role.SLAVE else None    # the slave's material identification
+    identifying = mid is not None
+    mat = material_step(mid, state.material, Ts, Q, cst.contact, dt) if mid is not None else state.material
     new_state = CoreState(k=state.k + 1, t_s=sample.t_s, env=env, pi=pi_st, contact=cst, u_prev_A=current,
                           source=r.source, render_phase=r.phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
@@ -467,7 +467,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     sent = est
     if (params.echo_peer_when_free and mode is Mode.TELEPRESENCE and not cst.contact and peer_ok and peer_alive
             and math.isfinite(est)):
-        sent = peer.estimate_C
+        sent = cast(PeerValues, peer).estimate_C
     ml = mat.last
     out = Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact, material_code=ml.code, material_beta=ml.beta,
                    material_touch=ml.touch, material_T_object0_C=ml.T_object0_C) if identifying else Outgoing(estimate_C=sent, flux_W=Q, contact=cst.contact)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
+from typing import Any, cast
 
 from telethermo.control import safety as sf
 from telethermo.control.contact import ContactParams
@@ -217,12 +217,12 @@ class CoreParams:
     @property
     def gains(self) -> PIGains:
         """Temperature PI gains."""
-        return self._gains
+        return cast(PIGains, self._gains)
 
     @property
     def flux_gains(self) -> FluxPIGains | None:
         """Heat-flux loop gains (kp in A/W, ki in A/(W·s)), None when off."""
-        return self._flux_gains
+        return cast("FluxPIGains | None", self._flux_gains)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -15,7 +15,7 @@ The predictor is anything with ``step(current_A) -> T_pred_C`` and ``reset(T_C)`
 from __future__ import annotations
 
 from enum import Enum
-from typing import Protocol, runtime_checkable
+from typing import Any, Protocol, runtime_checkable
 
 
 class Estimator(str, Enum):
@@ -36,6 +36,19 @@ class TemperaturePredictor(Protocol):
 
     def reset(self, T_C: float) -> None:
         """Restart the free run from a steady state at ``T_C`` (°C)."""
+        ...
+
+
+class SnapshotPredictor(TemperaturePredictor, Protocol):
+    """A :class:`TemperaturePredictor` whose state can be saved and put back (the control core then
+    carries it in its state, so a state can be stepped more than once)."""
+
+    def snapshot(self) -> Any:
+        """The predictor's state, opaque to the caller."""
+        ...
+
+    def restore(self, snap: Any) -> None:
+        """Put back a state ``snapshot()`` returned."""
         ...
 
 

@@ -14,7 +14,7 @@ import json
 import math
 import os
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from telethermo.atomic import write_json_atomic
 from telethermo.control.gain_fields import GAIN_FIELDS, RESTART_GAIN_FIELDS, SDO_GAIN_FIELDS
@@ -46,12 +46,13 @@ def parse_gains(doc: Any, where: str = "gains") -> dict[Role, dict[str, float]]:
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{where}: {role}.{k}: expected a finite number, got {v!r}")
             vals[k] = float(v)
-        default_params(role, **vals)  # CoreParams validates the ranges (ValueError names the field)
+        # CoreParams validates the ranges (ValueError names the field)
+        default_params(role, **cast(dict[str, Any], vals))
         out[role] = vals
     return out
 
 
-def load_gains(path: str | os.PathLike) -> dict[Role, dict[str, float]]:
+def load_gains(path: str | os.PathLike[str]) -> dict[Role, dict[str, float]]:
     """Read a gains file: ``default_params(role, **load_gains(path)[role])`` gives the tuned parameters."""
     p = Path(path)
     try:
@@ -63,7 +64,7 @@ def load_gains(path: str | os.PathLike) -> dict[Role, dict[str, float]]:
     return parse_gains(doc, str(p))
 
 
-def write_gains(path: str | os.PathLike, doc: dict[str, Any]) -> Path:
+def write_gains(path: str | os.PathLike[str], doc: dict[str, Any]) -> Path:
     """Write a gains document atomically (validated first)."""
     parse_gains(doc, str(path))
     return write_json_atomic(path, doc)

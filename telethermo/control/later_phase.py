@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
-from typing import Any
+from typing import Any, cast
 
 from telethermo.control.later_conduction import ConductionModel, conduction_model, conduction_start, conduction_step
 from telethermo.control.later_rc import RcEntry, load_rc_table, rc_lookup, rc_temperature
@@ -82,7 +82,7 @@ def later_phase(model: str | LaterModel, obj: VirtualObject | None, dt_s: float,
 def later_start(lp: LaterPhase, T_object0_C: float) -> Any:
     """The model's state at the instant of a touch (None for the stateless models)."""
     if lp.model is LaterModel.CONDUCTION:
-        return conduction_start(lp.conduction, T_object0_C)
+        return conduction_start(cast(ConductionModel, lp.conduction), T_object0_C)
     return None
 
 
@@ -98,7 +98,7 @@ def later_setpoint(lp: LaterPhase, state: Any, T_contact_C: float, T_finger0_C: 
         T_final = T_finger0_C + lp.final_fraction * (T_object0_C - T_finger0_C)
         return rc_temperature(T_contact_C, T_final, lp.tau_s, t_since_s), None
     if lp.model is LaterModel.CONDUCTION:
-        state, corr = conduction_step(lp.conduction, state, q_in_W, T_surface_C)
+        state, corr = conduction_step(cast(ConductionModel, lp.conduction), state, q_in_W, T_surface_C)
         return T_contact_C + corr, state
     return T_contact_C, None
 
@@ -111,7 +111,8 @@ def later_od_values(lp: LaterPhase | None) -> dict[str, float | int]:
             "object_back": BACK_CODES.index(obj.back) if obj is not None else 0}
 
 
-def later_key(lp: LaterPhase | None, material: str, written: dict[str, float | int]) -> tuple:
+def later_key(lp: LaterPhase | None, material: str,
+              written: dict[str, float | int]) -> tuple[str, str, float, str]:
     """(model, material, thickness_mm, back): ``lp``'s with the operator's OD writes (``written``: codes as
     in :func:`later_od_values`) on top; the key of :func:`later_from_key`. ValueError on a bad code."""
     cur = later_od_values(lp)
@@ -123,7 +124,7 @@ def later_key(lp: LaterPhase | None, material: str, written: dict[str, float | i
     return LATER_CODES[code], material, float(cur["object_thickness_mm"]), BACK_CODES[back]
 
 
-def later_from_key(key: tuple, dt_s: float, T_ambient_C: float = 25.0) -> LaterPhase:
+def later_from_key(key: tuple[str, str, float, str], dt_s: float, T_ambient_C: float = 25.0) -> LaterPhase:
     """The later phase of a :func:`later_key` (ValueError for a material the tables do not know)."""
     model, material, thickness_mm, back = key
     return later_phase(model, VirtualObject(material, thickness_mm, back, T_ambient_C=T_ambient_C), dt_s)

@@ -18,8 +18,10 @@ import math
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import cast
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
 DEFAULT_RC_TABLE = Path(__file__).resolve().parent.parent / "data" / "render_rc.toml"
@@ -42,7 +44,7 @@ def rc_temperature(T_contact_C: float, T_final_C: float, tau_s: float, t_since_s
     return T_final_C + (T_contact_C - T_final_C) * math.exp(-max(t_since_s, 0.0) / tau_s)
 
 
-def fit_exponential(t_s, T_C) -> tuple[float, float, float, float]:
+def fit_exponential(t_s: ArrayLike, T_C: ArrayLike) -> tuple[float, float, float, float]:
     """Fit T(t) = T_inf + (T_0 − T_inf)·exp(−t/τ) by least squares: (τ s, T_inf °C, T_0 °C, RMS °C)."""
     t = np.asarray(t_s, float)
     y = np.asarray(T_C, float)
@@ -50,9 +52,9 @@ def fit_exponential(t_s, T_C) -> tuple[float, float, float, float]:
         raise ValueError("fit_exponential: need >= 4 finite samples of a changing temperature")
     t0 = t - t[0]
 
-    def res(p):
+    def res(p: NDArray[np.float64]) -> NDArray[np.float64]:
         tau, Tinf, T0 = p
-        return Tinf + (T0 - Tinf) * np.exp(-t0 / tau) - y
+        return cast(NDArray[np.float64], Tinf + (T0 - Tinf) * np.exp(-t0 / tau) - y)   # p's items: Any
 
     p0 = (max(t0[-1] / 3.0, 1e-3), y[-1], y[0])
     sol = least_squares(res, p0, bounds=([1e-4, -100.0, -100.0], [1e6, 200.0, 200.0]), x_scale="jac")

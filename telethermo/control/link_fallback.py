@@ -37,7 +37,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass, replace
-from typing import Any
+from typing import Any, cast
 
 from telethermo.control.defaults import RENDER_GAINS
 from telethermo.control.later_phase import (DEFAULT_LATER_MODEL, DEFAULT_THICKNESS_MM, LaterPhase, later_phase,
@@ -45,6 +45,7 @@ from telethermo.control.later_phase import (DEFAULT_LATER_MODEL, DEFAULT_THICKNE
 from telethermo.control.material_stream import UNKNOWN_CODE
 from telethermo.control.pi import PIGains
 from telethermo.control.rendering import contact_temperature, load_render_table
+from telethermo.control.types import PeerValues
 from telethermo.control.virtual_object import VirtualObject, load_object_table
 
 #: thickness of the object the fallback renders, mm (the slave does not measure it: a block)
@@ -139,7 +140,8 @@ def object_temperature(T_finger0_C: float, T_surface_C: float, beta: float) -> f
     return min(max(T, T_OBJECT_RANGE_C[0]), T_OBJECT_RANGE_C[1])
 
 
-def _track(st: LinkState, peer, peer_usable: bool, contact: bool, est_C: float) -> LinkState:
+def _track(st: LinkState, peer: PeerValues | None, peer_usable: bool, contact: bool,
+           est_C: float) -> LinkState:
     """Follow the touch, the finger's temperature, the object's surface and the identification (link up)."""
     probe = peer.contact if peer is not None else None
     touching = contact and probe is not False
@@ -148,6 +150,7 @@ def _track(st: LinkState, peer, peer_usable: bool, contact: bool, est_C: float) 
                                                    st.peer_touch)
     T_o0 = st.T_object0_id_C
     if peer_usable:
+        peer = cast(PeerValues, peer)        # usable: there is one
         T_o0 = peer.material_T_object0_C     # the latest (it may come a few cycles after the counter)
         if probe is False and math.isfinite(est_C):
             T_f0 = est_C            # the probe in the air: the master's estimate is the finger's own temperature
@@ -168,8 +171,9 @@ def _can_start(st: LinkState, render_s: float, peer_tripped: bool) -> bool:
             and st.id_touch >= st.touch - 1 and math.isfinite(st.T_surface_C))
 
 
-def link_step(st: LinkState, peer, *, peer_usable: bool, contact: bool, est_C: float, q_in_W: float,
-              T_surface_est_C: float, render_s: float, dt_s: float, peer_tripped: bool) -> LinkResult:
+def link_step(st: LinkState, peer: PeerValues | None, *, peer_usable: bool, contact: bool, est_C: float,
+              q_in_W: float, T_surface_est_C: float, render_s: float, dt_s: float,
+              peer_tripped: bool) -> LinkResult:
     """One master telepresence step.
 
     Args:

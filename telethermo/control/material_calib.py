@@ -29,8 +29,10 @@ import io
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, cast
 
 import numpy as np
+from numpy.lib.npyio import NpzFile
 
 from telethermo.atomic import write_bytes_atomic
 from telethermo.control.material_id import FitInput
@@ -86,19 +88,19 @@ def network_input(cal: Calibration, v: np.ndarray) -> np.ndarray | None:
 
 def inputs(center: np.ndarray, whiten: np.ndarray, scale: float, V: np.ndarray) -> np.ndarray:
     """The networks' inputs (float32) of touch vectors ``V`` (one, or N × 2·n_win; °C), unchecked (pure)."""
-    return ((np.asarray(V, float) - center) @ whiten.T / scale).astype(np.float32)
+    return cast(np.ndarray, ((np.asarray(V, float) - center) @ whiten.T / scale).astype(np.float32))
 
 
 def log_softmax(o: np.ndarray) -> np.ndarray:
     """ln of the softmax over the last axis (pure, stable)."""
     o = o - o.max(axis=-1, keepdims=True)
-    return o - np.log(np.exp(o).sum(axis=-1, keepdims=True))
+    return cast(np.ndarray, o - np.log(np.exp(o).sum(axis=-1, keepdims=True)))
 
 
 def layer(W: np.ndarray, b: np.ndarray, h: np.ndarray, last: bool) -> np.ndarray:
     """One layer: h·W + b, ReLU unless it is the network's last (pure)."""
     z = h @ W + b
-    return z if last else np.maximum(z, 0.0)
+    return cast(np.ndarray, z if last else np.maximum(z, 0.0))
 
 
 def logits(layers: tuple[tuple[np.ndarray, np.ndarray], ...], x: np.ndarray) -> np.ndarray:
@@ -111,7 +113,7 @@ def logits(layers: tuple[tuple[np.ndarray, np.ndarray], ...], x: np.ndarray) -> 
 
 def posterior(cal: Calibration, x: np.ndarray) -> np.ndarray:
     """The ensemble's posterior over ``cal.classes`` (mean of its members' softmax) for inputs ``x`` (pure)."""
-    return np.mean([np.exp(log_softmax(logits(net, x))) for net in cal.nets], axis=0)
+    return cast(np.ndarray, np.mean([np.exp(log_softmax(logits(net, x))) for net in cal.nets], axis=0))
 
 
 def n_units(cal: Calibration) -> int:
@@ -119,8 +121,8 @@ def n_units(cal: Calibration) -> int:
     return sum(len(net) for net in cal.nets)
 
 
-def network_unit(cal: Calibration, x: np.ndarray, h: np.ndarray | None, probs: tuple, k: int
-                 ) -> tuple[np.ndarray | None, tuple]:
+def network_unit(cal: Calibration, x: np.ndarray, h: np.ndarray | None, probs: tuple[np.ndarray, ...], k: int
+                 ) -> tuple[np.ndarray | None, tuple[np.ndarray, ...]]:
     """Unit ``k`` of the staged classification of input ``x`` (pure): one layer of one network, so that no control
     cycle carries a whole network (a 512 × 512 layer is 0.03 ms here but milliseconds on an emulated or small
     CPU). ``h`` the previous layer's output (None at a network's first), ``probs`` the softmax of the networks
@@ -130,11 +132,11 @@ def network_unit(cal: Calibration, x: np.ndarray, h: np.ndarray | None, probs: t
         i, j = i - len(cal.nets[j]), j + 1
     W, b = cal.nets[j][i]
     last = i == len(cal.nets[j]) - 1
-    out = layer(W, b, x if i == 0 else h, last)
+    out = layer(W, b, x if i == 0 else cast(np.ndarray, h), last)   # h is set after a network's first layer
     return (None, probs + (np.exp(log_softmax(out)),)) if last else (out, probs)
 
 
-def decide(probs: tuple) -> tuple[int, float]:
+def decide(probs: tuple[np.ndarray, ...]) -> tuple[int, float]:
     """(index of the likeliest class, its posterior) from the networks' softmax outputs (their mean)."""
     p = np.mean(probs, axis=0)
     i = int(np.argmax(p))
@@ -147,7 +149,8 @@ def classify_vector(cal: Calibration, v: np.ndarray) -> tuple[int, float] | None
     x = network_input(cal, v)
     if x is None:
         return None
-    h, probs = None, ()
+    h: np.ndarray | None = None
+    probs: tuple[np.ndarray, ...] = ()
     for k in range(n_units(cal)):
         h, probs = network_unit(cal, x, h, probs, k)
     return decide(probs)
@@ -190,11 +193,11 @@ def save_calibration(cal: Calibration, path: str | Path) -> Path:
                         n_win=np.array(cal.n_win), q_weight_K_per_W=np.array(cal.q_weight_K_per_W),
                         center=cal.center, whiten=cal.whiten, scale=np.array(cal.scale), n_nets=np.array(len(cal.nets)),
                         n_layers=np.array(len(cal.nets[0]) if cal.nets else 0), info=np.array(cal.info),
-                        **_net_fields(cal))
+                        **cast(dict[str, Any], _net_fields(cal)))
     return write_bytes_atomic(path, buf.getvalue())
 
 
-def _field(path: Path, data, key: str, ndim: int) -> np.ndarray:
+def _field(path: Path, data: NpzFile, key: str, ndim: int) -> np.ndarray:
     """Field ``key`` with ``ndim`` dimensions, or ValueError naming the file and the field."""
     if key not in data.files:
         raise ValueError(f"{path}: missing field {key!r}")
@@ -206,7 +209,7 @@ def _field(path: Path, data, key: str, ndim: int) -> np.ndarray:
     return a
 
 
-def _scalar(path: Path, data, key: str, lo: float) -> float:
+def _scalar(path: Path, data: NpzFile, key: str, lo: float) -> float:
     """Scalar field ``key`` > ``lo``, or ValueError naming the file and the field."""
     a = _field(path, data, key, 0)
     if a.dtype.kind not in "fi" or not float(a) > lo:
@@ -214,12 +217,14 @@ def _scalar(path: Path, data, key: str, lo: float) -> float:
     return float(a)
 
 
-def _nets(path: Path, data, n_in: int, n_out: int) -> tuple:
+def _nets(path: Path, data: NpzFile, n_in: int,
+          n_out: int) -> tuple[tuple[tuple[np.ndarray, np.ndarray], ...], ...]:
     """The ensemble's layers, each checked to chain from ``n_in`` inputs to ``n_out`` classes."""
     n_nets, n_layers = int(_scalar(path, data, "n_nets", 0.0)), int(_scalar(path, data, "n_layers", 0.0))
-    nets = []
+    nets: list[tuple[tuple[np.ndarray, np.ndarray], ...]] = []
     for j in range(n_nets):
-        layers, width = [], n_in
+        layers: list[tuple[np.ndarray, np.ndarray]] = []
+        width = n_in
         for i in range(n_layers):
             W, b = _field(path, data, f"net{j}_w{i}", 2), _field(path, data, f"net{j}_b{i}", 1)
             out = n_out if i == n_layers - 1 else W.shape[1]

@@ -51,8 +51,10 @@ import math
 import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
+from typing import cast
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from telethermo.control.rendering import DEFAULT_RENDER_TABLE
 
@@ -189,10 +191,14 @@ def half_integral_matrix(n: int, dt_s: float, onset_s: float) -> np.ndarray:
     tk, aj, bj = t[:, None], a[None, :], np.minimum(b[None, :], t[:, None])
     M = np.tril(2.0 * (np.sqrt(np.maximum(tk - aj, 0.0)) - np.sqrt(np.maximum(tk - bj, 0.0))) / math.sqrt(math.pi))
     M.flags.writeable = False                # cached: shared by every fit with these settings
-    return M
+    return cast(np.ndarray, M)
 
 
-def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbeParams):
+#: a fit window's signals (:func:`_window`): E (J), T_top·H (°C), q (W), the filter's release s
+Window = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+
+
+def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbeParams) -> Window | None:
     """(E, T_top, q, s) of the fit window, or None. All are the filtered signals of the touch alone (the
     pre-contact state removed with the filter's release ``s``): E the heat into the object since the touch,
     J (∫Q dt minus the heat stored in the sensor's upper half), T_top the contact face, °C, q the flux, W."""
@@ -227,14 +233,15 @@ class FitInput:
     Q: np.ndarray
     n_pre: int
     dt_s: float
-    w: tuple
+    w: Window
 
 
 #: the two model forms, in the order they are fitted (one unit of work each, see :func:`fit_form`)
 FORMS = ("energy", "flux")
 
 
-def fit_input(T_sensor_C, Q_W, i_contact: int, dt_s: float, probe: ProbeParams = ProbeParams()) -> FitInput | None:
+def fit_input(T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, dt_s: float,
+              probe: ProbeParams = ProbeParams()) -> FitInput | None:
     """The touch's window (``probe.pre_s`` before the first contact sample ``i_contact``, ``probe.window_s``
     after), or None when the samples are too few or not finite."""
     T, Q = np.asarray(T_sensor_C, float), np.asarray(Q_W, float)
@@ -286,7 +293,7 @@ def noise_draws(probe: ProbeParams) -> int:
     return probe.noise_draws if probe.T_sigma_C > 0 or probe.Q_sigma_W > 0 else 0
 
 
-def estimate_effusivity(T_sensor_C, Q_W, i_contact: int, dt_s: float,
+def estimate_effusivity(T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, dt_s: float,
                         probe: ProbeParams = ProbeParams()) -> EffusivityEstimate | None:
     """Fit the object's effusivity from the samples around a touch (pure; all stages at once: the slave's
     core spreads the same stages over several cycles, telethermo.control.material_stream).
@@ -326,7 +333,8 @@ def lowpass(x: np.ndarray, cutoff_Hz: float, dt_s: float) -> np.ndarray:
     return y
 
 
-def _energy_form(E, top_H, q, s, dt_s: float, onset_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
+def _energy_form(E: np.ndarray, top_H: np.ndarray, q: np.ndarray, s: np.ndarray, dt_s: float, onset_s: float,
+                 probe: ProbeParams) -> EffusivityEstimate | None:
     """E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H]: θ = (b, b·T_o0, b·R_c)."""
     M = probe.area_m2 * half_integral_matrix(E.size, dt_s, onset_s)            # A·I½
     X = np.column_stack([M @ top_H, -(M @ (1.0 - s)), -(M @ q)])
@@ -343,7 +351,8 @@ def _energy_form(E, top_H, q, s, dt_s: float, onset_s: float, probe: ProbeParams
                               n=int(resid.size))
 
 
-def _flux_form(E, top_H, q, s, dt_s: float, onset_s: float, probe: ProbeParams) -> EffusivityEstimate | None:
+def _flux_form(E: np.ndarray, top_H: np.ndarray, q: np.ndarray, s: np.ndarray, dt_s: float, onset_s: float,
+               probe: ProbeParams) -> EffusivityEstimate | None:
     """T_top·H = T_o0·H + (1/b)·I½[q_top]/A + R_c·q_top, q_top = dE/dt: θ = (T_o0, 1/b, R_c)."""
     q_top = _slope(E, dt_s, probe.slope_half_width)
     M = half_integral_matrix(E.size, dt_s, onset_s) / probe.area_m2
@@ -360,7 +369,8 @@ def _flux_form(E, top_H, q, s, dt_s: float, onset_s: float, probe: ProbeParams) 
                               residual_C=math.sqrt(float(resid @ resid) / resid.size), n=int(resid.size))
 
 
-def _fit(X: np.ndarray, y: np.ndarray, prior_row: np.ndarray, prior_y: float, i_pos: int):
+def _fit(X: np.ndarray, y: np.ndarray, prior_row: np.ndarray, prior_y: float,
+         i_pos: int) -> tuple[np.ndarray, float, np.ndarray] | None:
     """Least squares of y on X's three columns plus one prior row (all zero: none); the last parameter (the
     contact resistance's) is kept >= 0 (refit without it), parameter ``i_pos`` must come out > 0.
     Returns (θ, standard error of θ[i_pos], residuals) or None."""
@@ -392,7 +402,7 @@ def _slope(x: np.ndarray, dt_s: float, h: int) -> np.ndarray:
     n = x.size
     i = np.arange(n)
     lo, hi = np.maximum(i - h, 0), np.minimum(i + h, n - 1)
-    return (x[hi] - x[lo]) / ((hi - lo) * dt_s)
+    return cast(np.ndarray, (x[hi] - x[lo]) / ((hi - lo) * dt_s))
 
 
 def _lag1(r: np.ndarray) -> float:

@@ -18,8 +18,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
-from telethermo.control.render_table import DEFAULT_RENDER_TABLE, load_render_table  # noqa: F401 (re-exported)
+from telethermo.control.render_table import DEFAULT_RENDER_TABLE as DEFAULT_RENDER_TABLE  # re-exported
+from telethermo.control.render_table import load_render_table as load_render_table  # re-exported
 
 
 
@@ -58,7 +60,8 @@ def _window_mean(t: np.ndarray, y: np.ndarray, t0: float, t1: float, what: str) 
     return float(np.mean(y[m]))
 
 
-def relative_effusivity_from_profiles(t_s, T_finger_C, T_object_C, t_contact_s: float,
+def relative_effusivity_from_profiles(t_s: ArrayLike, T_finger_C: ArrayLike, T_object_C: ArrayLike,
+                                      t_contact_s: float,
                                       window_s: tuple[float, float] = (0.1, 1.0),
                                       pre_s: float = 0.2) -> float:
     """β_object = b_object/b_finger from the recorded surface temperatures of a contact.
@@ -110,7 +113,8 @@ class FingerCalibration:
     n_touches: int
 
 
-def calibrate_finger(T_pad0_C, T_contact_C, T_finger0_C=None) -> FingerCalibration:
+def calibrate_finger(T_pad0_C: ArrayLike, T_contact_C: ArrayLike,
+                     T_finger0_C: ArrayLike | None = None) -> FingerCalibration:
     """Fit β_pad (and T_finger0 unless given) from touches of the pad pre-set at ``T_pad0_C``.
 
     Eq. 1 for each touch: T_c = (T_f0 + β_pad·T_p0)/(1 + β_pad) = a + k·T_p0 with

@@ -60,6 +60,19 @@ from telethermo.control.safety_limits import (DEFAULT_T_MAX_C, DEFAULT_T_MIN_C, 
                                               LIMIT_NAMES, SafetyLimits, limits_from_mask, limits_mask,
                                               probe_limits)
 
+# The public names, with those re-exported from trips and safety_limits (the envelope's one import point).
+__all__ = [
+    # trips
+    "CUT_TRIPS", "EMCY_CODES", "ERROR_REGISTER_BITS", "PEER_TRIPS", "ErrorRegisterBit", "Trip",
+    "error_register", "trips_from_mask", "trips_mask",
+    # safety_limits
+    "DEFAULT_T_MAX_C", "DEFAULT_T_MIN_C", "DEFAULT_TRIP_LEAD_C", "DEFAULT_TRIP_SLEW_A_PER_S", "PROBE_T_MAX_C",
+    "PROBE_T_MIN_C", "PROTECTS", "SafetyLimits", "probe_limits",
+    # this module
+    "SafetyState", "EnvelopeState", "EnvelopeStatus", "check_sample", "peer_valid", "EnvelopeInput",
+    "envelope_step", "slewing", "limit_current", "clear_trips", "summarize",
+]
+
 
 # ---------------------------------------------------------------------------------------------
 # state and status

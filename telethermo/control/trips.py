@@ -2,6 +2,7 @@
 (0x1001) bits they set, and which trips cut the current or concern the peer (DESIGN.md §6)."""
 from __future__ import annotations
 
+from collections.abc import Iterable
 from enum import Enum, IntEnum
 
 from telethermo.cia301 import EMCY_HEARTBEAT, EMCY_PEER_INVALID
@@ -26,7 +27,7 @@ class Trip(str, Enum):
     PEER_INVALID = "peer_invalid"              # NaN/inf/absurd peer estimate or flux
 
 
-def trips_mask(trips) -> int:
+def trips_mask(trips: Iterable[Trip | str]) -> int:
     """The trips as a bit mask, bit i = the i-th member of :class:`Trip` in declaration order (objects 0x2706,
     0x2707): sensor_invalid 0x001, open_thermocouple 0x002, sensor_range 0x004, model_mismatch 0x008,
     surface_high 0x010, surface_low 0x020, time_at_temperature 0x040, heat_sink 0x080, overcurrent 0x100,

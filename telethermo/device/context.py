@@ -12,7 +12,7 @@ import logging
 import threading
 from dataclasses import dataclass
 from enum import IntEnum
-from typing import Callable
+from typing import Any, Callable
 
 import can
 import canopen
@@ -20,6 +20,9 @@ import canopen
 from telethermo.device.scheduler import Scheduler
 
 logger = logging.getLogger("telethermo.device.device")
+
+#: ``callback(can_id, data, timestamp_s)`` for a subscribed COB-ID (canopen.Network.subscribe: a bytearray)
+FrameCallback = Callable[[int, bytearray, float], None]
 
 
 class NmtState(IntEnum):
@@ -102,18 +105,18 @@ class DeviceCore:
             self.stats.send_errors += 1
             logger.warning("node %d: send 0x%03X failed: %s", self.node_id, cob_id, exc)
 
-    def subscribe(self, cob_id: int, callback: Callable) -> tuple[int, Callable]:
+    def subscribe(self, cob_id: int, callback: FrameCallback) -> tuple[int, FrameCallback]:
         self.network.subscribe(cob_id, callback)
         return cob_id, callback
 
-    def unsubscribe(self, cob_id: int, callback: Callable) -> None:
+    def unsubscribe(self, cob_id: int, callback: FrameCallback) -> None:
         """Unsubscribe; a subscription already gone is no error."""
         try:
             self.network.unsubscribe(cob_id, callback)
         except (KeyError, ValueError):
             pass
 
-    def call(self, fns: list, *args) -> None:
+    def call(self, fns: list[Callable[..., None]], *args: Any) -> None:
         """Call every listener; one that raises is counted and logged (never kills the receive thread)."""
         for fn in fns:
             try:
@@ -121,7 +124,7 @@ class DeviceCore:
             except Exception:  # a callback must never kill the receive thread
                 self.callback_failed(fn)
 
-    def callback_failed(self, fn) -> None:
+    def callback_failed(self, fn: Callable[..., Any]) -> None:
         """Count a failed callback; log the first 5 with their traceback, then every 1000th."""
         self.stats.callback_errors += 1
         n = self.stats.callback_errors

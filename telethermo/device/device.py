@@ -42,7 +42,7 @@ import canopen
 from telethermo.device import canopen_adapter as adapter
 from telethermo.device import emcy as emcy_mod
 from telethermo.device.context import DeviceCore, DeviceStats, NmtCommand, NmtState
-from telethermo.device.eds_info import EdsInfo
+from telethermo.device.eds_info import EdsInfo, ObjectKey
 from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import OdWriteError, PeerEvent, RpdoEvent, SyncTick, WriteEvent
 from telethermo.device.frames import FrameWatch
@@ -163,7 +163,7 @@ class Device:
     def __enter__(self) -> "Device":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     @property
@@ -212,7 +212,7 @@ class Device:
         the store and the listeners are one step for a SYNC handler. Must not block."""
         self.od_access.write_listeners.append(fn)
 
-    def add_write_validator(self, key, fn: Callable[[Any], int | None]) -> None:
+    def add_write_validator(self, key: ObjectKey, fn: Callable[[Any], int | None]) -> None:
         """``fn(value) -> abort_code | None`` before an SDO write of object ``key`` is stored.
 
         Called in the SDO download path (notifier thread, device lock held) after the EDS range
@@ -227,20 +227,20 @@ class Device:
         self.od_access.add_validator(key, fn)
 
     # ------------------------------------------------------------------ OD access (local)
-    def read(self, key) -> Any:
+    def read(self, key: ObjectKey) -> Any:
         """Decoded value of an object (name, "0x2000", "0x1018sub1", (index, sub))."""
         return self.od_access.read(key)
 
-    def write(self, key, value, *, check: bool = True) -> None:
+    def write(self, key: ObjectKey, value: Any, *, check: bool = True) -> None:
         """Set an object locally (no SDO). Communication objects (< 0x2000) get the same checks and
         side effects as an SDO write; others are range-checked when ``check`` (OdWriteError)."""
         self.od_access.write(key, value, check=check)
 
-    def writer(self, key) -> Callable[[Any], None]:
+    def writer(self, key: ObjectKey) -> Callable[[Any], None]:
         """A fast unchecked setter for a manufacturer object written every cycle (measurements)."""
         return self.od_access.writer(key)
 
-    def reader(self, key) -> Callable[[], Any]:
+    def reader(self, key: ObjectKey) -> Callable[[], Any]:
         """A fast getter for an object read every cycle (peer values)."""
         return self.od_access.reader(key)
 

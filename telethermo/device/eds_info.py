@@ -95,6 +95,9 @@ def _number(text: str, data_type: int, where: str) -> float | int:
         raise EdsError(f"{where}: expected a number for a {TYPE_NAMES.get(data_type, hex(data_type))}, got {text!r}") from None
 
 
+#: how the API names an object: its name or CLI key, ``"0x1018sub1"``, an index, or (index, subindex)
+ObjectKey = str | int | tuple[int, int]
+
 OBJECT_LISTS = ("MandatoryObjects", "OptionalObjects", "ManufacturerObjects")
 
 
@@ -128,7 +131,8 @@ class EdsInfo:
     def __init__(self, source: str | Path):
         self.path = Path(source)
         parser = RawConfigParser(inline_comment_prefixes=(";",), strict=False)
-        parser.optionxform = str
+        # keep names' case: configparser's documented idiom, which typeshed types as assigning to a method
+        parser.optionxform = str  # type: ignore[assignment,method-assign]
         try:
             with open(self.path, encoding="ascii") as fh:
                 parser.read_file(fh)
@@ -171,21 +175,21 @@ class EdsInfo:
     def _add(self, parser: RawConfigParser, section: str, index: int, sub: int, *, top: bool) -> None:
         where = f"{self.path}: [{section}]"
 
-        def get(key: str, default: str | None = None) -> str | None:
+        def get(key: str, default: str = "") -> str:
             return parser.get(section, key, fallback=default)
 
         try:
             data_type = int(get("DataType", "0"), 0)
         except ValueError:
             raise EdsError(f"{where} DataType: expected a type code like 0x0008, got {get('DataType')!r}") from None
-        low = get("LowLimit")
-        high = get("HighLimit")
+        low = parser.get(section, "LowLimit", fallback=None)
+        high = parser.get(section, "HighLimit", fallback=None)
         info = VarInfo(
             index=index, subindex=sub, name=get("ParameterName", section),
             key=(get("ParameterName", section) or section) if top else "",
             data_type=data_type, access=(get("AccessType", "ro") or "ro").lower(), unit=get("Unit", "") or "",
-            low=None if low in (None, "") else _number(low, data_type, f"{where} LowLimit"),
-            high=None if high in (None, "") else _number(high, data_type, f"{where} HighLimit"),
+            low=None if not low else _number(low, data_type, f"{where} LowLimit"),
+            high=None if not high else _number(high, data_type, f"{where} HighLimit"),
             default=get("DefaultValue", "") or "", pdo_mappable=bool(int(get("PDOMapping", "0"), 0)),
             description=get("Description", "") or "",
         )
@@ -193,7 +197,7 @@ class EdsInfo:
             raise EdsError(f"{where}: LowLimit {info.low} is above HighLimit {info.high}")
         self.vars[(index, sub)] = info
 
-    def get(self, key: str | int | tuple[int, int]) -> VarInfo:
+    def get(self, key: ObjectKey) -> VarInfo:
         """The variable named by ``key`` (see module docstring); KeyError with suggestions if unknown."""
         index_sub = parse_index_key(key)
         if index_sub is not None:
@@ -224,7 +228,7 @@ class EdsInfo:
         return None
 
 
-def parse_index_key(key: str | int | tuple[int, int]) -> tuple[int, int] | None:
+def parse_index_key(key: ObjectKey) -> tuple[int, int] | None:
     """``0x2200`` / ``0x1018sub1`` / ``0x1018:1`` / ``0x1018.1`` / (index, sub) / int -> (index, sub); else None."""
     if isinstance(key, tuple):
         return int(key[0]), int(key[1])

@@ -3,7 +3,7 @@
 PRE-OPERATIONAL and OPERATIONAL (in STOPPED the error is recorded, no frame is sent)."""
 from __future__ import annotations
 
-from canopen.sdo import SdoAbortedError
+from canopen import SdoAbortedError
 
 from telethermo.device import emcy as emcy_mod
 from telethermo.cia301 import ABORT_RANGE, EMCY_NO_ERROR

@@ -27,7 +27,7 @@ class RpdoEvent:
     """An accepted RPDO: its number, named values, the last SYNC counter seen, receive time (s)."""
 
     number: int
-    values: dict[str, float | int]
+    values: dict[str, float | int | bytes]
     sync_counter: int | None
     timestamp: float
 

@@ -5,10 +5,10 @@ from __future__ import annotations
 import functools
 from typing import Callable
 
-from canopen.sdo import SdoAbortedError
+from canopen import SdoAbortedError
 
 from telethermo.cia301 import ABORT_INCOMPATIBLE, EMCY_HEARTBEAT
-from telethermo.device.context import DeviceCore, NmtState
+from telethermo.device.context import DeviceCore, FrameCallback, NmtState
 from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import PeerEvent
 
@@ -32,7 +32,7 @@ class Heartbeat:
         self._status: dict[int, str] = {}           # "unknown" / "alive" / "lost"
         self._state: dict[int, int | None] = {}
         self._seen: dict[int, float] = {}
-        self._subs: list[tuple[int, Callable]] = []
+        self._subs: list[tuple[int, FrameCallback]] = []
         self._next = 0.0
 
     # ------------------------------------------------------------------ producer
@@ -122,7 +122,7 @@ class Heartbeat:
                 self.emcy.clear(EMCY_HEARTBEAT, source=hb_source(n))
         self._store_peer_alive()
 
-    def _on_frame(self, peer: int, can_id: int, data: bytes, timestamp: float) -> None:
+    def _on_frame(self, peer: int, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
         core = self.core
         if core.extended:
             return  # a 29-bit ID is no service of ours (counted as unknown)

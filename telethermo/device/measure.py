@@ -11,11 +11,13 @@ import argparse
 import statistics
 import time
 import uuid
+from typing import Any, Callable
 
 import canopen
 
 from telethermo.bus_config import path
 from telethermo.device.device import Device, NmtCommand
+from telethermo.device.events import SyncTick
 from telethermo.device.netconfig import load_network
 from telethermo.device.sync import SyncProducer
 
@@ -51,7 +53,10 @@ def measure_virtual(cycles: int = 2000, *, repeats: int = 3) -> dict[str, float]
                 dev = Device(net, cfg.node(role).node_id, path(f"{role}.eds"), settings=cfg.device_settings(role))
                 devs.append(dev)
                 write, read = dev.writer("estimate_C"), dev.reader("peer_estimate_C")
-                dev.add_sync_handler(lambda tick, w=write, r=read: w(r() + 1.0))
+                def relay(tick: SyncTick, w: Callable[[Any], None] = write,
+                          r: Callable[[], Any] = read) -> None:
+                    w(r() + 1.0)
+                dev.add_sync_handler(relay)
                 dev.start()
             devs[0].nmt_command(NmtCommand.START, 0)
             sync = SyncProducer(devs[0])

@@ -7,12 +7,13 @@ the field (``[section] key``) and what was expected, e.g.::
 """
 from __future__ import annotations
 
+import builtins
 import math
 import tomllib
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 from telethermo.device.settings import DeviceSettings
 from telethermo.bus_config import path
@@ -106,7 +107,7 @@ class NetworkConfig:
 
 
 def default_path() -> Path:
-    return path("network.toml")
+    return Path(path("network.toml"))   # typed Path also where mypy cannot resolve telethermo.bus_config
 
 
 class _Section:
@@ -129,19 +130,20 @@ class _Section:
             raise self.error(key, f"one of {', '.join(choices)}" if choices else "a non-empty string", v)
         return v
 
-    def int(self, key: str, default: int, lo: int, hi: int, what: str = "") -> int:
+    def int(self, key: builtins.str, default: int, lo: int, hi: int, what: builtins.str = "") -> int:
         v = self.table.get(key, default)
         if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
             raise self.error(key, f"an integer in [{lo}, {hi}]{what}", v)
-        return v
+        return cast(builtins.int, v)   # checked above (mypy does not narrow Any through the `or`)
 
-    def float(self, key: str, default: float, lo: float, hi: float, what: str = "") -> float:
+    def float(self, key: builtins.str, default: builtins.float, lo: builtins.float, hi: builtins.float,
+              what: builtins.str = "") -> builtins.float:
         v = self.table.get(key, default)
         if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
             raise self.error(key, f"a number in [{lo:g}, {hi:g}]{what}", v)
         return float(v)
 
-    def bool(self, key: str, default: bool) -> bool:
+    def bool(self, key: builtins.str, default: builtins.bool) -> builtins.bool:
         v = self.table.get(key, default)
         if not isinstance(v, bool):
             raise self.error(key, "true or false", v)
@@ -202,14 +204,14 @@ def _eds_path(file: Path, t: "_Section", default: str | None) -> Path | None:
     given = t.table.get("eds", default)
     if given is None:
         return None
-    eds = Path(t.str("eds", default))
+    eds = Path(t.str("eds", default or ""))          # given is not None: a table entry or a default
     eds = eds if eds.is_absolute() else (file.parent / eds)
     if not eds.is_file():
         raise t.error("eds", f"an existing EDS file (looked for {eds})", given)
     return eds.resolve()
 
 
-def _pair(file: Path, table: dict) -> dict[str, NodeConfig]:
+def _pair(file: Path, table: dict[str, Any]) -> dict[str, NodeConfig]:
     """[nodes.master] and [nodes.slave]: this system's two nodes (defaults: node-IDs 1 and 2, the shipped EDS)."""
     nodes: dict[str, NodeConfig] = {}
     defaults = {"master": 1, "slave": 2}

@@ -54,7 +54,7 @@ class NmtSlave:
         if node_id in (0, self.core.node_id):
             self.apply(command)
 
-    def on_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+    def on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
         core = self.core
         if core.extended:
             return  # a 29-bit ID is no service of ours (counted as unknown)

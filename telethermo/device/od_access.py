@@ -7,15 +7,15 @@ SDO writes are range-checked against the EDS (REAL32 limits re-read from the tex
 """
 from __future__ import annotations
 
-from typing import Any, Callable
+from typing import Any, Callable, cast
 
 from canopen import objectdictionary as odmod
-from canopen.sdo import SdoAbortedError
+from canopen import SdoAbortedError
 
 from telethermo.device.canopen_adapter import GatedLocalNode
 from telethermo.cia301 import ABORT_GENERAL, ABORT_RANGE
 from telethermo.device.context import DeviceCore
-from telethermo.device.eds_info import EdsInfo, VarInfo, parse_index_key
+from telethermo.device.eds_info import EdsInfo, ObjectKey, VarInfo, parse_index_key
 from telethermo.device.events import OdWriteError, WriteEvent
 from telethermo.device.settings import DeviceSettings
 
@@ -40,30 +40,33 @@ class OdAccess:
         self.write_listeners: list[Callable[[WriteEvent], None]] = []
         self._validators: dict[tuple[int, int], list[Callable[[Any], int | None]]] = {}
         self._hooks: list[tuple[int, int, WriteHook, Callable[[], None] | None]] = []
-        self._slots: dict[Any, Slot] = {}
+        self._slots: dict[ObjectKey, Slot] = {}
         self.defaults = self._power_on_values()
         self.install_defaults(lambda index: True)
         node.add_read_callback(self._on_read)
 
     # ------------------------------------------------------------------ local access
-    def slot(self, key) -> Slot:
+    def slot(self, key: ObjectKey) -> Slot:
         """(index, sub, ODVariable, VarInfo) of an object named by ``key`` (cached)."""
         slot = self._slots.get(key)
         if slot is None:
             idx = parse_index_key(key)
-            info = self.info.vars.get(idx) if idx is not None else self.info.get(key)
-            if info is None:
+            if idx is None:
+                info = self.info.get(key)             # by name (KeyError if there is none)
+            elif (found := self.info.vars.get(idx)) is not None:
+                info = found
+            else:
                 raise KeyError(f"{self.info.path.name}: no object 0x{idx[0]:04X} sub {idx[1]}")
             var = self.node.find(info.index, info.subindex)
             slot = (info.index, info.subindex, var, info)
             self._slots[key] = slot
         return slot
 
-    def read(self, key) -> Any:
+    def read(self, key: ObjectKey) -> Any:
         index, sub, var, _ = self.slot(key)
         return var.decode_raw(self.node.get_data(index, sub))
 
-    def write(self, key, value, *, check: bool = True) -> None:
+    def write(self, key: ObjectKey, value: Any, *, check: bool = True) -> None:
         index, sub, var, info = self.slot(key)
         data = var.encode_raw(value)
         if index < 0x2000:
@@ -78,7 +81,7 @@ class OdAccess:
                 raise OdWriteError(f"{info.key} = {value!r} is outside {info.range_text()}", code)
         self.core.store[index][sub] = data
 
-    def writer(self, key) -> Callable[[Any], None]:
+    def writer(self, key: ObjectKey) -> Callable[[Any], None]:
         index, sub, var, _ = self.slot(key)
         if index < 0x2000:
             raise ValueError("writer() is for manufacturer objects; use write() for communication objects")
@@ -91,7 +94,7 @@ class OdAccess:
             return lambda value: cell.__setitem__(sub, pack(bool(value)))
         return lambda value: cell.__setitem__(sub, pack(value))
 
-    def reader(self, key) -> Callable[[], Any]:
+    def reader(self, key: ObjectKey) -> Callable[[], Any]:
         index, sub, var, _ = self.slot(key)
         st = var.STRUCT_TYPES.get(var.data_type)
         if index in DIAG_OBJECTS or st is None:
@@ -99,14 +102,14 @@ class OdAccess:
         cell, unpack = self.core.store[index], st.unpack
         return lambda: unpack(cell[sub])[0]
 
-    def _on_read(self, index: int, subindex: int, od) -> Any:
+    def _on_read(self, index: int, subindex: int, od: odmod.ODVariable) -> Any:
         name = DIAG_OBJECTS.get(index)
         if name is not None:
             return getattr(self.core.stats, name) & 0xFFFFFFFF
         return None
 
     # ------------------------------------------------------------------ the SDO write path
-    def add_validator(self, key, fn: Callable[[Any], int | None]) -> None:
+    def add_validator(self, key: ObjectKey, fn: Callable[[Any], int | None]) -> None:
         index, sub, _, _ = self.slot(key)
         self._validators.setdefault((index, sub), []).append(fn)
 
@@ -116,7 +119,7 @@ class OdAccess:
         value back."""
         self._hooks.append((low, high, hook, restore))
 
-    def sdo_write(self, var, data: bytes) -> None:
+    def sdo_write(self, var: odmod.ODVariable, data: bytes) -> None:
         """Check, store and apply a write (SDO or local to a communication object)."""
         index, sub = var.index, var.subindex
         info = self.info.vars.get((index, sub))
@@ -126,7 +129,7 @@ class OdAccess:
             if var.data_type == odmod.BOOLEAN and data[:1] not in (b"\x00", b"\x01"):
                 raise SdoAbortedError(ABORT_RANGE)   # CiA 301 BOOLEAN: 0 FALSE, 1 TRUE, nothing else
             if info is not None and var.data_type in odmod.NUMBER_TYPES:
-                code = self.info.check(info, value)
+                code = self.info.check(info, cast("float | int", value))   # a number type decodes to a number
                 if code is not None:
                     raise SdoAbortedError(code)
             if self._validators:

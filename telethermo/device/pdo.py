@@ -18,13 +18,16 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass, field
+from typing import Any, cast
 
-from canopen.sdo import SdoAbortedError
+from canopen import LocalNode, SdoAbortedError
+from canopen.objectdictionary import ODVariable
 
 from telethermo.cia301 import ABORT_CANNOT_MAP, ABORT_INCOMPATIBLE, ABORT_PDO_TOO_LONG, ABORT_RANGE
 
 PDO_INVALID = 1 << 31
 RTR_NOT_ALLOWED = 1 << 30
+Store = dict[int, dict[int, bytes]]   # LocalNode.data_store: index -> subindex -> raw little-endian bytes
 
 
 @dataclass(slots=True, eq=False)
@@ -42,7 +45,7 @@ class PdoPlan:
     event_timer_ms: int = 0
     sync_start: int = 0
     entries: list[tuple[int, int, int]] = field(default_factory=list)  # (index, sub, bytes)
-    cells: list[tuple[dict, int]] = field(default_factory=list)        # (data_store[index], sub)
+    cells: list[tuple[dict[int, bytes], int]] = field(default_factory=list)  # (data_store[index], sub)
     names: tuple[str, ...] = ()
     decoders: tuple[struct.Struct | None, ...] = ()
     length: int = 0        # bytes
@@ -72,9 +75,9 @@ class PdoPlan:
             cell[sub] = bytes(data[offset:offset + n])
             offset += n
 
-    def decode(self, data: bytes) -> dict[str, float | int]:
-        """Named values of a payload (for callbacks)."""
-        out: dict[str, float | int] = {}
+    def decode(self, data: bytes) -> dict[str, float | int | bytes]:
+        """Named values of a payload (for callbacks; bytes for an entry without a number format)."""
+        out: dict[str, float | int | bytes] = {}
         offset = 0
         for name, dec, (_, _, n) in zip(self.names, self.decoders, self.entries):
             out[name] = dec.unpack_from(data, offset)[0] if dec is not None else bytes(data[offset:offset + n])
@@ -82,11 +85,11 @@ class PdoPlan:
         return out
 
 
-def read_u(store: dict, index: int, sub: int) -> int:
+def read_u(store: Store, index: int, sub: int) -> int:
     return int.from_bytes(store[index][sub], "little")
 
 
-def compile_plan(plan: PdoPlan, store: dict, node) -> None:
+def compile_plan(plan: PdoPlan, store: Store, node: LocalNode) -> None:
     """Fill ``plan`` from the communication/mapping records in ``store`` (LocalNode.data_store).
 
     Raises SdoAbortedError (0x06040041/42) if the mapping names an object that cannot be mapped
@@ -101,7 +104,10 @@ def compile_plan(plan: PdoPlan, store: dict, node) -> None:
     plan.event_timer_ms = read_u(store, plan.comm_index, 5) if 5 in comm else 0
     plan.sync_start = read_u(store, plan.comm_index, 6) if 6 in comm else 0
     count = read_u(store, plan.map_index, 0)
-    entries, cells, names, decoders = [], [], [], []
+    entries: list[tuple[int, int, int]] = []
+    cells: list[tuple[dict[int, bytes], int]] = []
+    names: list[str] = []
+    decoders: list[struct.Struct | None] = []
     total = 0
     for i in range(1, count + 1):
         if i not in store[plan.map_index]:
@@ -122,12 +128,12 @@ def compile_plan(plan: PdoPlan, store: dict, node) -> None:
     plan.length = total
 
 
-def mappable(node, index: int, sub: int, bits: int, *, tx: bool):
+def mappable(node: LocalNode, index: int, sub: int, bits: int, *, tx: bool) -> ODVariable:
     """The ODVariable at index:sub if it may be mapped with ``bits`` bits, else SdoAbortedError 0x06040041."""
     od = node.object_dictionary
     if index not in od:
         raise SdoAbortedError(ABORT_CANNOT_MAP)
-    var = od[index]
+    var: Any = od[index]             # an ODVariable, or an ODRecord/ODArray holding it
     if not hasattr(var, "data_type"):
         if sub not in var:
             raise SdoAbortedError(ABORT_CANNOT_MAP)
@@ -138,7 +144,7 @@ def mappable(node, index: int, sub: int, bits: int, *, tx: bool):
         raise SdoAbortedError(ABORT_CANNOT_MAP)
     if tx and not var.readable or (not tx and not var.writable):
         raise SdoAbortedError(ABORT_CANNOT_MAP)
-    return var
+    return cast(ODVariable, var)
 
 
 def check_comm_write(plan: PdoPlan, sub: int, new: int) -> None:

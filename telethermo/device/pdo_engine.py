@@ -15,14 +15,14 @@ import functools
 import threading
 from typing import Callable
 
-from canopen.sdo import SdoAbortedError
+from canopen import SdoAbortedError
 
 from telethermo.device import pdo as pdo_mod
 from telethermo.cia301 import (
     ABORT_PDO_TOO_LONG, ABORT_UNSUPPORTED_ACCESS, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED,
     EMCY_RPDO_TIMEOUT,
 )
-from telethermo.device.context import DeviceCore, NmtState
+from telethermo.device.context import DeviceCore, FrameCallback, NmtState
 from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import RpdoEvent
 from telethermo.device.frames import FrameWatch
@@ -48,7 +48,7 @@ class PdoEngine:
         self.sync_tpdos: list[pdo_mod.PdoPlan] = []
         self.sync_rpdos: list[pdo_mod.PdoPlan] = []
         self.listeners: list[Callable[[RpdoEvent], None]] = []
-        self._subs: list[tuple[int, Callable]] = []
+        self._subs: list[tuple[int, FrameCallback]] = []
         self._counts: dict[int, int] = {n: 0 for n in self.rpdos}
         # one condition per RPDO channel (one lock): a waiter for channel n (the lockstep producer waits for
         # the last synchronous one) is woken by that channel's PDO only, not by every RPDO of the cycle
@@ -122,7 +122,8 @@ class PdoEngine:
                 rp.last_rx = None    # monitoring starts again at the first RPDO in OPERATIONAL
 
     # ------------------------------------------------------------------ RPDO
-    def _on_rpdo_frame(self, plan: pdo_mod.PdoPlan, can_id: int, data: bytes, timestamp: float) -> None:
+    def _on_rpdo_frame(self, plan: pdo_mod.PdoPlan, can_id: int, data: bytes | bytearray,
+                       timestamp: float) -> None:
         core = self.core
         if core.extended:
             return  # a 29-bit ID is no service of ours (counted as unknown)

@@ -44,7 +44,7 @@ import binascii
 import struct
 from typing import Callable
 
-from canopen.sdo import SdoAbortedError
+from canopen import SdoAbortedError
 
 from telethermo.cia301 import (
     ABORT_BLOCK_SIZE, ABORT_COMMAND_SPECIFIER, ABORT_CRC, ABORT_LENGTH, ABORT_NO_DATA, ABORT_SEQNO,
@@ -59,7 +59,7 @@ Writer = Callable[[int, int, bytes], None]
 Checker = Callable[[int, int, int | None], None]
 
 
-def crc16(data: bytes, crc: int = 0) -> int:
+def crc16(data: bytes | bytearray, crc: int = 0) -> int:
     """CiA 301 block transfer CRC: polynomial x^16+x^12+x^5+1 (0x1021), initial value 0, no
     reflection, no final XOR (check value 0x31C3 for b"123456789")."""
     return binascii.crc_hqx(bytes(data), crc)
@@ -70,7 +70,7 @@ def abort_frame(index: int, subindex: int, code: int) -> bytes:
     return struct.pack("<BHBL", 0x80, index, subindex, code)
 
 
-def _frame(*parts: bytes) -> bytes:
+def _frame(*parts: bytes | bytearray) -> bytes:
     return b"".join(parts).ljust(8, b"\x00")
 
 
@@ -116,7 +116,7 @@ class BlockServer:
         return None if self.direction is None else self.abort(ABORT_TIMEOUT)
 
     # ------------------------------------------------------------------ dispatch
-    def on_request(self, data: bytes) -> list[bytes] | None:
+    def on_request(self, data: bytes | bytearray) -> list[bytes] | None:
         """One request frame (8 bytes) → the response frames (possibly none).
 
         None means "protocol switch": the client's pst allows a normal upload of these data and the

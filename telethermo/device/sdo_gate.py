@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Callable
 
-from canopen.sdo import SdoAbortedError
+from canopen import SdoAbortedError
 
 import struct
 
@@ -61,7 +61,7 @@ class SdoGate:
         self.block.reset()
         self.core.scheduler.cancel("sdo-segment")
 
-    def on_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+    def on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
         core = self.core
         if core.extended:
             return  # a 29-bit ID is no service of ours (counted as unknown)
@@ -112,7 +112,7 @@ class SdoGate:
             if size != want:
                 raise SdoAbortedError(ABORT_LENGTH_HIGH if size > want else ABORT_LENGTH_LOW)
 
-    def _refuse_download(self, data: bytes) -> bool:
+    def _refuse_download(self, data: bytes | bytearray) -> bool:
         """Initiate segmented download: abort it at once when :meth:`check_download` refuses (True)."""
         index, sub = struct.unpack_from("<HB", data, 1)
         size = struct.unpack_from("<L", data, 4)[0] if data[0] & 0x01 else None
@@ -137,7 +137,7 @@ class SdoGate:
         if serving:
             core.send(self.node.sdo.tx_cobid, abort_frame(*self._where, ABORT_TIMEOUT))
 
-    def _track(self, ccs: int, command: int, before, after) -> None:
+    def _track(self, ccs: int, command: int, before: bytearray | None, after: bytearray | None) -> None:
         """The segmented transfer open after canopen's server handled one request."""
         if ccs in (0x40, 0xA0):      # initiate upload: segmented if it filled a new buffer
             self.transfer = "up" if after is not before and after else None
@@ -150,7 +150,7 @@ class SdoGate:
         elif ccs == 0x80:
             self.transfer = None     # the client aborted
 
-    def _block_frame(self, data: bytes) -> bool:
+    def _block_frame(self, data: bytes | bytearray) -> bool:
         """Serve a block transfer frame (CiA 301 §7.2.4.3.9 ff., :mod:`.sdo_block`); False if canopen's
         server is to serve the frame.
 

@@ -51,7 +51,7 @@ class SyncProducer:
             if overflow:
                 self.counter = self.counter + 1 if 0 < self.counter < overflow else 1
                 counter: int | None = self.counter
-                dev.core.send(dev.sync_cob_id, bytes((counter,)))
+                dev.core.send(dev.sync_cob_id, bytes((self.counter,)))
             else:
                 counter = None
                 dev.core.send(dev.sync_cob_id, b"")

@@ -9,10 +9,10 @@ from __future__ import annotations
 
 from typing import Callable
 
-from canopen.sdo import SdoAbortedError
+from canopen import SdoAbortedError
 
 from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_LOCAL_CONTROL, ABORT_RANGE, EMCY_SYNC_LENGTH
-from telethermo.device.context import DeviceCore, NmtState
+from telethermo.device.context import DeviceCore, FrameCallback, NmtState
 from telethermo.device.emcy_producer import EmcyProducer
 from telethermo.device.events import SyncTick
 from telethermo.device.pdo_engine import PdoEngine
@@ -29,7 +29,7 @@ class SyncConsumer:
         """SYNC frames refused for their length."""
         self.handlers: list[Callable[[SyncTick], None]] = []
         self.last_counter: int | None = None
-        self._sub: tuple[int, Callable] | None = None
+        self._sub: tuple[int, FrameCallback] | None = None
 
     @property
     def cob_id(self) -> int:
@@ -76,7 +76,7 @@ class SyncConsumer:
         if self.core.u(0x1006, 0) != 0:
             raise SdoAbortedError(ABORT_DEVICE_STATE)
 
-    def _on_frame(self, can_id: int, data: bytes, timestamp: float) -> None:
+    def _on_frame(self, can_id: int, data: bytes | bytearray, timestamp: float) -> None:
         core = self.core
         if core.extended:
             return  # a 29-bit ID is no service of ours (counted as unknown)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -58,7 +58,8 @@ class CapacityModel:
         """Steady-state heat out of the pad, W, at current ``current_A`` (A) and pad temperature ``T_C`` (°C)."""
         I = np.asarray(current_A, dtype=float)
         T = np.asarray(T_C, dtype=float)
-        return capacity_regressors(np.ravel(I), np.ravel(np.broadcast_to(T, I.shape))).dot(self.theta).reshape(I.shape)
+        X = capacity_regressors(np.ravel(I), np.ravel(np.broadcast_to(T, I.shape)))
+        return cast(np.ndarray, X.dot(self.theta).reshape(I.shape))
 
 
 def fit_capacity(*, current_A: np.ndarray, T_C: np.ndarray, P_W: np.ndarray) -> CapacityModel:

@@ -23,7 +23,9 @@ actually commanded.
 from __future__ import annotations
 
 import math
+import os
 import time
+from pathlib import Path
 from dataclasses import asdict, dataclass, field, replace
 from typing import Any, Callable
 
@@ -158,8 +160,10 @@ def run_excitation(rig: Rig, current_A: np.ndarray, *, settings: ExperimentSetti
 
 
 def _concat(records: list[Record]) -> Record:
-    return Record(*(np.concatenate([getattr(r, f) for r in records]) for f in
-                    ("t_s", "current_A", "T_C", "Q_W", "T_sink_C", "Q_true_W")),
+    def cat(f: str) -> np.ndarray:
+        return np.concatenate([getattr(r, f) for r in records])
+
+    return Record(cat("t_s"), cat("current_A"), cat("T_C"), cat("Q_W"), cat("T_sink_C"), cat("Q_true_W"),
                   guard_interventions=sum(r.guard_interventions for r in records))
 
 
@@ -218,7 +222,8 @@ def identify_rig(rig: Rig, *, n_samples: int = 10_000, orders: NarmaOrders = Nar
     return tem, report
 
 
-def save_record_csv(path, rec: Record, plan: IdentifyPlan, *, comments: dict[str, Any] | None = None):
+def save_record_csv(path: str | os.PathLike[str], rec: Record, plan: IdentifyPlan, *,
+                    comments: dict[str, Any] | None = None) -> Path:
     """Write the experiment's samples as CSV, atomically: ``j, phase, t_s, current_A, T_sensor_C, Q_W`` (one row
     per sample of ``plan``; ``current_A`` is the current commanded after sample j). ``comments`` become
     ``# key: value`` lines first. Returns the path."""
@@ -231,8 +236,9 @@ def save_record_csv(path, rec: Record, plan: IdentifyPlan, *, comments: dict[str
 
 def record_slice(rec: Record, start: int, stop: int) -> Record:
     """Rows ``start:stop`` of a record (guard interventions are those of the whole record)."""
-    return Record(*(getattr(rec, f)[start:stop] for f in ("t_s", "current_A", "T_C", "Q_W", "T_sink_C", "Q_true_W")),
-                  guard_interventions=rec.guard_interventions)
+    rows = slice(start, stop)
+    return Record(rec.t_s[rows], rec.current_A[rows], rec.T_C[rows], rec.Q_W[rows], rec.T_sink_C[rows],
+                  rec.Q_true_W[rows], guard_interventions=rec.guard_interventions)
 
 
 def fit_experiment(rec: Record, *, plan: IdentifyPlan, orders: NarmaOrders = NarmaOrders(), period_s: float,

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.optimize
@@ -102,7 +102,7 @@ class FluxArma:
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.e]), a, I)
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.g]), a, I * I)
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.h]), a, I * T)
-        return out
+        return cast(np.ndarray, out)   # scipy is untyped
 
     def errors(self, *, T_C: np.ndarray, Q_W: np.ndarray, current_A: np.ndarray | None = None,
                start: int = 0) -> dict[str, float]:

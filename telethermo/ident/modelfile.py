@@ -31,7 +31,7 @@ import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal, overload
 
 import numpy as np
 
@@ -53,7 +53,7 @@ class ModelFileError(ValueError):
     (what was expected), ``got`` (what was found, short).
     """
 
-    def __init__(self, path: str | os.PathLike, field: str, expected: str, got: str = "") -> None:
+    def __init__(self, path: str | os.PathLike[str], field: str, expected: str, got: str = "") -> None:
         self.path, self.field, self.expected, self.got = str(path), field, expected, got
         where = f"field '{field}': " if field else ""
         tail = f", got {got}" if got else ""
@@ -117,7 +117,7 @@ def model_to_dict(tem: TemModel) -> dict[str, Any]:
     return doc
 
 
-def save_model(path: str | os.PathLike, tem: TemModel) -> Path:
+def save_model(path: str | os.PathLike[str], tem: TemModel) -> Path:
     """Write ``tem`` to ``path`` as JSON, atomically (a reader sees the old file or the new one)."""
     if not isinstance(tem, TemModel):
         raise TypeError(f"save_model needs a TemModel, got {type(tem).__name__}")
@@ -139,14 +139,21 @@ def _is_finite(v: int | float) -> bool:
 class _Reader:
     """Typed field access that raises ModelFileError with the dotted field name."""
 
-    def __init__(self, path: str | os.PathLike) -> None:
+    def __init__(self, path: str | os.PathLike[str]) -> None:
         self.path = path
 
     def err(self, fld: str, expected: str, got: Any = "") -> ModelFileError:
         g = got if isinstance(got, str) else repr(got)
         return ModelFileError(self.path, fld, expected, g[:80])
 
-    def obj(self, parent: dict, key: str, fld: str, *, optional: bool = False) -> dict | None:
+    @overload
+    def obj(self, parent: dict[str, Any], key: str, fld: str, *,
+            optional: Literal[False] = False) -> dict[str, Any]: ...
+    @overload
+    def obj(self, parent: dict[str, Any], key: str, fld: str, *, optional: bool) -> dict[str, Any] | None: ...
+
+    def obj(self, parent: dict[str, Any], key: str, fld: str, *,
+            optional: bool = False) -> dict[str, Any] | None:
         if key not in parent:
             if optional:
                 return None
@@ -158,7 +165,7 @@ class _Reader:
             raise self.err(fld, "an object", v)
         return v
 
-    def num(self, parent: dict, key: str, fld: str, *, positive: bool = False) -> float:
+    def num(self, parent: dict[str, Any], key: str, fld: str, *, positive: bool = False) -> float:
         if key not in parent:
             raise self.err(fld, "a number (missing)")
         v = parent[key]
@@ -168,13 +175,13 @@ class _Reader:
             raise self.err(fld, "a positive number", v)
         return float(v)
 
-    def int_(self, parent: dict, key: str, fld: str, lo: int, hi: int) -> int:
+    def int_(self, parent: dict[str, Any], key: str, fld: str, lo: int, hi: int) -> int:
         v = parent.get(key)
         if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
             raise self.err(fld, f"an integer in [{lo}, {hi}]", "missing" if key not in parent else v)
         return v
 
-    def nums(self, parent: dict, key: str, fld: str, *, length: int | None = None, min_len: int = 1,
+    def nums(self, parent: dict[str, Any], key: str, fld: str, *, length: int | None = None, min_len: int = 1,
              max_len: int = 10_000) -> np.ndarray:
         v = parent.get(key)
         want = f"a list of {length} finite numbers" if length is not None else \
@@ -188,13 +195,13 @@ class _Reader:
                 raise self.err(f"{fld}[{i}]", "a finite number", x)
         return np.asarray(v, dtype=float)
 
-    def range_(self, parent: dict, key: str, fld: str) -> tuple[float, float]:
+    def range_(self, parent: dict[str, Any], key: str, fld: str) -> tuple[float, float]:
         lo, hi = self.nums(parent, key, fld, length=2)
         if lo > hi:
             raise self.err(fld, "[min, max] with min <= max", [lo, hi])
         return float(lo), float(hi)
 
-    def metrics(self, parent: dict, fld: str) -> dict:
+    def metrics(self, parent: dict[str, Any], fld: str) -> dict[str, Any]:
         m = parent.get("metrics", {})
         if m is None:
             return {}
@@ -203,7 +210,7 @@ class _Reader:
         return m
 
 
-def model_from_dict(doc: Any, *, path: str | os.PathLike = "<dict>", check_stability: bool = True,
+def model_from_dict(doc: Any, *, path: str | os.PathLike[str] = "<dict>", check_stability: bool = True,
                     expect_period_s: float | None = None) -> TemModel:
     """Validate a model document and build the :class:`TemModel` (errors: :class:`ModelFileError`)."""
     r = _Reader(path)
@@ -283,7 +290,7 @@ def model_from_dict(doc: Any, *, path: str | os.PathLike = "<dict>", check_stabi
     return TemModel(temperature=temp, flux=flux, capacity=cap, meta=meta)
 
 
-def load_model(path: str | os.PathLike, *, check_stability: bool = True,
+def load_model(path: str | os.PathLike[str], *, check_stability: bool = True,
                expect_period_s: float | None = None) -> TemModel:
     """Read and validate a model file (see the module docstring).
 

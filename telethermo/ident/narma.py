@@ -27,13 +27,15 @@ from __future__ import annotations
 import hashlib
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg
 
 MAX_ORDER = 8
 RCOND = 1e-12  # singular values of the scaled regressors below RCOND x the largest are treated as zero
+#: NarmaPredictor.snapshot(): (T history relative to T_ref, I history, T_pred °C, clamped steps, steps)
+NarmaSnapshot = tuple[tuple[float, ...], tuple[float, ...], float, int, int]
 
 
 class UnstableModelError(ValueError):
@@ -236,7 +238,7 @@ class NarmaModel:
     def ar_coefficients(self, current_A: float | np.ndarray) -> np.ndarray:
         """AR coefficients α_i(I) = Σ_k θ_a[i,k]·I^k for a constant current, shape (..., n)."""
         I = np.asarray(current_A, dtype=float)[..., None]
-        return np.polynomial.polynomial.polyval(I, self.theta_a.T, tensor=False)
+        return cast(np.ndarray, np.polynomial.polynomial.polyval(I, self.theta_a.T, tensor=False))
 
     def local_poles(self, current_A: float | np.ndarray) -> np.ndarray:
         """Poles (z) of the model linearised at a constant current, shape (..., n).
@@ -259,7 +261,7 @@ class NarmaModel:
         alpha = self.ar_coefficients(I)
         beta = np.polynomial.polynomial.polyval(I[..., None], np.vstack([np.zeros(self.orders.m), self.theta_b.T]),
                                                 tensor=False)
-        return self.T_ref_C + beta.sum(axis=-1) / (1.0 - alpha.sum(axis=-1))
+        return cast(np.ndarray, self.T_ref_C + beta.sum(axis=-1) / (1.0 - alpha.sum(axis=-1)))
 
     def clamp_current(self, current_A: np.ndarray | float) -> np.ndarray:
         """The current clamped into the training range, A."""
@@ -407,11 +409,11 @@ class NarmaPredictor:
         self._I = [current_A] * max(self._n, self._m)
         self.T_pred_C = T_C
 
-    def snapshot(self) -> tuple:
+    def snapshot(self) -> NarmaSnapshot:
         """The predictor's state as an immutable value (for a pure control step); see :meth:`restore`."""
         return (tuple(self._T), tuple(self._I), self.T_pred_C, self.n_clamped, self.n_steps)
 
-    def restore(self, snap: tuple) -> None:
+    def restore(self, snap: NarmaSnapshot) -> None:
         """Return to a state taken by :meth:`snapshot` (of a predictor of the same model)."""
         T, I, T_pred, n_clamped, n_steps = snap
         if len(T) != len(self._T) or len(I) != len(self._I):

@@ -4,7 +4,7 @@ must not run. The model itself (orders, regressors, free run, predictor) is :mod
 """
 from __future__ import annotations
 
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 import scipy.linalg.lapack
@@ -145,7 +145,7 @@ def refine_output_error(model: NarmaModel, *, current_A: np.ndarray, T_C: np.nda
             cache["J"] = np.zeros((len(T) - L, o.d))
             return penalty
         cache["J"] = J[L:] / sc
-        return (fr - T)[L:]
+        return cast(np.ndarray, (fr - T)[L:])
 
     x0 = model.theta * sc
     r0 = resid(x0)

@@ -34,7 +34,7 @@ import math
 import struct
 import zlib
 from dataclasses import dataclass
-from typing import Any, Callable
+from typing import Any, Callable, cast
 
 import numpy as np
 
@@ -78,7 +78,7 @@ class Entry:
 
 def round_real32(x: float) -> float:
     """``x`` rounded to IEEE-754 single precision (what a REAL32 object holds)."""
-    return struct.unpack("<f", struct.pack("<f", x))[0]
+    return cast(float, struct.unpack("<f", struct.pack("<f", x))[0])
 
 
 def flux_coefficients(flux: FluxArma) -> list[float]:
@@ -177,9 +177,9 @@ def model_from_od(read: Callable[[int, int], Any], *, source: str = "object dict
         if not all(math.isfinite(x) for x in c):
             raise ModelFileError(source, "flux_coeffs (0x2311)", "finite numbers", "a NaN or infinity")
         parts = np.split(np.array(c), np.cumsum([fn, fm + 1, fm, fm])[: 4 if with_i else 1])
+        current_terms: dict[str, Any] = {"e": parts[2], "g": parts[3], "h": parts[4]} if with_i else {}
         try:
-            flux = FluxArma(c=parts[0], d=parts[1], period_s=per, T_ref_C=T_ref,
-                            **({"e": parts[2], "g": parts[3], "h": parts[4]} if with_i else {}))
+            flux = FluxArma(c=parts[0], d=parts[1], period_s=per, T_ref_C=T_ref, **current_terms)
         except ValueError as exc:
             raise ModelFileError(source, "flux_coeffs (0x2311)", "a valid heat-flux model", str(exc)) from None
     tem = TemModel(temperature=model, flux=flux, meta={"source": source})

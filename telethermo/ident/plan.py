@@ -24,6 +24,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -103,7 +104,7 @@ class IdentifyPlan:
             return "train"
         return "validation" if j < self.total else "done"
 
-    def as_dict(self) -> dict:
+    def as_dict(self) -> dict[str, Any]:
         return {"seed": self.seed, "rest_samples": self.rest_samples, "train_samples": self.train_samples,
                 "validation_samples": self.validation_samples, "amplitude_A": list(self.amplitude_A),
                 "hold_samples": self.hold_samples, "margin_C": self.margin_C}

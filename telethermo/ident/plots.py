@@ -12,7 +12,7 @@ from telethermo.atomic import write_bytes_atomic
 from telethermo.ident.modelfile import TemModel
 
 
-def plot_identification(path: str | os.PathLike, tem: TemModel, report: dict[str, Any]) -> Path:
+def plot_identification(path: str | os.PathLike[str], tem: TemModel, report: dict[str, Any]) -> Path:
     """Write a PNG with the held-out temperature and flux (measured vs free-run model) and, if measured,
     the capacity points and fit. ``report`` must come from ``identify_rig(..., keep_record=True)``."""
     import io
@@ -43,7 +43,7 @@ def plot_identification(path: str | os.PathLike, tem: TemModel, report: dict[str
     ax.set(xlabel="t (s)", ylabel="Q (W)", title=f"held-out PRBS: heat flux; worst {report['flux_heldout_max_W']:.4f} W "
                                                  f"(cf. guiatni Fig. 5)")
     ax.legend(loc="upper right")
-    if n == 3:
+    if ss is not None and tem.capacity is not None:     # n == 3
         ax = axes[2]
         ax.plot(ss.current_A, ss.Q_W, "o", label="measured steady states")
         I = np.linspace(ss.current_A.min(), ss.current_A.max(), 200)

@@ -13,6 +13,7 @@ Two tests, both must pass:
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -40,7 +41,7 @@ class StabilityReport:
     worst_current_A: float
     free_run_max_dev_C: float
     bound_C: float
-    details: dict = field(default_factory=dict)
+    details: dict[str, Any] = field(default_factory=dict)
 
 
 def check_stability(model: NarmaModel, *, n_grid: int = 201, pole_margin: float = 1e-6,
