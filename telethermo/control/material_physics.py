@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import cast
 
 import numpy as np
 
@@ -69,7 +70,7 @@ def posterior(est: EffusivityEstimate, ln_b_table: np.ndarray, cal: PhysicsCalib
     sig = math.hypot(cal.k * est.se_ln_b, cal.floor_ln)
     g = np.exp(-0.5 * ((math.log(est.b) - ln_b_table) / sig) ** 2) / (sig * math.sqrt(2.0 * math.pi))
     lik = (1.0 - cal.outlier) * g + cal.outlier / OUTLIER_WIDTH_LN
-    return lik / lik.sum()
+    return cast(np.ndarray, lik / lik.sum())
 
 
 def decide(est: EffusivityEstimate | None, T_probe_C: float, ln_b_table: np.ndarray,

@@ -23,7 +23,7 @@ import math
 
 import numpy as np
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import Any, cast
 
 from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form,
                                             filter_release, fit_form, fit_input, half_integral_matrix,
@@ -82,6 +82,20 @@ class MaterialEstimate:
         return self.effusivity / B_SKIN_REF
 
 
+@functools.lru_cache(maxsize=1)
+def default_calibration() -> Calibration | None:
+    """The shipped calibration (loaded once per process; None while none is shipped, e.g. before
+    bench/material_calibrate.py has written it: the physics classification then; a malformed file raises)."""
+    return load_calibration() if DEFAULT_CALIBRATION.exists() else None
+
+
+@functools.lru_cache(maxsize=1)
+def default_classes() -> tuple[tuple[int, str, float], ...]:
+    """(code, name, effusivity) of the default rendering table (code = 1-based position in the file)."""
+    codes = {name: i + 1 for i, name in enumerate(load_render_table())}
+    return tuple((codes[n], n, b) for n, b in load_effusivity_table().items())
+
+
 @dataclass(frozen=True, slots=True)
 class MaterialIdParams:
     """Settings of the identification.
@@ -113,13 +127,6 @@ class MaterialIdParams:
                 raise ValueError(f"material classifier names {missing} that the rendering table has no effusivity for")
 
 
-@functools.lru_cache(maxsize=1)
-def default_calibration() -> Calibration | None:
-    """The shipped calibration (loaded once per process; None while none is shipped, e.g. before
-    bench/material_calibrate.py has written it: the physics classification then; a malformed file raises)."""
-    return load_calibration() if DEFAULT_CALIBRATION.exists() else None
-
-
 def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
     """Whether the calibration applies at period ``dt_s`` (measured with the same period and window)."""
     cal = p.calibration
@@ -130,14 +137,8 @@ def fit_units(p: MaterialIdParams, dt_s: float) -> int:
     """Cycles from the window's completion to the published result (one unit of work each: the window and the
     energy form, the flux form, each noise realisation, then the classification: one layer of the calibrated
     networks per cycle, or the nearest effusivity in one)."""
-    return 2 + noise_draws(p.probe) + (n_units(p.calibration) if calibrated(p, dt_s) else 1)
-
-
-@functools.lru_cache(maxsize=1)
-def default_classes() -> tuple[tuple[int, str, float], ...]:
-    """(code, name, effusivity) of the default rendering table (code = 1-based position in the file)."""
-    codes = {name: i + 1 for i, name in enumerate(load_render_table())}
-    return tuple((codes[n], n, b) for n, b in load_effusivity_table().items())
+    cal = cast(Calibration, p.calibration)          # not None when calibrated
+    return 2 + noise_draws(p.probe) + (n_units(cal) if calibrated(p, dt_s) else 1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,16 +149,16 @@ class FitJob:
     staged classification's state and ``unit`` its next unit; ``late``: the refined answer's fit (physics only,
     the late window)."""
 
-    rows: tuple
+    rows: tuple[tuple[float, float], ...]
     n_pre: int
     late: bool = False
     inp: FitInput | None = None
-    fits: tuple = ()
-    chosen: tuple[str, EffusivityEstimate] | None = None
-    deviations: tuple = ()
+    fits: tuple[tuple[str, EffusivityEstimate | None], ...] = ()
+    chosen: tuple[str | None, EffusivityEstimate | None] | None = None
+    deviations: tuple[float, ...] = ()
     x: Any = None
     h: Any = None
-    probs: tuple = ()
+    probs: tuple[np.ndarray, ...] = ()
     unit: int = 0
 
 
@@ -167,8 +168,8 @@ class MaterialState:
     ``done`` the touch's window was collected, ``job`` its fit under way, ``last`` the held result, ``late`` the
     refined answer's fit was started."""
 
-    pre: tuple = ()
-    post: tuple = ()
+    pre: tuple[tuple[float, float], ...] = ()
+    post: tuple[tuple[float, float], ...] = ()
     done: bool = False
     last: MaterialEstimate = field(default_factory=MaterialEstimate)
     job: FitJob | None = None
@@ -243,30 +244,32 @@ def _late_result(p: MaterialIdParams, job: FitJob, last: MaterialEstimate) -> Ma
     est = job.chosen[1] if job.chosen is not None else None
     if est is not None:
         est = with_noise_spread(est, list(job.deviations))
-    code, post, why = _physics(p, est, job.inp, p.late)
+    late = cast(mp.PhysicsCalibration, p.late)      # a refined answer's job: p.late is set
+    code, post, why = _physics(p, est, cast(FitInput, job.inp), late)
     if last.by == "network":                        # the network's class in its box stands; b is refined
         code, post, why = last.code, last.posterior, last.abstained
     if est is None:
         return replace(last, code=code, posterior=post, abstained=why, stage="late")
-    return replace(last, effusivity=est.b, se_ln_b=p.late.sigma_ci(est.se_ln_b), code=code, posterior=post,
+    return replace(last, effusivity=est.b, se_ln_b=late.sigma_ci(est.se_ln_b), code=code, posterior=post,
                    T_object0_C=est.T_object0_C, abstained=why, stage="late")
 
 
 def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: float
               ) -> tuple[FitJob | None, MaterialEstimate]:
     """One unit of the fit: (the job, or None when finished, and the held result, new when finished)."""
-    probe = replace(p.probe, window_s=p.late.window_s) if job.late else p.probe
+    probe = replace(p.probe, window_s=cast(mp.PhysicsCalibration, p.late).window_s) if job.late else p.probe
     n = last.touch + 1
     if job.inp is None and not job.fits:                                    # window and the energy form
         inp = fit_input([r[0] for r in job.rows], [r[1] for r in job.rows], job.n_pre, dt_s, probe)
         if inp is None:
             return None, (last if job.late else MaterialEstimate(touch=n))
         return replace(job, inp=inp, fits=((FORMS[0], fit_form(inp, FORMS[0], probe)),)), last
+    inp = cast(FitInput, job.inp)                                           # built by the first unit
     if job.chosen is None:                                                  # the other form, the better one
-        fits = job.fits + tuple((f, fit_form(job.inp, f, probe)) for f in FORMS[len(job.fits):len(job.fits) + 1])
+        fits = job.fits + tuple((f, fit_form(inp, f, probe)) for f in FORMS[len(job.fits):len(job.fits) + 1])
         if len(fits) < len(FORMS):
             return replace(job, fits=fits), last
-        chosen = best_form(list(fits))
+        chosen: tuple[str | None, EffusivityEstimate | None] | None = best_form(list(fits))
         if chosen is None:
             if job.late:
                 return None, _late_result(p, replace(job, chosen=None), last)
@@ -277,25 +280,26 @@ def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: fl
     form, est = job.chosen
     k = len(job.deviations)
     if est is not None and k < noise_draws(probe):                          # one noise realisation
-        return replace(job, deviations=job.deviations + (noise_deviation(job.inp, form, math.log(est.b), k, probe),)), last
+        dev = noise_deviation(inp, cast(str, form), math.log(est.b), k, probe)   # a fitted form has its name
+        return replace(job, deviations=job.deviations + (dev,)), last
     if job.late:
         return None, _late_result(p, job, last)
-    cal = p.calibration                                                     # the classification
+    cal = cast(Calibration, p.calibration)          # the classification (x is None without a calibration)
     if job.x is None:                               # its first unit: the confidence and the networks' input, once
         est = with_noise_spread(est, list(job.deviations)) if est is not None else None
-        x = network_input(cal, touch_vector(job.inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
+        x = network_input(cal, touch_vector(inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
             else None
         if x is None:
             if not p.classes:
                 return None, MaterialEstimate(touch=n)
-            return None, _result(p, est, *_physics(p, est, job.inp, p.early), n, p.early)
+            return None, _result(p, est, *_physics(p, est, inp, p.early), n, p.early)
         job = replace(job, x=x, chosen=(form, est))
-    est = job.chosen[1]
+    est = cast(tuple[str, EffusivityEstimate | None], job.chosen)[1]      # set by the first unit
     h, probs = network_unit(cal, job.x, job.h, job.probs, job.unit)        # one layer
     if job.unit + 1 < n_units(cal):
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last
     i, post = decide(probs)
     code, why, by = next(c for c, name, _ in p.classes if name == cal.classes[i]), "", "network"
-    if p.box is not None and abstain_reason(p.box, job.inp, est, job.x) is not None:
-        (code, post, why), by = _physics(p, est, job.inp, p.early), "physics"     # outside the network's box
+    if p.box is not None and abstain_reason(p.box, inp, est, job.x) is not None:
+        (code, post, why), by = _physics(p, est, inp, p.early), "physics"     # outside the network's box
     return None, _result(p, est, code, post, why, n, p.early, by)

@@ -67,7 +67,8 @@ __all__ = [
     "error_register", "trips_from_mask", "trips_mask",
     # safety_limits
     "DEFAULT_T_MAX_C", "DEFAULT_T_MIN_C", "DEFAULT_TRIP_LEAD_C", "DEFAULT_TRIP_SLEW_A_PER_S", "PROBE_T_MAX_C",
-    "PROBE_T_MIN_C", "PROTECTS", "SafetyLimits", "probe_limits",
+    "PROBE_T_MIN_C", "PROTECTS", "SafetyLimits", "probe_limits", "LIMIT_NAMES", "limits_from_mask",
+    "limits_mask",
     # this module
     "SafetyState", "EnvelopeState", "EnvelopeStatus", "check_sample", "peer_valid", "EnvelopeInput",
     "envelope_step", "slewing", "limit_current", "clear_trips", "summarize",

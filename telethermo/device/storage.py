@@ -61,9 +61,11 @@ class StoreRestore:
         self._actions = {STORE_INDEX: save, RESTORE_INDEX: restore}
         signatures = {STORE_INDEX: SAVE_SIGNATURE, RESTORE_INDEX: LOAD_SIGNATURE}
         for index, signature in signatures.items():
+            def refuse(v: Any, s: int = signature) -> int | None:     # anything but the signature
+                return None if int(v) == s else ABORT_APPLICATION
+
             for sub in GROUPS:
-                dev.add_write_validator((index, sub),
-                                        lambda v, s=signature: None if int(v) == s else ABORT_APPLICATION)
+                dev.add_write_validator((index, sub), refuse)
         dev.od_access.on_write(STORE_INDEX, RESTORE_INDEX, self._written)
 
     def _written(self, index: int, sub: int, value: Any, old: bytes | None) -> None:
@@ -81,7 +83,7 @@ def default_store_path(node_id: int) -> Path:
     return Path(base) / "telethermo" / f"node{node_id}.json"
 
 
-def _crc(body: dict) -> int:
+def _crc(body: dict[str, Any]) -> int:
     text = json.dumps(body, sort_keys=True, separators=(",", ":"), allow_nan=False)
     return zlib.crc32(text.encode()) & 0xFFFFFFFF
 
@@ -91,14 +93,14 @@ class StoreFile:
     "crc32"}``, sections ``None`` when not stored. ``crc32`` is the CRC-32 of the other keys as canonical
     JSON (sorted keys, no spaces)."""
 
-    def __init__(self, path: str | os.PathLike, node_id: int) -> None:
+    def __init__(self, path: str | os.PathLike[str], node_id: int) -> None:
         self.path = Path(path)
         self.node_id = node_id
 
     def exists(self) -> bool:
         return self.path.is_file()
 
-    def read(self) -> dict:
+    def read(self) -> dict[str, Any]:
         """The checked content. StoreError naming the file and the fault (unreadable, not JSON, wrong format,
         checksum mismatch, another node's file); FileNotFoundError if there is none."""
         where = str(self.path)
@@ -129,7 +131,8 @@ class StoreFile:
                 raise StoreError(f"{where}: field {key!r}: expected an object or null")
         return doc
 
-    def write(self, *, communication: dict | None, application: dict | None, saved_unix_s: float) -> None:
+    def write(self, *, communication: dict[str, Any] | None, application: dict[str, Any] | None,
+              saved_unix_s: float) -> None:
         """Atomically replace the file (OSError if it cannot be written)."""
         body = {"format": FORMAT, "node_id": self.node_id, "saved_unix_s": round(float(saved_unix_s), 3),
                 "communication": communication, "application": application}
