@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import math
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor
 from typing import Any, Iterable

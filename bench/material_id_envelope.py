@@ -33,7 +33,7 @@ from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
 from bench.material_id_bound import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
-from telethermo.control.material_stream import (MaterialIdParams, UNKNOWN_CODE, default_classes, fit_units,
+from telethermo.control.material_stream import (MaterialIdParams, UNKNOWN_CODE, fit_units,
                                                 late_samples)
 from telethermo.sim.materials import material
 from telethermo.sim.measurement import NoiseParams

@@ -281,7 +281,7 @@ def _print(o: dict[str, Any]) -> None:
           + ", ".join(f"{k} {v:.3f}" for k, v in o["null_displays"].items()))
     print(f"cue order kept {o['cue_order_kept']}, contrast min {o['cue_contrast_ratio_min']:.2f}; drift "
           f"{o['drift_10min_C']:.3f} °C; headline at R_sensor x0.8..x1.2 {o['r_sensor_headline_C']}")
-    print(f"estimator |estimate - truth| while touching, R_sensor prior x0.8 / x1 / x1.2: " + ", ".join(
+    print("estimator |estimate - truth| while touching, R_sensor prior x0.8 / x1 / x1.2: " + ", ".join(
         f"{k}: finger {v['finger_C']:.3f} object {v['object_C']:.3f}" for k, v in o["estimator_error_vs_truth_C"].items()))
     print("checks: " + ", ".join(f"{k}={'ok' if v else 'NOT MET'}" for k, v in o["checks"].items()))
 

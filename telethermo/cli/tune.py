@@ -142,7 +142,7 @@ def _report(res: tn.TuneResult, obj: tn.Objective, rel: float, wall: float) -> N
     print(_table(["point", "J", "worst J", "worst at"] + obj.keys, rows))
     print(f"\nsensitivity of the chosen point (±{rel:.0%} on each gain, then random corners):")
     print(_table(HEADERS, [_row("centre", res.chosen.centre)] + [_row(lab, ev) for lab, ev in res.chosen.rows]))
-    print(f"\nchosen gains: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.best.gains.items()))
+    print("\nchosen gains: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.best.gains.items()))
     print(f"search: {res.search.method}, budget {res.search.budget} points, {len(res.search.points)} points, "
           f"{res.search.n_evaluations} evaluations; "
           f"{len(obj.history)} evaluations in all ({obj.n_sessions} sessions), wall time {wall:.0f} s")

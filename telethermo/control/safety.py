@@ -43,6 +43,10 @@ import math
 from dataclasses import dataclass, replace
 from enum import IntEnum
 
+from telethermo.control.safety_limits import (DEFAULT_T_MAX_C, DEFAULT_T_MIN_C, DEFAULT_TRIP_LEAD_C,  # noqa: F401
+                                              DEFAULT_TRIP_SLEW_A_PER_S, PROBE_T_MAX_C, PROBE_T_MIN_C, PROTECTS,
+                                              LIMIT_NAMES, SafetyLimits, limits_from_mask, limits_mask,
+                                              probe_limits)
 from telethermo.control.trips import (CUT_TRIPS, EMCY_CODES, ERROR_REGISTER_BITS, PEER_TRIPS, ErrorRegisterBit, Trip,  # noqa: F401
                                       error_register, trips_from_mask, trips_mask)
 
@@ -55,10 +59,7 @@ class SafetyState(IntEnum):
     CUT = 3              # current cut (latched trip or neutral reached after peer loss)
 
 
-from telethermo.control.safety_limits import (DEFAULT_T_MAX_C, DEFAULT_T_MIN_C, DEFAULT_TRIP_LEAD_C,  # noqa: F401
-                                              DEFAULT_TRIP_SLEW_A_PER_S, PROBE_T_MAX_C, PROBE_T_MIN_C, PROTECTS,
-                                              LIMIT_NAMES, SafetyLimits, limits_from_mask, limits_mask,
-                                              probe_limits)
+
 
 # The public names, with those re-exported from trips and safety_limits (the envelope's one import point).
 __all__ = [

@@ -9,5 +9,5 @@ from telethermo.offline.recording import (Recording, RecordingBuilder, Recording
 from telethermo.offline.runner import SessionResult, run_offline_session, write_session
 
 __all__ = ["compute_figures", "contacts_of", "Recording", "RecordingBuilder", "RecordingError", "read_recording_csv",
-           "write_recording_csv", "run_offline_session", "write_session"]
+           "write_recording_csv", "run_offline_session", "write_session", "SessionResult"]
 

@@ -15,10 +15,10 @@ from telethermo.device.netconfig import load_network
 from telethermo.monitor.pdo import PdoMap, decode_pdo
 
 IDENT = r"[A-Za-z_][A-Za-z0-9_]*"
-STATEMENTS = [rf'VERSION ""', r"NS_ :", r"BS_:", rf"BU_:( {IDENT})+",
+STATEMENTS = [r'VERSION ""', r"NS_ :", r"BS_:", rf"BU_:( {IDENT})+",
               rf"BO_ (\d+) ({IDENT}): (\d) ({IDENT})",
               rf' SG_ ({IDENT}) : (\d+)\|(\d+)@1([+-]) \(1,0\) \[0\|0\] "([^"]*)" ({IDENT}(,{IDENT})*)',
-              rf'CM_ BO_ \d+ "[^"]*";', rf'CM_ SG_ \d+ {IDENT} "[^"]*";',
+              r'CM_ BO_ \d+ "[^"]*";', rf'CM_ SG_ \d+ {IDENT} "[^"]*";',
               rf"SIG_VALTYPE_ (\d+) ({IDENT}) : ([12]);",
               rf'VAL_ (\d+) ({IDENT})( \d+ "[^"]*")+ ;', r""]
 

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import dataclasses
 
-import pytest
 
 from telethermo.bus_config import edsgen
 from telethermo.bus_config import path as cfg_path

@@ -1,0 +1,24 @@
+"""ruff (issue 26): a plain `ruff check .` in the project root is clean with the configuration in
+pyproject.toml (pycodestyle errors and warnings, pyflakes; line length 110, its count checked by
+tests/test_sizes.py)."""
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+RUFF = Path(sys.executable).with_name("ruff")
+
+pytestmark = pytest.mark.slow   # starts a process
+
+
+@pytest.mark.skipif(not RUFF.exists() and shutil.which("ruff") is None,
+                    reason="ruff is not installed (pip install -e '.[dev]', which `make` does)")
+def test_ruff_check_is_clean():
+    exe = str(RUFF) if RUFF.exists() else "ruff"
+    p = subprocess.run([exe, "check", "."], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stdout + p.stderr
