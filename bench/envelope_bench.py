@@ -17,6 +17,7 @@ are null.
 from __future__ import annotations
 
 import argparse
+import json
 import dataclasses
 import time
 from concurrent.futures import Executor, ProcessPoolExecutor
@@ -195,9 +196,29 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help=f"{N_LHS_QUICK} conditions, no corners, no speed-up probe")
     ap.add_argument("--workers", type=int, default=2, help="processes on this machine (default 2)")
     ap.add_argument("--dask", metavar="ADDRESS", help="submit to a Dask distributed scheduler instead")
+    ap.add_argument("--render-only", action="store_true",
+                    help="re-measure only the render sweep and replace its keys in an existing envelope.json")
     a = ap.parse_args(argv)
+    if a.render_only:
+        render_only(a.workers)
+        return 0
     run(quick=a.quick, workers=a.workers, dask=a.dask)
     return 0
+
+
+def render_only(workers: int) -> dict[str, Any]:
+    """The render sweep alone, its keys replaced in the existing envelope.json (the rest kept as measured)."""
+    path = current_results_dir() / "envelope.json"
+    old = json.loads(path.read_text(encoding="utf-8"))
+    grid = [(m, T) for m in render_sweep.MATERIALS for T in render_sweep.OBJECT_T_C]
+    with ProcessPoolExecutor(max_workers=workers) as ex:
+        render = [f.result() for f in [ex.submit(render_sweep.render_touch, m, T) for m, T in grid]]
+    old.pop("provenance", None)
+    out = {**old, **render_sweep.summarise(render), "render_touches": render}
+    write_results("envelope", out)
+    print(f"render_early_rms_worst_C {out['render_early_rms_worst_C']:.4g}; beyond the band, skin to clamp worst "
+          f"{out['render_beyond_band_skin_to_clamp_worst_C']:.4g} °C")
+    return out
 
 
 def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> dict[str, Any]:

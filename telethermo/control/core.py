@@ -278,14 +278,14 @@ def _estimates(sample: RigSample, params: CoreParams, state: CoreState, T_pred: 
     else:
         w = params.fused_weight
         est = w * e_model + (1.0 - w) * e_flux
-    # credible band: the probe's whole pad stack (both sensor faces); the display's bound on the skin
-    face = Ts + 0.5 * Q * params.R_sensor_K_per_W      # the sensor's TEM-side face (runs ahead while pumping)
-    cands = (Ts, e_flux, est) if params.safety.protects == "skin" else (Ts, e_flux, face, est)
+    cst = contact_step(params.contact, state.contact, Q, sample.contact, params.period_s, Ts)
+    # credible band: the pad stack (both sensor faces); with a finger on the display, the skin's bound (docs)
+    skin = params.safety.protects == "skin" and cst.contact and bool(sample.contact)   # both see a finger
+    cands = (Ts, e_flux, est) if skin else (Ts, e_flux, Ts + 0.5 * Q * params.R_sensor_K_per_W, est)
     if all(math.isfinite(c) for c in cands):
         s_hi, s_lo = max(cands), min(cands)
     else:
         s_hi = s_lo = math.nan
-    cst = contact_step(params.contact, state.contact, Q, sample.contact, params.period_s, Ts)
     return _Estimates(est, e_flux, e_model, s_hi, s_lo, cst)
 
 

@@ -129,6 +129,7 @@ def test_malformed_rig_toml_names_file_and_field(edit, field, expected):
     assert msg.startswith(f"RIG.toml: {field}: expected") and expected in msg and "\n" not in msg, msg
 
 
+@pytest.mark.slow   # runs the node program as a process
 def test_malformed_rig_toml_exits_2_with_one_line(tmp_path):
     bad = tmp_path / "RIG.toml"
     bad.write_text(SIM_TOML.read_text(encoding="utf-8").replace("[signals.T_sink_C]", "[signals.T_heatsink]"),

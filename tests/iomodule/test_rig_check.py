@@ -102,6 +102,7 @@ def test_each_injected_fault_is_named(fault):
     assert bus.after == (0, 0x7F)
 
 
+@pytest.mark.slow   # runs the CLI as a process
 def test_bad_rig_config_is_one_line_exit_2(tmp_path):
     bad = tmp_path / "RIG.toml"
     bad.write_text(SIM_TOML.read_text(encoding="utf-8").replace("limit_A = 3.0", "limit_A = -1"))

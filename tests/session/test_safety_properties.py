@@ -49,6 +49,8 @@ def scene_file(touches, ambient):
 @example(kp=0.0, ki=0.0, kq=2.0, kpq=0.0, kiq=0.0, touches=[(0.0, 0.5, 1.0), (0.502, 1.002, 1.0)], ambient=18.0,
          peers=[(10.0, 0.0, False)], render=(1.0, 0.0))  # found when the display's guard used only the contact
 #                                                          face (issue 22): a chattering finger, face at 14.70 °C
+@example(kp=5.0, ki=0.0, kq=1.0, kpq=0.0, kiq=0.0, touches=[(0.5, 1.062, 1.0), (1.658, 1.845, 3.0)], ambient=19.0,
+         peers=[(10.0, 0.0, False)], render=(1.0, 53.0))  # and with the mid-plane too: 43.2506 °C (issue 22)
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.large_base_example])
 @given(kp=st.floats(0, 100), ki=st.floats(0, 1000), kq=st.floats(-100, 100), kpq=st.floats(0, 100),
        kiq=st.floats(0, 1000), touches=chatter(), ambient=st.floats(18.0, 32.0),
