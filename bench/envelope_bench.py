@@ -5,8 +5,10 @@ Conditions: :func:`telethermo.offline.envelope.draw_conditions` (a seeded Latin 
 the envelope plus the 16 corners of object temperature × room × both TEMs' Seebeck × delay), each a full
 §5.3 session scored against its own direct touch and the best constant pad (telethermo.offline.envelope).
 Sessions are submitted to a ``concurrent.futures`` executor: processes on this machine by default, or a Dask
-distributed cluster (``--dask tcp://host:8786``; ``dask[distributed]`` is the optional ``cluster`` extra) through
-its ``Client.get_executor()``. The same run measures the wall time of the first WORKERS_PROBE conditions on one
+distributed cluster (``--dask tcp://host:8786``; ``dask[distributed]`` is the optional ``cluster`` extra)
+through
+its ``Client.get_executor()``. The same run measures the wall time of the first WORKERS_PROBE conditions on
+one
 worker and on two (``workers_2_speedup``).
 
 Reported per figure: the median, the 10 % worst and the worst condition; every failing condition with its
@@ -14,6 +16,7 @@ parameters. Not computed here (named in the results): the optimal-current bound 
 takes minutes per condition), so ``envelope_median_ratio_to_bound`` and ``envelope_captured_fraction_median``
 are null.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -29,15 +32,21 @@ from bench.bound import causal_bound  # noqa: F401  (bench.transparency_bench.ru
 from bench.common import current_results_dir, write_results
 from bench.transparency_bench import reference_track, run_bound
 from telethermo.offline import render_sweep
-from telethermo.offline.envelope import Condition, base_condition, condition_scene, draw_conditions, run_condition
+from telethermo.offline.envelope import (
+    Condition,
+    base_condition,
+    condition_scene,
+    draw_conditions,
+    run_condition,
+)
 
-SEED = 22_2026          # the design's seed: nothing is fitted on these draws (the gains are the shipped ones)
+SEED = 22_2026  # the design's seed: nothing is fitted on these draws (the gains are the shipped ones)
 N_LHS, N_LHS_QUICK = 200, 3
 WORKERS_PROBE = 6
 FIGURES = ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_ratio", "best_pad_headline_C")
 
 
-BOUND_EVERY = 10         # the bound subset: every 10th Latin-hypercube condition (20 of 200) and the base scene
+BOUND_EVERY = 10  # the bound subset: every 10th Latin-hypercube condition (20 of 200) and the base scene
 
 
 def score(c: Condition) -> dict[str, Any]:
@@ -54,13 +63,17 @@ def safe_score(c: Condition) -> dict[str, Any]:
 
 
 def bound_of(c: Condition) -> dict[str, Any]:
-    """The optimal-current bound of condition ``c`` (bench.bound: exact master plant, finger matched before each
+    """The optimal-current bound of condition ``c`` (bench.bound: exact master plant, finger matched before
+    each
     touch, no foreknowledge), mean of the touches' window errors, °C."""
     sc, _ = condition_scene(c)
     t_ref, skin_ref, _q, cells = reference_track(sc)
     b = run_bound(sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0)
-    return {"index": c.index, "bound_headline_C": float(np.mean([p["window_C"] for p in b["per_touch"]])),
-            "replay_max_diff_C": float(max(p["replay_max_diff_C"] for p in b["per_touch"]))}
+    return {
+        "index": c.index,
+        "bound_headline_C": float(np.mean([p["window_C"] for p in b["per_touch"]])),
+        "replay_max_diff_C": float(max(p["replay_max_diff_C"] for p in b["per_touch"])),
+    }
 
 
 def run_all(executor: Executor, conds: Iterable[Condition]) -> list[dict[str, Any]]:
@@ -87,8 +100,12 @@ def spread(rows: list[dict[str, Any]], key: str) -> dict[str, Any]:
     if not ok.any():
         return {"median": None, "worst10": None, "worst": None, "worst_condition": None}
     k = int(np.nanargmax(np.where(ok, v, -np.inf)))
-    return {"median": float(np.median(v[ok])), "worst10": float(np.percentile(v[ok], 90)),
-            "worst": float(v[k]), "worst_condition": rows[k]["condition"]}
+    return {
+        "median": float(np.median(v[ok])),
+        "worst10": float(np.percentile(v[ok], 90)),
+        "worst": float(v[k]),
+        "worst_condition": rows[k]["condition"],
+    }
 
 
 def failures(r: dict[str, Any]) -> list[str]:
@@ -100,64 +117,97 @@ def failures(r: dict[str, Any]) -> list[str]:
     if r["trips"]:
         why.append("trips " + ", ".join(f"{x['side']}:{x['trip']}" for x in r["trips"]))
     if not r.get("beats_best_pad", True):
-        why.append(f"headline {r['headline_C']:.3f} >= best pad {r['best_pad_headline_C']:.3f} ({r['best_pad']})")
+        why.append(
+            f"headline {r['headline_C']:.3f} >= best pad {r['best_pad_headline_C']:.3f} ({r['best_pad']})"
+        )
     if r["cue_fair"] and not r["cue_order_kept"]:
         why.append("cue order lost")
     return why
 
 
-def bound_summary(rows: list[dict[str, Any]], bounds: list[dict[str, Any]], base: dict[str, Any]) -> dict[str, Any]:
+def bound_summary(
+    rows: list[dict[str, Any]], bounds: list[dict[str, Any]], base: dict[str, Any]
+) -> dict[str, Any]:
     """Ratio to the bound and the captured share of the improvement the physics allows over the best pad."""
     by = {r["condition"]["index"]: r for r in rows}
     by[base["condition"]["index"]] = base
     per = []
     for b in bounds:
         r = by.get(b["index"])
-        if r is None:          # a condition that could not be scored (listed in envelope_conditions_not_scored)
+        if r is None:  # a condition that could not be scored (listed in envelope_conditions_not_scored)
             continue
         pad, proj, bnd = r["best_pad_headline_C"], r["headline_C"], b["bound_headline_C"]
-        per.append({"index": b["index"], "headline_C": proj, "bound_headline_C": bnd, "best_pad_headline_C": pad,
-                    "ratio_to_bound": proj / bnd, "captured_fraction": (pad - proj) / (pad - bnd) if pad > bnd else None,
-                    "replay_max_diff_C": b["replay_max_diff_C"], "condition": r["condition"]})
+        per.append(
+            {
+                "index": b["index"],
+                "headline_C": proj,
+                "bound_headline_C": bnd,
+                "best_pad_headline_C": pad,
+                "ratio_to_bound": proj / bnd,
+                "captured_fraction": (pad - proj) / (pad - bnd) if pad > bnd else None,
+                "replay_max_diff_C": b["replay_max_diff_C"],
+                "condition": r["condition"],
+            }
+        )
     ratios = [p["ratio_to_bound"] for p in per]
     cap = [p["captured_fraction"] for p in per if p["captured_fraction"] is not None]
-    return {"envelope_median_ratio_to_bound": float(np.median(ratios)) if ratios else None,
-            "envelope_worst_ratio_to_bound": float(np.max(ratios)) if ratios else None,
-            "envelope_captured_fraction_median": float(np.median(cap)) if cap else None,
-            "envelope_captured_fraction_worst": float(np.min(cap)) if cap else None,
-            "bound_subset": f"every {BOUND_EVERY}th Latin-hypercube condition (indices 0, {BOUND_EVERY}, ...) and the "
-                            "base scene: chosen by index before any result, so neither easy nor hard by selection",
-            "bound_conditions": per}
+    return {
+        "envelope_median_ratio_to_bound": float(np.median(ratios)) if ratios else None,
+        "envelope_worst_ratio_to_bound": float(np.max(ratios)) if ratios else None,
+        "envelope_captured_fraction_median": float(np.median(cap)) if cap else None,
+        "envelope_captured_fraction_worst": float(np.min(cap)) if cap else None,
+        "bound_subset": f"every {BOUND_EVERY}th Latin-hypercube condition "
+        f"(indices 0, {BOUND_EVERY}, ...) and the "
+        "base scene: chosen by index before any result, so neither easy nor hard by selection",
+        "bound_conditions": per,
+    }
 
 
 def summarise(all_rows: list[dict[str, Any]], base: dict[str, Any]) -> dict[str, Any]:
     rows = [r for r in all_rows if "error" not in r]
     errors = [r for r in all_rows if "error" in r]
     fair = [r for r in rows if r["cue_fair"]]
-    fails = [{"condition": r["condition"], "why": failures(r), "headline_C": r["headline_C"],
-              "best_pad_headline_C": r.get("best_pad_headline_C")} for r in rows if failures(r)]
+    fails = [
+        {
+            "condition": r["condition"],
+            "why": failures(r),
+            "headline_C": r["headline_C"],
+            "best_pad_headline_C": r.get("best_pad_headline_C"),
+        }
+        for r in rows
+        if failures(r)
+    ]
     return {
         "envelope_n_conditions": len(rows),
-        "envelope_conditions_not_scored": [{"condition": r["condition"], "error": r["error"]} for r in errors],
-        "envelope_identify_refused": sum(any(f.get("identify_refused") for f in r.get("gain_fit", {}).values())
-                                         for r in rows),
+        "envelope_conditions_not_scored": [
+            {"condition": r["condition"], "error": r["error"]} for r in errors
+        ],
+        "envelope_identify_refused": sum(
+            any(f.get("identify_refused") for f in r.get("gain_fit", {}).values()) for r in rows
+        ),
         "envelope_oscillating_conditions": sum(r["oscillating"] for r in rows),
         "envelope_session_long_cuts": sum(r["session_long_cut"] for r in rows),
         "envelope_unexpected_trips": sum(bool(r["trips"]) for r in rows),
         "envelope_beats_best_pad_fraction": float(np.mean([r["beats_best_pad"] for r in rows])),
-        "envelope_cue_order_kept_fraction": float(np.mean([r["cue_order_kept"] for r in fair])) if fair else None,
+        "envelope_cue_order_kept_fraction": float(np.mean([r["cue_order_kept"] for r in fair]))
+        if fair
+        else None,
         "envelope_cue_fair_conditions": len(fair),
         "shipped_gains": {
             "oscillating_conditions": sum(r["shipped"]["oscillating"] for r in rows),
             "headline_median_C": float(np.median([r["shipped"]["headline_C"] for r in rows])),
             "headline_worst_C": float(np.max([r["shipped"]["headline_C"] for r in rows])),
             "session_long_cuts": sum(r["shipped"]["session_long_cut"] for r in rows),
-            "conditions_with_trips": sum(r["shipped"]["trips"] > 0 for r in rows)},
-        "base_headline_C": base["headline_C"], "base_pre_contact_C": base["pre_contact_C"],
-        "base_oscillation_ratio": base["oscillation_ratio"], "base_best_pad_headline_C": base["best_pad_headline_C"],
+            "conditions_with_trips": sum(r["shipped"]["trips"] > 0 for r in rows),
+        },
+        "base_headline_C": base["headline_C"],
+        "base_pre_contact_C": base["pre_contact_C"],
+        "base_oscillation_ratio": base["oscillation_ratio"],
+        "base_best_pad_headline_C": base["best_pad_headline_C"],
         "figures": {k: spread(rows, k) for k in FIGURES},
-        "ratio_to_best_pad": spread([{**r, "ratio": r["headline_C"] / r["best_pad_headline_C"]} for r in rows],
-                                    "ratio"),
+        "ratio_to_best_pad": spread(
+            [{**r, "ratio": r["headline_C"] / r["best_pad_headline_C"]} for r in rows], "ratio"
+        ),
         "failing_conditions": fails,
     }
 
@@ -165,6 +215,7 @@ def summarise(all_rows: list[dict[str, Any]], base: dict[str, Any]) -> dict[str,
 def plot(rows: list[dict[str, Any]], path: str) -> None:
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -178,11 +229,19 @@ def plot(rows: list[dict[str, Any]], path: str) -> None:
     ax[0].scatter(p, h, c=To, cmap="coolwarm", s=14)
     lim = [0, max(np.nanmax(h), np.nanmax(p)) * 1.05]
     ax[0].plot(lim, lim, "k--", lw=0.8)
-    ax[0].set(xlabel="best constant pad headline °C", ylabel="controller headline °C",
-              title="below the line: the controller beats the pad (colour: object °C)")
+    ax[0].set(
+        xlabel="best constant pad headline °C",
+        ylabel="controller headline °C",
+        title="below the line: the controller beats the pad (colour: object °C)",
+    )
     ax[1].scatter(sb, osc, s=14)
     ax[1].axhline(1.5, color="r", lw=0.8)
-    ax[1].set(yscale="log", xlabel="master TEM Seebeck ×", ylabel="oscillation ratio", title="oscillation (limit 1.5)")
+    ax[1].set(
+        yscale="log",
+        xlabel="master TEM Seebeck ×",
+        ylabel="oscillation ratio",
+        title="oscillation (limit 1.5)",
+    )
     ax[2].scatter(To, h, s=14, label="controller")
     ax[2].scatter(To, p, s=10, marker="x", label="best pad")
     ax[2].set(xlabel="object initial °C", ylabel="headline °C", title="headline across object temperature")
@@ -193,11 +252,16 @@ def plot(rows: list[dict[str, Any]], path: str) -> None:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.envelope_bench", description=__doc__.split("\n")[0])
-    ap.add_argument("--quick", action="store_true", help=f"{N_LHS_QUICK} conditions, no corners, no speed-up probe")
+    ap.add_argument(
+        "--quick", action="store_true", help=f"{N_LHS_QUICK} conditions, no corners, no speed-up probe"
+    )
     ap.add_argument("--workers", type=int, default=2, help="processes on this machine (default 2)")
     ap.add_argument("--dask", metavar="ADDRESS", help="submit to a Dask distributed scheduler instead")
-    ap.add_argument("--render-only", action="store_true",
-                    help="re-measure only the render sweep and replace its keys in an existing envelope.json")
+    ap.add_argument(
+        "--render-only",
+        action="store_true",
+        help="re-measure only the render sweep and replace its keys in an existing envelope.json",
+    )
     a = ap.parse_args(argv)
     if a.render_only:
         render_only(a.workers)
@@ -216,8 +280,11 @@ def render_only(workers: int) -> dict[str, Any]:
     old.pop("provenance", None)
     out = {**old, **render_sweep.summarise(render), "render_touches": render}
     write_results("envelope", out)
-    print(f"render_early_rms_worst_C {out['render_early_rms_worst_C']:.4g}; beyond the band, skin to clamp worst "
-          f"{out['render_beyond_band_skin_to_clamp_worst_C']:.4g} °C")
+    print(
+        f"render_early_rms_worst_C {out['render_early_rms_worst_C']:.4g}; "
+        "beyond the band, skin to clamp worst "
+        f"{out['render_beyond_band_skin_to_clamp_worst_C']:.4g} °C"
+    )
     return out
 
 
@@ -230,9 +297,17 @@ def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> di
     if not a.quick:
         probe = conds[:WORKERS_PROBE]
         t1, t2 = timed(1, probe), timed(2, probe)
-        speed = {"workers_1_s": t1, "workers_2_s": t2, "workers_2_speedup": t1 / t2, "probe_conditions": len(probe)}
-    bound_set = [] if a.quick else [base_condition()] + [c for c in conds if c.design == "lhs"
-                                                         and c.index % BOUND_EVERY == 0]
+        speed = {
+            "workers_1_s": t1,
+            "workers_2_s": t2,
+            "workers_2_speedup": t1 / t2,
+            "probe_conditions": len(probe),
+        }
+    bound_set = (
+        []
+        if a.quick
+        else [base_condition()] + [c for c in conds if c.design == "lhs" and c.index % BOUND_EVERY == 0]
+    )
 
     grid = [(m, T) for m in render_sweep.MATERIALS for T in render_sweep.OBJECT_T_C]
     if a.quick:
@@ -246,26 +321,44 @@ def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> di
         return rows, fut_base.result(), [f.result() for f in fut_bounds], [f.result() for f in fut_render]
 
     if a.dask:
-        from dask.distributed import Client          # optional extra: pip install '.[cluster]'
+        from dask.distributed import Client  # optional extra: pip install '.[cluster]'
+
         with Client(a.dask) as client:
             rows, base, bounds, render = matrix(client.get_executor())
     else:
         with ProcessPoolExecutor(max_workers=a.workers) as ex:
             rows, base, bounds, render = matrix(ex)
     ok = [r for r in rows if "error" not in r]
-    out = {"quick": a.quick, "seed": SEED, **summarise(rows, base), **bound_summary(ok, bounds, base), **speed,
-           **render_sweep.summarise(render), "render_touches": render,
-           "matrix_wall_s": time.perf_counter() - t0, "workers": a.workers, "base": base, "conditions": rows}
+    out = {
+        "quick": a.quick,
+        "seed": SEED,
+        **summarise(rows, base),
+        **bound_summary(ok, bounds, base),
+        **speed,
+        **render_sweep.summarise(render),
+        "render_touches": render,
+        "matrix_wall_s": time.perf_counter() - t0,
+        "workers": a.workers,
+        "base": base,
+        "conditions": rows,
+    }
     out["workers_2_speedup"] = speed.get("workers_2_speedup")
     write_results("envelope", out)
     plot(ok, str(current_results_dir() / "envelope.png"))
-    keys = [k for k in out if k.startswith(("envelope_", "base_", "workers_", "render_early_rms_worst_C",
-                                            "render_beyond_band_skin"))]
+    keys = [
+        k
+        for k in out
+        if k.startswith(
+            ("envelope_", "base_", "workers_", "render_early_rms_worst_C", "render_beyond_band_skin")
+        )
+    ]
     for k in keys:
         v = out[k]
         print(f"{k:40s} {v if not isinstance(v, float) else f'{v:.4g}'}")
-    print(f"failing conditions: {len(out['failing_conditions'])} of {len(rows)} "
-          f"(not scored: {len(out['envelope_conditions_not_scored'])}); wall {out['matrix_wall_s']:.0f} s")
+    print(
+        f"failing conditions: {len(out['failing_conditions'])} of {len(rows)} "
+        f"(not scored: {len(out['envelope_conditions_not_scored'])}); wall {out['matrix_wall_s']:.0f} s"
+    )
     return out
 
 

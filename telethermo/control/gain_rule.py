@@ -1,9 +1,12 @@
 """Gains that fit the rig they run on: a model-based rule from the identified TEM model (issue 22).
 
-The shipped gains (:data:`telethermo.control.defaults.GAINS`) were tuned on the shipped module, whose identified
-model is ``telethermo/data/models/sim_tem.json`` (the **reference**). Another module pumps a different number of
+The shipped gains (:data:`telethermo.control.defaults.GAINS`) were tuned on the shipped module, whose
+identified
+model is ``telethermo/data/models/sim_tem.json`` (the **reference**). Another module pumps a different number
+of
 watts per ampere (Seebeck ×0.5–×2.5), loses a different share to Joule heat and conduction, and stores heat in
-plates of another size: the same gains in amperes then give another loop gain, and a 2.2× Seebeck module turned
+plates of another size: the same gains in amperes then give another loop gain, and a 2.2× Seebeck module
+turned
 the master's loop into a ±1.6 A limit cycle.
 
 **Rule (loop shaping by gain normalisation).** Linearise the identified NARMA model (guiatni eq. 10) at its
@@ -14,7 +17,8 @@ current gain of the role (A/°C, A/(°C·s), A/W, A/(W·s)) is multiplied by
     ρ = |G_ref(f_c)| / |G_rig(f_c)|
 
 so the new loop has the reference's gain at the reference's crossover. Where the rig's phase at f_c is the
-reference's (the same structure, scaled: what a Seebeck or capacity change mostly does) the margins carry over;
+reference's (the same structure, scaled: what a Seebeck or capacity change mostly does) the margins carry
+over;
 they are computed on the rig's own model in any case (:func:`margins`) and ρ is lowered (×0.8 per step) until
 the gain margin is at least :data:`MIN_GAIN_MARGIN_DB` and the phase margin :data:`MIN_PHASE_MARGIN_DEG`. ρ is
 kept within [:data:`RHO_MIN`, :data:`RHO_MAX`]. Stability argument and its limits: docs/control.md
@@ -22,6 +26,7 @@ kept within [:data:`RHO_MIN`, :data:`RHO_MAX`]. Stability argument and its limit
 
 Pure functions: models in, numbers out.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -40,8 +45,16 @@ MIN_GAIN_MARGIN_DB = 6.0
 MIN_PHASE_MARGIN_DEG = 40.0
 RHO_MIN, RHO_MAX = 0.2, 5.0
 #: the current gains of CoreParams the rule scales (A per °C or W, and their integral gains)
-SCALED_FIELDS = ("kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W", "kpQ_A_per_W", "kiQ_A_per_W_s", "kQ_render_A_per_W",
-                 "air_kpQ_A_per_W", "air_kiQ_A_per_W_s")
+SCALED_FIELDS = (
+    "kp_A_per_C",
+    "ki_A_per_C_s",
+    "kQ_A_per_W",
+    "kpQ_A_per_W",
+    "kiQ_A_per_W_s",
+    "kQ_render_A_per_W",
+    "air_kpQ_A_per_W",
+    "air_kiQ_A_per_W_s",
+)
 
 
 @dataclass(frozen=True)
@@ -68,11 +81,16 @@ class LinearPlant:
 def linear_plant(model: Any) -> LinearPlant:
     """:class:`LinearPlant` of a ``NarmaModel`` or a ``TemModel`` (its ``temperature``)."""
     m = getattr(model, "temperature", model)
-    return LinearPlant(b=np.array(m.theta_b[:, 0], dtype=float),
-                       alpha=np.atleast_1d(np.array(m.ar_coefficients(0.0), dtype=float)), period_s=float(m.period_s))
+    return LinearPlant(
+        b=np.array(m.theta_b[:, 0], dtype=float),
+        alpha=np.atleast_1d(np.array(m.ar_coefficients(0.0), dtype=float)),
+        period_s=float(m.period_s),
+    )
 
 
-def pi_response(kp_A_per_C: float, ki_A_per_C_s: float, period_s: float, f_Hz: np.ndarray | float) -> np.ndarray:
+def pi_response(
+    kp_A_per_C: float, ki_A_per_C_s: float, period_s: float, f_Hz: np.ndarray | float
+) -> np.ndarray:
     """C(e^{jωT}) of the discrete PI of :mod:`telethermo.control.pi`: kp + ki·T/(1 − z⁻¹), A/°C."""
     z1 = np.exp(-2j * np.pi * np.asarray(f_Hz, dtype=float) * period_s)
     return kp_A_per_C + ki_A_per_C_s * period_s / (1.0 - z1)
@@ -93,8 +111,12 @@ def margins(plant: LinearPlant, kp_A_per_C: float, ki_A_per_C_s: float) -> dict[
     f = _grid(plant.period_s)
     L = pi_response(kp_A_per_C, ki_A_per_C_s, plant.period_s, f) * plant.response(f)
     mag, ph = np.abs(L), np.unwrap(np.angle(L))
-    out = {"crossover_Hz": math.nan, "phase_margin_deg": math.inf, "gain_margin_dB": math.inf,
-           "phase_crossover_Hz": math.nan}
+    out = {
+        "crossover_Hz": math.nan,
+        "phase_margin_deg": math.inf,
+        "gain_margin_dB": math.inf,
+        "phase_crossover_Hz": math.nan,
+    }
     above = mag >= 1.0
     cross = np.nonzero(above[:-1] & ~above[1:])[0]
     if len(cross):
@@ -109,8 +131,9 @@ def margins(plant: LinearPlant, kp_A_per_C: float, ki_A_per_C_s: float) -> dict[
     return out
 
 
-def gain_scale(rig_plant: LinearPlant, ref_plant: LinearPlant, kp_A_per_C: float, ki_A_per_C_s: float
-               ) -> dict[str, Any]:
+def gain_scale(
+    rig_plant: LinearPlant, ref_plant: LinearPlant, kp_A_per_C: float, ki_A_per_C_s: float
+) -> dict[str, Any]:
     """ρ for the rig (see the module docstring) with the margins it gives on the rig's model."""
     ref = margins(ref_plant, kp_A_per_C, ki_A_per_C_s)
     fc = ref["crossover_Hz"]
@@ -120,14 +143,21 @@ def gain_scale(rig_plant: LinearPlant, ref_plant: LinearPlant, kp_A_per_C: float
     rho = min(max(rho, RHO_MIN), RHO_MAX)
     m = margins(rig_plant, rho * kp_A_per_C, rho * ki_A_per_C_s)
     backed_off = 0
-    while (m["gain_margin_dB"] < MIN_GAIN_MARGIN_DB or m["phase_margin_deg"] < MIN_PHASE_MARGIN_DEG) \
-            and rho > RHO_MIN:
+    while (
+        m["gain_margin_dB"] < MIN_GAIN_MARGIN_DB or m["phase_margin_deg"] < MIN_PHASE_MARGIN_DEG
+    ) and rho > RHO_MIN:
         rho = max(rho * 0.8, RHO_MIN)
         backed_off += 1
         m = margins(rig_plant, rho * kp_A_per_C, rho * ki_A_per_C_s)
-    return {"rho": rho, "reference_crossover_Hz": fc, "reference_margins": ref, "margins": m,
-            "backed_off_steps": backed_off,
-            "meets_minimum": m["gain_margin_dB"] >= MIN_GAIN_MARGIN_DB and m["phase_margin_deg"] >= MIN_PHASE_MARGIN_DEG}
+    return {
+        "rho": rho,
+        "reference_crossover_Hz": fc,
+        "reference_margins": ref,
+        "margins": m,
+        "backed_off_steps": backed_off,
+        "meets_minimum": m["gain_margin_dB"] >= MIN_GAIN_MARGIN_DB
+        and m["phase_margin_deg"] >= MIN_PHASE_MARGIN_DEG,
+    }
 
 
 def scaled_params(params: Any, rho: float) -> Any:
@@ -142,7 +172,8 @@ def reference_plant() -> LinearPlant:
 
 
 def fit_gains(model: Any, role: Role) -> dict[str, Any]:
-    """The rule for ``role``'s gains on the rig whose identified model is ``model`` (a TemModel or NarmaModel):
+    """The rule for ``role``'s gains on the rig whose identified model is ``model`` (a TemModel or
+    NarmaModel):
     ρ, the margins on the rig's model and the reference's (see :func:`gain_scale`)."""
     g = GAINS[Role(role)]
     fit = gain_scale(linear_plant(model), reference_plant(), g["kp_A_per_C"], g["ki_A_per_C_s"])

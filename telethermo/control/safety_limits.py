@@ -1,5 +1,6 @@
 """The safety envelope's limits (DESIGN.md §6): :class:`SafetyLimits`, the skin's defaults and the probe's
 (:func:`probe_limits`). Data and validation only; :mod:`telethermo.control.safety` applies them."""
+
 from __future__ import annotations
 
 import math
@@ -42,7 +43,8 @@ class SafetyLimits:
         peer_T_min_C, peer_T_max_C, peer_Q_abs_max_W: plausible peer values (beyond: PEER_INVALID).
         trip_slew_A_per_s: while a peer trip is latched, the largest change of the current per second, A/s
             (the ramp limit's counterpart for the current; ``math.inf`` turns it off, research only).
-        trip_lead_C: while a peer trip ramps the setpoint to neutral, the setpoint leads the credible surface by
+        trip_lead_C: while a peer trip ramps the setpoint to neutral, the setpoint leads the credible surface
+        by
             at most this, °C (it waits for a lagging pad; ``math.inf`` turns it off, research only).
         research: allow limits wider than the defaults (a deliberate research flag).
         protects: "skin" (the master: the clamps guard a person's skin, [15, 43] °C at the widest, and the
@@ -91,41 +93,67 @@ class SafetyLimits:
                 continue
             if name != "research" and not (isinstance(v, (int, float)) and math.isfinite(v)):
                 raise ValueError(f"SafetyLimits.{name}: expected a finite number, got {v!r}")
-        positive = ("I_max_A", "current_fraction", "ramp_up_C_per_s", "ramp_down_C_per_s", "hot_time_limit_s",
-                    "Q_abs_max_W", "mismatch_C", "mismatch_time_s", "neutral_tol_C", "neutral_timeout_s",
-                    "peer_Q_abs_max_W", "trip_slew_A_per_s", "trip_lead_C")
+        positive = (
+            "I_max_A",
+            "current_fraction",
+            "ramp_up_C_per_s",
+            "ramp_down_C_per_s",
+            "hot_time_limit_s",
+            "Q_abs_max_W",
+            "mismatch_C",
+            "mismatch_time_s",
+            "neutral_tol_C",
+            "neutral_timeout_s",
+            "peer_Q_abs_max_W",
+            "trip_slew_A_per_s",
+            "trip_lead_C",
+        )
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ValueError(f"SafetyLimits.{name}: expected > 0, got {getattr(self, name)!r}")
         if self.guard_C < 0 or self.surface_trip_margin_C < 0 or self.taper_C < 0:
             raise ValueError("SafetyLimits.guard_C/taper_C/surface_trip_margin_C: expected >= 0")
         if not self.T_min_C < self.T_max_C:
-            raise ValueError(f"SafetyLimits.T_min_C/T_max_C: expected T_min_C < T_max_C, got "
-                             f"{self.T_min_C} and {self.T_max_C}")
+            raise ValueError(
+                f"SafetyLimits.T_min_C/T_max_C: expected T_min_C < T_max_C, got "
+                f"{self.T_min_C} and {self.T_max_C}"
+            )
         if not self.T_min_C + 2 * self.guard_C < self.T_max_C:
             raise ValueError("SafetyLimits.guard_C: the two guard bands overlap")
         if not self.T_min_C <= self.neutral_C <= self.T_max_C:
-            raise ValueError(f"SafetyLimits.neutral_C: expected within [T_min_C, T_max_C], got {self.neutral_C}")
+            raise ValueError(
+                f"SafetyLimits.neutral_C: expected within [T_min_C, T_max_C], got {self.neutral_C}"
+            )
         if not self.sensor_min_C < self.sensor_max_C < self.open_tc_C:
-            raise ValueError("SafetyLimits.sensor_min_C/sensor_max_C/open_tc_C: expected min < max < open_tc_C")
+            raise ValueError(
+                "SafetyLimits.sensor_min_C/sensor_max_C/open_tc_C: expected min < max < open_tc_C"
+            )
         if not self.research:
             if self.current_fraction > 0.8:
-                raise ValueError(f"SafetyLimits.current_fraction: expected <= 0.8 (research=False), got "
-                                 f"{self.current_fraction}")
+                raise ValueError(
+                    f"SafetyLimits.current_fraction: expected <= 0.8 (research=False), got "
+                    f"{self.current_fraction}"
+                )
             lo, hi = self.widest_C
             if self.T_min_C < lo or self.T_max_C > hi:
-                raise ValueError(f"SafetyLimits.T_min_C/T_max_C: expected within [{lo}, {hi}] °C for the "
-                                 f"{self.protects} (narrower only unless research=True), got "
-                                 f"[{self.T_min_C}, {self.T_max_C}]")
+                raise ValueError(
+                    f"SafetyLimits.T_min_C/T_max_C: expected within [{lo}, {hi}] °C for the "
+                    f"{self.protects} (narrower only unless research=True), got "
+                    f"[{self.T_min_C}, {self.T_max_C}]"
+                )
             if self.sink_trip_C > 55.0:
-                raise ValueError(f"SafetyLimits.sink_trip_C: expected <= 55 °C (research=False), got {self.sink_trip_C}")
+                raise ValueError(
+                    f"SafetyLimits.sink_trip_C: expected <= 55 °C (research=False), got {self.sink_trip_C}"
+                )
         elif self.current_fraction > 1.0:
             raise ValueError(f"SafetyLimits.current_fraction: expected <= 1, got {self.current_fraction}")
 
     @property
     def widest_C(self) -> tuple[float, float]:
         """The widest clamps allowed without the research flag, °C: the skin's or the probe's."""
-        return (DEFAULT_T_MIN_C, DEFAULT_T_MAX_C) if self.protects == "skin" else (PROBE_T_MIN_C, PROBE_T_MAX_C)
+        return (
+            (DEFAULT_T_MIN_C, DEFAULT_T_MAX_C) if self.protects == "skin" else (PROBE_T_MIN_C, PROBE_T_MAX_C)
+        )
 
     @property
     def I_limit_A(self) -> float:
@@ -137,13 +165,15 @@ def probe_limits(**overrides: object) -> SafetyLimits:
     """The slave's envelope: it protects the probe's hardware, not skin (DESIGN.md §6). Surface clamps
     [0, 60] °C, no time-at-temperature cap below 58 °C, and the current, sink, plausibility and peer rules of
     the skin's envelope; ``overrides`` win."""
-    kw: dict[str, object] = dict(protects="probe", T_min_C=PROBE_T_MIN_C, T_max_C=PROBE_T_MAX_C, hot_C=58.0,
-                                 hot_time_limit_s=600.0)
+    kw: dict[str, object] = dict(
+        protects="probe", T_min_C=PROBE_T_MIN_C, T_max_C=PROBE_T_MAX_C, hot_C=58.0, hot_time_limit_s=600.0
+    )
     kw.update(overrides)
     return SafetyLimits(**kw)  # type: ignore[arg-type]
 
 
-#: the limits an envelope step reports (``EnvelopeStatus.limits_active``), bit i of the node's ``limits_active``
+#  the limits an envelope step reports (``EnvelopeStatus.limits_active``), bit i of the node's
+# ``limits_active``
 #: object (0x2708): a target beyond the clamps saturates there (bit 0) and the operator sees it in ``status``
 LIMIT_NAMES = ("setpoint_clamp", "ramp", "hot_cap", "guard", "current_limit", "neutral_ramp", "cut", "slew")
 

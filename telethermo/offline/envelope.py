@@ -1,11 +1,14 @@
 """The operating envelope (DESIGN.md §10, issue 22): conditions drawn across it, and one condition's session
 scored against its own direct touch and the best constant pad.
 
-A :class:`Condition` varies, each side independently where the envelope says so: the room, the objects' initial
+A :class:`Condition` varies, each side independently where the envelope says so: the room, the objects'
+initial
 temperature, their materials (three of the table, EPS to copper) and thickness, the probe's and the finger's
 contact force, the finger's layers and perfusion, the sensor noise, each rig's TEM (Seebeck, resistance,
-conductance, I_max, plate capacity) and heat sink, and the extra one-way transport delay of the exchanged values
-(with jitter). :func:`draw_conditions` gives a seeded Latin hypercube over those ranges plus the corners of the
+conductance, I_max, plate capacity) and heat sink, and the extra one-way transport delay of the exchanged
+values
+(with jitter). :func:`draw_conditions` gives a seeded Latin hypercube over those ranges plus the corners of
+the
 four that matter most (object temperature, room, both TEMs' Seebeck, delay). :func:`run_condition` runs the
 guiatni §5.3 schedule (three materials, twice each) with the project's controller and scores it:
 
@@ -17,6 +20,7 @@ guiatni §5.3 schedule (three materials, twice each) with the project's controll
 
 Pure of I/O: the benchmark (bench/envelope_bench.py) submits conditions to an executor and writes the results.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -41,17 +45,41 @@ from telethermo.ident.experiment import identify_rig
 
 BASE_SCENE = "probe_touches_al_steel_wood"
 #: the table's materials a probe may touch, EPS to copper
-MATERIALS = ("eps", "oak", "pvc", "glass", "ceramic", "alumina", "stainless_steel", "carbon_steel", "brass",
-             "aluminium", "copper")
+MATERIALS = (
+    "eps",
+    "oak",
+    "pvc",
+    "glass",
+    "ceramic",
+    "alumina",
+    "stainless_steel",
+    "carbon_steel",
+    "brass",
+    "aluminium",
+    "copper",
+)
 #: name -> (low, high, log-scale): the envelope's ranges (issue 22)
 RANGES: dict[str, tuple[float, float, bool]] = {
-    "ambient_C": (15.0, 32.0, False), "object_T_C": (5.0, 50.0, False), "thickness_mm": (0.3, 20.0, True),
-    "probe_force_N": (0.5, 20.0, True), "finger_force_N": (0.5, 20.0, True),
-    "finger_layers_x": (0.7, 1.3, False), "perfusion_x": (0.7, 1.3, False), "noise_x": (1.0, 3.0, False),
-    "m_seebeck_x": (0.5, 2.5, False), "m_R_x": (0.5, 4.0, True), "m_K_x": (0.5, 2.0, True),
-    "m_I_max_A": (1.5, 6.0, False), "m_plate_C_x": (0.5, 2.0, True), "m_sink_R_K_W": (0.3, 1.2, False),
-    "s_seebeck_x": (0.5, 2.5, False), "s_R_x": (0.5, 4.0, True), "s_K_x": (0.5, 2.0, True),
-    "s_I_max_A": (1.5, 6.0, False), "s_plate_C_x": (0.5, 2.0, True), "s_sink_R_K_W": (0.3, 1.2, False),
+    "ambient_C": (15.0, 32.0, False),
+    "object_T_C": (5.0, 50.0, False),
+    "thickness_mm": (0.3, 20.0, True),
+    "probe_force_N": (0.5, 20.0, True),
+    "finger_force_N": (0.5, 20.0, True),
+    "finger_layers_x": (0.7, 1.3, False),
+    "perfusion_x": (0.7, 1.3, False),
+    "noise_x": (1.0, 3.0, False),
+    "m_seebeck_x": (0.5, 2.5, False),
+    "m_R_x": (0.5, 4.0, True),
+    "m_K_x": (0.5, 2.0, True),
+    "m_I_max_A": (1.5, 6.0, False),
+    "m_plate_C_x": (0.5, 2.0, True),
+    "m_sink_R_K_W": (0.3, 1.2, False),
+    "s_seebeck_x": (0.5, 2.5, False),
+    "s_R_x": (0.5, 4.0, True),
+    "s_K_x": (0.5, 2.0, True),
+    "s_I_max_A": (1.5, 6.0, False),
+    "s_plate_C_x": (0.5, 2.0, True),
+    "s_sink_R_K_W": (0.3, 1.2, False),
     "delay_ms": (0.0, 100.0, False),
 }
 CORNER_KEYS = ("object_T_C", "ambient_C", "seebeck_x", "delay_ms")
@@ -66,7 +94,7 @@ class Condition:
     """One point of the envelope (units in the names; ``*_x`` are factors on the shipped rig's value)."""
 
     index: int
-    design: str                       # "lhs" or "corner" or "base"
+    design: str  # "lhs" or "corner" or "base"
     materials: tuple[str, str, str]
     ambient_C: float = 25.0
     object_T_C: float = 25.0
@@ -93,7 +121,8 @@ class Condition:
 
 
 def base_condition() -> Condition:
-    """guiatni §5.3 as shipped: aluminium, steel, oak at the 25 °C room, 8 N, the shipped TEM on both sides."""
+    """guiatni §5.3 as shipped: aluminium, steel, oak at the 25 °C room, 8 N, the shipped TEM on both
+    sides."""
     return Condition(index=-1, design="base", materials=("aluminium", "carbon_steel", "oak"))
 
 
@@ -109,26 +138,46 @@ def draw_conditions(n: int, seed: int, *, corners: bool = True) -> list[Conditio
         kw: dict[str, Any] = {}
         for j, k in enumerate(keys):
             lo, hi, log = RANGES[k]
-            kw[k] = float(math.exp(math.log(lo) + u[i, j] * (math.log(hi) - math.log(lo))) if log
-                          else lo + u[i, j] * (hi - lo))
+            kw[k] = float(
+                math.exp(math.log(lo) + u[i, j] * (math.log(hi) - math.log(lo)))
+                if log
+                else lo + u[i, j] * (hi - lo)
+            )
         mats = tuple(str(m) for m in rng.choice(MATERIALS, size=3, replace=False))
-        out.append(Condition(index=i, design="lhs", materials=mats, seed=seed * 100003 + i, **kw))  # type: ignore[arg-type]
+        cond = Condition(index=i, design="lhs", materials=mats, seed=seed * 100003 + i, **kw)  # type: ignore[arg-type]
+        out.append(cond)
     if corners:
         for c in range(16):
             bits = [(c >> b) & 1 for b in range(4)]
-            kw = {"object_T_C": (5.0, 50.0)[bits[0]], "ambient_C": (15.0, 32.0)[bits[1]],
-                  "m_seebeck_x": (0.5, 2.5)[bits[2]], "s_seebeck_x": (0.5, 2.5)[bits[2]],
-                  "delay_ms": (0.0, 100.0)[bits[3]]}
-            out.append(Condition(index=n + c, design="corner", materials=("aluminium", "carbon_steel", "oak"),
-                                 seed=seed * 100003 + n + c, **kw))  # type: ignore[arg-type]
+            kw = {
+                "object_T_C": (5.0, 50.0)[bits[0]],
+                "ambient_C": (15.0, 32.0)[bits[1]],
+                "m_seebeck_x": (0.5, 2.5)[bits[2]],
+                "s_seebeck_x": (0.5, 2.5)[bits[2]],
+                "delay_ms": (0.0, 100.0)[bits[3]],
+            }
+            out.append(
+                Condition(
+                    index=n + c,
+                    design="corner",
+                    materials=("aluminium", "carbon_steel", "oak"),
+                    seed=seed * 100003 + n + c,
+                    **kw,
+                )
+            )  # type: ignore[arg-type]
     return out
 
 
 def _rig(base: Any, side: str, c: Condition) -> Any:
     g = lambda name: getattr(c, f"{side}_{name}")  # noqa: E731
-    tem = dataclasses.replace(base.tem, alpha_V_K=base.tem.alpha_V_K * g("seebeck_x"), R_ohm=base.tem.R_ohm * g("R_x"),
-                              K_W_K=base.tem.K_W_K * g("K_x"), I_max_A=g("I_max_A"),
-                              plate_C_J_K=base.tem.plate_C_J_K * g("plate_C_x"))
+    tem = dataclasses.replace(
+        base.tem,
+        alpha_V_K=base.tem.alpha_V_K * g("seebeck_x"),
+        R_ohm=base.tem.R_ohm * g("R_x"),
+        K_W_K=base.tem.K_W_K * g("K_x"),
+        I_max_A=g("I_max_A"),
+        plate_C_J_K=base.tem.plate_C_J_K * g("plate_C_x"),
+    )
     return base.with_(tem=tem, sink_R_K_W=g("sink_R_K_W"))
 
 
@@ -136,24 +185,43 @@ def condition_scene(c: Condition) -> tuple[Any, Any]:
     """The §5.3 scene under condition ``c``: (scene with the master's rig, the slave's rig parameters)."""
     sc = sim.load_scene(BASE_SCENE)
     names = ("a", "b", "c")
-    objects = {n: dataclasses.replace(sc.objects["aluminium"], name=n, material=m, thickness_m=c.thickness_mm * 1e-3,
-                                      T0_C=c.object_T_C) for n, m in zip(names, c.materials)}
-    slave = tuple(dataclasses.replace(t, body=names[i % 3], force_N=c.probe_force_N)
-                  for i, t in enumerate(sc.slave_contacts))
+    objects = {
+        n: dataclasses.replace(
+            sc.objects["aluminium"], name=n, material=m, thickness_m=c.thickness_mm * 1e-3, T0_C=c.object_T_C
+        )
+        for n, m in zip(names, c.materials)
+    }
+    slave = tuple(
+        dataclasses.replace(t, body=names[i % 3], force_N=c.probe_force_N)
+        for i, t in enumerate(sc.slave_contacts)
+    )
     master = tuple(dataclasses.replace(t, force_N=c.finger_force_N) for t in sc.master_contacts)
     f = sc.finger
-    finger = dataclasses.replace(f, layers=tuple((m, t * c.finger_layers_x, w * c.perfusion_x) for m, t, w in f.layers))
-    noise = dataclasses.replace(sc.noise, T_sigma_C=sc.noise.T_sigma_C * c.noise_x,
-                                Q_sigma_W=sc.noise.Q_sigma_W * c.noise_x)
+    finger = dataclasses.replace(
+        f, layers=tuple((m, t * c.finger_layers_x, w * c.perfusion_x) for m, t, w in f.layers)
+    )
+    noise = dataclasses.replace(
+        sc.noise, T_sigma_C=sc.noise.T_sigma_C * c.noise_x, Q_sigma_W=sc.noise.Q_sigma_W * c.noise_x
+    )
     base = sc.rig_params
-    scene = dataclasses.replace(sc, name=f"envelope_{c.index}", ambient_C=c.ambient_C, objects=objects,
-                                slave_contacts=slave, master_contacts=master, finger=finger, noise=noise,
-                                seed=c.seed, rig_params=_rig(base, "m", c))
+    scene = dataclasses.replace(
+        sc,
+        name=f"envelope_{c.index}",
+        ambient_C=c.ambient_C,
+        objects=objects,
+        slave_contacts=slave,
+        master_contacts=master,
+        finger=finger,
+        noise=noise,
+        seed=c.seed,
+        rig_params=_rig(base, "m", c),
+    )
     return scene, _rig(base, "s", c)
 
 
 def hold_skin(sc: Any, T_hold_C: float) -> np.ndarray:
-    """The finger's skin on a display that ignores the probe and holds its pad at ``T_hold_C`` (°C, per step)."""
+    """The finger's skin on a display that ignores the probe and holds its pad at ``T_hold_C`` (°C, per
+    step)."""
     rig = sim.build_rig(sc, "master")
     dt = rig.period_s
     n = int(round(sc.duration_s / dt))
@@ -171,8 +239,9 @@ def hold_skin(sc: Any, T_hold_C: float) -> np.ndarray:
     return skin
 
 
-def identified_params(role: Role, rig_params: Any, ambient_C: float, period_s: float, seed: int
-                      ) -> tuple[Any, dict[str, Any]]:
+def identified_params(
+    role: Role, rig_params: Any, ambient_C: float, period_s: float, seed: int
+) -> tuple[Any, dict[str, Any]]:
     """What a lab does after swapping a module: ``telethermo identify`` on the free pad of this rig (the
     default 10 000-sample PRBS; when the fit is refused as unstable, again with another seed and then with
     20 000 samples, as its message advises), then the role's gains from the identified model
@@ -189,36 +258,59 @@ def identified_params(role: Role, rig_params: Any, ambient_C: float, period_s: f
         fit = fit_gains(model, role)
         fit["identify_attempts"] = attempts
         return scaled_params(default_params(role, period_s=period_s), fit["rho"]), fit
-    return default_params(role, period_s=period_s), {"rho": 1.0, "margins": {}, "identify_attempts": attempts,
-                                                     "identify_refused": True}
+    return default_params(role, period_s=period_s), {
+        "rho": 1.0,
+        "margins": {},
+        "identify_attempts": attempts,
+        "identify_refused": True,
+    }
 
 
-def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identified",
-                  with_shipped: bool = False) -> dict[str, Any]:
+def run_condition(
+    c: Condition, *, with_pads: bool = True, gains: str = "identified", with_shipped: bool = False
+) -> dict[str, Any]:
     """Run condition ``c`` and score it (see the module docstring). JSON-safe. ``gains``: "identified" (each
     side identifies its rig and derives its gains) or "shipped" (the shipped gains whatever the rig);
-    ``with_shipped``: also the shipped gains' headline and oscillation, as the before-figure of the same draw."""
+    ``with_shipped``: also the shipped gains' headline and oscillation, as the before-figure of the same
+    draw."""
     sc, rig_s = condition_scene(c)
     delay = int(round(c.delay_ms / (1000.0 * sc.period_s)))
     pm = ps = None
     fits: dict[str, Any] = {}
     if gains == "identified":
-        pm, fits["master"] = identified_params(Role.MASTER, sc.rig_params, c.ambient_C, sc.period_s, c.seed % 9973)
+        pm, fits["master"] = identified_params(
+            Role.MASTER, sc.rig_params, c.ambient_C, sc.period_s, c.seed % 9973
+        )
         ps, fits["slave"] = identified_params(Role.SLAVE, rig_s, c.ambient_C, sc.period_s, c.seed % 9973 + 1)
-    res = run_offline_session(sc, master_params=pm, slave_params=ps, slave_rig_params=rig_s, delay_cycles=delay,
-                              delay_jitter_cycles=2 if delay else 0, seed=c.seed % 100000)
+    res = run_offline_session(
+        sc,
+        master_params=pm,
+        slave_params=ps,
+        slave_rig_params=rig_s,
+        delay_cycles=delay,
+        delay_jitter_cycles=2 if delay else 0,
+        seed=c.seed % 100000,
+    )
     rec, fig = res.recording, res.figures
     t, ref = rec.col("t_s"), rec.col("ref_T_contact_C")
     contacts = contacts_of(rec)
-    tf = transparency_figures(t, rec.col("m_true_surface_C"), ref, rec.col("m_true_Q_into_body_W"),
-                              rec.col("ref_Q_into_finger_W"), contacts)
-    out: dict[str, Any] = {"condition": dataclasses.asdict(c), "gains": gains,
-                           "gain_fit": {k: {"rho": v["rho"], "identify_attempts": v["identify_attempts"],
-                                            "identify_refused": v.get("identify_refused", False), **v["margins"]}
-                                        for k, v in fits.items()},
-                           "headline_C": tf["headline_error_C"],
-                           "pre_contact_C": tf["pre_contact_mean_error_C"], "early_C": tf["early_mean_error_C"],
-                           "late_C": tf["late_mean_error_C"]}
+    tf = transparency_figures(
+        t,
+        rec.col("m_true_surface_C"),
+        ref,
+        rec.col("m_true_Q_into_body_W"),
+        rec.col("ref_Q_into_finger_W"),
+        contacts,
+    )
+    out: dict[str, Any] = {
+        "condition": dataclasses.asdict(c),
+        "gains": gains,
+        "gain_fit": {k: _fit_summary(v) for k, v in fits.items()},
+        "headline_C": tf["headline_error_C"],
+        "pre_contact_C": tf["pre_contact_mean_error_C"],
+        "early_C": tf["early_mean_error_C"],
+        "late_C": tf["late_mean_error_C"],
+    }
     cue = tf["cue"]
     direct = sorted(v["direct_J"] for v in cue["materials"].values())
     rel = [abs(b - a) / max(abs(b), 1e-9) for a, b in zip(direct, direct[1:])]
@@ -235,21 +327,36 @@ def run_condition(c: Condition, *, with_pads: bool = True, gains: str = "identif
     out["session_long_cut"] = any(v >= SESSION_LONG_CUT_S for v in sfy["time_cut_s"].values())
     out["time_at_limit_s"] = sfy["time_at_limit_s"]
     if with_shipped and gains != "shipped":
-        sh = run_condition(c, with_pads=False, gains="shipped")
-        out["shipped"] = {k: sh[k] for k in ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_ratio",
-                                             "oscillating", "current_band_rms_max_A", "cue_order_kept")}
-        out["shipped"]["trips"] = len(sh["trips"])
-        out["shipped"]["session_long_cut"] = sh["session_long_cut"]
+        out["shipped"] = _shipped(c)
     if with_pads:
-        pads = {}
-        for name, T in (("ambient", c.ambient_C), ("objects", c.object_T_C), ("neutral", NEUTRAL_C)):
-            T = min(max(T, SKIN_CLAMP_C[0]), SKIN_CLAMP_C[1])
-            f = transparency_figures(t, hold_skin(sc, T), ref, np.zeros_like(t), rec.col("ref_Q_into_finger_W"),
-                                     contacts)
-            pads[name] = {"hold_C": T, "headline_C": f["headline_error_C"]}
-        best = min(pads, key=lambda k: pads[k]["headline_C"])
-        out["pads"] = pads
-        out["best_pad"] = best
-        out["best_pad_headline_C"] = pads[best]["headline_C"]
-        out["beats_best_pad"] = bool(out["headline_C"] < out["best_pad_headline_C"])
+        out.update(_best_pad(c, sc, t, ref, rec.col("ref_Q_into_finger_W"), contacts, out["headline_C"]))
     return out
+
+
+def _fit_summary(v: dict[str, Any]) -> dict[str, Any]:
+    return {"rho": v["rho"], "identify_attempts": v["identify_attempts"],
+            "identify_refused": v.get("identify_refused", False), **v["margins"]}
+
+
+SHIPPED_KEYS = ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_ratio", "oscillating",
+                "current_band_rms_max_A", "cue_order_kept")
+
+
+def _shipped(c: Condition) -> dict[str, Any]:
+    """The shipped gains on the same draw: the before-figure."""
+    sh = run_condition(c, with_pads=False, gains="shipped")
+    return {**{k: sh[k] for k in SHIPPED_KEYS}, "trips": len(sh["trips"]),
+            "session_long_cut": sh["session_long_cut"]}
+
+
+def _best_pad(c: Condition, sc: Any, t: np.ndarray, ref: np.ndarray, q_ref: np.ndarray,
+              contacts: list[dict[str, Any]], headline_C: float) -> dict[str, Any]:
+    """The three constant pads (room, objects, neutral; clamped to the skin's range) and the best of them."""
+    pads = {}
+    for name, T in (("ambient", c.ambient_C), ("objects", c.object_T_C), ("neutral", NEUTRAL_C)):
+        T = min(max(T, SKIN_CLAMP_C[0]), SKIN_CLAMP_C[1])
+        f = transparency_figures(t, hold_skin(sc, T), ref, np.zeros_like(t), q_ref, contacts)
+        pads[name] = {"hold_C": T, "headline_C": f["headline_error_C"]}
+    best = min(pads, key=lambda k: pads[k]["headline_C"])
+    return {"pads": pads, "best_pad": best, "best_pad_headline_C": pads[best]["headline_C"],
+            "beats_best_pad": bool(headline_C < pads[best]["headline_C"])}

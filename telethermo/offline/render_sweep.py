@@ -1,13 +1,17 @@
-"""Render mode across the envelope's object temperatures (issue 22 item 5): one 4 s touch per (material, object
+"""Render mode across the envelope's object temperatures (issue 22 item 5): one 4 s touch per (material,
+object
 temperature), the display alone (yamamoto eq. 1/5/7) against the same finger touching the real object.
 
-For each touch: eq. 1's contact temperature (the finger's natural skin against the object, table effusivities),
+For each touch: eq. 1's contact temperature (the finger's natural skin against the object, table
+effusivities),
 whether it lies inside the skin clamps' band [T_min + 0.5, T_max − 0.5] °C, the early (0–1 s) RMS of the skin
-against the direct touch, the eq. 7 pre-set the display asked for and what it got, the current at 0.9 s against
+against the direct touch, the eq. 7 pre-set the display asked for and what it got, the current at 0.9 s
+against
 its limit, and the skin's closest approach during the touch to the clamp it was asked beyond. Outside the band
 the skin should sit at the clamp (within 0.5 °C, or as near as the current allows: ``limited_by`` says which
 limit acted at 0.9 s).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -30,7 +34,9 @@ BAND_MARGIN_C = 0.5
 def render_touch(material: str, T_object_C: float) -> dict[str, Any]:
     """One rendered touch of ``material`` at ``T_object_C`` (see the module docstring)."""
     sc0 = sim.load_scene(SCENE)
-    obj = dataclasses.replace(sc0.objects["brass"], name="o", material=material, T0_C=T_object_C, thickness_m=0.02)
+    obj = dataclasses.replace(
+        sc0.objects["brass"], name="o", material=material, T0_C=T_object_C, thickness_m=0.02
+    )
     touch = dataclasses.replace(sc0.master_contacts[0], render="o", start_s=T_ON_S, end_s=T_OFF_S)
     sc = dataclasses.replace(sc0, objects={"o": obj}, master_contacts=(touch,), duration_s=T_OFF_S)
     res = run_offline_session(sc)
@@ -42,21 +48,35 @@ def render_touch(material: str, T_object_C: float) -> dict[str, Any]:
     I_lim = float(lim["current_fraction"]) * float(lim["I_max_A"])
     mats = materials()
     pre = int(np.searchsorted(t, T_ON_S - 0.05))
-    T_f = float(ref[pre])                     # the direct-touch finger just before the touch (in air)
+    T_f = float(ref[pre])  # the direct-touch finger just before the touch (in air)
     b_f, b_o = mats["skin"].b, mats[material].b
     Tc = (b_f * T_f + b_o * T_object_C) / (b_f + b_o)
     early = (t >= T_ON_S) & (t < T_ON_S + 1.0)
     k = int(np.searchsorted(t, T_ON_S + 0.9))
     inside = lo + BAND_MARGIN_C <= Tc <= hi - BAND_MARGIN_C
     clamp = lo if Tc < lo + BAND_MARGIN_C else hi
-    limited = [name for name, hit in (("current", abs(cur[k]) >= 0.98 * I_lim),
-                                      ("preset_clamp", sp[pre] <= lo + 1e-6 or sp[pre] >= hi - 1e-6)) if hit]
-    return {"material": material, "T_object_C": T_object_C, "T_finger_C": T_f, "T_contact_eq1_C": Tc,
-            "inside_band": inside, "early_rms_C": float(np.sqrt(np.mean((skin[early] - ref[early]) ** 2))),
-            "preset_asked_C": float(sp[pre]), "skin_at_0p9s_C": float(skin[k]), "current_at_0p9s_A": float(cur[k]),
-            "clamp_C": None if inside else clamp,
-            "skin_to_clamp_C": None if inside else _closest(skin[(t >= T_ON_S) & (t < T_OFF_S)], clamp, lo),
-            "limited_by": limited}
+    limited = [
+        name
+        for name, hit in (
+            ("current", abs(cur[k]) >= 0.98 * I_lim),
+            ("preset_clamp", sp[pre] <= lo + 1e-6 or sp[pre] >= hi - 1e-6),
+        )
+        if hit
+    ]
+    return {
+        "material": material,
+        "T_object_C": T_object_C,
+        "T_finger_C": T_f,
+        "T_contact_eq1_C": Tc,
+        "inside_band": inside,
+        "early_rms_C": float(np.sqrt(np.mean((skin[early] - ref[early]) ** 2))),
+        "preset_asked_C": float(sp[pre]),
+        "skin_at_0p9s_C": float(skin[k]),
+        "current_at_0p9s_A": float(cur[k]),
+        "clamp_C": None if inside else clamp,
+        "skin_to_clamp_C": None if inside else _closest(skin[(t >= T_ON_S) & (t < T_OFF_S)], clamp, lo),
+        "limited_by": limited,
+    }
 
 
 def _closest(skin_C: np.ndarray, clamp_C: float, lo_C: float) -> float:
@@ -65,17 +85,26 @@ def _closest(skin_C: np.ndarray, clamp_C: float, lo_C: float) -> float:
 
 
 def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
-    """Worst early RMS inside the band (the target: <= 0.5 °C), and beyond it how near the clamp the skin got."""
+    """Worst early RMS inside the band (the target: <= 0.5 °C), and beyond it how near the clamp the skin
+    got."""
     inside = [r for r in rows if r["inside_band"]]
     outside = [r for r in rows if not r["inside_band"]]
     worst = max(inside, key=lambda r: r["early_rms_C"]) if inside else None
     near = [r["skin_to_clamp_C"] for r in outside]
-    return {"render_n_touches": len(rows), "render_inside_band": len(inside),
-            "render_early_rms_worst_C": worst["early_rms_C"] if worst else math.nan,
-            "render_early_rms_worst_touch": worst,
-            "render_early_rms_median_C": float(np.median([r["early_rms_C"] for r in inside])) if inside else math.nan,
-            "render_inside_band_over_0p5": [(r["material"], r["T_object_C"], round(r["early_rms_C"], 3),
-                                             r["limited_by"]) for r in inside if r["early_rms_C"] > 0.5],
-            "render_beyond_band_skin_to_clamp_worst_C": float(max(near)) if near else math.nan,
-            "render_beyond_band_at_clamp_within_0p5": int(sum(d <= 0.5 for d in near)),
-            "render_beyond_band": len(outside)}
+    return {
+        "render_n_touches": len(rows),
+        "render_inside_band": len(inside),
+        "render_early_rms_worst_C": worst["early_rms_C"] if worst else math.nan,
+        "render_early_rms_worst_touch": worst,
+        "render_early_rms_median_C": float(np.median([r["early_rms_C"] for r in inside]))
+        if inside
+        else math.nan,
+        "render_inside_band_over_0p5": [
+            (r["material"], r["T_object_C"], round(r["early_rms_C"], 3), r["limited_by"])
+            for r in inside
+            if r["early_rms_C"] > 0.5
+        ],
+        "render_beyond_band_skin_to_clamp_worst_C": float(max(near)) if near else math.nan,
+        "render_beyond_band_at_clamp_within_0p5": int(sum(d <= 0.5 for d in near)),
+        "render_beyond_band": len(outside),
+    }

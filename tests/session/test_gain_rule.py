@@ -1,5 +1,6 @@
 """Gains that fit the rig (issue 22 item 3): the rule on linear plants, and a TEM swap followed by identify
 gives a loop that meets the stated margins on its model and does not oscillate in a session."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -8,8 +9,14 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
-from telethermo.control.gain_rule import (MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, LinearPlant, gain_scale,
-                                          margins, reference_plant)
+from telethermo.control.gain_rule import (
+    MIN_GAIN_MARGIN_DB,
+    MIN_PHASE_MARGIN_DEG,
+    LinearPlant,
+    gain_scale,
+    margins,
+    reference_plant,
+)
 from telethermo.control.types import Role
 from telethermo.offline.envelope import base_condition, condition_scene, identified_params
 from telethermo.offline.runner import run_offline_session
@@ -40,8 +47,17 @@ def test_a_plant_with_more_lag_is_backed_off_until_the_margins_hold():
 @settings(max_examples=3, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 @given(seebeck=st.floats(0.5, 2.5), R=st.floats(0.5, 4.0), K=st.floats(0.5, 2.0), plate=st.floats(0.5, 2.0))
 def test_a_swapped_tem_after_identify_meets_the_margins_and_does_not_oscillate(seebeck, R, K, plate):
-    c = dataclasses.replace(base_condition(), m_seebeck_x=seebeck, m_R_x=R, m_K_x=K, m_plate_C_x=plate,
-                            s_seebeck_x=seebeck, s_R_x=R, s_K_x=K, s_plate_C_x=plate)
+    c = dataclasses.replace(
+        base_condition(),
+        m_seebeck_x=seebeck,
+        m_R_x=R,
+        m_K_x=K,
+        m_plate_C_x=plate,
+        s_seebeck_x=seebeck,
+        s_R_x=R,
+        s_K_x=K,
+        s_plate_C_x=plate,
+    )
     sc, rig_s = condition_scene(c)
     pm, fit_m = identified_params(Role.MASTER, sc.rig_params, sc.ambient_C, sc.period_s, 11)
     ps, fit_s = identified_params(Role.SLAVE, rig_s, sc.ambient_C, sc.period_s, 12)
