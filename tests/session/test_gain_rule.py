@@ -33,7 +33,8 @@ def test_a_plant_k_times_stronger_gets_gains_k_times_smaller_and_the_same_margin
 
 
 def test_a_weaker_plant_keeps_the_shipped_gains():
-    """ρ never exceeds 1: a weaker free-pad response does not vouch for higher gains in contact (a heavier plate
+    """ρ never exceeds 1: a weaker free-pad response does not vouch for higher gains in contact (a heavier
+    plate
     oscillated there with ρ 1.8)."""
     ref = reference_plant()
     weak = LinearPlant(b=ref.b * 0.5, alpha=ref.alpha, period_s=ref.period_s)
@@ -55,7 +56,8 @@ def test_a_plant_with_more_lag_is_backed_off_until_the_margins_hold():
 @given(seebeck=st.floats(0.5, 2.5), R=st.floats(0.5, 4.0), K=st.floats(0.5, 2.0), plate=st.just(1.0))
 def test_a_swapped_tem_after_identify_meets_the_margins(seebeck, R, K, plate):
     """Seebeck, resistance and conductance across the envelope. The plate's capacity is held at the shipped
-    value: a module with a plate ×2 oscillates in contact with aluminium even with the shipped gains (skin 0.26 °C,
+    value: a module with a plate ×2 oscillates in contact with aluminium even with the shipped gains (skin
+    0.26 °C,
     current 0.70 A RMS in band, found by this test), which a free-pad model cannot see: an open failure of the
     rule (docs/control.md, the envelope benchmark lists such conditions)."""
     c = dataclasses.replace(
@@ -76,4 +78,5 @@ def test_a_swapped_tem_after_identify_meets_the_margins(seebeck, R, K, plate):
         assert fit["meets_minimum"], fit["margins"]
     # Not asserted: the closed loop in contact. This property found sessions that oscillate after identify (a
     # plate ×2 even with the shipped gains: skin 0.26 °C, current 0.70 A RMS in band); the envelope benchmark
-    # measures it (bench/results/envelope.json, envelope_oscillating_conditions) and the rule does not yet fix it.
+    # measures it (bench/results/envelope.json, envelope_oscillating_conditions) and the rule does not yet fix
+    # it.
