@@ -34,8 +34,7 @@ def test_a_plant_k_times_stronger_gets_gains_k_times_smaller_and_the_same_margin
 
 def test_a_weaker_plant_keeps_the_shipped_gains():
     """ρ never exceeds 1: a weaker free-pad response does not vouch for higher gains in contact (a heavier
-    plate
-    oscillated there with ρ 1.8)."""
+    plate oscillated there with ρ 1.8)."""
     ref = reference_plant()
     weak = LinearPlant(b=ref.b * 0.5, alpha=ref.alpha, period_s=ref.period_s)
     assert gain_scale(weak, ref, 1.66, 0.04)["rho"] == 1.0
