@@ -405,6 +405,9 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
         notes.append(f"identify master in real time: exit {code}, {t_ident:.1f} s\n{out}{err}")
         # the stream on the bus, as the bench analyser saw it: every sample number exactly once
         total = IDENT["rest"] + IDENT["train"] + IDENT["validation"]
+        # the witness is a second reader on the hub: the CLI may finish on the last sample before the witness's
+        # reader thread has taken it in, so wait (on the condition) until the witness holds the whole stream
+        wait_for(lambda: bool(np.all(_ident_stream(witness.snapshot(), NODE_ID["master"], total)[3] >= 1)), 10)
         T, I, Q, seen = _ident_stream(witness.snapshot(), NODE_ID["master"], total)
         assert np.all(seen == 1), f"samples not on the bus once: {np.flatnonzero(seen != 1)[:20]}"
         assert "missing" not in err and "lost on the bus" not in err   # the CLI had them all from the stream
