@@ -17,7 +17,7 @@ from typing import Any, Callable
 
 from telethermo import sim
 from telethermo.control.core import CoreParams, RenderSettings
-from telethermo.control.gain_rule import fit_gains, scaled_params
+from telethermo.control.gain_rule import fit_gains, fitted_params
 from telethermo.control.gainsfile import load_gains
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
@@ -120,7 +120,7 @@ def build_parts(opts: NodeOptions, *, period_s: float, node_id: int | None = Non
         p = default_params(opts.role, period_s=period_s, mode=mode, **kw)  # ValueError: RENDER without settings
         fit = parts.gain_fit
         if fit is not None:      # gains that fit this rig: derived from its identified model (gain_rule)
-            p = scaled_params(p, fit["rho"])
+            p = fitted_params(p, fit)
         if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
         return p
@@ -129,7 +129,8 @@ def build_parts(opts: NodeOptions, *, period_s: float, node_id: int | None = Non
                       cycles=cycles, meta=meta, truth=truth, render_script=script, finger_skin=finger_skin)
     parts.fit_model(model, opts.role)
     if parts.gain_fit is not None:
-        meta["gain_fit"] = {"rho": parts.gain_fit["rho"], **parts.gain_fit["margins"]}
+        meta["gain_fit"] = {"rho": parts.gain_fit["rho"], "max_cooling_A": parts.gain_fit["max_cooling_A"],
+                            **parts.gain_fit["margins"]}
     if not (opts.mode is Mode.RENDER and script is None):  # without a script, RENDER renders the OD's settings
         try:
             params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC

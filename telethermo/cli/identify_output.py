@@ -14,9 +14,17 @@ def gain_lines(model, roles: tuple[str, ...]) -> list[str]:
         fit = fit_gains(model, Role[role.upper()])
         m = fit["margins"]
         ok = "meets" if fit["meets_minimum"] else "BELOW"
-        out.append(f"gains ({role}){' ' * (17 - len(role))}x{fit['rho']:.3f} of the shipped; on this model gain margin "
+        pad = " " * (17 - len(role))
+        out.append(f"gains ({role}){pad}x{fit['rho']:.3f} of the shipped; on this model gain margin "
                    f"{m['gain_margin_dB']:.1f} dB, phase margin {m['phase_margin_deg']:.1f}°, crossover "
-                   f"{m['crossover_Hz']:.2f} Hz ({ok} the minimum {MIN_GAIN_MARGIN_DB:g} dB / {MIN_PHASE_MARGIN_DEG:g}°)")
+                   f"{m['crossover_Hz']:.2f} Hz ({ok} the minimum {MIN_GAIN_MARGIN_DB:g} dB / "
+                   f"{MIN_PHASE_MARGIN_DEG:g}°)")
+    if not roles:
+        return out
+    cool = fit_gains(model, Role[roles[0].upper()])["max_cooling_A"]
+    what = ("not found in the model's range (no limit beyond the drive's)" if cool is None else
+            f"{cool:.2f} A (beyond it the Joule heat wins: the node holds its cooling current there)")
+    out.append(f"max cooling current        {what}")
     return out
 
 
@@ -24,10 +32,12 @@ def print_report(rep: dict, model=None, roles: tuple[str, ...] = ()) -> None:
     o = rep["orders"]
     lines = [
         f"orders n,m,p,q            {o['n']},{o['m']},{o['p']},{o['q']}  (fit: {rep['fit_method']})",
-        f"samples                   {rep['n_train']} training + {rep['n_validation']} held-out at {rep['period_s']} s",
+        f"samples                   {rep['n_train']} training + {rep['n_validation']} held-out at "
+        f"{rep['period_s']} s",
         f"reference temperature     {rep['T_ref_C']:.3f} °C (drift over the rest samples "
         f"{rep['rest_drift_C']:+.4f} °C{'' if abs(rep['rest_drift_C']) < 0.05 else ': NOT AT REST'})",
-        f"held-out free run         worst {rep['heldout_free_run_max_C']:.4f} °C, rms {rep['heldout_free_run_rms_C']:.4f} °C",
+        f"held-out free run         worst {rep['heldout_free_run_max_C']:.4f} °C, "
+        f"rms {rep['heldout_free_run_rms_C']:.4f} °C",
         f"held-out one-step         worst {rep['heldout_one_step_max_C']:.4f} °C",
         f"heat flux (held-out)      worst {rep['flux_heldout_max_W']:.4f} W, rms {rep['flux_heldout_rms_W']:.4f} W"
         f"{' (with current terms)' if rep['flux_with_current'] else ''}",

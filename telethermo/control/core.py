@@ -201,7 +201,7 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
     snap = cast(SnapshotPredictor, pred).snapshot() if cell is not None and cell.can_snapshot else None
     # bumpless from the current the rig is already driving (a display that was holding its pad)
     I0 = first_sample.current_A if math.isfinite(first_sample.current_A) else 0.0
-    I0 = min(max(I0, -params.safety.I_limit_A), params.safety.I_limit_A)
+    I0 = min(max(I0, -params.safety.I_cool_limit_A), params.safety.I_limit_A)
     if params.role is Role.SLAVE and params.material_id is not None:
         prepare(params.material_id, params.period_s)           # the fit's constants, outside any touch's cycle
     return CoreState(k=0, t_s=first_sample.t_s, env=sf.EnvelopeState(), pi=PIState(0.0), contact=ContactState(),
@@ -385,10 +385,10 @@ def _control(sample: RigSample, params: CoreParams, state: CoreState, r: _Reques
     """Stage 5: the current the mode's controller asks for, A, its PI state and components, and the
     identification experiment's counters."""
     dt, lim = params.period_s, params.safety
-    I_lim = lim.I_limit_A
+    I_lim, I_cool = lim.I_limit_A, lim.I_cool_limit_A
     pi_st = state.pi
     if switched or env.cut:
-        pi_st = bumpless(r.gains, state.u_prev_A if not env.cut else 0.0, err, r.ff, -I_lim, I_lim,
+        pi_st = bumpless(r.gains, state.u_prev_A if not env.cut else 0.0, err, r.ff, -I_cool, I_lim,
                          flux_error_W=r.eQ, flux_gains=r.fg)
     ident_k, ident_guard = 0, 0
     if params.mode is Mode.IDLE:
@@ -410,7 +410,7 @@ def _control(sample: RigSample, params: CoreParams, state: CoreState, r: _Reques
         u_req = state.u_prev_A
         comps = PIComponents(0.0, pi_st.integral_A, 0.0, u_req, u_req, False)
     else:
-        u_req, pi_st, comps = pi_step(r.gains, pi_st, err, r.ff, dt, -I_lim, I_lim, flux_error_W=r.eQ,
+        u_req, pi_st, comps = pi_step(r.gains, pi_st, err, r.ff, dt, -I_cool, I_lim, flux_error_W=r.eQ,
                                       flux_gains=r.fg)
     return u_req, pi_st, comps, ident_k, ident_guard
 
@@ -418,7 +418,7 @@ def _control(sample: RigSample, params: CoreParams, state: CoreState, r: _Reques
 def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: CoreState) -> StepResult:
     """One control step (pure). See the module docstring for the sequence."""
     dt, lim = params.period_s, params.safety
-    I_lim = lim.I_limit_A
+    I_lim, I_cool = lim.I_limit_A, lim.I_cool_limit_A
     mode = params.mode
     Ts, Q = sample.T_sensor_C, sample.Q_W
 
@@ -447,7 +447,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo, state.u_prev_A, dt)
     if current != u_req:
         # the envelope overrode the controller: keep the integrator consistent (no windup behind it)
-        pi_st = bumpless(r.gains, current, err, r.ff, -I_lim, I_lim, flux_error_W=r.eQ, flux_gains=r.fg)
+        pi_st = bumpless(r.gains, current, err, r.ff, -I_cool, I_lim, flux_error_W=r.eQ, flux_gains=r.fg)
 
     active = env_active + tuple(a for a in cur_active if a not in env_active)
     mid = params.material_id if params.role is Role.SLAVE else None    # the slave's material identification

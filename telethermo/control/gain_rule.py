@@ -38,6 +38,7 @@ from typing import Any
 import numpy as np
 
 from telethermo.control.defaults import GAINS
+from telethermo.control.cooling_limit import max_cooling_current_A
 from telethermo.control.types import Role
 from telethermo.ident import default_model_path, load_model
 
@@ -169,6 +170,16 @@ def scaled_params(params: Any, rho: float) -> Any:
     return dataclasses.replace(params, **{k: getattr(params, k) * rho for k in SCALED_FIELDS})
 
 
+def fitted_params(params: Any, fit: dict[str, Any]) -> Any:
+    """``params`` (a CoreParams) for the rig of ``fit`` (:func:`fit_gains`): the gains scaled by ρ and the
+    cooling current held at the TEM's maximum-cooling current (``max_cooling_A``, None: unknown)."""
+    p = scaled_params(params, fit["rho"])
+    cool = fit.get("max_cooling_A")
+    if cool is None:
+        return p
+    return dataclasses.replace(p, safety=dataclasses.replace(p.safety, cooling_limit_A=float(cool)))
+
+
 @functools.lru_cache(maxsize=1)
 def reference_plant() -> LinearPlant:
     """The shipped module's identified model, linearised: what the shipped gains were tuned on."""
@@ -182,4 +193,6 @@ def fit_gains(model: Any, role: Role) -> dict[str, Any]:
     g = GAINS[Role(role)]
     fit = gain_scale(linear_plant(model), reference_plant(), g["kp_A_per_C"], g["ki_A_per_C_s"])
     fit["role"] = Role(role).name.lower()
+    cool = max_cooling_current_A(model)
+    fit["max_cooling_A"] = cool if math.isfinite(cool) else None
     return fit

@@ -324,7 +324,8 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
 
     NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
     within ``guard_C`` of T_min_C only heating (I >= 0); over the ``taper_C`` band before that the
-    outward current is capped linearly (full at the band's inner edge). Then |I| <= I_limit_A.
+    outward current is capped linearly (full at the band's inner edge). Then |I| <= I_limit_A, and a
+    cooling current (I < 0) |I| <= I_cool_limit_A (the TEM's maximum-cooling current, where known).
 
     Trip slew: while :func:`slewing` and ``previous_A`` (the current of the previous step, A) is finite, the
     result may fall towards 0 A at once (as a cut does) but grows beyond ``previous_A`` (or beyond 0 A in the
@@ -339,9 +340,9 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
     if not (math.isfinite(surface_hi_C) and math.isfinite(surface_lo_C)):
         return 0.0, ("cut",)
     active: list[str] = []
-    lim = limits.I_limit_A
+    lim, cool = limits.I_limit_A, limits.I_cool_limit_A
     hi_cap = min(lim, _outward_cap(limits, limits.T_max_C - limits.guard_C - surface_hi_C))
-    lo_cap = min(lim, _outward_cap(limits, surface_lo_C - (limits.T_min_C + limits.guard_C)))
+    lo_cap = min(cool, _outward_cap(limits, surface_lo_C - (limits.T_min_C + limits.guard_C)))
     i = 0.0 if state.cut else requested_A
     if slew:   # towards 0 A at once (as a cut), away from it (beyond the previous current) at the slew rate
         step = limits.trip_slew_A_per_s * dt_s
@@ -355,7 +356,7 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
         active.append("guard" if hi_cap < lim else "current_limit")
         i = hi_cap
     elif i < -lo_cap:
-        active.append("guard" if lo_cap < lim else "current_limit")
+        active.append("guard" if lo_cap < cool else "current_limit")
         i = -lo_cap
     return i, tuple(active)
 

@@ -27,6 +27,9 @@ class SafetyLimits:
     Attributes:
         I_max_A: hardware current limit of the TEM drive, A.
         current_fraction: the envelope allows |I| <= current_fraction·I_max_A (<= 0.8 unless research).
+        cooling_limit_A: the largest cooling current (I < 0) that still cools more, A: the TEM's
+            maximum-cooling current from its identified model (telethermo.control.cooling_limit); beyond
+            it the Joule heat wins and more current warms the pad. ``math.inf``: unknown, no extra limit.
         T_min_C, T_max_C: setpoint and surface clamp, °C (within [15, 43] unless research).
         ramp_up_C_per_s, ramp_down_C_per_s: setpoint rate limits, °C/s.
         hot_C: time-at-temperature threshold, °C; hot_time_limit_s: allowed continuous time above, s.
@@ -55,6 +58,7 @@ class SafetyLimits:
 
     I_max_A: float = 2.0
     current_fraction: float = 0.8
+    cooling_limit_A: float = math.inf
     T_min_C: float = DEFAULT_T_MIN_C
     T_max_C: float = DEFAULT_T_MAX_C
     ramp_up_C_per_s: float = 5.0
@@ -91,11 +95,14 @@ class SafetyLimits:
             v = getattr(self, name)
             if name in ("trip_slew_A_per_s", "trip_lead_C") and self.research and v == math.inf:
                 continue
+            if name == "cooling_limit_A" and v == math.inf:
+                continue
             if name != "research" and not (isinstance(v, (int, float)) and math.isfinite(v)):
                 raise ValueError(f"SafetyLimits.{name}: expected a finite number, got {v!r}")
         positive = (
             "I_max_A",
             "current_fraction",
+            "cooling_limit_A",
             "ramp_up_C_per_s",
             "ramp_down_C_per_s",
             "hot_time_limit_s",
@@ -159,6 +166,12 @@ class SafetyLimits:
     def I_limit_A(self) -> float:
         """Largest |current| the envelope lets through, A."""
         return self.current_fraction * self.I_max_A
+
+    @property
+    def I_cool_limit_A(self) -> float:
+        """Largest cooling |current| (I < 0) the envelope lets through, A: the current limit, or the TEM's
+        maximum-cooling current where that is lower."""
+        return min(self.I_limit_A, self.cooling_limit_A)
 
 
 def probe_limits(**overrides: object) -> SafetyLimits:

@@ -34,7 +34,7 @@ from scipy.stats import qmc
 from telethermo import sim
 from telethermo.control.core import init_state, step
 from telethermo.control.defaults import HOLD_GAINS
-from telethermo.control.gain_rule import fit_gains, scaled_params
+from telethermo.control.gain_rule import fit_gains, fitted_params
 from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
 from telethermo.offline.figures import contacts_of
@@ -257,7 +257,7 @@ def identified_params(
             continue
         fit = fit_gains(model, role)
         fit["identify_attempts"] = attempts
-        return scaled_params(default_params(role, period_s=period_s), fit["rho"]), fit
+        return fitted_params(default_params(role, period_s=period_s), fit), fit
     return default_params(role, period_s=period_s), {
         "rho": 1.0,
         "margins": {},
@@ -335,7 +335,8 @@ def run_condition(
 
 def _fit_summary(v: dict[str, Any]) -> dict[str, Any]:
     return {"rho": v["rho"], "identify_attempts": v["identify_attempts"],
-            "identify_refused": v.get("identify_refused", False), **v["margins"]}
+            "identify_refused": v.get("identify_refused", False), "max_cooling_A": v.get("max_cooling_A"),
+            **v["margins"]}
 
 
 SHIPPED_KEYS = ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_ratio", "oscillating",

@@ -332,6 +332,11 @@ def scene_contacts(sc, side: str) -> list[dict[str, Any]]:
     return out
 
 
+def _finite_or_none(x: Any) -> Any:
+    """JSON has no infinity: an unbounded limit (``math.inf``, e.g. an unknown cooling limit) is null."""
+    return None if isinstance(x, float) and not math.isfinite(x) else x
+
+
 def _params_meta(p: CoreParams) -> dict[str, Any]:
     d = {}
     for f in dataclasses.fields(p):
@@ -339,7 +344,8 @@ def _params_meta(p: CoreParams) -> dict[str, Any]:
         if f.name in ("safety", "contact", "render"):
             d[f.name] = dataclasses.asdict(v) if v is not None else None
             if d[f.name]:
-                d[f.name] = {k: (x.value if hasattr(x, "value") else x) for k, x in d[f.name].items()}
+                d[f.name] = {k: (x.value if hasattr(x, "value") else _finite_or_none(x))
+                             for k, x in d[f.name].items()}
         else:
             d[f.name] = v.value if hasattr(v, "value") else v
     return d
