@@ -444,7 +444,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     err = sp - y
     u_req, pi_st, comps, ident_k, ident_guard = _control(sample, params, state, r, err, env, switched)
     # 6. envelope on current (slewed from the previous step's current while a peer trip is latched)
-    current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo, state.u_prev_A, dt)
+    current, cur_active = sf.limit_current(lim, env, u_req, e.s_hi, e.s_lo, state.u_prev_A, dt, Q)
     if current != u_req:
         # the envelope overrode the controller: keep the integrator consistent (no windup behind it)
         pi_st = bumpless(r.gains, current, err, r.ff, -I_cool, I_lim, flux_error_W=r.eQ, flux_gains=r.fg)

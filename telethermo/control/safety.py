@@ -311,6 +311,20 @@ def _outward_cap(limits: SafetyLimits, room_C: float) -> float:
     return lim if limits.taper_C <= 0.0 or room_C >= limits.taper_C else lim * room_C / limits.taper_C
 
 
+#: the flux guard (:func:`limit_current`): the current that drives the heat flux outwards is tapered from
+#: this fraction of ``Q_abs_max_W`` to 0 at :data:`FLUX_GUARD_STOP`, so that a big module pressed on a cold
+#: or hot metal block saturates below the flux plausibility trip instead of ending the session there
+FLUX_GUARD_START = 0.8
+FLUX_GUARD_STOP = 0.95
+
+
+def _flux_cap(limits: SafetyLimits, Q_out_W: float) -> float:
+    """Largest current driving the flux further outwards when ``Q_out_W`` already flows that way, A."""
+    q_max = limits.Q_abs_max_W
+    room = (FLUX_GUARD_STOP * q_max - Q_out_W) / ((FLUX_GUARD_STOP - FLUX_GUARD_START) * q_max)
+    return limits.I_limit_A * min(max(room, 0.0), 1.0) if math.isfinite(Q_out_W) else 0.0
+
+
 def slewing(state: EnvelopeState) -> bool:
     """The trip slew limit applies: a peer trip is latched or the link-loss fallback renders, and no hard cut
     (:data:`CUT_TRIPS`)."""
@@ -319,13 +333,16 @@ def slewing(state: EnvelopeState) -> bool:
 
 def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float, surface_hi_C: float,
                   surface_lo_C: float, previous_A: float = math.nan,
-                  dt_s: float = 0.0) -> tuple[float, tuple[str, ...]]:
+                  dt_s: float = 0.0, Q_W: float = 0.0) -> tuple[float, tuple[str, ...]]:
     """The current that may reach the TEM, A, and the limits that acted.
 
     NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
     within ``guard_C`` of T_min_C only heating (I >= 0); over the ``taper_C`` band before that the
     outward current is capped linearly (full at the band's inner edge). Then |I| <= I_limit_A, and a
     cooling current (I < 0) |I| <= I_cool_limit_A (the TEM's maximum-cooling current, where known).
+    The flux guard ("guard"): with ``Q_W`` (the measured flux out of the pad, W) beyond
+    :data:`FLUX_GUARD_START`·Q_abs_max_W, the current pushing it further (heating while Q_W > 0, cooling
+    while Q_W < 0) is tapered to 0 A at :data:`FLUX_GUARD_STOP`·Q_abs_max_W.
 
     Trip slew: while :func:`slewing` and ``previous_A`` (the current of the previous step, A) is finite, the
     result may fall towards 0 A at once (as a cut does) but grows beyond ``previous_A`` (or beyond 0 A in the
@@ -341,8 +358,10 @@ def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float
         return 0.0, ("cut",)
     active: list[str] = []
     lim, cool = limits.I_limit_A, limits.I_cool_limit_A
-    hi_cap = min(lim, _outward_cap(limits, limits.T_max_C - limits.guard_C - surface_hi_C))
-    lo_cap = min(cool, _outward_cap(limits, surface_lo_C - (limits.T_min_C + limits.guard_C)))
+    hi_cap = min(lim, _outward_cap(limits, limits.T_max_C - limits.guard_C - surface_hi_C),
+                 _flux_cap(limits, Q_W))
+    lo_cap = min(cool, _outward_cap(limits, surface_lo_C - (limits.T_min_C + limits.guard_C)),
+                 _flux_cap(limits, -Q_W))
     i = 0.0 if state.cut else requested_A
     if slew:   # towards 0 A at once (as a cut), away from it (beyond the previous current) at the slew rate
         step = limits.trip_slew_A_per_s * dt_s

@@ -1,6 +1,7 @@
-"""The TEM's maximum-cooling current (issue 22: a lab's own module): found from the identified model, held by
-the envelope, and what it prevents (a runaway into a surface trip on a high-resistance module whose drive
-allows far more current than the module can use)."""
+"""The TEM's maximum-cooling current and the flux guard (issue 22: a lab's own module). The first is found
+from the identified model and held by the envelope; it prevents a runaway into a surface trip on a
+high-resistance module whose drive allows far more current than the module can use. The second keeps a big
+module pressed on a cold or hot block below the flux plausibility trip."""
 
 from __future__ import annotations
 
@@ -84,3 +85,26 @@ def test_the_node_holds_the_cooling_limit_of_its_model():
     assert p.safety.cooling_limit_A == 0.8 and p.safety.I_cool_limit_A == 0.8
     q = fitted_params(default_params(Role.MASTER, period_s=0.01), {"rho": 0.5, "max_cooling_A": None})
     assert math.isinf(q.safety.cooling_limit_A)
+
+
+def test_the_flux_guard_tapers_the_current_that_pushes_the_flux_towards_its_plausibility_limit():
+    lim = SafetyLimits(I_max_A=5.0)   # Q_abs_max_W 30 W: the taper runs from 24 W to 28.5 W
+    st = EnvelopeState(setpoint_C=30.0)
+    assert limit_current(lim, st, 3.0, 30.0, 30.0, Q_W=20.0)[0] == pytest.approx(3.0)
+    i, active = limit_current(lim, st, 3.0, 30.0, 30.0, Q_W=26.25)
+    assert i == pytest.approx(2.0) and "guard" in active        # half way through the taper: half of 4 A
+    assert limit_current(lim, st, 3.0, 30.0, 30.0, Q_W=29.0)[0] == 0.0
+    assert limit_current(lim, st, -3.0, 30.0, 30.0, Q_W=29.0)[0] == pytest.approx(-3.0)  # pulling back passes
+    assert limit_current(lim, st, -3.0, 30.0, 30.0, Q_W=-29.0)[0] == 0.0                # and the mirror case
+
+
+@pytest.mark.slow
+def test_a_big_probe_on_a_cold_metal_block_saturates_below_the_flux_trip():
+    """Envelope condition 48 of the matrix: a 5.5 A probe module pressed at 14 N on a 5.9 °C block, asked to
+    bring it to the finger's 26 °C, drew more than the 30 W flux plausibility limit and cut the session
+    (slave sensor_range at 6.1 s). With the flux guard: no trip, no cut."""
+    base = dataclasses.asdict(base_condition())
+    base.update(index=48, materials=("copper", "brass", "oak"), object_T_C=5.9, ambient_C=16.2, delay_ms=31.0,
+                probe_force_N=14.0, s_seebeck_x=2.2, s_R_x=1.0, s_I_max_A=5.5)
+    r = run_condition(Condition(**base), with_pads=False)
+    assert r["trips"] == [] and not r["session_long_cut"], r["trips"]
