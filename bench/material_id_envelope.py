@@ -38,10 +38,11 @@ from telethermo.control.material_stream import (MaterialIdParams, UNKNOWN_CODE, 
 from telethermo.sim.materials import material
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
+from telethermo.offline.material_touches import ENVELOPE, ENVELOPE_N
 
-#: (draw seed, first simulator seed) of the envelope's touches; the development set the abstain rule was set on
-ENVELOPE, ENVELOPE_N, ENVELOPE_QUICK_N = (2323, 600_000), 1000, 250
-DEVELOPMENT = (4343, 700_000)
+#: the envelope's touches of the quick run (the full run's seeds and size, ENVELOPE and ENVELOPE_N, and the
+#: development set's, DEVELOPMENT, are telethermo.offline.material_touches')
+ENVELOPE_QUICK_N = 250
 INBOX_N, INBOX_QUICK_N = 300, 100
 NEAR_C = 2.0
 CONFIDENT = 0.9

@@ -20,8 +20,9 @@ from telethermo.control import material_id as mi
 from telethermo.control.material_physics import OUTLIER_WIDTH_LN
 from telethermo.control.material_stream import MaterialIdParams
 from telethermo.sim.tem import load_rig_params
+from telethermo.offline.material_touches import PHYSICS_CALIBRATION
 
-SEEDS = (3131, 1_200_000)
+SEEDS = PHYSICS_CALIBRATION
 
 
 def fits(n: int, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

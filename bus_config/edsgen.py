@@ -40,8 +40,9 @@ NODE_IDS = {"master": 1, "slave": 2}
 #: connection set and its restricted COB-IDs (0x680..0x6DF are free), so no other device's default uses it.
 #: It is sent after TPDO1 in the same SYNC, so a peer that has it has the TPDO1 of the same cycle too.
 CONTACT_PDO_BASE = 0x680
-#: the slave's TPDO6 (identified object temperature, every 10th SYNC) on 0x6C0 + node-ID (free range); the master's
-#: RPDO3 takes it event-driven (type 255), so the lockstep producer (waits for the last synchronous RPDO) does not
+#: the slave's TPDO6 (identified object temperature, first answer and stage, every 10th SYNC) on 0x6C0 +
+#: node-ID (free range); the master's RPDO3 takes it event-driven (type 255), so the lockstep producer (waits
+#: for the last synchronous RPDO) does not
 IDENT_PDO_BASE = 0x6C0
 TPDO_STATUS_TRANSMISSION_TYPE = 10  # status TPDOs 2..4 go with every 10th SYNC (bus load at 1 kHz)
 
@@ -75,6 +76,12 @@ def _contact_pdo(contact: int, material: int, touches: int, beta: int, identific
     """The contact PDO's mapping: the flag, slave -> master also its identification (code, touches, beta: 8 bytes)."""
     extra = [_mapping(material, 0, 8), _mapping(touches, 0, 16), _mapping(beta, 0, 32)] if identification else []
     return [_mapping(contact, 0, 8)] + extra
+
+
+def _ident_pdo(T_object0: int, early: int, stage: int) -> list[int]:
+    """The slave's TPDO6 / the master's RPDO3: the object temperature (32 bits), the first answer's code and
+    which answer identified_material holds (8 bits each: 6 bytes)."""
+    return [_mapping(T_object0, 0, 32), _mapping(early, 0, 8), _mapping(stage, 0, 8)]
 
 
 def _store_restore(index: int, title: str, signature: str) -> Obj:
@@ -134,7 +141,8 @@ def communication_objects(role: str) -> list[Obj]:
         _pdo_comm(0x1401, "RPDO2 communication parameter", f"0x{CONTACT_PDO_BASE + peer:X}", 1, tpdo=False),
         _pdo_map(0x1601, "RPDO2 mapping parameter", _contact_pdo(0x2105, 0x2615, 0x2616, 0x2617, role == "master")),
         *([_pdo_comm(0x1402, "RPDO3 communication parameter", f"0x{IDENT_PDO_BASE + peer:X}", 255, tpdo=False),
-           _pdo_map(0x1602, "RPDO3 mapping parameter", [_mapping(0x261B, 0, 32)])] if role == "master" else []),
+           _pdo_map(0x1602, "RPDO3 mapping parameter", _ident_pdo(0x261B, 0x261F, 0x2620))]
+          if role == "master" else []),
         _pdo_comm(0x1800, "TPDO1 communication parameter", "$NODEID+0x180", 1, tpdo=True),
         _pdo_comm(0x1801, "TPDO2 communication parameter", "$NODEID+0x280", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
         _pdo_comm(0x1802, "TPDO3 communication parameter", "$NODEID+0x380", TPDO_STATUS_TRANSMISSION_TYPE, tpdo=True),
@@ -149,7 +157,8 @@ def communication_objects(role: str) -> list[Obj]:
                                                      _mapping(0x2500, 0, 8), _mapping(0x2004, 0, 8),
                                                      _mapping(0x2705, 0, 8)]),
         _pdo_map(0x1A04, "TPDO5 mapping parameter", _contact_pdo(0x2006, 0x2610, 0x2614, 0x2611, role == "slave")),
-        *([_pdo_map(0x1A05, "TPDO6 mapping parameter", [_mapping(0x261A, 0, 32)])] if role == "slave" else []),
+        *([_pdo_map(0x1A05, "TPDO6 mapping parameter", _ident_pdo(0x261A, 0x261C, 0x261E))]
+          if role == "slave" else []),
     ]
     return objs
 

@@ -163,6 +163,27 @@ def _safety_mode_render_objects(V: Callable[[int, Any], Obj], role: str) -> list
     ]
 
 
+def _material_answer_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
+    """The answer that improves while the touch lasts (issue 23; material identification, after 0x261B): the
+    first answer (0.3 s of contact, out about 0.44 s after it) stays in 0x261C/0x261D when identified_material
+    and identified_posterior take the refined one (1.2 s window, out about 1.32 s after contact);
+    identified_stage says which one they hold."""
+    return [
+        V(0x261C, _uint("identified_early_material", UNSIGNED8, "ro", 0, pdo=True,
+                        description="(slave, in TPDO6) the last touch's first answer (0.3 s), coded as "
+                                    "identified_material")),
+        V(0x261D, _real("identified_early_posterior", "ro", 0.0,
+                        description="(slave) posterior of identified_early_material (0 none or unknown)")),
+        V(0x261E, _uint("identified_stage", UNSIGNED8, "ro", 0, pdo=True,
+                        description="(slave, sent in TPDO6) which answer identified_material holds: 0 none, "
+                                    "1 first, 2 refined")),
+        V(0x261F, _uint("peer_identified_early_material", UNSIGNED8, "rww", 0, 0, 255, pdo=True,
+                        description="the slave's identified_early_material, received in RPDO3 (master)")),
+        V(0x2620, _uint("peer_identified_stage", UNSIGNED8, "rww", 0, 0, 2, pdo=True,
+                        description="the slave's identified_stage, received in RPDO3 (master)")),
+    ]
+
+
 def _identification_status_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
     """Identification experiment, status and device-layer diagnostics."""
     ro_pdo = dict(pdo=True)
@@ -232,4 +253,5 @@ def manufacturer_objects(role: str = "master") -> list[Obj]:
     """0x2000..: measurements, estimates, gains, model, safety, mode, rendering, status, diagnostics."""
     V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
     return [*_measurement_and_control_objects(V, role), *_model_objects(V, role),
-            *_safety_mode_render_objects(V, role), *_identification_status_objects(V, role)]
+            *_safety_mode_render_objects(V, role), *_material_answer_objects(V, role),
+            *_identification_status_objects(V, role)]

@@ -39,12 +39,14 @@ _WRITERS = ("T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_de
             "T_pred_C", "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "active_trips",
             "fault_reset", "fault_reset_blocked_by", "identified_material", "identified_beta", "identified_se_ln_b",
             "identified_posterior", "identified_touches", "identified_T_object0_C", "link_fallback_active",
-            "limits_active")
+            "limits_active", "identified_early_material", "identified_early_posterior", "identified_stage")
+#: identified_stage (0x261E) of MaterialEstimate.stage
+STAGE_CODES = {"": 0, "early": 1, "late": 2}
 
 
 def material_status(w, m) -> None:
     """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614
-    and 0x261A."""
+    and 0x261A; the touch's first answer and which answer 0x2610 holds into 0x261C..0x261E."""
     ok = math.isfinite(m.effusivity)
     w["identified_material"](m.code)
     w["identified_beta"](m.beta if ok else 0.0)
@@ -52,6 +54,9 @@ def material_status(w, m) -> None:
     w["identified_posterior"](m.posterior)
     w["identified_touches"](m.touch & 0xFFFF)
     w["identified_T_object0_C"](m.T_object0_C if ok else 0.0)
+    w["identified_early_material"](m.early_code)
+    w["identified_early_posterior"](m.early_posterior)
+    w["identified_stage"](STAGE_CODES[m.stage])
 
 
 class ControlCycle:
@@ -65,7 +70,7 @@ class ControlCycle:
         """Monotonic time of the last SYNC-driven cycle, s (the fallback runs only when SYNCs stop)."""
         self._last_sync_wall: float | None = None
         self._safety_state = None
-        self._material_touch = 0
+        self._material_touch: tuple[int, str] = (0, "")
         self._latched_reported = False
         self._last_T_C = float("nan")
         self._last_sample: RigSample | None = None
@@ -192,9 +197,10 @@ class ControlCycle:
                 log.info("cycle %d: safety state %s -> %s", self.rt.stats.cycles, self._safety_state.name,
                          st.safety.state.name)
             self._safety_state = st.safety.state
-        if st.material is not None and st.material.touch != self._material_touch:
+        # a new touch's first answer, and its refined one later in the same touch
+        if st.material is not None and (st.material.touch, st.material.stage) != self._material_touch:
             material_status(w, st.material)
-            self._material_touch = st.material.touch
+            self._material_touch = (st.material.touch, st.material.stage)
 
     def _raise_trips(self, res: StepResult) -> None:
         """An EMCY for every new trip (and last_trip_code); the link-loss fallback's EMCY when it starts (cleared

@@ -31,7 +31,9 @@ FIELDS = (
     ("error register", "0x1001"),
     ("last EMCY", "0x1003sub1"), ("model", "model_status"), ("model CRC-32", "model_crc32"),
     ("identification", "ident_state"),
-    ("material (id)", "identified_material"), ("material beta", "identified_beta"),
+    ("material (id)", "identified_material"), ("material stage", "identified_stage"),
+    ("posterior (id)", "identified_posterior"), ("first answer", "identified_early_material"),
+    ("first posterior", "identified_early_posterior"), ("material beta", "identified_beta"),
     ("material touches", "identified_touches"),
     ("stored", "store_state"), ("stored at", "store_saved_unix_s"), ("store file", "store_file"),
 )
@@ -49,11 +51,12 @@ def register(subparsers) -> None:
 
 def pretty(value, info, eds) -> str:
     """A value as ``get`` prints it (:func:`telethermo.remote.values.fmt`); '-' for one the node refused; an
-    identified material's code with its name in the rendering table (1-based, as material_code)."""
+    identified material's code (the answer so far and the touch's first one) with its name in the rendering
+    table (1-based, as material_code)."""
     if value is None:
         return "-"
     text = values.fmt(value, info, eds)
-    if info.key == "identified_material":
+    if info.key in ("identified_material", "identified_early_material"):
         text += f" ({material_name(value)})"
     if info.key == "limits_active":       # which limit acted: a target beyond the clamps shows setpoint_clamp
         text = ", ".join(limits_from_mask(int(value))) or "none"

@@ -24,7 +24,9 @@ TPDO_COMM, TPDO_MAP, RPDO_COMM, RPDO_MAP = 0x1800, 0x1A00, 0x1400, 0x1600
 #: our objects whose value is a material code of the rendering table (the master's rendered material, the slave's
 #: identified one and the master's copy of it): (index, EDS name), so that another vendor's 0x26xx is left alone
 MATERIAL_CODE_OBJECTS = frozenset({(0x2600, "material_code"), (0x2610, "identified_material"),
-                                   (0x2615, "peer_identified_material")})
+                                   (0x2615, "peer_identified_material"),
+                                   (0x261C, "identified_early_material"),
+                                   (0x261F, "peer_identified_early_material")})
 
 
 @dataclass(frozen=True, slots=True)

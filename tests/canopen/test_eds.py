@@ -60,7 +60,7 @@ def test_every_writable_manufacturer_object_has_a_range_and_reals_a_unit(role):
     for v in writable:
         assert v.low is not None and v.high is not None and v.low < v.high, v.key
     dimensionless = ("theta", "flux_coeff", "material_beta", "pad_beta", "identified_beta", "identified_se_ln_b",
-                     "identified_posterior", "peer_identified_beta")
+                     "identified_posterior", "peer_identified_beta", "identified_early_posterior")
     for (index, _), v in info.vars.items():
         if index < 0x2000:
             continue

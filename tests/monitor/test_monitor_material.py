@@ -60,7 +60,9 @@ def test_the_view_shows_the_material_with_the_posterior_read_for_this_touch():
     for m in _sdo_upload(2, 0x2613, struct.pack("<f", 0.875), 1.1):
         mon.feed(m)
     assert mon.snapshot()["materials"] == [{"node": 2, "code": code, "material": "glass", "touches": 7,
-                                            "posterior": 0.875, "posterior_source": "SDO"}]
+                                            "posterior": 0.875, "posterior_source": "SDO", "stage": None,
+                                            "early_code": None, "early_material": None,
+                                            "early_posterior": None, "early_posterior_source": None}]
     assert f"slave identified glass (code {code}, touch 7), posterior 0.875 (SDO)" in "\n".join(
         render_lines(mon, ViewState(), 200, 40))
     mon.feed(_tpdo5(code, 8, 1.47))      # the next touch: the posterior read for touch 7 is not shown for it
@@ -72,3 +74,38 @@ def test_an_abstention_reads_unknown():
     frame, _ = mon.feed(_tpdo5(0xFF, 9, 0.0))
     assert "identified_material=255 (unknown)" in frame.text
     assert mon.snapshot()["materials"][0]["material"] == "unknown (abstained)"
+
+
+def _tpdo6(T_object0_C: float, early: int, stage: int) -> can.Message:
+    # slave 0x1A05: 0x261A identified_T_object0_C (32 bits), 0x261C identified_early_material (8),
+    # 0x261E identified_stage (8)
+    data = struct.pack("<fBB", T_object0_C, early, stage)
+    return can.Message(timestamp=2.0, arbitration_id=0x6C2, data=data, is_extended_id=False)
+
+
+def test_the_first_answer_and_the_refined_one_are_both_shown_for_their_touch():
+    """Issue 23: the answer improves while the touch lasts. The slave's TPDO6 carries the touch's first answer
+    (0x261C) and which answer identified_material holds (0x261E); the first answer's posterior (0x261D) comes
+    by SDO. The monitor decodes them by the slave's EDS and shows both answers, each for its touch only."""
+    from telethermo.monitor.view import ViewState, render_lines
+    names = list(load_render_table())
+    glass, brass = names.index("glass") + 1, names.index("brass") + 1
+    mon = Monitor(monitor_config())
+    mon.feed(_tpdo5(brass, 3, 60.0))
+    frame, _ = mon.feed(_tpdo6(22.5, brass, 1))
+    assert f"identified_early_material={brass} (brass)" in frame.text and "identified_stage=1" in frame.text
+    j = mon.snapshot()["materials"][0]
+    assert (j["stage"], j["early_material"], j["early_posterior"]) == ("first answer", "brass", None), j
+    mon.feed(_tpdo5(glass, 3, 1.47))                    # the same touch, refined: another material
+    mon.feed(_tpdo6(22.5, brass, 2))
+    for m in _sdo_upload(2, 0x261D, struct.pack("<f", 0.5), 2.1):
+        mon.feed(m)
+    j = mon.snapshot()["materials"][0]
+    got = (j["material"], j["stage"], j["early_material"], j["early_posterior"], j["early_posterior_source"])
+    assert got == ("glass", "refined", "brass", 0.5, "SDO"), j
+    line = [ln for ln in render_lines(mon, ViewState(), 240, 40) if "identified glass" in ln]
+    assert len(line) == 1 and f"glass (code {glass}, touch 3, refined)" in line[0], line
+    assert line[0].endswith(f"; first answer brass (code {brass}), posterior 0.500 (SDO)"), line
+    mon.feed(_tpdo5(glass, 4, 1.47))            # the next touch: the last touch's answers are not its own
+    j = mon.snapshot()["materials"][0]
+    assert (j["stage"], j["early_code"], j["early_posterior"]) == (None, None, None), j

@@ -27,7 +27,11 @@ def test_slave_publishes_the_identified_material_by_sdo(tmp_path):
     spread over 11 cycles) the OD holds one evaluated
     touch, a material code of the rendering table with an effusivity, its β = b/b_skin, the standard
     error and the posterior. Aluminium lies among metals this probe cannot always tell apart (see
-    bench/material_id_bench.py): the code is asserted to be a metal's, b ≥ 7000 W·s^½/(m²·K)."""
+    bench/material_id_bench.py): the code is asserted to be a metal's, b ≥ 7000 W·s^½/(m²·K).
+    Issue 23, the answer that improves while the touch lasts: the first answer within 0.5 s of contact
+    (identified_stage 1, identified_early_material = identified_material), the refined one by 1.5 s
+    (identified_stage 2) with the first one kept in 0x261C; both in the slave's TPDO6 (raw frames), all read
+    by a canopen RemoteNode from the shipped slave.eds."""
     with HubThread() as hub:
         net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
                                       channel="telethermo", tcp_tune=True))
@@ -50,11 +54,18 @@ def test_slave_publishes_the_identified_material_by_sdo(tmp_path):
                     net.send_message(0x80, bytes([k % 240 + 1]))               # SYNC
                     sdo.upload(0x1000, 0)                                       # fence: the cycle ran
 
+            tpdo6: list[bytes] = []                              # the slave's TPDO6, raw
+            net.subscribe(0x6C0 + SLAVE, lambda cob_id, data, ts: tpdo6.append(bytes(data)))
             cycles(95, 0)                                        # 0.95 s: not touched yet
             assert sdo["identified_touches"].raw == 0 and sdo["identified_material"].raw == 0
-            cycles(60, 95)                                       # the touch at 1.0 s, its first 0.3 s, the fit
-            #                                                      spread over the next 11 cycles (0.11 s)
-            assert sdo["identified_touches"].raw == 1
+            assert sdo["identified_stage"].raw == 0 and sdo["identified_early_material"].raw == 0
+            first = _cycles_until(cycles, 95, 60, lambda: sdo["identified_touches"].raw == 1)
+            # the touch at 1.0 s: its first 0.3 s, then the fit spread over the next 14 cycles
+            assert first <= 150, f"first answer {first - 100} cycles after the touch (at most 0.5 s wanted)"
+            assert sdo["identified_stage"].raw == 1
+            early = sdo["identified_early_material"].raw
+            assert early == sdo["identified_material"].raw
+            assert sdo["identified_early_posterior"].raw == sdo["identified_posterior"].raw
             code = sdo["identified_material"].raw
             names = list(load_render_table())
             assert 1 <= code <= len(names)
@@ -64,10 +75,28 @@ def test_slave_publishes_the_identified_material_by_sdo(tmp_path):
             assert beta * 951.15 > 3000.0
             assert 0.0 < sdo["identified_se_ln_b"].raw < 2.0
             assert 0.0 < sdo["identified_posterior"].raw <= 1.0
+            # the touch goes on: the refined answer (1.2 s window) by 1.5 s of contact, the first one kept
+            refined = _cycles_until(cycles, first, 120, lambda: sdo["identified_stage"].raw == 2)
+            assert refined <= 250, f"refined answer {refined - 100} cycles after the touch (by 1.5 s wanted)"
+            assert sdo["identified_touches"].raw == 1 and sdo["identified_early_material"].raw == early
+            assert 1 <= sdo["identified_material"].raw <= len(names) or sdo["identified_material"].raw == 255
+            cycles(10, refined)                                  # one more TPDO6 (every 10th SYNC)
+            T0, early_pdo, stage_pdo = struct.unpack("<fBB", tpdo6[-1])
+            assert (early_pdo, stage_pdo) == (early, 2), tpdo6[-1].hex()
+            assert abs(T0 - sdo["identified_T_object0_C"].raw) < 1e-4
         finally:
             code = stop_process(proc)
             net.disconnect()
             assert code == 0, proc.stderr.read().decode()
+
+
+def _cycles_until(cycles, start: int, most: int, done) -> int:
+    """Run cycles from ``start`` one at a time until ``done()`` (at most ``most``); the cycle count then."""
+    for k in range(start, start + most):
+        cycles(1, k)
+        if done():
+            return k + 1
+    raise AssertionError(f"not done within {most} cycles after cycle {start}")
 
 
 def _answers(sdo) -> bool:
