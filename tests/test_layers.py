@@ -157,7 +157,6 @@ STILL_IMPORTING_BENCH = {
     "tests/control/test_material_calib.py",
     "tests/control/test_material_id_bound.py",
     "tests/control/test_material_physics.py",    # written beside this rule (the envelope's touch simulator)
-    "tests/control/test_material_trust.py",
     "tests/monitor/test_monitor_bench.py",
     "tests/session/test_link_loss_bench.py",
     "tests/session/test_rendering_bench.py",

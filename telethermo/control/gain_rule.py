@@ -42,6 +42,9 @@ from telethermo.control.cooling_limit import max_cooling_current_A
 from telethermo.control.types import Role
 from telethermo.ident import default_model_path, load_model
 
+#: a module whose identified gain at the reference crossover lies within ±15 % of the shipped model's counts
+#: as the shipped one (re-identifying the shipped rig lands within a few per cent)
+SAME_MODULE_TOL = 0.15
 MIN_GAIN_MARGIN_DB = 6.0
 MIN_PHASE_MARGIN_DEG = 40.0
 # ρ never raises the shipped gains: a module with a weaker free-pad response (a heavier plate: ×2 gave
@@ -144,8 +147,8 @@ def gain_scale(
     fc = ref["crossover_Hz"]
     if not math.isfinite(fc):
         fc = 1.0
-    rho = float(np.abs(ref_plant.response(fc)) / max(float(np.abs(rig_plant.response(fc))), 1e-12))
-    rho = min(max(rho, RHO_MIN), RHO_MAX)
+    ratio = float(np.abs(rig_plant.response(fc))) / max(float(np.abs(ref_plant.response(fc))), 1e-12)
+    rho = min(max(1.0 / max(ratio, 1e-12), RHO_MIN), RHO_MAX)
     m = margins(rig_plant, rho * kp_A_per_C, rho * ki_A_per_C_s)
     backed_off = 0
     while (
@@ -156,6 +159,7 @@ def gain_scale(
         m = margins(rig_plant, rho * kp_A_per_C, rho * ki_A_per_C_s)
     return {
         "rho": rho,
+        "plant_gain_ratio": ratio,
         "reference_crossover_Hz": fc,
         "reference_margins": ref,
         "margins": m,
@@ -170,10 +174,23 @@ def scaled_params(params: Any, rho: float) -> Any:
     return dataclasses.replace(params, **{k: getattr(params, k) * rho for k in SCALED_FIELDS})
 
 
+def same_module(fit: dict[str, Any]) -> bool:
+    """Whether the rig of ``fit`` is the shipped module as far as its identified model tells: its gain at the
+    reference crossover within ±:data:`SAME_MODULE_TOL` of the shipped model's."""
+    ratio = fit.get("plant_gain_ratio", 1.0)
+    return bool(1.0 / (1.0 + SAME_MODULE_TOL) <= ratio <= 1.0 + SAME_MODULE_TOL)
+
+
 def fitted_params(params: Any, fit: dict[str, Any]) -> Any:
-    """``params`` (a CoreParams) for the rig of ``fit`` (:func:`fit_gains`): the gains scaled by ρ and the
-    cooling current held at the TEM's maximum-cooling current (``max_cooling_A``, None: unknown)."""
+    """``params`` (a CoreParams) for the rig of ``fit`` (:func:`fit_gains`): the gains scaled by ρ, the
+    cooling current held at the TEM's maximum-cooling current (``max_cooling_A``, None: unknown), and, on
+    another module than the shipped one (:func:`same_module`), the material classifier's box told so: its
+    network was trained on the shipped module's touches, so the physics posterior names them instead."""
     p = scaled_params(params, fit["rho"])
+    mid = getattr(p, "material_id", None)
+    if mid is not None and mid.box is not None and not same_module(fit):
+        p = dataclasses.replace(p, material_id=dataclasses.replace(
+            mid, box=dataclasses.replace(mid.box, probe_matches=False)))
     cool = fit.get("max_cooling_A")
     if cool is None:
         return p

@@ -18,8 +18,13 @@ checks what the node measures itself against the calibration's :class:`Calibrati
   ``min_dT_C`` of the probe, or farther below it than the calibration's coldest object (with ``dT_margin_C``);
 - ``far_from_references``: the network's whitened input is longer than any but 0.5 % of in-box touches'.
 
-It does not see force, thickness, the noise level or another TEM (none of them measured by the node in the
-window): touches outside the box there are still answered, and the envelope bench reports it per stratum.
+- ``another_tem``: the probe's module is not the calibration's (``probe_matches`` False: the node's identified
+  model differs from the shipped one, telethermo.control.gain_rule.same_module): the network learnt the
+  shipped module's touches, and on a swapped module it named 349 of 400 touches with accuracy 0.37
+  (tests/control/test_material_tem_swap.py), so the TEM-independent physics posterior answers instead.
+
+It does not see force, thickness or the noise level (none of them measured by the node in the window):
+touches outside the box there are still answered, and the envelope bench reports it per stratum.
 Pure.
 """
 from __future__ import annotations
@@ -47,6 +52,8 @@ class CalibrationBox:
             6.5 °C on in-box touches), °C.
         max_input_norm: the longest whitened network input answered (99.5 % quantile of 1000 in-box touches,
             draw seed 4344, simulator seeds 710000 + i: 21.7).
+        probe_matches: the probe's TEM is the calibration's (set False by the node when its identified model
+            is another module's: ``another_tem``).
     """
 
     rest_C: float = 33.65
@@ -55,6 +62,7 @@ class CalibrationBox:
     min_dT_C: float = 2.0
     dT_margin_C: float = 2.0
     max_input_norm: float = 21.7
+    probe_matches: bool = True
 
 
 def pre_contact(inp: FitInput) -> tuple[float, float]:
@@ -69,6 +77,8 @@ def abstain_reason(box: CalibrationBox, inp: FitInput, est: EffusivityEstimate |
     """Why the touch must not be named (module docstring), or None when it lies inside ``box``.
 
     ``inp`` the touch's window, ``est`` the physics fit (None: none), ``x`` the network's whitened input."""
+    if not box.probe_matches:
+        return "another_tem"
     T0, dQ = pre_contact(inp)
     if not abs(T0 - box.rest_C) <= box.rest_tol_C:
         return "probe_rest"

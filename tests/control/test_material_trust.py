@@ -2,14 +2,17 @@
 simulated touches through the slave's core, the shipped calibration."""
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
 import pytest
 
-from bench.material_id_bench import SIM_TO_TABLE, draws, finger_natural_C, simulate_touch
 from telethermo.control.material_stream import UNKNOWN_CODE, default_calibration, default_classes
 from telethermo.control.material_trust import CalibrationBox
+from telethermo.control.params import default_params
+from telethermo.control.types import Role
+from telethermo.offline.material_touches import SIM_TO_TABLE, draws, finger_natural_C, simulate_touch
 from telethermo.sim.tem import load_rig_params
 
 PARAMS = load_rig_params()
@@ -43,6 +46,21 @@ def test_a_probe_resting_elsewhere_is_named_by_the_physics_not_the_network():
     _, _, _, est, _ = simulate_touch(PARAMS, "glass", 0.02, 20.0, 8.0, rest, seed=930_002, t_on_s=0.2043,
                                      ambient_C=18.0)
     assert NAMES.get(est.code) == "glass" and 0.2 <= est.posterior < 1.0, est
+
+
+def test_on_another_module_the_physics_names_the_touch_not_the_network():
+    """The same in-box touch (aluminium at 25 °C) with the box told that the probe is another module than the
+    calibration's (what the node does after identify finds one): the network's answer is replaced by the
+    physics posterior's ("another_tem"); with the shipped module the network names it."""
+    core = default_params(Role.SLAVE)
+    mid = core.material_id
+    other = dataclasses.replace(core, material_id=dataclasses.replace(
+        mid, box=dataclasses.replace(mid.box, probe_matches=False)))
+    kw = dict(seed=930_021, t_on_s=0.2043)
+    _, _, _, ship, _ = simulate_touch(PARAMS, "aluminium", 0.02, 25.0, 8.0, REST_C, core_params=core, **kw)
+    _, _, _, swap, _ = simulate_touch(PARAMS, "aluminium", 0.02, 25.0, 8.0, REST_C, core_params=other, **kw)
+    assert ship.by == "network", ship
+    assert swap.by == "physics" and swap.posterior < 1.0, swap
 
 
 def test_an_object_at_the_probe_temperature_is_unknown():
