@@ -67,6 +67,8 @@ class Param:
     convert: str = ""
     access: str = "rw"
     pdo: bool = False
+    stored: bool = True
+    """Saved by a CiA 301 store (0x1010) and restored at power-on."""
 
     def value(self, what: str, role: str) -> Num:
         """``default``, ``low`` or ``high`` of ``role``."""
@@ -88,10 +90,11 @@ class Param:
 
 
 def _P(index: int, name: str, data_type: int, default: PerRole, low: PerRole, high: PerRole, unit: str,
-       field: str | tuple[str, ...], scope: str, doc: str, convert: str = "", pdo: bool = False) -> Param:
+       field: str | tuple[str, ...], scope: str, doc: str, convert: str = "", pdo: bool = False,
+       stored: bool = True) -> Param:
     fields = (field,) if isinstance(field, str) else field
     return Param(index, name, data_type, default, low, high, unit, fields, scope, doc,
-                 convert=convert, pdo=pdo)
+                 convert=convert, pdo=pdo, stored=stored)
 
 
 # the master's envelope guards skin, the slave's the probe's hardware (telethermo.control.safety_limits)
@@ -139,7 +142,7 @@ PARAMS: tuple[Param, ...] = (
        "model-vs-sensor plausibility limit"),
     # -- mode (telethermo.control.types.Mode)
     _P(0x2500, "mode", UNSIGNED8, 0, 0, 3, "", "mode", NODE,
-       "0 idle, 1 telepresence, 2 render, 3 identify (render on the master only)", pdo=True),
+       "0 idle, 1 telepresence, 2 render, 3 identify (render on the master only)", pdo=True, stored=False),
     # -- virtual rendering (yamamoto eq. 5/7)
     _P(0x2600, "material_code", UNSIGNED8, 0, 0, 255, "", "render.material", RENDER,
        "0 custom (material_beta), k from 1: the k-th material of the rendering table "
@@ -205,10 +208,11 @@ def markdown() -> str:
             "Generated from `bus_config/partable.py` by `python -m telethermo.bus_config.partable`: "
             "do not edit "
             "by hand (`tests/canopen/test_partable.py` fails when this page, the EDS files and the table "
-            "disagree). Every parameter is `rw` by SDO, stored by a CiA 301 store (0x1010) and shown by "
-            "`telethermo get`; scope: which of the controller's parameters a write changes.", "",
-            "| index | name | type | default | range | unit | CoreParams field | scope | what |",
-            "|---|---|---|---|---|---|---|---|---|"]
+            "disagree). Every parameter is `rw` by SDO and shown by `telethermo get`; stored: saved by a "
+            "CiA 301 store (0x1010, `telethermo store`); scope: which of the controller's parameters a write "
+            "changes (the master's envelope guards skin, the slave's the probe's hardware).", "",
+            "| index | name | type | default | range | unit | CoreParams field | scope | stored | what |",
+            "|---|---|---|---|---|---|---|---|---|---|"]
     rows = []
     for p in PARAMS:
         field = ", ".join(f"`{f}`" for f in p.field) or "(node)"
@@ -216,7 +220,7 @@ def markdown() -> str:
             field += f" ({p.convert})"
         rng = f"{_per_role(p, 'low')} .. {_per_role(p, 'high')}"
         rows.append(f"| 0x{p.index:04X} | {p.name} | {TYPE_NAMES[p.data_type]} | {_per_role(p, 'default')} | "
-                    f"{rng} | {p.unit} | {field} | {p.scope} | {p.doc} |")
+                    f"{rng} | {p.unit} | {field} | {p.scope} | {'yes' if p.stored else 'no'} | {p.doc} |")
     return "\n".join(head + rows) + "\n"
 
 

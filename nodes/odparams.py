@@ -52,6 +52,8 @@ IDENT_KEYS: dict[str, str] = {p.name: p.field[0].removeprefix("identify.")
                               for p in PARAMS if p.scope == IDENTIFY}
 #: every object a node mirrors and accepts writes of
 PARAM_KEYS = tuple(p.name for p in PARAMS)
+#: the objects a CiA 301 store saves (``mode`` is not: --mode decides it at boot)
+STORED_KEYS = tuple(p.name for p in PARAMS if p.stored)
 
 
 def _field_value(params: CoreParams, path: str) -> Any:

@@ -15,7 +15,7 @@ from telethermo.device.device import Device, WriteEvent
 from telethermo.control.rendering import load_render_table
 from telethermo.control.types import Mode
 
-from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, ParamBook, od_image
+from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, STORED_KEYS, ParamBook, od_image
 
 if TYPE_CHECKING:
     from telethermo.nodes.runtime import NodeRuntime
@@ -148,7 +148,7 @@ class ParamSlot:
             log.error("%s = %r not applied: %s", key, ev.value, exc)
             self.book.version += 1  # the next SYNC rewrites the OD with the truth
         else:
-            if key != "mode":
+            if key in STORED_KEYS:
                 self.record(f"{key}@{self.book.mode.name}" if key in GAIN_KEYS else key, ev.value)
         log.info("%s = %r (takes effect at the next SYNC)", key, ev.value)
         return True
