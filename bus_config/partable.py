@@ -140,6 +140,8 @@ PARAMS: tuple[Param, ...] = (
        "missed peer PDOs (cycles) before peer loss"),
     _P(0x2409, "mismatch_limit_C", REAL32, 12.0, 0.1, 20.0, "degC", "safety.mismatch_C", ALL,
        "model-vs-sensor plausibility limit"),
+    _P(0x240B, "mismatch_time_s", REAL32, 1.0, 0.01, 1.0, "s", "safety.mismatch_time_s", ALL,
+       "how long the model-vs-sensor mismatch must exceed mismatch_limit_C before it cuts the current"),
     # -- mode (telethermo.control.types.Mode)
     _P(0x2500, "mode", UNSIGNED8, 0, 0, 3, "", "mode", NODE,
        "0 idle, 1 telepresence, 2 render, 3 identify (render on the master only)", pdo=True, stored=False),
