@@ -22,9 +22,6 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("telethermo.node")
 
-PEER_MISS_INDEX = 0x2408
-
-
 class ParamSlot:
     """The controller's parameters of one node (``params``, ``mode``), built from its ``book``."""
 
@@ -67,7 +64,7 @@ class ParamSlot:
                               od_material=(int(dev.read("material_code")), float(dev.read("material_beta")),
                                            float(dev.read("object_T0_C"))),
                               script_first=self.script_rs if parts.render_script is not None else None,
-                              mode=self.configured_mode, peer_miss_limit=int(dev.read(PEER_MISS_INDEX)))
+                              mode=self.configured_mode, peer_miss_limit=int(dev.read("peer_pdo_miss_limit")))
         self.mode = self.configured_mode
         self.written = {}
         self.rebuild()
