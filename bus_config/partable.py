@@ -9,8 +9,10 @@ scope it applies to and one line of documentation. From these rows come:
   files written by ``python -m telethermo.bus_config.edsgen``);
 - the mapping between the objects and CoreParams (``nodes/odparams.py``: what an SDO write changes, what
   ``telethermo get`` shows, what a CiA 301 store saves);
-- the parameter table of the docs (``docs/parameters.md``, ``python -m telethermo.bus_config.partable``;
-  ``--check`` exits 1 when it is stale).
+- the parameter table of the docs (``docs/parameters.md``).
+
+``python -m telethermo.bus_config.edsgen`` writes the EDS files and the docs tables from it; ``--check``
+exits 1 when one of them is stale.
 
 Adding a parameter: one row here (and the code that uses its field). Measured values, status, commands
 (``fault_reset``, ``model_command``) and the TEM model's objects are not operator parameters: they stay
@@ -18,8 +20,6 @@ in ``od_manufacturer.py``.
 """
 from __future__ import annotations
 
-import argparse
-import sys
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Union
@@ -207,11 +207,11 @@ def _per_role(p: Param, what: str) -> str:
 def markdown() -> str:
     """docs/parameters.md: the table of every operator parameter."""
     head = ["# Operator parameters", "",
-            "Generated from `bus_config/partable.py` by `python -m telethermo.bus_config.partable`: "
+            "Generated from `bus_config/partable.py` by `python -m telethermo.bus_config.edsgen`: "
             "do not edit "
             "by hand (`tests/canopen/test_partable.py` fails when this page, the EDS files and the table "
             "disagree). Every parameter is `rw` by SDO and shown by `telethermo get`; stored: saved by a "
-            "CiA 301 store (0x1010, `telethermo store`); scope: which of the controller's parameters a write "
+            "CiA 301 store (0x1010, `telethermo save`); scope: which of the controller's parameters a write "
             "changes (the master's envelope guards skin, the slave's the probe's hardware).", "",
             "| index | name | type | default | range | unit | CoreParams field | scope | stored | what |",
             "|---|---|---|---|---|---|---|---|---|---|"]
@@ -226,22 +226,5 @@ def markdown() -> str:
     return "\n".join(head + rows) + "\n"
 
 
+#: the generated page (in a checkout; ``python -m telethermo.bus_config.edsgen`` writes it with the EDS files)
 DOC = Path(__file__).resolve().parents[1] / "docs" / "parameters.md"
-
-
-def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Write docs/parameters.md from the parameter table.")
-    parser.add_argument("--check", action="store_true", help="only compare; exit 1 if the page is stale")
-    args = parser.parse_args(argv)
-    text = markdown()
-    if args.check:
-        if not DOC.exists() or DOC.read_text(encoding="utf-8") != text:
-            print(f"stale {DOC} (run python -m telethermo.bus_config.partable)", file=sys.stderr)
-            return 1
-        return 0
-    DOC.write_text(text, encoding="utf-8")
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

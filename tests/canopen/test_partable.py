@@ -18,18 +18,27 @@ from telethermo.device.eds_info import EdsInfo
 from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, ParamBook, od_image
 
 
-def test_docs_page_is_the_generated_one():
-    """docs/parameters.md is current (regenerate: python -m telethermo.bus_config.partable)."""
+def test_the_docs_pages_and_eds_files_are_the_generated_ones():
+    """docs/parameters.md, the table of docs/canopen.md and both EDS files are current (regenerate:
+    python -m telethermo.bus_config.edsgen)."""
     assert partable.DOC.read_text(encoding="utf-8") == partable.markdown()
-    assert partable.main(["--check"]) == 0
+    assert edsgen.main(["--check"]) == 0
 
 
-def test_the_docs_check_sees_a_stale_page(tmp_path, monkeypatch, capsys):
-    stale = tmp_path / "parameters.md"
-    stale.write_text(partable.markdown().replace("proportional gain", "gain"), encoding="utf-8")
-    monkeypatch.setattr(partable, "DOC", stale)
-    assert partable.main(["--check"]) == 1
-    assert "stale" in capsys.readouterr().err
+def test_the_check_sees_a_stale_docs_page_and_regenerates_it(tmp_path, monkeypatch, capsys):
+    page, doc = tmp_path / "parameters.md", tmp_path / "canopen.md"
+    page.write_text(partable.markdown().replace("proportional gain", "gain"), encoding="utf-8")
+    doc.write_text(edsgen.CANOPEN_DOC.read_text(encoding="utf-8").replace("| kp_A_per_C |", "| kp |"),
+                   encoding="utf-8")
+    monkeypatch.setattr(partable, "DOC", page)
+    monkeypatch.setattr(edsgen, "CANOPEN_DOC", doc)
+    monkeypatch.setattr(edsgen, "_path", lambda name: tmp_path / name)
+    assert edsgen.main(["--check"]) == 1
+    err = capsys.readouterr().err
+    assert all(str(tmp_path / f) in err for f in ("parameters.md", "canopen.md", "master.eds", "slave.eds"))
+    assert edsgen.main([]) == 0 and edsgen.main(["--check"]) == 0
+    assert page.read_text(encoding="utf-8") == partable.markdown()
+    assert "| kp_A_per_C |" in doc.read_text(encoding="utf-8")
 
 
 @pytest.mark.parametrize("role", ROLES)
