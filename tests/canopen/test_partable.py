@@ -13,6 +13,7 @@ from telethermo.bus_config.partable import PARAMS, ROLES
 from telethermo.control.gain_fields import SDO_GAIN_FIELDS
 from telethermo.control.params import default_params
 from telethermo.control.rendering import load_render_table
+from telethermo.control.coreparams import RenderSettings
 from telethermo.control.types import Mode, Role
 from telethermo.device.eds_info import EdsInfo
 from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, ParamBook, od_image
@@ -107,3 +108,16 @@ def test_a_write_of_every_row_reaches_coreparams_and_shows_in_the_od_image(p):
     # a material code sets beta and back; each mode has its own gains
     allowed = {"material_code", "material_beta"} | (set(GAIN_KEYS) if p.name == "mode" else set())
     assert changed <= allowed, (p.name, changed)
+
+
+@pytest.mark.parametrize("role", ROLES)
+def test_the_controller_defaults_lie_within_each_rows_range(role):
+    """What a node shows at power-on (its controller's defaults through the mapping) is a value an SDO write
+    could set back: inside every row's range, for the role's own range, in every mode the role runs."""
+    modes = [m for m in Mode if role == "master" or m is not Mode.RENDER]
+    rs = RenderSettings(beta_object=0.4, T_object0_C=25.0)
+    for mode in modes:
+        params = default_params(Role(role), mode=mode, **({"render": rs} if mode is Mode.RENDER else {}))
+        img = od_image(params, rs, material_code=0, peer_miss_limit=10)
+        for p in PARAMS:
+            assert p.value("low", role) <= img[p.name] <= p.value("high", role), (role, mode.name, p.name)
