@@ -3,8 +3,10 @@
 ``bus_config/master.eds`` and ``bus_config/slave.eds`` are generated from the tables below (and
 checked in: they are the contract other tools read). Regenerate after editing this file::
 
-    python -m telethermo.bus_config.edsgen          # rewrites master.eds and slave.eds (atomically)
-    python -m telethermo.bus_config.edsgen --check  # exit 1 if the checked-in files differ
+    python -m telethermo.bus_config.edsgen          # rewrites master.eds and slave.eds (atomically) and,
+                                                    # in a checkout, docs/parameters.md and the table of
+                                                    # docs/canopen.md
+    python -m telethermo.bus_config.edsgen --check  # exit 1 if one of them differs
 
 Naming convention (the operator CLI ``get``/``set`` and the bus monitor rely on it):
 
@@ -25,6 +27,7 @@ from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
 from telethermo.bus_config import path as _path
+from telethermo.bus_config import partable
 from telethermo.bus_config.od_manufacturer import manufacturer_objects
 from telethermo.bus_config.od_types import (  # noqa: F401 (UNIT_TEXT: the tests read it here too)
     BOOLEAN, INTEGER16, REAL32, REAL64, UNIT_TEXT, UNSIGNED8, UNSIGNED16, UNSIGNED32, VISIBLE_STRING, Obj, Var, _uint,
@@ -251,6 +254,21 @@ def markdown_table(role: str = "master") -> str:
     return "\n".join(rows)
 
 
+CANOPEN_DOC = partable.DOC.with_name("canopen.md")
+TABLE_HEAD = "| index | sub | name | type | access | default | range | unit | PDO |"
+
+
+def docs() -> dict[Path, str]:
+    """The generated docs pages of a checkout (none when the docs are not there): path -> text."""
+    if not CANOPEN_DOC.exists():
+        return {}
+    lines = CANOPEN_DOC.read_text(encoding="utf-8").split("\n")
+    start = lines.index(TABLE_HEAD)
+    end = next((i for i in range(start, len(lines)) if not lines[i].startswith("|")), len(lines))
+    canopen_doc = "\n".join(lines[:start] + [markdown_table("master")] + lines[end:])
+    return {partable.DOC: partable.markdown(), CANOPEN_DOC: canopen_doc}
+
+
 def main(argv: list[str] | None = None) -> int:
 
     parser = argparse.ArgumentParser(description="Generate bus_config/master.eds and slave.eds.")
@@ -261,16 +279,15 @@ def main(argv: list[str] | None = None) -> int:
         print(markdown_table(args.table))
         return 0
     stale = []
-    for role in NODE_IDS:
-        target = Path(_path(f"{role}.eds"))
-        text = render(role)
+    outputs = {Path(_path(f"{role}.eds")): render(role) for role in NODE_IDS}
+    for target, text in [*outputs.items(), *docs().items()]:
         if args.check:
-            if not target.exists() or target.read_text(encoding="ascii") != text:
+            if not target.exists() or target.read_text(encoding="utf-8") != text:
                 stale.append(str(target))
         else:
             write_text_atomic(target, text)
     if stale:
-        print("stale EDS (run python -m telethermo.bus_config.edsgen): " + ", ".join(stale), file=sys.stderr)
+        print("stale (run python -m telethermo.bus_config.edsgen): " + ", ".join(stale), file=sys.stderr)
         return 1
     return 0
 

@@ -1,23 +1,19 @@
 """The manufacturer-specific objects (0x2000..) of the two nodes' object dictionaries, in groups: measurements
 and control, the TEM model, safety/mode/rendering/material identification, identification/status/diagnostics.
-``bus_config/edsgen.py`` writes them into master.eds and slave.eds with the communication objects."""
+``bus_config/edsgen.py`` writes them into master.eds and slave.eds with the communication objects. The
+operator parameters (gains, estimator, R_sensor, safety limits, mode, rendering, link loss, identification
+plan) are rows of ``bus_config/partable.py``, inserted here by index (:func:`with_params`)."""
 from __future__ import annotations
 
 from typing import Any, Callable
 
 from telethermo.bus_config.od_types import (BOOLEAN, UNSIGNED8, UNSIGNED16, UNSIGNED32, VISIBLE_STRING, Obj,
                                             Var, _real, _real64, _uint)
+from telethermo.bus_config.partable import param_objects
 
-
-# power-on gains per role (A/degC, A/(degC*s), A/W). Neutral placeholders: a node program writes its
-# controller's parameters (gains, estimator, R_sensor, safety limits, mode, rendering settings: read from
-# telethermo/control/defaults.py at run time, see nodes/odparams.py) into the OD before Device.start()
-# and after a reset node. (The CLI tests read these values; changing them needs tests/cli updated too.)
-GAINS = {"master": (0.5, 0.1, 0.0), "slave": (0.5, 0.1, 0.0)}
 
 def _measurement_and_control_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
-    """Measurements, estimates and the controller's gains (eq. 33-35)."""
-    kp, ki, kq = GAINS[role]
+    """Measurements and estimates (the controller's gains, eq. 33-35: bus_config/partable.py)."""
     ro_pdo = dict(pdo=True)
     return [
         # -- measurements (written by the node from its rig each cycle; read-only on the bus)
@@ -40,14 +36,6 @@ def _measurement_and_control_objects(V: Callable[[int, Any], Obj], role: str) ->
                         description="peer's heat flux, received in RPDO1 (limits apply to SDO writes only)")),
         V(0x2105, _uint("peer_contact", BOOLEAN, "rww", 0, 0, 1, pdo=True,
                         description="peer's contact detector, received in RPDO2 (the probe touches something)")),
-        # -- controller (eq. 33-35)
-        V(0x2200, _real("kp_A_per_C", "rw", kp, 0.0, 20.0, description="proportional gain")),
-        V(0x2201, _real("ki_A_per_C_s", "rw", ki, 0.0, 20.0, description="integral gain")),
-        V(0x2202, _real("kQ_A_per_W", "rw", kq, -20.0, 20.0, description="heat-flux feed-forward gain (peer's flux)")),
-        V(0x2203, _uint("estimator", UNSIGNED8, "rw", 0, 0, 2,
-                        description="eq. 30/31, 2*T_sensor - T_pred, with T_pred from: 0 the NARMA model (eq. 32), "
-                                    "1 the flux sensor, T1 of eq. 28 as T_sensor + Q*R_sensor/2 (default), 2 both fused "
-                                    "(0 and 2 need a loaded model: model_status 1)")),
     ]
 
 
@@ -64,7 +52,6 @@ def _model_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
         V(0x2306, _uint("theta_len", UNSIGNED8, "rw", 0, 0, 48, description="number of valid entries of theta")),
         V(0x2307, _uint("flux_n", UNSIGNED8, "rw", 0, 0, 8, description="flux model order n (c_1..c_n)")),
         V(0x2308, _uint("flux_m", UNSIGNED8, "rw", 0, 0, 7, description="flux model order m (d_0..d_m)")),
-        V(0x2309, _real("R_sensor_C_per_W", "rw", 2.0, 0.0, 1000.0, description="flux-sensor thermal resistance e/(kS), eq. 29")),
         V(0x230A, _real64("model_I_min_A", "rw", -1.0, -10.0, 10.0,
                           description="lowest current of the model's training data (stability is checked over the range)")),
         V(0x230B, _real64("model_I_max_A", "rw", 1.0, -10.0, 10.0, description="highest current of the model's training data")),
@@ -90,46 +77,11 @@ def _model_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
 
 def _safety_mode_render_objects(V: Callable[[int, Any], Obj], role: str) -> list[Obj]:
     """Safety envelope, mode, virtual rendering and its later phase, material identification."""
-    # the master's envelope guards skin, the slave's the probe's hardware (telethermo.control.safety_limits)
-    lo, hi, hot = (15.0, 43.0, 41.0) if role == "master" else (0.0, 60.0, 58.0)
     return [
-        # -- safety envelope (DESIGN.md section 6): ranges only allow narrowing the defaults
-        V(0x2400, _real("T_min_C", "rw", lo, lo, hi,
-                        description="lowest surface setpoint, must not exceed neutral_C and must stay more than 1 degC "
-                                    "(two 0.5 degC guard bands) below T_max_C")),
-        V(0x2401, _real("T_max_C", "rw", hi, lo, hi,
-                        description="highest surface setpoint, must not be below neutral_C and must stay more than 1 degC "
-                                    "(two 0.5 degC guard bands) above T_min_C")),
-        V(0x2402, _real("ramp_limit_C_per_s", "rw", 5.0, 0.01, 5.0, description="setpoint ramp limit")),
-        V(0x2403, _real("hot_threshold_C", "rw", hot, 30.0, hi, description="time-at-temperature threshold")),
-        V(0x2404, _real("hot_time_limit_s", "rw", 30.0 if role == "master" else 600.0, 0.0, 600.0, description="longest time above hot_threshold_C")),
-        V(0x2405, _real("current_limit_A", "rw", 1.6, 0.0, 10.0, description="current limit, at most 0.8 Imax of the rig (the node writes its own: 2.4 A on the simulated 3 A rig)")),
-        V(0x2406, _real("sink_trip_C", "rw", 55.0, 20.0, 55.0, description="heat-sink trip temperature")),
-        V(0x2407, _real("neutral_C", "rw", 32.0, 28.0, 36.0, description="neutral temperature on peer loss, must lie within [T_min_C, T_max_C]")),
-        V(0x2408, _uint("peer_pdo_miss_limit", UNSIGNED16, "rw", 10, 1, 1000, description="missed peer PDOs (cycles) before peer loss")),
-        V(0x2409, _real("mismatch_limit_C", "rw", 12.0, 0.1, 20.0, description="model-vs-sensor plausibility limit")),
+        # -- safety envelope (DESIGN.md section 6): its operator's reset (the limits: bus_config/partable.py)
         V(0x240A, _uint("fault_reset", UNSIGNED8, "rw", 0, 0, 1,
                         description="write 1: clear the latched trips whose cause is gone (refused with 0x08000022 "
                                     "while one persists: nothing cleared) (reads 0)")),
-        # -- mode (telethermo.control.types.Mode)
-        V(0x2500, _uint("mode", UNSIGNED8, "rw", 0, 0, 3, pdo=True,
-                        description="0 idle, 1 telepresence, 2 render, 3 identify (render on the master only)")),
-        # -- virtual rendering (yamamoto eq. 5/7)
-        V(0x2600, _uint("material_code", UNSIGNED8, "rw", 0, 0, 255,
-                        description="0 custom (material_beta), k from 1: the k-th material of the rendering table "
-                                    "(telethermo/data/render_materials.toml, in file order)")),
-        V(0x2601, _real("material_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the object (eq. 6)")),
-        V(0x2602, _real("object_T0_C", "rw", 25.0, -20.0, 100.0, description="initial object temperature")),
-        V(0x2603, _real("finger_T0_C", "rw", 33.0, 20.0, 40.0, description="initial finger temperature")),
-        V(0x2604, _real("pad_beta", "rw", 1.0, 0.001, 1000.0, description="relative effusivity of the pad")),
-        # -- later phase of a rendered touch (issue 15; telethermo.control.later_phase)
-        V(0x2605, _uint("later_model", UNSIGNED8, "rw", 0, 0, 2,
-                        description="after the first instant: 0 semi-infinite (eq. 1 for the whole touch), 1 RC "
-                                    "(benali-khoudja 4), 2 conduction model of the object (1 and 2 need a material of "
-                                    "telethermo/data/render_objects.toml)")),
-        V(0x2606, _real("object_thickness_mm", "rw", 20.0, 0.01, 1000.0, description="virtual object thickness, mm")),
-        V(0x2607, _uint("object_back", UNSIGNED8, "rw", 0, 0, 1,
-                        description="virtual object back face: 0 adiabatic, 1 losing to ambient air")),
         # -- material identification (slave; written by the node from telethermo.control.material_stream)
         V(0x2610, _uint("identified_material", UNSIGNED8, "ro", 0, pdo=True,
                         description="material of the last touch (its first 0.3 s): code in the rendering table as "
@@ -149,9 +101,6 @@ def _safety_mode_render_objects(V: Callable[[int, Any], Obj], role: str) -> list
                         description="the slave's identified_touches, received in RPDO2 (a change: a new identification)")),
         V(0x2617, _real("peer_identified_beta", "rww", 0.0, -1.0e6, 1.0e6, pdo=True,
                         description="the slave's identified_beta, received in RPDO2 (limits apply to SDO writes only)")),
-        V(0x2618, _real("link_loss_render_s", "rw", 5.0, 0.0, 60.0,
-                        description="(master, telepresence) slave lost while the operator touches an identified "
-                                    "material: render it locally this long before the ramp to neutral (0: at once)")),
         V(0x2619, _uint("link_fallback_active", BOOLEAN, "ro", 0, pdo=True,
                         description="1 while the master renders the last identified material because the slave is "
                                     "lost (EMCY 0xFF01 when it starts)")),
@@ -189,18 +138,6 @@ def _identification_status_objects(V: Callable[[int, Any], Obj], role: str) -> l
     ro_pdo = dict(pdo=True)
     return [
         # -- identification experiment (IDENTIFY mode; telethermo.ident.plan.IdentifyPlan)
-        V(0x2800, _uint("ident_seed", UNSIGNED16, "rw", 0, 0, 0xFFFF, description="PRBS seed (held-out: seed + 1)")),
-        V(0x2801, _uint("ident_rest_samples", UNSIGNED32, "rw", 200, 0, 100_000, description="samples at 0 A first")),
-        V(0x2802, _uint("ident_train_samples", UNSIGNED32, "rw", 10_000, 1, 500_000, description="training PRBS samples")),
-        V(0x2803, _uint("ident_validation_samples", UNSIGNED32, "rw", 5_000, 1, 500_000,
-                        description="held-out PRBS samples")),
-        V(0x2804, _real("ident_amplitude_min_A", "rw", 0.1, 0.0, 10.0,
-                        description="smallest PRBS bit amplitude, must not exceed ident_amplitude_max_A nor change "
-                                    "while identifying (mode 3)")),
-        V(0x2805, _real("ident_amplitude_max_A", "rw", 1.0, 0.0, 10.0,
-                        description="largest PRBS bit amplitude, must not be below ident_amplitude_min_A nor change "
-                                    "while identifying (mode 3)")),
-        V(0x2806, _uint("ident_hold_samples", UNSIGNED16, "rw", 25, 1, 10_000, description="samples per PRBS bit")),
         V(0x2807, _uint("ident_sample", UNSIGNED32, "ro", 0, pdo=True,
                         description="sample j of the experiment is sent with j + 1 (values above the plan's total: done, 0 A held)")),
         V(0x2808, _uint("ident_state", UNSIGNED8, "ro", 0, pdo=True,
@@ -249,9 +186,19 @@ def _identification_status_objects(V: Callable[[int, Any], Obj], role: str) -> l
     ]
 
 
+def with_params(objs: list[Obj], role: str) -> list[Obj]:
+    """``objs`` with the operator parameters of bus_config/partable.py, each inserted before the first
+    object of a higher index (the groups above are in index order, the status group after them)."""
+    out = list(objs)
+    for p in param_objects(role, 0x2000, 0x5FFF):
+        out.insert(next((i for i, o in enumerate(out) if o.index > p.index), len(out)), p)
+    return out
+
+
 def manufacturer_objects(role: str = "master") -> list[Obj]:
     """0x2000..: measurements, estimates, gains, model, safety, mode, rendering, status, diagnostics."""
     V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
-    return [*_measurement_and_control_objects(V, role), *_model_objects(V, role),
+    hand = [*_measurement_and_control_objects(V, role), *_model_objects(V, role),
             *_safety_mode_render_objects(V, role), *_material_answer_objects(V, role),
             *_identification_status_objects(V, role)]
+    return with_params(hand, role)

@@ -28,9 +28,13 @@ class Var:
     high: str | None = None
     pdo: bool = False
     description: str = ""
+    unit_text: str = ""
+    """The unit given by the parameter table (bus_config/partable.py); else implied by the name's suffix."""
 
     @property
     def unit(self) -> str:
+        if self.unit_text:
+            return self.unit_text
         for suffix, text in UNIT_TEXT.items():
             if self.name.endswith(suffix):
                 return text

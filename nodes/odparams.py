@@ -4,21 +4,14 @@ A node's controller runs with :class:`telethermo.control.core.CoreParams` built 
 ``NodeParts.params_for(mode)`` (``telethermo.control.params.default_params`` for the role and mode,
 the envelope at the rig's I_max). :class:`ParamBook` keeps what the operator changed by SDO on top of
 those defaults, and builds the parameters of any mode from both; :func:`od_image` is what the node
-writes into its object dictionary so that ``telethermo get`` shows the running controller:
+writes into its object dictionary so that ``telethermo get`` shows the running controller.
 
-| object | CoreParams | scope |
-|---|---|---|
-| kp_A_per_C, ki_A_per_C_s, kQ_A_per_W (0x2200..0x2202) | the same fields | per mode (each mode has its own gains) |
-| estimator (0x2203): 0 model, 1 flux, 2 fused | ``estimator`` | all modes |
-| R_sensor_C_per_W (0x2309) | ``R_sensor_K_per_W`` | all modes |
-| T_min_C, T_max_C, hot_threshold_C, hot_time_limit_s, sink_trip_C, neutral_C, mismatch_limit_C (0x24xx) | ``safety.T_min_C``, ``T_max_C``, ``hot_C``, ``hot_time_limit_s``, ``sink_trip_C``, ``neutral_C``, ``mismatch_C`` | all modes |
-| ramp_limit_C_per_s (0x2402) | ``safety.ramp_up_C_per_s`` and ``ramp_down_C_per_s`` (shown: the smaller) | all modes |
-| current_limit_A (0x2405) | ``safety.current_fraction`` × ``safety.I_max_A`` | all modes |
-| mode (0x2500) | ``mode`` | |
-| link_loss_render_s (0x2618) | ``link_loss_render_s`` (graceful link loss, :mod:`telethermo.control.link_fallback`) | all modes (acts in master telepresence) |
-| material_code, material_beta, object_T0_C, finger_T0_C, pad_beta (0x2600..0x2604) | ``render`` (:class:`RenderSettings`) | RENDER |
-| later_model, object_thickness_mm, object_back (0x2605..0x2607) | ``render.later`` (:mod:`telethermo.control.later_phase`) | RENDER |
-| ident_seed, ident_rest_samples, ident_train_samples, ident_validation_samples, ident_amplitude_min_A, ident_amplitude_max_A, ident_hold_samples (0x2800..0x2806) | ``identify`` (:class:`~telethermo.ident.plan.IdentifyPlan`) | IDENTIFY |
+The objects, their fields in CoreParams and their scopes are the rows of ``bus_config/partable.py``
+(the table: ``docs/parameters.md``); this module reads them, and spells out only the few mappings that
+are not "the object's value is the field's": the estimator's code,
+``current_limit_A`` = ``safety.current_fraction`` x ``safety.I_max_A``, ``ramp_limit_C_per_s`` setting
+both ramps (shown: the smaller), the identification amplitudes as the two ends of
+``identify.amplitude_A``, the mode, and the rendering settings below.
 
 Rendering: ``material_code`` 0 is a custom material (β = ``material_beta``), k >= 1 the k-th entry of
 the rendering table (``telethermo/data/render_materials.toml``, in file order); writing a code sets
@@ -34,34 +27,40 @@ from __future__ import annotations
 import dataclasses
 from typing import Any, Callable
 
+from telethermo.bus_config.partable import (BY_NAME, ESTIMATOR_CODE, FRACTION_OF_I_MAX, GAINS as PER_MODE,
+                                            HIGH_END, IDENTIFY, LOW_END, PARAMS, RENDER)
 from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_MAX_BELOW_MIN, ABORT_RANGE, ABORT_TOO_HIGH
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.estimators import Estimator
-from telethermo.control.gain_fields import SDO_GAIN_FIELDS
 from telethermo.control.later_phase import later_from_key, later_key, later_od_values
 from telethermo.control.types import Mode, Role
 
-GAIN_KEYS = SDO_GAIN_FIELDS   # the gains with an object (0x2200..0x2202); the gains file marks them
 ESTIMATOR_CODES: dict[Estimator, int] = {Estimator.MODEL: 0, Estimator.FLUX: 1, Estimator.FUSED: 2}
 CODE_ESTIMATORS = {v: k for k, v in ESTIMATOR_CODES.items()}
-#: OD name -> SafetyLimits fields it sets (current_limit_A is special: fraction of I_max)
+#: the gains with an object (0x2200..0x2202), kept per mode; the gains file marks them
+GAIN_KEYS = tuple(p.name for p in PARAMS if p.scope == PER_MODE)
+#: OD name -> SafetyLimits fields it sets (current_limit_A is a fraction of I_max: COMMON below)
 SAFETY_KEYS: dict[str, tuple[str, ...]] = {
-    "T_min_C": ("T_min_C",), "T_max_C": ("T_max_C",), "ramp_limit_C_per_s": ("ramp_up_C_per_s", "ramp_down_C_per_s"),
-    "hot_threshold_C": ("hot_C",), "hot_time_limit_s": ("hot_time_limit_s",), "sink_trip_C": ("sink_trip_C",),
-    "neutral_C": ("neutral_C",), "mismatch_limit_C": ("mismatch_C",),
-}
-LATER_KEYS = ("later_model", "object_thickness_mm", "object_back")   # 0x2605..0x2607, on top of any render
-RENDER_KEYS = ("material_code", "material_beta", "object_T0_C", "finger_T0_C", "pad_beta") + LATER_KEYS
-MATERIAL_KEYS = ("material_code", "material_beta", "object_T0_C")
-OTHER_KEYS = ("estimator", "R_sensor_C_per_W", "current_limit_A", "peer_pdo_miss_limit", "mode", "link_loss_render_s")
+    p.name: tuple(f.removeprefix("safety.") for f in p.field) for p in PARAMS
+    if p.field and p.field[0].startswith("safety.") and p.convert != FRACTION_OF_I_MAX}
+RENDER_KEYS = tuple(p.name for p in PARAMS if p.scope == RENDER)
+LATER_KEYS = tuple(p.name for p in PARAMS if p.field == ("render.later",))   # on top of any render
+_MATERIAL_FIELDS = ("render.material", "render.beta_object", "render.T_object0_C")
+MATERIAL_KEYS = tuple(p.name for p in PARAMS if p.field and p.field[0] in _MATERIAL_FIELDS)
 #: OD name -> IdentifyPlan field (the amplitudes are the two ends of ``amplitude_A``)
-IDENT_KEYS: dict[str, str] = {
-    "ident_seed": "seed", "ident_rest_samples": "rest_samples", "ident_train_samples": "train_samples",
-    "ident_validation_samples": "validation_samples", "ident_amplitude_min_A": "amplitude_A",
-    "ident_amplitude_max_A": "amplitude_A", "ident_hold_samples": "hold_samples",
-}
+IDENT_KEYS: dict[str, str] = {p.name: p.field[0].removeprefix("identify.")
+                              for p in PARAMS if p.scope == IDENTIFY}
 #: every object a node mirrors and accepts writes of
-PARAM_KEYS = GAIN_KEYS + tuple(SAFETY_KEYS) + RENDER_KEYS + OTHER_KEYS + tuple(IDENT_KEYS)
+PARAM_KEYS = tuple(p.name for p in PARAMS)
+#: the objects a CiA 301 store saves (``mode`` is not: --mode decides it at boot)
+STORED_KEYS = tuple(p.name for p in PARAMS if p.stored)
+
+
+def _field_value(params: CoreParams, path: str) -> Any:
+    obj: Any = params
+    for part in path.split("."):
+        obj = getattr(obj, part)
+    return obj
 
 
 class ParamBook:
@@ -181,9 +180,9 @@ class ParamBook:
                 return ABORT_DEVICE_STATE   # no TEM model loaded: T_pred cannot be computed
         if key in IDENT_KEYS and self.mode is Mode.IDENTIFY:
             return ABORT_DEVICE_STATE   # the experiment's plan is fixed while it runs
-        if key in ("ident_amplitude_min_A", "ident_amplitude_max_A"):
+        if BY_NAME[key].convert in (LOW_END, HIGH_END):
             lo, hi = self.params().identify.amplitude_A
-            lo, hi = (float(value), hi) if key.endswith("min_A") else (lo, float(value))
+            lo, hi = (float(value), hi) if BY_NAME[key].convert == LOW_END else (lo, float(value))
             if lo > hi:
                 return ABORT_MAX_BELOW_MIN
         if key == "material_code" and int(value) and self._code_name(int(value)) is None:
@@ -200,28 +199,39 @@ class ParamBook:
 
     def apply(self, key: str, value: Any) -> None:
         """Record an accepted write (the controller takes it at its next SYNC). ValueError if invalid."""
-        if key in GAIN_KEYS:
-            self.gains.setdefault(self.mode, {})[key] = float(value)
-        elif key == "estimator":
-            est = CODE_ESTIMATORS.get(int(value))
-            if est is None:
-                raise ValueError(f"estimator code {value}: expected 0, 1 or 2")
-            self.common["estimator"] = est
-        elif key == "R_sensor_C_per_W":
-            self.common["R_sensor_K_per_W"] = float(value)
-        elif key == "link_loss_render_s":
-            self.common["link_loss_render_s"] = float(value)
-        elif key in SAFETY_KEYS:
-            for f in SAFETY_KEYS[key]:
-                self.safety[f] = float(value)
-        elif key == "current_limit_A":
-            i_max = self.params().safety.I_max_A
-            self.safety["current_fraction"] = float(value) / i_max
+        p = BY_NAME[key]
+        if p.scope == PER_MODE:
+            self.gains.setdefault(self.mode, {})[p.field[0]] = float(value)
         elif key == "mode":
             self.mode = Mode(int(value))
         elif key == "peer_pdo_miss_limit":
             self.peer_miss_limit = int(value)
-        elif key in MATERIAL_KEYS:
+        elif p.scope == RENDER:
+            self._apply_render(key, value)
+        elif p.scope == IDENTIFY:
+            f = IDENT_KEYS[key]
+            if p.convert in (LOW_END, HIGH_END):
+                lo, hi = self.identify.get(f, self.params_for(Mode.IDENTIFY).identify.amplitude_A)
+                value = (float(value), hi) if p.convert == LOW_END else (lo, float(value))
+            else:
+                value = int(value)
+            self.identify[f] = value
+        elif p.convert == FRACTION_OF_I_MAX:
+            self.safety[p.field[0].removeprefix("safety.")] = float(value) / self.params().safety.I_max_A
+        elif key in SAFETY_KEYS:
+            for f in SAFETY_KEYS[key]:
+                self.safety[f] = float(value)
+        elif p.convert == ESTIMATOR_CODE:
+            est = CODE_ESTIMATORS.get(int(value))
+            if est is None:
+                raise ValueError(f"estimator code {value}: expected 0, 1 or 2")
+            self.common[p.field[0]] = est
+        else:   # a CoreParams field of every mode
+            self.common[p.field[0]] = float(value) if p.is_real else int(value)
+        self.version += 1
+
+    def _apply_render(self, key: str, value: Any) -> None:
+        if key in MATERIAL_KEYS:
             self.scripted = False
             r = self.render
             if key == "material_code":
@@ -235,14 +245,6 @@ class ParamBook:
                 self.render = dataclasses.replace(r, beta_object=float(value), material="custom")
             else:
                 self.render = dataclasses.replace(r, T_object0_C=float(value))
-        elif key in IDENT_KEYS:
-            f = IDENT_KEYS[key]
-            if f == "amplitude_A":
-                lo, hi = self.identify.get(f, self.params_for(Mode.IDENTIFY).identify.amplitude_A)
-                value = (float(value), hi) if key.endswith("min_A") else (lo, float(value))
-            else:
-                value = int(value)
-            self.identify[f] = value
         elif key == "pad_beta":
             self.beta_pad = float(value)
         elif key == "finger_T0_C":
@@ -251,29 +253,32 @@ class ParamBook:
             self.later[key] = float(value)
         else:
             raise KeyError(key)
-        self.version += 1
 
 
 def od_image(params: CoreParams, render: RenderSettings | None, *, material_code: int,
              peer_miss_limit: int) -> dict[str, Any]:
     """Object name -> value for every parameter object: the truth about ``params`` (and ``render``,
     the settings rendered or to be rendered)."""
-    s = params.safety
-    img: dict[str, Any] = {k: getattr(params, k) for k in GAIN_KEYS}
-    img["estimator"] = ESTIMATOR_CODES[params.estimator]
-    img["R_sensor_C_per_W"] = params.R_sensor_K_per_W
-    img["link_loss_render_s"] = params.link_loss_render_s
-    for key, fields in SAFETY_KEYS.items():
-        img[key] = min(getattr(s, f) for f in fields)
-    img["current_limit_A"] = s.I_limit_A
-    img["peer_pdo_miss_limit"] = peer_miss_limit
-    img["mode"] = int(params.mode)
-    plan = params.identify
-    img.update(ident_seed=plan.seed, ident_rest_samples=plan.rest_samples, ident_train_samples=plan.train_samples,
-               ident_validation_samples=plan.validation_samples, ident_amplitude_min_A=plan.amplitude_A[0],
-               ident_amplitude_max_A=plan.amplitude_A[1], ident_hold_samples=plan.hold_samples)
-    if render is not None:
-        img.update(material_code=material_code, material_beta=render.beta_object, object_T0_C=render.T_object0_C,
-                   finger_T0_C=render.T_finger0_C, pad_beta=render.beta_pad, **later_od_values(render.later))
+    img: dict[str, Any] = {}
+    later = later_od_values(render.later) if render is not None else {}
+    for p in PARAMS:
+        if p.scope == RENDER:
+            if render is None:
+                continue
+            f = p.field[0].removeprefix("render.")
+            img[p.name] = (material_code if f == "material" else later[p.name] if f == "later"
+                           else getattr(render, f))
+            continue
+        if p.name == "peer_pdo_miss_limit":   # the peer link's, not the control core's
+            img[p.name] = peer_miss_limit
+            continue
+        v = [_field_value(params, f) for f in p.field]
+        if p.convert == ESTIMATOR_CODE:
+            img[p.name] = ESTIMATOR_CODES[v[0]]
+        elif p.convert == FRACTION_OF_I_MAX:
+            img[p.name] = params.safety.I_limit_A
+        elif p.convert in (LOW_END, HIGH_END):
+            img[p.name] = v[0][0 if p.convert == LOW_END else 1]
+        else:
+            img[p.name] = min(v) if p.is_real else int(v[0])
     return img
-

@@ -15,15 +15,12 @@ from telethermo.device.device import Device, WriteEvent
 from telethermo.control.rendering import load_render_table
 from telethermo.control.types import Mode
 
-from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, ParamBook, od_image
+from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, STORED_KEYS, ParamBook, od_image
 
 if TYPE_CHECKING:
     from telethermo.nodes.runtime import NodeRuntime
 
 log = logging.getLogger("telethermo.node")
-
-PEER_MISS_INDEX = 0x2408
-
 
 class ParamSlot:
     """The controller's parameters of one node (``params``, ``mode``), built from its ``book``."""
@@ -67,7 +64,7 @@ class ParamSlot:
                               od_material=(int(dev.read("material_code")), float(dev.read("material_beta")),
                                            float(dev.read("object_T0_C"))),
                               script_first=self.script_rs if parts.render_script is not None else None,
-                              mode=self.configured_mode, peer_miss_limit=int(dev.read(PEER_MISS_INDEX)))
+                              mode=self.configured_mode, peer_miss_limit=int(dev.read("peer_pdo_miss_limit")))
         self.mode = self.configured_mode
         self.written = {}
         self.rebuild()
@@ -148,7 +145,7 @@ class ParamSlot:
             log.error("%s = %r not applied: %s", key, ev.value, exc)
             self.book.version += 1  # the next SYNC rewrites the OD with the truth
         else:
-            if key != "mode":
+            if key in STORED_KEYS:
                 self.record(f"{key}@{self.book.mode.name}" if key in GAIN_KEYS else key, ev.value)
         log.info("%s = %r (takes effect at the next SYNC)", key, ev.value)
         return True

@@ -7,7 +7,7 @@ What a "save" stores, in the node's store file (``--store PATH``; default
 - communication (0x1010 sub 2, or sub 1): every writable communication object except 0x1003 (error history),
   0x1005 (SYNC COB-ID: the program's --sync/--no-sync decides who produces SYNC) and 0x1010/0x1011;
 - application (sub 3, or sub 1): every parameter the operator wrote by SDO since the power-on values
-  (:data:`nodes.odparams.PARAM_KEYS`: gains per mode, safety limits, estimator, R_sensor, rendering and
+  (:data:`nodes.odparams.STORED_KEYS`: gains per mode, safety limits, estimator, R_sensor, rendering and
   identification settings, peer_pdo_miss_limit, ...), in the order written, except ``mode`` (the operating
   state: --mode decides it at boot); and the TEM model the controller runs (0x2300..0x2311), if any.
 
@@ -33,7 +33,7 @@ from telethermo.device.storage import (ALL, APPLICATION, COMMUNICATION, GROUPS, 
 from telethermo.ident import odmodel
 from telethermo.ident.modelfile import ModelFileError
 
-from telethermo.nodes.odparams import PARAM_KEYS
+from telethermo.nodes.odparams import STORED_KEYS
 
 if TYPE_CHECKING:
     from telethermo.device.device import Device
@@ -113,7 +113,7 @@ class StoreSlot:
     def _replay(self, tag: str, value: Any) -> None:
         key, _, mode_name = tag.partition("@")
         book = self.rt.settings.book
-        if key not in PARAM_KEYS or key == "mode" or (mode_name and mode_name not in Mode.__members__) \
+        if key not in STORED_KEYS or (mode_name and mode_name not in Mode.__members__) \
                 or not isinstance(value, (int, float)) or isinstance(value, bool):
             log.warning("%s: stored %s = %r is not a parameter of this node: skipped", self.file.path, tag,
                         value)

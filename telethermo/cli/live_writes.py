@@ -21,7 +21,7 @@ from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, UserError
 from telethermo.remote.targets import Target, lookup
 
-#: gains kept per mode by the node (nodes/odparams.py GAIN_KEYS)
+#: gains kept per mode by the node (the per-mode rows of bus_config/partable.py)
 GAIN_KEYS = frozenset(SDO_GAIN_FIELDS)
 #: safety limits judged against the node's readings before a write
 SAFETY_KEYS = frozenset({"sink_trip_C", "T_max_C", "T_min_C", "mismatch_limit_C", "current_limit_A"})

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 
+from telethermo.bus_config.partable import BY_NAME
 from telethermo.cia301 import ABORT_TOO_HIGH, ABORT_TOO_LOW
 from telethermo.cli import common, live_writes
 from telethermo.cli.main import UserError
@@ -40,8 +41,13 @@ def register(subparsers) -> None:
 
 
 def describe(info) -> str:
+    """Type, access and range; for an operator parameter (bus_config/partable.py) what a write changes
+    (its scope: per mode, all modes, RENDER, IDENTIFY, node) and whether a store (0x1010) keeps it."""
     rng = info.range_text() or "no range"
-    return f"{info.type_name}, {info.access}, {rng}"
+    p = BY_NAME.get(info.key)
+    if p is None or p.index != info.index:
+        return f"{info.type_name}, {info.access}, {rng}"
+    return f"{info.type_name}, {info.access}, {rng}, {p.scope}{'' if p.stored else ', not stored'}"
 
 
 def where(info) -> str:

@@ -146,4 +146,4 @@ def test_docs_table_is_the_generated_one():
     from pathlib import Path
 
     doc = (Path(__file__).resolve().parents[2] / "docs" / "canopen.md").read_text(encoding="utf-8")
-    assert edsgen.markdown_table("master") in doc  # regenerate: python -m telethermo.bus_config.edsgen --table master
+    assert edsgen.markdown_table("master") in doc  # regenerate: python -m telethermo.bus_config.edsgen

@@ -10,6 +10,7 @@ from telethermo.bus_config import path as cfg_path
 from telethermo.device.eds_info import EdsInfo
 from telethermo.remote import values
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
+from telethermo.cli.params import describe
 
 EDS = EdsInfo(cfg_path("master.eds"))
 
@@ -88,3 +89,14 @@ def test_set_takes_enumeration_names(nodes, cli):
     code, _, err = cli("set", *nodes.bus, "master", "mode", "telepresense")
     assert code == EXIT_USAGE and err.count("\n") == 1
     assert "mode: expected one of idle (0), telepresence (1), render (2), identify (3), got 'telepresense'" in err
+
+
+def test_get_says_what_a_parameter_write_changes_from_the_parameter_table():
+    """``get``/``set`` lines name an operator parameter's scope and an unstored one (bus_config/partable.py);
+    a measurement has neither."""
+    info = EdsInfo(cfg_path("master.eds"))
+    assert describe(info.get("kp_A_per_C")) == "REAL32, rw, [0, 20] A/degC, per mode"
+    assert describe(info.get("T_max_C")).endswith("degC, all modes")
+    assert describe(info.get("mode")).endswith(", node, not stored")
+    assert describe(info.get("ident_seed")).endswith(", IDENTIFY")
+    assert describe(info.get("T_sensor_C")) == "REAL32, ro, no range"
