@@ -12,9 +12,9 @@ one
 worker and on two (``workers_2_speedup``).
 
 Reported per figure: the median, the 10 % worst and the worst condition; every failing condition with its
-parameters. Not computed here (named in the results): the optimal-current bound on a subset (bench/bound.py
-takes minutes per condition), so ``envelope_median_ratio_to_bound`` and ``envelope_captured_fraction_median``
-are null.
+parameters. Not computed here (named in the results): the optimal-current bound on a subset
+(telethermo/offline/bound.py takes minutes per condition), so ``envelope_median_ratio_to_bound`` and
+``envelope_captured_fraction_median`` are null.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from bench.bound import causal_bound  # noqa: F401  (bench.transparency_bench.run_bound uses it)
+from telethermo.offline.bound import causal_bound  # noqa: F401  (bench.transparency_bench.run_bound uses it)
 from bench.common import current_results_dir, write_results
 from bench.transparency_bench import reference_track, run_bound
 from telethermo.offline import render_sweep
@@ -63,9 +63,8 @@ def safe_score(c: Condition) -> dict[str, Any]:
 
 
 def bound_of(c: Condition) -> dict[str, Any]:
-    """The optimal-current bound of condition ``c`` (bench.bound: exact master plant, finger matched before
-    each
-    touch, no foreknowledge), mean of the touches' window errors, °C."""
+    """The optimal-current bound of condition ``c`` (telethermo.offline.bound: exact master plant, finger
+    matched before each touch, no foreknowledge), mean of the touches' window errors, °C."""
     sc, _ = condition_scene(c)
     t_ref, skin_ref, _q, cells = reference_track(sc)
     b = run_bound(sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0)

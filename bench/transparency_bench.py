@@ -7,8 +7,8 @@ twice; the finger rests on the display, which starts neutral at the finger's nat
 - the **project's controller** (default parameters: the bilateral law in contact, air rendering between
   touches) and the **paper's law as published** (the master tracks the probe's estimate at all times);
 - **null displays** that ignore the probe: hold 25.5 °C, hold the finger's natural temperature, I = 0;
-- the **bound** (bench.bound): optimal currents on the exact plant, finger matched before each touch, no
-  foreknowledge of the touch; and its **front** with foreknowledge (pre-contact vs early error);
+- the **bound** (telethermo.offline.bound): optimal currents on the exact plant, finger matched before each
+  touch, no foreknowledge of the touch; and its **front** with foreknowledge (pre-contact vs early error);
 - R_sensor ×0.9 / ×1.1 given to the controller (the plant unchanged), and the **drift** of both pads over
   10 min in air after the scene (finger lifted, probe in air).
 The figures are those of :mod:`telethermo.offline.transparency`.
@@ -25,7 +25,8 @@ from typing import Any
 import numpy as np
 
 from telethermo import sim
-from bench.bound import BatchedPlant, Window, causal_bound, foresight_bound, matched_start, replay, window_errors
+from telethermo.offline.bound import (BatchedPlant, Window, causal_bound, foresight_bound, matched_start,
+                                      replay, window_errors)
 from bench.common import current_results_dir, print_table, write_results
 from telethermo.sim.compile import finger_natural_C
 from telethermo.atomic import write_bytes_atomic
@@ -246,7 +247,8 @@ def run(quick: bool = False) -> dict[str, Any]:
                   "replay_max_diff_C": max(p["replay_max_diff_C"] for p in bper),
                   "how": "finger cells = the direct-touch finger's at t_on - 0.5 s, pad plate and sensor at its "
                          "surface temperature; currents every 10 ms, |I| <= 0.8*I_max; before t_on they minimise "
-                         "the pre-contact error only (no foreknowledge), from t_on the early error (bench/bound.py)"},
+                         "the pre-contact error only (no foreknowledge), from t_on the early error "
+                         "(telethermo/offline/bound.py)"},
         "run_s": time.perf_counter() - t_start,
     }
     out["checks"] = _checks(out)

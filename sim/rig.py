@@ -55,7 +55,8 @@ def plate_heats(rows: tuple, alpha_V_K: float, tau_V_K: float, R_ohm: float, I_A
     plate temperatures at the end of the step solve p' = P·y_n + P·B1·(U·p' + w) (2×2, exactly). ``rows``:
     the step's scalars of the two plate rows (sim.plant.Config.step); ``Ts_C``, ``Tp_C``: the plates now;
     ``y1``, ``y2``: the plate rows of Phi·x. Plain arithmetic, so the arguments may be floats (one rig) or
-    numpy arrays (many current sequences at once, bench/bound.py) with the same operations in the same order.
+    numpy arrays (many current sequences at once, telethermo/offline/bound.py) with the same operations in the
+    same order.
     """
     c1, a10, a11, b10, b11, c2, a20, a21, b20, b21 = rows
     aI = alpha_V_K * I_A

@@ -1,10 +1,11 @@
-"""The optimal-current bound (bench/bound.py): its batched plant is the simulator (a replay through
-sim.SimRig agrees to 1e-9 °C), the matched start is the direct-touch finger, and optimising helps."""
+"""The optimal-current bound (telethermo/offline/bound.py; bench/transparency_bench.py runs it): its batched
+plant is the simulator (a replay through sim.SimRig agrees to 1e-9 °C), the matched start is the direct-touch
+finger, and optimising helps."""
 import numpy as np
 import pytest
 
 from telethermo import sim
-from bench.bound import BatchedPlant, Window, causal_bound, matched_start, replay, window_errors
+from telethermo.offline.bound import BatchedPlant, Window, causal_bound, matched_start, replay, window_errors
 
 PERIOD = 0.01
 
