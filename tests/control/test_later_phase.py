@@ -8,7 +8,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from bench.rc_identify import FIT_FROM_S, cooling_curve, identify
+from telethermo.offline.rc_cooling import FIT_FROM_S, cooling_curve, identify
 from telethermo.sim.bodies import slab
 from telethermo.sim.chain import ADIABATIC, assemble
 from telethermo.sim.closed_forms import semi_infinite_surface_constant_flux_C, slab_surface_constant_flux_C
