@@ -34,7 +34,7 @@ import numpy as np
 
 from bench import material_id_envelope as envelope     # its --envelope run (it uses this module's touches)
 from bench.common import print_table, write_results
-from bench.material_id_bound import bound_figures
+from telethermo.offline.material_oracle import bound_figures
 from telethermo.sim.materials import material
 from telethermo.sim.tem import load_rig_params
 from telethermo.control import material_id as mi

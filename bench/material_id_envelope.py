@@ -14,9 +14,9 @@ Figures per stratum (:data:`STRATA`; the band within :data:`NEAR_C` °C of the p
 out of the others, where a passive probe learns little): accuracy with abstains counted wrong, abstain
 fraction, expected calibration error of the answers (10 bins of the published posterior), confident
 precision (accuracy of the answers with posterior ≥ 0.9, with their count), the commonest-class baseline and,
-in the full run, the oracle of bench/material_id_bound.py (knows the simulator; object temperature, contact
-resistance and thickness profiled out) on a sample of the stratum's touches. The same keys on in-box touches
-(the bench's evaluation draws) for comparison.
+in the full run, the oracle of telethermo/offline/material_oracle.py (knows the simulator; object
+temperature, contact resistance and thickness profiled out) on a sample of the stratum's touches. The same
+keys on in-box touches (the bench's evaluation draws) for comparison.
 """
 from __future__ import annotations
 
@@ -31,7 +31,7 @@ import numpy as np
 
 from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
-from bench.material_id_bound import noise_scale, oracle_correct, touch_candidates
+from telethermo.offline.material_oracle import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
 from telethermo.control.material_stream import (MaterialIdParams, UNKNOWN_CODE, fit_units,
                                                 late_samples)
@@ -193,7 +193,8 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
 
 
 def oracle(rigs: dict, t: dict, sims: list[str], rng: np.random.Generator) -> float:
-    """The unknown-nuisance oracle's accuracy on touch ``t`` (bench/material_id_bound.py, its noise × noise_x)."""
+    """The unknown-nuisance oracle's accuracy on touch ``t`` (telethermo/offline/material_oracle.py, its
+    noise × noise_x)."""
     params = rigs[t["other_tem"]]
     sigma = noise_scale(noise_of(t["noise_x"]), int(round(0.3 / mb.PERIOD_S)))
     z, G = touch_candidates(params, sims, t, t["T_probe_C"], mb.PERIOD_S, t["ambient_C"], sigma)

@@ -1,10 +1,11 @@
-"""The oracle ceiling of material identification (bench/material_id_bound.py): physics of its two limits."""
+"""The oracle ceiling of material identification (telethermo/offline/material_oracle.py): physics of its two
+limits."""
 from __future__ import annotations
 
 import numpy as np
 
-from bench.material_id_bench import AMBIENT_C, PERIOD_S, SIM_TO_TABLE, finger_natural_C
-from bench.material_id_bound import oracle_correct, touch_candidates, noise_scale
+from telethermo.offline.material_touches import AMBIENT_C, PERIOD_S, SIM_TO_TABLE, finger_natural_C
+from telethermo.offline.material_oracle import oracle_correct, touch_candidates, noise_scale
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
 

@@ -1,12 +1,13 @@
 """The physical ceiling of material identification on the bench's touches: an oracle that knows the simulator.
 
-Per touch (same draws as bench/material_id_bench.py), the probe is simulated WITHOUT noise for each of the ten
-candidate materials under the touch's own force, object temperature and thickness, and the true (unfiltered)
-sensor signals are recorded: T_sensor (thermocouple) and Q (flux) over the estimator's window, the first
-0.3 s after the touch. The rig's measurement is those signals plus white noise (sim.measurement: σ_T, σ_Q and
-the ADC's step², /12) then the rig's low-pass: the filter is invertible given the whole record, so the unfiltered
-samples plus white noise are a sufficient statistic, and every sample before the touch is the same for every
-candidate. The classifier that knows the simulator exactly then sees whitened vectors z_j (T/σ_T', Q/σ_Q').
+Per touch (the draws of telethermo/offline/material_touches.py, which bench/material_id_bench.py uses), the
+probe is simulated WITHOUT noise for each of the ten candidate materials under the touch's own force, object
+temperature and thickness, and the true (unfiltered) sensor signals are recorded: T_sensor (thermocouple) and
+Q (flux) over the estimator's window, the first 0.3 s after the touch. The rig's measurement is those signals
+plus white noise (sim.measurement: σ_T, σ_Q and the ADC's step², /12) then the rig's low-pass: the filter is
+invertible given the whole record, so the unfiltered samples plus white noise are a sufficient statistic, and
+every sample before the touch is the same for every candidate. The classifier that knows the simulator exactly
+then sees whitened vectors z_j (T/σ_T', Q/σ_Q').
 
 Two oracles, both with the rig's own noise drawn ``DRAWS`` times per touch (Monte-Carlo accuracy):
 
