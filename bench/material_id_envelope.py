@@ -36,9 +36,10 @@ from telethermo.control.material_id import noise_draws
 from telethermo.control.material_stream import (MaterialIdParams, UNKNOWN_CODE, fit_units,
                                                 late_samples)
 from telethermo.sim.materials import material
-from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
-from telethermo.offline.material_touches import ENVELOPE, ENVELOPE_N
+# the envelope's touches live in the library (the tests draw them too); re-exported for the calibration
+from telethermo.offline.material_touches import (ENVELOPE, ENVELOPE_N, OTHER_TEM_COUPLES,
+                                                 envelope_draws, noise_of, other_tem)
 
 #: the envelope's touches of the quick run (the full run's seeds and size, ENVELOPE and ENVELOPE_N, and the
 #: development set's, DEVELOPMENT, are telethermo.offline.material_touches')
@@ -46,7 +47,6 @@ ENVELOPE_QUICK_N = 250
 INBOX_N, INBOX_QUICK_N = 300, 100
 NEAR_C = 2.0
 CONFIDENT = 0.9
-OTHER_TEM_COUPLES, SHIPPED_COUPLES = 71, 31
 ORACLE_EVERY, ORACLE_DRAWS = 4, 100
 #: simulated after the touch, s: the refined answer (1.2 s window + its fit) is out by 1.32 s
 POST_S = 1.45
@@ -66,20 +66,6 @@ STRATA: dict[str, Callable[[dict], bool]] = {
 }
 
 
-def envelope_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
-    """``n`` touches across the envelope (module docstring); material i mod 10."""
-    rng = np.random.default_rng(seeds[0])
-    out = []
-    for i in range(n):
-        out.append({"class": i % len(mb.SIM_TO_TABLE), "T_object_C": float(rng.uniform(5.0, 50.0)),
-                    "ambient_C": float(rng.uniform(15.0, 32.0)),
-                    "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
-                    "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
-                    "noise_x": float(rng.uniform(1.0, 3.0)), "other_tem": bool(rng.uniform() < 0.25),
-                    "t_on_s": mb.PRE_S + float(rng.uniform(0.0, mb.PERIOD_S)), "seed": seeds[1] + i})
-    return out
-
-
 def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
     """ValueError when ``n`` touches of ``seeds`` meet the calibration's references, the bench's evaluation or its
     held-out touches (by draw seed or simulator seed range): nothing trained or tuned on them is reported."""
@@ -93,19 +79,6 @@ def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
     for (draw, first), m in ranges:
         if seeds[0] == draw or (seeds[1] < first + m and seeds[1] + n > first):
             raise ValueError(f"envelope seeds {seeds} (n {n}) meet another set's {(draw, first)} (n {m}): refused")
-
-
-def other_tem(params):
-    """The rig with a 71-couple module of the same pellets (Seebeck, resistance, conductance × 71/31)."""
-    k = OTHER_TEM_COUPLES / SHIPPED_COUPLES
-    tem = replace(params.tem, alpha_V_K=params.tem.alpha_V_K * k, R_ohm=params.tem.R_ohm * k, K_W_K=params.tem.K_W_K * k)
-    return params.with_(tem=tem)
-
-
-def noise_of(x: float) -> NoiseParams:
-    """The rig's default noise with both sigmas × ``x``."""
-    n = NoiseParams()
-    return replace(n, T_sigma_C=n.T_sigma_C * x, Q_sigma_W=n.Q_sigma_W * x)
 
 
 def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str]) -> dict:

@@ -3,10 +3,12 @@ finger's natural temperature touches a slab under the slave's core, and the seed
 calibrates or evaluates the identification (so that a new set can be checked disjoint from them).
 
 Used by the material benchmarks (bench/material_id_bench.py and its neighbours, which re-export these names)
-and by the tests. Pure of I/O.
+and by the tests; also the envelope's touches (:func:`envelope_draws`, :func:`other_tem`, :func:`noise_of`).
+Pure of I/O.
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import replace
 
@@ -52,6 +54,37 @@ def draws(n: int, seeds: tuple[int, int]) -> list[dict]:
 ENVELOPE, ENVELOPE_N = (2323, 600_000), 1000
 DEVELOPMENT, DEVELOPMENT_N = (4343, 700_000), 2000
 PHYSICS_CALIBRATION, PHYSICS_CALIBRATION_N = (3131, 1_200_000), 600
+#: couples of the envelope's other probe TEM (same pellets) and of the shipped one
+OTHER_TEM_COUPLES, SHIPPED_COUPLES = 71, 31
+
+
+def envelope_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
+    """``n`` touches across the envelope (bench/material_id_envelope.py): material i mod 10, object 5–50 °C,
+    room 15–32 °C, force 0.5–20 N and thickness 0.3–20 mm (log-uniform), noise × 1–3, another TEM in four."""
+    rng = np.random.default_rng(seeds[0])
+    out = []
+    for i in range(n):
+        out.append({"class": i % len(SIM_TO_TABLE), "T_object_C": float(rng.uniform(5.0, 50.0)),
+                    "ambient_C": float(rng.uniform(15.0, 32.0)),
+                    "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
+                    "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
+                    "noise_x": float(rng.uniform(1.0, 3.0)), "other_tem": bool(rng.uniform() < 0.25),
+                    "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)), "seed": seeds[1] + i})
+    return out
+
+
+def other_tem(params):
+    """The rig with a 71-couple module of the same pellets (Seebeck, resistance, conductance × 71/31)."""
+    k = OTHER_TEM_COUPLES / SHIPPED_COUPLES
+    tem = replace(params.tem, alpha_V_K=params.tem.alpha_V_K * k, R_ohm=params.tem.R_ohm * k,
+                  K_W_K=params.tem.K_W_K * k)
+    return params.with_(tem=tem)
+
+
+def noise_of(x: float) -> NoiseParams:
+    """The rig's default noise with both sigmas × ``x``."""
+    n = NoiseParams()
+    return replace(n, T_sigma_C=n.T_sigma_C * x, Q_sigma_W=n.Q_sigma_W * x)
 
 
 def finger_natural_C(params, ambient_C: float = AMBIENT_C) -> float:

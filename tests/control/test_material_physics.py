@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from bench.material_id_bench import SIM_TO_TABLE, simulate_touch, finger_natural_C
-from bench.material_id_envelope import envelope_draws, noise_of, other_tem
+from telethermo.offline.material_touches import (SIM_TO_TABLE, envelope_draws, finger_natural_C, noise_of,
+                                                 other_tem, simulate_touch)
 from telethermo.control import material_physics as mp
 from telethermo.control.material_id import EffusivityEstimate
 from telethermo.control.material_stream import UNKNOWN_CODE, default_classes
