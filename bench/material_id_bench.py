@@ -45,18 +45,9 @@ from telethermo.control.material_stream import (UNKNOWN_CODE, MaterialEstimate, 
 from telethermo.offline.material_touches import CALIBRATION  # noqa: F401  (bench/material_calibrate.py)
 from telethermo.offline.material_touches import (AMBIENT_C, EVALUATION, EVALUATION_N, HELDOUT,
                                                  HELDOUT_N, PERIOD_S, POST_S, PRE_S, SIM_TO_TABLE, draws,
-                                                 finger_natural_C, simulate_touch)
+                                                 finger_natural_C, refuse_overlap, simulate_touch)
 
 MERGE_RATE = 0.2
-
-
-def refuse_overlap(n: int, seeds: tuple[int, int]) -> None:
-    """ValueError when a calibration's touch seeds meet the evaluation touches (nothing trained on them is reported)."""
-    lo, hi = EVALUATION[1], EVALUATION[1] + EVALUATION_N
-    if seeds[0] in (EVALUATION[0], HELDOUT[0]) or (seeds[1] < hi and seeds[1] + n > lo) \
-            or (seeds[1] < HELDOUT[1] + HELDOUT_N and seeds[1] + n > HELDOUT[1]):
-        raise ValueError(f"calibration seeds {seeds} (n {n}) overlap the evaluation {EVALUATION} or held-out "
-                         f"{HELDOUT} touches: refused")
 
 
 def check_calibration(p: MaterialIdParams) -> str:

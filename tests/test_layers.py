@@ -152,7 +152,6 @@ def test_the_simulator_and_the_controller_do_not_see_each_other(low, high):
 # benchmark). The list only shrinks: a module not listed that imports bench fails, and so does a listed
 # one that no longer does (take it off). The stress cases and conformance checks moved to tests/.
 STILL_IMPORTING_BENCH = {
-    "tests/control/test_material_calib.py",
     "tests/monitor/test_monitor_bench.py",
     "tests/session/test_link_loss_bench.py",
     "tests/session/test_rendering_bench.py",

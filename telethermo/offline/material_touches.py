@@ -39,6 +39,15 @@ HELDOUT, HELDOUT_N = (2525, 300_000), 600
 CALIBRATION = (1515, 100_000)
 
 
+def refuse_overlap(n: int, seeds: tuple[int, int]) -> None:
+    """ValueError when a calibration's touch seeds meet the evaluation touches (nothing trained on them is reported)."""
+    lo, hi = EVALUATION[1], EVALUATION[1] + EVALUATION_N
+    if seeds[0] in (EVALUATION[0], HELDOUT[0]) or (seeds[1] < hi and seeds[1] + n > lo) \
+            or (seeds[1] < HELDOUT[1] + HELDOUT_N and seeds[1] + n > HELDOUT[1]):
+        raise ValueError(f"calibration seeds {seeds} (n {n}) overlap the evaluation {EVALUATION} or held-out "
+                         f"{HELDOUT} touches: refused")
+
+
 def draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     """``n`` touches: material i mod 10, then force 2–10 N, object 15–35 °C, thickness 1–20 mm, onset."""
     rng = np.random.default_rng(seeds[0])

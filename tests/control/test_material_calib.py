@@ -8,9 +8,9 @@ import zipfile
 import numpy as np
 import pytest
 
-from bench.material_calibrate import calibrate
-from bench.material_id_bench import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S, SIM_TO_TABLE, finger_natural_C,
-                                     refuse_overlap, simulate_touch)
+from telethermo.offline.material_calibration import calibrate
+from telethermo.offline.material_touches import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S, SIM_TO_TABLE,
+                                                 finger_natural_C, refuse_overlap, simulate_touch)
 from telethermo.control import material_id as mi
 from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration, n_units,
                                                save_calibration, touch_vector, whitener)
@@ -185,8 +185,9 @@ def test_a_touch_without_an_effusivity_is_published_unknown():
 
 @pytest.mark.slow  # the calibration runs its touches in a process pool
 def test_the_calibration_command_builds_a_classifier_the_slave_loads(tmp_path, capsys):
-    """bench.material_calibrate end to end on a few touches (tiny networks): the file loads with the bench's
-    classes and window, records its seeds, and a second run reads the cached touches instead of simulating."""
+    """telethermo.offline.material_calibration (what bench.material_calibrate runs) end to end on a few
+    touches (tiny networks): the file loads with the bench's classes and window, records its seeds, and a
+    second run reads the cached touches instead of simulating."""
     small = TrainSettings(hidden=16, layers=1, epochs=2, n_nets=1)
     info = calibrate(40, tmp_path / "c.npz", 12, 1, small, tmp_path / "touches.npz", check=True)
     cal = load_calibration(tmp_path / "c.npz")
