@@ -7,7 +7,7 @@ import json
 
 import numpy as np
 
-from bench.link_loss_bench import LOSS_S, RENDER_S, link_loss_figures, run_object
+from telethermo.offline.link_loss import LOSS_S, RENDER_S, link_loss_figures, run_object
 
 
 def test_fallback_beats_the_neutral_ramp():
