@@ -153,7 +153,6 @@ def test_the_simulator_and_the_controller_do_not_see_each_other(low, high):
 # one that no longer does (take it off). The stress cases and conformance checks moved to tests/.
 STILL_IMPORTING_BENCH = {
     "tests/monitor/test_monitor_bench.py",
-    "tests/session/test_rendering_bench.py",
 }
 
 

@@ -1,11 +1,12 @@
-"""The rendering benchmark's later-phase figures (quick: aluminium 1 mm and 20 mm) say what they should:
-on the foil the conduction model follows the direct touch far better than eq. 1 alone and than a null
-display; on the block (semi-infinite for 10 s) the three models render nearly the same first second."""
+"""The rendering benchmark's later-phase figures (telethermo/offline/later_phase_figures.py; quick: aluminium
+1 mm and 20 mm) say what they should: on the foil the conduction model follows the direct touch far better
+than eq. 1 alone and than a null display; on the block (semi-infinite for 10 s) the three models render nearly
+the same first second."""
 from __future__ import annotations
 
 import json
 
-from bench.rendering_bench import later_phase_figures
+from telethermo.offline.later_phase_figures import later_phase_figures
 
 
 def test_later_phase_figures_quick():
