@@ -1,7 +1,7 @@
 """The monitor's decode rate against python-can's raw receive rate, measured in one run (issue 13: the
 monitor must keep up with a full 1 Mbit/s bus, >= 8,000 frames/s):
 
-    python -m bench.monitor_bench [--quick]
+    python -m bench.monitor_bench [--quick] [--frames N]
 
 The traffic is a synthesised realistic mix of the telethermo pair at a 1 ms SYNC period, with the
 shipped EDS files: per cycle SYNC (with counter), both nodes' TPDO1 (8 bytes, two REAL32) and TPDO5
@@ -16,12 +16,14 @@ every 1000 cycles an EMCY and its reset. Timestamps are bus time (the monitor re
 
 Medians over the repeats, each measure interleaved with the others. ``ratio_vs_anchor`` =
 decode / anchor; ``keeps_up_8k``: both the decode and the live rate >= 8,000 frames/s. Writes
-bench/results/monitor.json. --quick: 20,000 frames, 3 repeats (a few seconds).
+bench/results/monitor.json. --quick: 20,000 frames, 3 repeats (a few seconds); --frames: another traffic
+length (the tests' short run).
 """
 from __future__ import annotations
 
 import argparse
 import statistics
+import sys
 import time
 from typing import Any
 
@@ -29,7 +31,7 @@ import can
 
 from bench.common import print_table, write_results
 from bench.monitor_hub import measure_hub
-from bench.monitor_traffic import monitor_config, traffic
+from telethermo.monitor.traffic import monitor_config, traffic
 from telethermo.monitor.state import Monitor
 
 TARGET_FRAMES_PER_S = 8000
@@ -107,7 +109,16 @@ def run(quick: bool, n_frames: int | None = None) -> dict[str, Any]:
     return data
 
 
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m bench.monitor_bench", description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true",
+                    help="20,000 frames, 3 repeats; the hub: 5,000 frames, once")
+    ap.add_argument("--frames", type=int, default=None,
+                    help="traffic length (default: 20,000 quick, else 100,000)")
+    args = ap.parse_args(argv)
+    run(args.quick, args.frames)
+    return 0
+
+
 if __name__ == "__main__":
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true")
-    run(ap.parse_args().quick)
+    sys.exit(main())

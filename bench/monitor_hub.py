@@ -4,7 +4,7 @@ same hub, in one run (issue 13: the monitor keeps up with a full bus, >= 8,000 f
     python -m bench.monitor_hub [--frames N] [--repeats R]
 
 A hub process (``telethermo-hub``, socketcand protocol on loopback) carries the traffic mix of
-:mod:`bench.monitor_traffic`, sent as fast as one sender process can (``--send``: a separate process, so
+:mod:`telethermo.monitor.traffic`, sent as fast as one sender process can (``--send``: a separate process, so
 that its work does not share the receiver's interpreter). The receiver, in this process, is either
 
 - the anchor: python-can's ``socketcand`` client and ``bus.recv()`` alone, or
@@ -26,7 +26,7 @@ import time
 
 import can
 
-from bench.monitor_traffic import monitor_config, traffic
+from telethermo.monitor.traffic import monitor_config, traffic
 from telethermo.monitor.state import Monitor
 from telethermo.nodes.launch import HubProcess
 from telethermo.transport.bus import open_bus, parse_bus_string

@@ -1,5 +1,6 @@
-"""The monitor benchmarks' traffic: a synthesised realistic mix of the telethermo pair at a 1 ms SYNC period,
-and the monitor configuration for it from the shipped EDS files (see :mod:`bench.monitor_bench`)."""
+"""A synthesised realistic mix of the telethermo pair's traffic at a 1 ms SYNC period, and the monitor
+configuration for it from the shipped EDS files: the monitor benchmarks' traffic (bench/monitor_bench.py,
+bench/monitor_hub.py) and the tests'."""
 from __future__ import annotations
 
 import struct
