@@ -150,8 +150,8 @@ def test_the_simulator_and_the_controller_do_not_see_each_other(low, high):
 # Test modules that still import bench/: none (issue 26.4). The library code the benchmarks share with the
 # tests lives under telethermo/ (the bound, the material touches, oracle and calibration, the RC cooling fit,
 # the later-phase and link-loss figures, the monitor's traffic); a test of a benchmark's own orchestration
-# runs it as a program. The list only shrinks: a module not listed that imports bench fails, and so does a listed
-# one that no longer does (take it off).
+# runs it as a program. The list only shrinks: a module not listed that imports bench fails, and so does a
+# listed one that no longer does (take it off).
 STILL_IMPORTING_BENCH: set[str] = set()
 
 
