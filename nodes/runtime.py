@@ -82,7 +82,7 @@ class NodeRuntime:
         self.stop_event = threading.Event()
         self.settings = ParamSlot(self, mode)
         self.models = ModelSlot(self)
-        self.ident = IdentService(self)
+        self.ident = IdentService(self.settings, self.stats)
         self.store = StoreSlot(self, store_path if store_path is not None else default_store_path(node_id))
         self.cycle = ControlCycle(self)
         self.bus_outage = BusOutage(peer=lambda: self.peer, peer_id=self.peer_id,
