@@ -81,7 +81,8 @@ class NodeRuntime:
         self.stats = RuntimeStats()
         self.stop_event = threading.Event()
         self.settings = ParamSlot(self, mode)
-        self.models = ModelSlot(self)
+        self.models = ModelSlot(parts=parts, settings=self.settings, node_id=node_id,
+                                swap_model=lambda tem, neutral_C: self.cycle.swap_model(tem, neutral_C))
         self.ident = IdentService(self.settings, self.stats)
         self.store = StoreSlot(self, store_path if store_path is not None else default_store_path(node_id))
         self.cycle = ControlCycle(self)
