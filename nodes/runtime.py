@@ -80,7 +80,7 @@ class NodeRuntime:
         self.peer_id = net.peer(role).node_id
         self.stats = RuntimeStats()
         self.stop_event = threading.Event()
-        self.settings = ParamSlot(self, mode)
+        self.settings = ParamSlot(parts=parts, role=role, mode=mode, peer=lambda: self.peer)
         self.models = ModelSlot(parts=parts, settings=self.settings, node_id=node_id,
                                 swap_model=lambda tem, neutral_C: self.cycle.swap_model(tem, neutral_C))
         self.ident = IdentService(self.settings, self.stats)
