@@ -84,7 +84,8 @@ class NodeRuntime:
         self.models = ModelSlot(parts=parts, settings=self.settings, node_id=node_id,
                                 swap_model=lambda tem, neutral_C: self.cycle.swap_model(tem, neutral_C))
         self.ident = IdentService(self.settings, self.stats)
-        self.store = StoreSlot(self, store_path if store_path is not None else default_store_path(node_id))
+        self.store = StoreSlot(settings=self.settings, models=self.models, period_s=parts.period_s, node_id=node_id,
+                               path=store_path if store_path is not None else default_store_path(node_id))
         self.cycle = ControlCycle(self)
         self.bus_outage = BusOutage(peer=lambda: self.peer, peer_id=self.peer_id,
                                     start_fallback=None if produce_sync else lambda: self.fallback.start())
