@@ -18,12 +18,12 @@ from __future__ import annotations
 
 import logging
 import threading
-from typing import TYPE_CHECKING
+from typing import Callable
 
 from telethermo.cia301 import EMCY_BUS_OFF_RECOVERED
+from telethermo.device.device import Device
 
-if TYPE_CHECKING:
-    from telethermo.nodes.runtime import NodeRuntime
+from telethermo.nodes.peer import PeerLink
 
 log = logging.getLogger("telethermo.node")
 
@@ -32,16 +32,27 @@ EMCY_SOURCE = "bus"
 
 
 class BusOutage:
-    """The node's bus state as its reopening bus reports it (``on_change`` is that bus's callback)."""
+    """The node's bus state as its reopening bus reports it (``on_change`` is that bus's callback).
 
-    def __init__(self, rt: "NodeRuntime") -> None:
-        self.rt = rt
+    ``peer`` gives the node's peer link (a new one at each power-on), ``start_fallback`` starts the local
+    cycles of a SYNC consumer (None on the SYNC producer); the device comes by :meth:`bind`."""
+
+    def __init__(self, *, peer: Callable[[], PeerLink], peer_id: int,
+                 start_fallback: Callable[[], None] | None) -> None:
+        self._peer = peer
+        self._peer_id = peer_id
+        self._start_fallback = start_fallback
+        self._dev: Device | None = None
         self.down = False
         self.awaiting_peer = False
         """The bus is back but no heartbeat of the peer was seen since: it may not hear us yet."""
         self.outages = 0
         self.returns = 0
         self._lock = threading.Lock()
+
+    def bind(self, dev: Device) -> None:
+        """The device, once it exists (the bus reports changes before it does)."""
+        self._dev = dev
 
     @property
     def peer_unreachable(self) -> bool:
@@ -63,17 +74,16 @@ class BusOutage:
             else:
                 self.outages += 1
             self.awaiting_peer = True
-        rt = self.rt
         if not up:
-            rt.peer.on_bus_down()
+            self._peer().on_bus_down()
             log.warning("bus lost (%s): peer %d counts as lost; the envelope goes safe; retrying", reason,
-                        rt.peer_id)
-            if not rt.produce_sync and rt.device is not None:
-                rt.fallback.start()
+                        self._peer_id)
+            if self._start_fallback is not None and self._dev is not None:
+                self._start_fallback()
             return
-        rt.peer.on_bus_up()
-        log.warning("bus back (%s): waiting for peer %d's heartbeat and PDOs", reason, rt.peer_id)
-        dev = rt.device
+        self._peer().on_bus_up()
+        log.warning("bus back (%s): waiting for peer %d's heartbeat and PDOs", reason, self._peer_id)
+        dev = self._dev
         if dev is not None:
             dev.emcy.raise_error(EMCY_BUS_OFF_RECOVERED, source=EMCY_SOURCE)
             dev.emcy.clear(EMCY_BUS_OFF_RECOVERED, source=EMCY_SOURCE)

@@ -17,7 +17,6 @@ from __future__ import annotations
 import logging
 import math
 import time
-from typing import TYPE_CHECKING
 
 from telethermo.cia301 import ABORT_DEVICE_STATE, EMCY_LINK_FALLBACK
 from telethermo.device.device import SyncTick
@@ -28,9 +27,7 @@ from telethermo.control.types import Mode, PeerValues
 from telethermo.rig import RigSample
 from telethermo.offline.runner import side_row, truth_row
 
-
-if TYPE_CHECKING:
-    from telethermo.nodes.runtime import NodeRuntime
+from telethermo.nodes.ports import CycleHost
 
 log = logging.getLogger("telethermo.node")
 
@@ -62,7 +59,7 @@ def material_status(w, m) -> None:
 class ControlCycle:
     """The controller's state between cycles (``state``, None until the first cycle) and one cycle's work."""
 
-    def __init__(self, rt: "NodeRuntime") -> None:
+    def __init__(self, rt: CycleHost) -> None:
         self.rt = rt
         self.state: CoreState | None = None
         self.advance_pending = False

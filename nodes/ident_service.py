@@ -5,7 +5,6 @@ SDO (``telethermo identify`` reads them as the TPDOs carried them, REAL32).
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -15,8 +14,8 @@ from telethermo.control.core import CoreState, StepResult
 from telethermo.control.types import Mode
 from telethermo.rig import RigSample
 
-if TYPE_CHECKING:
-    from telethermo.nodes.runtime import NodeRuntime
+from telethermo.nodes.param_slot import ParamSlot
+from telethermo.nodes.stats import RuntimeStats
 
 log = logging.getLogger("telethermo.node")
 
@@ -26,10 +25,12 @@ _WRITERS = ("ident_sample", "ident_state", "ident_guard", "ident_start_cycle", "
 
 
 class IdentService:
-    """The experiment's state (``IDENT_*``) and record: float32 (T_sensor_C, current_A, Q_W) per sample."""
+    """The experiment's state (``IDENT_*``) and record: float32 (T_sensor_C, current_A, Q_W) per sample.
+    ``settings``: the mode and the experiment's plan in force; ``stats``: the cycle count at its start."""
 
-    def __init__(self, rt: "NodeRuntime") -> None:
-        self.rt = rt
+    def __init__(self, settings: ParamSlot, stats: RuntimeStats) -> None:
+        self._settings = settings
+        self._stats = stats
         self.state = IDENT_NOT_RUN
         self.record: np.ndarray | None = None
         self._w: dict = {}
@@ -48,16 +49,16 @@ class IdentService:
         sample kept for ident_fetch_sample (0x280B): the values its TPDOs carry, as REAL32."""
         w, k = self._w, state.ident_k
         w["ident_sample"](k)
-        mode = self.rt.settings.mode
+        mode = self._settings.mode
         if mode is Mode.IDENTIFY:
-            plan = self.rt.settings.params.identify
+            plan = self._settings.params.identify
             total = plan.total
             if k == 1:
                 self.record = np.full((total, 3), np.nan, dtype=np.float32)
             if 1 <= k <= total and self.record is not None and len(self.record) == total:
                 self.record[k - 1] = (sample.T_sensor_C, res.current_A, res.out.flux_W)
             if k == 1:
-                w["ident_start_cycle"](self.rt.stats.cycles & 0xFFFFFFFF)
+                w["ident_start_cycle"](self._stats.cycles & 0xFFFFFFFF)
                 log.info("identification experiment started: %d samples (%s)", total, plan.as_dict())
             new = IDENT_DONE if k >= total else IDENT_RUNNING
             if new == IDENT_DONE and self.state == IDENT_RUNNING:

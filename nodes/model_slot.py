@@ -9,19 +9,18 @@ command marks the status EDITED (the objects differ from what runs).
 from __future__ import annotations
 
 import logging
-from typing import TYPE_CHECKING
+from typing import Any, Callable
 
 from telethermo.cia301 import ABORT_APPLICATION as ABORT_MODEL_REFUSED, ABORT_DEVICE_STATE
-from telethermo.device.device import WriteEvent
+from telethermo.device.device import Device, WriteEvent
 from telethermo.control.core import Feedback
 from telethermo.control.estimators import Estimator
 from telethermo.control.types import Mode
 from telethermo.ident import odmodel
 from telethermo.ident.modelfile import ModelFileError
 
-
-if TYPE_CHECKING:
-    from telethermo.nodes.runtime import NodeRuntime
+from telethermo.nodes.param_slot import ParamSlot
+from telethermo.nodes.parts import NodeParts
 
 log = logging.getLogger("telethermo.node")
 
@@ -30,11 +29,20 @@ MODEL_INDICES = frozenset(range(0x2300, 0x2309)) | frozenset(range(0x230A, 0x231
 
 
 class ModelSlot:
-    """The running ``model`` (the --model file at power-on; 0x230D loads another) and the pending load."""
+    """The running ``model`` (the --model file at power-on; 0x230D loads another) and the pending load.
 
-    def __init__(self, rt: "NodeRuntime") -> None:
-        self.rt = rt
-        self.model = rt.parts.model
+    ``parts``: the --model file's model, the period and the gains fitted to a model; ``settings``: the
+    parameter book; ``swap_model(tem, neutral_C)``: the control cycle's predictor takes a new model;
+    ``node_id`` names the OD in messages. The device comes by :meth:`bind`."""
+
+    def __init__(self, *, parts: NodeParts, settings: ParamSlot, node_id: int,
+                 swap_model: Callable[[Any, float], None]) -> None:
+        self._parts = parts
+        self._settings = settings
+        self._node_id = node_id
+        self._swap_model = swap_model
+        self._dev: Device | None = None
+        self.model = parts.model
         self.loaded = 0
         """Models loaded or unloaded by model_command since the start."""
         self._candidate = None   # (TemModel | None, crc) validated by the last model_command write
@@ -42,7 +50,8 @@ class ModelSlot:
         self._pending = None     # the same, to take at the next SYNC
         self._w: dict = {}
 
-    def bind(self, dev) -> None:
+    def bind(self, dev: Device) -> None:
+        self._dev = dev
         self._w = {name: dev.writer(name) for name in ("model_status", "model_crc32", "model_command")}
         dev.add_write_validator("model_command", self.check_command)
 
@@ -53,12 +62,12 @@ class ModelSlot:
 
     def power_on(self) -> None:
         """The --model file's model runs again, and the OD shows it."""
-        self.model = self.rt.parts.model
+        self.model = self._parts.model
         self._candidate = self._pending = None
         self.write_objects(self.model)
-        book = self.rt.settings.book
+        book = self._settings.book
         if book is not None:
-            self.rt.parts.fit_model(self.model, book.role)    # and the gains derived from it
+            self._parts.fit_model(self.model, book.role)    # and the gains derived from it
             book.version += 1
 
     def write_objects(self, tem) -> None:
@@ -76,14 +85,14 @@ class ModelSlot:
             w["model_crc32"](0)
             return
         for e in entries:
-            self.rt.device.write((e.index, e.sub), e.value, check=False)
+            self._dev.write((e.index, e.sub), e.value, check=False)
         w["model_status"](odmodel.STATUS_LOADED)
         w["model_crc32"](odmodel.od_crc32(entries))
 
     def check_command(self, value) -> int | None:
         """Validator of model_command (0x230D), device lock held (see the module docstring)."""
         value = int(value)
-        book = self.rt.settings.book
+        book = self._settings.book
         p = book.params() if book is not None else None   # what is requested, not only what runs
         uses_model = p is not None and (p.estimator is not Estimator.FLUX or p.feedback is Feedback.MODEL)
         if value == odmodel.CMD_LOAD:
@@ -93,10 +102,10 @@ class ModelSlot:
                 log.warning("model_command 1 refused: the %s estimator drives the pad in %s", p.estimator.value,
                             book.mode.name)
                 return ABORT_DEVICE_STATE
-            d = self.rt.device
+            d = self._dev
             try:
-                tem, entries = odmodel.model_from_od(lambda i, s: d.read((i, s)), source=f"node {self.rt.node_id} OD",
-                                                     period_s=self.rt.parts.period_s)
+                tem, entries = odmodel.model_from_od(lambda i, s: d.read((i, s)), source=f"node {self._node_id} OD",
+                                                     period_s=self._parts.period_s)
             except ModelFileError as exc:
                 log.warning("model_command 1 refused: %s", exc)
                 return ABORT_MODEL_REFUSED
@@ -118,7 +127,7 @@ class ModelSlot:
             self._pending, self._candidate = self._candidate, None
             self._edited = False
             if self._pending is not None and self._pending[0] is None:
-                self.rt.settings.book.has_model = False   # unloading: no write may select the model estimator now
+                self._settings.book.has_model = False   # unloading: no write may select the model estimator now
             self._w["model_command"](0)   # a command, not a setting: reads 0
         else:
             self._edited = True
@@ -131,12 +140,12 @@ class ModelSlot:
         tem, crc = self._pending
         self._pending = None
         self.model = tem
-        settings = self.rt.settings
+        settings = self._settings
         settings.book.has_model = tem is not None
-        parts = self.rt.parts
+        parts = self._parts
         parts.fit_model(tem, settings.book.role)      # gains that fit the newly identified rig
         settings.book.version += 1                    # the next SYNC rebuilds the parameters with them
-        self.rt.cycle.swap_model(tem, settings.params.safety.neutral_C)
+        self._swap_model(tem, settings.params.safety.neutral_C)
         status = odmodel.STATUS_LOADED if tem is not None else odmodel.STATUS_NONE
         if tem is not None and self._edited:
             status = odmodel.STATUS_EDITED   # objects written after the load command: they differ from what runs

@@ -9,30 +9,35 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-from typing import TYPE_CHECKING
+from typing import Callable
 
 from telethermo.device.device import Device, WriteEvent
 from telethermo.control.rendering import load_render_table
-from telethermo.control.types import Mode
+from telethermo.control.types import Mode, Role
 
 from telethermo.nodes.odparams import GAIN_KEYS, PARAM_KEYS, STORED_KEYS, ParamBook, od_image
-
-if TYPE_CHECKING:
-    from telethermo.nodes.runtime import NodeRuntime
+from telethermo.nodes.parts import NodeParts
+from telethermo.nodes.peer import PeerLink
 
 log = logging.getLogger("telethermo.node")
 
 class ParamSlot:
-    """The controller's parameters of one node (``params``, ``mode``), built from its ``book``."""
+    """The controller's parameters of one node (``params``, ``mode``), built from its ``book``.
 
-    def __init__(self, rt: "NodeRuntime", mode: Mode) -> None:
-        self.rt = rt
+    ``parts``: the defaults (``params_for``), the render script, the period and the finger; ``role``: the
+    node's side; ``mode``: the --mode at power-on; ``peer`` gives the node's peer link (a new one at each
+    power-on), whose PDO miss limit follows the book."""
+
+    def __init__(self, *, parts: NodeParts, role: Role, mode: Mode, peer: Callable[[], PeerLink]) -> None:
+        self._parts = parts
+        self._role = role
+        self._peer = peer
         self.mode = self.configured_mode = mode
         self.params = None   # built at power-on from the parameter book (defaults + SDO writes)
         self.book: ParamBook | None = None
         self.version = 0
         """The book's version the controller runs."""
-        script = rt.parts.render_script
+        script = parts.render_script
         self.script_rs = script.first if script is not None else None
         self._render_table: dict[str, float] | None = None
         self._w: dict = {}
@@ -59,8 +64,8 @@ class ParamSlot:
         read now): a fresh book from the OD's (EDS) values."""
         if self._render_table is None:
             self._render_table = load_render_table()
-        parts = self.rt.parts
-        self.book = ParamBook(self.rt.role, parts.params_for, has_model=has_model, table=self._render_table,
+        parts = self._parts
+        self.book = ParamBook(self._role, parts.params_for, has_model=has_model, table=self._render_table,
                               od_material=(int(dev.read("material_code")), float(dev.read("material_beta")),
                                            float(dev.read("object_T0_C"))),
                               script_first=self.script_rs if parts.render_script is not None else None,
@@ -82,7 +87,7 @@ class ParamSlot:
     def scripted_render(self):
         """The render script's settings in force (with the operator's pad β / finger temperature),
         or None when the OD's settings are rendered (no script, or the operator chose a material)."""
-        if self.rt.parts.render_script is None or not self.book.scripted:
+        if self._parts.render_script is None or not self.book.scripted:
             return None
         return self.book.overlay(self.script_rs)
 
@@ -114,7 +119,7 @@ class ParamSlot:
             self.write_image()
             return
         self.mode, self.params = book.mode, params
-        self.rt.peer.max_missed_cycles = book.peer_miss_limit
+        self._peer().max_missed_cycles = book.peer_miss_limit
         if self.mode is not old_mode:
             log.info("mode %s -> %s", old_mode.name, self.mode.name)
         self.write_image()
@@ -122,7 +127,7 @@ class ParamSlot:
     def select_render_touch(self, t_s: float) -> None:
         """The render script's settings in force now (the same script as the offline runner's), unless
         the operator chose the material by SDO; the OD shows them."""
-        parts = self.rt.parts
+        parts = self._parts
         script = parts.render_script
         if script is not None and self.book.scripted:
             rs = script.settings_at(t_s, parts.period_s, parts.finger_skin)

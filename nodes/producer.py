@@ -1,7 +1,7 @@
 """The SYNC producer of the pair (the master by default): the one SYNC scheduler of telethermo.
 
 It is the NMT master of the pair (it starts every node, and each one that reports a boot-up or a
-pre-operational heartbeat, see :meth:`nodes.runtime.NodeRuntime`'s peer events) and runs the schedule
+pre-operational heartbeat, see the node runtime's peer events) and runs the schedule
 (DESIGN.md §3):
 
 - **lockstep**: SYNC k+1 only after the peer's PDOs of cycle k, or after a timeout when the peer is
@@ -18,22 +18,53 @@ see ``tick.operational`` False, no PDO goes out); in STOPPED it does not.
 from __future__ import annotations
 
 import logging
+import threading
 import time
-from typing import TYPE_CHECKING, Callable
+from typing import Callable, Protocol
 
-from telethermo.device.device import NmtCommand, NmtState
+from telethermo.device.device import Device, NmtCommand, NmtState
+from telethermo.device.netconfig import NetworkConfig
+from telethermo.device.sync import SyncProducer
 from telethermo.control.types import Mode
 
+from telethermo.nodes.bus_outage import BusOutage
+from telethermo.nodes.param_slot import ParamSlot
+from telethermo.nodes.parts import NodeParts
 from telethermo.nodes.schedule import LateCycleLog, RealtimeTicker
-
-if TYPE_CHECKING:
-    from telethermo.nodes.runtime import NodeRuntime
+from telethermo.nodes.stats import RuntimeStats
 
 log = logging.getLogger("telethermo.node")
 _STOPPED = int(NmtState.STOPPED)
 
 
-def wait_for_peer(rt: "NodeRuntime", timeout_s: float) -> bool:
+class ProducerHost(Protocol):
+    """What the SYNC producer reads of its node (the node runtime is one): set at start (``device``,
+    ``sync``) or changed by the peer's events (``peer_*``, ``nmt_leaves``) while it runs; ``ticker`` is
+    written (the real-time schedule's ticker, None in lockstep)."""
+
+    stop_event: threading.Event
+    device: Device | None
+    sync: SyncProducer | None
+    net: NetworkConfig
+    parts: NodeParts
+    settings: ParamSlot
+    bus_outage: BusOutage
+    stats: RuntimeStats
+    lockstep: bool
+    ticker: RealtimeTicker | None
+    peer_id: int
+    peer_paused: bool
+    """The peer's heartbeat went from OPERATIONAL to STOPPED/PRE-OPERATIONAL."""
+    peer_boots: int
+    peer_pauses: int
+    nmt_leaves: int
+    """How often this node left OPERATIONAL."""
+
+    def mark_sync_sent(self) -> None:
+        """A SYNC is about to go out (the peer's first TPDO1 after it is timed)."""
+
+
+def wait_for_peer(rt: ProducerHost, timeout_s: float) -> bool:
     """Wait until the peer's heartbeat is seen (it is started by NMT when it is)."""
     deadline = time.monotonic() + timeout_s
     while not rt.stop_event.is_set() and time.monotonic() < deadline:
@@ -43,7 +74,7 @@ def wait_for_peer(rt: "NodeRuntime", timeout_s: float) -> bool:
     return False
 
 
-def peer_paused(rt: "NodeRuntime") -> bool:
+def peer_paused(rt: ProducerHost) -> bool:
     """The peer answers no SYNC: it left OPERATIONAL (its heartbeat said so, ``rt.peer_paused``), or its last
     heartbeat reports STOPPED, whatever event brought that heartbeat (a stopped node never owes a PDO)."""
     return rt.peer_paused or rt.device.peer_state(rt.peer_id) == _STOPPED
@@ -56,7 +87,7 @@ class _PeerDebt:
     ordered transport; waiting for the last synchronous RPDO (``last``) means every one of the cycle is in.
     """
 
-    def __init__(self, rt: "NodeRuntime") -> None:
+    def __init__(self, rt: ProducerHost) -> None:
         self.rt = rt
         dev = rt.device
         self.last = max((n for n, p in dev.rpdos.items() if p.valid and p.trans_type <= 240), default=1)
@@ -96,7 +127,7 @@ class _PeerDebt:
                         self.owed)
 
 
-def _not_operational(rt: "NodeRuntime", ticker: RealtimeTicker | None) -> None:
+def _not_operational(rt: ProducerHost, ticker: RealtimeTicker | None) -> None:
     """Stopped or pre-operational by an NMT command from elsewhere: no control cycles of ours; a SYNC per
     period in PRE-OPERATIONAL."""
     if ticker is not None:
@@ -107,7 +138,7 @@ def _not_operational(rt: "NodeRuntime", ticker: RealtimeTicker | None) -> None:
         rt.sync.transmit()
 
 
-def run_producer(rt: "NodeRuntime", cycles: int, *, progress_every: int = 0,
+def run_producer(rt: ProducerHost, cycles: int, *, progress_every: int = 0,
                  progress: Callable[[int, int], None] | None = None) -> int:
     """Start all nodes (NMT) and run ``cycles`` SYNC cycles (0 = until stopped); return cycles run."""
     dev, sync = rt.device, rt.sync

@@ -25,7 +25,6 @@ import dataclasses
 import logging
 import threading
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable
 
@@ -50,6 +49,7 @@ from telethermo.nodes.parts import NodeParts
 from telethermo.nodes.peer import PeerLink
 from telethermo.nodes.producer import run_producer, wait_for_peer
 from telethermo.nodes.schedule import RealtimeTicker, SyncNumbering
+from telethermo.nodes.stats import RuntimeStats
 from telethermo.nodes.store_slot import StoreSlot
 from telethermo.nodes.sync_anchor import read_producer_sync_count
 
@@ -58,24 +58,6 @@ log = logging.getLogger("telethermo.node")
 LOCKSTEP_INDEX = 0x2704
 #: a SYNC consumer at start waits this long for a SYNC to tell whether the producer runs already, s
 ANCHOR_WAIT_S = 0.25
-
-
-@dataclass
-class RuntimeStats:
-    """What a node counted (printed at exit, partly in the OD)."""
-
-    cycles: int = 0
-    late_cycles: int = 0
-    lockstep_timeouts: int = 0
-    emcy_raised: int = 0
-    peer_resumes: int = 0
-    nmt_starts_sent: int = 0
-    cycle_errors: int = 0
-    fallback_cycles: int = 0
-    latencies_s: list[float] = field(default_factory=list)
-    """SYNC producer: SYNC sent -> first peer TPDO1 received, s (one per cycle with a PDO)."""
-    cycle_s: list[float] = field(default_factory=list)
-    """Wall time of this node's own control cycle (SYNC handler), s."""
 
 
 class NodeRuntime:
@@ -98,13 +80,18 @@ class NodeRuntime:
         self.peer_id = net.peer(role).node_id
         self.stats = RuntimeStats()
         self.stop_event = threading.Event()
-        self.settings = ParamSlot(self, mode)
-        self.models = ModelSlot(self)
-        self.ident = IdentService(self)
-        self.store = StoreSlot(self, store_path if store_path is not None else default_store_path(node_id))
+        self.settings = ParamSlot(parts=parts, role=role, mode=mode, peer=lambda: self.peer)
+        self.models = ModelSlot(parts=parts, settings=self.settings, node_id=node_id,
+                                swap_model=lambda tem, neutral_C: self.cycle.swap_model(tem, neutral_C))
+        self.ident = IdentService(self.settings, self.stats)
+        self.store = StoreSlot(settings=self.settings, models=self.models, period_s=parts.period_s, node_id=node_id,
+                               path=store_path if store_path is not None else default_store_path(node_id))
         self.cycle = ControlCycle(self)
-        self.fallback = FallbackCycles(self)
-        self.bus_outage = BusOutage(self)
+        self.bus_outage = BusOutage(peer=lambda: self.peer, peer_id=self.peer_id,
+                                    start_fallback=None if produce_sync else lambda: self.fallback.start())
+        self.fallback = FallbackCycles(cycle=self.cycle, bus_outage=self.bus_outage, stats=self.stats,
+                                       stop_event=self.stop_event, safe_current=self.safe_current,
+                                       period_s=parts.period_s, peer_id=self.peer_id)
         self.bus: ResilientBus | None = None
         self.sync_cycle = -1
         """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
@@ -151,6 +138,8 @@ class NodeRuntime:
         eds = self.net.node(self.role).eds
         dev = Device(self.network, self.node_id, eds, settings=settings)
         self.device = dev
+        self.bus_outage.bind(dev)
+        self.fallback.bind(dev)
         self.store.bind(dev)
         self.store.load(dev)   # stored communication values before anything reads them or the device starts
         dev.add_sync_handler(self._on_sync)

@@ -25,19 +25,18 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from telethermo.control.types import Mode
+from telethermo.device.device import Device
 from telethermo.device.storage import (ALL, APPLICATION, COMMUNICATION, GROUPS, StoreError, StoreFile,
                                        StoreRestore, communication_image, install_communication)
 from telethermo.ident import odmodel
 from telethermo.ident.modelfile import ModelFileError
 
+from telethermo.nodes.model_slot import ModelSlot
 from telethermo.nodes.odparams import STORED_KEYS
-
-if TYPE_CHECKING:
-    from telethermo.device.device import Device
-    from telethermo.nodes.runtime import NodeRuntime
+from telethermo.nodes.param_slot import ParamSlot
 
 log = logging.getLogger("telethermo.node")
 
@@ -47,11 +46,19 @@ NOT_STORED, RESTORED, REFUSED, SAVED, DEFAULTS_NEXT_RESET = 0, 1, 2, 3, 4
 
 class StoreSlot:
     """The store of one node process: ``bind`` (objects, 0x1010/0x1011), ``load`` before the device starts
-    (communication values), ``restore_application`` in every power-on (parameters and model)."""
+    (communication values), ``restore_application`` in every power-on (parameters and model).
 
-    def __init__(self, rt: "NodeRuntime", path: Path) -> None:
-        self.rt = rt
-        self.file = StoreFile(path, rt.node_id)
+    ``settings`` and ``models``: the parameter book and the model slot a store saves and a restore
+    replays into; ``period_s``: the control period a stored model must have, s; ``path``: the store file
+    of node ``node_id``."""
+
+    def __init__(self, *, settings: ParamSlot, models: ModelSlot, period_s: float, node_id: int,
+                 path: Path) -> None:
+        self._settings = settings
+        self._models = models
+        self._period_s = period_s
+        self._dev: Device | None = None
+        self.file = StoreFile(path, node_id)
         self.state = NOT_STORED
         self.saved_unix_s = 0.0
         self._doc: dict | None = None   # the checked content read by load(), for the first power-on
@@ -59,7 +66,8 @@ class StoreSlot:
         self._factory: dict[tuple[int, int], bytes] = {}
         self._w: dict = {}
 
-    def bind(self, dev: "Device") -> None:
+    def bind(self, dev: Device) -> None:
+        self._dev = dev
         self._w = {k: dev.writer(k) for k in ("store_state", "store_saved_unix_s", "store_file")}
         self._factory = dict(dev.od_access.defaults)   # the power-on values before a store changed them
         StoreRestore(dev, save=self.save, restore=self.restore_defaults)
@@ -78,7 +86,7 @@ class StoreSlot:
         self.state, self.saved_unix_s = RESTORED, float(doc.get("saved_unix_s") or 0.0)
         return doc
 
-    def load(self, dev: "Device") -> None:
+    def load(self, dev: Device) -> None:
         """Before ``dev.start()``: read the store and make its communication values the power-on ones."""
         self._doc = self._read()
         self._loaded = True
@@ -95,8 +103,8 @@ class StoreSlot:
         app = (doc or {}).get("application") or {}
         if app.get("model"):
             self._restore_model(app["model"])
-        settings = self.rt.settings
-        settings.book.has_model = self.rt.models.model is not None
+        settings = self._settings
+        settings.book.has_model = self._models.model is not None
         params = app.get("params") or []
         for item in params:
             if not (isinstance(item, list) and len(item) == 2 and isinstance(item[0], str)):
@@ -112,7 +120,7 @@ class StoreSlot:
 
     def _replay(self, tag: str, value: Any) -> None:
         key, _, mode_name = tag.partition("@")
-        book = self.rt.settings.book
+        book = self._settings.book
         if key not in STORED_KEYS or (mode_name and mode_name not in Mode.__members__) \
                 or not isinstance(value, (int, float)) or isinstance(value, bool):
             log.warning("%s: stored %s = %r is not a parameter of this node: skipped", self.file.path, tag,
@@ -125,7 +133,7 @@ class StoreSlot:
             code = book.check(key, value)
             if code is None:
                 book.apply(key, value)
-                self.rt.settings.record(tag, value)
+                self._settings.record(tag, value)
         finally:
             book.mode = running
         if code is not None:
@@ -133,12 +141,12 @@ class StoreSlot:
                         tag, value, code)
 
     def _restore_model(self, entries: list) -> None:
-        dev, models = self.rt.device, self.rt.models
+        dev, models = self._dev, self._models
         try:
             for index, sub, value in entries:
                 dev.write((int(index), int(sub)), value, check=False)
             tem, _ = odmodel.model_from_od(lambda i, s: dev.read((i, s)), source=str(self.file.path),
-                                           period_s=self.rt.parts.period_s)
+                                           period_s=self._period_s)
         except (ModelFileError, KeyError, ValueError, TypeError) as exc:
             log.warning("%s: stored model refused (%s): the power-on model is kept", self.file.path, exc)
             models.write_objects(models.model)
@@ -150,13 +158,13 @@ class StoreSlot:
     def application_image(self) -> dict:
         """The application group: the written parameters in order and the running model's objects."""
         model = None
-        tem = self.rt.models.model
+        tem = self._models.model
         if tem is not None:
             try:
                 model = [[e.index, e.sub, e.value] for e in odmodel.model_entries(tem)]
             except ModelFileError as exc:
                 log.warning("the running model is not stored (%s)", exc)
-        return {"params": [[tag, value] for tag, value in self.rt.settings.written.items()], "model": model}
+        return {"params": [[tag, value] for tag, value in self._settings.written.items()], "model": model}
 
     def _existing(self) -> dict:
         try:
@@ -166,7 +174,7 @@ class StoreSlot:
 
     def save(self, group: int) -> None:
         """0x1010 sub ``group`` = "save" (device lock held): write the store file atomically."""
-        dev = self.rt.device
+        dev = self._dev
         old = self._existing() if group != ALL else {}
         comm = communication_image(dev) if group in (ALL, COMMUNICATION) else old.get("communication")
         app = self.application_image() if group in (ALL, APPLICATION) else old.get("application")
@@ -180,7 +188,7 @@ class StoreSlot:
 
     def restore_defaults(self, group: int) -> None:
         """0x1011 sub ``group`` = "load": the defaults of that group at the next reset or start."""
-        dev = self.rt.device
+        dev = self._dev
         if group == ALL:
             self.file.remove()
         else:

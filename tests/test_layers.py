@@ -183,3 +183,30 @@ def test_the_bench_import_check_sees_every_form(tmp_path):
     (tmp_path / "c.py").write_text("from benchmark import x\nfrom . import bench\nimport benchy\n")
     assert {Path(m).name for m in bench_importers(tmp_path, tmp_path)} == {"a.py", "b.py"}
 
+
+
+# The node runtime composes its parts and hands each one the collaborators it uses (issue 26): no part
+# reaches back into it, not even for a type under TYPE_CHECKING. Only the node program constructs it (and
+# the nodes benchmark, which runs two of them in one process).
+RUNTIME = "telethermo.nodes.runtime"
+RUNTIME_USERS = {"telethermo.nodes.main", "bench.nodes_bench"}
+
+
+def runtime_importers(mods: dict[str, Path]) -> list[str]:
+    """``path:line`` of every import of the runtime in ``mods`` (any level, TYPE_CHECKING blocks included)."""
+    known = set(mods) | {RUNTIME}
+    return [f"{path.name if not path.is_relative_to(ROOT) else path.relative_to(ROOT)}:{line}"
+            for mod, path in mods.items() if mod not in RUNTIME_USERS and mod != RUNTIME
+            for target, line, _ in project_imports(mod, path, known) if target == RUNTIME]
+
+
+def test_no_part_imports_the_node_runtime():
+    found = runtime_importers(modules())
+    assert not found, f"modules importing {RUNTIME} (give them their collaborators instead): {found}"
+
+
+def test_the_runtime_import_check_sees_type_checking_imports(tmp_path):
+    fake = tmp_path / "part.py"
+    fake.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                    "    from telethermo.nodes.runtime import NodeRuntime\n")
+    assert runtime_importers({"telethermo.nodes.part": fake}) == ["part.py:3"]

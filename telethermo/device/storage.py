@@ -21,15 +21,13 @@ import json
 import os
 import zlib
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import Any, Callable
 
 from canopen.sdo import SdoAbortedError
 
 from telethermo.atomic import write_json_atomic
 from telethermo.cia301 import ABORT_APPLICATION, ABORT_HARDWARE
-
-if TYPE_CHECKING:
-    from telethermo.device.device import Device
+from telethermo.device.device import Device
 
 STORE_INDEX, RESTORE_INDEX = 0x1010, 0x1011
 SAVE_SIGNATURE = 0x65766173   # "save"
@@ -56,7 +54,7 @@ class StoreRestore:
     capability bits whatever was written.
     """
 
-    def __init__(self, dev: "Device", *, save: Callable[[int], None], restore: Callable[[int], None]) -> None:
+    def __init__(self, dev: Device, *, save: Callable[[int], None], restore: Callable[[int], None]) -> None:
         self.dev = dev
         self._actions = {STORE_INDEX: save, RESTORE_INDEX: restore}
         signatures = {STORE_INDEX: SAVE_SIGNATURE, RESTORE_INDEX: LOAD_SIGNATURE}
@@ -147,7 +145,7 @@ class StoreFile:
         return True
 
 
-def communication_image(dev: "Device") -> dict[str, str]:
+def communication_image(dev: Device) -> dict[str, str]:
     """``"0xIIII:S" -> hex bytes`` of every writable communication object a store holds (see NOT_STORED)."""
     out: dict[str, str] = {}
     for (index, sub), info in sorted(dev.info.vars.items()):
@@ -159,7 +157,7 @@ def communication_image(dev: "Device") -> dict[str, str]:
     return out
 
 
-def install_communication(dev: "Device", image: dict[str, str], *, live: bool) -> list[str]:
+def install_communication(dev: Device, image: dict[str, str], *, live: bool) -> list[str]:
     """Make ``image`` (of :func:`communication_image`) the power-on values that NMT resets restore; with
     ``live`` also the values now (before ``dev.start()``: the services configure themselves from them).
     Returns one note per entry that does not fit this EDS (skipped)."""
