@@ -1,11 +1,11 @@
-"""The simulated I/O modules of a session (``telethermo session --io``): one ``telethermo-iomodule`` process per
-side, with that side's rig of the scene behind its channels, beside the two controller nodes that drive them
-with ``--rig io --rig-config RIG.toml`` (docs/hardware.md).
+"""The simulated I/O modules of a session (``telethermo session --io``): one ``telethermo-iomodule`` process
+per side, with that side's rig of the scene behind its channels, beside the two controller nodes that drive
+them with ``--rig io --rig-config RIG.toml`` (docs/hardware.md).
 
-The module of a side is the one its RIG.toml names (``modules.<name>.node_id`` of the drive's module: 3 for the
-master's packaged ``rig_io_sim.toml``, 4 for the slave's ``rig_io_sim_slave.toml``). Each module writes the
-simulated plant's truth per SYNC (``--record``, :mod:`telethermo.iomodule.truthlog`); :func:`fill_truth` puts it
-into the merged session recording, where a controller on ``--rig io`` recorded NaN.
+The module of a side is the one its RIG.toml names (``modules.<name>.node_id`` of the drive's module: 3 for
+the master's packaged ``rig_io_sim.toml``, 4 for the slave's ``rig_io_sim_slave.toml``). Each module writes
+the simulated plant's truth per SYNC (``--record``, :mod:`telethermo.iomodule.truthlog`); :func:`fill_truth`
+puts it into the merged session recording, where a controller on ``--rig io`` recorded NaN.
 """
 from __future__ import annotations
 

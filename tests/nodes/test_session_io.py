@@ -1,6 +1,6 @@
-"""``telethermo session --io`` (issue 24 item 2): four processes in lockstep over the hub, the two controllers on
-``--rig io`` driving two ``telethermo-iomodule`` processes that hold the scene's rigs. The session command runs
-as a user runs it; the test's own canopen client (RemoteNodes from bus_config/io_module.eds) watches the
+"""``telethermo session --io`` (issue 24 item 2): four processes in lockstep over the hub, the two controllers
+on ``--rig io`` driving two ``telethermo-iomodule`` processes that hold the scene's rigs. The session command
+runs as a user runs it; the test's own canopen client (RemoteNodes from bus_config/io_module.eds) watches the
 modules' heartbeats and TPDOs on the same hub and reads one of them by SDO while the session runs. The
 summary's headline is the direct-rig one within what the I/O path may cost (16-bit quantisation, at most one
 cycle): the issue's ratio <= 1.1."""
@@ -33,8 +33,8 @@ OPERATIONAL = 0x05
 
 def test_four_node_session_on_io_modules(tmp_path):
     with HubThread() as hub:
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0",
-                                      tcp_tune=True))
+        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
+                                      channel="vcan0", tcp_tune=True))
         net.connect()
         frames: collections.Counter = collections.Counter()
         states: dict[int, list[int]] = {3: [], 4: []}
