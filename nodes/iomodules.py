@@ -40,7 +40,8 @@ class IoModuleProcess:
     when the module answers (its ready line), :meth:`stop` ends it (SIGTERM, then SIGKILL)."""
 
     def __init__(self, side: str, scene: Path, bus: str, out_dir: Path, *, seed: int | None = None,
-                 network: Path | None = None, config: Path | None = None) -> None:
+                 network: Path | None = None, config: Path | None = None,
+                 faults: list[str] | None = None) -> None:
         self.side = side
         self.config = config if config is not None else rig_config(side)
         cfg = load_rig_config(self.config)
@@ -53,6 +54,8 @@ class IoModuleProcess:
             self.cmd += ["--seed", str(seed)]
         if network is not None:
             self.cmd += ["--network", str(network)]
+        for fault in faults or []:
+            self.cmd += ["--fault", fault]
         self.proc: subprocess.Popen[str] | None = None
 
     def start(self, timeout_s: float = 60.0) -> None:

@@ -142,6 +142,8 @@ class PairConfig:
         io: each controller drives its side's simulated I/O module (a ``telethermo-iomodule`` process, the
             scene's rig behind it, nodes.iomodules) with ``--rig io --rig-config`` its packaged RIG.toml,
             instead of a simulated rig in its own process.
+        io_faults: ``--fault`` texts of each side's module (telethermo.iomodule.faults), e.g.
+            ``{"master": ["detach:5"]}``.
     """
 
     scene: Path
@@ -157,6 +159,7 @@ class PairConfig:
     master_args: list[str] = field(default_factory=list)
     slave_args: list[str] = field(default_factory=list)
     io: bool = False
+    io_faults: dict[str, list[str]] = field(default_factory=dict)
 
 
 class NodePair:
@@ -215,7 +218,7 @@ class NodePair:
         assert self.bus is not None
         for role in ("slave", "master") if c.mode != "render" else ("master",):
             mod = IoModuleProcess(role, c.scene, self.bus, self.out_dir, seed=self._seed(role),
-                                  network=c.network)
+                                  network=c.network, faults=c.io_faults.get(role, []))
             self.modules[role] = mod
             try:
                 mod.start()

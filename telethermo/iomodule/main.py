@@ -50,7 +50,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="network settings file: bus, SYNC period and counter (default: packaged)")
     p.add_argument("--fault", action="append", default=[], metavar="KIND:ARGS",
                    help="inject a wiring fault (repeatable): sign:N, sign:out, scale:N:F, open:N, short:N, "
-                        "swap:A:B, sampling:MS (telethermo.iomodule.faults)")
+                        "swap:A:B, sampling:MS, detach:S (telethermo.iomodule.faults)")
     p.add_argument("--record", type=Path, metavar="FILE.csv",
                    help="write the simulated plant's truth per SYNC into FILE.csv (telethermo session --io)")
     add_bus_arguments(p)
@@ -72,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
                                 bitrate=args.bitrate).settings
         rig = build_rig(load_scene(args.scene), args.side, seed=args.seed)
         faults = parse_faults(args.fault)
+        if faults.detach_at_s is not None:
+            rig.detach_sensor(faults.detach_at_s)
     except (NetworkConfigError, TransportError, SceneError, FaultError) as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE

@@ -21,6 +21,7 @@ from telethermo.control.detach import (
 )
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
+from telethermo.iomodule.faults import FaultError, parse_faults
 from telethermo.offline import run_offline_session
 from telethermo.offline.envelope import base_condition, condition_scene, draw_conditions
 from telethermo.sim.tem import load_rig_params
@@ -163,3 +164,11 @@ class _Rig:
 
     def __init__(self, params):
         self.params = params
+
+
+def test_the_module_fault_text():
+    """``telethermo-iomodule --fault detach:S`` (its session on the bus: tests/nodes/test_session_io.py)."""
+    assert parse_faults(["detach:5"]).detach_at_s == 5.0 and parse_faults([]).detach_at_s is None
+    for bad in ("detach:x", "detach:-1", "detach:inf", "detach"):
+        with pytest.raises(FaultError, match="detach"):
+            parse_faults([bad])

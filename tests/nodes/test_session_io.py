@@ -13,14 +13,16 @@ import subprocess
 import sys
 import tempfile
 import threading
+from pathlib import Path
 
 import can
 import canopen
 import pytest
 
 from telethermo.bus_config import path as bus_config_path
-from telethermo.nodes.launch import wait_for
+from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.offline import run_offline_session
+from telethermo.offline.recording import read_recording_csv
 from telethermo.transport.hub import HubThread
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -88,3 +90,49 @@ def test_four_node_session_on_io_modules(tmp_path):
     assert "transparency" in out and "aluminium" in out
     for name in ("io-master-truth.csv", "io-slave-truth.csv", "io-master.log", "io-slave.log"):
         assert (tmp_path / name).exists(), name
+
+
+DETACH_AT_S = 5.0
+DETACH_CYCLES = 1500     # 15 s: the trip comes 7-9 s after the detachment (tests/control/test_detach.py)
+EMCY_SENSOR_DETACHED = 0x5014
+
+
+def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
+    """The master's module's sensor head comes off the pad at 5 s (``telethermo-iomodule --fault detach:5``):
+    the master, which sees only the module's codes, sends EMCY 0x5014 and drives 0 A from then on (its RPDO to
+    the module), as the test's own listener sees on the bus; the slave does not trip."""
+    scene = Path(__file__).resolve().parents[2] / "sim" / "scenes" / f"{SCENE}.toml"
+    with HubThread() as hub:
+        bus = f"socketcand://127.0.0.1:{hub.port}/vcan0"
+        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
+                                      channel="vcan0", tcp_tune=True))
+        net.connect()
+        seen: list[tuple[int, bytes]] = []
+        lock = threading.Lock()
+
+        def on_frame(cob, data, ts):
+            with lock:
+                seen.append((cob, bytes(data)))
+        for cob in (0x81, 0x82, 0x203):
+            net.subscribe(cob, on_frame)
+        pair = NodePair(PairConfig(scene=scene, out_dir=tmp_path, bus=bus, io=True, cycles=DETACH_CYCLES,
+                                   seed=0, io_faults={"master": [f"detach:{DETACH_AT_S:g}"]}))
+        try:
+            pair.start()
+            assert pair.wait_master(timeout_s=600) == 0, pair.log("master-stderr").read_text()
+        finally:
+            pair.stop()
+            net.disconnect()
+    emcys = [(i, int.from_bytes(d[:2], "little"), d[2]) for i, (c, d) in enumerate(seen)
+             if c == 0x81 and d[:2] != b"\0\0"]
+    detached = [(i, reg) for i, code, reg in emcys if code == EMCY_SENSOR_DETACHED]
+    assert len(detached) == 1 and detached[0][1] & 0x01, emcys   # once, with the generic error bit
+    assert not [d for c, d in seen if c == 0x82 and int.from_bytes(d[:2], "little") == EMCY_SENSOR_DETACHED]
+    first = detached[0][0]
+    after = [d for i, (c, d) in enumerate(seen) if c == 0x203 and i > first]
+    assert len(after) > 50 and all(d == b"\0\0" for d in after[2:]), after[:5]   # the drive cut: 0 A
+    rec = read_recording_csv(tmp_path / "master.csv")
+    t = rec.col("t_s")
+    trips = [(float(t[i]), x) for i, x in enumerate(rec.text("m_new_trips")) if x]
+    print(f"master's first trip: {trips[0] if trips else None} (sensor detached at {DETACH_AT_S} s)")
+    assert trips and trips[0][1] == "sensor_detached" and DETACH_AT_S < trips[0][0] <= DETACH_AT_S + 10.0
