@@ -14,13 +14,16 @@ import math
 import numpy as np
 import pytest
 
+from telethermo import sim
 from telethermo.control import safety as sf
+from telethermo.control.core import init_state, step
 from telethermo.control.detach import (
     SHIPPED_ALPHA_V_K, SHIPPED_K_W_K, SHIPPED_R_OHM, SHIPPED_TAU_V_K, detach_excess, detach_timer,
     hold_current_A, sensor_average, tem_limits,
 )
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
+from telethermo.ident.plan import IdentifyPlan
 from telethermo.iomodule.faults import FaultError, parse_faults
 from telethermo.offline import run_offline_session
 from telethermo.offline.envelope import base_condition, condition_scene, draw_conditions
@@ -172,3 +175,25 @@ def test_the_module_fault_text():
     for bad in ("detach:x", "detach:-1", "detach:inf", "detach"):
         with pytest.raises(FaultError, match="detach"):
             parse_faults([bad])
+
+
+@pytest.mark.slow   # two identification experiments of 152 s of plant time
+@pytest.mark.parametrize("role", [Role.MASTER, Role.SLAVE])
+def test_the_identification_experiment_does_not_trip(role):
+    """IDENTIFY drives PRBS currents up to 1 A into a pad in air, far from any holding current: the pad is not
+    steady while a bit is held, and the bits above the margin are too rare for the leaky timer."""
+    sc = sim.load_scene("pads_in_air")
+    rig = sim.build_rig(sc, role.value, seed=1)
+    plan = IdentifyPlan()
+    p = default_params(role, period_s=sc.period_s, mode=Mode.IDENTIFY, identify=plan)
+    p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=rig.I_max_A, **tem_limits(rig)))
+    state, worst, big = init_state(p, None, rig.read()), 0.0, 0
+    for _ in range(plan.total):
+        r = step(rig.read(), None, p, state)
+        state = r.state
+        assert not r.status.safety.new_trips
+        worst, big = max(worst, state.env.detach_time_s), big + (abs(r.current_A) > p.safety.detach_excess_A)
+        rig.apply_current(r.current_A)
+        rig.advance(sc.period_s)
+    print(f"{role.value}: leaky timer at most {worst:.2f} s; {big} of {plan.total} samples above the margin")
+    assert big > 1000 and worst < 0.5 * p.safety.detach_time_s
