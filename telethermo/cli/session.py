@@ -120,6 +120,9 @@ def run(args: argparse.Namespace) -> int:
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
+    if args.io and mode == "render":   # the render script comes from the scene, which a --rig io node lacks
+        raise UserError(f"--io: {scene_path}: a virtual (render) scene; --io runs telepresence scenes (the "
+                        "master renders from the scene's script only with its own simulated rig)")
     cfg = PairConfig(scene=scene_path, out_dir=out, bus=bus, network=args.network, model=args.model,
                      mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
                      progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args,

@@ -136,3 +136,12 @@ def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
     trips = [(float(t[i]), x) for i, x in enumerate(rec.text("m_new_trips")) if x]
     print(f"master's first trip: {trips[0] if trips else None} (sensor detached at {DETACH_AT_S} s)")
     assert trips and trips[0][1] == "sensor_detached" and DETACH_AT_S < trips[0][0] <= DETACH_AT_S + 10.0
+
+
+def test_a_render_scene_with_io_is_refused(tmp_path):
+    p = subprocess.run([sys.executable, "-c",
+                        "import sys; from telethermo.cli.main import main; sys.exit(main())", "session", "--scene", "virtual_materials", "--io", "--out", str(tmp_path)],
+                       capture_output=True, text=True, timeout=120,
+                       env=dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-io-")))
+    assert p.returncode == 2 and "--io:" in p.stderr and "virtual_materials.toml" in p.stderr
+    assert "Traceback" not in p.stderr and not (tmp_path / "master.log").exists()
