@@ -140,7 +140,8 @@ def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
 
 def test_a_render_scene_with_io_is_refused(tmp_path):
     p = subprocess.run([sys.executable, "-c",
-                        "import sys; from telethermo.cli.main import main; sys.exit(main())", "session", "--scene", "virtual_materials", "--io", "--out", str(tmp_path)],
+                        "import sys; from telethermo.cli.main import main; sys.exit(main())", "session",
+                        "--scene", "virtual_materials", "--io", "--out", str(tmp_path)],
                        capture_output=True, text=True, timeout=120,
                        env=dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-io-")))
     assert p.returncode == 2 and "--io:" in p.stderr and "virtual_materials.toml" in p.stderr
