@@ -108,6 +108,22 @@ def _checked_files(args: argparse.Namespace) -> list[str]:
     return ["--gains", str(args.gains.resolve())]
 
 
+def _mode(args: argparse.Namespace, scene, scene_path: Path) -> str:
+    """The nodes' mode for the scene: render for a virtual scene (refused with --io: the master takes its
+    rendering script from the scene, which a --rig io node does not load), else telepresence."""
+    mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
+    if args.io and mode == "render":
+        raise UserError(f"--io: {scene_path}: a virtual (render) scene; --io runs telepresence scenes (the "
+                        "master renders from the scene's script only with its own simulated rig)")
+    return mode
+
+
+def _print_modules(pair: NodePair) -> None:
+    if pair.modules:
+        print("I/O modules: " + ", ".join(f"{r} node {m.node_id} (pid {m.proc.pid if m.proc else '-'})"
+                                          for r, m in pair.modules.items()), file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     scene = _resolve_scene(args.scene)
     scene_path = Path(getattr(scene, "path", args.scene))
@@ -119,10 +135,7 @@ def run(args: argparse.Namespace) -> int:
     cycles = int(round(duration / scene.period_s))
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
-    mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
-    if args.io and mode == "render":   # the render script comes from the scene, which a --rig io node lacks
-        raise UserError(f"--io: {scene_path}: a virtual (render) scene; --io runs telepresence scenes (the "
-                        "master renders from the scene's script only with its own simulated rig)")
+    mode = _mode(args, scene, scene_path)
     cfg = PairConfig(scene=scene_path, out_dir=out, bus=bus, network=args.network, model=args.model,
                      mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
                      progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args,
@@ -151,10 +164,8 @@ def run(args: argparse.Namespace) -> int:
             print(f"telethermo session: warning: cannot publish the bus ({exc}); other terminals need --bus {pair.bus}",
                   file=sys.stderr)
         where = pair.bus if bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
-        if not args.quiet and pair.modules:
-            print("I/O modules: " + ", ".join(f"{r} node {m.node_id} (pid {m.proc.pid if m.proc else '-'})"
-                                              for r, m in pair.modules.items()), file=sys.stderr)
         if not args.quiet:
+            _print_modules(pair)
             print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
                   f"on {where}", file=sys.stderr)
         if not args.quiet:
