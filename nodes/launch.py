@@ -3,11 +3,11 @@
 Used by ``telethermo session``, the two-process tests and the benchmark, so that they all run the
 same thing: the real console programs as separate OS processes on a real transport.
 
-Order: hub (if needed) -> slave -> master (the SYNC producer waits for the slave's boot-up, starts
-it with NMT, then runs its cycles and exits) -> the slave is stopped with SIGTERM -> the hub with
-SIGTERM. Every child runs in its own process group, so a terminal's Ctrl-C reaches only the caller,
-which then stops the children in that order (:meth:`NodePair.stop`). The hub also stops by itself
-when its parent ends.
+Order: hub (if needed) -> the I/O modules (``--io``: nodes.iomodules) -> slave -> master (the SYNC
+producer waits for the slave's boot-up, starts it with NMT, then runs its cycles and exits) -> the slave
+is stopped with SIGTERM -> the modules -> the hub with SIGTERM. Every child runs in its own process
+group, so a terminal's Ctrl-C reaches only the caller, which then stops the children in that order
+(:meth:`NodePair.stop`). The hub also stops by itself when its parent ends.
 """
 from __future__ import annotations
 
@@ -20,6 +20,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+
+from telethermo.nodes.iomodules import IoModuleError, IoModuleProcess
 
 HUB_CHANNEL = "telethermo"
 
@@ -137,6 +139,11 @@ class PairConfig:
         seed: noise seed (the slave gets seed + 1 so the rigs' noises differ).
         progress_every: the master prints ``progress k n`` every this many cycles.
         master_args, slave_args: further arguments for each node program.
+        io: each controller drives its side's simulated I/O module (a ``telethermo-iomodule`` process, the
+            scene's rig behind it, nodes.iomodules) with ``--rig io --rig-config`` its packaged RIG.toml,
+            instead of a simulated rig in its own process.
+        io_faults: ``--fault`` texts of each side's module (telethermo.iomodule.faults), e.g.
+            ``{"master": ["detach:5"]}``.
     """
 
     scene: Path
@@ -151,6 +158,8 @@ class PairConfig:
     progress_every: int = 100
     master_args: list[str] = field(default_factory=list)
     slave_args: list[str] = field(default_factory=list)
+    io: bool = False
+    io_faults: dict[str, list[str]] = field(default_factory=dict)
 
 
 class NodePair:
@@ -168,6 +177,8 @@ class NodePair:
         self.result: dict | None = None
         """The master's ``result {json}`` line (cycles, wall time, late cycles, latencies)."""
         self._reader: threading.Thread | None = None
+        self.modules: dict[str, IoModuleProcess] = {}
+        """The I/O module processes by side (``config.io``)."""
 
     @property
     def out_dir(self) -> Path:
@@ -183,16 +194,36 @@ class NodePair:
         c = self.config
         # a session of simulated rigs keeps its parameter store in its own folder: settings a lab saved for its
         # hardware nodes (the per-user default store) never change a session's figures
-        args = ["--bus", self.bus, "--scene", str(c.scene), "--record", str(self.recording(role)),
+        rig = (["--rig", "io", "--rig-config", str(self.modules[role].config)] if c.io else
+               ["--scene", str(c.scene)])
+        args = ["--bus", self.bus, *rig, "--record", str(self.recording(role)),
                 "--mode", c.mode, "--timing", c.timing, "--log", str(self.log(role)),
                 "--store", str(self.out_dir / f"{role}-store.json")]
         if c.network is not None:
             args += ["--network", str(c.network)]
         if c.model is not None:
             args += ["--model", str(c.model)]
-        if c.seed is not None:
-            args += ["--seed", str(c.seed + (1 if role == "slave" else 0))]
+        if c.seed is not None and not c.io:     # the I/O module simulates the rig: the seed is its
+            args += ["--seed", str(self._seed(role))]
         return args
+
+    def _seed(self, role: str) -> int | None:
+        seed = self.config.seed
+        return None if seed is None else seed + (1 if role == "slave" else 0)
+
+    def start_modules(self) -> None:
+        """``config.io``: the I/O module of each side that runs (the slave's only in telepresence), each
+        up and answering before its controller commissions it."""
+        c = self.config
+        assert self.bus is not None
+        for role in ("slave", "master") if c.mode != "render" else ("master",):
+            mod = IoModuleProcess(role, c.scene, self.bus, self.out_dir, seed=self._seed(role),
+                                  network=c.network, faults=c.io_faults.get(role, []))
+            self.modules[role] = mod
+            try:
+                mod.start()
+            except IoModuleError as exc:
+                raise LaunchError(str(exc)) from None
 
     def start_slave(self) -> subprocess.Popen:
         """(Re)start the slave process."""
@@ -211,6 +242,8 @@ class NodePair:
             self.hub = HubProcess(log_path=self.log("hub"))
             self.hub.start()
             self.bus = self.hub.bus
+        if c.io:
+            self.start_modules()
         if c.mode != "render":  # virtual rendering: the master alone
             self.start_slave()
         margs = self._common("master") + ["--progress", str(c.progress_every), "--json"]   # the result line
@@ -250,6 +283,8 @@ class NodePair:
         last heartbeat and closes its recording); return the exit codes."""
         codes = {"master": stop_process(self.master, sig=sig),
                  "slave": stop_process(self.slave, sig=sig)}
+        for role, mod in self.modules.items():
+            codes[f"io-{role}"] = mod.stop()
         if self.hub is not None:
             self.hub.stop()
             codes["hub"] = self.hub.proc.returncode if self.hub.proc else None

@@ -17,6 +17,7 @@ from typing import Any, Callable
 
 from telethermo import sim
 from telethermo.control.core import CoreParams, RenderSettings
+from telethermo.control.detach import tem_limits
 from telethermo.control.gain_rule import fit_gains, fitted_params
 from telethermo.control.gainsfile import load_gains
 from telethermo.control.params import default_params
@@ -123,6 +124,9 @@ def build_parts(opts: NodeOptions, *, period_s: float, node_id: int | None = Non
             p = fitted_params(p, fit)
         if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
+        tem = tem_limits(rig)      # the detached-sensor check on this rig's TEM (as the offline runner)
+        if any(getattr(p.safety, k) != v for k, v in tem.items()):
+            p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, **tem))
         return p
 
     parts = NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,

@@ -122,6 +122,10 @@ class SimRig:
         self._chQ = Channel(noise.Q_sigma_W if on else 0.0, noise.Q_lsb_W, noise.cutoff_Hz, fs, rng)
         self._switch()
         self._next_event = self.schedule.next_event_after(self.t_s)
+        #: fault injection (:meth:`detach_sensor`): from this time on the sensor head is off the pad, s
+        self.detached_at_s = math.inf
+        self._detach_tau_s = 3.0
+        self._detached_T_C = math.nan
         if start is not None:
             self._settle(start)
         self._stored0 = self._stored_total()
@@ -268,10 +272,22 @@ class SimRig:
         self.x = y
         self.E_el_J += 0.5 * dt * (u0 + u1 + v0 + v1)
 
+    def detach_sensor(self, at_s: float, *, tau_s: float = 3.0) -> None:
+        """Fault injection: from ``at_s`` on, the sensor head (thermocouple and flux sensor) is off the pad.
+        Its thermocouple relaxes from where it was towards the ambient air with time constant ``tau_s`` (s)
+        and no heat flows through its flux sensor (it reads 0 W), through the same noisy measurement chain;
+        the plant is unchanged (the pad and what touches it go on as before, now unseen)."""
+        self.detached_at_s = float(at_s)
+        self._detach_tau_s = float(tau_s)
+
     def _sample(self) -> None:
         cfg, x = self.cfg, self.x
-        self._last = RigSample(t_s=self.t_s, T_sensor_C=self._chT(x.item(cfg.i_mid)),
-                               Q_W=self._chQ(float(cfg.q_full @ x) + cfg.q_f0), current_A=self.I,
+        T, Q = x.item(cfg.i_mid), float(cfg.q_full @ x) + cfg.q_f0
+        if self.t_s >= self.detached_at_s:
+            prev = self._detached_T_C if math.isfinite(self._detached_T_C) else T
+            T = self.ambient_C + (prev - self.ambient_C) * math.exp(-self.period_s / self._detach_tau_s)
+            self._detached_T_C, Q = T, 0.0
+        self._last = RigSample(t_s=self.t_s, T_sensor_C=self._chT(T), Q_W=self._chQ(Q), current_A=self.I,
                                contact=self._contact, T_sink_C=x.item(0), force_N=self._force)
 
     # ---- truth and introspection -----------------------------------------------------------------

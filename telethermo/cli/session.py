@@ -20,6 +20,7 @@ import time
 from pathlib import Path
 
 from telethermo import sim
+from telethermo.nodes.iomodules import fill_truth
 from telethermo.nodes.launch import LaunchError, NodePair, PairConfig
 from telethermo.nodes.merge import MergeError, merge_recordings
 from telethermo.atomic import write_json_atomic
@@ -52,6 +53,10 @@ def register(subparsers) -> None:
                    help="lockstep (default: as fast as the two processes go) or realtime (wall clock)")
     p.add_argument("--duration", type=float, metavar="S", help="run S seconds of scene time (default: the scene's)")
     p.add_argument("--seed", type=int, default=0, help="noise seed (master; the slave gets seed+1; default 0)")
+    p.add_argument("--io", action="store_true",
+                   help="each side's rig behind a simulated CiA 401 I/O module (telethermo-iomodule, its "
+                        "own process); the controllers drive them with --rig io and the packaged RIG.toml: "
+                        "four nodes")
     p.add_argument("--no-plot", action="store_true", help="do not write session.png")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
@@ -103,6 +108,22 @@ def _checked_files(args: argparse.Namespace) -> list[str]:
     return ["--gains", str(args.gains.resolve())]
 
 
+def _mode(args: argparse.Namespace, scene, scene_path: Path) -> str:
+    """The nodes' mode for the scene: render for a virtual scene (refused with --io: the master takes its
+    rendering script from the scene, which a --rig io node does not load), else telepresence."""
+    mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
+    if args.io and mode == "render":
+        raise UserError(f"--io: {scene_path}: a virtual (render) scene; --io runs telepresence scenes (the "
+                        "master renders from the scene's script only with its own simulated rig)")
+    return mode
+
+
+def _print_modules(pair: NodePair) -> None:
+    if pair.modules:
+        print("I/O modules: " + ", ".join(f"{r} node {m.node_id} (pid {m.proc.pid if m.proc else '-'})"
+                                          for r, m in pair.modules.items()), file=sys.stderr)
+
+
 def run(args: argparse.Namespace) -> int:
     scene = _resolve_scene(args.scene)
     scene_path = Path(getattr(scene, "path", args.scene))
@@ -114,10 +135,11 @@ def run(args: argparse.Namespace) -> int:
     cycles = int(round(duration / scene.period_s))
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
-    mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
+    mode = _mode(args, scene, scene_path)
     cfg = PairConfig(scene=scene_path, out_dir=out, bus=bus, network=args.network, model=args.model,
                      mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
-                     progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args)
+                     progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args,
+                     io=args.io)
     pair = NodePair(cfg)
     interrupted = published = False
     bar = None
@@ -143,6 +165,7 @@ def run(args: argparse.Namespace) -> int:
                   file=sys.stderr)
         where = pair.bus if bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
         if not args.quiet:
+            _print_modules(pair)
             print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
                   f"on {where}", file=sys.stderr)
         if not args.quiet:
@@ -188,14 +211,18 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
         return code or EXIT_FAIL
     try:
         rec = merge_recordings(m, s, scene=scene)
-    except (MergeError, RecordingError) as exc:
+        for mod in pair.modules.values():   # --io: the plant's truth is in the modules' processes
+            fill_truth(rec, mod.truth_path)
+            rec.meta.setdefault("scene", scene.name)
+    except (MergeError, RecordingError, ValueError, OSError) as exc:
         print(f"telethermo session: error: {exc}", file=sys.stderr)
         return code or EXIT_FAIL
     figures = compute_figures(rec)
     figures["run"] = {"transport": pair.bus.split("://")[0] if pair.bus else None, "wall_time_s": wall_s,
                       "cycles": len(rec), "cycles_requested": cycles,
                       "cycles_per_s": len(rec) / wall_s if wall_s > 0 else None, "complete": len(rec) == cycles,
-                      "master": pair.result}
+                      "master": pair.result,
+                      "io_modules": {r: mod.node_id for r, mod in pair.modules.items()} or None}
     write_recording_csv(out / "recording.csv", rec)
     write_json_atomic(out / "summary.json", figures)
     if plot:

@@ -18,6 +18,8 @@ What the envelope enforces (defaults in :class:`SafetyLimits`):
 - **sensor plausibility**: NaN/inf, open thermocouple (a reading at or beyond ``open_tc_C``),
   out of the plausible range, absurd heat flux, model-vs-sensor mismatch held for
   ``mismatch_time_s``: current cut;
+- **sensor off the pad**: with the pad steady by its sensor, a current far from what holding it against the
+  measured load takes (:mod:`telethermo.control.detach`), counted for ``detach_time_s``: current cut;
 - **peer**: lost (heartbeat/PDO timeout) or non-finite/absurd values: the setpoint ramps to
   ``neutral_C`` (32 °C) and then the current is cut. A bad peer value never reaches the command;
 - **trip slew**: while a peer trip is latched (its ramp to neutral and the cut that ends it), and while the
@@ -43,6 +45,7 @@ import math
 from dataclasses import dataclass, replace
 from enum import IntEnum
 
+from telethermo.control.detach import detach_excess, detach_timer, sensor_average
 from telethermo.control.safety_limits import (DEFAULT_T_MAX_C, DEFAULT_T_MIN_C, DEFAULT_TRIP_LEAD_C,  # noqa: F401
                                               DEFAULT_TRIP_SLEW_A_PER_S, PROBE_T_MAX_C, PROBE_T_MIN_C, PROTECTS,
                                               LIMIT_NAMES, SafetyLimits, limits_from_mask, limits_mask,
@@ -89,6 +92,8 @@ class EnvelopeState:
         trips: latched trips.
         hot_time_s: continuous time the surface has spent above hot_C, s.
         mismatch_time_s: continuous time the model-vs-sensor mismatch has been exceeded, s.
+        detach_time_s: the detached-sensor check's leaky timer, s (:mod:`telethermo.control.detach`);
+        sensor_avg_C: the sensor's running average for it, °C (NaN before the first reading).
         neutral_time_s: time since the peer trip started the ramp to neutral, s.
         cut: current cut (latched with the trips that caused it).
         link_fallback: the master's link-loss fallback rendered in this step (``EnvelopeInput.link_fallback``),
@@ -101,6 +106,8 @@ class EnvelopeState:
     mismatch_time_s: float = 0.0
     neutral_time_s: float = 0.0
     cut: bool = False
+    detach_time_s: float = 0.0
+    sensor_avg_C: float = math.nan
     link_fallback: bool = False
 
 
@@ -199,8 +206,8 @@ class EnvelopeInput:
 
 
 def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput,
-                  dt_s: float) -> tuple[set[Trip], float, float]:
-    """The trips this step's measurements raise, and the new mismatch and hot timers, s."""
+                  dt_s: float) -> tuple[set[Trip], float, float, float]:
+    """The trips this step's measurements raise, and the new mismatch, hot and detach timers, s."""
     raised = set(check_sample(limits, inp.T_sensor_C, inp.Q_W, inp.T_sink_C, inp.current_meas_A))
 
     # surface beyond the clamps (by more than the margin): cut
@@ -228,13 +235,20 @@ def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     else:
         hot_time = 0.0
 
+    # a sensor off the pad: far more current than holding the last setpoint takes, held (control.detach)
+    excess = not state.cut and detach_excess(limits, T_sensor_C=inp.T_sensor_C, T_avg_C=state.sensor_avg_C,
+                                             current_A=inp.current_meas_A, T_sink_C=inp.T_sink_C, Q_W=inp.Q_W)
+    detach_time, detached = detach_timer(limits, state.detach_time_s, excess, dt_s)
+    if detached:
+        raised.add(Trip.SENSOR_DETACHED)
+
     # peer
     if inp.peer_required:
         if not inp.peer_alive:
             raised.add(Trip.PEER_LOST)
         elif not inp.peer_ok:
             raised.add(Trip.PEER_INVALID)
-    return raised, mismatch_time, hot_time
+    return raised, mismatch_time, hot_time, detach_time
 
 
 def _lead_bound(limits: SafetyLimits, prev_C: float, sp_C: float, inp: EnvelopeInput) -> float:
@@ -259,7 +273,7 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     inside [T_min_C, T_max_C], even if ``requested_C`` is NaN (then the previous setpoint is held).
     """
     active: list[str] = []
-    raised, mismatch_time, hot_time = _judge_sample(limits, state, inp, dt_s)
+    raised, mismatch_time, hot_time, detach_time = _judge_sample(limits, state, inp, dt_s)
     new_trips = frozenset(raised) - state.trips
     trips = state.trips | frozenset(raised)
 
@@ -299,7 +313,9 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
     if cut:
         active.append("cut")
     new_state = EnvelopeState(setpoint_C=sp, trips=trips, hot_time_s=hot_time, mismatch_time_s=mismatch_time,
-                              neutral_time_s=neutral_time, cut=cut, link_fallback=inp.link_fallback)
+                              neutral_time_s=neutral_time, cut=cut, link_fallback=inp.link_fallback,
+                              detach_time_s=detach_time,
+                              sensor_avg_C=sensor_average(state.sensor_avg_C, inp.T_sensor_C, dt_s))
     return sp, new_state, tuple(active), new_trips
 
 
@@ -413,6 +429,7 @@ def clear_trips(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput) 
     mid = 0.5 * (inp.surface_hi_C + inp.surface_lo_C)
     sp = min(max(mid, limits.T_min_C), limits.T_max_C) if math.isfinite(mid) else state.setpoint_C
     return replace(state, trips=trips, cut=cut, setpoint_C=sp, mismatch_time_s=0.0, neutral_time_s=0.0,
+                   detach_time_s=0.0,
                    hot_time_s=0.0 if Trip.TIME_AT_TEMPERATURE not in trips else state.hot_time_s)
 
 

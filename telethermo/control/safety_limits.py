@@ -6,6 +6,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from telethermo.control.detach import SHIPPED_ALPHA_V_K, SHIPPED_K_W_K, SHIPPED_R_OHM, SHIPPED_TAU_V_K
+
 DEFAULT_T_MIN_C = 15.0
 DEFAULT_T_MAX_C = 43.0
 #: the probe's surface limits, °C (it has no skin: its own hardware's range, so that it follows a 5 °C or a
@@ -49,6 +51,12 @@ class SafetyLimits:
         trip_lead_C: while a peer trip ramps the setpoint to neutral, the setpoint leads the credible surface
         by
             at most this, °C (it waits for a lagging pad; ``math.inf`` turns it off, research only).
+        tem_alpha_V_K, tem_R_ohm, tem_K_W_K, tem_tau_V_K: the TEM's Seebeck coefficient (V/K), resistance
+            (Ω), conductance (W/K) and Thomson coefficient (V/K) for the detached-sensor check
+            (:mod:`telethermo.control.detach`; default the shipped 15 × 15 mm module; alpha 0: no check).
+        detach_excess_A, detach_rel, detach_slope_C_per_s, detach_time_s: the check trips SENSOR_DETACHED when
+            the current differs from the holding current by more than detach_excess_A + detach_rel·|I_hold|
+            while the sensor's slope is below detach_slope_C_per_s (°C/s), for detach_time_s s (leaky count).
         research: allow limits wider than the defaults (a deliberate research flag).
         protects: "skin" (the master: the clamps guard a person's skin, [15, 43] °C at the widest, and the
             guard acts on the pad's contact face, the honest bound on the skin) or "probe" (the slave: its
@@ -83,6 +91,14 @@ class SafetyLimits:
     peer_Q_abs_max_W: float = 30.0
     trip_slew_A_per_s: float = DEFAULT_TRIP_SLEW_A_PER_S
     trip_lead_C: float = DEFAULT_TRIP_LEAD_C
+    tem_alpha_V_K: float = SHIPPED_ALPHA_V_K
+    tem_R_ohm: float = SHIPPED_R_OHM
+    tem_K_W_K: float = SHIPPED_K_W_K
+    tem_tau_V_K: float = SHIPPED_TAU_V_K
+    detach_excess_A: float = 0.8
+    detach_rel: float = 0.5
+    detach_slope_C_per_s: float = 0.2
+    detach_time_s: float = 3.0
     research: bool = False
     protects: str = "skin"
 
@@ -114,10 +130,15 @@ class SafetyLimits:
             "peer_Q_abs_max_W",
             "trip_slew_A_per_s",
             "trip_lead_C",
+            "detach_time_s",
         )
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ValueError(f"SafetyLimits.{name}: expected > 0, got {getattr(self, name)!r}")
+        for name in ("tem_alpha_V_K", "tem_R_ohm", "tem_K_W_K", "detach_excess_A", "detach_rel",
+                     "detach_slope_C_per_s"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"SafetyLimits.{name}: expected >= 0, got {getattr(self, name)!r}")
         if self.guard_C < 0 or self.surface_trip_margin_C < 0 or self.taper_C < 0:
             raise ValueError("SafetyLimits.guard_C/taper_C/surface_trip_margin_C: expected >= 0")
         if not self.T_min_C < self.T_max_C:

@@ -25,13 +25,14 @@ class Trip(str, Enum):
     OVERCURRENT = "overcurrent"                # measured current above the hardware limit
     PEER_LOST = "peer_lost"                    # heartbeat / PDO timeout reported by the node
     PEER_INVALID = "peer_invalid"              # NaN/inf/absurd peer estimate or flux
+    SENSOR_DETACHED = "sensor_detached"        # holding the target takes far more current than the TEM needs
 
 
 def trips_mask(trips: Iterable[Trip | str]) -> int:
     """The trips as a bit mask, bit i = the i-th member of :class:`Trip` in declaration order (objects 0x2706,
     0x2707): sensor_invalid 0x001, open_thermocouple 0x002, sensor_range 0x004, model_mismatch 0x008,
     surface_high 0x010, surface_low 0x020, time_at_temperature 0x040, heat_sink 0x080, overcurrent 0x100,
-    peer_lost 0x200, peer_invalid 0x400."""
+    peer_lost 0x200, peer_invalid 0x400, sensor_detached 0x800."""
     return sum(_TRIP_BIT[Trip(t)] for t in set(trips)) if trips else 0
 
 
@@ -71,6 +72,7 @@ EMCY_CODES: dict[Trip, int] = {
     Trip.OVERCURRENT: 0x2310,
     Trip.PEER_LOST: EMCY_HEARTBEAT,
     Trip.PEER_INVALID: EMCY_PEER_INVALID,
+    Trip.SENSOR_DETACHED: 0x5014,
 }
 
 #: Error-register bits each trip sets (GENERIC is always set while any trip is active).
@@ -86,12 +88,14 @@ ERROR_REGISTER_BITS: dict[Trip, int] = {
     Trip.OVERCURRENT: ErrorRegisterBit.CURRENT,
     Trip.PEER_LOST: ErrorRegisterBit.COMMUNICATION,
     Trip.PEER_INVALID: ErrorRegisterBit.MANUFACTURER,   # 0xFFxx: as the device's 0x1001 says
+    Trip.SENSOR_DETACHED: ErrorRegisterBit.MANUFACTURER,
 }
 
 #: Trips after which the current is cut at once (the measurement cannot be trusted or the hardware
 #: is at risk). The other trips ramp the setpoint (peer) or cap it (time at temperature).
 CUT_TRIPS = frozenset({Trip.SENSOR_INVALID, Trip.OPEN_THERMOCOUPLE, Trip.SENSOR_RANGE, Trip.MODEL_MISMATCH,
-                       Trip.SURFACE_HIGH, Trip.SURFACE_LOW, Trip.HEAT_SINK, Trip.OVERCURRENT})
+                       Trip.SURFACE_HIGH, Trip.SURFACE_LOW, Trip.HEAT_SINK, Trip.OVERCURRENT,
+                       Trip.SENSOR_DETACHED})
 PEER_TRIPS = frozenset({Trip.PEER_LOST, Trip.PEER_INVALID})
 
 

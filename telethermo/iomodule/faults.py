@@ -11,7 +11,10 @@ Each ``--fault`` is one text, repeatable:
 - ``short:N``     input N shorted (its amplifier's input at 0 V: reads 0 counts);
 - ``swap:A:B``    the wires of inputs A and B exchanged;
 - ``sampling:MS`` the ADC converts every MS ms whatever 0x2100 says (a vendor module whose sampling object
-  is elsewhere than the RIG.toml's ``sampling_index``: its 400 ms default stays in force).
+  is elsewhere than the RIG.toml's ``sampling_index``: its 400 ms default stays in force);
+- ``detach:S``    the sensor head comes off the pad at S s of plant time (the simulated rig's
+  ``detach_sensor``: the thermocouple relaxes to the room, the flux sensor reads 0 W); not a wiring fault
+  (``rig check`` cannot see it at rest): the controller's envelope trips ``sensor_detached`` in a session.
 """
 from __future__ import annotations
 
@@ -20,7 +23,7 @@ from dataclasses import dataclass, field, replace
 from telethermo.bus_config.io_eds import N_INPUTS
 from telethermo.iomodule.scaling import InputWiring
 
-KINDS = ("sign", "scale", "open", "short", "swap", "sampling")
+KINDS = ("sign", "scale", "open", "short", "swap", "sampling", "detach")
 
 
 class FaultError(ValueError):
@@ -40,6 +43,8 @@ class Faults:
     out_sign: int = 1
     sampling_ms: int | None = None
     """Forced ADC period, ms (None: 0x2100 rules)."""
+    detach_at_s: float | None = None
+    """Plant time at which the sensor head comes off the pad, s (None: never)."""
 
     def wiring(self, base: tuple[InputWiring, ...]) -> tuple[InputWiring, ...]:
         """``base`` (inputs 1..n) with the polarity, gain, short and swap faults applied."""
@@ -70,13 +75,15 @@ def parse_faults(specs: list[str]) -> Faults:
     """The faults of ``--fault`` texts (FaultError naming the text and what was expected)."""
     sign, short, scale, swaps = set(), set(), {}, []
     opened, out_sign, sampling = 0, 1, None
+    detach: float | None = None
     for spec in specs:
         kind, _, rest = spec.partition(":")
         args = rest.split(":") if rest else []
-        need = {"sign": 1, "open": 1, "short": 1, "sampling": 1, "scale": 2, "swap": 2}.get(kind)
+        need = {"sign": 1, "open": 1, "short": 1, "sampling": 1, "scale": 2, "swap": 2,
+                "detach": 1}.get(kind)
         if need is None or len(args) != need:
             raise FaultError(f"--fault {spec}: expected sign:N|sign:out, scale:N:F, open:N, short:N, "
-                             "swap:A:B or sampling:MS")
+                             "swap:A:B, sampling:MS or detach:S")
         if kind == "sign" and args[0] == "out":
             out_sign = -1
         elif kind == "sign":
@@ -99,6 +106,13 @@ def parse_faults(specs: list[str]) -> Faults:
             if not factor > 0 or factor == float("inf"):
                 raise FaultError(f"--fault {spec}: expected a gain factor > 0, got {args[1]!r}")
             scale[n] = factor
+        elif kind == "detach":
+            try:
+                detach = float(args[0])
+            except ValueError:
+                detach = -1.0
+            if not 0.0 <= detach < float("inf"):
+                raise FaultError(f"--fault {spec}: expected a plant time >= 0 s, got {args[0]!r}")
         else:
             try:
                 sampling = int(args[0])
@@ -108,4 +122,4 @@ def parse_faults(specs: list[str]) -> Faults:
                 raise FaultError(f"--fault {spec}: expected a sampling period 1..1000 ms, got {args[0]!r}")
     return Faults(sign=frozenset(sign), scale=scale, opened=opened, short=frozenset(short),
                   swaps=tuple(swaps),
-                  out_sign=out_sign, sampling_ms=sampling)
+                  out_sign=out_sign, sampling_ms=sampling, detach_at_s=detach)

@@ -14,12 +14,14 @@ import logging
 import signal
 import sys
 import threading
+from pathlib import Path
 
 import canopen
 
 from telethermo.device import DeviceSettings, NetworkConfigError, load_network
 from telethermo.iomodule.faults import FaultError, parse_faults
 from telethermo.iomodule.module import IoModule
+from telethermo.iomodule.truthlog import TruthLog
 from telethermo.sim.compile import build_rig
 from telethermo.sim.errors import SceneError
 from telethermo.sim.scene import load_scene
@@ -48,7 +50,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="network settings file: bus, SYNC period and counter (default: packaged)")
     p.add_argument("--fault", action="append", default=[], metavar="KIND:ARGS",
                    help="inject a wiring fault (repeatable): sign:N, sign:out, scale:N:F, open:N, short:N, "
-                        "swap:A:B, sampling:MS (telethermo.iomodule.faults)")
+                        "swap:A:B, sampling:MS, detach:S (telethermo.iomodule.faults)")
+    p.add_argument("--record", type=Path, metavar="FILE.csv",
+                   help="write the simulated plant's truth per SYNC into FILE.csv (telethermo session --io)")
     add_bus_arguments(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log state changes on stderr")
     return p
@@ -68,6 +72,8 @@ def main(argv: list[str] | None = None) -> int:
                                 bitrate=args.bitrate).settings
         rig = build_rig(load_scene(args.scene), args.side, seed=args.seed)
         faults = parse_faults(args.fault)
+        if faults.detach_at_s is not None:
+            rig.detach_sensor(faults.detach_at_s)
     except (NetworkConfigError, TransportError, SceneError, FaultError) as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
         return EXIT_USAGE
@@ -88,14 +94,26 @@ def main(argv: list[str] | None = None) -> int:
     network.connect()
     module = IoModule(network, args.node_id, rig, settings=settings, faults=faults)
     try:
+        truth = TruthLog(args.record, rig, args.side) if args.record is not None else None
+    except OSError as exc:
+        print(f"{PROG}: error: --record {args.record}: {exc.strerror or exc}", file=sys.stderr)
+        network.disconnect()
+        return EXIT_USAGE
+    if truth is not None:      # after the module's own handler: the plant has advanced
+        module.device.add_sync_handler(truth.on_sync)
+    try:
         module.start()
         logging.getLogger("telethermo.iomodule").info("node %d on %s: pre-operational", args.node_id,
                                                       transport.describe())
+        # one line a launcher waits for (telethermo.nodes.iomodules): the module answers from now on
+        print(f"{PROG} node {args.node_id} ready on {transport.describe()}", flush=True)
         while not stop.wait(0.5):
             pass
     finally:
         module.close()
         network.disconnect()
+        if truth is not None:
+            truth.close()
     return EXIT_OK
 
 

@@ -28,6 +28,7 @@ import numpy as np
 from telethermo.atomic import write_json_atomic
 from telethermo.control.core import CoreParams, StepResult, init_state, initial_peer, step
 from telethermo.control.defaults import HOLD_GAINS
+from telethermo.control.detach import tem_limits
 from telethermo.control.later_phase import DEFAULT_LATER_MODEL
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
@@ -313,9 +314,13 @@ def _lone_master(b: RecordingBuilder, rig_m, ref, state, n_steps: int, period: f
 
 
 def _with_rig_limits(p: CoreParams, rig) -> CoreParams:
-    """The envelope's current limit follows the rig's hardware limit (0.8·I_max of *this* rig)."""
+    """The envelope's current limit follows the rig's hardware limit (0.8·I_max of *this* rig), and its
+    detached-sensor check the rig's TEM when the rig says it (telethermo.control.detach.tem_limits)."""
     if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
         p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
+    tem = tem_limits(rig)
+    if any(getattr(p.safety, k) != v for k, v in tem.items()):
+        p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, **tem))
     return p
 
 
