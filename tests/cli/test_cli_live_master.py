@@ -104,7 +104,8 @@ def test_a_target_beyond_the_skin_clamp_saturates_and_status_says_so(bus, capsys
         line = next(ln for ln in out.splitlines() if ln.strip().startswith("limits"))
         # the lone master runs its own lockstep SYNC, faster than real time: on a loaded machine the pad can
         # have sat above hot_C for hot_time_limit_s (30 s of its time) by now, and the time-at-temperature cap
-        # (40 °C) then holds the setpoint below the clamp. Either way a limit holds it and status names that limit.
+        # (40 °C) then holds the setpoint below the clamp. Either way a limit holds it and status names that
+        # limit.
         assert "setpoint_clamp" in line or "hot_cap" in line, out
     finally:
         back = cli(capsys, "set", "--bus", bus, "master", "mode", "idle")   # `mode` wants the slave too
