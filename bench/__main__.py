@@ -6,6 +6,7 @@ exits 1 when any is short.
 Each benchmark is a module ``bench.<name>_bench`` exposing ``run(quick: bool) -> dict`` that prints
 its own table and writes ``bench/results/<name>.json`` (through bench.common.write_results).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -21,17 +22,35 @@ from bench.common import RESULTS_DIR, RESULTS_ENV, current_results_dir
 from bench.report import refresh_docs, write_plots
 from bench.targets import check, check_table
 
-SUITE = ["sim", "identify", "control", "transparency", "nodes", "identify_live", "cli", "rendering", "monitor", "envelope"]
+SUITE = [
+    "sim",
+    "identify",
+    "control",
+    "transparency",
+    "nodes",
+    "identify_live",
+    "cli",
+    "rendering",
+    "monitor",
+    "envelope",
+]
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
-    ap.add_argument("--quick", action="store_true", help="short runs for CI that still measure something real")
+    ap.add_argument(
+        "--quick", action="store_true", help="short runs for CI that still measure something real"
+    )
     ap.add_argument("--only", nargs="+", choices=SUITE, help="run only these benchmarks")
-    ap.add_argument("--results-dir", help="write the result files here instead of bench/results/ "
-                                          "(docs/benchmarks.md is then left alone)")
-    ap.add_argument("--check", action="store_true", help="run nothing: per target, met / short / missing "
-                                                         "from the result files; exit 1 when any is short")
+    ap.add_argument(
+        "--results-dir",
+        help="write the result files here instead of bench/results/ (docs/benchmarks.md is then left alone)",
+    )
+    ap.add_argument(
+        "--check",
+        action="store_true",
+        help="run nothing: per target, met / short / missing from the result files; exit 1 when any is short",
+    )
     args = ap.parse_args(argv)
     if args.check:
         rows = check(Path(args.results_dir) if args.results_dir else RESULTS_DIR)

@@ -3,6 +3,7 @@
 Every benchmark writes ``bench/results/<name>.json`` through :func:`write_results`, which adds the
 machine, the versions, the date and the git commit, so results from different runs are comparable.
 """
+
 from __future__ import annotations
 
 import os
@@ -48,7 +49,9 @@ def median_time_s(fn: Callable[[], Any], *, repeats: int = 5, warmup: int = 1) -
 
 def print_table(headers: list[str], rows: list[list[Any]]) -> str:
     """Print (and return) a plain-text table with right-aligned columns."""
-    cells = [[h for h in headers]] + [[f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows]
+    cells = [[h for h in headers]] + [
+        [f"{c:.4g}" if isinstance(c, float) else str(c) for c in r] for r in rows
+    ]
     widths = [max(len(r[i]) for r in cells) for i in range(len(headers))]
     lines = ["  ".join(c.rjust(w) for c, w in zip(r, widths)) for r in cells]
     lines.insert(1, "  ".join("-" * w for w in widths))

@@ -9,6 +9,7 @@ each timing mode (default both; quick: real time only), every check in order, an
 bench/results/conformance.json: ``n_checks``, ``n_fail`` (FAIL or ERROR) and ``checks`` (name, clause,
 timing, result, detail). Exit code 1 if a check failed.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -29,8 +30,22 @@ def run(quick: bool = False, timings: tuple[str, ...] | None = None) -> dict[str
     timings = timings or (("realtime",) if quick else TIMINGS)
     path = current_results_dir() / "conformance.json"
     before = path.stat().st_mtime_ns if path.exists() else None
-    cmd = [sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", "-m", "conformance", str(TESTS),
-           "--conformance-timing", *timings, "--write-results", str(path.parent), "-rf"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pytest",
+        "-q",
+        "-p",
+        "no:cacheprovider",
+        "-m",
+        "conformance",
+        str(TESTS),
+        "--conformance-timing",
+        *timings,
+        "--write-results",
+        str(path.parent),
+        "-rf",
+    ]
     code = subprocess.run(cmd, cwd=ROOT).returncode
     if not path.exists() or path.stat().st_mtime_ns == before:
         raise RuntimeError(f"conformance: pytest exited {code} and wrote no {path}")
@@ -42,8 +57,11 @@ def run(quick: bool = False, timings: tuple[str, ...] | None = None) -> dict[str
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.conformance_bench", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.conformance_bench",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="real time only")
     ap.add_argument("--timing", nargs="+", choices=TIMINGS, help="timing modes to run (default: both)")
     args = ap.parse_args(argv)

@@ -20,6 +20,7 @@ An oracle row bounds what the display's TEM can do at all.
 writes bench/results/control.json (keys: rows, pareto, default, transparency_early_mean_error_C,
 transparency_late_mean_error_C, tracking_rms_C, step_us_default, ...).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -53,17 +54,50 @@ def _scene(period_s: float):
 def _step_cost_us(rec, pm, ps, model_m, model_s, n_max: int = 3000) -> float:
     """Median µs per step() call, replaying the recorded samples of both sides (controller only)."""
     n = min(len(rec), n_max)
-    cols = {c: rec.col(c) for c in ("t_s", "m_T_sensor_C", "m_Q_W", "m_current_A", "m_T_sink_C",
-                                      "s_T_sensor_C", "s_Q_W", "s_current_A", "s_T_sink_C",
-                                      "m_peer_estimate_C", "m_peer_flux_W", "s_peer_estimate_C", "s_peer_flux_W")}
+    cols = {
+        c: rec.col(c)
+        for c in (
+            "t_s",
+            "m_T_sensor_C",
+            "m_Q_W",
+            "m_current_A",
+            "m_T_sink_C",
+            "s_T_sensor_C",
+            "s_Q_W",
+            "s_current_A",
+            "s_T_sink_C",
+            "m_peer_estimate_C",
+            "m_peer_flux_W",
+            "s_peer_estimate_C",
+            "s_peer_flux_W",
+        )
+    }
     samples = []
     for k in range(n):
-        sm = RigSample(cols["t_s"][k], cols["m_T_sensor_C"][k], cols["m_Q_W"][k], cols["m_current_A"][k], True,
-                       cols["m_T_sink_C"][k])
-        ss = RigSample(cols["t_s"][k], cols["s_T_sensor_C"][k], cols["s_Q_W"][k], cols["s_current_A"][k], False,
-                       cols["s_T_sink_C"][k])
-        samples.append((sm, ss, PeerValues(cols["m_peer_estimate_C"][k], cols["m_peer_flux_W"][k]),
-                        PeerValues(cols["s_peer_estimate_C"][k], cols["s_peer_flux_W"][k])))
+        sm = RigSample(
+            cols["t_s"][k],
+            cols["m_T_sensor_C"][k],
+            cols["m_Q_W"][k],
+            cols["m_current_A"][k],
+            True,
+            cols["m_T_sink_C"][k],
+        )
+        ss = RigSample(
+            cols["t_s"][k],
+            cols["s_T_sensor_C"][k],
+            cols["s_Q_W"][k],
+            cols["s_current_A"][k],
+            False,
+            cols["s_T_sink_C"][k],
+        )
+        samples.append(
+            (
+                sm,
+                ss,
+                PeerValues(cols["m_peer_estimate_C"][k], cols["m_peer_flux_W"][k]),
+                PeerValues(cols["s_peer_estimate_C"][k], cols["s_peer_flux_W"][k]),
+            )
+        )
 
     def replay():
         a = init_state(pm, model_m, samples[0][0])
@@ -89,14 +123,22 @@ class RowConfig:
 
     def params(self):
         pm = default_params(Role.MASTER, period_s=self.period_s, estimator=self.estimator)
-        ps = default_params(Role.SLAVE, period_s=self.period_s, estimator=self.estimator,
-                            **(self.slave_overrides or {}))
+        ps = default_params(
+            Role.SLAVE, period_s=self.period_s, estimator=self.estimator, **(self.slave_overrides or {})
+        )
         return pm, ps
 
     def session(self, duration_s: float | None):
         pm, ps = self.params()
-        return run_offline_session(_scene(self.period_s), master_params=pm, slave_params=ps, master_model=self.model,
-                                   slave_model=self.model, duration_s=duration_s, rounding=self.rounding)
+        return run_offline_session(
+            _scene(self.period_s),
+            master_params=pm,
+            slave_params=ps,
+            master_model=self.model,
+            slave_model=self.model,
+            duration_s=duration_s,
+            rounding=self.rounding,
+        )
 
 
 def run_rows(configs: list[RowConfig], *, duration_s: float | None, rounds: int) -> list[dict[str, Any]]:
@@ -116,18 +158,37 @@ def run_rows(configs: list[RowConfig], *, duration_s: float | None, rounds: int)
         tr = f["transparency"]
         pm, ps = c.params()
         rig_limits = dataclasses.replace(pm.safety, I_max_A=3.0)
-        step_us = _step_cost_us(res.recording, dataclasses.replace(pm, safety=rig_limits),
-                                dataclasses.replace(ps, safety=rig_limits), c.model, c.model)
-        rows.append({
-            "name": c.name, "period_ms": round(c.period_s * 1e3, 6), "estimator": c.estimator.value,
-            "model_order": _order(c.model), "rounding": c.rounding, "run_s": statistics.median(times[c.name]),
-            "run_s_all": times[c.name], "step_us": step_us, "early_C": tr["early01_mean_error_C"],
-            "early_0_1s_C": tr["early_mean_error_C"], "headline_C": tr["headline_error_C"],
-            "late_C": tr["late_mean_error_C"], "early_max_C": tr["early01_max_error_C"],
-            "flux_early_W": tr["early01_mean_flux_error_W"], "pre_contact_C": tr["pre_contact_mean_error_C"],
-            "tracking_rms_C": f["tracking"]["rms_C"], "order_kept": f["discrimination"]["order_kept"],
-            "trips": f["safety"]["n_trips"], "duration_s": f["duration_s"], "rounds": rounds,
-        })
+        step_us = _step_cost_us(
+            res.recording,
+            dataclasses.replace(pm, safety=rig_limits),
+            dataclasses.replace(ps, safety=rig_limits),
+            c.model,
+            c.model,
+        )
+        rows.append(
+            {
+                "name": c.name,
+                "period_ms": round(c.period_s * 1e3, 6),
+                "estimator": c.estimator.value,
+                "model_order": _order(c.model),
+                "rounding": c.rounding,
+                "run_s": statistics.median(times[c.name]),
+                "run_s_all": times[c.name],
+                "step_us": step_us,
+                "early_C": tr["early01_mean_error_C"],
+                "early_0_1s_C": tr["early_mean_error_C"],
+                "headline_C": tr["headline_error_C"],
+                "late_C": tr["late_mean_error_C"],
+                "early_max_C": tr["early01_max_error_C"],
+                "flux_early_W": tr["early01_mean_flux_error_W"],
+                "pre_contact_C": tr["pre_contact_mean_error_C"],
+                "tracking_rms_C": f["tracking"]["rms_C"],
+                "order_kept": f["discrimination"]["order_kept"],
+                "trips": f["safety"]["n_trips"],
+                "duration_s": f["duration_s"],
+                "rounds": rounds,
+            }
+        )
     return rows
 
 
@@ -144,14 +205,18 @@ def _models(quick: bool) -> list[Any]:
     if not quick:
         for o in ((1, 1, 0, 0), (2, 2, 1, 1), (3, 3, 3, 3)):
             try:
-                m, _rep = identify_rig(sim.free_pad_rig(period_s=0.01), n_samples=10_000, orders=NarmaOrders(*o))
+                m, _rep = identify_rig(
+                    sim.free_pad_rig(period_s=0.01), n_samples=10_000, orders=NarmaOrders(*o)
+                )
                 out.append(m)
             except Exception as exc:  # an unstable fit is refused by ident: report, do not hide
                 print(f"model order {o}: not identified ({exc})")
     return out
 
 
-def oracle_bound(duration_s: float | None = None, kp_A_per_C: float = 5.0, ki_A_per_C_s: float = 20.0) -> dict[str, Any]:
+def oracle_bound(
+    duration_s: float | None = None, kp_A_per_C: float = 5.0, ki_A_per_C_s: float = 20.0
+) -> dict[str, Any]:
     """What the display's TEM can do at best: an *oracle* PI on the master that sees the true skin
     temperature and the direct-touch reference (no filter, no delay, no bilateral loop), with the
     envelope's current limit (0.8·I_max). Its early-phase error is a hardware bound, not a controller."""
@@ -180,9 +245,12 @@ def oracle_bound(duration_s: float | None = None, kp_A_per_C: float = 5.0, ki_A_
             m = (R[:, 0] >= c.start_s + a - 1e-9) & (R[:, 0] < min(c.start_s + b, c.end_s) - 1e-9)
             out[key] = float(np.mean(np.abs(R[m, 1] - R[m, 2])))
         per.append(out)
-    return {"per_contact": per, "early_mean_error_C": float(np.mean([p["early_C"] for p in per])),
-            "late_mean_error_C": float(np.mean([p["late_C"] for p in per])),
-            "note": "master alone, true skin temperature and reference known, |I| <= 0.8 Imax"}
+    return {
+        "per_contact": per,
+        "early_mean_error_C": float(np.mean([p["early_C"] for p in per])),
+        "late_mean_error_C": float(np.mean([p["late_C"] for p in per])),
+        "note": "master alone, true skin temperature and reference known, |I| <= 0.8 Imax",
+    }
 
 
 def pareto(rows: list[dict[str, Any]], x: str = "run_s", y: str = "early_C") -> list[str]:
@@ -202,22 +270,60 @@ def run(quick: bool = False) -> dict[str, Any]:
         for est in (Estimator.MODEL, Estimator.FUSED):
             configs.append(RowConfig(f"10 ms, {est.value}, {_order(m)}", estimator=est, model=m))
     configs.append(RowConfig("10 ms, flux, REAL32", rounding="real32"))
-    configs.append(RowConfig("10 ms, flux, probe echoes T_f in air", slave_overrides={"echo_peer_when_free": True}))
+    configs.append(
+        RowConfig("10 ms, flux, probe echoes T_f in air", slave_overrides={"echo_peer_when_free": True})
+    )
     rows = run_rows(configs, duration_s=duration, rounds=1 if quick else 3)
     front = pareto(rows)
     for r in rows:
         r["pareto"] = r["name"] in front
-    print_table(["config", "run s", "step µs", "early °C", "late °C", "pre °C", "flux W", "track °C", "order", "trips",
-                 "pareto"],
-                [[r["name"], r["run_s"], r["step_us"], r["early_C"], r["late_C"], r["pre_contact_C"], r["flux_early_W"],
-                  r["tracking_rms_C"], r["order_kept"], r["trips"], "*" if r["pareto"] else ""] for r in rows])
+    print_table(
+        [
+            "config",
+            "run s",
+            "step µs",
+            "early °C",
+            "late °C",
+            "pre °C",
+            "flux W",
+            "track °C",
+            "order",
+            "trips",
+            "pareto",
+        ],
+        [
+            [
+                r["name"],
+                r["run_s"],
+                r["step_us"],
+                r["early_C"],
+                r["late_C"],
+                r["pre_contact_C"],
+                r["flux_early_W"],
+                r["tracking_rms_C"],
+                r["order_kept"],
+                r["trips"],
+                "*" if r["pareto"] else "",
+            ]
+            for r in rows
+        ],
+    )
     oracle = oracle_bound(duration)
-    print("oracle bound (truth, no filter, no delay): early %.3f °C, late %.3f °C; per touch early: %s" % (
-        oracle["early_mean_error_C"], oracle["late_mean_error_C"],
-        ", ".join(f"{p['object']} {p['early_C']:.2f}" for p in oracle["per_contact"])))
+    print(
+        "oracle bound (truth, no filter, no delay): early %.3f °C, late %.3f °C; per touch early: %s"
+        % (
+            oracle["early_mean_error_C"],
+            oracle["late_mean_error_C"],
+            ", ".join(f"{p['object']} {p['early_C']:.2f}" for p in oracle["per_contact"]),
+        )
+    )
     default = next(r for r in rows if r["name"] == "period 10 ms, flux")
     out = {
-        "scene": SCENE, "quick": quick, "rows": rows, "pareto": front, "default": default["name"],
+        "scene": SCENE,
+        "quick": quick,
+        "rows": rows,
+        "pareto": front,
+        "default": default["name"],
         "transparency_early_mean_error_C": default["early_C"],
         "transparency_late_mean_error_C": default["late_C"],
         "tracking_rms_C": default["tracking_rms_C"],

@@ -12,6 +12,7 @@ baseline.
 
 Not a timed test: a benchmark (real time on a shared machine).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -56,7 +57,9 @@ def _flooder(pair: NodePair, at_s: tuple[float, ...], sent: list[int]) -> None:
         bus.shutdown()
 
 
-def no_trip_rise(t: np.ndarray, sp: np.ndarray, state: np.ndarray, new_trips: list[str]) -> tuple[float, float, float]:
+def no_trip_rise(
+    t: np.ndarray, sp: np.ndarray, state: np.ndarray, new_trips: list[str]
+) -> tuple[float, float, float]:
     """The largest rise of the setpoint, °C, within a stretch where no trip is latched (safety state OK or
     LIMITING) and none is raised; with the times it starts and ends, s."""
     best, at = 0.0, (float("nan"), float("nan"))
@@ -80,14 +83,23 @@ class _WallClockPair(NodePair):
     def _common(self, role: str) -> list[str]:
         args = super()._common(role)
         i = args.index("--scene")
-        args[i:i + 2] = ["--rig", f"telethermo.sim.wallclock:probe_{role}"]
+        args[i : i + 2] = ["--rig", f"telethermo.sim.wallclock:probe_{role}"]
         return args
 
 
 def run_pair(folder: Path, flood_at: tuple[float, ...], *, wallclock: bool = False) -> dict[str, Any]:
     """One real-time session with floods at ``flood_at`` (scene s; empty: none); its figures."""
-    pair = (_WallClockPair if wallclock else NodePair)(PairConfig(scene=SCENE, out_dir=folder, timing="realtime", cycles=int(DURATION_S / 0.01), seed=0,
-                               progress_every=10, master_args=["--wait-peer", "60"]))
+    pair = (_WallClockPair if wallclock else NodePair)(
+        PairConfig(
+            scene=SCENE,
+            out_dir=folder,
+            timing="realtime",
+            cycles=int(DURATION_S / 0.01),
+            seed=0,
+            progress_every=10,
+            master_args=["--wait-peer", "60"],
+        )
+    )
     sent: list[int] = []
     with pair:
         th = threading.Thread(target=_flooder, args=(pair, flood_at, sent), daemon=True)
@@ -104,12 +116,20 @@ def run_pair(folder: Path, flood_at: tuple[float, ...], *, wallclock: bool = Fal
     rise, t0, t1 = no_trip_rise(t, sp, state, rec.text("m_new_trips"))
     log = (folder / "master.log").read_text()
     peer = (pair.result or {}).get("peer", {})
-    return {"floods": len(sent), "frames_sent_per_flood": sent, "setpoint_max_C": float(np.nanmax(sp)),
-            "setpoint_max_after_start_C": float(np.nanmax(sp[t >= 1.0])), "no_trip_rise_C": rise,
-            "no_trip_rise_from_s": t0, "no_trip_rise_to_s": t1, "peer_losses": peer.get("losses"),
-            "peer_returns": peer.get("returns"), "missed_cycles": peer.get("missed_cycles"),
-            "link_fallback_starts": log.count("rendering the last identified material locally"),
-            "late_cycles": (pair.result or {}).get("late_cycles")}
+    return {
+        "floods": len(sent),
+        "frames_sent_per_flood": sent,
+        "setpoint_max_C": float(np.nanmax(sp)),
+        "setpoint_max_after_start_C": float(np.nanmax(sp[t >= 1.0])),
+        "no_trip_rise_C": rise,
+        "no_trip_rise_from_s": t0,
+        "no_trip_rise_to_s": t1,
+        "peer_losses": peer.get("losses"),
+        "peer_returns": peer.get("returns"),
+        "missed_cycles": peer.get("missed_cycles"),
+        "link_fallback_starts": log.count("rendering the last identified material locally"),
+        "late_cycles": (pair.result or {}).get("late_cycles"),
+    }
 
 
 def run(runs: int = 3, wallclock: bool = False) -> dict[str, Any]:
@@ -117,19 +137,30 @@ def run(runs: int = 3, wallclock: bool = False) -> dict[str, Any]:
         quiet = run_pair(Path(tmp) / "quiet", (), wallclock=wallclock)
         flooded = [run_pair(Path(tmp) / f"flood{i}", FLOOD_AT_S, wallclock=wallclock) for i in range(runs)]
     worst = max(r["no_trip_rise_C"] for r in flooded)
-    out = {"runs": runs, "floods": sum(r["floods"] for r in flooded), "flood_s": FLOOD_S,
-           "flood_cob_id": f"0x{FLOOD_COB_ID:03X}", "no_trip_rise_max_C": worst,
-           "no_trip_rise_quiet_C": quiet["no_trip_rise_C"],
-           "setpoint_max_flooded_C": max(r["setpoint_max_after_start_C"] for r in flooded),
-           "setpoint_max_quiet_C": quiet["setpoint_max_after_start_C"],
-           "climb_reproduced": worst > quiet["no_trip_rise_C"] + CLIMB_C, "quiet": quiet, "flooded": flooded,
-           "rigs": "sim.wallclock (current held through missed cycles)" if wallclock else "scene (advanced per cycle)",
-           "how": f"{runs} real-time sessions over the hub, scene {SCENE.stem}, a 2 s flood of 0x001 at full rate "
-                  f"at each of {FLOOD_AT_S} s; baseline: one session without flood in the same run"}
-    print(f"{out['floods']} floods in {runs} runs: largest no-trip setpoint rise {worst:.2f} °C (quiet "
-          f"{quiet['no_trip_rise_C']:.2f} °C), highest setpoint {out['setpoint_max_flooded_C']:.2f} °C (quiet "
-          f"{out['setpoint_max_quiet_C']:.2f} °C); peer losses {[r['peer_losses'] for r in flooded]}, "
-          f"link-loss fallbacks {[r['link_fallback_starts'] for r in flooded]}")
+    out = {
+        "runs": runs,
+        "floods": sum(r["floods"] for r in flooded),
+        "flood_s": FLOOD_S,
+        "flood_cob_id": f"0x{FLOOD_COB_ID:03X}",
+        "no_trip_rise_max_C": worst,
+        "no_trip_rise_quiet_C": quiet["no_trip_rise_C"],
+        "setpoint_max_flooded_C": max(r["setpoint_max_after_start_C"] for r in flooded),
+        "setpoint_max_quiet_C": quiet["setpoint_max_after_start_C"],
+        "climb_reproduced": worst > quiet["no_trip_rise_C"] + CLIMB_C,
+        "quiet": quiet,
+        "flooded": flooded,
+        "rigs": "sim.wallclock (current held through missed cycles)"
+        if wallclock
+        else "scene (advanced per cycle)",
+        "how": f"{runs} real-time sessions over the hub, scene {SCENE.stem}, a 2 s flood of 0x001 at full rate "
+        f"at each of {FLOOD_AT_S} s; baseline: one session without flood in the same run",
+    }
+    print(
+        f"{out['floods']} floods in {runs} runs: largest no-trip setpoint rise {worst:.2f} °C (quiet "
+        f"{quiet['no_trip_rise_C']:.2f} °C), highest setpoint {out['setpoint_max_flooded_C']:.2f} °C (quiet "
+        f"{out['setpoint_max_quiet_C']:.2f} °C); peer losses {[r['peer_losses'] for r in flooded]}, "
+        f"link-loss fallbacks {[r['link_fallback_starts'] for r in flooded]}"
+    )
     print(f"wrote {write_results('flood_wallclock' if wallclock else 'flood', out)}")
     return out
 
@@ -137,7 +168,9 @@ def run(runs: int = 3, wallclock: bool = False) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.flood_bench", description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=3, help="flooded sessions (default 3)")
-    ap.add_argument("--wallclock", action="store_true", help="rigs paced by the wall clock (flood_wallclock.json)")
+    ap.add_argument(
+        "--wallclock", action="store_true", help="rigs paced by the wall clock (flood_wallclock.json)"
+    )
     args = ap.parse_args(argv)
     run(args.runs, args.wallclock)
     return 0

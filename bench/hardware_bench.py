@@ -20,6 +20,7 @@ others' kept):
 
     python -m bench.hardware_bench [--runs N] [--only cut|io|rigcheck|store]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -45,8 +46,15 @@ from telethermo.transport.hub import HubThread
 MODULE_ID, CONTROLLER_ID, CONSUMER_MS = 3, 1, 150
 TWO_AMPS = round(2.0 * COUNTS_PER_V)
 STANDIN = Path(__file__).resolve().with_name("standin_controller.py")
-OWN_KEYS = ("io_module_cut_ms", "io_module_cut_ms_median", "io_module_cut_runs", "io_module_emcy_ms_max",
-            "io_module_emcy_ms_median", "io_module_silence_ms_min", "io_module_consumer_ms")
+OWN_KEYS = (
+    "io_module_cut_ms",
+    "io_module_cut_ms_median",
+    "io_module_cut_runs",
+    "io_module_emcy_ms_max",
+    "io_module_emcy_ms_median",
+    "io_module_silence_ms_min",
+    "io_module_consumer_ms",
+)
 
 
 def _wait(fn, timeout_s: float, what: str):
@@ -63,10 +71,13 @@ def measure(runs: int) -> dict:
     """``runs`` SIGKILLs of the stand-in controller against one module process; the figures."""
     with HubThread() as hub:
         exe = Path(sys.executable).with_name("telethermo-iomodule")
-        module = subprocess.Popen([str(exe), "--node-id", str(MODULE_ID), "--bus",
-                                   f"socketcand://127.0.0.1:{hub.port}/vcan0"], stderr=subprocess.DEVNULL)
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="vcan0", tcp_tune=True))
+        module = subprocess.Popen(
+            [str(exe), "--node-id", str(MODULE_ID), "--bus", f"socketcand://127.0.0.1:{hub.port}/vcan0"],
+            stderr=subprocess.DEVNULL,
+        )
+        net = canopen.Network(
+            can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0", tcp_tune=True)
+        )
         net.connect()
         emcys, hbs = [], []
         net.subscribe(0x80 + MODULE_ID, lambda c, d, ts: emcys.append((time.monotonic(), bytes(d), ts)))
@@ -74,11 +85,13 @@ def measure(runs: int) -> dict:
         node = net.add_node(MODULE_ID, str(path("io_module.eds")))
         node.sdo.RESPONSE_TIMEOUT = 1.0
         try:
+
             def up():
                 try:
                     return node.sdo[0x1000].raw
                 except (canopen.SdoCommunicationError, canopen.SdoAbortedError):
                     return None
+
             _wait(up, 60, "the module")
             node.sdo[0x2100].raw = 10
             node.sdo[0x1016][1].raw = (CONTROLLER_ID << 16) | CONSUMER_MS
@@ -86,12 +99,21 @@ def measure(runs: int) -> dict:
             cut, emcy, silence = [], [], []
             for _ in range(runs):
                 emcys.clear()
-                standin = subprocess.Popen([sys.executable, str(STANDIN), str(hub.port), str(MODULE_ID),
-                                            str(CONTROLLER_ID), str(TWO_AMPS)],
-                                           stdout=subprocess.PIPE, text=True)
+                standin = subprocess.Popen(
+                    [
+                        sys.executable,
+                        str(STANDIN),
+                        str(hub.port),
+                        str(MODULE_ID),
+                        str(CONTROLLER_ID),
+                        str(TWO_AMPS),
+                    ],
+                    stdout=subprocess.PIPE,
+                    text=True,
+                )
                 standin.stdout.readline()
                 _wait(lambda: node.sdo[0x2101].raw == TWO_AMPS, 20, "2 A applied")
-                time.sleep(0.2)   # a few heartbeats in: the kill lands anywhere in the 50 ms heartbeat period
+                time.sleep(0.2)  # a few heartbeats in: the kill lands anywhere in the 50 ms heartbeat period
                 t_kill = time.monotonic()
                 os.kill(standin.pid, signal.SIGKILL)
                 t_zero = _wait(lambda: node.sdo[0x2101].raw == 0 and time.monotonic(), 10, "0 A")
@@ -105,14 +127,20 @@ def measure(runs: int) -> dict:
             net.disconnect()
             module.send_signal(signal.SIGTERM)
             module.wait(timeout=20)
-    return {"io_module_cut_ms": max(cut), "io_module_cut_ms_median": statistics.median(cut),
-            "io_module_cut_runs": [round(c, 2) for c in cut], "io_module_emcy_ms_max": max(emcy),
-            "io_module_emcy_ms_median": statistics.median(emcy), "io_module_silence_ms_min": min(silence),
-            "io_module_consumer_ms": CONSUMER_MS}
+    return {
+        "io_module_cut_ms": max(cut),
+        "io_module_cut_ms_median": statistics.median(cut),
+        "io_module_cut_runs": [round(c, 2) for c in cut],
+        "io_module_emcy_ms_max": max(emcy),
+        "io_module_emcy_ms_median": statistics.median(emcy),
+        "io_module_silence_ms_min": min(silence),
+        "io_module_consumer_ms": CONSUMER_MS,
+    }
 
 
-def run(quick: bool = False, runs: int | None = None,
-        parts: tuple[str, ...] = ("cut", "io", "rigcheck")) -> dict:
+def run(
+    quick: bool = False, runs: int | None = None, parts: tuple[str, ...] = ("cut", "io", "rigcheck")
+) -> dict:
     """The figures of ``parts`` ("cut": the SIGKILL cut; "io": the I/O rig, bench.io_rig_bench), merged into
     hardware.json (every other key kept: other benches write theirs there too)."""
     got: dict = {}
@@ -120,8 +148,10 @@ def run(quick: bool = False, runs: int | None = None,
         got.update(measure(runs or (10 if quick else 20)))
         print_table(["figure", "ms"], [[k, got[k]] for k in OWN_KEYS if k not in ("io_module_cut_runs",)])
     if "io" in parts:
-        io = {**io_rig_bench.headline(duration_s=5.0 if quick else None),
-              **io_rig_bench.bus_load_4_nodes(cycles=300 if quick else 1000)}
+        io = {
+            **io_rig_bench.headline(duration_s=5.0 if quick else None),
+            **io_rig_bench.bus_load_4_nodes(cycles=300 if quick else 1000),
+        }
         print_table(["figure", "value"], [[k, v] for k, v in io.items() if not isinstance(v, dict)])
         got.update(io)
     if "rigcheck" in parts:
@@ -129,7 +159,7 @@ def run(quick: bool = False, runs: int | None = None,
         print_table(["fault", "named"], [[k, v] for k, v in rc["rig_check_faults_detected"].items()])
         got.update(rc)
     target = current_results_dir() / "hardware.json"
-    old = json.loads(target.read_text()) if target.exists() else {}   # read just before writing: merge
+    old = json.loads(target.read_text()) if target.exists() else {}  # read just before writing: merge
     old.pop("provenance", None)
     write_results("hardware", {**old, **got})
     return got
@@ -138,10 +168,14 @@ def run(quick: bool = False, runs: int | None = None,
 if __name__ == "__main__":
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=20, help="SIGKILLs (default 20, at least 10)")
-    ap.add_argument("--only", choices=["cut", "io", "rigcheck", "store"], action="append",
-                    help="run only this part (repeatable): cut = the SIGKILL cut, io = the I/O rig figures, "
-                         "rigcheck = rig check names every injected wiring fault (bench/rig_check_bench.py), "
-                         "store = store/restore (bench/hardware_store.py)")
+    ap.add_argument(
+        "--only",
+        choices=["cut", "io", "rigcheck", "store"],
+        action="append",
+        help="run only this part (repeatable): cut = the SIGKILL cut, io = the I/O rig figures, "
+        "rigcheck = rig check names every injected wiring fault (bench/rig_check_bench.py), "
+        "store = store/restore (bench/hardware_store.py)",
+    )
     a = ap.parse_args()
     parts = tuple(a.only or ("cut", "io", "rigcheck", "store"))
     if {"cut", "io", "rigcheck"} & set(parts):

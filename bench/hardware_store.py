@@ -10,6 +10,7 @@ only when every check holds; ``store_restore_checks`` says which held.
 
     python -m bench.hardware_bench --only store     (or python -m bench.hardware_store)
 """
+
 from __future__ import annotations
 
 import argparse
@@ -56,9 +57,24 @@ class _Boots(can.Listener):
 
 def _start(bus: str, store: Path, stderr: Path, boots: _Boots) -> subprocess.Popen:
     n = boots.count
-    proc = subprocess.Popen(node_command("master", "--bus", bus, "--scene", str(SCENE), "--no-sync",
-                                         "--mode", "idle", "--cycles", "0", "--store", str(store)),
-                            stdout=subprocess.DEVNULL, stderr=open(stderr, "wb"))
+    proc = subprocess.Popen(
+        node_command(
+            "master",
+            "--bus",
+            bus,
+            "--scene",
+            str(SCENE),
+            "--no-sync",
+            "--mode",
+            "idle",
+            "--cycles",
+            "0",
+            "--store",
+            str(store),
+        ),
+        stdout=subprocess.DEVNULL,
+        stderr=open(stderr, "wb"),
+    )
     if not wait_for(lambda: boots.count > n or proc.poll() is not None, 60) or proc.poll() is not None:
         stop_process(proc)
         raise RuntimeError(f"the master did not boot: {stderr.read_text(errors='replace').strip()}")
@@ -82,8 +98,11 @@ def store_restore(workdir: Path | None = None) -> dict[str, Any]:
     lines: list[str] = []
     with HubThread() as hub:
         bus = f"socketcand://127.0.0.1:{hub.port}/telethermo"
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="telethermo", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(
+                interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo", tcp_tune=True
+            )
+        )
         net.connect()
         boots = _Boots()
         net.notifier.add_listener(boots)
@@ -95,8 +114,11 @@ def store_restore(workdir: Path | None = None) -> dict[str, Any]:
         try:
             proc = _start(bus, store, stderr, boots)
             defaults = _values(sdo)
-            written = {"kp_A_per_C": _f32(defaults["kp_A_per_C"] * 1.5 + 0.1), "T_max_C": _f32(40.5),
-                       "0x1017": 150}
+            written = {
+                "kp_A_per_C": _f32(defaults["kp_A_per_C"] * 1.5 + 0.1),
+                "T_max_C": _f32(40.5),
+                "0x1017": 150,
+            }
             sdo["kp_A_per_C"].raw, sdo["T_max_C"].raw = written["kp_A_per_C"], written["T_max_C"]
             sdo[0x1017].raw = written["0x1017"]
             sdo.download(0x1010, 1, b"save")
@@ -110,7 +132,7 @@ def store_restore(workdir: Path | None = None) -> dict[str, Any]:
             stop_process(proc)
             text = store.read_text()
             kp = written["kp_A_per_C"]
-            store.write_text(text.replace(json.dumps(kp), json.dumps(kp + 1.0), 1))   # one value changed
+            store.write_text(text.replace(json.dumps(kp), json.dumps(kp + 1.0), 1))  # one value changed
             checks["file_was_damaged"] = store.read_text() != text
             proc = _start(bus, store, stderr, boots)
             lines = [ln for ln in stderr.read_text().splitlines() if "store" in ln]
@@ -120,8 +142,10 @@ def store_restore(workdir: Path | None = None) -> dict[str, Any]:
         finally:
             stop_process(proc)
             net.disconnect()
-    return {"store_restore_roundtrip": all(checks.values()) and len(checks) == 6,
-            "store_restore_checks": dict(checks, refused_line=lines[0] if lines else None)}
+    return {
+        "store_restore_roundtrip": all(checks.values()) and len(checks) == 6,
+        "store_restore_checks": dict(checks, refused_line=lines[0] if lines else None),
+    }
 
 
 def merge_results(update: dict[str, Any], *, results_dir: Path | None = None, part: str) -> Path:

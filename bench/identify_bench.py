@@ -9,6 +9,7 @@ only (what a node's predictor would have done). Timings are medians over repeats
 the same run. Writes bench/results/identify.json (keys: worst_free_run_error_C, flux_error_W,
 fit_ms_order3_10k, rls_us_per_update, order_table, length_table, justified_order, ...).
 """
+
 from __future__ import annotations
 
 import os
@@ -27,7 +28,13 @@ import numpy as np  # noqa: E402
 from bench.common import median_time_s, print_table, write_results
 from telethermo import sim
 from telethermo.ident import NarmaOrders, Rls, UnstableModelError, fit_narma
-from telethermo.ident.experiment import ExperimentSettings, _concat, identify_capacity, run_excitation, steady_state_points
+from telethermo.ident.experiment import (
+    ExperimentSettings,
+    _concat,
+    identify_capacity,
+    run_excitation,
+    steady_state_points,
+)
 from telethermo.ident.flux import fit_flux_arma
 from telethermo.ident.narma import narma_regressors, solve_scaled_lstsq
 from telethermo.ident.online import OnlineNarma
@@ -40,9 +47,13 @@ def _record(n_train: int, n_val: int, seed: int = 0):
 
     s = ExperimentSettings()
     rig = sim.free_pad_rig(period_s=0.01, ambient_C=25.0, seed=seed, noise=True)
-    recs = [run_excitation(rig, np.zeros(s.rest_samples)),
-            run_excitation(rig, prbs(n_train, amplitude_A=s.amplitude_A, hold_samples=s.hold_samples, seed=seed)),
-            run_excitation(rig, prbs(n_val, amplitude_A=s.amplitude_A, hold_samples=s.hold_samples, seed=seed + 1))]
+    recs = [
+        run_excitation(rig, np.zeros(s.rest_samples)),
+        run_excitation(rig, prbs(n_train, amplitude_A=s.amplitude_A, hold_samples=s.hold_samples, seed=seed)),
+        run_excitation(
+            rig, prbs(n_val, amplitude_A=s.amplitude_A, hold_samples=s.hold_samples, seed=seed + 1)
+        ),
+    ]
     return _concat(recs), s.rest_samples
 
 
@@ -51,7 +62,7 @@ def _heldout(model, rec, start_val: int) -> tuple[float, float]:
     e = (fr - rec.T_C)[start_val:]
     if not np.all(np.isfinite(e)):
         return float("inf"), float("inf")
-    return float(np.max(np.abs(e))), float(np.sqrt(np.mean(e ** 2)))
+    return float(np.max(np.abs(e))), float(np.sqrt(np.mean(e**2)))
 
 
 def _fit_eval(rec, rest: int, n_train: int, start_val: int, orders, method: str) -> dict[str, Any]:
@@ -61,15 +72,37 @@ def _fit_eval(rec, rest: int, n_train: int, start_val: int, orders, method: str)
     sl = slice(0, rest + n_train)
     t0 = time.perf_counter()
     try:
-        m = fit_narma(current_A=rec.current_A[sl], T_C=rec.T_C[sl], orders=o, T_ref_C=T_ref, method=method,
-                      check_stability=True)
+        m = fit_narma(
+            current_A=rec.current_A[sl],
+            T_C=rec.T_C[sl],
+            orders=o,
+            T_ref_C=T_ref,
+            method=method,
+            check_stability=True,
+        )
     except UnstableModelError as exc:
-        return {"orders": list(orders), "d": o.d, "method": method, "n_train": n_train, "fit_s": time.perf_counter() - t0,
-                "heldout_max_C": float("inf"), "heldout_rms_C": float("inf"), "refused": str(exc)}
+        return {
+            "orders": list(orders),
+            "d": o.d,
+            "method": method,
+            "n_train": n_train,
+            "fit_s": time.perf_counter() - t0,
+            "heldout_max_C": float("inf"),
+            "heldout_rms_C": float("inf"),
+            "refused": str(exc),
+        }
     fit_s = time.perf_counter() - t0
     mx, rms = _heldout(m, rec, start_val)
-    return {"orders": list(orders), "d": o.d, "method": method, "n_train": n_train, "fit_s": fit_s,
-            "heldout_max_C": mx, "heldout_rms_C": rms, "refused": ""}
+    return {
+        "orders": list(orders),
+        "d": o.d,
+        "method": method,
+        "n_train": n_train,
+        "fit_s": fit_s,
+        "heldout_max_C": mx,
+        "heldout_rms_C": rms,
+        "refused": "",
+    }
 
 
 def _timings(rec, rest: int, T_ref: float, quick: bool) -> dict[str, float]:
@@ -79,15 +112,17 @@ def _timings(rec, rest: int, T_ref: float, quick: bool) -> dict[str, float]:
     I10, T10 = rec.current_A[sl], rec.T_C[sl]
     o3 = NarmaOrders(*ORDER3)
     reps = 5 if quick else 15
-    fit_s = median_time_s(lambda: fit_narma(current_A=I10, T_C=T10, orders=o3, T_ref_C=T_ref, check_stability=False),
-                          repeats=reps)
+    fit_s = median_time_s(
+        lambda: fit_narma(current_A=I10, T_C=T10, orders=o3, T_ref_C=T_ref, check_stability=False),
+        repeats=reps,
+    )
     Phi, y = narma_regressors(I10, T10 - T_ref, o3)
     solve_s = median_time_s(lambda: solve_scaled_lstsq(Phi, y), repeats=reps)
     fit_stab_s = median_time_s(lambda: fit_narma(current_A=I10, T_C=T10, orders=o3, T_ref_C=T_ref), repeats=3)
     normal_eq_s = median_time_s(lambda: np.linalg.solve(Phi.T @ Phi, Phi.T @ y), repeats=reps)
 
     # -- RLS µs per update (d = 24) -----------------------------------------------------------------
-    scale = np.sqrt(np.mean(Phi ** 2, axis=0))
+    scale = np.sqrt(np.mean(Phi**2, axis=0))
     n_rls = 3000 if quick else 10_000
 
     def rls_pass():
@@ -108,8 +143,15 @@ def _timings(rec, rest: int, T_ref: float, quick: bool) -> dict[str, float]:
         rls_ls.update(Phi[k], y[k])
     theta_ls, _ = solve_scaled_lstsq(Phi, y)
     rls_vs_ls = float(np.linalg.norm(rls_ls.theta - theta_ls) / np.linalg.norm(theta_ls))
-    return {"fit_s": fit_s, "solve_s": solve_s, "fit_stab_s": fit_stab_s, "normal_eq_s": normal_eq_s,
-            "rls_us": rls_us, "online_us": online_us, "rls_vs_ls": rls_vs_ls}
+    return {
+        "fit_s": fit_s,
+        "solve_s": solve_s,
+        "fit_stab_s": fit_stab_s,
+        "normal_eq_s": normal_eq_s,
+        "rls_us": rls_us,
+        "online_us": online_us,
+        "rls_vs_ls": rls_vs_ls,
+    }
 
 
 def _order_table(rec, rest: int, start_val: int, quick: bool) -> tuple[list[dict], dict]:
@@ -126,16 +168,30 @@ def _order_table(rec, rest: int, start_val: int, quick: bool) -> tuple[list[dict
         for method in ("ls", "oe"):
             rows.append(_fit_eval(rec, rest, 10_000, start_val, o, method))
     print("\norders, 10,000 training samples, held-out free run (fit s includes the stability check):")
-    print_table(["n,m,p,q", "d", "method", "fit s", "held-out max °C", "held-out rms °C", "refused"],
-                [[",".join(map(str, r["orders"])), r["d"], r["method"], r["fit_s"], r["heldout_max_C"],
-                  r["heldout_rms_C"], r["refused"][:40]] for r in rows])
+    print_table(
+        ["n,m,p,q", "d", "method", "fit s", "held-out max °C", "held-out rms °C", "refused"],
+        [
+            [
+                ",".join(map(str, r["orders"])),
+                r["d"],
+                r["method"],
+                r["fit_s"],
+                r["heldout_max_C"],
+                r["heldout_rms_C"],
+                r["refused"][:40],
+            ]
+            for r in rows
+        ],
+    )
     oe_rows = [r for r in rows if r["method"] == "oe" and np.isfinite(r["heldout_max_C"])]
     best = min(r["heldout_max_C"] for r in oe_rows)
     # the data justify the smallest model within 10 % (or 5 mK) of the best worst-case error
     ok = [r for r in oe_rows if r["heldout_max_C"] <= max(1.1 * best, best + 0.005)]
     just = min(ok, key=lambda r: (r["d"], r["heldout_max_C"]))
-    print(f"justified order: {just['orders']} (d = {just['d']}): worst {just['heldout_max_C']:.4f} °C "
-          f"vs best {best:.4f} °C")
+    print(
+        f"justified order: {just['orders']} (d = {just['d']}): worst {just['heldout_max_C']:.4f} °C "
+        f"vs best {best:.4f} °C"
+    )
     return rows, just
 
 
@@ -146,9 +202,20 @@ def _length_table(rec, rest: int, start_val: int, lengths: list[int], just: dict
             for method in ("ls", "oe"):
                 lrows.append(_fit_eval(rec, rest, n, start_val, o, method))
     print("\ntraining length, held-out free run:")
-    print_table(["n,m,p,q", "method", "n_train", "fit s", "held-out max °C", "held-out rms °C"],
-                [[",".join(map(str, r["orders"])), r["method"], r["n_train"], r["fit_s"], r["heldout_max_C"],
-                  r["heldout_rms_C"]] for r in lrows])
+    print_table(
+        ["n,m,p,q", "method", "n_train", "fit s", "held-out max °C", "held-out rms °C"],
+        [
+            [
+                ",".join(map(str, r["orders"])),
+                r["method"],
+                r["n_train"],
+                r["fit_s"],
+                r["heldout_max_C"],
+                r["heldout_rms_C"],
+            ]
+            for r in lrows
+        ],
+    )
     return lrows
 
 
@@ -159,15 +226,29 @@ def _flux_table(rec, rest: int, start_val: int, T_ref: float) -> list[dict]:
     flux_rows = []
     for with_current in (True, False):
         t1 = time.perf_counter()
-        f = fit_flux_arma(T_C=rec.T_C[fsl], Q_W=rec.Q_W[fsl], n=3, m=3, T_ref_C=T_ref,
-                          current_A=rec.current_A[fsl] if with_current else None)
+        f = fit_flux_arma(
+            T_C=rec.T_C[fsl],
+            Q_W=rec.Q_W[fsl],
+            n=3,
+            m=3,
+            T_ref_C=T_ref,
+            current_A=rec.current_A[fsl] if with_current else None,
+        )
         dt = time.perf_counter() - t1
         e = f.errors(T_C=rec.T_C, Q_W=rec.Q_W, current_A=rec.current_A, start=start_val)
-        flux_rows.append({"model": "eq. 12 + current terms" if with_current else "eq. 12 (T only)", "fit_s": dt,
-                          "heldout_max_W": e["free_run_max_W"], "heldout_rms_W": e["free_run_rms_W"]})
+        flux_rows.append(
+            {
+                "model": "eq. 12 + current terms" if with_current else "eq. 12 (T only)",
+                "fit_s": dt,
+                "heldout_max_W": e["free_run_max_W"],
+                "heldout_rms_W": e["free_run_rms_W"],
+            }
+        )
     print("\nheat-flux model (3, 3), held-out free run:")
-    print_table(["model", "fit s", "held-out max W", "held-out rms W"],
-                [[r["model"], r["fit_s"], r["heldout_max_W"], r["heldout_rms_W"]] for r in flux_rows])
+    print_table(
+        ["model", "fit s", "held-out max W", "held-out rms W"],
+        [[r["model"], r["fit_s"], r["heldout_max_W"], r["heldout_rms_W"]] for r in flux_rows],
+    )
     return flux_rows
 
 
@@ -175,8 +256,13 @@ def _capacity_error(rec, rest: int, T_ref: float, just: dict) -> float:
     """Capacity model (eq. 13) against the simulator's steady state at 13 held-out currents, relative."""
 
     fsl = slice(0, rest + 10_000)
-    m_just = fit_narma(current_A=rec.current_A[fsl], T_C=rec.T_C[fsl], orders=NarmaOrders(*just["orders"]),
-                       T_ref_C=T_ref, method="oe")
+    m_just = fit_narma(
+        current_A=rec.current_A[fsl],
+        T_C=rec.T_C[fsl],
+        orders=NarmaOrders(*just["orders"]),
+        T_ref_C=T_ref,
+        method="oe",
+    )
     cap, ss = identify_capacity(sim.free_pad_rig(seed=5), m_just)
     mid = 0.5 * (ss.current_A[1:] + ss.current_A[:-1])
     held = steady_state_points(sim.free_pad_rig(seed=6), mid)
@@ -184,13 +270,18 @@ def _capacity_error(rec, rest: int, T_ref: float, just: dict) -> float:
     return float(np.max(np.abs(P - held.Q_true_W)) / np.max(np.abs(held.Q_true_W)))
 
 
-def _print_summary(o3_oe: dict, o3_ls: dict, just: dict, flux_rows: list[dict], q_noise: float, tm: dict,
-                   cap_rel: float) -> None:
+def _print_summary(
+    o3_oe: dict, o3_ls: dict, just: dict, flux_rows: list[dict], q_noise: float, tm: dict, cap_rel: float
+) -> None:
     summary = [
         ["worst free-run error, order 3 (LS + OE), held-out, °C", o3_oe["heldout_max_C"], "<= 0.3 (aim 0.1)"],
         ["worst free-run error, order 3 (LS only), held-out, °C", o3_ls["heldout_max_C"], ""],
         [f"worst free-run error, justified order {just['orders']}, °C", just["heldout_max_C"], "<= 0.1"],
-        ["heat-flux error (with I, I², I·T terms), held-out max, W", flux_rows[0]["heldout_max_W"], "~0.0025"],
+        [
+            "heat-flux error (with I, I², I·T terms), held-out max, W",
+            flux_rows[0]["heldout_max_W"],
+            "~0.0025",
+        ],
         ["heat-flux error (eq. 12, T only), held-out max, W", flux_rows[1]["heldout_max_W"], ""],
         ["flux sensor noise (filtered, 1 sigma), W", q_noise, ""],
         ["batch fit order 3, 10k samples (regressors+LS+metrics), ms", tm["fit_s"] * 1e3, "<= 50"],
@@ -249,9 +340,14 @@ def run(quick: bool = False) -> dict[str, Any]:
         "order_table": rows,
         "length_table": lrows,
         "flux_table": flux_rows,
-        "protocol": {"rig": "sim.free_pad_rig(period_s=0.01, ambient_C=25, seed=0)", "rest_samples": rest,
-                     "n_train_max": n_max, "n_heldout": n_val, "prbs": "amplitude 0.1..1.0 A, hold 25 samples",
-                     "heldout": "free run from rest through training into the held-out PRBS; errors on held-out"},
+        "protocol": {
+            "rig": "sim.free_pad_rig(period_s=0.01, ambient_C=25, seed=0)",
+            "rest_samples": rest,
+            "n_train_max": n_max,
+            "n_heldout": n_val,
+            "prbs": "amplitude 0.1..1.0 A, hold 25 samples",
+            "heldout": "free run from rest through training into the held-out PRBS; errors on held-out",
+        },
         "simulate_s": sim_s,
         "openblas_num_threads": os.environ.get("OPENBLAS_NUM_THREADS", "unset"),
     }

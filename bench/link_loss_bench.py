@@ -5,6 +5,7 @@ touch of the same object; its docstring describes them).
 
     python -m bench.link_loss_bench [--quick]      # prints the table (rendering_bench writes the figures)
 """
+
 from __future__ import annotations
 
 import argparse
@@ -16,10 +17,17 @@ from telethermo.offline.link_loss import link_loss_figures
 
 
 def print_figures(figs: dict[str, Any]) -> None:
-    print_table(["material", "fallback RMS °C", "neutral ramp RMS °C", "no loss RMS °C"],
-                [[r["material"], r["fallback_C"], r["neutral_ramp_C"], r["telepresence_C"]] for r in figs["link_loss"]])
-    print(f"link_loss_fallback_error_C {figs['link_loss_fallback_error_C']}  "
-          f"link_loss_neutral_ramp_error_C {figs['link_loss_neutral_ramp_error_C']}")
+    print_table(
+        ["material", "fallback RMS °C", "neutral ramp RMS °C", "no loss RMS °C"],
+        [
+            [r["material"], r["fallback_C"], r["neutral_ramp_C"], r["telepresence_C"]]
+            for r in figs["link_loss"]
+        ],
+    )
+    print(
+        f"link_loss_fallback_error_C {figs['link_loss_fallback_error_C']}  "
+        f"link_loss_neutral_ramp_error_C {figs['link_loss_neutral_ramp_error_C']}"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

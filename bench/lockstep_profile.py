@@ -11,6 +11,7 @@ A diagnostic, not a result: it writes no file; docs/nodes.md quotes one run. cPr
 the table because its per-call overhead (several us) inflates the many small functions of the cycle
 2-3x; it is still the tool to find a new hotspot (``python -m cProfile`` sees one thread only).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,22 +27,22 @@ from bench.nodes_bench import anchor_virtual, lockstep_virtual
 
 #: (module, qualified name): the lockstep cycle's parts, outermost first
 TIMED = (
-    ("telethermo.device.sync", "SyncProducer.transmit"),           # master: SYNC out + its own SYNC processing
-    ("telethermo.device.sync_consumer", "SyncConsumer.process"),   # both: RPDO commit, SYNC handlers, TPDOs
-    ("telethermo.nodes.cycle", "ControlCycle.run"),                # both: one control cycle
-    ("telethermo.nodes.cycle", "step"),                            # telethermo.control.core.step
-    ("telethermo.nodes.cycle", "ControlCycle._inputs"),            # rig advance + read, peer values
+    ("telethermo.device.sync", "SyncProducer.transmit"),  # master: SYNC out + its own SYNC processing
+    ("telethermo.device.sync_consumer", "SyncConsumer.process"),  # both: RPDO commit, SYNC handlers, TPDOs
+    ("telethermo.nodes.cycle", "ControlCycle.run"),  # both: one control cycle
+    ("telethermo.nodes.cycle", "step"),  # telethermo.control.core.step
+    ("telethermo.nodes.cycle", "ControlCycle._inputs"),  # rig advance + read, peer values
     ("telethermo.sim.rig", "SimRig.advance"),
-    ("telethermo.nodes.cycle", "ControlCycle._record"),            # the CSV row (incl. the rig's truth)
+    ("telethermo.nodes.cycle", "ControlCycle._record"),  # the CSV row (incl. the rig's truth)
     ("telethermo.sim.rig", "SimRig.truth"),
     ("telethermo.offline.recording_journal", "CsvRecorder.write"),
-    ("telethermo.nodes.cycle", "ControlCycle._publish"),           # ~13 OD writes
+    ("telethermo.nodes.cycle", "ControlCycle._publish"),  # ~13 OD writes
     ("telethermo.device.pdo_engine", "PdoEngine.send_sync_tpdos"),
     ("telethermo.device.pdo_engine", "PdoEngine._on_rpdo_frame"),
-    ("telethermo.transport.resilient", "ResilientBus.send"),       # every frame a node sends
-    ("can.interfaces.virtual", "VirtualBus.send"),                 # python-can (the anchor pays it too)
-    ("canopen.network", "Network.notify"),                         # canopen's receive dispatch (incl. handlers)
-    ("telethermo.nodes.producer", "_PeerDebt.wait"),               # master: waiting for the slave's PDOs
+    ("telethermo.transport.resilient", "ResilientBus.send"),  # every frame a node sends
+    ("can.interfaces.virtual", "VirtualBus.send"),  # python-can (the anchor pays it too)
+    ("canopen.network", "Network.notify"),  # canopen's receive dispatch (incl. handlers)
+    ("telethermo.nodes.producer", "_PeerDebt.wait"),  # master: waiting for the slave's PDOs
 )
 
 
@@ -75,6 +76,7 @@ class Timers:
                 e = acc[key]
                 e[0] += 1
                 e[1] += clock() - t0
+
         return timed
 
     def uninstall(self) -> None:
@@ -92,12 +94,17 @@ class Timers:
 def _table(title: str, per_s: float, cycles: int, acc: dict[str, list]) -> None:
     print(f"{title}: {per_s:.0f} cycles/s = {1e6 / per_s:.0f} us per cycle")
     for name, (calls, secs) in sorted(acc.items(), key=lambda kv: -kv[1][1]):
-        print(f"  {name:34s} {calls:7d} calls {secs * 1e6 / cycles:8.1f} us/cycle {secs * 1e6 / calls:8.1f} us/call")
+        print(
+            f"  {name:34s} {calls:7d} calls {secs * 1e6 / cycles:8.1f} us/cycle {secs * 1e6 / calls:8.1f} us/call"
+        )
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.lockstep_profile", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.lockstep_profile",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--cycles", type=int, default=3000, help="cycles of each run (default 3000)")
     args = ap.parse_args(argv)
     logging.basicConfig(level=logging.ERROR)

@@ -6,6 +6,7 @@
 The procedure (reference touches, whitening, training, ``--validate``, ``--touches``) is
 telethermo/offline/material_calibration.py's :func:`calibrate`; its docstring describes it.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -18,17 +19,32 @@ from telethermo.offline.material_calibration import calibrate
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.material_calibrate", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.material_calibrate",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--n", type=int, default=200000, help="reference touches (default 200000)")
-    ap.add_argument("--dense", type=int, default=30000,
-                    help="extra reference touches of ceramic and the metals at 2-6 N (default 30000)")
+    ap.add_argument(
+        "--dense",
+        type=int,
+        default=30000,
+        help="extra reference touches of ceramic and the metals at 2-6 N (default 30000)",
+    )
     ap.add_argument("--jobs", type=int, default=2, help="simulating processes (default 2)")
-    ap.add_argument("--touches", type=Path, default=None,
-                    help="cache of the simulated reference touches (read when it holds the same draws, else written)")
-    ap.add_argument("--validate", action="store_true", help="first train on four fifths and score the fifth left out")
+    ap.add_argument(
+        "--touches",
+        type=Path,
+        default=None,
+        help="cache of the simulated reference touches (read when it holds the same draws, else written)",
+    )
+    ap.add_argument(
+        "--validate", action="store_true", help="first train on four fifths and score the fifth left out"
+    )
     d = TrainSettings()
-    ap.add_argument("--hidden", type=int, default=d.hidden, help=f"units per hidden layer (default {d.hidden})")
+    ap.add_argument(
+        "--hidden", type=int, default=d.hidden, help=f"units per hidden layer (default {d.hidden})"
+    )
     ap.add_argument("--layers", type=int, default=d.layers, help=f"hidden layers (default {d.layers})")
     ap.add_argument("--epochs", type=int, default=d.epochs, help=f"training passes (default {d.epochs})")
     ap.add_argument("--nets", type=int, default=d.n_nets, help=f"ensemble members (default {d.n_nets})")

@@ -6,6 +6,7 @@ the early (0.3 s) and the late (1.2 s) window, and prints the factor, floor and 
 likelihood of the true material (touches with a fit and a fitted |ΔT| ≥ 2 °C), and the interval's factor and floor
 of the Gaussian alone (the same maximum): the constants to put into material_physics. About 1 min here.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,19 +36,29 @@ def fits(n: int, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     for t in me.envelope_draws(n, SEEDS):
         params = rigs[t["other_tem"]]
         T_probe = mb.finger_natural_C(params, t["ambient_C"])
-        T, Q, i0, _, _ = mb.simulate_touch(params, sims[t["class"]], t["thickness_m"], t["T_object_C"], t["force_N"],
-                                           T_probe, seed=t["seed"], t_on_s=t["t_on_s"], identify=False,
-                                           noise=me.noise_of(t["noise_x"]), ambient_C=t["ambient_C"],
-                                           post_s=window_s + 0.1)
+        T, Q, i0, _, _ = mb.simulate_touch(
+            params,
+            sims[t["class"]],
+            t["thickness_m"],
+            t["T_object_C"],
+            t["force_N"],
+            T_probe,
+            seed=t["seed"],
+            t_on_s=t["t_on_s"],
+            identify=False,
+            noise=me.noise_of(t["noise_x"]),
+            ambient_C=t["ambient_C"],
+            post_s=window_s + 0.1,
+        )
         e = mi.estimate_effusivity(T, Q, i0, mb.PERIOD_S, probe) if i0 >= 0 else None
-        if e is not None and abs(float(np.mean(T[i0 - 5:i0])) - e.T_object0_C) >= 2.0:
+        if e is not None and abs(float(np.mean(T[i0 - 5 : i0])) - e.T_object0_C) >= 2.0:
             out.append((math.log(e.b), e.se_ln_b, t["class"]))
     a = np.array(out)
     return a[:, 0], a[:, 1], a[:, 2].astype(int)
 
 
 def nll(lb, se, c, lbt, k, f, eps) -> float:
-    sig = np.sqrt((k * se) ** 2 + f ** 2)[:, None]
+    sig = np.sqrt((k * se) ** 2 + f**2)[:, None]
     g = np.exp(-0.5 * ((lb[:, None] - lbt[None]) / sig) ** 2) / (sig * math.sqrt(2 * math.pi))
     lik = (1 - eps) * g + eps / OUTLIER_WIDTH_LN
     post = lik / lik.sum(1, keepdims=True)
@@ -63,14 +74,23 @@ def main(argv: list[str] | None = None) -> int:
     lbt = np.log([table[mb.SIM_TO_TABLE[s]] for s in mb.SIM_TO_TABLE])
     for window_s in (0.3, 1.2):
         lb, se, c = fits(args.touches, window_s)
-        post = min((nll(lb, se, c, lbt, k, f, e), k, f, e) for k in (1, 1.5, 2, 3, 4)
-                   for f in (0.1, 0.15, 0.2, 0.3, 0.4) for e in (0.3, 0.5, 0.6, 0.7, 0.8))
-        ci = min((nll(lb, se, c, lbt, k, f, 0.0), k, f) for k in (0.5, 1, 2, 3, 4, 6)
-                 for f in (0.2, 0.3, 0.5, 0.7, 1.0, 1.3))
+        post = min(
+            (nll(lb, se, c, lbt, k, f, e), k, f, e)
+            for k in (1, 1.5, 2, 3, 4)
+            for f in (0.1, 0.15, 0.2, 0.3, 0.4)
+            for e in (0.3, 0.5, 0.6, 0.7, 0.8)
+        )
+        ci = min(
+            (nll(lb, se, c, lbt, k, f, 0.0), k, f)
+            for k in (0.5, 1, 2, 3, 4, 6)
+            for f in (0.2, 0.3, 0.5, 0.7, 1.0, 1.3)
+        )
         sig = np.hypot(ci[1] * se, ci[2])
         cov = float(np.mean(np.abs(lb - lbt[c]) <= 1.96 * sig))
-        print(f"window {window_s} s, {c.size} touches: k {post[1]} floor_ln {post[2]} outlier {post[3]}; "
-              f"k_ci {ci[1]} floor_ci_ln {ci[2]} (coverage on these touches {cov:.3f})")
+        print(
+            f"window {window_s} s, {c.size} touches: k {post[1]} floor_ln {post[2]} outlier {post[3]}; "
+            f"k_ci {ci[1]} floor_ci_ln {ci[2]} (coverage on these touches {cov:.3f})"
+        )
     return 0
 
 

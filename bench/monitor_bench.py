@@ -19,6 +19,7 @@ decode / anchor; ``keeps_up_8k``: both the decode and the live rate >= 8,000 fra
 bench/results/monitor.json. --quick: 20,000 frames, 3 repeats (a few seconds); --frames: another traffic
 length (the tests' short run).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -38,7 +39,7 @@ TARGET_FRAMES_PER_S = 8000
 
 
 def _fill(frames: list[can.Message], channel: str) -> tuple[can.BusABC, can.BusABC]:
-    tx = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)   # bus time of the mix
+    tx = can.Bus(interface="virtual", channel=channel, preserve_timestamps=True)  # bus time of the mix
     rx = can.Bus(interface="virtual", channel=channel)
     for m in frames:
         tx.send(m)
@@ -75,46 +76,63 @@ def measure(quick: bool, n_frames: int | None = None) -> dict[str, Any]:
     n = n_frames or n
     frames = traffic(n)
     runs: dict[str, list[float]] = {"anchor": [], "decode": [], "live": []}
-    rate_decode(frames[:2000])     # warm-up: imports, EDS parsing caches
+    rate_decode(frames[:2000])  # warm-up: imports, EDS parsing caches
     for r in range(repeats):
         runs["anchor"].append(rate_recv(frames, f"tt-bench-monitor-a{r}", decode=False))
         runs["decode"].append(rate_decode(frames))
         runs["live"].append(rate_recv(frames, f"tt-bench-monitor-l{r}", decode=True))
     med = {k: statistics.median(v) for k, v in runs.items()}
-    return {"decode_frames_per_s": round(med["decode"]), "anchor_frames_per_s": round(med["anchor"]),
-            "live_frames_per_s": round(med["live"]), "ratio_vs_anchor": round(med["decode"] / med["anchor"], 3),
-            "live_ratio_vs_anchor": round(med["live"] / med["anchor"], 3),
-            "keeps_up_8k": min(med["decode"], med["live"]) >= TARGET_FRAMES_PER_S,
-            "target_frames_per_s": TARGET_FRAMES_PER_S, "frames": n, "repeats": repeats, "quick": quick,
-            "runs_frames_per_s": {k: [round(x) for x in v] for k, v in runs.items()},
-            "anchor": "python-can virtual bus recv() of the same frames, same run",
-            "mix": "1 ms SYNC cycle: SYNC, 2x TPDO1 (8 B), TPDO5 (master 1 B, slave 8 B); heartbeats and an SDO read every "
-                   "100 cycles; an EMCY and its reset every 1000"}
+    return {
+        "decode_frames_per_s": round(med["decode"]),
+        "anchor_frames_per_s": round(med["anchor"]),
+        "live_frames_per_s": round(med["live"]),
+        "ratio_vs_anchor": round(med["decode"] / med["anchor"], 3),
+        "live_ratio_vs_anchor": round(med["live"] / med["anchor"], 3),
+        "keeps_up_8k": min(med["decode"], med["live"]) >= TARGET_FRAMES_PER_S,
+        "target_frames_per_s": TARGET_FRAMES_PER_S,
+        "frames": n,
+        "repeats": repeats,
+        "quick": quick,
+        "runs_frames_per_s": {k: [round(x) for x in v] for k, v in runs.items()},
+        "anchor": "python-can virtual bus recv() of the same frames, same run",
+        "mix": "1 ms SYNC cycle: SYNC, 2x TPDO1 (8 B), TPDO5 (master 1 B, slave 8 B); heartbeats and an SDO read every "
+        "100 cycles; an EMCY and its reset every 1000",
+    }
 
 
 def run(quick: bool, n_frames: int | None = None) -> dict[str, Any]:
     """Measure (``n_frames``: another traffic length, for tests), print the table, write monitor.json."""
     data = measure(quick, n_frames)
     data.update(measure_hub(*((5_000, 1) if quick else (30_000, 5))))
-    print_table(["measure", "frames/s", "vs anchor"],
-                [["python-can recv (anchor)", data["anchor_frames_per_s"], 1.0],
-                 ["Monitor.feed (decode)", data["decode_frames_per_s"], data["ratio_vs_anchor"]],
-                 ["recv + feed (live)", data["live_frames_per_s"], data["live_ratio_vs_anchor"]],
-                 ["hub: socketcand recv (anchor)", data["hub_anchor_frames_per_s"], 1.0],
-                 ["hub: recv + feed (live)", data["hub_live_frames_per_s"], data["hub_live_ratio_vs_anchor"]]])
-    data["hub_keeps_up_8k"] = data["hub_live_frames_per_s"] >= TARGET_FRAMES_PER_S and data["hub_frames_lost"] == 0
-    print(f"keeps up with {TARGET_FRAMES_PER_S} frames/s: {data['keeps_up_8k']} (virtual), "
-          f"{data['hub_keeps_up_8k']} (live over the hub)")
+    print_table(
+        ["measure", "frames/s", "vs anchor"],
+        [
+            ["python-can recv (anchor)", data["anchor_frames_per_s"], 1.0],
+            ["Monitor.feed (decode)", data["decode_frames_per_s"], data["ratio_vs_anchor"]],
+            ["recv + feed (live)", data["live_frames_per_s"], data["live_ratio_vs_anchor"]],
+            ["hub: socketcand recv (anchor)", data["hub_anchor_frames_per_s"], 1.0],
+            ["hub: recv + feed (live)", data["hub_live_frames_per_s"], data["hub_live_ratio_vs_anchor"]],
+        ],
+    )
+    data["hub_keeps_up_8k"] = (
+        data["hub_live_frames_per_s"] >= TARGET_FRAMES_PER_S and data["hub_frames_lost"] == 0
+    )
+    print(
+        f"keeps up with {TARGET_FRAMES_PER_S} frames/s: {data['keeps_up_8k']} (virtual), "
+        f"{data['hub_keeps_up_8k']} (live over the hub)"
+    )
     print(f"wrote {write_results('monitor', data)}")
     return data
 
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.monitor_bench", description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true",
-                    help="20,000 frames, 3 repeats; the hub: 5,000 frames, once")
-    ap.add_argument("--frames", type=int, default=None,
-                    help="traffic length (default: 20,000 quick, else 100,000)")
+    ap.add_argument(
+        "--quick", action="store_true", help="20,000 frames, 3 repeats; the hub: 5,000 frames, once"
+    )
+    ap.add_argument(
+        "--frames", type=int, default=None, help="traffic length (default: 20,000 quick, else 100,000)"
+    )
     args = ap.parse_args(argv)
     run(args.quick, args.frames)
     return 0

@@ -15,6 +15,7 @@ The hub never drops a frame for a slow client (it buffers), so the receiver's ra
 last frame is what it sustains; the sender is shared by both, so a sender slower than the anchor shows
 as an anchor rate close to the monitor's (then the figure only says "at least").
 """
+
 from __future__ import annotations
 
 import argparse
@@ -34,12 +35,17 @@ from telethermo.transport.bus import open_bus, parse_bus_string
 # python-can's socketcand client logs every TCP read that splits a frame (a warning per few frames at this rate)
 logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
 
-GRACE_S = 0.5   # longer than the hub's join grace (0.2 s): the receiver is in raw mode before the sender starts
+GRACE_S = (
+    0.5  # longer than the hub's join grace (0.2 s): the receiver is in raw mode before the sender starts
+)
 
 
 def _sender_main(bus_text: str, n_frames: int) -> int:
     """Open ``bus_text``, say ready, wait for a line on stdin, send the mix's ``n_frames`` frames."""
-    frames = [can.Message(arbitration_id=m.arbitration_id, data=m.data, is_extended_id=False) for m in traffic(n_frames)]
+    frames = [
+        can.Message(arbitration_id=m.arbitration_id, data=m.data, is_extended_id=False)
+        for m in traffic(n_frames)
+    ]
     bus = open_bus(parse_bus_string(bus_text))
     try:
         print("ready", flush=True)
@@ -47,7 +53,7 @@ def _sender_main(bus_text: str, n_frames: int) -> int:
         for m in frames:
             bus.send(m)
         print("sent", flush=True)
-        sys.stdin.readline()   # keep the connection until the receiver has everything
+        sys.stdin.readline()  # keep the connection until the receiver has everything
     finally:
         bus.shutdown()
     return 0
@@ -56,8 +62,12 @@ def _sender_main(bus_text: str, n_frames: int) -> int:
 def receive_rate(bus_text: str, n_frames: int, *, decode: bool, timeout_s: float = 60.0) -> tuple[float, int]:
     """(frames/s from the first to the last frame, frames received) for one receiver over ``bus_text``."""
     rx = open_bus(parse_bus_string(bus_text))
-    sender = subprocess.Popen([sys.executable, "-m", "bench.monitor_hub", "--send", bus_text, "--frames", str(n_frames)],
-                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    sender = subprocess.Popen(
+        [sys.executable, "-m", "bench.monitor_hub", "--send", bus_text, "--frames", str(n_frames)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     mon = Monitor(monitor_config()) if decode else None
     got, t_first, t_last = 0, 0.0, 0.0
     try:
@@ -103,12 +113,17 @@ def measure_hub(n_frames: int, repeats: int) -> dict:
     finally:
         hub.stop()
     med = {k: statistics.median(v) for k, v in runs.items()}
-    return {"hub_anchor_frames_per_s": round(med["anchor"]), "hub_live_frames_per_s": round(med["live"]),
-            "hub_live_ratio_vs_anchor": round(med["live"] / med["anchor"], 3) if med["anchor"] else None,
-            "hub_frames_lost": lost, "hub_frames": n_frames, "hub_repeats": repeats,
-            "hub_runs_frames_per_s": {k: [round(x) for x in v] for k, v in runs.items()},
-            "hub_anchor": "python-can socketcand client recv() over the same hub process, same run; one sender process "
-                          "sending the mix as fast as it can"}
+    return {
+        "hub_anchor_frames_per_s": round(med["anchor"]),
+        "hub_live_frames_per_s": round(med["live"]),
+        "hub_live_ratio_vs_anchor": round(med["live"] / med["anchor"], 3) if med["anchor"] else None,
+        "hub_frames_lost": lost,
+        "hub_frames": n_frames,
+        "hub_repeats": repeats,
+        "hub_runs_frames_per_s": {k: [round(x) for x in v] for k, v in runs.items()},
+        "hub_anchor": "python-can socketcand client recv() over the same hub process, same run; one sender process "
+        "sending the mix as fast as it can",
+    }
 
 
 def main(argv: list[str] | None = None) -> int:

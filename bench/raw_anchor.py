@@ -17,6 +17,7 @@ another process, our socketcand hub, as the two node processes).
 ``python -m bench.raw_anchor --respond BUS`` is the responder process (until SIGTERM or its stdin
 closes); it prints ``ready`` once its bus is open.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -30,14 +31,17 @@ from telethermo.nodes.launch import HubProcess
 from telethermo.transport.bus import TransportSettings, open_bus, parse_bus_string
 
 SYNC_ID = 0x080
-OUT_FRAMES = ((0x181, 8), (0x681, 1))     # the pinger's own TPDO1, TPDO5 (master, node 1)
-BACK_FRAMES = ((0x182, 8), (0x682, 8))    # the responder's TPDO1, TPDO5 (slave, node 2: flag + identification)
+OUT_FRAMES = ((0x181, 8), (0x681, 1))  # the pinger's own TPDO1, TPDO5 (master, node 1)
+BACK_FRAMES = ((0x182, 8), (0x682, 8))  # the responder's TPDO1, TPDO5 (slave, node 2: flag + identification)
 LAST_BACK_ID = BACK_FRAMES[-1][0]
 COUNTER_OVERFLOW = 240
 
 
 def _frames(frames) -> list[can.Message]:
-    return [can.Message(arbitration_id=cob, data=bytes(range(1, n + 1)), is_extended_id=False) for cob, n in frames]
+    return [
+        can.Message(arbitration_id=cob, data=bytes(range(1, n + 1)), is_extended_id=False)
+        for cob, n in frames
+    ]
 
 
 def respond(bus: can.BusABC, stop: threading.Event) -> int:
@@ -88,7 +92,7 @@ def anchor_virtual_cpu(cycles: int, channel: str) -> tuple[float, float]:
     t = threading.Thread(target=respond, args=(b, stop), name="raw-responder", daemon=True)
     t.start()
     try:
-        ping(a, 10)   # both ends up
+        ping(a, 10)  # both ends up
         c0 = time.process_time()
         rate = ping(a, cycles)
         return rate, (time.process_time() - c0) / cycles
@@ -101,21 +105,26 @@ def anchor_virtual_cpu(cycles: int, channel: str) -> tuple[float, float]:
 
 def anchor_process(cycles: int, bus: str) -> float:
     """Cycles/s of the ping-pong over ``bus`` (e.g. our hub), the responder in another process."""
-    proc = subprocess.Popen([sys.executable, "-m", "bench.raw_anchor", "--respond", bus], stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, text=True, start_new_session=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "bench.raw_anchor", "--respond", bus],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+    )
     try:
         line = proc.stdout.readline()
         if line.strip() != "ready":
             raise RuntimeError(f"raw anchor responder did not start: {line.strip() or 'no output'}")
         mine = open_bus(parse_bus_string(bus))
         try:
-            time.sleep(0.3)   # the hub holds a new raw-mode client's first 0.2 s of frames back
+            time.sleep(0.3)  # the hub holds a new raw-mode client's first 0.2 s of frames back
             ping(mine, 10)
             return ping(mine, cycles)
         finally:
             mine.shutdown()
     finally:
-        proc.stdin.close()   # the responder ends when its stdin closes
+        proc.stdin.close()  # the responder ends when its stdin closes
         try:
             proc.wait(10)
         except subprocess.TimeoutExpired:
@@ -141,8 +150,11 @@ def _responder_main(bus_text: str) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.raw_anchor", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.raw_anchor",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--respond", metavar="BUS", help="run the responder on BUS until stdin closes")
     ap.add_argument("--cycles", type=int, default=3000, help="ping-pong cycles (default 3000)")
     args = ap.parse_args(argv)

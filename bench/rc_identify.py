@@ -13,6 +13,7 @@ its own weight (0.49 N). φ = (T_inf − T_finger0)/(T_object0 − T_finger0) go
 The render mode reads that file (telethermo.control.later_rc); the simulator is used here only. The
 experiment itself is telethermo/offline/rc_cooling.py.
 """
+
 from __future__ import annotations
 
 import sys
@@ -20,8 +21,17 @@ from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
 from telethermo.control.later_rc import DEFAULT_RC_TABLE
-from telethermo.offline.rc_cooling import (AMBIENT_C, DURATION_S, FIT_FROM_S, FORCE_N, LOAD_G, MATERIALS,
-                                           T_HOT_C, THICKNESSES_MM, identify)
+from telethermo.offline.rc_cooling import (
+    AMBIENT_C,
+    DURATION_S,
+    FIT_FROM_S,
+    FORCE_N,
+    LOAD_G,
+    MATERIALS,
+    T_HOT_C,
+    THICKNESSES_MM,
+    identify,
+)
 
 
 def table_toml(rows: list[dict]) -> str:
@@ -50,8 +60,11 @@ def run(path: Path = DEFAULT_RC_TABLE, materials: tuple[str, ...] = MATERIALS) -
             for load, back in ((0.0, "adiabatic"), (LOAD_G, "adiabatic"), (0.0, "ambient")):
                 rows.append(identify(mname, th, load_g=load, back=back))
                 r = rows[-1]
-                print(f"{mname:16s} {th:5.1f} mm {back:9s} {load:4.0f} g: tau {r['tau_s']:9.3f} s  "
-                      f"phi {r['final_fraction']:+.3f}  rms {r['fit_rms_C']:.3f} °C", flush=True)
+                print(
+                    f"{mname:16s} {th:5.1f} mm {back:9s} {load:4.0f} g: tau {r['tau_s']:9.3f} s  "
+                    f"phi {r['final_fraction']:+.3f}  rms {r['fit_rms_C']:.3f} °C",
+                    flush=True,
+                )
     write_text_atomic(path, table_toml(rows))
     return rows
 
@@ -64,4 +77,3 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main(sys.argv[1:]))
-

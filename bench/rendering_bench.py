@@ -17,6 +17,7 @@ both into rendering.json. It also measures the graceful link loss (bench/link_lo
 ``link_loss_fallback_error_C`` and ``link_loss_neutral_ramp_error_C`` (the skin error while the slave is lost
 during a touch, with the fallback and with the ramp to neutral as before), ``link_loss`` (per object).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -31,14 +32,21 @@ from bench.common import current_results_dir, print_table, write_results
 from bench.link_loss_bench import print_figures
 from bench.material_id_bench import material_id_figures, print_material_id
 from telethermo.atomic import write_bytes_atomic
-from telethermo.offline.later_phase_figures import (MODELS, NULL, TOUCH_S, T_ON_S,  # noqa: F401
-                                                    later_phase_figures, measure)
+from telethermo.offline.later_phase_figures import (
+    MODELS,
+    NULL,
+    TOUCH_S,
+    T_ON_S,  # noqa: F401
+    later_phase_figures,  # noqa: F401  (re-exported)
+    measure,
+)
 from telethermo.offline.link_loss import link_loss_figures
 
 
 def write_plot(path: Path, traces: dict) -> Path | None:
     """Skin temperature vs time for Al 1 mm and Al 20 mm: direct touch and the three models."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -69,8 +77,10 @@ def run(quick: bool) -> dict[str, Any]:
     """Measure the later phase and the slave's material identification in one run, print both, write
     rendering.json and rendering.png; the data."""
     rows, traces = measure(quick)
-    print_table(["material", "mm", "model", "early RMS °C", "late RMS °C"],
-                [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in rows])
+    print_table(
+        ["material", "mm", "model", "early RMS °C", "late RMS °C"],
+        [[r["material"], r["thickness_mm"], r["model"], r["early_C"], r["late_C"]] for r in rows],
+    )
     mat = material_id_figures(quick)
     print_material_id(mat)
     out_dir = current_results_dir()

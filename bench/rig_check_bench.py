@@ -5,6 +5,7 @@ process) run against it; true when the check's one line names that fault (its ``
 
     python -m bench.hardware_bench --only rigcheck
 """
+
 from __future__ import annotations
 
 import logging
@@ -41,13 +42,14 @@ FAULTS = {
 
 def named_key(faults: list[str]) -> str | None:
     """Run ``rig check`` against a module with ``faults``; the key it named (None: it passed)."""
-    logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)   # the wait for the module's boot
+    logging.getLogger("canopen.sdo.client").setLevel(logging.CRITICAL)  # the wait for the module's boot
     with HubThread() as hub:
         bus_arg = f"socketcand://127.0.0.1:{hub.port}/vcan0"
         cmd = [str(BIN / "telethermo-iomodule"), "--node-id", str(MODULE_ID), "--bus", bus_arg]
         proc = subprocess.Popen(cmd + [a for f in faults for a in ("--fault", f)], stderr=subprocess.DEVNULL)
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="vcan0", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0", tcp_tune=True)
+        )
         net.connect()
         node = net.add_node(MODULE_ID, str(path("io_module.eds")))
         try:
@@ -59,9 +61,22 @@ def named_key(faults: list[str]) -> str | None:
                 except (canopen.SdoCommunicationError, canopen.SdoAbortedError):
                     if time.monotonic() > deadline or proc.poll() is not None:
                         raise RuntimeError("the module did not come up") from None
-            res = subprocess.run([str(BIN / "telethermo"), "rig", "check", "1", "-q", "--rig-config",
-                                  str(RIG_TOML), "--bus", bus_arg],
-                                 capture_output=True, text=True, timeout=300)
+            res = subprocess.run(
+                [
+                    str(BIN / "telethermo"),
+                    "rig",
+                    "check",
+                    "1",
+                    "-q",
+                    "--rig-config",
+                    str(RIG_TOML),
+                    "--bus",
+                    bus_arg,
+                ],
+                capture_output=True,
+                text=True,
+                timeout=300,
+            )
         finally:
             net.disconnect()
             proc.send_signal(signal.SIGTERM)

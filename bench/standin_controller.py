@@ -6,6 +6,7 @@ on this side.
 
     python standin_controller.py PORT MODULE_ID CONTROLLER_ID CODE
 """
+
 from __future__ import annotations
 
 import sys
@@ -17,17 +18,18 @@ import can
 def main() -> None:
     port, module_id, controller_id, code = (int(a) for a in sys.argv[1:5])
     bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="vcan0", tcp_tune=True)
+
     def frame(cob: int, data) -> can.Message:
         return can.Message(arbitration_id=cob, data=bytes(data), is_extended_id=False)
 
-    bus.send(frame(0x000, [0x01, module_id]))                                  # NMT start the module
+    bus.send(frame(0x000, [0x01, module_id]))  # NMT start the module
     rpdo = frame(0x200 + module_id, code.to_bytes(2, "little", signed=True))
     next_t, k = time.monotonic(), 0
     while True:
-        bus.send(frame(0x080, [k % 240 + 1]))                                  # SYNC, counter 1..240
+        bus.send(frame(0x080, [k % 240 + 1]))  # SYNC, counter 1..240
         bus.send(rpdo)
         if k % 5 == 0:
-            bus.send(frame(0x700 + controller_id, [0x05]))                     # heartbeat: OPERATIONAL
+            bus.send(frame(0x700 + controller_id, [0x05]))  # heartbeat: OPERATIONAL
         if k == 0:
             print("running", flush=True)
         k += 1

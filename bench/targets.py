@@ -7,6 +7,7 @@ transparency headline against its bound). ``check`` reads the result files and s
 ``python -m bench --check`` prints the table and exits 1 when any row is short. Figures the docs table
 only reports (baselines, physics bounds, "report") have no row here.
 """
+
 from __future__ import annotations
 
 import json
@@ -35,8 +36,10 @@ class Target:
 
     def __post_init__(self) -> None:
         if self.op not in _OPS and self.op != "between":
-            raise ValueError(f"target {self.file}.{self.key}: comparison {self.op!r} is not one of "
-                             f"{sorted(_OPS)} or 'between'")
+            raise ValueError(
+                f"target {self.file}.{self.key}: comparison {self.op!r} is not one of "
+                f"{sorted(_OPS)} or 'between'"
+            )
 
     def text(self) -> str:
         """The target as the table prints it, e.g. ``>= 0.9`` or ``<= 1.25 x bound_headline_error_C``."""
@@ -73,9 +76,21 @@ TARGETS: list[Target] = [
     T("identify", "worst_free_run_error_C", "<=", 0.3, "worst free-run error, order 3, held-out PRBS, °C"),
     T("identify", "fit_ms_order3_10k", "<=", 50, "batch fit, order 3, 10,000 samples, ms"),
     T("identify", "rls_us_per_update", "<=", 30, "RLS update, µs"),
-    T("transparency", "headline_error_C", "<=", 1.25, "skin vs direct touch around each touch, °C, "
-      "against the optimal currents' bound", ref="bound_headline_error_C"),
-    T("transparency", "pre_contact_mean_error_C", "<=", 0.3, "skin vs direct touch 0.5 s before each touch, °C"),
+    T(
+        "transparency",
+        "headline_error_C",
+        "<=",
+        1.25,
+        "skin vs direct touch around each touch, °C, against the optimal currents' bound",
+        ref="bound_headline_error_C",
+    ),
+    T(
+        "transparency",
+        "pre_contact_mean_error_C",
+        "<=",
+        0.3,
+        "skin vs direct touch 0.5 s before each touch, °C",
+    ),
     T("transparency", "null_display_min_ratio_to_project", ">=", 3, "best null display's headline / ours"),
     T("transparency", "drift_10min_C", "<=", 1, "pads in air 10 min after a scene, largest drift, °C"),
     T("nodes", "lockstep_cycles_per_s_virtual", ">=", 2000, "two-node lockstep, in-process virtual bus"),
@@ -107,13 +122,42 @@ TARGETS: list[Target] = [
     T("envelope", "workers_2_speedup", ">=", 1.7, "the matrix on two workers / on one"),
     # issue 23: material identification across the envelope (bench/material_id_bench.py --envelope)
     T("material_id", "material_id_envelope_n_touches", ">=", 1000, "touches drawn across the envelope"),
-    T("material_id", "material_id_envelope_accuracy_early", ">=", 0.90, "accuracy at <= 0.5 s (abstain = wrong)"),
-    T("material_id", "material_id_envelope_accuracy_late", ">=", 0.98, "accuracy at <= 1.5 s (abstain = wrong)"),
+    T(
+        "material_id",
+        "material_id_envelope_accuracy_early",
+        ">=",
+        0.90,
+        "accuracy at <= 0.5 s (abstain = wrong)",
+    ),
+    T(
+        "material_id",
+        "material_id_envelope_accuracy_late",
+        ">=",
+        0.98,
+        "accuracy at <= 1.5 s (abstain = wrong)",
+    ),
     T("material_id", "material_id_worst_stratum_accuracy_late", ">=", 0.95, "late accuracy, worst stratum"),
-    T("material_id", "material_id_ece_worst_stratum", "<=", 0.05, "expected calibration error, worst stratum"),
-    T("material_id", "material_id_confident_precision_worst_stratum", ">=", 0.95,
-      "accuracy of answers at posterior >= 0.9, worst stratum"),
-    T("material_id", "material_id_ci95_coverage", "between", (0.90, 0.98), "effusivity 95 % interval coverage"),
+    T(
+        "material_id",
+        "material_id_ece_worst_stratum",
+        "<=",
+        0.05,
+        "expected calibration error, worst stratum",
+    ),
+    T(
+        "material_id",
+        "material_id_confident_precision_worst_stratum",
+        ">=",
+        0.95,
+        "accuracy of answers at posterior >= 0.9, worst stratum",
+    ),
+    T(
+        "material_id",
+        "material_id_ci95_coverage",
+        "between",
+        (0.90, 0.98),
+        "effusivity 95 % interval coverage",
+    ),
     T("material_id", "material_id_fit_cycle_worst_ms", "<=", 0.51, "worst fit work in one control cycle, ms"),
 ]
 
@@ -133,6 +177,7 @@ def check(results_dir: Path, targets: list[Target] = TARGETS) -> list[tuple[Targ
 
 def check_table(rows: list[tuple[Target, str, Any]]) -> str:
     """The verdicts as a plain-text table: file, key, value, target, verdict, meaning."""
+
     def fmt(v: Any) -> str:
         return "—" if v is None else f"{v:.4g}" if isinstance(v, float) else str(v)
 

@@ -5,6 +5,7 @@ bench/results/tuning.json (bench.common.write_results), e.g.::
 
     python -m bench.tune --scene probe_touches_al_steel_wood --budget 40 --stress 0.15 --out gains.json
 """
+
 from __future__ import annotations
 
 import json

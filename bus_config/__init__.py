@@ -1,4 +1,5 @@
 """Bus configuration: EDS files and network settings (the source of truth for the CANopen contract)."""
+
 from pathlib import Path
 
 DIR = Path(__file__).resolve().parent

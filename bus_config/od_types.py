@@ -1,5 +1,6 @@
 """The object-dictionary entries the EDS generator writes: CiA 301 data types, a variable (``Var``) and an
 object (``Obj``), and their constructors (REAL32/REAL64/UNSIGNED with limits, PDO flag, description)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -11,8 +12,17 @@ UNSIGNED8, UNSIGNED16, UNSIGNED32, REAL32, VISIBLE_STRING = 0x0005, 0x0006, 0x00
 REAL64 = 0x0011
 
 UNIT_TEXT = {  # name suffix -> ASCII unit for the Unit= key (longest suffixes first when matching)
-    "_A_per_C_s": "A/(degC*s)", "_A_per_C": "A/degC", "_A_per_W": "A/W", "_C_per_s": "degC/s",
-    "_C_per_W": "degC/W", "_C": "degC", "_W": "W", "_A": "A", "_N": "N", "_s": "s", "_mm": "mm",
+    "_A_per_C_s": "A/(degC*s)",
+    "_A_per_C": "A/degC",
+    "_A_per_W": "A/W",
+    "_C_per_s": "degC/s",
+    "_C_per_W": "degC/W",
+    "_C": "degC",
+    "_W": "W",
+    "_A": "A",
+    "_N": "N",
+    "_s": "s",
+    "_mm": "mm",
 }
 
 
@@ -57,17 +67,41 @@ def _f(x: float) -> str:
 
 
 def _real(name, access, default, low=None, high=None, pdo=False, description=""):
-    return Var(name, REAL32, access, _f(default), None if low is None else _f(low),
-               None if high is None else _f(high), pdo, description)
+    return Var(
+        name,
+        REAL32,
+        access,
+        _f(default),
+        None if low is None else _f(low),
+        None if high is None else _f(high),
+        pdo,
+        description,
+    )
 
 
 def _real64(name, access, default, low=None, high=None, description=""):
     """A REAL64 entry: identified model coefficients cancel to ~1e-8 (see docs/identification.md), so
     REAL32 would make a transferred NARMA model unstable; they are SDO-only (never PDO-mapped)."""
-    return Var(name, REAL64, access, _f(default), None if low is None else _f(low),
-               None if high is None else _f(high), False, description)
+    return Var(
+        name,
+        REAL64,
+        access,
+        _f(default),
+        None if low is None else _f(low),
+        None if high is None else _f(high),
+        False,
+        description,
+    )
 
 
 def _uint(name, data_type, access, default, low=None, high=None, pdo=False, description=""):
-    return Var(name, data_type, access, f"0x{default:X}" if isinstance(default, int) else default,
-               None if low is None else f"0x{low:X}", None if high is None else f"0x{high:X}", pdo, description)
+    return Var(
+        name,
+        data_type,
+        access,
+        f"0x{default:X}" if isinstance(default, int) else default,
+        None if low is None else f"0x{low:X}",
+        None if high is None else f"0x{high:X}",
+        pdo,
+        description,
+    )

@@ -14,6 +14,7 @@
   e.g. the peer trip's 0x8130, is active). The peer is alive again when its heartbeat and fresh PDOs are
   seen; then the peer trips are cleared as for any peer return (telethermo.control.peer_policy).
 """
+
 from __future__ import annotations
 
 import logging
@@ -37,8 +38,9 @@ class BusOutage:
     ``peer`` gives the node's peer link (a new one at each power-on), ``start_fallback`` starts the local
     cycles of a SYNC consumer (None on the SYNC producer); the device comes by :meth:`bind`."""
 
-    def __init__(self, *, peer: Callable[[], PeerLink], peer_id: int,
-                 start_fallback: Callable[[], None] | None) -> None:
+    def __init__(
+        self, *, peer: Callable[[], PeerLink], peer_id: int, start_fallback: Callable[[], None] | None
+    ) -> None:
         self._peer = peer
         self._peer_id = peer_id
         self._start_fallback = start_fallback
@@ -76,8 +78,11 @@ class BusOutage:
             self.awaiting_peer = True
         if not up:
             self._peer().on_bus_down()
-            log.warning("bus lost (%s): peer %d counts as lost; the envelope goes safe; retrying", reason,
-                        self._peer_id)
+            log.warning(
+                "bus lost (%s): peer %d counts as lost; the envelope goes safe; retrying",
+                reason,
+                self._peer_id,
+            )
             if self._start_fallback is not None and self._dev is not None:
                 self._start_fallback()
             return

@@ -12,6 +12,7 @@ synchronous TPDOs are built), or by the local fallback timer when the SYNC produ
 The operator's fault reset (0x240A = 1) is validated at once (refused while a latched trip's cause
 persists) and carried out at the next cycle.
 """
+
 from __future__ import annotations
 
 import logging
@@ -21,7 +22,15 @@ import time
 from telethermo.cia301 import ABORT_DEVICE_STATE, EMCY_LINK_FALLBACK
 from telethermo.device.device import SyncTick
 from telethermo.control import safety as sf
-from telethermo.control.core import CoreState, StepResult, clear_faults, init_state, initial_peer, replace_model, step
+from telethermo.control.core import (
+    CoreState,
+    StepResult,
+    clear_faults,
+    init_state,
+    initial_peer,
+    replace_model,
+    step,
+)
 from telethermo.control.peer_policy import PeerResume, peer_resume, resume
 from telethermo.control.types import Mode, PeerValues
 from telethermo.rig import RigSample
@@ -32,11 +41,36 @@ from telethermo.nodes.ports import CycleHost
 log = logging.getLogger("telethermo.node")
 
 MAX_TIMING_SAMPLES = 1_000_000
-_WRITERS = ("T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact", "contact_decision", "force_N", "estimate_C",
-            "T_pred_C", "T_cmd_C", "safety_state", "last_trip_code", "cycle_counter", "late_cycles", "active_trips",
-            "fault_reset", "fault_reset_blocked_by", "identified_material", "identified_beta", "identified_se_ln_b",
-            "identified_posterior", "identified_touches", "identified_T_object0_C", "link_fallback_active",
-            "limits_active", "identified_early_material", "identified_early_posterior", "identified_stage")
+_WRITERS = (
+    "T_sensor_C",
+    "Q_W",
+    "current_A",
+    "T_sink_C",
+    "contact",
+    "contact_decision",
+    "force_N",
+    "estimate_C",
+    "T_pred_C",
+    "T_cmd_C",
+    "safety_state",
+    "last_trip_code",
+    "cycle_counter",
+    "late_cycles",
+    "active_trips",
+    "fault_reset",
+    "fault_reset_blocked_by",
+    "identified_material",
+    "identified_beta",
+    "identified_se_ln_b",
+    "identified_posterior",
+    "identified_touches",
+    "identified_T_object0_C",
+    "link_fallback_active",
+    "limits_active",
+    "identified_early_material",
+    "identified_early_posterior",
+    "identified_stage",
+)
 #: identified_stage (0x261E) of MaterialEstimate.stage
 STAGE_CODES = {"": 0, "early": 1, "late": 2}
 
@@ -83,8 +117,15 @@ class ControlCycle:
         self._r_peer_est = dev.reader("peer_estimate_C")
         self._r_peer_q = dev.reader("peer_Q_W")
         self._r_peer_contact = dev.reader("peer_contact")
-        self._r_peer_material = tuple(dev.reader(n) for n in ("peer_identified_material", "peer_identified_beta",
-                                                              "peer_identified_touches", "peer_identified_T_object0_C"))
+        self._r_peer_material = tuple(
+            dev.reader(n)
+            for n in (
+                "peer_identified_material",
+                "peer_identified_beta",
+                "peer_identified_touches",
+                "peer_identified_T_object0_C",
+            )
+        )
         dev.add_write_validator("fault_reset", self.check_fault_reset)
 
     def swap_model(self, tem, neutral_C: float) -> None:
@@ -164,10 +205,12 @@ class ControlCycle:
                 self.rt.stats.peer_resumes += 1
                 log.warning("peer values back: cleared %s, resuming", ", ".join(t.value for t in cleared))
         elif decision is PeerResume.LATCHED and not self._latched_reported:
-            self._latched_reported = True   # once per episode: why we stay cut after the peer's return
-            log.warning("peer values back, but %s latched: the envelope stays as it is until an operator "
-                        "reset (telethermo fault-reset, or NMT reset node)",
-                        ", ".join(sorted(t.value for t in state.env.trips - sf.PEER_TRIPS)))
+            self._latched_reported = True  # once per episode: why we stay cut after the peer's return
+            log.warning(
+                "peer values back, but %s latched: the envelope stays as it is until an operator "
+                "reset (telethermo fault-reset, or NMT reset node)",
+                ", ".join(sorted(t.value for t in state.env.trips - sf.PEER_TRIPS)),
+            )
         if self._latched_reported and not (state.env.trips & sf.PEER_TRIPS):
             self._latched_reported = False
         return state
@@ -191,8 +234,12 @@ class ControlCycle:
         w["link_fallback_active"](bool(st.link_fallback))
         if st.safety.state != self._safety_state:
             if self._safety_state is not None:
-                log.info("cycle %d: safety state %s -> %s", self.rt.stats.cycles, self._safety_state.name,
-                         st.safety.state.name)
+                log.info(
+                    "cycle %d: safety state %s -> %s",
+                    self.rt.stats.cycles,
+                    self._safety_state.name,
+                    st.safety.state.name,
+                )
             self._safety_state = st.safety.state
         # a new touch's first answer, and its refined one later in the same touch
         if st.material is not None and (st.material.touch, st.material.stage) != self._material_touch:
@@ -207,8 +254,12 @@ class ControlCycle:
         if res.status.link_fallback_started:
             self.rt.device.raise_emcy(EMCY_LINK_FALLBACK)
             stats.emcy_raised += 1
-            log.warning("cycle %d: peer lost while the operator touches: rendering the last identified material "
-                        "locally (EMCY 0x%04X)", stats.cycles - 1, EMCY_LINK_FALLBACK)
+            log.warning(
+                "cycle %d: peer lost while the operator touches: rendering the last identified material "
+                "locally (EMCY 0x%04X)",
+                stats.cycles - 1,
+                EMCY_LINK_FALLBACK,
+            )
         elif self._link_fallback and not fb:
             self.rt.device.clear_emcy(EMCY_LINK_FALLBACK)
             log.warning("cycle %d: link-loss fallback ended", stats.cycles - 1)
@@ -216,7 +267,7 @@ class ControlCycle:
         for trip in res.status.safety.new_trips:
             code = sf.EMCY_CODES[trip]
             self.w["last_trip_code"](code)
-            if trip is sf.Trip.PEER_LOST:   # names its peer as the heartbeat consumer names a lost node:
+            if trip is sf.Trip.PEER_LOST:  # names its peer as the heartbeat consumer names a lost node:
                 # the same loss is one EMCY, another watched node's loss its own (telethermo.device.emcy)
                 self.rt.device.raise_emcy(code, data=bytes([self.rt.peer_id]), subject=self.rt.peer_id)
             else:
@@ -230,7 +281,7 @@ class ControlCycle:
         row.update(side_row(rt.prefix, sample, res, peer))
         if rt.parts.truth is not None:
             row.update(truth_row(rt.prefix, rt.parts.rig))
-        else:   # hardware: no simulator truth, the same columns (NaN), so every reader reads it
+        else:  # hardware: no simulator truth, the same columns (NaN), so every reader reads it
             row.update(dict.fromkeys((c for c in rt.recorder.columns if c not in row), float("nan")))
         rt.recorder.write(row)
 
@@ -243,8 +294,10 @@ class ControlCycle:
             return None
         after = clear_faults(self._last_sample, self._last_peer, self.rt.settings.params, st)
         if after.env.trips:
-            log.warning("fault reset refused: %s persist", ", ".join(sorted(t.value for t in after.env.trips)))
-            self.w["fault_reset_blocked_by"](sf.trips_mask(after.env.trips))   # the client reads why
+            log.warning(
+                "fault reset refused: %s persist", ", ".join(sorted(t.value for t in after.env.trips))
+            )
+            self.w["fault_reset_blocked_by"](sf.trips_mask(after.env.trips))  # the client reads why
             return ABORT_DEVICE_STATE
         return None
 
@@ -253,10 +306,12 @@ class ControlCycle:
         if ev.index != self._fault_reset_index:
             return False
         self._fault_reset_pending = int(ev.value) == 1
-        self.w["fault_reset"](0)   # a command: reads 0
+        self.w["fault_reset"](0)  # a command: reads 0
         return True
 
-    def _operator_fault_reset(self, sample: RigSample, peer: PeerValues | None, state: CoreState) -> CoreState:
+    def _operator_fault_reset(
+        self, sample: RigSample, peer: PeerValues | None, state: CoreState
+    ) -> CoreState:
         """The operator's fault reset (0x240A = 1) at this SYNC: the trips whose cause is gone are cleared
         (their EMCYs too), the envelope restarts bumplessly from the surface."""
         if not state.env.trips:
@@ -266,7 +321,10 @@ class ControlCycle:
         gone = set(state.env.trips) - set(new.env.trips)
         for trip in gone:
             self.rt.device.clear_emcy(sf.EMCY_CODES[trip])
-        log.warning("operator fault reset: cleared %s%s", ", ".join(sorted(t.value for t in gone)) or "nothing",
-                    f"; still latched: {', '.join(sorted(t.value for t in new.env.trips))}" if new.env.trips else "")
+        log.warning(
+            "operator fault reset: cleared %s%s",
+            ", ".join(sorted(t.value for t in gone)) or "nothing",
+            f"; still latched: {', '.join(sorted(t.value for t in new.env.trips))}" if new.env.trips else "",
+        )
         self._latched_reported = False
         return new

@@ -2,6 +2,7 @@
 cycles on a local timer (peer lost: the envelope ramps to neutral, then cuts) until SYNC or the peer's
 heartbeat come back. Fallback cycles are recorded with ``sync_cycle`` -1.
 """
+
 from __future__ import annotations
 
 import logging
@@ -24,9 +25,17 @@ class FallbackCycles:
     or the bus is down (``bus_outage``), until ``stop_event``; a failed cycle counts in ``stats`` and calls
     ``safe_current``. The device comes by :meth:`bind`."""
 
-    def __init__(self, *, cycle: ControlCycle, bus_outage: BusOutage, stats: RuntimeStats,
-                 stop_event: threading.Event, safe_current: Callable[[], None], period_s: float,
-                 peer_id: int) -> None:
+    def __init__(
+        self,
+        *,
+        cycle: ControlCycle,
+        bus_outage: BusOutage,
+        stats: RuntimeStats,
+        stop_event: threading.Event,
+        safe_current: Callable[[], None],
+        period_s: float,
+        peer_id: int,
+    ) -> None:
         self._cycle = cycle
         self._bus_outage = bus_outage
         self._stats = stats

@@ -2,6 +2,7 @@
 experiment the controller runs in IDENTIFY mode, and the samples it recorded, fetched one by one by
 SDO (``telethermo identify`` reads them as the TPDOs carried them, REAL32).
 """
+
 from __future__ import annotations
 
 import logging
@@ -20,8 +21,15 @@ from telethermo.nodes.stats import RuntimeStats
 log = logging.getLogger("telethermo.node")
 
 IDENT_NOT_RUN, IDENT_RUNNING, IDENT_DONE, IDENT_INTERRUPTED = 0, 1, 2, 3
-_WRITERS = ("ident_sample", "ident_state", "ident_guard", "ident_start_cycle", "ident_fetched_T_sensor_C",
-            "ident_fetched_current_A", "ident_fetched_Q_W")
+_WRITERS = (
+    "ident_sample",
+    "ident_state",
+    "ident_guard",
+    "ident_start_cycle",
+    "ident_fetched_T_sensor_C",
+    "ident_fetched_current_A",
+    "ident_fetched_Q_W",
+)
 
 
 class IdentService:

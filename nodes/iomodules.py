@@ -7,6 +7,7 @@ the master's packaged ``rig_io_sim.toml``, 4 for the slave's ``rig_io_sim_slave.
 the simulated plant's truth per SYNC (``--record``, :mod:`telethermo.iomodule.truthlog`); :func:`fill_truth`
 puts it into the merged session recording, where a controller on ``--rig io`` recorded NaN.
 """
+
 from __future__ import annotations
 
 import subprocess
@@ -39,17 +40,39 @@ class IoModuleProcess:
     """``telethermo-iomodule`` for ``side`` of ``scene`` on ``bus``, as a child process: :meth:`start` returns
     when the module answers (its ready line), :meth:`stop` ends it (SIGTERM, then SIGKILL)."""
 
-    def __init__(self, side: str, scene: Path, bus: str, out_dir: Path, *, seed: int | None = None,
-                 network: Path | None = None, config: Path | None = None,
-                 faults: list[str] | None = None) -> None:
+    def __init__(
+        self,
+        side: str,
+        scene: Path,
+        bus: str,
+        out_dir: Path,
+        *,
+        seed: int | None = None,
+        network: Path | None = None,
+        config: Path | None = None,
+        faults: list[str] | None = None,
+    ) -> None:
         self.side = side
         self.config = config if config is not None else rig_config(side)
         cfg = load_rig_config(self.config)
         self.node_id = cfg.modules[cfg.drive.module].node_id
         self.truth_path = out_dir / f"io-{side}-truth.csv"
         self.log_path = out_dir / f"io-{side}.log"
-        self.cmd = [sys.executable, "-m", "telethermo.iomodule.main", "--node-id", str(self.node_id),
-                    "--scene", str(scene), "--side", side, "--bus", bus, "--record", str(self.truth_path)]
+        self.cmd = [
+            sys.executable,
+            "-m",
+            "telethermo.iomodule.main",
+            "--node-id",
+            str(self.node_id),
+            "--scene",
+            str(scene),
+            "--side",
+            side,
+            "--bus",
+            bus,
+            "--record",
+            str(self.truth_path),
+        ]
         if seed is not None:
             self.cmd += ["--seed", str(seed)]
         if network is not None:
@@ -61,17 +84,24 @@ class IoModuleProcess:
     def start(self, timeout_s: float = 60.0) -> None:
         self.log_path.unlink(missing_ok=True)
         self.truth_path.unlink(missing_ok=True)
-        self.proc = subprocess.Popen(self.cmd, stdout=subprocess.PIPE, stderr=open(self.log_path, "ab"),
-                                     text=True, start_new_session=True)
+        self.proc = subprocess.Popen(
+            self.cmd,
+            stdout=subprocess.PIPE,
+            stderr=open(self.log_path, "ab"),
+            text=True,
+            start_new_session=True,
+        )
         box: list[str] = []
         reader = threading.Thread(target=lambda: box.append(self._stdout().readline()), daemon=True)
         reader.start()
         reader.join(timeout_s)
         if not box or not box[0].startswith(READY):
             code = self.stop()
-            raise IoModuleError(f"the {self.side}'s I/O module (node {self.node_id}) did not come up "
-                                f"(exit {code}); see {self.log_path}")
-        threading.Thread(target=lambda: self._stdout().read(), daemon=True).start()   # keep the pipe drained
+            raise IoModuleError(
+                f"the {self.side}'s I/O module (node {self.node_id}) did not come up "
+                f"(exit {code}); see {self.log_path}"
+            )
+        threading.Thread(target=lambda: self._stdout().read(), daemon=True).start()  # keep the pipe drained
 
     def _stdout(self):  # type: ignore[no-untyped-def]
         assert self.proc is not None and self.proc.stdout is not None

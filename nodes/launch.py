@@ -9,6 +9,7 @@ is stopped with SIGTERM -> the modules -> the hub with SIGTERM. Every child runs
 group, so a terminal's Ctrl-C reaches only the caller, which then stops the children in that order
 (:meth:`NodePair.stop`). The hub also stops by itself when its parent ends.
 """
+
 from __future__ import annotations
 
 import json
@@ -33,8 +34,14 @@ class LaunchError(RuntimeError):
 class HubProcess:
     """``telethermo-hub`` as a child process on a free loopback port."""
 
-    def __init__(self, *, idle_timeout_s: float = 60.0, log_path: Path | None = None, publish: bool = False,
-                 port: int = 0) -> None:
+    def __init__(
+        self,
+        *,
+        idle_timeout_s: float = 60.0,
+        log_path: Path | None = None,
+        publish: bool = False,
+        port: int = 0,
+    ) -> None:
         """``publish``: let the hub publish where it listens (telethermo.transport.published); off for
         tests and benchmarks, which give their clients ``--bus`` and must not redirect the user's commands.
         ``port``: the TCP port (0: a free one), e.g. a hub restarted where the nodes look for it."""
@@ -46,12 +53,24 @@ class HubProcess:
         self.port: int | None = None
 
     def start(self, timeout_s: float = 30.0) -> int:
-        cmd = [sys.executable, "-m", "telethermo.transport.hub", "--port", str(self.requested_port),
-               "--parent-pid", str(os.getpid()), "--idle-timeout", f"{self.idle_timeout_s:g}", "--channel", HUB_CHANNEL]
+        cmd = [
+            sys.executable,
+            "-m",
+            "telethermo.transport.hub",
+            "--port",
+            str(self.requested_port),
+            "--parent-pid",
+            str(os.getpid()),
+            "--idle-timeout",
+            f"{self.idle_timeout_s:g}",
+            "--channel",
+            HUB_CHANNEL,
+        ]
         if not self.publish:
             cmd.append("--no-publish")
-        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                                     start_new_session=True)
+        self.proc = subprocess.Popen(
+            cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
+        )
         line = _readline_with_timeout(self.proc, timeout_s)
         if not line.startswith("telethermo-hub listening on "):
             self.stop()
@@ -89,7 +108,9 @@ def _readline_with_timeout(proc: subprocess.Popen, timeout_s: float) -> str:
     return box[0] if box else ""
 
 
-def stop_process(proc: subprocess.Popen | None, *, timeout_s: float = 10.0, sig: int = signal.SIGTERM) -> int | None:
+def stop_process(
+    proc: subprocess.Popen | None, *, timeout_s: float = 10.0, sig: int = signal.SIGTERM
+) -> int | None:
     """Send ``sig`` to a child we started (by its pid), wait, escalate to SIGKILL; return its exit code."""
     if proc is None:
         return None
@@ -111,17 +132,36 @@ def node_command(role: str, *args: str) -> list[str]:
     return [sys.executable, "-m", f"telethermo.nodes.{role}", *args]
 
 
-def start_lone_node(role: str, scene: Path, out_dir: Path, *bus_args: str, mode: str = "idle",
-                    timing: str = "lockstep") -> subprocess.Popen:
+def start_lone_node(
+    role: str, scene: Path, out_dir: Path, *bus_args: str, mode: str = "idle", timing: str = "lockstep"
+) -> subprocess.Popen:
     """One node program alone until stopped (``--cycles 0``, no wait for a peer), e.g. the master a
     ``telethermo identify`` talks to; ``bus_args``: ``--bus B`` or ``--network FILE``. Its log goes to
     ``out_dir/<role>.log`` and its stderr to ``out_dir/<role>-stderr.log``. Stop it with :func:`stop_process`."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    return subprocess.Popen(node_command(role, *bus_args, "--scene", str(scene), "--mode", mode, "--cycles", "0",
-                                         "--timing", timing, "--wait-peer", "0", "--log", str(out_dir / f"{role}.log"),
-                                         "--store", str(out_dir / f"{role}-store.json")),
-                            stdout=subprocess.DEVNULL, stderr=open(out_dir / f"{role}-stderr.log", "ab"),
-                            start_new_session=True)
+    return subprocess.Popen(
+        node_command(
+            role,
+            *bus_args,
+            "--scene",
+            str(scene),
+            "--mode",
+            mode,
+            "--cycles",
+            "0",
+            "--timing",
+            timing,
+            "--wait-peer",
+            "0",
+            "--log",
+            str(out_dir / f"{role}.log"),
+            "--store",
+            str(out_dir / f"{role}-store.json"),
+        ),
+        stdout=subprocess.DEVNULL,
+        stderr=open(out_dir / f"{role}-stderr.log", "ab"),
+        start_new_session=True,
+    )
 
 
 @dataclass
@@ -194,16 +234,31 @@ class NodePair:
         c = self.config
         # a session of simulated rigs keeps its parameter store in its own folder: settings a lab saved for its
         # hardware nodes (the per-user default store) never change a session's figures
-        rig = (["--rig", "io", "--rig-config", str(self.modules[role].config)] if c.io else
-               ["--scene", str(c.scene)])
-        args = ["--bus", self.bus, *rig, "--record", str(self.recording(role)),
-                "--mode", c.mode, "--timing", c.timing, "--log", str(self.log(role)),
-                "--store", str(self.out_dir / f"{role}-store.json")]
+        rig = (
+            ["--rig", "io", "--rig-config", str(self.modules[role].config)]
+            if c.io
+            else ["--scene", str(c.scene)]
+        )
+        args = [
+            "--bus",
+            self.bus,
+            *rig,
+            "--record",
+            str(self.recording(role)),
+            "--mode",
+            c.mode,
+            "--timing",
+            c.timing,
+            "--log",
+            str(self.log(role)),
+            "--store",
+            str(self.out_dir / f"{role}-store.json"),
+        ]
         if c.network is not None:
             args += ["--network", str(c.network)]
         if c.model is not None:
             args += ["--model", str(c.model)]
-        if c.seed is not None and not c.io:     # the I/O module simulates the rig: the seed is its
+        if c.seed is not None and not c.io:  # the I/O module simulates the rig: the seed is its
             args += ["--seed", str(self._seed(role))]
         return args
 
@@ -217,8 +272,15 @@ class NodePair:
         c = self.config
         assert self.bus is not None
         for role in ("slave", "master") if c.mode != "render" else ("master",):
-            mod = IoModuleProcess(role, c.scene, self.bus, self.out_dir, seed=self._seed(role),
-                                  network=c.network, faults=c.io_faults.get(role, []))
+            mod = IoModuleProcess(
+                role,
+                c.scene,
+                self.bus,
+                self.out_dir,
+                seed=self._seed(role),
+                network=c.network,
+                faults=c.io_faults.get(role, []),
+            )
             self.modules[role] = mod
             try:
                 mod.start()
@@ -227,9 +289,12 @@ class NodePair:
 
     def start_slave(self) -> subprocess.Popen:
         """(Re)start the slave process."""
-        self.slave = subprocess.Popen(node_command("slave", *self._common("slave"), *self.config.slave_args),
-                                      stdout=subprocess.DEVNULL, stderr=open(self.log("slave-stderr"), "ab"),
-                                      start_new_session=True)
+        self.slave = subprocess.Popen(
+            node_command("slave", *self._common("slave"), *self.config.slave_args),
+            stdout=subprocess.DEVNULL,
+            stderr=open(self.log("slave-stderr"), "ab"),
+            start_new_session=True,
+        )
         return self.slave
 
     def start(self) -> None:
@@ -246,12 +311,16 @@ class NodePair:
             self.start_modules()
         if c.mode != "render":  # virtual rendering: the master alone
             self.start_slave()
-        margs = self._common("master") + ["--progress", str(c.progress_every), "--json"]   # the result line
+        margs = self._common("master") + ["--progress", str(c.progress_every), "--json"]  # the result line
         if c.cycles is not None:
             margs += ["--cycles", str(c.cycles)]
-        self.master = subprocess.Popen(node_command("master", *margs, *c.master_args), stdout=subprocess.PIPE,
-                                       stderr=open(self.log("master-stderr"), "ab"), text=True,
-                                       start_new_session=True)
+        self.master = subprocess.Popen(
+            node_command("master", *margs, *c.master_args),
+            stdout=subprocess.PIPE,
+            stderr=open(self.log("master-stderr"), "ab"),
+            text=True,
+            start_new_session=True,
+        )
         self._reader = threading.Thread(target=self._read_master, daemon=True)
         self._reader.start()
 
@@ -263,7 +332,7 @@ class NodePair:
                 with self._progress_lock:
                     self.progress = (int(parts[1]), int(parts[2]))
             elif line.startswith("result "):
-                self.result = json.loads(line[len("result "):])
+                self.result = json.loads(line[len("result ") :])
             else:
                 self._master_lines.append(line.rstrip("\n"))
 
@@ -281,8 +350,7 @@ class NodePair:
     def stop(self, *, sig: int = signal.SIGTERM) -> dict[str, int | None]:
         """Stop master, then slave, then the hub (SIGTERM: each node cuts its current, sends its
         last heartbeat and closes its recording); return the exit codes."""
-        codes = {"master": stop_process(self.master, sig=sig),
-                 "slave": stop_process(self.slave, sig=sig)}
+        codes = {"master": stop_process(self.master, sig=sig), "slave": stop_process(self.slave, sig=sig)}
         for role, mod in self.modules.items():
             codes[f"io-{role}"] = mod.stop()
         if self.hub is not None:

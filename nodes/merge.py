@@ -11,6 +11,7 @@ matched row by row, checking that ``t_s`` agrees (both simulated rigs start at t
 period per SYNC). The direct-touch reference (``ref_*``) and the scene's contacts are added from the
 scene, as the offline runner does: the reference is physics only, no controller.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,8 +33,9 @@ class MergeError(ValueError):
     """The two recordings do not belong together (names the files and what differs)."""
 
 
-def merge_recordings(master_csv: str | Path, slave_csv: str | Path | None, *, scene: Any = None,
-                     reference: bool = True) -> Recording:
+def merge_recordings(
+    master_csv: str | Path, slave_csv: str | Path | None, *, scene: Any = None, reference: bool = True
+) -> Recording:
     """One recording from the master's and (optionally) the slave's files, plus the scene's reference.
 
     Rows are cut to the shorter file (a node stopped a cycle earlier). ``scene``: a loaded scene or a
@@ -52,8 +54,10 @@ def merge_recordings(master_csv: str | Path, slave_csv: str | Path | None, *, sc
             bad = np.flatnonzero(np.abs(t - ts) > 1e-9)
             if bad.size:
                 k = int(bad[0])
-                raise MergeError(f"{master_csv} and {slave_csv}: row {k}: t_s {t[k]} s vs {ts[k]} s "
-                                 "(the rigs are not in lockstep)")
+                raise MergeError(
+                    f"{master_csv} and {slave_csv}: row {k}: t_s {t[k]} s vs {ts[k]} s "
+                    "(the rigs are not in lockstep)"
+                )
     n = len(mi)
     t = m.col("t_s")[mi]
     meta = {k: v for k, v in m.meta.items() if k not in ("role", "node_id", "seed")}
@@ -73,7 +77,7 @@ def merge_recordings(master_csv: str | Path, slave_csv: str | Path | None, *, sc
             ref = sim.build_reference(sc)
             period = float(meta.get("period_s") or sc.period_s)
             rows = []
-            for _ in range(n_master if n else 0):   # the master's rows are consecutive periods of its rig
+            for _ in range(n_master if n else 0):  # the master's rows are consecutive periods of its rig
                 rows.append(ref_row(ref))
                 ref.advance(period)
             for c in ("ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"):

@@ -6,6 +6,7 @@ another period or unstable; with 0x08000022 while a model-driven controller driv
 it (refused with 0x08000022 while the controller needs a model). Writing a model object after the last
 command marks the status EDITED (the objects differ from what runs).
 """
+
 from __future__ import annotations
 
 import logging
@@ -35,8 +36,9 @@ class ModelSlot:
     parameter book; ``swap_model(tem, neutral_C)``: the control cycle's predictor takes a new model;
     ``node_id`` names the OD in messages. The device comes by :meth:`bind`."""
 
-    def __init__(self, *, parts: NodeParts, settings: ParamSlot, node_id: int,
-                 swap_model: Callable[[Any, float], None]) -> None:
+    def __init__(
+        self, *, parts: NodeParts, settings: ParamSlot, node_id: int, swap_model: Callable[[Any, float], None]
+    ) -> None:
         self._parts = parts
         self._settings = settings
         self._node_id = node_id
@@ -45,9 +47,9 @@ class ModelSlot:
         self.model = parts.model
         self.loaded = 0
         """Models loaded or unloaded by model_command since the start."""
-        self._candidate = None   # (TemModel | None, crc) validated by the last model_command write
-        self._edited = False     # model objects written since the last model_command
-        self._pending = None     # the same, to take at the next SYNC
+        self._candidate = None  # (TemModel | None, crc) validated by the last model_command write
+        self._edited = False  # model objects written since the last model_command
+        self._pending = None  # the same, to take at the next SYNC
         self._w: dict = {}
 
     def bind(self, dev: Device) -> None:
@@ -67,7 +69,7 @@ class ModelSlot:
         self.write_objects(self.model)
         book = self._settings.book
         if book is not None:
-            self._parts.fit_model(self.model, book.role)    # and the gains derived from it
+            self._parts.fit_model(self.model, book.role)  # and the gains derived from it
             book.version += 1
 
     def write_objects(self, tem) -> None:
@@ -79,7 +81,7 @@ class ModelSlot:
             return
         try:
             entries = odmodel.model_entries(tem)
-        except ValueError as exc:   # ModelFileError: more parameters than the objects hold
+        except ValueError as exc:  # ModelFileError: more parameters than the objects hold
             log.warning("the model runs but cannot be shown in the OD: %s", exc)
             w["model_status"](odmodel.STATUS_LOADED)
             w["model_crc32"](0)
@@ -93,19 +95,25 @@ class ModelSlot:
         """Validator of model_command (0x230D), device lock held (see the module docstring)."""
         value = int(value)
         book = self._settings.book
-        p = book.params() if book is not None else None   # what is requested, not only what runs
+        p = book.params() if book is not None else None  # what is requested, not only what runs
         uses_model = p is not None and (p.estimator is not Estimator.FLUX or p.feedback is Feedback.MODEL)
         if value == odmodel.CMD_LOAD:
             if uses_model and book.mode in (Mode.TELEPRESENCE, Mode.RENDER):
                 # a new predictor starts at rest: under a model-driven controller its transient would reach
                 # the pad (and the peer); swap it while the flux estimator drives, or in idle
-                log.warning("model_command 1 refused: the %s estimator drives the pad in %s", p.estimator.value,
-                            book.mode.name)
+                log.warning(
+                    "model_command 1 refused: the %s estimator drives the pad in %s",
+                    p.estimator.value,
+                    book.mode.name,
+                )
                 return ABORT_DEVICE_STATE
             d = self._dev
             try:
-                tem, entries = odmodel.model_from_od(lambda i, s: d.read((i, s)), source=f"node {self._node_id} OD",
-                                                     period_s=self._parts.period_s)
+                tem, entries = odmodel.model_from_od(
+                    lambda i, s: d.read((i, s)),
+                    source=f"node {self._node_id} OD",
+                    period_s=self._parts.period_s,
+                )
             except ModelFileError as exc:
                 log.warning("model_command 1 refused: %s", exc)
                 return ABORT_MODEL_REFUSED
@@ -127,8 +135,10 @@ class ModelSlot:
             self._pending, self._candidate = self._candidate, None
             self._edited = False
             if self._pending is not None and self._pending[0] is None:
-                self._settings.book.has_model = False   # unloading: no write may select the model estimator now
-            self._w["model_command"](0)   # a command, not a setting: reads 0
+                self._settings.book.has_model = (
+                    False  # unloading: no write may select the model estimator now
+                )
+            self._w["model_command"](0)  # a command, not a setting: reads 0
         else:
             self._edited = True
             if self.model is not None:
@@ -143,12 +153,14 @@ class ModelSlot:
         settings = self._settings
         settings.book.has_model = tem is not None
         parts = self._parts
-        parts.fit_model(tem, settings.book.role)      # gains that fit the newly identified rig
-        settings.book.version += 1                    # the next SYNC rebuilds the parameters with them
+        parts.fit_model(tem, settings.book.role)  # gains that fit the newly identified rig
+        settings.book.version += 1  # the next SYNC rebuilds the parameters with them
         self._swap_model(tem, settings.params.safety.neutral_C)
         status = odmodel.STATUS_LOADED if tem is not None else odmodel.STATUS_NONE
         if tem is not None and self._edited:
-            status = odmodel.STATUS_EDITED   # objects written after the load command: they differ from what runs
+            status = (
+                odmodel.STATUS_EDITED
+            )  # objects written after the load command: they differ from what runs
         self._w["model_status"](status)
         self._w["model_crc32"](crc)
         self._w["model_command"](0)
@@ -157,8 +169,19 @@ class ModelSlot:
             log.info("model unloaded")
         else:
             o = tem.temperature.orders
-            log.info("model loaded from the OD: orders %d,%d,%d,%d, T_ref %.3f °C, CRC 0x%08X", o.n, o.m, o.p, o.q,
-                     tem.temperature.T_ref_C, crc)
+            log.info(
+                "model loaded from the OD: orders %d,%d,%d,%d, T_ref %.3f °C, CRC 0x%08X",
+                o.n,
+                o.m,
+                o.p,
+                o.q,
+                tem.temperature.T_ref_C,
+                crc,
+            )
             fit = parts.gain_fit
-            log.info("gains from the model: x%.3f (gain margin %.1f dB, phase margin %.1f° on the model)",
-                     fit["rho"], fit["margins"]["gain_margin_dB"], fit["margins"]["phase_margin_deg"])
+            log.info(
+                "gains from the model: x%.3f (gain margin %.1f dB, phase margin %.1f° on the model)",
+                fit["rho"],
+                fit["margins"]["gain_margin_dB"],
+                fit["margins"]["phase_margin_deg"],
+            )

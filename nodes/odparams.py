@@ -22,13 +22,23 @@ finger thermometer) and the OD shows the settings in force; once the operator wr
 A written ``pad_beta`` (the user's calibration) or ``finger_T0_C`` applies on top of the script's
 touches from then on (the operator's value wins over the script's finger thermometer).
 """
+
 from __future__ import annotations
 
 import dataclasses
 from typing import Any, Callable
 
-from telethermo.bus_config.partable import (BY_NAME, ESTIMATOR_CODE, FRACTION_OF_I_MAX, GAINS as PER_MODE,
-                                            HIGH_END, IDENTIFY, LOW_END, PARAMS, RENDER)
+from telethermo.bus_config.partable import (
+    BY_NAME,
+    ESTIMATOR_CODE,
+    FRACTION_OF_I_MAX,
+    GAINS as PER_MODE,
+    HIGH_END,
+    IDENTIFY,
+    LOW_END,
+    PARAMS,
+    RENDER,
+)
 from telethermo.cia301 import ABORT_DEVICE_STATE, ABORT_MAX_BELOW_MIN, ABORT_RANGE, ABORT_TOO_HIGH
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.estimators import Estimator
@@ -41,15 +51,18 @@ CODE_ESTIMATORS = {v: k for k, v in ESTIMATOR_CODES.items()}
 GAIN_KEYS = tuple(p.name for p in PARAMS if p.scope == PER_MODE)
 #: OD name -> SafetyLimits fields it sets (current_limit_A is a fraction of I_max: COMMON below)
 SAFETY_KEYS: dict[str, tuple[str, ...]] = {
-    p.name: tuple(f.removeprefix("safety.") for f in p.field) for p in PARAMS
-    if p.field and p.field[0].startswith("safety.") and p.convert != FRACTION_OF_I_MAX}
+    p.name: tuple(f.removeprefix("safety.") for f in p.field)
+    for p in PARAMS
+    if p.field and p.field[0].startswith("safety.") and p.convert != FRACTION_OF_I_MAX
+}
 RENDER_KEYS = tuple(p.name for p in PARAMS if p.scope == RENDER)
-LATER_KEYS = tuple(p.name for p in PARAMS if p.field == ("render.later",))   # on top of any render
+LATER_KEYS = tuple(p.name for p in PARAMS if p.field == ("render.later",))  # on top of any render
 _MATERIAL_FIELDS = ("render.material", "render.beta_object", "render.T_object0_C")
 MATERIAL_KEYS = tuple(p.name for p in PARAMS if p.field and p.field[0] in _MATERIAL_FIELDS)
 #: OD name -> IdentifyPlan field (the amplitudes are the two ends of ``amplitude_A``)
-IDENT_KEYS: dict[str, str] = {p.name: p.field[0].removeprefix("identify.")
-                              for p in PARAMS if p.scope == IDENTIFY}
+IDENT_KEYS: dict[str, str] = {
+    p.name: p.field[0].removeprefix("identify.") for p in PARAMS if p.scope == IDENTIFY
+}
 #: every object a node mirrors and accepts writes of
 PARAM_KEYS = tuple(p.name for p in PARAMS)
 #: the objects a CiA 301 store saves (``mode`` is not: --mode decides it at boot)
@@ -76,10 +89,18 @@ class ParamBook:
         script_first: the render script's first settings (a render scene), or None.
     """
 
-    def __init__(self, role: Role, params_for: Callable[..., CoreParams], *, has_model: bool,
-                 table: dict[str, float], od_material: tuple[int, float, float],
-                 script_first: RenderSettings | None = None, mode: Mode = Mode.TELEPRESENCE,
-                 peer_miss_limit: int = 10) -> None:
+    def __init__(
+        self,
+        role: Role,
+        params_for: Callable[..., CoreParams],
+        *,
+        has_model: bool,
+        table: dict[str, float],
+        od_material: tuple[int, float, float],
+        script_first: RenderSettings | None = None,
+        mode: Mode = Mode.TELEPRESENCE,
+        peer_miss_limit: int = 10,
+    ) -> None:
         self.role = role
         self.params_for = params_for
         self.has_model = has_model
@@ -106,8 +127,11 @@ class ParamBook:
         else:
             code, beta, T0 = od_material
             name = self._code_name(code)
-            self.render = RenderSettings(beta_object=self.table[name] if name else float(beta), T_object0_C=float(T0),
-                                         material=name or "custom")
+            self.render = RenderSettings(
+                beta_object=self.table[name] if name else float(beta),
+                T_object0_C=float(T0),
+                material=name or "custom",
+            )
         self.version = 0
 
     # ------------------------------------------------------------------ building parameters
@@ -163,7 +187,9 @@ class ParamBook:
         new.later = dict(self.later)
         return new
 
-    def check(self, key: str, value: Any, *, current_limit_of: Callable[[], float] | None = None) -> int | None:
+    def check(
+        self, key: str, value: Any, *, current_limit_of: Callable[[], float] | None = None
+    ) -> int | None:
         """The SDO abort code that refuses writing ``value`` to ``key`` now, or None to accept it."""
         if key == "mode":
             try:
@@ -171,15 +197,15 @@ class ParamBook:
             except ValueError:
                 return ABORT_RANGE
             if mode is Mode.RENDER and self.role is not Role.MASTER:
-                return ABORT_DEVICE_STATE   # virtual rendering is the display's job
+                return ABORT_DEVICE_STATE  # virtual rendering is the display's job
         if key == "estimator":
             est = CODE_ESTIMATORS.get(int(value))
             if est is None:
                 return ABORT_RANGE
             if est is not Estimator.FLUX and not self.has_model:
-                return ABORT_DEVICE_STATE   # no TEM model loaded: T_pred cannot be computed
+                return ABORT_DEVICE_STATE  # no TEM model loaded: T_pred cannot be computed
         if key in IDENT_KEYS and self.mode is Mode.IDENTIFY:
-            return ABORT_DEVICE_STATE   # the experiment's plan is fixed while it runs
+            return ABORT_DEVICE_STATE  # the experiment's plan is fixed while it runs
         if BY_NAME[key].convert in (LOW_END, HIGH_END):
             lo, hi = self.params().identify.amplitude_A
             lo, hi = (float(value), hi) if BY_NAME[key].convert == LOW_END else (lo, float(value))
@@ -192,7 +218,7 @@ class ParamBook:
             trial.apply(key, value)
             trial.params()
             if key in RENDER_KEYS:
-                trial.render_settings()   # valid for a later RENDER too (RenderSettings checks its ranges)
+                trial.render_settings()  # valid for a later RENDER too (RenderSettings checks its ranges)
         except ValueError:
             return ABORT_DEVICE_STATE if key == "mode" else ABORT_RANGE
         return None
@@ -226,7 +252,7 @@ class ParamBook:
             if est is None:
                 raise ValueError(f"estimator code {value}: expected 0, 1 or 2")
             self.common[p.field[0]] = est
-        else:   # a CoreParams field of every mode
+        else:  # a CoreParams field of every mode
             self.common[p.field[0]] = float(value) if p.is_real else int(value)
         self.version += 1
 
@@ -238,9 +264,14 @@ class ParamBook:
                 code = int(value)
                 name = self._code_name(code)
                 if code and name is None:
-                    raise ValueError(f"material_code {code}: the rendering table has {len(self.table)} entries")
-                self.render = dataclasses.replace(r, beta_object=self.table[name], material=name) if name else \
-                    dataclasses.replace(r, material="custom")
+                    raise ValueError(
+                        f"material_code {code}: the rendering table has {len(self.table)} entries"
+                    )
+                self.render = (
+                    dataclasses.replace(r, beta_object=self.table[name], material=name)
+                    if name
+                    else dataclasses.replace(r, material="custom")
+                )
             elif key == "material_beta":
                 self.render = dataclasses.replace(r, beta_object=float(value), material="custom")
             else:
@@ -255,8 +286,9 @@ class ParamBook:
             raise KeyError(key)
 
 
-def od_image(params: CoreParams, render: RenderSettings | None, *, material_code: int,
-             peer_miss_limit: int) -> dict[str, Any]:
+def od_image(
+    params: CoreParams, render: RenderSettings | None, *, material_code: int, peer_miss_limit: int
+) -> dict[str, Any]:
     """Object name -> value for every parameter object: the truth about ``params`` (and ``render``,
     the settings rendered or to be rendered)."""
     img: dict[str, Any] = {}
@@ -266,10 +298,11 @@ def od_image(params: CoreParams, render: RenderSettings | None, *, material_code
             if render is None:
                 continue
             f = p.field[0].removeprefix("render.")
-            img[p.name] = (material_code if f == "material" else later[p.name] if f == "later"
-                           else getattr(render, f))
+            img[p.name] = (
+                material_code if f == "material" else later[p.name] if f == "later" else getattr(render, f)
+            )
             continue
-        if p.name == "peer_pdo_miss_limit":   # the peer link's, not the control core's
+        if p.name == "peer_pdo_miss_limit":  # the peer link's, not the control core's
             img[p.name] = peer_miss_limit
             continue
         v = [_field_value(params, f) for f in p.field]

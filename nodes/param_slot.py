@@ -5,6 +5,7 @@ and the OD image of all of them (what ``telethermo get`` shows).
 SDO writes are validated by the book before they are stored (device lock held), go into the book at
 once and into the controller at the next SYNC (:meth:`ParamSlot.apply`).
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -21,6 +22,7 @@ from telethermo.nodes.peer import PeerLink
 
 log = logging.getLogger("telethermo.node")
 
+
 class ParamSlot:
     """The controller's parameters of one node (``params``, ``mode``), built from its ``book``.
 
@@ -33,7 +35,7 @@ class ParamSlot:
         self._role = role
         self._peer = peer
         self.mode = self.configured_mode = mode
-        self.params = None   # built at power-on from the parameter book (defaults + SDO writes)
+        self.params = None  # built at power-on from the parameter book (defaults + SDO writes)
         self.book: ParamBook | None = None
         self.version = 0
         """The book's version the controller runs."""
@@ -50,7 +52,7 @@ class ParamSlot:
     def bind(self, dev: Device) -> None:
         """The OD writers of the parameter objects and the book's validators of SDO writes."""
         self._w = {key: dev.writer(key) for key in PARAM_KEYS}
-        self.keys = {dev.info.get(key).index: key for key in PARAM_KEYS}   # index -> name
+        self.keys = {dev.info.get(key).index: key for key in PARAM_KEYS}  # index -> name
         for key in PARAM_KEYS:
             dev.add_write_validator(key, lambda value, key=key: self.book.check(key, value))
 
@@ -65,11 +67,20 @@ class ParamSlot:
         if self._render_table is None:
             self._render_table = load_render_table()
         parts = self._parts
-        self.book = ParamBook(self._role, parts.params_for, has_model=has_model, table=self._render_table,
-                              od_material=(int(dev.read("material_code")), float(dev.read("material_beta")),
-                                           float(dev.read("object_T0_C"))),
-                              script_first=self.script_rs if parts.render_script is not None else None,
-                              mode=self.configured_mode, peer_miss_limit=int(dev.read("peer_pdo_miss_limit")))
+        self.book = ParamBook(
+            self._role,
+            parts.params_for,
+            has_model=has_model,
+            table=self._render_table,
+            od_material=(
+                int(dev.read("material_code")),
+                float(dev.read("material_beta")),
+                float(dev.read("object_T0_C")),
+            ),
+            script_first=self.script_rs if parts.render_script is not None else None,
+            mode=self.configured_mode,
+            peer_miss_limit=int(dev.read("peer_pdo_miss_limit")),
+        )
         self.mode = self.configured_mode
         self.written = {}
         self.rebuild()
@@ -101,8 +112,12 @@ class ParamSlot:
     def write_image(self) -> None:
         """The parameters in force into their OD objects."""
         rs = self.render_view()
-        img = od_image(self.params, rs, material_code=self.book.material_code(rs),
-                       peer_miss_limit=self.book.peer_miss_limit)
+        img = od_image(
+            self.params,
+            rs,
+            material_code=self.book.material_code(rs),
+            peer_miss_limit=self.book.peer_miss_limit,
+        )
         w = self._w
         for key, value in img.items():
             w[key](value)

@@ -6,6 +6,7 @@ been missing for more than ``max_missed_cycles`` consecutive cycles, or at once 
 is lost (:meth:`PeerLink.on_bus_down`); it is back when its heartbeat
 is seen again and a fresh PDO arrives (the rule: :func:`telethermo.control.peer_policy.peer_alive`). Thread-safe: the bus's receive thread writes, the cycle reads.
 """
+
 from __future__ import annotations
 
 import math
@@ -107,8 +108,12 @@ class PeerLink:
             return self._alive_locked()
 
     def _alive_locked(self) -> bool:
-        return peer_alive(heartbeat_ok=self._hb_ok and self._bus_ok, seen=self._ever, missed_cycles=self._missed,
-                          max_missed_cycles=self.max_missed_cycles)
+        return peer_alive(
+            heartbeat_ok=self._hb_ok and self._bus_ok,
+            seen=self._ever,
+            missed_cycles=self._missed,
+            max_missed_cycles=self.max_missed_cycles,
+        )
 
     def take(self, material: tuple[int, float, int, float] | None = None) -> PeerValues | None:
         """The values for this cycle (None before the first PDO or :meth:`start_with`); marks them consumed.

@@ -6,6 +6,7 @@ constructor arguments: one narrow :class:`typing.Protocol` per such part, listin
   exist or are renewed at power-on, and the SYNC number of the cycle it runs;
 - the SYNC producer's is :class:`nodes.producer.ProducerHost`, beside it.
 """
+
 from __future__ import annotations
 
 from typing import Protocol

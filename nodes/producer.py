@@ -15,6 +15,7 @@ pre-operational heartbeat, see the node runtime's peer events) and runs the sche
 CiA 301: the SYNC producer produces in PRE-OPERATIONAL too (paced by the period; the SYNC handlers
 see ``tick.operational`` False, no PDO goes out); in STOPPED it does not.
 """
+
 from __future__ import annotations
 
 import logging
@@ -116,15 +117,24 @@ class _PeerDebt:
         while not arrived and waited < patience_s and not rt.stop_event.is_set():
             arrived = dev.wait_rpdo(self.last, after=self.base + self.owed - 1, timeout=wait_s)
             waited += wait_s
-            if not arrived and (dev.peer_status(rt.peer_id) != "alive" or peer_paused(rt)
-                                or rt.bus_outage.peer_unreachable or self.left_operational()):
+            if not arrived and (
+                dev.peer_status(rt.peer_id) != "alive"
+                or peer_paused(rt)
+                or rt.bus_outage.peer_unreachable
+                or self.left_operational()
+            ):
                 break
         if arrived:
             self.base, self.owed = dev.rpdo_count(self.last), 0
-        elif not self.left_operational():   # we were stopped meanwhile: the debt is dropped at the next cycle
+        elif not self.left_operational():  # we were stopped meanwhile: the debt is dropped at the next cycle
             rt.stats.lockstep_timeouts += 1
-            log.warning("cycle %d: no PDO of node %d within %g ms (%d owed)", k - 1, rt.peer_id, waited * 1e3,
-                        self.owed)
+            log.warning(
+                "cycle %d: no PDO of node %d within %g ms (%d owed)",
+                k - 1,
+                rt.peer_id,
+                waited * 1e3,
+                self.owed,
+            )
 
 
 def _not_operational(rt: ProducerHost, ticker: RealtimeTicker | None) -> None:
@@ -138,8 +148,13 @@ def _not_operational(rt: ProducerHost, ticker: RealtimeTicker | None) -> None:
         rt.sync.transmit()
 
 
-def run_producer(rt: ProducerHost, cycles: int, *, progress_every: int = 0,
-                 progress: Callable[[int, int], None] | None = None) -> int:
+def run_producer(
+    rt: ProducerHost,
+    cycles: int,
+    *,
+    progress_every: int = 0,
+    progress: Callable[[int, int], None] | None = None,
+) -> int:
     """Start all nodes (NMT) and run ``cycles`` SYNC cycles (0 = until stopped); return cycles run."""
     dev, sync = rt.device, rt.sync
     assert dev is not None and sync is not None
@@ -150,7 +165,7 @@ def run_producer(rt: ProducerHost, cycles: int, *, progress_every: int = 0,
     wait_s = rt.net.heartbeat.consumer_ms * 0.5e-3 or 0.5
     patience_s = 20 * wait_s  # a peer alive by its heartbeat but silent this long: count, go on
     ticker = rt.ticker = None if rt.lockstep else RealtimeTicker(period, tolerance_s=period / 2)
-    late_log = LateCycleLog(log)   # a summary line per 10 s at most, not one per late cycle
+    late_log = LateCycleLog(log)  # a summary line per 10 s at most, not one per late cycle
     debt = _PeerDebt(rt)
     k = 0
     while not rt.stop_event.is_set() and (cycles == 0 or k < cycles):
@@ -168,8 +183,10 @@ def run_producer(rt: ProducerHost, cycles: int, *, progress_every: int = 0,
             status = "paused"
         debt.refresh(status)
         rt.mark_sync_sent()
-        if sync.transmit() is None:  # holds the device lock until our own SYNC k is processed (no early PDO k)
-            continue   # stopped by an NMT command that came while we waited for the slot: no SYNC sent
+        if (
+            sync.transmit() is None
+        ):  # holds the device lock until our own SYNC k is processed (no early PDO k)
+            continue  # stopped by an NMT command that came while we waited for the slot: no SYNC sent
         k += 1
         if rt.lockstep:
             if status == "alive":

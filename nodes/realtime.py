@@ -11,6 +11,7 @@ process, each applied as far as the operating system permits, each reported in o
 A knob the system refuses is a warning, not a failure: the node still runs (a lab PC without root is
 the normal case), and the late-cycle counter shows what that costs.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -49,7 +50,9 @@ def _affinity(cpus: tuple[int, ...]) -> str:
     available = os.sched_getaffinity(0)
     missing = sorted(set(cpus) - available)
     if missing:
-        return f"WARNING cpu: CPU {missing} not available to this process (have {sorted(available)}); left as is"
+        return (
+            f"WARNING cpu: CPU {missing} not available to this process (have {sorted(available)}); left as is"
+        )
     os.sched_setaffinity(0, cpus)
     return f"cpu: pinned to CPU {list(cpus)}"
 
@@ -58,8 +61,10 @@ def _fifo(priority: int) -> str:
     try:
         os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
     except PermissionError:
-        return (f"WARNING rt-priority: SCHED_FIFO {priority} not permitted (needs CAP_SYS_NICE or an rtprio "
-                "limit in /etc/security/limits.conf); running at normal priority")
+        return (
+            f"WARNING rt-priority: SCHED_FIFO {priority} not permitted (needs CAP_SYS_NICE or an rtprio "
+            "limit in /etc/security/limits.conf); running at normal priority"
+        )
     except OSError as exc:
         return f"WARNING rt-priority: SCHED_FIFO {priority} refused ({exc.strerror or exc})"
     return f"rt-priority: SCHED_FIFO {priority}"

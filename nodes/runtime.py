@@ -19,6 +19,7 @@ is back (fresh PDOs, heartbeat seen) and only peer trips are latched, the node c
 The SYNC producer (master by default) is the NMT master of the pair: it starts every node that reports
 a boot-up or a pre-operational heartbeat.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -63,10 +64,21 @@ ANCHOR_WAIT_S = 0.25
 class NodeRuntime:
     """One node process's machinery. ``start()``, then ``run_producer(...)`` or ``wait()``, then ``stop()``."""
 
-    def __init__(self, role: Role, node_id: int, net: NetworkConfig, transport: TransportSettings,
-                 parts: NodeParts, *, mode: Mode, lockstep: bool, produce_sync: bool,
-                 recorder: CsvRecorder | None = None, record_timing: bool = True,
-                 store_path: Path | None = None) -> None:
+    def __init__(
+        self,
+        role: Role,
+        node_id: int,
+        net: NetworkConfig,
+        transport: TransportSettings,
+        parts: NodeParts,
+        *,
+        mode: Mode,
+        lockstep: bool,
+        produce_sync: bool,
+        recorder: CsvRecorder | None = None,
+        record_timing: bool = True,
+        store_path: Path | None = None,
+    ) -> None:
         self.role = role
         self.prefix = "m" if role is Role.MASTER else "s"
         self.node_id = node_id
@@ -81,17 +93,35 @@ class NodeRuntime:
         self.stats = RuntimeStats()
         self.stop_event = threading.Event()
         self.settings = ParamSlot(parts=parts, role=role, mode=mode, peer=lambda: self.peer)
-        self.models = ModelSlot(parts=parts, settings=self.settings, node_id=node_id,
-                                swap_model=lambda tem, neutral_C: self.cycle.swap_model(tem, neutral_C))
+        self.models = ModelSlot(
+            parts=parts,
+            settings=self.settings,
+            node_id=node_id,
+            swap_model=lambda tem, neutral_C: self.cycle.swap_model(tem, neutral_C),
+        )
         self.ident = IdentService(self.settings, self.stats)
-        self.store = StoreSlot(settings=self.settings, models=self.models, period_s=parts.period_s, node_id=node_id,
-                               path=store_path if store_path is not None else default_store_path(node_id))
+        self.store = StoreSlot(
+            settings=self.settings,
+            models=self.models,
+            period_s=parts.period_s,
+            node_id=node_id,
+            path=store_path if store_path is not None else default_store_path(node_id),
+        )
         self.cycle = ControlCycle(self)
-        self.bus_outage = BusOutage(peer=lambda: self.peer, peer_id=self.peer_id,
-                                    start_fallback=None if produce_sync else lambda: self.fallback.start())
-        self.fallback = FallbackCycles(cycle=self.cycle, bus_outage=self.bus_outage, stats=self.stats,
-                                       stop_event=self.stop_event, safe_current=self.safe_current,
-                                       period_s=parts.period_s, peer_id=self.peer_id)
+        self.bus_outage = BusOutage(
+            peer=lambda: self.peer,
+            peer_id=self.peer_id,
+            start_fallback=None if produce_sync else lambda: self.fallback.start(),
+        )
+        self.fallback = FallbackCycles(
+            cycle=self.cycle,
+            bus_outage=self.bus_outage,
+            stats=self.stats,
+            stop_event=self.stop_event,
+            safe_current=self.safe_current,
+            period_s=parts.period_s,
+            peer_id=self.peer_id,
+        )
         self.bus: ResilientBus | None = None
         self.sync_cycle = -1
         """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
@@ -106,8 +136,8 @@ class NodeRuntime:
         self.peer_boots = 0
         self.peer_pauses = 0
         """Changes of the peer between OPERATIONAL and STOPPED/PRE-OPERATIONAL reported by its heartbeat."""
-        self.peer_paused = False   # the peer's heartbeat went from OPERATIONAL to STOPPED/PRE-OPERATIONAL
-        self.nmt_leaves = 0        # how often this node left OPERATIONAL (its device drops PDOs outside it)
+        self.peer_paused = False  # the peer's heartbeat went from OPERATIONAL to STOPPED/PRE-OPERATIONAL
+        self.nmt_leaves = 0  # how often this node left OPERATIONAL (its device drops PDOs outside it)
         self._waiting_first_rpdo = False
         self._sync_sent_at = 0.0
         self._w_current = None
@@ -141,10 +171,10 @@ class NodeRuntime:
         self.bus_outage.bind(dev)
         self.fallback.bind(dev)
         self.store.bind(dev)
-        self.store.load(dev)   # stored communication values before anything reads them or the device starts
+        self.store.load(dev)  # stored communication values before anything reads them or the device starts
         dev.add_sync_handler(self._on_sync)
         self._sync_numbering = SyncNumbering(int(dev.read(0x1019)) if 0x1019 in dev.od else 0)
-        if not self.produce_sync:   # SYNCs the device ignores (STOPPED) still count (recordings' sync_cycle)
+        if not self.produce_sync:  # SYNCs the device ignores (STOPPED) still count (recordings' sync_cycle)
             self.network.subscribe(dev.sync_cob_id, self._on_sync_frame_ignored)
             self._anchor_sync_numbering()
         if self.produce_sync and self.record_timing:
@@ -160,9 +190,15 @@ class NodeRuntime:
         if self.produce_sync:
             self.sync = SyncProducer(dev)
         dev.start()
-        log.info("node %d (%s) on %s: pre-operational, heartbeat every %d ms, peer %d watched for %d ms",
-                 self.node_id, self.role, self.transport.describe(), self.net.heartbeat.producer_ms,
-                 self.peer_id, self.net.heartbeat.consumer_ms)
+        log.info(
+            "node %d (%s) on %s: pre-operational, heartbeat every %d ms, peer %d watched for %d ms",
+            self.node_id,
+            self.role,
+            self.transport.describe(),
+            self.net.heartbeat.producer_ms,
+            self.peer_id,
+            self.net.heartbeat.consumer_ms,
+        )
 
     def _anchor_sync_numbering(self) -> None:
         """Before the boot-up: if the SYNC producer runs already (a SYNC within 0.25 s; this node was
@@ -171,12 +207,16 @@ class NodeRuntime:
         while self._sync_numbering.number < 0 and time.monotonic() < deadline:
             time.sleep(0.01)
         if self._sync_numbering.number < 0:
-            return   # no producer yet: its first SYNC will be number 0 here as there
+            return  # no producer yet: its first SYNC will be number 0 here as there
         count = read_producer_sync_count(self.network, self.peer_id)
         if count:
             self._sync_numbering.anchor(count - 1)
-            log.info("SYNC producer %d has sent %d SYNCs: this node numbers them from there (now %d)",
-                     self.peer_id, count, self._sync_numbering.number)
+            log.info(
+                "SYNC producer %d has sent %d SYNCs: this node numbers them from there (now %d)",
+                self.peer_id,
+                count,
+                self._sync_numbering.number,
+            )
 
     def _power_on(self) -> None:
         """This program's power-on configuration into the controller and the OD; on start and after a reset
@@ -186,7 +226,7 @@ class NodeRuntime:
         dev.write(LOCKSTEP_INDEX, bool(self.lockstep), check=False)
         self.models.power_on()
         self.settings.book.has_model = self.models.model is not None
-        self.store.restore_application()   # the stored model and parameters (nodes.store_slot)
+        self.store.restore_application()  # the stored model and parameters (nodes.store_slot)
         self.peer = PeerLink(max_missed_cycles=self.settings.book.peer_miss_limit)
         self.ident.power_on()
         self.settings.write_image()
@@ -228,9 +268,17 @@ class NodeRuntime:
                     self.network.disconnect()
                 except Exception as exc:  # the bus may already be gone (hub ended)
                     log.warning("disconnect: %s", exc)
-            log.info("node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s, bus %s",
-                     self.node_id, reason, self.stats.cycles, self.stats.late_cycles, self.stats.lockstep_timeouts,
-                     self.stats.emcy_raised, self.peer.counters, self.bus.stats if self.bus else None)
+            log.info(
+                "node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s, bus %s",
+                self.node_id,
+                reason,
+                self.stats.cycles,
+                self.stats.late_cycles,
+                self.stats.lockstep_timeouts,
+                self.stats.emcy_raised,
+                self.peer.counters,
+                self.bus.stats if self.bus else None,
+            )
 
     def safe_current(self) -> None:
         """The rig's current to 0 A (a failure is logged, never raised)."""
@@ -263,8 +311,11 @@ class NodeRuntime:
         # the NMT master starts a peer that (re)booted or reports pre-operational: once per boot-up (a
         # boot-up after a loss also comes as "back" with state 0), once per pre-operational report
         # (first heartbeat, return, or a change of state, e.g. another NMT master's command)
-        if (self.produce_sync and not self.stop_event.is_set()
-                and (ev.kind == "bootup" or (ev.kind != "lost" and ev.state == int(NmtState.PRE_OPERATIONAL)))):
+        if (
+            self.produce_sync
+            and not self.stop_event.is_set()
+            and (ev.kind == "bootup" or (ev.kind != "lost" and ev.state == int(NmtState.PRE_OPERATIONAL)))
+        ):
             self.device.nmt_command(NmtCommand.START, ev.node_id)
             self.stats.nmt_starts_sent += 1
 
@@ -279,8 +330,12 @@ class NodeRuntime:
         if paused != self.peer_paused and (paused or self.peer_paused):
             self.peer_paused = paused
             self.peer_pauses += 1
-            log.warning("peer %d reports NMT state %d%s", ev.node_id, ev.state,
-                        ": no PDOs owed until it is OPERATIONAL again" if paused else "")
+            log.warning(
+                "peer %d reports NMT state %d%s",
+                ev.node_id,
+                ev.state,
+                ": no PDOs owed until it is OPERATIONAL again" if paused else "",
+            )
 
     def _on_rpdo(self, ev) -> None:
         if ev.number == 1 and self._waiting_first_rpdo:
@@ -292,7 +347,12 @@ class NodeRuntime:
         """An accepted SDO write (validated before it was stored; device lock held), to the part it concerns."""
         if self.settings.book is None:
             return
-        for on_write in (self.models.on_write, self.ident.on_write, self.cycle.on_write, self.settings.on_write):
+        for on_write in (
+            self.models.on_write,
+            self.ident.on_write,
+            self.cycle.on_write,
+            self.settings.on_write,
+        ):
             if on_write(ev):
                 return
 

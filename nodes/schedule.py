@@ -6,6 +6,7 @@ Real time: SYNC k is due at ``t0 + k·period``. A cycle that starts more than ``
 its due time is *late* (counted, never hidden); one that missed its whole slot re-anchors the
 schedule (an *overrun*), so that a stall does not produce a burst of back-to-back catch-up cycles.
 """
+
 from __future__ import annotations
 
 import threading
@@ -38,8 +39,14 @@ class RealtimeTicker:
         sleep: sleep function, s (injectable).
     """
 
-    def __init__(self, period_s: float, *, tolerance_s: float | None = None,
-                 clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep) -> None:
+    def __init__(
+        self,
+        period_s: float,
+        *,
+        tolerance_s: float | None = None,
+        clock: Callable[[], float] = time.monotonic,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
         if not period_s > 0:
             raise ValueError(f"period_s {period_s}: expected > 0 s")
         self.period_s = period_s
@@ -88,8 +95,9 @@ class LateCycleLog:
         clock: monotonic clock, s (injectable).
     """
 
-    def __init__(self, logger, *, interval_s: float = 10.0,
-                 clock: Callable[[], float] = time.monotonic) -> None:
+    def __init__(
+        self, logger, *, interval_s: float = 10.0, clock: Callable[[], float] = time.monotonic
+    ) -> None:
         self.logger = logger
         self.interval_s = interval_s
         self._clock = clock
@@ -124,8 +132,14 @@ class LateCycleLog:
         if self.pending == 1:
             self.logger.warning("cycle %d late by %.1f ms", self._first_k, self._worst_s * 1e3)
         else:
-            self.logger.warning("%d late cycles (cycles %d..%d, %.1f s), worst late by %.1f ms", self.pending,
-                                self._first_k, self._last_k, now - self._since, self._worst_s * 1e3)
+            self.logger.warning(
+                "%d late cycles (cycles %d..%d, %.1f s), worst late by %.1f ms",
+                self.pending,
+                self._first_k,
+                self._last_k,
+                now - self._since,
+                self._worst_s * 1e3,
+            )
         self._last_line = now
         self.lines += 1
         self._reset()

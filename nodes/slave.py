@@ -1,4 +1,5 @@
 """``telethermo-slave``: the slave CANopen node program (see nodes/main.py and docs/nodes.md)."""
+
 from __future__ import annotations
 
 import sys

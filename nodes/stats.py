@@ -1,5 +1,6 @@
 """What a node counts while it runs (printed at exit, partly in the OD): one object shared by the
 runtime and the parts that count (the control cycle, the fallback cycles, the SYNC producer, ...)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

@@ -20,6 +20,7 @@ fault, and the node starts on its defaults. "load" on 0x1011 deletes the group f
 for sub 1): the defaults come back at the next reset or start. 0x2720..0x2722 tell ``telethermo status``
 what is in force.
 """
+
 from __future__ import annotations
 
 import logging
@@ -29,8 +30,17 @@ from typing import Any
 
 from telethermo.control.types import Mode
 from telethermo.device.device import Device
-from telethermo.device.storage import (ALL, APPLICATION, COMMUNICATION, GROUPS, StoreError, StoreFile,
-                                       StoreRestore, communication_image, install_communication)
+from telethermo.device.storage import (
+    ALL,
+    APPLICATION,
+    COMMUNICATION,
+    GROUPS,
+    StoreError,
+    StoreFile,
+    StoreRestore,
+    communication_image,
+    install_communication,
+)
 from telethermo.ident import odmodel
 from telethermo.ident.modelfile import ModelFileError
 
@@ -52,8 +62,9 @@ class StoreSlot:
     replays into; ``period_s``: the control period a stored model must have, s; ``path``: the store file
     of node ``node_id``."""
 
-    def __init__(self, *, settings: ParamSlot, models: ModelSlot, period_s: float, node_id: int,
-                 path: Path) -> None:
+    def __init__(
+        self, *, settings: ParamSlot, models: ModelSlot, period_s: float, node_id: int, path: Path
+    ) -> None:
         self._settings = settings
         self._models = models
         self._period_s = period_s
@@ -61,7 +72,7 @@ class StoreSlot:
         self.file = StoreFile(path, node_id)
         self.state = NOT_STORED
         self.saved_unix_s = 0.0
-        self._doc: dict | None = None   # the checked content read by load(), for the first power-on
+        self._doc: dict | None = None  # the checked content read by load(), for the first power-on
         self._loaded = False
         self._factory: dict[tuple[int, int], bytes] = {}
         self._w: dict = {}
@@ -69,7 +80,7 @@ class StoreSlot:
     def bind(self, dev: Device) -> None:
         self._dev = dev
         self._w = {k: dev.writer(k) for k in ("store_state", "store_saved_unix_s", "store_file")}
-        self._factory = dict(dev.od_access.defaults)   # the power-on values before a store changed them
+        self._factory = dict(dev.od_access.defaults)  # the power-on values before a store changed them
         StoreRestore(dev, save=self.save, restore=self.restore_defaults)
 
     # ------------------------------------------------------------------ boot
@@ -113,23 +124,32 @@ class StoreSlot:
             self._replay(*item)
         settings.rebuild()
         if doc is not None:
-            log.info("store %s (saved %s): %d parameter(s)%s restored", self.file.path,
-                     time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(self.saved_unix_s)), len(params),
-                     " and the model" if app.get("model") else "")
+            log.info(
+                "store %s (saved %s): %d parameter(s)%s restored",
+                self.file.path,
+                time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(self.saved_unix_s)),
+                len(params),
+                " and the model" if app.get("model") else "",
+            )
         self.write_status()
 
     def _replay(self, tag: str, value: Any) -> None:
         key, _, mode_name = tag.partition("@")
         book = self._settings.book
-        if key not in STORED_KEYS or (mode_name and mode_name not in Mode.__members__) \
-                or not isinstance(value, (int, float)) or isinstance(value, bool):
-            log.warning("%s: stored %s = %r is not a parameter of this node: skipped", self.file.path, tag,
-                        value)
+        if (
+            key not in STORED_KEYS
+            or (mode_name and mode_name not in Mode.__members__)
+            or not isinstance(value, (int, float))
+            or isinstance(value, bool)
+        ):
+            log.warning(
+                "%s: stored %s = %r is not a parameter of this node: skipped", self.file.path, tag, value
+            )
             return
         running = book.mode
         try:
             if mode_name:
-                book.mode = Mode[mode_name]   # a gain belongs to the mode it was written in
+                book.mode = Mode[mode_name]  # a gain belongs to the mode it was written in
             code = book.check(key, value)
             if code is None:
                 book.apply(key, value)
@@ -137,16 +157,22 @@ class StoreSlot:
         finally:
             book.mode = running
         if code is not None:
-            log.warning("%s: stored %s = %r refused now (abort 0x%08X): its default is kept", self.file.path,
-                        tag, value, code)
+            log.warning(
+                "%s: stored %s = %r refused now (abort 0x%08X): its default is kept",
+                self.file.path,
+                tag,
+                value,
+                code,
+            )
 
     def _restore_model(self, entries: list) -> None:
         dev, models = self._dev, self._models
         try:
             for index, sub, value in entries:
                 dev.write((int(index), int(sub)), value, check=False)
-            tem, _ = odmodel.model_from_od(lambda i, s: dev.read((i, s)), source=str(self.file.path),
-                                           period_s=self._period_s)
+            tem, _ = odmodel.model_from_od(
+                lambda i, s: dev.read((i, s)), source=str(self.file.path), period_s=self._period_s
+            )
         except (ModelFileError, KeyError, ValueError, TypeError) as exc:
             log.warning("%s: stored model refused (%s): the power-on model is kept", self.file.path, exc)
             models.write_objects(models.model)
@@ -181,7 +207,7 @@ class StoreSlot:
         now = time.time()
         self.file.write(communication=comm, application=app, saved_unix_s=now)
         if group in (ALL, COMMUNICATION):
-            install_communication(dev, comm, live=False)   # what the next NMT reset restores
+            install_communication(dev, comm, live=False)  # what the next NMT reset restores
         self.state, self.saved_unix_s = SAVED, now
         self.write_status()
         log.info("parameters saved (%s) to %s", GROUPS[group], self.file.path)
@@ -198,16 +224,20 @@ class StoreSlot:
             if comm is None and app is None:
                 self.file.remove()
             else:
-                self.file.write(communication=comm, application=app,
-                                saved_unix_s=old.get("saved_unix_s") or 0.0)
+                self.file.write(
+                    communication=comm, application=app, saved_unix_s=old.get("saved_unix_s") or 0.0
+                )
         if group in (ALL, COMMUNICATION):
             for key, data in self._factory.items():
                 if 0x1000 <= key[0] <= 0x1FFF:
                     dev.od_access.defaults[key] = data
         self.state = DEFAULTS_NEXT_RESET
         self.write_status()
-        log.info("defaults (%s) restored in %s: they take effect at the next reset or start", GROUPS[group],
-                 self.file.path)
+        log.info(
+            "defaults (%s) restored in %s: they take effect at the next reset or start",
+            GROUPS[group],
+            self.file.path,
+        )
 
     def write_status(self) -> None:
         w = self._w

@@ -9,6 +9,7 @@ Limit: the producer's 0x2713 counts every SYNC it processed since its program st
 reset of the *producer* (its counter restarts at 1 mid-session) its count and its numbering differ and the
 anchor is off by that jump modulo the counter's wrap.
 """
+
 from __future__ import annotations
 
 import logging
@@ -35,8 +36,11 @@ def read_producer_sync_count(network: canopen.Network, producer_id: int) -> int 
     try:
         data = client.upload(SYNC_COUNT_INDEX, 0)
     except (SdoError, OSError) as exc:
-        log.info("SYNC producer %d did not give its SYNC count (%s): numbering from the first SYNC seen",
-                 producer_id, exc)
+        log.info(
+            "SYNC producer %d did not give its SYNC count (%s): numbering from the first SYNC seen",
+            producer_id,
+            exc,
+        )
         return None
     finally:
         network.unsubscribe(client.tx_cobid, client.on_response)

@@ -7,6 +7,7 @@
 
 sim/ depends on numpy, scipy, tomllib and telethermo.rig only: it never uses the controller's models.
 """
+
 from telethermo.sim.compile import build_rig, free_pad_rig
 from telethermo.sim.errors import SceneError
 from telethermo.sim.materials import Material, materials
@@ -16,6 +17,19 @@ from telethermo.sim.rig import RigTruth, SimRig
 from telethermo.sim.scene import Scene, load_scene, shipped_scenes
 from telethermo.sim.tem import load_tem_file
 
-__all__ = ["build_rig", "free_pad_rig", "build_reference", "load_scene", "shipped_scenes", "materials",
-           "Material", "Scene", "SceneError", "SimRig", "RigTruth", "DirectTouch", "GridSettings",
-           "load_tem_file"]
+__all__ = [
+    "build_rig",
+    "free_pad_rig",
+    "build_reference",
+    "load_scene",
+    "shipped_scenes",
+    "materials",
+    "Material",
+    "Scene",
+    "SceneError",
+    "SimRig",
+    "RigTruth",
+    "DirectTouch",
+    "GridSettings",
+    "load_tem_file",
+]

@@ -5,6 +5,7 @@ capacities, conductances between neighbouring cell centres, half-cell conductanc
 per-cell perfusion conductances to blood (Pennes). Positions are depths from the segment's front face
 (the face towards the pad / the contact).
 """
+
 from __future__ import annotations
 
 import math
@@ -53,8 +54,13 @@ def lump(name: str, C_J_K: float) -> Segment:
     return Segment(name, np.array([float(C_J_K)]), np.zeros(0), math.inf, math.inf, np.zeros(1), np.zeros(1))
 
 
-def layered(name: str, layers: list[tuple[Material, float, float]], area_m2: float, widths_per_layer: list[np.ndarray],
-            T_blood_C: float = 37.0) -> Segment:
+def layered(
+    name: str,
+    layers: list[tuple[Material, float, float]],
+    area_m2: float,
+    widths_per_layer: list[np.ndarray],
+    T_blood_C: float = 37.0,
+) -> Segment:
     """Segment from layers (material, thickness m, perfusion 1/s) with the given cell widths per layer."""
     lam, rc, w, om = [], [], [], []
     for (mat, _thk, perf), ws in zip(layers, widths_per_layer):
@@ -63,15 +69,27 @@ def layered(name: str, layers: list[tuple[Material, float, float]], area_m2: flo
         om += [perf] * len(ws)
         w += list(ws)
     lam, rc, w, om = map(np.asarray, (lam, rc, w, om))
-    half_R = w / (2.0 * lam * area_m2)                 # K/W, centre to face
+    half_R = w / (2.0 * lam * area_m2)  # K/W, centre to face
     G_int = 1.0 / (half_R[:-1] + half_R[1:])
     x = np.cumsum(w) - w / 2.0
-    return Segment(name, rc * w * area_m2, G_int, 1.0 / half_R[0], 1.0 / half_R[-1],
-                   om * RHO_C_BLOOD_J_m3K * w * area_m2, x, T_blood_C)
+    return Segment(
+        name,
+        rc * w * area_m2,
+        G_int,
+        1.0 / half_R[0],
+        1.0 / half_R[-1],
+        om * RHO_C_BLOOD_J_m3K * w * area_m2,
+        x,
+        T_blood_C,
+    )
 
 
-def graded_layer_widths(layers: list[tuple[Material, float, float]], t_min_s: float, ratio: float = 1.3,
-                        cells_per_length: float = 4.0) -> list[np.ndarray]:
+def graded_layer_widths(
+    layers: list[tuple[Material, float, float]],
+    t_min_s: float,
+    ratio: float = 1.3,
+    cells_per_length: float = 4.0,
+) -> list[np.ndarray]:
     """Cell widths per layer, graded from the front face and continuing the growth across layer boundaries."""
     out = []
     dx = first_cell_m(layers[0][0].diffusivity_m2_s, t_min_s, cells_per_length)
@@ -83,8 +101,15 @@ def graded_layer_widths(layers: list[tuple[Material, float, float]], t_min_s: fl
     return out
 
 
-def slab(name: str, mat: Material, thickness_m: float, area_m2: float, t_min_s: float, ratio: float = 1.3,
-         cells_per_length: float = 4.0) -> Segment:
+def slab(
+    name: str,
+    mat: Material,
+    thickness_m: float,
+    area_m2: float,
+    t_min_s: float,
+    ratio: float = 1.3,
+    cells_per_length: float = 4.0,
+) -> Segment:
     """A homogeneous slab graded from its front (contact) face."""
     layers = [(mat, thickness_m, 0.0)]
     return layered(name, layers, area_m2, graded_layer_widths(layers, t_min_s, ratio, cells_per_length))
@@ -96,13 +121,23 @@ def uniform(name: str, mat: Material, thickness_m: float, area_m2: float, cells:
     return layered(name, layers, area_m2, [np.full(cells, thickness_m / cells)])
 
 
-def sensor_segment(name: str, mat: Material, thickness_m: float, area_m2: float, t_min_s: float,
-                   ratio: float = 1.3, cells_per_length: float = 4.0, cells: int = 0) -> Segment:
+def sensor_segment(
+    name: str,
+    mat: Material,
+    thickness_m: float,
+    area_m2: float,
+    t_min_s: float,
+    ratio: float = 1.3,
+    cells_per_length: float = 4.0,
+    cells: int = 0,
+) -> Segment:
     """The flux sensor: ``cells`` equal cells (odd), or (cells = 0) graded from both faces with the same
     diffusion scaling as the bodies it touches, so that a make/break is right from its first instant."""
     if cells:
         return uniform(name, mat, thickness_m, area_m2, cells)
-    ws = symmetric_graded_widths(thickness_m, first_cell_m(mat.diffusivity_m2_s, t_min_s, cells_per_length), ratio)
+    ws = symmetric_graded_widths(
+        thickness_m, first_cell_m(mat.diffusivity_m2_s, t_min_s, cells_per_length), ratio
+    )
     return layered(name, [(mat, thickness_m, 0.0)], area_m2, [ws])
 
 
@@ -116,7 +151,7 @@ class FingerParams:
     """
 
     layers: tuple[tuple[str, float, float], ...] = (
-        ("skin", 0.6e-3, 0.0),            # epidermis (avascular), fingertip pad
+        ("skin", 0.6e-3, 0.0),  # epidermis (avascular), fingertip pad
         ("dermis", 1.5e-3, 1.0e-3),
         ("subcutaneous", 6.0e-3, 0.5e-3),
     )
@@ -135,9 +170,15 @@ class FingerParams:
         return sum(t for _, t, _ in self.layers)
 
 
-def finger_segment(p: FingerParams, area_m2: float, t_min_s: float, ratio: float = 1.3,
-                   cells_per_length: float = 4.0) -> Segment:
+def finger_segment(
+    p: FingerParams, area_m2: float, t_min_s: float, ratio: float = 1.3, cells_per_length: float = 4.0
+) -> Segment:
     """The finger as a graded, layered, perfused segment (front face = the skin surface)."""
     layers = p.material_layers()
-    return layered("finger", layers, area_m2, graded_layer_widths(layers, t_min_s, ratio, cells_per_length),
-                   T_blood_C=p.T_blood_C)
+    return layered(
+        "finger",
+        layers,
+        area_m2,
+        graded_layer_widths(layers, t_min_s, ratio, cells_per_length),
+        T_blood_C=p.T_blood_C,
+    )

@@ -5,6 +5,7 @@ neighbouring segments (grease, the TEM pellets, a contact resistance); 0 means p
 tridiagonal (the chain is 1D), symmetric, negative semi-definite. Heat leaves the system only to reservoirs
 (ambient, blood, body core), so ``heat_out`` below is the whole external balance.
 """
+
 from __future__ import annotations
 
 import math
@@ -98,7 +99,7 @@ class System:
         else:
             i, G_half = self.index(seg, 0), sg.G_front_W_K
             if seg > 0:
-                flux, f0 = self.link_flux_functional(seg - 1)   # flux into this segment through the front face
+                flux, f0 = self.link_flux_functional(seg - 1)  # flux into this segment through the front face
             else:
                 g = _series(G_half, self.front.G_W_K)
                 flux = np.zeros(self.n)

@@ -1,4 +1,5 @@
 """Closed-form solutions the simulator is checked against (pure functions, SI units, °C)."""
+
 from __future__ import annotations
 
 import math
@@ -12,8 +13,9 @@ def contact_temperature_C(b1: float, T1_C: float, b2: float, T2_C: float) -> flo
     return (b1 * T1_C + b2 * T2_C) / (b1 + b2)
 
 
-def surface_temperatures_finite_h_C(b1: float, T1_C: float, b2: float, T2_C: float, h_W_m2K: float,
-                                    t_s: float) -> tuple[float, float]:
+def surface_temperatures_finite_h_C(
+    b1: float, T1_C: float, b2: float, T2_C: float, h_W_m2K: float, t_s: float
+) -> tuple[float, float]:
     """Two semi-infinite bodies joined by a contact conductance h (Carslaw & Jaeger, Conduction of Heat in
     Solids, 2nd ed., §2.15-type solution via Laplace transform): with k = h·(1/b1 + 1/b2),
 
@@ -32,16 +34,27 @@ def semi_infinite_flux_W_m2(b1: float, T1_C: float, b2: float, T2_C: float, t_s:
     return (T1_C - T2_C) * b1 * b2 / ((b1 + b2) * math.sqrt(math.pi * t_s))
 
 
-def slab_surface_constant_flux_C(q_W_m2: float, lambda_W_mK: float, rho_c_J_m3K: float, L_m: float, t_s: float,
-                                 T0_C: float = 0.0, n_terms: int = 200) -> float:
+def slab_surface_constant_flux_C(
+    q_W_m2: float,
+    lambda_W_mK: float,
+    rho_c_J_m3K: float,
+    L_m: float,
+    t_s: float,
+    T0_C: float = 0.0,
+    n_terms: int = 200,
+) -> float:
     """Front-face temperature of a slab (thickness L, insulated back, uniform T0) heated from t = 0 by a
     constant flux q at its front (Carslaw & Jaeger, Conduction of Heat in Solids, 2nd ed., §3.3):
 
         T(0, t) = T0 + q·t/(ρc·L) + (q·L/λ)·[1/3 − (2/π²)·Σ_{n≥1} exp(−n²π²·a·t/L²)/n²],  a = λ/(ρc)
     """
     a = lambda_W_mK / rho_c_J_m3K
-    s = sum(math.exp(-(n * math.pi) ** 2 * a * t_s / L_m ** 2) / n ** 2 for n in range(1, n_terms + 1))
-    return T0_C + q_W_m2 * t_s / (rho_c_J_m3K * L_m) + q_W_m2 * L_m / lambda_W_mK * (1.0 / 3.0 - 2.0 / math.pi ** 2 * s)
+    s = sum(math.exp(-((n * math.pi) ** 2) * a * t_s / L_m**2) / n**2 for n in range(1, n_terms + 1))
+    return (
+        T0_C
+        + q_W_m2 * t_s / (rho_c_J_m3K * L_m)
+        + q_W_m2 * L_m / lambda_W_mK * (1.0 / 3.0 - 2.0 / math.pi**2 * s)
+    )
 
 
 def semi_infinite_surface_constant_flux_C(q_W_m2: float, b: float, t_s: float, T0_C: float = 0.0) -> float:

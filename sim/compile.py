@@ -1,4 +1,5 @@
 """Compile a scene into simulated rigs (only the models each rig needs) and into the direct-touch reference."""
+
 from __future__ import annotations
 
 import math
@@ -27,8 +28,16 @@ def lump_error_estimate_C(spec: BodySpec, params: RigParams, t_min_s: float, dT_
     return q * spec.thickness_m / (3.0 * mat.lambda_W_mK)
 
 
-def _rig_bodies(scene: Scene, specs: dict[str, BodySpec], touched: set[str], params: RigParams, grid: GridSettings,
-                prune: bool, report: list[str], rig: str) -> dict[str, Body]:
+def _rig_bodies(
+    scene: Scene,
+    specs: dict[str, BodySpec],
+    touched: set[str],
+    params: RigParams,
+    grid: GridSettings,
+    prune: bool,
+    report: list[str],
+    rig: str,
+) -> dict[str, Body]:
     bodies = {}
     for name, spec in specs.items():
         if prune and name not in touched:
@@ -39,20 +48,33 @@ def _rig_bodies(scene: Scene, specs: dict[str, BodySpec], touched: set[str], par
             err = lump_error_estimate_C(spec, params, grid.t_min_s)
             if prune and err <= LUMP_BUDGET_C:
                 lumped = True
-                report.append(f"{rig}: {name}: lumped (1 node; Biot-type error estimate {err:.3g} °C <= "
-                              f"{LUMP_BUDGET_C} °C)")
+                report.append(
+                    f"{rig}: {name}: lumped (1 node; Biot-type error estimate {err:.3g} °C <= "
+                    f"{LUMP_BUDGET_C} °C)"
+                )
             elif prune:
-                report.append(f"{rig}: {name}: 1D grid kept (lumping error estimate {err:.3g} °C > {LUMP_BUDGET_C} °C)")
+                report.append(
+                    f"{rig}: {name}: 1D grid kept (lumping error estimate {err:.3g} °C > {LUMP_BUDGET_C} °C)"
+                )
         body = Body(spec, params.area_m2, scene.ambient_C, params.h_air_W_m2K, grid, lumped=lumped)
         bodies[name] = body
         if prune and name in touched:
-            report.append(f"{rig}: {name}: {body.n} cells; integrated only while touching, advanced in one exact "
-                          f"step across each release")
+            report.append(
+                f"{rig}: {name}: {body.n} cells; integrated only while touching, advanced in one exact "
+                f"step across each release"
+            )
     return bodies
 
 
-def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSettings | None = None,
-              prune: bool = True, noise: bool | None = None) -> SimRig:
+def build_rig(
+    scene: Scene,
+    role: str,
+    seed: int | None = None,
+    *,
+    grid: GridSettings | None = None,
+    prune: bool = True,
+    noise: bool | None = None,
+) -> SimRig:
     """The simulated rig ``role`` ("master" or "slave") of a scene.
 
     The master's pad carries the operator's finger per the master schedule; the slave's pad touches the scene's
@@ -67,7 +89,9 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
     report: list[str] = []
     if grid is None:
         grid, preset, err = GridSettings.for_tolerance(scene.tolerance_C, scene.period_s)
-        report.append(f"{role}: grid '{preset}' (measured error {err} °C for tolerance {scene.tolerance_C} °C)")
+        report.append(
+            f"{role}: grid '{preset}' (measured error {err} °C for tolerance {scene.tolerance_C} °C)"
+        )
     params = scene.rig_params
     finger = BodySpec("finger", kind="finger", finger=scene.finger)
     if role == "master":
@@ -76,8 +100,10 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
         if not prune:
             specs.update(scene.objects)
         if prune and scene.objects:
-            report.append(f"master: objects {', '.join(sorted(scene.objects))}: not modelled (only the finger "
-                          f"touches the master)")
+            report.append(
+                f"master: objects {', '.join(sorted(scene.objects))}: not modelled (only the finger "
+                f"touches the master)"
+            )
     else:
         touches = scene.slave_contacts
         specs = dict(scene.objects)
@@ -92,9 +118,20 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
         report.append(f"{role}: pad touches nothing: air only")
     start = _start(scene, role, params, grid)
     try:
-        return SimRig(params, bodies, Schedule(touches), ambient_C=scene.ambient_C, period_s=scene.period_s,
-                      noise=np_, seed=scene.seed if seed is None else seed, name=role, prune=prune, pruning=report,
-                      grid=grid, start=start)
+        return SimRig(
+            params,
+            bodies,
+            Schedule(touches),
+            ambient_C=scene.ambient_C,
+            period_s=scene.period_s,
+            noise=np_,
+            seed=scene.seed if seed is None else seed,
+            name=role,
+            prune=prune,
+            pruning=report,
+            grid=grid,
+            start=start,
+        )
     except ValueError as exc:
         if start is None:
             raise
@@ -103,8 +140,13 @@ def build_rig(scene: Scene, role: str, seed: int | None = None, *, grid: GridSet
 
 def finger_natural_C(scene: Scene, params: RigParams, grid: GridSettings) -> float:
     """The finger's natural skin temperature (steady state in the scene's air), °C."""
-    body = Body(BodySpec("finger", kind="finger", finger=scene.finger), params.area_m2, scene.ambient_C,
-                params.h_air_W_m2K, grid)
+    body = Body(
+        BodySpec("finger", kind="finger", finger=scene.finger),
+        params.area_m2,
+        scene.ambient_C,
+        params.h_air_W_m2K,
+        grid,
+    )
     return body.surface_C()
 
 
@@ -118,10 +160,24 @@ def _start(scene: Scene, role: str, params: RigParams, grid: GridSettings) -> st
     return scene.slave_start
 
 
-def free_pad_rig(period_s: float = 0.01, ambient_C: float = 25.0, seed: int | None = 0, noise: bool = True,
-                 params: RigParams | None = None) -> SimRig:
+def free_pad_rig(
+    period_s: float = 0.01,
+    ambient_C: float = 25.0,
+    seed: int | None = 0,
+    noise: bool = True,
+    params: RigParams | None = None,
+) -> SimRig:
     """A rig whose pad touches nothing (air), for identification experiments."""
     params = params or load_rig_params()
     np_ = NoiseParams(enabled=noise)
-    return SimRig(params, {}, Schedule([]), ambient_C=ambient_C, period_s=period_s, noise=np_, seed=seed,
-                  name="free_pad", pruning=["free pad: no body modelled (the pad touches air only)"])
+    return SimRig(
+        params,
+        {},
+        Schedule([]),
+        ambient_C=ambient_C,
+        period_s=period_s,
+        noise=np_,
+        seed=seed,
+        name="free_pad",
+        pruning=["free pad: no body modelled (the pad touches air only)"],
+    )

@@ -14,6 +14,7 @@ a time constant of 0.5 ms, below one 10 ms control period. The conductance 1/R''
 contact stays finite (tests/sim/test_closed_forms.py checks the simulator against Carslaw & Jaeger's
 closed form with this finite conductance at 2, 8 and 20 N).
 """
+
 from __future__ import annotations
 
 import math
@@ -24,12 +25,15 @@ DEFAULT_R_AT_1N_M2K_W = 5e-4
 DEFAULT_FORCE_EXPONENT = 2.0
 
 
-def contact_resistance_m2K_W(force_N: float, R_at_1N_m2K_W: float = DEFAULT_R_AT_1N_M2K_W,
-                             force_exponent: float = DEFAULT_FORCE_EXPONENT) -> float:
+def contact_resistance_m2K_W(
+    force_N: float,
+    R_at_1N_m2K_W: float = DEFAULT_R_AT_1N_M2K_W,
+    force_exponent: float = DEFAULT_FORCE_EXPONENT,
+) -> float:
     """Specific contact resistance at ``force_N``, m²·K/W (finite for any F > 0; inf = no contact)."""
     if not force_N > 0:
         return math.inf
     try:
         return R_at_1N_m2K_W * force_N ** (-force_exponent)
-    except OverflowError:          # a force so small (5e-324 N) that no contact conducts
+    except OverflowError:  # a force so small (5e-324 N) that no contact conducts
         return math.inf

@@ -1,4 +1,5 @@
 """Errors of the simulator package."""
+
 from __future__ import annotations
 
 

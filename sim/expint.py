@@ -10,6 +10,7 @@ temperatures through α·I·T and are solved implicitly, 2×2, at the end of the
 The step matrices act on the augmented state [x, E_out], where E_out (J) accumulates the heat that left the
 system to reservoirs, integrated exactly from the same modal solution.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,7 +28,9 @@ def _phis(z: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray
     em1 = np.expm1(zs)
     p1 = np.where(small, 1 + z / 2 + z**2 / 6 + z**3 / 24 + z**4 / 120, em1 / zs)
     p2 = np.where(small, 0.5 + z / 6 + z**2 / 24 + z**3 / 120 + z**4 / 720, (em1 - zs) / zs**2)
-    p3 = np.where(small, 1 / 6 + z / 24 + z**2 / 120 + z**3 / 720 + z**4 / 5040, (em1 - zs - zs**2 / 2) / zs**3)
+    p3 = np.where(
+        small, 1 / 6 + z / 24 + z**2 / 120 + z**3 / 720 + z**4 / 5040, (em1 - zs - zs**2 / 2) / zs**3
+    )
     return e, p1, p2, p3
 
 
@@ -42,7 +45,7 @@ class Modal:
         M = system.K / np.outer(self.rc, self.rc)
         M = 0.5 * (M + M.T)
         self.lam, self.V = eigh(M)
-        self.lam = np.minimum(self.lam, 0.0)          # K is negative semi-definite: clip round-off
+        self.lam = np.minimum(self.lam, 0.0)  # K is negative semi-definite: clip round-off
         self.f, self.f0 = system.heat_out_functional()
         n = system.n
         E = np.zeros((n, len(self.input_cells)))
@@ -51,9 +54,9 @@ class Modal:
         # in z-coordinates the forcing is C^-½ (s + E u)
         self.Vt_s = self.V.T @ (system.s / self.rc)
         self.Vt_E = self.V.T @ (E / self.rc[:, None])
-        self.left = self.V / self.rc[:, None] * 1.0          # x = C^-½ V y
-        self.right = self.V.T * self.rc[None, :]             # y = Vᵀ C^½ x
-        self.fL = self.f @ self.left                         # heat-out rate = fL·y + f0
+        self.left = self.V / self.rc[:, None] * 1.0  # x = C^-½ V y
+        self.right = self.V.T * self.rc[None, :]  # y = Vᵀ C^½ x
+        self.fL = self.f @ self.left  # heat-out rate = fL·y + f0
 
     def step_matrices(self, dt_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(Phi, c, B0, B1) on the augmented state [x, E_out]: x' = Phi·x + c + B0·u_n + B1·u_{n+1}."""

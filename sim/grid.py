@@ -3,6 +3,7 @@
 The first cell is chosen from the shortest time the scene resolves (one sample period): the diffusion length
 √(a·t_min) must span several cells, so that the surface temperature is right from the first sample on.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,7 +22,9 @@ def graded_widths(thickness_m: float, dx0_m: float, ratio: float = 1.3) -> np.nd
     The last cell absorbs the remainder (merged into its neighbour when the remainder is under half a cell).
     """
     if not thickness_m > 0 or not dx0_m > 0 or not ratio >= 1.0:
-        raise ValueError(f"graded_widths: need thickness > 0, dx0 > 0, ratio >= 1 (got {thickness_m}, {dx0_m}, {ratio})")
+        raise ValueError(
+            f"graded_widths: need thickness > 0, dx0 > 0, ratio >= 1 (got {thickness_m}, {dx0_m}, {ratio})"
+        )
     if dx0_m >= thickness_m:
         return np.array([thickness_m])
     widths = []

@@ -2,6 +2,7 @@
 
 The data live in ``sim/data/materials.toml``; :func:`materials` returns them as :class:`Material` objects.
 """
+
 from __future__ import annotations
 
 import math

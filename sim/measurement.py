@@ -6,6 +6,7 @@ default (100 Hz sampling: −3 dB at 5 Hz, group delay ≈ 45 ms at DC; well abo
 contact transient as seen through the sensor, well below the Nyquist frequency), capped at 0.4·Nyquist
 for slow sampling. The filter starts at rest on the first value (no start-up transient).
 """
+
 from __future__ import annotations
 
 import math
@@ -29,8 +30,8 @@ class NoiseParams:
 
     T_sigma_C: float = 0.02
     Q_sigma_W: float = 0.002
-    T_lsb_C: float = 100.0 / 65536       # 16-bit over a 100 °C span
-    Q_lsb_W: float = 10.0 / 65536        # 16-bit over ±5 W
+    T_lsb_C: float = 100.0 / 65536  # 16-bit over a 100 °C span
+    Q_lsb_W: float = 10.0 / 65536  # 16-bit over ±5 W
     cutoff_Hz: float = 5.0
     enabled: bool = True
 
@@ -78,7 +79,9 @@ class Channel:
     __slots__ = ("sigma", "lsb", "filt", "rng", "_buf", "_i")
     BLOCK = 1024
 
-    def __init__(self, sigma: float, lsb: float, cutoff_Hz: float, fs_Hz: float, rng: np.random.Generator) -> None:
+    def __init__(
+        self, sigma: float, lsb: float, cutoff_Hz: float, fs_Hz: float, rng: np.random.Generator
+    ) -> None:
         self.sigma, self.lsb, self.rng = sigma, lsb, rng
         self.filt = Biquad(cutoff_Hz, fs_Hz) if cutoff_Hz > 0 else None
         self._buf: list[float] = []
@@ -87,7 +90,7 @@ class Channel:
     def __call__(self, true_value: float) -> float:
         v = true_value
         if self.sigma:
-            if self._i >= len(self._buf):                # draw normals in blocks (same stream for a seed)
+            if self._i >= len(self._buf):  # draw normals in blocks (same stream for a seed)
                 self._buf = (self.sigma * self.rng.standard_normal(self.BLOCK)).tolist()
                 self._i = 0
             v += self._buf[self._i]

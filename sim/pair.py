@@ -3,6 +3,7 @@
 Body A's front face touches body B's front face through a contact resistance R'' (m²·K/W; 0 = perfect).
 Both are graded slabs (or any segments) with their own back boundaries; integrated exactly (sim.expint).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,8 +15,16 @@ from telethermo.sim.expint import Modal
 
 def reversed_segment(sg: Segment) -> Segment:
     """The same segment seen from its back face (so its front face becomes the chain's downstream end)."""
-    return Segment(sg.name, sg.C_J_K[::-1].copy(), sg.G_int_W_K[::-1].copy(), sg.G_back_W_K, sg.G_front_W_K,
-                   sg.G_perf_W_K[::-1].copy(), sg.x_m[::-1].copy(), sg.T_blood_C)
+    return Segment(
+        sg.name,
+        sg.C_J_K[::-1].copy(),
+        sg.G_int_W_K[::-1].copy(),
+        sg.G_back_W_K,
+        sg.G_front_W_K,
+        sg.G_perf_W_K[::-1].copy(),
+        sg.x_m[::-1].copy(),
+        sg.T_blood_C,
+    )
 
 
 class ContactPair:
@@ -24,9 +33,17 @@ class ContactPair:
     Attributes: t_s, and the properties T_surface_A_C, T_surface_B_C, Q_AB_W (heat from A into B, W).
     """
 
-    def __init__(self, a: Segment, xa_C: np.ndarray | float, b: Segment, xb_C: np.ndarray | float,
-                 area_m2: float, R_contact_m2K_W: float = 0.0, back_a: Boundary = ADIABATIC,
-                 back_b: Boundary = ADIABATIC) -> None:
+    def __init__(
+        self,
+        a: Segment,
+        xa_C: np.ndarray | float,
+        b: Segment,
+        xb_C: np.ndarray | float,
+        area_m2: float,
+        R_contact_m2K_W: float = 0.0,
+        back_a: Boundary = ADIABATIC,
+        back_b: Boundary = ADIABATIC,
+    ) -> None:
         self.system = assemble([reversed_segment(a), b], [R_contact_m2K_W / area_m2], back_a, back_b)
         self.na = a.n
         xa = np.broadcast_to(np.asarray(xa_C, dtype=float), (a.n,))[::-1]

@@ -7,6 +7,7 @@ sensor's top face loses h_air·A to ambient. Each contact state is a separate li
 exactly (sim.expint); a body not touching the rig is a separate system (front face in air) advanced lazily,
 in one exact step, when it is next needed.
 """
+
 from __future__ import annotations
 
 import math
@@ -57,8 +58,15 @@ GRID_PRESETS = {
 class Body:
     """A finger or object slab with its own state; it lives inside a rig's system while touching."""
 
-    def __init__(self, spec: BodySpec, area_m2: float, ambient_C: float, h_air_W_m2K: float, grid: GridSettings,
-                 lumped: bool = False) -> None:
+    def __init__(
+        self,
+        spec: BodySpec,
+        area_m2: float,
+        ambient_C: float,
+        h_air_W_m2K: float,
+        grid: GridSettings,
+        lumped: bool = False,
+    ) -> None:
         self.spec, self.area_m2, self.ambient_C = spec, area_m2, ambient_C
         self.lumped = lumped
         if spec.kind == "finger":
@@ -72,8 +80,9 @@ class Body:
             if lumped:
                 self.segment = B.lump(spec.name, mat.rho_c_J_m3K * spec.thickness_m * area_m2)
             else:
-                self.segment = B.slab(spec.name, mat, spec.thickness_m, area_m2, grid.t_min_s, grid.ratio,
-                                      grid.cells_per_length)
+                self.segment = B.slab(
+                    spec.name, mat, spec.thickness_m, area_m2, grid.t_min_s, grid.ratio, grid.cells_per_length
+                )
             self.back = ADIABATIC if spec.back == "adiabatic" else Boundary(h_air_W_m2K * area_m2, ambient_C)
         self.air = Boundary(h_air_W_m2K * area_m2, ambient_C)
         self.system = assemble([self.segment], [], self.air, self.back)
@@ -83,7 +92,7 @@ class Body:
             x0 = self.system.steady_state()
         else:
             x0 = np.full(self.segment.n, float(spec.T0_C))
-        self.x = np.append(x0, 0.0)          # [cells, E_out (J)]
+        self.x = np.append(x0, 0.0)  # [cells, E_out (J)]
         self.t_s = 0.0
         self.attached = False
 
@@ -121,11 +130,17 @@ class Body:
 class Config:
     """One contact state of a rig: the assembled system, its modal form, probes and cached step matrices."""
 
-    def __init__(self, params: RigParams, sensor: B.Segment, ambient_C: float, body: Body | None, force_N: float):
+    def __init__(
+        self, params: RigParams, sensor: B.Segment, ambient_C: float, body: Body | None, force_N: float
+    ):
         A = params.area_m2
         tem = params.tem
-        segs = [B.lump("sink", params.sink_C_J_K), B.lump("plate_s", tem.plate_C_J_K),
-                B.lump("plate_p", tem.plate_C_J_K), sensor]
+        segs = [
+            B.lump("sink", params.sink_C_J_K),
+            B.lump("plate_s", tem.plate_C_J_K),
+            B.lump("plate_p", tem.plate_C_J_K),
+            sensor,
+        ]
         links = [1.0 / params.G_sink_plate_W_K, 1.0 / tem.K_W_K, 1.0 / params.G_plate_sensor_W_K]
         if body is not None:
             segs.append(body.segment)
@@ -146,7 +161,7 @@ class Config:
         sens_mat = material(params.sensor_material)
         kSe = sens_mat.lambda_W_mK * A / params.sensor_thickness_m
         self.q_f, self.q_f0 = kSe * (fb - ft), kSe * (fb0 - ft0)
-        self.q_full = np.append(self.q_f, 0.0)          # acts on the augmented state [x, E_out]
+        self.q_full = np.append(self.q_f, 0.0)  # acts on the augmented state [x, E_out]
         if body is not None:
             self.surf_f, self.surf_f0 = self.system.face_functional(4, "front")
             # heat flow across the contact (sensor top -> body), W: what the touching body receives
@@ -154,7 +169,7 @@ class Config:
         else:
             self.surf_f, self.surf_f0 = None, math.nan
             self.body_q_f, self.body_q_f0 = None, math.nan
-        self.top_f, self.top_f0 = ft, ft0       # top face of the sensor (what a body touches), °C
+        self.top_f, self.top_f0 = ft, ft0  # top face of the sensor (what a body touches), °C
         self._steps: dict[float, tuple] = {}
         self._last_dt, self._last_m = math.nan, None
 
@@ -170,8 +185,21 @@ class Config:
         if m is None:
             Phi, c, B0, B1 = self.modal.step_matrices(dt_s)
             Bcat = np.column_stack([c, B0, B1])
-            rows = tuple(float(v) for v in (c[1], B0[1, 0], B0[1, 1], B1[1, 0], B1[1, 1],
-                                            c[2], B0[2, 0], B0[2, 1], B1[2, 0], B1[2, 1]))
+            rows = tuple(
+                float(v)
+                for v in (
+                    c[1],
+                    B0[1, 0],
+                    B0[1, 1],
+                    B1[1, 0],
+                    B1[1, 1],
+                    c[2],
+                    B0[2, 0],
+                    B0[2, 1],
+                    B1[2, 0],
+                    B1[2, 1],
+                )
+            )
             m = (Phi, c, Bcat, rows)
             if len(self._steps) > 64:
                 self._steps.clear()

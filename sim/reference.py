@@ -5,6 +5,7 @@ initial steady state) touching the slave's objects with the slave's contact sche
 the materials the display renders per the master schedule's ``render`` entries (virtual scenes). Between
 touches the finger is in air (its surface relaxes towards its steady state).
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -50,14 +51,29 @@ class _Pair:
 class DirectTouch:
     """The reference: finger touching objects directly. Attributes t_s, T_contact_C, Q_finger_W, touching."""
 
-    def __init__(self, finger_params: FingerParams, objects: dict[str, BodySpec], schedule: Schedule,
-                 ambient_C: float, params: RigParams, grid: GridSettings) -> None:
+    def __init__(
+        self,
+        finger_params: FingerParams,
+        objects: dict[str, BodySpec],
+        schedule: Schedule,
+        ambient_C: float,
+        params: RigParams,
+        grid: GridSettings,
+    ) -> None:
         self.params = params
-        self.finger = Body(BodySpec("finger", kind="finger", finger=finger_params), params.area_m2, ambient_C,
-                           params.h_air_W_m2K, grid)
+        self.finger = Body(
+            BodySpec("finger", kind="finger", finger=finger_params),
+            params.area_m2,
+            ambient_C,
+            params.h_air_W_m2K,
+            grid,
+        )
         touched = schedule.bodies()
-        self.objects = {n: Body(s, params.area_m2, ambient_C, params.h_air_W_m2K, grid)
-                        for n, s in objects.items() if n in touched}
+        self.objects = {
+            n: Body(s, params.area_m2, ambient_C, params.h_air_W_m2K, grid)
+            for n, s in objects.items()
+            if n in touched
+        }
         self.schedule = schedule
         self.t_s = 0.0
         self._pairs: dict[tuple, _Pair] = {}
@@ -95,11 +111,11 @@ class DirectTouch:
         touch = self.schedule.at(self.t_s + _SNAP_S)
         if touch == self._touch:
             return
-        if self._pair is not None:                       # detach: give the states back
+        if self._pair is not None:  # detach: give the states back
             p, x = self._pair, self._x
             self.finger.x[: p.nf] = x[: p.nf][::-1]
             self.finger.x[-1] += x[-1]
-            p.obj.x[: p.no] = x[p.nf: p.nf + p.no]
+            p.obj.x[: p.no] = x[p.nf : p.nf + p.no]
             self.finger.t_s = p.obj.t_s = self.t_s
             self._pair, self._x = None, None
         self._touch = touch
@@ -157,7 +173,9 @@ def build_reference(scene: Scene, *, grid: GridSettings | None = None) -> Direct
             if t.render is None:
                 continue
             if t.render not in objects:
-                objects[t.render] = BodySpec(t.render, material=t.render, thickness_m=0.02, T0_C=scene.ambient_C)
+                objects[t.render] = BodySpec(
+                    t.render, material=t.render, thickness_m=0.02, T0_C=scene.ambient_C
+                )
             touches.append(Touch(t.start_s, t.end_s, t.render, t.force_N))
         schedule = Schedule(touches)
     return DirectTouch(scene.finger, objects, schedule, scene.ambient_C, scene.rig_params, grid)

@@ -1,4 +1,5 @@
 """A simulated rig: the plant of sim.plant behind the project's rig interface (telethermo.rig.SimulatedRig)."""
+
 from __future__ import annotations
 
 import math
@@ -85,10 +86,22 @@ class SimRig:
     split at the event). :meth:`read` returns the sample taken at the end of the last advance.
     """
 
-    def __init__(self, params: RigParams, bodies: dict[str, Body], schedule, *, ambient_C: float, period_s: float,
-                 noise: NoiseParams, seed: int | None, name: str = "rig", prune: bool = True,
-                 pruning: list[str] | None = None, grid: GridSettings | None = None,
-                 start: str | float | None = None) -> None:
+    def __init__(
+        self,
+        params: RigParams,
+        bodies: dict[str, Body],
+        schedule,
+        *,
+        ambient_C: float,
+        period_s: float,
+        noise: NoiseParams,
+        seed: int | None,
+        name: str = "rig",
+        prune: bool = True,
+        pruning: list[str] | None = None,
+        grid: GridSettings | None = None,
+        start: str | float | None = None,
+    ) -> None:
         self.name = name
         self.params = params
         self.period_s = float(period_s)
@@ -100,9 +113,16 @@ class SimRig:
         self._pruning = list(pruning or [])
         grid = grid or GridSettings(t_min_s=self.period_s)
         self.grid = grid
-        self.sensor: Segment = sensor_segment("sensor", material(params.sensor_material), params.sensor_thickness_m,
-                                              params.area_m2, grid.t_min_s, grid.ratio, grid.cells_per_length,
-                                              params.sensor_cells)
+        self.sensor: Segment = sensor_segment(
+            "sensor",
+            material(params.sensor_material),
+            params.sensor_thickness_m,
+            params.area_m2,
+            grid.t_min_s,
+            grid.ratio,
+            grid.cells_per_length,
+            params.sensor_cells,
+        )
         self._configs: dict[tuple, Config] = {}
         tem = params.tem
         self._alpha, self._R, self._tau = tem.alpha_V_K, tem.R_ohm, tem.tau_V_K
@@ -151,7 +171,7 @@ class SimRig:
         E_out = x[-1]
         if old.body is not None:
             b = old.body
-            b.x[: b.n] = x[base: base + b.n]
+            b.x[: b.n] = x[base : base + b.n]
             b.t_s = self.t_s
             b.attached = False
         new = self._config(touch)
@@ -217,7 +237,9 @@ class SimRig:
             I0, I1, r0 = I1, I1 - r1 * (I1 - I0) / (r1 - r0), r1
             r1 = resid(I1)
         if not (abs(I1) <= self.I_max_A and abs(r1) < 1e-6):
-            raise ValueError(f"SimRig: no steady start {start!r} within ±{self.I_max_A} A (residual {r1:.3g})")
+            raise ValueError(
+                f"SimRig: no steady start {start!r} within ±{self.I_max_A} A (residual {r1:.3g})"
+            )
         self.I = I1
         self.x = np.append(self._steady_at(I1)[:n], 0.0)
 
@@ -237,7 +259,7 @@ class SimRig:
         if not dt_s > 0:
             raise ValueError(f"advance: dt_s must be > 0, got {dt_s!r}")
         t_end = self.t_s + dt_s
-        if self._next_event > t_end + _SNAP_S:        # common case: no make/break in this step
+        if self._next_event > t_end + _SNAP_S:  # common case: no make/break in this step
             self._integrate(dt_s)
             self.t_s = t_end
         while self.t_s < t_end - _SNAP_S:
@@ -266,8 +288,9 @@ class SimRig:
             y += c
             self.x = y
             return
-        u0, u1, v0, v1 = plate_heats(rows, self._alpha, self._tau, self._R, I, x.item(1), x.item(2), y.item(1),
-                                     y.item(2))
+        u0, u1, v0, v1 = plate_heats(
+            rows, self._alpha, self._tau, self._R, I, x.item(1), x.item(2), y.item(1), y.item(2)
+        )
         y += Bcat @ np.array((1.0, u0, u1, v0, v1))
         self.x = y
         self.E_el_J += 0.5 * dt * (u0 + u1 + v0 + v1)
@@ -287,8 +310,15 @@ class SimRig:
             prev = self._detached_T_C if math.isfinite(self._detached_T_C) else T
             T = self.ambient_C + (prev - self.ambient_C) * math.exp(-self.period_s / self._detach_tau_s)
             self._detached_T_C, Q = T, 0.0
-        self._last = RigSample(t_s=self.t_s, T_sensor_C=self._chT(T), Q_W=self._chQ(Q), current_A=self.I,
-                               contact=self._contact, T_sink_C=x.item(0), force_N=self._force)
+        self._last = RigSample(
+            t_s=self.t_s,
+            T_sensor_C=self._chT(T),
+            Q_W=self._chQ(Q),
+            current_A=self.I,
+            contact=self._contact,
+            T_sink_C=x.item(0),
+            force_N=self._force,
+        )
 
     # ---- truth and introspection -----------------------------------------------------------------
     def truth(self) -> RigTruth:
@@ -298,12 +328,19 @@ class SimRig:
         touch = self._touch
         surf = float(cfg.surf_f @ x[:n] + cfg.surf_f0) if cfg.surf_f is not None else math.nan
         q_body = float(cfg.body_q_f @ x[:n] + cfg.body_q_f0) if cfg.body_q_f is not None else 0.0
-        return RigTruth(t_s=self.t_s, T_pad_C=float(x[cfg.i_p]), T_surface_C=surf,
-                        T_sensor_true_C=float(x[cfg.i_mid]), Q_true_W=float(cfg.q_f @ x[:n] + cfg.q_f0),
-                        T_sink_C=float(x[0]), touching=touch.body if touch else None,
-                        force_N=touch.force_N if touch else 0.0,
-                        T_contact_face_C=float(cfg.top_f @ x[:n] + cfg.top_f0), current_A=self.I,
-                        Q_into_body_W=q_body)
+        return RigTruth(
+            t_s=self.t_s,
+            T_pad_C=float(x[cfg.i_p]),
+            T_surface_C=surf,
+            T_sensor_true_C=float(x[cfg.i_mid]),
+            Q_true_W=float(cfg.q_f @ x[:n] + cfg.q_f0),
+            T_sink_C=float(x[0]),
+            touching=touch.body if touch else None,
+            force_N=touch.force_N if touch else 0.0,
+            T_contact_face_C=float(cfg.top_f @ x[:n] + cfg.top_f0),
+            current_A=self.I,
+            Q_into_body_W=q_body,
+        )
 
     def pruning_report(self) -> list[str]:
         """What the compiled scene skipped, and why."""
@@ -325,10 +362,14 @@ class SimRig:
                 b.advance_detached(self.t_s)
         out = float(self.x[-1]) + sum(float(b.x[-1]) for b in self.bodies.values())
         stored = self._stored_total() - self._stored0
-        return {"E_in_J": self.E_el_J, "E_out_J": out, "dE_stored_J": stored,
-                "residual_J": self.E_el_J - out - stored}
+        return {
+            "E_in_J": self.E_el_J,
+            "E_out_J": out,
+            "dE_stored_J": stored,
+            "residual_J": self.E_el_J - out - stored,
+        }
 
     def profile(self) -> dict[str, np.ndarray]:
         """Cell temperatures of the current chain, °C, by segment name (for plots and checks)."""
         sysm = self.cfg.system
-        return {sg.name: self.x[o: o + sg.n].copy() for sg, o in zip(sysm.segments, sysm.offsets)}
+        return {sg.name: self.x[o : o + sg.n].copy() for sg, o in zip(sysm.segments, sysm.offsets)}

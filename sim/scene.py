@@ -63,6 +63,7 @@ Format (all times s, temperatures °C, forces N, lengths mm)::
     signals = ["T_sensor_C", "Q_W", "current_A"]
     every_s = 0.01
 """
+
 from __future__ import annotations
 
 import math
@@ -80,8 +81,20 @@ from telethermo.sim.touch import BodySpec, Touch
 
 SCENES_DIR = Path(__file__).resolve().parent / "scenes"
 KINDS = ("telepresence", "virtual")
-RECORDABLE = ("T_sensor_C", "Q_W", "current_A", "contact", "T_sink_C", "force_N", "T_pad_C", "T_surface_C",
-              "T_sensor_true_C", "Q_true_W", "T_contact_C", "Q_finger_W")
+RECORDABLE = (
+    "T_sensor_C",
+    "Q_W",
+    "current_A",
+    "contact",
+    "T_sink_C",
+    "force_N",
+    "T_pad_C",
+    "T_surface_C",
+    "T_sensor_true_C",
+    "Q_true_W",
+    "T_contact_C",
+    "Q_finger_W",
+)
 
 
 @dataclass(frozen=True)
@@ -148,8 +161,16 @@ class _R:
             raise SceneError(self.path, prefix + key, "a table", v)
         return v
 
-    def num(self, raw: dict, key: str, prefix: str, default: Any = None, lo: float = -math.inf,
-            hi: float = math.inf, lo_open: bool = False) -> float:
+    def num(
+        self,
+        raw: dict,
+        key: str,
+        prefix: str,
+        default: Any = None,
+        lo: float = -math.inf,
+        hi: float = math.inf,
+        lo_open: bool = False,
+    ) -> float:
         v = raw.get(key, default)
         field_ = prefix + key
         if v is None:
@@ -161,17 +182,32 @@ class _R:
             raise SceneError(self.path, field_, f"a number in {rng}", v)
         return float(v)
 
-    def string(self, raw: dict, key: str, prefix: str, default: Any = None, choices: tuple | None = None) -> str:
+    def string(
+        self, raw: dict, key: str, prefix: str, default: Any = None, choices: tuple | None = None
+    ) -> str:
         v = raw.get(key, default)
         if not isinstance(v, str) or not v:
-            raise SceneError(self.path, prefix + key, "a non-empty string" + (f" (one of {', '.join(choices)})" if choices else ""), v)
+            raise SceneError(
+                self.path,
+                prefix + key,
+                "a non-empty string" + (f" (one of {', '.join(choices)})" if choices else ""),
+                v,
+            )
         if choices and v not in choices:
             raise SceneError(self.path, prefix + key, f"one of {', '.join(choices)}", v)
         return v
 
 
-def _contacts(r: _R, raw: list, prefix: str, duration: float, objects: dict, kind: str, is_master: bool,
-              known_materials: set[str]) -> tuple[Touch, ...]:
+def _contacts(
+    r: _R,
+    raw: list,
+    prefix: str,
+    duration: float,
+    objects: dict,
+    kind: str,
+    is_master: bool,
+    known_materials: set[str],
+) -> tuple[Touch, ...]:
     if not isinstance(raw, list):
         raise SceneError(r.path, prefix, "an array of tables [[...contacts]]", raw)
     out = []
@@ -179,8 +215,13 @@ def _contacts(r: _R, raw: list, prefix: str, duration: float, objects: dict, kin
         p = f"{prefix}[{k}]."
         if not isinstance(c, dict):
             raise SceneError(r.path, prefix + f"[{k}]", "a table", c)
-        r.known(c, ("start_s", "end_s", "force_N", "render", "object") if is_master
-                else ("start_s", "end_s", "force_N", "object"), p)
+        r.known(
+            c,
+            ("start_s", "end_s", "force_N", "render", "object")
+            if is_master
+            else ("start_s", "end_s", "force_N", "object"),
+            p,
+        )
         start = r.num(c, "start_s", p, lo=0.0, hi=duration)
         end = r.num(c, "end_s", p, lo=0.0, hi=math.inf)
         if not end > start:
@@ -190,20 +231,36 @@ def _contacts(r: _R, raw: list, prefix: str, duration: float, objects: dict, kin
         if is_master:
             body = "finger"
             if "object" in c and c["object"] != "finger":
-                raise SceneError(r.path, p + "object", "'finger' (only the operator's finger touches the master)", c["object"])
+                raise SceneError(
+                    r.path,
+                    p + "object",
+                    "'finger' (only the operator's finger touches the master)",
+                    c["object"],
+                )
             if "render" in c:
                 render = r.string(c, "render", p)
                 if render not in objects and render not in known_materials:
-                    raise SceneError(r.path, p + "render", "an object of [objects] or a material name", render)
+                    raise SceneError(
+                        r.path, p + "render", "an object of [objects] or a material name", render
+                    )
         else:
             body = r.string(c, "object", p)
             if body not in objects:
-                raise SceneError(r.path, p + "object", f"one of the scene's objects ({', '.join(sorted(objects)) or 'none'})", body)
+                raise SceneError(
+                    r.path,
+                    p + "object",
+                    f"one of the scene's objects ({', '.join(sorted(objects)) or 'none'})",
+                    body,
+                )
         out.append(Touch(start, end, body, force, render))
     out.sort(key=lambda t: t.start_s)
     for k, (a, b) in enumerate(zip(out, out[1:])):
         if b.start_s < a.end_s:
-            raise SceneError(r.path, prefix, f"non-overlapping contacts (contact at {b.start_s} s starts before the one at {a.start_s} s ends at {a.end_s} s)")
+            raise SceneError(
+                r.path,
+                prefix,
+                f"non-overlapping contacts (contact at {b.start_s} s starts before the one at {a.start_s} s ends at {a.end_s} s)",
+            )
     return tuple(out)
 
 
@@ -216,21 +273,33 @@ def _finger(r: _R, raw: dict, path: str, known: set[str]) -> FingerParams:
     if "layers" in fr:
         lr = fr["layers"]
         if not isinstance(lr, list) or not lr:
-            raise SceneError(path, "finger.layers", "a non-empty array of [material, thickness_mm, perfusion_1_s]", lr)
+            raise SceneError(
+                path, "finger.layers", "a non-empty array of [material, thickness_mm, perfusion_1_s]", lr
+            )
         layers = []
         for k, L in enumerate(lr):
-            if (not isinstance(L, list) or len(L) != 3 or not isinstance(L[0], str)
-                    or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in L[1:])):
-                raise SceneError(path, f"finger.layers[{k}]", "[material, thickness_mm > 0, perfusion_1_s >= 0]", L)
+            if (
+                not isinstance(L, list)
+                or len(L) != 3
+                or not isinstance(L[0], str)
+                or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in L[1:])
+            ):
+                raise SceneError(
+                    path, f"finger.layers[{k}]", "[material, thickness_mm > 0, perfusion_1_s >= 0]", L
+                )
             if L[0] not in known:
-                raise SceneError(path, f"finger.layers[{k}]", f"a known material ({', '.join(sorted(known))})", L[0])
+                raise SceneError(
+                    path, f"finger.layers[{k}]", f"a known material ({', '.join(sorted(known))})", L[0]
+                )
             if not (L[1] > 0 and L[2] >= 0):
                 raise SceneError(path, f"finger.layers[{k}]", "thickness_mm > 0 and perfusion_1_s >= 0", L)
             layers.append((L[0], float(L[1]) * 1e-3, float(L[2])))
         layers = tuple(layers)
-    return FingerParams(layers=layers,
-                        T_blood_C=r.num(fr, "T_blood_C", "finger.", default=defaults.T_blood_C, lo=30.0, hi=42.0),
-                        core_C=r.num(fr, "core_C", "finger.", default=defaults.core_C, lo=30.0, hi=42.0))
+    return FingerParams(
+        layers=layers,
+        T_blood_C=r.num(fr, "T_blood_C", "finger.", default=defaults.T_blood_C, lo=30.0, hi=42.0),
+        core_C=r.num(fr, "core_C", "finger.", default=defaults.core_C, lo=30.0, hi=42.0),
+    )
 
 
 def _objects(r: _R, raw: dict, path: str, known: set[str], ambient: float) -> dict[str, BodySpec]:
@@ -246,10 +315,14 @@ def _objects(r: _R, raw: dict, path: str, known: set[str], ambient: float) -> di
         mat = r.string(o, "material", p)
         if mat not in known:
             raise SceneError(path, p + "material", f"a known material ({', '.join(sorted(known))})", mat)
-        objects[oname] = BodySpec(name=oname, kind="slab", material=mat,
-                                  thickness_m=r.num(o, "thickness_mm", p, lo=0.0, hi=1000.0, lo_open=True) * 1e-3,
-                                  T0_C=r.num(o, "T0_C", p, default=ambient, lo=-20.0, hi=100.0),
-                                  back=r.string(o, "back", p, default="adiabatic", choices=("adiabatic", "ambient")))
+        objects[oname] = BodySpec(
+            name=oname,
+            kind="slab",
+            material=mat,
+            thickness_m=r.num(o, "thickness_mm", p, lo=0.0, hi=1000.0, lo_open=True) * 1e-3,
+            T0_C=r.num(o, "T0_C", p, default=ambient, lo=-20.0, hi=100.0),
+            back=r.string(o, "back", p, default="adiabatic", choices=("adiabatic", "ambient")),
+        )
     return objects
 
 
@@ -260,24 +333,32 @@ def _start(r: _R, table: dict, path: str, side: str) -> Any:
         return None
     if isinstance(start, str):
         if start != "finger":
-            raise SceneError(path, f"{side}.start", "\"finger\" or a temperature in [15, 43] °C", start)
+            raise SceneError(path, f"{side}.start", '"finger" or a temperature in [15, 43] °C', start)
         return start
     return r.num(table, "start", f"{side}.", lo=15.0, hi=43.0)
 
 
 def _sides(r: _R, raw: dict, path: str, kind: str, duration: float, objects: dict, known: set[str]) -> tuple:
     """[master] and [slave]: (master contacts, slave contacts, master start, slave start)."""
-    for side in ("master", "slave"):   # a header with nothing under it: a file cut short, not a choice
+    for side in ("master", "slave"):  # a header with nothing under it: a file cut short, not a choice
         if side in raw and raw[side] == {}:
-            raise SceneError(path, side, f"contacts ([[{side}.contacts]]) or start under [{side}] (an empty "
-                             f"[{side}] table: is the file cut short?)")
+            raise SceneError(
+                path,
+                side,
+                f"contacts ([[{side}.contacts]]) or start under [{side}] (an empty "
+                f"[{side}] table: is the file cut short?)",
+            )
     mr = r.table(raw, "master")
     r.known(mr, ("contacts", "start"), "master.")
     master_start = _start(r, mr, path, "master")
     master = _contacts(r, mr.get("contacts", []), "master.contacts", duration, objects, kind, True, known)
     if master_start == "finger" and not any(t.start_s <= 1e-9 < t.end_s for t in master):
-        raise SceneError(path, "master.start", "\"finger\" only with the finger on the display at t = 0 "
-                         "(a master contact from 0 s)", master_start)
+        raise SceneError(
+            path,
+            "master.start",
+            '"finger" only with the finger on the display at t = 0 (a master contact from 0 s)',
+            master_start,
+        )
     sr = r.table(raw, "slave")
     r.known(sr, ("contacts", "start"), "slave.")
     if sr.get("start") is not None and kind != "telepresence":
@@ -296,12 +377,14 @@ def _noise(r: _R, raw: dict, path: str) -> tuple[NoiseParams, int | None]:
     if not isinstance(nz.get("enabled", True), bool):
         raise SceneError(path, "noise.enabled", "true or false", nz.get("enabled"))
     d = NoiseParams()
-    noise = NoiseParams(T_sigma_C=r.num(nz, "T_sigma_C", "noise.", default=d.T_sigma_C, lo=0.0, hi=5.0),
-                        Q_sigma_W=r.num(nz, "Q_sigma_W", "noise.", default=d.Q_sigma_W, lo=0.0, hi=5.0),
-                        T_lsb_C=r.num(nz, "T_lsb_C", "noise.", default=d.T_lsb_C, lo=0.0, hi=1.0),
-                        Q_lsb_W=r.num(nz, "Q_lsb_W", "noise.", default=d.Q_lsb_W, lo=0.0, hi=1.0),
-                        cutoff_Hz=r.num(nz, "cutoff_Hz", "noise.", default=d.cutoff_Hz, lo=0.0, hi=1e4),
-                        enabled=bool(nz.get("enabled", True)))
+    noise = NoiseParams(
+        T_sigma_C=r.num(nz, "T_sigma_C", "noise.", default=d.T_sigma_C, lo=0.0, hi=5.0),
+        Q_sigma_W=r.num(nz, "Q_sigma_W", "noise.", default=d.Q_sigma_W, lo=0.0, hi=5.0),
+        T_lsb_C=r.num(nz, "T_lsb_C", "noise.", default=d.T_lsb_C, lo=0.0, hi=1.0),
+        Q_lsb_W=r.num(nz, "Q_lsb_W", "noise.", default=d.Q_lsb_W, lo=0.0, hi=1.0),
+        cutoff_Hz=r.num(nz, "cutoff_Hz", "noise.", default=d.cutoff_Hz, lo=0.0, hi=1e4),
+        enabled=bool(nz.get("enabled", True)),
+    )
     seed = nz.get("seed")
     if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
         raise SceneError(path, "noise.seed", "a non-negative integer", seed)
@@ -345,12 +428,27 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
     if "tem" in raw:
         rig = parse_tem_section(raw["tem"], path, rig)
 
-    return Scene(name=name, path=str(path), kind=kind, duration_s=duration, period_s=period, ambient_C=ambient,
-                 finger=finger, objects=objects, master_contacts=master, slave_contacts=slave, noise=noise,
-                 seed=seed, record_signals=tuple(signals), record_every_s=every,
-                 rig_params=rig, description=str(sc.get("description", "")),
-                 tolerance_C=tolerance, master_start=master_start,
-                 slave_start=slave_start)
+    return Scene(
+        name=name,
+        path=str(path),
+        kind=kind,
+        duration_s=duration,
+        period_s=period,
+        ambient_C=ambient,
+        finger=finger,
+        objects=objects,
+        master_contacts=master,
+        slave_contacts=slave,
+        noise=noise,
+        seed=seed,
+        record_signals=tuple(signals),
+        record_every_s=every,
+        rig_params=rig,
+        description=str(sc.get("description", "")),
+        tolerance_C=tolerance,
+        master_start=master_start,
+        slave_start=slave_start,
+    )
 
 
 def scene_path(path_or_name: str | Path) -> Path:
@@ -359,7 +457,11 @@ def scene_path(path_or_name: str | Path) -> Path:
     if not p.suffix and not p.exists():
         cand = SCENES_DIR / f"{p.name}.toml"
         if not cand.exists():
-            raise SceneError(str(path_or_name), "<name>", f"a scene file or a shipped scene ({', '.join(shipped_scenes())})")
+            raise SceneError(
+                str(path_or_name),
+                "<name>",
+                f"a scene file or a shipped scene ({', '.join(shipped_scenes())})",
+            )
         p = cand
     return p
 

@@ -12,6 +12,7 @@ junction with opposite signs, Joule R·I² (eq. 3) split half to each side, cond
 term (eq. 2) integrated over the pellet, τ·I·ΔT/2 on each side with the sign of eq. 5/6's "±": "+" when I > 0
 (pad is the hot side), "−" when I < 0. The electrical power is u_s + u_p = α·I·(T_p − T_s) + R·I².
 """
+
 from __future__ import annotations
 
 import math
@@ -47,8 +48,15 @@ class TEMParams:
     I_max_A: float
 
     @staticmethod
-    def from_datasheet(Imax_A: float, Vmax_V: float, dTmax_K: float, Th_C: float, *, tau_V_K: float = 0.0,
-                       plate_C_J_K: float = 0.62) -> "TEMParams":
+    def from_datasheet(
+        Imax_A: float,
+        Vmax_V: float,
+        dTmax_K: float,
+        Th_C: float,
+        *,
+        tau_V_K: float = 0.0,
+        plate_C_J_K: float = 0.62,
+    ) -> "TEMParams":
         """Derive α, R, K from the datasheet ratings Imax, Vmax, ΔTmax at hot side Th (°C).
 
         Standard derivation (ideal module, Qc = 0 at ΔTmax): α = Vmax/Th, R = (Th − ΔTmax)·Vmax/(Th·Imax),
@@ -62,14 +70,16 @@ class TEMParams:
 
     def Qmax_W(self, Th_C: float) -> float:
         """Cooling capacity at ΔT = 0 and I = Imax implied by the derived parameters, W."""
-        return self.alpha_V_K * (Th_C + KELVIN) * self.I_max_A - 0.5 * self.R_ohm * self.I_max_A ** 2
+        return self.alpha_V_K * (Th_C + KELVIN) * self.I_max_A - 0.5 * self.R_ohm * self.I_max_A**2
 
     def plate_heat_W(self, I_A: float, T_s_C: float, T_p_C: float) -> tuple[float, float]:
         """Electrical heat (Peltier + Joule + Thomson) delivered to the (sink, pad) plates, W."""
         th = 0.5 * self.tau_V_K * I_A * (T_p_C - T_s_C)
         joule = 0.5 * self.R_ohm * I_A * I_A
-        return (-self.alpha_V_K * I_A * (T_s_C + KELVIN) + joule - th,
-                self.alpha_V_K * I_A * (T_p_C + KELVIN) + joule + th)
+        return (
+            -self.alpha_V_K * I_A * (T_s_C + KELVIN) + joule - th,
+            self.alpha_V_K * I_A * (T_p_C + KELVIN) + joule + th,
+        )
 
 
 def guiatni_capacities_W(p: TEMParams, I_A: float, T_hot_C: float, T_cold_C: float) -> tuple[float, float]:
@@ -131,7 +141,12 @@ class RigParams:
 
 def _num(raw: dict, path: Path, section: str, key: str, positive: bool = True) -> float:
     v = raw.get(section, {}).get(key)
-    if not isinstance(v, (int, float)) or isinstance(v, bool) or not math.isfinite(v) or (positive and v <= 0):
+    if (
+        not isinstance(v, (int, float))
+        or isinstance(v, bool)
+        or not math.isfinite(v)
+        or (positive and v <= 0)
+    ):
         raise SceneError(path, f"{section}.{key}", "a positive number" if positive else "a number", v)
     return float(v)
 
@@ -145,10 +160,13 @@ def load_rig_params(path: str | Path | None = None) -> RigParams:
         except tomllib.TOMLDecodeError as exc:
             raise SceneError(path, "<toml>", f"valid TOML ({exc})") from None
     tem = TEMParams.from_datasheet(
-        _num(raw, path, "datasheet", "Imax_A"), _num(raw, path, "datasheet", "Vmax_V"),
-        _num(raw, path, "datasheet", "dTmax_K"), _num(raw, path, "datasheet", "Th_C", positive=False),
+        _num(raw, path, "datasheet", "Imax_A"),
+        _num(raw, path, "datasheet", "Vmax_V"),
+        _num(raw, path, "datasheet", "dTmax_K"),
+        _num(raw, path, "datasheet", "Th_C", positive=False),
         tau_V_K=_num(raw, path, "module", "thomson_V_K", positive=False),
-        plate_C_J_K=_num(raw, path, "module", "plate_C_J_K"))
+        plate_C_J_K=_num(raw, path, "module", "plate_C_J_K"),
+    )
     cells = raw.get("sensor", {}).get("cells", 0)
     if not isinstance(cells, int) or isinstance(cells, bool) or cells < 0 or (cells and cells % 2 == 0):
         raise SceneError(path, "sensor.cells", "0 (graded) or an odd positive integer", cells)
@@ -170,16 +188,37 @@ def load_rig_params(path: str | Path | None = None) -> RigParams:
 
 
 #: [tem] section of a scene or a --tem file: key -> (what, unit). Module values, or per-couple ones times ``couples``.
-TEM_KEYS = ("couples", "seebeck_V_K", "R_ohm", "K_W_K", "seebeck_per_couple_V_K", "R_per_couple_ohm",
-            "K_per_couple_W_K", "thomson_V_K", "plate_C_J_K", "sink_plate_C_J_K", "pad_plate_C_J_K", "Imax_A")
-_PER_COUPLE = (("seebeck_V_K", "seebeck_per_couple_V_K"), ("R_ohm", "R_per_couple_ohm"), ("K_W_K", "K_per_couple_W_K"))
+TEM_KEYS = (
+    "couples",
+    "seebeck_V_K",
+    "R_ohm",
+    "K_W_K",
+    "seebeck_per_couple_V_K",
+    "R_per_couple_ohm",
+    "K_per_couple_W_K",
+    "thomson_V_K",
+    "plate_C_J_K",
+    "sink_plate_C_J_K",
+    "pad_plate_C_J_K",
+    "Imax_A",
+)
+_PER_COUPLE = (
+    ("seebeck_V_K", "seebeck_per_couple_V_K"),
+    ("R_ohm", "R_per_couple_ohm"),
+    ("K_W_K", "K_per_couple_W_K"),
+)
 
 
 def _tem_num(raw: dict, path: str, key: str, lo: float, hi: float, default: float | None = None) -> float:
     v = raw.get(key, default)
     if v is None:
         raise SceneError(path, f"tem.{key}", f"a number in ({lo}, {hi}] (required)")
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(float(v)) or not lo < v <= hi:
+    if (
+        isinstance(v, bool)
+        or not isinstance(v, (int, float))
+        or not math.isfinite(float(v))
+        or not lo < v <= hi
+    ):
         raise SceneError(path, f"tem.{key}", f"a number in ({lo}, {hi}]", v)
     return float(v)
 
@@ -202,7 +241,9 @@ def parse_tem_section(raw: object, path: str | Path, base: RigParams | None = No
             raise SceneError(path, f"tem.{key}", f"a known field ({', '.join(TEM_KEYS)})")
     base = base or load_rig_params()
     couples = raw.get("couples")
-    if couples is not None and (isinstance(couples, bool) or not isinstance(couples, int) or not 0 < couples <= 10_000):
+    if couples is not None and (
+        isinstance(couples, bool) or not isinstance(couples, int) or not 0 < couples <= 10_000
+    ):
         raise SceneError(path, "tem.couples", "an integer in [1, 10000]", couples)
     vals = {}
     for module_key, couple_key in _PER_COUPLE:
@@ -214,18 +255,35 @@ def parse_tem_section(raw: object, path: str | Path, base: RigParams | None = No
             raise SceneError(path, "tem.couples", f"the number of couples (for {couple_key})")
         else:
             vals[module_key] = couples * _tem_num(raw, path, couple_key, 0.0, 10.0)
-    plates = {k: _tem_num(raw, path, k, 0.0, 1e3) for k in ("plate_C_J_K", "sink_plate_C_J_K", "pad_plate_C_J_K")
-              if k in raw}
+    plates = {
+        k: _tem_num(raw, path, k, 0.0, 1e3)
+        for k in ("plate_C_J_K", "sink_plate_C_J_K", "pad_plate_C_J_K")
+        if k in raw
+    }
     if not plates:
         raise SceneError(path, "tem.plate_C_J_K", "a number in (0.0, 1000.0] (required)")
     if max(plates.values()) - min(plates.values()) > 1e-12 * max(plates.values()):
-        raise SceneError(path, "tem.pad_plate_C_J_K", "the same capacity for both plates (the lumped TEM model "
-                         f"has one plate capacity), got {plates}")
+        raise SceneError(
+            path,
+            "tem.pad_plate_C_J_K",
+            f"the same capacity for both plates (the lumped TEM model has one plate capacity), got {plates}",
+        )
     th = raw.get("thomson_V_K", base.tem.tau_V_K)
-    if isinstance(th, bool) or not isinstance(th, (int, float)) or not math.isfinite(float(th)) or abs(th) > 1.0:
+    if (
+        isinstance(th, bool)
+        or not isinstance(th, (int, float))
+        or not math.isfinite(float(th))
+        or abs(th) > 1.0
+    ):
         raise SceneError(path, "tem.thomson_V_K", "a number in [-1, 1] V/K", th)
-    tem = TEMParams(alpha_V_K=vals["seebeck_V_K"], R_ohm=vals["R_ohm"], K_W_K=vals["K_W_K"], tau_V_K=float(th),
-                    plate_C_J_K=next(iter(plates.values())), I_max_A=_tem_num(raw, path, "Imax_A", 0.0, 100.0))
+    tem = TEMParams(
+        alpha_V_K=vals["seebeck_V_K"],
+        R_ohm=vals["R_ohm"],
+        K_W_K=vals["K_W_K"],
+        tau_V_K=float(th),
+        plate_C_J_K=next(iter(plates.values())),
+        I_max_A=_tem_num(raw, path, "Imax_A", 0.0, 100.0),
+    )
     return base.with_(tem=tem)
 
 
@@ -248,5 +306,11 @@ def load_tem_file(path: str | Path) -> RigParams:
 
 def tem_section(p: TEMParams) -> dict[str, float]:
     """The ``[tem]`` table of a module (module values): parse_tem_section's inverse."""
-    return {"seebeck_V_K": p.alpha_V_K, "R_ohm": p.R_ohm, "K_W_K": p.K_W_K, "thomson_V_K": p.tau_V_K,
-            "plate_C_J_K": p.plate_C_J_K, "Imax_A": p.I_max_A}
+    return {
+        "seebeck_V_K": p.alpha_V_K,
+        "R_ohm": p.R_ohm,
+        "K_W_K": p.K_W_K,
+        "thomson_V_K": p.tau_V_K,
+        "plate_C_J_K": p.plate_C_J_K,
+        "Imax_A": p.I_max_A,
+    }

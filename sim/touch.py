@@ -1,4 +1,5 @@
 """What a rig (or the bare finger) touches: body specifications and the contact schedule."""
+
 from __future__ import annotations
 
 import bisect

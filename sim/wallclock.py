@@ -33,6 +33,7 @@ slave 1): :func:`pads_in_air_master`, :func:`pads_in_air_slave` (scene ``pads_in
 
 This module, like all of sim/, knows nothing of the controller: numpy/scipy via sim, telethermo.rig only.
 """
+
 from __future__ import annotations
 
 import math
@@ -88,12 +89,21 @@ class WallClockRig:
         stats: :class:`WallClockStats`.
     """
 
-    def __init__(self, inner, *, clock: Callable[[], float] = time.monotonic,
-                 max_catch_up_s: float = DEFAULT_MAX_CATCH_UP_S) -> None:
+    def __init__(
+        self,
+        inner,
+        *,
+        clock: Callable[[], float] = time.monotonic,
+        max_catch_up_s: float = DEFAULT_MAX_CATCH_UP_S,
+    ) -> None:
         if not callable(getattr(inner, "advance", None)):
-            raise TypeError(f"WallClockRig: the inner rig must be a simulated rig (with advance), got {inner!r}")
+            raise TypeError(
+                f"WallClockRig: the inner rig must be a simulated rig (with advance), got {inner!r}"
+            )
         if not (max_catch_up_s > 0 and math.isfinite(max_catch_up_s)):
-            raise ValueError(f"WallClockRig: max_catch_up_s must be a finite time > 0 s, got {max_catch_up_s!r}")
+            raise ValueError(
+                f"WallClockRig: max_catch_up_s must be a finite time > 0 s, got {max_catch_up_s!r}"
+            )
         self._inner = inner
         self._clock = clock
         self.max_catch_up_s = float(max_catch_up_s)
@@ -101,7 +111,7 @@ class WallClockRig:
         self.I_max_A = float(inner.I_max_A)
         self.stats = WallClockStats()
         self._last_wall: float | None = None
-        self._lock = threading.Lock()   # a node may cut the current from another thread while a cycle reads
+        self._lock = threading.Lock()  # a node may cut the current from another thread while a cycle reads
 
     @property
     def inner(self):
@@ -147,8 +157,10 @@ class WallClockRig:
             self._inner.apply_current(current_A)
 
     def __repr__(self) -> str:
-        return (f"WallClockRig({getattr(self._inner, 'name', type(self._inner).__name__)!r}, "
-                f"period_s={self.period_s}, t_s={self.stats.simulated_s:.3f})")
+        return (
+            f"WallClockRig({getattr(self._inner, 'name', type(self._inner).__name__)!r}, "
+            f"period_s={self.period_s}, t_s={self.stats.simulated_s:.3f})"
+        )
 
 
 def wall_clock_rig(scene: str, role: str, seed: int | None = None, **kw) -> WallClockRig:

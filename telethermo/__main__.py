@@ -1,4 +1,5 @@
 """``python -m telethermo``: the ``telethermo`` command (as ``python -m can.viewer`` runs can.viewer)."""
+
 import sys
 
 from telethermo.cli.main import main

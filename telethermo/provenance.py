@@ -3,6 +3,7 @@
 Every benchmark result file and the stress / conformance results the tests write carry it, so results
 from different runs (and from the benchmarks and the tests) are comparable.
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -18,6 +19,7 @@ _HERE = Path(__file__).resolve().parent
 
 def provenance() -> dict[str, Any]:
     """Machine, versions, date and commit of this run (commit "unknown" outside a git checkout)."""
+
     def version(pkg: str) -> str:
         try:
             return metadata.version(pkg)
@@ -25,10 +27,17 @@ def provenance() -> dict[str, Any]:
             return "not installed"
 
     try:
-        commit = subprocess.run(["git", "rev-parse", "HEAD"], capture_output=True, text=True,
-                                cwd=_HERE, timeout=10).stdout.strip() or "unknown"
-        dirty = bool(subprocess.run(["git", "status", "--porcelain"], capture_output=True, text=True,
-                                    cwd=_HERE, timeout=10).stdout.strip())
+        commit = (
+            subprocess.run(
+                ["git", "rev-parse", "HEAD"], capture_output=True, text=True, cwd=_HERE, timeout=10
+            ).stdout.strip()
+            or "unknown"
+        )
+        dirty = bool(
+            subprocess.run(
+                ["git", "status", "--porcelain"], capture_output=True, text=True, cwd=_HERE, timeout=10
+            ).stdout.strip()
+        )
     except (OSError, subprocess.SubprocessError):
         commit, dirty = "unknown", False
     return {

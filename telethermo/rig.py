@@ -11,6 +11,7 @@ Sign conventions (used everywhere in the project):
 Time is the rig's own sample clock (s); a simulated rig advances only when asked
 (:meth:`SimulatedRig.advance`), a hardware rig by itself.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -12,6 +12,7 @@ Every test's node programs and in-process nodes keep their CiA 301 parameter sto
 ``$XDG_STATE_HOME/telethermo/node<ID>.json``) in a folder of this test run, never in the user's: settings a
 developer saved must not change what the tests see. Set at import, before any fixture starts a process.
 """
+
 from __future__ import annotations
 
 import multiprocessing.process
@@ -28,24 +29,41 @@ os.environ["XDG_STATE_HOME"] = tempfile.mkdtemp(prefix="telethermo-test-state-")
 
 def pytest_addoption(parser: pytest.Parser) -> None:
     group = parser.getgroup("telethermo")
-    group.addoption("--no-processes", action="store_true",
-                    help="fail any test that starts a process (the fast tier: mark such tests `slow`)")
-    group.addoption("--write-results", metavar="DIR",
-                    help="write the stress / conformance results (stress.json, conformance.json) into DIR")
-    group.addoption("--stress-size", choices=("quick", "full"),
-                    help="run the stress suite's cases (tests/stress/test_stress_suite.py) at this size")
-    group.addoption("--stress-only", nargs="+", metavar="CASE", default=None,
-                    help="with --stress-size: only these cases")
-    group.addoption("--conformance-timing", nargs="+", choices=("realtime", "lockstep"), default=None,
-                    help="timing modes of the live pair for the conformance checks (default: realtime)")
+    group.addoption(
+        "--no-processes",
+        action="store_true",
+        help="fail any test that starts a process (the fast tier: mark such tests `slow`)",
+    )
+    group.addoption(
+        "--write-results",
+        metavar="DIR",
+        help="write the stress / conformance results (stress.json, conformance.json) into DIR",
+    )
+    group.addoption(
+        "--stress-size",
+        choices=("quick", "full"),
+        help="run the stress suite's cases (tests/stress/test_stress_suite.py) at this size",
+    )
+    group.addoption(
+        "--stress-only", nargs="+", metavar="CASE", default=None, help="with --stress-size: only these cases"
+    )
+    group.addoption(
+        "--conformance-timing",
+        nargs="+",
+        choices=("realtime", "lockstep"),
+        default=None,
+        help="timing modes of the live pair for the conformance checks (default: realtime)",
+    )
 
 
 _SAVED: dict[str, object] = {}
 
 
 def _refuse(*_args, **_kwargs):
-    raise RuntimeError("this test starts a process, which the fast tier (--no-processes, make test-fast) does "
-                       "not allow: mark it `slow` (pytestmark = pytest.mark.slow)")
+    raise RuntimeError(
+        "this test starts a process, which the fast tier (--no-processes, make test-fast) does "
+        "not allow: mark it `slow` (pytestmark = pytest.mark.slow)"
+    )
 
 
 def pytest_configure(config: pytest.Config) -> None:
@@ -53,14 +71,14 @@ def pytest_configure(config: pytest.Config) -> None:
     if config.getoption("--no-processes"):
         _SAVED["popen"] = subprocess.Popen.__init__
         _SAVED["start"] = multiprocessing.process.BaseProcess.start
-        subprocess.Popen.__init__ = _refuse          # type: ignore[method-assign]
-        multiprocessing.process.BaseProcess.start = _refuse   # type: ignore[method-assign]
+        subprocess.Popen.__init__ = _refuse  # type: ignore[method-assign]
+        multiprocessing.process.BaseProcess.start = _refuse  # type: ignore[method-assign]
 
 
 def pytest_unconfigure(config: pytest.Config) -> None:
     if _SAVED:
-        subprocess.Popen.__init__ = _SAVED.pop("popen")          # type: ignore[method-assign]
-        multiprocessing.process.BaseProcess.start = _SAVED.pop("start")   # type: ignore[method-assign]
+        subprocess.Popen.__init__ = _SAVED.pop("popen")  # type: ignore[method-assign]
+        multiprocessing.process.BaseProcess.start = _SAVED.pop("start")  # type: ignore[method-assign]
 
 
 @pytest.fixture(scope="session")

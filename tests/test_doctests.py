@@ -1,5 +1,6 @@
 """The examples in the docstrings of the pure modules run and hold (doctest), and every module listed has
 some: a module whose examples were deleted fails here rather than passing with nothing checked."""
+
 from __future__ import annotations
 
 import doctest

@@ -1,6 +1,7 @@
 """The layer map of docs/architecture.md is true: every import of a project module, function-level ones
 included, points down the table that page holds (the one place the layers are written), and the only
 function-level imports of project modules are the CLI's lazy subcommand registry."""
+
 from __future__ import annotations
 
 import ast
@@ -12,8 +13,13 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 ARCHITECTURE = ROOT / "docs" / "architecture.md"
 # Source folders and the package name each installs as (pyproject.toml's package-dir).
-SOURCES = {"telethermo": "telethermo", "sim": "telethermo.sim", "nodes": "telethermo.nodes",
-           "bus_config": "telethermo.bus_config", "bench": "bench"}
+SOURCES = {
+    "telethermo": "telethermo",
+    "sim": "telethermo.sim",
+    "nodes": "telethermo.nodes",
+    "bus_config": "telethermo.bus_config",
+    "bench": "bench",
+}
 LAZY_REGISTRY = "telethermo.cli.main"
 
 
@@ -49,7 +55,9 @@ def owner(name: str, table: dict[str, int]) -> str | None:
     best = None
     for pkg in table:
         # the root package's row holds its own __init__ only, so a module missing from the table shows
-        if (name == pkg or (pkg != "telethermo" and name.startswith(pkg + "."))) and (best is None or len(pkg) > len(best)):
+        if (name == pkg or (pkg != "telethermo" and name.startswith(pkg + "."))) and (
+            best is None or len(pkg) > len(best)
+        ):
             best = pkg
     return best
 
@@ -97,13 +105,17 @@ def violations(mods: dict[str, Path], table: dict[str, int], known: set[str]) ->
         for target, line, _ in project_imports(mod, path, known):
             where = f"{path.name if not path.is_relative_to(ROOT) else path.relative_to(ROOT)}:{line}"
             if target.split(".")[0] in {"sim", "nodes", "bus_config"}:
-                wrong.append(f"{where}: imports {target} by its folder name (installed as telethermo.{target})")
+                wrong.append(
+                    f"{where}: imports {target} by its folder name (installed as telethermo.{target})"
+                )
                 continue
             dst = owner(target, table)
             if dst is None:
                 wrong.append(f"{where}: imports {target}, which is in no layer")
             elif dst != src and table[dst] >= table[src]:
-                wrong.append(f"{where}: {src} (layer {table[src]}) imports {target} ({dst}, layer {table[dst]})")
+                wrong.append(
+                    f"{where}: {src} (layer {table[src]}) imports {target} ({dst}, layer {table[dst]})"
+                )
     return wrong
 
 
@@ -117,33 +129,47 @@ def test_the_checker_reports_upward_sideways_and_late_imports(tmp_path):
     """The check itself: a control-core module importing the CLI (up), the simulator (sideways, same
     layer) and, inside a function, the offline harness is reported three times; a downward one is not."""
     fake = tmp_path / "fake.py"
-    fake.write_text("from telethermo.cli.main import main\nfrom telethermo.sim import rig\n"
-                    "from telethermo.rig import RigSample\n"
-                    "def f():\n    import telethermo.offline.runner\n")
+    fake.write_text(
+        "from telethermo.cli.main import main\nfrom telethermo.sim import rig\n"
+        "from telethermo.rig import RigSample\n"
+        "def f():\n    import telethermo.offline.runner\n"
+    )
     mods = modules()
     wrong = violations({"telethermo.control.fake": fake}, layer_table(), set(mods))
     assert len(wrong) == 3, wrong
-    late = [t for t, _, in_function in project_imports("telethermo.control.fake", fake, set(mods)) if in_function]
+    late = [
+        t for t, _, in_function in project_imports("telethermo.control.fake", fake, set(mods)) if in_function
+    ]
     assert late == ["telethermo.offline.runner"]
 
 
 def test_function_level_imports_of_project_modules_only_in_the_cli_registry():
     mods = modules()
     known = set(mods)
-    late = [f"{path.relative_to(ROOT)}:{line}: {target}"
-            for mod, path in mods.items() if mod != LAZY_REGISTRY
-            for target, line, in_function in project_imports(mod, path, known) if in_function]
+    late = [
+        f"{path.relative_to(ROOT)}:{line}: {target}"
+        for mod, path in mods.items()
+        if mod != LAZY_REGISTRY
+        for target, line, in_function in project_imports(mod, path, known)
+        if in_function
+    ]
     assert not late, "function-level imports of project modules (move them to the top):\n" + "\n".join(late)
 
 
-@pytest.mark.parametrize("low, high", [("telethermo.sim", "telethermo.control"),
-                                       ("telethermo.control", "telethermo.sim")])
+@pytest.mark.parametrize(
+    "low, high", [("telethermo.sim", "telethermo.control"), ("telethermo.control", "telethermo.sim")]
+)
 def test_the_simulator_and_the_controller_do_not_see_each_other(low, high):
     """The simulated rigs are an independent truth: neither package imports the other."""
     mods = modules()
     known = set(mods)
-    seen = [f"{p.relative_to(ROOT)}:{line}" for m, p in mods.items() if m.startswith(low + ".") or m == low
-            for t, line, _ in project_imports(m, p, known) if t == high or t.startswith(high + ".")]
+    seen = [
+        f"{p.relative_to(ROOT)}:{line}"
+        for m, p in mods.items()
+        if m.startswith(low + ".") or m == low
+        for t, line, _ in project_imports(m, p, known)
+        if t == high or t.startswith(high + ".")
+    ]
     assert not seen, f"{low} imports {high}: {seen}"
 
 
@@ -160,8 +186,13 @@ def bench_importers(folder: Path, root: Path = ROOT) -> dict[str, list[int]]:
     found: dict[str, list[int]] = {}
     for path in sorted(folder.rglob("*.py")):
         for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), filename=str(path))):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
-                     else [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom) and not node.level
+                else []
+            )
             if any(n == "bench" or n.startswith("bench.") for n in names):
                 found.setdefault(path.relative_to(root).as_posix(), []).append(node.lineno)
     return found
@@ -184,7 +215,6 @@ def test_the_bench_import_check_sees_every_form(tmp_path):
     assert {Path(m).name for m in bench_importers(tmp_path, tmp_path)} == {"a.py", "b.py"}
 
 
-
 # The node runtime composes its parts and hands each one the collaborators it uses (issue 26): no part
 # reaches back into it, not even for a type under TYPE_CHECKING. Only the node program constructs it (and
 # the nodes benchmark, which runs two of them in one process).
@@ -195,9 +225,13 @@ RUNTIME_USERS = {"telethermo.nodes.main", "bench.nodes_bench"}
 def runtime_importers(mods: dict[str, Path]) -> list[str]:
     """``path:line`` of every import of the runtime in ``mods`` (any level, TYPE_CHECKING blocks included)."""
     known = set(mods) | {RUNTIME}
-    return [f"{path.name if not path.is_relative_to(ROOT) else path.relative_to(ROOT)}:{line}"
-            for mod, path in mods.items() if mod not in RUNTIME_USERS and mod != RUNTIME
-            for target, line, _ in project_imports(mod, path, known) if target == RUNTIME]
+    return [
+        f"{path.name if not path.is_relative_to(ROOT) else path.relative_to(ROOT)}:{line}"
+        for mod, path in mods.items()
+        if mod not in RUNTIME_USERS and mod != RUNTIME
+        for target, line, _ in project_imports(mod, path, known)
+        if target == RUNTIME
+    ]
 
 
 def test_no_part_imports_the_node_runtime():
@@ -207,6 +241,8 @@ def test_no_part_imports_the_node_runtime():
 
 def test_the_runtime_import_check_sees_type_checking_imports(tmp_path):
     fake = tmp_path / "part.py"
-    fake.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
-                    "    from telethermo.nodes.runtime import NodeRuntime\n")
+    fake.write_text(
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+        "    from telethermo.nodes.runtime import NodeRuntime\n"
+    )
     assert runtime_importers({"telethermo.nodes.part": fake}) == ["part.py:3"]

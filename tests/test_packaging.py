@@ -1,6 +1,7 @@
 """One installed top-level package: pyproject.toml lists every package folder, the simulator, the
 node programs and the bus configuration install under ``telethermo.`` from their top-level folders,
 and nothing installs a generic top-level name (sim, nodes, bench, bus_config)."""
+
 from __future__ import annotations
 
 import tomllib
@@ -22,12 +23,18 @@ def test_every_package_folder_is_installed_under_telethermo():
         for init in (ROOT / folder).rglob("__init__.py"):
             rel = init.parent.relative_to(ROOT / folder).parts
             expected.add(".".join([pkg, *rel]))
-    assert listed == expected, f"pyproject.toml packages: missing {sorted(expected - listed)}, extra {sorted(listed - expected)}"
+    assert listed == expected, (
+        f"pyproject.toml packages: missing {sorted(expected - listed)}, extra {sorted(listed - expected)}"
+    )
     assert all(p == "telethermo" or p.startswith("telethermo.") for p in listed)
 
 
 def test_the_top_level_folders_keep_their_place():
     dirs = setuptools_table()["package-dir"]
-    assert dirs == {"telethermo.sim": "sim", "telethermo.nodes": "nodes", "telethermo.bus_config": "bus_config"}
+    assert dirs == {
+        "telethermo.sim": "sim",
+        "telethermo.nodes": "nodes",
+        "telethermo.bus_config": "bus_config",
+    }
     for folder in dirs.values():
         assert (ROOT / folder / "__init__.py").is_file()

@@ -1,5 +1,6 @@
 """Small modules, one concept each: no module over 500 lines and no function over 80 lines in the
 library, the node programs, the simulator, the bus configuration and the benchmark suite."""
+
 from __future__ import annotations
 
 import ast
@@ -19,14 +20,19 @@ def sources():
 def long_functions(path: Path, limit: int) -> list[str]:
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     where = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path.name
-    return [f"{where}:{n.lineno} {n.name} ({n.end_lineno - n.lineno + 1} lines)"
-            for n in ast.walk(tree) if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef))
-            and n.end_lineno - n.lineno + 1 > limit]
+    return [
+        f"{where}:{n.lineno} {n.name} ({n.end_lineno - n.lineno + 1} lines)"
+        for n in ast.walk(tree)
+        if isinstance(n, (ast.FunctionDef, ast.AsyncFunctionDef)) and n.end_lineno - n.lineno + 1 > limit
+    ]
 
 
 def test_no_module_over_500_lines():
-    big = [f"{p.relative_to(ROOT)} ({n} lines)" for p in sources()
-           if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES]
+    big = [
+        f"{p.relative_to(ROOT)} ({n} lines)"
+        for p in sources()
+        if (n := len(p.read_text(encoding="utf-8").splitlines())) > MAX_MODULE_LINES
+    ]
     assert not big, "modules over 500 lines:\n" + "\n".join(big)
 
 
@@ -45,7 +51,7 @@ def test_the_length_check_sees_a_long_function(tmp_path):
 #: lines over 110 characters in telethermo/, nodes/, sim/, bus_config/, bench/ and tests/ (issue 26's target is
 #: 0; ruff's E501 is off until the tree is reflowed): this count may only fall. Lower it when you fix lines.
 MAX_LINE = 110
-LONG_LINES_CEILING = 1605
+LONG_LINES_CEILING = 671
 
 
 def long_lines(root: Path = ROOT) -> list[str]:
@@ -60,5 +66,6 @@ def long_lines(root: Path = ROOT) -> list[str]:
 
 def test_lines_over_110_characters_only_ever_fall():
     n = len(long_lines())
-    assert n <= LONG_LINES_CEILING, (f"{n} lines over {MAX_LINE} characters, more than the {LONG_LINES_CEILING} "
-                                     "allowed: wrap the new ones")
+    assert n <= LONG_LINES_CEILING, (
+        f"{n} lines over {MAX_LINE} characters, more than the {LONG_LINES_CEILING} allowed: wrap the new ones"
+    )

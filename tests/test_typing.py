@@ -2,6 +2,7 @@
 telethermo/control, telethermo/device and telethermo/ident with the strict flags and reports no error.
 Runs the mypy installed in the test's own interpreter (the .venv: ``make install`` puts it there through
 the ``dev`` extra)."""
+
 from __future__ import annotations
 
 import importlib.util
@@ -26,8 +27,9 @@ def test_the_configuration_names_the_strict_packages():
     cfg = _mypy_config()
     assert set(cfg["files"]) == set(STRICT_PACKAGES)
     strict = [o for o in cfg["overrides"] if "disallow_untyped_defs" in o]
-    assert strict and {m.replace(".*", "").replace(".", "/") for o in strict for m in o["module"]} \
-        >= set(STRICT_PACKAGES)
+    assert strict and {m.replace(".*", "").replace(".", "/") for o in strict for m in o["module"]} >= set(
+        STRICT_PACKAGES
+    )
     for flag in ("disallow_untyped_defs", "disallow_any_generics", "warn_return_any", "strict_equality"):
         assert all(o.get(flag) is True for o in strict), flag
 
@@ -35,11 +37,14 @@ def test_the_configuration_names_the_strict_packages():
 @pytest.mark.slow
 def test_mypy_reports_no_error_on_the_strict_packages():
     if importlib.util.find_spec("mypy") is None:
-        pytest.skip("MYPY IS NOT INSTALLED in this interpreter: the strict type check did NOT run "
-                    "(run `make install`, which installs the dev extra)")
+        pytest.skip(
+            "MYPY IS NOT INSTALLED in this interpreter: the strict type check did NOT run "
+            "(run `make install`, which installs the dev extra)"
+        )
     env = {k: v for k, v in os.environ.items() if not k.startswith("MYPY")}
-    proc = subprocess.run([sys.executable, "-m", "mypy"], cwd=ROOT, env=env, capture_output=True, text=True,
-                          timeout=900)
+    proc = subprocess.run(
+        [sys.executable, "-m", "mypy"], cwd=ROOT, env=env, capture_output=True, text=True, timeout=900
+    )
     out = proc.stdout + proc.stderr
     errors = [line for line in out.splitlines() if ": error:" in line]
     assert proc.returncode == 0 and not errors, f"mypy: {len(errors)} error(s)\n" + "\n".join(errors[:60])

@@ -4,6 +4,7 @@ The suite is its own program, ``python -m bench``, which this command runs as a 
 interpreter, same arguments, its exit code): the benchmarks sit above every layer of telethermo (they
 time the simulator, the nodes, the CLI itself), so the CLI must not import them.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -12,8 +13,11 @@ import sys
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("bench", description="Run every benchmark (simulator, identification, control, nodes); "
-                                   "results go to bench/results/<name>.json and the table in docs/benchmarks.md.")
+    p = sub.add_parser(
+        "bench",
+        description="Run every benchmark (simulator, identification, control, nodes); "
+        "results go to bench/results/<name>.json and the table in docs/benchmarks.md.",
+    )
     p.add_argument("--quick", action="store_true", help="short runs (CI) that still measure something real")
     p.add_argument("--only", nargs="+", metavar="NAME", help="sim, identify, control, nodes")
     p.set_defaults(func=run)
@@ -21,8 +25,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def bench_argv(args: argparse.Namespace) -> list[str]:
     """The command line of the suite for ``args``."""
-    return ([sys.executable, "-m", "bench"] + (["--quick"] if args.quick else [])
-            + (["--only", *args.only] if args.only else []))
+    return (
+        [sys.executable, "-m", "bench"]
+        + (["--quick"] if args.quick else [])
+        + (["--only", *args.only] if args.only else [])
+    )
 
 
 def run(args: argparse.Namespace) -> int:

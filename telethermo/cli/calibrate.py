@@ -9,6 +9,7 @@ surface temperature (T_sensor - Q·R_sensor/2, guiatni eq. 29) in the 0.5 s befo
 detector closes, T_contact its mean 0.1..1 s after (yamamoto's early-time window), read by SDO. ``--apply`` writes β_pad and T_f0 into the
 master (pad_beta, finger_T0_C), range-checked like ``telethermo set``.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -23,19 +24,30 @@ from telethermo.remote.errors import Failure
 from telethermo.remote.targets import lookup, resolve_node
 from telethermo.remote.values import check_range, fmt
 
-PRE_S, EARLY = 0.5, (0.1, 1.0)   # s before contact; s after contact (ETS window)
+PRE_S, EARLY = 0.5, (0.1, 1.0)  # s before contact; s after contact (ETS window)
 
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("calibrate-finger", description=__doc__.split("\n\n")[1].replace("\n", " "))
     common.add_bus_options(p)
     src = p.add_mutually_exclusive_group(required=True)
-    src.add_argument("--touch", action="append", metavar="T_PAD0:T_CONTACT",
-                     help="one touch: pad pre-set and measured contact temperature, °C (repeat)")
+    src.add_argument(
+        "--touch",
+        action="append",
+        metavar="T_PAD0:T_CONTACT",
+        help="one touch: pad pre-set and measured contact temperature, °C (repeat)",
+    )
     src.add_argument("--live", type=int, metavar="N", help="measure N touches on the live master")
-    p.add_argument("--finger-temp", type=float, metavar="C", help="the finger's initial temperature if measured, °C")
-    p.add_argument("--touch-timeout", type=float, default=60.0, metavar="S",
-                   help="--live: longest wait for each touch, s (default 60)")
+    p.add_argument(
+        "--finger-temp", type=float, metavar="C", help="the finger's initial temperature if measured, °C"
+    )
+    p.add_argument(
+        "--touch-timeout",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="--live: longest wait for each touch, s (default 60)",
+    )
     p.add_argument("--poll", type=float, default=0.02, metavar="S", help="--live: SDO polling period, s")
     p.add_argument("--apply", action="store_true", help="write pad_beta and finger_T0_C into the master")
     p.add_argument("--node", default="master", help="the display node (default master)")
@@ -50,12 +62,13 @@ def parse_touch(text: str) -> tuple[float, float]:
         raise UserError(f"--touch {text!r}: expected T_PAD0:T_CONTACT in °C, e.g. 28:30.9") from None
 
 
-def measure_touch(read, *, timeout_s: float, poll_s: float, clock=time.monotonic, sleep=time.sleep
-                  ) -> tuple[float, float]:
+def measure_touch(
+    read, *, timeout_s: float, poll_s: float, clock=time.monotonic, sleep=time.sleep
+) -> tuple[float, float]:
     """Wait for one touch; (T_pad0, T_contact) from ``read() -> (T_sensor_C, contact)`` samples."""
     before: list[tuple[float, float]] = []
     t_end = clock() + timeout_s
-    was = True   # a finger already on the pad must lift first
+    was = True  # a finger already on the pad must lift first
     while True:
         if clock() > t_end:
             raise Failure(f"no touch within {timeout_s:g} s (the contact detector did not close)")
@@ -105,7 +118,10 @@ def run(args: argparse.Namespace) -> int:
                 return T_mid - node.read(q) * r_sensor / 2.0, bool(node.read(contact))
 
             for k in range(args.live):
-                print(f"touch {k + 1}/{args.live}: put the finger on the pad and hold it for 1 s ...", flush=True)
+                print(
+                    f"touch {k + 1}/{args.live}: put the finger on the pad and hold it for 1 s ...",
+                    flush=True,
+                )
                 p0, c = measure_touch(read, timeout_s=args.touch_timeout, poll_s=args.poll)
                 print(f"  T_pad0 {p0:.3f} °C -> T_contact {c:.3f} °C")
                 touches.append((p0, c))
@@ -113,8 +129,10 @@ def run(args: argparse.Namespace) -> int:
             cal = calibrate_finger([p for p, _ in touches], [c for _, c in touches], args.finger_temp)
         except ValueError as exc:
             raise (Failure if args.live else UserError)(_option_names(str(exc))) from None
-        print(f"beta_pad = {cal.beta_pad:.4f}  T_finger0 = {cal.T_finger0_C:.3f} °C  "
-              f"(residual {cal.residual_C:.3f} °C, {cal.n_touches} touches)")
+        print(
+            f"beta_pad = {cal.beta_pad:.4f}  T_finger0 = {cal.T_finger0_C:.3f} °C  "
+            f"(residual {cal.residual_C:.3f} °C, {cal.n_touches} touches)"
+        )
         if args.apply:
             for info, value in zip(apply_infos, (cal.beta_pad, cal.T_finger0_C)):
                 check_range(info, value)
@@ -127,7 +145,10 @@ def run(args: argparse.Namespace) -> int:
 def _option_names(text: str) -> str:
     """calibrate_finger's message in the words of this command: its options, not Python argument names."""
     text = text.removeprefix("calibrate_finger: ")
-    for py, opt in (("give T_finger0_C", "give --finger-temp"), ("T_finger0_C must", "--finger-temp must"),
-                    ("T_pad0_C and T_contact_C", "the touches (--touch T_PAD0:T_CONTACT)")):
+    for py, opt in (
+        ("give T_finger0_C", "give --finger-temp"),
+        ("T_finger0_C must", "--finger-temp must"),
+        ("T_pad0_C and T_contact_C", "the touches (--touch T_PAD0:T_CONTACT)"),
+    ):
         text = text.replace(py, opt)
     return text

@@ -10,6 +10,7 @@ bus_config/network.toml), ``--bus`` (``socketcan:vcan0``, ``virtual:NAME``,
 SDO abort) raise :class:`telethermo.remote.errors.Failure`, turned into one line on stderr and exit 1 by
 :func:`failures`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,7 +43,7 @@ def failures(run: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Nam
         except Failure as exc:
             print(f"telethermo {args.command}: {exc}", file=sys.stderr)
             return EXIT_FAIL
-        except BrokenPipeError:   # the reader went away (| head): not an error of ours
+        except BrokenPipeError:  # the reader went away (| head): not an error of ours
             os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
             return 0
 
@@ -53,8 +54,9 @@ def failures(run: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Nam
 def add_bus_options(p: argparse.ArgumentParser) -> None:
     g = add_bus_arguments(p)
     g.add_argument("--network", metavar="FILE", help="network settings (default: bus_config/network.toml)")
-    g.add_argument("--timeout", type=float, default=1.0, metavar="S",
-                   help="SDO response timeout, s (default 1.0)")
+    g.add_argument(
+        "--timeout", type=float, default=1.0, metavar="S", help="SDO response timeout, s (default 1.0)"
+    )
 
 
 def network(args: argparse.Namespace) -> NetworkConfig:
@@ -69,8 +71,13 @@ def network(args: argparse.Namespace) -> NetworkConfig:
 def resolved_bus(args: argparse.Namespace, net: NetworkConfig) -> ResolvedBus:
     """The bus of this command and where the setting came from (:func:`resolve_bus`)."""
     try:
-        return resolve_bus(net, bus=getattr(args, "bus", None), interface=getattr(args, "interface", None),
-                           channel=getattr(args, "channel", None), bitrate=getattr(args, "bitrate", None))
+        return resolve_bus(
+            net,
+            bus=getattr(args, "bus", None),
+            interface=getattr(args, "interface", None),
+            channel=getattr(args, "channel", None),
+            bitrate=getattr(args, "bitrate", None),
+        )
     except TransportError as exc:
         raise UserError(str(exc)) from None
 
@@ -84,9 +91,12 @@ def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, 
     rb = resolved_bus(args, net)
     ts = rb.settings
     if ts.interface == "virtual" and rb.source == str(net.path):
-        print(f"telethermo {getattr(args, 'command', '')}: note: {ts.describe()} (from {net.path}) is a bus inside "
-              f"this process only, and no hub or session is running (none in {state_file()}); give the bus with "
-              "--bus or -i/-c, CAN_INTERFACE/CAN_CHANNEL or ~/.canrc, or start telethermo-hub", file=sys.stderr)
+        print(
+            f"telethermo {getattr(args, 'command', '')}: note: {ts.describe()} (from {net.path}) is a bus inside "
+            f"this process only, and no hub or session is running (none in {state_file()}); give the bus with "
+            "--bus or -i/-c, CAN_INTERFACE/CAN_CHANNEL or ~/.canrc, or start telethermo-hub",
+            file=sys.stderr,
+        )
     # python-can's socketcand client logs every TCP read that splits a frame; not news to an operator
     logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
     try:
@@ -95,9 +105,11 @@ def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, 
         raise UserError(str(exc)) from None
     except (can.CanError, OSError, ValueError, ImportError) as exc:
         raise Failure(f"cannot open bus {ts.describe()} (from {rb.source}): {exc}") from None
-    except Exception as exc:   # an interface whose driver library is missing fails in its own ways
-        raise Failure(f"cannot open bus {ts.describe()} (from {rb.source}): {type(exc).__name__}: {exc}; "
-                      f"is the {ts.interface} driver library installed?") from None
+    except Exception as exc:  # an interface whose driver library is missing fails in its own ways
+        raise Failure(
+            f"cannot open bus {ts.describe()} (from {rb.source}): {type(exc).__name__}: {exc}; "
+            f"is the {ts.interface} driver library installed?"
+        ) from None
 
 
 @contextlib.contextmanager

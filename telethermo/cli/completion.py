@@ -12,6 +12,7 @@ completion.
     telethermo completion zsh > "${fpath[1]}/_telethermo"        # or: source <(telethermo completion zsh)
     telethermo completion fish > ~/.config/fish/completions/telethermo.fish
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,8 +36,9 @@ NODE_FIRST = {"get", "set", "sdo", "identify"}
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("completion", description=__doc__,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "completion", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("shell", choices=SHELLS, help="the shell to complete in")
     p.set_defaults(func=run)
 
@@ -154,11 +156,15 @@ def complete(words: list[str], cword: int) -> list[str]:
             found = list(shipped_scenes())
         else:
             found = [str(c) for c in action.choices] if action.choices else []
-        return [w for w in found if w.startswith(cur)]   # nothing: the shell completes a file name
+        return [w for w in found if w.startswith(cur)]  # nothing: the shell completes a file name
     if cur.startswith("-"):
         return [w for w in command_words(cmd) if w.startswith(cur) and w.startswith("-")]
-    choices = [str(c) for a in parser._actions if a.choices and not a.option_strings
-               and not isinstance(a.choices, dict) for c in a.choices]
+    choices = [
+        str(c)
+        for a in parser._actions
+        if a.choices and not a.option_strings and not isinstance(a.choices, dict)
+        for c in a.choices
+    ]
     return [w for w in _positional(cmd, pos, opts, choices) if w.startswith(cur)]
 
 

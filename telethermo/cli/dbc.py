@@ -2,6 +2,7 @@
 for cantools, SavvyCAN, BusMaster or a commercial viewer to decode our traffic. One message per TPDO, a signal
 per mapped object with its unit, floats declared as IEEE, material codes with their names. The mapping is
 the EDS's (with the network file's nodes): a PDO remapped at run time is not in it."""
+
 from __future__ import annotations
 
 import argparse
@@ -37,6 +38,8 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         raise UserError(f"--out {out}: cannot write ({exc.strerror or exc})") from None
     lines = text.splitlines()
-    print(f"{out}: {sum(ln.startswith('BO_ ') for ln in lines)} messages, "
-          f"{sum(ln.startswith(' SG_ ') for ln in lines)} signals")
+    print(
+        f"{out}: {sum(ln.startswith('BO_ ') for ln in lines)} messages, "
+        f"{sum(ln.startswith(' SG_ ') for ln in lines)} signals"
+    )
     return 0

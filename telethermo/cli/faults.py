@@ -5,6 +5,7 @@ until the operator clears it. Writing 1 to 0x240A makes the node clear, at its n
 trips whose cause is gone; while a cause persists the node refuses the write (SDO abort 0x08000022) and
 clears nothing. This command writes it, then reads the safety state back.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -20,13 +21,20 @@ from telethermo.remote.targets import Target, lookup, pair_targets, resolve_node
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("fault-reset", description="The operator's fault reset (object 0x240A): each node clears the latched "
-                                          "trips whose cause is gone, with their EMCYs, and its envelope restarts "
-                                          "bumplessly from the surface. A node where a cause persists refuses "
-                                          "(abort 0x08000022) and clears nothing: exit 1, with the trip named.")
+    p = subparsers.add_parser(
+        "fault-reset",
+        description="The operator's fault reset (object 0x240A): each node clears the latched "
+        "trips whose cause is gone, with their EMCYs, and its envelope restarts "
+        "bumplessly from the surface. A node where a cause persists refuses "
+        "(abort 0x08000022) and clears nothing: exit 1, with the trip named.",
+    )
     common.add_bus_options(p)
-    p.add_argument("nodes", nargs="*", metavar="NODE",
-                   help="master, slave or a node-ID (default: the master and the slave of the network file)")
+    p.add_argument(
+        "nodes",
+        nargs="*",
+        metavar="NODE",
+        help="master, slave or a node-ID (default: the master and the slave of the network file)",
+    )
     p.set_defaults(func=run)
 
 
@@ -45,10 +53,12 @@ def _persists(node: NodeClient, before: dict) -> str:
         mask = node.read(lookup(t, "fault_reset_blocked_by"))
         why = ", ".join(tr.value for tr in trips_from_mask(int(mask)))
     except (Failure, UserError):
-        pass   # an older node: the last trip and the error register still say a lot
-    return (f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
-            f"{values.fmt(trip, trip_info, node.eds)}, error register "
-            f"{values.fmt(reg, reg_info, node.eds)}; remove its cause, then reset")
+        pass  # an older node: the last trip and the error register still say a lot
+    return (
+        f"{t.role}: a latched fault persists{f' ({why})' if why else ''}: last trip "
+        f"{values.fmt(trip, trip_info, node.eds)}, error register "
+        f"{values.fmt(reg, reg_info, node.eds)}; remove its cause, then reset"
+    )
 
 
 def _safety(info, code: int) -> str:
@@ -72,8 +82,9 @@ def run(args: argparse.Namespace) -> int:
                 node.write(info, 1)
             except Refused as exc:
                 if exc.code != ABORT_DEVICE_STATE:
-                    raise Failure(f"{t.role} (node {t.node_id}) refused the fault reset: "
-                                  f"{abort_text(exc.code)}") from None
+                    raise Failure(
+                        f"{t.role} (node {t.node_id}) refused the fault reset: {abort_text(exc.code)}"
+                    ) from None
                 refused.append(_persists(node, before))
                 print(f"{t.role} (node {t.node_id}): not reset, {abort_text(exc.code)}")
                 continue
@@ -86,8 +97,10 @@ def run(args: argparse.Namespace) -> int:
                     break
                 time.sleep(0.05)
             (st_info, was), reg_info = before["safety_state"], before["0x1001"][0]
-            print(f"{t.role} (node {t.node_id}): safety {_safety(st_info, was)} -> {_safety(st_info, st)} ({st}), "
-                  f"error register {values.fmt(reg, reg_info, node.eds)}")
+            print(
+                f"{t.role} (node {t.node_id}): safety {_safety(st_info, was)} -> {_safety(st_info, st)} ({st}), "
+                f"error register {values.fmt(reg, reg_info, node.eds)}"
+            )
     if refused:
         raise Failure("; ".join(refused))
     return 0

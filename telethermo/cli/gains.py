@@ -9,6 +9,7 @@ is in: a node in another mode is refused (nothing written to any node), as is a 
 node's EDS lacks or a value outside its EDS range. Each write is read back and printed as ``set`` prints it;
 one line then names the keys that need the restart.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -16,7 +17,7 @@ import json
 from pathlib import Path
 
 from telethermo.cli import common
-from telethermo.cli.params import line    # the line `set` prints
+from telethermo.cli.params import line  # the line `set` prints
 from telethermo.control.gainsfile import GAIN_FIELDS, apply_marks, load_gains
 from telethermo.control.types import Mode, Role
 from telethermo.remote.client import NodeClient
@@ -26,12 +27,17 @@ from telethermo.remote.values import check_range
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("apply-gains", description=__doc__,
-                              formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "apply-gains", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     common.add_bus_options(p)
     p.add_argument("file", type=Path, metavar="FILE", help="gains file written by `telethermo tune --out`")
-    p.add_argument("nodes", nargs="*", metavar="NODE",
-                   help="master, slave or a node-ID (default: the master and the slave of the network file)")
+    p.add_argument(
+        "nodes",
+        nargs="*",
+        metavar="NODE",
+        help="master, slave or a node-ID (default: the master and the slave of the network file)",
+    )
     p.set_defaults(func=run)
 
 
@@ -39,18 +45,20 @@ def marks(doc: dict, path: Path) -> tuple[list[str], list[str]]:
     """The file's (sdo keys, restart keys); UserError naming the file and the field of a wrong entry."""
     mark = doc.get("apply", apply_marks())
     if not isinstance(mark, dict) or mark.get("mode") != "telepresence":
-        raise UserError(f"{path}: apply: expected an object with \"mode\": \"telepresence\", "
-                        "\"sdo\" and \"restart\"")
+        raise UserError(f'{path}: apply: expected an object with "mode": "telepresence", "sdo" and "restart"')
     lists = []
     for field in ("sdo", "restart"):
         keys = mark.get(field)
         if not isinstance(keys, list) or any(k not in GAIN_FIELDS for k in keys):
-            raise UserError(f"{path}: apply.{field}: expected a list of gain names from "
-                            f"{', '.join(GAIN_FIELDS)}, got {keys!r}")
+            raise UserError(
+                f"{path}: apply.{field}: expected a list of gain names from "
+                f"{', '.join(GAIN_FIELDS)}, got {keys!r}"
+            )
         lists.append(keys)
     if set(lists[0]) & set(lists[1]) or set(lists[0]) | set(lists[1]) != set(GAIN_FIELDS):
-        raise UserError(f"{path}: apply: sdo and restart must split the gains {', '.join(GAIN_FIELDS)} "
-                        "between them")
+        raise UserError(
+            f"{path}: apply: sdo and restart must split the gains {', '.join(GAIN_FIELDS)} between them"
+        )
     return lists[0], lists[1]
 
 
@@ -58,8 +66,9 @@ def _targets(args: argparse.Namespace, net) -> list[Target]:
     targets = [resolve_node(net, n) for n in args.nodes] if args.nodes else pair_targets(net)
     for t in targets:
         if t.role not in PAIR_ROLES:
-            raise UserError(f"{t.role} (node {t.node_id}): a gains file holds gains of the master and the "
-                            "slave only")
+            raise UserError(
+                f"{t.role} (node {t.node_id}): a gains file holds gains of the master and the slave only"
+            )
     return targets
 
 
@@ -67,7 +76,7 @@ def _targets(args: argparse.Namespace, net) -> list[Target]:
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
     try:
-        gains = load_gains(args.file)            # validated: format, names, numbers, CoreParams ranges
+        gains = load_gains(args.file)  # validated: format, names, numbers, CoreParams ranges
     except ValueError as exc:
         raise UserError(str(exc)) from None
     sdo_keys, restart_keys = marks(json.loads(args.file.read_text(encoding="utf-8")), args.file)
@@ -81,8 +90,10 @@ def run(args: argparse.Namespace) -> int:
             try:
                 info = lookup(t, key)
             except UserError:
-                raise UserError(f"{args.file}: apply.sdo marks {key}, but {eds_info(t).path} has no object "
-                                f"{key}; not sent") from None
+                raise UserError(
+                    f"{args.file}: apply.sdo marks {key}, but {eds_info(t).path} has no object "
+                    f"{key}; not sent"
+                ) from None
             try:
                 check_range(info, values[key])
             except UserError as exc:
@@ -91,13 +102,15 @@ def run(args: argparse.Namespace) -> int:
 
     with common.canopen_network(args, net) as nw:
         clients = {t.role: NodeClient(nw, t, args.timeout) for t in targets}
-        for t in targets:       # every node in telepresence before any write
+        for t in targets:  # every node in telepresence before any write
             mode = clients[t.role].read(lookup(t, "mode"))
             if int(mode) != int(Mode.TELEPRESENCE):
                 name = Mode(mode).name.lower() if int(mode) in Mode._value2member_map_ else str(mode)
-                raise Failure(f"{t.role} is in {name}: the file holds telepresence gains and a node writes "
-                              f"a gain into the mode it is in; nothing written (`telethermo mode "
-                              f"telepresence` first, or start the nodes with --gains {args.file})")
+                raise Failure(
+                    f"{t.role} is in {name}: the file holds telepresence gains and a node writes "
+                    f"a gain into the mode it is in; nothing written (`telethermo mode "
+                    f"telepresence` first, or start the nodes with --gains {args.file})"
+                )
         for t, info, value in plan:
             node = clients[t.role]
             try:
@@ -105,9 +118,12 @@ def run(args: argparse.Namespace) -> int:
             except Refused as exc:
                 raise Failure(f"{exc} (from {args.file})") from None
             print(line(t, info, node.read(info), node.eds))
-    pending = [f"{t.role} {k} = {gains[Role(t.role)][k]:g}" for t in targets for k in restart_keys
-               if k in gains[Role(t.role)]]
+    pending = [
+        f"{t.role} {k} = {gains[Role(t.role)][k]:g}"
+        for t in targets
+        for k in restart_keys
+        if k in gains[Role(t.role)]
+    ]
     if pending:
-        print(f"needs a node start with --gains {args.file} (no object to write): "
-              f"{', '.join(pending)}")
+        print(f"needs a node start with --gains {args.file} (no object to write): {', '.join(pending)}")
     return 0

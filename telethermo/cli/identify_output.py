@@ -1,5 +1,6 @@
 """What ``telethermo identify`` prints, on a simulated rig or a live node: the report of the fit (the
 experiment's progress is :class:`telethermo.cli.progress.Progress`)."""
+
 from __future__ import annotations
 
 from telethermo.control.gain_rule import MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, fit_gains
@@ -15,15 +16,20 @@ def gain_lines(model, roles: tuple[str, ...]) -> list[str]:
         m = fit["margins"]
         ok = "meets" if fit["meets_minimum"] else "BELOW"
         pad = " " * (17 - len(role))
-        out.append(f"gains ({role}){pad}x{fit['rho']:.3f} of the shipped; on this model gain margin "
-                   f"{m['gain_margin_dB']:.1f} dB, phase margin {m['phase_margin_deg']:.1f}°, crossover "
-                   f"{m['crossover_Hz']:.2f} Hz ({ok} the minimum {MIN_GAIN_MARGIN_DB:g} dB / "
-                   f"{MIN_PHASE_MARGIN_DEG:g}°)")
+        out.append(
+            f"gains ({role}){pad}x{fit['rho']:.3f} of the shipped; on this model gain margin "
+            f"{m['gain_margin_dB']:.1f} dB, phase margin {m['phase_margin_deg']:.1f}°, crossover "
+            f"{m['crossover_Hz']:.2f} Hz ({ok} the minimum {MIN_GAIN_MARGIN_DB:g} dB / "
+            f"{MIN_PHASE_MARGIN_DEG:g}°)"
+        )
     if not roles:
         return out
     cool = fit_gains(model, Role[roles[0].upper()])["max_cooling_A"]
-    what = ("not found in the model's range (no limit beyond the drive's)" if cool is None else
-            f"{cool:.2f} A (beyond it the Joule heat wins: the node holds its cooling current there)")
+    what = (
+        "not found in the model's range (no limit beyond the drive's)"
+        if cool is None
+        else f"{cool:.2f} A (beyond it the Joule heat wins: the node holds its cooling current there)"
+    )
     out.append(f"max cooling current        {what}")
     return out
 
@@ -48,9 +54,11 @@ def print_report(rep: dict, model=None, roles: tuple[str, ...] = ()) -> None:
         f"time                      experiment {rep['experiment_wall_s']:.2f} s, fit {rep['fit_wall_s']:.2f} s",
     ]
     if "capacity_points" in rep:
-        lines.append(f"capacity (eq. 13)         {rep['capacity_points']} steady states, I "
-                     f"{rep['capacity_current_range_A'][0]:+.3f}..{rep['capacity_current_range_A'][1]:+.3f} A, "
-                     f"fit residual max {rep['capacity_max_abs_W']:.2e} W")
+        lines.append(
+            f"capacity (eq. 13)         {rep['capacity_points']} steady states, I "
+            f"{rep['capacity_current_range_A'][0]:+.3f}..{rep['capacity_current_range_A'][1]:+.3f} A, "
+            f"fit residual max {rep['capacity_max_abs_W']:.2e} W"
+        )
     if model is not None and rep.get("stable", True):
         lines += gain_lines(model, roles)
     print("\n".join(lines))

@@ -9,6 +9,7 @@ line says so. A write that narrows what the node does without a trip (a setpoint
 below the present current) is sent, and one line says what changes. Gains are per mode: ``set`` says
 which mode's gain it wrote (the node's mode at the time of the write).
 """
+
 from __future__ import annotations
 
 import math
@@ -68,31 +69,46 @@ def judge(node: NodeClient, t: Target, key: str, value: float) -> Consequence | 
     if key == "sink_trip_C":
         sink = _read(node, t, "T_sink_C")
         if sink >= v:
-            return Consequence(f"sink_trip_C {v:g} is below the heat sink's {sink:.1f} °C: the heat-sink trip "
-                               f"latches at the next cycle and the current is cut ({where})", True)
+            return Consequence(
+                f"sink_trip_C {v:g} is below the heat sink's {sink:.1f} °C: the heat-sink trip "
+                f"latches at the next cycle and the current is cut ({where})",
+                True,
+            )
     elif key in ("T_max_C", "T_min_C"):
         pad = _read(node, t, "T_sensor_C")
         margin = _DEFAULTS.surface_trip_margin_C
         beyond = pad - v if key == "T_max_C" else v - pad
         side = "above" if key == "T_max_C" else "below"
         if beyond > margin:
-            return Consequence(f"{key} {v:g}: the pad at {pad:.1f} °C is {side} it by more than the envelope's "
-                               f"{margin:g} °C trip margin: the surface trip latches at the next cycle and the "
-                               f"current is cut ({where})", True)
+            return Consequence(
+                f"{key} {v:g}: the pad at {pad:.1f} °C is {side} it by more than the envelope's "
+                f"{margin:g} °C trip margin: the surface trip latches at the next cycle and the "
+                f"current is cut ({where})",
+                True,
+            )
         if beyond > 0:
-            return Consequence(f"{key} {v:g}: the pad at {pad:.1f} °C is {side} it: the setpoint is clamped to "
-                               f"{v:g} °C from the next cycle ({where})", False)
+            return Consequence(
+                f"{key} {v:g}: the pad at {pad:.1f} °C is {side} it: the setpoint is clamped to "
+                f"{v:g} °C from the next cycle ({where})",
+                False,
+            )
     elif key == "mismatch_limit_C":
         gap = abs(_read(node, t, "T_pred_C") - _read(node, t, "T_sensor_C"))
         if math.isfinite(gap) and gap > v:
-            return Consequence(f"mismatch_limit_C {v:g}: the model and the sensor differ by {gap:.1f} °C now: the "
-                               f"mismatch trip latches after {_DEFAULTS.mismatch_time_s:g} s and the current is "
-                               f"cut ({where})", True)
+            return Consequence(
+                f"mismatch_limit_C {v:g}: the model and the sensor differ by {gap:.1f} °C now: the "
+                f"mismatch trip latches after {_DEFAULTS.mismatch_time_s:g} s and the current is "
+                f"cut ({where})",
+                True,
+            )
     elif key == "current_limit_A":
         now = abs(_read(node, t, "current_A"))
         if math.isfinite(now) and now > v:
-            return Consequence(f"current_limit_A {v:g}: the current of {now:.2f} A is limited to {v:g} A from "
-                               f"the next cycle ({where})", False)
+            return Consequence(
+                f"current_limit_A {v:g}: the current of {now:.2f} A is limited to {v:g} A from "
+                f"the next cycle ({where})",
+                False,
+            )
     return None
 
 
@@ -103,5 +119,7 @@ def gain_note(node: NodeClient, t: Target, key: str) -> str | None:
     mode = node_mode(node, t)
     if mode is None:
         return None
-    return (f"  {key} written for the {mode_name(mode)} mode (the node's mode now); each mode keeps its own "
-            f"gains: set it again after `telethermo mode ...` to change another mode's")
+    return (
+        f"  {key} written for the {mode_name(mode)} mode (the node's mode now); each mode keeps its own "
+        f"gains: set it again after `telethermo mode ...` to change another mode's"
+    )

@@ -11,6 +11,7 @@ and one broken subcommand module cannot break the others.
 Exit codes (stable, for scripts): 0 ok, 1 runtime failure (e.g. a node did not answer, SDO abort),
 2 usage or input error (bad argument, bad file), 130 interrupted (Ctrl-C; `record` ends normally on Ctrl-C: 0).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -21,6 +22,7 @@ import sys
 from typing import NamedTuple
 
 from telethermo import __version__
+
 # the operator's error (exit 2), defined with the remote-node client that raises it for bad names and values
 from telethermo.remote.errors import UserError
 
@@ -28,23 +30,31 @@ EXIT_OK, EXIT_FAIL, EXIT_USAGE, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
 class Command(NamedTuple):
-    module: str   # telethermo.cli.<module> defines register(subparsers)
-    help: str     # the line `telethermo --help` shows; register() gets it from here
+    module: str  # telethermo.cli.<module> defines register(subparsers)
+    help: str  # the line `telethermo --help` shows; register() gets it from here
 
 
 # command name -> implementing module and help, in the order `telethermo --help` lists them
 COMMANDS: dict[str, Command] = {
-    "session": Command("session", "run a two-node telepresence session (simulated rigs) and report its figures"),
-    "identify": Command("identify", "identify a TEM model (NARMA temperature + heat-flux) on a live node "
-                                    "(and load it into it) or on a simulated rig"),
+    "session": Command(
+        "session", "run a two-node telepresence session (simulated rigs) and report its figures"
+    ),
+    "identify": Command(
+        "identify",
+        "identify a TEM model (NARMA temperature + heat-flux) on a live node "
+        "(and load it into it) or on a simulated rig",
+    ),
     "tune": Command("tune", "tune the bilateral gains offline (search + ±30 %% robustness check)"),
     "monitor": Command("monitor", "watch the CANopen bus (live or a recorded log)"),
     "find": Command("find", "find the nodes on the bus: NMT state, identity, device name"),
     "status": Command("status", "mode, temperatures, estimates, flux, current, safety of each node"),
     "get": Command("params", "read parameters by EDS name (or list them)"),
     "set": Command("params", "write a parameter by EDS name (range-checked)"),
-    "apply-gains": Command("gains", "write a tuned gains file's gains into running nodes by SDO (and name the "
-                                    "ones that need a restart with --gains)"),
+    "apply-gains": Command(
+        "gains",
+        "write a tuned gains file's gains into running nodes by SDO (and name the "
+        "ones that need a restart with --gains)",
+    ),
     "sdo": Command("sdo", "SDO read/write of one object of any node 1..127 (EDS or not)"),
     "nmt": Command("nmt", "NMT start/stop/preop/reset of one node or all"),
     "mode": Command("mode", "switch the nodes: telepresence | render MATERIAL | idle"),
@@ -58,8 +68,10 @@ COMMANDS: dict[str, Command] = {
     "dbc": Command("dbc", "write a DBC file of the PDO layout, for cantools and CAN viewers"),
     "plot": Command("plot", "plot a recording (a session's recording.csv, a node's --record CSV) to a PNG"),
     "bench": Command("bench", "run the benchmark suite, write bench/results/*.json and docs/benchmarks.md"),
-    "completion": Command("completion", "print a bash/zsh/fish completion script (commands, options, nodes, "
-                                        "EDS names, materials, scenes)"),
+    "completion": Command(
+        "completion",
+        "print a bash/zsh/fish completion script (commands, options, nodes, EDS names, materials, scenes)",
+    ),
 }
 
 
@@ -94,14 +106,16 @@ class _VersionAction(argparse.Action):
     installed metadata costs ~50 ms, which every other command would pay if the parser held the text)."""
 
     def __init__(self, option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, help=None):
-        super().__init__(option_strings, dest=dest, default=default, nargs=0,
-                         help=help or "show the version and exit")
+        super().__init__(
+            option_strings, dest=dest, default=default, nargs=0, help=help or "show the version and exit"
+        )
 
     def __call__(self, parser, namespace, values, option_string=None):
-        from importlib.metadata import PackageNotFoundError, version   # lazy: see the docstring
+        from importlib.metadata import PackageNotFoundError, version  # lazy: see the docstring
+
         try:
             text = version("telethermo")
-        except PackageNotFoundError:   # a source tree that was never installed
+        except PackageNotFoundError:  # a source tree that was never installed
             text = __version__
         print(f"telethermo {text}")
         parser.exit()
@@ -121,13 +135,15 @@ def chosen_command(argv: list[str]) -> str | None:
 def build_parser(command: str | None = None) -> argparse.ArgumentParser:
     """The parser, with the real parser(s) of ``command``'s module (imported now) and a bare entry
     (name and help, no import) for every other command."""
-    parser = argparse.ArgumentParser(prog="telethermo", description="Bilateral thermal telepresence over CANopen.")
+    parser = argparse.ArgumentParser(
+        prog="telethermo", description="Bilateral thermal telepresence over CANopen."
+    )
     parser.add_argument("--version", action=_VersionAction)
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     module = COMMANDS[command].module if command in COMMANDS else None
     for name, cmd in COMMANDS.items():
         if cmd.module == module:
-            if name == command:   # the module registers all of its commands (get and set) at once
+            if name == command:  # the module registers all of its commands (get and set) at once
                 importlib.import_module(f"telethermo.cli.{module}").register(_Subparsers(sub))
         else:
             sub.add_parser(name, help=cmd.help)
@@ -141,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
         signal.signal(signal.SIGINT, signal.default_int_handler)
     argv = sys.argv[1:] if argv is None else list(argv)
-    if argv[:1] == ["__complete"]:   # the shell completion scripts' hidden entry (telethermo.cli.completion)
+    if argv[:1] == ["__complete"]:  # the shell completion scripts' hidden entry (telethermo.cli.completion)
         return importlib.import_module("telethermo.cli.completion").hidden_main(argv[1:])
     parser = build_parser(chosen_command(argv))
     args = parser.parse_args(argv)

@@ -7,6 +7,7 @@ renders), and says so; ``telepresence`` couples both again. A material of the sh
 written as its code (0x2600 ``material_code``, its position in the table), so ``get master material_code``
 names it; a custom ``--beta`` or a material of another ``--table`` is code 0 (custom) with its β.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -24,16 +25,23 @@ from telethermo.remote.values import check_range
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("mode", description="telepresence: both nodes couple bilaterally (guiatni eq. 34/35). "
-                                          "render MATERIAL: the master renders a virtual material alone "
-                                          "(yamamoto eq. 7; β from the rendering table, or --beta). idle: "
-                                          "current to zero through the safety envelope's ramp.")
+    p = subparsers.add_parser(
+        "mode",
+        description="telepresence: both nodes couple bilaterally (guiatni eq. 34/35). "
+        "render MATERIAL: the master renders a virtual material alone "
+        "(yamamoto eq. 7; β from the rendering table, or --beta). idle: "
+        "current to zero through the safety envelope's ramp.",
+    )
     common.add_bus_options(p)
     p.add_argument("mode", choices=["telepresence", "render", "idle"])
-    p.add_argument("material", nargs="?", help="render only: a material of the rendering table (e.g. wood, brass)")
+    p.add_argument(
+        "material", nargs="?", help="render only: a material of the rendering table (e.g. wood, brass)"
+    )
     p.add_argument("--beta", type=float, help="render: relative effusivity β of a custom material instead")
     p.add_argument("--object-temp", type=float, metavar="C", help="render: object's initial temperature, °C")
-    p.add_argument("--table", metavar="TOML", help="rendering table (default: telethermo/data/render_materials.toml)")
+    p.add_argument(
+        "--table", metavar="TOML", help="rendering table (default: telethermo/data/render_materials.toml)"
+    )
     p.set_defaults(func=run)
 
 
@@ -52,8 +60,14 @@ def _material(args) -> tuple[str, float, int]:
         raise UserError(str(exc)) from None
     key = args.material.lower()
     if key not in table:
-        raise UserError(f"unknown material {args.material!r}; the rendering table has {', '.join(sorted(table))}")
-    code = 1 + list(table).index(key) if args.table is None or Path(args.table).resolve() == DEFAULT_RENDER_TABLE else 0
+        raise UserError(
+            f"unknown material {args.material!r}; the rendering table has {', '.join(sorted(table))}"
+        )
+    code = (
+        1 + list(table).index(key)
+        if args.table is None or Path(args.table).resolve() == DEFAULT_RENDER_TABLE
+        else 0
+    )
     return key, table[key], code
 
 
@@ -63,18 +77,19 @@ def run(args: argparse.Namespace) -> int:
     if args.mode != "render" and (args.material or args.beta is not None or args.object_temp is not None):
         raise UserError(f"{args.mode} takes no material, --beta or --object-temp")
     writes: list[tuple[Target, str, object]] = []
-    optional: set[int] = set()   # node-IDs whose silence is reported, not a failure (render: the slave)
+    optional: set[int] = set()  # node-IDs whose silence is reported, not a failure (render: the slave)
     if args.mode == "render":
         name, beta, code = _material(args)
         master = resolve_node(net, "master")
         slave = next((t for t in pair_targets(net) if t.role == "slave"), None)
-        if slave is not None:   # first: nothing drives the operator's pad while the slave still follows it
+        if slave is not None:  # first: nothing drives the operator's pad while the slave still follows it
             writes.append((slave, "mode", int(Mode.IDLE)))
             optional.add(slave.node_id)
         # β first, the code last: a node sets β from its table when the code is written, and the code to 0
         # (custom) when β is
         for key, value in (("material_beta", beta), ("material_code", code)) + (
-                (("object_T0_C", args.object_temp),) if args.object_temp is not None else ()):
+            (("object_T0_C", args.object_temp),) if args.object_temp is not None else ()
+        ):
             writes.append((master, key, value))
         writes.append((master, "mode", int(Mode.RENDER)))
         desc = f"render {name} (β = {beta:g}, material_code {code}{' custom' if code == 0 else ''})"
@@ -102,8 +117,12 @@ def run(args: argparse.Namespace) -> int:
                 if t.node_id not in optional or "did not answer" not in str(exc):
                     raise
                 absent.add(t.node_id)
-                print(f"{t.role} (node {t.node_id}): not answering, so not set to idle (the master renders alone)")
-        wanted = {t.node_id: (t, v) for t, info, v in planned if info.key == "mode" and t.node_id not in absent}
+                print(
+                    f"{t.role} (node {t.node_id}): not answering, so not set to idle (the master renders alone)"
+                )
+        wanted = {
+            t.node_id: (t, v) for t, info, v in planned if info.key == "mode" and t.node_id not in absent
+        }
         refused = []
         for t, v in wanted.values():
             # the node applies the mode in its own thread and writes the object back if it refuses:
@@ -115,8 +134,11 @@ def run(args: argparse.Namespace) -> int:
                     break
                 time.sleep(0.05)
             name = Mode(back).name.lower() if back in Mode._value2member_map_ else str(back)
-            why = " (while the master renders alone; `telethermo mode telepresence` couples both again)" \
-                if args.mode == "render" and t.role == "slave" and back == v else ""
+            why = (
+                " (while the master renders alone; `telethermo mode telepresence` couples both again)"
+                if args.mode == "render" and t.role == "slave" and back == v
+                else ""
+            )
             print(f"{t.role} (node {t.node_id}): mode {name}{why}")
             if back != v:
                 refused.append(f"{t.role} stays in {name}")

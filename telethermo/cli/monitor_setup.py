@@ -4,6 +4,7 @@ that the SDO commands do not import the monitor's decoders; the nodes are named 
 them (:mod:`telethermo.remote.targets`). Every EDS is read by the one loader `get`, `set` and the nodes use
 (:class:`telethermo.device.eds_info.EdsInfo`, CiA 306 checks) before canopen builds the dictionary from it:
 a file they refuse, the monitor refuses with the same words."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -17,8 +18,13 @@ from telethermo.monitor.records import MonitorConfig, NodeInfo
 from telethermo.remote.targets import eds_info, node_targets
 
 
-def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_period_s: float | None = None,
-                   extra_eds: list[str] | tuple[str, ...] = ()) -> MonitorConfig:
+def monitor_config(
+    net: NetworkConfig,
+    *,
+    bitrate: int | None = None,
+    sync_period_s: float | None = None,
+    extra_eds: list[str] | tuple[str, ...] = (),
+) -> MonitorConfig:
     """The monitor's view of the network: node names, EDS dictionaries (``extra_eds``: ``NODE=FILE`` of
     further nodes, named by the file) with the network file's
     power-on overrides (heartbeat and consumer times, SYNC), bitrate and the nominal SYNC period
@@ -26,22 +32,28 @@ def monitor_config(net: NetworkConfig, *, bitrate: int | None = None, sync_perio
     against the period the nodes were configured with, and the view says "lockstep")."""
     nodes = {}
     for t in node_targets(net):
-        if t.eds is None:   # another device named without an EDS: known by name, its PDOs not decoded
+        if t.eds is None:  # another device named without an EDS: known by name, its PDOs not decoded
             nodes[t.node_id] = NodeInfo(t.role, None)
             continue
-        eds_info(t)   # the check `get` and the nodes make (UserError naming the file and what is wrong)
+        eds_info(t)  # the check `get` and the nodes make (UserError naming the file and what is wrong)
         od = _import_od(t.eds, t.node_id)
         _apply_overrides(net, t.role, od)
         nodes[t.node_id] = NodeInfo(t.role, od)
     for spec in extra_eds:
         node_id, info = _extra_node(spec)
         if node_id in nodes:
-            raise UserError(f"--eds {spec}: node {node_id} is the network file's {nodes[node_id].name}, "
-                            f"whose EDS is {net.nodes[nodes[node_id].name].eds}")
+            raise UserError(
+                f"--eds {spec}: node {node_id} is the network file's {nodes[node_id].name}, "
+                f"whose EDS is {net.nodes[nodes[node_id].name].eds}"
+            )
         nodes[node_id] = info
     period = sync_period_s if sync_period_s is not None else net.sync.period_s
-    return MonitorConfig(nodes=nodes, bitrate_bps=bitrate or net.bus.bitrate, sync_period_s=period,
-                         sync_lockstep=net.sync.lockstep)
+    return MonitorConfig(
+        nodes=nodes,
+        bitrate_bps=bitrate or net.bus.bitrate,
+        sync_period_s=period,
+        sync_lockstep=net.sync.lockstep,
+    )
 
 
 def _extra_node(spec: str) -> tuple[int, NodeInfo]:
@@ -57,7 +69,7 @@ def _extra_node(spec: str) -> tuple[int, NodeInfo]:
     if not eds.is_file():
         raise UserError(f"--eds {spec}: {eds}: no such EDS file")
     try:
-        EdsInfo(eds)         # the check `get` and the nodes make
+        EdsInfo(eds)  # the check `get` and the nodes make
     except EdsError as exc:
         raise UserError(f"--eds {spec}: {exc}") from None
     return node_id, NodeInfo(eds.stem, _import_od(eds, node_id))
@@ -77,7 +89,7 @@ def _apply_overrides(net: NetworkConfig, role: str, od) -> None:
     try:
         overrides = net.device_settings(role).overrides()
     except (KeyError, NetworkConfigError):
-        return   # a node without device settings in the file (a further node): its EDS values
+        return  # a node without device settings in the file (a further node): its EDS values
     for (index, sub), value in overrides.items():
         try:
             obj = od[index]

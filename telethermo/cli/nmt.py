@@ -5,6 +5,7 @@ heartbeat since it was sent; then the command listens for one more heartbeat: a 
 again (e.g. a slave put into PRE-OPERATIONAL, which the pair's SYNC producer, its NMT master, starts again
 at its next heartbeat: docs/nodes.md) is reported with the other NMT master's command and how long after,
 exit 1, since the state asked does not hold."""
+
 from __future__ import annotations
 
 import argparse
@@ -16,17 +17,32 @@ from telethermo.remote.heartbeat import heartbeat_wait_s, watch_heartbeats
 from telethermo.remote.targets import node_targets, resolve_any_node
 
 #: command -> (NMT command specifier, heartbeat state confirming it)
-COMMANDS = {"start": (0x01, 0x05), "stop": (0x02, 0x04), "preop": (0x80, 0x7F),
-            "reset": (0x81, 0x00), "reset-comm": (0x82, 0x00)}
+COMMANDS = {
+    "start": (0x01, 0x05),
+    "stop": (0x02, 0x04),
+    "preop": (0x80, 0x7F),
+    "reset": (0x81, 0x00),
+    "reset-comm": (0x82, 0x00),
+}
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("nmt", description="Send an NMT command and wait for the heartbeat that confirms it "
-                                          "(boot-up for the resets). Exit 1 if a node does not confirm.")
+    p = subparsers.add_parser(
+        "nmt",
+        description="Send an NMT command and wait for the heartbeat that confirms it "
+        "(boot-up for the resets). Exit 1 if a node does not confirm.",
+    )
     common.add_bus_options(p)
-    p.add_argument("nmt_command", metavar="command", choices=sorted(COMMANDS), help="start (OPERATIONAL), stop (STOPPED), "
-                   "preop (PRE-OPERATIONAL), reset (node), reset-comm (communication)")
-    p.add_argument("node", nargs="?", default="all", metavar="NODE", help="master, slave, a node-ID or all (default)")
+    p.add_argument(
+        "nmt_command",
+        metavar="command",
+        choices=sorted(COMMANDS),
+        help="start (OPERATIONAL), stop (STOPPED), "
+        "preop (PRE-OPERATIONAL), reset (node), reset-comm (communication)",
+    )
+    p.add_argument(
+        "node", nargs="?", default="all", metavar="NODE", help="master, slave, a node-ID or all (default)"
+    )
     p.add_argument("--no-wait", action="store_true", help="do not wait for the confirming heartbeat")
     p.set_defaults(func=run)
 
@@ -50,26 +66,32 @@ def run(args: argparse.Namespace) -> int:
         def confirmed(t) -> bool:
             if want == 0x00:
                 return hb.boot_ups.get(t.node_id, 0) > boots0[t.node_id]
-            return any(st == want for st, _ in hb.states.get(t.node_id, [])[counts0[t.node_id]:])
+            return any(st == want for st, _ in hb.states.get(t.node_id, [])[counts0[t.node_id] :])
 
         hb.wait_for(lambda: all(confirmed(t) for t in targets), max(0.5, 3 * heartbeat_wait_s(net)))
         ok = {t.node_id: confirmed(t) for t in targets}
-        if want != 0x00:   # does it hold? one more heartbeat of each confirmed node
+        if want != 0x00:  # does it hold? one more heartbeat of each confirmed node
             with hb.cond:
                 seen = {t.node_id: hb.count.get(t.node_id, 0) for t in targets}
-            hb.wait_for(lambda: all(hb.count.get(t.node_id, 0) > seen[t.node_id] for t in targets if ok[t.node_id]),
-                        heartbeat_wait_s(net))
+            hb.wait_for(
+                lambda: all(hb.count.get(t.node_id, 0) > seen[t.node_id] for t in targets if ok[t.node_id]),
+                heartbeat_wait_s(net),
+            )
         bad, left = [], []
         for t in targets:
             state = hb.state_name(t.node_id)
-            print(f"{t.role} (node {t.node_id}): {'boot-up seen' if want == 0 and ok[t.node_id] else state}"
-                  f"{'' if ok[t.node_id] else '  (NOT confirmed)'}")
+            print(
+                f"{t.role} (node {t.node_id}): {'boot-up seen' if want == 0 and ok[t.node_id] else state}"
+                f"{'' if ok[t.node_id] else '  (NOT confirmed)'}"
+            )
             if not ok[t.node_id]:
                 bad.append(t.role)
             elif want != 0x00 and hb.last[t.node_id][0] != want:
                 left.append(_left_again(hb, t, want, counts0[t.node_id]))
     if bad:
-        raise Failure(f"NMT {args.nmt_command}: no heartbeat confirming {NMT_STATES[want]} from {', '.join(bad)}")
+        raise Failure(
+            f"NMT {args.nmt_command}: no heartbeat confirming {NMT_STATES[want]} from {', '.join(bad)}"
+        )
     if left:
         raise Failure("; ".join(left))
     return 0
@@ -86,8 +108,12 @@ def _left_again(hb, t, want: int, since: int) -> str:
     if other:
         ts, cs = other[0]
         name = next((n for n, (c, _) in COMMANDS.items() if c == cs), f"0x{cs:02X}")
-        why = (f": another NMT master sent NMT {name} {max(0.0, ts - reached) * 1e3:.0f} ms after its "
-               f"{NMT_STATES[want]} heartbeat (the pair's SYNC producer starts a node that reports "
-               f"PRE-OPERATIONAL or a boot-up: docs/nodes.md)")
-    return (f"{t.role} (node {t.node_id}) reported {NMT_STATES[want]}, then {NMT_STATES.get(now, hex(now))}"
-            f"{why}; it does not stay there")
+        why = (
+            f": another NMT master sent NMT {name} {max(0.0, ts - reached) * 1e3:.0f} ms after its "
+            f"{NMT_STATES[want]} heartbeat (the pair's SYNC producer starts a node that reports "
+            f"PRE-OPERATIONAL or a boot-up: docs/nodes.md)"
+        )
+    return (
+        f"{t.role} (node {t.node_id}) reported {NMT_STATES[want]}, then {NMT_STATES.get(now, hex(now))}"
+        f"{why}; it does not stay there"
+    )

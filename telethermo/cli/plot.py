@@ -7,6 +7,7 @@ beside its log, ``s.blf.csv``): its PDO values decoded by the EDS mappings
 of the network file's nodes, one panel per unit, EMCYs marked. matplotlib (the ``plot`` extra) is
 imported only when the command runs.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,19 +26,30 @@ BUS_LOGS = (".log", ".asc", ".blf", ".trc")
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("plot", description="Plot a recording as session.png shows a session: temperatures, "
-                                                  "estimates, flux, current, contact and safety state. FILE: a "
-                                                  "session's recording.csv or a node's --record CSV (master.csv, "
-                                                  "slave.csv), or a bus log (.log/.asc/.blf/.trc, or the "
-                                                  "CSV `telethermo record` writes beside it: the PDO "
-                                                  "values by the EDS mappings, one panel per unit, codes "
-                                                  "and counters apart, EMCYs marked). A damaged file is "
-                                                  "named with its line or byte (exit 2).")
+    p = subparsers.add_parser(
+        "plot",
+        description="Plot a recording as session.png shows a session: temperatures, "
+        "estimates, flux, current, contact and safety state. FILE: a "
+        "session's recording.csv or a node's --record CSV (master.csv, "
+        "slave.csv), or a bus log (.log/.asc/.blf/.trc, or the "
+        "CSV `telethermo record` writes beside it: the PDO "
+        "values by the EDS mappings, one panel per unit, codes "
+        "and counters apart, EMCYs marked). A damaged file is "
+        "named with its line or byte (exit 2).",
+    )
     p.add_argument("file", metavar="FILE", type=Path, help="the recording (CSV) or a bus log")
-    p.add_argument("--network", metavar="FILE", help="bus log: the network file whose nodes' EDS decode the PDOs "
-                                                     "(default: the shipped one)")
-    p.add_argument("-o", "--out", metavar="OUT.png", type=Path,
-                   help="the picture (default: FILE with the suffix .png, e.g. master.csv -> master.png)")
+    p.add_argument(
+        "--network",
+        metavar="FILE",
+        help="bus log: the network file whose nodes' EDS decode the PDOs (default: the shipped one)",
+    )
+    p.add_argument(
+        "-o",
+        "--out",
+        metavar="OUT.png",
+        type=Path,
+        help="the picture (default: FILE with the suffix .png, e.g. master.csv -> master.png)",
+    )
     p.set_defaults(func=run)
 
 
@@ -56,7 +68,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         import matplotlib  # noqa: F401  (the optional extra: say so before reading anything)
     except ImportError:
-        raise UserError("matplotlib is not installed; install the plot extra: pip install 'telethermo[plot]'") from None
+        raise UserError(
+            "matplotlib is not installed; install the plot extra: pip install 'telethermo[plot]'"
+        ) from None
     if src.suffix.lower() in BUS_LOGS or (src.suffix.lower() == ".csv" and is_record_csv(src)):
         return plot_bus_log(args, src, out)
     try:

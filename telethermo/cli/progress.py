@@ -8,6 +8,7 @@ log gets ~10 lines, not one per poll. No dependency (tqdm and rich do the same w
     bar.update(k)             # as often as you like; rate=... adds "N <unit>/s"
     bar.close()               # ends the line on a terminal
 """
+
 from __future__ import annotations
 
 import sys
@@ -27,8 +28,17 @@ class Progress:
     terminal). ``stream``: sys.stderr when the display is made; ``tty``: override ``stream.isatty()``
     (tests)."""
 
-    def __init__(self, label: str, total: int, *, unit: str = "steps", stream=None, step_pct: float = 10.0,
-                 tty: bool | None = None, unknown_every: int = 1000) -> None:
+    def __init__(
+        self,
+        label: str,
+        total: int,
+        *,
+        unit: str = "steps",
+        stream=None,
+        step_pct: float = 10.0,
+        tty: bool | None = None,
+        unknown_every: int = 1000,
+    ) -> None:
         self.label, self.unit = label, unit
         # looked up now, not at import: a default argument would pin whatever sys.stderr was then
         self.stream = stream if stream is not None else sys.stderr
@@ -44,8 +54,10 @@ class Progress:
     def text(self, k: int, total: int, rate: float | None = None) -> str:
         pct = 100.0 * k / total if total else 0.0
         tail = f", {rate:,.0f} {self.unit}/s" if rate is not None else ""
-        return (f"{self.label}  {k}/{total or '?'} {self.unit}  ({pct:5.1f} %{tail})  "
-                f"{time.perf_counter() - self.t0:.1f} s")
+        return (
+            f"{self.label}  {k}/{total or '?'} {self.unit}  ({pct:5.1f} %{tail})  "
+            f"{time.perf_counter() - self.t0:.1f} s"
+        )
 
     def update(self, k: int, total: int | None = None, *, rate: float | None = None) -> None:
         total = self.total if not total else int(total)

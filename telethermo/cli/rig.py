@@ -16,6 +16,7 @@ modules by the driver at each start: the check has nothing of its own to store o
 
 Run it with no controller driving the modules (no other SYNC producer on the bus).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -32,17 +33,27 @@ from telethermo.remote.targets import resolve_node
 
 def register(subparsers) -> None:
     p = subparsers.add_parser("rig", description=__doc__)
-    p.set_defaults(func=run)   # an ACTION is required: argparse refuses `telethermo rig` alone (exit 2)
+    p.set_defaults(func=run)  # an ACTION is required: argparse refuses `telethermo rig` alone (exit 2)
     sub = p.add_subparsers(dest="rig_command", metavar="ACTION", required=True)
-    c = sub.add_parser("check", help="verify an I/O rig's wiring step by step (nothing written to NODE)",
-                       description=__doc__)
+    c = sub.add_parser(
+        "check", help="verify an I/O rig's wiring step by step (nothing written to NODE)", description=__doc__
+    )
     common.add_bus_options(c)
-    c.add_argument("node", nargs="?", default="master", metavar="NODE",
-                   help="the controller node the rig belongs to: master, slave or a node-ID (default master)")
-    c.add_argument("--rig-config", required=True, metavar="RIG.toml", help="the rig's file "
-                                                                           "(docs/hardware.md)")
-    c.add_argument("--store", action="store_true",
-                   help="when every step passed, save NODE's parameters (telethermo save NODE)")
+    c.add_argument(
+        "node",
+        nargs="?",
+        default="master",
+        metavar="NODE",
+        help="the controller node the rig belongs to: master, slave or a node-ID (default master)",
+    )
+    c.add_argument(
+        "--rig-config", required=True, metavar="RIG.toml", help="the rig's file (docs/hardware.md)"
+    )
+    c.add_argument(
+        "--store",
+        action="store_true",
+        help="when every step passed, save NODE's parameters (telethermo save NODE)",
+    )
     c.add_argument("-q", "--quiet", action="store_true", help="no progress lines")
     c.set_defaults(func=run)
 
@@ -57,24 +68,43 @@ def run(args: argparse.Namespace) -> int:
         raise UserError(str(exc)) from None
     say = (lambda _: None) if args.quiet else (lambda text: print(f"rig check: {text}", flush=True))
     with common.canopen_network(args, net) as nw:
-        check = RigCheck(config, nw, controller_id=target.node_id, period_s=net.sync.period_s,
-                         counter_overflow=net.sync.counter_overflow, sdo_timeout_s=args.timeout, progress=say)
+        check = RigCheck(
+            config,
+            nw,
+            controller_id=target.node_id,
+            period_s=net.sync.period_s,
+            counter_overflow=net.sync.counter_overflow,
+            sdo_timeout_s=args.timeout,
+            progress=say,
+        )
         try:
             report = check.run()
         except RigCheckFailed as exc:
             f = exc.finding
             raise Failure(f"check failed at step {f.step} [{f.key}]: {f.line}") from None
         except canopen.SdoAbortedError as exc:
-            raise Failure(f"{config.source}: a module refused an SDO request: abort "
-                          f"0x{exc.code:08X}") from None
+            raise Failure(
+                f"{config.source}: a module refused an SDO request: abort 0x{exc.code:08X}"
+            ) from None
         except canopen.SdoCommunicationError as exc:
             raise Failure(f"{config.source}: a module stopped answering SDO ({exc})") from None
     for line in report.lines():
         print(f"rig check: {line}")
-    print(f"rig check: passed: {config.source} is wired as it says ({target.role}, node {target.node_id}); "
-          "next: identify, tune, store")
+    print(
+        f"rig check: passed: {config.source} is wired as it says ({target.role}, node {target.node_id}); "
+        "next: identify, tune, store"
+    )
     sys.stdout.flush()
     if args.store:
-        return store.run(argparse.Namespace(**{**vars(args), "nodes": [args.node], "group": "all",
-                                               "store_command": "save", "command": "save"}))
+        return store.run(
+            argparse.Namespace(
+                **{
+                    **vars(args),
+                    "nodes": [args.node],
+                    "group": "all",
+                    "store_command": "save",
+                    "command": "save",
+                }
+            )
+        )
     return 0

@@ -2,6 +2,7 @@
 
 Each value is shown as ``get`` shows it (:mod:`telethermo.remote.values`): the unit, names for
 enumerations (``1 (telepresence)``), hex with the meaning for bit fields and EMCY codes."""
+
 from __future__ import annotations
 
 import argparse
@@ -22,27 +23,51 @@ from telethermo.remote.targets import eds_info, lookup, node_targets, resolve_no
 
 #: (label, EDS key) read from each node, in display order
 FIELDS = (
-    ("mode", "mode"), ("T_sensor", "T_sensor_C"), ("T_sink", "T_sink_C"), ("estimate", "estimate_C"),
-    ("T_pred", "T_pred_C"), ("T_cmd", "T_cmd_C"), ("peer estimate", "peer_estimate_C"), ("flux", "Q_W"),
-    ("peer flux", "peer_Q_W"), ("current", "current_A"), ("contact", "contact"), ("safety", "safety_state"),
+    ("mode", "mode"),
+    ("T_sensor", "T_sensor_C"),
+    ("T_sink", "T_sink_C"),
+    ("estimate", "estimate_C"),
+    ("T_pred", "T_pred_C"),
+    ("T_cmd", "T_cmd_C"),
+    ("peer estimate", "peer_estimate_C"),
+    ("flux", "Q_W"),
+    ("peer flux", "peer_Q_W"),
+    ("current", "current_A"),
+    ("contact", "contact"),
+    ("safety", "safety_state"),
     ("limits", "limits_active"),
-    ("last trip", "last_trip_code"), ("latched trips", "active_trips"), ("cycles", "cycle_counter"), ("late cycles", "late_cycles"),
-    ("lockstep", "lockstep"), ("peer alive", "peer_alive"), ("link fallback", "link_fallback_active"),
+    ("last trip", "last_trip_code"),
+    ("latched trips", "active_trips"),
+    ("cycles", "cycle_counter"),
+    ("late cycles", "late_cycles"),
+    ("lockstep", "lockstep"),
+    ("peer alive", "peer_alive"),
+    ("link fallback", "link_fallback_active"),
     ("error register", "0x1001"),
-    ("last EMCY", "0x1003sub1"), ("model", "model_status"), ("model CRC-32", "model_crc32"),
+    ("last EMCY", "0x1003sub1"),
+    ("model", "model_status"),
+    ("model CRC-32", "model_crc32"),
     ("identification", "ident_state"),
-    ("material (id)", "identified_material"), ("material stage", "identified_stage"),
-    ("posterior (id)", "identified_posterior"), ("first answer", "identified_early_material"),
-    ("first posterior", "identified_early_posterior"), ("material beta", "identified_beta"),
+    ("material (id)", "identified_material"),
+    ("material stage", "identified_stage"),
+    ("posterior (id)", "identified_posterior"),
+    ("first answer", "identified_early_material"),
+    ("first posterior", "identified_early_posterior"),
+    ("material beta", "identified_beta"),
     ("material touches", "identified_touches"),
-    ("stored", "store_state"), ("stored at", "store_saved_unix_s"), ("store file", "store_file"),
+    ("stored", "store_state"),
+    ("stored at", "store_saved_unix_s"),
+    ("store file", "store_file"),
 )
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("status", description="Read each node's state by SDO: mode, temperatures, estimates, heat "
-                                          "flux, current, safety state, late cycles, last EMCY; NMT state from "
-                                          "its heartbeat. Exit 1 if a node does not answer.")
+    p = subparsers.add_parser(
+        "status",
+        description="Read each node's state by SDO: mode, temperatures, estimates, heat "
+        "flux, current, safety state, late cycles, last EMCY; NMT state from "
+        "its heartbeat. Exit 1 if a node does not answer.",
+    )
     common.add_bus_options(p)
     p.add_argument("nodes", nargs="*", metavar="NODE", help="master, slave or a node-ID (default: all)")
     p.add_argument("--json", action="store_true", help="one JSON document on stdout")
@@ -58,9 +83,9 @@ def pretty(value, info, eds) -> str:
     text = values.fmt(value, info, eds)
     if info.key in ("identified_material", "identified_early_material"):
         text += f" ({material_name(value)})"
-    if info.key == "limits_active":       # which limit acted: a target beyond the clamps shows setpoint_clamp
+    if info.key == "limits_active":  # which limit acted: a target beyond the clamps shows setpoint_clamp
         text = ", ".join(limits_from_mask(int(value))) or "none"
-    if info.key == "store_saved_unix_s":   # seconds since 1970 as a person reads them
+    if info.key == "store_saved_unix_s":  # seconds since 1970 as a person reads them
         text = time.strftime("%Y-%m-%d %H:%M:%S UTC", time.gmtime(value)) if value else "-"
     return text
 
@@ -79,7 +104,7 @@ def run(args: argparse.Namespace) -> int:
                 try:
                     info = lookup(t, key)
                 except UserError:
-                    continue   # this node's EDS lacks the object
+                    continue  # this node's EDS lacks the object
                 try:
                     v = node.read(info)
                 except Failure as exc:
@@ -87,22 +112,25 @@ def run(args: argparse.Namespace) -> int:
                         row["error"] = str(exc)
                         silent.append(t.role)
                         break
-                    v = None   # refused (e.g. 0x1003 empty): show '-'
+                    v = None  # refused (e.g. 0x1003 empty): show '-'
                 row["values"][info.key] = v
                 row["units"][info.key] = info.unit
                 row.setdefault("text", {})[label] = pretty(v, info, eds_info(t))
-            if not row["values"] and row["error"] is None:   # no EDS: is the device there at all?
+            if not row["values"] and row["error"] is None:  # no EDS: is the device there at all?
                 try:
-                    dt = int.from_bytes(remote_node(nw, t.node_id, args.timeout).sdo.upload(0x1000, 0), "little")
+                    dt = int.from_bytes(
+                        remote_node(nw, t.node_id, args.timeout).sdo.upload(0x1000, 0), "little"
+                    )
                     row["values"]["Device type"] = dt
                     row.setdefault("text", {})["device type"] = f"0x{dt:08X} (0x1000; no EDS: raw SDO only)"
-                except SdoAbortedError as exc:   # it answered
+                except SdoAbortedError as exc:  # it answered
                     row["values"]["Device type"] = None
                     row.setdefault("text", {})["device type"] = f"- (0x1000: {exc})"
                 except SdoCommunicationError as exc:
                     silent.append(t.role)
-                    row["error"] = (f"{t.role} (node {t.node_id}) did not answer reading 0x1000 device type "
-                                    f"({exc})")
+                    row["error"] = (
+                        f"{t.role} (node {t.node_id}) did not answer reading 0x1000 device type ({exc})"
+                    )
             out.append(row)
         hb.wait_for(lambda: all(r["node_id"] in hb.last for r in out), heartbeat_wait_s(net))
         for r in out:
@@ -113,8 +141,10 @@ def run(args: argparse.Namespace) -> int:
         clean = [{k: v for k, v in r.items() if k != "text"} for r in out]
         for r in clean:
             # JSON has no NaN or infinity: a value the node reports as one is null (as is a refused read)
-            r["values"] = {k: (None if isinstance(v, float) and not math.isfinite(v) else v)
-                           for k, v in r["values"].items()}
+            r["values"] = {
+                k: (None if isinstance(v, float) and not math.isfinite(v) else v)
+                for k, v in r["values"].items()
+            }
         print(json.dumps({"nodes": clean}, indent=2, allow_nan=False))
     else:
         for r in out:

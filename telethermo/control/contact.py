@@ -11,6 +11,7 @@ exceeds ``on_W`` for ``on_samples`` samples, and release when it stays below ``o
 not cancel.) Optionally it ORs in the rig's own
 detector flag (IR detector / force switch) or uses the flag alone.
 """
+
 from __future__ import annotations
 
 import math
@@ -21,8 +22,8 @@ from enum import Enum
 class ContactSource(str, Enum):
     """Which signals decide contact."""
 
-    FLUX = "flux"                  # heat-flux jump only (default)
-    FLAG = "flag"                  # the rig's detector flag only
+    FLUX = "flux"  # heat-flux jump only (default)
+    FLAG = "flag"  # the rig's detector flag only
     FLUX_OR_FLAG = "flux_or_flag"  # either
 
 
@@ -53,13 +54,17 @@ class ContactParams:
 
     def __post_init__(self) -> None:
         if not (math.isfinite(self.on_W) and math.isfinite(self.off_W) and 0 < self.off_W <= self.on_W):
-            raise ValueError(f"ContactParams.on_W/off_W: expected 0 < off_W <= on_W, got {self.off_W}, {self.on_W}")
+            raise ValueError(
+                f"ContactParams.on_W/off_W: expected 0 < off_W <= on_W, got {self.off_W}, {self.on_W}"
+            )
         if not (isinstance(self.on_samples, int) and self.on_samples >= 1):
             raise ValueError(f"ContactParams.on_samples: expected an int >= 1, got {self.on_samples!r}")
         if not (isinstance(self.slope_samples, int) and self.slope_samples >= 1):
             raise ValueError(f"ContactParams.slope_samples: expected an int >= 1, got {self.slope_samples!r}")
         if not (math.isfinite(self.c_top_J_per_K) and self.c_top_J_per_K >= 0):
-            raise ValueError(f"ContactParams.c_top_J_per_K: expected a finite number >= 0, got {self.c_top_J_per_K!r}")
+            raise ValueError(
+                f"ContactParams.c_top_J_per_K: expected a finite number >= 0, got {self.c_top_J_per_K!r}"
+            )
         if not (self.off_time_s >= 0 and self.baseline_tau_s > 0):
             raise ValueError("ContactParams.off_time_s/baseline_tau_s: expected >= 0 and > 0")
         ContactSource(self.source)
@@ -74,11 +79,12 @@ class ContactState:
     above: int = 0
     below_s: float = 0.0
     since_s: float = 0.0  # time since the last change of decision, s
-    T_hist: tuple[float, ...] = ()    # last slope_samples + 1 sensor temperatures, °C (newest first)
+    T_hist: tuple[float, ...] = ()  # last slope_samples + 1 sensor temperatures, °C (newest first)
 
 
-def contact_step(p: ContactParams, st: ContactState, Q_W: float, flag: bool, dt_s: float,
-                 T_sensor_C: float = math.nan) -> ContactState:
+def contact_step(
+    p: ContactParams, st: ContactState, Q_W: float, flag: bool, dt_s: float, T_sensor_C: float = math.nan
+) -> ContactState:
     """Advance the detector by one sample (pure). ``T_sensor_C`` feeds the storage correction."""
     if p.source is ContactSource.FLAG:
         c = bool(flag)

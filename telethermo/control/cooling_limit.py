@@ -21,6 +21,7 @@ model's current range and extrapolated to its zero gives I*.
 >>> math.isinf(zero_of_linear_gain(np.array([-1.0, 0.0, 1.0]), np.array([3.0, 2.0, 1.0])))
 True
 """
+
 from __future__ import annotations
 
 import math

@@ -1,5 +1,6 @@
 """The control core's parameters: :class:`CoreParams` (frozen, self-checking; defaults from
 :mod:`telethermo.control.defaults`), the rendering settings and the feedback/phase enums."""
+
 from __future__ import annotations
 
 import math
@@ -23,13 +24,13 @@ class Feedback(str, Enum):
     """What the PI compares with the setpoint."""
 
     ESTIMATE = "estimate"  # the own contact-side estimate (the pad surface the finger/object touches)
-    MODEL = "model"        # the model's T_pred (guiatni eq. 34/35 taken literally)
+    MODEL = "model"  # the model's T_pred (guiatni eq. 34/35 taken literally)
 
 
 class RenderPhase(str, Enum):
     """Where virtual rendering is."""
 
-    PRESET = "preset"    # no contact: pad held at T_pad0 (eq. 7)
+    PRESET = "preset"  # no contact: pad held at T_pad0 (eq. 7)
     CONTACT = "contact"  # contact detected: pad held at T_contact (eq. 1)
 
 
@@ -87,8 +88,9 @@ class RenderSettings:
 NO_GAINS = PIGains(0.0, 0.0)
 
 
-def _finite_number(owner: str, name: str, v: Any, *, lo: float | None = None, hi: float | None = None,
-                   lo_open: bool = False) -> None:
+def _finite_number(
+    owner: str, name: str, v: Any, *, lo: float | None = None, hi: float | None = None, lo_open: bool = False
+) -> None:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
         raise ValueError(f"{owner}.{name}: expected a finite number, got {v!r}")
     if lo is not None and (v <= lo if lo_open else v < lo):
@@ -209,8 +211,11 @@ class CoreParams:
             raise ValueError(f"{o}.mode: RENDER runs on the master only")
         # built once: step() runs every SYNC
         object.__setattr__(self, "_gains", PIGains(self.kp_A_per_C, self.ki_A_per_C_s))
-        fg = None if (self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0) else \
-            FluxPIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
+        fg = (
+            None
+            if (self.kpQ_A_per_W == 0.0 and self.kiQ_A_per_W_s == 0.0)
+            else FluxPIGains(self.kpQ_A_per_W, self.kiQ_A_per_W_s)
+        )
         object.__setattr__(self, "_flux_gains", fg)
         object.__setattr__(self, "_air_gains", FluxPIGains(self.air_kpQ_A_per_W, self.air_kiQ_A_per_W_s))
 

@@ -33,6 +33,7 @@ rig takes its rig's own, :func:`tem_limits`, in the offline runner and the node 
 not used: it is fitted on free-air steady states within ±0.25 A, which fix neither the load term nor the
 curvature (the shipped fit's θ2 is negative, the physics' ½·R positive).
 """
+
 from __future__ import annotations
 
 import math
@@ -41,12 +42,16 @@ from typing import Any
 KELVIN = 273.15
 
 
-def datasheet_constants(Imax_A: float, Vmax_V: float, dTmax_K: float,
-                        Th_C: float) -> tuple[float, float, float]:
+def datasheet_constants(
+    Imax_A: float, Vmax_V: float, dTmax_K: float, Th_C: float
+) -> tuple[float, float, float]:
     """(α V/K, R Ω, K W/K) of an ideal module from its ratings (the standard derivation sim.tem uses)."""
     Th = Th_C + KELVIN
-    return (Vmax_V / Th, (Th - dTmax_K) * Vmax_V / (Th * Imax_A),
-            (Th - dTmax_K) * Vmax_V * Imax_A / (2.0 * Th * dTmax_K))
+    return (
+        Vmax_V / Th,
+        (Th - dTmax_K) * Vmax_V / (Th * Imax_A),
+        (Th - dTmax_K) * Vmax_V * Imax_A / (2.0 * Th * dTmax_K),
+    )
 
 
 #: the shipped rig's TEM (sim/data/tem_15x15.toml: Imax 3 A, Vmax 3.75 V, ΔTmax 67 K at 27 °C;
@@ -55,8 +60,17 @@ SHIPPED_ALPHA_V_K, SHIPPED_R_OHM, SHIPPED_K_W_K = datasheet_constants(3.0, 3.75,
 SHIPPED_TAU_V_K = 1.9e-3
 
 
-def hold_current_A(alpha_V_K: float, R_ohm: float, K_W_K: float, tau_V_K: float, *, T_pad_C: float,
-                   T_sink_C: float, Q_load_W: float, I_limit_A: float) -> float:
+def hold_current_A(
+    alpha_V_K: float,
+    R_ohm: float,
+    K_W_K: float,
+    tau_V_K: float,
+    *,
+    T_pad_C: float,
+    T_sink_C: float,
+    Q_load_W: float,
+    I_limit_A: float,
+) -> float:
     """The steady current that holds the pad plate at ``T_pad_C`` with the sink at ``T_sink_C`` and
     ``Q_load_W`` leaving the pad into its load, A, clipped to ±``I_limit_A`` (a load beyond the TEM's
     capacity: the limit on that side; the heat out of the pad is a parabola in I, so heating always has a
@@ -75,9 +89,9 @@ def hold_current_A(alpha_V_K: float, R_ohm: float, K_W_K: float, tau_V_K: float,
         i = -c / b
     else:
         disc = b * b - 4.0 * a * c
-        if disc < 0.0:   # more heat in than the module can pump away at any current: it cools flat out
+        if disc < 0.0:  # more heat in than the module can pump away at any current: it cools flat out
             return -I_limit_A
-        i = 2.0 * (-c) / (b + math.sqrt(disc))   # the root through 0 A (no cancellation)
+        i = 2.0 * (-c) / (b + math.sqrt(disc))  # the root through 0 A (no cancellation)
     return max(-I_limit_A, min(I_limit_A, i))
 
 
@@ -95,8 +109,9 @@ def sensor_average(avg_C: float, T_sensor_C: float, dt_s: float) -> float:
     return avg_C + (T_sensor_C - avg_C) * min(1.0, dt_s / AVERAGE_TAU_S)
 
 
-def detach_excess(limits: Any, *, T_sensor_C: float, T_avg_C: float, current_A: float, T_sink_C: float,
-                  Q_W: float) -> bool:
+def detach_excess(
+    limits: Any, *, T_sensor_C: float, T_avg_C: float, current_A: float, T_sink_C: float, Q_W: float
+) -> bool:
     """This sample says "sensor off the pad": the pad is steady by its sensor (the sensor's slope, from its
     running average ``T_avg_C``, below ``detach_slope_C_per_s``) and yet the current differs from the one that
     holds the pad at that temperature against the measured load by more than
@@ -110,8 +125,16 @@ def detach_excess(limits: Any, *, T_sensor_C: float, T_avg_C: float, current_A: 
         return False
     if abs(T_sensor_C - T_avg_C) / AVERAGE_TAU_S > limits.detach_slope_C_per_s:
         return False
-    hold = hold_current_A(limits.tem_alpha_V_K, limits.tem_R_ohm, limits.tem_K_W_K, limits.tem_tau_V_K,
-                          T_pad_C=T_sensor_C, T_sink_C=T_sink_C, Q_load_W=Q_W, I_limit_A=limits.I_limit_A)
+    hold = hold_current_A(
+        limits.tem_alpha_V_K,
+        limits.tem_R_ohm,
+        limits.tem_K_W_K,
+        limits.tem_tau_V_K,
+        T_pad_C=T_sensor_C,
+        T_sink_C=T_sink_C,
+        Q_load_W=Q_W,
+        I_limit_A=limits.I_limit_A,
+    )
     if not math.isfinite(hold):
         return False
     margin_A = float(limits.detach_excess_A + limits.detach_rel * abs(hold))
@@ -122,7 +145,7 @@ def detach_timer(limits: Any, timer_s: float, excess: bool, dt_s: float) -> tupl
     """The leaky timer, s (up by ``dt_s`` while ``excess``, down by ``dt_s`` otherwise, never below 0), and
     whether it reached ``detach_time_s`` (trip)."""
     timer_s = timer_s + dt_s if excess else max(0.0, timer_s - dt_s)
-    return timer_s, timer_s >= limits.detach_time_s - 1e-9   # (a sum of float steps)
+    return timer_s, timer_s >= limits.detach_time_s - 1e-9  # (a sum of float steps)
 
 
 def tem_limits(rig: Any) -> dict[str, float]:
@@ -132,5 +155,9 @@ def tem_limits(rig: Any) -> dict[str, float]:
     tem = getattr(getattr(rig, "params", None), "tem", None)
     if tem is None:
         return {}
-    return {"tem_alpha_V_K": float(tem.alpha_V_K), "tem_R_ohm": float(tem.R_ohm),
-            "tem_K_W_K": float(tem.K_W_K), "tem_tau_V_K": float(tem.tau_V_K)}
+    return {
+        "tem_alpha_V_K": float(tem.alpha_V_K),
+        "tem_R_ohm": float(tem.R_ohm),
+        "tem_K_W_K": float(tem.K_W_K),
+        "tem_tau_V_K": float(tem.tau_V_K),
+    }

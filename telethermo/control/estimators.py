@@ -12,6 +12,7 @@ The heat-flux sensor (thickness e, thermocouple at its mid-plane) sits between t
 The predictor is anything with ``step(current_A) -> T_pred_C`` and ``reset(T_C)``
 (:class:`TemperaturePredictor`), e.g. ``telethermo.ident``'s streaming free-run predictor.
 """
+
 from __future__ import annotations
 
 from enum import Enum
@@ -21,9 +22,9 @@ from typing import Any, Protocol, runtime_checkable
 class Estimator(str, Enum):
     """Which contact-temperature estimate a controller uses and sends."""
 
-    MODEL = "model"   # guiatni eq. 30/31: 2·T_sensor - T_pred
-    FLUX = "flux"     # eq. 29: T_sensor - Q·R_sensor/2
-    FUSED = "fused"   # w·model + (1 - w)·flux
+    MODEL = "model"  # guiatni eq. 30/31: 2·T_sensor - T_pred
+    FLUX = "flux"  # eq. 29: T_sensor - Q·R_sensor/2
+    FUSED = "fused"  # w·model + (1 - w)·flux
 
 
 @runtime_checkable
@@ -72,8 +73,14 @@ def estimate_flux(T_sensor_C: float, Q_W: float, R_sensor_K_per_W: float) -> flo
     return T_sensor_C - 0.5 * Q_W * R_sensor_K_per_W
 
 
-def estimate(kind: Estimator, T_sensor_C: float, Q_W: float, T_pred_C: float, R_sensor_K_per_W: float,
-             fused_weight: float = 0.5) -> float:
+def estimate(
+    kind: Estimator,
+    T_sensor_C: float,
+    Q_W: float,
+    T_pred_C: float,
+    R_sensor_K_per_W: float,
+    fused_weight: float = 0.5,
+) -> float:
     """The estimate of ``kind``, °C. ``fused_weight`` is the weight of the model estimate.
 
     >>> estimate(Estimator.FUSED, 30.0, 0.2, 31.0, 5.0, fused_weight=0.5)   # halfway between 29.0 and 29.5
@@ -83,5 +90,6 @@ def estimate(kind: Estimator, T_sensor_C: float, Q_W: float, T_pred_C: float, R_
         return estimate_flux(T_sensor_C, Q_W, R_sensor_K_per_W)
     if kind is Estimator.MODEL:
         return estimate_model(T_sensor_C, T_pred_C)
-    return fused_weight * estimate_model(T_sensor_C, T_pred_C) + \
-        (1.0 - fused_weight) * estimate_flux(T_sensor_C, Q_W, R_sensor_K_per_W)
+    return fused_weight * estimate_model(T_sensor_C, T_pred_C) + (1.0 - fused_weight) * estimate_flux(
+        T_sensor_C, Q_W, R_sensor_K_per_W
+    )

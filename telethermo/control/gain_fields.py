@@ -6,6 +6,7 @@ kp, ki, kQ, 0x2200..0x2202); the others (the flux loop's kpQ, kiQ) have no objec
 with ``--gains FILE``. :mod:`telethermo.control.gainsfile` writes the
 split into each gains file (its ``"apply"`` entry); ``telethermo apply-gains`` reads it.
 """
+
 from __future__ import annotations
 
 from telethermo.bus_config.partable import GAINS as PER_MODE, PARAMS

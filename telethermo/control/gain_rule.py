@@ -189,8 +189,9 @@ def fitted_params(params: Any, fit: dict[str, Any]) -> Any:
     p = scaled_params(params, fit["rho"])
     mid = getattr(p, "material_id", None)
     if mid is not None and mid.box is not None and not same_module(fit):
-        p = dataclasses.replace(p, material_id=dataclasses.replace(
-            mid, box=dataclasses.replace(mid.box, probe_matches=False)))
+        p = dataclasses.replace(
+            p, material_id=dataclasses.replace(mid, box=dataclasses.replace(mid.box, probe_matches=False))
+        )
     cool = fit.get("max_cooling_A")
     if cool is None:
         return p

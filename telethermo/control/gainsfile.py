@@ -8,6 +8,7 @@
 tuner's objective and search, see :func:`telethermo.tuning.document.gains_document`) are kept for
 the record and ignored here.
 """
+
 from __future__ import annotations
 
 import json
@@ -33,7 +34,7 @@ def apply_marks() -> dict[str, Any]:
 def parse_gains(doc: Any, where: str = "gains") -> dict[Role, dict[str, float]]:
     """Validate a gains document -> {Role: {CoreParams field: value}} (the overrides of default_params)."""
     if not isinstance(doc, dict) or doc.get("format") != GAINS_FORMAT:
-        raise ValueError(f"{where}: expected a JSON object with \"format\": \"{GAINS_FORMAT}\"")
+        raise ValueError(f'{where}: expected a JSON object with "format": "{GAINS_FORMAT}"')
     out: dict[Role, dict[str, float]] = {}
     for role in (Role.MASTER, Role.SLAVE):
         r = doc.get(role)
@@ -42,7 +43,9 @@ def parse_gains(doc: Any, where: str = "gains") -> dict[Role, dict[str, float]]:
         vals: dict[str, float] = {}
         for k, v in r.items():
             if k not in GAIN_FIELDS:
-                raise ValueError(f"{where}: {role}.{k}: unknown gain (expected one of {', '.join(GAIN_FIELDS)})")
+                raise ValueError(
+                    f"{where}: {role}.{k}: unknown gain (expected one of {', '.join(GAIN_FIELDS)})"
+                )
             if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
                 raise ValueError(f"{where}: {role}.{k}: expected a finite number, got {v!r}")
             vals[k] = float(v)

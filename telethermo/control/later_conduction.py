@@ -18,6 +18,7 @@ thick object the bracket stays ~0 and the model renders eq. 1, as the semi-infin
 Each slab is integrated exactly over the control period for a flux held over it (matrix exponential,
 computed once when the model is built): pure, stable for any period, a few multiply-adds per cycle.
 """
+
 from __future__ import annotations
 
 import math
@@ -77,12 +78,19 @@ class Slab:
         return float(x[0] + q_in_W / self.G_front_W_K)
 
 
-def build_slab(mat: ObjectMaterial, widths_m: np.ndarray, area_m2: float, dt_s: float, *,
-               G_back_W_K: float = 0.0, T_back_C: float = 0.0) -> Slab:
+def build_slab(
+    mat: ObjectMaterial,
+    widths_m: np.ndarray,
+    area_m2: float,
+    dt_s: float,
+    *,
+    G_back_W_K: float = 0.0,
+    T_back_C: float = 0.0,
+) -> Slab:
     """A slab of ``mat`` with the given cells, heated at its front, losing G_back·(T − T_back) at its back."""
     w = np.asarray(widths_m, float)
     n = len(w)
-    half_R = w / (2.0 * mat.lambda_W_mK * area_m2)          # centre to face, K/W
+    half_R = w / (2.0 * mat.lambda_W_mK * area_m2)  # centre to face, K/W
     C = mat.rho_c_J_m3K * w * area_m2
     K = np.zeros((n, n))
     for i in range(n - 1):
@@ -124,8 +132,9 @@ class ConductionState:
     T_surface_C: float = math.nan
 
 
-def conduction_model(obj: VirtualObject, mat: ObjectMaterial, dt_s: float,
-                     C_front_J_K: float = 0.0) -> ConductionModel:
+def conduction_model(
+    obj: VirtualObject, mat: ObjectMaterial, dt_s: float, C_front_J_K: float = 0.0
+) -> ConductionModel:
     """The model of ``obj`` (made of ``mat``) stepped every ``dt_s`` seconds."""
     if not (math.isfinite(dt_s) and dt_s > 0):
         raise ValueError(f"conduction_model: dt_s must be > 0, got {dt_s!r}")
@@ -134,20 +143,24 @@ def conduction_model(obj: VirtualObject, mat: ObjectMaterial, dt_s: float,
     first = min(0.5 * math.sqrt(a * T_FIRST_S), L / 4.0)
     depth = max(4.0 * math.sqrt(a * HORIZON_S), 2.0 * L)
     G_back = H_AIR_W_M2K * obj.area_m2 if obj.back == "ambient" else 0.0
-    slab = build_slab(mat, graded_widths(first, RATIO, L), obj.area_m2, dt_s, G_back_W_K=G_back,
-                      T_back_C=obj.T_ambient_C)
+    slab = build_slab(
+        mat, graded_widths(first, RATIO, L), obj.area_m2, dt_s, G_back_W_K=G_back, T_back_C=obj.T_ambient_C
+    )
     deep = build_slab(mat, graded_widths(first, RATIO, depth), obj.area_m2, dt_s)
     return ConductionModel(slab, deep, float(C_front_J_K))
 
 
 def conduction_start(model: ConductionModel, T_object0_C: float) -> ConductionState:
     """Both slabs uniform at the object's initial temperature (°C) at the touch."""
-    return ConductionState(np.full(len(model.slab.widths_m), float(T_object0_C)),
-                           np.full(len(model.deep.widths_m), float(T_object0_C)))
+    return ConductionState(
+        np.full(len(model.slab.widths_m), float(T_object0_C)),
+        np.full(len(model.deep.widths_m), float(T_object0_C)),
+    )
 
 
-def conduction_step(model: ConductionModel, state: ConductionState, q_in_W: float,
-                    T_surface_C: float = math.nan) -> tuple[ConductionState, float]:
+def conduction_step(
+    model: ConductionModel, state: ConductionState, q_in_W: float, T_surface_C: float = math.nan
+) -> tuple[ConductionState, float]:
     """Advance one period with ``q_in_W`` (W, measured at the sensor's mid-plane) entering the object's
     front and the pad's surface estimate ``T_surface_C`` (°C); returns the new state and the finite-object
     correction T_s,slab − T_s,deep, °C (add it to eq. 1's T_contact)."""

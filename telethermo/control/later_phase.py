@@ -12,13 +12,19 @@ Three models, chosen per render (``RenderSettings.later``):
     st = later_start(lp, T_object0_C)                       # at the touch
     T, st = later_setpoint(lp, st, T_contact_C, T_finger0_C, T_object0_C, t_since_s, q_in_W, T_surface_C)
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 from enum import Enum
 from typing import Any, cast
 
-from telethermo.control.later_conduction import ConductionModel, conduction_model, conduction_start, conduction_step
+from telethermo.control.later_conduction import (
+    ConductionModel,
+    conduction_model,
+    conduction_start,
+    conduction_step,
+)
 from telethermo.control.later_rc import RcEntry, load_rc_table, rc_lookup, rc_temperature
 from telethermo.control.virtual_object import ObjectTable, VirtualObject, load_object_table
 
@@ -58,23 +64,35 @@ class LaterPhase:
     conduction: ConductionModel | None = None
 
 
-def later_phase(model: str | LaterModel, obj: VirtualObject | None, dt_s: float, *, load_g: float = 0.0,
-                objects: ObjectTable | None = None, rc_table: list[RcEntry] | None = None) -> LaterPhase:
+def later_phase(
+    model: str | LaterModel,
+    obj: VirtualObject | None,
+    dt_s: float,
+    *,
+    load_g: float = 0.0,
+    objects: ObjectTable | None = None,
+    rc_table: list[RcEntry] | None = None,
+) -> LaterPhase:
     """Build the later-phase model ``model`` of ``obj`` for a control period ``dt_s`` (s). The tables
     default to the shipped ones (telethermo/data/render_objects.toml, render_rc.toml)."""
     try:
         m = LaterModel(model)
     except ValueError:
-        raise ValueError(f"later_phase: model: expected one of {', '.join(LATER_MODELS)}, got {model!r}") from None
+        raise ValueError(
+            f"later_phase: model: expected one of {', '.join(LATER_MODELS)}, got {model!r}"
+        ) from None
     if m is LaterModel.SEMI_INFINITE:
         return LaterPhase(m, obj)
     if obj is None:
-        raise ValueError(f"later_phase: the {m.value} model needs the virtual object (material, thickness, back)")
+        raise ValueError(
+            f"later_phase: the {m.value} model needs the virtual object (material, thickness, back)"
+        )
     objects = objects or load_object_table()
     name = objects.canonical(obj.material)
     if m is LaterModel.RC:
-        tau, phi = rc_lookup(rc_table if rc_table is not None else load_rc_table(), name, obj.thickness_mm,
-                             obj.back, load_g)
+        tau, phi = rc_lookup(
+            rc_table if rc_table is not None else load_rc_table(), name, obj.thickness_mm, obj.back, load_g
+        )
         return LaterPhase(m, obj, tau_s=tau, final_fraction=phi)
     return LaterPhase(m, obj, conduction=conduction_model(obj, objects.get(name), dt_s))
 
@@ -86,8 +104,16 @@ def later_start(lp: LaterPhase, T_object0_C: float) -> Any:
     return None
 
 
-def later_setpoint(lp: LaterPhase, state: Any, T_contact_C: float, T_finger0_C: float, T_object0_C: float,
-                   t_since_s: float, q_in_W: float, T_surface_C: float = float("nan")) -> tuple[float, Any]:
+def later_setpoint(
+    lp: LaterPhase,
+    state: Any,
+    T_contact_C: float,
+    T_finger0_C: float,
+    T_object0_C: float,
+    t_since_s: float,
+    q_in_W: float,
+    T_surface_C: float = float("nan"),
+) -> tuple[float, Any]:
     """The temperature to render now, °C, and the model's next state.
 
     ``T_contact_C``: eq. 1; ``t_since_s``: time since the touch was detected, s; ``q_in_W``: heat flowing
@@ -106,21 +132,26 @@ def later_setpoint(lp: LaterPhase, state: Any, T_contact_C: float, T_finger0_C: 
 def later_od_values(lp: LaterPhase | None) -> dict[str, float | int]:
     """The OD image of a later phase: later_model code, object_thickness_mm, object_back code."""
     obj = lp.obj if lp is not None else None
-    return {"later_model": LATER_CODES.index(lp.model.value) if lp is not None else 0,
-            "object_thickness_mm": obj.thickness_mm if obj is not None else DEFAULT_THICKNESS_MM,
-            "object_back": BACK_CODES.index(obj.back) if obj is not None else 0}
+    return {
+        "later_model": LATER_CODES.index(lp.model.value) if lp is not None else 0,
+        "object_thickness_mm": obj.thickness_mm if obj is not None else DEFAULT_THICKNESS_MM,
+        "object_back": BACK_CODES.index(obj.back) if obj is not None else 0,
+    }
 
 
-def later_key(lp: LaterPhase | None, material: str,
-              written: dict[str, float | int]) -> tuple[str, str, float, str]:
+def later_key(
+    lp: LaterPhase | None, material: str, written: dict[str, float | int]
+) -> tuple[str, str, float, str]:
     """(model, material, thickness_mm, back): ``lp``'s with the operator's OD writes (``written``: codes as
     in :func:`later_od_values`) on top; the key of :func:`later_from_key`. ValueError on a bad code."""
     cur = later_od_values(lp)
     cur.update(written)
     code, back = int(cur["later_model"]), int(cur["object_back"])
     if not (0 <= code < len(LATER_CODES) and 0 <= back < len(BACK_CODES)):
-        raise ValueError(f"later phase: later_model {code} / object_back {back}: expected codes "
-                         f"0..{len(LATER_CODES) - 1} / 0..{len(BACK_CODES) - 1}")
+        raise ValueError(
+            f"later phase: later_model {code} / object_back {back}: expected codes "
+            f"0..{len(LATER_CODES) - 1} / 0..{len(BACK_CODES) - 1}"
+        )
     return LATER_CODES[code], material, float(cur["object_thickness_mm"]), BACK_CODES[back]
 
 

@@ -12,6 +12,7 @@ benali-khoudja's (object heated to 40 °C, cooling in contact with the finger, w
 load; bench/rc_identify.py on the simulator) and stored in telethermo/data/render_rc.toml, which
 :func:`load_rc_table` reads. :func:`fit_exponential` is the identification's fit.
 """
+
 from __future__ import annotations
 
 import math
@@ -54,12 +55,12 @@ def fit_exponential(t_s: ArrayLike, T_C: ArrayLike) -> tuple[float, float, float
 
     def res(p: NDArray[np.float64]) -> NDArray[np.float64]:
         tau, Tinf, T0 = p
-        return cast(NDArray[np.float64], Tinf + (T0 - Tinf) * np.exp(-t0 / tau) - y)   # p's items: Any
+        return cast(NDArray[np.float64], Tinf + (T0 - Tinf) * np.exp(-t0 / tau) - y)  # p's items: Any
 
     p0 = (max(t0[-1] / 3.0, 1e-3), y[-1], y[0])
     sol = least_squares(res, p0, bounds=([1e-4, -100.0, -100.0], [1e6, 200.0, 200.0]), x_scale="jac")
     tau, Tinf, T0 = (float(v) for v in sol.x)
-    return tau, Tinf, T0, float(np.sqrt(np.mean(sol.fun ** 2)))
+    return tau, Tinf, T0, float(np.sqrt(np.mean(sol.fun**2)))
 
 
 def load_rc_table(path: str | Path | None = None) -> list[RcEntry]:
@@ -78,29 +79,44 @@ def load_rc_table(path: str | Path | None = None) -> list[RcEntry]:
     for k, e in enumerate(rows):
         f = f"entry[{k}]"
         try:
-            out.append(RcEntry(str(e["material"]), float(e["thickness_mm"]), str(e["back"]), float(e["load_g"]),
-                               float(e["tau_s"]), float(e["final_fraction"])))
+            out.append(
+                RcEntry(
+                    str(e["material"]),
+                    float(e["thickness_mm"]),
+                    str(e["back"]),
+                    float(e["load_g"]),
+                    float(e["tau_s"]),
+                    float(e["final_fraction"]),
+                )
+            )
         except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(f"{path}: field '{f}': expected material, thickness_mm, back, load_g, tau_s, "
-                             f"final_fraction ({exc!r})") from None
+            raise ValueError(
+                f"{path}: field '{f}': expected material, thickness_mm, back, load_g, tau_s, "
+                f"final_fraction ({exc!r})"
+            ) from None
         if not (out[-1].tau_s > 0 and out[-1].thickness_mm > 0 and math.isfinite(out[-1].tau_s)):
             raise ValueError(f"{path}: field '{f}.tau_s': expected a time > 0, got {out[-1].tau_s!r}")
     return out
 
 
-def rc_lookup(table: list[RcEntry], material: str, thickness_mm: float, back: str = "adiabatic",
-              load_g: float = 0.0) -> tuple[float, float]:
+def rc_lookup(
+    table: list[RcEntry], material: str, thickness_mm: float, back: str = "adiabatic", load_g: float = 0.0
+) -> tuple[float, float]:
     """(τ s, φ) for an object: the entries of the same material, back and load, interpolated linearly in
     thickness (clamped to the identified range). An "ambient" back without entries falls back to the
     adiabatic ones. ValueError when the material has none."""
     for b in (back, "adiabatic"):
-        rows = sorted((e for e in table if e.material == material and e.back == b and abs(e.load_g - load_g) < 1e-9),
-                      key=lambda e: e.thickness_mm)
+        rows = sorted(
+            (e for e in table if e.material == material and e.back == b and abs(e.load_g - load_g) < 1e-9),
+            key=lambda e: e.thickness_mm,
+        )
         if rows:
             break
     else:
-        raise ValueError(f"RC table: no time constant for {material!r} (back {back}, load {load_g} g); "
-                         f"materials: {', '.join(sorted({e.material for e in table}))}")
+        raise ValueError(
+            f"RC table: no time constant for {material!r} (back {back}, load {load_g} g); "
+            f"materials: {', '.join(sorted({e.material for e in table}))}"
+        )
     th = np.array([e.thickness_mm for e in rows])
     tau = float(np.interp(thickness_mm, th, [e.tau_s for e in rows]))
     phi = float(np.interp(thickness_mm, th, [e.final_fraction for e in rows]))

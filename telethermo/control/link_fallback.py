@@ -32,6 +32,7 @@ envelope's ramp limit carries the setpoint from the render to the peer's estimat
 Pure: :class:`LinkState` is an immutable value carried in the core's state; :func:`link_step` runs every
 master telepresence step.
 """
+
 from __future__ import annotations
 
 import functools
@@ -40,8 +41,14 @@ from dataclasses import dataclass, replace
 from typing import Any, cast
 
 from telethermo.control.defaults import RENDER_GAINS
-from telethermo.control.later_phase import (DEFAULT_LATER_MODEL, DEFAULT_THICKNESS_MM, LaterPhase, later_phase,
-                                            later_setpoint, later_start)
+from telethermo.control.later_phase import (
+    DEFAULT_LATER_MODEL,
+    DEFAULT_THICKNESS_MM,
+    LaterPhase,
+    later_phase,
+    later_setpoint,
+    later_start,
+)
 from telethermo.control.material_stream import UNKNOWN_CODE
 from telethermo.control.pi import PIGains
 from telethermo.control.rendering import contact_temperature, load_render_table
@@ -140,20 +147,27 @@ def object_temperature(T_finger0_C: float, T_surface_C: float, beta: float) -> f
     return min(max(T, T_OBJECT_RANGE_C[0]), T_OBJECT_RANGE_C[1])
 
 
-def _track(st: LinkState, peer: PeerValues | None, peer_usable: bool, contact: bool,
-           est_C: float) -> LinkState:
+def _track(
+    st: LinkState, peer: PeerValues | None, peer_usable: bool, contact: bool, est_C: float
+) -> LinkState:
     """Follow the touch, the finger's temperature, the object's surface and the identification (link up)."""
     probe = peer.contact if peer is not None else None
     touching = contact and probe is not False
     touch = st.touch + (1 if touching and not st.touching else 0)
-    T_f0, T_s, code, beta, id_touch, peer_touch = (st.T_finger0_C, st.T_surface_C, st.code, st.beta, st.id_touch,
-                                                   st.peer_touch)
+    T_f0, T_s, code, beta, id_touch, peer_touch = (
+        st.T_finger0_C,
+        st.T_surface_C,
+        st.code,
+        st.beta,
+        st.id_touch,
+        st.peer_touch,
+    )
     T_o0 = st.T_object0_id_C
     if peer_usable:
-        peer = cast(PeerValues, peer)        # usable: there is one
-        T_o0 = peer.material_T_object0_C     # the latest (it may come a few cycles after the counter)
+        peer = cast(PeerValues, peer)  # usable: there is one
+        T_o0 = peer.material_T_object0_C  # the latest (it may come a few cycles after the counter)
         if probe is False and math.isfinite(est_C):
-            T_f0 = est_C            # the probe in the air: the master's estimate is the finger's own temperature
+            T_f0 = est_C  # the probe in the air: the master's estimate is the finger's own temperature
         T_s = peer.estimate_C if touching else math.nan
         if peer.material_touch != peer_touch:
             peer_touch = peer.material_touch
@@ -162,18 +176,45 @@ def _track(st: LinkState, peer: PeerValues | None, peer_usable: bool, contact: b
             code, beta, id_touch = (peer.material_code, b, touch) if ok else (0, math.nan, -2)
     elif not touching:
         T_s = math.nan
-    return replace(st, touch=touch, touching=touching, T_finger0_C=T_f0, T_surface_C=T_s, code=code, beta=beta,
-                   T_object0_id_C=T_o0, id_touch=id_touch, peer_touch=peer_touch)
+    return replace(
+        st,
+        touch=touch,
+        touching=touching,
+        T_finger0_C=T_f0,
+        T_surface_C=T_s,
+        code=code,
+        beta=beta,
+        T_object0_id_C=T_o0,
+        id_touch=id_touch,
+        peer_touch=peer_touch,
+    )
 
 
 def _can_start(st: LinkState, render_s: float, peer_tripped: bool) -> bool:
-    return (render_s > 0 and not st.spent and not peer_tripped and st.touching and st.code > 0
-            and st.id_touch >= st.touch - 1 and math.isfinite(st.T_surface_C))
+    return (
+        render_s > 0
+        and not st.spent
+        and not peer_tripped
+        and st.touching
+        and st.code > 0
+        and st.id_touch >= st.touch - 1
+        and math.isfinite(st.T_surface_C)
+    )
 
 
-def link_step(st: LinkState, peer: PeerValues | None, *, peer_usable: bool, contact: bool, est_C: float,
-              q_in_W: float, T_surface_est_C: float, render_s: float, dt_s: float,
-              peer_tripped: bool) -> LinkResult:
+def link_step(
+    st: LinkState,
+    peer: PeerValues | None,
+    *,
+    peer_usable: bool,
+    contact: bool,
+    est_C: float,
+    q_in_W: float,
+    T_surface_est_C: float,
+    render_s: float,
+    dt_s: float,
+    peer_tripped: bool,
+) -> LinkResult:
     """One master telepresence step.
 
     Args:
@@ -185,7 +226,7 @@ def link_step(st: LinkState, peer: PeerValues | None, *, peer_usable: bool, cont
         peer_tripped: the envelope already holds a peer trip (a loss being handled as before: no fallback).
     """
     st = _track(st, peer, peer_usable, contact, est_C)
-    if peer_usable:                                    # link up (or back): telepresence
+    if peer_usable:  # link up (or back): telepresence
         return LinkResult(replace(st, active=False, spent=False, t_s=0.0, later=None), math.nan)
     started = False
     if st.active:
@@ -201,7 +242,9 @@ def link_step(st: LinkState, peer: PeerValues | None, *, peer_usable: bool, cont
         T_o0 = min(max(T_o0, T_OBJECT_RANGE_C[0]), T_OBJECT_RANGE_C[1])
         T_c = contact_temperature(T_f0, 1.0, T_o0, st.beta)
         lp = fallback_later_phase(st.code, dt_s)
-        st = replace(st, active=True, t_s=0.0, T_object0_C=T_o0, T_contact_C=T_c, later=(lp, later_start(lp, T_o0)))
+        st = replace(
+            st, active=True, t_s=0.0, T_object0_C=T_o0, T_contact_C=T_c, later=(lp, later_start(lp, T_o0))
+        )
         started = True
     else:
         return LinkResult(replace(st, spent=True), math.nan)

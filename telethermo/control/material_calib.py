@@ -23,6 +23,7 @@ The file (:func:`save_calibration`, NumPy .npz, written atomically; :func:`load_
 and the field of any malformed entry) carries the period and window it was measured with: a calibration is
 valid only for the probe, controller, rest temperature and sampling it was measured on.
 """
+
 from __future__ import annotations
 
 import io
@@ -121,8 +122,9 @@ def n_units(cal: Calibration) -> int:
     return sum(len(net) for net in cal.nets)
 
 
-def network_unit(cal: Calibration, x: np.ndarray, h: np.ndarray | None, probs: tuple[np.ndarray, ...], k: int
-                 ) -> tuple[np.ndarray | None, tuple[np.ndarray, ...]]:
+def network_unit(
+    cal: Calibration, x: np.ndarray, h: np.ndarray | None, probs: tuple[np.ndarray, ...], k: int
+) -> tuple[np.ndarray | None, tuple[np.ndarray, ...]]:
     """Unit ``k`` of the staged classification of input ``x`` (pure): one layer of one network, so that no control
     cycle carries a whole network (a 512 × 512 layer is 0.03 ms here but milliseconds on an emulated or small
     CPU). ``h`` the previous layer's output (None at a network's first), ``probs`` the softmax of the networks
@@ -132,7 +134,7 @@ def network_unit(cal: Calibration, x: np.ndarray, h: np.ndarray | None, probs: t
         i, j = i - len(cal.nets[j]), j + 1
     W, b = cal.nets[j][i]
     last = i == len(cal.nets[j]) - 1
-    out = layer(W, b, x if i == 0 else cast(np.ndarray, h), last)   # h is set after a network's first layer
+    out = layer(W, b, x if i == 0 else cast(np.ndarray, h), last)  # h is set after a network's first layer
     return (None, probs + (np.exp(log_softmax(out)),)) if last else (out, probs)
 
 
@@ -168,7 +170,9 @@ def whitener(noise_cov: np.ndarray, reg: float) -> np.ndarray:
     return np.linalg.inv(np.linalg.cholesky(S))
 
 
-def input_map(V: np.ndarray, noise_cov: np.ndarray | None, reg: float) -> tuple[np.ndarray, np.ndarray, float]:
+def input_map(
+    V: np.ndarray, noise_cov: np.ndarray | None, reg: float
+) -> tuple[np.ndarray, np.ndarray, float]:
     """(center, whiten, scale) for reference touch vectors ``V`` (N × 2·n_win, °C): their mean, the noise's
     whitening (identity without ``noise_cov``) and the whitened references' overall standard deviation (the
     networks' inputs are then of order one)."""
@@ -189,11 +193,21 @@ def _net_fields(cal: Calibration) -> dict[str, np.ndarray]:
 def save_calibration(cal: Calibration, path: str | Path) -> Path:
     """Write the calibration file atomically (a reader sees the old file or the new one)."""
     buf = io.BytesIO()
-    np.savez_compressed(buf, format=np.array(FORMAT), classes=np.array(cal.classes), dt_s=np.array(cal.dt_s),
-                        n_win=np.array(cal.n_win), q_weight_K_per_W=np.array(cal.q_weight_K_per_W),
-                        center=cal.center, whiten=cal.whiten, scale=np.array(cal.scale), n_nets=np.array(len(cal.nets)),
-                        n_layers=np.array(len(cal.nets[0]) if cal.nets else 0), info=np.array(cal.info),
-                        **cast(dict[str, Any], _net_fields(cal)))
+    np.savez_compressed(
+        buf,
+        format=np.array(FORMAT),
+        classes=np.array(cal.classes),
+        dt_s=np.array(cal.dt_s),
+        n_win=np.array(cal.n_win),
+        q_weight_K_per_W=np.array(cal.q_weight_K_per_W),
+        center=cal.center,
+        whiten=cal.whiten,
+        scale=np.array(cal.scale),
+        n_nets=np.array(len(cal.nets)),
+        n_layers=np.array(len(cal.nets[0]) if cal.nets else 0),
+        info=np.array(cal.info),
+        **cast(dict[str, Any], _net_fields(cal)),
+    )
     return write_bytes_atomic(path, buf.getvalue())
 
 
@@ -217,8 +231,9 @@ def _scalar(path: Path, data: NpzFile, key: str, lo: float) -> float:
     return float(a)
 
 
-def _nets(path: Path, data: NpzFile, n_in: int,
-          n_out: int) -> tuple[tuple[tuple[np.ndarray, np.ndarray], ...], ...]:
+def _nets(
+    path: Path, data: NpzFile, n_in: int, n_out: int
+) -> tuple[tuple[tuple[np.ndarray, np.ndarray], ...], ...]:
     """The ensemble's layers, each checked to chain from ``n_in`` inputs to ``n_out`` classes."""
     n_nets, n_layers = int(_scalar(path, data, "n_nets", 0.0)), int(_scalar(path, data, "n_layers", 0.0))
     nets: list[tuple[tuple[np.ndarray, np.ndarray], ...]] = []
@@ -229,8 +244,10 @@ def _nets(path: Path, data: NpzFile, n_in: int,
             W, b = _field(path, data, f"net{j}_w{i}", 2), _field(path, data, f"net{j}_b{i}", 1)
             out = n_out if i == n_layers - 1 else W.shape[1]
             if W.shape != (width, out) or b.shape != (out,):
-                raise ValueError(f"{path}: field 'net{j}_w{i}': expected {width} × {out} weights and {out} biases, "
-                                 f"got {W.shape} and {b.shape}")
+                raise ValueError(
+                    f"{path}: field 'net{j}_w{i}': expected {width} × {out} weights and {out} biases, "
+                    f"got {W.shape} and {b.shape}"
+                )
             layers.append((W.astype(np.float32), b.astype(np.float32)))
             width = out
         nets.append(tuple(layers))
@@ -254,8 +271,19 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
         n_win = int(_scalar(path, data, "n_win", 5.0))
         center, whiten = _field(path, data, "center", 1), _field(path, data, "whiten", 2)
         if center.shape != (2 * n_win,) or whiten.shape != (center.size, center.size):
-            raise ValueError(f"{path}: field 'center'/'whiten': expected {2 * n_win} values per touch (n_win {n_win})")
+            raise ValueError(
+                f"{path}: field 'center'/'whiten': expected {2 * n_win} values per touch (n_win {n_win})"
+            )
         nets = _nets(path, data, center.size, classes.size)
         info = str(data["info"]) if "info" in data.files else ""
-        return Calibration(tuple(str(c) for c in classes), dt, n_win, qw, center.astype(float), whiten.astype(float),
-                           scale, nets, info)
+        return Calibration(
+            tuple(str(c) for c in classes),
+            dt,
+            n_win,
+            qw,
+            center.astype(float),
+            whiten.astype(float),
+            scale,
+            nets,
+            info,
+        )

@@ -44,6 +44,7 @@ Classification (:func:`classify`): nearest table effusivity in ln b; the posteri
 Gaussian in ln b with the estimate's standard error widened by a model floor ``floor_ln``, and the margin
 to the second nearest, in units of that σ.
 """
+
 from __future__ import annotations
 
 import functools
@@ -57,7 +58,6 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from telethermo.control.rendering import DEFAULT_RENDER_TABLE
-
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,10 +169,10 @@ def filter_release(n: int, cutoff_Hz: float, dt_s: float) -> np.ndarray:
     if cutoff_Hz <= 0:
         return np.zeros(n)
     (b0, b1, b2), (a1, a2) = butter2_lowpass(cutoff_Hz, 1.0 / dt_s)
-    z1, z2 = 1.0 - b0, b2 - a2           # at rest on 1 (sim.measurement.Biquad.reset)
+    z1, z2 = 1.0 - b0, b2 - a2  # at rest on 1 (sim.measurement.Biquad.reset)
     out = np.empty(n)
     for i in range(n):
-        y = z1                           # input 0
+        y = z1  # input 0
         z1, z2 = -a1 * y + z2, -a2 * y
         out[i] = y
     out.flags.writeable = False
@@ -189,8 +189,10 @@ def half_integral_matrix(n: int, dt_s: float, onset_s: float) -> np.ndarray:
     a[0] = -onset_s
     b = t + 0.5 * dt_s
     tk, aj, bj = t[:, None], a[None, :], np.minimum(b[None, :], t[:, None])
-    M = np.tril(2.0 * (np.sqrt(np.maximum(tk - aj, 0.0)) - np.sqrt(np.maximum(tk - bj, 0.0))) / math.sqrt(math.pi))
-    M.flags.writeable = False                # cached: shared by every fit with these settings
+    M = np.tril(
+        2.0 * (np.sqrt(np.maximum(tk - aj, 0.0)) - np.sqrt(np.maximum(tk - bj, 0.0))) / math.sqrt(math.pi)
+    )
+    M.flags.writeable = False  # cached: shared by every fit with these settings
     return cast(np.ndarray, M)
 
 
@@ -206,19 +208,19 @@ def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbePara
     n_win = int(round(probe.window_s / dt_s))
     if i0 < n_pre or T.shape != Q.shape or T.ndim != 1 or T.size < i0 + n_win or n_win < 6:
         return None
-    Tw, Qw = T[i0 - n_pre: i0 + n_win], Q[i0 - n_pre: i0 + n_win]
+    Tw, Qw = T[i0 - n_pre : i0 + n_win], Q[i0 - n_pre : i0 + n_win]
     if not (np.isfinite(Tw).all() and np.isfinite(Qw).all()):
         return None
     Rh = probe.R_half_K_per_W
     T_pre, Q_pre = float(np.mean(Tw[:n_pre])), float(np.mean(Qw[:n_pre]))
     Ta, Qa = Tw[n_pre:], Qw[n_pre:]
     s = filter_release(n_win, probe.cutoff_Hz, dt_s)
-    q = Qa - Q_pre * s                                   # F[Q·H]
+    q = Qa - Q_pre * s  # F[Q·H]
     # the contact face: below the thermocouple by R_half times the mean flux of the upper half, which is
     # the measured (thickness-mean) flux less half the heat the upper half stores
     dT_dt = _slope(Tw, dt_s, probe.slope_half_width)[n_pre:]
-    top = Ta - Rh * (Qa - probe.top_store_J_per_K * dT_dt)                           # F[T_top]
-    top_H = top - (T_pre - Rh * Q_pre) * s               # F[T_top·H]
+    top = Ta - Rh * (Qa - probe.top_store_J_per_K * dT_dt)  # F[T_top]
+    top_H = top - (T_pre - Rh * Q_pre) * s  # F[T_top·H]
     stored = probe.c_store_J_per_K * 0.5 * ((Ta - T_pre) + (top - (T_pre - Rh * Q_pre)))
     E = dt_s * (np.cumsum(q) - 0.5 * q) - stored
     return E, top_H, q, s
@@ -240,8 +242,9 @@ class FitInput:
 FORMS = ("energy", "flux")
 
 
-def fit_input(T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, dt_s: float,
-              probe: ProbeParams = ProbeParams()) -> FitInput | None:
+def fit_input(
+    T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, dt_s: float, probe: ProbeParams = ProbeParams()
+) -> FitInput | None:
     """The touch's window (``probe.pre_s`` before the first contact sample ``i_contact``, ``probe.window_s``
     after), or None when the samples are too few or not finite."""
     T, Q = np.asarray(T_sensor_C, float), np.asarray(Q_W, float)
@@ -250,7 +253,7 @@ def fit_input(T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, dt_s: float
     if T.ndim != 1 or T.shape != Q.shape or i0 < n_pre:
         return None
     i1 = i0 + int(round(probe.window_s / dt_s))
-    T, Q = T[i0 - n_pre: i1], Q[i0 - n_pre: i1]
+    T, Q = T[i0 - n_pre : i1], Q[i0 - n_pre : i1]
     w = _window(T, Q, n_pre, dt_s, probe)
     return FitInput(T, Q, n_pre, dt_s, w) if w is not None else None
 
@@ -261,7 +264,9 @@ def fit_form(inp: FitInput, form: str, probe: ProbeParams = ProbeParams()) -> Ef
     return f(*inp.w, inp.dt_s, 0.5 * inp.dt_s, probe)
 
 
-def noise_deviation(inp: FitInput, form: str, ln_b: float, k: int, probe: ProbeParams = ProbeParams()) -> float:
+def noise_deviation(
+    inp: FitInput, form: str, ln_b: float, k: int, probe: ProbeParams = ProbeParams()
+) -> float:
     """Change of ln b when the ``k``-th realisation of the rig's documented noise (seeded by
     ``(probe.noise_seed, k)``, filtered like the signals) is added to the window and ``form`` refitted (1.0
     when the refit fails): the noise enters every later sample through the integrals, which the residuals do
@@ -293,8 +298,9 @@ def noise_draws(probe: ProbeParams) -> int:
     return probe.noise_draws if probe.T_sigma_C > 0 or probe.Q_sigma_W > 0 else 0
 
 
-def estimate_effusivity(T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, dt_s: float,
-                        probe: ProbeParams = ProbeParams()) -> EffusivityEstimate | None:
+def estimate_effusivity(
+    T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, dt_s: float, probe: ProbeParams = ProbeParams()
+) -> EffusivityEstimate | None:
     """Fit the object's effusivity from the samples around a touch (pure; all stages at once: the slave's
     core spreads the same stages over several cycles, telethermo.control.material_stream).
 
@@ -316,7 +322,9 @@ def estimate_effusivity(T_sensor_C: ArrayLike, Q_W: ArrayLike, i_contact: int, d
         return None
     form, est = best
     ln_b = math.log(est.b)
-    return with_noise_spread(est, [noise_deviation(inp, form, ln_b, k, probe) for k in range(noise_draws(probe))])
+    return with_noise_spread(
+        est, [noise_deviation(inp, form, ln_b, k, probe) for k in range(noise_draws(probe))]
+    )
 
 
 def lowpass(x: np.ndarray, cutoff_Hz: float, dt_s: float) -> np.ndarray:
@@ -333,10 +341,17 @@ def lowpass(x: np.ndarray, cutoff_Hz: float, dt_s: float) -> np.ndarray:
     return y
 
 
-def _energy_form(E: np.ndarray, top_H: np.ndarray, q: np.ndarray, s: np.ndarray, dt_s: float, onset_s: float,
-                 probe: ProbeParams) -> EffusivityEstimate | None:
+def _energy_form(
+    E: np.ndarray,
+    top_H: np.ndarray,
+    q: np.ndarray,
+    s: np.ndarray,
+    dt_s: float,
+    onset_s: float,
+    probe: ProbeParams,
+) -> EffusivityEstimate | None:
     """E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H]: θ = (b, b·T_o0, b·R_c)."""
-    M = probe.area_m2 * half_integral_matrix(E.size, dt_s, onset_s)            # A·I½
+    M = probe.area_m2 * half_integral_matrix(E.size, dt_s, onset_s)  # A·I½
     X = np.column_stack([M @ top_H, -(M @ (1.0 - s)), -(M @ q)])
     k0 = int(round(probe.skip_s / dt_s))
     wp = probe.prior_weight
@@ -345,14 +360,25 @@ def _energy_form(E: np.ndarray, top_H: np.ndarray, q: np.ndarray, s: np.ndarray,
         return None
     theta, se_b, resid = fit
     b = float(theta[0])
-    return EffusivityEstimate(b=b, se_ln_b=se_b / b, T_object0_C=float(theta[1] / b),
-                              R_contact_K_per_W=float(theta[2] / b),
-                              residual_C=math.sqrt(float(resid @ resid) / resid.size) / (b * probe.area_m2 * 0.5),
-                              n=int(resid.size))
+    return EffusivityEstimate(
+        b=b,
+        se_ln_b=se_b / b,
+        T_object0_C=float(theta[1] / b),
+        R_contact_K_per_W=float(theta[2] / b),
+        residual_C=math.sqrt(float(resid @ resid) / resid.size) / (b * probe.area_m2 * 0.5),
+        n=int(resid.size),
+    )
 
 
-def _flux_form(E: np.ndarray, top_H: np.ndarray, q: np.ndarray, s: np.ndarray, dt_s: float, onset_s: float,
-               probe: ProbeParams) -> EffusivityEstimate | None:
+def _flux_form(
+    E: np.ndarray,
+    top_H: np.ndarray,
+    q: np.ndarray,
+    s: np.ndarray,
+    dt_s: float,
+    onset_s: float,
+    probe: ProbeParams,
+) -> EffusivityEstimate | None:
     """T_top·H = T_o0·H + (1/b)·I½[q_top]/A + R_c·q_top, q_top = dE/dt: θ = (T_o0, 1/b, R_c)."""
     q_top = _slope(E, dt_s, probe.slope_half_width)
     M = half_integral_matrix(E.size, dt_s, onset_s) / probe.area_m2
@@ -364,13 +390,19 @@ def _flux_form(E: np.ndarray, top_H: np.ndarray, q: np.ndarray, s: np.ndarray, d
         return None
     theta, se_inv_b, resid = fit
     inv_b = float(theta[1])
-    return EffusivityEstimate(b=1.0 / inv_b, se_ln_b=se_inv_b / inv_b, T_object0_C=float(theta[0]),
-                              R_contact_K_per_W=float(theta[2]),
-                              residual_C=math.sqrt(float(resid @ resid) / resid.size), n=int(resid.size))
+    return EffusivityEstimate(
+        b=1.0 / inv_b,
+        se_ln_b=se_inv_b / inv_b,
+        T_object0_C=float(theta[0]),
+        R_contact_K_per_W=float(theta[2]),
+        residual_C=math.sqrt(float(resid @ resid) / resid.size),
+        n=int(resid.size),
+    )
 
 
-def _fit(X: np.ndarray, y: np.ndarray, prior_row: np.ndarray, prior_y: float,
-         i_pos: int) -> tuple[np.ndarray, float, np.ndarray] | None:
+def _fit(
+    X: np.ndarray, y: np.ndarray, prior_row: np.ndarray, prior_y: float, i_pos: int
+) -> tuple[np.ndarray, float, np.ndarray] | None:
     """Least squares of y on X's three columns plus one prior row (all zero: none); the last parameter (the
     contact resistance's) is kept >= 0 (refit without it), parameter ``i_pos`` must come out > 0.
     Returns (θ, standard error of θ[i_pos], residuals) or None."""

@@ -20,6 +20,7 @@ on 600 envelope touches of their own seeds (draw 3131, simulator 1200000 + i), d
 Abstains, only where the physics cannot tell (:func:`decide`): no fit; a fitted |T_probe − T_o0| below
 :data:`MIN_DT_C` (the object draws almost no heat); a posterior below :data:`MIN_POSTERIOR`. Pure.
 """
+
 from __future__ import annotations
 
 import math
@@ -73,8 +74,9 @@ def posterior(est: EffusivityEstimate, ln_b_table: np.ndarray, cal: PhysicsCalib
     return cast(np.ndarray, lik / lik.sum())
 
 
-def decide(est: EffusivityEstimate | None, T_probe_C: float, ln_b_table: np.ndarray,
-           cal: PhysicsCalibration) -> tuple[int, float, str]:
+def decide(
+    est: EffusivityEstimate | None, T_probe_C: float, ln_b_table: np.ndarray, cal: PhysicsCalibration
+) -> tuple[int, float, str]:
     """(0-based index of the likeliest material or −1, its posterior, why abstained or "") for fit ``est`` of a
     touch by a probe resting at ``T_probe_C`` °C (the pre-contact mean)."""
     if est is None or not (math.isfinite(est.b) and est.b > 0 and math.isfinite(est.T_object0_C)):

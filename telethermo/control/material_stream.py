@@ -16,6 +16,7 @@ what was touched last; a fit under way finishes even if the finger leaves). The 
 batch one exactly (:func:`telethermo.control.material_id.estimate_effusivity`,
 :func:`telethermo.control.material_calib.classify_vector`). Pure: the state is an immutable value.
 """
+
 from __future__ import annotations
 
 import functools
@@ -25,12 +26,31 @@ import numpy as np
 from dataclasses import dataclass, field, replace
 from typing import Any, cast
 
-from telethermo.control.material_id import (FORMS, EffusivityEstimate, FitInput, ProbeParams, best_form,
-                                            filter_release, fit_form, fit_input, half_integral_matrix,
-                                            load_effusivity_table, noise_deviation, noise_draws,
-                                            with_noise_spread)
-from telethermo.control.material_calib import (DEFAULT_CALIBRATION, Calibration, decide, load_calibration,
-                                               n_units, network_input, network_unit, touch_vector)
+from telethermo.control.material_id import (
+    FORMS,
+    EffusivityEstimate,
+    FitInput,
+    ProbeParams,
+    best_form,
+    filter_release,
+    fit_form,
+    fit_input,
+    half_integral_matrix,
+    load_effusivity_table,
+    noise_deviation,
+    noise_draws,
+    with_noise_spread,
+)
+from telethermo.control.material_calib import (
+    DEFAULT_CALIBRATION,
+    Calibration,
+    decide,
+    load_calibration,
+    n_units,
+    network_input,
+    network_unit,
+    touch_vector,
+)
 from telethermo.control import material_physics as mp
 from telethermo.control.material_trust import CalibrationBox, abstain_reason, pre_contact
 from telethermo.control.rendering import load_render_table
@@ -124,20 +144,24 @@ class MaterialIdParams:
             names = {n for _, n, _ in self.classes}
             missing = [c for c in self.calibration.classes if c not in names]
             if missing:
-                raise ValueError(f"material classifier names {missing} that the rendering table has no effusivity for")
+                raise ValueError(
+                    f"material classifier names {missing} that the rendering table has no effusivity for"
+                )
 
 
 def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
     """Whether the calibration applies at period ``dt_s`` (measured with the same period and window)."""
     cal = p.calibration
-    return cal is not None and abs(cal.dt_s - dt_s) <= 1e-9 and cal.n_win == int(round(p.probe.window_s / dt_s))
+    return (
+        cal is not None and abs(cal.dt_s - dt_s) <= 1e-9 and cal.n_win == int(round(p.probe.window_s / dt_s))
+    )
 
 
 def fit_units(p: MaterialIdParams, dt_s: float) -> int:
     """Cycles from the window's completion to the published result (one unit of work each: the window and the
     energy form, the flux form, each noise realisation, then the classification: one layer of the calibrated
     networks per cycle, or the nearest effusivity in one)."""
-    cal = cast(Calibration, p.calibration)          # not None when calibrated
+    cal = cast(Calibration, p.calibration)  # not None when calibrated
     return 2 + noise_draws(p.probe) + (n_units(cal) if calibrated(p, dt_s) else 1)
 
 
@@ -193,8 +217,9 @@ def prepare(p: MaterialIdParams, dt_s: float) -> None:
             filter_release(n_win, p.probe.cutoff_Hz, dt_s)
 
 
-def material_step(p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W: float, contact: bool,
-                  dt_s: float) -> MaterialState:
+def material_step(
+    p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W: float, contact: bool, dt_s: float
+) -> MaterialState:
     """Advance the collector by one sample and the fit under way by one unit of work (pure). The early window's
     fit starts when its ``window_s`` is collected; while the contact lasts the samples go on being collected
     and the refined answer's fit starts when :func:`late_samples` are (and the early fit is done)."""
@@ -211,32 +236,57 @@ def material_step(p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W
         post = st.post if len(st.post) >= n_late else st.post + (x,)
         if st.late or len(post) < n_late or job is not None:
             return MaterialState(pre=st.pre, post=post, done=True, last=last, job=job, late=st.late)
-        return MaterialState(pre=st.pre, post=post, done=True, last=last, late=True,
-                             job=FitJob(rows=st.pre + post, n_pre=len(st.pre), late=True))
+        return MaterialState(
+            pre=st.pre,
+            post=post,
+            done=True,
+            last=last,
+            late=True,
+            job=FitJob(rows=st.pre + post, n_pre=len(st.pre), late=True),
+        )
     post = st.post + (x,)
     if len(post) < n_win:
         return MaterialState(pre=st.pre, post=post, last=last, job=job)
     # the window is complete: its fit starts next cycle (a previous touch's fit still under way is dropped)
-    return MaterialState(pre=st.pre, post=post, done=True, last=last,
-                         job=FitJob(rows=st.pre + post, n_pre=len(st.pre)))
+    return MaterialState(
+        pre=st.pre, post=post, done=True, last=last, job=FitJob(rows=st.pre + post, n_pre=len(st.pre))
+    )
 
 
-def _physics(p: MaterialIdParams, est: EffusivityEstimate | None, inp: FitInput,
-             cal: mp.PhysicsCalibration) -> tuple[int, float, str]:
+def _physics(
+    p: MaterialIdParams, est: EffusivityEstimate | None, inp: FitInput, cal: mp.PhysicsCalibration
+) -> tuple[int, float, str]:
     """(published code, posterior, why abstained) of the physics posterior for fit ``est``."""
     lb = np.log(np.array([b for _, _, b in p.classes], float))
     i, post, why = mp.decide(est, pre_contact(inp)[0], lb, cal)
     return (p.classes[i][0], post, "") if i >= 0 else (UNKNOWN_CODE, post, why)
 
 
-def _result(p: MaterialIdParams, est: EffusivityEstimate | None, code: int, post: float, why: str, n: int,
-            cal: mp.PhysicsCalibration, by: str = "physics") -> MaterialEstimate:
+def _result(
+    p: MaterialIdParams,
+    est: EffusivityEstimate | None,
+    code: int,
+    post: float,
+    why: str,
+    n: int,
+    cal: mp.PhysicsCalibration,
+    by: str = "physics",
+) -> MaterialEstimate:
     """The early answer of touch ``n``; its se_ln_b the calibrated interval's (``cal``)."""
     if est is None:
-        return MaterialEstimate(code=code, posterior=post, touch=n, abstained=why, early_code=code,
-                                early_posterior=post, stage="early", by=by)
-    return MaterialEstimate(est.b, cal.sigma_ci(est.se_ln_b), code, post, n, est.T_object0_C, why, code, post,
-                            "early", by)
+        return MaterialEstimate(
+            code=code,
+            posterior=post,
+            touch=n,
+            abstained=why,
+            early_code=code,
+            early_posterior=post,
+            stage="early",
+            by=by,
+        )
+    return MaterialEstimate(
+        est.b, cal.sigma_ci(est.se_ln_b), code, post, n, est.T_object0_C, why, code, post, "early", by
+    )
 
 
 def _late_result(p: MaterialIdParams, job: FitJob, last: MaterialEstimate) -> MaterialEstimate:
@@ -244,62 +294,78 @@ def _late_result(p: MaterialIdParams, job: FitJob, last: MaterialEstimate) -> Ma
     est = job.chosen[1] if job.chosen is not None else None
     if est is not None:
         est = with_noise_spread(est, list(job.deviations))
-    late = cast(mp.PhysicsCalibration, p.late)      # a refined answer's job: p.late is set
+    late = cast(mp.PhysicsCalibration, p.late)  # a refined answer's job: p.late is set
     code, post, why = _physics(p, est, cast(FitInput, job.inp), late)
-    if last.by == "network":                        # the network's class in its box stands; b is refined
+    if last.by == "network":  # the network's class in its box stands; b is refined
         code, post, why = last.code, last.posterior, last.abstained
     if est is None:
         return replace(last, code=code, posterior=post, abstained=why, stage="late")
-    return replace(last, effusivity=est.b, se_ln_b=late.sigma_ci(est.se_ln_b), code=code, posterior=post,
-                   T_object0_C=est.T_object0_C, abstained=why, stage="late")
+    return replace(
+        last,
+        effusivity=est.b,
+        se_ln_b=late.sigma_ci(est.se_ln_b),
+        code=code,
+        posterior=post,
+        T_object0_C=est.T_object0_C,
+        abstained=why,
+        stage="late",
+    )
 
 
-def _fit_unit(p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: float
-              ) -> tuple[FitJob | None, MaterialEstimate]:
+def _fit_unit(
+    p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: float
+) -> tuple[FitJob | None, MaterialEstimate]:
     """One unit of the fit: (the job, or None when finished, and the held result, new when finished)."""
     probe = replace(p.probe, window_s=cast(mp.PhysicsCalibration, p.late).window_s) if job.late else p.probe
     n = last.touch + 1
-    if job.inp is None and not job.fits:                                    # window and the energy form
+    if job.inp is None and not job.fits:  # window and the energy form
         inp = fit_input([r[0] for r in job.rows], [r[1] for r in job.rows], job.n_pre, dt_s, probe)
         if inp is None:
             return None, (last if job.late else MaterialEstimate(touch=n))
         return replace(job, inp=inp, fits=((FORMS[0], fit_form(inp, FORMS[0], probe)),)), last
-    inp = cast(FitInput, job.inp)                                           # built by the first unit
-    if job.chosen is None:                                                  # the other form, the better one
-        fits = job.fits + tuple((f, fit_form(inp, f, probe)) for f in FORMS[len(job.fits):len(job.fits) + 1])
+    inp = cast(FitInput, job.inp)  # built by the first unit
+    if job.chosen is None:  # the other form, the better one
+        fits = job.fits + tuple(
+            (f, fit_form(inp, f, probe)) for f in FORMS[len(job.fits) : len(job.fits) + 1]
+        )
         if len(fits) < len(FORMS):
             return replace(job, fits=fits), last
         chosen: tuple[str | None, EffusivityEstimate | None] | None = best_form(list(fits))
         if chosen is None:
             if job.late:
                 return None, _late_result(p, replace(job, chosen=None), last)
-            if not calibrated(p, dt_s) or not p.classes:    # no effusivity; the calibrated classifier needs none
+            if (
+                not calibrated(p, dt_s) or not p.classes
+            ):  # no effusivity; the calibrated classifier needs none
                 return None, _result(p, None, UNKNOWN_CODE, 0.0, "no_fit", n, p.early)
             chosen = (None, None)
         return replace(job, fits=fits, chosen=chosen), last
     form, est = job.chosen
     k = len(job.deviations)
-    if est is not None and k < noise_draws(probe):                          # one noise realisation
-        dev = noise_deviation(inp, cast(str, form), math.log(est.b), k, probe)   # a fitted form has its name
+    if est is not None and k < noise_draws(probe):  # one noise realisation
+        dev = noise_deviation(inp, cast(str, form), math.log(est.b), k, probe)  # a fitted form has its name
         return replace(job, deviations=job.deviations + (dev,)), last
     if job.late:
         return None, _late_result(p, job, last)
-    cal = cast(Calibration, p.calibration)          # the classification (x is None without a calibration)
-    if job.x is None:                               # its first unit: the confidence and the networks' input, once
+    cal = cast(Calibration, p.calibration)  # the classification (x is None without a calibration)
+    if job.x is None:  # its first unit: the confidence and the networks' input, once
         est = with_noise_spread(est, list(job.deviations)) if est is not None else None
-        x = network_input(cal, touch_vector(inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) and p.classes \
+        x = (
+            network_input(cal, touch_vector(inp, cal.q_weight_K_per_W))
+            if calibrated(p, dt_s) and p.classes
             else None
+        )
         if x is None:
             if not p.classes:
                 return None, MaterialEstimate(touch=n)
             return None, _result(p, est, *_physics(p, est, inp, p.early), n, p.early)
         job = replace(job, x=x, chosen=(form, est))
-    est = cast(tuple[str, EffusivityEstimate | None], job.chosen)[1]      # set by the first unit
-    h, probs = network_unit(cal, job.x, job.h, job.probs, job.unit)        # one layer
+    est = cast(tuple[str, EffusivityEstimate | None], job.chosen)[1]  # set by the first unit
+    h, probs = network_unit(cal, job.x, job.h, job.probs, job.unit)  # one layer
     if job.unit + 1 < n_units(cal):
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last
     i, post = decide(probs)
     code, why, by = next(c for c, name, _ in p.classes if name == cal.classes[i]), "", "network"
     if p.box is not None and abstain_reason(p.box, inp, est, job.x) is not None:
-        (code, post, why), by = _physics(p, est, inp, p.early), "physics"     # outside the network's box
+        (code, post, why), by = _physics(p, est, inp, p.early), "physics"  # outside the network's box
     return None, _result(p, est, code, post, why, n, p.early, by)

@@ -8,6 +8,7 @@ each from its own seed; their mean posterior is the classifier's.
 
 Deterministic for given data and seeds (numpy's default generator, float32 arithmetic on one machine).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -65,8 +66,9 @@ def _gradients(P: list[np.ndarray], x: np.ndarray, t: np.ndarray) -> list[np.nda
     return grads
 
 
-def train_network(X: np.ndarray, y: np.ndarray, n_classes: int, s: TrainSettings, seed: int
-                  ) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+def train_network(
+    X: np.ndarray, y: np.ndarray, n_classes: int, s: TrainSettings, seed: int
+) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
     """One network's layers trained on inputs ``X`` (N × in) and class indices ``y``."""
     X, y = np.asarray(X, np.float32), np.asarray(y, int)
     rng = np.random.default_rng(seed)
@@ -77,7 +79,7 @@ def train_network(X: np.ndarray, y: np.ndarray, n_classes: int, s: TrainSettings
     for _ in range(s.epochs):
         order = rng.permutation(len(y))
         for bi in range(n_batches):
-            idx = order[bi * s.batch:(bi + 1) * s.batch]
+            idx = order[bi * s.batch : (bi + 1) * s.batch]
             grads = _gradients(P, X[idx], y[idx])
             k += 1
             lr = s.lr * min(1.0, k / s.warmup) * 0.5 * (1.0 + np.cos(np.pi * k / total))
@@ -85,7 +87,9 @@ def train_network(X: np.ndarray, y: np.ndarray, n_classes: int, s: TrainSettings
                 gr = gr + s.weight_decay * P[i]
                 m[i] = 0.9 * m[i] + 0.1 * gr
                 v[i] = 0.999 * v[i] + 0.001 * gr * gr
-                P[i] -= (lr * (m[i] / (1.0 - 0.9 ** k)) / (np.sqrt(v[i] / (1.0 - 0.999 ** k)) + 1e-8)).astype(np.float32)
+                P[i] -= (lr * (m[i] / (1.0 - 0.9**k)) / (np.sqrt(v[i] / (1.0 - 0.999**k)) + 1e-8)).astype(
+                    np.float32
+                )
     return tuple((P[i], P[i + 1]) for i in range(0, len(P), 2))
 
 
@@ -95,16 +99,34 @@ def accuracy(cal: Calibration, V: np.ndarray, y: np.ndarray) -> float:
     return float(np.mean(np.argmax(posterior(cal, X), axis=1) == np.asarray(y)))
 
 
-def build_calibration(V: np.ndarray, y: np.ndarray, classes: list[str], dt_s: float, q_weight_K_per_W: float,
-                      noise_cov: np.ndarray | None = None, reg: float = 0.01, settings: TrainSettings = TrainSettings(),
-                      info: str = "") -> Calibration:
+def build_calibration(
+    V: np.ndarray,
+    y: np.ndarray,
+    classes: list[str],
+    dt_s: float,
+    q_weight_K_per_W: float,
+    noise_cov: np.ndarray | None = None,
+    reg: float = 0.01,
+    settings: TrainSettings = TrainSettings(),
+    info: str = "",
+) -> Calibration:
     """A calibration from reference touch vectors ``V`` (N × 2·n_win, °C) and their class indices ``y``: the
     input map (``noise_cov``: the touch vector's noise covariance, °C², whitened with floor ``reg``) and
     ``settings.n_nets`` networks trained on all references."""
     V, y = np.asarray(V, float), np.asarray(y, int)
     center, whiten, scale = input_map(V, noise_cov, reg)
     X = inputs(center, whiten, scale, V)
-    nets = tuple(train_network(X, y, len(classes), settings, settings.seed + j) for j in range(settings.n_nets))
-    return Calibration(tuple(classes), float(dt_s), V.shape[1] // 2, float(q_weight_K_per_W), center, whiten, scale,
-                       nets, info)
-
+    nets = tuple(
+        train_network(X, y, len(classes), settings, settings.seed + j) for j in range(settings.n_nets)
+    )
+    return Calibration(
+        tuple(classes),
+        float(dt_s),
+        V.shape[1] // 2,
+        float(q_weight_K_per_W),
+        center,
+        whiten,
+        scale,
+        nets,
+        info,
+    )

@@ -27,6 +27,7 @@ It does not see force, thickness or the noise level (none of them measured by th
 touches outside the box there are still answered, and the envelope bench reports it per stratum.
 Pure.
 """
+
 from __future__ import annotations
 
 import math
@@ -73,7 +74,9 @@ def pre_contact(inp: FitInput) -> tuple[float, float]:
     return T0, float(np.mean(inp.Q[n:]) - np.mean(inp.Q[:n]))
 
 
-def abstain_reason(box: CalibrationBox, inp: FitInput, est: EffusivityEstimate | None, x: np.ndarray) -> str | None:
+def abstain_reason(
+    box: CalibrationBox, inp: FitInput, est: EffusivityEstimate | None, x: np.ndarray
+) -> str | None:
     """Why the touch must not be named (module docstring), or None when it lies inside ``box``.
 
     ``inp`` the touch's window, ``est`` the physics fit (None: none), ``x`` the network's whitened input."""

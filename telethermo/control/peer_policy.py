@@ -9,6 +9,7 @@ tripped on the peer's loss resumes telepresence (DESIGN.md §6). Pure: no bus, n
   the trips are cleared and the core restarts bumplessly (:func:`peer_resume`, :func:`resume`). Any
   other latched trip keeps the envelope as it is until an operator's fault reset.
 """
+
 from __future__ import annotations
 
 from enum import Enum
@@ -34,8 +35,8 @@ def peer_alive(*, heartbeat_ok: bool, seen: bool, missed_cycles: int, max_missed
 class PeerResume(str, Enum):
     """What a node does with its latched trips in a cycle, given its peer's values."""
 
-    NONE = "none"        # the peer is not back, or no peer trip is latched: nothing to do
-    RESUME = "resume"    # the peer is back and only peer trips are latched: clear them, resume
+    NONE = "none"  # the peer is not back, or no peer trip is latched: nothing to do
+    RESUME = "resume"  # the peer is back and only peer trips are latched: clear them, resume
     LATCHED = "latched"  # the peer is back but other trips are latched: stay as is until an operator reset
 
 
@@ -53,8 +54,9 @@ def peer_resume(peer: PeerValues | None, trips: frozenset[Trip]) -> PeerResume:
     return PeerResume.LATCHED
 
 
-def resume(sample: RigSample, peer: PeerValues, params: CoreParams,
-           state: CoreState) -> tuple[CoreState, frozenset[Trip]]:
+def resume(
+    sample: RigSample, peer: PeerValues, params: CoreParams, state: CoreState
+) -> tuple[CoreState, frozenset[Trip]]:
     """Resume after the peer's return: the state with the trips whose cause is gone cleared (bumpless
     restart, :func:`telethermo.control.core.clear_faults`) and the set of trips cleared."""
     new = clear_faults(sample, peer, params, state)

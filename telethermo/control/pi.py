@@ -13,6 +13,7 @@ change, the integrator is re-seeded so that the output is continuous.
 
 Everything here is pure: :func:`pi_step` returns a new :class:`PIState` and the components.
 """
+
 from __future__ import annotations
 
 import math
@@ -86,9 +87,18 @@ def _clip(x: float, lo: float, hi: float) -> float:
     return lo if x < lo else hi if x > hi else x
 
 
-def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: float,
-            u_min_A: float, u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: FluxPIGains | None = None
-            ) -> tuple[float, PIState, PIComponents]:
+def pi_step(
+    gains: PIGains,
+    state: PIState,
+    error_C: float,
+    ff_A: float,
+    dt_s: float,
+    u_min_A: float,
+    u_max_A: float,
+    *,
+    flux_error_W: float = 0.0,
+    flux_gains: FluxPIGains | None = None,
+) -> tuple[float, PIState, PIComponents]:
     """One PI + feed-forward step. Returns ``(u_A, new_state, components)``.
 
     ``flux_gains`` (:class:`FluxPIGains`, A/W and A/(W·s)) add a heat-flux tracking loop on
@@ -127,8 +137,17 @@ def pi_step(gains: PIGains, state: PIState, error_C: float, ff_A: float, dt_s: f
     return u, PIState(i), PIComponents(p, i, ff_A, u_unsat, u, u != u_unsat)
 
 
-def bumpless(gains: PIGains, u_prev_A: float, error_C: float, ff_A: float, u_min_A: float,
-             u_max_A: float, *, flux_error_W: float = 0.0, flux_gains: FluxPIGains | None = None) -> PIState:
+def bumpless(
+    gains: PIGains,
+    u_prev_A: float,
+    error_C: float,
+    ff_A: float,
+    u_min_A: float,
+    u_max_A: float,
+    *,
+    flux_error_W: float = 0.0,
+    flux_gains: FluxPIGains | None = None,
+) -> PIState:
     """Integrator that makes ``kp·error + I + ff`` equal the previous output ``u_prev_A`` (clamped).
 
     New gains, same output: the next step (dt 0, so the integrator does not move) gives 1.2 A again.

@@ -1,6 +1,7 @@
 """The rendering table (telethermo/data/render_materials.toml): material -> relative effusivity β (yamamoto
 eq. 6), in file order (a material's position is its code in the object dictionary). Standard library only,
 so the light CLI commands (``telethermo status``) can name a material without importing numpy."""
+
 from __future__ import annotations
 
 import functools
@@ -25,7 +26,12 @@ def load_render_table(path: str | Path | None = None) -> dict[str, float]:
         if not isinstance(entry, dict):
             raise ValueError(f"{path}: [{name}]: expected a table with 'beta', got {type(entry).__name__}")
         beta = entry.get("beta")
-        if isinstance(beta, bool) or not isinstance(beta, (int, float)) or not math.isfinite(beta) or beta <= 0:
+        if (
+            isinstance(beta, bool)
+            or not isinstance(beta, (int, float))
+            or not math.isfinite(beta)
+            or beta <= 0
+        ):
             raise ValueError(f"{path}: [{name}].beta: expected a number > 0, got {beta!r}")
         out[name] = float(beta)
     if not out:

@@ -13,6 +13,7 @@
   relative to *this* finger and the finger's initial surface temperature.
 - :func:`load_render_table`: the table of β (telethermo/data/render_materials.toml).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -22,7 +23,6 @@ from numpy.typing import ArrayLike
 
 from telethermo.control.render_table import DEFAULT_RENDER_TABLE as DEFAULT_RENDER_TABLE  # re-exported
 from telethermo.control.render_table import load_render_table as load_render_table  # re-exported
-
 
 
 def contact_temperature(T1_C: float, b1: float, T2_C: float, b2: float) -> float:
@@ -35,22 +35,29 @@ def contact_temperature(T1_C: float, b1: float, T2_C: float, b2: float) -> float
     return (b1 * T1_C + b2 * T2_C) / (b1 + b2)
 
 
-def pad_preset_temperature(T_finger0_C: float, T_object0_C: float, beta_object: float, beta_pad: float) -> float:
+def pad_preset_temperature(
+    T_finger0_C: float, T_object0_C: float, beta_object: float, beta_pad: float
+) -> float:
     """Yamamoto eq. 7: pad pre-set temperature T_pad0, °C, that renders the object at first contact.
 
-        T_pad0 = (T_f0 + β_obj·T_obj0)(1 + β_pad) / ((1 + β_obj)·β_pad) - T_f0/β_pad
+    T_pad0 = (T_f0 + β_obj·T_obj0)(1 + β_pad) / ((1 + β_obj)·β_pad) - T_f0/β_pad
     """
     if not (beta_object > 0 and beta_pad > 0):
-        raise ValueError(f"pad_preset_temperature: beta_object and beta_pad must be > 0, got {beta_object}, {beta_pad}")
-    return ((T_finger0_C + beta_object * T_object0_C) * (1.0 + beta_pad) / ((1.0 + beta_object) * beta_pad)
-            - T_finger0_C / beta_pad)
+        raise ValueError(
+            f"pad_preset_temperature: beta_object and beta_pad must be > 0, got {beta_object}, {beta_pad}"
+        )
+    return (T_finger0_C + beta_object * T_object0_C) * (1.0 + beta_pad) / (
+        (1.0 + beta_object) * beta_pad
+    ) - T_finger0_C / beta_pad
 
 
-def pad_preset_temperature_abs(T_finger0_C: float, b_finger: float, T_object0_C: float, b_object: float,
-                               b_pad: float) -> float:
+def pad_preset_temperature_abs(
+    T_finger0_C: float, b_finger: float, T_object0_C: float, b_object: float, b_pad: float
+) -> float:
     """Yamamoto eq. 5 (absolute effusivities), °C; equals eq. 7 with β = b/b_finger."""
-    return ((b_finger * T_finger0_C + b_object * T_object0_C) * (b_finger + b_pad) / ((b_finger + b_object) * b_pad)
-            - b_finger * T_finger0_C / b_pad)
+    return (b_finger * T_finger0_C + b_object * T_object0_C) * (b_finger + b_pad) / (
+        (b_finger + b_object) * b_pad
+    ) - b_finger * T_finger0_C / b_pad
 
 
 def _window_mean(t: np.ndarray, y: np.ndarray, t0: float, t1: float, what: str) -> float:
@@ -60,10 +67,14 @@ def _window_mean(t: np.ndarray, y: np.ndarray, t0: float, t1: float, what: str) 
     return float(np.mean(y[m]))
 
 
-def relative_effusivity_from_profiles(t_s: ArrayLike, T_finger_C: ArrayLike, T_object_C: ArrayLike,
-                                      t_contact_s: float,
-                                      window_s: tuple[float, float] = (0.1, 1.0),
-                                      pre_s: float = 0.2) -> float:
+def relative_effusivity_from_profiles(
+    t_s: ArrayLike,
+    T_finger_C: ArrayLike,
+    T_object_C: ArrayLike,
+    t_contact_s: float,
+    window_s: tuple[float, float] = (0.1, 1.0),
+    pre_s: float = 0.2,
+) -> float:
     """β_object = b_object/b_finger from the recorded surface temperatures of a contact.
 
     ``T_finger_C``: the finger's (or pad's) surface profile, ``T_object_C``: the object's surface
@@ -76,12 +87,18 @@ def relative_effusivity_from_profiles(t_s: ArrayLike, T_finger_C: ArrayLike, T_o
     o = np.asarray(T_object_C, float)
     f0 = _window_mean(t, f, t_contact_s - pre_s, t_contact_s - 1e-9, "finger profile before contact")
     o0 = _window_mean(t, o, t_contact_s - pre_s, t_contact_s - 1e-9, "object profile before contact")
-    fw = _window_mean(t, f, t_contact_s + window_s[0], t_contact_s + window_s[1], "finger profile after contact")
-    ow = _window_mean(t, o, t_contact_s + window_s[0], t_contact_s + window_s[1], "object profile after contact")
+    fw = _window_mean(
+        t, f, t_contact_s + window_s[0], t_contact_s + window_s[1], "finger profile after contact"
+    )
+    ow = _window_mean(
+        t, o, t_contact_s + window_s[0], t_contact_s + window_s[1], "object profile after contact"
+    )
     drop, rise = f0 - fw, ow - o0
     if abs(rise) < 1e-6 or drop * rise <= 0:
-        raise ValueError(f"relative_effusivity_from_profiles: no opposite changes (drop {drop:.4g} °C, "
-                         f"rise {rise:.4g} °C): bodies at the same temperature or no contact")
+        raise ValueError(
+            f"relative_effusivity_from_profiles: no opposite changes (drop {drop:.4g} °C, "
+            f"rise {rise:.4g} °C): bodies at the same temperature or no contact"
+        )
     return drop / rise
 
 
@@ -90,9 +107,11 @@ def relative_effusivity_from_contact(T_finger0_C: float, T_object0_C: float, T_c
     rise = T_contact_C - T_object0_C
     drop = T_finger0_C - T_contact_C
     if abs(rise) < 1e-9 or drop * rise <= 0:
-        raise ValueError("relative_effusivity_from_contact: the contact temperature must lie strictly "
-                         f"between the initial temperatures (got T_f0 {T_finger0_C}, T_o0 {T_object0_C}, "
-                         f"T_c {T_contact_C})")
+        raise ValueError(
+            "relative_effusivity_from_contact: the contact temperature must lie strictly "
+            f"between the initial temperatures (got T_f0 {T_finger0_C}, T_o0 {T_object0_C}, "
+            f"T_c {T_contact_C})"
+        )
     return drop / rise
 
 
@@ -113,8 +132,9 @@ class FingerCalibration:
     n_touches: int
 
 
-def calibrate_finger(T_pad0_C: ArrayLike, T_contact_C: ArrayLike,
-                     T_finger0_C: ArrayLike | None = None) -> FingerCalibration:
+def calibrate_finger(
+    T_pad0_C: ArrayLike, T_contact_C: ArrayLike, T_finger0_C: ArrayLike | None = None
+) -> FingerCalibration:
     """Fit β_pad (and T_finger0 unless given) from touches of the pad pre-set at ``T_pad0_C``.
 
     Eq. 1 for each touch: T_c = (T_f0 + β_pad·T_p0)/(1 + β_pad) = a + k·T_p0 with
@@ -138,13 +158,16 @@ def calibrate_finger(T_pad0_C: ArrayLike, T_contact_C: ArrayLike,
         a = float(np.mean(f)) * (1 - k)
     else:
         if p.size < 2 or float(np.ptp(p)) < 0.5:
-            raise ValueError("calibrate_finger: need >= 2 touches with pre-sets >= 0.5 °C apart "
-                             "(or give T_finger0_C)")
+            raise ValueError(
+                "calibrate_finger: need >= 2 touches with pre-sets >= 0.5 °C apart (or give T_finger0_C)"
+            )
         A = np.column_stack([np.ones_like(p), p])
         (a, k), *_ = np.linalg.lstsq(A, c, rcond=None)
         a, k = float(a), float(k)
     if not 0.0 < k < 1.0:
-        raise ValueError(f"calibrate_finger: fitted slope {k:.3f} outside (0, 1): touches inconsistent with eq. 1")
+        raise ValueError(
+            f"calibrate_finger: fitted slope {k:.3f} outside (0, 1): touches inconsistent with eq. 1"
+        )
     beta = k / (1.0 - k)
     T_f0 = a / (1.0 - k)
     if T_finger0_C is not None:

@@ -135,8 +135,14 @@ class SafetyLimits:
         for name in positive:
             if getattr(self, name) <= 0:
                 raise ValueError(f"SafetyLimits.{name}: expected > 0, got {getattr(self, name)!r}")
-        for name in ("tem_alpha_V_K", "tem_R_ohm", "tem_K_W_K", "detach_excess_A", "detach_rel",
-                     "detach_slope_C_per_s"):
+        for name in (
+            "tem_alpha_V_K",
+            "tem_R_ohm",
+            "tem_K_W_K",
+            "detach_excess_A",
+            "detach_rel",
+            "detach_slope_C_per_s",
+        ):
             if getattr(self, name) < 0:
                 raise ValueError(f"SafetyLimits.{name}: expected >= 0, got {getattr(self, name)!r}")
         if self.guard_C < 0 or self.surface_trip_margin_C < 0 or self.taper_C < 0:

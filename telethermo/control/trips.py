@@ -1,5 +1,6 @@
 """Why the safety envelope intervened: the trips, their CiA 301 emergency codes and the error-register
 (0x1001) bits they set, and which trips cut the current or concern the peer (DESIGN.md §6)."""
+
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -14,18 +15,18 @@ from telethermo.cia301 import EMCY_HEARTBEAT, EMCY_PEER_INVALID
 class Trip(str, Enum):
     """Why the envelope intervened (latched until cleared)."""
 
-    SENSOR_INVALID = "sensor_invalid"          # NaN/inf temperature, flux, sink or current reading
-    OPEN_THERMOCOUPLE = "open_thermocouple"    # reading at the ADC rail (open circuit)
-    SENSOR_RANGE = "sensor_range"              # implausible temperature or flux
-    MODEL_MISMATCH = "model_mismatch"          # |T_sensor - T_pred| too large for too long
-    SURFACE_HIGH = "surface_high"              # pad surface above T_max_C + margin
-    SURFACE_LOW = "surface_low"                # pad surface below T_min_C - margin
+    SENSOR_INVALID = "sensor_invalid"  # NaN/inf temperature, flux, sink or current reading
+    OPEN_THERMOCOUPLE = "open_thermocouple"  # reading at the ADC rail (open circuit)
+    SENSOR_RANGE = "sensor_range"  # implausible temperature or flux
+    MODEL_MISMATCH = "model_mismatch"  # |T_sensor - T_pred| too large for too long
+    SURFACE_HIGH = "surface_high"  # pad surface above T_max_C + margin
+    SURFACE_LOW = "surface_low"  # pad surface below T_min_C - margin
     TIME_AT_TEMPERATURE = "time_at_temperature"  # too long above hot_C
-    HEAT_SINK = "heat_sink"                    # heat sink above sink_trip_C
-    OVERCURRENT = "overcurrent"                # measured current above the hardware limit
-    PEER_LOST = "peer_lost"                    # heartbeat / PDO timeout reported by the node
-    PEER_INVALID = "peer_invalid"              # NaN/inf/absurd peer estimate or flux
-    SENSOR_DETACHED = "sensor_detached"        # holding the target takes far more current than the TEM needs
+    HEAT_SINK = "heat_sink"  # heat sink above sink_trip_C
+    OVERCURRENT = "overcurrent"  # measured current above the hardware limit
+    PEER_LOST = "peer_lost"  # heartbeat / PDO timeout reported by the node
+    PEER_INVALID = "peer_invalid"  # NaN/inf/absurd peer estimate or flux
+    SENSOR_DETACHED = "sensor_detached"  # holding the target takes far more current than the TEM needs
 
 
 def trips_mask(trips: Iterable[Trip | str]) -> int:
@@ -36,7 +37,7 @@ def trips_mask(trips: Iterable[Trip | str]) -> int:
     return sum(_TRIP_BIT[Trip(t)] for t in set(trips)) if trips else 0
 
 
-_TRIP_BIT = {t: 1 << i for i, t in enumerate(Trip)}   # written every control cycle: computed once
+_TRIP_BIT = {t: 1 << i for i, t in enumerate(Trip)}  # written every control cycle: computed once
 
 
 def trips_from_mask(mask: int) -> list[Trip]:
@@ -87,15 +88,25 @@ ERROR_REGISTER_BITS: dict[Trip, int] = {
     Trip.HEAT_SINK: ErrorRegisterBit.TEMPERATURE,
     Trip.OVERCURRENT: ErrorRegisterBit.CURRENT,
     Trip.PEER_LOST: ErrorRegisterBit.COMMUNICATION,
-    Trip.PEER_INVALID: ErrorRegisterBit.MANUFACTURER,   # 0xFFxx: as the device's 0x1001 says
+    Trip.PEER_INVALID: ErrorRegisterBit.MANUFACTURER,  # 0xFFxx: as the device's 0x1001 says
     Trip.SENSOR_DETACHED: ErrorRegisterBit.MANUFACTURER,
 }
 
 #: Trips after which the current is cut at once (the measurement cannot be trusted or the hardware
 #: is at risk). The other trips ramp the setpoint (peer) or cap it (time at temperature).
-CUT_TRIPS = frozenset({Trip.SENSOR_INVALID, Trip.OPEN_THERMOCOUPLE, Trip.SENSOR_RANGE, Trip.MODEL_MISMATCH,
-                       Trip.SURFACE_HIGH, Trip.SURFACE_LOW, Trip.HEAT_SINK, Trip.OVERCURRENT,
-                       Trip.SENSOR_DETACHED})
+CUT_TRIPS = frozenset(
+    {
+        Trip.SENSOR_INVALID,
+        Trip.OPEN_THERMOCOUPLE,
+        Trip.SENSOR_RANGE,
+        Trip.MODEL_MISMATCH,
+        Trip.SURFACE_HIGH,
+        Trip.SURFACE_LOW,
+        Trip.HEAT_SINK,
+        Trip.OVERCURRENT,
+        Trip.SENSOR_DETACHED,
+    }
+)
 PEER_TRIPS = frozenset({Trip.PEER_LOST, Trip.PEER_INVALID})
 
 

@@ -5,6 +5,7 @@ The same function runs offline (telethermo.offline) and inside the CANopen nodes
 fills :class:`PeerValues` from its RPDO1 and the heartbeat consumer, calls ``step`` on every SYNC,
 applies ``StepResult.current_A`` to the rig and sends ``StepResult.out`` in its TPDO1.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -16,16 +17,16 @@ class Role(StrEnum):
     keys, EDS/network sections, sim.build_rig, log lines), so no code converts between the two."""
 
     MASTER = "master"  # thermal display under the operator's finger; estimates T_f, tracks T_o
-    SLAVE = "slave"    # robotic thermal probe; estimates T_o, tracks T_f
+    SLAVE = "slave"  # robotic thermal probe; estimates T_o, tracks T_f
 
 
 class Mode(IntEnum):
     """Operating mode; the integer is the value of the mode object in the object dictionary."""
 
-    IDLE = 0          # current 0 (through the envelope's ramp), estimates still computed and sent
+    IDLE = 0  # current 0 (through the envelope's ramp), estimates still computed and sent
     TELEPRESENCE = 1  # bilateral coupling (guiatni eq. 34/35)
-    RENDER = 2        # virtual material rendering, master alone (yamamoto)
-    IDENTIFY = 3      # excitation (PRBS) for model identification; envelope still active
+    RENDER = 2  # virtual material rendering, master alone (yamamoto)
+    IDENTIFY = 3  # excitation (PRBS) for model identification; envelope still active
 
 
 @dataclass(frozen=True, slots=True)

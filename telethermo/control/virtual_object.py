@@ -7,6 +7,7 @@
 The control core keeps its own table of thermal properties (it never imports ``sim``); aliases let the
 rendering table's names ("wood", "contact_pad") find their material.
 """
+
 from __future__ import annotations
 
 import math
@@ -52,8 +53,10 @@ class ObjectTable:
         """The material called ``name`` (or an alias of it); ValueError naming the known ones."""
         key = self.aliases.get(name, name)
         if key not in self.materials:
-            raise ValueError(f"virtual object: unknown material {name!r} (known: "
-                             f"{', '.join(sorted(set(self.materials) | set(self.aliases)))})")
+            raise ValueError(
+                f"virtual object: unknown material {name!r} (known: "
+                f"{', '.join(sorted(set(self.materials) | set(self.aliases)))})"
+            )
         return self.materials[key]
 
     def canonical(self, name: str) -> str:
@@ -117,8 +120,12 @@ def load_object_table(path: str | Path | None = None) -> ObjectTable:
     for name, e in data.items():
         if not isinstance(e, dict):
             raise ValueError(f"{path}: field '{name}': expected a table, got {e!r}")
-        mats[name] = ObjectMaterial(name, _num(path, f"{name}.lambda_W_mK", e.get("lambda_W_mK")),
-                                    _num(path, f"{name}.rho_c_J_m3K", e.get("rho_c_J_m3K")), str(e.get("source", "")))
+        mats[name] = ObjectMaterial(
+            name,
+            _num(path, f"{name}.lambda_W_mK", e.get("lambda_W_mK")),
+            _num(path, f"{name}.rho_c_J_m3K", e.get("rho_c_J_m3K")),
+            str(e.get("source", "")),
+        )
         al = e.get("aliases", [])
         if not isinstance(al, list) or not all(isinstance(a, str) for a in al):
             raise ValueError(f"{path}: field '{name}.aliases': expected an array of names, got {al!r}")

@@ -9,8 +9,17 @@ producer), :mod:`.measure` (a device-only lockstep speed check),
 :mod:`.eds_info` (limits, units and names from the EDS text), :mod:`.netconfig` (network.toml),
 :mod:`.settings` (power-on overrides). See docs/canopen.md.
 """
+
 from telethermo.device.device import (
-    Device, DeviceStats, NmtCommand, NmtState, OdWriteError, PeerEvent, RpdoEvent, SyncTick, WriteEvent,
+    Device,
+    DeviceStats,
+    NmtCommand,
+    NmtState,
+    OdWriteError,
+    PeerEvent,
+    RpdoEvent,
+    SyncTick,
+    WriteEvent,
 )
 from telethermo.device.eds_info import EdsError, EdsInfo, VarInfo
 from telethermo.device.netconfig import NetworkConfig, NetworkConfigError, load_network
@@ -18,7 +27,21 @@ from telethermo.device.settings import DeviceSettings
 from telethermo.device.sync import SyncProducer
 
 __all__ = [
-    "Device", "DeviceStats", "NmtCommand", "NmtState", "OdWriteError", "PeerEvent", "RpdoEvent", "SyncTick",
-    "WriteEvent", "EdsError", "EdsInfo", "VarInfo", "NetworkConfig", "NetworkConfigError", "load_network",
-    "DeviceSettings", "SyncProducer",
+    "Device",
+    "DeviceStats",
+    "NmtCommand",
+    "NmtState",
+    "OdWriteError",
+    "PeerEvent",
+    "RpdoEvent",
+    "SyncTick",
+    "WriteEvent",
+    "EdsError",
+    "EdsInfo",
+    "VarInfo",
+    "NetworkConfig",
+    "NetworkConfigError",
+    "load_network",
+    "DeviceSettings",
+    "SyncProducer",
 ]

@@ -14,6 +14,7 @@ and segmented transfers) and replaces or watches parts of it that canopen keeps 
 
 A canopen upgrade that changes any of these breaks this file only.
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -35,7 +36,9 @@ class GatedLocalNode(canopen.LocalNode):
     """LocalNode whose SDO writes go through ``write`` (checks, side effects) before storing, and
     which knows only the (index, sub-index) pairs in ``known`` (the EDS's variables)."""
 
-    def __init__(self, node_id: int, eds: str | Path, *, write: WriteHook, known: Collection[tuple[int, int]]):
+    def __init__(
+        self, node_id: int, eds: str | Path, *, write: WriteHook, known: Collection[tuple[int, int]]
+    ):
         super().__init__(node_id, canopen.import_od(str(eds), node_id))
         self._gate_write = write
         self._gate_known = known
@@ -44,8 +47,9 @@ class GatedLocalNode(canopen.LocalNode):
         obj = self._find_object(index, subindex)
         if check_writable and not obj.writable:
             raise SdoAbortedError(ABORT_READ_ONLY)
-        if (obj.data_type in odmod.NUMBER_TYPES and 8 * len(data) != len(obj)) \
-                or (obj.data_type == odmod.BOOLEAN and len(data) != 1):
+        if (obj.data_type in odmod.NUMBER_TYPES and 8 * len(data) != len(obj)) or (
+            obj.data_type == odmod.BOOLEAN and len(data) != 1
+        ):
             raise SdoAbortedError(ABORT_LENGTH)
         self._gate_write(obj, bytes(data))
 

@@ -6,6 +6,7 @@
 each the few services it calls (the heartbeat consumer and the PDO length check raise EMCYs, the SYNC
 consumer runs the PDOs) and wires the NMT transitions and the SDO write side effects.
 """
+
 from __future__ import annotations
 
 import logging
@@ -79,8 +80,15 @@ class DeviceCore:
             handlers ignore such a frame: canopen dispatches by the bare identifier).
     """
 
-    def __init__(self, network: canopen.Network, node_id: int, node: canopen.LocalNode, *,
-                 clock: Callable[[], float], stats: DeviceStats):
+    def __init__(
+        self,
+        network: canopen.Network,
+        node_id: int,
+        node: canopen.LocalNode,
+        *,
+        clock: Callable[[], float],
+        stats: DeviceStats,
+    ):
         self.network = network
         self.node_id = node_id
         self.node = node

@@ -30,6 +30,7 @@ thread that calls :meth:`telethermo.device.sync.SyncProducer.transmit`. SYNC pro
 RPDO commits and SDO writes are serialised by one lock. Callbacks must not block (never a blocking
 SDO call from a callback).
 """
+
 from __future__ import annotations
 
 import threading
@@ -54,8 +55,17 @@ from telethermo.device.sdo_gate import SdoGate
 from telethermo.device.settings import DeviceSettings
 from telethermo.device.sync_consumer import SyncConsumer
 
-__all__ = ["Device", "DeviceStats", "NmtCommand", "NmtState", "OdWriteError", "PeerEvent", "RpdoEvent",
-           "SyncTick", "WriteEvent"]
+__all__ = [
+    "Device",
+    "DeviceStats",
+    "NmtCommand",
+    "NmtState",
+    "OdWriteError",
+    "PeerEvent",
+    "RpdoEvent",
+    "SyncTick",
+    "WriteEvent",
+]
 
 
 class Device:
@@ -73,8 +83,15 @@ class Device:
     #: a segmented transfer whose client stays silent this long is aborted with 0x05040000 (s)
     SDO_SEGMENT_TIMEOUT_S = 1.0
 
-    def __init__(self, network: canopen.Network, node_id: int, eds: str | Path, *,
-                 settings: DeviceSettings | None = None, clock: Callable[[], float] = time.monotonic):
+    def __init__(
+        self,
+        network: canopen.Network,
+        node_id: int,
+        eds: str | Path,
+        *,
+        settings: DeviceSettings | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ):
         if not 1 <= node_id <= 127:
             raise ValueError(f"node_id must be in 1..127, got {node_id}")
         self.network = network
@@ -84,8 +101,12 @@ class Device:
         self.settings = settings or DeviceSettings()
         self.clock = clock
         self.stats = DeviceStats()
-        self.node = adapter.GatedLocalNode(node_id, self.eds_path, known=self.info.vars,
-                                           write=lambda var, data: self.od_access.sdo_write(var, data))
+        self.node = adapter.GatedLocalNode(
+            node_id,
+            self.eds_path,
+            known=self.info.vars,
+            write=lambda var, data: self.od_access.sdo_write(var, data),
+        )
         self.od = self.node.object_dictionary
         self.store: dict[int, dict[int, bytes]] = self.node.data_store
         self.core = core = DeviceCore(network, node_id, self.node, clock=clock, stats=self.stats)
@@ -95,18 +116,25 @@ class Device:
         self.pdos = PdoEngine(core, self.emcy, self.watch, lambda: self.sync_consumer.last_counter)
         self.tpdos, self.rpdos = self.pdos.tpdos, self.pdos.rpdos
         self.sync_consumer = SyncConsumer(core, self.pdos, self.emcy)
-        self.sdo = SdoGate(core, self.node, block_size=lambda: self.SDO_BLOCK_SIZE,
-                           block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S,
-                           segment_timeout_s=lambda: self.SDO_SEGMENT_TIMEOUT_S)
-        self.nmt = NmtSlave(core, reset=self._reset_services, booted=self.heartbeat.arm,
-                            changed=self.pdos.nmt_changed)
+        self.sdo = SdoGate(
+            core,
+            self.node,
+            block_size=lambda: self.SDO_BLOCK_SIZE,
+            block_timeout_s=lambda: self.SDO_BLOCK_TIMEOUT_S,
+            segment_timeout_s=lambda: self.SDO_SEGMENT_TIMEOUT_S,
+        )
+        self.nmt = NmtSlave(
+            core, reset=self._reset_services, booted=self.heartbeat.arm, changed=self.pdos.nmt_changed
+        )
         self.od_access = OdAccess(core, self.node, self.info, self.settings)
-        for low, high, hook in ((0x1003, 0x1003, self.emcy.history_written),
-                                (0x1005, 0x1005, self.sync_consumer.cob_id_written),
-                                (0x1006, 0x1006, self.sync_consumer.period_written),
-                                (0x1016, 0x1016, self.heartbeat.consumers_written),
-                                (0x1017, 0x1017, self.heartbeat.producer_written),
-                                (0x1019, 0x1019, self.sync_consumer.overflow_written)):
+        for low, high, hook in (
+            (0x1003, 0x1003, self.emcy.history_written),
+            (0x1005, 0x1005, self.sync_consumer.cob_id_written),
+            (0x1006, 0x1006, self.sync_consumer.period_written),
+            (0x1016, 0x1016, self.heartbeat.consumers_written),
+            (0x1017, 0x1017, self.heartbeat.producer_written),
+            (0x1019, 0x1019, self.sync_consumer.overflow_written),
+        ):
             self.od_access.on_write(low, high, hook)
         self.od_access.on_write(0x1400, 0x1BFF, self.pdos.param_written, restore=self.pdos.reconfigure)
         # wire into the network: replace LocalNode's NMT and SDO handlers by gated ones
@@ -280,7 +308,7 @@ class Device:
 
     # ------------------------------------------------------------------ heartbeat
     def peer_status(self, node_id: int) -> str:
-        """"unknown" (no heartbeat yet), "alive" or "lost" for a consumed peer."""
+        """ "unknown" (no heartbeat yet), "alive" or "lost" for a consumed peer."""
         return self.heartbeat.status(node_id)
 
     def peer_state(self, node_id: int) -> int | None:
@@ -292,8 +320,15 @@ class Device:
         self.heartbeat.send_now()
 
     # ------------------------------------------------------------------ EMCY
-    def raise_emcy(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP,
-                   subject: int | None = None) -> None:
+    def raise_emcy(
+        self,
+        code: int,
+        *,
+        data: bytes = b"",
+        info16: int = 0,
+        source: str = emcy_mod.APP,
+        subject: int | None = None,
+    ) -> None:
         """Record error ``code`` (0x1001, 0x1003) and send its EMCY (inhibit time permitting).
 
         ``source`` tells who holds the error (the program: the default; the device's heartbeat consumer

@@ -10,6 +10,7 @@ operator CLI accepts:
 - an entry name alone when it is unique in the dictionary: ``theta3``
 - numbers: ``0x2200``, ``0x1018sub1``, ``0x1018:1``, ``0x1018.1``
 """
+
 from __future__ import annotations
 
 import math
@@ -23,10 +24,21 @@ from telethermo.cia301 import ABORT_RANGE, ABORT_TOO_HIGH, ABORT_TOO_LOW
 REAL_TYPES = {0x0008, 0x0011}  # REAL32, REAL64
 SIGNED_BITS = {0x0002: 8, 0x0003: 16, 0x0004: 32, 0x0015: 64}
 UNSIGNED_TYPES = {0x0001, 0x0005, 0x0006, 0x0007, 0x001B}
-TYPE_NAMES = {0x0001: "BOOLEAN", 0x0002: "INTEGER8", 0x0003: "INTEGER16", 0x0004: "INTEGER32",
-              0x0005: "UNSIGNED8", 0x0006: "UNSIGNED16", 0x0007: "UNSIGNED32", 0x0008: "REAL32",
-              0x0009: "VISIBLE_STRING", 0x000A: "OCTET_STRING", 0x0011: "REAL64", 0x0015: "INTEGER64",
-              0x001B: "UNSIGNED64"}
+TYPE_NAMES = {
+    0x0001: "BOOLEAN",
+    0x0002: "INTEGER8",
+    0x0003: "INTEGER16",
+    0x0004: "INTEGER32",
+    0x0005: "UNSIGNED8",
+    0x0006: "UNSIGNED16",
+    0x0007: "UNSIGNED32",
+    0x0008: "REAL32",
+    0x0009: "VISIBLE_STRING",
+    0x000A: "OCTET_STRING",
+    0x0011: "REAL64",
+    0x0015: "INTEGER64",
+    0x001B: "UNSIGNED64",
+}
 
 
 class EdsError(ValueError):
@@ -75,7 +87,13 @@ class VarInfo:
         if self.low is None and self.high is None:
             return ""
         lo = "-inf" if self.low is None else f"{self.low:g}" if isinstance(self.low, float) else str(self.low)
-        hi = "+inf" if self.high is None else f"{self.high:g}" if isinstance(self.high, float) else str(self.high)
+        hi = (
+            "+inf"
+            if self.high is None
+            else f"{self.high:g}"
+            if isinstance(self.high, float)
+            else str(self.high)
+        )
         return f"[{lo}, {hi}]" + (f" {self.unit}" if self.unit else "")
 
 
@@ -92,7 +110,9 @@ def _number(text: str, data_type: int, where: str) -> float | int:
             value -= 1 << bits
         return value
     except ValueError:
-        raise EdsError(f"{where}: expected a number for a {TYPE_NAMES.get(data_type, hex(data_type))}, got {text!r}") from None
+        raise EdsError(
+            f"{where}: expected a number for a {TYPE_NAMES.get(data_type, hex(data_type))}, got {text!r}"
+        ) from None
 
 
 #: how the API names an object: its name or CLI key, ``"0x1018sub1"``, an index, or (index, subindex)
@@ -117,12 +137,16 @@ def _check_object_lists(parser: RawConfigParser, path: Path) -> None:
             n = int(parser.get(lst, "SupportedObjects", fallback="0"), 0)
             listed = [int(parser.get(lst, str(k)), 0) for k in range(1, n + 1)]
         except (ValueError, TypeError) as exc:
-            raise EdsError(f"{path}: [{lst}]: expected SupportedObjects = N and entries 1..N = index "
-                           f"({' '.join(str(exc).split())})") from None
+            raise EdsError(
+                f"{path}: [{lst}]: expected SupportedObjects = N and entries 1..N = index "
+                f"({' '.join(str(exc).split())})"
+            ) from None
         missing += [f"0x{i:04X}" for i in listed if not parser.has_section(f"{i:04X}")]
     if missing:
         shown = ", ".join(missing[:5]) + (f" and {len(missing) - 5} more" if len(missing) > 5 else "")
-        raise EdsError(f"{path}: {len(missing)} listed object(s) have no section ({shown}): truncated or damaged EDS")
+        raise EdsError(
+            f"{path}: {len(missing)} listed object(s) have no section ({shown}): truncated or damaged EDS"
+        )
 
 
 class EdsInfo:
@@ -181,16 +205,23 @@ class EdsInfo:
         try:
             data_type = int(get("DataType", "0"), 0)
         except ValueError:
-            raise EdsError(f"{where} DataType: expected a type code like 0x0008, got {get('DataType')!r}") from None
+            raise EdsError(
+                f"{where} DataType: expected a type code like 0x0008, got {get('DataType')!r}"
+            ) from None
         low = parser.get(section, "LowLimit", fallback=None)
         high = parser.get(section, "HighLimit", fallback=None)
         info = VarInfo(
-            index=index, subindex=sub, name=get("ParameterName", section),
+            index=index,
+            subindex=sub,
+            name=get("ParameterName", section),
             key=(get("ParameterName", section) or section) if top else "",
-            data_type=data_type, access=(get("AccessType", "ro") or "ro").lower(), unit=get("Unit", "") or "",
+            data_type=data_type,
+            access=(get("AccessType", "ro") or "ro").lower(),
+            unit=get("Unit", "") or "",
             low=None if not low else _number(low, data_type, f"{where} LowLimit"),
             high=None if not high else _number(high, data_type, f"{where} HighLimit"),
-            default=get("DefaultValue", "") or "", pdo_mappable=bool(int(get("PDOMapping", "0"), 0)),
+            default=get("DefaultValue", "") or "",
+            pdo_mappable=bool(int(get("PDOMapping", "0"), 0)),
             description=get("Description", "") or "",
         )
         if info.low is not None and info.high is not None and info.low > info.high:

@@ -20,6 +20,7 @@
   occurrence (its own frame and history entry): one EMCY 0x8130 per lost node, even while the program's
   peer_lost trip (subject: the peer) holds 0x8130. No subject (None) is the same error as any subject.
 """
+
 from __future__ import annotations
 
 import struct
@@ -57,9 +58,9 @@ class EmcyState:
     bookkeeping (no I/O)."""
 
     def __init__(self) -> None:
-        self.active: dict[int, int] = {}   # code -> register bits
-        self.sources: dict[int, set[str]] = {}   # code -> the sources holding it
-        self.subjects: dict[tuple[int, str], int | None] = {}   # (code, source) -> what it concerns
+        self.active: dict[int, int] = {}  # code -> register bits
+        self.sources: dict[int, set[str]] = {}  # code -> the sources holding it
+        self.subjects: dict[tuple[int, str], int | None] = {}  # (code, source) -> what it concerns
         self.history: deque[int] = deque(maxlen=HISTORY_LEN)  # newest first (0x1003 sub 1 = [0])
 
     @property
@@ -69,16 +70,24 @@ class EmcyState:
             reg |= bits
         return reg
 
-    def raise_error(self, code: int, info16: int = 0, extra_bits: int = 0, *, source: str = APP,
-                    subject: int | None = None) -> bool:
+    def raise_error(
+        self,
+        code: int,
+        info16: int = 0,
+        extra_bits: int = 0,
+        *,
+        source: str = APP,
+        subject: int | None = None,
+    ) -> bool:
         """``source`` raises ``code`` about ``subject`` (e.g. a lost node's ID; None: unspecified). True: a
         new occurrence (history entry, EMCY frame to send); False: another source already holds the code
         for the same subject (the same error still present: nothing to send)."""
         if not 0x0100 <= code <= 0xFFFF:
             raise ValueError(f"EMCY code must be in 0x0100..0xFFFF (0x00xx is 'no error'), got 0x{code:04X}")
         holders = self.sources.setdefault(code, set())
-        shared = source not in holders and any(_same(self.subjects.get((code, other)), subject)
-                                               for other in holders)
+        shared = source not in holders and any(
+            _same(self.subjects.get((code, other)), subject) for other in holders
+        )
         holders.add(source)
         self.subjects[(code, source)] = subject
         self.active[code] = self.active.get(code, 0) | register_bits(code) | extra_bits

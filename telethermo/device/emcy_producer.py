@@ -1,6 +1,7 @@
 """EMCY producer service: 0x1001 / 0x1003 kept from the error bookkeeping (:mod:`.emcy`), EMCY frames on
 0x1014 honouring the inhibit time 0x1015 (100 µs units: closer EMCYs are delayed, not lost), only in
 PRE-OPERATIONAL and OPERATIONAL (in STOPPED the error is recorded, no frame is sent)."""
+
 from __future__ import annotations
 
 from canopen import SdoAbortedError
@@ -18,10 +19,17 @@ class EmcyProducer:
         self.core = core
         self.errors = emcy_mod.EmcyState()
         self._queue: list[tuple[int, int, bytes]] = []
-        self._last_sent = -1e18   # clock time of the last EMCY frame (s)
+        self._last_sent = -1e18  # clock time of the last EMCY frame (s)
 
-    def raise_error(self, code: int, *, data: bytes = b"", info16: int = 0, source: str = emcy_mod.APP,
-                    subject: int | None = None) -> None:
+    def raise_error(
+        self,
+        code: int,
+        *,
+        data: bytes = b"",
+        info16: int = 0,
+        source: str = emcy_mod.APP,
+        subject: int | None = None,
+    ) -> None:
         """Record error ``code`` (0x1001, 0x1003) and send its EMCY; a code another source holds
         already for the same ``subject`` is the same error still present: no second frame or history
         entry (see :mod:`.emcy`)."""

@@ -1,5 +1,6 @@
 """What the device hands its listeners: SYNC ticks, accepted RPDOs, heartbeat-consumer events, SDO
 writes; and the error of a refused local write."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass

@@ -1,5 +1,6 @@
 """The frame watch: counts frames whose COB-ID belongs to no service of the network's nodes, and flags
 29-bit frames for the service handlers (canopen dispatches by the bare identifier)."""
+
 from __future__ import annotations
 
 from typing import Iterable

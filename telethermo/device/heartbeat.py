@@ -1,5 +1,6 @@
 """Heartbeat producer (0x1017, on every NMT path) and heartbeat consumer (0x1016) with timeout (EMCY
 0x8130, held per watched node) and "seen" / "lost" / "back" / "bootup" / "state" peer events."""
+
 from __future__ import annotations
 
 import functools
@@ -28,8 +29,8 @@ class Heartbeat:
         self.core = core
         self.emcy = emcy
         self.listeners: list[Callable[[PeerEvent], None]] = []
-        self.consumers: dict[int, float] = {}       # peer node-ID -> timeout s
-        self._status: dict[int, str] = {}           # "unknown" / "alive" / "lost"
+        self.consumers: dict[int, float] = {}  # peer node-ID -> timeout s
+        self._status: dict[int, str] = {}  # "unknown" / "alive" / "lost"
         self._state: dict[int, int | None] = {}
         self._seen: dict[int, float] = {}
         self._subs: list[tuple[int, FrameCallback]] = []
@@ -72,7 +73,7 @@ class Heartbeat:
 
     # ------------------------------------------------------------------ consumer
     def status(self, node_id: int) -> str:
-        """"unknown" (no heartbeat yet), "alive" or "lost" for a consumed peer."""
+        """ "unknown" (no heartbeat yet), "alive" or "lost" for a consumed peer."""
         return self._status[node_id]
 
     def peer_state(self, node_id: int) -> int | None:
@@ -115,8 +116,11 @@ class Heartbeat:
         for n in self.consumers:
             self._subs.append(core.subscribe(0x700 + n, functools.partial(self._on_frame, n)))
             if n in kept and self._status[n] == "alive":
-                core.scheduler.set(f"hbc{n}", self._seen.get(n, core.clock()) + self.consumers[n],
-                                   functools.partial(self._on_timeout, n))
+                core.scheduler.set(
+                    f"hbc{n}",
+                    self._seen.get(n, core.clock()) + self.consumers[n],
+                    functools.partial(self._on_timeout, n),
+                )
         for n in old:
             if n not in kept and self.emcy.holds(EMCY_HEARTBEAT, hb_source(n)):
                 self.emcy.clear(EMCY_HEARTBEAT, source=hb_source(n))

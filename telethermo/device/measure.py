@@ -5,6 +5,7 @@ Two bare devices on a python-can ``virtual`` bus in one process, a trivial SYNC 
 over repeats (the node programs add their control step and rig on top), and the median cost of one
 SYNC on a lone device (``process_sync_us``; ``sync_transmit_us`` with the SYNC frame itself).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -50,12 +51,17 @@ def measure_virtual(cycles: int = 2000, *, repeats: int = 3) -> dict[str, float]
         try:
             for role in ("master", "slave"):
                 nets.append(net := _virtual_network(channel))
-                dev = Device(net, cfg.node(role).node_id, path(f"{role}.eds"), settings=cfg.device_settings(role))
+                dev = Device(
+                    net, cfg.node(role).node_id, path(f"{role}.eds"), settings=cfg.device_settings(role)
+                )
                 devs.append(dev)
                 write, read = dev.writer("estimate_C"), dev.reader("peer_estimate_C")
-                def relay(tick: SyncTick, w: Callable[[Any], None] = write,
-                          r: Callable[[], Any] = read) -> None:
+
+                def relay(
+                    tick: SyncTick, w: Callable[[Any], None] = write, r: Callable[[], Any] = read
+                ) -> None:
                     w(r() + 1.0)
+
                 dev.add_sync_handler(relay)
                 dev.start()
             devs[0].nmt_command(NmtCommand.START, 0)
@@ -71,8 +77,13 @@ def measure_virtual(cycles: int = 2000, *, repeats: int = 3) -> dict[str, float]
                 dev.close()
             for net in nets:
                 net.disconnect()
-    return {"lockstep_cycles_per_s_device_virtual": statistics.median(rates), "cycles": cycles,
-            "repeats": repeats, "min": min(rates), "max": max(rates)}
+    return {
+        "lockstep_cycles_per_s_device_virtual": statistics.median(rates),
+        "cycles": cycles,
+        "repeats": repeats,
+        "min": min(rates),
+        "max": max(rates),
+    }
 
 
 def measure_per_sync(n: int = 5000, *, repeats: int = 5) -> dict[str, float]:
@@ -103,8 +114,10 @@ def measure_per_sync(n: int = 5000, *, repeats: int = 5) -> dict[str, float]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description="Lockstep cycles/s of two bare devices over python-can virtual, "
-                                                 "and the cost of one SYNC on one device.")
+    parser = argparse.ArgumentParser(
+        description="Lockstep cycles/s of two bare devices over python-can virtual, "
+        "and the cost of one SYNC on one device."
+    )
     parser.add_argument("--cycles", type=int, default=2000)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args(argv)

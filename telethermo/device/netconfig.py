@@ -5,6 +5,7 @@ the field (``[section] key``) and what was expected, e.g.::
 
     bus_config/network.toml: [heartbeat] consumer_ms: expected an integer > producer_ms (100), got 80
 """
+
 from __future__ import annotations
 
 import builtins
@@ -80,14 +81,18 @@ class NetworkConfig:
 
     def node(self, role: str) -> NodeConfig:
         if role not in self.nodes:
-            raise NetworkConfigError(f"{self.path}: [nodes.{role}]: no such node (have {', '.join(self.nodes)})")
+            raise NetworkConfigError(
+                f"{self.path}: [nodes.{role}]: no such node (have {', '.join(self.nodes)})"
+            )
         return self.nodes[role]
 
     def peer(self, role: str) -> NodeConfig:
         """The other node of the pair (master and slave only: another device on the bus has no peer here)."""
         self.node(role)
         if role not in ROLES:
-            raise NetworkConfigError(f"{self.path}: [nodes.{role}]: not one of the pair (master, slave): no peer")
+            raise NetworkConfigError(
+                f"{self.path}: [nodes.{role}]: not one of the pair (master, slave): no peer"
+            )
         return self.node("slave" if role == "master" else "master")
 
     def device_settings(self, role: str) -> DeviceSettings:
@@ -107,7 +112,7 @@ class NetworkConfig:
 
 
 def default_path() -> Path:
-    return Path(path("network.toml"))   # typed Path also where mypy cannot resolve telethermo.bus_config
+    return Path(path("network.toml"))  # typed Path also where mypy cannot resolve telethermo.bus_config
 
 
 class _Section:
@@ -118,7 +123,9 @@ class _Section:
             raise NetworkConfigError(f"{file}: [{name}]: expected a table, got {table!r}")
         unknown = sorted(set(table) - allowed)
         if unknown:
-            raise NetworkConfigError(f"{file}: [{name}] {unknown[0]}: unknown key (expected one of {', '.join(sorted(allowed))})")
+            raise NetworkConfigError(
+                f"{file}: [{name}] {unknown[0]}: unknown key (expected one of {', '.join(sorted(allowed))})"
+            )
         self.file, self.name, self.table = file, name, table
 
     def error(self, key: str, expected: str, value: Any) -> NetworkConfigError:
@@ -134,12 +141,23 @@ class _Section:
         v = self.table.get(key, default)
         if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
             raise self.error(key, f"an integer in [{lo}, {hi}]{what}", v)
-        return cast(builtins.int, v)   # checked above (mypy does not narrow Any through the `or`)
+        return cast(builtins.int, v)  # checked above (mypy does not narrow Any through the `or`)
 
-    def float(self, key: builtins.str, default: builtins.float, lo: builtins.float, hi: builtins.float,
-              what: builtins.str = "") -> builtins.float:
+    def float(
+        self,
+        key: builtins.str,
+        default: builtins.float,
+        lo: builtins.float,
+        hi: builtins.float,
+        what: builtins.str = "",
+    ) -> builtins.float:
         v = self.table.get(key, default)
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or not lo <= v <= hi:
+        if (
+            isinstance(v, bool)
+            or not isinstance(v, (int, float))
+            or not math.isfinite(v)
+            or not lo <= v <= hi
+        ):
             raise self.error(key, f"a number in [{lo:g}, {hi:g}]{what}", v)
         return float(v)
 
@@ -167,14 +185,18 @@ def load_network(path: str | Path | None = None) -> NetworkConfig:
     b = _Section(file, "bus", top.table.get("bus", {}), {"interface", "channel", "bitrate", "options"})
     options = b.table.get("options", {})
     if not isinstance(options, dict):
-        raise NetworkConfigError(f"{file}: [bus] options: expected a table of can.Bus keyword arguments, got {options!r}")
+        raise NetworkConfigError(
+            f"{file}: [bus] options: expected a table of can.Bus keyword arguments, got {options!r}"
+        )
     bus = BusConfig(
         interface=b.str("interface", "virtual"),
         channel=b.str("channel", "telethermo"),
         bitrate=b.int("bitrate", 1_000_000, 10_000, 1_000_000),
         options=dict(options),
     )
-    s = _Section(file, "sync", top.table.get("sync", {}), {"producer", "period_s", "counter_overflow", "lockstep"})
+    s = _Section(
+        file, "sync", top.table.get("sync", {}), {"producer", "period_s", "counter_overflow", "lockstep"}
+    )
     overflow = s.int("counter_overflow", 240, 0, 240, " (0 = no counter; 1 is not allowed)")
     if overflow == 1:
         raise s.error("counter_overflow", "0 (no counter) or an integer in [2, 240]", overflow)
@@ -188,7 +210,11 @@ def load_network(path: str | Path | None = None) -> NetworkConfig:
     producer_ms = h.int("producer_ms", 100, 0, 65535, " ms")
     consumer_ms = h.int("consumer_ms", 250, 0, 65535, " ms")
     if consumer_ms and producer_ms and consumer_ms <= producer_ms:
-        raise h.error("consumer_ms", f"an integer > producer_ms ({producer_ms}) so that one late heartbeat is not a loss", consumer_ms)
+        raise h.error(
+            "consumer_ms",
+            f"an integer > producer_ms ({producer_ms}) so that one late heartbeat is not a loss",
+            consumer_ms,
+        )
     heartbeat = HeartbeatConfig(producer_ms=producer_ms, consumer_ms=consumer_ms)
 
     table = top.table.get("nodes", {})
@@ -204,7 +230,7 @@ def _eds_path(file: Path, t: "_Section", default: str | None) -> Path | None:
     given = t.table.get("eds", default)
     if given is None:
         return None
-    eds = Path(t.str("eds", default or ""))          # given is not None: a table entry or a default
+    eds = Path(t.str("eds", default or ""))  # given is not None: a table entry or a default
     eds = eds if eds.is_absolute() else (file.parent / eds)
     if not eds.is_file():
         raise t.error("eds", f"an existing EDS file (looked for {eds})", given)
@@ -217,24 +243,32 @@ def _pair(file: Path, table: dict[str, Any]) -> dict[str, NodeConfig]:
     defaults = {"master": 1, "slave": 2}
     for role in ROLES:
         t = _Section(file, f"nodes.{role}", table.get(role, {}), {"node_id", "eds"})
-        nodes[role] = NodeConfig(role, t.int("node_id", defaults[role], 1, 127), _eds_path(file, t, f"{role}.eds"))
+        nodes[role] = NodeConfig(
+            role, t.int("node_id", defaults[role], 1, 127), _eds_path(file, t, f"{role}.eds")
+        )
     if nodes["master"].node_id == nodes["slave"].node_id:
-        raise NetworkConfigError(f"{file}: [nodes.slave] node_id: expected a node-ID different from the master's "
-                                 f"({nodes['master'].node_id}), got {nodes['slave'].node_id}")
+        raise NetworkConfigError(
+            f"{file}: [nodes.slave] node_id: expected a node-ID different from the master's "
+            f"({nodes['master'].node_id}), got {nodes['slave'].node_id}"
+        )
     return nodes
 
 
 def _other_node(file: Path, name: str, raw: Any, nodes: dict[str, NodeConfig]) -> NodeConfig:
     """[nodes.NAME]: another device on the bus: node_id required, eds optional."""
     if not OTHER_NODE_NAME.fullmatch(name):
-        raise NetworkConfigError(f"{file}: [nodes.{name}]: expected a node name of lower-case letters, digits, "
-                                 "'_' or '-', starting with a letter")
+        raise NetworkConfigError(
+            f"{file}: [nodes.{name}]: expected a node name of lower-case letters, digits, "
+            "'_' or '-', starting with a letter"
+        )
     if not isinstance(raw, dict):
         raise NetworkConfigError(f"{file}: [nodes.{name}]: expected a table (node_id, eds), got {raw!r}")
     t = _Section(file, f"nodes.{name}", raw, {"node_id", "eds"})
     if "node_id" not in raw:
-        raise NetworkConfigError(f"{file}: [nodes.{name}] node_id: missing (a node other than master and slave "
-                                 "needs its node-ID, an integer in [1, 127])")
+        raise NetworkConfigError(
+            f"{file}: [nodes.{name}] node_id: missing (a node other than master and slave "
+            "needs its node-ID, an integer in [1, 127])"
+        )
     node_id = t.int("node_id", 0, 1, 127)
     for other in nodes.values():
         if other.node_id == node_id:

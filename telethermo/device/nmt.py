@@ -1,6 +1,7 @@
 """NMT slave of a device: INITIALISING → boot-up → PRE-OPERATIONAL on power-on, reset node and reset
 communication; start / stop / enter pre-operational from NMT frames (COB-ID 0) or from the device's
 own NMT master commands (a node never receives its own frames)."""
+
 from __future__ import annotations
 
 from typing import Callable
@@ -18,8 +19,14 @@ class NmtSlave:
     """The NMT state machine; what each transition does to the other services is the device's
     ``reset(whole)`` (before the boot-up), ``booted()`` (after it) and ``changed(old, new)``."""
 
-    def __init__(self, core: DeviceCore, *, reset: Callable[[bool | None], None], booted: Callable[[], None],
-                 changed: Callable[[NmtState, NmtState], None]):
+    def __init__(
+        self,
+        core: DeviceCore,
+        *,
+        reset: Callable[[bool | None], None],
+        booted: Callable[[], None],
+        changed: Callable[[NmtState, NmtState], None],
+    ):
         self.core = core
         self.listeners: list[NmtListener] = []
         self._reset = reset

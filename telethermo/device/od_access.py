@@ -5,6 +5,7 @@ listeners), live diagnostics objects and the power-on values NMT resets restore.
 SDO writes are range-checked against the EDS (REAL32 limits re-read from the text): abort 0x06090030
 (range exceeded, or NaN), 0x06090031 (too high), 0x06090032 (too low); the value is left unchanged.
 """
+
 from __future__ import annotations
 
 from typing import Any, Callable, cast
@@ -20,8 +21,14 @@ from telethermo.device.events import OdWriteError, WriteEvent
 from telethermo.device.settings import DeviceSettings
 
 # diagnostics objects served live from DeviceStats (see bus_config/edsgen.py)
-DIAG_OBJECTS = {0x2710: "malformed_frames", 0x2711: "unknown_cobid_frames", 0x2712: "callback_errors",
-                0x2713: "sync_count", 0x2714: "rpdo_count", 0x2715: "peer_losses"}
+DIAG_OBJECTS = {
+    0x2710: "malformed_frames",
+    0x2711: "unknown_cobid_frames",
+    0x2712: "callback_errors",
+    0x2713: "sync_count",
+    0x2714: "rpdo_count",
+    0x2715: "peer_losses",
+}
 
 #: ``hook(index, sub, value, old_bytes)`` after a communication object was stored; an SdoAbortedError
 #: refuses the write (the old value is put back)
@@ -52,7 +59,7 @@ class OdAccess:
         if slot is None:
             idx = parse_index_key(key)
             if idx is None:
-                info = self.info.get(key)             # by name (KeyError if there is none)
+                info = self.info.get(key)  # by name (KeyError if there is none)
             elif (found := self.info.vars.get(idx)) is not None:
                 info = found
             else:
@@ -73,7 +80,9 @@ class OdAccess:
             try:
                 self.sdo_write(var, data)
             except SdoAbortedError as exc:
-                raise OdWriteError(f"{info.key if info else hex(index)} = {value!r} refused: {exc}", exc.code) from None
+                raise OdWriteError(
+                    f"{info.key if info else hex(index)} = {value!r} refused: {exc}", exc.code
+                ) from None
             return
         if check and info is not None and (info.low is not None or info.high is not None):
             code = self.info.check(info, var.decode_raw(data))
@@ -113,7 +122,9 @@ class OdAccess:
         index, sub, _, _ = self.slot(key)
         self._validators.setdefault((index, sub), []).append(fn)
 
-    def on_write(self, low: int, high: int, hook: WriteHook, *, restore: Callable[[], None] | None = None) -> None:
+    def on_write(
+        self, low: int, high: int, hook: WriteHook, *, restore: Callable[[], None] | None = None
+    ) -> None:
         """``hook`` applies a write of an object in ``low..high`` (a communication object's side
         effect, run after the value is stored); ``restore()`` after a refused write put the old
         value back."""
@@ -127,9 +138,9 @@ class OdAccess:
         core = self.core
         with core.lock:
             if var.data_type == odmod.BOOLEAN and data[:1] not in (b"\x00", b"\x01"):
-                raise SdoAbortedError(ABORT_RANGE)   # CiA 301 BOOLEAN: 0 FALSE, 1 TRUE, nothing else
+                raise SdoAbortedError(ABORT_RANGE)  # CiA 301 BOOLEAN: 0 FALSE, 1 TRUE, nothing else
             if info is not None and var.data_type in odmod.NUMBER_TYPES:
-                code = self.info.check(info, cast("float | int", value))   # a number type decodes to a number
+                code = self.info.check(info, cast("float | int", value))  # a number type decodes to a number
                 if code is not None:
                     raise SdoAbortedError(code)
             if self._validators:

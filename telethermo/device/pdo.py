@@ -14,6 +14,7 @@ CiA 301 behaviour implemented here (canopen's LocalNode has none of it):
 
 Plans are rebuilt whenever an SDO write changes a PDO parameter (dynamic mapping).
 """
+
 from __future__ import annotations
 
 import struct
@@ -27,14 +28,14 @@ from telethermo.cia301 import ABORT_CANNOT_MAP, ABORT_INCOMPATIBLE, ABORT_PDO_TO
 
 PDO_INVALID = 1 << 31
 RTR_NOT_ALLOWED = 1 << 30
-Store = dict[int, dict[int, bytes]]   # LocalNode.data_store: index -> subindex -> raw little-endian bytes
+Store = dict[int, dict[int, bytes]]  # LocalNode.data_store: index -> subindex -> raw little-endian bytes
 
 
 @dataclass(slots=True, eq=False)
 class PdoPlan:
     """One PDO channel compiled from its communication and mapping records."""
 
-    number: int            # 1-based
+    number: int  # 1-based
     tx: bool
     comm_index: int
     map_index: int
@@ -48,16 +49,16 @@ class PdoPlan:
     cells: list[tuple[dict[int, bytes], int]] = field(default_factory=list)  # (data_store[index], sub)
     names: tuple[str, ...] = ()
     decoders: tuple[struct.Struct | None, ...] = ()
-    length: int = 0        # bytes
+    length: int = 0  # bytes
     # run-time state
     countdown: int = 0
     waiting_start: bool = False
     triggered: bool = False
     last_sent: float = -1e18
-    pending: bytes | None = None   # synchronous RPDO data awaiting the next SYNC
-    bad_length: bool = False       # an EMCY for a length error is outstanding
-    last_rx: float | None = None   # RPDO: clock time of the last one accepted (None: not monitored)
-    timed_out: bool = False        # RPDO: its EMCY 0x8250 is outstanding
+    pending: bytes | None = None  # synchronous RPDO data awaiting the next SYNC
+    bad_length: bool = False  # an EMCY for a length error is outstanding
+    last_rx: float | None = None  # RPDO: clock time of the last one accepted (None: not monitored)
+    timed_out: bool = False  # RPDO: its EMCY 0x8250 is outstanding
 
     @property
     def synchronous(self) -> bool:
@@ -72,7 +73,7 @@ class PdoPlan:
         offset = 0
         for cell, sub in self.cells:
             n = len(cell[sub])
-            cell[sub] = bytes(data[offset:offset + n])
+            cell[sub] = bytes(data[offset : offset + n])
             offset += n
 
     def decode(self, data: bytes) -> dict[str, float | int | bytes]:
@@ -80,7 +81,9 @@ class PdoPlan:
         out: dict[str, float | int | bytes] = {}
         offset = 0
         for name, dec, (_, _, n) in zip(self.names, self.decoders, self.entries):
-            out[name] = dec.unpack_from(data, offset)[0] if dec is not None else bytes(data[offset:offset + n])
+            out[name] = (
+                dec.unpack_from(data, offset)[0] if dec is not None else bytes(data[offset : offset + n])
+            )
             offset += n
         return out
 
@@ -133,7 +136,7 @@ def mappable(node: LocalNode, index: int, sub: int, bits: int, *, tx: bool) -> O
     od = node.object_dictionary
     if index not in od:
         raise SdoAbortedError(ABORT_CANNOT_MAP)
-    var: Any = od[index]             # an ODVariable, or an ODRecord/ODArray holding it
+    var: Any = od[index]  # an ODVariable, or an ODRecord/ODArray holding it
     if not hasattr(var, "data_type"):
         if sub not in var:
             raise SdoAbortedError(ABORT_CANNOT_MAP)
@@ -161,5 +164,5 @@ def check_comm_write(plan: PdoPlan, sub: int, new: int) -> None:
             raise SdoAbortedError(ABORT_RANGE)
     elif sub == 3 and plan.valid:
         raise SdoAbortedError(ABORT_INCOMPATIBLE)  # inhibit time only while invalid (CiA 301 7.5.2.35)
-    elif sub == 6 and (new > 240 or plan.valid):   # SYNC start value only while invalid (as CANopenNode)
+    elif sub == 6 and (new > 240 or plan.valid):  # SYNC start value only while invalid (as CANopenNode)
         raise SdoAbortedError(ABORT_RANGE)

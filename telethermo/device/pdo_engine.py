@@ -9,6 +9,7 @@ one raises EMCY 0x8250 (data byte 0: the RPDO number; source ``rpdo-timeout<n>``
 RPDO clears it. Leaving OPERATIONAL stops the monitoring (the error stays until an RPDO or a reset);
 making the channel invalid or setting its event timer to 0 removes the error. The node program's own
 peer trip (peer_pdo_miss_limit, heartbeat loss) is independent of it."""
+
 from __future__ import annotations
 
 import functools
@@ -19,7 +20,10 @@ from canopen import SdoAbortedError
 
 from telethermo.device import pdo as pdo_mod
 from telethermo.cia301 import (
-    ABORT_PDO_TOO_LONG, ABORT_UNSUPPORTED_ACCESS, EMCY_PDO_LENGTH, EMCY_PDO_LENGTH_EXCEEDED,
+    ABORT_PDO_TOO_LONG,
+    ABORT_UNSUPPORTED_ACCESS,
+    EMCY_PDO_LENGTH,
+    EMCY_PDO_LENGTH_EXCEEDED,
     EMCY_RPDO_TIMEOUT,
 )
 from telethermo.device.context import DeviceCore, FrameCallback, NmtState
@@ -31,8 +35,13 @@ from telethermo.device.frames import FrameWatch
 class PdoEngine:
     """Every TPDO and RPDO channel the object dictionary has (``tpdos``/``rpdos`` by number, 1-based)."""
 
-    def __init__(self, core: DeviceCore, emcy: EmcyProducer, watch: FrameWatch,
-                 last_sync_counter: Callable[[], int | None]):
+    def __init__(
+        self,
+        core: DeviceCore,
+        emcy: EmcyProducer,
+        watch: FrameWatch,
+        last_sync_counter: Callable[[], int | None],
+    ):
         self.core = core
         self.emcy = emcy
         self.watch = watch
@@ -65,7 +74,9 @@ class PdoEngine:
         if plan is None:
             return
         if not is_map:
-            pdo_mod.check_comm_write(plan, sub, int(value))  # ``plan`` still holds the values before this write
+            pdo_mod.check_comm_write(
+                plan, sub, int(value)
+            )  # ``plan`` still holds the values before this write
         elif plan.valid or (sub > 0 and self.core.u(plan.map_index, 0) != 0):
             # CiA 301 7.5.2.36 mapping procedure: PDO invalid (COB-ID bit 31), sub 0 to 0, the entries, sub 0 to
             # their count, PDO valid; a write out of that order is refused as CANopenNode does (0x06010000)
@@ -83,14 +94,17 @@ class PdoEngine:
         for plan in list(self.tpdos.values()) + list(self.rpdos.values()):
             pdo_mod.compile_plan(plan, core.store, core.node)
             if plan.tx and 1 <= plan.trans_type <= 240:
-                plan.countdown = min(plan.countdown, plan.trans_type) if plan.countdown > 0 else plan.trans_type
+                plan.countdown = (
+                    min(plan.countdown, plan.trans_type) if plan.countdown > 0 else plan.trans_type
+                )
         self.sync_tpdos = [p for p in self.tpdos.values() if p.valid and p.trans_type <= 240]
         self.sync_rpdos = [p for p in self.rpdos.values() if p.valid and p.trans_type <= 240]
         for plan in self.rpdos.values():
             if plan.valid:
                 self._subs.append(core.subscribe(plan.cob_id, functools.partial(self._on_rpdo_frame, plan)))
-        self.watch.set_pdo_cobids(p.cob_id for p in list(self.tpdos.values()) + list(self.rpdos.values())
-                                  if p.valid)
+        self.watch.set_pdo_cobids(
+            p.cob_id for p in list(self.tpdos.values()) + list(self.rpdos.values()) if p.valid
+        )
         if core.state == NmtState.OPERATIONAL:
             for tp in self.tpdos.values():
                 self._arm_event_timer(tp)
@@ -119,11 +133,12 @@ class PdoEngine:
             self.core.scheduler.cancel_prefix("tpdo")
             self.core.scheduler.cancel_prefix("rpdo-timeout")
             for rp in self.rpdos.values():
-                rp.last_rx = None    # monitoring starts again at the first RPDO in OPERATIONAL
+                rp.last_rx = None  # monitoring starts again at the first RPDO in OPERATIONAL
 
     # ------------------------------------------------------------------ RPDO
-    def _on_rpdo_frame(self, plan: pdo_mod.PdoPlan, can_id: int, data: bytes | bytearray,
-                       timestamp: float) -> None:
+    def _on_rpdo_frame(
+        self, plan: pdo_mod.PdoPlan, can_id: int, data: bytes | bytearray, timestamp: float
+    ) -> None:
         core = self.core
         if core.extended:
             return  # a 29-bit ID is no service of ours (counted as unknown)
@@ -155,7 +170,9 @@ class PdoEngine:
             self._counts[plan.number] += 1
             cond.notify_all()
         if self.listeners:
-            core.call(self.listeners, RpdoEvent(plan.number, plan.decode(data), self.last_sync_counter(), timestamp))
+            core.call(
+                self.listeners, RpdoEvent(plan.number, plan.decode(data), self.last_sync_counter(), timestamp)
+            )
 
     # ------------------------------------------------------------------ RPDO timeout (event timer)
     def _rpdo_received(self, plan: pdo_mod.PdoPlan) -> None:
@@ -181,19 +198,29 @@ class PdoEngine:
                 self.emcy.clear(EMCY_RPDO_TIMEOUT, source=key)
             return
         if plan.last_rx is not None and core.state == NmtState.OPERATIONAL:
-            core.scheduler.set(key, plan.last_rx + plan.event_timer_ms * 1e-3,
-                               functools.partial(self._rpdo_timeout, plan))
+            core.scheduler.set(
+                key, plan.last_rx + plan.event_timer_ms * 1e-3, functools.partial(self._rpdo_timeout, plan)
+            )
 
     def _rpdo_timeout(self, plan: pdo_mod.PdoPlan) -> None:
         """Scheduler job: no RPDO within the event time: EMCY 0x8250, once until the next RPDO."""
         core = self.core
         with core.lock:
-            if (core.state != NmtState.OPERATIONAL or plan.last_rx is None or plan.timed_out
-                    or not plan.event_timer_ms or core.clock() < plan.last_rx + plan.event_timer_ms * 1e-3):
-                return   # not monitored any more, or an RPDO came meanwhile (it re-armed the job)
+            if (
+                core.state != NmtState.OPERATIONAL
+                or plan.last_rx is None
+                or plan.timed_out
+                or not plan.event_timer_ms
+                or core.clock() < plan.last_rx + plan.event_timer_ms * 1e-3
+            ):
+                return  # not monitored any more, or an RPDO came meanwhile (it re-armed the job)
             plan.timed_out = True
-            self.emcy.raise_error(EMCY_RPDO_TIMEOUT, data=bytes([plan.number]),
-                                  source=f"rpdo-timeout{plan.number}", subject=plan.number)
+            self.emcy.raise_error(
+                EMCY_RPDO_TIMEOUT,
+                data=bytes([plan.number]),
+                source=f"rpdo-timeout{plan.number}",
+                subject=plan.number,
+            )
 
     def commit_sync_rpdos(self) -> tuple[int, ...]:
         """At a SYNC in OPERATIONAL: the synchronous RPDOs received since the previous SYNC go into the
@@ -262,8 +289,11 @@ class PdoEngine:
     def _arm_event_timer(self, tp: pdo_mod.PdoPlan) -> None:
         core = self.core
         if tp.valid and tp.trans_type >= 254 and tp.event_timer_ms and core.state == NmtState.OPERATIONAL:
-            core.scheduler.set(f"tpdo-event{tp.number}", core.clock() + tp.event_timer_ms * 1e-3,
-                               lambda: self._send_event_tpdo(tp))
+            core.scheduler.set(
+                f"tpdo-event{tp.number}",
+                core.clock() + tp.event_timer_ms * 1e-3,
+                lambda: self._send_event_tpdo(tp),
+            )
 
     def _send(self, tp: pdo_mod.PdoPlan) -> None:
         self.core.send(tp.cob_id, tp.pack())

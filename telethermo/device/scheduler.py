@@ -3,6 +3,7 @@
 Jobs run in the scheduler's thread, outside its lock; an exception in a job is logged and counted,
 never kills the thread. Deadlines are on an injectable monotonic clock (s).
 """
+
 from __future__ import annotations
 
 import logging

@@ -38,6 +38,7 @@ What CiA 301 says, as implemented here:
   canopen's server says for an empty object); :meth:`BlockServer.timeout` 0x05040000. An abort from
   the client (``0x80``) ends the transfer without an answer.
 """
+
 from __future__ import annotations
 
 import binascii
@@ -47,12 +48,17 @@ from typing import Callable
 from canopen import SdoAbortedError
 
 from telethermo.cia301 import (
-    ABORT_BLOCK_SIZE, ABORT_COMMAND_SPECIFIER, ABORT_CRC, ABORT_LENGTH, ABORT_NO_DATA, ABORT_SEQNO,
+    ABORT_BLOCK_SIZE,
+    ABORT_COMMAND_SPECIFIER,
+    ABORT_CRC,
+    ABORT_LENGTH,
+    ABORT_NO_DATA,
+    ABORT_SEQNO,
     ABORT_TIMEOUT,
 )
 
 MAX_BLKSIZE = 127
-SEG = 7   # data bytes per segment
+SEG = 7  # data bytes per segment
 
 Reader = Callable[[int, int], bytes]
 Writer = Callable[[int, int, bytes], None]
@@ -85,8 +91,9 @@ class BlockServer:
     for in a block download (1..127).
     """
 
-    def __init__(self, read: Reader, write: Writer, check_download: Checker | None = None,
-                 blksize: int = MAX_BLKSIZE):
+    def __init__(
+        self, read: Reader, write: Writer, check_download: Checker | None = None, blksize: int = MAX_BLKSIZE
+    ):
         self.read, self.write, self.check_download = read, write, check_download
         self.blksize = blksize
         self.index = self.subindex = 0
@@ -95,16 +102,16 @@ class BlockServer:
     # ------------------------------------------------------------------ state
     def reset(self) -> None:
         """Forget any transfer (no frame: the caller decides whether to abort)."""
-        self.direction: str | None = None   # "download", "upload" or None
-        self._step = ""                     # download: "segments"/"end"; upload: "start"/"sub"/"end"
-        self._crc = False                   # both sides use the CRC
-        self._blk = 0                       # size of the current sub-block
-        self._seq = 0                       # download: last seqno received in sequence in this sub-block
-        self._last = False                  # download: the segment with c was received in sequence
-        self._size: int | None = None       # download: size indicated by the client
-        self._buf = bytearray()             # download: data received; upload: data to send
-        self._pos = 0                       # upload: bytes acknowledged by the client
-        self._sent = 0                      # upload: segments in the sub-block last sent
+        self.direction: str | None = None  # "download", "upload" or None
+        self._step = ""  # download: "segments"/"end"; upload: "start"/"sub"/"end"
+        self._crc = False  # both sides use the CRC
+        self._blk = 0  # size of the current sub-block
+        self._seq = 0  # download: last seqno received in sequence in this sub-block
+        self._last = False  # download: the segment with c was received in sequence
+        self._size: int | None = None  # download: size indicated by the client
+        self._buf = bytearray()  # download: data received; upload: data to send
+        self._pos = 0  # upload: bytes acknowledged by the client
+        self._sent = 0  # upload: segments in the sub-block last sent
 
     def abort(self, code: int) -> bytes:
         """End the transfer; the abort frame for the object it addressed."""
@@ -123,7 +130,7 @@ class BlockServer:
         caller's normal SDO server should answer this very request.
         """
         data = bytes(data)
-        if data[0] == 0x80:                  # abort transfer from the client: no answer
+        if data[0] == 0x80:  # abort transfer from the client: no answer
             self.reset()
             return []
         try:
@@ -159,7 +166,7 @@ class BlockServer:
 
     def _download_frame(self, data: bytes) -> list[bytes]:
         if self._step == "end":
-            if data[0] & 0xE1 != 0xC1:   # ccs 6, cs 1 (end); n in bits 4..2, bit 1 reserved
+            if data[0] & 0xE1 != 0xC1:  # ccs 6, cs 1 (end); n in bits 4..2, bit 1 reserved
                 return [self.abort(ABORT_COMMAND_SPECIFIER)]
             return self._download_end(data)
         return self._download_segment(data)
@@ -184,14 +191,14 @@ class BlockServer:
     def _download_end(self, data: bytes) -> list[bytes]:
         """End block download: drop the n unused bytes, check size and CRC, store, confirm."""
         n = (data[0] >> 2) & 0x07
-        payload = bytes(self._buf[:len(self._buf) - n])
+        payload = bytes(self._buf[: len(self._buf) - n])
         if self._size is not None and len(payload) != self._size:
             return [self.abort(ABORT_LENGTH)]
         if self._crc and crc16(payload) != struct.unpack_from("<H", data, 1)[0]:
             return [self.abort(ABORT_CRC)]
         self.write(self.index, self.subindex, payload)
         self.reset()
-        return [_frame(b"\xA1")]
+        return [_frame(b"\xa1")]
 
     # ------------------------------------------------------------------ block upload
     def _upload_initiate(self, data: bytes) -> list[bytes] | None:
@@ -227,7 +234,7 @@ class BlockServer:
         frames = []
         pos = self._pos
         for seq in range(1, self._blk + 1):
-            chunk = self._buf[pos:pos + SEG]
+            chunk = self._buf[pos : pos + SEG]
             pos += SEG
             last = pos >= len(self._buf)
             frames.append(_frame(bytes([seq | (0x80 if last else 0)]), chunk))

@@ -11,6 +11,7 @@ What canopen's server leaves out of a segmented transfer, as CANopenNode's CO_SD
   a string may be shorter);
 - a segmented transfer whose client stays silent ``segment_timeout_s()`` is aborted with 0x05040000
   (a later segment then finds no transfer: 0x05040001)."""
+
 from __future__ import annotations
 
 from typing import Callable
@@ -23,7 +24,11 @@ from canopen import objectdictionary as odmod
 
 from telethermo.device import canopen_adapter as adapter
 from telethermo.cia301 import (
-    ABORT_COMMAND_SPECIFIER, ABORT_GENERAL, ABORT_LENGTH_HIGH, ABORT_LENGTH_LOW, ABORT_READ_ONLY,
+    ABORT_COMMAND_SPECIFIER,
+    ABORT_GENERAL,
+    ABORT_LENGTH_HIGH,
+    ABORT_LENGTH_LOW,
+    ABORT_READ_ONLY,
     ABORT_TIMEOUT,
 )
 from telethermo.device.context import SERVING, DeviceCore
@@ -38,21 +43,30 @@ class SdoGate:
     ``segment_timeout_s()``: the same for a segmented transfer.
     """
 
-    def __init__(self, core: DeviceCore, node: adapter.GatedLocalNode, *, block_size: Callable[[], int],
-                 block_timeout_s: Callable[[], float], segment_timeout_s: Callable[[], float]):
+    def __init__(
+        self,
+        core: DeviceCore,
+        node: adapter.GatedLocalNode,
+        *,
+        block_size: Callable[[], int],
+        block_timeout_s: Callable[[], float],
+        segment_timeout_s: Callable[[], float],
+    ):
         self.core = core
         self.node = node
         self.block_size = block_size
         self.block_timeout_s = block_timeout_s
         self.segment_timeout_s = segment_timeout_s
-        self.transfer: str | None = None   # segmented SDO transfer in progress: "up", "down" or None
-        self._where = (0, 0)               # index, sub-index of the segmented transfer
+        self.transfer: str | None = None  # segmented SDO transfer in progress: "up", "down" or None
+        self._where = (0, 0)  # index, sub-index of the segmented transfer
         self._seg_deadline = 0.0
         # block transfers (canopen's server has none): reads and writes through the same paths as its
         # segmented transfers (read callbacks; set_data -> the device's write path with range checks)
-        self.block = BlockServer(lambda i, s: node.get_data(i, s, check_readable=True),
-                                 lambda i, s, d: node.set_data(i, s, d, check_writable=True),
-                                 self.check_download)
+        self.block = BlockServer(
+            lambda i, s: node.get_data(i, s, check_readable=True),
+            lambda i, s, d: node.set_data(i, s, d, check_writable=True),
+            self.check_download,
+        )
         self._block_deadline = 0.0
 
     def reset(self) -> None:
@@ -131,7 +145,7 @@ class SdoGate:
         core = self.core
         with core.lock:
             if self.transfer is None or core.clock() < self._seg_deadline:
-                return   # finished, or a frame came meanwhile (it re-armed the job)
+                return  # finished, or a frame came meanwhile (it re-armed the job)
             self.transfer = None
             serving = core.running and core.state in SERVING
         if serving:
@@ -139,16 +153,16 @@ class SdoGate:
 
     def _track(self, ccs: int, command: int, before: bytearray | None, after: bytearray | None) -> None:
         """The segmented transfer open after canopen's server handled one request."""
-        if ccs in (0x40, 0xA0):      # initiate upload: segmented if it filled a new buffer
+        if ccs in (0x40, 0xA0):  # initiate upload: segmented if it filled a new buffer
             self.transfer = "up" if after is not before and after else None
-        elif ccs == 0x20:            # initiate download: segmented unless expedited (and not aborted)
+        elif ccs == 0x20:  # initiate download: segmented unless expedited (and not aborted)
             self.transfer = "down" if not command & 0x02 and after is not before else None
         elif ccs == 0x60 and not after:
-            self.transfer = None     # the last segment went out
+            self.transfer = None  # the last segment went out
         elif ccs == 0x00 and command & 0x01:
-            self.transfer = None     # the last segment came in
+            self.transfer = None  # the last segment came in
         elif ccs == 0x80:
-            self.transfer = None     # the client aborted
+            self.transfer = None  # the client aborted
 
     def _block_frame(self, data: bytes | bytearray) -> bool:
         """Serve a block transfer frame (CiA 301 §7.2.4.3.9 ff., :mod:`.sdo_block`); False if canopen's
@@ -168,7 +182,7 @@ class SdoGate:
                 with core.lock:
                     block.reset()
             return False
-        self.transfer = None   # a block initiate ends a segmented transfer too
+        self.transfer = None  # a block initiate ends a segmented transfer too
         with core.lock:
             block.blksize = self.block_size()
             try:
@@ -185,14 +199,13 @@ class SdoGate:
             core.send(self.node.sdo.tx_cobid, frame)
         return True
 
-
     def _block_timeout(self) -> None:
         """Scheduler job: an idle block transfer is aborted with 0x05040000 (silently outside
         PRE-OPERATIONAL/OPERATIONAL, where the device sends no SDO)."""
         core = self.core
         with core.lock:
             if self.block.direction is None or core.clock() < self._block_deadline:
-                return   # finished, or a frame came meanwhile (it re-armed the job)
+                return  # finished, or a frame came meanwhile (it re-armed the job)
             frame = self.block.timeout()
             serving = core.running and core.state in SERVING
         if serving and frame is not None:

@@ -1,4 +1,5 @@
 """Per-device power-on settings that override the EDS defaults (from network.toml or a program)."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass

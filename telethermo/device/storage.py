@@ -15,6 +15,7 @@ stored and how it is put back is the program's (its ``save(group)`` / ``restore(
 (:mod:`telethermo.atomic`) with a CRC-32 over its canonical content, refused whole (with one line
 naming the file and what was wrong) when it does not check.
 """
+
 from __future__ import annotations
 
 import json
@@ -30,8 +31,8 @@ from telethermo.cia301 import ABORT_APPLICATION, ABORT_HARDWARE
 from telethermo.device.device import Device
 
 STORE_INDEX, RESTORE_INDEX = 0x1010, 0x1011
-SAVE_SIGNATURE = 0x65766173   # "save"
-LOAD_SIGNATURE = 0x64616F6C   # "load"
+SAVE_SIGNATURE = 0x65766173  # "save"
+LOAD_SIGNATURE = 0x64616F6C  # "load"
 ALL, COMMUNICATION, APPLICATION = 1, 2, 3
 GROUPS = {ALL: "all", COMMUNICATION: "communication", APPLICATION: "application"}
 CAPABILITY_ON_COMMAND = 0x00000001
@@ -59,7 +60,8 @@ class StoreRestore:
         self._actions = {STORE_INDEX: save, RESTORE_INDEX: restore}
         signatures = {STORE_INDEX: SAVE_SIGNATURE, RESTORE_INDEX: LOAD_SIGNATURE}
         for index, signature in signatures.items():
-            def refuse(v: Any, s: int = signature) -> int | None:     # anything but the signature
+
+            def refuse(v: Any, s: int = signature) -> int | None:  # anything but the signature
                 return None if int(v) == s else ABORT_APPLICATION
 
             for sub in GROUPS:
@@ -119,21 +121,30 @@ class StoreFile:
             raise StoreError(f"{where}: field 'crc32': expected a hex checksum '0x........'")
         actual = _crc(doc)
         if int(crc, 16) != actual:
-            raise StoreError(f"{where}: field 'crc32': checksum {crc} does not match the content "
-                             f"(0x{actual:08X}): the file was changed or damaged")
+            raise StoreError(
+                f"{where}: field 'crc32': checksum {crc} does not match the content "
+                f"(0x{actual:08X}): the file was changed or damaged"
+            )
         if doc.get("node_id") != self.node_id:
-            raise StoreError(f"{where}: field 'node_id': expected {self.node_id}, the file is node "
-                             f"{doc.get('node_id')}'s")
+            raise StoreError(
+                f"{where}: field 'node_id': expected {self.node_id}, the file is node {doc.get('node_id')}'s"
+            )
         for key in ("communication", "application"):
             if doc.get(key) is not None and not isinstance(doc[key], dict):
                 raise StoreError(f"{where}: field {key!r}: expected an object or null")
         return doc
 
-    def write(self, *, communication: dict[str, Any] | None, application: dict[str, Any] | None,
-              saved_unix_s: float) -> None:
+    def write(
+        self, *, communication: dict[str, Any] | None, application: dict[str, Any] | None, saved_unix_s: float
+    ) -> None:
         """Atomically replace the file (OSError if it cannot be written)."""
-        body = {"format": FORMAT, "node_id": self.node_id, "saved_unix_s": round(float(saved_unix_s), 3),
-                "communication": communication, "application": application}
+        body = {
+            "format": FORMAT,
+            "node_id": self.node_id,
+            "saved_unix_s": round(float(saved_unix_s), 3),
+            "communication": communication,
+            "application": application,
+        }
         write_json_atomic(self.path, dict(body, crc32=f"0x{_crc(body):08X}"))
 
     def remove(self) -> bool:

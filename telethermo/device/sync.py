@@ -6,6 +6,7 @@ thread. The schedule (lockstep: SYNC k+1 after the peer's PDO k, seen with
 :meth:`telethermo.device.device.Device.wait_rpdo`; or real time) is the node program's: the one
 SYNC scheduler is ``nodes.runtime.NodeRuntime.run_producer``.
 """
+
 from __future__ import annotations
 
 from telethermo.device.device import Device, NmtState, SyncTick
@@ -16,7 +17,7 @@ class SyncProducer:
 
     def __init__(self, device: Device):
         self.device = device
-        self.counter = 0          # last counter sent (0: none yet)
+        self.counter = 0  # last counter sent (0: none yet)
         self.sent = 0
         device.add_nmt_listener(self._on_nmt)
 
@@ -44,7 +45,7 @@ class SyncProducer:
             if not dev.is_sync_producer:
                 raise RuntimeError(f"node {dev.node_id} is not the SYNC producer (0x1005 bit 30 is clear)")
             if dev.state is NmtState.STOPPED:
-                return None   # NMT STOP from any master: no SYNC, and nothing to raise into a SYNC loop
+                return None  # NMT STOP from any master: no SYNC, and nothing to raise into a SYNC loop
             if dev.state not in (NmtState.PRE_OPERATIONAL, NmtState.OPERATIONAL):
                 raise RuntimeError(f"node {dev.node_id} may not produce SYNC in {dev.state.name}")
             overflow = dev.core.u(0x1019, 0)

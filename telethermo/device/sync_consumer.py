@@ -5,6 +5,7 @@ the synchronous RPDOs, run the SYNC handlers, send the due synchronous TPDOs. Th
 A SYNC of the wrong length (CiA 301 7.2.5: DLC 1 with a counter when 0x1019 > 0, else DLC 0) is not
 processed and raises EMCY 0x8240 "unexpected SYNC data length" (data byte 0: the length received), cleared
 at once like an event (0x1003 keeps it), as CANopenNode does not process it either (CO_EM_SYNC_LENGTH)."""
+
 from __future__ import annotations
 
 from typing import Callable

@@ -11,6 +11,7 @@
 - :mod:`~telethermo.ident.odmodel`: a model in a node's object dictionary (the one model <-> OD API).
 - :mod:`~telethermo.ident.experiment`: the identification experiment on a rig.
 """
+
 from telethermo.ident.capacity import CapacityModel, fit_capacity
 from telethermo.ident.flux import FluxArma, fit_flux_arma
 from telethermo.ident.modelfile import ModelFileError, TemModel, default_model_path, load_model, save_model
@@ -21,8 +22,23 @@ from telethermo.ident.rls import Rls, RlsHealth
 from telethermo.ident.stability import StabilityReport, check_stability
 
 __all__ = [
-    "CapacityModel", "fit_capacity", "FluxArma", "fit_flux_arma", "ModelFileError", "TemModel",
-    "default_model_path", "load_model", "save_model", "NarmaModel",
-    "NarmaOrders", "NarmaPredictor", "UnstableModelError", "fit_narma", "prbs", "Rls", "RlsHealth",
-    "StabilityReport", "check_stability",
+    "CapacityModel",
+    "fit_capacity",
+    "FluxArma",
+    "fit_flux_arma",
+    "ModelFileError",
+    "TemModel",
+    "default_model_path",
+    "load_model",
+    "save_model",
+    "NarmaModel",
+    "NarmaOrders",
+    "NarmaPredictor",
+    "UnstableModelError",
+    "fit_narma",
+    "prbs",
+    "Rls",
+    "RlsHealth",
+    "StabilityReport",
+    "check_stability",
 ]

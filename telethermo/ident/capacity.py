@@ -10,6 +10,7 @@ I < 0 minus the cooling capacity; eq. 5 and 6 are the same polynomial once the c
 Fitted by least squares (eq. 15/16, by pivoted QR on scaled columns, not the normal equations) from N
 steady-state points.
 """
+
 from __future__ import annotations
 
 import math
@@ -80,6 +81,14 @@ def fit_capacity(*, current_A: np.ndarray, T_C: np.ndarray, P_W: np.ndarray) -> 
     Phi = capacity_regressors(I, T)
     theta, diag = solve_scaled_lstsq(Phi, P)
     resid = P - Phi @ theta
-    return CapacityModel(theta=theta, current_range_A=(float(I.min()), float(I.max())), metrics={
-        "n_points": int(len(I)), "rank": diag["rank"], "cond_scaled": diag["cond_scaled"],
-        "rms_W": float(np.sqrt(np.mean(resid ** 2))), "max_abs_W": float(np.max(np.abs(resid)))})
+    return CapacityModel(
+        theta=theta,
+        current_range_A=(float(I.min()), float(I.max())),
+        metrics={
+            "n_points": int(len(I)),
+            "rank": diag["rank"],
+            "cond_scaled": diag["cond_scaled"],
+            "rms_W": float(np.sqrt(np.mean(resid**2))),
+            "max_abs_W": float(np.max(np.abs(resid))),
+        },
+    )

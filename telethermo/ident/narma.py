@@ -22,6 +22,7 @@ current applied right after sample ``k`` was taken, ``T_C[k]`` is sample ``k``.
 Fitting (:func:`telethermo.ident.narma_fit.fit_narma`) and the stability check
 (:mod:`telethermo.ident.stability`) sit above this module.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -102,7 +103,9 @@ def _as_1d(name: str, x: Any) -> np.ndarray:
     return arr
 
 
-def narma_regressors(current_A: np.ndarray, T_dev: np.ndarray, orders: NarmaOrders) -> tuple[np.ndarray, np.ndarray]:
+def narma_regressors(
+    current_A: np.ndarray, T_dev: np.ndarray, orders: NarmaOrders
+) -> tuple[np.ndarray, np.ndarray]:
     """Regression matrix Φ and targets y of eq. 11 for samples t = L..N-1 (L = orders.lag).
 
     Args:
@@ -124,13 +127,13 @@ def narma_regressors(current_A: np.ndarray, T_dev: np.ndarray, orders: NarmaOrde
     Phi = np.empty((rows, orders.d))
     c = 0
     for i in range(1, orders.n + 1):
-        Ii, col = I[L - i:N - i], T[L - i:N - i].copy()
+        Ii, col = I[L - i : N - i], T[L - i : N - i].copy()
         for _k in range(orders.p + 1):
             Phi[:, c] = col
             c += 1
             col = col * Ii
     for j in range(1, orders.m + 1):
-        Ij = I[L - j:N - j]
+        Ij = I[L - j : N - j]
         col = Ij.copy()
         for _h in range(orders.q + 1):
             Phi[:, c] = col
@@ -173,8 +176,11 @@ def solve_scaled_lstsq(Phi: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, dict
     x[perm[:rank]] = sol
     theta[used] = x / scale[used]
     sv = np.linalg.svd(Rr, compute_uv=False)
-    return theta, {"rank": rank, "cond_scaled": float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf,
-                   "n_params_used": int(used.size)}
+    return theta, {
+        "rank": rank,
+        "cond_scaled": float(sv[0] / sv[-1]) if sv[-1] > 0 else math.inf,
+        "n_params_used": int(used.size),
+    }
 
 
 @dataclass(frozen=True)
@@ -206,7 +212,9 @@ class NarmaModel:
     def __post_init__(self) -> None:
         theta = np.array(self.theta, dtype=float).reshape(-1)
         if theta.size != self.orders.d:
-            raise ValueError(f"theta has {theta.size} values, orders {self.orders.as_dict()} need {self.orders.d}")
+            raise ValueError(
+                f"theta has {theta.size} values, orders {self.orders.as_dict()} need {self.orders.d}"
+            )
         if not np.all(np.isfinite(theta)):
             raise ValueError("theta must be finite")
         if not (math.isfinite(self.period_s) and self.period_s > 0):
@@ -215,7 +223,9 @@ class NarmaModel:
             raise ValueError(f"T_ref_C must be finite, got {self.T_ref_C!r}")
         lo, hi = (float(v) for v in self.current_range_A)
         if not (math.isfinite(lo) and math.isfinite(hi) and lo <= hi):
-            raise ValueError(f"current_range_A must be (min, max) with min <= max, got {self.current_range_A!r}")
+            raise ValueError(
+                f"current_range_A must be (min, max) with min <= max, got {self.current_range_A!r}"
+            )
         theta.setflags(write=False)
         object.__setattr__(self, "theta", theta)
         object.__setattr__(self, "current_range_A", (lo, hi))
@@ -233,7 +243,7 @@ class NarmaModel:
     def theta_b(self) -> np.ndarray:
         """θ_b as an (m, q+1) array: coefficient of I(t-j)^(h+1) at [j-1, h] (guiatni's b)."""
         o = self.orders
-        return self.theta[o.n * (o.p + 1):].reshape(o.m, o.q + 1)
+        return self.theta[o.n * (o.p + 1) :].reshape(o.m, o.q + 1)
 
     def ar_coefficients(self, current_A: float | np.ndarray) -> np.ndarray:
         """AR coefficients α_i(I) = Σ_k θ_a[i,k]·I^k for a constant current, shape (..., n)."""
@@ -259,8 +269,9 @@ class NarmaModel:
         """Steady-state temperature at a constant current, °C (absolute)."""
         I = np.asarray(current_A, dtype=float)
         alpha = self.ar_coefficients(I)
-        beta = np.polynomial.polynomial.polyval(I[..., None], np.vstack([np.zeros(self.orders.m), self.theta_b.T]),
-                                                tensor=False)
+        beta = np.polynomial.polynomial.polyval(
+            I[..., None], np.vstack([np.zeros(self.orders.m), self.theta_b.T]), tensor=False
+        )
         return cast(np.ndarray, self.T_ref_C + beta.sum(axis=-1) / (1.0 - alpha.sum(axis=-1)))
 
     def clamp_current(self, current_A: np.ndarray | float) -> np.ndarray:
@@ -281,7 +292,7 @@ class NarmaModel:
         out = np.full(len(T), np.nan)
         if len(T) > self.orders.lag:
             Phi, _ = narma_regressors(I, T - self.T_ref_C, self.orders)
-            out[self.orders.lag:] = Phi @ self.theta + self.T_ref_C
+            out[self.orders.lag :] = Phi @ self.theta + self.T_ref_C
         return out
 
     def free_run(self, *, current_A: np.ndarray, T0_C: float | np.ndarray) -> np.ndarray:
@@ -310,7 +321,7 @@ class NarmaModel:
         beta = np.polynomial.polynomial.polyval(Ip[:, None], tb, tensor=False).T  # (m, N+L)
         u = np.zeros(N + L)
         for j in range(1, m + 1):
-            u[j:] += beta[j - 1, :N + L - j]
+            u[j:] += beta[j - 1, : N + L - j]
         Td = [float(T0[0] - self.T_ref_C)] * (N + L)
         for k, v in enumerate(T0):
             Td[L + k] = float(v - self.T_ref_C)
@@ -328,15 +339,16 @@ class NarmaModel:
             Td[t] = acc
         out = np.asarray(Td[L:], dtype=float) + self.T_ref_C
         if diverged_at is not None:
-            out[diverged_at - L:] = np.nan
+            out[diverged_at - L :] = np.nan
         return out
 
     def predictor(self, T0_C: float, *, T_ref_C: float | None = None) -> "NarmaPredictor":
         """A streaming free-run predictor for a node, starting at rest at ``T0_C`` (see :class:`NarmaPredictor`)."""
         return NarmaPredictor(self, T0_C, T_ref_C=T_ref_C)
 
-    def errors(self, *, current_A: np.ndarray, T_C: np.ndarray, warmup: int | None = None,
-               T0_C: float | None = None) -> dict[str, float]:
+    def errors(
+        self, *, current_A: np.ndarray, T_C: np.ndarray, warmup: int | None = None, T0_C: float | None = None
+    ) -> dict[str, float]:
         """Free-run and one-step errors of this model on a record, °C.
 
         The free run starts at rest at the record's first sample (the record should start at rest;
@@ -357,9 +369,9 @@ class NarmaModel:
         bad = not np.all(np.isfinite(efr))
         return {
             "free_run_max_C": math.inf if bad else float(np.max(np.abs(efr))),
-            "free_run_rms_C": math.inf if bad else float(np.sqrt(np.mean(efr ** 2))),
+            "free_run_rms_C": math.inf if bad else float(np.sqrt(np.mean(efr**2))),
             "one_step_max_C": float(np.max(np.abs(eos))),
-            "one_step_rms_C": float(np.sqrt(np.mean(eos ** 2))),
+            "one_step_rms_C": float(np.sqrt(np.mean(eos**2))),
         }
 
 
@@ -382,8 +394,23 @@ class NarmaPredictor:
     counted in ``n_clamped``; a non-finite current raises ValueError and changes nothing.
     """
 
-    __slots__ = ("model", "T_ref_C", "_a", "_b", "_T", "_I", "_n", "_m", "_p", "_q", "_lo", "_hi",
-                 "T_pred_C", "n_clamped", "n_steps")
+    __slots__ = (
+        "model",
+        "T_ref_C",
+        "_a",
+        "_b",
+        "_T",
+        "_I",
+        "_n",
+        "_m",
+        "_p",
+        "_q",
+        "_lo",
+        "_hi",
+        "T_pred_C",
+        "n_clamped",
+        "n_steps",
+    )
 
     def __init__(self, model: NarmaModel, T0_C: float, *, T_ref_C: float | None = None) -> None:
         self.model = model

@@ -5,6 +5,7 @@ the guarded RLS of :mod:`telethermo.ident.rls` (guiatni §3.3's RLSM with λ1, �
     for each SYNC: ident.update(current_A=I_held_since_last_sample, T_C=sample.T_sensor_C)
     model = ident.model()        # a NarmaModel of the current estimate (stability not guaranteed: check it)
 """
+
 from __future__ import annotations
 
 import math
@@ -29,13 +30,26 @@ class OnlineNarma:
         **rls: arguments of :class:`telethermo.ident.rls.Rls` (lambda1, lambda2, K0, dead_zone, ...).
     """
 
-    def __init__(self, orders: NarmaOrders, *, T_ref_C: float, period_s: float, scale: np.ndarray | None = None,
-                 current_scale_A: float = 0.5, temperature_scale_C: float = 3.0, **rls: Any) -> None:
+    def __init__(
+        self,
+        orders: NarmaOrders,
+        *,
+        T_ref_C: float,
+        period_s: float,
+        scale: np.ndarray | None = None,
+        current_scale_A: float = 0.5,
+        temperature_scale_C: float = 3.0,
+        **rls: Any,
+    ) -> None:
         self.orders = orders
         self.T_ref_C = float(T_ref_C)
         self.period_s = float(period_s)
         if scale is None:
-            a = [temperature_scale_C * current_scale_A ** k for _i in range(orders.n) for k in range(orders.p + 1)]
+            a = [
+                temperature_scale_C * current_scale_A**k
+                for _i in range(orders.n)
+                for k in range(orders.p + 1)
+            ]
             b = [current_scale_A ** (h + 1) for _j in range(orders.m) for h in range(orders.q + 1)]
             scale = np.array(a + b)
         self.rls = Rls(orders.d, scale=scale, **rls)
@@ -58,7 +72,7 @@ class OnlineNarma:
             return False
         o = self.orders
         self._I.insert(0, I)
-        del self._I[o.lag:]
+        del self._I[o.lag :]
         self.I_min_A, self.I_max_A = min(self.I_min_A, I), max(self.I_max_A, I)
         ok = False
         if len(self._T) >= o.n and len(self._I) >= o.m:
@@ -79,19 +93,32 @@ class OnlineNarma:
                     c += 1
             ok = self.rls.update(phi, T - self.T_ref_C)
         self._T.insert(0, T - self.T_ref_C)
-        del self._T[o.n:]
+        del self._T[o.n :]
         return ok
 
     def model(self) -> NarmaModel:
         """The current estimate as a :class:`NarmaModel` (not checked for stability)."""
         lo, hi = (self.I_min_A, self.I_max_A) if self.I_min_A <= self.I_max_A else (0.0, 0.0)
-        return NarmaModel(orders=self.orders, theta=self.rls.theta, period_s=self.period_s, T_ref_C=self.T_ref_C,
-                          current_range_A=(lo, hi), T_range_C=(self.T_ref_C, self.T_ref_C),
-                          metrics={"method": "rls", "lambda1": self.rls.lambda1, "lambda2": self.rls.lambda2})
+        return NarmaModel(
+            orders=self.orders,
+            theta=self.rls.theta,
+            period_s=self.period_s,
+            T_ref_C=self.T_ref_C,
+            current_range_A=(lo, hi),
+            T_range_C=(self.T_ref_C, self.T_ref_C),
+            metrics={"method": "rls", "lambda1": self.rls.lambda1, "lambda2": self.rls.lambda2},
+        )
 
 
-def fit_narma_rls(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders, T_ref_C: float,
-                  period_s: float = 0.01, **rls: Any) -> NarmaModel:
+def fit_narma_rls(
+    *,
+    current_A: np.ndarray,
+    T_C: np.ndarray,
+    orders: NarmaOrders,
+    T_ref_C: float,
+    period_s: float = 0.01,
+    **rls: Any,
+) -> NarmaModel:
     """Batch helper: run :class:`OnlineNarma` over a record (scale = RMS of the record's regressors)."""
     I = _as_1d("current_A", current_A)
     T = _as_1d("T_C", T_C)
@@ -104,6 +131,12 @@ def fit_narma_rls(*, current_A: np.ndarray, T_C: np.ndarray, orders: NarmaOrders
     for k in range(1, len(T)):
         ident.update(current_A=I[k - 1], T_C=T[k])
     m = ident.model()
-    return NarmaModel(orders=orders, theta=m.theta, period_s=period_s, T_ref_C=T_ref_C,
-                      current_range_A=(float(I.min()), float(I.max())), T_range_C=(float(T.min()), float(T.max())),
-                      metrics=m.metrics)
+    return NarmaModel(
+        orders=orders,
+        theta=m.theta,
+        period_s=period_s,
+        T_ref_C=T_ref_C,
+        current_range_A=(float(I.min()), float(I.max())),
+        T_range_C=(float(T.min()), float(T.max())),
+        metrics=m.metrics,
+    )

@@ -19,6 +19,7 @@ The plan (guiatni §3.3, on a pad that touches nothing)::
 The PRBS is :func:`telethermo.ident.prbs.prbs`: variable amplitude drawn from ``amplitude_A``, each bit
 held ``hold_samples`` samples.
 """
+
 from __future__ import annotations
 
 import functools
@@ -60,8 +61,13 @@ class IdentifyPlan:
         def bad(name: str, expected: str) -> ValueError:
             return ValueError(f"IdentifyPlan.{name}: expected {expected}, got {getattr(self, name)!r}")
 
-        for name, lo, hi in (("seed", 0, 0xFFFF), ("rest_samples", 0, MAX_SAMPLES), ("train_samples", 1, MAX_SAMPLES),
-                             ("validation_samples", 1, MAX_SAMPLES), ("hold_samples", 1, 10_000)):
+        for name, lo, hi in (
+            ("seed", 0, 0xFFFF),
+            ("rest_samples", 0, MAX_SAMPLES),
+            ("train_samples", 1, MAX_SAMPLES),
+            ("validation_samples", 1, MAX_SAMPLES),
+            ("hold_samples", 1, 10_000),
+        ):
             v = getattr(self, name)
             if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or not lo <= v <= hi:
                 raise bad(name, f"an integer in {lo}..{hi}")
@@ -105,25 +111,43 @@ class IdentifyPlan:
         return "validation" if j < self.total else "done"
 
     def as_dict(self) -> dict[str, Any]:
-        return {"seed": self.seed, "rest_samples": self.rest_samples, "train_samples": self.train_samples,
-                "validation_samples": self.validation_samples, "amplitude_A": list(self.amplitude_A),
-                "hold_samples": self.hold_samples, "margin_C": self.margin_C}
+        return {
+            "seed": self.seed,
+            "rest_samples": self.rest_samples,
+            "train_samples": self.train_samples,
+            "validation_samples": self.validation_samples,
+            "amplitude_A": list(self.amplitude_A),
+            "hold_samples": self.hold_samples,
+            "margin_C": self.margin_C,
+        }
 
 
 @functools.lru_cache(maxsize=8)
 def _currents(plan: IdentifyPlan) -> np.ndarray:
-    u = np.concatenate([
-        np.zeros(plan.rest_samples),
-        prbs(plan.train_samples, amplitude_A=plan.amplitude_A, hold_samples=plan.hold_samples, seed=plan.seed),
-        prbs(plan.validation_samples, amplitude_A=plan.amplitude_A, hold_samples=plan.hold_samples,
-             seed=plan.seed + 1),
-    ])
+    u = np.concatenate(
+        [
+            np.zeros(plan.rest_samples),
+            prbs(
+                plan.train_samples,
+                amplitude_A=plan.amplitude_A,
+                hold_samples=plan.hold_samples,
+                seed=plan.seed,
+            ),
+            prbs(
+                plan.validation_samples,
+                amplitude_A=plan.amplitude_A,
+                hold_samples=plan.hold_samples,
+                seed=plan.seed + 1,
+            ),
+        ]
+    )
     u.setflags(write=False)
     return u
 
 
-def guarded_current(u_A: float, T_sensor_C: float, *, I_limit_A: float, T_min_C: float, T_max_C: float,
-                    margin_C: float) -> tuple[float, bool]:
+def guarded_current(
+    u_A: float, T_sensor_C: float, *, I_limit_A: float, T_min_C: float, T_max_C: float, margin_C: float
+) -> tuple[float, bool]:
     """The experiment's current for a planned ``u_A`` given the sensor temperature: clipped to
     ±``I_limit_A``; its sign flipped when the sensor is within ``margin_C`` of the envelope
     [T_min_C, T_max_C] and the current would push it further; 0 A for a non-finite temperature.

@@ -1,5 +1,6 @@
 """Figures of an identification run, after guiatni Fig. 3-5: capacity fit (Fig. 3), measured vs
 estimated temperature (Fig. 4) and heat flux (Fig. 5) on the held-out PRBS. Needs matplotlib (extra 'plot')."""
+
 from __future__ import annotations
 
 import os
@@ -34,22 +35,33 @@ def plot_identification(path: str | os.PathLike[str], tem: TemModel, report: dic
     ax.plot(t, rec["T_C"][k0:], lw=1.0, label="measured (sensor)")
     ax.plot(t, rec["T_pred_C"][k0:], "--", lw=1.0, label="model, free run")
     o = tem.temperature.orders
-    ax.set(xlabel="t (s)", ylabel="T (°C)", title=f"held-out PRBS: temperature, NARMA {o.n},{o.m},{o.p},{o.q}; "
-                                                  f"worst {report['heldout_free_run_max_C']:.3f} °C (cf. guiatni Fig. 4)")
+    ax.set(
+        xlabel="t (s)",
+        ylabel="T (°C)",
+        title=f"held-out PRBS: temperature, NARMA {o.n},{o.m},{o.p},{o.q}; "
+        f"worst {report['heldout_free_run_max_C']:.3f} °C (cf. guiatni Fig. 4)",
+    )
     ax.legend(loc="upper right")
     ax = axes[1]
     ax.plot(t, rec["Q_W"][k0:], lw=1.0, label="measured")
     ax.plot(t, rec["Q_pred_W"][k0:], "--", lw=1.0, label="model, free run")
-    ax.set(xlabel="t (s)", ylabel="Q (W)", title=f"held-out PRBS: heat flux; worst {report['flux_heldout_max_W']:.4f} W "
-                                                 f"(cf. guiatni Fig. 5)")
+    ax.set(
+        xlabel="t (s)",
+        ylabel="Q (W)",
+        title=f"held-out PRBS: heat flux; worst {report['flux_heldout_max_W']:.4f} W (cf. guiatni Fig. 5)",
+    )
     ax.legend(loc="upper right")
-    if ss is not None and tem.capacity is not None:     # n == 3
+    if ss is not None and tem.capacity is not None:  # n == 3
         ax = axes[2]
         ax.plot(ss.current_A, ss.Q_W, "o", label="measured steady states")
         I = np.linspace(ss.current_A.min(), ss.current_A.max(), 200)
         T = np.interp(I, ss.current_A, ss.T_C)
         ax.plot(I, tem.capacity.predict(current_A=I, T_C=T), "-", label="eq. 13 fit")
-        ax.set(xlabel="I (A)", ylabel="P (W), heat out of the pad", title="steady-state capacity (cf. guiatni Fig. 3)")
+        ax.set(
+            xlabel="I (A)",
+            ylabel="P (W), heat out of the pad",
+            title="steady-state capacity (cf. guiatni Fig. 3)",
+        )
         ax.legend(loc="upper left")
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=110)

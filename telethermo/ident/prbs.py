@@ -6,15 +6,31 @@ dynamics are) and gets its own amplitude drawn uniformly from ``amplitude_A``. A
 constant amplitude would make I², I³ (the polynomial terms of the NARMA model, eq. 8/9) constant or
 collinear with I; the variable amplitude makes them identifiable.
 """
+
 from __future__ import annotations
 
 import numpy as np
 
 # Fibonacci LFSR feedback taps (1-based bit positions) giving maximal-length sequences, 2^order - 1 bits.
 _TAPS: dict[int, tuple[int, ...]] = {
-    3: (3, 2), 4: (4, 3), 5: (5, 3), 6: (6, 5), 7: (7, 6), 8: (8, 6, 5, 4), 9: (9, 5), 10: (10, 7),
-    11: (11, 9), 12: (12, 11, 10, 4), 13: (13, 12, 11, 8), 14: (14, 13, 12, 2), 15: (15, 14),
-    16: (16, 15, 13, 4), 17: (17, 14), 18: (18, 11), 19: (19, 18, 17, 14), 20: (20, 17),
+    3: (3, 2),
+    4: (4, 3),
+    5: (5, 3),
+    6: (6, 5),
+    7: (7, 6),
+    8: (8, 6, 5, 4),
+    9: (9, 5),
+    10: (10, 7),
+    11: (11, 9),
+    12: (12, 11, 10, 4),
+    13: (13, 12, 11, 8),
+    14: (14, 13, 12, 2),
+    15: (15, 14),
+    16: (16, 15, 13, 4),
+    17: (17, 14),
+    18: (18, 11),
+    19: (19, 18, 17, 14),
+    20: (20, 17),
 }
 
 
@@ -46,8 +62,15 @@ def lfsr_bits(n_bits: int, *, order: int = 15, state: int = 1) -> np.ndarray:
     return out
 
 
-def prbs(n_samples: int, *, amplitude_A: float | tuple[float, float] = (0.2, 1.0), hold_samples: int = 10,
-         seed: int = 0, offset_A: float = 0.0, order: int = 15) -> np.ndarray:
+def prbs(
+    n_samples: int,
+    *,
+    amplitude_A: float | tuple[float, float] = (0.2, 1.0),
+    hold_samples: int = 10,
+    seed: int = 0,
+    offset_A: float = 0.0,
+    order: int = 15,
+) -> np.ndarray:
     """A PRBS drive current with variable amplitude, A, one value per sample period.
 
     Args:

@@ -32,6 +32,7 @@ Numerical safety (what a node running this every cycle needs):
 - :meth:`Rls.reset_covariance` for an explicit covariance reset; :meth:`Rls.health` reports trace,
   condition number and the counters.
 """
+
 from __future__ import annotations
 
 import math
@@ -87,13 +88,43 @@ class Rls:
             φ/scale, which conditions K better; :attr:`theta` is always in the units of φ.
     """
 
-    __slots__ = ("d", "lambda1", "lambda2", "_r", "_inv_sqrt_l1", "_S", "_S0", "_c", "_tr", "_theta", "_scale", "trace_max",
-                 "trace_min", "dead_zone", "n_updates", "n_accepted", "n_rejected_nonfinite", "n_dead_zone",
-                 "n_trace_capped", "n_resets", "n_numerical_failures")
+    __slots__ = (
+        "d",
+        "lambda1",
+        "lambda2",
+        "_r",
+        "_inv_sqrt_l1",
+        "_S",
+        "_S0",
+        "_c",
+        "_tr",
+        "_theta",
+        "_scale",
+        "trace_max",
+        "trace_min",
+        "dead_zone",
+        "n_updates",
+        "n_accepted",
+        "n_rejected_nonfinite",
+        "n_dead_zone",
+        "n_trace_capped",
+        "n_resets",
+        "n_numerical_failures",
+    )
 
-    def __init__(self, d: int, *, lambda1: float = 1.0, lambda2: float = 1.0, K0: float | np.ndarray = 1e4,
-                 theta0: np.ndarray | None = None, trace_max: float | None = None, trace_min: float = 0.0,
-                 dead_zone: float = 0.0, scale: np.ndarray | None = None) -> None:
+    def __init__(
+        self,
+        d: int,
+        *,
+        lambda1: float = 1.0,
+        lambda2: float = 1.0,
+        K0: float | np.ndarray = 1e4,
+        theta0: np.ndarray | None = None,
+        trace_max: float | None = None,
+        trace_min: float = 0.0,
+        dead_zone: float = 0.0,
+        scale: np.ndarray | None = None,
+    ) -> None:
         if isinstance(d, bool) or not isinstance(d, (int, np.integer)) or d < 1:
             raise ValueError(f"d must be a positive integer, got {d!r}")
         self.d = int(d)
@@ -120,7 +151,7 @@ class Rls:
             except np.linalg.LinAlgError:
                 raise ValueError("K0 must be positive definite") from None
         self._S0 = S0
-        self._S = S0.copy()   # K = _c · _S·_Sᵀ (the scalar _c carries forgetting and trace scaling)
+        self._S = S0.copy()  # K = _c · _S·_Sᵀ (the scalar _c carries forgetting and trace scaling)
         self._c = 1.0
         self._tr = float(np.sum(S0 * S0))  # tr K, tracked analytically, recomputed every RENORM updates
         if scale is None:
@@ -184,7 +215,7 @@ class Rls:
         if self._scale is not None:
             z = z / self._scale
         theta = self._theta
-        e = float(y) - float(theta @ z)    # NaN/inf anywhere in φ or y makes e non-finite
+        e = float(y) - float(theta @ z)  # NaN/inf anywhere in φ or y makes e non-finite
         if not math.isfinite(e):
             self.n_rejected_nonfinite += 1
             return False
@@ -194,10 +225,10 @@ class Rls:
         # Potter square-root step on K = c·S·Sᵀ: f = √c·Sᵀφ, u = S·f ...
         S, c, r = self._S, self._c, self._r
         f = S.T @ z
-        ff = c * float(f @ f)              # φᵀKφ
+        ff = c * float(f @ f)  # φᵀKφ
         s = r + ff
         u = S @ f
-        uu = c * c * float(u @ u)          # φᵀK²φ = ||Kφ||²
+        uu = c * c * float(u @ u)  # φᵀK²φ = ||Kφ||²
         b0 = 1.0 / (s + math.sqrt(r * s))  # Potter's factor for the true square root √c·S
         beta = c * b0
         # tr of (√c·S - b0·Kφ·(√c·f)ᵀ)(...)ᵀ, then forgetting
@@ -205,7 +236,7 @@ class Rls:
         if not (math.isfinite(s) and math.isfinite(tr) and tr > 0.0):
             self._numerical_failure()
             return False
-        self._theta = theta + u * (c * e / s)   # θ += K(t-1)φ·e°/(λ1/λ2 + φᵀK(t-1)φ)
+        self._theta = theta + u * (c * e / s)  # θ += K(t-1)φ·e°/(λ1/λ2 + φᵀK(t-1)φ)
         # S -= β·u·fᵀ in place by BLAS dger on Sᵀ (a Fortran-ordered view of the C-ordered S: in place)
         if not S.flags.c_contiguous:
             self._S = S = np.ascontiguousarray(S)
@@ -242,8 +273,14 @@ class Rls:
         sv = np.linalg.svd(self._S, compute_uv=False)
         eig = self._c * sv * sv
         return RlsHealth(
-            trace=float(eig.sum()), condition=float(eig[0] / eig[-1]) if eig[-1] > 0 else math.inf,
-            min_eig=float(eig[-1]), n_updates=self.n_updates, n_accepted=self.n_accepted,
-            n_rejected_nonfinite=self.n_rejected_nonfinite, n_dead_zone=self.n_dead_zone,
-            n_trace_capped=self.n_trace_capped, n_resets=self.n_resets,
-            n_numerical_failures=self.n_numerical_failures)
+            trace=float(eig.sum()),
+            condition=float(eig[0] / eig[-1]) if eig[-1] > 0 else math.inf,
+            min_eig=float(eig[-1]),
+            n_updates=self.n_updates,
+            n_accepted=self.n_accepted,
+            n_rejected_nonfinite=self.n_rejected_nonfinite,
+            n_dead_zone=self.n_dead_zone,
+            n_trace_capped=self.n_trace_capped,
+            n_resets=self.n_resets,
+            n_numerical_failures=self.n_numerical_failures,
+        )

@@ -10,6 +10,7 @@ Two tests, both must pass:
    reference temperature. A time-varying current can destabilise a model whose frozen-current poles are
    all stable; this catches it.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -44,9 +45,16 @@ class StabilityReport:
     details: dict[str, Any] = field(default_factory=dict)
 
 
-def check_stability(model: NarmaModel, *, n_grid: int = 201, pole_margin: float = 1e-6,
-                    n_samples: int = 60_000, holds: tuple[int, ...] = (1, 10, 100), seed: int = 12345,
-                    bound_C: float | None = None) -> StabilityReport:
+def check_stability(
+    model: NarmaModel,
+    *,
+    n_grid: int = 201,
+    pole_margin: float = 1e-6,
+    n_samples: int = 60_000,
+    holds: tuple[int, ...] = (1, 10, 100),
+    seed: int = 12345,
+    bound_C: float | None = None,
+) -> StabilityReport:
     """Check that ``model`` is stable (see the module docstring); never raises for an unstable model.
 
     Args:
@@ -68,22 +76,48 @@ def check_stability(model: NarmaModel, *, n_grid: int = 201, pole_margin: float 
     if bound_C is None:
         dev = max(abs(model.T_range_C[0] - model.T_ref_C), abs(model.T_range_C[1] - model.T_ref_C))
         bound_C = max(60.0, 5.0 * dev)
-    details = {"n_grid": n_grid, "pole_margin": pole_margin, "prbs_holds": list(holds),
-               "prbs_samples_each": n_samples // max(len(holds), 1)}
+    details = {
+        "n_grid": n_grid,
+        "pole_margin": pole_margin,
+        "prbs_holds": list(holds),
+        "prbs_samples_each": n_samples // max(len(holds), 1),
+    }
     if not np.isfinite(max_mod) or max_mod > 1.0 - pole_margin:
-        return StabilityReport(False, f"local pole |z| = {max_mod:.9f} at I = {worst_I:+.3f} A is not inside the unit "
-                                      f"circle by {pole_margin:g}", max_mod, worst_I, float("nan"), bound_C, details)
+        return StabilityReport(
+            False,
+            f"local pole |z| = {max_mod:.9f} at I = {worst_I:+.3f} A is not inside the unit "
+            f"circle by {pole_margin:g}",
+            max_mod,
+            worst_I,
+            float("nan"),
+            bound_C,
+            details,
+        )
     amp = max(abs(lo), abs(hi))
     worst_dev = 0.0
     for idx, hold in enumerate(holds):
         u = prbs(n_samples // max(len(holds), 1), amplitude_A=(0.0, amp), hold_samples=hold, seed=seed + idx)
         T = model.free_run(current_A=u, T0_C=model.T_ref_C)
         if not np.all(np.isfinite(T)):
-            return StabilityReport(False, f"free run on a PRBS (hold {hold} samples) diverged", max_mod, worst_I,
-                                   float("inf"), bound_C, details)
+            return StabilityReport(
+                False,
+                f"free run on a PRBS (hold {hold} samples) diverged",
+                max_mod,
+                worst_I,
+                float("inf"),
+                bound_C,
+                details,
+            )
         worst_dev = max(worst_dev, float(np.max(np.abs(T - model.T_ref_C))))
         if worst_dev > bound_C:
-            return StabilityReport(False, f"free run on a PRBS (hold {hold} samples) left the bound: |T - T_ref| = "
-                                          f"{worst_dev:.3g} °C > {bound_C:.3g} °C", max_mod, worst_I, worst_dev,
-                                   bound_C, details)
+            return StabilityReport(
+                False,
+                f"free run on a PRBS (hold {hold} samples) left the bound: |T - T_ref| = "
+                f"{worst_dev:.3g} °C > {bound_C:.3g} °C",
+                max_mod,
+                worst_I,
+                worst_dev,
+                bound_C,
+                details,
+            )
     return StabilityReport(True, "", max_mod, worst_I, worst_dev, bound_C, details)

@@ -7,6 +7,7 @@ so is a value that reads back otherwise than written. The object indices are CiA
 (bus_config/io_module.eds); a real module's EDS may place its sampling period elsewhere
 (``ModuleSetup.sampling_index``, None: the module has none to set).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -56,7 +57,9 @@ class ModuleSetup:
     substitute_counts: int = 0
     error_behaviour: int = 0
     tpdos: tuple[tuple[tuple[int, int], ...], ...] = (
-        ((0x6401, 1), (0x6401, 2), (0x6401, 3), (0x6401, 4)), ((0x6401, 5), (0x6401, 6), (0x2101, 0)))
+        ((0x6401, 1), (0x6401, 2), (0x6401, 3), (0x6401, 4)),
+        ((0x6401, 5), (0x6401, 6), (0x2101, 0)),
+    )
     rpdo1: tuple[int, int] | None = (0x6411, 1)
     sampling_index: int | None = 0x2100
 
@@ -65,8 +68,9 @@ class ModuleSetup:
         out: list[tuple[int, int, int]] = [(0x1006, 0, self.cycle_period_us)]
         if self.sampling_index is not None:
             out.append((self.sampling_index, 0, self.sampling_ms))
-        pdos = [(0x1800 + i, 0x1A00 + i, 0x180 + 0x100 * i + self.node_id, 1, m)
-                for i, m in enumerate(self.tpdos)]
+        pdos = [
+            (0x1800 + i, 0x1A00 + i, 0x180 + 0x100 * i + self.node_id, 1, m) for i, m in enumerate(self.tpdos)
+        ]
         if self.rpdo1 is not None:
             pdos.append((0x1400, 0x1600, 0x200 + self.node_id, 255, (self.rpdo1,)))
         for comm, mapping, cob, ttype, entries in pdos:
@@ -96,21 +100,29 @@ def commission(node: canopen.RemoteNode, setup: ModuleSetup) -> list[tuple[int, 
         try:
             _var(node, index, sub)
         except KeyError:
-            raise CommissionError(f"io module {node.id}: 0x{index:04X}:{sub} is not in its EDS",
-                                  index=index, subindex=sub) from None
+            raise CommissionError(
+                f"io module {node.id}: 0x{index:04X}:{sub} is not in its EDS", index=index, subindex=sub
+            ) from None
         try:
             node.sdo.download(index, sub, _encode(node, index, sub, value))
         except canopen.SdoAbortedError as exc:
-            raise CommissionError(f"io module {node.id}: {_name(node, index, sub)} = {value} refused: abort "
-                                  f"0x{exc.code:08X} ({sdo_abort_text(exc.code)})",
-                                  index=index, subindex=sub, code=exc.code) from None
+            raise CommissionError(
+                f"io module {node.id}: {_name(node, index, sub)} = {value} refused: abort "
+                f"0x{exc.code:08X} ({sdo_abort_text(exc.code)})",
+                index=index,
+                subindex=sub,
+                code=exc.code,
+            ) from None
     final = {(i, s): v for i, s, v in writes}
     back = []
     for (index, sub), value in final.items():
         got = _decode(node, index, sub, node.sdo.upload(index, sub))
         if got != value:
-            raise CommissionError(f"io module {node.id}: {_name(node, index, sub)} reads back {got}, "
-                                  f"written {value}", index=index, subindex=sub)
+            raise CommissionError(
+                f"io module {node.id}: {_name(node, index, sub)} reads back {got}, written {value}",
+                index=index,
+                subindex=sub,
+            )
         back.append((index, sub, got))
     return back
 

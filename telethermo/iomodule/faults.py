@@ -16,6 +16,7 @@ Each ``--fault`` is one text, repeatable:
   ``detach_sensor``: the thermocouple relaxes to the room, the flux sensor reads 0 W); not a wiring fault
   (``rig check`` cannot see it at rest): the controller's envelope trips ``sensor_detached`` in a session.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
@@ -50,8 +51,9 @@ class Faults:
         """``base`` (inputs 1..n) with the polarity, gain, short and swap faults applied."""
         wires = list(base)
         for n in sorted(self.sign):
-            wires[n - 1] = replace(wires[n - 1], gain_V_per_unit=-wires[n - 1].gain_V_per_unit,
-                                   offset_V=-wires[n - 1].offset_V)
+            wires[n - 1] = replace(
+                wires[n - 1], gain_V_per_unit=-wires[n - 1].gain_V_per_unit, offset_V=-wires[n - 1].offset_V
+            )
         for n, factor in self.scale.items():
             wires[n - 1] = replace(wires[n - 1], gain_V_per_unit=wires[n - 1].gain_V_per_unit * factor)
         for n in self.short:
@@ -79,11 +81,12 @@ def parse_faults(specs: list[str]) -> Faults:
     for spec in specs:
         kind, _, rest = spec.partition(":")
         args = rest.split(":") if rest else []
-        need = {"sign": 1, "open": 1, "short": 1, "sampling": 1, "scale": 2, "swap": 2,
-                "detach": 1}.get(kind)
+        need = {"sign": 1, "open": 1, "short": 1, "sampling": 1, "scale": 2, "swap": 2, "detach": 1}.get(kind)
         if need is None or len(args) != need:
-            raise FaultError(f"--fault {spec}: expected sign:N|sign:out, scale:N:F, open:N, short:N, "
-                             "swap:A:B, sampling:MS or detach:S")
+            raise FaultError(
+                f"--fault {spec}: expected sign:N|sign:out, scale:N:F, open:N, short:N, "
+                "swap:A:B, sampling:MS or detach:S"
+            )
         if kind == "sign" and args[0] == "out":
             out_sign = -1
         elif kind == "sign":
@@ -120,6 +123,13 @@ def parse_faults(specs: list[str]) -> Faults:
                 sampling = 0
             if not 1 <= sampling <= 1000:
                 raise FaultError(f"--fault {spec}: expected a sampling period 1..1000 ms, got {args[0]!r}")
-    return Faults(sign=frozenset(sign), scale=scale, opened=opened, short=frozenset(short),
-                  swaps=tuple(swaps),
-                  out_sign=out_sign, sampling_ms=sampling, detach_at_s=detach)
+    return Faults(
+        sign=frozenset(sign),
+        scale=scale,
+        opened=opened,
+        short=frozenset(short),
+        swaps=tuple(swaps),
+        out_sign=out_sign,
+        sampling_ms=sampling,
+        detach_at_s=detach,
+    )

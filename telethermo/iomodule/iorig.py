@@ -13,6 +13,7 @@ at most ``input_timeout_ms`` (lockstep: ``lockstep_timeout_s``), then scales, ch
 them. :meth:`IoRig.apply_current` sends the output module's RPDO at once (the same cycle). Inputs missing for
 ``stale_limit`` periods in a row read NaN: the controller's envelope trips on them.
 """
+
 from __future__ import annotations
 
 import logging
@@ -42,16 +43,27 @@ class IoRig:
     """A rig on CANopen I/O modules: ``IoRig(config, transport=..., controller_id=..., period_s=...)``, then
     :meth:`start` (commissioning), then ``read``/``apply_current`` once per SYNC; :meth:`close` at the end."""
 
-    def __init__(self, config: RigConfig, *, transport: TransportSettings | None, controller_id: int,
-                 period_s: float, lockstep: bool = False, network: canopen.Network | None = None,
-                 sdo_timeout_s: float = 1.0):
+    def __init__(
+        self,
+        config: RigConfig,
+        *,
+        transport: TransportSettings | None,
+        controller_id: int,
+        period_s: float,
+        lockstep: bool = False,
+        network: canopen.Network | None = None,
+        sdo_timeout_s: float = 1.0,
+    ):
         self.config = config
         self.period_s = float(period_s)
         self.I_max_A = float(config.drive.limit_A)
         self.controller_id = controller_id
         self.lockstep = lockstep
-        self.timeout_s = (LOCKSTEP_TIMEOUT_S if lockstep else
-                          (config.input_timeout_ms * 1e-3 if config.input_timeout_ms else 0.5 * period_s))
+        self.timeout_s = (
+            LOCKSTEP_TIMEOUT_S
+            if lockstep
+            else (config.input_timeout_ms * 1e-3 if config.input_timeout_ms else 0.5 * period_s)
+        )
         self.sdo_timeout_s = sdo_timeout_s
         self._transport = transport
         self._own_network = network is None
@@ -80,14 +92,22 @@ class IoRig:
         cfg = self.config
         for name, mod in cfg.modules.items():
             entries = [(s.index, s.subindex) for s in cfg.signals.values() if s.module == name]
-            tpdos = tuple(tuple(entries[k:k + PER_TPDO]) for k in range(0, len(entries), PER_TPDO))
+            tpdos = tuple(tuple(entries[k : k + PER_TPDO]) for k in range(0, len(entries), PER_TPDO))
             drive = cfg.drive if cfg.drive.module == name else None
-            out.append(ModuleSetup(
-                node_id=mod.node_id, controller_id=self.controller_id, consumer_ms=mod.consumer_ms,
-                cycle_period_us=round(self.period_s * 1e6), sampling_ms=mod.sampling_ms,
-                substitute_counts=drive.zero_counts if drive else 0, error_behaviour=mod.error_behaviour,
-                tpdos=tpdos, rpdo1=(drive.index, drive.subindex) if drive else None,
-                sampling_index=mod.sampling_index))
+            out.append(
+                ModuleSetup(
+                    node_id=mod.node_id,
+                    controller_id=self.controller_id,
+                    consumer_ms=mod.consumer_ms,
+                    cycle_period_us=round(self.period_s * 1e6),
+                    sampling_ms=mod.sampling_ms,
+                    substitute_counts=drive.zero_counts if drive else 0,
+                    error_behaviour=mod.error_behaviour,
+                    tpdos=tpdos,
+                    rpdo1=(drive.index, drive.subindex) if drive else None,
+                    sampling_index=mod.sampling_index,
+                )
+            )
         return out
 
     def start(self) -> "IoRig":
@@ -115,23 +135,24 @@ class IoRig:
             node.sdo.RESPONSE_TIMEOUT = self.sdo_timeout_s
             self.nodes[mod.name] = node
             try:
-                node.nmt.send_command(0x80)     # PRE-OPERATIONAL: PDO mapping may change
+                node.nmt.send_command(0x80)  # PRE-OPERATIONAL: PDO mapping may change
                 commission(node, setup)
             except CommissionError as exc:
                 raise IoRigError(f"{cfg.source}: modules.{mod.name}: {exc}") from None
             except canopen.SdoCommunicationError as exc:
-                raise IoRigError(f"{cfg.source}: modules.{mod.name}: node {mod.node_id} does not answer SDO "
-                                 f"({exc})") from None
+                raise IoRigError(
+                    f"{cfg.source}: modules.{mod.name}: node {mod.node_id} does not answer SDO ({exc})"
+                ) from None
             names = [s.name for s in cfg.signals.values() if s.module == mod.name]
             for k in range(0, len(names), PER_TPDO):
                 cob = 0x180 + 0x100 * (k // PER_TPDO) + mod.node_id
-                self._tpdos.append((cob, tuple(names[k:k + PER_TPDO])))
+                self._tpdos.append((cob, tuple(names[k : k + PER_TPDO])))
         for cob, _ in self._tpdos:
             self._arrived[cob] = 0
             self.network.subscribe(cob, self._on_tpdo)
         self.apply_current(0.0)
         for node in self.nodes.values():
-            node.nmt.send_command(0x01)         # OPERATIONAL: the output follows our RPDO
+            node.nmt.send_command(0x01)  # OPERATIONAL: the output follows our RPDO
         log.info("%s: %d module(s) commissioned and started", cfg.source, len(self.nodes))
         return self
 
@@ -143,7 +164,7 @@ class IoRig:
             self.apply_current(0.0)
             for node in self.nodes.values():
                 node.nmt.send_command(0x80)
-        except Exception as exc:   # the bus may be gone already
+        except Exception as exc:  # the bus may be gone already
             log.warning("close: %s", exc)
         for cob, _ in self._tpdos:
             self.network.unsubscribe(cob)
@@ -210,8 +231,15 @@ class IoRig:
         contact_s = self.config.signals["contact"]
         touched = math.isfinite(vals["contact"]) and vals["contact"] >= contact_s.threshold
         force = vals.get("force_N", 0.0)
-        return RigSample(t_s=t_s, T_sensor_C=vals["T_sensor_C"], Q_W=vals["Q_W"], current_A=vals["current_A"],
-                         contact=touched, T_sink_C=vals["T_sink_C"], force_N=force if touched else 0.0)
+        return RigSample(
+            t_s=t_s,
+            T_sensor_C=vals["T_sensor_C"],
+            Q_W=vals["Q_W"],
+            current_A=vals["current_A"],
+            contact=touched,
+            T_sink_C=vals["T_sink_C"],
+            force_N=force if touched else 0.0,
+        )
 
     def apply_current(self, current_A: float) -> None:
         """The drive's RPDO, now: ``current_A`` clipped to the drive's limit, in counts."""

@@ -7,6 +7,7 @@ started by an NMT master, as a real module does; its plant (the ``--side`` rig o
 with the SYNCs it receives. Exit codes: 0 stopped by SIGINT/SIGTERM, 1 the bus cannot be opened,
 2 bad option or file (one line naming it).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -36,23 +37,42 @@ DEFAULT_NODE_ID = 3
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=PROG, description="A simulated CiA 401 analog I/O module (CANopen node) "
-                                "with "
-                                "a simulated rig behind its channels.")
-    p.add_argument("--node-id", type=int, default=DEFAULT_NODE_ID,
-                   help=f"node-ID 1..127 (default {DEFAULT_NODE_ID})")
-    p.add_argument("--scene", default="pads_in_air",
-                   help="scene name or TOML file of the plant (default pads_in_air)")
-    p.add_argument("--side", choices=("master", "slave"), default="master",
-                   help="which rig of the scene is wired to the channels (default master)")
+    p = argparse.ArgumentParser(
+        prog=PROG,
+        description="A simulated CiA 401 analog I/O module (CANopen node) "
+        "with "
+        "a simulated rig behind its channels.",
+    )
+    p.add_argument(
+        "--node-id", type=int, default=DEFAULT_NODE_ID, help=f"node-ID 1..127 (default {DEFAULT_NODE_ID})"
+    )
+    p.add_argument(
+        "--scene", default="pads_in_air", help="scene name or TOML file of the plant (default pads_in_air)"
+    )
+    p.add_argument(
+        "--side",
+        choices=("master", "slave"),
+        default="master",
+        help="which rig of the scene is wired to the channels (default master)",
+    )
     p.add_argument("--seed", type=int, help="sensor-noise seed (default: the scene's)")
-    p.add_argument("--network",
-                   help="network settings file: bus, SYNC period and counter (default: packaged)")
-    p.add_argument("--fault", action="append", default=[], metavar="KIND:ARGS",
-                   help="inject a wiring fault (repeatable): sign:N, sign:out, scale:N:F, open:N, short:N, "
-                        "swap:A:B, sampling:MS, detach:S (telethermo.iomodule.faults)")
-    p.add_argument("--record", type=Path, metavar="FILE.csv",
-                   help="write the simulated plant's truth per SYNC into FILE.csv (telethermo session --io)")
+    p.add_argument(
+        "--network", help="network settings file: bus, SYNC period and counter (default: packaged)"
+    )
+    p.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="KIND:ARGS",
+        help="inject a wiring fault (repeatable): sign:N, sign:out, scale:N:F, open:N, short:N, "
+        "swap:A:B, sampling:MS, detach:S (telethermo.iomodule.faults)",
+    )
+    p.add_argument(
+        "--record",
+        type=Path,
+        metavar="FILE.csv",
+        help="write the simulated plant's truth per SYNC into FILE.csv (telethermo session --io)",
+    )
     add_bus_arguments(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log state changes on stderr")
     return p
@@ -60,16 +80,20 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format=f"%(asctime)s {PROG} %(levelname)s %(message)s", stream=sys.stderr)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format=f"%(asctime)s {PROG} %(levelname)s %(message)s",
+        stream=sys.stderr,
+    )
     logging.getLogger("can.interfaces.socketcand.socketcand").setLevel(logging.ERROR)
     if not 1 <= args.node_id <= 127:
         print(f"{PROG}: error: --node-id: expected 1..127, got {args.node_id}", file=sys.stderr)
         return EXIT_USAGE
     try:
         net = load_network(args.network)
-        transport = resolve_bus(net, bus=args.bus, interface=args.interface, channel=args.channel,
-                                bitrate=args.bitrate).settings
+        transport = resolve_bus(
+            net, bus=args.bus, interface=args.interface, channel=args.channel, bitrate=args.bitrate
+        ).settings
         rig = build_rig(load_scene(args.scene), args.side, seed=args.seed)
         faults = parse_faults(args.fault)
         if faults.detach_at_s is not None:
@@ -80,14 +104,15 @@ def main(argv: list[str] | None = None) -> int:
     except OSError as exc:
         print(f"{PROG}: error: --scene {args.scene}: {exc.strerror or exc}", file=sys.stderr)
         return EXIT_USAGE
-    settings = DeviceSettings(sync_period_us=round(net.sync.period_s * 1e6),
-                              sync_counter_overflow=net.sync.counter_overflow)
+    settings = DeviceSettings(
+        sync_period_us=round(net.sync.period_s * 1e6), sync_counter_overflow=net.sync.counter_overflow
+    )
     stop = threading.Event()
     signal.signal(signal.SIGTERM, lambda *_: stop.set())
     signal.signal(signal.SIGINT, lambda *_: stop.set())
     try:
         bus = ResilientBus(transport)
-    except Exception as exc:   # no hub, no interface: the module cannot start
+    except Exception as exc:  # no hub, no interface: the module cannot start
         print(f"{PROG}: error: cannot open {transport.describe()}: {exc}", file=sys.stderr)
         return EXIT_FAIL
     network = canopen.Network(bus)
@@ -99,12 +124,13 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{PROG}: error: --record {args.record}: {exc.strerror or exc}", file=sys.stderr)
         network.disconnect()
         return EXIT_USAGE
-    if truth is not None:      # after the module's own handler: the plant has advanced
+    if truth is not None:  # after the module's own handler: the plant has advanced
         module.device.add_sync_handler(truth.on_sync)
     try:
         module.start()
-        logging.getLogger("telethermo.iomodule").info("node %d on %s: pre-operational", args.node_id,
-                                                      transport.describe())
+        logging.getLogger("telethermo.iomodule").info(
+            "node %d on %s: pre-operational", args.node_id, transport.describe()
+        )
         # one line a launcher waits for (telethermo.nodes.iomodules): the module answers from now on
         print(f"{PROG} node {args.node_id} ready on {transport.describe()}", flush=True)
         while not stop.wait(0.5):

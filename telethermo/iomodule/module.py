@@ -20,6 +20,7 @@ Object dictionary: ``bus_config/io_module.eds`` (:mod:`telethermo.bus_config.io_
   1: no change, 2: STOPPED). It leaves the error state when the node's heartbeat is back and (after
   0x1029 took it out of OPERATIONAL) an NMT start.
 """
+
 from __future__ import annotations
 
 import logging
@@ -32,15 +33,32 @@ import canopen
 
 from telethermo.bus_config import path as bus_config_path
 from telethermo.bus_config.io_eds import (
-    FILE_NAME, N_INPUTS, OPEN_CIRCUIT_INDEX, OUTPUT_ACTUAL_INDEX, OUTPUT_ERROR_INDEX, SAMPLING_INDEX,
+    FILE_NAME,
+    N_INPUTS,
+    OPEN_CIRCUIT_INDEX,
+    OUTPUT_ACTUAL_INDEX,
+    OUTPUT_ERROR_INDEX,
+    SAMPLING_INDEX,
 )
 from telethermo.cia301 import EMCY_INPUT_SENTINEL
 from telethermo.device import (
-    Device, DeviceSettings, NmtCommand, NmtState, PeerEvent, RpdoEvent, SyncTick, WriteEvent,
+    Device,
+    DeviceSettings,
+    NmtCommand,
+    NmtState,
+    PeerEvent,
+    RpdoEvent,
+    SyncTick,
+    WriteEvent,
 )
 from telethermo.iomodule.faults import Faults
 from telethermo.iomodule.scaling import (
-    DEFAULT_AMPLIFIER_A_PER_V, DEFAULT_WIRING, OVERLOAD_POS, SENTINELS, InputWiring, counts_to_volts,
+    DEFAULT_AMPLIFIER_A_PER_V,
+    DEFAULT_WIRING,
+    OVERLOAD_POS,
+    SENTINELS,
+    InputWiring,
+    counts_to_volts,
     volts_to_counts,
 )
 from telethermo.rig import SimulatedRig
@@ -67,11 +85,19 @@ class IoModule:
     injected on purpose (:mod:`.faults`, for commissioning tests).
     """
 
-    def __init__(self, network: canopen.Network, node_id: int, rig: SimulatedRig, *,
-                 eds: str | Path = EDS_PATH, settings: DeviceSettings | None = None,
-                 wiring: tuple[InputWiring, ...] = DEFAULT_WIRING,
-                 amplifier_A_per_V: float = DEFAULT_AMPLIFIER_A_PER_V,
-                 clock: Callable[[], float] = time.monotonic, faults: Faults | None = None):
+    def __init__(
+        self,
+        network: canopen.Network,
+        node_id: int,
+        rig: SimulatedRig,
+        *,
+        eds: str | Path = EDS_PATH,
+        settings: DeviceSettings | None = None,
+        wiring: tuple[InputWiring, ...] = DEFAULT_WIRING,
+        amplifier_A_per_V: float = DEFAULT_AMPLIFIER_A_PER_V,
+        clock: Callable[[], float] = time.monotonic,
+        faults: Faults | None = None,
+    ):
         if len(wiring) != N_INPUTS:
             raise ValueError(f"wiring: {N_INPUTS} inputs expected, got {len(wiring)}")
         self.rig = rig
@@ -82,7 +108,7 @@ class IoModule:
         self.device = dev = Device(network, node_id, eds, settings=settings, clock=clock)
         self._since_conversion_s = math.inf
         self.conversions = 0
-        self.actual = 0            # DAC code applied now
+        self.actual = 0  # DAC code applied now
         self.in_error = False
         #: clock() when the output last entered its error state (None: never), and why
         self.error_since: float | None = None
@@ -149,7 +175,7 @@ class IoModule:
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
         with self.device.lock:
-            if new == NmtState.INITIALISING:   # a reset: inputs convert again at the next SYNC
+            if new == NmtState.INITIALISING:  # a reset: inputs convert again at the next SYNC
                 self._since_conversion_s = math.inf
             self._apply_output(f"NMT {old.name} -> {new.name}")
 
@@ -189,8 +215,7 @@ class IoModule:
             if bad and not self._sentinel[ch - 1]:
                 log.warning("input %d (%s) reads its sentinel %d", ch, wire.signal, code)
                 data = bytes([ch]) + code.to_bytes(2, "little", signed=True)
-                dev.raise_emcy(EMCY_INPUT_SENTINEL, data=data,
-                               source=input_source(ch))
+                dev.raise_emcy(EMCY_INPUT_SENTINEL, data=data, source=input_source(ch))
             elif not bad and self._sentinel[ch - 1]:
                 dev.clear_emcy(EMCY_INPUT_SENTINEL, source=input_source(ch))
             self._sentinel[ch - 1] = bad

@@ -18,6 +18,7 @@ the signal reads NaN. ``filter_tau_ms`` > 0 low-passes a signal (first order, on
 A malformed file is refused with one line naming the file, the field and what was expected
 (:class:`RigConfigError`).
 """
+
 from __future__ import annotations
 
 import math
@@ -139,8 +140,9 @@ class _Table:
     def check_keys(self, allowed: set[str]) -> None:
         for key in self.raw:
             if key not in allowed:
-                raise RigConfigError(self.source, self.name(key),
-                                     f"one of {', '.join(sorted(allowed))} (an unknown key)")
+                raise RigConfigError(
+                    self.source, self.name(key), f"one of {', '.join(sorted(allowed))} (an unknown key)"
+                )
 
     def integer(self, key: str, lo: int, hi: int, default: Any = ...) -> int:
         v = self._get(key, default)
@@ -167,8 +169,9 @@ class _Table:
     def text(self, key: str, choices: tuple[str, ...] | None = None) -> str:
         v = self._get(key)
         if not isinstance(v, str) or (choices is not None and v not in choices):
-            raise RigConfigError(self.source, self.name(key), f"one of {', '.join(choices)}" if choices
-                                 else "a text", v)
+            raise RigConfigError(
+                self.source, self.name(key), f"one of {', '.join(choices)}" if choices else "a text", v
+            )
         return v
 
     def sign(self, key: str = "sign") -> int:
@@ -199,18 +202,27 @@ def _module(source: str, base: Path, name: str, raw: Any) -> ModuleConfig:
     if not eds.is_file():
         raise RigConfigError(source, t.name("eds"), "an EDS file (relative to the RIG.toml)", str(eds))
     sampling_index = t.integer("sampling_index", -1, 0xFFFF, SAMPLING_INDEX)
-    return ModuleConfig(name=name, node_id=t.integer("node_id", 1, 127), eds=eds,
-                        sampling_ms=t.integer("sampling_ms", 1, 1000, 10),
-                        sampling_index=None if sampling_index < 0 else sampling_index,
-                        consumer_ms=t.integer("consumer_ms", 1, 0xFFFF, 150),
-                        error_behaviour=t.integer("error_behaviour", 0, 2, 0))
+    return ModuleConfig(
+        name=name,
+        node_id=t.integer("node_id", 1, 127),
+        eds=eds,
+        sampling_ms=t.integer("sampling_ms", 1, 1000, 10),
+        sampling_index=None if sampling_index < 0 else sampling_index,
+        consumer_ms=t.integer("consumer_ms", 1, 0xFFFF, 150),
+        error_behaviour=t.integer("error_behaviour", 0, 2, 0),
+    )
 
 
 def _where(t: _Table, modules: dict[str, ModuleConfig]) -> dict[str, Any]:
-    return dict(module=t.text("module", tuple(modules)), index=t.integer("object", 0x1000, 0xFFFF),
-                subindex=t.integer("subindex", 0, 255), volts_per_count=t.number("volts_per_count",
-                default=DEFAULT_VOLTS_PER_COUNT, positive=True), offset_V=t.number("offset_V", default=0.0),
-                gain=t.number("gain", default=1.0, nonzero=True), sign=t.sign())
+    return dict(
+        module=t.text("module", tuple(modules)),
+        index=t.integer("object", 0x1000, 0xFFFF),
+        subindex=t.integer("subindex", 0, 255),
+        volts_per_count=t.number("volts_per_count", default=DEFAULT_VOLTS_PER_COUNT, positive=True),
+        offset_V=t.number("offset_V", default=0.0),
+        gain=t.number("gain", default=1.0, nonzero=True),
+        sign=t.sign(),
+    )
 
 
 def _signal(source: str, name: str, raw: Any, modules: dict[str, ModuleConfig]) -> SignalConfig:
@@ -218,13 +230,19 @@ def _signal(source: str, name: str, raw: Any, modules: dict[str, ModuleConfig]) 
     t.check_keys(_SIGNAL_KEYS)
     sentinels = t.raw.get("sentinels", list(DEFAULT_SENTINELS))
     if not isinstance(sentinels, list) or not all(
-            isinstance(s, int) and not isinstance(s, bool) and INT16[0] <= s <= INT16[1] for s in sentinels):
+        isinstance(s, int) and not isinstance(s, bool) and INT16[0] <= s <= INT16[1] for s in sentinels
+    ):
         raise RigConfigError(source, t.name("sentinels"), "a list of 16-bit codes (-32768..32767)", sentinels)
     tau = t.number("filter_tau_ms", default=0.0)
     if tau < 0:
         raise RigConfigError(source, t.name("filter_tau_ms"), "a time >= 0 ms (0: no filter)", tau)
-    return SignalConfig(name=name, sentinels=tuple(sentinels), filter_tau_ms=tau,
-                        threshold=t.number("threshold", default=0.5), **_where(t, modules))
+    return SignalConfig(
+        name=name,
+        sentinels=tuple(sentinels),
+        filter_tau_ms=tau,
+        threshold=t.number("threshold", default=0.5),
+        **_where(t, modules),
+    )
 
 
 def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigConfig:
@@ -252,15 +270,25 @@ def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigCon
     for s in signals.values():
         key = (s.module, s.index, s.subindex)
         if key in seen:
-            raise RigConfigError(source, f"signals.{s.name}.subindex", f"an input no other signal uses "
-                                 f"({seen[key]} reads it)", s.subindex)
+            raise RigConfigError(
+                source,
+                f"signals.{s.name}.subindex",
+                f"an input no other signal uses ({seen[key]} reads it)",
+                s.subindex,
+            )
         seen[key] = s.name
     d = _Table(source, "drive", top._get("drive"))
     d.check_keys(_DRIVE_KEYS)
     drive = DriveConfig(limit_A=d.number("limit_A", positive=True), **_where(d, modules))
     timeout = top.number("input_timeout_ms", default=None, positive=True)
-    return RigConfig(source=source, modules=modules, signals=signals, drive=drive, input_timeout_ms=timeout,
-                     stale_limit=top.integer("stale_limit", 1, 1000, 3))
+    return RigConfig(
+        source=source,
+        modules=modules,
+        signals=signals,
+        drive=drive,
+        input_timeout_ms=timeout,
+        stale_limit=top.integer("stale_limit", 1, 1000, 3),
+    )
 
 
 def load_rig_config(path: str | Path) -> RigConfig:
@@ -269,6 +297,7 @@ def load_rig_config(path: str | Path) -> RigConfig:
     try:
         text = p.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
-        raise RigConfigError(str(p), "(file)", "a readable UTF-8 TOML file", getattr(exc, "strerror", None)
-                             or str(exc)) from None
+        raise RigConfigError(
+            str(p), "(file)", "a readable UTF-8 TOML file", getattr(exc, "strerror", None) or str(exc)
+        ) from None
     return parse_rig_config(text, str(p), p.parent)

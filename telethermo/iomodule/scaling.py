@@ -11,6 +11,7 @@ The simulated rig side wires the plant's signals to the inputs through amplifier
 0.30518 mW on the heat flux, the least significant bits of the simulator's own measurement chain
 (sim.measurement): the module is the ADC the simulated chain models.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -25,7 +26,7 @@ SENTINELS = (OVERLOAD_POS, OVERLOAD_NEG)
 
 def volts_to_counts(volts: float) -> int:
     """The 16-bit converter's code of ``volts`` (V), rounded to the nearest count and clipped."""
-    if volts != volts:   # NaN: an input that cannot be converted reads as an overload
+    if volts != volts:  # NaN: an input that cannot be converted reads as an overload
         return OVERLOAD_POS
     return max(OVERLOAD_NEG, min(OVERLOAD_POS, round(volts * COUNTS_PER_V)))
 

@@ -10,6 +10,7 @@ inputs converted at that SYNC show.
 Columns: ``sync_cycle``, ``t_s`` (plant time, s), then ``X_true_surface_C``, ``X_true_Q_W``,
 ``X_true_Q_into_body_W``, ``X_true_touching`` (and ``m_true_finger_C`` on the master's side) with X = m or s.
 """
+
 from __future__ import annotations
 
 import csv

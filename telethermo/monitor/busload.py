@@ -7,11 +7,12 @@ Error frames are counted at their minimum length (6 flag + 8 delimiter + 3 inter
 monitor cannot see how long the superposed flags were. CAN FD frames are not modelled: they are
 counted as if classic with their DLC clipped to 8, and the monitor says so.
 """
+
 from __future__ import annotations
 
 import re
 
-TAIL_BITS = 1 + 2 + 7 + 3          # CRC delimiter, ACK slot+delimiter, EOF, intermission
+TAIL_BITS = 1 + 2 + 7 + 3  # CRC delimiter, ACK slot+delimiter, EOF, intermission
 ERROR_FRAME_BITS = 6 + 8 + 3
 
 
@@ -63,8 +64,8 @@ def _bits(value: int, n: int) -> list[int]:
 def _region(can_id: int, data: bytes, extended: bool, remote: bool, dlc: int) -> tuple[int, int]:
     """(value, bit count) of SOF..data, MSB first."""
     if extended:
-        v, n = (can_id >> 18) & 0x7FF, 12          # SOF (0) + ID-A
-        v, n = (v << 2) | 0b11, n + 2               # SRR, IDE
+        v, n = (can_id >> 18) & 0x7FF, 12  # SOF (0) + ID-A
+        v, n = (v << 2) | 0b11, n + 2  # SRR, IDE
         v, n = (v << 18) | (can_id & 0x3FFFF), n + 18
         v, n = (v << 3) | (int(remote) << 2), n + 3  # RTR, r1, r0
     else:
@@ -77,8 +78,9 @@ def _region(can_id: int, data: bytes, extended: bool, remote: bool, dlc: int) ->
     return v, n
 
 
-def frame_bits(can_id: int, data: bytes, *, extended: bool = False, remote: bool = False,
-               dlc: int | None = None) -> list[int]:
+def frame_bits(
+    can_id: int, data: bytes, *, extended: bool = False, remote: bool = False, dlc: int | None = None
+) -> list[int]:
     """The stuffed region SOF..CRC of a classic CAN frame, before stuffing (list of 0/1)."""
     dlc = min(len(data) if dlc is None else dlc, 15)
     v, n = _region(can_id, data, extended, remote, dlc)
@@ -105,8 +107,9 @@ def _stuff_runs(s: str) -> int:
     return count
 
 
-def frame_length_bits(can_id: int, data: bytes, *, extended: bool = False, remote: bool = False,
-                      dlc: int | None = None) -> int:
+def frame_length_bits(
+    can_id: int, data: bytes, *, extended: bool = False, remote: bool = False, dlc: int | None = None
+) -> int:
     """Bits a classic CAN data/remote frame occupies on the bus, incl. stuffing and intermission."""
     dlc = min(len(data) if dlc is None else dlc, 15)
     v, n = _region(can_id, data, extended, remote, dlc)
@@ -119,6 +122,10 @@ def message_length_bits(msg) -> int:
     if getattr(msg, "is_error_frame", False):
         return ERROR_FRAME_BITS
     data = bytes(msg.data or b"")
-    return frame_length_bits(msg.arbitration_id, data, extended=bool(msg.is_extended_id),
-                             remote=bool(msg.is_remote_frame),
-                             dlc=msg.dlc if msg.is_remote_frame else None)
+    return frame_length_bits(
+        msg.arbitration_id,
+        data,
+        extended=bool(msg.is_extended_id),
+        remote=bool(msg.is_remote_frame),
+        dlc=msg.dlc if msg.is_remote_frame else None,
+    )

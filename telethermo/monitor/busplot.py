@@ -4,6 +4,7 @@ the emergencies (EMCY) marked where they happened. Values without a unit are kep
 8-bit codes (safety state, mode, material: 0..~11) as steps in a panel of their own, wider integers
 (``cycle_counter``, tens of thousands) in another, so that neither squashes the other. Pure decoding
 here; matplotlib only in :func:`plot_bus_log_png`."""
+
 from __future__ import annotations
 
 import io
@@ -29,7 +30,7 @@ class BusSeries:
 
     series: dict[tuple[str, str], tuple[list[float], list[float]]] = field(default_factory=dict)
     units: dict[tuple[str, str], str] = field(default_factory=dict)
-    panels: dict[tuple[str, str], str] = field(default_factory=dict)   # key -> one of PANELS
+    panels: dict[tuple[str, str], str] = field(default_factory=dict)  # key -> one of PANELS
     emcys: list[tuple[float, str, int]] = field(default_factory=list)
     frames: int = 0
     pdo_frames: int = 0
@@ -85,6 +86,7 @@ def bus_log_figure(data: BusSeries, title: str):
     """A matplotlib Figure: one panel per kind (:data:`PANELS`) with the series of that kind; EMCYs as
     labelled vertical lines. ValueError if nothing numeric was decoded."""
     import matplotlib
+
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
     from matplotlib.ticker import MaxNLocator
@@ -94,8 +96,10 @@ def bus_log_figure(data: BusSeries, title: str):
         groups.setdefault(data.panels.get(key, "other"), []).append(key)
     order = [p for p in PANELS if p in groups]
     if not order:
-        raise ValueError(f"no numeric PDO value in {data.frames} frames (is this the network file the nodes ran "
-                         "with? their EDS mappings decode the PDOs)")
+        raise ValueError(
+            f"no numeric PDO value in {data.frames} frames (is this the network file the nodes ran "
+            "with? their EDS mappings decode the PDOs)"
+        )
     fig = Figure(figsize=(WIDTH_IN, ROW_HEIGHT_IN * len(order)), dpi=DPI)
     axs = fig.subplots(len(order), 1, sharex=True, squeeze=False)[:, 0]
     for ax, panel in zip(axs, order):
@@ -114,12 +118,26 @@ def bus_log_figure(data: BusSeries, title: str):
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=7, loc="best", ncol=2)
     for t, who, code in data.emcys[:20]:
-        axs[0].annotate(f"EMCY {who} 0x{code:04X}", (t, 0.98), xycoords=("data", "axes fraction"),
-                        fontsize=6, color="r", rotation=90, va="top", ha="right")
-    if data.emcys:   # what the codes mean, once each, under the picture
+        axs[0].annotate(
+            f"EMCY {who} 0x{code:04X}",
+            (t, 0.98),
+            xycoords=("data", "axes fraction"),
+            fontsize=6,
+            color="r",
+            rotation=90,
+            va="top",
+            ha="right",
+        )
+    if data.emcys:  # what the codes mean, once each, under the picture
         seen = dict.fromkeys(code for _, _, code in data.emcys)
-        fig.text(0.01, 0.005, "EMCY: " + "; ".join(f"0x{c:04X} {emcy_code_text(c)}" for c in list(seen)[:6]),
-                 fontsize=7, color="r", va="bottom")
+        fig.text(
+            0.01,
+            0.005,
+            "EMCY: " + "; ".join(f"0x{c:04X} {emcy_code_text(c)}" for c in list(seen)[:6]),
+            fontsize=7,
+            color="r",
+            va="bottom",
+        )
     axs[0].set_title(title)
     axs[-1].set_xlabel("time since the first frame s")
     fig.tight_layout()

@@ -7,6 +7,7 @@ little-endian signal (``@1``) at its bit offset, signed for INTEGERn and REAL, I
 COB-ID. Material codes get a value table (``VAL_``) from the rendering table, and each signal a comment
 (``CM_``) naming its object. A DBC file is a static picture: a PDO remapped at run time is not in it.
 """
+
 from __future__ import annotations
 
 import re
@@ -38,7 +39,7 @@ def dbc_text(ods: dict[int, Any], names: dict[int, str]) -> str:
     pmap = PdoMap(ods={k: v for k, v in ods.items() if v is not None})
     node_names = {n: dbc_name(names.get(n, f"node{n}")) for n in ods}
     receivers: dict[int, list[str]] = {}
-    for node, od in pmap.ods.items():                 # who consumes each COB-ID (its RPDOs)
+    for node, od in pmap.ods.items():  # who consumes each COB-ID (its RPDOs)
         for cob, pdef in PdoMap(ods={node: od}).table.items():
             if pdef.direction == "RPDO" and pdef.valid:
                 receivers.setdefault(cob, []).append(node_names[node])
@@ -59,7 +60,7 @@ def dbc_text(ods: dict[int, Any], names: dict[int, str]) -> str:
         for e in pdef.entries:
             start, offset = offset, offset + e.bits
             if e.var is None:
-                continue       # a dummy mapping: bits skipped
+                continue  # a dummy mapping: bits skipped
             kind = e.var.data_type
             signed = "-" if kind in dt.SIGNED_TYPES or kind in dt.FLOAT_TYPES else "+"
             sig = dbc_name(e.name)
@@ -68,8 +69,11 @@ def dbc_text(ods: dict[int, Any], names: dict[int, str]) -> str:
                 valtypes.append(f"SIG_VALTYPE_ {cob} {sig} : {1 if kind == dt.REAL32 else 2};")
             comments.append(f'CM_ SG_ {cob} {sig} "0x{e.index:04X}:{e.subindex:02X} {_quote(e.name)}";')
             if (e.index, e.name) in MATERIAL_CODE_OBJECTS:
-                vals = [(0, "none"), *((k + 1, m) for k, m in enumerate(materials)),
-                        (ABSTAIN_CODE, "unknown")]
+                vals = [
+                    (0, "none"),
+                    *((k + 1, m) for k, m in enumerate(materials)),
+                    (ABSTAIN_CODE, "unknown"),
+                ]
                 tables.append(f"VAL_ {cob} {sig} " + " ".join(f'{v} "{_quote(t)}"' for v, t in vals) + " ;")
         lines.append("")
     return "\n".join(lines + comments + [""] + valtypes + [""] + tables) + "\n"

@@ -7,6 +7,7 @@ bus) before the predefined ranges are guessed; SDO requests and responses are to
 Stateful decoding (SDO transfers, PDO values, heartbeat timing) lives in :mod:`.sdo`, :mod:`.pdo`
 and :mod:`.state`.
 """
+
 from __future__ import annotations
 
 import datetime as _dt
@@ -20,8 +21,19 @@ from telethermo import cia301
 
 # frame kinds
 NMT, SYNC, EMCY, TIME, PDO, SDO_REQ, SDO_RESP, HEARTBEAT, NODE_GUARD, LSS, ERROR_FRAME, UNKNOWN = (
-    "NMT", "SYNC", "EMCY", "TIME", "PDO", "SDO_REQ", "SDO_RESP", "HEARTBEAT", "NODE_GUARD", "LSS",
-    "ERROR_FRAME", "UNKNOWN")
+    "NMT",
+    "SYNC",
+    "EMCY",
+    "TIME",
+    "PDO",
+    "SDO_REQ",
+    "SDO_RESP",
+    "HEARTBEAT",
+    "NODE_GUARD",
+    "LSS",
+    "ERROR_FRAME",
+    "UNKNOWN",
+)
 
 KINDS = (NMT, SYNC, EMCY, TIME, PDO, SDO_REQ, SDO_RESP, HEARTBEAT, NODE_GUARD, LSS, ERROR_FRAME, UNKNOWN)
 
@@ -53,13 +65,27 @@ class Frame:
     fields: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
-        return {"t_s": self.t_s, "type": "frame", "kind": self.kind, "cob_id": self.cob_id,
-                "node": self.node, "data": self.data.hex(), "text": self.text, "fields": self.fields}
+        return {
+            "t_s": self.t_s,
+            "type": "frame",
+            "kind": self.kind,
+            "cob_id": self.cob_id,
+            "node": self.node,
+            "data": self.data.hex(),
+            "text": self.text,
+            "fields": self.fields,
+        }
 
 
-def classify(cob_id: int, *, extended: bool = False, remote: bool = False, error: bool = False,
-             sync_cob_id: int = cia301.COB_SYNC, pdo_cob_ids: frozenset[int] | set[int] = frozenset()
-             ) -> tuple[str, int | None]:
+def classify(
+    cob_id: int,
+    *,
+    extended: bool = False,
+    remote: bool = False,
+    error: bool = False,
+    sync_cob_id: int = cia301.COB_SYNC,
+    pdo_cob_ids: frozenset[int] | set[int] = frozenset(),
+) -> tuple[str, int | None]:
     """(kind, node) of a frame from its identifier alone; see the module docstring for the order."""
     if error:
         return ERROR_FRAME, None
@@ -93,8 +119,12 @@ def decode_nmt(data: bytes) -> dict[str, Any]:
     if len(data) != 2:
         return {"error": f"NMT frame must have 2 data bytes, got {len(data)}"}
     cs, node = data[0], data[1]
-    return {"command": cs, "command_name": cia301.NMT_COMMANDS.get(cs, f"invalid 0x{cs:02X}"),
-            "target": node, "target_state": cia301.NMT_COMMAND_TARGET.get(cs)}
+    return {
+        "command": cs,
+        "command_name": cia301.NMT_COMMANDS.get(cs, f"invalid 0x{cs:02X}"),
+        "target": node,
+        "target_state": cia301.NMT_COMMAND_TARGET.get(cs),
+    }
 
 
 def decode_sync(data: bytes) -> dict[str, Any]:
@@ -114,9 +144,14 @@ def decode_emcy(data: bytes) -> dict[str, Any]:
     if len(data) < 3:
         return {"error": f"EMCY frame too short ({len(data)} bytes, 8 expected)"}
     code, reg = struct.unpack_from("<HB", data)
-    out = {"code": code, "code_text": emcy_code_text(code), "register": reg,
-           "register_bits": cia301.error_register_names(reg), "manufacturer": bytes(data[3:8]).hex(),
-           "reset": code == 0}
+    out = {
+        "code": code,
+        "code_text": emcy_code_text(code),
+        "register": reg,
+        "register_bits": cia301.error_register_names(reg),
+        "manufacturer": bytes(data[3:8]).hex(),
+        "reset": code == 0,
+    }
     if len(data) != 8:
         out["error"] = f"EMCY frame has {len(data)} bytes (8 expected)"
     return out
@@ -136,8 +171,12 @@ def decode_heartbeat(data: bytes) -> dict[str, Any]:
     """Heartbeat / boot-up: one state byte (0 = boot-up)."""
     if len(data) != 1:
         return {"error": f"heartbeat must have 1 data byte, got {len(data)}"}
-    return {"state": data[0] & 0x7F, "state_name": cia301.nmt_state_name(data[0]), "boot_up": data[0] == 0,
-            "toggle": data[0] >> 7}
+    return {
+        "state": data[0] & 0x7F,
+        "state_name": cia301.nmt_state_name(data[0]),
+        "boot_up": data[0] == 0,
+        "toggle": data[0] >> 7,
+    }
 
 
 def describe_emcy(f: dict[str, Any]) -> str:

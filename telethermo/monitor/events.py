@@ -1,4 +1,5 @@
 """The monitor's event log: what happened on the bus that a person should know, with a severity."""
+
 from __future__ import annotations
 
 from collections import deque
@@ -32,8 +33,15 @@ class Event:
     fields: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
-        return {"t_s": self.t_s, "type": "event", "severity": self.severity, "kind": self.kind,
-                "node": self.node, "text": self.text, "fields": self.fields}
+        return {
+            "t_s": self.t_s,
+            "type": "event",
+            "severity": self.severity,
+            "kind": self.kind,
+            "node": self.node,
+            "text": self.text,
+            "fields": self.fields,
+        }
 
 
 class EventLog:

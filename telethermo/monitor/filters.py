@@ -7,6 +7,7 @@ a node (``master``: every frame whose COB-ID carries its node-ID, COB-ID & 0x7F)
 (``nmt``, ``sync``, ``emcy``, ``heartbeat``, ``sdo``, ``pdo``), a PDO (``master.TPDO4``) or an object
 mapped into PDOs (``cycle_counter``: the PDOs that carry it). A frame is kept if any filter matches.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -56,8 +57,10 @@ def _hex(text: str, spec: str) -> int:
     try:
         return int(text, 16)
     except ValueError:
-        raise FilterError(f"--filter {spec!r}: {text!r} is not hexadecimal; expected ID:MASK or ID~MASK "
-                          "as python-can's --filter, e.g. 180:780") from None
+        raise FilterError(
+            f"--filter {spec!r}: {text!r} is not hexadecimal; expected ID:MASK or ID~MASK "
+            "as python-can's --filter, e.g. 180:780"
+        ) from None
 
 
 def parse_filter(spec: str, config: MonitorConfig | None = None) -> Match:
@@ -85,8 +88,10 @@ def parse_filter(spec: str, config: MonitorConfig | None = None) -> Match:
     if carrying:
         return Match(spec, ids=carrying)
     known = sorted(SERVICES) + ["pdo"] + sorted(info.name for info in config.nodes.values()) + sorted(named)
-    raise FilterError(f"--filter {spec!r}: not ID:MASK, ID~MASK (hexadecimal, python-can's convention) nor a "
-                      f"name; expected one of {', '.join(known)}, or an object mapped into a TPDO")
+    raise FilterError(
+        f"--filter {spec!r}: not ID:MASK, ID~MASK (hexadecimal, python-can's convention) nor a "
+        f"name; expected one of {', '.join(known)}, or an object mapped into a TPDO"
+    )
 
 
 def frame_filter(specs: Iterable[str], config: MonitorConfig | None = None):

@@ -1,6 +1,7 @@
 """The raw frame list and the frame history of the monitor: one row per COB-ID (count, period, last
 data, what it is), as every bus viewer has, and a bounded scrollback of the last decoded frames.
 Plain data updated by :class:`~telethermo.monitor.state.Monitor`; no clock, no I/O."""
+
 from __future__ import annotations
 
 from collections import deque
@@ -45,10 +46,19 @@ class CobRow:
         return (self.last_t_s - self.first_t_s) / (self.count - 1)
 
     def to_json(self) -> dict[str, Any]:
-        return {"cob_id": self.cob_id, "extended": self.extended, "kind": self.kind, "node": self.node,
-                "count": self.count, "period_mean_s": self.period_mean_s, "period_last_s": self.period_last_s,
-                "period_min_s": self.period_min_s, "period_max_s": self.period_max_s,
-                "data": self.data.hex(), "text": self.text}
+        return {
+            "cob_id": self.cob_id,
+            "extended": self.extended,
+            "kind": self.kind,
+            "node": self.node,
+            "count": self.count,
+            "period_mean_s": self.period_mean_s,
+            "period_last_s": self.period_last_s,
+            "period_min_s": self.period_min_s,
+            "period_max_s": self.period_max_s,
+            "data": self.data.hex(),
+            "text": self.text,
+        }
 
 
 class FrameTable:

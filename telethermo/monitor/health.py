@@ -6,17 +6,34 @@ interfaces implement (pcan, ixxat, systec, etas; on the others, e.g. ``virtual``
 and SocketCAN error frames (linux/can/error.h: the class bits in the identifier, the controller
 status in data[1], the TX/RX error counters in data[6]/data[7]). Pure: the caller polls the bus.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 from typing import Any
 
 # linux/can/error.h: error class (in the identifier) and controller status (data[1])
-ERR_CLASSES = ((0x001, "TX timeout"), (0x002, "lost arbitration"), (0x004, "controller"), (0x008, "protocol violation"),
-               (0x010, "transceiver"), (0x020, "no ACK"), (0x040, "bus-off"), (0x080, "bus error"),
-               (0x100, "restarted"), (0x200, "counters"))
-CTRL_BITS = ((0x01, "RX overflow"), (0x02, "TX overflow"), (0x04, "RX warning"), (0x08, "TX warning"),
-             (0x10, "RX passive"), (0x20, "TX passive"), (0x40, "back to error-active"))
+ERR_CLASSES = (
+    (0x001, "TX timeout"),
+    (0x002, "lost arbitration"),
+    (0x004, "controller"),
+    (0x008, "protocol violation"),
+    (0x010, "transceiver"),
+    (0x020, "no ACK"),
+    (0x040, "bus-off"),
+    (0x080, "bus error"),
+    (0x100, "restarted"),
+    (0x200, "counters"),
+)
+CTRL_BITS = (
+    (0x01, "RX overflow"),
+    (0x02, "TX overflow"),
+    (0x04, "RX warning"),
+    (0x08, "TX warning"),
+    (0x10, "RX passive"),
+    (0x20, "TX passive"),
+    (0x40, "back to error-active"),
+)
 CAN_ERR_CNT = 0x200
 ACTIVE, WARNING, PASSIVE, BUS_OFF = "ERROR-ACTIVE", "WARNING", "ERROR-PASSIVE", "BUS-OFF"
 
@@ -27,8 +44,13 @@ def decode_error_frame(can_id: int, data: bytes) -> dict[str, Any]:
     classes = [name for bit, name in ERR_CLASSES if can_id & bit]
     ctrl = data[1] if len(data) > 1 else 0
     status = [name for bit, name in CTRL_BITS if ctrl & bit] if can_id & 0x004 else []
-    out: dict[str, Any] = {"classes": classes, "controller": status, "tx_errors": None, "rx_errors": None,
-                           "state": None}
+    out: dict[str, Any] = {
+        "classes": classes,
+        "controller": status,
+        "tx_errors": None,
+        "rx_errors": None,
+        "state": None,
+    }
     if len(data) >= 8 and (can_id & CAN_ERR_CNT or data[6] or data[7]):
         out["tx_errors"], out["rx_errors"] = data[6], data[7]
     if can_id & 0x040:
@@ -83,4 +105,9 @@ class ControllerHealth:
         return st
 
     def to_json(self) -> dict[str, Any]:
-        return {"state": self.state, "source": self.source, "tx_errors": self.tx_errors, "rx_errors": self.rx_errors}
+        return {
+            "state": self.state,
+            "source": self.source,
+            "tx_errors": self.tx_errors,
+            "rx_errors": self.rx_errors,
+        }

@@ -1,6 +1,7 @@
 """Incident hints: for each common CANopen incident the monitor sees, a short "check first" line, as
 a lab engineer would say it (canopen-lens gives such advice; these texts are ours). Pure: the current
 state of a :class:`~telethermo.monitor.state.Monitor` in, lines out."""
+
 from __future__ import annotations
 
 from .events import WARN
@@ -15,23 +16,39 @@ SILENT_S = 3.0
 #: bus load above this fraction of the bitrate gets a hint (CiA recommends staying well below 100 %)
 LOAD_FRACTION = 0.70
 
-HEARTBEAT_LOST = ("heartbeat lost: is the node powered and its program running? then cable, connector, "
-                  "termination; consumer_ms > producer_ms in network.toml [heartbeat]")
-UNEXPECTED_BOOT = "unexpected boot-up: the node reset itself; check its supply (brown-out), its log, a watchdog"
-ERROR_FRAMES = ("error frames: check the bitrate on every node, 120 ohm termination at both ends only, "
-                "stub length, ground")
+HEARTBEAT_LOST = (
+    "heartbeat lost: is the node powered and its program running? then cable, connector, "
+    "termination; consumer_ms > producer_ms in network.toml [heartbeat]"
+)
+UNEXPECTED_BOOT = (
+    "unexpected boot-up: the node reset itself; check its supply (brown-out), its log, a watchdog"
+)
+ERROR_FRAMES = (
+    "error frames: check the bitrate on every node, 120 ohm termination at both ends only, "
+    "stub length, ground"
+)
 BUS_OFF_HINT = "controller BUS-OFF: the adapter left the bus; fix wiring/bitrate, then restart the interface"
 PASSIVE_HINT = "controller error-passive/warning: many errors seen; check termination, bitrate, a noisy cable"
-LOAD_HINT = ("bus load {load:.0f}% > {lim:.0f}%: lower PDO rates or set inhibit times (0x1800:03), "
-             "or raise the bitrate on every node")
-JITTER_HINT = ("SYNC jitter {jit:.2f} ms ({pct:.0f}% of {per:.2f} ms): CPU load on the SYNC producer; run "
-               "it with real-time priority (chrt), avoid USB adapters' latency, check the bus load")
-LATE_HINT = ("{n} late SYNC cycles (period {per:.2f} ms): the SYNC producer misses its period; CPU load, "
-             "priority, a slow rig read; in lockstep: the slower node waits for the other's PDOs")
-PDO_MISSING_HINT = ("{n} synchronous PDOs missed: the producer is late or not OPERATIONAL; check its "
-                    "heartbeat, its CPU load, its TPDO transmission type (0x1800:02)")
-NO_TRAFFIC = ("no frame on the bus for {s:.0f} s: check the bus setting (--bus or -i/-c, CAN_INTERFACE/"
-              "CAN_CHANNEL, ~/.canrc, network.toml [bus]), that the nodes run, and the bitrate")
+LOAD_HINT = (
+    "bus load {load:.0f}% > {lim:.0f}%: lower PDO rates or set inhibit times (0x1800:03), "
+    "or raise the bitrate on every node"
+)
+JITTER_HINT = (
+    "SYNC jitter {jit:.2f} ms ({pct:.0f}% of {per:.2f} ms): CPU load on the SYNC producer; run "
+    "it with real-time priority (chrt), avoid USB adapters' latency, check the bus load"
+)
+LATE_HINT = (
+    "{n} late SYNC cycles (period {per:.2f} ms): the SYNC producer misses its period; CPU load, "
+    "priority, a slow rig read; in lockstep: the slower node waits for the other's PDOs"
+)
+PDO_MISSING_HINT = (
+    "{n} synchronous PDOs missed: the producer is late or not OPERATIONAL; check its "
+    "heartbeat, its CPU load, its TPDO transmission type (0x1800:02)"
+)
+NO_TRAFFIC = (
+    "no frame on the bus for {s:.0f} s: check the bus setting (--bus or -i/-c, CAN_INTERFACE/"
+    "CAN_CHANNEL, ~/.canrc, network.toml [bus]), that the nodes run, and the bitrate"
+)
 SILENT = "no frame for {s:.0f} s since the last one: the nodes stopped, or the adapter lost the bus"
 EMCY_CLASS_HINTS = (
     (0xFF00, 0x8100, "EMCY communication: bus errors, overruns or a lost peer; check the bus and heartbeats"),
@@ -83,7 +100,9 @@ def incident_hints(mon: Monitor) -> list[str]:
     per = mon.config.sync_period_s
     sync = s.sync_summary()
     if per and sync["jitter_s"] is not None and sync["jitter_s"] > JITTER_FRACTION * per:
-        out.append(JITTER_HINT.format(jit=sync["jitter_s"] * 1e3, pct=100 * sync["jitter_s"] / per, per=per * 1e3))
+        out.append(
+            JITTER_HINT.format(jit=sync["jitter_s"] * 1e3, pct=100 * sync["jitter_s"] / per, per=per * 1e3)
+        )
     if per and s.late_cycles:
         out.append(LATE_HINT.format(n=s.late_cycles, per=per * 1e3))
     if s.missed_pdos:

@@ -9,6 +9,7 @@ header at the end: the size the writer recorded when it closed the file, and no 
 
 Also reads the decoded CSV ``telethermo record`` writes beside its log (:func:`read_record_csv`).
 """
+
 from __future__ import annotations
 
 import csv
@@ -25,8 +26,10 @@ from can.io.blf import BLFParseError, FILE_HEADER_SIZE
 READABLE = (".log", ".asc", ".blf", ".csv", ".trc")
 #: python-can's reader per text format and what one line of it looks like
 TEXT_READERS = {
-    ".log": (can.CanutilsLogReader,
-             "a candump -L line '(TIME) CHANNEL ID#DATA', e.g. '(1.000000) can0 181#00ff'"),
+    ".log": (
+        can.CanutilsLogReader,
+        "a candump -L line '(TIME) CHANNEL ID#DATA', e.g. '(1.000000) can0 181#00ff'",
+    ),
     ".asc": (can.ASCReader, "a Vector ASC line, e.g. '1.000000 1 181 Rx d 2 00 FF'"),
     ".trc": (can.TRCReader, "a PEAK trace line, e.g. '1 1000.000 DT 0181 Rx 2 00 FF'"),
     ".csv": (can.CSVReader, "a python-can CSV row 'timestamp,arbitration_id,extended,remote,error,dlc,data'"),
@@ -87,8 +90,10 @@ def read_log(path: str | Path) -> Iterator[can.Message]:
     p = Path(path)
     suffix = p.suffix.lower()
     if suffix not in READABLE:
-        raise ReplayError(f"{p}: cannot replay {p.suffix or 'a file without extension'!r}; expected one of "
-                          f"{', '.join(READABLE)}")
+        raise ReplayError(
+            f"{p}: cannot replay {p.suffix or 'a file without extension'!r}; expected one of "
+            f"{', '.join(READABLE)}"
+        )
     if not p.is_file():
         raise ReplayError(f"{p}: no such log file")
     if suffix == ".csv" and is_record_csv(p):
@@ -103,10 +108,11 @@ def _read_text(p: Path, suffix: str) -> Iterator[can.Message]:
     fh = _CountedLines(p)
     try:
         reader = cls(fh)
-    except Exception as exc:   # a reader reads the header in its constructor (ASC, TRC)
+    except Exception as exc:  # a reader reads the header in its constructor (ASC, TRC)
         fh.close()
-        raise ReplayError(f"{p}:{fh.line}: not a readable {suffix} log ({exc}); "
-                          f"expected {expected}") from None
+        raise ReplayError(
+            f"{p}:{fh.line}: not a readable {suffix} log ({exc}); expected {expected}"
+        ) from None
 
     def gen() -> Iterator[can.Message]:
         n, first, last = 0, None, None
@@ -116,11 +122,14 @@ def _read_text(p: Path, suffix: str) -> Iterator[can.Message]:
                 first = msg.timestamp if first is None else first
                 yield msg
         except (ValueError, IndexError, KeyError, TypeError, AttributeError, OSError) as exc:
-            raise ReplayError(f"{p}:{fh.line}: damaged line ({_name(exc)}), "
-                              f"{_what_was_read(n, first, last)}; "
-                              f"expected {expected}") from None
+            raise ReplayError(
+                f"{p}:{fh.line}: damaged line ({_name(exc)}), "
+                f"{_what_was_read(n, first, last)}; "
+                f"expected {expected}"
+            ) from None
         finally:
             fh.close()
+
     return gen()
 
 
@@ -129,8 +138,9 @@ def _read_blf(p: Path) -> Iterator[can.Message]:
     try:
         reader = can.BLFReader(str(p))
     except (BLFParseError, struct.error, OSError) as exc:
-        raise ReplayError(f"{p}: not a BLF log ({exc or 'no LOGG signature'}, {size} bytes); "
-                          f"{_BLF_EXPECTED}") from None
+        raise ReplayError(
+            f"{p}: not a BLF log ({exc or 'no LOGG signature'}, {size} bytes); {_BLF_EXPECTED}"
+        ) from None
     promised = reader.file_size
 
     def gen() -> Iterator[can.Message]:
@@ -142,21 +152,30 @@ def _read_blf(p: Path) -> Iterator[can.Message]:
                 yield msg
         except (zlib.error, struct.error, BLFParseError, ValueError, OSError) as exc:
             at = reader.file.tell() if not reader.file.closed else size
-            raise ReplayError(f"{p}: damaged BLF at byte {at} of {size} "
-                              f"({_name(exc)}), {_what_was_read(n, first, last)}; "
-                              f"{_BLF_EXPECTED}") from None
+            raise ReplayError(
+                f"{p}: damaged BLF at byte {at} of {size} "
+                f"({_name(exc)}), {_what_was_read(n, first, last)}; "
+                f"{_BLF_EXPECTED}"
+            ) from None
         finally:
             reader.stop()
-        left = len(reader._tail)   # bytes of an object that never ended (python-can keeps them, says nothing)
+        left = len(reader._tail)  # bytes of an object that never ended (python-can keeps them, says nothing)
         if promised > FILE_HEADER_SIZE and size < promised:
-            raise ReplayError(f"{p}: truncated BLF: {size} of the {promised} bytes its header records, "
-                              f"{_what_was_read(n, first, last)}; {_BLF_EXPECTED}")
+            raise ReplayError(
+                f"{p}: truncated BLF: {size} of the {promised} bytes its header records, "
+                f"{_what_was_read(n, first, last)}; {_BLF_EXPECTED}"
+            )
         if left:
-            raise ReplayError(f"{p}: truncated BLF: the last object is cut after {left} bytes, "
-                              f"{_what_was_read(n, first, last)}; {_BLF_EXPECTED}")
+            raise ReplayError(
+                f"{p}: truncated BLF: the last object is cut after {left} bytes, "
+                f"{_what_was_read(n, first, last)}; {_BLF_EXPECTED}"
+            )
         if promised <= FILE_HEADER_SIZE and size > FILE_HEADER_SIZE:
-            raise ReplayError(f"{p}: unfinished BLF: its header was never completed (the writer did not "
-                              f"close it), {_what_was_read(n, first, last)}; {_BLF_EXPECTED}")
+            raise ReplayError(
+                f"{p}: unfinished BLF: its header was never completed (the writer did not "
+                f"close it), {_what_was_read(n, first, last)}; {_BLF_EXPECTED}"
+            )
+
     return gen()
 
 
@@ -167,22 +186,27 @@ def is_record_csv(p: Path) -> bool:
             head = next(csv.reader(fh), [])
     except (OSError, UnicodeDecodeError, csv.Error):
         return False
-    return tuple(head[:len(RECORD_CSV_HEAD)]) == RECORD_CSV_HEAD
+    return tuple(head[: len(RECORD_CSV_HEAD)]) == RECORD_CSV_HEAD
 
 
 def _csv_message(row: list[str]) -> can.Message:
     """One frame of a record CSV row (t_s, cob_id 0x.., kind, node, dlc, data hex, ...); ValueError."""
     if len(row) < len(RECORD_CSV_HEAD):
-        raise ValueError(f"{len(row)} columns, expected at least {len(RECORD_CSV_HEAD)} "
-                         f"({', '.join(RECORD_CSV_HEAD)})")
-    t_s, cob, kind, _node, dlc, data = row[:len(RECORD_CSV_HEAD)]
+        raise ValueError(
+            f"{len(row)} columns, expected at least {len(RECORD_CSV_HEAD)} ({', '.join(RECORD_CSV_HEAD)})"
+        )
+    t_s, cob, kind, _node, dlc, data = row[: len(RECORD_CSV_HEAD)]
     payload = bytes.fromhex(data)
     cob_id = int(cob, 16)
     if int(dlc) != len(payload):
         raise ValueError(f"dlc {dlc} but {len(payload)} data bytes")
-    return can.Message(timestamp=float(t_s), arbitration_id=cob_id, data=payload,
-                       is_extended_id=len(cob.removeprefix("0x")) > 3 or cob_id > 0x7FF,
-                       is_error_frame=kind == "ERROR_FRAME")
+    return can.Message(
+        timestamp=float(t_s),
+        arbitration_id=cob_id,
+        data=payload,
+        is_extended_id=len(cob.removeprefix("0x")) > 3 or cob_id > 0x7FF,
+        is_error_frame=kind == "ERROR_FRAME",
+    )
 
 
 def read_record_csv(p: str | os.PathLike) -> Iterator[can.Message]:
@@ -201,4 +225,5 @@ def read_record_csv(p: str | os.PathLike) -> Iterator[can.Message]:
                     yield _csv_message(row)
                 except (ValueError, TypeError) as exc:
                     raise ReplayError(f"{p}:{rows.line_num}: damaged row ({exc})") from None
+
     return gen()

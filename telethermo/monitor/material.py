@@ -14,6 +14,7 @@ answer (0.3 s of contact) and then the refined one (1.2 s); the slave's TPDO6 ca
 posterior ``identified_early_posterior`` (0x261D) is read by SDO like the other. Each is shown for the touch
 it was seen in.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -21,7 +22,7 @@ from typing import Any
 
 from telethermo.control.render_table import material_name
 
-ABSTAIN_CODE = 0xFF   # identified_material when the classifier abstains (too unsure to name a material)
+ABSTAIN_CODE = 0xFF  # identified_material when the classifier abstains (too unsure to name a material)
 MATERIAL, POSTERIOR, TOUCHES = "identified_material", "identified_posterior", "identified_touches"
 EARLY, EARLY_POSTERIOR, STAGE = "identified_early_material", "identified_early_posterior", "identified_stage"
 STAGE_NAMES = {1: "first answer", 2: "refined"}
@@ -40,7 +41,7 @@ class NodeMaterial:
     touches: int | None = None
     posterior: float | None = None
     posterior_how: str = ""
-    posterior_touch: int | None = None   # identified_touches when the posterior was seen
+    posterior_touch: int | None = None  # identified_touches when the posterior was seen
     #: (value, how it was seen, identified_touches then) of the stage, the first answer and its posterior
     seen: dict[str, tuple[Any, str, int | None]] = field(default_factory=dict)
 
@@ -52,18 +53,27 @@ class NodeMaterial:
         fresh = self.posterior is not None and self.posterior_touch == self.touches
         stage, early = self._fresh(STAGE)[0], self._fresh(EARLY)[0]
         early_post, early_how = self._fresh(EARLY_POSTERIOR)
-        return {"code": self.code, "material": None if self.code is None else material_text(self.code),
-                "touches": self.touches, "posterior": self.posterior if fresh else None,
-                "posterior_source": self.posterior_how if fresh else None,
-                "stage": STAGE_NAMES.get(stage) if stage is not None else None,
-                "early_code": early, "early_material": None if early is None else material_text(early),
-                "early_posterior": early_post, "early_posterior_source": early_how}
+        return {
+            "code": self.code,
+            "material": None if self.code is None else material_text(self.code),
+            "touches": self.touches,
+            "posterior": self.posterior if fresh else None,
+            "posterior_source": self.posterior_how if fresh else None,
+            "stage": STAGE_NAMES.get(stage) if stage is not None else None,
+            "early_code": early,
+            "early_material": None if early is None else material_text(early),
+            "early_posterior": early_post,
+            "early_posterior_source": early_how,
+        }
 
     def _early_text(self, j: dict[str, Any]) -> str:
         if j["early_code"] is None:
             return ""
-        post = (f", posterior {j['early_posterior']:.3f} ({j['early_posterior_source']})"
-                if j["early_posterior"] is not None else "")
+        post = (
+            f", posterior {j['early_posterior']:.3f} ({j['early_posterior_source']})"
+            if j["early_posterior"] is not None
+            else ""
+        )
         return f"; first answer {j['early_material']} (code {j['early_code']}){post}"
 
     def text(self) -> str:
@@ -77,8 +87,10 @@ class NodeMaterial:
             return f"{what}, posterior {j['posterior']:.3f} ({j['posterior_source']})" + self._early_text(j)
         if self.code in (0, ABSTAIN_CODE):
             return what + self._early_text(j)
-        return (f"{what}, posterior not on the bus (identified_posterior is in no PDO: "
-                f"telethermo get NODE {POSTERIOR})") + self._early_text(j)
+        return (
+            f"{what}, posterior not on the bus (identified_posterior is in no PDO: "
+            f"telethermo get NODE {POSTERIOR})"
+        ) + self._early_text(j)
 
 
 class MaterialSeen:
@@ -90,7 +102,7 @@ class MaterialSeen:
     def observe(self, node: int | None, name: str, value: Any, how: str) -> None:
         if node is None or name not in (MATERIAL, POSTERIOR, TOUCHES, EARLY, EARLY_POSTERIOR, STAGE):
             return
-        if isinstance(value, (bytes, bytearray)):   # a length mismatch decoded as raw bytes
+        if isinstance(value, (bytes, bytearray)):  # a length mismatch decoded as raw bytes
             return
         m = self.by_node.setdefault(node, NodeMaterial())
         if name == MATERIAL:

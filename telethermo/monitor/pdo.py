@@ -7,6 +7,7 @@ objects observed on the bus update the table, so a runtime remapping (CiA 301 §
 the PDO, set sub0 = 0, write the entries, set sub0 = N, enable) is followed; NMT reset node /
 reset communication restores the EDS values.
 """
+
 from __future__ import annotations
 
 import struct
@@ -23,10 +24,15 @@ TPDO_COMM, TPDO_MAP, RPDO_COMM, RPDO_MAP = 0x1800, 0x1A00, 0x1400, 0x1600
 
 #: our objects whose value is a material code of the rendering table (the master's rendered material, the slave's
 #: identified one and the master's copy of it): (index, EDS name), so that another vendor's 0x26xx is left alone
-MATERIAL_CODE_OBJECTS = frozenset({(0x2600, "material_code"), (0x2610, "identified_material"),
-                                   (0x2615, "peer_identified_material"),
-                                   (0x261C, "identified_early_material"),
-                                   (0x261F, "peer_identified_early_material")})
+MATERIAL_CODE_OBJECTS = frozenset(
+    {
+        (0x2600, "material_code"),
+        (0x2610, "identified_material"),
+        (0x2615, "peer_identified_material"),
+        (0x261C, "identified_early_material"),
+        (0x261F, "peer_identified_early_material"),
+    }
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -46,8 +52,8 @@ class PdoDef:
     """A PDO as currently configured: who sends it, its COB-ID, validity and mapping."""
 
     node: int
-    direction: str      # "TPDO" (node transmits) or "RPDO" (node receives)
-    number: int         # 1..512
+    direction: str  # "TPDO" (node transmits) or "RPDO" (node receives)
+    number: int  # 1..512
     cob_id: int
     valid: bool
     transmission_type: int | None
@@ -78,7 +84,13 @@ class PdoValue:
             v = "NaN"
         elif isinstance(v, float) and v in (float("inf"), float("-inf")):
             v = str(v)
-        out = {"name": self.name, "value": v, "unit": self.unit, "index": self.index, "subindex": self.subindex}
+        out = {
+            "name": self.name,
+            "value": v,
+            "unit": self.unit,
+            "index": self.index,
+            "subindex": self.subindex,
+        }
         meaning = self.meaning()
         if meaning:
             out["meaning"] = meaning
@@ -142,7 +154,7 @@ class PdoMap:
                     if index not in od:
                         continue
                     obj = od[index]
-                    for sub in (range(0, 9) if base in (TPDO_COMM, RPDO_COMM) else range(0, 65)):
+                    for sub in range(0, 9) if base in (TPDO_COMM, RPDO_COMM) else range(0, 65):
                         v = od_value(od, index, sub) if not isinstance(obj, od_mod.ODVariable) else None
                         if v is not None:
                             vals[(index, sub)] = v
@@ -159,8 +171,12 @@ class PdoMap:
             return None
         vals[(index, sub)] = value
         self._cache = None
-        kind = {RPDO_COMM: "RPDO comm", RPDO_MAP: "RPDO mapping", TPDO_COMM: "TPDO comm",
-                TPDO_MAP: "TPDO mapping"}[index & 0xFE00]
+        kind = {
+            RPDO_COMM: "RPDO comm",
+            RPDO_MAP: "RPDO mapping",
+            TPDO_COMM: "TPDO comm",
+            TPDO_MAP: "TPDO mapping",
+        }[index & 0xFE00]
         return f"node {node} {kind} {(index & 0x1FF) + 1} sub {sub} := 0x{value:X}"
 
     # -- lookup ----------------------------------------------------------------------------------
@@ -169,8 +185,10 @@ class PdoMap:
         rpdos: dict[int, PdoDef] = {}
         for node, vals in self._values.items():
             od = self.ods.get(node)
-            for direction, comm, mapping, target in (("TPDO", TPDO_COMM, TPDO_MAP, table),
-                                                     ("RPDO", RPDO_COMM, RPDO_MAP, rpdos)):
+            for direction, comm, mapping, target in (
+                ("TPDO", TPDO_COMM, TPDO_MAP, table),
+                ("RPDO", RPDO_COMM, RPDO_MAP, rpdos),
+            ):
                 for n in range(512):
                     raw = vals.get((comm + n, 1))
                     if raw is None:
@@ -187,12 +205,14 @@ class PdoMap:
                             name = f"dummy{bits}" if index < 0x20 else f"0x{index:04X}:{sub:02X}"
                         else:
                             name = var.name
-                        entries.append(MappedEntry(index, sub, bits, name, getattr(var, "unit", "") or "", var))
+                        entries.append(
+                            MappedEntry(index, sub, bits, name, getattr(var, "unit", "") or "", var)
+                        )
                     pdef = PdoDef(node, direction, n + 1, cob, valid, vals.get((comm + n, 2)), tuple(entries))
                     if valid and (cob not in target or not target[cob].valid):
                         target[cob] = pdef
         for cob, pdef in rpdos.items():
-            table.setdefault(cob, pdef)   # a producer's TPDO wins over a consumer's RPDO
+            table.setdefault(cob, pdef)  # a producer's TPDO wins over a consumer's RPDO
         return table
 
     @property

@@ -9,6 +9,7 @@ that rule. The folder must exist: a typo in a path is said, not turned into new 
 A candump ``.log`` keeps each frame's channel name (``telethermo`` for our hub, ``can0``...); the Vector
 and PEAK formats number their channels, so a named channel is written as their first channel there.
 """
+
 from __future__ import annotations
 
 import copy
@@ -27,7 +28,12 @@ from can.util import channel2int
 from .state import Monitor
 
 #: log formats by extension (python-can writers): candump text, Vector ASC, Vector BLF, PEAK trace
-LOG_FORMATS = {".log": "candump -L text", ".asc": "Vector ASC", ".blf": "Vector BLF", ".trc": "PEAK trace 2.1"}
+LOG_FORMATS = {
+    ".log": "candump -L text",
+    ".asc": "Vector ASC",
+    ".blf": "Vector BLF",
+    ".trc": "PEAK trace 2.1",
+}
 CSV_COLUMNS = ("t_s", "cob_id", "kind", "node", "dlc", "data", "text", "fields")
 #: formats python-can's writers append to (ASC and TRC writers refuse to)
 APPENDABLE = (".log", ".blf")
@@ -41,8 +47,10 @@ def check_log_path(path: str | os.PathLike) -> Path:
     """The log path if its extension is a supported format; RecordError otherwise."""
     p = Path(path)
     if p.suffix.lower() not in LOG_FORMATS:
-        raise RecordError(f"{p}: unsupported log format {p.suffix or '(no extension)'!r}; expected one of "
-                          + ", ".join(f"{k} ({v})" for k, v in LOG_FORMATS.items()))
+        raise RecordError(
+            f"{p}: unsupported log format {p.suffix or '(no extension)'!r}; expected one of "
+            + ", ".join(f"{k} ({v})" for k, v in LOG_FORMATS.items())
+        )
     if p.exists() and p.is_dir():
         raise RecordError(f"{p}: is a folder, expected a file name")
     check_folder(p)
@@ -54,8 +62,9 @@ def check_folder(path: Path) -> None:
     folder = path.parent
     if not folder.is_dir():
         what = "is not a folder" if folder.exists() else "does not exist"
-        raise RecordError(f"{path}: the folder {folder} {what}; "
-                          "expected an existing folder (create it first)")
+        raise RecordError(
+            f"{path}: the folder {folder} {what}; expected an existing folder (create it first)"
+        )
 
 
 def default_csv_path(log_path: str | os.PathLike) -> Path:
@@ -96,14 +105,18 @@ def check_append(log: Path, csv_path: Path | None) -> None:
     """RecordError if ``--append`` cannot keep the rule: a format python-can cannot append to, or an
     existing CSV that is not this recorder's (its header)."""
     if log.suffix.lower() not in APPENDABLE:
-        raise RecordError(f"{log}: cannot append to a {log.suffix} log (python-can's writer cannot); "
-                          f"expected one of {', '.join(APPENDABLE)}")
+        raise RecordError(
+            f"{log}: cannot append to a {log.suffix} log (python-can's writer cannot); "
+            f"expected one of {', '.join(APPENDABLE)}"
+        )
     if csv_path is not None and csv_path.exists():
         with open(csv_path, newline="", encoding="utf-8", errors="replace") as fh:
             head = next(csv.reader(fh), [])
         if tuple(head) != CSV_COLUMNS:
-            raise RecordError(f"{csv_path}:1: not the decoded CSV of telethermo record; expected the header "
-                              f"{','.join(CSV_COLUMNS)}")
+            raise RecordError(
+                f"{csv_path}:1: not the decoded CSV of telethermo record; expected the header "
+                f"{','.join(CSV_COLUMNS)}"
+            )
 
 
 class Recorder(can.Listener):
@@ -117,9 +130,15 @@ class Recorder(can.Listener):
         append: add to the existing files (.log and .blf; :func:`check_append`) instead of replacing.
     """
 
-    def __init__(self, log_path: str | os.PathLike, csv_path: str | os.PathLike | None = None,
-                 monitor: Monitor | None = None, *, keep: Callable[[can.Message], bool] | None = None,
-                 append: bool = False) -> None:
+    def __init__(
+        self,
+        log_path: str | os.PathLike,
+        csv_path: str | os.PathLike | None = None,
+        monitor: Monitor | None = None,
+        *,
+        keep: Callable[[can.Message], bool] | None = None,
+        append: bool = False,
+    ) -> None:
         self.log_path = check_log_path(log_path)
         self.csv_path = Path(csv_path) if csv_path else None
         if self.csv_path is not None:
@@ -136,8 +155,11 @@ class Recorder(can.Listener):
         self._writer = can.Logger(str(self._tmp_log), **({"append": True} if old_log else {}))
         old_csv = self.csv_path if append and self.csv_path and self.csv_path.is_file() else None
         self._tmp_csv = _temp_beside(self.csv_path, old_csv) if self.csv_path else None
-        self._csv_fh = (open(self._tmp_csv, "a" if old_csv else "w", newline="", encoding="utf-8")
-                        if self._tmp_csv else None)
+        self._csv_fh = (
+            open(self._tmp_csv, "a" if old_csv else "w", newline="", encoding="utf-8")
+            if self._tmp_csv
+            else None
+        )
         self._csv = csv.writer(self._csv_fh) if self._csv_fh else None
         if self._csv and not old_csv:
             self._csv.writerow(CSV_COLUMNS)
@@ -149,7 +171,7 @@ class Recorder(can.Listener):
                 return
             if self.keep is not None and not self.keep(msg):
                 if self._csv:
-                    self.monitor.feed(msg)   # the decoding follows the whole bus (SDO remaps, SYNC counter)
+                    self.monitor.feed(msg)  # the decoding follows the whole bus (SDO remaps, SYNC counter)
                 return
             out = msg
             channel = _channel(msg, self._suffix)
@@ -160,9 +182,18 @@ class Recorder(can.Listener):
             self.frames += 1
             if self._csv:
                 frame, _ = self.monitor.feed(msg)
-                self._csv.writerow([f"{frame.t_s:.6f}", f"0x{frame.cob_id:03X}", frame.kind,
-                                    "" if frame.node is None else frame.node, len(frame.data), frame.data.hex(),
-                                    frame.text, json.dumps(frame.fields, default=str, allow_nan=True)])
+                self._csv.writerow(
+                    [
+                        f"{frame.t_s:.6f}",
+                        f"0x{frame.cob_id:03X}",
+                        frame.kind,
+                        "" if frame.node is None else frame.node,
+                        len(frame.data),
+                        frame.data.hex(),
+                        frame.text,
+                        json.dumps(frame.fields, default=str, allow_nan=True),
+                    ]
+                )
 
     def stop(self) -> int:
         """Close both files and move them into place; the number of frames recorded."""
@@ -171,7 +202,9 @@ class Recorder(can.Listener):
                 return self.frames
             self._stopped = True
             self._writer.stop()
-            mode = _file_mode()   # the temporary files are 0600 (mkstemp); the recordings are for the group too
+            mode = (
+                _file_mode()
+            )  # the temporary files are 0600 (mkstemp); the recordings are for the group too
             os.chmod(self._tmp_log, mode)
             os.replace(self._tmp_log, self.log_path)
             if self._csv_fh:

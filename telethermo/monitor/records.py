@@ -1,6 +1,7 @@
 """The records the monitor's state machine (:mod:`telethermo.monitor.state`) keeps: its settings, each
 node's state, each PDO's last values, the finished SDO transfers and the bus statistics. Plain data with
 their JSON forms; no clock, no I/O."""
+
 from __future__ import annotations
 
 import math
@@ -59,11 +60,18 @@ class SdoRecord:
 
     def text(self) -> str:
         tr = self.transfer
-        arrow = "write" if tr.direction == "download" else "read" if tr.direction == "upload" else tr.direction
+        arrow = (
+            "write" if tr.direction == "download" else "read" if tr.direction == "upload" else tr.direction
+        )
         where = f"0x{tr.index:04X}:{tr.subindex:02X} {self.name}".rstrip()
         if tr.status == "ok":
-            shown = (f"0x{self.value:X}" if isinstance(self.value, int) and not isinstance(self.value, bool)
-                     and 0x1000 <= tr.index < 0x2000 else format_value(self.value, self.unit))
+            shown = (
+                f"0x{self.value:X}"
+                if isinstance(self.value, int)
+                and not isinstance(self.value, bool)
+                and 0x1000 <= tr.index < 0x2000
+                else format_value(self.value, self.unit)
+            )
             return f"{arrow} {where} = {shown} ({tr.mode})"
         if tr.status == "aborted":
             return f"{arrow} {where} ABORT 0x{tr.abort_code:08X} {tr.abort_text} (by {tr.aborted_by})"
@@ -93,17 +101,17 @@ class NodeState:
     hb_period_min_s: float | None = None
     hb_period_max_s: float | None = None
     hb_period_last_s: float | None = None
-    producer_time_s: float | None = None      # 0x1017 of the node
-    consumer_time_s: float | None = None      # the shortest 0x1016 entry watching it
+    producer_time_s: float | None = None  # 0x1017 of the node
+    consumer_time_s: float | None = None  # the shortest 0x1016 entry watching it
     hb_lost: bool = False
     hb_losses: int = 0
-    nmt_pending: str | None = None            # an NMT command was seen, heartbeat not yet confirming
+    nmt_pending: str | None = None  # an NMT command was seen, heartbeat not yet confirming
     reset_pending: bool = False
     after_boot: bool = False
     last_emcy: dict[str, Any] | None = None
     last_emcy_t: float | None = None
     emcys: int = 0
-    emcy_active: bool = False                 # the last EMCY was an error, not a reset (0x0000)
+    emcy_active: bool = False  # the last EMCY was an error, not a reset (0x0000)
     error_register: int | None = None
     sdo: SdoChannel | None = None
     sdo_transfers: deque = field(default_factory=lambda: deque(maxlen=8))
@@ -123,16 +131,30 @@ class NodeState:
     _factor: float = 1.5
 
     def to_json(self) -> dict[str, Any]:
-        return {"node": self.node, "name": self.name, "nmt_state": self.nmt_state, "heartbeats": self.heartbeats,
-                "boot_ups": self.boot_ups, "hb_period_min_s": self.hb_period_min_s,
-                "hb_period_max_s": self.hb_period_max_s, "hb_period_last_s": self.hb_period_last_s,
-                "producer_time_s": self.producer_time_s, "consumer_time_s": self.consumer_time_s,
-                "hb_timeout_s": self.hb_timeout_s, "hb_lost": self.hb_lost, "hb_losses": self.hb_losses,
-                "last_emcy": self.last_emcy, "last_emcy_t_s": self.last_emcy_t, "emcy_active": self.emcy_active,
-                "emcys": self.emcys, "error_register": self.error_register,
-                "sdo_ok": self.sdo_ok, "sdo_aborts": self.sdo_aborts,
-                "last_sdo": [r.to_json() for r in self.sdo_transfers][-1:],
-                "pdo_frames": dict(self.pdo_frames)}
+        return {
+            "node": self.node,
+            "name": self.name,
+            "nmt_state": self.nmt_state,
+            "heartbeats": self.heartbeats,
+            "boot_ups": self.boot_ups,
+            "hb_period_min_s": self.hb_period_min_s,
+            "hb_period_max_s": self.hb_period_max_s,
+            "hb_period_last_s": self.hb_period_last_s,
+            "producer_time_s": self.producer_time_s,
+            "consumer_time_s": self.consumer_time_s,
+            "hb_timeout_s": self.hb_timeout_s,
+            "hb_lost": self.hb_lost,
+            "hb_losses": self.hb_losses,
+            "last_emcy": self.last_emcy,
+            "last_emcy_t_s": self.last_emcy_t,
+            "emcy_active": self.emcy_active,
+            "emcys": self.emcys,
+            "error_register": self.error_register,
+            "sdo_ok": self.sdo_ok,
+            "sdo_aborts": self.sdo_aborts,
+            "last_sdo": [r.to_json() for r in self.sdo_transfers][-1:],
+            "pdo_frames": dict(self.pdo_frames),
+        }
 
 
 #: the strip chart's sampling: one sample of a PDO's values per this bus time, s, the last STRIP_POINTS kept
@@ -152,10 +174,10 @@ class PdoState:
     missing: int = 0
     missing_streak: int = 0
     armed: bool = False
-    unreported: int = 0            # missing cycles not yet in an event
-    event_t: float | None = None   # time of the last pdo_missing event
+    unreported: int = 0  # missing cycles not yet in an event
+    event_t: float | None = None  # time of the last pdo_missing event
     trace: deque = field(default_factory=lambda: deque(maxlen=STRIP_POINTS))
-    trace_t: float | None = None   # time of the last sample in ``trace``
+    trace_t: float | None = None  # time of the last sample in ``trace``
 
 
 @dataclass
@@ -174,7 +196,7 @@ class BusStats:
     late_cycles: int = 0
     missed_pdos: int = 0
     frames_per_s: float = 0.0
-    bus_load: float = 0.0   # fraction of the bitrate
+    bus_load: float = 0.0  # fraction of the bitrate
     t_first: float | None = None
     t_last: float | None = None
 
@@ -183,5 +205,9 @@ class BusStats:
         iv = list(self.sync_intervals_s)
         if not iv:
             return {"period_s": None, "jitter_s": None, "min_s": None, "max_s": None}
-        return {"period_s": statistics.fmean(iv), "jitter_s": statistics.pstdev(iv) if len(iv) > 1 else 0.0,
-                "min_s": min(iv), "max_s": max(iv)}
+        return {
+            "period_s": statistics.fmean(iv),
+            "jitter_s": statistics.pstdev(iv) if len(iv) > 1 else 0.0,
+            "min_s": min(iv),
+            "max_s": max(iv),
+        }

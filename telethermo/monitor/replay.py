@@ -1,5 +1,6 @@
 """Sources of frames for the monitor: a recorded log file (read by :mod:`.logread`, as fast as possible
 or paced at the recorded speed) and a live python-can bus."""
+
 from __future__ import annotations
 
 import time
@@ -34,9 +35,13 @@ class Pacer:
         self._t0_wall += dt_s
 
 
-def paced(messages: Iterable[can.Message], *, speed: float = 1.0,
-          clock: Callable[[], float] = time.monotonic, sleep: Callable[[float], None] = time.sleep
-          ) -> Iterator[can.Message]:
+def paced(
+    messages: Iterable[can.Message],
+    *,
+    speed: float = 1.0,
+    clock: Callable[[], float] = time.monotonic,
+    sleep: Callable[[float], None] = time.sleep,
+) -> Iterator[can.Message]:
     """Yield ``messages`` no sooner than their recorded spacing divided by ``speed`` (<= 0: at once)."""
     pacer = Pacer(speed, clock)
     for msg in messages:

@@ -11,6 +11,7 @@ with the CiA 301 text (also in the middle of a sub-block: seqno 0 does not exist
 with 0x80 there is an abort, not a segment), and protocol faults (toggle bit not alternated, a frame
 that fits no open transfer) reported as problems instead of being silently dropped.
 """
+
 from __future__ import annotations
 
 import struct
@@ -22,8 +23,20 @@ from telethermo.cia301 import sdo_abort_text
 IDLE = "idle"
 DL_INIT, DL_SEG_REQ, DL_SEG_RESP = "dl_init", "dl_seg_req", "dl_seg_resp"
 UL_INIT, UL_SEG_REQ, UL_SEG_RESP = "ul_init", "ul_seg_req", "ul_seg_resp"
-BDL_INIT, BDL_SUB, BDL_ACK, BDL_END_REQ, BDL_END_RESP = "bdl_init", "bdl_sub", "bdl_ack", "bdl_end_req", "bdl_end_resp"
-BUL_INIT, BUL_START, BUL_SUB, BUL_END, BUL_END_RESP = "bul_init", "bul_start", "bul_sub", "bul_end", "bul_end_resp"
+BDL_INIT, BDL_SUB, BDL_ACK, BDL_END_REQ, BDL_END_RESP = (
+    "bdl_init",
+    "bdl_sub",
+    "bdl_ack",
+    "bdl_end_req",
+    "bdl_end_resp",
+)
+BUL_INIT, BUL_START, BUL_SUB, BUL_END, BUL_END_RESP = (
+    "bul_init",
+    "bul_start",
+    "bul_sub",
+    "bul_end",
+    "bul_end_resp",
+)
 
 
 @dataclass(slots=True)
@@ -60,11 +73,22 @@ class SdoTransfer:
     problem: str | None = None
 
     def to_json(self) -> dict[str, Any]:
-        return {"node": self.node, "direction": self.direction, "index": self.index,
-                "subindex": self.subindex, "mode": self.mode, "data": self.data.hex(), "size": self.size,
-                "status": self.status, "abort_code": self.abort_code, "abort_text": self.abort_text,
-                "aborted_by": self.aborted_by, "t_start_s": self.t_start_s, "t_end_s": self.t_end_s,
-                "problem": self.problem}
+        return {
+            "node": self.node,
+            "direction": self.direction,
+            "index": self.index,
+            "subindex": self.subindex,
+            "mode": self.mode,
+            "data": self.data.hex(),
+            "size": self.size,
+            "status": self.status,
+            "abort_code": self.abort_code,
+            "abort_text": self.abort_text,
+            "aborted_by": self.aborted_by,
+            "t_start_s": self.t_start_s,
+            "t_end_s": self.t_end_s,
+            "problem": self.problem,
+        }
 
 
 @dataclass(slots=True)
@@ -94,8 +118,12 @@ class SdoChannel:
     def _start(self, t: float, direction: str, index: int, sub: int, mode: str) -> SdoTransfer | None:
         stale = None
         if self.cur is not None:
-            stale = self._finish(t, "error", problem=f"{self.cur.direction} of 0x{self.cur.index:04X}:"
-                                 f"{self.cur.subindex:02X} interrupted by a new transfer")
+            stale = self._finish(
+                t,
+                "error",
+                problem=f"{self.cur.direction} of 0x{self.cur.index:04X}:"
+                f"{self.cur.subindex:02X} interrupted by a new transfer",
+            )
         self.cur = SdoTransfer(self.node, direction, index, sub, mode, t_start_s=t, t_end_s=t)
         self.toggle, self.last_seg, self.seq_data, self.last_seq = 0, False, {}, None
         return stale
@@ -141,16 +169,21 @@ class SdoChannel:
         if not data:
             return self._unexpected(t, "empty SDO request")
         cmd = data[0]
-        if self.state == BDL_SUB and cmd != 0x80:   # block download segments carry no command specifier;
-            return self._bdl_segment(t, data)        # 0x80 (c=1, seqno 0: no such segment) is an abort
+        if self.state == BDL_SUB and cmd != 0x80:  # block download segments carry no command specifier;
+            return self._bdl_segment(t, data)  # 0x80 (c=1, seqno 0: no such segment) is an abort
         ccs = cmd >> 5
         if self.cur is not None:
             self.cur.t_end_s = t
         if ccs == 4:
             return self._abort(t, data, "client")
-        handler = {0: self._download_segment, 1: self._initiate_download, 2: self._initiate_upload,
-                   3: self._upload_segment_request, 5: self._block_upload_request,
-                   6: self._block_download_request}.get(ccs)
+        handler = {
+            0: self._download_segment,
+            1: self._initiate_download,
+            2: self._initiate_upload,
+            3: self._upload_segment_request,
+            5: self._block_upload_request,
+            6: self._block_download_request,
+        }.get(ccs)
         if handler is None:
             return self._unexpected(t, f"client command specifier {ccs}")
         return handler(t, data, cmd)
@@ -162,13 +195,14 @@ class SdoChannel:
         e, s, n = (cmd >> 1) & 1, cmd & 1, (cmd >> 2) & 3
         stale = self._start(t, "download", index, sub, "expedited" if e else "segmented")
         if e:
-            self.cur.data = data[4:8 - n] if s else data[4:8]
+            self.cur.data = data[4 : 8 - n] if s else data[4:8]
             self.cur.size = len(self.cur.data) if s else None
         else:
             self.cur.size = struct.unpack_from("<L", data, 4)[0] if s else None
         self.state = DL_INIT
-        return self._with_stale(SdoStep(f"initiate download 0x{index:04X}:{sub:02X} "
-                                        f"{self.cur.mode} {self._size_text()}"), stale)
+        return self._with_stale(
+            SdoStep(f"initiate download 0x{index:04X}:{sub:02X} {self.cur.mode} {self._size_text()}"), stale
+        )
 
     def _download_segment(self, t: float, data: bytes, cmd: int) -> SdoStep:
         if self.state != DL_SEG_REQ:
@@ -177,7 +211,7 @@ class SdoChannel:
         if bad:
             return bad
         n, c = (cmd >> 1) & 7, cmd & 1
-        self.cur.data += data[1:8 - n]
+        self.cur.data += data[1 : 8 - n]
         self.last_seg = bool(c)
         self.state = DL_SEG_RESP
         return SdoStep(f"download segment t={self.toggle} {7 - n} bytes{' last' if c else ''}")
@@ -200,15 +234,16 @@ class SdoChannel:
         return SdoStep(f"upload segment request t={self.toggle}")
 
     def _block_download_request(self, t: float, data: bytes, cmd: int) -> SdoStep:
-        if cmd & 1 == 0:            # initiate
+        if cmd & 1 == 0:  # initiate
             if len(data) < 8:
                 return self._unexpected(t, "short initiate block download")
             index, sub = struct.unpack_from("<HB", data, 1)
             stale = self._start(t, "download", index, sub, "block")
             self.cur.size = struct.unpack_from("<L", data, 4)[0] if cmd & 2 else None
             self.state = BDL_INIT
-            return self._with_stale(SdoStep(f"initiate block download 0x{index:04X}:{sub:02X} "
-                                            f"{self._size_text()}"), stale)
+            return self._with_stale(
+                SdoStep(f"initiate block download 0x{index:04X}:{sub:02X} {self._size_text()}"), stale
+            )
         if self.state != BDL_END_REQ:
             return self._unexpected(t, "end block download")
         n = (cmd >> 2) & 7
@@ -226,8 +261,9 @@ class SdoChannel:
             stale = self._start(t, "upload", index, sub, "block")
             self.blksize = data[4]
             self.state = BUL_INIT
-            return self._with_stale(SdoStep(f"initiate block upload 0x{index:04X}:{sub:02X} "
-                                            f"blksize {self.blksize}"), stale)
+            return self._with_stale(
+                SdoStep(f"initiate block upload 0x{index:04X}:{sub:02X} blksize {self.blksize}"), stale
+            )
         if cs == 3:
             if self.state != BUL_START:
                 return self._unexpected(t, "start block upload")
@@ -251,16 +287,21 @@ class SdoChannel:
         if not data:
             return self._unexpected(t, "empty SDO response")
         cmd = data[0]
-        if self.state == BUL_SUB and cmd != 0x80:    # block upload segments carry no command specifier;
-            return self._bul_segment(t, data)         # 0x80 (c=1, seqno 0: no such segment) is an abort
+        if self.state == BUL_SUB and cmd != 0x80:  # block upload segments carry no command specifier;
+            return self._bul_segment(t, data)  # 0x80 (c=1, seqno 0: no such segment) is an abort
         scs = cmd >> 5
         if self.cur is not None:
             self.cur.t_end_s = t
         if scs == 4:
             return self._abort(t, data, "server")
-        handler = {0: self._upload_segment_response, 1: self._download_segment_response,
-                   2: self._initiate_upload_response, 3: self._initiate_download_response,
-                   5: self._block_download_response, 6: self._block_upload_response}.get(scs)
+        handler = {
+            0: self._upload_segment_response,
+            1: self._download_segment_response,
+            2: self._initiate_upload_response,
+            3: self._initiate_download_response,
+            5: self._block_download_response,
+            6: self._block_upload_response,
+        }.get(scs)
         if handler is None:
             return self._unexpected(t, f"server command specifier {scs}")
         return handler(t, data, cmd)
@@ -292,7 +333,7 @@ class SdoChannel:
         if self.state == BUL_INIT:
             self.cur.mode = "expedited"
         if e:
-            self.cur.data = data[4:8 - n] if s else data[4:8]
+            self.cur.data = data[4 : 8 - n] if s else data[4:8]
             self.cur.size = len(self.cur.data) if s else None
             return SdoStep(f"upload response expedited {len(self.cur.data)} bytes", self._finish(t, "ok"))
         self.cur.mode = "segmented"
@@ -307,7 +348,7 @@ class SdoChannel:
         if bad:
             return bad
         n, c = (cmd >> 1) & 7, cmd & 1
-        self.cur.data += data[1:8 - n]
+        self.cur.data += data[1 : 8 - n]
         if c:
             return SdoStep(f"upload segment t={self.toggle} {7 - n} bytes last", self._finish(t, "ok"))
         self.toggle ^= 1

@@ -9,6 +9,7 @@ time; one well under it (below :data:`LOCKSTEP_FRACTION` of it) cannot be real t
 (:data:`MIN_INTERVALS`), is "unknown": a lockstep pair slower than the period looks like late real-time
 cycles.
 """
+
 from __future__ import annotations
 
 import statistics
@@ -16,9 +17,9 @@ from typing import Any, Iterable
 
 #: EDS name of the nodes' timing object (0x2704 in bus_config/od_manufacturer.py)
 LOCKSTEP_OBJECT = "lockstep"
-MIN_INTERVALS = 20          # SYNC intervals before the timing says anything
-REALTIME_TOLERANCE = 0.10   # real time: median SYNC interval within ±10 % of the nominal period
-LOCKSTEP_FRACTION = 0.7     # lockstep: median interval below 70 % of the nominal period
+MIN_INTERVALS = 20  # SYNC intervals before the timing says anything
+REALTIME_TOLERANCE = 0.10  # real time: median SYNC interval within ±10 % of the nominal period
+LOCKSTEP_FRACTION = 0.7  # lockstep: median interval below 70 % of the nominal period
 
 
 class TimingSeen:
@@ -36,8 +37,10 @@ class TimingSeen:
         """(True lockstep / False real time / None unknown, the evidence in words)."""
         if self.by_node:
             values = {v for v, _ in self.by_node.values()}
-            said = ", ".join(f"node {n} {'lockstep' if v else 'real time'} ({how})"
-                             for n, (v, how) in sorted(self.by_node.items()))
+            said = ", ".join(
+                f"node {n} {'lockstep' if v else 'real time'} ({how})"
+                for n, (v, how) in sorted(self.by_node.items())
+            )
             return (values.pop() if len(values) == 1 else None), f"the nodes' lockstep object: {said}"
         iv = list(intervals_s)
         if len(iv) < MIN_INTERVALS:
@@ -50,8 +53,10 @@ class TimingSeen:
             return False, f"SYNC every {median * 1e3:.2f} ms, the nominal period"
         if ratio < LOCKSTEP_FRACTION:
             return True, f"SYNC every {median * 1e3:.2f} ms, faster than the {nominal_s * 1e3:.2f} ms period"
-        return None, (f"SYNC every {median * 1e3:.2f} ms against a {nominal_s * 1e3:.2f} ms period: "
-                      "a lockstep pair slower than the period, or late real-time cycles")
+        return None, (
+            f"SYNC every {median * 1e3:.2f} ms against a {nominal_s * 1e3:.2f} ms period: "
+            "a lockstep pair slower than the period, or late real-time cycles"
+        )
 
 
 def timing_label(lockstep: bool | None) -> str:

@@ -1,6 +1,7 @@
 """A synthesised realistic mix of the telethermo pair's traffic at a 1 ms SYNC period, and the monitor
 configuration for it from the shipped EDS files: the monitor benchmarks' traffic (bench/monitor_bench.py,
 bench/monitor_hub.py) and the tests'."""
+
 from __future__ import annotations
 
 import struct
@@ -32,7 +33,7 @@ def traffic(n_frames: int) -> list[can.Message]:
         add(0.0001, 0x181, struct.pack("<ff", 30.0 + 1e-4 * (k % 1000), -0.5))
         add(0.0002, 0x182, struct.pack("<ff", 24.0, 0.5))
         add(0.0003, 0x681, b"\x01")
-        add(0.0004, 0x682, b"\x01\x00\x00\x00\x00\x00\x00\x00")   # slave TPDO5: contact + identification
+        add(0.0004, 0x682, b"\x01\x00\x00\x00\x00\x00\x00\x00")  # slave TPDO5: contact + identification
         if k % 100 == 0:
             add(0.0005, 0x701, b"\x05")
             add(0.0005, 0x702, b"\x05")
@@ -46,5 +47,7 @@ def traffic(n_frames: int) -> list[can.Message]:
 
 def monitor_config() -> MonitorConfig:
     """Both shipped nodes by their EDS, 1 Mbit/s, the 1 ms period of the traffic."""
-    nodes = {t.node_id: NodeInfo(t.role, import_od(str(t.eds), t.node_id)) for t in node_targets(load_network())}
+    nodes = {
+        t.node_id: NodeInfo(t.role, import_od(str(t.eds), t.node_id)) for t in node_targets(load_network())
+    }
     return MonitorConfig(nodes=nodes, bitrate_bps=1_000_000, sync_period_s=PERIOD_S)

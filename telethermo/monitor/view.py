@@ -8,6 +8,7 @@ resume (the monitor keeps decoding; a replay waits), ``f`` filter the event log 
 ``r`` raw frame list, ``l`` frame log, ``e`` event log, ``i`` incident hints, ``?``/``h`` help) and
 scrollback (arrows, PgUp/PgDn, Home/End) are listed in :data:`~telethermo.monitor.pages.KEYS`.
 """
+
 from __future__ import annotations
 
 import curses
@@ -16,8 +17,16 @@ from dataclasses import dataclass
 
 from .events import ERROR, WARN, Event
 from .hints import incident_hints
-from .pages import (FOOTER, page_events, page_help, page_hints, page_log, page_raw, page_temperatures,
-                    scroll_window)
+from .pages import (
+    FOOTER,
+    page_events,
+    page_help,
+    page_hints,
+    page_log,
+    page_raw,
+    page_temperatures,
+    scroll_window,
+)
 from .state import Monitor
 from .timing import timing_label
 
@@ -68,7 +77,7 @@ class ViewState:
     paused: bool = False
     filter: str = ""
     done: bool = False
-    error: str = ""        # why a replay stopped early (a damaged log)
+    error: str = ""  # why a replay stopped early (a damaged log)
     page: str = "main"
     scroll: int = 0
 
@@ -82,16 +91,21 @@ def status_lines(mon: Monitor, vs: ViewState) -> list[str]:
     if vs.error:
         flags += f"  [LOG DAMAGED, replay stopped: {vs.error}]"
     per = mon.config.sync_period_s
-    timing = timing_label(mon.timing_json()["sync_lockstep"])   # from the bus, not the network file
+    timing = timing_label(mon.timing_json()["sync_lockstep"])  # from the bus, not the network file
     nominal = f" (nominal {per * 1e3:.2f}, {timing})" if per else f" (no nominal period, {timing})"
-    sync_txt = (f"SYNC {sync['period_s'] * 1e3:.2f} ms ±{sync['jitter_s'] * 1e3:.2f} "
-                f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] #{s.sync_counter if s.sync_counter is not None else '-'}"
-                if sync["period_s"] is not None else "SYNC --") + nominal
-    return [f"telethermo monitor | {vs.mode}{flags} | {mon.config.bitrate_bps / 1000:g} kbit/s | {vs.source}",
-            f"frames/s {s.frames_per_s:7.0f}  load {100 * s.bus_load:5.1f}%  {sync_txt}",
-            f"late cycles {s.late_cycles}  missed PDOs {s.missed_pdos}  error frames {s.error_frames}  "
-            f"frames {s.frames}  events: {mon.log.counts[WARN]} warnings, {mon.log.counts[ERROR]} errors  |  "
-            f"{mon.controller.text()}"]
+    sync_txt = (
+        f"SYNC {sync['period_s'] * 1e3:.2f} ms ±{sync['jitter_s'] * 1e3:.2f} "
+        f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] #{s.sync_counter if s.sync_counter is not None else '-'}"
+        if sync["period_s"] is not None
+        else "SYNC --"
+    ) + nominal
+    return [
+        f"telethermo monitor | {vs.mode}{flags} | {mon.config.bitrate_bps / 1000:g} kbit/s | {vs.source}",
+        f"frames/s {s.frames_per_s:7.0f}  load {100 * s.bus_load:5.1f}%  {sync_txt}",
+        f"late cycles {s.late_cycles}  missed PDOs {s.missed_pdos}  error frames {s.error_frames}  "
+        f"frames {s.frames}  events: {mon.log.counts[WARN]} warnings, {mon.log.counts[ERROR]} errors  |  "
+        f"{mon.controller.text()}",
+    ]
 
 
 def _node_lines(mon: Monitor) -> list[str]:
@@ -103,22 +117,31 @@ def _node_lines(mon: Monitor) -> list[str]:
         emcy = "-"
         if st.last_emcy:
             e = st.last_emcy
-            emcy = (f"0x{e['code']:04X} {e['code_text'][:30]} reg 0x{e['register']:02X} {fmt_time(st.last_emcy_t)}"
-                    + ("" if st.emcy_active else " (reset)"))
-        lines.append(f"{n:4d} {st.name[:8]:8s} {st.nmt_state:16s} {_ms(st.hb_period_last_s)}/{_ms(st.hb_period_min_s)}/"
-                     f"{_ms(st.hb_period_max_s)}  {to_txt:9s} {st.boot_ups:4d} {st.sdo_ok:6d}/{st.sdo_aborts:<5d} {emcy}")
+            emcy = (
+                f"0x{e['code']:04X} {e['code_text'][:30]} reg 0x{e['register']:02X} {fmt_time(st.last_emcy_t)}"
+                + ("" if st.emcy_active else " (reset)")
+            )
+        lines.append(
+            f"{n:4d} {st.name[:8]:8s} {st.nmt_state:16s} {_ms(st.hb_period_last_s)}/{_ms(st.hb_period_min_s)}/"
+            f"{_ms(st.hb_period_max_s)}  {to_txt:9s} {st.boot_ups:4d} {st.sdo_ok:6d}/{st.sdo_aborts:<5d} {emcy}"
+        )
     return lines
 
 
 def _main_body(mon: Monitor, vs: ViewState, room: int) -> list[str]:
     lines = ["", *_node_lines(mon)]
-    lines += [f"  {mon.nodes[n].name if n in mon.nodes else n} identified {m.text()}"
-              for n, m in sorted(mon.material.by_node.items()) if m.code is not None]
+    lines += [
+        f"  {mon.nodes[n].name if n in mon.nodes else n} identified {m.text()}"
+        for n, m in sorted(mon.material.by_node.items())
+        if m.code is not None
+    ]
     lines += ["", "PDO"]
     for key, p in sorted(mon.pdos.items()):
         vals = "  ".join(v.text() for v in p.values)
         name = mon.nodes[p.pdef.node].name if p.pdef.node in mon.nodes else ""
-        lines.append(f"  0x{p.pdef.cob_id:03X} {p.pdef.label:6s} {name[:8]:8s} n={p.count:<7d} miss={p.missing:<4d} {vals}")
+        lines.append(
+            f"  0x{p.pdef.cob_id:03X} {p.pdef.label:6s} {name[:8]:8s} n={p.count:<7d} miss={p.missing:<4d} {vals}"
+        )
     lines += ["", "SDO (last transfer per node)"]
     for n, st in sorted(mon.nodes.items()):
         if st.sdo_transfers:
@@ -146,8 +169,14 @@ def render_lines(mon: Monitor, vs: ViewState, width: int, height: int) -> list[s
     elif vs.page == "log":
         lines += page_log(mon, fmt_time, room, vs.scroll)
     elif vs.page == "events":
-        lines += page_events(mon, fmt_time, room, vs.scroll,
-                             (lambda e: event_matches(e, vs.filter)) if vs.filter else None, vs.filter)
+        lines += page_events(
+            mon,
+            fmt_time,
+            room,
+            vs.scroll,
+            (lambda e: event_matches(e, vs.filter)) if vs.filter else None,
+            vs.filter,
+        )
     elif vs.page == "hints":
         lines += page_hints(incident_hints(mon), room, vs.scroll)
     elif vs.page == "temps":
@@ -242,15 +271,30 @@ class CursesView:
         return max(1, self.scr.getmaxyx()[0] - 6)
 
 
-PAGE_KEYS = {"m": "main", "r": "raw", "l": "log", "e": "events", "i": "hints", "t": "temps", "?": "help", "h": "help"}
+PAGE_KEYS = {
+    "m": "main",
+    "r": "raw",
+    "l": "log",
+    "e": "events",
+    "i": "hints",
+    "t": "temps",
+    "?": "help",
+    "h": "help",
+}
 
 
 def handle_key(vs: ViewState, mon: Monitor, k: int, page_rows: int, prompt) -> bool:
     """One key press: page, scroll, pause, filter, clear; False for quit (pure but for ``prompt``,
     the line editor of the filter)."""
     ch = chr(k) if 0 <= k < 256 else ""
-    scroll = {curses.KEY_UP: 1, curses.KEY_DOWN: -1, curses.KEY_PPAGE: page_rows, curses.KEY_NPAGE: -page_rows,
-              ord("k"): 1, ord("j"): -1}.get(k)
+    scroll = {
+        curses.KEY_UP: 1,
+        curses.KEY_DOWN: -1,
+        curses.KEY_PPAGE: page_rows,
+        curses.KEY_NPAGE: -page_rows,
+        ord("k"): 1,
+        ord("j"): -1,
+    }.get(k)
     if ch in ("q", "Q"):
         return False
     if ch in PAGE_KEYS or (k == 27 and vs.page == "help"):
@@ -260,7 +304,7 @@ def handle_key(vs: ViewState, mon: Monitor, k: int, page_rows: int, prompt) -> b
     elif scroll is not None:
         vs.scroll = max(0, vs.scroll + scroll)
     elif k in (curses.KEY_HOME, ord("g")):
-        vs.scroll = 10 ** 9          # clamped to the oldest line by the page
+        vs.scroll = 10**9  # clamped to the oldest line by the page
     elif k in (curses.KEY_END, ord("G")):
         vs.scroll = 0
     elif ch in ("p", "P", " "):

@@ -16,6 +16,7 @@ plate temperatures), batched over columns so that a forward-difference gradient 
 one batched run; :func:`replay` re-runs a current sequence through ``SimRig`` itself (the bound is checked
 against it to 1e-9 °C; the plate solve is sim.rig.plate_heats itself, on arrays). L-BFGS-B (scipy) does the search; the smooth |e| ≈ √(e² + ε²), ε = 0.01 °C.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -33,11 +34,11 @@ FD_STEP_A = 1e-5
 class Window:
     """One touch's optimisation window: the start state and the reference skin at each sample."""
 
-    t0_s: float            # window start (t_on − pre_s), s
-    n_pre: int             # samples before the touch
-    n_early: int           # samples from the touch on
-    x0: np.ndarray         # the master rig's augmented state at t0 (finger attached)
-    ref_C: np.ndarray      # direct-touch skin at samples 0 .. n_pre + n_early − 1, °C
+    t0_s: float  # window start (t_on − pre_s), s
+    n_pre: int  # samples before the touch
+    n_early: int  # samples from the touch on
+    x0: np.ndarray  # the master rig's augmented state at t0 (finger attached)
+    ref_C: np.ndarray  # direct-touch skin at samples 0 .. n_pre + n_early − 1, °C
 
 
 class BatchedPlant:
@@ -52,7 +53,7 @@ class BatchedPlant:
         self.n = cfg.n
         self.surf_f = np.append(cfg.surf_f, 0.0)
         self.surf_f0 = cfg.surf_f0
-        self.q_f = np.append(cfg.body_q_f, 0.0)   # heat into the finger across the contact, W
+        self.q_f = np.append(cfg.body_q_f, 0.0)  # heat into the finger across the contact, W
         self.q_f0 = cfg.body_q_f0
         self.alpha, self.R, self.tau = rig._alpha, rig._R, rig._tau
         self.I_lim = 0.8 * rig.I_max_A
@@ -72,7 +73,9 @@ class BatchedPlant:
         Phi, Bcat = self.Phi, self.Bcat
         for k in range(K):
             Y = Phi @ X
-            u0, u1, v0, v1 = plate_heats(self.rows, self.alpha, self.tau, self.R, U[k], X[1], X[2], Y[1], Y[2])
+            u0, u1, v0, v1 = plate_heats(
+                self.rows, self.alpha, self.tau, self.R, U[k], X[1], X[2], Y[1], Y[2]
+            )
             X = Y + Bcat @ np.vstack((np.ones(B), u0, u1, v0, v1))
             out[k + 1] = self.skin(X)
             if heat is not None:
@@ -84,27 +87,41 @@ def _smooth_abs(e: np.ndarray) -> np.ndarray:
     return np.sqrt(e * e + EPS_C * EPS_C)
 
 
-def _optimise(plant: BatchedPlant, x0: np.ndarray, fixed: np.ndarray, n_free: int, ref: np.ndarray,
-              weights: np.ndarray, u_init: float, maxiter: int) -> np.ndarray:
+def _optimise(
+    plant: BatchedPlant,
+    x0: np.ndarray,
+    fixed: np.ndarray,
+    n_free: int,
+    ref: np.ndarray,
+    weights: np.ndarray,
+    u_init: float,
+    maxiter: int,
+) -> np.ndarray:
     """Currents after ``fixed`` (n_free of them) minimising Σ weights·|skin − ref| over the samples
     len(fixed)+1 .. len(fixed)+n_free (sample j depends on the currents before it)."""
     nf = len(fixed)
     K = nf + n_free
 
     def skins(U: np.ndarray) -> np.ndarray:
-        return plant.run(x0, U)[1:K + 1]     # samples 1..K
+        return plant.run(x0, U)[1 : K + 1]  # samples 1..K
 
     def f_and_g(u: np.ndarray) -> tuple[float, np.ndarray]:
         base = np.concatenate([fixed, u])
         U = np.repeat(base[:, None], n_free + 1, axis=1)
         U[nf + np.arange(n_free), 1 + np.arange(n_free)] += FD_STEP_A
         S = skins(U)
-        E = (_smooth_abs(S - ref[1:K + 1, None]) * weights[1:K + 1, None]).sum(axis=0)
+        E = (_smooth_abs(S - ref[1 : K + 1, None]) * weights[1 : K + 1, None]).sum(axis=0)
         return float(E[0]), (E[1:] - E[0]) / FD_STEP_A
 
     lim = plant.I_lim
-    res = minimize(f_and_g, np.full(n_free, u_init), jac=True, method="L-BFGS-B",
-                   bounds=[(-lim, lim)] * n_free, options={"maxiter": maxiter, "ftol": 1e-12, "gtol": 1e-9})
+    res = minimize(
+        f_and_g,
+        np.full(n_free, u_init),
+        jac=True,
+        method="L-BFGS-B",
+        bounds=[(-lim, lim)] * n_free,
+        options={"maxiter": maxiter, "ftol": 1e-12, "gtol": 1e-9},
+    )
     return np.clip(res.x, -lim, lim)
 
 
@@ -112,17 +129,18 @@ def causal_bound(plant: BatchedPlant, w: Window, *, maxiter: int = 200) -> np.nd
     """Currents of the causal bound (see module docstring): n_pre + n_early values, A."""
     n_pre, n_all = w.n_pre, w.n_pre + w.n_early
     wt = np.zeros(n_all + 1)
-    wt[1:n_pre] = 1.0                        # samples before the touch (the touch is at sample n_pre)
+    wt[1:n_pre] = 1.0  # samples before the touch (the touch is at sample n_pre)
     u_pre = _optimise(plant, w.x0, np.zeros(0), n_pre - 1, _pad(w.ref_C), wt, 0.0, maxiter)
-    u_pre = np.append(u_pre, u_pre[-1])      # the last pre current: held (it only acts at the touch)
+    u_pre = np.append(u_pre, u_pre[-1])  # the last pre current: held (it only acts at the touch)
     wt = np.zeros(n_all + 1)
-    wt[n_pre:n_all] = 1.0                    # the early samples (the first one is fixed by the past)
+    wt[n_pre:n_all] = 1.0  # the early samples (the first one is fixed by the past)
     u_early = _optimise(plant, w.x0, u_pre, w.n_early - 1, _pad(w.ref_C), wt, float(u_pre[-1]), maxiter)
     return np.concatenate([u_pre, u_early, u_early[-1:]])[:n_all]
 
 
-def foresight_bound(plant: BatchedPlant, w: Window, weight_pre: float, *, maxiter: int = 200,
-                    u_init: np.ndarray | None = None) -> np.ndarray:
+def foresight_bound(
+    plant: BatchedPlant, w: Window, weight_pre: float, *, maxiter: int = 200, u_init: np.ndarray | None = None
+) -> np.ndarray:
     """Currents minimising weight_pre·pre + (1 − weight_pre)·early with knowledge of the touch, A."""
     n_pre, n_all = w.n_pre, w.n_pre + w.n_early
     wt = np.zeros(n_all + 1)
@@ -139,8 +157,11 @@ def _pad(ref: np.ndarray) -> np.ndarray:
 def window_errors(skin: np.ndarray, w: Window) -> dict[str, float]:
     """pre / early / window mean |skin − ref| (the figures of telethermo.offline.transparency)."""
     e = np.abs(skin[: w.n_pre + w.n_early] - w.ref_C)
-    return {"pre_C": float(e[: w.n_pre].mean()), "early_C": float(e[w.n_pre:].mean()),
-            "window_C": float(e.mean())}
+    return {
+        "pre_C": float(e[: w.n_pre].mean()),
+        "early_C": float(e[w.n_pre :].mean()),
+        "window_C": float(e.mean()),
+    }
 
 
 def replay(rig_factory, w: Window, currents_A: np.ndarray, period_s: float) -> np.ndarray:
@@ -165,11 +186,11 @@ def matched_start(rig: SimRig, finger_cells_C: np.ndarray) -> np.ndarray:
     x = rig.x.copy()
     body = cfg.body
     base = 3 + rig.sensor.n
-    x[base: base + body.n] = finger_cells_C
+    x[base : base + body.n] = finger_cells_C
     f, f0 = body.system.face_functional(0, "front")
     T_surf = float(f @ finger_cells_C + f0)
     x[cfg.i_p] = T_surf
-    x[3: base] = T_surf
+    x[3:base] = T_surf
     x[cfg.i_s] = x[cfg.i_sink]
     x[-1] = 0.0
     return x

@@ -8,6 +8,7 @@ radiation thermometer would (here: the simulated skin ``thermometer_lead_s`` bef
 :func:`telethermo.control.rendering.calibrate_finger` then fits the pad's effective β relative to
 this finger (eq. 1).
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -20,7 +21,9 @@ from telethermo.offline.recording import Recording
 from telethermo.offline.runner import run_offline_session
 
 
-def contact_temperatures_from_recording(rec: Recording, window_s: tuple[float, float] = EARLY_S) -> list[float]:
+def contact_temperatures_from_recording(
+    rec: Recording, window_s: tuple[float, float] = EARLY_S
+) -> list[float]:
     """Mean of the master's estimate over ``window_s`` after each detected contact onset, °C."""
     t = rec.col("t_s")
     c = np.nan_to_num(rec.col("m_contact")) > 0.5
@@ -34,13 +37,25 @@ def contact_temperatures_from_recording(rec: Recording, window_s: tuple[float, f
     return out
 
 
-def calibrate_finger_offline(scene: Any = "virtual_materials", presets_C: tuple[float, ...] = (28.0, 38.0, 29.0, 37.0),
-                             *, params=None, seed: int | None = 0, beta_pad_guess: float = 2.23,
-                             thermometer_lead_s: float = 1.0) -> tuple[FingerCalibration, Recording]:
+def calibrate_finger_offline(
+    scene: Any = "virtual_materials",
+    presets_C: tuple[float, ...] = (28.0, 38.0, 29.0, 37.0),
+    *,
+    params=None,
+    seed: int | None = 0,
+    beta_pad_guess: float = 2.23,
+    thermometer_lead_s: float = 1.0,
+) -> tuple[FingerCalibration, Recording]:
     """Run a calibration session on ``scene``'s touches and fit (β_pad, T_finger0)."""
-    res = run_offline_session(scene, master_params=params, seed=seed, mode="render",
-                              render_options=dict(calibration_presets_C=list(presets_C), beta_pad=beta_pad_guess,
-                                                  finger_thermometer=False))
+    res = run_offline_session(
+        scene,
+        master_params=params,
+        seed=seed,
+        mode="render",
+        render_options=dict(
+            calibration_presets_C=list(presets_C), beta_pad=beta_pad_guess, finger_thermometer=False
+        ),
+    )
     rec = res.recording
     Tc = contact_temperatures_from_recording(rec)
     n = min(len(Tc), len(presets_C))

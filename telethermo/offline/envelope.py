@@ -334,24 +334,46 @@ def run_condition(
 
 
 def _fit_summary(v: dict[str, Any]) -> dict[str, Any]:
-    return {"rho": v["rho"], "identify_attempts": v["identify_attempts"],
-            "identify_refused": v.get("identify_refused", False), "max_cooling_A": v.get("max_cooling_A"),
-            **v["margins"]}
+    return {
+        "rho": v["rho"],
+        "identify_attempts": v["identify_attempts"],
+        "identify_refused": v.get("identify_refused", False),
+        "max_cooling_A": v.get("max_cooling_A"),
+        **v["margins"],
+    }
 
 
-SHIPPED_KEYS = ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_ratio", "oscillating",
-                "current_band_rms_max_A", "cue_order_kept")
+SHIPPED_KEYS = (
+    "headline_C",
+    "pre_contact_C",
+    "early_C",
+    "late_C",
+    "oscillation_ratio",
+    "oscillating",
+    "current_band_rms_max_A",
+    "cue_order_kept",
+)
 
 
 def _shipped(c: Condition) -> dict[str, Any]:
     """The shipped gains on the same draw: the before-figure."""
     sh = run_condition(c, with_pads=False, gains="shipped")
-    return {**{k: sh[k] for k in SHIPPED_KEYS}, "trips": len(sh["trips"]),
-            "session_long_cut": sh["session_long_cut"]}
+    return {
+        **{k: sh[k] for k in SHIPPED_KEYS},
+        "trips": len(sh["trips"]),
+        "session_long_cut": sh["session_long_cut"],
+    }
 
 
-def _best_pad(c: Condition, sc: Any, t: np.ndarray, ref: np.ndarray, q_ref: np.ndarray,
-              contacts: list[dict[str, Any]], headline_C: float) -> dict[str, Any]:
+def _best_pad(
+    c: Condition,
+    sc: Any,
+    t: np.ndarray,
+    ref: np.ndarray,
+    q_ref: np.ndarray,
+    contacts: list[dict[str, Any]],
+    headline_C: float,
+) -> dict[str, Any]:
     """The three constant pads (room, objects, neutral; clamped to the skin's range) and the best of them."""
     pads = {}
     for name, T in (("ambient", c.ambient_C), ("objects", c.object_T_C), ("neutral", NEUTRAL_C)):
@@ -359,5 +381,9 @@ def _best_pad(c: Condition, sc: Any, t: np.ndarray, ref: np.ndarray, q_ref: np.n
         f = transparency_figures(t, hold_skin(sc, T), ref, np.zeros_like(t), q_ref, contacts)
         pads[name] = {"hold_C": T, "headline_C": f["headline_error_C"]}
     best = min(pads, key=lambda k: pads[k]["headline_C"])
-    return {"pads": pads, "best_pad": best, "best_pad_headline_C": pads[best]["headline_C"],
-            "beats_best_pad": bool(headline_C < pads[best]["headline_C"])}
+    return {
+        "pads": pads,
+        "best_pad": best,
+        "best_pad_headline_C": pads[best]["headline_C"],
+        "beats_best_pad": bool(headline_C < pads[best]["headline_C"]),
+    }

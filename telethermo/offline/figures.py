@@ -27,6 +27,7 @@ eq. 1's prediction (``meta["render"][i]["T_contact_C"]``).
 Without truth columns (a hardware recording) the master's finger estimate ``m_estimate_C`` stands in
 for ``m_true_surface_C`` (reported as ``"surface_source": "estimate"``).
 """
+
 from __future__ import annotations
 
 import math
@@ -49,8 +50,10 @@ def contacts_of(rec: Recording) -> list[dict[str, Any]]:
     """Touches of the session: ``meta["contacts"]`` if given, else the edges of ``ref_touching``."""
     meta = rec.meta.get("contacts")
     if meta:
-        return [dict(t_on_s=float(c["t_on_s"]), t_off_s=float(c["t_off_s"]), object=str(c.get("object", "")))
-                for c in meta]
+        return [
+            dict(t_on_s=float(c["t_on_s"]), t_off_s=float(c["t_off_s"]), object=str(c.get("object", "")))
+            for c in meta
+        ]
     t = rec.col("t_s")
     touch = rec.col("ref_touching")
     if not np.isfinite(touch).any():
@@ -139,9 +142,14 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
     """All figures of a recording as a JSON-safe dict (see module docstring)."""
     mode = rec.meta.get("mode", "telepresence")
     t = rec.col("t_s")
-    out: dict[str, Any] = {"mode": mode, "scene": rec.meta.get("scene"), "period_s": rec.meta.get("period_s"),
-                           "rounding": rec.meta.get("rounding", "none"), "n_steps": len(rec),
-                           "duration_s": float(t[-1] - t[0]) if len(t) > 1 else 0.0}
+    out: dict[str, Any] = {
+        "mode": mode,
+        "scene": rec.meta.get("scene"),
+        "period_s": rec.meta.get("period_s"),
+        "rounding": rec.meta.get("rounding", "none"),
+        "n_steps": len(rec),
+        "duration_s": float(t[-1] - t[0]) if len(t) > 1 else 0.0,
+    }
     surf, src = _surface(rec)
     out["surface_source"] = src
     contacts = contacts_of(rec)
@@ -154,8 +162,14 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         return _clean(out)
 
     per = _per_contact(rec, t, surf, contacts)
-    honest = transparency_figures(t, surf, rec.col("ref_T_contact_C"), rec.col("m_true_Q_into_body_W"),
-                                  rec.col("ref_Q_into_finger_W"), contacts)
+    honest = transparency_figures(
+        t,
+        surf,
+        rec.col("ref_T_contact_C"),
+        rec.col("m_true_Q_into_body_W"),
+        rec.col("ref_Q_into_finger_W"),
+        contacts,
+    )
 
     def agg(key: str, stat: str) -> float:
         vals = [p[key][stat] for p in per if p[key]["n"]]
@@ -168,25 +182,32 @@ def compute_figures(rec: Recording) -> dict[str, Any]:
         # skin| over [t_on − 0.5 s, t_on + 1 s]; early = 0–1 s, early01 = 0.1–1 s, late = 1–3 s
         "headline_error_C": honest["headline_error_C"],
         "pre_contact_mean_error_C": honest["pre_contact_mean_error_C"],
-        "early_mean_error_C": honest["early_mean_error_C"], "early01_mean_error_C": honest["early01_mean_error_C"],
+        "early_mean_error_C": honest["early_mean_error_C"],
+        "early01_mean_error_C": honest["early01_mean_error_C"],
         "late_mean_error_C": honest["late_mean_error_C"],
         "per_touch": honest["per_touch"],
-        "early01_max_error_C": agg("early_T", "max_abs"), "late_max_error_C": agg("late_T", "max_abs"),
-        "early01_mean_flux_error_W": agg("early_Q", "mean_abs"), "early01_max_flux_error_W": agg("early_Q", "max_abs"),
-        "late_mean_flux_error_W": agg("late_Q", "mean_abs"), "late_max_flux_error_W": agg("late_Q", "max_abs"),
+        "early01_max_error_C": agg("early_T", "max_abs"),
+        "late_max_error_C": agg("late_T", "max_abs"),
+        "early01_mean_flux_error_W": agg("early_Q", "mean_abs"),
+        "early01_max_flux_error_W": agg("early_Q", "max_abs"),
+        "late_mean_flux_error_W": agg("late_Q", "mean_abs"),
+        "late_max_flux_error_W": agg("late_Q", "max_abs"),
         "per_contact": per,
     }
     lim = (rec.meta.get("master_params") or {}).get("safety") or {}
     I_lim = float(lim.get("current_fraction", 0.8)) * float(lim.get("I_max_A", 3.0))
-    out["oscillation"] = oscillation_figures(t, surf, rec.col("ref_T_contact_C"), rec.col("m_current_A"), contacts,
-                                             I_lim)
+    out["oscillation"] = oscillation_figures(
+        t, surf, rec.col("ref_T_contact_C"), rec.col("m_current_A"), contacts, I_lim
+    )
     out["discrimination_cue"] = honest["cue"]
     out["tracking"] = _tracking(rec, t, contacts)
     out["discrimination"] = _discrimination(per)
     return _clean(out)
 
 
-def _per_contact(rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: list[dict[str, Any]]) -> list[dict]:
+def _per_contact(
+    rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: list[dict[str, Any]]
+) -> list[dict]:
     """Legacy per-contact errors (°C, W) of the pad surface against the direct-touch reference."""
     ref = rec.col("ref_T_contact_C")
     q_m = rec.col("m_true_Q_W")
@@ -195,13 +216,20 @@ def _per_contact(rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: list
     for c in contacts:
         e, l = _window(t, c, EARLY_S), _window(t, c, LATE_S)
         pre = (t >= c["t_on_s"] - PRE_S - 1e-9) & (t < c["t_on_s"] - 1e-9)
-        per.append({
-            "object": c["object"], "t_on_s": c["t_on_s"], "t_off_s": c["t_off_s"],
-            "early_T": _err_stats(surf[e] - ref[e]), "late_T": _err_stats(surf[l] - ref[l]),
-            "pre_T": _err_stats(surf[pre] - ref[pre]),
-            "early_Q": _err_stats(q_m[e] - q_ref[e]), "late_Q": _err_stats(q_m[l] - q_ref[l]),
-            "rendered_early_C": _nanmean(surf[e]), "reference_early_C": _nanmean(ref[e]),
-        })
+        per.append(
+            {
+                "object": c["object"],
+                "t_on_s": c["t_on_s"],
+                "t_off_s": c["t_off_s"],
+                "early_T": _err_stats(surf[e] - ref[e]),
+                "late_T": _err_stats(surf[l] - ref[l]),
+                "pre_T": _err_stats(surf[pre] - ref[pre]),
+                "early_Q": _err_stats(q_m[e] - q_ref[e]),
+                "late_Q": _err_stats(q_m[l] - q_ref[l]),
+                "rendered_early_C": _nanmean(surf[e]),
+                "reference_early_C": _nanmean(ref[e]),
+            }
+        )
     return per
 
 
@@ -215,10 +243,10 @@ def _tracking(rec: Recording, t: np.ndarray, contacts: list[dict[str, Any]]) -> 
     for side, name in (("m", "master"), ("s", "slave")):
         err = rec.col(f"{side}_target_C") - rec.col(f"{side}_feedback_C")
         e = err[steady & np.isfinite(err)]
-        trk[f"{name}_rms_C"] = float(np.sqrt(np.mean(e ** 2))) if e.size else math.nan
+        trk[f"{name}_rms_C"] = float(np.sqrt(np.mean(e**2))) if e.size else math.nan
         pooled.append(e)
     allerr = np.concatenate(pooled) if pooled else np.array([])
-    trk["rms_C"] = float(np.sqrt(np.mean(allerr ** 2))) if allerr.size else math.nan
+    trk["rms_C"] = float(np.sqrt(np.mean(allerr**2))) if allerr.size else math.nan
     trk["internal"] = "each controller against its own estimate, not against the truth"
     return trk
 
@@ -230,23 +258,36 @@ def _discrimination(per: list[dict]) -> dict[str, Any]:
         o = objs.setdefault(p["object"] or "?", {"rendered": [], "reference": []})
         o["rendered"].append(p["rendered_early_C"])
         o["reference"].append(p["reference_early_C"])
-    table = {k: {"rendered_C": _nanmean(np.array(v["rendered"])), "reference_C": _nanmean(np.array(v["reference"])),
-                 "touches": len(v["rendered"])} for k, v in objs.items()}
+    table = {
+        k: {
+            "rendered_C": _nanmean(np.array(v["rendered"])),
+            "reference_C": _nanmean(np.array(v["reference"])),
+            "touches": len(v["rendered"]),
+        }
+        for k, v in objs.items()
+    }
     ref_order = sorted(table, key=lambda k: table[k]["reference_C"])
     ren_order = sorted(table, key=lambda k: table[k]["rendered_C"])
     margins = [table[b]["rendered_C"] - table[a]["rendered_C"] for a, b in zip(ref_order, ref_order[1:])]
-    ref_margins = [table[b]["reference_C"] - table[a]["reference_C"] for a, b in zip(ref_order, ref_order[1:])]
+    ref_margins = [
+        table[b]["reference_C"] - table[a]["reference_C"] for a, b in zip(ref_order, ref_order[1:])
+    ]
     return {
-        "objects": table, "reference_order_coldest_first": ref_order, "rendered_order_coldest_first": ren_order,
+        "objects": table,
+        "reference_order_coldest_first": ref_order,
+        "rendered_order_coldest_first": ren_order,
         "order_kept": ref_order == ren_order and all(m > 0 for m in margins),
-        "margins_C": margins, "reference_margins_C": ref_margins,
+        "margins_C": margins,
+        "reference_margins_C": ref_margins,
         "min_margin_C": float(min(margins)) if margins else math.nan,
         "threshold_C": COLD_THRESHOLD_C,
         "margins_above_threshold": bool(margins) and min(margins) > COLD_THRESHOLD_C,
     }
 
 
-def _render_figures(rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: list[dict[str, Any]]) -> dict[str, Any]:
+def _render_figures(
+    rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: list[dict[str, Any]]
+) -> dict[str, Any]:
     targets = rec.meta.get("render") or []
     finger = rec.col("m_true_finger_C")
     ref = rec.col("ref_T_contact_C")
@@ -262,15 +303,29 @@ def _render_figures(rec: Recording, t: np.ndarray, surf: np.ndarray, contacts: l
         T_cmd = float(tgt.get("T_contact_C", math.nan))
         rendered = _nanmean(surf[e])
         st = _err_stats(surf[e] - T_eq1)
-        per.append({"material": tgt.get("material", c["object"]), "beta": beta, "t_on_s": c["t_on_s"],
-                    "T_finger0_true_C": T_f0, "T_finger0_used_C": tgt.get("T_finger0_C"),
-                    "T_contact_eq1_C": T_eq1, "T_contact_commanded_C": T_cmd, "T_pad0_C": tgt.get("T_pad0_C"),
-                    "rendered_early_mean_C": rendered, "early_mean_error_C": rendered - T_eq1,
-                    "early_mean_abs_error_C": st["mean_abs"], "early_max_abs_error_C": st["max_abs"],
-                    "reference_early_mean_C": _nanmean(ref[e])})
+        per.append(
+            {
+                "material": tgt.get("material", c["object"]),
+                "beta": beta,
+                "t_on_s": c["t_on_s"],
+                "T_finger0_true_C": T_f0,
+                "T_finger0_used_C": tgt.get("T_finger0_C"),
+                "T_contact_eq1_C": T_eq1,
+                "T_contact_commanded_C": T_cmd,
+                "T_pad0_C": tgt.get("T_pad0_C"),
+                "rendered_early_mean_C": rendered,
+                "early_mean_error_C": rendered - T_eq1,
+                "early_mean_abs_error_C": st["mean_abs"],
+                "early_max_abs_error_C": st["max_abs"],
+                "reference_early_mean_C": _nanmean(ref[e]),
+            }
+        )
     errs = [abs(p["early_mean_error_C"]) for p in per if math.isfinite(p["early_mean_error_C"])]
-    return {"per_touch": per, "max_abs_mean_error_C": float(max(errs)) if errs else math.nan,
-            "max_mean_abs_error_C": float(max(p["early_mean_abs_error_C"] for p in per)) if per else math.nan}
+    return {
+        "per_touch": per,
+        "max_abs_mean_error_C": float(max(errs)) if errs else math.nan,
+        "max_mean_abs_error_C": float(max(p["early_mean_abs_error_C"] for p in per)) if per else math.nan,
+    }
 
 
 def _hold_figures(rec: Recording, t: np.ndarray, contacts: list[dict[str, Any]]) -> dict[str, Any]:
@@ -283,6 +338,8 @@ def _hold_figures(rec: Recording, t: np.ndarray, contacts: list[dict[str, Any]])
     for c in contacts:
         steady |= (t >= c["t_on_s"] + LATE_S[0]) & (t <= c["t_off_s"])
     e, k = err[steady & np.isfinite(err)], skin[steady & np.isfinite(skin)]
-    return {"hold_C": T_hold,
-            "tracking_rms_C": float(np.sqrt(np.mean(e ** 2))) if e.size else math.nan,
-            "skin_rms_error_C": float(np.sqrt(np.mean(k ** 2))) if k.size else math.nan}
+    return {
+        "hold_C": T_hold,
+        "tracking_rms_C": float(np.sqrt(np.mean(e**2))) if e.size else math.nan,
+        "skin_rms_error_C": float(np.sqrt(np.mean(k**2))) if k.size else math.nan,
+    }

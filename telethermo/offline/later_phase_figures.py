@@ -10,6 +10,7 @@ object). The figure is the RMS of the operator's skin temperature minus the same
 touches the same object directly (sim.build_reference), over 0-1 s (early_C) and 1-10 s (late_C) after
 the touch.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -21,9 +22,14 @@ from telethermo.offline.render_script import RenderScript
 from telethermo.offline.runner import run_offline_session
 
 #: (label, sim material, thickness mm)
-OBJECTS = (("aluminium", "aluminium", 1.0), ("aluminium", "aluminium", 20.0),
-           ("stainless_steel", "stainless_steel", 2.0),
-           ("glass", "glass", 1.0), ("wood", "oak", 2.0), ("eps", "eps", 5.0))
+OBJECTS = (
+    ("aluminium", "aluminium", 1.0),
+    ("aluminium", "aluminium", 20.0),
+    ("stainless_steel", "stainless_steel", 2.0),
+    ("glass", "glass", 1.0),
+    ("wood", "oak", 2.0),
+    ("eps", "eps", 5.0),
+)
 QUICK_OBJECTS = OBJECTS[:2]
 MODELS = ("semi_infinite", "rc", "conduction")
 NULL = "null_hold_preset"
@@ -33,8 +39,13 @@ EARLY_S, LATE_S = (0.0, 1.0), (1.0, 10.0)
 
 def _scene(material: str, thickness_mm: float, render: bool) -> sim.Scene:
     raw: dict[str, Any] = {
-        "scene": {"name": f"render_{material}_{thickness_mm:g}mm", "kind": "virtual", "ambient_C": AMBIENT_C,
-                  "duration_s": T_ON_S + TOUCH_S + 0.5, "period_s": 0.01},
+        "scene": {
+            "name": f"render_{material}_{thickness_mm:g}mm",
+            "kind": "virtual",
+            "ambient_C": AMBIENT_C,
+            "duration_s": T_ON_S + TOUCH_S + 0.5,
+            "period_s": 0.01,
+        },
         "objects": {"obj": {"material": material, "thickness_mm": thickness_mm, "back": "adiabatic"}},
         "master": {"contacts": [{"start_s": T_ON_S, "end_s": T_ON_S + TOUCH_S + 0.5, "force_N": FORCE_N}]},
         "noise": {"seed": 5},
@@ -53,7 +64,9 @@ def run_object(material: str, thickness_mm: float) -> dict[str, Any]:
     """Skin traces (t, direct touch, each model, null) of one object."""
     traces: dict[str, np.ndarray] = {}
     for model in MODELS:
-        rec = run_offline_session(_scene(material, thickness_mm, True), render_options={"later_model": model}).recording
+        rec = run_offline_session(
+            _scene(material, thickness_mm, True), render_options={"later_model": model}
+        ).recording
         traces["t"], traces["direct"] = rec.col("t_s"), rec.col("ref_T_contact_C")
         traces[model] = rec.col("m_true_finger_C")
     # null: the pad pre-set as eq. 7 asks for this object, then its current held through the touch
@@ -67,13 +80,20 @@ def run_object(material: str, thickness_mm: float) -> dict[str, Any]:
 def measure(quick: bool) -> tuple[list[dict[str, Any]], dict]:
     """The ``later_phase`` rows and the skin traces per (material label, thickness mm)."""
     rows, traces = [], {}
-    for label, material, th in (QUICK_OBJECTS if quick else OBJECTS):
+    for label, material, th in QUICK_OBJECTS if quick else OBJECTS:
         tr = run_object(material, th)
         traces[(label, th)] = tr
         for model in (*MODELS, NULL):
             e = tr[model] - tr["direct"]
-            rows.append({"material": label, "thickness_mm": th, "model": model,
-                         "early_C": round(_rms(tr["t"], e, EARLY_S), 4), "late_C": round(_rms(tr["t"], e, LATE_S), 4)})
+            rows.append(
+                {
+                    "material": label,
+                    "thickness_mm": th,
+                    "model": model,
+                    "early_C": round(_rms(tr["t"], e, EARLY_S), 4),
+                    "late_C": round(_rms(tr["t"], e, LATE_S), 4),
+                }
+            )
     return rows, traces
 
 

@@ -18,6 +18,7 @@ The figure is the RMS of the operator's skin minus the same finger's skin on the
 
 ``python -m bench.link_loss_bench [--quick]`` prints the table; bench/rendering_bench.py writes the figures.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -31,8 +32,13 @@ from telethermo.control.types import Role
 from telethermo.offline.runner import run_offline_session
 
 #: (label, sim material)
-OBJECTS = (("aluminium", "aluminium"), ("carbon_steel", "carbon_steel"), ("glass", "glass"), ("oak", "oak"),
-           ("eps", "eps"))
+OBJECTS = (
+    ("aluminium", "aluminium"),
+    ("carbon_steel", "carbon_steel"),
+    ("glass", "glass"),
+    ("oak", "oak"),
+    ("eps", "eps"),
+)
 QUICK_OBJECTS = (("carbon_steel", "carbon_steel"), ("oak", "oak"))
 TOUCH_S, LOSS_S, RENDER_S, FORCE_N, AMBIENT_C = (1.0, 8.5), 2.0, 5.0, 8.0, 25.0
 RUNS = ("fallback", "neutral_ramp", "telepresence")
@@ -40,12 +46,22 @@ RUNS = ("fallback", "neutral_ramp", "telepresence")
 
 def _scene(material: str) -> sim.Scene:
     raw: dict[str, Any] = {
-        "scene": {"name": f"link_loss_{material}", "kind": "telepresence", "ambient_C": AMBIENT_C,
-                  "duration_s": TOUCH_S[1] + 0.5, "period_s": 0.01},
+        "scene": {
+            "name": f"link_loss_{material}",
+            "kind": "telepresence",
+            "ambient_C": AMBIENT_C,
+            "duration_s": TOUCH_S[1] + 0.5,
+            "period_s": 0.01,
+        },
         "objects": {"obj": {"material": material, "thickness_mm": 20.0, "back": "adiabatic"}},
-        "master": {"start": "finger", "contacts": [{"start_s": 0.0, "end_s": TOUCH_S[1] + 0.5, "force_N": FORCE_N}]},
-        "slave": {"start": "finger", "contacts": [{"start_s": TOUCH_S[0], "end_s": TOUCH_S[1], "object": "obj",
-                                                   "force_N": FORCE_N}]},
+        "master": {
+            "start": "finger",
+            "contacts": [{"start_s": 0.0, "end_s": TOUCH_S[1] + 0.5, "force_N": FORCE_N}],
+        },
+        "slave": {
+            "start": "finger",
+            "contacts": [{"start_s": TOUCH_S[0], "end_s": TOUCH_S[1], "object": "obj", "force_N": FORCE_N}],
+        },
         "noise": {"seed": 1, "T_sigma_C": 0.02, "Q_sigma_W": 0.002, "cutoff_Hz": 5.0},
     }
     return sim.scene.parse_scene(raw, f"<link loss bench {material}>")
@@ -72,10 +88,13 @@ def link_loss_figures(quick: bool) -> dict[str, Any]:
     """``link_loss_fallback_error_C``, ``link_loss_neutral_ramp_error_C`` (means over the objects, °C) and the
     per-object rows ``link_loss`` (material, fallback_C, neutral_ramp_C, telepresence_C) (JSON-ready)."""
     rows = []
-    for label, material in (QUICK_OBJECTS if quick else OBJECTS):
+    for label, material in QUICK_OBJECTS if quick else OBJECTS:
         r = run_object(material)
         rows.append({"material": label, **{f"{k}_C": round(r[k], 4) for k in RUNS}})
-    return {"link_loss_fallback_error_C": round(float(np.mean([r["fallback_C"] for r in rows])), 4),
-            "link_loss_neutral_ramp_error_C": round(float(np.mean([r["neutral_ramp_C"] for r in rows])), 4),
-            "link_loss_window_s": [LOSS_S - TOUCH_S[0], LOSS_S - TOUCH_S[0] + RENDER_S],
-            "link_loss": rows, "link_loss_quick": quick}
+    return {
+        "link_loss_fallback_error_C": round(float(np.mean([r["fallback_C"] for r in rows])), 4),
+        "link_loss_neutral_ramp_error_C": round(float(np.mean([r["neutral_ramp_C"] for r in rows])), 4),
+        "link_loss_window_s": [LOSS_S - TOUCH_S[0], LOSS_S - TOUCH_S[0] + RENDER_S],
+        "link_loss": rows,
+        "link_loss_quick": quick,
+    }

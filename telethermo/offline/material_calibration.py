@@ -19,6 +19,7 @@ simulated touches (about 15 of the 25 minutes on this machine) for training agai
 On hardware the simulator's calibration does not transfer as such: the same fit on touches of the lab's own
 reference samples is needed (docs/material_id.md).
 """
+
 from __future__ import annotations
 
 import io
@@ -33,8 +34,16 @@ from telethermo.control import material_id as mi
 from telethermo.control.material_calib import save_calibration, touch_vector
 from telethermo.control.material_train import TrainSettings, accuracy, build_calibration
 from telethermo.sim.measurement import NoiseParams
-from telethermo.offline.material_touches import (CALIBRATION, PERIOD_S, PRE_S, SIM_TO_TABLE, draws,
-                                                 finger_natural_C, refuse_overlap, simulate_touch)
+from telethermo.offline.material_touches import (
+    CALIBRATION,
+    PERIOD_S,
+    PRE_S,
+    SIM_TO_TABLE,
+    draws,
+    finger_natural_C,
+    refuse_overlap,
+    simulate_touch,
+)
 from telethermo.sim.tem import load_rig_params
 
 #: the flux's weight in the touch vector, K/W
@@ -49,13 +58,24 @@ DENSE, DENSE_CLASSES, DENSE_FORCE_N = (1616, 400_000), (4, 5, 6, 7, 8, 9), 6.0
 def touch_record(params, T_probe_C: float, d: dict, noise: NoiseParams | None = None):
     """(T_sensor_C, Q_W, the sample the slave's detector calls contact) of one drawn touch (``noise`` None:
     the rig's default noise), simulated without the core's own identification (the same current)."""
-    T, Q, i0, _, _ = simulate_touch(params, list(SIM_TO_TABLE)[d["class"]], d["thickness_m"], d["T_object_C"],
-                                    d["force_N"], T_probe_C, seed=d["seed"], t_on_s=d["t_on_s"], noise=noise,
-                                    identify=False)
+    T, Q, i0, _, _ = simulate_touch(
+        params,
+        list(SIM_TO_TABLE)[d["class"]],
+        d["thickness_m"],
+        d["T_object_C"],
+        d["force_N"],
+        T_probe_C,
+        seed=d["seed"],
+        t_on_s=d["t_on_s"],
+        noise=noise,
+        identify=False,
+    )
     return T, Q, i0
 
 
-def vector_of(T: np.ndarray, Q: np.ndarray, i0: int, probe: mi.ProbeParams = mi.ProbeParams()) -> np.ndarray | None:
+def vector_of(
+    T: np.ndarray, Q: np.ndarray, i0: int, probe: mi.ProbeParams = mi.ProbeParams()
+) -> np.ndarray | None:
     """The slave's touch vector of one record (None without a complete window)."""
     inp = mi.fit_input(T, Q, i0, PERIOD_S, probe) if i0 >= 0 else None
     return touch_vector(inp, Q_WEIGHT_K_PER_W) if inp is not None else None
@@ -68,9 +88,16 @@ def dense_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     rng = np.random.default_rng(seeds[0])
     out = []
     for i in range(n):
-        out.append({"class": DENSE_CLASSES[i % len(DENSE_CLASSES)], "force_N": float(rng.uniform(2.0, DENSE_FORCE_N)),
-                    "T_object_C": float(rng.uniform(15.0, 35.0)), "thickness_m": float(rng.uniform(1.0, 20.0)) * 1e-3,
-                    "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)), "seed": seeds[1] + i})
+        out.append(
+            {
+                "class": DENSE_CLASSES[i % len(DENSE_CLASSES)],
+                "force_N": float(rng.uniform(2.0, DENSE_FORCE_N)),
+                "T_object_C": float(rng.uniform(15.0, 35.0)),
+                "thickness_m": float(rng.uniform(1.0, 20.0)) * 1e-3,
+                "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)),
+                "seed": seeds[1] + i,
+            }
+        )
     return out
 
 
@@ -81,14 +108,15 @@ def _vectors(chunk: list[dict]) -> list[tuple[np.ndarray | None, int]]:
     return [(vector_of(*touch_record(params, T_probe, d)), d["class"]) for d in chunk]
 
 
-def reference_set(n: int, seeds: tuple[int, int], dense: bool = False, jobs: int = 1, chunk: int = 2000
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def reference_set(
+    n: int, seeds: tuple[int, int], dense: bool = False, jobs: int = 1, chunk: int = 2000
+) -> tuple[np.ndarray, np.ndarray]:
     """(touch vectors, class indices) of ``n`` reference touches (touches without a window left out); ``dense``:
     drawn by :func:`dense_draws` instead of the bench's distribution; simulated in ``jobs`` processes (the same
     touches in the same order whatever ``jobs``)."""
     refuse_overlap(n, seeds)
     todo = dense_draws(n, seeds) if dense else draws(n, seeds)
-    parts = [todo[i:i + chunk] for i in range(0, len(todo), chunk)]
+    parts = [todo[i : i + chunk] for i in range(0, len(todo), chunk)]
     V, y = [], []
     with ProcessPoolExecutor(max_workers=max(jobs, 1)) as pool:
         for i, done in enumerate(pool.map(_vectors, parts)):
@@ -116,16 +144,21 @@ def noise_covariance(n: int, seeds: tuple[int, int]) -> np.ndarray:
     return np.cov(np.array(D).T)
 
 
-def validate(V: np.ndarray, y: np.ndarray, classes: list[str], noise_cov: np.ndarray, settings: TrainSettings
-             ) -> float:
+def validate(
+    V: np.ndarray, y: np.ndarray, classes: list[str], noise_cov: np.ndarray, settings: TrainSettings
+) -> float:
     """Accuracy on every fifth reference touch of networks trained on the other four fifths (interleaved: the
     dense references come last, a final fifth would be only those)."""
     val = np.arange(len(y)) % 5 == 4
-    cal = build_calibration(V[~val], y[~val], classes, PERIOD_S, Q_WEIGHT_K_PER_W, noise_cov, NOISE_FLOOR, settings)
+    cal = build_calibration(
+        V[~val], y[~val], classes, PERIOD_S, Q_WEIGHT_K_PER_W, noise_cov, NOISE_FLOOR, settings
+    )
     return accuracy(cal, V[val], y[val])
 
 
-def touches(n: int, n_dense: int, jobs: int, cache: Path | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def touches(
+    n: int, n_dense: int, jobs: int, cache: Path | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(touch vectors, class indices, noise covariance) of the reference touches: read from ``cache`` when it
     holds the same draws, else simulated (and written there atomically, so that training again with other
     settings does not simulate again)."""
@@ -148,25 +181,44 @@ def touches(n: int, n_dense: int, jobs: int, cache: Path | None = None) -> tuple
     return V, y, S
 
 
-def calibrate(n: int, out: Path, n_dense: int = 0, jobs: int = 1, settings: TrainSettings = TrainSettings(),
-              cache: Path | None = None, check: bool = False) -> dict:
+def calibrate(
+    n: int,
+    out: Path,
+    n_dense: int = 0,
+    jobs: int = 1,
+    settings: TrainSettings = TrainSettings(),
+    cache: Path | None = None,
+    check: bool = False,
+) -> dict:
     """Simulate ``n`` reference touches (and ``n_dense`` extra ones, :func:`dense_draws`) in ``jobs`` processes
     (or read them from ``cache``), with ``check`` validate on a fifth left out, train on all, write ``out``;
     returns what was done."""
     classes = [SIM_TO_TABLE[m] for m in SIM_TO_TABLE]
     V, y, S = touches(n, n_dense, jobs, cache)
     score = validate(V, y, classes, S, settings) if check else None
-    info = {"reference_touches": int(n), "draw_seed": CALIBRATION[0], "sim_seed_first": CALIBRATION[1],
-            "dense": {"touches": int(n_dense), "draw_seed": DENSE[0], "sim_seed_first": DENSE[1],
-                      "classes": [classes[c] for c in DENSE_CLASSES], "force_N": [2.0, DENSE_FORCE_N]},
-            "references_kept": int(len(y)),
-            "period_s": PERIOD_S, "source": "simulated (python -m bench.material_calibrate): force 2-10 N, object "
-            "15-35 C, thickness 1-20 mm, noise on, slave default controller, probe at the finger's natural temperature",
-            "onset": "the slave's contact detector (as telethermo.control.material_stream)",
-            "whitening": {"noise_touches": min(NOISE_TOUCHES, n), "floor": NOISE_FLOOR},
-            "training": dict(vars(settings)),
-            "validation_accuracy": None if score is None else round(score, 4)}
-    cal = build_calibration(V, y, classes, PERIOD_S, Q_WEIGHT_K_PER_W, S, NOISE_FLOOR, settings, json.dumps(info))
+    info = {
+        "reference_touches": int(n),
+        "draw_seed": CALIBRATION[0],
+        "sim_seed_first": CALIBRATION[1],
+        "dense": {
+            "touches": int(n_dense),
+            "draw_seed": DENSE[0],
+            "sim_seed_first": DENSE[1],
+            "classes": [classes[c] for c in DENSE_CLASSES],
+            "force_N": [2.0, DENSE_FORCE_N],
+        },
+        "references_kept": int(len(y)),
+        "period_s": PERIOD_S,
+        "source": "simulated (python -m bench.material_calibrate): force 2-10 N, object "
+        "15-35 C, thickness 1-20 mm, noise on, slave default controller, probe at the finger's natural temperature",
+        "onset": "the slave's contact detector (as telethermo.control.material_stream)",
+        "whitening": {"noise_touches": min(NOISE_TOUCHES, n), "floor": NOISE_FLOOR},
+        "training": dict(vars(settings)),
+        "validation_accuracy": None if score is None else round(score, 4),
+    }
+    cal = build_calibration(
+        V, y, classes, PERIOD_S, Q_WEIGHT_K_PER_W, S, NOISE_FLOOR, settings, json.dumps(info)
+    )
     save_calibration(cal, out)
     if score is not None:
         print(f"validation accuracy (four fifths of the references trained, the fifth left out) {score:.4f}")

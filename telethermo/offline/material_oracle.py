@@ -24,6 +24,7 @@ Not in either: the noise's feedback through the controller (it moves the probe b
 model errors a real estimator makes. A touch is ``unidentifiable`` when the unknown-nuisance oracle is right
 in fewer than half of its draws.
 """
+
 from __future__ import annotations
 
 import math
@@ -45,15 +46,32 @@ WINDOW_S = 0.3
 DT_PERTURB_C, THICKNESS_FACTOR, FORCE_PERFECT_N = 1.0, 1.15, 6.0
 
 
-def true_traces(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
-                t_on_s: float, period_s: float, ambient_C: float) -> np.ndarray:
+def true_traces(
+    params,
+    mat: str,
+    thickness_m: float,
+    T_object_C: float,
+    force_N: float,
+    T_probe_C: float,
+    t_on_s: float,
+    period_s: float,
+    ambient_C: float,
+) -> np.ndarray:
     """[T_sensor_true (°C) ..., Q_true (W) ...] over the window after the first contact sample, noise off."""
     grid = GridSettings(t_min_s=period_s)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, ambient_C, params.h_air_W_m2K, grid)
-    rig = SimRig(params, {"object": body}, Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
-                 ambient_C=ambient_C, period_s=period_s, noise=NoiseParams(enabled=False), seed=0, grid=grid,
-                 start=T_probe_C)
+    rig = SimRig(
+        params,
+        {"object": body},
+        Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
+        ambient_C=ambient_C,
+        period_s=period_s,
+        noise=NoiseParams(enabled=False),
+        seed=0,
+        grid=grid,
+        start=T_probe_C,
+    )
     cp = replace(default_params(Role.SLAVE, period_s=period_s), material_id=None)
     s = rig.read()
     st = init_state(cp, None, s)
@@ -75,25 +93,37 @@ def true_traces(params, mat: str, thickness_m: float, T_object_C: float, force_N
 
 def noise_scale(noise: NoiseParams, n_win: int) -> np.ndarray:
     """Per-element σ of the unfiltered measurement: noise and the ADC step (uniform: step²/12)."""
-    sT = math.sqrt(noise.T_sigma_C ** 2 + noise.T_lsb_C ** 2 / 12.0)
-    sQ = math.sqrt(noise.Q_sigma_W ** 2 + noise.Q_lsb_W ** 2 / 12.0)
+    sT = math.sqrt(noise.T_sigma_C**2 + noise.T_lsb_C**2 / 12.0)
+    sQ = math.sqrt(noise.Q_sigma_W**2 + noise.Q_lsb_W**2 / 12.0)
     return np.concatenate([np.full(n_win, sT), np.full(n_win, sQ)])
 
 
-def touch_candidates(params, sims: list[str], touch: dict, T_probe_C: float, period_s: float, ambient_C: float,
-                     sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def touch_candidates(
+    params,
+    sims: list[str],
+    touch: dict,
+    T_probe_C: float,
+    period_s: float,
+    ambient_C: float,
+    sigma: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray]:
     """Whitened traces z (k, 2n) of each candidate at the touch's nuisance values and their nuisance
     sensitivities G (k, 2n, 3): object temperature, contact resistance (via force), thickness."""
     f, T_o, d, t_on = touch["force_N"], touch["T_object_C"], touch["thickness_m"], touch["t_on_s"]
     f_pert = FORCE_PERFECT_N - 1.0 if f >= FORCE_PERFECT_N else 0.9 * f
     z, G = [], []
     for mat in sims:
+
         def tr(mm=mat, dd=d, TT=T_o, ff=f):
             return true_traces(params, mm, dd, TT, ff, T_probe_C, t_on, period_s, ambient_C) / sigma
+
         base = tr()
         z.append(base)
-        G.append(np.column_stack([tr(TT=T_o + DT_PERTURB_C) - base, tr(ff=f_pert) - base,
-                                  tr(dd=d * THICKNESS_FACTOR) - base]))
+        G.append(
+            np.column_stack(
+                [tr(TT=T_o + DT_PERTURB_C) - base, tr(ff=f_pert) - base, tr(dd=d * THICKNESS_FACTOR) - base]
+            )
+        )
     return np.array(z), np.array(G)
 
 
@@ -108,19 +138,31 @@ def residual_projector(G: np.ndarray, min_norm: float = 1e-3) -> np.ndarray:
     return np.eye(n) - q @ q.T
 
 
-def oracle_correct(z: np.ndarray, G: np.ndarray, truth: int, rng: np.random.Generator,
-                   draws: int = DRAWS) -> tuple[float, float]:
+def oracle_correct(
+    z: np.ndarray, G: np.ndarray, truth: int, rng: np.random.Generator, draws: int = DRAWS
+) -> tuple[float, float]:
     """(fraction of draws the known-nuisance ML oracle is right, the same for the unknown-nuisance GLRT)."""
     k, m = z.shape
     W = rng.standard_normal((draws, m))
-    obs = z[truth] + W                                       # (draws, m)
+    obs = z[truth] + W  # (draws, m)
     d_known = np.stack([np.sum((obs - z[j]) ** 2, axis=1) for j in range(k)], axis=1)
-    d_prof = np.stack([np.sum(((obs - z[j]) @ residual_projector(G[j])) ** 2, axis=1) for j in range(k)], axis=1)
-    return float(np.mean(np.argmin(d_known, axis=1) == truth)), float(np.mean(np.argmin(d_prof, axis=1) == truth))
+    d_prof = np.stack(
+        [np.sum(((obs - z[j]) @ residual_projector(G[j])) ** 2, axis=1) for j in range(k)], axis=1
+    )
+    return float(np.mean(np.argmin(d_known, axis=1) == truth)), float(
+        np.mean(np.argmin(d_prof, axis=1) == truth)
+    )
 
 
-def bound_figures(params, sims: list[str], touches: list[dict], T_probe_C: float, period_s: float,
-                  ambient_C: float, estimator_right: list[bool]) -> dict[str, Any]:
+def bound_figures(
+    params,
+    sims: list[str],
+    touches: list[dict],
+    T_probe_C: float,
+    period_s: float,
+    ambient_C: float,
+    estimator_right: list[bool],
+) -> dict[str, Any]:
     """The oracles' accuracy over the bench's touches, the unidentifiable fraction, by |ΔT| bin, and the
     estimator's accuracy over the touches the unknown-nuisance oracle identifies (≥ 0.95 of its draws)."""
     noise = NoiseParams()
@@ -142,13 +184,22 @@ def bound_figures(params, sims: list[str], touches: list[dict], T_probe_C: float
     for lo, hi in bins:
         m = (dT >= lo) & (dT < hi)
         if m.any():
-            by_dT.append({"abs_dT_C": [lo, hi], "n": int(m.sum()), "bound": round(float(prof_a[m].mean()), 3),
-                          "bound_known_nuisance": round(float(known_a[m].mean()), 3),
-                          "estimator": round(float(right[m].mean()), 3)})
+            by_dT.append(
+                {
+                    "abs_dT_C": [lo, hi],
+                    "n": int(m.sum()),
+                    "bound": round(float(prof_a[m].mean()), 3),
+                    "bound_known_nuisance": round(float(known_a[m].mean()), 3),
+                    "estimator": round(float(right[m].mean()), 3),
+                }
+            )
     per_class = {}
     for j, mat in enumerate(sims):
         m = np.array([t["class"] == j for t in touches])
-        per_class[mat] = {"bound": round(float(prof_a[m].mean()), 3), "estimator": round(float(right[m].mean()), 3)}
+        per_class[mat] = {
+            "bound": round(float(prof_a[m].mean()), 3),
+            "estimator": round(float(right[m].mean()), 3),
+        }
     return {
         "material_id_accuracy_bound": float(prof_a.mean()),
         "material_id_accuracy_bound_known_nuisance": float(known_a.mean()),
@@ -157,7 +208,8 @@ def bound_figures(params, sims: list[str], touches: list[dict], T_probe_C: float
             f"over the {WINDOW_S} s window for each of the 10 materials, the rig's noise (sigma and ADC step, "
             f"white before its invertible filter) drawn {DRAWS} times; headline: object temperature, contact "
             "resistance and thickness unknown, profiled out per candidate in the linearisation about the touch's "
-            "values (GLRT; local, so still optimistic); _known_nuisance: ML knowing them (strict upper bound)"),
+            "values (GLRT; local, so still optimistic); _known_nuisance: ML knowing them (strict upper bound)"
+        ),
         "material_id_unidentifiable_fraction": float(np.mean(prof_a < 0.5)),
         "material_id_identifiable_n": int(ident.sum()),
         "material_id_accuracy_identifiable": float(right[ident].mean()) if ident.any() else math.nan,

@@ -6,6 +6,7 @@ Used by the material benchmarks (bench/material_id_bench.py and its neighbours, 
 and by the tests; also the envelope's touches (:func:`envelope_draws`, :func:`other_tem`, :func:`noise_of`).
 Pure of I/O.
 """
+
 from __future__ import annotations
 
 import math
@@ -25,9 +26,18 @@ from telethermo.sim.rig import SimRig
 from telethermo.sim.touch import BodySpec, Schedule, Touch
 
 #: simulator material -> rendering-table name
-SIM_TO_TABLE = {"eps": "eps", "oak": "wood", "pvc": "pvc", "glass": "glass", "ceramic": "ceramic",
-                "stainless_steel": "stainless_steel", "carbon_steel": "carbon_steel", "brass": "brass",
-                "aluminium": "aluminium", "copper": "copper"}
+SIM_TO_TABLE = {
+    "eps": "eps",
+    "oak": "wood",
+    "pvc": "pvc",
+    "glass": "glass",
+    "ceramic": "ceramic",
+    "stainless_steel": "stainless_steel",
+    "carbon_steel": "carbon_steel",
+    "brass": "brass",
+    "aluminium": "aluminium",
+    "copper": "copper",
+}
 PERIOD_S = 0.01
 PRE_S, POST_S = 0.2, 0.6
 AMBIENT_C = 25.0
@@ -42,10 +52,15 @@ CALIBRATION = (1515, 100_000)
 def refuse_overlap(n: int, seeds: tuple[int, int]) -> None:
     """ValueError when a calibration's touch seeds meet the evaluation touches (nothing trained on them is reported)."""
     lo, hi = EVALUATION[1], EVALUATION[1] + EVALUATION_N
-    if seeds[0] in (EVALUATION[0], HELDOUT[0]) or (seeds[1] < hi and seeds[1] + n > lo) \
-            or (seeds[1] < HELDOUT[1] + HELDOUT_N and seeds[1] + n > HELDOUT[1]):
-        raise ValueError(f"calibration seeds {seeds} (n {n}) overlap the evaluation {EVALUATION} or held-out "
-                         f"{HELDOUT} touches: refused")
+    if (
+        seeds[0] in (EVALUATION[0], HELDOUT[0])
+        or (seeds[1] < hi and seeds[1] + n > lo)
+        or (seeds[1] < HELDOUT[1] + HELDOUT_N and seeds[1] + n > HELDOUT[1])
+    ):
+        raise ValueError(
+            f"calibration seeds {seeds} (n {n}) overlap the evaluation {EVALUATION} or held-out "
+            f"{HELDOUT} touches: refused"
+        )
 
 
 def draws(n: int, seeds: tuple[int, int]) -> list[dict]:
@@ -53,10 +68,19 @@ def draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     rng = np.random.default_rng(seeds[0])
     out = []
     for i in range(n):
-        out.append({"class": i % len(SIM_TO_TABLE), "force_N": float(rng.uniform(2.0, 10.0)),
-                    "T_object_C": float(rng.uniform(15.0, 35.0)), "thickness_m": float(rng.uniform(1.0, 20.0)) * 1e-3,
-                    "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)), "seed": seeds[1] + i})
+        out.append(
+            {
+                "class": i % len(SIM_TO_TABLE),
+                "force_N": float(rng.uniform(2.0, 10.0)),
+                "T_object_C": float(rng.uniform(15.0, 35.0)),
+                "thickness_m": float(rng.uniform(1.0, 20.0)) * 1e-3,
+                "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)),
+                "seed": seeds[1] + i,
+            }
+        )
     return out
+
+
 #: (draw seed, first simulator seed) and size of the envelope's touches, of the development set the abstain rule
 #: was set on (bench/material_id_envelope.py) and of the physics posterior's calibration touches
 #: (bench/material_physics_calibrate.py)
@@ -73,20 +97,28 @@ def envelope_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     rng = np.random.default_rng(seeds[0])
     out = []
     for i in range(n):
-        out.append({"class": i % len(SIM_TO_TABLE), "T_object_C": float(rng.uniform(5.0, 50.0)),
-                    "ambient_C": float(rng.uniform(15.0, 32.0)),
-                    "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
-                    "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
-                    "noise_x": float(rng.uniform(1.0, 3.0)), "other_tem": bool(rng.uniform() < 0.25),
-                    "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)), "seed": seeds[1] + i})
+        out.append(
+            {
+                "class": i % len(SIM_TO_TABLE),
+                "T_object_C": float(rng.uniform(5.0, 50.0)),
+                "ambient_C": float(rng.uniform(15.0, 32.0)),
+                "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
+                "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
+                "noise_x": float(rng.uniform(1.0, 3.0)),
+                "other_tem": bool(rng.uniform() < 0.25),
+                "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)),
+                "seed": seeds[1] + i,
+            }
+        )
     return out
 
 
 def other_tem(params):
     """The rig with a 71-couple module of the same pellets (Seebeck, resistance, conductance × 71/31)."""
     k = OTHER_TEM_COUPLES / SHIPPED_COUPLES
-    tem = replace(params.tem, alpha_V_K=params.tem.alpha_V_K * k, R_ohm=params.tem.R_ohm * k,
-                  K_W_K=params.tem.K_W_K * k)
+    tem = replace(
+        params.tem, alpha_V_K=params.tem.alpha_V_K * k, R_ohm=params.tem.R_ohm * k, K_W_K=params.tem.K_W_K * k
+    )
     return params.with_(tem=tem)
 
 
@@ -99,13 +131,26 @@ def noise_of(x: float) -> NoiseParams:
 def finger_natural_C(params, ambient_C: float = AMBIENT_C) -> float:
     """The default finger's natural skin temperature in still air at ``ambient_C``, °C (the probe's rest)."""
     grid = GridSettings(t_min_s=PERIOD_S)
-    return Body(BodySpec("finger", kind="finger"), params.area_m2, ambient_C, params.h_air_W_m2K, grid).surface_C()
+    return Body(
+        BodySpec("finger", kind="finger"), params.area_m2, ambient_C, params.h_air_W_m2K, grid
+    ).surface_C()
 
 
-def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, force_N: float, T_probe_C: float,
-                   seed: int, t_on_s: float, noise: NoiseParams | None = None, identify: bool = True,
-                   ambient_C: float = AMBIENT_C, post_s: float = POST_S, core_params: CoreParams | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
+def simulate_touch(
+    params,
+    mat: str,
+    thickness_m: float,
+    T_object_C: float,
+    force_N: float,
+    T_probe_C: float,
+    seed: int,
+    t_on_s: float,
+    noise: NoiseParams | None = None,
+    identify: bool = True,
+    ambient_C: float = AMBIENT_C,
+    post_s: float = POST_S,
+    core_params: CoreParams | None = None,
+) -> tuple[np.ndarray, np.ndarray, int, MaterialEstimate | None, np.ndarray]:
     """(T_sensor_C, Q_W, index of the first sample the slave's contact detector calls contact (−1: none), the
     material the slave's core published at the end, the wall time of each core step, s) of one touch under the
     slave's default control. The onset is the detector's, not the rig's flag: the core's window starts there
@@ -117,9 +162,17 @@ def simulate_touch(params, mat: str, thickness_m: float, T_object_C: float, forc
     grid = GridSettings(t_min_s=PERIOD_S)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, ambient_C, params.h_air_W_m2K, grid)
-    rig = SimRig(params, {"object": body}, Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
-                 ambient_C=ambient_C, period_s=PERIOD_S, noise=noise if noise is not None else NoiseParams(), seed=seed,
-                 grid=grid, start=T_probe_C)
+    rig = SimRig(
+        params,
+        {"object": body},
+        Schedule([Touch(t_on_s, t_on_s + 10.0, "object", force_N)]),
+        ambient_C=ambient_C,
+        period_s=PERIOD_S,
+        noise=noise if noise is not None else NoiseParams(),
+        seed=seed,
+        grid=grid,
+        start=T_probe_C,
+    )
     # without identification the classifier file is not even read: a calibration can be built without one
     cp = default_params(Role.SLAVE, period_s=PERIOD_S) if core_params is None else core_params
     if not identify:

@@ -11,6 +11,7 @@ recording), each side's measured sensor flux; (4) the currents; (5) contact dete
 controller and each side's safety state (telethermo.control.safety.SafetyState, by name). Touches
 of the scene are shaded. Written atomically as PNG (matplotlib, Agg backend).
 """
+
 from __future__ import annotations
 
 import io
@@ -50,8 +51,10 @@ def _title(rec: Recording) -> str:
     render = meta.get("mode") == "render"
     what = "virtual rendering" if render else str(meta.get("mode") or "telepresence")
     node = f"{meta['role']} node {meta.get('node_id', '?')}, " if meta.get("role") else ""
-    return (f"{meta.get('scene', '')}: {what} ({node}period {meta.get('period_s')} s, "
-            f"rounding {meta.get('rounding', 'none')})")
+    return (
+        f"{meta.get('scene', '')}: {what} ({node}period {meta.get('period_s')} s, "
+        f"rounding {meta.get('rounding', 'none')})"
+    )
 
 
 def _line(ax, rec: Recording, name: str, label: str, **kw) -> None:
@@ -66,8 +69,14 @@ def _master_temps(ax, rec: Recording) -> None:
     _line(ax, rec, "m_true_surface_C", "finger skin on the pad (truth)", color="C3")
     _line(ax, rec, "m_T_sensor_C", "master sensor (measured)", color="0.5", lw=0.8)
     _line(ax, rec, "m_estimate_C", "master estimate T_f", color="C1", ls="--")
-    _line(ax, rec, "m_target_C" if not render else "m_setpoint_C", "master target" if not render else "setpoint",
-          color="C0", ls=":")
+    _line(
+        ax,
+        rec,
+        "m_target_C" if not render else "m_setpoint_C",
+        "master target" if not render else "setpoint",
+        color="C0",
+        ls=":",
+    )
     _line(ax, rec, "ref_T_contact_C", "direct touch (reference)", color="k")
     ax.set_ylabel("master °C")
 
@@ -92,7 +101,7 @@ def _flux(ax, rec: Recording) -> None:
     if _has(rec, q_col):
         _line(ax, rec, q_col, "into the finger (telepresence)", color="C3")
         _line(ax, rec, "ref_Q_into_finger_W", "into the finger (direct touch)", color="k")
-    else:   # no simulator truth: what the sensors measured (> 0 out of the pad)
+    else:  # no simulator truth: what the sensors measured (> 0 out of the pad)
         for p, side, colour in SIDES:
             _line(ax, rec, f"{p}_Q_W", f"{side} sensor flux (measured)", color=colour)
     # the direct touch's first samples are near-singular (semi-infinite contact: q ~ 1/sqrt(t)); scale the
@@ -117,8 +126,17 @@ def _states(ax, rec: Recording) -> None:
     for p, side, colour in SIDES:
         c = rec.col(f"{p}_contact")
         if np.isfinite(c).any():
-            ax.fill_between(t, 0, np.nan_to_num(c) > 0.5, step="post", color=colour, alpha=0.15, lw=0,
-                            transform=ax.get_xaxis_transform(), label=f"{side} contact detected")
+            ax.fill_between(
+                t,
+                0,
+                np.nan_to_num(c) > 0.5,
+                step="post",
+                color=colour,
+                alpha=0.15,
+                lw=0,
+                transform=ax.get_xaxis_transform(),
+                label=f"{side} contact detected",
+            )
         s = rec.col(f"{p}_safety_state")
         if np.isfinite(s).any():
             ax.step(t, s, where="post", color=colour, lw=1.2, label=f"{side} safety state")
@@ -131,8 +149,17 @@ def _panels(rec: Recording) -> list[tuple[Callable, tuple[str, ...]]]:
     """The panels that have data: (draw(ax, rec), the columns it shows)."""
     render = rec.meta.get("mode") == "render"
     panels: list[tuple[Callable, tuple[str, ...]]] = [
-        (_master_temps, ("m_true_surface_C", "m_T_sensor_C", "m_estimate_C", "m_target_C", "m_setpoint_C",
-                         "ref_T_contact_C")),
+        (
+            _master_temps,
+            (
+                "m_true_surface_C",
+                "m_T_sensor_C",
+                "m_estimate_C",
+                "m_target_C",
+                "m_setpoint_C",
+                "ref_T_contact_C",
+            ),
+        ),
         (_slave_temps, () if render else ("s_estimate_C", "s_target_C", "s_true_surface_C", "s_T_sensor_C")),
         (_flux, tuple(_flux_columns(rec)[1])),
         (_currents, ("m_current_A", "s_current_A")),
@@ -144,14 +171,17 @@ def _panels(rec: Recording) -> list[tuple[Callable, tuple[str, ...]]]:
 def plot_session_png(rec: Recording) -> bytes:
     """PNG bytes of the plot of ``rec`` (a session's or one node's recording)."""
     import matplotlib
+
     matplotlib.use("Agg", force=False)
     from matplotlib.figure import Figure
 
     t = rec.col("t_s")
     panels = _panels(rec)
     if not panels:
-        raise ValueError("the recording has no signal to plot (no temperature, flux, current or state column "
-                         "with a number)")
+        raise ValueError(
+            "the recording has no signal to plot (no temperature, flux, current or state column "
+            "with a number)"
+        )
     fig = Figure(figsize=(WIDTH_IN, ROW_HEIGHT_IN * len(panels)), dpi=DPI)
     axs = np.atleast_1d(fig.subplots(len(panels), 1, sharex=True))
     spans = _touches(rec)
@@ -163,7 +193,7 @@ def plot_session_png(rec: Recording) -> bytes:
         _legend(ax)
     axs[0].set_title(_title(rec))
     axs[-1].set_xlabel("time s")
-    if len(t) > 1 and t[-1] > t[0]:   # the scene's touches may go on after a shortened run
+    if len(t) > 1 and t[-1] > t[0]:  # the scene's touches may go on after a shortened run
         axs[-1].set_xlim(t[0], t[-1])
     fig.tight_layout()
     buf = io.BytesIO()

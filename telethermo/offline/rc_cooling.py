@@ -12,6 +12,7 @@ its own weight (0.49 N). φ = (T_inf − T_finger0)/(T_object0 − T_finger0) go
 telethermo/data/render_rc.toml, which the render mode reads (telethermo.control.later_rc); the simulator
 is used here only.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -27,28 +28,46 @@ from telethermo.sim.tem import load_rig_params
 from telethermo.sim.touch import BodySpec
 from telethermo.control.later_rc import fit_exponential
 
-MATERIALS = ("eps", "oak", "pvc", "glass", "ceramic", "stainless_steel", "carbon_steel", "brass", "aluminium",
-             "copper")
+MATERIALS = (
+    "eps",
+    "oak",
+    "pvc",
+    "glass",
+    "ceramic",
+    "stainless_steel",
+    "carbon_steel",
+    "brass",
+    "aluminium",
+    "copper",
+)
 THICKNESSES_MM = (1.0, 2.0, 5.0, 10.0, 20.0)
 LOAD_G = 50.0
-LOAD_C_J_PER_KG_K = 380.0         # brass weight
+LOAD_C_J_PER_KG_K = 380.0  # brass weight
 T_HOT_C = 40.0
 FORCE_N = 6.0
 AMBIENT_C = 25.0
 DURATION_S, SAMPLE_S, FIT_FROM_S = 60.0, 0.1, 0.5
 
 
-def cooling_curve(mat_name: str, thickness_mm: float, *, load_g: float = 0.0, back: str = "adiabatic",
-                  duration_s: float = DURATION_S, sample_s: float = SAMPLE_S,
-                  grid: GridSettings | None = None) -> tuple[np.ndarray, np.ndarray, float]:
+def cooling_curve(
+    mat_name: str,
+    thickness_mm: float,
+    *,
+    load_g: float = 0.0,
+    back: str = "adiabatic",
+    duration_s: float = DURATION_S,
+    sample_s: float = SAMPLE_S,
+    grid: GridSettings | None = None,
+) -> tuple[np.ndarray, np.ndarray, float]:
     """The object's contact face while it cools on the finger: (t s, T °C, the finger's initial skin °C)."""
     params = load_rig_params()
     A = params.area_m2
     grid = grid or GridSettings(t_min_s=0.01)
     finger = Body(BodySpec("finger", kind="finger"), A, AMBIENT_C, params.h_air_W_m2K, grid)
     T_f0 = finger.surface_C()
-    obj = slab("object", material(mat_name), thickness_mm * 1e-3, A, grid.t_min_s, grid.ratio,
-               grid.cells_per_length)
+    obj = slab(
+        "object", material(mat_name), thickness_mm * 1e-3, A, grid.t_min_s, grid.ratio, grid.cells_per_length
+    )
     R_f = contact_resistance_m2K_W(FORCE_N, params.R_at_1N_m2K_W, params.force_exponent) / A
     segs, links = [reversed_segment(finger.segment), obj], [R_f]
     if load_g > 0:
@@ -74,6 +93,12 @@ def identify(mat_name: str, thickness_mm: float, *, load_g: float = 0.0, back: s
     t, T, T_f0 = cooling_curve(mat_name, thickness_mm, load_g=load_g, back=back)
     m = t >= FIT_FROM_S
     tau, T_inf, _T0, rms = fit_exponential(t[m], T[m])
-    return {"material": mat_name, "thickness_mm": thickness_mm, "back": back, "load_g": load_g,
-            "tau_s": round(tau, 4), "final_fraction": round((T_inf - T_f0) / (T_HOT_C - T_f0), 5),
-            "fit_rms_C": round(rms, 4)}
+    return {
+        "material": mat_name,
+        "thickness_mm": thickness_mm,
+        "back": back,
+        "load_g": load_g,
+        "tau_s": round(tau, 4),
+        "final_fraction": round((T_inf - T_f0) / (T_HOT_C - T_f0), 5),
+        "fit_rms_C": round(rms, 4),
+    }

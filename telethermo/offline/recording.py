@@ -56,6 +56,7 @@ the probe (telepresence) or of the display (render)), ``render`` (render mode: l
 {"material", "beta", "T_contact_C", "T_pad0_C", "T_finger0_C", "T_object0_C"} per touch) and any
 further descriptive keys (params, seeds, versions).
 """
+
 from __future__ import annotations
 
 import csv
@@ -73,13 +74,30 @@ from telethermo.offline.recording_journal import CsvRecorder
 
 MAGIC = "# telethermo-recording 1"
 
-SIDE_NUMERIC = ["T_sensor_C", "Q_W", "T_sink_C", "current_A", "target_C", "setpoint_C", "feedback_C", "estimate_C",
-                "T_pred_C", "peer_estimate_C", "peer_flux_W", "contact", "safety_state", "error_register",
-                "true_surface_C", "true_Q_W", "true_Q_into_body_W", "true_touching"]
+SIDE_NUMERIC = [
+    "T_sensor_C",
+    "Q_W",
+    "T_sink_C",
+    "current_A",
+    "target_C",
+    "setpoint_C",
+    "feedback_C",
+    "estimate_C",
+    "T_pred_C",
+    "peer_estimate_C",
+    "peer_flux_W",
+    "contact",
+    "safety_state",
+    "error_register",
+    "true_surface_C",
+    "true_Q_W",
+    "true_Q_into_body_W",
+    "true_touching",
+]
 SIDE_TEXT = ["limits", "new_trips"]
 REF_NUMERIC = ["m_true_finger_C", "ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"]
 TEXT_COLUMNS = frozenset(f"{p}_{c}" for p in ("m", "s") for c in SIDE_TEXT)
-COLUMNS = (["t_s"] + [f"{p}_{c}" for p in ("m", "s") for c in SIDE_NUMERIC + SIDE_TEXT] + REF_NUMERIC)
+COLUMNS = ["t_s"] + [f"{p}_{c}" for p in ("m", "s") for c in SIDE_NUMERIC + SIDE_TEXT] + REF_NUMERIC
 
 
 class RecordingError(ValueError):
@@ -177,7 +195,7 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
         raise RecordingError(f"{path}: cannot read: {exc}") from exc
     try:
         text = raw.decode("utf-8")
-    except UnicodeDecodeError as exc:   # a binary file, or a write torn inside a character
+    except UnicodeDecodeError as exc:  # a binary file, or a write torn inside a character
         line = raw.count(b"\n", 0, exc.start) + 1
         raise RecordingError(f"{path}: line {line}: not UTF-8 text (byte 0x{raw[exc.start]:02X})") from None
     lines = text.split("\n")
@@ -186,7 +204,7 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
     if len(lines) < 3 or not lines[1].startswith("# meta "):
         raise RecordingError(f"{path}: line 2: expected '# meta {{json}}'")
     try:
-        meta = json.loads(lines[1][len("# meta "):])
+        meta = json.loads(lines[1][len("# meta ") :])
     except json.JSONDecodeError as exc:
         raise RecordingError(f"{path}: line 2: meta is not valid JSON: {exc}") from exc
     if not isinstance(meta, dict):
@@ -194,7 +212,7 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
     reader = csv.reader(io.StringIO("\n".join(lines[2:])))
     try:
         rows = list(reader)
-    except csv.Error as exc:   # e.g. a field longer than the csv module's limit (a torn or foreign file)
+    except csv.Error as exc:  # e.g. a field longer than the csv module's limit (a torn or foreign file)
         raise RecordingError(f"{path}: line {reader.line_num + 2}: not a CSV row ({exc})") from None
     if not rows:
         raise RecordingError(f"{path}: line 3: expected the header row")
@@ -204,7 +222,7 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
     if len(set(header)) != len(header):
         raise RecordingError(f"{path}: line 3: duplicate column names")
     cols: dict[str, Any] = {h: [] for h in header}
-    for ln, r in enumerate(rows[1:], start=4):   # file line numbers (blank lines count, rows skip them)
+    for ln, r in enumerate(rows[1:], start=4):  # file line numbers (blank lines count, rows skip them)
         if not r:
             continue
         if len(r) != len(header):
@@ -216,6 +234,8 @@ def read_recording_csv(path: str | os.PathLike) -> Recording:
                 try:
                     cols[h].append(float(v))
                 except ValueError:
-                    raise RecordingError(f"{path}: line {ln}: column {h!r}: expected a number, got {v!r}") from None
+                    raise RecordingError(
+                        f"{path}: line {ln}: column {h!r}: expected a number, got {v!r}"
+                    ) from None
     out = {h: (v if h in TEXT_COLUMNS else np.asarray(v, dtype=float)) for h, v in cols.items()}
     return Recording(meta=meta, columns=out)

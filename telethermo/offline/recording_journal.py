@@ -19,6 +19,7 @@ A journal left by a killed node becomes a normal recording
 Recovery keeps every complete row (a row torn by the kill is dropped) and marks the meta line with
 ``"recovered": {...}``, so that nobody takes the file for a completed session.
 """
+
 from __future__ import annotations
 
 import csv
@@ -35,7 +36,7 @@ from telethermo.atomic import file_mode
 
 try:
     import fcntl
-except ImportError:   # not POSIX: no lock (a journal in use could then be recovered under a running node)
+except ImportError:  # not POSIX: no lock (a journal in use could then be recovered under a running node)
     fcntl = None
 
 log = logging.getLogger("telethermo.node")
@@ -60,7 +61,7 @@ def _lock(fd: int, path: Path) -> None:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
     except BlockingIOError:
         raise RecorderError(f"{path}: in use by a running node (locked)") from None
-    except OSError as exc:   # a file system without locks (some network or 9p mounts): go on unlocked
+    except OSError as exc:  # a file system without locks (some network or 9p mounts): go on unlocked
         log.info("%s: not locked (%s)", path, exc)
 
 
@@ -85,8 +86,15 @@ class CsvRecorder:
     node is recovered first, into ``<stem>.killed-<time><suffix>`` (:attr:`recovered`).
     """
 
-    def __init__(self, path: str | os.PathLike, columns: Sequence[str], *, flush_every: int = 200,
-                 sync_interval_s: float = 0.5, comments: Iterable[str] = ()) -> None:
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        columns: Sequence[str],
+        *,
+        flush_every: int = 200,
+        sync_interval_s: float = 0.5,
+        comments: Iterable[str] = (),
+    ) -> None:
         self.path = Path(path)
         self.columns = tuple(columns)
         self.path.parent.mkdir(parents=True, exist_ok=True)
@@ -94,7 +102,9 @@ class CsvRecorder:
         self.recovered: Path | None = None
         if self.journal.exists():
             self.recovered = recover_journal(self.path, target=_killed_name(self.path, self.journal))
-            log.warning("%s: the recording of a killed node was recovered into %s", self.journal, self.recovered)
+            log.warning(
+                "%s: the recording of a killed node was recovered into %s", self.journal, self.recovered
+            )
         fd = os.open(self.journal, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o644)
         try:
             _lock(fd, self.journal)
@@ -118,8 +128,9 @@ class CsvRecorder:
         self.syncs = 0
         self.closed = False
         self._stop = threading.Event()
-        self._flusher = threading.Thread(target=self._flush_loop, args=(sync_interval_s,),
-                                         name=f"journal-{self.path.name}", daemon=True)
+        self._flusher = threading.Thread(
+            target=self._flush_loop, args=(sync_interval_s,), name=f"journal-{self.path.name}", daemon=True
+        )
         self._flusher.start()
 
     def write(self, row: Mapping[str, Any] | Sequence[Any]) -> None:
@@ -145,14 +156,17 @@ class CsvRecorder:
                 return
             self._fh.flush()
             fd = self._fh.fileno()
-        os.fsync(fd)   # outside the lock: the SYNC handler never waits for the disk
+        os.fsync(fd)  # outside the lock: the SYNC handler never waits for the disk
         self.syncs += 1
 
     def _flush_loop(self, interval_s: float) -> None:
         while not self._stop.wait(interval_s):
             try:
                 self.sync()
-            except (OSError, ValueError) as exc:   # disk full, file closed under us: say it, keep the node running
+            except (
+                OSError,
+                ValueError,
+            ) as exc:  # disk full, file closed under us: say it, keep the node running
                 log.error("%s: journal not synced: %s", self.journal, exc)
 
     def set_final_comments(self, comments: Iterable[str]) -> None:
@@ -179,7 +193,7 @@ class CsvRecorder:
                 with open(self.journal, encoding="utf-8", newline="") as src:
                     lines = src.readlines()
                 head = [f"# {c}\n" for c in self._final_comments]
-                _write_atomic(self.path, "".join(head + lines[self._n_comments:]))
+                _write_atomic(self.path, "".join(head + lines[self._n_comments :]))
                 self.journal.unlink()
             self._fh.close()
         _fsync_dir(self.path.parent)
@@ -199,7 +213,7 @@ class CsvRecorder:
 def _write_atomic(path: Path, text: str) -> None:
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
     try:
-        os.fchmod(fd, file_mode())    # mkstemp's 0600 would hide the recording from the lab's group
+        os.fchmod(fd, file_mode())  # mkstemp's 0600 would hide the recording from the lab's group
         with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
             fh.write(text)
             fh.flush()
@@ -236,11 +250,12 @@ def recover_journal(path: str | os.PathLike, *, target: str | os.PathLike | None
     try:
         fd = os.open(journal, os.O_RDWR)
     except FileNotFoundError:
-        raise RecorderError(f"{journal}: no journal to recover (the recording was closed normally, or never started)") \
-            from None
+        raise RecorderError(
+            f"{journal}: no journal to recover (the recording was closed normally, or never started)"
+        ) from None
     try:
         _lock(fd, journal)
-        with os.fdopen(os.dup(fd), "rb") as fh:   # streamed: a journal of hours is not read into memory
+        with os.fdopen(os.dup(fd), "rb") as fh:  # streamed: a journal of hours is not read into memory
             comments, header, rows, body_bytes = _scan(fh, journal)
             total = fh.seek(0, os.SEEK_END)
             head = "".join(comments) + header
@@ -249,7 +264,7 @@ def recover_journal(path: str | os.PathLike, *, target: str | os.PathLike | None
             fh.seek(len(head.encode("utf-8")))
             out_fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
             try:
-                os.fchmod(out_fd, file_mode())   # as the recording a node closes normally, not mkstemp's 0600
+                os.fchmod(out_fd, file_mode())  # as the recording a node closes normally, not mkstemp's 0600
                 with os.fdopen(out_fd, "wb") as out:
                     out.write("".join(_mark_meta(c, info) for c in comments).encode("utf-8"))
                     out.write(header.encode("utf-8"))
@@ -270,8 +285,9 @@ def recover_journal(path: str | os.PathLike, *, target: str | os.PathLike | None
         _fsync_dir(target.parent)
     finally:
         os.close(fd)
-    log.warning("%s: recovered %d rows into %s (%d bytes of a torn row dropped)", journal, rows, target,
-                dropped)
+    log.warning(
+        "%s: recovered %d rows into %s (%d bytes of a torn row dropped)", journal, rows, target, dropped
+    )
     return target
 
 
@@ -289,7 +305,10 @@ def _scan(fh, journal: Path) -> tuple[list[str], str, int, int]:
     n_fields = len(next(csv.reader([header])))
     rows = body = 0
     for line in fh:
-        if not line.endswith(b"\n") or len(next(csv.reader([line.decode("utf-8", errors="replace")]), [])) != n_fields:
+        if (
+            not line.endswith(b"\n")
+            or len(next(csv.reader([line.decode("utf-8", errors="replace")]), [])) != n_fields
+        ):
             break
         rows += 1
         body += len(line)
@@ -300,7 +319,7 @@ def _mark_meta(line: str, info: dict) -> str:
     if not line.startswith("# meta "):
         return line
     try:
-        meta = json.loads(line[len("# meta "):])
+        meta = json.loads(line[len("# meta ") :])
     except ValueError:
         return line
     if not isinstance(meta, dict):

@@ -29,6 +29,7 @@ pair of materials the direct-touch order of the mean cue must be kept by the dis
 
 All functions are pure (arrays in, numbers out).
 """
+
 from __future__ import annotations
 
 import math
@@ -77,8 +78,15 @@ def heat_J(t: np.ndarray, q_W: np.ndarray, t0: float, t1: float) -> float:
     return float(np.sum(np.where(np.isfinite(q), q, 0.0)) * dt)
 
 
-def touch_figures(t: np.ndarray, skin: np.ndarray, ref: np.ndarray, q_finger_W: np.ndarray,
-                  q_ref_finger_W: np.ndarray, t_on: float, t_off: float) -> dict[str, Any]:
+def touch_figures(
+    t: np.ndarray,
+    skin: np.ndarray,
+    ref: np.ndarray,
+    q_finger_W: np.ndarray,
+    q_ref_finger_W: np.ndarray,
+    t_on: float,
+    t_off: float,
+) -> dict[str, Any]:
     """The figures of one touch (see the module docstring). ``q_*`` are heat flows into the finger, W."""
     err = skin - ref
     t_end_early = min(t_on + EARLY_S, t_off + 1e-9)
@@ -113,25 +121,48 @@ def cue_discrimination(per_touch: list[dict[str, Any]]) -> dict[str, Any]:
         m = mats.setdefault(p.get("object") or "?", {"display": [], "direct": []})
         m["display"].append(p["cue_J"])
         m["direct"].append(p["direct_cue_J"])
-    table = {k: {"display_J": _finite_mean(v["display"]), "direct_J": _finite_mean(v["direct"]),
-                 "touches": len(v["display"])} for k, v in mats.items()}
+    table = {
+        k: {
+            "display_J": _finite_mean(v["display"]),
+            "direct_J": _finite_mean(v["direct"]),
+            "touches": len(v["display"]),
+        }
+        for k, v in mats.items()
+    }
     order = sorted(table, key=lambda k: -table[k]["direct_J"])
     pairs = []
     for i, a in enumerate(order):
-        for b in order[i + 1:]:
+        for b in order[i + 1 :]:
             d_dir = table[a]["direct_J"] - table[b]["direct_J"]
             d_dis = table[a]["display_J"] - table[b]["display_J"]
             ratio = d_dis / d_dir if d_dir > 0 else math.nan
-            pairs.append({"pair": [a, b], "direct_J": d_dir, "display_J": d_dis, "contrast_ratio": ratio,
-                          "order_kept": bool(d_dis > 0)})
+            pairs.append(
+                {
+                    "pair": [a, b],
+                    "direct_J": d_dir,
+                    "display_J": d_dis,
+                    "contrast_ratio": ratio,
+                    "order_kept": bool(d_dis > 0),
+                }
+            )
     ratios = [p["contrast_ratio"] for p in pairs if math.isfinite(p["contrast_ratio"])]
-    return {"materials": table, "direct_order_most_heat_first": order,
-            "order_kept": bool(pairs) and all(p["order_kept"] for p in pairs),
-            "pairs": pairs, "contrast_ratio_min": float(min(ratios)) if ratios else math.nan}
+    return {
+        "materials": table,
+        "direct_order_most_heat_first": order,
+        "order_kept": bool(pairs) and all(p["order_kept"] for p in pairs),
+        "pairs": pairs,
+        "contrast_ratio_min": float(min(ratios)) if ratios else math.nan,
+    }
 
 
-def transparency_figures(t: np.ndarray, skin: np.ndarray, ref: np.ndarray, q_finger_W: np.ndarray,
-                         q_ref_finger_W: np.ndarray, contacts: list[dict[str, Any]]) -> dict[str, Any]:
+def transparency_figures(
+    t: np.ndarray,
+    skin: np.ndarray,
+    ref: np.ndarray,
+    q_finger_W: np.ndarray,
+    q_ref_finger_W: np.ndarray,
+    contacts: list[dict[str, Any]],
+) -> dict[str, Any]:
     """Per-touch figures and their means; ``headline_error_C`` = mean of the touches' ``window_C``."""
     per = []
     for c in contacts:
@@ -142,6 +173,12 @@ def transparency_figures(t: np.ndarray, skin: np.ndarray, ref: np.ndarray, q_fin
         v = [p[key] for p in per if math.isfinite(p[key])]
         return float(np.mean(v)) if v else math.nan
 
-    return {"headline_error_C": mean("window_C"), "pre_contact_mean_error_C": mean("pre_C"),
-            "early_mean_error_C": mean("early_C"), "early01_mean_error_C": mean("early01_C"),
-            "late_mean_error_C": mean("late_C"), "per_touch": per, "cue": cue_discrimination(per)}
+    return {
+        "headline_error_C": mean("window_C"),
+        "pre_contact_mean_error_C": mean("pre_C"),
+        "early_mean_error_C": mean("early_C"),
+        "early01_mean_error_C": mean("early01_C"),
+        "late_mean_error_C": mean("late_C"),
+        "per_touch": per,
+        "cue": cue_discrimination(per),
+    }

@@ -7,6 +7,7 @@ per file), so canopen need not parse the EDS again. Reads decode by the EDS type
 or :class:`~telethermo.remote.errors.Failure` with the CiA 301 text of the abort code; a silent node
 raises Failure saying it did not answer.
 """
+
 from __future__ import annotations
 
 from typing import Any
@@ -25,7 +26,7 @@ def remote_node(nw: canopen.Network, node_id: int, timeout_s: float = 1.0) -> ca
     """canopen's SDO client of ``node_id`` on ``nw`` (empty object dictionary), one attempt per request."""
     node = canopen.RemoteNode(node_id, canopen.ObjectDictionary())
     node.sdo.RESPONSE_TIMEOUT = timeout_s
-    node.sdo.MAX_RETRIES = 1   # canopen counts attempts: 1 = no retry (0 would retry forever)
+    node.sdo.MAX_RETRIES = 1  # canopen counts attempts: 1 = no retry (0 would retry forever)
     nw.add_node(node)
     return node
 
@@ -51,8 +52,9 @@ class NodeClient:
         try:
             data = self.node.sdo.upload(info.index, info.subindex)
         except SdoAbortedError as exc:
-            raise Failure(f"{t.role} (node {t.node_id}) refused to read {info.key}: "
-                          f"{abort_text(exc.code)}") from None
+            raise Failure(
+                f"{t.role} (node {t.node_id}) refused to read {info.key}: {abort_text(exc.code)}"
+            ) from None
         except SdoCommunicationError as exc:
             raise Failure(f"{t.role} (node {t.node_id}) did not answer reading {info.key} ({exc})") from None
         return decode(info, data)
@@ -67,8 +69,9 @@ class NodeClient:
         try:
             self.node.sdo.download(info.index, info.subindex, st.pack(value))
         except SdoAbortedError as exc:
-            raise Refused(f"{t.role} (node {t.node_id}) refused {info.key} = {value}: "
-                          f"{abort_text(exc.code)}", exc.code) from None
+            raise Refused(
+                f"{t.role} (node {t.node_id}) refused {info.key} = {value}: {abort_text(exc.code)}", exc.code
+            ) from None
         except SdoCommunicationError as exc:
             raise Failure(f"{t.role} (node {t.node_id}) did not answer writing {info.key} ({exc})") from None
 

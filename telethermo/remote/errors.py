@@ -4,6 +4,7 @@
 one line, exit 2. :class:`Failure`: the node or the bus did it (a node that does not answer, an SDO
 abort): one line, exit 1. :class:`Refused` is a Failure with the node's SDO abort code.
 """
+
 from __future__ import annotations
 
 from telethermo.cia301 import sdo_abort_text

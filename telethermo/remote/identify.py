@@ -5,6 +5,7 @@ The plan is written by SDO (:func:`write_plan`); the samples come on three synch
 :class:`Stream`; a value lost on the bus is fetched again by SDO from the node's record
 (:func:`fetch_lost`); an identified model is loaded by SDO and its CRC-32 checked (:func:`load_model`).
 """
+
 from __future__ import annotations
 
 import struct
@@ -22,9 +23,11 @@ from telethermo.remote.errors import Failure
 
 #: the identification stream: (communication, mapping) record of TPDO2..4 and their mapping (index << 16 |
 #: sub << 8 | bits): the sample number (ident_sample, U32) with one REAL32 value each
-STREAM = ((0x1801, 0x1A01, [0x28070020, 0x20000020]),   # ident_sample, T_sensor_C
-          (0x1802, 0x1A02, [0x28070020, 0x20020020]),   # ident_sample, current_A
-          (0x1803, 0x1A03, [0x28070020, 0x20010020]))   # ident_sample, Q_W
+STREAM = (
+    (0x1801, 0x1A01, [0x28070020, 0x20000020]),  # ident_sample, T_sensor_C
+    (0x1802, 0x1A02, [0x28070020, 0x20020020]),  # ident_sample, current_A
+    (0x1803, 0x1A03, [0x28070020, 0x20010020]),
+)  # ident_sample, Q_W
 FIELDS = ("T_sensor_C", "current_A", "Q_W")
 IDENT_STATE_NAMES = {0: "not run", 1: "running", 2: "done", 3: "interrupted"}
 
@@ -39,7 +42,7 @@ class Stream:
         self.values = np.full((3, total), np.nan)
         self.got = np.zeros((3, total), dtype=bool)
         self.count = 0
-        self.complete = 0      # samples with all three values
+        self.complete = 0  # samples with all three values
         self.duplicates = 0
         self.highest = 0
         self.cond = threading.Condition()
@@ -67,7 +70,7 @@ class Stream:
             return
         k, v = struct.unpack("<If", data)
         if not 1 <= k <= self.total:
-            return   # not (or no longer) in the experiment
+            return  # not (or no longer) in the experiment
         j = k - 1
         with self.cond:
             repeated = bool(self.got[f, j])
@@ -95,17 +98,22 @@ def write_plan(client: NodeClient, plan: IdentifyPlan) -> None:
     """The plan into the node's objects 0x2800..0x2806, range-checked (the maximum amplitude is raised first
     where the new minimum would exceed the node's present maximum)."""
     lo, hi = plan.amplitude_A
-    for key, value in (("ident_seed", plan.seed), ("ident_rest_samples", plan.rest_samples),
-                       ("ident_train_samples", plan.train_samples),
-                       ("ident_validation_samples", plan.validation_samples),
-                       ("ident_amplitude_max_A", max(hi, float(client.get("ident_amplitude_min_A")))),
-                       ("ident_amplitude_min_A", lo), ("ident_amplitude_max_A", hi),
-                       ("ident_hold_samples", plan.hold_samples)):
+    for key, value in (
+        ("ident_seed", plan.seed),
+        ("ident_rest_samples", plan.rest_samples),
+        ("ident_train_samples", plan.train_samples),
+        ("ident_validation_samples", plan.validation_samples),
+        ("ident_amplitude_max_A", max(hi, float(client.get("ident_amplitude_min_A")))),
+        ("ident_amplitude_min_A", lo),
+        ("ident_amplitude_max_A", hi),
+        ("ident_hold_samples", plan.hold_samples),
+    ):
         client.set(key, value)
 
 
-def fetch_lost(stream: Stream, client: NodeClient, plan: IdentifyPlan,
-               notice: Callable[[str], None] | None = None) -> int:
+def fetch_lost(
+    stream: Stream, client: NodeClient, plan: IdentifyPlan, notice: Callable[[str], None] | None = None
+) -> int:
     """Samples lost on the bus (a busy computer's CAN socket overflows; a real bus can drop frames too) fetched
     again by SDO from the node's record of the experiment (0x280B..0x280E). Returns how many; Failure when so
     many are lost (over a fifth) that the stream is not worth patching. ``notice`` is told how many it fetches."""
@@ -113,14 +121,20 @@ def fetch_lost(stream: Stream, client: NodeClient, plan: IdentifyPlan,
     if not len(lost):
         return 0
     if len(lost) > max(100, plan.total // 5):
-        raise Failure(f"{len(lost)} of {plan.total} samples lost on the bus: too many to fetch again by SDO; "
-                      "nothing fitted or loaded (a less loaded computer, or real time, helps)")
+        raise Failure(
+            f"{len(lost)} of {plan.total} samples lost on the bus: too many to fetch again by SDO; "
+            "nothing fitted or loaded (a less loaded computer, or real time, helps)"
+        )
     if notice is not None:
         notice(f"{len(lost)} of {plan.total} samples lost on the bus; fetching them by SDO ...")
     for j in lost.tolist():
         client.set("ident_fetch_sample", j)
-        stream.fill(j, float(client.get("ident_fetched_T_sensor_C")), float(client.get("ident_fetched_current_A")),
-                    float(client.get("ident_fetched_Q_W")))
+        stream.fill(
+            j,
+            float(client.get("ident_fetched_T_sensor_C")),
+            float(client.get("ident_fetched_current_A")),
+            float(client.get("ident_fetched_Q_W")),
+        )
     return len(lost)
 
 
@@ -133,11 +147,13 @@ def load_model(client: NodeClient, tem: TemModel, timeout_s: float = 5.0) -> int
     client.set("model_command", odmodel.CMD_LOAD)
     want = odmodel.od_crc32(entries)
     deadline = time.monotonic() + timeout_s
-    while True:   # taken at the node's next SYNC
+    while True:  # taken at the node's next SYNC
         status, crc = int(client.get("model_status")), int(client.get("model_crc32"))
         if status == odmodel.STATUS_LOADED and crc == want:
             return crc
         if time.monotonic() > deadline:
-            raise Failure(f"{client.t.role}: the model was sent but the node runs CRC-32 0x{crc:08X} "
-                          f"(status {odmodel.STATUS_NAMES.get(status, status)}), not 0x{want:08X}")
+            raise Failure(
+                f"{client.t.role}: the model was sent but the node runs CRC-32 0x{crc:08X} "
+                f"(status {odmodel.STATUS_NAMES.get(status, status)}), not 0x{want:08X}"
+            )
         time.sleep(0.05)

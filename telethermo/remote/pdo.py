@@ -1,12 +1,13 @@
 """A remote node's transmit PDO, reconfigured by SDO as CiA 301 §7.5.2.36 prescribes (PDO invalid while its
 mapping changes) and put back from what was read before."""
+
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 from telethermo.remote.client import NodeClient
 
-PDO_INVALID = 1 << 31   # bit 31 of the COB-ID entry: the PDO does not exist
+PDO_INVALID = 1 << 31  # bit 31 of the COB-ID entry: the PDO does not exist
 
 
 @dataclass(frozen=True)
@@ -29,8 +30,13 @@ class TpdoSettings:
 def read_tpdo(client: NodeClient, comm: int, mapping: int) -> TpdoSettings:
     """The TPDO's parameters as the node holds them now."""
     n = client.raw_get(mapping, 0)
-    return TpdoSettings(comm, mapping, client.raw_get(comm, 1), client.raw_get(comm, 2),
-                        tuple(client.raw_get(mapping, k) for k in range(1, n + 1)))
+    return TpdoSettings(
+        comm,
+        mapping,
+        client.raw_get(comm, 1),
+        client.raw_get(comm, 2),
+        tuple(client.raw_get(mapping, k) for k in range(1, n + 1)),
+    )
 
 
 def configure_writes(s: TpdoSettings) -> list[tuple[int, int, int]]:
@@ -44,7 +50,9 @@ def configure_writes(s: TpdoSettings) -> list[tuple[int, int, int]]:
 
 def remapped(saved: TpdoSettings, entries: list[int], transmission_type: int) -> TpdoSettings:
     """``saved``'s PDO, valid, on its own COB-ID, with new ``entries`` and ``transmission_type``."""
-    return TpdoSettings(saved.comm, saved.mapping, saved.cob_id & ~PDO_INVALID, transmission_type, tuple(entries))
+    return TpdoSettings(
+        saved.comm, saved.mapping, saved.cob_id & ~PDO_INVALID, transmission_type, tuple(entries)
+    )
 
 
 def configure(client: NodeClient, s: TpdoSettings) -> None:

@@ -1,5 +1,6 @@
 """The nodes as the operator names them: ``master``, ``slave``, a node-ID, from the network file, each with
 its EDS (parsed once per file version) and its objects by name."""
+
 from __future__ import annotations
 
 import functools
@@ -22,8 +23,13 @@ class Target:
 
 def node_targets(net: NetworkConfig) -> list[Target]:
     """Every node of the network file, by node-ID."""
-    return sorted((Target(role, n.node_id, Path(n.eds) if n.eds is not None else None) for role, n in net.nodes.items()),
-                  key=lambda t: t.node_id)
+    return sorted(
+        (
+            Target(role, n.node_id, Path(n.eds) if n.eds is not None else None)
+            for role, n in net.nodes.items()
+        ),
+        key=lambda t: t.node_id,
+    )
 
 
 PAIR_ROLES = ("master", "slave")
@@ -39,8 +45,11 @@ def resolve_node(net: NetworkConfig, text: str) -> Target:
     """``master`` / ``slave`` / a node-ID -> Target; UserError listing the known nodes otherwise."""
     known = node_targets(net)
     for t in known:
-        if text.lower() == t.role or text == str(t.node_id) or (text.lower().startswith("0x") and
-                                                                 _int(text) == t.node_id):
+        if (
+            text.lower() == t.role
+            or text == str(t.node_id)
+            or (text.lower().startswith("0x") and _int(text) == t.node_id)
+        ):
             return t
     names = ", ".join(f"{t.role} ({t.node_id})" for t in known)
     raise UserError(f"unknown node {text!r}; expected one of {names} (from {net.path})")
@@ -74,14 +83,16 @@ def eds_info(target: Target) -> EdsInfo:
     """The node's EDS, parsed once per file version (a parse takes ~20 ms; a command may look up hundreds
     of names, e.g. identify's SDO set-up and model load)."""
     if target.eds is None:
-        raise UserError(f"{target.role} (node {target.node_id}) has no EDS (give one in the network file, "
-                        f"[nodes.{target.role}] eds = ...), so its objects have no names: use "
-                        f"telethermo sdo {target.node_id} INDEX:SUB")
+        raise UserError(
+            f"{target.role} (node {target.node_id}) has no EDS (give one in the network file, "
+            f"[nodes.{target.role}] eds = ...), so its objects have no names: use "
+            f"telethermo sdo {target.node_id} INDEX:SUB"
+        )
     try:
         try:
             mtime = Path(target.eds).stat().st_mtime_ns
         except OSError:
-            return EdsInfo(target.eds)   # names the file and what is wrong with it
+            return EdsInfo(target.eds)  # names the file and what is wrong with it
         return _parsed_eds(str(target.eds), mtime)
     except EdsError as exc:
         raise UserError(str(exc)) from None

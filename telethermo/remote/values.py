@@ -17,6 +17,7 @@ import nothing but the standard library.
 - **Enumerations**: ``mode``, ``estimator`` and ``safety_state`` of our nodes by the control core's enums
   (``1 (telepresence)``); any other object whose description is a list ``0 name, 1 name, ...``.
 """
+
 from __future__ import annotations
 
 import math
@@ -33,11 +34,22 @@ from telethermo.remote.codec import struct_of
 from telethermo.remote.errors import UserError
 
 #: name suffix -> unit (the naming convention of bus_config/edsgen.py; longest first)
-NAME_UNITS = (("_A_per_C_s", "A/(degC*s)"), ("_A_per_C", "A/degC"), ("_A_per_W", "A/W"), ("_C_per_s", "degC/s"),
-              ("_C_per_W", "degC/W"), ("_C", "degC"), ("_W", "W"), ("_A", "A"), ("_N", "N"), ("_s", "s"), ("_mm", "mm"))
+NAME_UNITS = (
+    ("_A_per_C_s", "A/(degC*s)"),
+    ("_A_per_C", "A/degC"),
+    ("_A_per_W", "A/W"),
+    ("_C_per_s", "degC/s"),
+    ("_C_per_W", "degC/W"),
+    ("_C", "degC"),
+    ("_W", "W"),
+    ("_A", "A"),
+    ("_N", "N"),
+    ("_s", "s"),
+    ("_mm", "mm"),
+)
 _TIME_UNIT = re.compile(r"^(?:(\d+) )?(us|ms|s)\b( units)?")
 _ENUM_ITEM = re.compile(r"^(\d+) ([A-Za-z][^()]*?)\s*(?:\(.*\))?$")
-_UNSIGNED = {0x0005: 2, 0x0006: 4, 0x0007: 8, 0x001B: 16}   # data type -> hex digits
+_UNSIGNED = {0x0005: 2, 0x0006: 4, 0x0007: 8, 0x001B: 16}  # data type -> hex digits
 
 
 def unit_of(info: VarInfo) -> str:
@@ -91,9 +103,16 @@ def hex_digits(info: VarInfo) -> int | None:
     if digits is None:
         return None
     name, desc = info.name.lower(), info.description.lower()
-    if ("cob-id" in name or _is_mapping_entry(info) or info.index in (0x1000, 0x1001)
-            or (info.index in (0x1003, 0x1016, 0x1018) and info.subindex >= 1) or "crc" in name
-            or re.search(r"\bbits? (\d|i\b)", desc) or "emcy code" in desc or "error code" in name):
+    if (
+        "cob-id" in name
+        or _is_mapping_entry(info)
+        or info.index in (0x1000, 0x1001)
+        or (info.index in (0x1003, 0x1016, 0x1018) and info.subindex >= 1)
+        or "crc" in name
+        or re.search(r"\bbits? (\d|i\b)", desc)
+        or "emcy code" in desc
+        or "error code" in name
+    ):
         return digits
     return None
 
@@ -122,7 +141,7 @@ def _note(info: VarInfo, value: int, eds: EdsInfo | None) -> str:
         return "unused" if node == 0 or ms == 0 else f"node {node}, {ms} ms"
     if info.index == 0x1001:
         return ", ".join(error_register_names(value)) or "no error"
-    if info.index == 0x1003 and info.subindex >= 1:   # error field: EMCY code in the low 16 bits
+    if info.index == 0x1003 and info.subindex >= 1:  # error field: EMCY code in the low 16 bits
         return f"EMCY 0x{value & 0xFFFF:04X} {emcy_code_text(value & 0xFFFF)}" if value else "none"
     if "emcy code" in info.description.lower() or "error code" in name:
         return emcy_code_text(value & 0xFFFF) if value else "none"

@@ -22,6 +22,7 @@ or as one string (command-line override ``--bus``)::
 
     socketcan:vcan0    virtual:tt    socketcand://127.0.0.1:29536/vcan0    pcan:PCAN_USBBUS1
 """
+
 from __future__ import annotations
 
 import logging
@@ -81,8 +82,12 @@ def check_interface(name: Any, source: str = "transport") -> str:
     if not isinstance(name, str) or not name:
         raise _fail(source, "interface", f"expected a python-can interface name, got {name!r}")
     if name not in can.VALID_INTERFACES:
-        raise _fail(source, "interface", f"unknown python-can interface {name!r}; expected one of "
-                                         f"{', '.join(sorted(can.VALID_INTERFACES))}")
+        raise _fail(
+            source,
+            "interface",
+            f"unknown python-can interface {name!r}; expected one of "
+            f"{', '.join(sorted(can.VALID_INTERFACES))}",
+        )
     return name
 
 
@@ -91,14 +96,23 @@ def validate(settings: TransportSettings, source: str = "transport") -> Transpor
     check_interface(settings.interface, source)
     if not isinstance(settings.channel, str) or not settings.channel:
         raise _fail(source, "channel", f"expected a channel name such as 'vcan0', got {settings.channel!r}")
-    if not isinstance(settings.bitrate, int) or isinstance(settings.bitrate, bool) or not (
-            10_000 <= settings.bitrate <= 8_000_000):
+    if (
+        not isinstance(settings.bitrate, int)
+        or isinstance(settings.bitrate, bool)
+        or not (10_000 <= settings.bitrate <= 8_000_000)
+    ):
         raise _fail(source, "bitrate", f"expected an integer 10000..8000000 bit/s, got {settings.bitrate!r}")
     if settings.interface == "socketcand":
         if not isinstance(settings.host, str) or not settings.host:
             raise _fail(source, "host", "socketcand needs the server address, e.g. '127.0.0.1'")
-        if not isinstance(settings.port, int) or isinstance(settings.port, bool) or not (1 <= settings.port <= 65535):
-            raise _fail(source, "port", f"socketcand needs the server TCP port 1..65535, got {settings.port!r}")
+        if (
+            not isinstance(settings.port, int)
+            or isinstance(settings.port, bool)
+            or not (1 <= settings.port <= 65535)
+        ):
+            raise _fail(
+                source, "port", f"socketcand needs the server TCP port 1..65535, got {settings.port!r}"
+            )
     if not isinstance(settings.options, Mapping):
         raise _fail(source, "options", "expected a table of extra can.Bus arguments")
     return settings
@@ -121,17 +135,24 @@ def settings_from_mapping(table: Mapping[str, Any], source: str = "transport") -
     # socketcand's server address may sit at the top level or among the can.Bus options
     host = table.get("host", options.pop("host", None))
     port = table.get("port", options.pop("port", None))
-    settings = TransportSettings(interface=table["interface"], channel=table["channel"],
-                                 bitrate=table.get("bitrate", DEFAULT_BITRATE), host=host, port=port,
-                                 options=options)
+    settings = TransportSettings(
+        interface=table["interface"],
+        channel=table["channel"],
+        bitrate=table.get("bitrate", DEFAULT_BITRATE),
+        host=host,
+        port=port,
+        options=options,
+    )
     return validate(settings, source)
 
 
-def parse_bus_string(text: str, *, bitrate: int = DEFAULT_BITRATE, source: str = "--bus") -> TransportSettings:
+def parse_bus_string(
+    text: str, *, bitrate: int = DEFAULT_BITRATE, source: str = "--bus"
+) -> TransportSettings:
     """Parse ``INTERFACE:CHANNEL`` or ``socketcand://HOST:PORT/CHANNEL`` (see module docstring)."""
     text = text.strip()
     if text.startswith("socketcand://"):
-        rest = text[len("socketcand://"):]
+        rest = text[len("socketcand://") :]
         hostport, sep, channel = rest.partition("/")
         host, colon, port_text = hostport.rpartition(":")
         if not sep or not colon or not channel:
@@ -141,12 +162,15 @@ def parse_bus_string(text: str, *, bitrate: int = DEFAULT_BITRATE, source: str =
             port = int(port_text)
         except ValueError:
             raise TransportError(f"{source}: {text!r}: port {port_text!r} is not an integer") from None
-        return validate(TransportSettings("socketcand", channel, bitrate, host=host, port=port),
-                        f"{source} {text!r}")
+        return validate(
+            TransportSettings("socketcand", channel, bitrate, host=host, port=port), f"{source} {text!r}"
+        )
     interface, colon, channel = text.partition(":")
     if not colon or not interface or not channel:
-        raise TransportError(f"{source}: {text!r}: expected INTERFACE:CHANNEL (e.g. socketcan:vcan0) "
-                             "or socketcand://HOST:PORT/CHANNEL")
+        raise TransportError(
+            f"{source}: {text!r}: expected INTERFACE:CHANNEL (e.g. socketcan:vcan0) "
+            "or socketcand://HOST:PORT/CHANNEL"
+        )
     return validate(TransportSettings(interface, channel, bitrate), f"{source} {text!r}")
 
 
@@ -166,16 +190,19 @@ def open_bus(settings: TransportSettings) -> can.BusABC:
         return can.Bus(interface="virtual", channel=settings.channel, **kwargs)
     if settings.interface == "socketcand":
         kwargs.setdefault("tcp_tune", os.name != "nt")
-        return can.Bus(interface="socketcand", channel=settings.channel, host=settings.host,
-                       port=settings.port, **kwargs)
+        return can.Bus(
+            interface="socketcand", channel=settings.channel, host=settings.host, port=settings.port, **kwargs
+        )
     return can.Bus(interface=settings.interface, channel=settings.channel, bitrate=settings.bitrate, **kwargs)
 
 
 def socketcan_hint(exc: OSError, channel: str) -> str:
     """What a SocketCAN open error means for an operator (the kernel's errno alone says little)."""
     if exc.errno == errno.EAFNOSUPPORT:
-        return ("this kernel has no SocketCAN (address family AF_CAN not supported): use a Linux kernel with CAN "
-                "support (modprobe can vcan) or another interface (-i, e.g. socketcand or virtual)")
+        return (
+            "this kernel has no SocketCAN (address family AF_CAN not supported): use a Linux kernel with CAN "
+            "support (modprobe can vcan) or another interface (-i, e.g. socketcand or virtual)"
+        )
     if exc.errno in (errno.ENODEV, errno.ENXIO):
         return f"no CAN interface {channel!r} on this machine (ip -details link show type can, or type vcan)"
     if exc.errno == errno.ENETDOWN:
@@ -197,6 +224,7 @@ def enlarge_receive_buffer(bus: can.BusABC, size: int = RCVBUF_BYTES) -> int:
     net.core.rmem_max; SO_RCVBUF is capped by it. candump's ``-r`` does the same.
     """
     import socket
+
     sock = getattr(bus, "socket", None)
     if sock is None:
         return 0
@@ -220,6 +248,7 @@ class FrameLog(can.Listener):
 
     def __init__(self, bus: str) -> None:
         import threading
+
         logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)  # split TCP reads are not news
         self.bus = open_bus(parse_bus_string(bus))
         self._frames: list[tuple[float, int, bytes]] = []

@@ -11,6 +11,7 @@ A session (or anything that runs a hub of its own beside the user's) publishes w
 a ``telethermo-hub`` runs leaves that hub findable during and after the session. Everyone removes only
 the file it wrote (``unpublish`` compares the pid).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -40,8 +41,12 @@ class Published:
 
 def publish(bus: str, by: str, *, pid: int | None = None) -> Path:
     """Record that ``by`` (e.g. "telethermo-hub") listens on ``bus``; returns the file written."""
-    doc = {"bus": bus, "pid": pid or os.getpid(), "by": by,
-           "since": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
+    doc = {
+        "bus": bus,
+        "pid": pid or os.getpid(),
+        "by": by,
+        "since": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    }
     return write_json_atomic(state_file(), doc)
 
 
@@ -51,8 +56,12 @@ def publish_if_absent(bus: str, by: str, *, pid: int | None = None) -> Published
     complete temporary file, so two writers racing here cannot both win, and a reader never sees a torn
     file; a stale file (its writer gone) is replaced."""
     path = state_file()
-    doc = {"bus": bus, "pid": pid or os.getpid(), "by": by,
-           "since": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")}
+    doc = {
+        "bus": bus,
+        "pid": pid or os.getpid(),
+        "by": by,
+        "since": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    }
     tmp = write_json_atomic(path.with_name(f".{path.name}.{os.getpid()}.new"), doc)
     try:
         for _ in range(3):
@@ -63,7 +72,7 @@ def publish_if_absent(bus: str, by: str, *, pid: int | None = None) -> Published
                 other = running()
                 if other is not None:
                     return other
-                try:   # a stale or damaged file: its writer is gone
+                try:  # a stale or damaged file: its writer is gone
                     path.unlink()
                 except FileNotFoundError:
                     pass
@@ -97,7 +106,7 @@ def _alive(pid: int) -> bool:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
-    except PermissionError:   # another user's process: it runs
+    except PermissionError:  # another user's process: it runs
         return True
     return True
 
@@ -110,6 +119,12 @@ def running() -> Published | None:
         bus, pid, by = doc["bus"], doc["pid"], doc.get("by", "?")
     except (OSError, ValueError, KeyError, TypeError):
         return None
-    if not isinstance(bus, str) or not isinstance(pid, int) or isinstance(pid, bool) or pid <= 0 or not _alive(pid):
+    if (
+        not isinstance(bus, str)
+        or not isinstance(pid, int)
+        or isinstance(pid, bool)
+        or pid <= 0
+        or not _alive(pid)
+    ):
         return None
     return Published(bus=bus, pid=pid, by=str(by), path=path)

@@ -19,6 +19,7 @@ bus-off sends nothing either) and the bus is probed and reopened with a back-off
 1 s). ``on_change(up, reason)`` is called once when the bus goes down and once when it is back; it runs in
 the thread that noticed (the notifier's, or a sender's) and must be quick and must not raise.
 """
+
 from __future__ import annotations
 
 import logging
@@ -81,7 +82,7 @@ def link_down_reason(settings: TransportSettings, sysfs: Path = Path("/sys/class
             return f"interface {settings.channel} does not exist"
         if not flags & 0x1:
             return f"interface {settings.channel} is down"
-        if oper not in ("up", "unknown"):   # vcan says "unknown" when up; bus-off: carrier off, "down"
+        if oper not in ("up", "unknown"):  # vcan says "unknown" when up; bus-off: carrier off, "down"
             return f"interface {settings.channel}: link {oper} (going down, or bus-off)"
     return None
 
@@ -95,7 +96,7 @@ def _first_line(exc: BaseException) -> str:
 
 def _server_closed(bus: can.BusABC) -> bool:
     """A socketcand client whose server closed the TCP stream (readable with 0 bytes to read)."""
-    sock = getattr(bus, "_SocketCanDaemonBus__socket", None)   # python-can keeps it private
+    sock = getattr(bus, "_SocketCanDaemonBus__socket", None)  # python-can keeps it private
     if sock is None:
         return False
     try:
@@ -111,8 +112,13 @@ class ResilientBus(can.BusABC):
     The first open is :func:`open_bus`'s and fails as it does (a node started with no bus says so); later
     losses are survived. ``opener``: how the inner bus is opened (default :func:`open_bus`)."""
 
-    def __init__(self, settings: TransportSettings, *, on_change: OnChange | None = None,
-                 opener: Callable[[TransportSettings], can.BusABC] = open_bus) -> None:
+    def __init__(
+        self,
+        settings: TransportSettings,
+        *,
+        on_change: OnChange | None = None,
+        opener: Callable[[TransportSettings], can.BusABC] = open_bus,
+    ) -> None:
         self.settings = settings
         self.on_change = on_change
         self.stats = OutageStats()
@@ -190,7 +196,7 @@ class ResilientBus(can.BusABC):
     def _went_down(self, inner: can.BusABC, reason: str) -> None:
         with self._lock:
             if self._inner is not inner or self._closed.is_set():
-                return   # another thread saw it first, or we are closing
+                return  # another thread saw it first, or we are closing
             self._inner = None
             self._down_at = time.monotonic()
             self._backoff_s = BACKOFF_FIRST_S
@@ -200,7 +206,7 @@ class ResilientBus(can.BusABC):
         log.warning("bus %s lost: %s; retrying", self.settings.describe(), reason)
         try:
             inner.shutdown()
-        except Exception as exc:   # the transport is gone already
+        except Exception as exc:  # the transport is gone already
             log.debug("shutdown of the lost bus: %s", exc)
         self._notify(False, reason)
 
@@ -233,8 +239,12 @@ class ResilientBus(can.BusABC):
             self.stats.down_s += down_s
             self.stats.reopens += 1
             self._next_health = time.monotonic() + HEALTH_EVERY_S
-        log.warning("bus %s back after %.2f s (%d frames dropped so far)", self.settings.describe(), down_s,
-                    self.stats.frames_dropped)
+        log.warning(
+            "bus %s back after %.2f s (%d frames dropped so far)",
+            self.settings.describe(),
+            down_s,
+            self.stats.frames_dropped,
+        )
         self._notify(True, f"back after {down_s:.2f} s")
 
     def _notify(self, up: bool, reason: str) -> None:
@@ -242,5 +252,5 @@ class ResilientBus(can.BusABC):
             return
         try:
             self.on_change(up, reason)
-        except Exception:   # never into the notifier thread or a sender
+        except Exception:  # never into the notifier thread or a sender
             log.exception("bus change handler failed")

@@ -16,6 +16,7 @@
 The channel, host, port and options of network.toml belong to its interface: they are used only when the
 resolved interface is the file's. The bitrate falls back to the file's (it is the network's).
 """
+
 from __future__ import annotations
 
 import configparser
@@ -26,12 +27,18 @@ from typing import Any, Mapping
 
 from telethermo.transport.published import running
 from telethermo.transport.bus import (
-    TransportError, TransportSettings, check_interface, parse_bus_string, validate,
+    TransportError,
+    TransportSettings,
+    check_interface,
+    parse_bus_string,
+    validate,
 )
 import can
 import can.util
 
-CONTEXT = "telethermo"   # the section of python-can's config file, and the env suffix (CAN_INTERFACE_telethermo)
+CONTEXT = (
+    "telethermo"  # the section of python-can's config file, and the env suffix (CAN_INTERFACE_telethermo)
+)
 _FLAG = "-i/-c/-b"
 
 
@@ -48,8 +55,9 @@ def _config_files() -> str:
     return ", ".join(found) if found else "python-can config file"
 
 
-def python_can_layers(given: Mapping[str, Any], config_path: str | None = None
-                      ) -> tuple[dict[str, Any], dict[str, str]]:
+def python_can_layers(
+    given: Mapping[str, Any], config_path: str | None = None
+) -> tuple[dict[str, Any], dict[str, str]]:
     """python-can's sources merged key by key, first wins: ``given`` (flags), ``can.rc``, the environment
     (``_telethermo`` suffix first), the config file (``[telethermo]`` first). Returns (config, key -> source)."""
 
@@ -57,9 +65,14 @@ def python_can_layers(given: Mapping[str, Any], config_path: str | None = None
         (_FLAG, lambda: dict(given)),
         ("can.rc", lambda: dict(can.rc)),
         (f"environment (CAN_*_{CONTEXT})", lambda: can.util.load_environment_config(CONTEXT)),
-        ("environment (CAN_INTERFACE, CAN_CHANNEL, CAN_BITRATE, CAN_CONFIG)",
-         lambda: can.util.load_environment_config()),
-        (f"[{CONTEXT}] of {config_path or _config_files()}", lambda: can.util.load_file_config(config_path, CONTEXT)),
+        (
+            "environment (CAN_INTERFACE, CAN_CHANNEL, CAN_BITRATE, CAN_CONFIG)",
+            lambda: can.util.load_environment_config(),
+        ),
+        (
+            f"[{CONTEXT}] of {config_path or _config_files()}",
+            lambda: can.util.load_file_config(config_path, CONTEXT),
+        ),
         (f"[default] of {config_path or _config_files()}", lambda: can.util.load_file_config(config_path)),
     ]
     config: dict[str, Any] = {}
@@ -69,12 +82,14 @@ def python_can_layers(given: Mapping[str, Any], config_path: str | None = None
             cfg = load()
         except json.JSONDecodeError as exc:
             raise TransportError(f"{name}: CAN_CONFIG is not JSON ({exc})") from None
-        except configparser.Error as exc:   # the whole file is unreadable, whichever section was asked
-            raise TransportError(f"{config_path or _config_files()}: not a valid python-can config file "
-                                 f"(INI sections such as [default] or [{CONTEXT}]): {_one_line(exc)}") from None
+        except configparser.Error as exc:  # the whole file is unreadable, whichever section was asked
+            raise TransportError(
+                f"{config_path or _config_files()}: not a valid python-can config file "
+                f"(INI sections such as [default] or [{CONTEXT}]): {_one_line(exc)}"
+            ) from None
         except Exception as exc:
             raise TransportError(f"{name}: cannot read ({_one_line(exc)})") from None
-        if "bustype" in cfg:   # python-can's legacy name
+        if "bustype" in cfg:  # python-can's legacy name
             cfg.setdefault("interface", cfg["bustype"])
             del cfg["bustype"]
         for key, val in cfg.items():
@@ -95,15 +110,26 @@ def _int(value: Any, what: str, source: str) -> int:
         raise TransportError(f"{source}: {what} {value!r}: expected an integer") from None
 
 
-def resolve_bus(net, *, bus: str | None = None, interface: str | None = None, channel: str | None = None,
-                bitrate: int | None = None, config_path: str | None = None, use_published: bool = True
-                ) -> ResolvedBus:
+def resolve_bus(
+    net,
+    *,
+    bus: str | None = None,
+    interface: str | None = None,
+    channel: str | None = None,
+    bitrate: int | None = None,
+    config_path: str | None = None,
+    use_published: bool = True,
+) -> ResolvedBus:
     """The bus to open (see the module docstring). ``net``: the loaded network settings
     (:class:`telethermo.device.netconfig.NetworkConfig`). Raises :class:`TransportError` (one line
     naming the source and what was expected)."""
     if bus and (interface or channel):
         raise TransportError("--bus and -i/-c both name the bus; give one of them")
-    given = {k: v for k, v in (("interface", interface), ("channel", channel), ("bitrate", bitrate)) if v is not None}
+    given = {
+        k: v
+        for k, v in (("interface", interface), ("channel", channel), ("bitrate", bitrate))
+        if v is not None
+    }
     cfg, src = python_can_layers(given, config_path)
     file_bus = net.bus
     if bus:
@@ -114,18 +140,22 @@ def resolve_bus(net, *, bus: str | None = None, interface: str | None = None, ch
             pub = running()
             if pub is not None:
                 try:
-                    found = parse_bus_string(pub.bus, bitrate=_int(cfg.get("bitrate", file_bus.bitrate), "bitrate",
-                                                                   src.get("bitrate", str(net.path))),
-                                             source=str(pub.path))
+                    found = parse_bus_string(
+                        pub.bus,
+                        bitrate=_int(
+                            cfg.get("bitrate", file_bus.bitrate), "bitrate", src.get("bitrate", str(net.path))
+                        ),
+                        source=str(pub.path),
+                    )
                 except TransportError:
-                    found = None   # a damaged state file is no reason to refuse the network file's bus
+                    found = None  # a damaged state file is no reason to refuse the network file's bus
                 if found is not None:
                     return ResolvedBus(found, f"{pub.by} (pid {pub.pid}, {pub.path})")
         cfg["interface"], src["interface"] = file_bus.interface, str(net.path)
     where = src["interface"]
-    iface = check_interface(cfg.pop("interface"), where)   # an unknown name first, before its missing channel
+    iface = check_interface(cfg.pop("interface"), where)  # an unknown name first, before its missing channel
     options: dict[str, Any] = {}
-    if iface == file_bus.interface:   # the file's channel and options belong to its interface
+    if iface == file_bus.interface:  # the file's channel and options belong to its interface
         options.update(file_bus.options)
         cfg.setdefault("channel", file_bus.channel)
         src.setdefault("channel", str(net.path))
@@ -137,13 +167,15 @@ def resolve_bus(net, *, bus: str | None = None, interface: str | None = None, ch
     src.setdefault("bitrate", str(net.path))
     chan = cfg.pop("channel", None)
     if chan is None:
-        raise TransportError(f"{where}: interface {iface!r} but no channel; give -c CHANNEL, CAN_CHANNEL or "
-                             f"channel = ... in ~/.canrc")
+        raise TransportError(
+            f"{where}: interface {iface!r} but no channel; give -c CHANNEL, CAN_CHANNEL or "
+            f"channel = ... in ~/.canrc"
+        )
     rate = _int(cfg.pop("bitrate"), "bitrate", src["bitrate"])
     host = cfg.pop("host", None)
     port = cfg.pop("port", None)
     if port is not None:
         port = _int(port, "port", src["port"])
-    options.update(cfg)   # further can.Bus arguments (tcp_tune, fd, receive_own_messages, ...)
+    options.update(cfg)  # further can.Bus arguments (tcp_tune, fd, receive_own_messages, ...)
     settings = TransportSettings(iface, str(chan), rate, host=host, port=port, options=options)
     return ResolvedBus(validate(settings, where), where)

@@ -24,18 +24,51 @@ session (it runs sessions); the control package never imports it.
 Pure: no wall clock, no files (except :func:`write_gains` / :func:`load_gains`), deterministic for
 a seed (the sessions' sensor noise is seeded, the optimisers are seeded).
 """
+
 from telethermo.control.gainsfile import GAIN_FIELDS, GAINS_FORMAT, load_gains, parse_gains, write_gains
 from telethermo.tuning.document import gains_document, run_record, sensitivity_rows
-from telethermo.tuning.objective import MARGIN_GOAL_C, UNSTABLE_J, Evaluation, Objective, Weights, score_figures
+from telethermo.tuning.objective import (
+    MARGIN_GOAL_C,
+    UNSTABLE_J,
+    Evaluation,
+    Objective,
+    Weights,
+    score_figures,
+)
 from telethermo.tuning.robust import Robustness, TuneResult, box_points, distinct_best, robustness, tune
 from telethermo.tuning.scenes import perturbed_scene, tuning_scenes
 from telethermo.tuning.search import SearchPoint, SearchResult, search, stress_corners
 from telethermo.tuning.space import DEFAULT_SPACE, GainSpec, clip_gains, default_gains
 
 __all__ = [
-    "GAIN_FIELDS", "GAINS_FORMAT", "load_gains", "parse_gains", "write_gains", "gains_document", "run_record",
-    "sensitivity_rows", "MARGIN_GOAL_C",
-    "UNSTABLE_J", "Evaluation", "Objective", "Weights", "score_figures", "Robustness", "TuneResult", "box_points",
-    "distinct_best", "robustness", "tune", "perturbed_scene", "tuning_scenes", "SearchPoint", "SearchResult", "search",
-    "stress_corners", "DEFAULT_SPACE", "GainSpec", "clip_gains", "default_gains",
+    "GAIN_FIELDS",
+    "GAINS_FORMAT",
+    "load_gains",
+    "parse_gains",
+    "write_gains",
+    "gains_document",
+    "run_record",
+    "sensitivity_rows",
+    "MARGIN_GOAL_C",
+    "UNSTABLE_J",
+    "Evaluation",
+    "Objective",
+    "Weights",
+    "score_figures",
+    "Robustness",
+    "TuneResult",
+    "box_points",
+    "distinct_best",
+    "robustness",
+    "tune",
+    "perturbed_scene",
+    "tuning_scenes",
+    "SearchPoint",
+    "SearchResult",
+    "search",
+    "stress_corners",
+    "DEFAULT_SPACE",
+    "GainSpec",
+    "clip_gains",
+    "default_gains",
 ]

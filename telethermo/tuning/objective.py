@@ -13,6 +13,7 @@ averaged over the scenes::
 
 A session that yields a non-finite figure (an unstable pair) scores :data:`UNSTABLE_J`.
 """
+
 from __future__ import annotations
 
 import math
@@ -55,12 +56,21 @@ class Evaluation:
 
     def summary(self) -> dict[str, Any]:
         """Scene-averaged figures: early/late/tracking errors, limit time, trips, order kept everywhere."""
+
         def avg(k: str) -> float:
             v = [s[k] for s in self.scenes]
             return float(np.mean(v)) if all(math.isfinite(x) for x in v) else math.nan
-        return {"J": self.J, "early_C": avg("early_C"), "late_C": avg("late_C"), "tracking_rms_C": avg("tracking_rms_C"),
-                "limit_s": avg("limit_s"), "margin_shortfall_C": avg("margin_shortfall_C"), "trips": int(sum(s["trips"] for s in self.scenes)),
-                "order_kept": all(s["order_kept"] for s in self.scenes)}
+
+        return {
+            "J": self.J,
+            "early_C": avg("early_C"),
+            "late_C": avg("late_C"),
+            "tracking_rms_C": avg("tracking_rms_C"),
+            "limit_s": avg("limit_s"),
+            "margin_shortfall_C": avg("margin_shortfall_C"),
+            "trips": int(sum(s["trips"] for s in self.scenes)),
+            "order_kept": all(s["order_kept"] for s in self.scenes),
+        }
 
 
 def _finite(x: Any) -> float:
@@ -88,16 +98,30 @@ def score_figures(figures: dict[str, Any], weights: Weights = Weights()) -> tupl
         m, r = _finite(m), _finite(r)
         if math.isfinite(m) and math.isfinite(r):
             shortfall += max(0.0, min(r, MARGIN_GOAL_C) - m)
-    used = {"early_C": early, "late_C": late, "tracking_rms_C": trk, "limit_s": limit_s, "cut_s": cut_s,
-            "trips": trips, "order_kept": order,
-            "margin_shortfall_C": shortfall, "margins_C": [_finite(m) for m in disc.get("margins_C") or []],
-            "per_contact_early_C": [_finite(p["early_T"]["mean_abs"]) for p in tr.get("per_contact", [])]}
+    used = {
+        "early_C": early,
+        "late_C": late,
+        "tracking_rms_C": trk,
+        "limit_s": limit_s,
+        "cut_s": cut_s,
+        "trips": trips,
+        "order_kept": order,
+        "margin_shortfall_C": shortfall,
+        "margins_C": [_finite(m) for m in disc.get("margins_C") or []],
+        "per_contact_early_C": [_finite(p["early_T"]["mean_abs"]) for p in tr.get("per_contact", [])],
+    }
     if not (math.isfinite(early) and math.isfinite(trk)):
         return UNSTABLE_J, used
-    J = (weights.early_per_C * early + weights.late_per_C * (late if math.isfinite(late) else 0.0)
-         + weights.tracking_per_C * trk + weights.limit_per_s * limit_s
-         + weights.trip * trips + weights.cut_per_s * cut_s + (0.0 if order else weights.order_lost)
-         + weights.margin_per_C * shortfall)
+    J = (
+        weights.early_per_C * early
+        + weights.late_per_C * (late if math.isfinite(late) else 0.0)
+        + weights.tracking_per_C * trk
+        + weights.limit_per_s * limit_s
+        + weights.trip * trips
+        + weights.cut_per_s * cut_s
+        + (0.0 if order else weights.order_lost)
+        + weights.margin_per_C * shortfall
+    )
     return float(min(J, UNSTABLE_J)), used
 
 
@@ -108,9 +132,16 @@ class Objective:
     gains not given keep the shipped defaults. ``__call__(x)`` takes log-gains (the search's space).
     """
 
-    def __init__(self, scenes: Sequence[Any], *, space: Sequence[GainSpec] = DEFAULT_SPACE,
-                 weights: Weights = Weights(), seed: int = 0, duration_s: float | None = None,
-                 progress: Callable[[Evaluation, int], None] | None = None) -> None:
+    def __init__(
+        self,
+        scenes: Sequence[Any],
+        *,
+        space: Sequence[GainSpec] = DEFAULT_SPACE,
+        weights: Weights = Weights(),
+        seed: int = 0,
+        duration_s: float | None = None,
+        progress: Callable[[Evaluation, int], None] | None = None,
+    ) -> None:
         if not scenes:
             raise ValueError("Objective: expected at least one scene")
         self.scenes = list(scenes)
@@ -136,10 +167,14 @@ class Objective:
         for k, v in gains.items():
             role, _, name = k.partition(".")
             if role not in over or name not in GAIN_FIELDS:
-                raise ValueError(f"Objective: unknown gain {k!r} (expected role.field, field in {GAIN_FIELDS})")
+                raise ValueError(
+                    f"Objective: unknown gain {k!r} (expected role.field, field in {GAIN_FIELDS})"
+                )
             over[role][name] = float(v)
-        return (default_params(Role.MASTER, period_s=period_s, **over["master"]),
-                default_params(Role.SLAVE, period_s=period_s, **over["slave"]))
+        return (
+            default_params(Role.MASTER, period_s=period_s, **over["master"]),
+            default_params(Role.SLAVE, period_s=period_s, **over["slave"]),
+        )
 
     def to_gains(self, x: Sequence[float]) -> dict[str, float]:
         """Log-gains -> gains rounded to 4 significant digits, clipped to the bounds."""
@@ -176,14 +211,27 @@ class Objective:
         for sc in self.scenes:
             pm, ps = self.params(gains, sc.period_s)
             try:
-                res = run_offline_session(sc, master_params=pm, slave_params=ps, seed=self.seed,
-                                          duration_s=self.duration_s)
+                res = run_offline_session(
+                    sc, master_params=pm, slave_params=ps, seed=self.seed, duration_s=self.duration_s
+                )
                 J, used = score_figures(res.figures, self.weights)
             except (FloatingPointError, np.linalg.LinAlgError, OverflowError) as exc:
-                J, used = UNSTABLE_J, {"early_C": math.nan, "late_C": math.nan, "tracking_rms_C": math.nan,
-                                       "limit_s": math.nan, "cut_s": math.nan, "trips": 0, "order_kept": False,
-                                       "margin_shortfall_C": math.nan, "margins_C": [],
-                                       "per_contact_early_C": [], "error": repr(exc)}
+                J, used = (
+                    UNSTABLE_J,
+                    {
+                        "early_C": math.nan,
+                        "late_C": math.nan,
+                        "tracking_rms_C": math.nan,
+                        "limit_s": math.nan,
+                        "cut_s": math.nan,
+                        "trips": 0,
+                        "order_kept": False,
+                        "margin_shortfall_C": math.nan,
+                        "margins_C": [],
+                        "per_contact_early_C": [],
+                        "error": repr(exc),
+                    },
+                )
             self.n_sessions += 1
             Js.append(J)
             per.append(dict(scene=sc.name, J=J, **used))

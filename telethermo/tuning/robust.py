@@ -3,6 +3,7 @@ checked at ±``rel`` (30 %) on each gain, one at a time, plus a few seeded rando
 ±``rel`` box; among the points whose centre is no worse than the reference's, the one with the best
 *worst case* wins (ties broken by the centre value). :func:`tune` runs the search and this check.
 """
+
 from __future__ import annotations
 
 import math
@@ -16,8 +17,9 @@ from telethermo.tuning.search import SearchPoint, SearchResult, search
 from telethermo.tuning.space import GainSpec, clip_gains, default_gains
 
 
-def box_points(gains: dict[str, float], space: Sequence[GainSpec], *, rel: float = 0.3, corners: int = 4,
-               seed: int = 0) -> list[tuple[str, dict[str, float]]]:
+def box_points(
+    gains: dict[str, float], space: Sequence[GainSpec], *, rel: float = 0.3, corners: int = 4, seed: int = 0
+) -> list[tuple[str, dict[str, float]]]:
     """(label, gains) of the ±``rel`` box around ``gains``: each gain ×(1−rel) and ×(1+rel) alone,
     then ``corners`` seeded random corners (every gain at ±rel). Not clipped to the search bounds:
     the box asks how the *chosen* point behaves when the real plant differs."""
@@ -54,12 +56,15 @@ class Robustness:
         return next((lab for lab, e in self.rows if e is w), "centre")
 
 
-def robustness(objective: Objective, gains: dict[str, float], *, rel: float = 0.3, corners: int = 4,
-               seed: int = 0) -> Robustness:
+def robustness(
+    objective: Objective, gains: dict[str, float], *, rel: float = 0.3, corners: int = 4, seed: int = 0
+) -> Robustness:
     """Evaluate ``gains`` and its ±``rel`` box (:func:`box_points`)."""
     centre = objective.evaluate(gains)
-    rows = [(lab, objective.evaluate(g)) for lab, g in box_points(gains, objective.space, rel=rel, corners=corners,
-                                                                   seed=seed)]
+    rows = [
+        (lab, objective.evaluate(g))
+        for lab, g in box_points(gains, objective.space, rel=rel, corners=corners, seed=seed)
+    ]
     return Robustness(centre, rows)
 
 
@@ -78,8 +83,9 @@ class TuneResult:
         return self.chosen.centre
 
 
-def distinct_best(points: Sequence[SearchPoint], space: Sequence[GainSpec], k: int, *,
-                  min_log_distance: float = 0.1) -> list[SearchPoint]:
+def distinct_best(
+    points: Sequence[SearchPoint], space: Sequence[GainSpec], k: int, *, min_log_distance: float = 0.1
+) -> list[SearchPoint]:
     """The ``k`` best search points (by the searched value) whose log-gains differ by more than
     ``min_log_distance`` (max norm)."""
     out: list[SearchPoint] = []
@@ -87,31 +93,50 @@ def distinct_best(points: Sequence[SearchPoint], space: Sequence[GainSpec], k: i
         if p.value >= UNSTABLE_J:
             break
         x = np.array([math.log(p.gains[s.key]) for s in space])
-        if all(np.max(np.abs(x - np.array([math.log(o.gains[s.key]) for s in space]))) > min_log_distance for o in out):
+        if all(
+            np.max(np.abs(x - np.array([math.log(o.gains[s.key]) for s in space]))) > min_log_distance
+            for o in out
+        ):
             out.append(p)
         if len(out) >= k:
             break
     return out
 
 
-def tune(objective: Objective, *, budget: int = 60, method: str = "nelder-mead", seed: int = 0,
-         candidates: int = 3, rel: float = 0.3, corners: int = 4, stress_rel: float | None = None,
-         x0: dict[str, float] | None = None, reference: dict[str, float] | None = None,
-         on_stage: Callable[[str], None] | None = None) -> TuneResult:
+def tune(
+    objective: Objective,
+    *,
+    budget: int = 60,
+    method: str = "nelder-mead",
+    seed: int = 0,
+    candidates: int = 3,
+    rel: float = 0.3,
+    corners: int = 4,
+    stress_rel: float | None = None,
+    x0: dict[str, float] | None = None,
+    reference: dict[str, float] | None = None,
+    on_stage: Callable[[str], None] | None = None,
+) -> TuneResult:
     """Search (``budget`` points, stress corners at ``stress_rel``, default ``rel``), then check the
     best ``candidates`` distinct points and the ``reference`` (default: the shipped gains) over the
     ±``rel`` box (:func:`robustness`) and choose the best worst case (ties: the best centre) among
     those whose centre is no worse than the reference's (so the reference wins if none is)."""
     say = on_stage or (lambda _m: None)
     stress_rel = rel if stress_rel is None else stress_rel
-    say(f"search: {method}, budget {budget} points, {len(objective.space)} gains, {len(objective.scenes)} scenes, "
-        f"stress corners ±{stress_rel:.0%}")
+    say(
+        f"search: {method}, budget {budget} points, {len(objective.space)} gains, {len(objective.scenes)} scenes, "
+        f"stress corners ±{stress_rel:.0%}"
+    )
     sr = search(objective, budget=budget, method=method, seed=seed, x0=x0, stress_rel=stress_rel)
     cands = distinct_best(sr.points, objective.space, candidates)
-    ref_g = clip_gains(reference if reference is not None else default_gains(objective.space), objective.space)
+    ref_g = clip_gains(
+        reference if reference is not None else default_gains(objective.space), objective.space
+    )
     robs: list[Robustness] = []
     for i, p in enumerate(cands):
-        say(f"robustness of candidate {i + 1}/{len(cands)} (J = {p.centre.J:.3f}, searched value {p.value:.3f})")
+        say(
+            f"robustness of candidate {i + 1}/{len(cands)} (J = {p.centre.J:.3f}, searched value {p.value:.3f})"
+        )
         robs.append(robustness(objective, p.gains, rel=rel, corners=corners, seed=seed))
     ref_key = objective.memo_key(ref_g)
     ref_rob = next((r for r in robs if objective.memo_key(r.centre.gains) == ref_key), None)

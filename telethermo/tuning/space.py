@@ -3,6 +3,7 @@
 Bounds are in the gains' units (A/°C, A/(°C·s), A/W, A/(W·s)); kQ and kiQ stay at their shipped
 values: a screening found every non-zero change worse (docs/tuning.md).
 """
+
 from __future__ import annotations
 
 import math

@@ -1,6 +1,7 @@
 """The optimal-current bound (telethermo/offline/bound.py; bench/transparency_bench.py runs it): its batched
 plant is the simulator (a replay through sim.SimRig agrees to 1e-9 °C), the matched start is the direct-touch
 finger, and optimising helps."""
+
 import numpy as np
 import pytest
 
@@ -26,7 +27,9 @@ def setup():
         ref.advance(PERIOD)
     mk = lambda: sim.build_rig(sc, "master", noise=False)  # noqa: E731
     rig = mk()
-    w = Window(t0_s=k0 * PERIOD, n_pre=50, n_early=100, x0=matched_start(rig, cells), ref_C=np.array(skin[k0:]))
+    w = Window(
+        t0_s=k0 * PERIOD, n_pre=50, n_early=100, x0=matched_start(rig, cells), ref_C=np.array(skin[k0:])
+    )
     return sc, mk, BatchedPlant(rig, PERIOD), w
 
 
@@ -59,5 +62,5 @@ def test_causal_bound_beats_doing_nothing_and_replays(setup):
     assert np.max(np.abs(skin - replay(mk, w, u, PERIOD))) <= 1e-9
     e = window_errors(skin, w)
     zero = window_errors(plant.run(w.x0, np.zeros((149, 1)))[:, 0], w)
-    assert e["pre_C"] <= 0.05                       # before the touch it keeps the finger matched
-    assert e["early_C"] < zero["early_C"] - 0.5     # on aluminium it cools far better than no current
+    assert e["pre_C"] <= 0.05  # before the touch it keeps the finger matched
+    assert e["early_C"] < zero["early_C"] - 0.5  # on aluminium it cools far better than no current

@@ -4,6 +4,7 @@ The device under test runs on one canopen.Network; the client side is a second c
 (RemoteNode, SDO client, NMT master, EMCY consumer: canopen's code, not ours) or a raw python-can
 bus on the same channel.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -34,8 +35,14 @@ class Lab:
         self._stack.callback(net.disconnect)
         return net
 
-    def device(self, role: str = "master", *, start: bool = True, node_id: int | None = None,
-               settings: DeviceSettings | None = None) -> Device:
+    def device(
+        self,
+        role: str = "master",
+        *,
+        start: bool = True,
+        node_id: int | None = None,
+        settings: DeviceSettings | None = None,
+    ) -> Device:
         dev = Device(self.network(), node_id or NODE_IDS[role], path(f"{role}.eds"), settings=settings)
         self._stack.callback(dev.close)
         if start:
@@ -50,7 +57,6 @@ class Lab:
         bus = can.Bus(interface="virtual", channel=self.channel)
         self._stack.callback(bus.shutdown)
         return bus
-
 
     @staticmethod
     def recv_until(bus: can.BusABC, predicate, timeout: float = 2.0) -> can.Message | None:

@@ -1,5 +1,6 @@
 """The EDS files: canopen parses them without a warning, the contract objects are there, names and
 limits are usable, and the checked-in files are what bus_config/edsgen.py generates."""
+
 from __future__ import annotations
 
 import logging
@@ -23,8 +24,28 @@ def test_canopen_parses_without_warnings(role, caplog):
         warnings.simplefilter("error")
         od = canopen.import_od(str(path(f"{role}.eds")), edsgen.NODE_IDS[role])
     assert not [r for r in caplog.records if r.levelno >= logging.WARNING], caplog.text
-    for index in (0x1000, 0x1001, 0x1003, 0x1005, 0x1006, 0x1014, 0x1016, 0x1017, 0x1018, 0x1019,
-                  0x1400, 0x1600, 0x1800, 0x1A00, 0x1801, 0x1A01, 0x1802, 0x1A02, 0x1803, 0x1A03):
+    for index in (
+        0x1000,
+        0x1001,
+        0x1003,
+        0x1005,
+        0x1006,
+        0x1014,
+        0x1016,
+        0x1017,
+        0x1018,
+        0x1019,
+        0x1400,
+        0x1600,
+        0x1800,
+        0x1A00,
+        0x1801,
+        0x1A01,
+        0x1802,
+        0x1A02,
+        0x1803,
+        0x1A03,
+    ):
         assert index in od, hex(index)
 
 
@@ -59,8 +80,17 @@ def test_every_writable_manufacturer_object_has_a_range_and_reals_a_unit(role):
     assert len(writable) > 20
     for v in writable:
         assert v.low is not None and v.high is not None and v.low < v.high, v.key
-    dimensionless = ("theta", "flux_coeff", "material_beta", "pad_beta", "identified_beta", "identified_se_ln_b",
-                     "identified_posterior", "peer_identified_beta", "identified_early_posterior")
+    dimensionless = (
+        "theta",
+        "flux_coeff",
+        "material_beta",
+        "pad_beta",
+        "identified_beta",
+        "identified_se_ln_b",
+        "identified_posterior",
+        "peer_identified_beta",
+        "identified_early_posterior",
+    )
     for (index, _), v in info.vars.items():
         if index < 0x2000:
             continue
@@ -101,8 +131,10 @@ def test_safety_defaults_match_design():
 
 def test_bad_eds_is_refused_with_file_section_and_key(tmp_path):
     bad = tmp_path / "bad.eds"
-    bad.write_text(path("master.eds").read_text(encoding="ascii").replace(
-        "LowLimit=15.0", "LowLimit=fifteen", 1), encoding="ascii")
+    bad.write_text(
+        path("master.eds").read_text(encoding="ascii").replace("LowLimit=15.0", "LowLimit=fifteen", 1),
+        encoding="ascii",
+    )
     with pytest.raises(EdsError, match=r"bad.eds: \[2400\] LowLimit: expected a number"):
         EdsInfo(bad)
 
@@ -130,7 +162,7 @@ def test_power_on_values_match_the_control_cores_defaults(role):
     from telethermo.control.safety import SafetyLimits, probe_limits
 
     info = EdsInfo(path(f"{role}.eds"))
-    sp = SafetyLimits() if role == "master" else probe_limits()   # skin on the master, the probe's hardware
+    sp = SafetyLimits() if role == "master" else probe_limits()  # skin on the master, the probe's hardware
     for name, field in (("T_min_C", "T_min_C"), ("T_max_C", "T_max_C"), ("hot_threshold_C", "hot_C")):
         assert float(info.get(name).default) == getattr(sp, field)
     assert (info.get("T_min_C").low, info.get("T_max_C").high) == sp.widest_C

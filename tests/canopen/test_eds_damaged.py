@@ -2,6 +2,7 @@
 not INI, an empty file, and a truncated one (cut mid-line, and cut at a line boundary so that it still parses
 but the objects its lists name have no section). Checked on the parser, through the operator CLI (exit 2,
 one line, no traceback) and through a node program (it refuses to start, naming the file)."""
+
 from __future__ import annotations
 
 import subprocess
@@ -53,8 +54,9 @@ def test_the_parser_names_the_file_and_the_damage_in_one_line(tmp_path, name):
 
 def _network(tmp_path: Path, eds: Path) -> Path:
     net = eds_path("network.toml").read_text(encoding="utf-8")
-    net = net.replace('eds = "master.eds"', f'eds = "{eds}"').replace('eds = "slave.eds"',
-                                                                    f'eds = "{eds_path("slave.eds")}"')
+    net = net.replace('eds = "master.eds"', f'eds = "{eds}"').replace(
+        'eds = "slave.eds"', f'eds = "{eds_path("slave.eds")}"'
+    )
     p = tmp_path / "network.toml"
     p.write_text(net, encoding="utf-8")
     return p
@@ -63,8 +65,19 @@ def _network(tmp_path: Path, eds: Path) -> Path:
 @pytest.mark.parametrize("name", ["not_ini", "empty", "cut_at_a_line"])
 def test_the_cli_refuses_a_damaged_eds_in_one_line(tmp_path, capsys, name):
     path, words = damaged(tmp_path)[name]
-    code = main(["get", "master", "T_sensor_C", "--network", str(_network(tmp_path, path)), "--bus", "virtual:tt-eds",
-                 "--timeout", "0.2"])
+    code = main(
+        [
+            "get",
+            "master",
+            "T_sensor_C",
+            "--network",
+            str(_network(tmp_path, path)),
+            "--bus",
+            "virtual:tt-eds",
+            "--timeout",
+            "0.2",
+        ]
+    )
     err = capsys.readouterr().err.strip()
     assert code == EXIT_USAGE and len(err.splitlines()) == 1 and words in err and str(path) in err, err
 
@@ -72,7 +85,25 @@ def test_the_cli_refuses_a_damaged_eds_in_one_line(tmp_path, capsys, name):
 @pytest.mark.slow
 def test_a_node_refuses_to_start_on_a_truncated_eds(tmp_path):
     path, words = damaged(tmp_path)["cut_at_a_line"]
-    p = subprocess.run([sys.executable, "-m", "telethermo.nodes.master", "--network", str(_network(tmp_path, path)),
-                        "--bus", "virtual:tt-eds-node", "--scene", str(ROOT / "sim/scenes/pads_in_air.toml"),
-                        "--cycles", "3"], capture_output=True, text=True, timeout=120, cwd=ROOT)
-    assert p.returncode != 0 and words in p.stderr and str(path) in p.stderr and "Traceback" not in p.stderr, p.stderr
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "telethermo.nodes.master",
+            "--network",
+            str(_network(tmp_path, path)),
+            "--bus",
+            "virtual:tt-eds-node",
+            "--scene",
+            str(ROOT / "sim/scenes/pads_in_air.toml"),
+            "--cycles",
+            "3",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=ROOT,
+    )
+    assert (
+        p.returncode != 0 and words in p.stderr and str(path) in p.stderr and "Traceback" not in p.stderr
+    ), p.stderr

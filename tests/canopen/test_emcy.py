@@ -1,5 +1,6 @@
 """EMCY producer: codes and register on the bus (canopen's EMCY consumer), 0x1001 and the 0x1003
 history (newest first, 8 kept, cleared by writing 0), error reset, inhibit time, STOPPED."""
+
 from __future__ import annotations
 
 import time
@@ -26,9 +27,9 @@ def test_emcy_codes_register_and_history_newest_first(lab):
     dev = lab.device("master")
     node = lab.client("master")
     node.sdo["Inhibit time EMCY"].raw = 0
-    dev.raise_emcy(0x4210, data=b"\x2a")      # temperature
-    dev.raise_emcy(0x2310)                    # current
-    dev.raise_emcy(0xFF01)                    # manufacturer
+    dev.raise_emcy(0x4210, data=b"\x2a")  # temperature
+    dev.raise_emcy(0x2310)  # current
+    dev.raise_emcy(0xFF01)  # manufacturer
     log = wait_log(node, 3)
     assert [(e.code, e.register) for e in log] == [(0x4210, 0x09), (0x2310, 0x0B), (0xFF01, 0x8B)]
     assert log[0].data[:1] == b"\x2a"

@@ -6,6 +6,7 @@ does not clear it, and an entry removed from 0x1016 takes its heartbeat error wi
 The device runs live on a virtual bus; heartbeats are raw frames, 0x1001/0x1003 are read with
 canopen's RemoteNode and the EMCY frames come from canopen's EMCY consumer (no project client code).
 """
+
 from __future__ import annotations
 
 import threading
@@ -41,9 +42,12 @@ class Beater:
 
     def _run(self):
         import can
+
         while not self._stop.wait(0.03):
             if self.on.is_set():
-                self.bus.send(can.Message(arbitration_id=0x700 + self.node_id, data=[5], is_extended_id=False))
+                self.bus.send(
+                    can.Message(arbitration_id=0x700 + self.node_id, data=[5], is_extended_id=False)
+                )
 
     def close(self):
         self._stop.set()
@@ -74,17 +78,17 @@ def test_a_returning_heartbeat_leaves_the_trip_it_shares_0x8130_with(lab):
     dev, node, peer, other = _setup(lab)
     _seen(dev, peer, 2)
     _lose(dev, peer, 2)
-    dev.raise_emcy(0x8130)                     # the node program's peer_lost trip (nodes/runtime.py)
+    dev.raise_emcy(0x8130)  # the node program's peer_lost trip (nodes/runtime.py)
     assert _wait(lambda: 0x8130 in _codes(node))
-    _seen(dev, peer, 2)                        # the heartbeat is back, the trip still latched
+    _seen(dev, peer, 2)  # the heartbeat is back, the trip still latched
     time.sleep(0.1)
     assert node.sdo["Error register"].raw == 0x11
     assert 0x0000 not in _codes(node)
-    assert _codes(node) == [0x8130]            # one loss, one EMCY 0x8130 (not one per holder)
-    dev.clear_emcy(0x8130)                     # the trip is cleared: now the error is gone
+    assert _codes(node) == [0x8130]  # one loss, one EMCY 0x8130 (not one per holder)
+    dev.clear_emcy(0x8130)  # the trip is cleared: now the error is gone
     assert _wait(lambda: 0x0000 in _codes(node))
     assert node.sdo["Error register"].raw == 0
-    assert node.sdo[0x1003][0].raw == 1        # one occurrence in the history
+    assert node.sdo[0x1003][0].raw == 1  # one occurrence in the history
 
 
 def test_an_unrelated_watched_node_returning_does_not_clear_the_peers_error(lab):
@@ -93,7 +97,7 @@ def test_an_unrelated_watched_node_returning_does_not_clear_the_peers_error(lab)
     _seen(dev, other, 5)
     _lose(dev, other, 5)
     _lose(dev, peer, 2)
-    _seen(dev, other, 5)                       # node 5 is back, node 2 still silent
+    _seen(dev, other, 5)  # node 5 is back, node 2 still silent
     time.sleep(0.1)
     assert node.sdo["Error register"].raw == 0x11
     assert 0x0000 not in _codes(node)
@@ -108,10 +112,12 @@ def test_removing_the_0x1016_entry_of_a_lost_node_removes_its_heartbeat_error(la
     _seen(dev, other, 5)
     _lose(dev, peer, 2)
     assert node.sdo["Error register"].raw == 0x11
-    node.sdo["Consumer heartbeat time"][2].raw = (5 << 16) | (HB_MS + 50)   # another entry changed: node 2 still lost
+    node.sdo["Consumer heartbeat time"][2].raw = (5 << 16) | (
+        HB_MS + 50
+    )  # another entry changed: node 2 still lost
     assert dev.peer_status(2) == "lost" and node.sdo["Error register"].raw == 0x11
     assert 0x0000 not in _codes(node)
-    node.sdo["Consumer heartbeat time"][1].raw = 0                          # node 2 no longer watched
+    node.sdo["Consumer heartbeat time"][1].raw = 0  # node 2 no longer watched
     assert _wait(lambda: 0x0000 in _codes(node))
     assert node.sdo["Error register"].raw == 0
     assert 2 not in dev.heartbeat.consumers
@@ -120,9 +126,9 @@ def test_removing_the_0x1016_entry_of_a_lost_node_removes_its_heartbeat_error(la
 def test_an_unchanged_entry_keeps_watching_an_alive_node(lab):
     dev, node, peer, other = _setup(lab)
     _seen(dev, peer, 2)
-    node.sdo["Consumer heartbeat time"][2].raw = 0   # only the spare entry changes
+    node.sdo["Consumer heartbeat time"][2].raw = 0  # only the spare entry changes
     assert dev.peer_status(2) == "alive"
-    _lose(dev, peer, 2)                               # its deadline still runs: the loss is detected
+    _lose(dev, peer, 2)  # its deadline still runs: the loss is detected
     assert _wait(lambda: 0x8130 in _codes(node))
 
 
@@ -133,15 +139,15 @@ def test_one_emcy_per_lost_node_while_the_peer_trip_holds_0x8130(lab):
     dev, node, peer, other = _setup(lab)
     _seen(dev, peer, 2)
     _seen(dev, other, 5)
-    dev.raise_emcy(0x8130, data=b"\x02", subject=2)      # the peer trip (PDOs missing, heartbeat alive)
+    dev.raise_emcy(0x8130, data=b"\x02", subject=2)  # the peer trip (PDOs missing, heartbeat alive)
     assert _wait(lambda: _codes(node) == [0x8130])
     _lose(dev, other, 5)
     assert _wait(lambda: _codes(node) == [0x8130, 0x8130])
-    assert list(node.emcy.log)[-1].data[0] == 5          # manufacturer byte 0: the lost node
+    assert list(node.emcy.log)[-1].data[0] == 5  # manufacturer byte 0: the lost node
     _seen(dev, other, 5)
-    _lose(dev, other, 5)                                 # lost again: a new occurrence
+    _lose(dev, other, 5)  # lost again: a new occurrence
     assert _wait(lambda: _codes(node) == [0x8130] * 3)
-    _lose(dev, peer, 2)                                  # the trip's own peer: the same error, no frame
+    _lose(dev, peer, 2)  # the trip's own peer: the same error, no frame
     time.sleep(0.1)
     assert _codes(node) == [0x8130] * 3
     assert node.sdo[0x1003][0].raw == 3 and node.sdo["Error register"].raw == 0x11

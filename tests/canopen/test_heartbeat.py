@@ -1,5 +1,6 @@
 """Heartbeat producer (0x1017) and consumer (0x1016): period, timeout with EMCY 0x8130, the peer's
 return, and the consumer configuration rules."""
+
 from __future__ import annotations
 
 import statistics
@@ -16,7 +17,9 @@ def heartbeats(lab, bus, cob_id: int, n: int, timeout: float = 5.0) -> list[floa
     stamps = []
     end = time.monotonic() + timeout
     while len(stamps) < n and time.monotonic() < end:
-        m = lab.recv_until(bus, lambda m: m.arbitration_id == cob_id and list(m.data) != [0], end - time.monotonic())
+        m = lab.recv_until(
+            bus, lambda m: m.arbitration_id == cob_id and list(m.data) != [0], end - time.monotonic()
+        )
         if m is not None:
             stamps.append(m.timestamp)
     return stamps
@@ -51,7 +54,9 @@ def test_producer_period_follows_0x1017_and_0_stops_it(lab):
 
 
 def test_consumer_detects_loss_raises_emcy_and_sees_the_peer_back(lab):
-    master = lab.device("master", settings=DeviceSettings(heartbeat_producer_ms=50, heartbeat_consumers=((2, 200),)))
+    master = lab.device(
+        "master", settings=DeviceSettings(heartbeat_producer_ms=50, heartbeat_consumers=((2, 200),))
+    )
     events, cond = [], threading.Condition()
 
     def on_peer(ev):

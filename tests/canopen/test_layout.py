@@ -1,5 +1,6 @@
 """The device layer's layout rules: canopen's private state is touched in one adapter module only (a
 canopen upgrade breaks one file), no module over 500 lines, no function over 80 lines."""
+
 from __future__ import annotations
 
 import ast
@@ -38,6 +39,9 @@ def test_modules_and_functions_stay_small():
         if text.count("\n") > 500:
             too_long.append(f"{p.name}: {text.count(chr(10))} lines")
         for node in ast.walk(ast.parse(text)):
-            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.end_lineno - node.lineno >= 80:
+            if (
+                isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef))
+                and node.end_lineno - node.lineno >= 80
+            ):
                 too_long.append(f"{p.name}: {node.name} {node.end_lineno - node.lineno + 1} lines")
     assert too_long == []

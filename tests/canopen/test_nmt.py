@@ -1,5 +1,6 @@
 """NMT slave behaviour against canopen's NMT master: boot-up and heartbeat on every path, PDOs only
 in OPERATIONAL, SDO in PRE-OPERATIONAL and OPERATIONAL only, resets restore the power-on values."""
+
 from __future__ import annotations
 
 import time
@@ -49,7 +50,7 @@ def test_pdos_only_in_operational_and_sdo_not_in_stopped(lab):
     node = lab.client("master")
     bus = lab.raw_bus()
     net = node.network
-    assert pdo_after_sync(lab, net, bus) is None            # PRE-OPERATIONAL: no PDO ...
+    assert pdo_after_sync(lab, net, bus) is None  # PRE-OPERATIONAL: no PDO ...
     assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)  # ... but SDO works
     node.nmt.state = "OPERATIONAL"
     assert wait_state(node, "OPERATIONAL") == "OPERATIONAL"
@@ -80,8 +81,8 @@ def test_reset_node_restores_everything_and_boots(lab):
     node.nmt.state = "RESET"
     node.nmt.wait_for_bootup(2.0)
     assert wait_state(node, "PRE-OPERATIONAL") == "PRE-OPERATIONAL"
-    assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)       # application reset
-    assert node.sdo["Producer heartbeat time"].raw == 20           # power-on value (settings), not the EDS 100
+    assert node.sdo["kp_A_per_C"].raw == pytest.approx(0.5)  # application reset
+    assert node.sdo["Producer heartbeat time"].raw == 20  # power-on value (settings), not the EDS 100
     assert dev.state is NmtState.PRE_OPERATIONAL
 
 
@@ -99,9 +100,15 @@ def test_reset_communication_restores_only_communication_objects(lab):
 def test_heartbeat_carries_the_state_on_every_path(lab):
     dev = lab.device("master", settings=FAST_HB)
     bus = lab.raw_bus()
-    for command, code in ((NmtCommand.START, 5), (NmtCommand.STOP, 4), (NmtCommand.ENTER_PRE_OPERATIONAL, 127),
-                          (NmtCommand.START, 5), (NmtCommand.RESET_COMMUNICATION, 127), (NmtCommand.STOP, 4),
-                          (NmtCommand.RESET_NODE, 127)):
+    for command, code in (
+        (NmtCommand.START, 5),
+        (NmtCommand.STOP, 4),
+        (NmtCommand.ENTER_PRE_OPERATIONAL, 127),
+        (NmtCommand.START, 5),
+        (NmtCommand.RESET_COMMUNICATION, 127),
+        (NmtCommand.STOP, 4),
+        (NmtCommand.RESET_NODE, 127),
+    ):
         bus.send(can.Message(arbitration_id=0, data=[command, 1], is_extended_id=False))
         if command in (NmtCommand.RESET_NODE, NmtCommand.RESET_COMMUNICATION):
             boot = lab.recv_until(bus, lambda m: m.arbitration_id == 0x701 and list(m.data) == [0])
@@ -147,5 +154,7 @@ def test_configuration_written_before_start_survives_power_on_but_not_reset_node
     node.nmt.state = "RESET"
     node.nmt.wait_for_bootup(2.0)
     assert node.sdo["kp_A_per_C"].raw == 0.5 and node.sdo["mode"].raw == 0
-    assert resets == [(NmtState.PRE_OPERATIONAL, NmtState.INITIALISING, NmtCommand.RESET_NODE),
-                      (NmtState.INITIALISING, NmtState.PRE_OPERATIONAL, NmtCommand.RESET_NODE)]
+    assert resets == [
+        (NmtState.PRE_OPERATIONAL, NmtState.INITIALISING, NmtCommand.RESET_NODE),
+        (NmtState.INITIALISING, NmtState.PRE_OPERATIONAL, NmtCommand.RESET_NODE),
+    ]

@@ -1,6 +1,7 @@
 """The parameter table (bus_config/partable.py) is the one declaration of the operator parameters: the
 checked-in EDS files (read by canopen's own parser), the generated docs page and the node's mapping to
 CoreParams (nodes/odparams.py) all agree with it, row by row."""
+
 from __future__ import annotations
 
 import math
@@ -29,8 +30,9 @@ def test_the_docs_pages_and_eds_files_are_the_generated_ones():
 def test_the_check_sees_a_stale_docs_page_and_regenerates_it(tmp_path, monkeypatch, capsys):
     page, doc = tmp_path / "parameters.md", tmp_path / "canopen.md"
     page.write_text(partable.markdown().replace("proportional gain", "gain"), encoding="utf-8")
-    doc.write_text(edsgen.CANOPEN_DOC.read_text(encoding="utf-8").replace("| kp_A_per_C |", "| kp |"),
-                   encoding="utf-8")
+    doc.write_text(
+        edsgen.CANOPEN_DOC.read_text(encoding="utf-8").replace("| kp_A_per_C |", "| kp |"), encoding="utf-8"
+    )
     monkeypatch.setattr(partable, "DOC", page)
     monkeypatch.setattr(edsgen, "CANOPEN_DOC", doc)
     monkeypatch.setattr(edsgen, "_path", lambda name: tmp_path / name)
@@ -47,14 +49,19 @@ def test_every_row_is_in_the_checked_in_eds_as_declared(role):
     """canopen's parser (not ours) for names, types, access, PDO flag, integer limits and units; EdsInfo
     for the REAL32 limits canopen drops; and the files are what edsgen writes today."""
     eds = path(f"{role}.eds")
-    assert eds.read_text(encoding="ascii") == edsgen.render(role)   # stale: python -m ...bus_config.edsgen
+    assert eds.read_text(encoding="ascii") == edsgen.render(role)  # stale: python -m ...bus_config.edsgen
     od = canopen.import_od(str(eds), edsgen.NODE_IDS[role])
     info = EdsInfo(eds)
     for p in PARAMS:
         var = od[p.index]
         assert isinstance(var, canopen.objectdictionary.ODVariable), p.name
-        assert (var.name, var.data_type, var.access_type, var.pdo_mappable, var.unit) == \
-            (p.name, p.data_type, p.access, p.pdo, p.unit), p.name
+        assert (var.name, var.data_type, var.access_type, var.pdo_mappable, var.unit) == (
+            p.name,
+            p.data_type,
+            p.access,
+            p.pdo,
+            p.unit,
+        ), p.name
         assert var.description == p.doc
         vi = info.get(p.name)
         lo, hi, default = (p.value(w, role) for w in ("low", "high", "default"))
@@ -66,17 +73,22 @@ def test_the_table_names_each_object_once_and_the_sdo_gains():
     assert len({p.index for p in PARAMS}) == len({p.name for p in PARAMS}) == len(PARAMS)
     assert [p.index for p in PARAMS] == sorted(p.index for p in PARAMS)
     assert set(PARAM_KEYS) == {p.name for p in PARAMS}
-    assert GAIN_KEYS == SDO_GAIN_FIELDS   # a per-mode gain object is named as its CoreParams field
+    assert GAIN_KEYS == SDO_GAIN_FIELDS  # a per-mode gain object is named as its CoreParams field
 
 
 def _params_for(mode, render=None):
-    return default_params(Role.MASTER, mode=mode, render=render) if render is not None else \
-        default_params(Role.MASTER, mode=mode)
+    return (
+        default_params(Role.MASTER, mode=mode, render=render)
+        if render is not None
+        else default_params(Role.MASTER, mode=mode)
+    )
 
 
 def _image(book: ParamBook) -> dict:
     rs = book.render_settings()
-    return od_image(book.params(), rs, material_code=book.material_code(rs), peer_miss_limit=book.peer_miss_limit)
+    return od_image(
+        book.params(), rs, material_code=book.material_code(rs), peer_miss_limit=book.peer_miss_limit
+    )
 
 
 def _candidates(p, now):

@@ -1,6 +1,7 @@
 """PDOs and SYNC: TPDOs on SYNC with the OD's values (counted transmission types), RPDOs into the OD
 at the next SYNC, the SYNC counter and the producer's own tick, and PDO configuration by canopen's
 own PDO client (dynamic mapping)."""
+
 from __future__ import annotations
 
 import struct
@@ -64,7 +65,7 @@ def test_sync_start_value_delays_the_first_transmission(lab):
     node = lab.client("slave")
     comm = node.sdo["TPDO2 communication parameter"]
     cob = comm["COB-ID used by TPDO"].raw
-    comm["COB-ID used by TPDO"].raw = cob | 0x80000000     # only while the PDO is invalid (CiA 301, CANopenNode)
+    comm["COB-ID used by TPDO"].raw = cob | 0x80000000  # only while the PDO is invalid (CiA 301, CANopenNode)
     comm["SYNC start value"].raw = 7
     comm["COB-ID used by TPDO"].raw = cob
     bus = lab.raw_bus()
@@ -87,16 +88,18 @@ def test_sync_start_value_and_mapping_change_only_while_the_pdo_is_invalid(lab):
     node = lab.client("slave")
     comm, mapping = node.sdo[0x1801], node.sdo[0x1A01]
     before = (comm[6].raw, mapping[0].raw, mapping[1].raw)
-    for fn, code in ((lambda: setattr(comm[6], "raw", 3), 0x06090030),
-                     (lambda: setattr(mapping[0], "raw", 0), 0x06010000),
-                     (lambda: setattr(mapping[1], "raw", 0x20000020), 0x06010000)):
+    for fn, code in (
+        (lambda: setattr(comm[6], "raw", 3), 0x06090030),
+        (lambda: setattr(mapping[0], "raw", 0), 0x06010000),
+        (lambda: setattr(mapping[1], "raw", 0x20000020), 0x06010000),
+    ):
         with pytest.raises(SdoAbortedError) as exc:
             fn()
         assert exc.value.code == code
     assert (comm[6].raw, mapping[0].raw, mapping[1].raw) == before
     cob = comm[1].raw
     comm[1].raw = cob | 0x80000000
-    with pytest.raises(SdoAbortedError) as exc:       # entries only while sub 0 is 0
+    with pytest.raises(SdoAbortedError) as exc:  # entries only while sub 0 is 0
         mapping[1].raw = 0x20000020
     assert exc.value.code == 0x06010000
     mapping[0].raw = 0
@@ -121,16 +124,19 @@ def test_a_sync_of_the_wrong_length_is_not_processed_and_raises_emcy_0x8240(lab)
     barrier(node)
     frames = drain(bus)
     emcy = [bytes(m.data) for m in frames if m.arbitration_id == 0x82]
-    deadline = time.monotonic() + 5.0     # EMCYs are spaced by the inhibit time 0x1015
+    deadline = time.monotonic() + 5.0  # EMCYs are spaced by the inhibit time 0x1015
     while sum(d[:2] == b"\x40\x82" for d in emcy) < 2 and time.monotonic() < deadline:
         m = bus.recv(0.1)
         if m is not None:
             frames.append(m)
             emcy += [bytes(m.data)] if m.arbitration_id == 0x82 else []
     assert not any(m.arbitration_id == 0x182 for m in frames), "a wrong-length SYNC was processed"
-    assert [(int.from_bytes(d[:2], "little"), d[3]) for d in emcy if d[:2] != b"\0\0"] == [(0x8240, 0), (0x8240, 2)]
+    assert [(int.from_bytes(d[:2], "little"), d[3]) for d in emcy if d[:2] != b"\0\0"] == [
+        (0x8240, 0),
+        (0x8240, 2),
+    ]
     assert node.sdo[0x1001].raw == 0 and node.sdo[0x1003][1].raw & 0xFFFF == 0x8240
-    node.network.sync.transmit(1)                              # the right length: processed
+    node.network.sync.transmit(1)  # the right length: processed
     assert lab.recv_until(bus, lambda m: m.arbitration_id == 0x182) is not None
 
 
@@ -183,7 +189,9 @@ def test_rpdo_reaches_the_od_at_the_next_sync(lab):
     peer.tpdo[1].transmit()
     barrier(node)
     assert node.sdo["peer_estimate_C"].raw == 0.0  # synchronous RPDO: not before the next SYNC
-    assert [(e.number, e.values, e.sync_counter) for e in events] == [(1, {"peer_estimate_C": 34.5, "peer_Q_W": 0.75}, 1)]
+    assert [(e.number, e.values, e.sync_counter) for e in events] == [
+        (1, {"peer_estimate_C": 34.5, "peer_Q_W": 0.75}, 1)
+    ]
     node.network.sync.transmit(2)
     barrier(node)
     assert node.sdo["peer_estimate_C"].raw == 34.5 and node.sdo["peer_Q_W"].raw == 0.75
@@ -217,7 +225,7 @@ def test_two_devices_exchange_in_lockstep(lab):
         # every PDO of the cycle (TPDO1, then the contact TPDO5) is in before the next SYNC
         assert master.wait_rpdo(1, after=n, timeout=5.0) and master.wait_rpdo(2, after=n2, timeout=5.0)
     assert master.read("estimate_C") == 200.0 and slave.read("estimate_C") == 200.0
-    assert fresh[0] == () and all(f == (1, 2) for f in fresh[1:])   # RPDO1 and the contact RPDO2
+    assert fresh[0] == () and all(f == (1, 2) for f in fresh[1:])  # RPDO1 and the contact RPDO2
 
 
 def test_pdo_reconfiguration_with_canopens_pdo_client(lab):
@@ -300,7 +308,9 @@ def test_nan_and_inf_in_an_rpdo_reach_the_od_unchanged(lab):
     bus = lab.raw_bus()
     node.nmt.state = "OPERATIONAL"
     barrier(node)
-    bus.send(can.Message(arbitration_id=0x182, data=struct.pack("<ff", math.nan, math.inf), is_extended_id=False))
+    bus.send(
+        can.Message(arbitration_id=0x182, data=struct.pack("<ff", math.nan, math.inf), is_extended_id=False)
+    )
     node.network.sync.transmit(1)
     barrier(node)
     assert math.isnan(dev.read("peer_estimate_C")) and dev.read("peer_Q_W") == math.inf
@@ -315,7 +325,7 @@ def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cyc
     at every SYNC the producer sees the peer's value of the previous SYNC."""
     master, slave = lab.device("master"), lab.device("slave")
     w = slave.writer("estimate_C")
-    slave.add_sync_handler(lambda tick: w(float(tick.counter)))     # the peer answers SYNC k with k
+    slave.add_sync_handler(lambda tick: w(float(tick.counter)))  # the peer answers SYNC k with k
     seen = []
     r = master.reader("peer_estimate_C")
     master.add_sync_handler(lambda tick: seen.append((tick.counter, tick.fresh_rpdos, r())))
@@ -325,9 +335,13 @@ def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cyc
 
     def slow_send(cob_id, data, remote=False):
         send(cob_id, data, remote)
-        if cob_id == 0x80:   # a thread switch right after the SYNC: the peer's TPDO k gets here first
-            lab.recv_until(observer, lambda m: m.arbitration_id == 0x182 and m.data[:4] == struct.pack("<f", data[0]))
-            lab.recv_until(observer, lambda m: m.arbitration_id == 0x682)   # and its contact PDO, sent after it
+        if cob_id == 0x80:  # a thread switch right after the SYNC: the peer's TPDO k gets here first
+            lab.recv_until(
+                observer, lambda m: m.arbitration_id == 0x182 and m.data[:4] == struct.pack("<f", data[0])
+            )
+            lab.recv_until(
+                observer, lambda m: m.arbitration_id == 0x682
+            )  # and its contact PDO, sent after it
             threading.Event().wait(0.02)
 
     master.nmt_command(NmtCommand.START, 0)
@@ -358,17 +372,17 @@ def test_a_stopped_producer_sends_no_sync_and_resumes_on_nmt_start(lab):
     dev.nmt_command(NmtCommand.START, 0)
     for _ in range(3):
         sync.transmit()
-    node.nmt.send_command(0x02)                    # NMT stop from another master (canopen's NmtMaster)
+    node.nmt.send_command(0x02)  # NMT stop from another master (canopen's NmtMaster)
     end = time.monotonic() + 2
     while dev.state is not NmtState.STOPPED and time.monotonic() < end:
         time.sleep(0.005)
     assert sync.transmit() is None and sync.transmit() is None
-    node.nmt.send_command(0x01)                    # NMT start: SYNC again, the counter restarts at 1
+    node.nmt.send_command(0x01)  # NMT start: SYNC again, the counter restarts at 1
     while dev.state is not NmtState.OPERATIONAL and time.monotonic() < end + 2:
         time.sleep(0.005)
     assert sync.transmit() is not None and sync.transmit() is not None
     syncs = [m.data[0] for m in drain(bus) if m.arbitration_id == 0x80]
-    assert syncs == [1, 2, 3, 1, 2]                # before the stop, then CANopenNode's restart at 1
+    assert syncs == [1, 2, 3, 1, 2]  # before the stop, then CANopenNode's restart at 1
 
 
 def test_0x1019_is_refused_while_the_communication_cycle_period_runs(lab):
@@ -382,9 +396,9 @@ def test_0x1019_is_refused_while_the_communication_cycle_period_runs(lab):
     assert exc.value.code == 0x08000022
     assert node.sdo["Synchronous counter overflow value"].raw == 240 and dev.read(0x1019) == 240
     with pytest.raises(SdoAbortedError) as exc:
-        node.sdo["Synchronous counter overflow value"].raw = 1      # an invalid value stays 0x06090030
+        node.sdo["Synchronous counter overflow value"].raw = 1  # an invalid value stays 0x06090030
     assert exc.value.code == 0x06090030
-    other = lab.device("slave", settings=DeviceSettings(sync_period_us=0))   # configured without a period
+    other = lab.device("slave", settings=DeviceSettings(sync_period_us=0))  # configured without a period
     lab.client("slave").sdo["Synchronous counter overflow value"].raw = 5
     assert other.read(0x1019) == 5
 
@@ -403,5 +417,5 @@ def test_0x1006_reports_the_configured_period_and_refuses_another(lab):
         assert exc.value.code == 0x08000021
         assert node.sdo["Communication cycle period"].raw == 5000 and dev.read(0x1006) == 5000
     node.sdo["Communication cycle period"].raw = 5000
-    with pytest.raises(OdWriteError):                 # the program's own write too: configure it instead
+    with pytest.raises(OdWriteError):  # the program's own write too: configure it instead
         dev.write(0x1006, 1000)

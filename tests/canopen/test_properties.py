@@ -1,5 +1,6 @@
 """Property: whatever REAL32 or integer value a client writes to a ranged object, it is stored iff it
 lies in the EDS range, and otherwise refused with the matching code and the old value kept."""
+
 from __future__ import annotations
 
 import contextlib
@@ -16,10 +17,16 @@ from telethermo.device import Device
 from telethermo.device.eds_info import EdsInfo
 
 INFO = EdsInfo(path("master.eds"))
-REALS = sorted(v.key for (i, _), v in INFO.vars.items()
-               if i >= 0x2000 and v.writable and v.data_type == 0x0008 and v.low is not None)
-INTS = sorted(v.key for (i, _), v in INFO.vars.items()
-              if i >= 0x2000 and v.writable and v.data_type in (5, 6, 7) and v.low is not None)
+REALS = sorted(
+    v.key
+    for (i, _), v in INFO.vars.items()
+    if i >= 0x2000 and v.writable and v.data_type == 0x0008 and v.low is not None
+)
+INTS = sorted(
+    v.key
+    for (i, _), v in INFO.vars.items()
+    if i >= 0x2000 and v.writable and v.data_type in (5, 6, 7) and v.low is not None
+)
 
 
 @pytest.fixture(scope="module")
@@ -27,6 +34,7 @@ def node():
     """One device (node 1) and canopen's SDO client, shared by all examples of this module."""
     channel = f"tt-prop-{uuid.uuid4().hex[:8]}"
     with contextlib.ExitStack() as stack:
+
         def network() -> canopen.Network:
             net = canopen.Network()
             net.NOTIFIER_CYCLE = 0.05

@@ -3,6 +3,7 @@ does: from the first RPDO received in OPERATIONAL, a late RPDO raises EMCY 0x825
 number) once, the next RPDO clears it; beside the node program's own peer trip (EMCY 0x8130), which it
 leaves alone. The device runs live; RPDO frames are raw python-can frames, EMCYs and 0x1001/0x1003 come
 from canopen's RemoteNode and EMCY consumer."""
+
 from __future__ import annotations
 
 import struct
@@ -12,7 +13,7 @@ import can
 
 from telethermo.device import NmtCommand
 
-RPDO1 = 0x182          # the master's RPDO1: the slave's TPDO1 (8 bytes, type 1)
+RPDO1 = 0x182  # the master's RPDO1: the slave's TPDO1 (8 bytes, type 1)
 
 
 def _wait(pred, timeout: float = 5.0) -> bool:
@@ -44,21 +45,21 @@ def _rpdo(bus) -> None:
 
 def test_a_late_rpdo_raises_0x8250_once_and_the_next_one_clears_it(lab):
     dev, node, bus = _setup(lab, 150)
-    time.sleep(0.4)                                     # no RPDO yet: not monitored, no error
+    time.sleep(0.4)  # no RPDO yet: not monitored, no error
     assert _codes(node) == [] and node.sdo["Error register"].raw == 0
     n = dev.stats.rpdo_count
     _rpdo(bus)
     assert _wait(lambda: dev.stats.rpdo_count > n)
-    assert _wait(lambda: 0x8250 in _codes(node))        # silent for longer than 150 ms
+    assert _wait(lambda: 0x8250 in _codes(node))  # silent for longer than 150 ms
     emcy = list(node.emcy.log)[-1]
     assert emcy.code == 0x8250 and emcy.data[0] == 1 and emcy.register == 0x11
     assert node.sdo[0x1003][1].raw & 0xFFFF == 0x8250
     time.sleep(0.4)
-    assert _codes(node) == [0x8250]                     # once, not once per event time
+    assert _codes(node) == [0x8250]  # once, not once per event time
     _rpdo(bus)
     assert _wait(lambda: _codes(node) == [0x8250, 0x0000])
     assert node.sdo["Error register"].raw == 0
-    assert _wait(lambda: _codes(node)[-1] == 0x8250)    # monitored again from that RPDO
+    assert _wait(lambda: _codes(node)[-1] == 0x8250)  # monitored again from that RPDO
 
 
 def test_rpdos_in_time_raise_nothing_and_timer_0_is_off(lab):
@@ -68,7 +69,7 @@ def test_rpdos_in_time_raise_nothing_and_timer_0_is_off(lab):
     assert _codes(node) == []
     node.sdo[0x1400][5].raw = 1000
     _rpdo(bus)
-    for _ in range(5):                                  # every 50 ms: well inside 1000 ms
+    for _ in range(5):  # every 50 ms: well inside 1000 ms
         time.sleep(0.05)
         _rpdo(bus)
     assert _codes(node) == [] and node.sdo["Error register"].raw == 0
@@ -76,14 +77,14 @@ def test_rpdos_in_time_raise_nothing_and_timer_0_is_off(lab):
 
 def test_the_rpdo_timeout_and_the_programs_peer_trip_keep_their_own_errors(lab):
     dev, node, bus = _setup(lab, 1000)
-    dev.raise_emcy(0x8130, data=b"\x02", subject=2)     # the node program's peer_lost trip
+    dev.raise_emcy(0x8130, data=b"\x02", subject=2)  # the node program's peer_lost trip
     _rpdo(bus)
     assert _wait(lambda: _codes(node) == [0x8130, 0x8250])
-    _rpdo(bus)                                          # RPDO back: the RPDO timeout alone clears
+    _rpdo(bus)  # RPDO back: the RPDO timeout alone clears
     assert _wait(lambda: dev.active_errors == (0x8130,))
     assert node.sdo["Error register"].raw == 0x11 and 0x0000 not in _codes(node)
-    node.sdo[0x1400][5].raw = 0                         # no longer monitored
-    dev.clear_emcy(0x8130)                              # the trip cleared: now no error is left
+    node.sdo[0x1400][5].raw = 0  # no longer monitored
+    dev.clear_emcy(0x8130)  # the trip cleared: now no error is left
     assert _wait(lambda: _codes(node) == [0x8130, 0x8250, 0x0000])
     assert node.sdo["Error register"].raw == 0
 

@@ -1,5 +1,6 @@
 """SDO server of the device against canopen's SDO client: by name and index, range aborts with the
 exact CiA 301 codes, the value left unchanged, read-only and unknown objects refused."""
+
 from __future__ import annotations
 
 import math
@@ -31,17 +32,20 @@ def test_read_and_write_by_name_and_by_index(lab):
     assert node.sdo[0x1008].raw == "telethermo master"  # segmented upload
 
 
-@pytest.mark.parametrize("name, value, code", [
-    ("T_max_C", 60.5, 0x06090031),         # REAL32 above HighLimit (a limit canopen itself drops): the
-    ("T_max_C", -0.5, 0x06090032),         # probe's [0, 60] °C on the slave; below LowLimit
-    ("T_min_C", math.nan, 0x06090030),     # NaN: no place in any range
-    ("kp_A_per_C", 20.5, 0x06090031),
-    ("ramp_limit_C_per_s", 0.0, 0x06090032),
-    ("mode", 4, 0x06090031),               # UNSIGNED8 with range 0..3
-    ("peer_pdo_miss_limit", 0, 0x06090032),
-    ("Synchronous counter overflow value", 1, 0x06090030),   # 1 is not a valid overflow
-    ("Synchronous counter overflow value", 241, 0x06090031),
-])
+@pytest.mark.parametrize(
+    "name, value, code",
+    [
+        ("T_max_C", 60.5, 0x06090031),  # REAL32 above HighLimit (a limit canopen itself drops): the
+        ("T_max_C", -0.5, 0x06090032),  # probe's [0, 60] °C on the slave; below LowLimit
+        ("T_min_C", math.nan, 0x06090030),  # NaN: no place in any range
+        ("kp_A_per_C", 20.5, 0x06090031),
+        ("ramp_limit_C_per_s", 0.0, 0x06090032),
+        ("mode", 4, 0x06090031),  # UNSIGNED8 with range 0..3
+        ("peer_pdo_miss_limit", 0, 0x06090032),
+        ("Synchronous counter overflow value", 1, 0x06090030),  # 1 is not a valid overflow
+        ("Synchronous counter overflow value", 241, 0x06090031),
+    ],
+)
 def test_out_of_range_write_is_aborted_with_the_exact_code_and_leaves_the_value(lab, name, value, code):
     dev = lab.device("slave")
     node = lab.client("slave")
@@ -131,8 +135,8 @@ def test_write_validator_refuses_with_its_abort_code_and_leaves_the_value(lab):
     assert node.sdo["mode"].raw == before == 1 and dev.read("mode") == 1
     node.sdo["mode"].raw = 3
     assert dev.read("mode") == 3
-    assert calls == [1, 2, 3]                       # the decoded value, once per download
-    assert seen == [(0x2500, 1), (0x2500, 3)]       # the refused write reached no listener
+    assert calls == [1, 2, 3]  # the decoded value, once per download
+    assert seen == [(0x2500, 1), (0x2500, 3)]  # the refused write reached no listener
     # the EDS range check comes first: the validator never sees an out-of-range value
     assert abort_code(lambda: setattr(node.sdo["mode"], "raw", 9)) == 0x06090031
     assert calls == [1, 2, 3]
@@ -150,7 +154,7 @@ def test_a_failing_validator_refuses_with_a_general_error_and_is_counted(lab):
     assert abort_code(lambda: setattr(node.sdo["kp_A_per_C"], "raw", 1.0)) == 0x08000000
     assert dev.read("kp_A_per_C") == before
     assert node.sdo["callback_errors"].raw == 1
-    node.sdo["ki_A_per_C_s"].raw = 0.25             # other objects are untouched by it
+    node.sdo["ki_A_per_C_s"].raw = 0.25  # other objects are untouched by it
     assert dev.read("ki_A_per_C_s") == 0.25
 
 
@@ -180,6 +184,6 @@ def test_cob_id_sync_refuses_the_29_bit_frame_bit(lab):
     assert abort_code(lambda: setattr(node.sdo["COB-ID SYNC"], "raw", 0x20000080)) == 0x06090030
     assert abort_code(lambda: setattr(node.sdo["COB-ID SYNC"], "raw", 0x200000A0)) == 0x06090030
     assert node.sdo["COB-ID SYNC"].raw == 0x80 and dev.sync_cob_id == 0x80
-    node.network.sync.transmit(7)                   # canopen's SYNC producer, 11-bit 0x80
-    node.sdo["COB-ID SYNC"].raw                     # SDO round trip: the SYNC before it was handled
+    node.network.sync.transmit(7)  # canopen's SYNC producer, 11-bit 0x80
+    node.sdo["COB-ID SYNC"].raw  # SDO round trip: the SYNC before it was handled
     assert ticks == [7]

@@ -4,6 +4,7 @@ transfer left open is aborted with 0x05040000 after the server timeout (as block
 
 Through canopen's SdoClient where it can say it, raw python-can frames where the exact frame order
 matters (the abort answers the initiate itself; a late segment finds no transfer)."""
+
 from __future__ import annotations
 
 import struct
@@ -12,7 +13,7 @@ import can
 import pytest
 from canopen import SdoAbortedError
 
-THETA1 = (0x2310, 1)        # REAL64, rw (8 bytes)
+THETA1 = (0x2310, 1)  # REAL64, rw (8 bytes)
 SDO_RX, SDO_TX = 0x601, 0x581
 
 
@@ -41,14 +42,17 @@ def aborted(answer: bytes | None) -> tuple[int, int, int] | None:
     return struct.unpack_from("<HBL", answer, 1)
 
 
-@pytest.mark.parametrize("index, sub, size, code", [
-    (0x2FFF, 0, 8, 0x06020000),          # no such object
-    (0x2310, 0x7F, 8, 0x06090011),       # no such sub-index
-    (0x2000, 0, 4, 0x06010002),          # T_sensor_C: read-only
-    (0x1008, 0, 12, 0x06010002),         # device name: const
-    (*THETA1, 12, 0x06070012),           # 12 bytes indicated for a REAL64
-    (*THETA1, 5, 0x06070013),            # 5 bytes indicated for a REAL64
-])
+@pytest.mark.parametrize(
+    "index, sub, size, code",
+    [
+        (0x2FFF, 0, 8, 0x06020000),  # no such object
+        (0x2310, 0x7F, 8, 0x06090011),  # no such sub-index
+        (0x2000, 0, 4, 0x06010002),  # T_sensor_C: read-only
+        (0x1008, 0, 12, 0x06010002),  # device name: const
+        (*THETA1, 12, 0x06070012),  # 12 bytes indicated for a REAL64
+        (*THETA1, 5, 0x06070013),  # 5 bytes indicated for a REAL64
+    ],
+)
 def test_a_segmented_download_that_cannot_succeed_is_refused_at_its_initiate(lab, index, sub, size, code):
     dev = lab.device("master")
     bus = lab.raw_bus()
@@ -64,7 +68,7 @@ def test_canopens_client_gets_the_initiate_refusals(lab):
     assert abort_code(lambda: node.sdo.download(*THETA1, b"\x01" * 12, force_segment=True)) == 0x06070012
     assert abort_code(lambda: node.sdo.download(0x2FFF, 0, b"\x01" * 8, force_segment=True)) == 0x06020000
     assert abort_code(lambda: node.sdo.download(0x2000, 0, b"\x01" * 4, force_segment=True)) == 0x06010002
-    node.sdo.download(*THETA1, struct.pack("<d", 2.5), force_segment=True)   # the right size: stored
+    node.sdo.download(*THETA1, struct.pack("<d", 2.5), force_segment=True)  # the right size: stored
     assert dev.read("theta1") == 2.5
 
 
@@ -79,7 +83,7 @@ def test_an_unsized_segmented_download_is_checked_at_the_end_as_before(lab):
 
 def test_a_download_left_open_is_aborted_with_0x05040000_and_a_late_segment_finds_no_transfer(lab):
     dev = lab.device("master")
-    assert dev.SDO_SEGMENT_TIMEOUT_S == 1.0          # as the block transfers
+    assert dev.SDO_SEGMENT_TIMEOUT_S == 1.0  # as the block transfers
     bus = lab.raw_bus()
     assert exchange(lab, bus, initiate_download(*THETA1, 8))[0] == 0x60
     answer = lab.recv_until(bus, lambda m: m.arbitration_id == SDO_TX, timeout=10.0)
@@ -87,7 +91,7 @@ def test_a_download_left_open_is_aborted_with_0x05040000_and_a_late_segment_find
     # the client's segment after the abort belongs to no transfer
     assert aborted(exchange(lab, bus, bytes([0x01 | 6 << 1]) + b"\x40"))[2] == 0x05040001
     assert dev.read("theta1") == 0.0
-    node = lab.client("master")                       # the channel is free again
+    node = lab.client("master")  # the channel is free again
     node.sdo.download(*THETA1, struct.pack("<d", 1.5), force_segment=True)
     assert dev.read("theta1") == 1.5
 

@@ -1,6 +1,7 @@
 """The device layer on a real SocketCAN interface (vcan0): the same CiA 301 behaviour as on the
 python-can ``virtual`` bus, checked with canopen's client. Part of the ``vcan`` group: run natively
 where the kernel has vcan, else inside ../shared/tools/vcan-run (scripts/run-tests does both)."""
+
 from __future__ import annotations
 
 import os
@@ -21,8 +22,10 @@ pytestmark = pytest.mark.vcan
 def channel() -> str:
     name = os.environ.get("TELETHERMO_VCAN", "vcan0")
     if not os.path.exists(f"/sys/class/net/{name}"):
-        pytest.skip(f"SocketCAN interface {name!r} does not exist on this kernel "
-                    "(set TELETHERMO_VCAN, or run inside ../shared/tools/vcan-run)")
+        pytest.skip(
+            f"SocketCAN interface {name!r} does not exist on this kernel "
+            "(set TELETHERMO_VCAN, or run inside ../shared/tools/vcan-run)"
+        )
     return name
 
 

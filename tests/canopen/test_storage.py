@@ -1,5 +1,6 @@
 """CiA 301 0x1010/0x1011 of the device layer (telethermo.device.storage) against canopen's SDO client on the
 virtual bus, and the store file's checks: each fault is named with the file in one line."""
+
 from __future__ import annotations
 
 import json
@@ -7,8 +8,15 @@ import json
 import pytest
 from canopen import SdoAbortedError
 
-from telethermo.device.storage import (APPLICATION, COMMUNICATION, StoreError, StoreFile, StoreRestore,
-                                       communication_image, install_communication)
+from telethermo.device.storage import (
+    APPLICATION,
+    COMMUNICATION,
+    StoreError,
+    StoreFile,
+    StoreRestore,
+    communication_image,
+    install_communication,
+)
 
 
 def test_signatures_capability_and_a_failed_store(lab):
@@ -28,7 +36,7 @@ def test_signatures_capability_and_a_failed_store(lab):
     assert [node.sdo[0x1010][s].raw for s in (1, 2, 3)] == [1, 1, 1]
     assert node.sdo[0x1011][1].raw == 1
     with pytest.raises(SdoAbortedError) as exc:
-        node.sdo.download(0x1010, 1, b"evas")      # the bytes reversed: not the signature
+        node.sdo.download(0x1010, 1, b"evas")  # the bytes reversed: not the signature
     assert exc.value.code == 0x08000020
     with pytest.raises(SdoAbortedError) as exc:
         node.sdo.download(0x1010, COMMUNICATION, b"save")
@@ -44,16 +52,20 @@ def test_communication_values_become_the_power_on_values(lab):
     assert image["0x1017:0"] == (170).to_bytes(2, "little").hex()
     assert not any(k.startswith(("0x1003:", "0x1005:", "0x1010:", "0x1011:")) for k in image)
     other = lab.device("master", node_id=5, start=False)
-    assert install_communication(other, dict(image, **{"0x7777:0": "00"}), live=False) == \
-        ["0x7777:0: not a stored object of master.eds (or another size)"]
+    assert install_communication(other, dict(image, **{"0x7777:0": "00"}), live=False) == [
+        "0x7777:0: not a stored object of master.eds (or another size)"
+    ]
     other.start()
     assert other.read(0x1017) == 100 and other.od_access.defaults[(0x1017, 0)] == (170).to_bytes(2, "little")
 
 
 def _file(tmp_path, text: str | None = None) -> StoreFile:
     f = StoreFile(tmp_path / "node1.json", 1)
-    f.write(communication={"0x1017:0": "9600"}, application={"params": [["kp_A_per_C", 2.0]], "model": None},
-            saved_unix_s=1.5)
+    f.write(
+        communication={"0x1017:0": "9600"},
+        application={"params": [["kp_A_per_C", 2.0]], "model": None},
+        saved_unix_s=1.5,
+    )
     if text is not None:
         f.path.write_text(text)
     return f

@@ -1,5 +1,6 @@
 """Two real CiA 301 devices (telethermo.device.Device over canopen LocalNode, from
 bus_config's EDS and network settings) on a python-can virtual bus, for the CLI's tests."""
+
 from __future__ import annotations
 
 import itertools
@@ -26,7 +27,7 @@ class Nodes:
         self.networks, self.devices = [], {}
         for role in ("master", "slave"):
             nw = canopen.Network()
-            nw.NOTIFIER_CYCLE = 0.05      # quick shutdown
+            nw.NOTIFIER_CYCLE = 0.05  # quick shutdown
             nw.connect(interface="virtual", channel=self.channel)
             cfg = self.net.node(role)
             dev = Device(nw, cfg.node_id, cfg.eds, settings=self.net.device_settings(role))
@@ -57,10 +58,12 @@ def nodes():
 @pytest.fixture
 def cli(capsys):
     """Run ``telethermo ARGS`` in-process: (exit code, stdout, stderr)."""
+
     def run(*argv: str):
         code = main(list(argv))
         out = capsys.readouterr()
         return code, out.out, out.err
+
     return run
 
 

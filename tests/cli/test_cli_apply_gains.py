@@ -2,6 +2,7 @@
 by SDO, checked by canopen's own client from the shipped EDS; the gains without an object named in one line
 for a restart with --gains; the file's "apply" marks are the EDS's truth; bad files and a node in another
 mode refused with nothing written (issue 25)."""
+
 from __future__ import annotations
 
 import json
@@ -17,13 +18,24 @@ from telethermo.control.types import Role
 from telethermo.device.eds_info import load as load_eds
 from telethermo.nodes.launch import wait_for
 
-TUNED = {"kp_A_per_C": 1.25, "ki_A_per_C_s": 0.0625, "kQ_A_per_W": 0.5, "kpQ_A_per_W": 0.5,
-         "kiQ_A_per_W_s": 0.25}   # exact in REAL32, so the read-back compares equal
+TUNED = {
+    "kp_A_per_C": 1.25,
+    "ki_A_per_C_s": 0.0625,
+    "kQ_A_per_W": 0.5,
+    "kpQ_A_per_W": 0.5,
+    "kiQ_A_per_W_s": 0.25,
+}  # exact in REAL32, so the read-back compares equal
 
 
 def gains_file(tmp_path, **extra):
-    doc = {"format": GAINS_FORMAT, "period_s": 0.01, "master": dict(TUNED),
-           "slave": {k: GAINS[Role.SLAVE][k] for k in TUNED}, "apply": apply_marks(), **extra}
+    doc = {
+        "format": GAINS_FORMAT,
+        "period_s": 0.01,
+        "master": dict(TUNED),
+        "slave": {k: GAINS[Role.SLAVE][k] for k in TUNED},
+        "apply": apply_marks(),
+        **extra,
+    }
     f = tmp_path / "gains.json"
     f.write_text(json.dumps(doc))
     return f
@@ -33,18 +45,23 @@ def test_the_files_marks_are_what_the_eds_holds():
     for eds in ("master.eds", "slave.eds"):
         keys = set(load_eds(eds_path(eds)).by_key)
         assert set(SDO_GAIN_FIELDS) <= keys and not set(RESTART_GAIN_FIELDS) & keys, eds
-    assert apply_marks() == {"mode": "telepresence", "sdo": ["kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"],
-                             "restart": ["kpQ_A_per_W", "kiQ_A_per_W_s"]}
+    assert apply_marks() == {
+        "mode": "telepresence",
+        "sdo": ["kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"],
+        "restart": ["kpQ_A_per_W", "kiQ_A_per_W_s"],
+    }
 
 
 def test_bad_marks_are_refused_with_the_field(cli, tmp_path):
-    f = gains_file(tmp_path, apply={"mode": "telepresence", "sdo": ["kp_A_per_C", "kp"],
-                                    "restart": []})
+    f = gains_file(tmp_path, apply={"mode": "telepresence", "sdo": ["kp_A_per_C", "kp"], "restart": []})
     code, out, err = cli("apply-gains", "--bus", "virtual:none", str(f), "master")
     assert code == EXIT_USAGE and out == "" and err.count("\n") == 1
-    assert err.startswith(f"telethermo apply-gains: error: {f}: apply.sdo: expected a list of gain names from ")
-    f = gains_file(tmp_path, apply={"mode": "telepresence", "sdo": ["kp_A_per_C"],
-                                    "restart": ["kpQ_A_per_W"]})
+    assert err.startswith(
+        f"telethermo apply-gains: error: {f}: apply.sdo: expected a list of gain names from "
+    )
+    f = gains_file(
+        tmp_path, apply={"mode": "telepresence", "sdo": ["kp_A_per_C"], "restart": ["kpQ_A_per_W"]}
+    )
     code, _, err = cli("apply-gains", "--bus", "virtual:none", str(f))
     assert code == EXIT_USAGE and "apply: sdo and restart must split the gains" in err
 
@@ -58,9 +75,11 @@ def test_apply_gains_to_a_running_master(lone_master, cli, tmp_path):
     # idle: a write would set idle's gains, not telepresence's: refused, nothing written
     code, out, err = cli("apply-gains", "--bus", bus, str(f), "master")
     assert code == EXIT_FAIL and out == "" and err.count("\n") == 1, (out, err)
-    assert err == (f"telethermo apply-gains: master is in idle: the file holds telepresence gains and a "
-                   f"node writes a gain into the mode it is in; nothing written (`telethermo mode "
-                   f"telepresence` first, or start the nodes with --gains {f})\n")
+    assert err == (
+        f"telethermo apply-gains: master is in idle: the file holds telepresence gains and a "
+        f"node writes a gain into the mode it is in; nothing written (`telethermo mode "
+        f"telepresence` first, or start the nodes with --gains {f})\n"
+    )
     assert cli("get", "--bus", bus, "master", "kp_A_per_C")[1] == before
     net = canopen.Network()
     host, port_channel = bus.split("://")[1].split(":", 1)
@@ -72,10 +91,15 @@ def test_apply_gains_to_a_running_master(lone_master, cli, tmp_path):
         assert code == EXIT_OK, err
         lines = out.splitlines()
         assert [ln.split(" = ")[0] for ln in lines[:3]] == [
-            "master 0x2200 kp_A_per_C", "master 0x2201 ki_A_per_C_s", "master 0x2202 kQ_A_per_W"]
-        assert lines[3:] == [f"needs a node start with --gains {f} (no object to write): "
-                             "master kpQ_A_per_W = 0.5, master kiQ_A_per_W_s = 0.25"]
-        node = net.add_node(canopen.RemoteNode(1, str(eds_path("master.eds"))))   # not our client
+            "master 0x2200 kp_A_per_C",
+            "master 0x2201 ki_A_per_C_s",
+            "master 0x2202 kQ_A_per_W",
+        ]
+        assert lines[3:] == [
+            f"needs a node start with --gains {f} (no object to write): "
+            "master kpQ_A_per_W = 0.5, master kiQ_A_per_W_s = 0.25"
+        ]
+        node = net.add_node(canopen.RemoteNode(1, str(eds_path("master.eds"))))  # not our client
         assert {k: node.sdo[k].raw for k in SDO_GAIN_FIELDS} == {k: TUNED[k] for k in SDO_GAIN_FIELDS}
     finally:
         back = cli("set", "--bus", bus, "master", "mode", "idle")

@@ -2,6 +2,7 @@
 then python-can's config file (~/.canrc, sections), then network.toml; a running hub publishes where it
 listens so that a command needs no flag. Real CiA 301 devices on python-can virtual buses (and on a real
 telethermo-hub process), the real CLI, a temporary HOME and environment."""
+
 from __future__ import annotations
 
 import json
@@ -50,10 +51,13 @@ def canrc(home: Path, text: str) -> None:
 def network_file(tmp_path: Path, interface: str, channel: str, options: str = "") -> Path:
     """The shipped network.toml with another [bus] (and [bus.options] lines), the shipped EDS beside it."""
     import shutil
+
     text = cfg_path("network.toml").read_text()
-    for old, new in (('interface = "virtual"', f'interface = "{interface}"'),
-                     ('channel = "telethermo"', f'channel = "{channel}"'),
-                     ("[bus.options]\n", f"[bus.options]\n{options}\n")):
+    for old, new in (
+        ('interface = "virtual"', f'interface = "{interface}"'),
+        ('channel = "telethermo"', f'channel = "{channel}"'),
+        ("[bus.options]\n", f"[bus.options]\n{options}\n"),
+    ):
         assert old in text
         text = text.replace(old, new, 1)
     folder = tmp_path / "net"
@@ -71,8 +75,11 @@ def test_each_layer_wins_over_the_next(isolated, tmp_path, monkeypatch):
     assert (r.settings.describe(), r.source) == ("virtual:from-network", str(net.path))
     assert r.settings.bitrate == 1_000_000
 
-    canrc(isolated, "[default]\ninterface = virtual\nchannel = from-default\nbitrate = 500000\n"
-                    "[telethermo]\nchannel = from-section\n")
+    canrc(
+        isolated,
+        "[default]\ninterface = virtual\nchannel = from-default\nbitrate = 500000\n"
+        "[telethermo]\nchannel = from-section\n",
+    )
     r = resolve_bus(net)
     assert r.settings.describe() == "virtual:from-section" and r.settings.bitrate == 500_000
     assert r.source == f"[default] of {isolated / '.canrc'}".replace(str(isolated), "~")
@@ -87,7 +94,11 @@ def test_each_layer_wins_over_the_next(isolated, tmp_path, monkeypatch):
     assert resolve_bus(net).settings.channel == "from-env-context"
 
     r = resolve_bus(net, interface="virtual", channel="from-flags", bitrate=125_000)
-    assert r.settings.describe() == "virtual:from-flags" and r.settings.bitrate == 125_000 and r.source == "-i/-c/-b"
+    assert (
+        r.settings.describe() == "virtual:from-flags"
+        and r.settings.bitrate == 125_000
+        and r.source == "-i/-c/-b"
+    )
     # a flag sets one key; the others still come from the next layers (python-can merges key by key)
     r = resolve_bus(net, channel="only-channel")
     assert r.settings.describe() == "virtual:only-channel" and r.settings.bitrate == 250_000
@@ -104,10 +115,11 @@ def test_the_network_files_channel_belongs_to_its_interface(tmp_path, monkeypatc
         resolve_bus(net)
     monkeypatch.setenv("CAN_CONFIG", json.dumps({"channel": "vcan7", "receive_own_messages": True}))
     r = resolve_bus(net)
-    assert r.settings.describe() == "socketcan:vcan7" and dict(r.settings.options) == {"receive_own_messages": True}
+    assert r.settings.describe() == "socketcan:vcan7" and dict(r.settings.options) == {
+        "receive_own_messages": True
+    }
     # a socketcand network file: host and port come with its interface
-    net = load_network(network_file(tmp_path, "socketcand", "telethermo",
-                                    'host = "127.0.0.1"\nport = 29999'))
+    net = load_network(network_file(tmp_path, "socketcand", "telethermo", 'host = "127.0.0.1"\nport = 29999'))
     monkeypatch.delenv("CAN_INTERFACE")
     monkeypatch.delenv("CAN_CONFIG")
     assert resolve_bus(net).settings.describe() == "socketcand://127.0.0.1:29999/telethermo"
@@ -135,12 +147,18 @@ def test_an_unknown_interface_is_one_line_and_exit_2(where, isolated, tmp_path, 
 def test_a_node_program_refuses_an_unknown_interface_in_one_line(isolated):
     scene = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_pad_identification.toml"
     env = dict(os.environ, CAN_INTERFACE="kvasr", CAN_CHANNEL="0")
-    proc = subprocess.run([sys.executable, "-m", "telethermo.nodes.master", "--scene", str(scene), "--cycles", "1"],
-                          capture_output=True, text=True, env=env, timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-m", "telethermo.nodes.master", "--scene", str(scene), "--cycles", "1"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=60,
+    )
     assert proc.returncode == EXIT_USAGE, proc.stderr
     assert proc.stderr.strip().splitlines() == [
         "telethermo-master: error: environment (CAN_INTERFACE, CAN_CHANNEL, CAN_BITRATE, CAN_CONFIG): bus.interface: "
-        "unknown python-can interface 'kvasr'; expected one of " + ", ".join(sorted(can.VALID_INTERFACES))]
+        "unknown python-can interface 'kvasr'; expected one of " + ", ".join(sorted(can.VALID_INTERFACES))
+    ]
 
 
 # --- the order, end to end: `telethermo get` reads from real devices on the bus each layer names -----------
@@ -155,7 +173,10 @@ def test_get_finds_the_nodes_through_each_layer(nodes, isolated, tmp_path, monke
     canrc(isolated, "[default]\ninterface = virtual\nchannel = nobody-here\n")
     assert cli("get", "--network", net, "--timeout", "0.2", "master", "kp_A_per_C")[0] == EXIT_FAIL
     # ... and reaches the nodes when it names their bus; its [telethermo] section beats [default]
-    canrc(isolated, f"[default]\ninterface = virtual\nchannel = nobody-here\n[telethermo]\nchannel = {nodes.channel}\n")
+    canrc(
+        isolated,
+        f"[default]\ninterface = virtual\nchannel = nobody-here\n[telethermo]\nchannel = {nodes.channel}\n",
+    )
     assert cli(*ok)[0] == EXIT_OK
     # the environment beats the config file
     monkeypatch.setenv("CAN_CHANNEL", "nobody-here")
@@ -167,7 +188,10 @@ def test_get_finds_the_nodes_through_each_layer(nodes, isolated, tmp_path, monke
     # flags beat the environment
     monkeypatch.setenv("CAN_CHANNEL", "nobody-here")
     assert cli("get", "-c", nodes.channel, "master", "kp_A_per_C")[0] == EXIT_OK
-    assert cli("get", "-i", "virtual", "-c", "nobody-here", "--timeout", "0.2", "master", "kp_A_per_C")[0] == EXIT_FAIL
+    assert (
+        cli("get", "-i", "virtual", "-c", "nobody-here", "--timeout", "0.2", "master", "kp_A_per_C")[0]
+        == EXIT_FAIL
+    )
     assert cli("get", "--bus", f"virtual:{nodes.channel}", "master", "kp_A_per_C")[0] == EXIT_OK
 
 
@@ -177,7 +201,9 @@ def test_a_running_hub_is_found_with_no_flag_and_forgotten_when_it_stops(isolate
     from telethermo.device.device import Device
 
     code, out, err = cli("get", "--timeout", "0.1", "master", "kp_A_per_C")
-    assert code == EXIT_FAIL and "no hub or session is running" in err and "bus inside this process only" in err
+    assert (
+        code == EXIT_FAIL and "no hub or session is running" in err and "bus inside this process only" in err
+    )
     hub = HubProcess(publish=True)
     hub.start()
     nw = None
@@ -189,7 +215,9 @@ def test_a_running_hub_is_found_with_no_flag_and_forgotten_when_it_stops(isolate
         # a real master device (CiA 301 over canopen) on the hub, as a node process would be
         net = load_network()
         nw = canopen.Network()
-        nw.connect(interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo", tcp_tune=True)
+        nw.connect(
+            interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo", tcp_tune=True
+        )
         cfg = net.node("master")
         dev = Device(nw, cfg.node_id, cfg.eds, settings=net.device_settings("master"))
         dev.start()
@@ -215,7 +243,7 @@ def test_a_stale_or_damaged_state_file_is_ignored(isolated, tmp_path):
     assert running() is None and resolve_bus(net).settings.describe() == "virtual:telethermo"
     state_file().write_text("{not json")
     assert running() is None and resolve_bus(net).source == str(net.path)
-    publish("socketcand://127.0.0.1:2/telethermo", "telethermo session")   # this process: alive
+    publish("socketcand://127.0.0.1:2/telethermo", "telethermo session")  # this process: alive
     assert resolve_bus(net).settings.describe() == "socketcand://127.0.0.1:2/telethermo"
     assert resolve_bus(net, use_published=False).settings.describe() == "virtual:telethermo"
 
@@ -226,6 +254,8 @@ def test_a_malformed_canrc_is_named_without_a_section_it_does_not_have(isolated,
     canrc(isolated, "[default]\ninterface = virtual\nthis is not a key\n")
     code, out, err = cli("get", "master", "mode")
     assert code == 2 and out == ""
-    assert err == ("telethermo get: error: ~/.canrc: not a valid python-can config file (INI sections such as "
-                   "[default] or [telethermo]): Source contains parsing errors: '/HOME/.canrc' [line 3]: "
-                   "'this is not a key\\n'\n".replace("/HOME", str(isolated))), err
+    assert err == (
+        "telethermo get: error: ~/.canrc: not a valid python-can config file (INI sections such as "
+        "[default] or [telethermo]): Source contains parsing errors: '/HOME/.canrc' [line 3]: "
+        "'this is not a key\\n'\n".replace("/HOME", str(isolated))
+    ), err

@@ -1,4 +1,5 @@
 """The operator CLI against two real CiA 301 devices on a virtual bus (in-process, no mocks)."""
+
 from __future__ import annotations
 
 import json
@@ -46,17 +47,22 @@ def test_node_refusal_shows_abort_code_and_meaning(nodes, cli, tmp_path):
     import re
     import shutil
     from telethermo.bus_config import path as cfg_path
+
     eds = (cfg_path("master.eds")).read_text()
     eds = re.sub(r"(\[2401\][^\[]*?HighLimit=)43\.0", r"\g<1>60.0", eds, flags=re.S)
     assert "HighLimit=60.0" in eds
     (tmp_path / "master.eds").write_text(eds)
     shutil.copy(cfg_path("slave.eds"), tmp_path / "slave.eds")
     (tmp_path / "network.toml").write_text(cfg_path("network.toml").read_text())
-    code, out, err = cli("set", *nodes.bus, "--network", str(tmp_path / "network.toml"), "master", "T_max_C", "50")
+    code, out, err = cli(
+        "set", *nodes.bus, "--network", str(tmp_path / "network.toml"), "master", "T_max_C", "50"
+    )
     assert code == EXIT_FAIL
-    assert err.startswith("telethermo set: master (node 1) refused T_max_C = 50.0: "
-                          "SDO abort 0x06090031: Value of parameter written too high (download only); "
-                          "the node's limit is narrower than this EDS's range [15, 60] degC (T_max_C in ")
+    assert err.startswith(
+        "telethermo set: master (node 1) refused T_max_C = 50.0: "
+        "SDO abort 0x06090031: Value of parameter written too high (download only); "
+        "the node's limit is narrower than this EDS's range [15, 60] degC (T_max_C in "
+    )
     assert err.endswith("master.eds: out of date?)\n") and err.count("\n") == 1
     assert nodes.devices["master"].read("T_max_C") == pytest.approx(43.0)
 
@@ -96,9 +102,13 @@ def test_status_reads_mode_temperatures_safety_and_nmt(nodes, cli):
     # a value the node reports as NaN is null in the JSON (issue 25: it was the string "nan")
     nodes.devices["master"].write("T_pred_C", float("nan"), check=False)
     code, out, err = cli("status", *nodes.bus, "--json", "master")
-    assert code == EXIT_OK and '"nan"' not in out and json.loads(out)["nodes"][0]["values"]["T_pred_C"] is None
+    assert (
+        code == EXIT_OK and '"nan"' not in out and json.loads(out)["nodes"][0]["values"]["T_pred_C"] is None
+    )
     code, out, _ = cli("status", *nodes.bus, "master")
-    assert "mode            1 (telepresence)" in out and "safety          0 (ok)" in out   # as `get` shows them
+    assert (
+        "mode            1 (telepresence)" in out and "safety          0 (ok)" in out
+    )  # as `get` shows them
 
 
 def test_mode_render_writes_material_beta_and_mode(nodes, cli):
@@ -107,11 +117,13 @@ def test_mode_render_writes_material_beta_and_mode(nodes, cli):
     m = nodes.devices["master"]
     assert m.read("mode") == 2 and m.read("material_beta") == pytest.approx(5.60, rel=1e-6)
     assert m.read("object_T0_C") == pytest.approx(24.0)
-    assert m.read("material_code") == 1 + list(load_render_table()).index("brass")   # not 0 (custom)
+    assert m.read("material_code") == 1 + list(load_render_table()).index("brass")  # not 0 (custom)
     # the slave is set to idle, and the operator is told
     assert nodes.devices["slave"].read("mode") == 0
-    assert ("slave (node 2): mode idle (while the master renders alone; `telethermo mode telepresence` couples "
-            "both again)") in out.splitlines()
+    assert (
+        "slave (node 2): mode idle (while the master renders alone; `telethermo mode telepresence` couples "
+        "both again)"
+    ) in out.splitlines()
     code, out, err = cli("mode", *nodes.bus, "telepresence")
     assert code == EXIT_OK and nodes.devices["slave"].read("mode") == 1 and m.read("mode") == 1
     code, out, err = cli("mode", *nodes.bus, "render", "wood")
@@ -137,23 +149,26 @@ def test_silent_node_is_a_runtime_failure(cli):
 def test_record_writes_a_log_that_logreader_reads_back_whole(nodes, cli, tmp_path, ext):
     import threading
     import time
+
     out_file = tmp_path / f"rec{ext}"
     sender = can.Bus(interface="virtual", channel=nodes.channel)
     stop = threading.Event()
 
-    def send():   # SYNC with a running counter until the recording is over
+    def send():  # SYNC with a running counter until the recording is over
         k = 0
         while not stop.is_set():
             sender.send(can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False))
             k += 1
             time.sleep(0.002)
+
     th = threading.Thread(target=send)
     th.start()
     try:
         # stopped by a frame count, not a wall-clock window: a loaded machine may deliver few frames
         # in 0.8 s; --duration only bounds the test if the frames never come
-        code, out, err = cli("record", "--bus", f"virtual:{nodes.channel}", str(out_file), "--count", "60",
-                             "--duration", "60")
+        code, out, err = cli(
+            "record", "--bus", f"virtual:{nodes.channel}", str(out_file), "--count", "60", "--duration", "60"
+        )
     finally:
         stop.set()
         th.join()
@@ -165,7 +180,7 @@ def test_record_writes_a_log_that_logreader_reads_back_whole(nodes, cli, tmp_pat
     assert len(back) == n
     counters = [m.data[0] for m in back if m.arbitration_id == 0x080]
     assert len(counters) >= 2
-    assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # none lost, in order
+    assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))  # none lost, in order
     assert {m.arbitration_id for m in back} <= {0x080, 0x701, 0x702}
     rows = (tmp_path / f"rec{ext}.csv").read_text().splitlines()
     assert len(rows) == n + 1 and rows[0].startswith("t_s,cob_id,kind")

@@ -3,6 +3,7 @@ can decode our traffic"). cantools is not a dependency, so the file is checked b
 DBC grammar (every line one of the statements written, names C identifiers, each message's signals inside its
 length and not overlapping), and by decoding frames with the parsed layout alone (little-endian bit fields,
 IEEE floats where SIG_VALTYPE_ says so) against the monitor's EDS decoder on the same bytes."""
+
 from __future__ import annotations
 
 import random
@@ -15,12 +16,19 @@ from telethermo.device.netconfig import load_network
 from telethermo.monitor.pdo import PdoMap, decode_pdo
 
 IDENT = r"[A-Za-z_][A-Za-z0-9_]*"
-STATEMENTS = [r'VERSION ""', r"NS_ :", r"BS_:", rf"BU_:( {IDENT})+",
-              rf"BO_ (\d+) ({IDENT}): (\d) ({IDENT})",
-              rf' SG_ ({IDENT}) : (\d+)\|(\d+)@1([+-]) \(1,0\) \[0\|0\] "([^"]*)" ({IDENT}(,{IDENT})*)',
-              r'CM_ BO_ \d+ "[^"]*";', rf'CM_ SG_ \d+ {IDENT} "[^"]*";',
-              rf"SIG_VALTYPE_ (\d+) ({IDENT}) : ([12]);",
-              rf'VAL_ (\d+) ({IDENT})( \d+ "[^"]*")+ ;', r""]
+STATEMENTS = [
+    r'VERSION ""',
+    r"NS_ :",
+    r"BS_:",
+    rf"BU_:( {IDENT})+",
+    rf"BO_ (\d+) ({IDENT}): (\d) ({IDENT})",
+    rf' SG_ ({IDENT}) : (\d+)\|(\d+)@1([+-]) \(1,0\) \[0\|0\] "([^"]*)" ({IDENT}(,{IDENT})*)',
+    r'CM_ BO_ \d+ "[^"]*";',
+    rf'CM_ SG_ \d+ {IDENT} "[^"]*";',
+    rf"SIG_VALTYPE_ (\d+) ({IDENT}) : ([12]);",
+    rf'VAL_ (\d+) ({IDENT})( \d+ "[^"]*")+ ;',
+    r"",
+]
 
 
 def parse_dbc(text: str):
@@ -63,19 +71,21 @@ def test_the_dbc_parses_back_and_decodes_as_the_eds_does(cli, tmp_path):
     cfg = monitor_config(load_network())
     pmap = PdoMap(ods={k: n.od for k, n in cfg.nodes.items()})
     tpdos = {cob: p for cob, p in pmap.table.items() if p.direction == "TPDO" and p.valid}
-    assert set(messages) == set(tpdos) and stdout == f"{out}: {len(tpdos)} messages, " \
-        f"{sum(len(m[2]) for m in messages.values())} signals\n"
+    assert (
+        set(messages) == set(tpdos)
+        and stdout == f"{out}: {len(tpdos)} messages, {sum(len(m[2]) for m in messages.values())} signals\n"
+    )
     rng = random.Random(25)
     for cob, pdef in tpdos.items():
         size, sender, layout = messages[cob]
         assert sender == cfg.nodes[pdef.node].name and size * 8 >= pdef.length_bits
         bits = sorted((s, s + b) for s, b, _, _ in layout.values())
-        assert all(a[1] <= b[0] for a, b in zip(bits, bits[1:])) and bits[-1][1] <= size * 8   # no overlap
+        assert all(a[1] <= b[0] for a, b in zip(bits, bits[1:])) and bits[-1][1] <= size * 8  # no overlap
         assert {e.name: e.unit for e in pdef.entries} == {k: v[3] for k, v in layout.items()}
         for _ in range(20):
             data = bytearray(rng.randbytes(size))
             for name, (start, nbits, _, _) in layout.items():
-                if (cob, name) in floats:          # a finite float in each REAL32 field
+                if (cob, name) in floats:  # a finite float in each REAL32 field
                     raw = int.from_bytes(data, "little") & ~(((1 << nbits) - 1) << start)
                     f = struct.unpack("<I", struct.pack("<f", rng.uniform(-500, 500)))[0]
                     data = bytearray((raw | f << start).to_bytes(size, "little"))

@@ -2,6 +2,7 @@
 checked on the whole run of a fresh ``python -m telethermo ...`` process (argument parsing, bus, EDS,
 SDO): its ``sys.modules`` at exit. (``-X importtime`` would miss the modules importlib.import_module
 loads, i.e. the chosen subcommand's own module.) The subcommand registry agrees with the modules."""
+
 from __future__ import annotations
 
 import json
@@ -34,16 +35,19 @@ LIGHT = [
 
 
 # `python -m telethermo ARGS`, writing the names in sys.modules to a file when the process exits
-PROBE = ("import atexit, json, runpy, sys\n"
-         "out, sys.argv = sys.argv[1], ['telethermo', *sys.argv[2:]]\n"
-         "atexit.register(lambda: open(out, 'w').write(json.dumps(sorted(sys.modules))))\n"
-         "runpy.run_module('telethermo', run_name='__main__', alter_sys=True)\n")
+PROBE = (
+    "import atexit, json, runpy, sys\n"
+    "out, sys.argv = sys.argv[1], ['telethermo', *sys.argv[2:]]\n"
+    "atexit.register(lambda: open(out, 'w').write(json.dumps(sorted(sys.modules))))\n"
+    "runpy.run_module('telethermo', run_name='__main__', alter_sys=True)\n"
+)
 
 
 def imported_modules(argv: list[str], expect_rc: int, tmp_path) -> set[str]:
     out = tmp_path / "modules.json"
-    proc = subprocess.run([sys.executable, "-c", PROBE, str(out), *argv], capture_output=True, text=True,
-                          timeout=60)
+    proc = subprocess.run(
+        [sys.executable, "-c", PROBE, str(out), *argv], capture_output=True, text=True, timeout=60
+    )
     assert proc.returncode == expect_rc, proc.stderr[-2000:]
     return set(json.loads(out.read_text()))
 
@@ -51,12 +55,12 @@ def imported_modules(argv: list[str], expect_rc: int, tmp_path) -> set[str]:
 @pytest.mark.parametrize("argv,rc", LIGHT, ids=[" ".join(a[:2]) for a, _ in LIGHT])
 def test_light_commands_import_no_scipy_matplotlib_numpy(argv, rc, tmp_path):
     mods = imported_modules(argv, rc, tmp_path)
-    assert {"telethermo.cli.main", "argparse"} <= mods   # the list is the CLI process's
+    assert {"telethermo.cli.main", "argparse"} <= mods  # the list is the CLI process's
     heavy = sorted(m for m in mods if m.split(".")[0] in HEAVY)
     assert not heavy, f"telethermo {' '.join(argv)} imported {heavy[:5]}"
     if argv[0] not in ("--help", "--version"):
         assert "canopen" in mods
-    else:   # the top-level help imports no subcommand module at all
+    else:  # the top-level help imports no subcommand module at all
         assert not any(m.startswith("telethermo.cli.") and m != "telethermo.cli.main" for m in mods)
 
 
@@ -68,8 +72,9 @@ def test_only_the_chosen_commands_module_is_imported(tmp_path):
 
 
 def test_version_from_the_installed_distribution():
-    out = subprocess.run([sys.executable, "-m", "telethermo", "--version"], capture_output=True, text=True,
-                         timeout=30)
+    out = subprocess.run(
+        [sys.executable, "-m", "telethermo", "--version"], capture_output=True, text=True, timeout=30
+    )
     assert out.returncode == 0 and out.stdout.strip() == f"telethermo {version('telethermo')}"
 
 
@@ -88,6 +93,7 @@ def test_registry_agrees_with_the_modules():
 
 def test_unknown_command_is_one_usage_error(capsys):
     from telethermo.cli.main import main
+
     with pytest.raises(SystemExit) as e:
         main(["gte", "master", "x"])
     assert e.value.code == 2

@@ -1,5 +1,6 @@
 """The CLI against the live node programs: two OS processes (telethermo-master, telethermo-slave)
 with simulated rigs in real time, over our socketcand hub, as an operator would use it."""
+
 from __future__ import annotations
 
 import json
@@ -33,6 +34,7 @@ def live(tmp_path_factory):
 
 def run_cli(capsys, *argv):
     from telethermo.cli.main import main
+
     code = main(list(argv))
     o = capsys.readouterr()
     return code, o.out, o.err
@@ -78,12 +80,15 @@ def test_find_status_set_nmt_mode_record(live, capsys, tmp_path):
     assert "kp_A_per_C = 0.75 A/degC" in out
     code, _, err = run_cli(capsys, "set", "--bus", bus, "master", "T_max_C", "50")
     assert code == EXIT_USAGE and "out of range [15, 43] degC; not sent" in err
-    eds = re.sub(r"(\[2401\][^\[]*?HighLimit=)43\.0", r"\g<1>60.0", cfg_path("master.eds").read_text(), flags=re.S)
+    eds = re.sub(
+        r"(\[2401\][^\[]*?HighLimit=)43\.0", r"\g<1>60.0", cfg_path("master.eds").read_text(), flags=re.S
+    )
     (tmp_path / "master.eds").write_text(eds)
     shutil.copy(cfg_path("slave.eds"), tmp_path / "slave.eds")
     shutil.copy(cfg_path("network.toml"), tmp_path / "network.toml")
-    code, _, err = run_cli(capsys, "set", "--bus", bus, "--network", str(tmp_path / "network.toml"),
-                           "master", "T_max_C", "50")
+    code, _, err = run_cli(
+        capsys, "set", "--bus", bus, "--network", str(tmp_path / "network.toml"), "master", "T_max_C", "50"
+    )
     assert code == EXIT_FAIL and "SDO abort 0x06090031: Value of parameter written too high" in err
 
     # NMT stop / start of the slave, confirmed by its heartbeat
@@ -101,16 +106,32 @@ def test_find_status_set_nmt_mode_record(live, capsys, tmp_path):
 
     # record: the real console script, a BLF that can.LogReader reads back whole
     log = tmp_path / "session.blf"
-    p = subprocess.run([sys.executable, "-m", "telethermo.cli.main", "record", "--bus", bus, str(log),
-                        "--count", "300", "--duration", "60"], capture_output=True, text=True, timeout=90)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "telethermo.cli.main",
+            "record",
+            "--bus",
+            bus,
+            str(log),
+            "--count",
+            "300",
+            "--duration",
+            "60",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=90,
+    )
     assert p.returncode == 0, p.stderr
     n = int(re.search(r"recorded (\d+) frames", p.stdout).group(1))
-    assert n == 300     # stopped by the frame count (not a wall-clock window a loaded machine may starve)
+    assert n == 300  # stopped by the frame count (not a wall-clock window a loaded machine may starve)
     back = list(can.LogReader(str(log)))
     assert len(back) == n
     counters = [m.data[0] for m in back if m.arbitration_id == 0x080]
     assert len(counters) >= 2
-    assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # no SYNC lost
+    assert all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))  # no SYNC lost
     rows = (tmp_path / "session.blf.csv").read_text().splitlines()
     assert len(rows) == n + 1 and any(",PDO," in r and "estimate_C" in r for r in rows)
 
@@ -125,8 +146,9 @@ def test_monitor_json_on_the_live_session(live, capsys):
     checked against its own cycle counter instead: between two of its TPDO4 frames (cycle_counter
     c1, c2) it must have sent, and the monitor decoded, exactly c2 - c1 TPDO1 frames."""
     assert wait_for(lambda: both_operational(capsys, live.bus), 30)
-    code, out, err = run_cli(capsys, "monitor", "--bus", live.bus, "--json", "--duration", "1.5",
-                             "--status-every", "0")
+    code, out, err = run_cli(
+        capsys, "monitor", "--bus", live.bus, "--json", "--duration", "1.5", "--status-every", "0"
+    )
     assert code == EXIT_OK, err
     rows = [json.loads(ln) for ln in out.splitlines()]
     snap = [r for r in rows if r["type"] == "status"][-1]
@@ -141,8 +163,11 @@ def test_monitor_json_on_the_live_session(live, capsys):
     for node in (1, 2):
         seq = [f["fields"] for f in frames if f["kind"] == "PDO" and f["fields"].get("producer") == node]
         assert sum(1 for x in seq if x["pdo"] == "TPDO1") == pdos[(node, "TPDO1")]["count"]
-        marks = [(i, {v["name"]: v["value"] for v in x["values"]}["cycle_counter"])
-                 for i, x in enumerate(seq) if x["pdo"] == "TPDO4"]
+        marks = [
+            (i, {v["name"]: v["value"] for v in x["values"]}["cycle_counter"])
+            for i, x in enumerate(seq)
+            if x["pdo"] == "TPDO4"
+        ]
         assert len(marks) >= 2, f"node {node}: fewer than two TPDO4 in the window"
         (i1, c1), (i2, c2) = marks[0], marks[-1]
         assert c2 > c1 and sum(1 for x in seq[i1:i2] if x["pdo"] == "TPDO1") == c2 - c1, (node, c1, c2)
@@ -156,25 +181,58 @@ def test_calibrate_finger_live_on_the_rendering_master(tmp_path, capsys):
     must lie between the pad's and the finger's (eq. 1), β_pad = (T_f0 - T_c)/(T_c - T_pad0) must
     come out positive and be written into the node."""
     from telethermo.nodes.launch import HubProcess, node_command, stop_process
+
     hub = HubProcess(idle_timeout_s=60)
     hub.start()
     scene = SCENE.parent / "virtual_materials.toml"
-    master = subprocess.Popen(node_command("master", "--bus", hub.bus, "--scene", str(scene), "--timing", "realtime",
-                                           "--mode", "render", "--log", str(tmp_path / "m.log")),
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    master = subprocess.Popen(
+        node_command(
+            "master",
+            "--bus",
+            hub.bus,
+            "--scene",
+            str(scene),
+            "--timing",
+            "realtime",
+            "--mode",
+            "render",
+            "--log",
+            str(tmp_path / "m.log"),
+        ),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.DEVNULL,
+        start_new_session=True,
+    )
     tf0 = 34.0
     try:
-        assert wait_for(lambda: run_cli(capsys, "get", "--bus", hub.bus, "--timeout", "0.2", "master", "mode")[0]
-                        == EXIT_OK, 30)     # the node is up (its scene's first touch is at 5 s)
-        code, out, err = run_cli(capsys, "calibrate-finger", "--bus", hub.bus, "--live", "1", "--finger-temp",
-                                 str(tf0), "--touch-timeout", "30", "--apply")
+        assert wait_for(
+            lambda: (
+                run_cli(capsys, "get", "--bus", hub.bus, "--timeout", "0.2", "master", "mode")[0] == EXIT_OK
+            ),
+            30,
+        )  # the node is up (its scene's first touch is at 5 s)
+        code, out, err = run_cli(
+            capsys,
+            "calibrate-finger",
+            "--bus",
+            hub.bus,
+            "--live",
+            "1",
+            "--finger-temp",
+            str(tf0),
+            "--touch-timeout",
+            "30",
+            "--apply",
+        )
         assert code == EXIT_OK, err
-        ((p0, c),) = [tuple(map(float, m)) for m in re.findall(r"T_pad0 ([\d.]+) °C -> T_contact ([\d.]+) °C", out)]
-        assert min(p0, tf0) < c < max(p0, tf0)                    # eq. 1: between pad and finger
+        ((p0, c),) = [
+            tuple(map(float, m)) for m in re.findall(r"T_pad0 ([\d.]+) °C -> T_contact ([\d.]+) °C", out)
+        ]
+        assert min(p0, tf0) < c < max(p0, tf0)  # eq. 1: between pad and finger
         beta = float(re.search(r"beta_pad = ([\d.]+)", out).group(1))
-        h = 0.0005   # the temperatures are printed to 3 decimals: β_pad from eq. 1 within that box
+        h = 0.0005  # the temperatures are printed to 3 decimals: β_pad from eq. 1 within that box
         lo, hi = sorted([(tf0 - (c + h)) / ((c + h) - (p0 - h)), (tf0 - (c - h)) / ((c - h) - (p0 + h))])
-        assert lo - 1e-4 <= beta <= hi + 1e-4                      # eq. 1 solved for β_pad
+        assert lo - 1e-4 <= beta <= hi + 1e-4  # eq. 1 solved for β_pad
         code, out, err = run_cli(capsys, "get", "--bus", hub.bus, "master", "pad_beta", "finger_T0_C")
         assert code == EXIT_OK, err
         assert float(re.search(r"pad_beta = ([\d.]+)", out).group(1)) == pytest.approx(beta, abs=1e-3)
@@ -184,12 +242,13 @@ def test_calibrate_finger_live_on_the_rendering_master(tmp_path, capsys):
         hub.stop()
 
 
-PROBE_NODE = 0x7F   # no node of the network: the test's own heartbeats, to synchronise with the monitor
+PROBE_NODE = 0x7F  # no node of the network: the test's own heartbeats, to synchronise with the monitor
 
 
 def _probe(bus: str, state: int) -> None:
     """One heartbeat of node PROBE_NODE (NMT state ``state``) on the hub, from a client of our own."""
     from telethermo.transport.bus import open_bus, parse_bus_string
+
     b = open_bus(parse_bus_string(bus))
     try:
         b.send(can.Message(arbitration_id=0x700 + PROBE_NODE, data=[state], is_extended_id=False))
@@ -221,25 +280,46 @@ def test_monitor_keeps_up_with_a_lockstep_session(tmp_path):
     the first SYNCs."""
     import signal
     from telethermo.nodes.launch import HubProcess, stop_process
+
     hub = HubProcess(idle_timeout_s=60)
     hub.start()
     out = tmp_path / "mon.jsonl"
-    mon = subprocess.Popen([sys.executable, "-m", "telethermo.cli.main", "monitor", "--bus", hub.bus, "--json",
-                            "--no-frames", "--status-every", "0"], stdout=open(out, "w"), stderr=subprocess.PIPE,
-                           text=True)
+    mon = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "telethermo.cli.main",
+            "monitor",
+            "--bus",
+            hub.bus,
+            "--json",
+            "--no-frames",
+            "--status-every",
+            "0",
+        ],
+        stdout=open(out, "w"),
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     pair_dir = tmp_path / "pair"
     try:
-        def connected() -> bool:   # a probe until the monitor shows one (frames before it connects are not its)
+
+        def connected() -> (
+            bool
+        ):  # a probe until the monitor shows one (frames before it connects are not its)
             _probe(hub.bus, 0x7F)
             return wait_for(lambda: _monitor_saw(out, "PRE-OPERATIONAL"), 0.5)
-        assert wait_for(connected, 120, poll_s=0), mon.stderr.read() if mon.poll() is not None else "no probe seen"
+
+        assert wait_for(connected, 120, poll_s=0), (
+            mon.stderr.read() if mon.poll() is not None else "no probe seen"
+        )
         pair = NodePair(PairConfig(scene=SCENE, out_dir=pair_dir, bus=hub.bus, cycles=1000))
         pair.start()
         try:
             assert pair.wait_master(120) == 0
         finally:
             pair.stop()
-        _probe(hub.bus, 0x04)      # after every frame of the session on the hub
+        _probe(hub.bus, 0x04)  # after every frame of the session on the hub
         assert wait_for(lambda: _monitor_saw(out, "STOPPED"), 120)
         mon.send_signal(signal.SIGINT)
         assert mon.wait(30) == 130
@@ -260,6 +340,6 @@ def test_monitor_keeps_up_with_a_lockstep_session(tmp_path):
     timeouts = len(re.findall(r"no PDO of node 2 within", master_log))
     peer_lost = "peer 2 lost" in master_log
     assert tpdo1[1]["missing"] == 0
-    assert st["missed_pdos"] == tpdo1[1]["missing"] + tpdo1[2]["missing"]   # only TPDO1 is on every SYNC
+    assert st["missed_pdos"] == tpdo1[1]["missing"] + tpdo1[2]["missing"]  # only TPDO1 is on every SYNC
     if not peer_lost:
         assert tpdo1[2]["missing"] <= timeouts, (tpdo1[2]["missing"], timeouts)

@@ -2,6 +2,7 @@
 lockstep, idle until told), driven by the CLI as an operator would: ``telethermo identify master`` (the
 experiment runs in the node's control core; the CLI records it from the bus, fits, and loads the model
 into the node by SDO), the model objects' checks, and ``telethermo fault-reset``."""
+
 from __future__ import annotations
 
 import re
@@ -33,6 +34,7 @@ def master(lone_master):
 
 def cli(capsys, *argv):
     from telethermo.cli.main import main
+
     code = main(list(argv))
     o = capsys.readouterr()
     return code, o.out, o.err
@@ -66,19 +68,41 @@ def load_model_by_sdo(bus: str, model_file: Path) -> int:
 
 def test_identify_a_live_node_and_load_the_model(master, capsys):
     bus, out = master
-    assert wait_for(lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30)
+    assert wait_for(
+        lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30
+    )
     # without a model the node refuses the model estimator (the device state cannot give T_pred)
     code, _, err = set_(capsys, bus, "estimator", 0)
     assert code == EXIT_FAIL and "0x08000022" in err
     model_file, data = out / "live.json", out / "live.csv"
-    code, text, err = cli(capsys, "identify", "master", "--bus", bus, "--samples", "10000", "--validation", "2000",
-                          "--seed", "4", "--out", str(model_file), "--save-data", str(data), "--quiet")
+    code, text, err = cli(
+        capsys,
+        "identify",
+        "master",
+        "--bus",
+        bus,
+        "--samples",
+        "10000",
+        "--validation",
+        "2000",
+        "--seed",
+        "4",
+        "--out",
+        str(model_file),
+        "--save-data",
+        str(data),
+        "--quiet",
+    )
     assert code == EXIT_OK, err
     m = re.search(r"CRC-32 0x([0-9A-F]{8}) verified", text)
     assert m, text
     # the node runs exactly the model in the file (its CRC over the objects it holds)
     tem = load_model(model_file)
-    assert int(m.group(1), 16) == odmodel.od_crc32(odmodel.model_entries(tem)) == int(get(capsys, bus, "model_crc32"), 16)
+    assert (
+        int(m.group(1), 16)
+        == odmodel.od_crc32(odmodel.model_entries(tem))
+        == int(get(capsys, bus, "model_crc32"), 16)
+    )
     assert get(capsys, bus, "model_status") == "1"
     # the model predicts the live pad's held-out PRBS (free run from rest) to well under 0.1 °C
     worst = float(re.search(r"held-out free run\s+worst ([0-9.]+) °C", text).group(1))
@@ -117,12 +141,13 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     from telethermo.remote.identify import Stream, fetch_lost
     from telethermo.remote.targets import resolve_node
     from telethermo.device.netconfig import load_network
+
     Q_bus = np.array([float(r[5]) for r in rows])
     stream = Stream([0x281, 0x381, 0x481], len(rows))
     stream.values[:] = (T_bus, I_bus, Q_bus)
     stream.got[:] = True
     drop = np.random.default_rng(1).choice(len(rows), 37, replace=False)
-    for f, js in enumerate(np.array_split(drop, 3)):   # a value of each kind lost (one frame of the three)
+    for f, js in enumerate(np.array_split(drop, 3)):  # a value of each kind lost (one frame of the three)
         stream.got[f, js] = False
         stream.values[f, js] = np.nan
     args = type("A", (), {"network": None, "bus": bus})()
@@ -135,7 +160,7 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     np.testing.assert_array_equal(stream.I_A, I_bus)
     np.testing.assert_array_equal(stream.Q_W, Q_bus)
     capsys.readouterr()
-    code, _, err = set_(capsys, bus, "ident_fetch_sample", len(rows))       # beyond the record: no data
+    code, _, err = set_(capsys, bus, "ident_fetch_sample", len(rows))  # beyond the record: no data
     assert code == EXIT_FAIL and "0x08000024" in err
 
     # the node now runs the model: the model estimator is accepted and T_pred follows the pad at rest
@@ -145,9 +170,17 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     assert abs(T_pred - T_sensor) < 0.3
     # and the node is as it was: idle, status TPDOs every 10th SYNC with their EDS mapping
     assert get(capsys, bus, "mode") == "0"
-    assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
-    assert int(get(capsys, bus, "0x1A01:1"), 16) == 0x20000020 and int(get(capsys, bus, "0x1A01:2"), 16) == 0x20020020
-    assert int(get(capsys, bus, "0x1A02:1"), 16) == 0x21010020 and int(get(capsys, bus, "0x1A02:2"), 16) == 0x21020020
+    assert (
+        get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
+    )
+    assert (
+        int(get(capsys, bus, "0x1A01:1"), 16) == 0x20000020
+        and int(get(capsys, bus, "0x1A01:2"), 16) == 0x20020020
+    )
+    assert (
+        int(get(capsys, bus, "0x1A02:1"), 16) == 0x21010020
+        and int(get(capsys, bus, "0x1A02:2"), 16) == 0x21020020
+    )
     assert int(get(capsys, bus, "0x1A03:0")) == 5 and int(get(capsys, bus, "0x1A03:1"), 16) == 0x27020020
     assert get(capsys, bus, "ident_state") == "2"
 
@@ -156,9 +189,14 @@ def test_the_node_refuses_a_bad_model_and_keeps_the_running_one(master, capsys):
     bus, _ = master
     # the node runs a model (the shipped one, loaded here: this test needs no other test before it) with the
     # model estimator
-    assert wait_for(lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30)
+    assert wait_for(
+        lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30
+    )
     want = load_model_by_sdo(bus, default_model_path())
-    assert wait_for(lambda: get(capsys, bus, "model_status") == "1" and int(get(capsys, bus, "model_crc32"), 16) == want, 5)
+    assert wait_for(
+        lambda: get(capsys, bus, "model_status") == "1" and int(get(capsys, bus, "model_crc32"), 16) == want,
+        5,
+    )
     assert set_(capsys, bus, "estimator", 0)[0] == EXIT_OK
     crc = get(capsys, bus, "model_crc32")
     assert get(capsys, bus, "model_status") == "1"
@@ -182,19 +220,19 @@ def test_the_node_refuses_a_bad_model_and_keeps_the_running_one(master, capsys):
     assert set_(capsys, bus, "model_command", 2)[0] == EXIT_OK
     assert wait_for(lambda: get(capsys, bus, "model_status") == "0", 5)
     assert get(capsys, bus, "model_crc32") == "0x00000000" and get(capsys, bus, "T_pred_C") == "nan"
-    code, _, err = set_(capsys, bus, "estimator", 0)   # no model any more: the model estimator is refused
+    code, _, err = set_(capsys, bus, "estimator", 0)  # no model any more: the model estimator is refused
     assert code == EXIT_FAIL and "0x08000022" in err
     del theta1
 
 
 def test_plan_objects_are_checked_and_an_interrupted_experiment_is_reported(master, capsys):
     bus, _ = master
-    code, _, err = set_(capsys, bus, "ident_amplitude_min_A", 5.0)   # above the maximum 1.0 A
+    code, _, err = set_(capsys, bus, "ident_amplitude_min_A", 5.0)  # above the maximum 1.0 A
     assert code == EXIT_FAIL and "0x06090036" in err
     assert set_(capsys, bus, "ident_train_samples", 500000)[0] == EXIT_OK
     assert set_(capsys, bus, "mode", 3)[0] == EXIT_OK
     assert wait_for(lambda: get(capsys, bus, "ident_state") == "1", 10)
-    code, _, err = set_(capsys, bus, "ident_seed", 7)                # the plan is fixed while it runs
+    code, _, err = set_(capsys, bus, "ident_seed", 7)  # the plan is fixed while it runs
     assert code == EXIT_FAIL and "0x08000022" in err
     assert set_(capsys, bus, "mode", 0)[0] == EXIT_OK
     assert wait_for(lambda: get(capsys, bus, "ident_state") == "3", 10)
@@ -223,7 +261,9 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     assert int(get(capsys, bus, "0x1001"), 16) != 0 and int(get(capsys, bus, "last_trip_code"), 16) != 0
     # the cause persists: refused, nothing cleared, the trip named
     code, out, err = cli(capsys, "fault-reset", "--bus", bus, "master")
-    assert code == EXIT_FAIL and "0x08000022" in out and "persists (heat_sink)" in err and "last trip 0x" in err
+    assert (
+        code == EXIT_FAIL and "0x08000022" in out and "persists (heat_sink)" in err and "last trip 0x" in err
+    )
     assert int(get(capsys, bus, "active_trips"), 16) == 0x080
     assert get(capsys, bus, "safety_state") == "3"
     # the cause gone, the trip stays latched until the operator resets it
@@ -244,11 +284,30 @@ def test_a_kill_during_an_identification_puts_the_node_back(master, capsys):
     TPDOs as in the EDS), the experiment reported interrupted, no current."""
     import signal
     import sys
+
     bus, out = master
-    assert wait_for(lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30)
-    proc = subprocess.Popen([sys.executable, "-m", "telethermo.cli.main", "identify", "master", "--bus", bus,
-                             "--samples", "500000", "--validation", "1000", "--quiet"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    assert wait_for(
+        lambda: cli(capsys, "status", "--bus", bus, "master", "--timeout", "0.3")[0] == EXIT_OK, 30
+    )
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "telethermo.cli.main",
+            "identify",
+            "master",
+            "--bus",
+            bus,
+            "--samples",
+            "500000",
+            "--validation",
+            "1000",
+            "--quiet",
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     # watch the bus, not the node's SDO server: one SDO channel serves one client at a time (the CLI's now)
     listener = open_bus(parse_bus_string(bus))
     try:
@@ -257,11 +316,17 @@ def test_a_kill_during_an_identification_puts_the_node_back(master, capsys):
             msg = listener.recv(0.5)
             # TPDO2 remapped to (ident_sample, T_sensor_C): the experiment runs (its EDS mapping starts with
             # T_sensor_C, whose REAL32 bits read as an integer are ~1.1e9)
-            if msg is not None and msg.arbitration_id == 0x281 and len(msg.data) == 8 and \
-                    0 < int.from_bytes(msg.data[:4], "little") < 500_000:
+            if (
+                msg is not None
+                and msg.arbitration_id == 0x281
+                and len(msg.data) == 8
+                and 0 < int.from_bytes(msg.data[:4], "little") < 500_000
+            ):
                 numbered += 1
-        assert proc.poll() is None and numbered == 100, proc.communicate() if proc.poll() is not None else numbered
-        proc.send_signal(signal.SIGTERM)   # a kill is handled like Ctrl-C
+        assert proc.poll() is None and numbered == 100, (
+            proc.communicate() if proc.poll() is not None else numbered
+        )
+        proc.send_signal(signal.SIGTERM)  # a kill is handled like Ctrl-C
         _, err = proc.communicate(timeout=60)
     finally:
         listener.shutdown()
@@ -271,6 +336,11 @@ def test_a_kill_during_an_identification_puts_the_node_back(master, capsys):
     assert "interrupted" in err and "Traceback" not in err
     assert get(capsys, bus, "mode") == "0"
     assert wait_for(lambda: get(capsys, bus, "ident_state") == "3", 10)
-    assert get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
-    assert int(get(capsys, bus, "0x1A01:1"), 16) == 0x20000020 and int(get(capsys, bus, "0x1A03:1"), 16) == 0x27020020
+    assert (
+        get(capsys, bus, "0x1801:2") == get(capsys, bus, "0x1802:2") == get(capsys, bus, "0x1803:2") == "10"
+    )
+    assert (
+        int(get(capsys, bus, "0x1A01:1"), 16) == 0x20000020
+        and int(get(capsys, bus, "0x1A03:1"), 16) == 0x27020020
+    )
     assert wait_for(lambda: float(get(capsys, bus, "current_A")) == 0.0, 10)

@@ -3,6 +3,7 @@ the network file names them (``[nodes.NAME]``, node-ID required, EDS optional); 
 by object name when their EDS is given, by raw SDO and NMT when it is not, and by any node-ID 1..127 even
 outside the file. Checked against real CiA 301 devices on a python-can virtual bus, read back through
 canopen's own client."""
+
 from __future__ import annotations
 
 import pytest
@@ -43,13 +44,22 @@ def test_other_nodes_load_with_their_id_and_optional_eds(tmp_path):
     assert set(net.device_settings("master").known_node_ids) == {1, 2, 5, 6}
 
 
-@pytest.mark.parametrize("extra, message", [
-    ("[nodes.arm2]\neds = \"x\"\n", r"\[nodes.arm2\] node_id: missing"),
-    ("[nodes.arm2]\nnode_id = 5\n", r"\[nodes.arm2\] node_id: expected a node-ID not used by \[nodes.arm\] \(5\), got 5"),
-    ("[nodes.Arm]\nnode_id = 9\n", r"\[nodes.Arm\]: expected a node name of lower-case letters"),
-    ("[nodes.arm2]\nnode_id = 9\ncolour = 1\n", r"\[nodes.arm2\] colour: unknown key"),
-    ("[nodes.arm2]\nnode_id = 200\n", r"\[nodes.arm2\] node_id: expected an integer in \[1, 127\], got 200"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        ('[nodes.arm2]\neds = "x"\n', r"\[nodes.arm2\] node_id: missing"),
+        (
+            "[nodes.arm2]\nnode_id = 5\n",
+            r"\[nodes.arm2\] node_id: expected a node-ID not used by \[nodes.arm\] \(5\), got 5",
+        ),
+        ("[nodes.Arm]\nnode_id = 9\n", r"\[nodes.Arm\]: expected a node name of lower-case letters"),
+        ("[nodes.arm2]\nnode_id = 9\ncolour = 1\n", r"\[nodes.arm2\] colour: unknown key"),
+        (
+            "[nodes.arm2]\nnode_id = 200\n",
+            r"\[nodes.arm2\] node_id: expected an integer in \[1, 127\], got 200",
+        ),
+    ],
+)
 def test_a_bad_other_node_is_refused_naming_the_field(tmp_path, extra, message):
     with pytest.raises(NetworkConfigError, match=message):
         load_network(network(tmp_path, NET + extra))
@@ -61,7 +71,9 @@ def bench(tmp_path):
     nw = canopen.Network()
     nw.NOTIFIER_CYCLE = 0.05
     nw.connect(interface="virtual", channel="tt-other")
-    devs = [Device(nw, nid, bc("slave.eds"), settings=DeviceSettings(heartbeat_producer_ms=50)) for nid in (5, 6)]
+    devs = [
+        Device(nw, nid, bc("slave.eds"), settings=DeviceSettings(heartbeat_producer_ms=50)) for nid in (5, 6)
+    ]
     for d in devs:
         d.start()
     try:
@@ -80,7 +92,7 @@ def test_the_cli_reaches_other_nodes(bench, cli):
     assert code == 2 and "arm (node 5) has no EDS" in err and "telethermo sdo 5" in err
     code, out, err = cli("sdo", "arm", "0x1017:0", "--network", net, "--timeout", "1")
     assert code == 0 and "0x1017:00" in out, err
-    code, out, err = cli("sdo", "7", "0x1017:0", "--network", net, "--timeout", "0.3")   # nobody at 7
+    code, out, err = cli("sdo", "7", "0x1017:0", "--network", net, "--timeout", "0.3")  # nobody at 7
     assert code == 1 and "node 7" in err
     code, out, err = cli("nmt", "preop", "arm", "--network", net)
     assert code == 0, err
@@ -94,8 +106,10 @@ def bench_with_pair(bench):
     nw = canopen.Network()
     nw.NOTIFIER_CYCLE = 0.05
     nw.connect(interface="virtual", channel="tt-other")
-    devs = {role: Device(nw, nid, bc(f"{role}.eds"), settings=DeviceSettings(heartbeat_producer_ms=50))
-            for role, nid in (("master", 1), ("slave", 2))}
+    devs = {
+        role: Device(nw, nid, bc(f"{role}.eds"), settings=DeviceSettings(heartbeat_producer_ms=50))
+        for role, nid in (("master", 1), ("slave", 2))
+    }
     for d in devs.values():
         d.start()
     try:
@@ -113,13 +127,17 @@ def test_mode_and_fault_reset_address_only_the_master_and_the_slave(bench_with_p
     amp = canopen.Network()
     amp.connect(interface="virtual", channel="tt-other")
     try:
-        other = amp.add_node(6, str(bc("slave.eds")))     # canopen's own client, not ours
+        other = amp.add_node(6, str(bc("slave.eds")))  # canopen's own client, not ours
         other.sdo["mode"].raw = 1
-        code, out, err = cli("mode", "idle", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "1")
+        code, out, err = cli(
+            "mode", "idle", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "1"
+        )
         assert (code, err) == (0, ""), err
         assert out.splitlines() == ["slave (node 2): mode idle", "master (node 1): mode idle", "mode: idle"]
-        assert other.sdo["mode"].raw == 1                # untouched
-        code, out, err = cli("fault-reset", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "1")
+        assert other.sdo["mode"].raw == 1  # untouched
+        code, out, err = cli(
+            "fault-reset", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "1"
+        )
         assert (code, err) == (0, ""), err
         assert [ln.split(":")[0] for ln in out.splitlines()] == ["master (node 1)", "slave (node 2)"]
     finally:
@@ -130,7 +148,9 @@ def test_status_of_an_absent_device_exits_1(bench, cli):
     """Issue 25: `status` of a device named in the file but absent from the bus exited 0 (no EDS: nothing read).
     Exit 1 like every node that does not answer; a present EDS-less device shows its 0x1000."""
     net = network(bench.parent, NET + "[nodes.ghost]\nnode_id = 9\n")
-    code, out, err = cli("status", "ghost", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "0.3")
+    code, out, err = cli(
+        "status", "ghost", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "0.3"
+    )
     assert code == 1, (out, err)
     assert err == "telethermo status: no SDO answer from ghost\n"
     assert "ghost (node 9) did not answer reading 0x1000 device type" in out

@@ -3,6 +3,7 @@ number (and exit 1 in ``monitor``), a truncated BLF was accepted silently. Now e
 naming the file, where (line or byte), what was read before the damage and what was expected, exit 2, in
 both ``plot`` and ``monitor --replay``. The logs are written by python-can's own writers and then damaged
 as a disk or a killed copy would; the expected counts come from python-can's reader on the same bytes."""
+
 from __future__ import annotations
 
 import io
@@ -25,8 +26,12 @@ def frames(n: int):
         t = 1000.0 + 0.01 * k
         yield can.Message(timestamp=t, arbitration_id=0x080, data=bytes([k % 240 + 1]), is_extended_id=False)
         for nid in (1, 2):
-            yield can.Message(timestamp=t + 0.001 * nid, arbitration_id=0x180 + nid,
-                              data=struct.pack("<ff", 30.0 + 0.01 * k, -0.1 * nid), is_extended_id=False)
+            yield can.Message(
+                timestamp=t + 0.001 * nid,
+                arbitration_id=0x180 + nid,
+                data=struct.pack("<ff", 30.0 + 0.01 * k, -0.1 * nid),
+                is_extended_id=False,
+            )
 
 
 def write(path, n: int) -> None:
@@ -67,18 +72,20 @@ def assert_one_line(results, message: str) -> None:
 
 def test_a_corrupted_blf_container_is_one_line_with_its_byte(cli, tmp_path):
     good = tmp_path / "good.blf"
-    write(good, 3000)                   # 9000 frames: several 128 KB containers
+    write(good, 3000)  # 9000 frames: several 128 KB containers
     data = bytearray(good.read_bytes())
     objs = blf_objects(bytes(data))
     assert len(objs) >= 3
     second = objs[1]
-    data[second[0] + 32:second[0] + 34] = b"\x00\x00"   # the zlib stream's header of the second container
+    data[second[0] + 32 : second[0] + 34] = b"\x00\x00"  # the zlib stream's header of the second container
     bad = tmp_path / "bad.blf"
     bad.write_bytes(bytes(data))
-    before = read_before(bytes(data[:objs[1][0]]))
-    assert_one_line(both(cli, bad),
-                    f"{bad}: damaged BLF at byte {second[1]} of {len(data)} (zlib.error: Error -3 while "
-                    f"decompressing data: unknown compression method), {before}; {BLF_EXPECTED}")
+    before = read_before(bytes(data[: objs[1][0]]))
+    assert_one_line(
+        both(cli, bad),
+        f"{bad}: damaged BLF at byte {second[1]} of {len(data)} (zlib.error: Error -3 while "
+        f"decompressing data: unknown compression method), {before}; {BLF_EXPECTED}",
+    )
 
 
 def test_a_truncated_blf_is_refused_saying_what_was_read(cli, tmp_path):
@@ -86,10 +93,13 @@ def test_a_truncated_blf_is_refused_saying_what_was_read(cli, tmp_path):
     write(good, 3000)
     data = good.read_bytes()
     cut = tmp_path / "cut.blf"
-    cut.write_bytes(data[:len(data) * 2 // 3])       # a copy that stopped
+    cut.write_bytes(data[: len(data) * 2 // 3])  # a copy that stopped
     kept = len(data) * 2 // 3
-    assert_one_line(both(cli, cut), f"{cut}: truncated BLF: {kept} of the {len(data)} bytes its "
-                                    f"header records, {read_before(data[:kept])}; {BLF_EXPECTED}")
+    assert_one_line(
+        both(cli, cut),
+        f"{cut}: truncated BLF: {kept} of the {len(data)} bytes its "
+        f"header records, {read_before(data[:kept])}; {BLF_EXPECTED}",
+    )
 
 
 def test_a_blf_whose_writer_never_closed_it_is_refused(cli, tmp_path):
@@ -98,30 +108,38 @@ def test_a_blf_whose_writer_never_closed_it_is_refused(cli, tmp_path):
     for m in frames(3000):
         writer.on_message_received(m)
     writer.file.flush()
-    snapshot = path.read_bytes()     # what a killed writer leaves: containers, header unfinished
+    snapshot = path.read_bytes()  # what a killed writer leaves: containers, header unfinished
     writer.stop()
     killed = tmp_path / "killed.blf"
     killed.write_bytes(snapshot)
-    assert_one_line(both(cli, killed), f"{killed}: unfinished BLF: its header was never completed (the "
-                                       f"writer did not close it), {read_before(snapshot)}; {BLF_EXPECTED}")
+    assert_one_line(
+        both(cli, killed),
+        f"{killed}: unfinished BLF: its header was never completed (the "
+        f"writer did not close it), {read_before(snapshot)}; {BLF_EXPECTED}",
+    )
 
 
 def test_a_bad_candump_line_is_named_by_its_number_in_plot_and_monitor(cli, tmp_path):
     good = tmp_path / "good.log"
     write(good, 20)
     lines = good.read_text().splitlines()
-    lines[10] = "(1000.1) vcan0"                     # line 11: no frame field
+    lines[10] = "(1000.1) vcan0"  # line 11: no frame field
     bad = tmp_path / "bad.log"
     bad.write_text("\n".join(lines) + "\n")
-    assert_one_line(both(cli, bad),
-                    f"{bad}:11: damaged line (ValueError: not enough values to unpack (expected 3, got 2)), "
-                    f"10 frames (0.030 s of recording) read before it; {LOG_EXPECTED}")
+    assert_one_line(
+        both(cli, bad),
+        f"{bad}:11: damaged line (ValueError: not enough values to unpack (expected 3, got 2)), "
+        f"10 frames (0.030 s of recording) read before it; {LOG_EXPECTED}",
+    )
 
 
 def test_a_damaged_record_csv_row_is_exit_2_in_monitor_too(cli, tmp_path):
     path = tmp_path / "s.log.csv"
-    path.write_text("t_s,cob_id,kind,node,dlc,data,text,fields\n1.0,0x080,SYNC,,1,01,SYNC #1,{}\n"
-                    "1.01,0x080,SYNC,,3,02,SYNC #2,{}\n")
+    path.write_text(
+        "t_s,cob_id,kind,node,dlc,data,text,fields\n1.0,0x080,SYNC,,1,01,SYNC #1,{}\n"
+        "1.01,0x080,SYNC,,3,02,SYNC #2,{}\n"
+    )
     code, _, err = cli("monitor", "--replay", str(path), "--json", "--no-frames")
-    assert code == EXIT_USAGE and err == (f"telethermo monitor: error: {path}:3: damaged row "
-                                          "(dlc 3 but 1 data bytes)\n")
+    assert code == EXIT_USAGE and err == (
+        f"telethermo monitor: error: {path}:3: damaged row (dlc 3 but 1 data bytes)\n"
+    )

@@ -1,5 +1,6 @@
 """telethermo.cli.progress.Progress, the one progress display of the CLI: in place on a terminal, a plain line
 ~every 10 % elsewhere (a log, a pipe: never a carriage return); and ``identify`` into a pipe, a real process."""
+
 from __future__ import annotations
 
 import io
@@ -13,9 +14,9 @@ from telethermo.cli.progress import Progress
 
 
 def test_not_a_tty_prints_a_line_every_ten_percent_and_the_end():
-    out = io.StringIO()            # not a terminal: isatty() is False
+    out = io.StringIO()  # not a terminal: isatty() is False
     bar = Progress("session", total=3000, unit="cycles", stream=out)
-    for k in range(0, 3001, 7):     # polled far more often than every 10 %
+    for k in range(0, 3001, 7):  # polled far more often than every 10 %
         bar.update(k, rate=1234.0)
         bar.update(k, rate=1234.0)  # the same k twice: nothing new
     bar.update(3000, rate=1234.0)
@@ -45,15 +46,30 @@ def test_unknown_total_prints_every_thousand():
     for k in range(0, 3500, 10):
         bar.update(k)
     assert [ln.split("  (")[0] for ln in out.getvalue().splitlines()] == [
-        f"session  {k}/? cycles" for k in (1000, 2000, 3000)]
+        f"session  {k}/? cycles" for k in (1000, 2000, 3000)
+    ]
 
 
 @pytest.mark.slow
 def test_identify_into_a_pipe_writes_lines_not_frames(tmp_path):
     """Issue 25: `telethermo identify ... 2>&1 | cat` got `\\r` frames; a pipe now gets ~10 plain lines."""
-    p = subprocess.run([sys.executable, "-m", "telethermo", "identify", "--samples", "1200",
-                        "--validation", "200", "--out", str(tmp_path / "m.json")],
-                       capture_output=True, text=True, timeout=300)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "telethermo",
+            "identify",
+            "--samples",
+            "1200",
+            "--validation",
+            "200",
+            "--out",
+            str(tmp_path / "m.json"),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert p.returncode in (0, 1), p.stderr
     assert "\r" not in p.stderr and "\r" not in p.stdout
     lines = [ln for ln in p.stderr.splitlines() if ln.startswith("identify: experiment  ")]

@@ -1,5 +1,6 @@
 """How `get`/`set` show values: hex for COB-IDs and bit fields, names for enumerations, units always,
 the node in every line; enumeration names accepted by `set`."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -43,7 +44,7 @@ def test_enumerations_by_name():
     assert show("mode", 1) == "1 (telepresence)"
     assert show("safety_state", 2) == "2 (ramp_to_neutral)"
     assert show("estimator", 0) == "0 (model)"
-    assert show("model_status", 2) == "2 (edited since loaded)"   # from the EDS description
+    assert show("model_status", 2) == "2 (edited since loaded)"  # from the EDS description
     assert show("ident_state", 3) == "3 (interrupted)"
     assert show("mode", 9) == "9 (not a listed value)"
     assert values.parse_enum(EDS.get("mode"), "Telepresence") == 1
@@ -53,6 +54,7 @@ def test_enumerations_by_name():
 
 def test_estimator_codes_are_the_nodes():
     from telethermo.nodes.odparams import ESTIMATOR_CODES
+
     names = values.enum_names(EDS.get("estimator"))
     assert names == {code: est.value for est, code in ESTIMATOR_CODES.items()}
 
@@ -65,17 +67,22 @@ def test_units_always():
     # an EDS without Unit= keys (another vendor's, or an old one): the unit from the name's suffix
     bare = dataclasses.replace(EDS.get("ramp_limit_C_per_s"), unit="")
     assert values.fmt(2.5, bare) == "2.5 degC/s"
-    assert dict(values.NAME_UNITS) == edsgen.UNIT_TEXT   # one naming convention
+    assert dict(values.NAME_UNITS) == edsgen.UNIT_TEXT  # one naming convention
 
 
 def test_get_names_the_node_on_every_line(nodes, cli):
-    code, out, err = cli("get", *nodes.bus, "slave", "COB-ID SYNC", "mode", "kp_A_per_C", "0x1018:1",
-                         "Producer heartbeat time")
+    code, out, err = cli(
+        "get", *nodes.bus, "slave", "COB-ID SYNC", "mode", "kp_A_per_C", "0x1018:1", "Producer heartbeat time"
+    )
     assert code == EXIT_OK, err
     lines = out.splitlines()
     assert [ln.split(" = ")[0] for ln in lines] == [
-        "slave 0x1005 COB-ID SYNC", "slave 0x2500 mode", "slave 0x2200 kp_A_per_C",
-        "slave 0x1018:01 Identity object.Vendor-ID", "slave 0x1017 Producer heartbeat time"]
+        "slave 0x1005 COB-ID SYNC",
+        "slave 0x2500 mode",
+        "slave 0x2200 kp_A_per_C",
+        "slave 0x1018:01 Identity object.Vendor-ID",
+        "slave 0x1017 Producer heartbeat time",
+    ]
     assert lines[0].split(" = ")[1].startswith("0x00000080 (COB-ID 0x080, consumes SYNC)")
     assert lines[1].split(" = ")[1].startswith("0 (idle)")
     assert lines[4].split(" = ")[1].startswith("100 ms")
@@ -88,7 +95,10 @@ def test_set_takes_enumeration_names(nodes, cli):
     assert nodes.devices["master"].read("mode") == 1
     code, _, err = cli("set", *nodes.bus, "master", "mode", "telepresense")
     assert code == EXIT_USAGE and err.count("\n") == 1
-    assert "mode: expected one of idle (0), telepresence (1), render (2), identify (3), got 'telepresense'" in err
+    assert (
+        "mode: expected one of idle (0), telepresence (1), render (2), identify (3), got 'telepresense'"
+        in err
+    )
 
 
 def test_get_says_what_a_parameter_write_changes_from_the_parameter_table():

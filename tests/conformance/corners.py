@@ -8,28 +8,47 @@ What the checks assert is what CiA 301 and docs/canopen.md promise, never the or
 happens to put frames on the hub: a TPDO of SYNC k may reach the bus after SYNC k+1 (the slave processed SYNC
 k late), so the transmission types are counted in the slave's own cycles (0x2702 mapped into the TPDO).
 """
+
 from __future__ import annotations
 
 import struct
 import threading
 
 from telethermo.cia301 import (
-    ABORT_COMMAND_SPECIFIER, ABORT_LENGTH_HIGH, ABORT_LOCAL_CONTROL, ABORT_NO_OBJECT, ABORT_NO_SUBINDEX,
-    ABORT_READ_ONLY, ABORT_TIMEOUT, EMCY_HEARTBEAT, EMCY_RPDO_TIMEOUT,
+    ABORT_COMMAND_SPECIFIER,
+    ABORT_LENGTH_HIGH,
+    ABORT_LOCAL_CONTROL,
+    ABORT_NO_OBJECT,
+    ABORT_NO_SUBINDEX,
+    ABORT_READ_ONLY,
+    ABORT_TIMEOUT,
+    EMCY_HEARTBEAT,
+    EMCY_RPDO_TIMEOUT,
 )
 
 from tests.conformance.checks import (
-    CHECKS, OPERATIONAL, PEER_LOST_BIT, START, STOP, STOPPED, Check, _abort, _remap, expect, recovered,
+    CHECKS,
+    OPERATIONAL,
+    PEER_LOST_BIT,
+    START,
+    STOP,
+    STOPPED,
+    Check,
+    _abort,
+    _remap,
+    expect,
+    recovered,
 )
 from tests.conformance.lab import MASTER, SLAVE, Lab, wait_for
 
-CYCLE_COUNTER_MAP = 0x27020020   # 0x2702 cycle_counter, 32 bits
+CYCLE_COUNTER_MAP = 0x27020020  # 0x2702 cycle_counter, 32 bits
 
 
 def _cycles_between_tpdo2(lab: Lab, mark: int) -> list[int]:
     """Differences of the slave's cycle_counter between consecutive TPDO2 frames since ``mark``."""
-    counts = [int.from_bytes(d[:4], "little") for c, d in lab.frames.since(mark)
-              if c == 0x282 and len(d) == 4]
+    counts = [
+        int.from_bytes(d[:4], "little") for c, d in lab.frames.since(mark) if c == 0x282 and len(d) == 4
+    ]
     return [b - a for a, b in zip(counts, counts[1:])]
 
 
@@ -44,16 +63,18 @@ def pdo_transmission_types(lab: Lab) -> str:
         sdo[0x1801][2].raw = 1
         mark = lab.frames.mark()
         expect(lab.wait_frames(0x282, 42, since=mark), "TPDO2 at type 1 does not come")
-        every = _cycles_between_tpdo2(lab, mark)[1:41]       # the first one may be the old type's
+        every = _cycles_between_tpdo2(lab, mark)[1:41]  # the first one may be the old type's
         sdo[0x1801][2].raw = 10
         mark = lab.frames.mark()
         expect(lab.wait_frames(0x282, 7, since=mark), "TPDO2 at type 10 does not come")
-        tenth = _cycles_between_tpdo2(lab, mark)[2:6]        # the switch's countdown may be shorter
+        tenth = _cycles_between_tpdo2(lab, mark)[2:6]  # the switch's countdown may be shorter
     finally:
         sdo[0x1801][2].raw = trans
         _remap(sdo, 0x1801, 0x1A01, saved)
-    expect(set(every) == {1} and set(tenth) == {10},
-           f"slave cycles between TPDO2 frames: type 1 {sorted(set(every))}, type 10 {sorted(set(tenth))}")
+    expect(
+        set(every) == {1} and set(tenth) == {10},
+        f"slave cycles between TPDO2 frames: type 1 {sorted(set(every))}, type 10 {sorted(set(tenth))}",
+    )
     return f"type 1: every SYNC ({len(every)} intervals); type 10: every 10th ({len(tenth)})"
 
 
@@ -89,8 +110,12 @@ class _Sampler:
         reg, t2 = sdo[0x1001].raw, sdo["active_trips"].raw
         if t1 == t2 and fb == sdo["link_fallback_active"].raw:
             self.samples += 1
-            wrong = ((t1 and not reg & 0x01) or (t1 & PEER_LOST_BIT and reg & 0x11 != 0x11)
-                     or (fb and reg & 0x81 != 0x81) or (not t1 and not fb and alive and reg))
+            wrong = (
+                (t1 and not reg & 0x01)
+                or (t1 & PEER_LOST_BIT and reg & 0x11 != 0x11)
+                or (fb and reg & 0x81 != 0x81)
+                or (not t1 and not fb and alive and reg)
+            )
             if wrong:
                 self.bad.append((t1, fb, alive, reg))
         return t2
@@ -122,34 +147,40 @@ def emcy_consistency(lab: Lab) -> str:
         lab.nmt(STOP, SLAVE)
         expect(wait_for(lambda: sample() & PEER_LOST_BIT, 30, 0.05), "the master never tripped peer_lost")
         for _ in range(2):
-            fake.on.clear()                                # node 5 lost
+            fake.on.clear()  # node 5 lost
             expect(wait_for(lambda: alive_is(False), 10, 0.05), "node 5's loss not seen (0x2705)")
-            fake.on.set()                                  # node 5 back: the trip is still latched
+            fake.on.set()  # node 5 back: the trip is still latched
             expect(wait_for(lambda: alive_is(True), 10, 0.05), "node 5's return not seen (0x2705)")
             for _ in range(5):
                 sample()
         fake.on.clear()
         expect(wait_for(lambda: alive_is(False), 10, 0.05), "node 5's third loss not seen")
-        master[0x1016][2].raw = 0                          # no longer watched: its error goes
+        master[0x1016][2].raw = 0  # no longer watched: its error goes
         for _ in range(10):
             sample()
         expect(master[0x1003][1].raw & 0xFFFF == EMCY_HEARTBEAT, "0x1003 newest entry is not 0x8130")
         lab.nmt(START, SLAVE)
         expect(wait_for(lambda: sample() == 0, 30, 0.05), "the peer_lost trip did not clear after NMT start")
-        expect(wait_for(lambda: master[0x1001].raw == 0, 10, 0.05),
-               f"0x1001 = 0x{master[0x1001].raw:02X} with no trip latched and no watched node lost")
+        expect(
+            wait_for(lambda: master[0x1001].raw == 0, 10, 0.05),
+            f"0x1001 = 0x{master[0x1001].raw:02X} with no trip latched and no watched node lost",
+        )
         for _ in range(5):
             sample()
     finally:
         fake.close()
         master[0x1016][2].raw = 0
         master["link_loss_render_s"].raw = render_s
-    expect(not sample.bad,
-           f"0x1001 disagreed with what is active (trips, fallback, alive, 0x1001): {sample.bad[:5]}")
+    expect(
+        not sample.bad,
+        f"0x1001 disagreed with what is active (trips, fallback, alive, 0x1001): {sample.bad[:5]}",
+    )
     frames = [d for c, d in lab.frames.since(mark) if c == 0x80 + MASTER and len(d) == 8]
     hb_nodes = [d[3] for d in frames if int.from_bytes(d[:2], "little") == EMCY_HEARTBEAT]
-    expect(sorted(hb_nodes) == [2, 5, 5, 5],
-           f"EMCY 0x8130 naming nodes {hb_nodes} (want the peer once, node 5 once per loss)")
+    expect(
+        sorted(hb_nodes) == [2, 5, 5, 5],
+        f"EMCY 0x8130 naming nodes {hb_nodes} (want the peer once, node 5 once per loss)",
+    )
     codes = [int.from_bytes(d[:2], "little") for d in frames]
     expect(codes[-1] == 0x0000 and codes.count(0x0000) == 1, f"master EMCYs {[hex(c) for c in codes]}")
     recovered(lab)
@@ -166,6 +197,7 @@ def _sdo_raw(lab: Lab, nid: int, data: bytes, timeout_s: float = 5.0) -> bytes |
     def answered() -> bool:
         found[:] = [d for c, d in lab.frames.since(mark) if c == 0x580 + nid][:1]
         return bool(found)
+
     return found[0] if wait_for(answered, timeout_s) else None
 
 
@@ -175,15 +207,22 @@ def _abort_of(answer: bytes | None) -> int | None:
 
 def sdo_segmented_initiate(lab: Lab) -> str:
     """A segmented download that cannot succeed is aborted in answer to its initiate (CANopenNode does)."""
-    cases = [(0x5FFF, 0, 4, ABORT_NO_OBJECT), (0x1018, 9, 4, ABORT_NO_SUBINDEX),
-             (0x1000, 0, 4, ABORT_READ_ONLY), (0x2200, 0, 8, ABORT_LENGTH_HIGH)]
+    cases = [
+        (0x5FFF, 0, 4, ABORT_NO_OBJECT),
+        (0x1018, 9, 4, ABORT_NO_SUBINDEX),
+        (0x1000, 0, 4, ABORT_READ_ONLY),
+        (0x2200, 0, 8, ABORT_LENGTH_HIGH),
+    ]
     for nid in (MASTER, SLAVE):
         kp = lab.sdo(nid).upload(0x2200, 0)
         for index, sub, size, want in cases:
             answer = _sdo_raw(lab, nid, bytes([0x21]) + struct.pack("<HBL", index, sub, size))
             got = _abort_of(answer)
-            expect(got == want, f"node {nid}: initiate segmented download of 0x{index:04X} sub {sub}, "
-                   f"{size} bytes: answer {answer and answer.hex()}, want abort 0x{want:08X}")
+            expect(
+                got == want,
+                f"node {nid}: initiate segmented download of 0x{index:04X} sub {sub}, "
+                f"{size} bytes: answer {answer and answer.hex()}, want abort 0x{want:08X}",
+            )
         expect(lab.sdo(nid).upload(0x2200, 0) == kp, f"node {nid}: 0x2200 changed")
     return "0x06020000, 0x06090011, 0x06010002, 0x06070012 at the initiate"
 
@@ -193,16 +232,22 @@ def sdo_segmented_timeout(lab: Lab) -> str:
     for nid in (MASTER, SLAVE):
         kp = lab.sdo(nid).upload(0x2200, 0)
         answer = _sdo_raw(lab, nid, bytes([0x21]) + struct.pack("<HBL", 0x2200, 0, 4))
-        expect(answer is not None and answer[0] == 0x60,
-               f"node {nid}: initiate answered {answer and answer.hex()}")
+        expect(
+            answer is not None and answer[0] == 0x60,
+            f"node {nid}: initiate answered {answer and answer.hex()}",
+        )
         mark = lab.frames.mark()
-        expect(wait_for(lambda: any(c == 0x580 + nid for c, _ in lab.frames.since(mark)), 10),
-               f"node {nid}: the open transfer was never aborted")
+        expect(
+            wait_for(lambda: any(c == 0x580 + nid for c, _ in lab.frames.since(mark)), 10),
+            f"node {nid}: the open transfer was never aborted",
+        )
         late = next(d for c, d in lab.frames.since(mark) if c == 0x580 + nid)
         expect(_abort_of(late) == ABORT_TIMEOUT, f"node {nid}: {late.hex()} instead of abort 0x05040000")
         seg = _abort_of(_sdo_raw(lab, nid, bytes([0x01 | 3 << 1]) + kp))
-        expect(seg == ABORT_COMMAND_SPECIFIER,
-               f"node {nid}: a segment after the timeout: abort {seg and hex(seg)}")
+        expect(
+            seg == ABORT_COMMAND_SPECIFIER,
+            f"node {nid}: a segment after the timeout: abort {seg and hex(seg)}",
+        )
         expect(lab.sdo(nid).upload(0x2200, 0) == kp, f"node {nid}: 0x2200 changed")
     return "0x05040000 after the server timeout, then 0x05040001 for the late segment"
 
@@ -231,17 +276,19 @@ def rpdo_timeout(lab: Lab) -> str:
         # monitoring starts at the first RPDO after the write (CANopenNode): let a few come first
         expect(lab.wait_frames(0x182, 3, since=lab.frames.mark()), "the slave's TPDO1 does not flow")
         lab.nmt(STOP, SLAVE)
-        expect(wait_for(lambda: EMCY_RPDO_TIMEOUT in lab.emcy_codes(MASTER, mark), 20),
-               f"no EMCY 0x8250 (master EMCYs {[hex(c) for c in lab.emcy_codes(MASTER, mark)]}, 0x1001 = "
-               f"0x{master[0x1001].raw:02X}, 0x1003:1 = 0x{master[0x1003][1].raw:08X}, 0x1400:5 = "
-               f"{master[0x1400][5].raw}, slave TPDO1 since: {lab.frames.count(0x182, mark)})")
+        expect(
+            wait_for(lambda: EMCY_RPDO_TIMEOUT in lab.emcy_codes(MASTER, mark), 20),
+            f"no EMCY 0x8250 (master EMCYs {[hex(c) for c in lab.emcy_codes(MASTER, mark)]}, 0x1001 = "
+            f"0x{master[0x1001].raw:02X}, 0x1003:1 = 0x{master[0x1003][1].raw:08X}, 0x1400:5 = "
+            f"{master[0x1400][5].raw}, slave TPDO1 since: {lab.frames.count(0x182, mark)})",
+        )
         data = next(d for c, d in lab.frames.since(mark) if c == 0x81 and d[:2] == b"\x50\x82")
         expect(data[3] == 1 and data[2] & 0x11 == 0x11, f"EMCY 0x8250 {data.hex()}: byte 3 not RPDO 1")
         lab.nmt(START, SLAVE)
         expect(lab.wait_frames(0x182, 5, since=mark), "the slave's TPDO1 does not come back")
     finally:
         master[0x1400][5].raw = 0
-        lab.nmt(START, SLAVE)   # (again, if the check failed before: the next check finds the pair running)
+        lab.nmt(START, SLAVE)  # (again, if the check failed before: the next check finds the pair running)
     codes = lab.emcy_codes(MASTER, mark)
     return f"master EMCYs {[f'0x{c:04X}' for c in codes]}; {recovered(lab)}"
 
@@ -260,10 +307,16 @@ def sync_counter_after_stop(lab: Lab) -> str:
 
 
 CORNERS: list[Check] = [
-    Check("sdo_segmented_initiate", "CiA 301 7.2.4.3.3 SDO download initiate: refused before any segment",
-          sdo_segmented_initiate),
-    Check("sdo_segmented_timeout", "CiA 301 7.2.4.3.17 SDO abort 0x05040000: segmented transfer timed out",
-          sdo_segmented_timeout),
+    Check(
+        "sdo_segmented_initiate",
+        "CiA 301 7.2.4.3.3 SDO download initiate: refused before any segment",
+        sdo_segmented_initiate,
+    ),
+    Check(
+        "sdo_segmented_timeout",
+        "CiA 301 7.2.4.3.17 SDO abort 0x05040000: segmented transfer timed out",
+        sdo_segmented_timeout,
+    ),
     Check("sync_period_1006", "CiA 301 object 0x1006 communication cycle period", sync_period_1006),
     Check("rpdo_timeout", "CiA 301 RPDO event timer (0x1400 sub 5); EMCY 0x8250", rpdo_timeout),
     Check("sync_counter_after_stop", "CiA 301 7.2.5 SYNC counter after NMT STOPPED", sync_counter_after_stop),
@@ -273,14 +326,23 @@ CORNERS: list[Check] = [
 def _suite() -> list[Check]:
     names = [c.name for c in CHECKS]
     out = list(CHECKS)
-    out.insert(names.index("pdo_mapping_procedure") + 1,
-               Check("pdo_transmission_types",
-                     "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)",
-                     pdo_transmission_types))
+    out.insert(
+        names.index("pdo_mapping_procedure") + 1,
+        Check(
+            "pdo_transmission_types",
+            "CiA 301 7.2.2 PDO transmission types (synchronous, every n-th SYNC)",
+            pdo_transmission_types,
+        ),
+    )
     at = [c.name for c in out].index("heartbeat_producer") + 1
-    out.insert(at, Check("emcy_consistency",
-                         "CiA 301 7.2.7 EMCY, 7.2.8.3 heartbeat consumer; objects 0x1001, 0x1003, 0x1016",
-                         emcy_consistency))
+    out.insert(
+        at,
+        Check(
+            "emcy_consistency",
+            "CiA 301 7.2.7 EMCY, 7.2.8.3 heartbeat consumer; objects 0x1001, 0x1003, 0x1016",
+            emcy_consistency,
+        ),
+    )
     for i, check in enumerate(CORNERS):
         out.insert(at + 1 + i, check)
     return out

@@ -8,6 +8,7 @@ frames. No project client code: ``nodes.launch`` only starts the processes (the 
 Used by the conformance checks (tests/conformance/checks.py), their tests (tests/conformance/) and
 ``python -m bench.conformance_bench``.
 """
+
 from __future__ import annotations
 
 import configparser
@@ -73,6 +74,7 @@ def eds_limits(role: str, index: int, sub: int = 0) -> tuple[float | None, float
 
     def num(key):
         return float(sec[key]) if key in sec else None
+
     return num("LowLimit"), num("HighLimit")
 
 
@@ -81,7 +83,9 @@ class Lab:
 
     def __init__(self, port: int, pair) -> None:
         self.pair = pair
-        self.bus = can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="telethermo", tcp_tune=True)
+        self.bus = can.Bus(
+            interface="socketcand", host="127.0.0.1", port=port, channel="telethermo", tcp_tune=True
+        )
         self.net = canopen.Network(self.bus)
         self.net.NOTIFIER_CYCLE = 0.05
         self.net.connect()
@@ -114,8 +118,11 @@ class Lab:
         return wait_for(lambda: self.frames.count(cob_id, since) >= n, timeout_s)
 
     def emcy_codes(self, node_id: int, since: int) -> list[int]:
-        return [int.from_bytes(d[:2], "little") for cob, d in self.frames.since(since)
-                if cob == 0x80 + node_id and len(d) == 8]
+        return [
+            int.from_bytes(d[:2], "little")
+            for cob, d in self.frames.since(since)
+            if cob == 0x80 + node_id and len(d) == 8
+        ]
 
     def processes_alive(self) -> bool:
         return self.pair.master.poll() is None and self.pair.slave.poll() is None
@@ -130,7 +137,9 @@ def live_pair(out_dir: Path, *, timing: str = "realtime", start_timeout_s: float
     """The master and slave programs (simulated rigs, telepresence) over a fresh hub, running until the end
     of the block; yields the client side once the master has run 100 cycles."""
 
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=Path(out_dir), timing=timing, cycles=0, seed=0, progress_every=10))
+    pair = NodePair(
+        PairConfig(scene=SCENE, out_dir=Path(out_dir), timing=timing, cycles=0, seed=0, progress_every=10)
+    )
     pair.start()
     lab = None
     try:

@@ -3,6 +3,7 @@ NmtMaster built from the shipped EDS files and raw frames only (tests/conformanc
 timing mode (``--conformance-timing``, default real time), the checks in their order: each disturbing
 check ends by proving the pair recovered. With ``--write-results DIR`` the checks' verdicts go to
 DIR/conformance.json (``python -m bench.conformance_bench`` runs both timing modes so)."""
+
 from __future__ import annotations
 
 import contextlib
@@ -15,14 +16,23 @@ from tests.conformance.corners import SUITE as CHECKS
 from tests.conformance.lab import live_pair
 
 pytestmark = [pytest.mark.conformance, pytest.mark.slow]
-CLIENT = "canopen RemoteNode/SdoClient/NmtMaster from bus_config/*.eds + raw python-can frames (socketcand hub)"
+CLIENT = (
+    "canopen RemoteNode/SdoClient/NmtMaster from bus_config/*.eds + raw python-can frames (socketcand hub)"
+)
 
 
-def conformance_document(entries: list[dict[str, Any]], wall_s: float, *,
-                         timings: list[str]) -> dict[str, Any]:
+def conformance_document(
+    entries: list[dict[str, Any]], wall_s: float, *, timings: list[str]
+) -> dict[str, Any]:
     """bench/results/conformance.json: every check's verdict per timing mode, and the failed count."""
-    return {"n_checks": len(entries), "n_fail": sum(r["result"] != "PASS" for r in entries),
-            "timings": list(timings), "client": CLIENT, "wall_s": round(wall_s, 1), "checks": list(entries)}
+    return {
+        "n_checks": len(entries),
+        "n_fail": sum(r["result"] != "PASS" for r in entries),
+        "timings": list(timings),
+        "client": CLIENT,
+        "wall_s": round(wall_s, 1),
+        "checks": list(entries),
+    }
 
 
 def _timings(config: pytest.Config) -> list[str]:
@@ -39,7 +49,9 @@ def lab(timing, tmp_path_factory):
     """The live pair, or the reason it did not start (every check then counts as an ERROR)."""
     with contextlib.ExitStack() as stack:
         try:
-            pair = stack.enter_context(live_pair(tmp_path_factory.mktemp(f"conformance-{timing}"), timing=timing))
+            pair = stack.enter_context(
+                live_pair(tmp_path_factory.mktemp(f"conformance-{timing}"), timing=timing)
+            )
         except Exception as exc:  # noqa: BLE001 - the pair's failure is each check's verdict
             pair = f"pair failed: {type(exc).__name__}: {exc}"
         yield pair
@@ -52,6 +64,7 @@ def test_cia301(lab, timing, check, request, results_writer):
     else:
         res = run_check(check, lab)
     res["timing"] = timing
-    results_writer.add("conformance", res,
-                       lambda e, w: conformance_document(e, w, timings=_timings(request.config)))
+    results_writer.add(
+        "conformance", res, lambda e, w: conformance_document(e, w, timings=_timings(request.config))
+    )
     assert res["result"] == "PASS", f"{check.name} ({check.clause}) [{timing}]: {res['detail']}"

@@ -1,4 +1,5 @@
 """Contact detection from the heat-flux signal."""
+
 import math
 
 import numpy as np

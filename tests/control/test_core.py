@@ -1,4 +1,5 @@
 """The step function's contract, without a plant: purity, peer handling, modes, bumpless switching."""
+
 import dataclasses
 import math
 
@@ -69,7 +70,7 @@ def test_peer_lost_ramps_to_neutral_then_cuts():
     r = step(S(T=28.0), PeerValues(28.0, 0.0), P, st)
     sps = []
     T = 28.0
-    for k in range(1, 200):   # a pad that follows the setpoint a cycle late (the ramp waits for a lagging one)
+    for k in range(1, 200):  # a pad that follows the setpoint a cycle late (the ramp waits for a lagging one)
         r = step(S(t=0.01 * k, T=T), PeerValues(28.0, 0.0, alive=False), P, r.state)
         sps.append(r.status.setpoint_C)
         T = r.status.setpoint_C
@@ -146,7 +147,9 @@ def test_render_preset_then_contact_switch():
     r = step(S(T=rs.T_pad0_C + 0.5), None, Pm, s)
     for k in range(1, 30):
         r = step(S(t=0.01 * k, T=rs.T_pad0_C + 0.5), None, Pm, r.state)
-    assert r.status.render_phase is RenderPhase.PRESET and r.status.requested_setpoint_C == pytest.approx(rs.T_pad0_C)
+    assert r.status.render_phase is RenderPhase.PRESET and r.status.requested_setpoint_C == pytest.approx(
+        rs.T_pad0_C
+    )
     u_pre = r.current_A
     assert u_pre < 0  # pad above its pre-set: cooling
     # the finger touches: ~1.5 W flows into the pad (measured), the filtered sensor still near T_pad0
@@ -166,11 +169,18 @@ def test_render_preset_then_contact_switch():
 
 
 @settings(max_examples=300, deadline=None)
-@given(T=st.floats(allow_nan=True, allow_infinity=True), Q=st.floats(allow_nan=True, allow_infinity=True),
-       sink=st.floats(allow_nan=True, allow_infinity=True), pe=st.floats(allow_nan=True, allow_infinity=True),
-       pq=st.floats(allow_nan=True, allow_infinity=True), alive=st.booleans(),
-       kp=st.floats(0, 100), ki=st.floats(0, 1000), kq=st.floats(-100, 100),
-       mode=st.sampled_from([Mode.TELEPRESENCE, Mode.IDLE, Mode.IDENTIFY]))
+@given(
+    T=st.floats(allow_nan=True, allow_infinity=True),
+    Q=st.floats(allow_nan=True, allow_infinity=True),
+    sink=st.floats(allow_nan=True, allow_infinity=True),
+    pe=st.floats(allow_nan=True, allow_infinity=True),
+    pq=st.floats(allow_nan=True, allow_infinity=True),
+    alive=st.booleans(),
+    kp=st.floats(0, 100),
+    ki=st.floats(0, 1000),
+    kq=st.floats(-100, 100),
+    mode=st.sampled_from([Mode.TELEPRESENCE, Mode.IDLE, Mode.IDENTIFY]),
+)
 def test_any_input_gives_a_bounded_finite_current(T, Q, sink, pe, pq, alive, kp, ki, kq, mode):
     p = CoreParams(role=Role.SLAVE, mode=mode, kp_A_per_C=kp, ki_A_per_C_s=ki, kQ_A_per_W=kq)
     s = init_state(p, None, S())
@@ -189,8 +199,15 @@ def test_any_input_gives_a_bounded_finite_current(T, Q, sink, pe, pq, alive, kp,
 
 def test_identify_mode_runs_the_plan_then_holds_zero():
     from telethermo.ident.plan import IdentifyPlan
-    plan = IdentifyPlan(seed=3, rest_samples=20, train_samples=150, validation_samples=80, amplitude_A=(0.2, 0.6),
-                        hold_samples=5)
+
+    plan = IdentifyPlan(
+        seed=3,
+        rest_samples=20,
+        train_samples=150,
+        validation_samples=80,
+        amplitude_A=(0.2, 0.6),
+        hold_samples=5,
+    )
     p = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify=plan)
     r = step(S(), None, p, init_state(p, None, S()))
     us = [r.current_A]
@@ -198,11 +215,13 @@ def test_identify_mode_runs_the_plan_then_holds_zero():
         r = step(S(t=0.01 * k), None, p, r.state)
         us.append(r.current_A)
     # sample j of the mode carries the plan's current j (the pad far from the envelope: no guard)
-    assert us[:plan.total] == list(plan.currents())
-    assert all(u == 0.0 for u in us[:20]) and set(us[plan.total:]) == {0.0}
+    assert us[: plan.total] == list(plan.currents())
+    assert all(u == 0.0 for u in us[:20]) and set(us[plan.total :]) == {0.0}
     assert r.state.ident_k == plan.total + 30 and r.state.ident_guard == 0
     # within the plan's margin of the top clamp the guard flips heating into cooling, and counts it
-    p2 = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify=IdentifyPlan(rest_samples=0, amplitude_A=(0.5, 0.5)))
+    p2 = CoreParams(
+        role=Role.MASTER, mode=Mode.IDENTIFY, identify=IdentifyPlan(rest_samples=0, amplitude_A=(0.5, 0.5))
+    )
     r = step(S(T=42.5), None, p2, init_state(p2, None, S(T=42.5)))
     r2 = step(S(t=0.01, T=42.5), None, p2, r.state)
     assert r.current_A <= 0.0 and r2.current_A <= 0.0 and r2.state.ident_guard >= 1
@@ -220,6 +239,7 @@ def test_clear_faults_releases_a_gone_trip_and_restarts_bumpless():
     r = step(S(t=0.01, sink=60.0), PeerValues(33.0, 0.0), P, r.state)
     assert Trip.HEAT_SINK in r.status.trips and r.current_A == 0.0
     from telethermo.control.core import clear_faults
+
     still = clear_faults(S(t=0.02, sink=60.0), PeerValues(33.0, 0.0), P, r.state)
     assert Trip.HEAT_SINK in still.env.trips and still.env.cut
     ok = clear_faults(S(t=0.02, sink=30.0), PeerValues(33.0, 0.0), P, r.state)
@@ -287,24 +307,42 @@ def test_a_predictor_without_snapshot_makes_states_single_use():
 def test_a_fault_reset_does_not_restart_an_identification_experiment():
     from telethermo.control.core import clear_faults
     from telethermo.ident.plan import IdentifyPlan
-    p = CoreParams(role=Role.MASTER, mode=Mode.IDENTIFY, identify=IdentifyPlan(rest_samples=5, train_samples=100,
-                                                                                validation_samples=50))
+
+    p = CoreParams(
+        role=Role.MASTER,
+        mode=Mode.IDENTIFY,
+        identify=IdentifyPlan(rest_samples=5, train_samples=100, validation_samples=50),
+    )
     r = step(S(), None, p, init_state(p, None, S()))
     for k in range(1, 20):
         r = step(S(t=0.01 * k), None, p, r.state)
-    r = step(S(t=0.2, sink=60.0), None, p, r.state)           # a heat-sink trip cuts the current
+    r = step(S(t=0.2, sink=60.0), None, p, r.state)  # a heat-sink trip cuts the current
     assert r.current_A == 0.0 and r.state.env.trips
-    st = clear_faults(S(t=0.21), None, p, r.state)             # the sink back to 25 °C: the operator resets
+    st = clear_faults(S(t=0.21), None, p, r.state)  # the sink back to 25 °C: the operator resets
     assert not st.env.trips
     r = step(S(t=0.21), None, p, st)
-    assert r.state.ident_k == 22                               # the plan goes on (it does not restart at 0)
+    assert r.state.ident_k == 22  # the plan goes on (it does not restart at 0)
 
 
 @settings(max_examples=150, deadline=None)
-@given(seq=st.lists(st.tuples(st.floats(15, 43), st.floats(-3, 3), st.floats(-20, 50), st.floats(-10, 10),
-                              st.sampled_from(["ok", "ok", "ok", "lost", "nan", "stale"]), st.booleans()),
-                    min_size=5, max_size=80),
-       kp=st.floats(0, 20), ki=st.floats(0, 50), kq=st.floats(-5, 5), kpq=st.floats(0, 5))
+@given(
+    seq=st.lists(
+        st.tuples(
+            st.floats(15, 43),
+            st.floats(-3, 3),
+            st.floats(-20, 50),
+            st.floats(-10, 10),
+            st.sampled_from(["ok", "ok", "ok", "lost", "nan", "stale"]),
+            st.booleans(),
+        ),
+        min_size=5,
+        max_size=80,
+    ),
+    kp=st.floats(0, 20),
+    ki=st.floats(0, 50),
+    kq=st.floats(-5, 5),
+    kpq=st.floats(0, 5),
+)
 def test_peer_trips_never_step_the_current_beyond_the_slew(seq, kp, ki, kq, kpq):
     """Random gains, contacts (flux, the contact flag), peers (values, loss, NaN, stale) through the whole core:
     while a peer trip is latched and no hard cut, the commanded current falls towards 0 A or grows by at most
@@ -314,8 +352,12 @@ def test_peer_trips_never_step_the_current_beyond_the_slew(seq, kp, ki, kq, kpq)
     step_A = lim.trip_slew_A_per_s * p.period_s
     r = step(S(), PeerValues(33.0, 0.0), p, init_state(p, None, S()))
     for k, (T, Q, pe, pq, kind, contact) in enumerate(seq, start=1):
-        peer = {"ok": PeerValues(pe, pq), "lost": PeerValues(pe, pq, fresh=False, alive=False),
-                "nan": PeerValues(math.nan, pq), "stale": PeerValues(pe, pq, fresh=False)}[kind]
+        peer = {
+            "ok": PeerValues(pe, pq),
+            "lost": PeerValues(pe, pq, fresh=False, alive=False),
+            "nan": PeerValues(math.nan, pq),
+            "stale": PeerValues(pe, pq, fresh=False),
+        }[kind]
         prev = r.current_A
         r = step(S(t=0.01 * k, T=T, Q=Q, I=prev, contact=contact), peer, p, r.state)
         I = r.current_A
@@ -327,9 +369,11 @@ def test_peer_trips_never_step_the_current_beyond_the_slew(seq, kp, ki, kq, kpq)
 
 
 @settings(max_examples=150, deadline=None)
-@given(valid=st.lists(st.floats(15, 43), min_size=1, max_size=20),
-       own=st.lists(st.tuples(st.floats(15, 43), st.floats(-3, 3)), min_size=5, max_size=80),
-       pattern=st.lists(st.sampled_from(["frozen", "stale", "burst"]), min_size=5, max_size=80))
+@given(
+    valid=st.lists(st.floats(15, 43), min_size=1, max_size=20),
+    own=st.lists(st.tuples(st.floats(15, 43), st.floats(-3, 3)), min_size=5, max_size=80),
+    pattern=st.lists(st.sampled_from(["frozen", "stale", "burst"]), min_size=5, max_size=80),
+)
 def test_a_starved_peer_cannot_make_the_setpoint_climb(valid, own, pattern):
     """The flood aftermath (issue 12): a peer alive but starved never drives the master's setpoint beyond the values
     it was given. Values frozen or stale (fresh False): the setpoint moves towards the last one, never past it;
@@ -345,8 +389,11 @@ def test_a_starved_peer_cannot_make_the_setpoint_climb(valid, own, pattern):
     lo, hi = min([sp0] + [h.estimate_C for h in history]), max([sp0] + [h.estimate_C for h in history])
     sp = sp0
     for i, (kind, (T, Q)) in enumerate(zip(pattern, own)):
-        peer = {"frozen": last, "stale": dataclasses.replace(last, fresh=False),
-                "burst": history[i % len(history)]}[kind]
+        peer = {
+            "frozen": last,
+            "stale": dataclasses.replace(last, fresh=False),
+            "burst": history[i % len(history)],
+        }[kind]
         r = step(S(t=0.01 * (len(valid) + 1 + i), T=T, Q=Q, contact=True), peer, p, r.state)
         new = r.status.setpoint_C
         assert not (set(r.status.trips) & {Trip.PEER_LOST, Trip.PEER_INVALID})

@@ -6,6 +6,7 @@ rigs): a sensor head detached from either pad trips SENSOR_DETACHED (EMCY 0x5014
 cuts the current, while the §5.3 scene and envelope corners (objects at 5 and 50 °C, rooms at 15 and 32 °C,
 TEMs of half and 2.5 times the Seebeck coefficient, 100 ms delay) never do, with the leaky timer far below its
 limit."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -18,8 +19,15 @@ from telethermo import sim
 from telethermo.control import safety as sf
 from telethermo.control.core import init_state, step
 from telethermo.control.detach import (
-    SHIPPED_ALPHA_V_K, SHIPPED_K_W_K, SHIPPED_R_OHM, SHIPPED_TAU_V_K, detach_excess, detach_timer,
-    hold_current_A, sensor_average, tem_limits,
+    SHIPPED_ALPHA_V_K,
+    SHIPPED_K_W_K,
+    SHIPPED_R_OHM,
+    SHIPPED_TAU_V_K,
+    detach_excess,
+    detach_timer,
+    hold_current_A,
+    sensor_average,
+    tem_limits,
 )
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
@@ -38,7 +46,8 @@ BOUND_S = 10.0
 def test_shipped_constants_are_the_simulated_module():
     tem = load_rig_params().tem
     assert (SHIPPED_ALPHA_V_K, SHIPPED_R_OHM, SHIPPED_K_W_K, SHIPPED_TAU_V_K) == pytest.approx(
-        (tem.alpha_V_K, tem.R_ohm, tem.K_W_K, tem.tau_V_K), rel=1e-12)
+        (tem.alpha_V_K, tem.R_ohm, tem.K_W_K, tem.tau_V_K), rel=1e-12
+    )
 
 
 @pytest.mark.parametrize("I_A", [-1.5, -0.4, 0.0, 0.3, 1.2, 2.0])
@@ -49,8 +58,16 @@ def test_hold_current_inverts_the_pad_plate_balance(I_A):
     for T_p, T_s in ((33.0, 25.0), (15.0, 30.0), (45.0, 26.0)):
         _, u_p = tem.plate_heat_W(I_A, T_s, T_p)
         Q_load = u_p + tem.K_W_K * (T_s - T_p)
-        got = hold_current_A(tem.alpha_V_K, tem.R_ohm, tem.K_W_K, tem.tau_V_K, T_pad_C=T_p, T_sink_C=T_s,
-                             Q_load_W=Q_load, I_limit_A=3.0)
+        got = hold_current_A(
+            tem.alpha_V_K,
+            tem.R_ohm,
+            tem.K_W_K,
+            tem.tau_V_K,
+            T_pad_C=T_p,
+            T_sink_C=T_s,
+            Q_load_W=Q_load,
+            I_limit_A=3.0,
+        )
         assert got == pytest.approx(I_A, abs=1e-9)
 
 
@@ -63,15 +80,24 @@ def test_hold_current_limits_and_missing_inputs():
 
 def test_the_check_needs_a_steady_sensor_and_a_real_excess():
     lim = sf.SafetyLimits(I_max_A=3.0)
-    hold = hold_current_A(lim.tem_alpha_V_K, lim.tem_R_ohm, lim.tem_K_W_K, lim.tem_tau_V_K, T_pad_C=30.0,
-                          T_sink_C=25.0, Q_load_W=0.0, I_limit_A=lim.I_limit_A)
+    hold = hold_current_A(
+        lim.tem_alpha_V_K,
+        lim.tem_R_ohm,
+        lim.tem_K_W_K,
+        lim.tem_tau_V_K,
+        T_pad_C=30.0,
+        T_sink_C=25.0,
+        Q_load_W=0.0,
+        I_limit_A=lim.I_limit_A,
+    )
     kw = dict(T_sink_C=25.0, Q_W=0.0)
     assert detach_excess(lim, T_sensor_C=30.0, T_avg_C=30.0, current_A=2.4, **kw)
-    assert not detach_excess(lim, T_sensor_C=30.0, T_avg_C=30.0, current_A=hold + 0.5, **kw)   # within
-    assert not detach_excess(lim, T_sensor_C=30.0, T_avg_C=29.0, current_A=2.4, **kw)          # moving 1 °C/s
-    assert not detach_excess(lim, T_sensor_C=30.0, T_avg_C=math.nan, current_A=2.4, **kw)     # no average
-    assert not detach_excess(dataclasses.replace(lim, tem_alpha_V_K=0.0), T_sensor_C=30.0, T_avg_C=30.0,
-                             current_A=2.4, **kw)                                                 # off
+    assert not detach_excess(lim, T_sensor_C=30.0, T_avg_C=30.0, current_A=hold + 0.5, **kw)  # within
+    assert not detach_excess(lim, T_sensor_C=30.0, T_avg_C=29.0, current_A=2.4, **kw)  # moving 1 °C/s
+    assert not detach_excess(lim, T_sensor_C=30.0, T_avg_C=math.nan, current_A=2.4, **kw)  # no average
+    assert not detach_excess(
+        dataclasses.replace(lim, tem_alpha_V_K=0.0), T_sensor_C=30.0, T_avg_C=30.0, current_A=2.4, **kw
+    )  # off
     assert sensor_average(math.nan, 30.0, 0.01) == 30.0
     assert sensor_average(30.0, 31.0, 0.01) == pytest.approx(30.01)
 
@@ -79,7 +105,7 @@ def test_the_check_needs_a_steady_sensor_and_a_real_excess():
 def test_leaky_timer():
     lim = sf.SafetyLimits(I_max_A=3.0)
     t, tripped = 0.0, False
-    for _ in range(150):                  # 1.5 s in excess, 1.5 s not: back to 0
+    for _ in range(150):  # 1.5 s in excess, 1.5 s not: back to 0
         t, tripped = detach_timer(lim, t, True, 0.01)
     for _ in range(150):
         t, _ = detach_timer(lim, t, False, 0.01)
@@ -103,6 +129,7 @@ def _detached(role: str | None, duration_s: float):
         if r == role:
             rig.detach_sensor(DETACH_AT_S)
         return rig
+
     return run_offline_session(SCENE, duration_s=duration_s, rounding="real32", rig_path=path).recording
 
 
@@ -111,7 +138,7 @@ def _trip_times(rec, p: str, name: str) -> list[float]:
     return [float(t[i]) for i, x in enumerate(rec.text(f"{p}_new_trips")) if name in x.split("|")]
 
 
-@pytest.mark.slow   # two 14 s sessions of physics
+@pytest.mark.slow  # two 14 s sessions of physics
 @pytest.mark.parametrize("role", ["master", "slave"])
 def test_a_detached_sensor_trips_with_its_own_code(role):
     rec = _detached(role, DETACH_AT_S + BOUND_S - 1.0)
@@ -120,7 +147,7 @@ def test_a_detached_sensor_trips_with_its_own_code(role):
     print(f"{role}: sensor_detached {times[0] - DETACH_AT_S:.2f} s after the detachment" if times else "none")
     assert times and DETACH_AT_S < times[0] <= DETACH_AT_S + BOUND_S
     # the first trip of that side, and the current cut from then on
-    assert all(not x for x in rec.text(f"{p}_new_trips")[:int(round(times[0] / 0.01))])
+    assert all(not x for x in rec.text(f"{p}_new_trips")[: int(round(times[0] / 0.01))])
     k = int(np.searchsorted(rec.col("t_s"), times[0]))
     assert np.all(rec.col(f"{p}_current_A")[k:] == 0.0)
     assert not _trip_times(rec, other, "sensor_detached")
@@ -145,13 +172,20 @@ CORNERS = {c.index: c for c in draw_conditions(0, 7, corners=True)}
 CONDITIONS = [base_condition(), CORNERS[0], CORNERS[3], CORNERS[6], CORNERS[13]]
 
 
-@pytest.mark.slow   # five 30 s sessions of physics
-@pytest.mark.parametrize("cond", CONDITIONS, ids=lambda c: f"obj{c.object_T_C:g}-room{c.ambient_C:g}-"
-                                                           f"seebeck{c.m_seebeck_x:g}-delay{c.delay_ms:g}")
+@pytest.mark.slow  # five 30 s sessions of physics
+@pytest.mark.parametrize(
+    "cond",
+    CONDITIONS,
+    ids=lambda c: f"obj{c.object_T_C:g}-room{c.ambient_C:g}-seebeck{c.m_seebeck_x:g}-delay{c.delay_ms:g}",
+)
 def test_contacts_hot_and_cold_objects_do_not_trip(cond):
     sc, rig_s = condition_scene(cond)
-    rec = run_offline_session(sc, slave_rig_params=rig_s, seed=cond.seed % 100000,
-                              delay_cycles=int(round(cond.delay_ms * 1e-3 / sc.period_s))).recording
+    rec = run_offline_session(
+        sc,
+        slave_rig_params=rig_s,
+        seed=cond.seed % 100000,
+        delay_cycles=int(round(cond.delay_ms * 1e-3 / sc.period_s)),
+    ).recording
     assert rec.col("t_s")[-1] > 29.0 and len(sc.slave_contacts) == 6
     for p, params, role in (("m", sc.rig_params, Role.MASTER), ("s", rig_s, Role.SLAVE)):
         assert not _trip_times(rec, p, "sensor_detached")
@@ -177,7 +211,7 @@ def test_the_module_fault_text():
             parse_faults([bad])
 
 
-@pytest.mark.slow   # two identification experiments of 152 s of plant time
+@pytest.mark.slow  # two identification experiments of 152 s of plant time
 @pytest.mark.parametrize("role", [Role.MASTER, Role.SLAVE])
 def test_the_identification_experiment_does_not_trip(role):
     """IDENTIFY drives PRBS currents up to 1 A into a pad in air, far from any holding current: the pad is not

@@ -1,6 +1,7 @@
 """Later-phase rendering (issue 15): the conduction model against a closed form shared with the simulator's
 slab, benali-khoudja's RC model against the simulated cooling experiment it is identified from, and the
 render mode stepping them."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -16,8 +17,15 @@ from telethermo.sim.expint import Modal
 from telethermo.sim.materials import material
 from telethermo.control.core import CoreParams, RenderPhase, RenderSettings, init_state, step
 from telethermo.control.later_conduction import conduction_model, conduction_start, conduction_step
-from telethermo.control.later_phase import (LaterModel, later_from_key, later_key, later_od_values, later_phase,
-                                            later_setpoint, later_start)
+from telethermo.control.later_phase import (
+    LaterModel,
+    later_from_key,
+    later_key,
+    later_od_values,
+    later_phase,
+    later_setpoint,
+    later_start,
+)
 from telethermo.control.later_rc import fit_exponential, load_rc_table, rc_lookup, rc_temperature
 from telethermo.control.types import Mode, Role
 from telethermo.control.virtual_object import VirtualObject, load_object_table
@@ -27,8 +35,9 @@ AREA_M2 = 0.015 * 0.015
 DT_S = 0.01
 
 
-@pytest.mark.parametrize("name, thickness_mm", [("aluminium", 1.0), ("glass", 1.0), ("oak", 2.0),
-                                                ("stainless_steel", 2.0)])
+@pytest.mark.parametrize(
+    "name, thickness_mm", [("aluminium", 1.0), ("glass", 1.0), ("oak", 2.0), ("stainless_steel", 2.0)]
+)
 def test_conduction_model_and_simulator_slab_equal_the_constant_flux_closed_form(name, thickness_mm):
     """A constant 1 kW/m² into a slab with an insulated back (Carslaw & Jaeger §3.3): the control core's
     few-cell slab and the simulator's graded slab both follow the series solution, and the model's
@@ -36,14 +45,14 @@ def test_conduction_model_and_simulator_slab_equal_the_constant_flux_closed_form
     mat = load_object_table().get(name)
     model = conduction_model(VirtualObject(name, thickness_mm), mat, DT_S)
     st = conduction_start(model, 0.0)
-    sg = slab("o", material(name), thickness_mm * 1e-3, AREA_M2, DT_S)     # the simulator's slab
+    sg = slab("o", material(name), thickness_mm * 1e-3, AREA_M2, DT_S)  # the simulator's slab
     system = assemble([sg], [], ADIABATIC, ADIABATIC)
     Phi, c, G0, G1 = Modal(system, (0,)).step_matrices(DT_S)
     x = np.zeros(system.n + 1)
     f, f0 = system.face_functional(0, "front")
     q = 1000.0
     Q = q * AREA_M2
-    assert len(model.slab.widths_m) <= 8 and len(model.deep.widths_m) <= 24   # "a few cells"
+    assert len(model.slab.widths_m) <= 8 and len(model.deep.widths_m) <= 24  # "a few cells"
     for k in range(1, 1001):
         st, corr = conduction_step(model, st, Q)
         x = Phi @ x + c + (G0[:, 0] + G1[:, 0]) * Q
@@ -80,18 +89,25 @@ def test_rc_model_reproduces_its_own_tau_from_the_simulated_cooling_experiment()
     τ is the experiment's within 5 %; the same fit applied to the RC model's own curve gives τ back within
     5 %; without a load the RC curve stays within 15 % (RMS) of the cooling's amplitude."""
     table = load_rc_table()
-    for name, th, load in (("aluminium", 1.0, 0.0), ("aluminium", 1.0, 50.0), ("glass", 1.0, 0.0), ("oak", 2.0, 0.0)):
+    for name, th, load in (
+        ("aluminium", 1.0, 0.0),
+        ("aluminium", 1.0, 50.0),
+        ("glass", 1.0, 0.0),
+        ("oak", 2.0, 0.0),
+    ):
         fresh = identify(name, th, load_g=load)
         tau, phi = rc_lookup(table, name, th, load_g=load)
-        assert tau == pytest.approx(fresh["tau_s"], rel=0.05) and phi == pytest.approx(fresh["final_fraction"], abs=0.02)
+        assert tau == pytest.approx(fresh["tau_s"], rel=0.05) and phi == pytest.approx(
+            fresh["final_fraction"], abs=0.02
+        )
         t, T, T_f0 = cooling_curve(name, th, load_g=load)
         m = t >= FIT_FROM_S
         T_final = T_f0 + phi * (40.0 - T_f0)
-        _, _, T_start, _ = fit_exponential(t[m], T[m])          # the curve's value at FIT_FROM_S
+        _, _, T_start, _ = fit_exponential(t[m], T[m])  # the curve's value at FIT_FROM_S
         rc = np.array([rc_temperature(T_start, T_final, tau, ti - FIT_FROM_S) for ti in t[m]])
         tau_back, *_ = fit_exponential(t[m], rc)
         assert tau_back == pytest.approx(tau, rel=0.05)
-        if load == 0.0:   # with the load (at 40 °C too) the curve dips and recovers: one exponential is crude
+        if load == 0.0:  # with the load (at 40 °C too) the curve dips and recovers: one exponential is crude
             assert float(np.sqrt(np.mean((rc - T[m]) ** 2))) < 0.15 * float(np.ptp(T[m])), name
     # the 50 g load lengthens the metal's τ, as in benali-khoudja Table 1 (Al: 36.9 s -> 120 s)
     assert rc_lookup(table, "aluminium", 1.0, load_g=50.0)[0] > 1.5 * rc_lookup(table, "aluminium", 1.0)[0]
@@ -105,7 +121,7 @@ def test_rc_and_conduction_setpoints_start_at_eq1_and_head_for_the_finger():
         first, st = later_setpoint(lp, st, 26.0, 34.0, 25.0, 0.0, 0.0)
         assert first == pytest.approx(26.0, abs=1e-9)
         for k in range(1, 500):
-            T, st = later_setpoint(lp, st, 26.0, 34.0, 25.0, k * DT_S, 0.5)   # the finger keeps giving 0.5 W
+            T, st = later_setpoint(lp, st, 26.0, 34.0, 25.0, k * DT_S, 0.5)  # the finger keeps giving 0.5 W
         assert 27.0 < T < 34.0, model
     lp = later_phase("semi_infinite", obj, DT_S)
     assert later_setpoint(lp, later_start(lp, 25.0), 26.0, 34.0, 25.0, 5.0, 0.5)[0] == 26.0
@@ -121,24 +137,27 @@ def test_the_render_mode_steps_the_conduction_model_from_each_touch():
     r = step(s0, None, P, init_state(P, None, s0))
     for touch in range(2):
         t0 = 1.0 + 5.0 * touch
-        for k in range(100):   # free: the pre-set
+        for k in range(100):  # free: the pre-set
             r = step(RigSample(t0 - 1.0 + k * DT_S, rs.T_pad0_C, 0.0, 0.0, False, 26.0), None, P, r.state)
-        assert r.status.render_phase is RenderPhase.PRESET and r.status.requested_setpoint_C == pytest.approx(rs.T_pad0_C)
+        assert r.status.render_phase is RenderPhase.PRESET and r.status.requested_setpoint_C == pytest.approx(
+            rs.T_pad0_C
+        )
         st, want = later_start(lp, 25.0), []
-        for k in range(300):   # touched: 1.5 W from the finger into the pad
+        for k in range(300):  # touched: 1.5 W from the finger into the pad
             r = step(RigSample(t0 + k * DT_S, rs.T_contact_C, -1.5, 0.0, True, 26.0), None, P, r.state)
             if r.status.render_phase is RenderPhase.CONTACT:
                 T, st = later_setpoint(lp, st, rs.T_contact_C, 33.0, 25.0, 0.0, 1.5)
                 want.append((r.status.requested_setpoint_C, T))
         assert len(want) > 250
         assert all(a == pytest.approx(b, abs=1e-9) for a, b in want)
-        assert want[-1][0] > rs.T_contact_C + 2.0     # the foil warms up under the finger
+        assert want[-1][0] > rs.T_contact_C + 2.0  # the foil warms up under the finger
     # the script switches to another object while the finger is still detected: its model starts afresh
     foil2 = later_phase("conduction", VirtualObject("glass", 1.0), DT_S)
     P2 = dataclasses.replace(P, render=dataclasses.replace(rs, later=foil2))
     r2 = step(RigSample(10.0, rs.T_contact_C, -1.5, 0.0, True, 26.0), None, P2, r.state)
-    assert r2.status.requested_setpoint_C == pytest.approx(later_setpoint(
-        foil2, later_start(foil2, 25.0), rs.T_contact_C, 33.0, 25.0, 0.0, 1.5)[0], abs=1e-12)
+    assert r2.status.requested_setpoint_C == pytest.approx(
+        later_setpoint(foil2, later_start(foil2, 25.0), rs.T_contact_C, 33.0, 25.0, 0.0, 1.5)[0], abs=1e-12
+    )
     semi = dataclasses.replace(P, render=dataclasses.replace(rs, later=None))
     r2 = step(RigSample(20.0, rs.T_contact_C, -1.5, 0.0, True, 26.0), None, semi, r.state)
     assert r2.status.requested_setpoint_C == pytest.approx(rs.T_contact_C)
@@ -169,6 +188,10 @@ def test_object_table_errors_name_the_file_and_field(tmp_path):
     assert tab.canonical("wood") == "oak" and tab.canonical("contact_pad") == "ceramic"
     assert tab.beta("aluminium") == pytest.approx(tab.get("aluminium").b / 951.0)
     p = tmp_path / "objects.toml"
-    p.write_text("[finger]\nb_W_s05_m2K = 951.0\n[glass]\nlambda_W_mK = -1.4\nrho_c_J_m3K = 1.0\n", encoding="utf-8")
-    with pytest.raises(ValueError, match=r"objects.toml: field 'glass.lambda_W_mK': expected a number > 0, got -1.4"):
+    p.write_text(
+        "[finger]\nb_W_s05_m2K = 951.0\n[glass]\nlambda_W_mK = -1.4\nrho_c_J_m3K = 1.0\n", encoding="utf-8"
+    )
+    with pytest.raises(
+        ValueError, match=r"objects.toml: field 'glass.lambda_W_mK': expected a number > 0, got -1.4"
+    ):
         load_object_table(p)

@@ -1,4 +1,5 @@
 """The calibrated material classifier (telethermo/control/material_calib.py): its file, its errors, its physics."""
+
 from __future__ import annotations
 
 import json
@@ -9,13 +10,35 @@ import numpy as np
 import pytest
 
 from telethermo.offline.material_calibration import calibrate
-from telethermo.offline.material_touches import (CALIBRATION, EVALUATION, HELDOUT, PERIOD_S, SIM_TO_TABLE,
-                                                 finger_natural_C, refuse_overlap, simulate_touch)
+from telethermo.offline.material_touches import (
+    CALIBRATION,
+    EVALUATION,
+    HELDOUT,
+    PERIOD_S,
+    SIM_TO_TABLE,
+    finger_natural_C,
+    refuse_overlap,
+    simulate_touch,
+)
 from telethermo.control import material_id as mi
-from telethermo.control.material_calib import (DEFAULT_CALIBRATION, classify_vector, load_calibration, n_units,
-                                               save_calibration, touch_vector, whitener)
-from telethermo.control.material_stream import (UNKNOWN_CODE, MaterialIdParams, MaterialState, calibrated, default_classes,
-                                                fit_units, material_step)
+from telethermo.control.material_calib import (
+    DEFAULT_CALIBRATION,
+    classify_vector,
+    load_calibration,
+    n_units,
+    save_calibration,
+    touch_vector,
+    whitener,
+)
+from telethermo.control.material_stream import (
+    UNKNOWN_CODE,
+    MaterialIdParams,
+    MaterialState,
+    calibrated,
+    default_classes,
+    fit_units,
+    material_step,
+)
 from telethermo.control.material_train import TrainSettings
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
@@ -33,7 +56,7 @@ def test_shipped_calibration_round_trips(tmp_path):
         assert np.array_equal(getattr(back, name), getattr(CAL, name)), name
     for net_b, net in zip(back.nets, CAL.nets):
         assert all(np.array_equal(a, b) for la, lb in zip(net_b, net) for a, b in zip(la, lb))
-    assert not list(tmp_path.glob(".c.npz.*"))                          # the temporary file was renamed
+    assert not list(tmp_path.glob(".c.npz.*"))  # the temporary file was renamed
 
 
 def _rewrite(src, dst, **change):
@@ -49,15 +72,18 @@ def _rewrite(src, dst, **change):
     return dst
 
 
-@pytest.mark.parametrize("change, field", [
-    ({"net0_w1": None}, "net0_w1"),
-    ({"scale": np.array(-1.0)}, "scale"),
-    ({"n_nets": np.array(0)}, "n_nets"),
-    ({"net0_w0": np.zeros((7, 3), np.float32)}, "net0_w0"),
-    ({"center": np.zeros(7)}, "center"),
-    ({"format": np.array("something else")}, "format"),
-    ({"whiten": np.full((60, 60), np.nan)}, "whiten"),
-])
+@pytest.mark.parametrize(
+    "change, field",
+    [
+        ({"net0_w1": None}, "net0_w1"),
+        ({"scale": np.array(-1.0)}, "scale"),
+        ({"n_nets": np.array(0)}, "n_nets"),
+        ({"net0_w0": np.zeros((7, 3), np.float32)}, "net0_w0"),
+        ({"center": np.zeros(7)}, "center"),
+        ({"format": np.array("something else")}, "format"),
+        ({"whiten": np.full((60, 60), np.nan)}, "whiten"),
+    ],
+)
 def test_malformed_file_gives_one_line_error_naming_file_and_field(tmp_path, change, field):
     bad = _rewrite(DEFAULT_CALIBRATION, tmp_path / "bad.npz", **change)
     with pytest.raises(ValueError) as exc:
@@ -77,7 +103,9 @@ def test_a_file_that_is_no_archive_names_the_file(tmp_path):
 
 def test_calibration_seeds_are_disjoint_from_the_evaluation_touches():
     info = json.loads(CAL.info)
-    refuse_overlap(info["reference_touches"], (info["draw_seed"], info["sim_seed_first"]))  # raises if they meet
+    refuse_overlap(
+        info["reference_touches"], (info["draw_seed"], info["sim_seed_first"])
+    )  # raises if they meet
     assert (info["draw_seed"], info["sim_seed_first"]) == CALIBRATION
     dense = info["dense"]
     refuse_overlap(dense["touches"], (dense["draw_seed"], dense["sim_seed_first"]))
@@ -94,8 +122,9 @@ def test_classifier_names_thick_slabs_at_a_large_temperature_difference():
     names = [SIM_TO_TABLE[m] for m in SIM_TO_TABLE]
     right = 0
     for i, mat in enumerate(SIM_TO_TABLE):
-        T, Q, i0, _, _ = simulate_touch(PARAMS, mat, 0.02, T_probe - 14.0, 6.0, T_probe, seed=900_000 + i,
-                                        t_on_s=0.205)
+        T, Q, i0, _, _ = simulate_touch(
+            PARAMS, mat, 0.02, T_probe - 14.0, 6.0, T_probe, seed=900_000 + i, t_on_s=0.205
+        )
         inp = mi.fit_input(T, Q, i0, PERIOD_S)
         got, post = classify_vector(CAL, touch_vector(inp, CAL.q_weight_K_per_W))
         right += CAL.classes[got] == names[i]
@@ -105,13 +134,17 @@ def test_classifier_names_thick_slabs_at_a_large_temperature_difference():
 def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
     """The staged fit (the physics fit's units, then one network layer per cycle) equals the batch one."""
     T_probe = finger_natural_C(PARAMS)
-    T, Q, i0, _, _ = simulate_touch(PARAMS, "glass", 0.02, T_probe - 12.0, 6.0, T_probe, seed=900_100, t_on_s=0.205)
+    T, Q, i0, _, _ = simulate_touch(
+        PARAMS, "glass", 0.02, T_probe - 12.0, 6.0, T_probe, seed=900_100, t_on_s=0.205
+    )
     assert T.size > i0 + 30 + 20
     p = MaterialIdParams()
-    assert calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 2 + mi.noise_draws(p.probe) + n_units(CAL) == 14
+    assert (
+        calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 2 + mi.noise_draws(p.probe) + n_units(CAL) == 14
+    )
     n_win, units = int(round(p.probe.window_s / PERIOD_S)), fit_units(p, PERIOD_S)
     st = MaterialState()
-    k_pub = i0 + n_win - 1 + units                         # the window completes at i0 + n_win - 1
+    k_pub = i0 + n_win - 1 + units  # the window completes at i0 + n_win - 1
     for k in range(k_pub):
         st = material_step(p, st, T[k], Q[k], k >= i0, PERIOD_S)
         assert st.last.touch == 0
@@ -131,7 +164,9 @@ def test_another_period_falls_back_to_the_physics_classification():
 def test_whitener_maps_the_floored_noise_covariance_to_the_identity():
     rng = np.random.default_rng(3)
     A = rng.standard_normal((60, 60))
-    S = A @ A.T * 1e-4 + np.diag(np.r_[np.full(30, 1e-12), np.full(30, 1e-6)])    # nearly singular, like a filter's
+    S = A @ A.T * 1e-4 + np.diag(
+        np.r_[np.full(30, 1e-12), np.full(30, 1e-6)]
+    )  # nearly singular, like a filter's
     for reg in (0.0, 0.01):
         W = whitener(S, reg)
         floored = S + reg * np.mean(np.diag(S)) * np.eye(60)
@@ -146,16 +181,31 @@ def test_the_shipped_metric_is_in_units_of_the_rigs_noise():
     mats = list(SIM_TO_TABLE)
     Z = []
     for i in range(120):
-        mat, f, T_obj = mats[i % 10], 2.0 + 8.0 * ((i * 7) % 11) / 10.0, T_probe - 2.0 - 16.0 * ((i * 3) % 7) / 6.0
-        T, Q, i0, _, _ = simulate_touch(PARAMS, mat, 0.005, T_obj, f, T_probe, seed=910_000 + i, t_on_s=0.203,
-                                        identify=False)
-        Tc, Qc, _, _, _ = simulate_touch(PARAMS, mat, 0.005, T_obj, f, T_probe, seed=910_000 + i, t_on_s=0.203,
-                                         noise=NoiseParams(enabled=False), identify=False)
+        mat, f, T_obj = (
+            mats[i % 10],
+            2.0 + 8.0 * ((i * 7) % 11) / 10.0,
+            T_probe - 2.0 - 16.0 * ((i * 3) % 7) / 6.0,
+        )
+        T, Q, i0, _, _ = simulate_touch(
+            PARAMS, mat, 0.005, T_obj, f, T_probe, seed=910_000 + i, t_on_s=0.203, identify=False
+        )
+        Tc, Qc, _, _, _ = simulate_touch(
+            PARAMS,
+            mat,
+            0.005,
+            T_obj,
+            f,
+            T_probe,
+            seed=910_000 + i,
+            t_on_s=0.203,
+            noise=NoiseParams(enabled=False),
+            identify=False,
+        )
         v = touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W)
         vc = touch_vector(mi.fit_input(Tc, Qc, i0, PERIOD_S), CAL.q_weight_K_per_W)
         Z.append(CAL.whiten @ (v - vc))
     var = np.var(np.array(Z), axis=0)
-    assert var.max() < 1.6 and var.max() > 0.5, var          # 120 draws: a variance of 1 is estimated within ±0.4
+    assert var.max() < 1.6 and var.max() > 0.5, var  # 120 draws: a variance of 1 is estimated within ±0.4
 
 
 def test_the_core_classifies_the_window_the_calibration_was_built_on():
@@ -164,8 +214,9 @@ def test_the_core_classifies_the_window_the_calibration_was_built_on():
     T_probe = finger_natural_C(PARAMS)
     codes = {name: code for code, name, _ in default_classes()}
     for i, (mat, f) in enumerate((("brass", 3.0), ("pvc", 8.0))):
-        T, Q, i0, est, _ = simulate_touch(PARAMS, mat, 0.004, T_probe - 9.0, f, T_probe, seed=920_000 + i,
-                                          t_on_s=0.207)
+        T, Q, i0, est, _ = simulate_touch(
+            PARAMS, mat, 0.004, T_probe - 9.0, f, T_probe, seed=920_000 + i, t_on_s=0.207
+        )
         got, post = classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W))
         assert est is not None and est.touch == 1 and est.code == codes[CAL.classes[got]]
         assert est.posterior == pytest.approx(post, rel=1e-12)
@@ -176,9 +227,13 @@ def test_a_touch_without_an_effusivity_is_published_unknown():
     says None); the network would still name a class, but the evidence is weak (issue 23), so the slave publishes
     "unknown" with posterior 0 and a NaN effusivity, the touch counted (seeds no calibration touch used)."""
     T_probe = finger_natural_C(PARAMS)
-    T, Q, i0, est, _ = simulate_touch(PARAMS, "glass", 0.001637, 33.909, 3.25, T_probe, seed=950_053, t_on_s=0.2073)
+    T, Q, i0, est, _ = simulate_touch(
+        PARAMS, "glass", 0.001637, 33.909, 3.25, T_probe, seed=950_053, t_on_s=0.2073
+    )
     assert abs(33.909 - T_probe) < 0.5 and mi.estimate_effusivity(T, Q, i0, PERIOD_S) is None
-    assert classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W)) is not None
+    assert (
+        classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W)) is not None
+    )
     assert est is not None and est.touch == 1 and est.code == UNKNOWN_CODE and est.posterior == 0.0
     assert est.abstained in ("flux_reversed", "no_fit", "weak_evidence") and math.isnan(est.effusivity)
 

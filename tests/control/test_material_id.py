@@ -1,4 +1,5 @@
 """Material identification on the slave (issue 15): physics of the estimator, the classifier, the core's output."""
+
 from __future__ import annotations
 
 import math
@@ -16,8 +17,14 @@ from telethermo.control import material_id as mi
 from telethermo.control.core import init_state, step
 from telethermo.control.params import default_params
 from telethermo.control.material_physics import EARLY
-from telethermo.control.material_stream import (UNKNOWN_CODE, MaterialIdParams, MaterialState, default_classes,
-                                                fit_units, material_step)
+from telethermo.control.material_stream import (
+    UNKNOWN_CODE,
+    MaterialIdParams,
+    MaterialState,
+    default_classes,
+    fit_units,
+    material_step,
+)
 from telethermo.control.rendering import load_render_table, relative_effusivity_from_contact
 from telethermo.control.material_trust import CalibrationBox
 from telethermo.control.types import PeerValues, Role
@@ -26,22 +33,53 @@ from telethermo.rig import RigSample
 PARAMS = load_rig_params()
 DT = 0.01
 T_PROBE, T_OBJ = 33.0, 20.0
-SIM_TO_TABLE = {"eps": "eps", "oak": "wood", "pvc": "pvc", "glass": "glass", "ceramic": "ceramic",
-                "stainless_steel": "stainless_steel", "carbon_steel": "carbon_steel", "brass": "brass",
-                "aluminium": "aluminium", "copper": "copper"}
+SIM_TO_TABLE = {
+    "eps": "eps",
+    "oak": "wood",
+    "pvc": "pvc",
+    "glass": "glass",
+    "ceramic": "ceramic",
+    "stainless_steel": "stainless_steel",
+    "carbon_steel": "carbon_steel",
+    "brass": "brass",
+    "aluminium": "aluminium",
+    "copper": "copper",
+}
 
 
-def touch(mat: str, *, noise: bool, seed: int = 0, force_N: float = 8.0, thickness_m: float = 0.02,
-          T_probe_C: float = T_PROBE, params=PARAMS):
+def touch(
+    mat: str,
+    *,
+    noise: bool,
+    seed: int = 0,
+    force_N: float = 8.0,
+    thickness_m: float = 0.02,
+    T_probe_C: float = T_PROBE,
+    params=PARAMS,
+):
     """The slave (default controller, peer at T_PROBE) touches a slab at 0.205 s (half a period before the
     sample that flags it, the estimator's expectation of an unknown instant); 0.8 s of samples.
     Returns (samples, the core's last status, the contact face temperature 10 ms into the touch)."""
     grid = GridSettings(t_min_s=DT)
-    body = Body(BodySpec("obj", material=mat, thickness_m=thickness_m, T0_C=T_OBJ), params.area_m2, 25.0,
-                params.h_air_W_m2K, grid)
+    body = Body(
+        BodySpec("obj", material=mat, thickness_m=thickness_m, T0_C=T_OBJ),
+        params.area_m2,
+        25.0,
+        params.h_air_W_m2K,
+        grid,
+    )
     schedule = Schedule([Touch(0.2 + 0.5 * DT, 10.0, "obj", force_N)])
-    rig = SimRig(params, {"obj": body}, schedule, ambient_C=25.0, period_s=DT,
-                 noise=NoiseParams(enabled=noise), seed=seed, grid=grid, start=T_probe_C)
+    rig = SimRig(
+        params,
+        {"obj": body},
+        schedule,
+        ambient_C=25.0,
+        period_s=DT,
+        noise=NoiseParams(enabled=noise),
+        seed=seed,
+        grid=grid,
+        start=T_probe_C,
+    )
     cp = default_params(Role.SLAVE, period_s=DT)
     st = init_state(cp, None, rig.read())
     peer = PeerValues(estimate_C=T_probe_C, flux_W=0.0)
@@ -100,7 +138,7 @@ def test_semi_infinite_body_matches_eq1_inverse_within_stated_confidence(mat, se
     finite-contact case is the classifier's, tests/control/test_material_physics.py)."""
     samples, _, T_c = touch(mat, noise=True, seed=seed, params=PARAMS.with_(R_at_1N_m2K_W=1e-12))
     b_eq1 = material(PARAMS.sensor_material).b * relative_effusivity_from_contact(T_PROBE, T_OBJ, T_c)
-    assert b_eq1 == pytest.approx(material(mat).b, rel=0.05)       # the simulator obeys eq. 1
+    assert b_eq1 == pytest.approx(material(mat).b, rel=0.05)  # the simulator obeys eq. 1
     est = mi.estimate_effusivity(*arrays(samples), DT)
     assert est is not None and 0 < est.se_ln_b < 0.3
     assert abs(math.log(est.b / b_eq1)) <= 1.96 * est.se_ln_b, (est, b_eq1)
@@ -124,7 +162,7 @@ def test_streaming_equals_batch():
     samples, status, _ = touch("glass", noise=True, seed=3)
     est = mi.estimate_effusivity(*arrays(samples), DT)
     assert status.material.effusivity == pytest.approx(est.b, rel=1e-12)
-    assert status.material.se_ln_b == pytest.approx(EARLY.sigma_ci(est.se_ln_b), rel=1e-12)   # its interval's
+    assert status.material.se_ln_b == pytest.approx(EARLY.sigma_ci(est.se_ln_b), rel=1e-12)  # its interval's
 
 
 def test_nan_input_gives_no_estimate():
@@ -132,8 +170,8 @@ def test_nan_input_gives_no_estimate():
     T, Q, i0 = arrays(samples)
     T[i0 + 5] = math.nan
     assert mi.estimate_effusivity(T, Q, i0, DT) is None
-    assert mi.estimate_effusivity(T[:i0 + 10], Q[:i0 + 10], i0, DT) is None     # window incomplete
-    assert mi.estimate_effusivity(T, Q, 0, DT) is None                          # nothing before the touch
+    assert mi.estimate_effusivity(T[: i0 + 10], Q[: i0 + 10], i0, DT) is None  # window incomplete
+    assert mi.estimate_effusivity(T, Q, 0, DT) is None  # nothing before the touch
     p, st = MaterialIdParams(), MaterialState()
     for k in range(i0 + 35):
         st = material_step(p, st, T[k], Q[k], k >= i0, DT)
@@ -147,8 +185,14 @@ def test_core_survives_nan_samples_during_a_touch():
     peer = PeerValues(estimate_C=T_PROBE, flux_W=0.0)
     for k in range(50):
         bad = 10 <= k < 14
-        s = RigSample(t_s=k * DT, T_sensor_C=math.nan if bad else T_PROBE, Q_W=math.nan if bad else 0.5,
-                      current_A=0.0, contact=k >= 8, T_sink_C=25.0)
+        s = RigSample(
+            t_s=k * DT,
+            T_sensor_C=math.nan if bad else T_PROBE,
+            Q_W=math.nan if bad else 0.5,
+            current_A=0.0,
+            contact=k >= 8,
+            T_sink_C=25.0,
+        )
         r = step(s, peer, cp, st)
         st = r.state
     assert r.status.material.code == 0 and math.isnan(r.status.material.effusivity)
@@ -175,8 +219,8 @@ def test_fit_is_spread_over_cycles_and_equals_the_batch_fit():
     for k in range(i0 + n_win + units + 2):
         st = material_step(p, st, T[k], Q[k], k >= i0, DT)
         seen.append((st.job is not None, st.last.touch))
-    k_full = i0 + n_win - 1                                   # the cycle that completes the window
-    assert all(job for job, _ in seen[k_full: k_full + units])
+    k_full = i0 + n_win - 1  # the cycle that completes the window
+    assert all(job for job, _ in seen[k_full : k_full + units])
     assert [touch for _, touch in seen[: k_full + units]] == [0] * (k_full + units)
     assert seen[k_full + units] == (False, 1)
     est = mi.estimate_effusivity(T, Q, i0, DT)
@@ -193,6 +237,6 @@ def test_a_new_touch_during_a_fit_does_not_lose_the_held_result():
     st = MaterialState()
     for k in range(i0 + n_win + 2):
         st = material_step(p, st, T[k], Q[k], k >= i0, DT)
-    for k in range(20):                                       # released: the fit carries on
+    for k in range(20):  # released: the fit carries on
         st = material_step(p, st, T[-1], Q[-1], False, DT)
     assert st.job is None and st.last.touch == 1 and st.last.code != 0

@@ -1,5 +1,6 @@
 """The oracle ceiling of material identification (telethermo/offline/material_oracle.py): physics of its two
 limits."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -15,8 +16,13 @@ SIMS = list(SIM_TO_TABLE)
 
 def _oracle(mat: str, dT_C: float, force_N: float = 8.0, thickness_m: float = 0.02) -> tuple[float, float]:
     T_probe = finger_natural_C(PARAMS)
-    touch = {"class": SIMS.index(mat), "force_N": force_N, "T_object_C": T_probe + dT_C,
-             "thickness_m": thickness_m, "t_on_s": 0.205}
+    touch = {
+        "class": SIMS.index(mat),
+        "force_N": force_N,
+        "T_object_C": T_probe + dT_C,
+        "thickness_m": thickness_m,
+        "t_on_s": 0.205,
+    }
     sigma = noise_scale(NoiseParams(), int(round(0.3 / PERIOD_S)))
     z, G = touch_candidates(PARAMS, SIMS, touch, T_probe, PERIOD_S, AMBIENT_C, sigma)
     return oracle_correct(z, G, touch["class"], np.random.default_rng(0), draws=300)

@@ -1,13 +1,20 @@
 """The physics posterior (issue 23; telethermo.control.material_physics): abstains where the physics cannot tell,
 and a posterior calibrated on held-out envelope touches through the slave's core."""
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from telethermo.offline.material_touches import (SIM_TO_TABLE, envelope_draws, finger_natural_C, noise_of,
-                                                 other_tem, simulate_touch)
+from telethermo.offline.material_touches import (
+    SIM_TO_TABLE,
+    envelope_draws,
+    finger_natural_C,
+    noise_of,
+    other_tem,
+    simulate_touch,
+)
 from telethermo.control import material_physics as mp
 from telethermo.control.material_id import EffusivityEstimate
 from telethermo.control.material_stream import UNKNOWN_CODE, default_classes
@@ -56,11 +63,21 @@ def test_posterior_is_calibrated_on_held_out_envelope_touches():
         T_probe = finger_natural_C(params, t["ambient_C"])
         if abs(T_probe - t["T_object_C"]) < 4.0:
             continue
-        _, _, _, est, _ = simulate_touch(params, sims[t["class"]], t["thickness_m"], t["T_object_C"], t["force_N"],
-                                         T_probe, seed=t["seed"], t_on_s=t["t_on_s"], noise=noise_of(t["noise_x"]),
-                                         ambient_C=t["ambient_C"], post_s=0.5)
+        _, _, _, est, _ = simulate_touch(
+            params,
+            sims[t["class"]],
+            t["thickness_m"],
+            t["T_object_C"],
+            t["force_N"],
+            T_probe,
+            seed=t["seed"],
+            t_on_s=t["t_on_s"],
+            noise=noise_of(t["noise_x"]),
+            ambient_C=t["ambient_C"],
+            post_s=0.5,
+        )
         b_true = dict((n, b) for _, n, b in CLASSES)[SIM_TO_TABLE[sims[t["class"]]]]
-        if math.isfinite(est.effusivity):                     # every fit's interval, named or not
+        if math.isfinite(est.effusivity):  # every fit's interval, named or not
             cov.append(abs(math.log(est.effusivity / b_true)) <= 1.96 * est.se_ln_b)
         if est.by != "physics" or est.code == UNKNOWN_CODE:
             continue

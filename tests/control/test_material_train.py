@@ -1,13 +1,20 @@
 """Training the material classifier's networks (telethermo/control/material_train.py): it reaches the Bayes rate of
 a problem whose Bayes rate is known, and the calibration it builds classifies as its networks do."""
+
 from __future__ import annotations
 
 import math
 
 import numpy as np
 
-from telethermo.control.material_calib import (Calibration, classify_vector, inputs, load_calibration, network_input,
-                                               save_calibration)
+from telethermo.control.material_calib import (
+    Calibration,
+    classify_vector,
+    inputs,
+    load_calibration,
+    network_input,
+    save_calibration,
+)
 from telethermo.control.material_train import TrainSettings, accuracy, build_calibration, train_network
 
 SMALL = TrainSettings(hidden=32, layers=2, epochs=30, batch=64, lr=3e-3, warmup=100, n_nets=1)
@@ -28,18 +35,23 @@ def _phi(x: float) -> float:
 def test_a_trained_network_reaches_the_bayes_rate_of_a_problem_no_line_separates():
     rng = np.random.default_rng(5)
     sigma = 0.5
-    bayes = _phi(1 / sigma) ** 2 + (1 - _phi(1 / sigma)) ** 2            # both coordinates right, or both wrong
+    bayes = _phi(1 / sigma) ** 2 + (1 - _phi(1 / sigma)) ** 2  # both coordinates right, or both wrong
     X, y = _xor(4000, sigma, rng)
     net = train_network(X, y, 2, SMALL, seed=1)
     cal = Calibration(("a", "b"), 0.01, 2, 1.0, np.zeros(4), np.eye(4), 1.0, (net,))
     Xt, yt = _xor(20000, sigma, rng)
     got = accuracy(cal, Xt, yt)
-    rule = float(np.mean((Xt[:, 0] * Xt[:, 1] > 0) == yt))                # the Bayes rule on the same draws
-    assert abs(rule - bayes) < 0.006                                      # 20000 draws: SE 0.0015
+    rule = float(np.mean((Xt[:, 0] * Xt[:, 1] > 0) == yt))  # the Bayes rule on the same draws
+    assert abs(rule - bayes) < 0.006  # 20000 draws: SE 0.0015
     assert got > rule - 0.015, (got, rule)
     untrained = train_network(X, y, 2, TrainSettings(hidden=32, layers=2, epochs=0, n_nets=1), seed=1)
-    assert abs(accuracy(Calibration(("a", "b"), 0.01, 2, 1.0, np.zeros(4), np.eye(4), 1.0, (untrained,)), Xt, yt)
-               - 0.5) < 0.1
+    assert (
+        abs(
+            accuracy(Calibration(("a", "b"), 0.01, 2, 1.0, np.zeros(4), np.eye(4), 1.0, (untrained,)), Xt, yt)
+            - 0.5
+        )
+        < 0.1
+    )
 
 
 def test_a_built_calibration_classifies_touch_vectors_as_its_networks_do(tmp_path):
@@ -54,15 +66,25 @@ def test_a_built_calibration_classifies_touch_vectors_as_its_networks_do(tmp_pat
     fast = np.where(y[:, None] == 1, 1.0, -1.0) * np.r_[0.0, 0.05, -0.05, np.zeros(9)]
     noise_sd = np.r_[np.full(6, 0.005), np.full(6, 0.02)]
     V = slow + fast + noise_sd * rng.standard_normal((n, 12))
-    cal = build_calibration(V, y, ["eps", "copper"], 0.01, 3.0, np.diag(noise_sd ** 2), 0.0, SMALL, "synthetic")
+    cal = build_calibration(V, y, ["eps", "copper"], 0.01, 3.0, np.diag(noise_sd**2), 0.0, SMALL, "synthetic")
     cal = load_calibration(save_calibration(cal, tmp_path / "c.npz"))
     assert cal.n_win == 6 and cal.info == "synthetic"
     one = np.array([classify_vector(cal, v)[0] for v in V[:300]])
-    batch = np.argmax(np.mean([np.exp(_log_softmax(_logits(net, inputs(cal.center, cal.whiten, cal.scale, V[:300]))))
-                               for net in cal.nets], axis=0), axis=1)
+    batch = np.argmax(
+        np.mean(
+            [
+                np.exp(_log_softmax(_logits(net, inputs(cal.center, cal.whiten, cal.scale, V[:300]))))
+                for net in cal.nets
+            ],
+            axis=0,
+        ),
+        axis=1,
+    )
     assert np.array_equal(one, batch)
-    assert accuracy(cal, V, y) > 0.98                                     # the classes are ≥ 14 noise units apart
-    assert abs(float(np.std(inputs(cal.center, cal.whiten, cal.scale, V))) - 1.0) < 0.05      # inputs of order one
+    assert accuracy(cal, V, y) > 0.98  # the classes are ≥ 14 noise units apart
+    assert (
+        abs(float(np.std(inputs(cal.center, cal.whiten, cal.scale, V))) - 1.0) < 0.05
+    )  # inputs of order one
     assert np.array_equal(network_input(cal, V[7]), inputs(cal.center, cal.whiten, cal.scale, V[7:8])[0])
     assert classify_vector(cal, np.zeros(5)) is None and classify_vector(cal, np.full(12, np.nan)) is None
 

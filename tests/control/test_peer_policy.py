@@ -1,4 +1,5 @@
 """The peer policy: when the peer is alive, and when a node resumes after the peer's return."""
+
 from __future__ import annotations
 
 import math
@@ -18,21 +19,23 @@ def test_alive_needs_heartbeat_values_and_few_misses():
     assert not peer_alive(heartbeat_ok=True, seen=True, missed_cycles=4, max_missed_cycles=3)
     assert not peer_alive(heartbeat_ok=False, seen=True, missed_cycles=0, max_missed_cycles=3)
     assert not peer_alive(heartbeat_ok=True, seen=False, missed_cycles=0, max_missed_cycles=3)
-    assert peer_alive(heartbeat_ok=True, seen=True, missed_cycles=-1, max_missed_cycles=1)  # cycle 0's stand-in
+    assert peer_alive(
+        heartbeat_ok=True, seen=True, missed_cycles=-1, max_missed_cycles=1
+    )  # cycle 0's stand-in
 
 
 def test_back_means_alive_and_fresh():
     assert peer_back(BACK)
     assert not peer_back(None)
-    assert not peer_back(PeerValues(31.0, 0.1, fresh=False, alive=True))   # an old value: not back yet
-    assert not peer_back(PeerValues(31.0, 0.1, fresh=True, alive=False))   # a PDO, but the heartbeat is lost
+    assert not peer_back(PeerValues(31.0, 0.1, fresh=False, alive=True))  # an old value: not back yet
+    assert not peer_back(PeerValues(31.0, 0.1, fresh=True, alive=False))  # a PDO, but the heartbeat is lost
 
 
 def test_resume_only_when_back_and_only_peer_trips_are_latched():
     assert peer_resume(BACK, frozenset({LOST})) is PeerResume.RESUME
     assert peer_resume(BACK, frozenset({LOST, INVALID})) is PeerResume.RESUME
     assert peer_resume(BACK, frozenset({LOST, SINK})) is PeerResume.LATCHED
-    assert peer_resume(BACK, frozenset({SINK})) is PeerResume.NONE        # no peer trip: not the peer's business
+    assert peer_resume(BACK, frozenset({SINK})) is PeerResume.NONE  # no peer trip: not the peer's business
     assert peer_resume(BACK, frozenset()) is PeerResume.NONE
     stale = PeerValues(31.0, 0.1, fresh=False, alive=True)
     assert peer_resume(stale, frozenset({LOST})) is PeerResume.NONE
@@ -51,4 +54,4 @@ def test_resume_clears_the_peer_trip_of_a_core_that_lost_its_peer():
     assert decision is PeerResume.RESUME
     new, cleared = resume(s, BACK, p, state)
     assert LOST in cleared and not new.env.trips and not new.env.cut
-    assert LOST in state.env.trips   # pure: the old state is untouched
+    assert LOST in state.env.trips  # pure: the old state is untouched

@@ -1,4 +1,5 @@
 """PI + feed-forward: anti-windup including the feed-forward, bumpless re-seeding, components."""
+
 import math
 
 import pytest
@@ -42,8 +43,13 @@ def test_integrator_windup_free_under_plain_saturation():
 
 
 @settings(max_examples=200, deadline=None)
-@given(u_prev=st.floats(-1.5, 1.5), e=st.floats(-20, 20), ff=st.floats(-1, 1),
-       kp=st.floats(0, 0.5), ki=st.floats(0, 10))
+@given(
+    u_prev=st.floats(-1.5, 1.5),
+    e=st.floats(-20, 20),
+    ff=st.floats(-1, 1),
+    kp=st.floats(0, 0.5),
+    ki=st.floats(0, 10),
+)
 def test_bumpless_reseed_gives_continuous_output(u_prev, e, ff, kp, ki):
     g = PIGains(kp, ki)
     s = bumpless(g, u_prev, e, ff, -1.6, 1.6)
@@ -55,8 +61,11 @@ def test_bumpless_reseed_gives_continuous_output(u_prev, e, ff, kp, ki):
 
 
 @settings(max_examples=300, deadline=None)
-@given(e=st.one_of(st.floats(allow_nan=True, allow_infinity=True)), ff=st.floats(allow_nan=True, allow_infinity=True),
-       i0=st.floats(-3, 3))
+@given(
+    e=st.one_of(st.floats(allow_nan=True, allow_infinity=True)),
+    ff=st.floats(allow_nan=True, allow_infinity=True),
+    i0=st.floats(-3, 3),
+)
 def test_output_always_finite_and_within_limits(e, ff, i0):
     u, s, _ = pi_step(G, PIState(i0), e, ff, 0.01, -1.6, 1.6)
     assert math.isfinite(u) and -1.6 <= u <= 1.6 and math.isfinite(s.integral_A)
@@ -64,11 +73,14 @@ def test_output_always_finite_and_within_limits(e, ff, i0):
 
 def test_the_flux_loop_gains_are_in_amperes_per_watt():
     fg = FluxPIGains(kp_A_per_W=0.5, ki_A_per_W_s=2.0)
-    u, st, c = pi_step(PIGains(0.0, 0.0), PIState(), 0.0, 0.0, 0.01, -3.0, 3.0, flux_error_W=0.4, flux_gains=fg)
+    u, st, c = pi_step(
+        PIGains(0.0, 0.0), PIState(), 0.0, 0.0, 0.01, -3.0, 3.0, flux_error_W=0.4, flux_gains=fg
+    )
     assert c.p_A == pytest.approx(0.5 * 0.4) and st.integral_A == pytest.approx(2.0 * 0.4 * 0.01)
     assert u == pytest.approx(0.2 + 0.008)
     # bumpless re-seeding counts the flux loop's proportional term too
-    assert bumpless(PIGains(0.0, 0.0), 1.0, 0.0, 0.0, -3.0, 3.0, flux_error_W=0.4, flux_gains=fg).integral_A \
-        == pytest.approx(1.0 - 0.2)
+    assert bumpless(
+        PIGains(0.0, 0.0), 1.0, 0.0, 0.0, -3.0, 3.0, flux_error_W=0.4, flux_gains=fg
+    ).integral_A == pytest.approx(1.0 - 0.2)
     with pytest.raises(ValueError, match="FluxPIGains.kp_A_per_W"):
         FluxPIGains(-1.0, 0.0)

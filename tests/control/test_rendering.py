@@ -1,4 +1,5 @@
 """Yamamoto's rendering formulas (eq. 1, 5, 7), β from profiles, finger calibration, render table."""
+
 import math
 
 import numpy as np
@@ -6,8 +7,14 @@ import pytest
 from scipy.special import erfcx
 
 from telethermo.control.rendering import (
-    calibrate_finger, contact_temperature, load_render_table, pad_preset_temperature, pad_preset_temperature_abs,
-    relative_effusivity_from_contact, relative_effusivity_from_profiles)
+    calibrate_finger,
+    contact_temperature,
+    load_render_table,
+    pad_preset_temperature,
+    pad_preset_temperature_abs,
+    relative_effusivity_from_contact,
+    relative_effusivity_from_profiles,
+)
 
 TABLE = load_render_table()
 
@@ -15,8 +22,13 @@ TABLE = load_render_table()
 def test_table_is_yamamoto_table1():
     """The first five entries are yamamoto's Table 1 (their positions are the OD's material codes 1..5);
     the simulator's materials follow (issue 15)."""
-    assert dict(list(TABLE.items())[:5]) == {"contact_pad": 2.23, "eps": 0.043, "wood": 0.74, "ceramic": 2.23,
-                                             "brass": 5.60}
+    assert dict(list(TABLE.items())[:5]) == {
+        "contact_pad": 2.23,
+        "eps": 0.043,
+        "wood": 0.74,
+        "ceramic": 2.23,
+        "brass": 5.60,
+    }
     assert list(TABLE)[5:] == ["pvc", "glass", "stainless_steel", "carbon_steel", "aluminium", "copper"]
 
 
@@ -26,7 +38,9 @@ def test_preset_makes_pad_contact_equal_object_contact(material):
     Tf, To, bp = 33.0, 25.8, TABLE["contact_pad"]
     bo = TABLE[material]
     Tp0 = pad_preset_temperature(Tf, To, bo, bp)
-    assert math.isclose(contact_temperature(Tf, 1.0, Tp0, bp), contact_temperature(Tf, 1.0, To, bo), abs_tol=1e-12)
+    assert math.isclose(
+        contact_temperature(Tf, 1.0, Tp0, bp), contact_temperature(Tf, 1.0, To, bo), abs_tol=1e-12
+    )
 
 
 def test_preset_values_for_table1():
@@ -74,7 +88,9 @@ def test_beta_from_profiles_recovers_ratio_whatever_the_contact_resistance(beta,
 
 
 def test_beta_from_contact_and_errors():
-    assert relative_effusivity_from_contact(33.0, 25.0, contact_temperature(33.0, 1.0, 25.0, 0.74)) == pytest.approx(0.74)
+    assert relative_effusivity_from_contact(
+        33.0, 25.0, contact_temperature(33.0, 1.0, 25.0, 0.74)
+    ) == pytest.approx(0.74)
     with pytest.raises(ValueError, match="strictly between"):
         relative_effusivity_from_contact(33.0, 25.0, 20.0)
 

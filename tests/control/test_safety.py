@@ -1,4 +1,5 @@
 """The safety envelope as a pure function: trips, EMCY codes, ramps, guards, peer loss."""
+
 import dataclasses
 import math
 
@@ -37,12 +38,13 @@ def test_limits_validation_names_the_field():
 
 def test_every_trip_has_a_cia301_code_and_register_bits():
     from telethermo.device.emcy import register_bits
+
     for t in sf.Trip:
         code = sf.EMCY_CODES[t]
         assert 0x1000 <= code <= 0xFFFF and code >> 12 in (0x2, 0x4, 0x5, 0x8, 0xF)
         reg = sf.error_register(frozenset({t}))
         assert reg & sf.ErrorRegisterBit.GENERIC
-        if t in sf.PEER_TRIPS:                 # the core's 0x1001 is the device's for that code
+        if t in sf.PEER_TRIPS:  # the core's 0x1001 is the device's for that code
             assert reg == register_bits(code), t
     assert sf.EMCY_CODES[sf.Trip.PEER_LOST] == 0x8130  # CiA 301 life guard / heartbeat error
     # a NaN peer value is no "PDO not processed due to length error" (0x8210, the device's own)
@@ -70,17 +72,20 @@ def test_nan_request_holds_the_setpoint():
     assert all(o[0] == 30.0 for o in out)
 
 
-@pytest.mark.parametrize("kw,trip", [
-    (dict(T=math.nan), sf.Trip.SENSOR_INVALID),
-    (dict(Q=math.inf), sf.Trip.SENSOR_INVALID),
-    (dict(T=1370.0), sf.Trip.OPEN_THERMOCOUPLE),
-    (dict(T=95.0), sf.Trip.SENSOR_RANGE),
-    (dict(Q=40.0), sf.Trip.SENSOR_RANGE),
-    (dict(sink=56.0), sf.Trip.HEAT_SINK),
-    (dict(I=2.5), sf.Trip.OVERCURRENT),
-    (dict(hi=45.5), sf.Trip.SURFACE_HIGH),
-    (dict(lo=12.5), sf.Trip.SURFACE_LOW),
-])
+@pytest.mark.parametrize(
+    "kw,trip",
+    [
+        (dict(T=math.nan), sf.Trip.SENSOR_INVALID),
+        (dict(Q=math.inf), sf.Trip.SENSOR_INVALID),
+        (dict(T=1370.0), sf.Trip.OPEN_THERMOCOUPLE),
+        (dict(T=95.0), sf.Trip.SENSOR_RANGE),
+        (dict(Q=40.0), sf.Trip.SENSOR_RANGE),
+        (dict(sink=56.0), sf.Trip.HEAT_SINK),
+        (dict(I=2.5), sf.Trip.OVERCURRENT),
+        (dict(hi=45.5), sf.Trip.SURFACE_HIGH),
+        (dict(lo=12.5), sf.Trip.SURFACE_LOW),
+    ],
+)
 def test_cut_trips_cut_at_once_latch_and_report_once(kw, trip):
     s, out = run(L, sf.EnvelopeState(setpoint_C=33.0), inp(**kw), 33.0, 1)
     assert trip in s.trips and s.cut
@@ -114,7 +119,9 @@ def test_time_at_temperature_caps_setpoint_below_hot():
     assert out[-1][0] == pytest.approx(40.0)
 
 
-@pytest.mark.parametrize("alive,ok,trip", [(False, True, sf.Trip.PEER_LOST), (True, False, sf.Trip.PEER_INVALID)])
+@pytest.mark.parametrize(
+    "alive,ok,trip", [(False, True, sf.Trip.PEER_LOST), (True, False, sf.Trip.PEER_INVALID)]
+)
 def test_peer_trouble_ramps_to_neutral_then_cuts(alive, ok, trip):
     s, out = run(L, sf.EnvelopeState(setpoint_C=25.0), inp(req=True, alive=alive, ok=ok), 20.0, 1)
     assert trip in s.trips and not s.cut and out[0][0] == pytest.approx(25.05)
@@ -135,8 +142,12 @@ def test_peer_validity():
 
 
 @settings(max_examples=400, deadline=None)
-@given(req=st.floats(allow_nan=True, allow_infinity=True), hi=st.floats(-50, 100), span=st.floats(0, 5),
-       I=st.floats(allow_nan=True, allow_infinity=True))
+@given(
+    req=st.floats(allow_nan=True, allow_infinity=True),
+    hi=st.floats(-50, 100),
+    span=st.floats(0, 5),
+    I=st.floats(allow_nan=True, allow_infinity=True),
+)
 def test_limit_current_never_exceeds_limit_nor_pushes_outward(req, hi, span, I):
     lo = hi - span
     s = sf.EnvelopeState(setpoint_C=33.0)
@@ -152,6 +163,7 @@ def test_fault_reset_keeps_a_model_mismatch_while_the_model_still_disagrees():
     """clear_trips (the operator's fault reset) keeps MODEL_MISMATCH while |T_pred - T_sensor| > mismatch_C
     or T_pred diverged; a model that agrees again (or no model: T_pred NaN) lets it go."""
     from telethermo.control.safety import EnvelopeInput, EnvelopeState, SafetyLimits, Trip, clear_trips
+
     lim = SafetyLimits()
     st = EnvelopeState(setpoint_C=30.0, trips=frozenset({Trip.MODEL_MISMATCH}), cut=True)
 
@@ -169,11 +181,14 @@ def test_fault_reset_keeps_a_model_mismatch_while_the_model_still_disagrees():
 
 def test_trips_mask_round_trip_and_documented_bits():
     from telethermo.control.safety import Trip, trips_from_mask, trips_mask
-    assert trips_mask([Trip.HEAT_SINK]) == 0x080 and trips_mask([Trip.PEER_LOST, Trip.SENSOR_INVALID]) == 0x201
+
+    assert (
+        trips_mask([Trip.HEAT_SINK]) == 0x080 and trips_mask([Trip.PEER_LOST, Trip.SENSOR_INVALID]) == 0x201
+    )
     assert trips_mask([]) == 0
     every = list(Trip)
     assert trips_from_mask(trips_mask(every)) == every and trips_mask(every) == (1 << len(every)) - 1
-    assert trips_from_mask(0x8000 | 0x008) == [Trip.MODEL_MISMATCH]   # unknown bits ignored
+    assert trips_from_mask(0x8000 | 0x008) == [Trip.MODEL_MISMATCH]  # unknown bits ignored
 
 
 def _grows_within_slew(prev, i, step):
@@ -182,10 +197,24 @@ def _grows_within_slew(prev, i, step):
 
 
 @settings(max_examples=300, deadline=None)
-@given(seq=st.lists(st.tuples(st.floats(-5, 5), st.floats(10, 50), st.floats(0, 3), st.booleans(), st.booleans(),
-                              st.sampled_from(["ok", "ok", "ok", "nan_sensor", "hot_sink"]), st.booleans()),
-                    min_size=2, max_size=60),
-       slew=st.floats(0.1, 20), lead=st.floats(0.1, 5), I0=st.floats(-1.6, 1.6))
+@given(
+    seq=st.lists(
+        st.tuples(
+            st.floats(-5, 5),
+            st.floats(10, 50),
+            st.floats(0, 3),
+            st.booleans(),
+            st.booleans(),
+            st.sampled_from(["ok", "ok", "ok", "nan_sensor", "hot_sink"]),
+            st.booleans(),
+        ),
+        min_size=2,
+        max_size=60,
+    ),
+    slew=st.floats(0.1, 20),
+    lead=st.floats(0.1, 5),
+    I0=st.floats(-1.6, 1.6),
+)
 def test_peer_trips_slew_the_current_and_the_envelope_holds(seq, slew, lead, I0):
     """Random requests (any controller, any gains), surfaces, peers, trips and link-loss fallbacks: while a peer
     trip is latched or the fallback renders, and no hard cut, the current falls to 0 A at once or grows at most
@@ -195,8 +224,15 @@ def test_peer_trips_slew_the_current_and_the_envelope_holds(seq, slew, lead, I0)
     dt = 0.01
     state, prev = sf.EnvelopeState(setpoint_C=33.0), I0
     for req_A, T, span, alive, ok, fault, fallback in seq:
-        e = inp(T=math.nan if fault == "nan_sensor" else T, hi=T + span, lo=T, req=not fallback, alive=alive, ok=ok,
-                sink=60.0 if fault == "hot_sink" else 26.0)
+        e = inp(
+            T=math.nan if fault == "nan_sensor" else T,
+            hi=T + span,
+            lo=T,
+            req=not fallback,
+            alive=alive,
+            ok=ok,
+            sink=60.0 if fault == "hot_sink" else 26.0,
+        )
         e = dataclasses.replace(e, link_fallback=fallback)
         if fault == "nan_sensor":
             e = dataclasses.replace(e, surface_hi_C=math.nan, surface_lo_C=math.nan)

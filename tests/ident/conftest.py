@@ -1,4 +1,5 @@
 """Fixtures of the identification tests: a known NARMA 'plant' with realistic thermal poles."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -14,5 +15,11 @@ TRUE_THETA = np.array([1.6, 0.01, -0.62, -0.005, 0.05, 0.02, -0.03, 0.01])
 
 @pytest.fixture()
 def true_model() -> NarmaModel:
-    return NarmaModel(orders=TRUE_ORDERS, theta=TRUE_THETA, period_s=0.01, T_ref_C=25.0,
-                      current_range_A=(-1.5, 1.5), T_range_C=(15.0, 43.0))
+    return NarmaModel(
+        orders=TRUE_ORDERS,
+        theta=TRUE_THETA,
+        period_s=0.01,
+        T_ref_C=25.0,
+        current_range_A=(-1.5, 1.5),
+        T_range_C=(15.0, 43.0),
+    )

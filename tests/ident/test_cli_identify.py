@@ -1,4 +1,5 @@
 """`telethermo identify`: experiment on a simulated rig, report, model file; user errors exit 2."""
+
 import numpy as np
 
 from telethermo.cli.main import main
@@ -8,13 +9,33 @@ from telethermo.ident import load_model
 def test_identify_writes_a_valid_model_and_reports(tmp_path, capsys):
     out = tmp_path / "m.json"
     png = tmp_path / "fig.png"
-    rc = main(["identify", "--samples", "3000", "--validation", "1000", "--orders", "3,3,1,1", "--seed", "2",
-               "--out", str(out), "--plot", str(png)])
+    rc = main(
+        [
+            "identify",
+            "--samples",
+            "3000",
+            "--validation",
+            "1000",
+            "--orders",
+            "3,3,1,1",
+            "--seed",
+            "2",
+            "--out",
+            str(out),
+            "--plot",
+            str(png),
+        ]
+    )
     cap = capsys.readouterr()
     assert rc == 0, cap.err
-    assert "(100.0 %)" in cap.err and "identify: experiment" in cap.err       # progress on stderr
-    for words in ("held-out free run", "heat flux", "stability                 stable", "model written",
-                  "capacity (eq. 13)         14 steady states"):
+    assert "(100.0 %)" in cap.err and "identify: experiment" in cap.err  # progress on stderr
+    for words in (
+        "held-out free run",
+        "heat flux",
+        "stability                 stable",
+        "model written",
+        "capacity (eq. 13)         14 steady states",
+    ):
         assert words in cap.out
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     tem = load_model(out, expect_period_s=0.01)

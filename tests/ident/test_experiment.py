@@ -1,12 +1,18 @@
 """Identification on the simulated rigs (sim/): held-out free-run error, flux error, capacity model,
 the shipped model against the current simulator, the safety guard."""
+
 import numpy as np
 import pytest
 
 from telethermo import sim
 from telethermo.ident import NarmaOrders, default_model_path, load_model, prbs
-from telethermo.ident.experiment import (ExperimentSettings, identify_capacity, identify_rig, run_excitation,
-                                         steady_state_points)
+from telethermo.ident.experiment import (
+    ExperimentSettings,
+    identify_capacity,
+    identify_rig,
+    run_excitation,
+    steady_state_points,
+)
 
 
 @pytest.fixture(scope="module")
@@ -24,7 +30,7 @@ def test_order3_heldout_free_run_error_within_paper_bound(order3):
     assert rep["heldout_free_run_rms_C"] <= 0.1
     # the excitation really moved the pad: errors are small against a swing of several °C
     assert rep["T_range_C"][1] - rep["T_range_C"][0] > 8.0
-    assert tem.temperature.T_ref_C == pytest.approx(25.0, abs=0.02)      # ambient of the rig
+    assert tem.temperature.T_ref_C == pytest.approx(25.0, abs=0.02)  # ambient of the rig
     assert abs(rep["rest_drift_C"]) < 0.01
 
 
@@ -57,7 +63,7 @@ def test_shipped_model_predicts_the_current_simulator_within_target():
     # the streaming predictor a node runs gives the same numbers
     pred = tem.temperature.predictor(tem.temperature.T_ref_C)
     stream = np.array([pred.T_pred_C] + [pred.step(i) for i in rec.current_A[:-1]])
-    assert np.max(np.abs(stream - fr)) < 1e-6          # same recursion, other rounding order
+    assert np.max(np.abs(stream - fr)) < 1e-6  # same recursion, other rounding order
     q = tem.flux.free_run(T_C=rec.T_C, current_A=rec.current_A)
     assert np.max(np.abs(q - rec.Q_W)[200:]) <= 0.006
 
@@ -75,7 +81,7 @@ def test_capacity_model_within_2_percent_of_simulator_steady_state():
     held = steady_state_points(sim.free_pad_rig(seed=6), mid)
     P = cap.predict(current_A=held.current_A, T_C=held.T_C)
     assert np.max(np.abs(P - held.Q_true_W)) <= 0.02 * np.max(np.abs(held.Q_true_W))
-    assert np.max(np.abs(held.Q_true_W)) > 0.02                     # a real flux, not noise
+    assert np.max(np.abs(held.Q_true_W)) > 0.02  # a real flux, not noise
 
 
 def test_safety_guard_keeps_the_pad_inside_the_envelope():
@@ -90,11 +96,16 @@ def test_safety_guard_keeps_the_pad_inside_the_envelope():
     assert np.max(np.abs(rec.current_A)) <= 0.8 * rig.I_max_A
 
 
-@pytest.mark.parametrize("kwargs, field", [(dict(hold_samples=0), "hold_samples"),
-                                           (dict(amplitude_A=(1.0, 0.5)), "amplitude_A"),
-                                           (dict(current_limit_fraction=1.5), "current_limit_fraction"),
-                                           (dict(T_min_C=40.0, T_max_C=41.0), "T_max_C"),
-                                           (dict(capacity_points=3), "capacity_points")])
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        (dict(hold_samples=0), "hold_samples"),
+        (dict(amplitude_A=(1.0, 0.5)), "amplitude_A"),
+        (dict(current_limit_fraction=1.5), "current_limit_fraction"),
+        (dict(T_min_C=40.0, T_max_C=41.0), "T_max_C"),
+        (dict(capacity_points=3), "capacity_points"),
+    ],
+)
 def test_experiment_settings_are_validated(kwargs, field):
     with pytest.raises(ValueError, match=f"ExperimentSettings.{field}: expected"):
         ExperimentSettings(**kwargs)

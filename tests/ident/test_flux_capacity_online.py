@@ -1,4 +1,5 @@
 """Heat-flux ARMA (eq. 12), capacity model (eq. 13) and the streaming RLS identifier, on data from known models."""
+
 import numpy as np
 import pytest
 import scipy.signal
@@ -28,12 +29,17 @@ def test_flux_model_with_current_terms():
     rng = np.random.default_rng(2)
     I = prbs(6000, amplitude_A=(0.1, 1.0), hold_samples=10, seed=2)
     # T: driven by I, plus a slow independent disturbance (else T and I are collinear in eq. 12)
-    T = 25.0 + scipy.signal.lfilter([0.0, 0.05], [1, -0.95], I) + scipy.signal.lfilter([0.02], [1, -0.99],
-                                                                                       rng.normal(size=6000))
+    T = (
+        25.0
+        + scipy.signal.lfilter([0.0, 0.05], [1, -0.95], I)
+        + scipy.signal.lfilter([0.02], [1, -0.99], rng.normal(size=6000))
+    )
     true = FluxArma(c=[-0.5], d=[0.3, -0.3], e=[0.02], g=[0.01], h=[0.005], period_s=0.01, T_ref_C=25.0)
     Q = true.free_run(T_C=T, current_A=I)
     f = fit_flux_arma(T_C=T, Q_W=Q + 1e-4 * rng.normal(size=len(Q)), n=1, m=1, T_ref_C=25.0, current_A=I)
-    assert f.with_current and f.e == pytest.approx([0.02], abs=2e-3) and f.g == pytest.approx([0.01], abs=2e-3)
+    assert (
+        f.with_current and f.e == pytest.approx([0.02], abs=2e-3) and f.g == pytest.approx([0.01], abs=2e-3)
+    )
     assert f.h == pytest.approx([0.005], abs=1e-3)
     with pytest.raises(ValueError, match="current_A"):
         f.free_run(T_C=T)
@@ -51,8 +57,8 @@ def test_capacity_model_recovers_guiatni_eq5_exactly():
     (α = 0.05 V/K, R = 2 Ω, K = 0.3 W/K, T_s = 25 °C) are fitted exactly; θ1 = α, θ2 = R/2."""
     alpha, R, K, Ts, kelvin = 0.05, 2.0, 0.3, 25.0, 273.15
     I = np.linspace(-1.5, 1.5, 14)
-    T = 25.0 + 8.0 * I + 3.0 * I ** 2 + np.sin(7 * I)       # steady-state pad temperatures, °C
-    P = alpha * (T + kelvin) * I + 0.5 * R * I ** 2 - K * (T - Ts)
+    T = 25.0 + 8.0 * I + 3.0 * I**2 + np.sin(7 * I)  # steady-state pad temperatures, °C
+    P = alpha * (T + kelvin) * I + 0.5 * R * I**2 - K * (T - Ts)
     cap = fit_capacity(current_A=I, T_C=T, P_W=P)
     assert cap.theta == pytest.approx([alpha, R / 2, -K, alpha * kelvin, K * Ts], rel=1e-8)
     assert cap.metrics["max_abs_W"] < 1e-10
@@ -73,7 +79,7 @@ def test_online_rls_identifier_matches_batch_ls(true_model):
 
 def test_online_identifier_rejects_nan_and_refills_history(true_model):
     ident = OnlineNarma(NarmaOrders(2, 2, 1, 1), T_ref_C=25.0, period_s=0.01, K0=100.0)
-    assert ident.update(current_A=0.0, T_C=25.0) is False            # history not full yet
+    assert ident.update(current_A=0.0, T_C=25.0) is False  # history not full yet
     assert ident.update(current_A=0.5, T_C=25.1) is False
     assert ident.update(current_A=0.5, T_C=25.2) is True
     assert ident.update(current_A=0.5, T_C=float("nan")) is False

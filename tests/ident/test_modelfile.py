@@ -1,25 +1,47 @@
 """Model files: round trip, atomic write, validation errors naming file, field and expectation,
 object-dictionary transfer (telethermo.ident.odmodel, REAL32 vs REAL64)."""
+
 import json
 
 import numpy as np
 import pytest
 
-from telethermo.ident import (CapacityModel, FluxArma, ModelFileError, TemModel, default_model_path, load_model,
-                              odmodel, prbs, save_model)
+from telethermo.ident import (
+    CapacityModel,
+    FluxArma,
+    ModelFileError,
+    TemModel,
+    default_model_path,
+    load_model,
+    odmodel,
+    prbs,
+    save_model,
+)
 
 
 def od_reader(entries, *, real32=False, **changed):
     """``read(index, sub)`` of a node's object dictionary holding ``entries`` (the REAL64 ones rounded to
     REAL32 with ``real32``; ``changed``: name -> value written over an entry)."""
-    table = {(e.index, e.sub): changed.get(e.name, odmodel.round_real32(e.value) if real32 and e.kind == "f64"
-                                           else e.value) for e in entries}
+    table = {
+        (e.index, e.sub): changed.get(
+            e.name, odmodel.round_real32(e.value) if real32 and e.kind == "f64" else e.value
+        )
+        for e in entries
+    }
     return lambda index, sub: table[(index, sub)]
 
 
 @pytest.fixture()
 def tem(true_model):
-    flux = FluxArma(c=[-0.5, 0.1], d=[2.0, -1.5, 0.1], e=[0.01, 0.0], g=[0.001, 0.0], h=[1e-4, 0.0], period_s=0.01, T_ref_C=25.0)
+    flux = FluxArma(
+        c=[-0.5, 0.1],
+        d=[2.0, -1.5, 0.1],
+        e=[0.01, 0.0],
+        g=[0.001, 0.0],
+        h=[1e-4, 0.0],
+        period_s=0.01,
+        T_ref_C=25.0,
+    )
     cap = CapacityModel(theta=[0.01, 0.36, -0.04, 2.3, 1.1], current_range_A=(-0.2, 0.3))
     return TemModel(temperature=true_model, flux=flux, capacity=cap, meta={"rig": "test", "seed": 1})
 
@@ -34,8 +56,10 @@ def test_round_trip_preserves_everything(tmp_path, tem):
         assert np.array_equal(getattr(back.flux, k), getattr(tem.flux, k))
     assert np.array_equal(back.capacity.theta, tem.capacity.theta) and back.meta == tem.meta
     u = prbs(500, seed=1)
-    assert np.array_equal(back.temperature.free_run(current_A=u, T0_C=25.0), tem.temperature.free_run(current_A=u, T0_C=25.0))
-    assert [f.name for f in tmp_path.iterdir()] == ["m.json"]          # no temporary left behind
+    assert np.array_equal(
+        back.temperature.free_run(current_A=u, T0_C=25.0), tem.temperature.free_run(current_A=u, T0_C=25.0)
+    )
+    assert [f.name for f in tmp_path.iterdir()] == ["m.json"]  # no temporary left behind
     doc = json.loads(p.read_text())
     assert doc["format"] == "telethermo-tem-model" and doc["units"]["temperature"] == "degC"
     assert doc["temperature"]["columns"][:2] == ["T1", "T1*I1^1"]
@@ -49,21 +73,36 @@ def corrupt(tmp_path, tem, edit):
     return p
 
 
-@pytest.mark.parametrize("edit, field, words", [
-    (lambda d: d["temperature"]["theta"].pop(), "temperature.theta", "8 finite numbers"),
-    (lambda d: d["temperature"]["theta"].__setitem__(3, "x"), "temperature.theta[3]", "finite number"),
-    (lambda d: d["temperature"]["orders"].__setitem__("n", 0), "temperature.orders.n", "integer in [1, 8]"),
-    (lambda d: d["temperature"].__setitem__("period_s", -0.01), "temperature.period_s", "positive"),
-    (lambda d: d["temperature"].__setitem__("current_range_A", [1.0, -1.0]), "temperature.current_range_A", "min <= max"),
-    (lambda d: d["temperature"]["columns"].reverse(), "temperature.columns", "regressors"),
-    (lambda d: d.__setitem__("format_version", 2), "format_version", "1"),
-    (lambda d: d.__setitem__("format", "other"), "format", "telethermo-tem-model"),
-    (lambda d: d["flux"].__setitem__("period_s", 0.02), "flux.period_s", "temperature model's period"),
-    (lambda d: d["flux"]["e"].pop(), "flux.e", "all empty or all"),
-    (lambda d: d["capacity"].__setitem__("theta", [1, 2]), "capacity.theta", "5 finite numbers"),
-    (lambda d: d["temperature"].pop("T_ref_C"), "temperature.T_ref_C", "missing"),
-    (lambda d: d["temperature"]["theta"].__setitem__(0, 1.7), "temperature.theta", "stable model"),  # Σα > 1
-])
+@pytest.mark.parametrize(
+    "edit, field, words",
+    [
+        (lambda d: d["temperature"]["theta"].pop(), "temperature.theta", "8 finite numbers"),
+        (lambda d: d["temperature"]["theta"].__setitem__(3, "x"), "temperature.theta[3]", "finite number"),
+        (
+            lambda d: d["temperature"]["orders"].__setitem__("n", 0),
+            "temperature.orders.n",
+            "integer in [1, 8]",
+        ),
+        (lambda d: d["temperature"].__setitem__("period_s", -0.01), "temperature.period_s", "positive"),
+        (
+            lambda d: d["temperature"].__setitem__("current_range_A", [1.0, -1.0]),
+            "temperature.current_range_A",
+            "min <= max",
+        ),
+        (lambda d: d["temperature"]["columns"].reverse(), "temperature.columns", "regressors"),
+        (lambda d: d.__setitem__("format_version", 2), "format_version", "1"),
+        (lambda d: d.__setitem__("format", "other"), "format", "telethermo-tem-model"),
+        (lambda d: d["flux"].__setitem__("period_s", 0.02), "flux.period_s", "temperature model's period"),
+        (lambda d: d["flux"]["e"].pop(), "flux.e", "all empty or all"),
+        (lambda d: d["capacity"].__setitem__("theta", [1, 2]), "capacity.theta", "5 finite numbers"),
+        (lambda d: d["temperature"].pop("T_ref_C"), "temperature.T_ref_C", "missing"),
+        (
+            lambda d: d["temperature"]["theta"].__setitem__(0, 1.7),
+            "temperature.theta",
+            "stable model",
+        ),  # Σα > 1
+    ],
+)
 def test_bad_files_are_refused_naming_the_field(tmp_path, tem, edit, field, words):
     p = corrupt(tmp_path, tem, edit)
     with pytest.raises(ModelFileError) as ei:
@@ -93,10 +132,10 @@ def test_object_dictionary_transfer_survives_real32(true_model):
     u = prbs(5000, amplitude_A=(0.1, 1.5), hold_samples=20, seed=4)
     a = true_model.free_run(current_A=u, T0_C=25.0)
     b = back.temperature.free_run(current_A=u, T0_C=25.0)
-    assert np.max(np.abs(a - b)) < 1e-3                         # REAL32 rounding of θ: < 1 mK
-    with pytest.raises(ModelFileError, match="theta"):          # one coefficient fewer than the orders need
+    assert np.max(np.abs(a - b)) < 1e-3  # REAL32 rounding of θ: < 1 mK
+    with pytest.raises(ModelFileError, match="theta"):  # one coefficient fewer than the orders need
         odmodel.model_from_od(od_reader(entries, theta_len=true_model.orders.d - 1))
-    with pytest.raises(ModelFileError, match="valid orders"):   # the orders' own check (UNSIGNED8 objects)
+    with pytest.raises(ModelFileError, match="valid orders"):  # the orders' own check (UNSIGNED8 objects)
         odmodel.model_from_od(od_reader(entries, narma_n=0))
 
 

@@ -1,4 +1,5 @@
 """The identification plan: one definition of the experiment, offline and inside a node's control core."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -16,24 +17,45 @@ from telethermo.ident.prbs import prbs
 
 
 def test_plan_is_rest_then_training_then_heldout_prbs():
-    plan = IdentifyPlan(seed=9, rest_samples=50, train_samples=400, validation_samples=300, amplitude_A=(0.2, 0.7),
-                        hold_samples=7)
+    plan = IdentifyPlan(
+        seed=9,
+        rest_samples=50,
+        train_samples=400,
+        validation_samples=300,
+        amplitude_A=(0.2, 0.7),
+        hold_samples=7,
+    )
     u = plan.currents()
     assert len(u) == plan.total == 750 and not u.flags.writeable
     assert np.all(u[:50] == 0.0)
     np.testing.assert_array_equal(u[50:450], prbs(400, amplitude_A=(0.2, 0.7), hold_samples=7, seed=9))
     np.testing.assert_array_equal(u[450:], prbs(300, amplitude_A=(0.2, 0.7), hold_samples=7, seed=10))
     assert 0.2 - 1e-12 <= np.abs(u[50:]).min() and np.abs(u[50:]).max() <= 0.7 + 1e-12
-    assert [plan.phase(j) for j in (0, 49, 50, 449, 450, 749, 750)] == \
-        ["rest", "rest", "train", "train", "validation", "validation", "done"]
+    assert [plan.phase(j) for j in (0, 49, 50, 449, 450, 749, 750)] == [
+        "rest",
+        "rest",
+        "train",
+        "train",
+        "validation",
+        "validation",
+        "done",
+    ]
     assert plan.current_at(750) == 0.0 and plan.current_at(-1) == 0.0
 
 
-@pytest.mark.parametrize("kw, field", [({"seed": -1}, "seed"), ({"seed": 70000}, "seed"),
-                                       ({"train_samples": 0}, "train_samples"), ({"hold_samples": 0}, "hold_samples"),
-                                       ({"amplitude_A": (0.5, 0.2)}, "amplitude_A"),
-                                       ({"amplitude_A": (0.1, float("inf"))}, "amplitude_A"),
-                                       ({"rest_samples": True}, "rest_samples"), ({"margin_C": -1.0}, "margin_C")])
+@pytest.mark.parametrize(
+    "kw, field",
+    [
+        ({"seed": -1}, "seed"),
+        ({"seed": 70000}, "seed"),
+        ({"train_samples": 0}, "train_samples"),
+        ({"hold_samples": 0}, "hold_samples"),
+        ({"amplitude_A": (0.5, 0.2)}, "amplitude_A"),
+        ({"amplitude_A": (0.1, float("inf"))}, "amplitude_A"),
+        ({"rest_samples": True}, "rest_samples"),
+        ({"margin_C": -1.0}, "margin_C"),
+    ],
+)
 def test_bad_plans_name_the_field(kw, field):
     with pytest.raises(ValueError, match=f"IdentifyPlan.{field}"):
         IdentifyPlan(**kw)
@@ -41,9 +63,9 @@ def test_bad_plans_name_the_field(kw, field):
 
 def test_guard():
     kw = dict(I_limit_A=2.4, T_min_C=15.0, T_max_C=43.0, margin_C=1.0)
-    assert guarded_current(5.0, 30.0, **kw) == (2.4, False)          # clipped, not guarded
-    assert guarded_current(0.8, 42.2, **kw) == (-0.8, True)          # heating near the top: cooling
-    assert guarded_current(-0.8, 42.2, **kw) == (-0.8, False)        # cooling near the top passes
+    assert guarded_current(5.0, 30.0, **kw) == (2.4, False)  # clipped, not guarded
+    assert guarded_current(0.8, 42.2, **kw) == (-0.8, True)  # heating near the top: cooling
+    assert guarded_current(-0.8, 42.2, **kw) == (-0.8, False)  # cooling near the top passes
     assert guarded_current(-0.8, 15.5, **kw) == (0.8, True)
     assert guarded_current(0.8, float("nan"), **kw) == (0.0, True)
 
@@ -71,12 +93,17 @@ def test_the_core_runs_the_same_experiment_as_the_offline_one():
     np.testing.assert_array_equal(np.array(I), rec.current_A)
     np.testing.assert_array_equal(np.array(T), rec.T_C)
     assert state.ident_k == plan.total and state.ident_guard == rec.guard_interventions
-    assert np.abs(rec.current_A).max() > 0.9   # the experiment did drive the pad
+    assert np.abs(rec.current_A).max() > 0.9  # the experiment did drive the pad
 
 
 def test_identify_rig_report_names_its_plan():
-    tem, rep = identify_rig(sim.free_pad_rig(seed=1), n_samples=1500, n_validation=500, seed=2,
-                            orders=__import__("telethermo.ident", fromlist=["NarmaOrders"]).NarmaOrders(2, 2, 1, 1),
-                            method="ls")
+    tem, rep = identify_rig(
+        sim.free_pad_rig(seed=1),
+        n_samples=1500,
+        n_validation=500,
+        seed=2,
+        orders=__import__("telethermo.ident", fromlist=["NarmaOrders"]).NarmaOrders(2, 2, 1, 1),
+        method="ls",
+    )
     assert rep["plan"]["train_samples"] == 1500 and rep["plan"]["seed"] == 2
     assert rep["heldout_free_run_max_C"] < 1.0 and rep["experiment_wall_s"] > 0

@@ -1,4 +1,5 @@
 """PRBS excitation: maximal-length LFSR, seedable, variable amplitude, hold."""
+
 import numpy as np
 import pytest
 
@@ -7,13 +8,13 @@ from telethermo.ident.prbs import lfsr_bits, prbs
 
 @pytest.mark.parametrize("order", [5, 7, 10])
 def test_lfsr_is_maximal_length_and_balanced(order):
-    period = 2 ** order - 1
+    period = 2**order - 1
     bits = lfsr_bits(2 * period, order=order, state=1)
-    assert np.array_equal(bits[:period], bits[period:])            # periodic with 2^order - 1
-    for p in range(1, period):                                    # and no shorter period
+    assert np.array_equal(bits[:period], bits[period:])  # periodic with 2^order - 1
+    for p in range(1, period):  # and no shorter period
         if period % p == 0:
-            assert not np.array_equal(bits[:period - p], bits[p:period])
-    assert int(bits[:period].sum()) == 2 ** (order - 1)            # one more 1 than 0 per period
+            assert not np.array_equal(bits[: period - p], bits[p:period])
+    assert int(bits[:period].sum()) == 2 ** (order - 1)  # one more 1 than 0 per period
 
 
 def test_prbs_is_seeded_and_holds_bits():
@@ -23,10 +24,10 @@ def test_prbs_is_seeded_and_holds_bits():
     assert np.array_equal(a, b)
     assert not np.array_equal(a, c)
     blocks = a.reshape(100, 10)
-    assert np.all(blocks == blocks[:, :1])                         # constant within each bit
+    assert np.all(blocks == blocks[:, :1])  # constant within each bit
     assert np.all((np.abs(a) >= 0.2) & (np.abs(a) <= 1.0))
-    assert len(np.unique(np.abs(blocks[:, 0]))) > 90               # amplitudes vary bit to bit
-    assert abs(np.mean(np.sign(a))) < 0.1                          # about as many + as - bits
+    assert len(np.unique(np.abs(blocks[:, 0]))) > 90  # amplitudes vary bit to bit
+    assert abs(np.mean(np.sign(a))) < 0.1  # about as many + as - bits
 
 
 def test_prbs_two_level_and_offset():
@@ -34,8 +35,15 @@ def test_prbs_two_level_and_offset():
     assert set(np.round(np.unique(u), 12)) == {-0.4, 0.6}
 
 
-@pytest.mark.parametrize("kwargs", [dict(hold_samples=0), dict(amplitude_A=(1.0, 0.5)), dict(amplitude_A=-1.0),
-                                    dict(amplitude_A=float("nan"))])
+@pytest.mark.parametrize(
+    "kwargs",
+    [
+        dict(hold_samples=0),
+        dict(amplitude_A=(1.0, 0.5)),
+        dict(amplitude_A=-1.0),
+        dict(amplitude_A=float("nan")),
+    ],
+)
 def test_prbs_rejects_bad_arguments(kwargs):
     with pytest.raises(ValueError):
         prbs(100, **kwargs)

@@ -1,5 +1,6 @@
 """RLS with two forgetting factors (guiatni §3.3): equivalence with batch LS, guiatni's recursion,
 tracking, bounded covariance without excitation, rejection of non-finite samples, dead zone."""
+
 import math
 
 import numpy as np
@@ -23,7 +24,7 @@ def test_rls_equals_batch_ls_with_unit_forgetting_and_large_gain(true_model):
     Phi, y = narma_data(true_model, 8000, seed=1)
     theta_ls, diag = solve_scaled_lstsq(Phi, y)
     assert diag["rank"] == 24
-    rls = Rls(24, lambda1=1.0, lambda2=1.0, K0=1e10, scale=np.sqrt(np.mean(Phi ** 2, axis=0)))
+    rls = Rls(24, lambda1=1.0, lambda2=1.0, K0=1e10, scale=np.sqrt(np.mean(Phi**2, axis=0)))
     for k in range(len(y)):
         assert rls.update(Phi[k], y[k])
     rel = np.linalg.norm(rls.theta - theta_ls) / np.linalg.norm(theta_ls)
@@ -64,18 +65,20 @@ def test_rls_tracks_a_parameter_step_only_with_forgetting():
         plain.update(X[k], y[k])
         if k == step - 1:
             assert np.max(np.abs(forget.theta - th_a)) < 0.01
-    assert np.max(np.abs(forget.theta - th_b)) < 0.01          # memory ~100 samples: tracked
-    assert np.max(np.abs(plain.theta - th_b)) > 0.1            # no forgetting: stuck at the average
+    assert np.max(np.abs(forget.theta - th_b)) < 0.01  # memory ~100 samples: tracked
+    assert np.max(np.abs(plain.theta - th_b)) > 0.1  # no forgetting: stuck at the average
     assert forget.health().n_trace_capped > 0 or forget.health().trace <= 4 * 100.0
 
 
 def _converged_and_idle(true_model, seed):
     orders = NarmaOrders(2, 2, 1, 1)
     Phi, y = narma_data(true_model, 6000, seed=seed, orders=orders, noise=0.001)
-    scale = np.sqrt(np.mean(Phi ** 2, axis=0))
+    scale = np.sqrt(np.mean(Phi**2, axis=0))
     rng = np.random.default_rng(seed + 100)
 
-    def idle(n):  # zero current, pad at rest: φ = sensor noise (σ = 1 mK) in the T columns, 0 in the I columns
+    def idle(
+        n,
+    ):  # zero current, pad at rest: φ = sensor noise (σ = 1 mK) in the T columns, 0 in the I columns
         return narma_regressors(np.zeros(n + 2), 0.001 * rng.normal(size=n + 2), orders)
 
     return orders, Phi, y, scale, idle
@@ -139,25 +142,30 @@ def test_one_hour_idle_with_dead_zone_then_excitation_no_jump(true_model):
     assert np.max(np.abs((naive.theta - theta_before) * scale)) > 0.3 * ref
 
 
-@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning",
-                            "ignore:invalid value encountered:RuntimeWarning")
+@pytest.mark.filterwarnings(
+    "ignore:overflow encountered:RuntimeWarning", "ignore:invalid value encountered:RuntimeWarning"
+)
 def test_nonfinite_samples_are_rejected_and_counted():
     rls = Rls(3, K0=10.0)
-    for phi, y in [([1.0, np.nan, 0.0], 1.0), ([1.0, 2.0, 3.0], np.inf), ([np.inf, 0.0, 0.0], 0.0),
-                   ([1e200, 1e200, 0.0], 1.0)]:
+    for phi, y in [
+        ([1.0, np.nan, 0.0], 1.0),
+        ([1.0, 2.0, 3.0], np.inf),
+        ([np.inf, 0.0, 0.0], 0.0),
+        ([1e200, 1e200, 0.0], 1.0),
+    ]:
         theta, K = rls.theta, rls.K
         assert rls.update(np.array(phi), y) is False
         assert np.array_equal(rls.theta, theta) and np.array_equal(rls.K, K)
     h = rls.health()
     assert h.n_rejected_nonfinite == 3 and h.n_updates == 4
-    assert h.n_numerical_failures + h.n_rejected_nonfinite == 4      # the overflow is caught too
+    assert h.n_numerical_failures + h.n_rejected_nonfinite == 4  # the overflow is caught too
     assert rls.update(np.array([1.0, 0.0, 0.0]), 2.0) is True
 
 
 def test_dead_zone_skips_small_errors_without_forgetting():
     rls = Rls(2, lambda1=0.9, K0=1.0, dead_zone=0.1, theta0=np.array([1.0, 1.0]))
     K = rls.K
-    assert rls.update(np.array([1.0, 1.0]), 2.05) is False            # |e| = 0.05 <= 0.1
+    assert rls.update(np.array([1.0, 1.0]), 2.05) is False  # |e| = 0.05 <= 0.1
     assert np.array_equal(rls.K, K) and rls.health().n_dead_zone == 1
     assert rls.update(np.array([1.0, 1.0]), 2.5) is True
 
@@ -168,8 +176,14 @@ def test_covariance_reset_and_bad_arguments():
         rls.update(np.array([1.0, 0.5]), 1.0)
     rls.reset_covariance()
     assert np.allclose(rls.K, 5.0 * np.eye(2)) and rls.health().n_resets == 1
-    for kwargs in [dict(lambda1=0.0), dict(lambda1=1.1), dict(lambda2=2.0), dict(K0=-1.0), dict(K0=np.ones((2, 2))),
-                   dict(dead_zone=-1.0)]:
+    for kwargs in [
+        dict(lambda1=0.0),
+        dict(lambda1=1.1),
+        dict(lambda2=2.0),
+        dict(K0=-1.0),
+        dict(K0=np.ones((2, 2))),
+        dict(dead_zone=-1.0),
+    ]:
         with pytest.raises(ValueError):
             Rls(2, **kwargs)
     with pytest.raises(ValueError, match="shape"):

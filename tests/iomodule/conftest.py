@@ -1,5 +1,6 @@
 """A hub, a ``telethermo-iomodule`` process on it and the test's own client of it
 (tests/iomodule/helpers.py)."""
+
 from __future__ import annotations
 
 import signal
@@ -18,9 +19,20 @@ def rig():
     """A hub, a running ``telethermo-iomodule`` on it and the test's RemoteNode of it, answering SDO."""
     with HubThread() as hub:
         exe = Path(sys.executable).with_name("telethermo-iomodule")
-        proc = subprocess.Popen([str(exe), "--node-id", str(MODULE_ID), "--scene", "pads_in_air",
-                                 "--bus", f"socketcand://127.0.0.1:{hub.port}/vcan0"],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        proc = subprocess.Popen(
+            [
+                str(exe),
+                "--node-id",
+                str(MODULE_ID),
+                "--scene",
+                "pads_in_air",
+                "--bus",
+                f"socketcand://127.0.0.1:{hub.port}/vcan0",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         bus = Bus(hub.port)
         try:
             bus.wait(lambda: up(bus) or proc.poll() is not None, timeout_s=60, every_s=0.1)

@@ -1,5 +1,6 @@
 """The I/O module tests' own view of the bus: a canopen client of the module (a RemoteNode from
 bus_config/io_module.eds), EMCY and heartbeat frames recorded."""
+
 from __future__ import annotations
 
 import time
@@ -19,8 +20,9 @@ class Bus:
     the hub's time stamp of the frame (time.time when the hub took it from its sender: the wire's clock)."""
 
     def __init__(self, port: int):
-        self.network = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=port,
-                                               channel="vcan0", tcp_tune=True))
+        self.network = canopen.Network(
+            can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="vcan0", tcp_tune=True)
+        )
         self.network.connect()
         self.node = self.network.add_node(MODULE_ID, EDS)
         self.node.sdo.RESPONSE_TIMEOUT = 1.0

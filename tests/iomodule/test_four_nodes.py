@@ -2,6 +2,7 @@
 scene behind its channels) and ``telethermo-master``/``-slave --rig io`` in real time at 100 Hz. Every frame
 is counted by a listener of the test; the modules are then read by the test's own canopen RemoteNodes (from
 their EDS)."""
+
 from __future__ import annotations
 
 import collections
@@ -28,8 +29,9 @@ def test_four_node_session_runs_on_the_modules(tmp_path):
     procs = []
     with HubThread() as hub:
         bus = f"socketcand://127.0.0.1:{hub.port}/vcan0"
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="vcan0", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0", tcp_tune=True)
+        )
         net.connect()
         frames: collections.Counter = collections.Counter()
         drive: dict[int, set[bytes]] = {0x203: set(), 0x204: set()}
@@ -37,6 +39,7 @@ def test_four_node_session_runs_on_the_modules(tmp_path):
         def on_drive(cob, data, ts):
             frames[cob] += 1
             drive[cob].add(bytes(data))
+
         for cob in drive:
             net.subscribe(cob, on_drive)
         for cob in (0x183, 0x184, 0x283, 0x284):
@@ -44,10 +47,23 @@ def test_four_node_session_runs_on_the_modules(tmp_path):
         nodes = {nid: net.add_node(nid, str(bus_config_path("io_module.eds"))) for nid in (3, 4)}
         try:
             for nid, side in ((3, "master"), (4, "slave")):
-                procs.append(subprocess.Popen([str(BIN / "telethermo-iomodule"), "--node-id", str(nid),
-                                               "--scene", "probe_touches_al_steel_wood", "--side", side,
-                                               "--bus", bus],
-                                              stderr=subprocess.PIPE, text=True))
+                procs.append(
+                    subprocess.Popen(
+                        [
+                            str(BIN / "telethermo-iomodule"),
+                            "--node-id",
+                            str(nid),
+                            "--scene",
+                            "probe_touches_al_steel_wood",
+                            "--side",
+                            side,
+                            "--bus",
+                            bus,
+                        ],
+                        stderr=subprocess.PIPE,
+                        text=True,
+                    )
+                )
             for node in nodes.values():
                 node.sdo.RESPONSE_TIMEOUT = 1.0
                 deadline = time.monotonic() + 60
@@ -58,14 +74,36 @@ def test_four_node_session_runs_on_the_modules(tmp_path):
                     except (canopen.SdoCommunicationError, canopen.SdoAbortedError):
                         assert time.monotonic() < deadline, "module did not come up"
             common = ["--rig", "io", "--timing", "realtime", "--bus", bus]
-            procs.append(subprocess.Popen([str(BIN / "telethermo-slave"), *common, "--rig-config",
-                                           str(bus_config_path("rig_io_sim_slave.toml")),
-                                           "--record", str(tmp_path / "s.csv")],
-                                          stderr=subprocess.PIPE, text=True))
-            master = subprocess.run([str(BIN / "telethermo-master"), *common, "--rig-config",
-                                     str(bus_config_path("rig_io_sim.toml")), "--cycles", str(CYCLES),
-                                     "--json", "--record", str(tmp_path / "m.csv")],
-                                    capture_output=True, text=True, timeout=300)
+            procs.append(
+                subprocess.Popen(
+                    [
+                        str(BIN / "telethermo-slave"),
+                        *common,
+                        "--rig-config",
+                        str(bus_config_path("rig_io_sim_slave.toml")),
+                        "--record",
+                        str(tmp_path / "s.csv"),
+                    ],
+                    stderr=subprocess.PIPE,
+                    text=True,
+                )
+            )
+            master = subprocess.run(
+                [
+                    str(BIN / "telethermo-master"),
+                    *common,
+                    "--rig-config",
+                    str(bus_config_path("rig_io_sim.toml")),
+                    "--cycles",
+                    str(CYCLES),
+                    "--json",
+                    "--record",
+                    str(tmp_path / "m.csv"),
+                ],
+                capture_output=True,
+                text=True,
+                timeout=300,
+            )
             assert master.returncode == 0, master.stderr
             result = json.loads(next(ln[7:] for ln in master.stdout.splitlines() if ln.startswith("result ")))
             assert result["cycles"] == CYCLES
@@ -76,7 +114,7 @@ def test_four_node_session_runs_on_the_modules(tmp_path):
             # what the drivers commissioned, read by the test's own client
             for nid, node in nodes.items():
                 assert node.sdo[0x2100].raw == 10 and node.sdo[0x6443][1].raw == 1
-                assert node.sdo[0x1016][1].raw >> 16 == nid - 2       # watching its controller (1, 2)
+                assert node.sdo[0x1016][1].raw >> 16 == nid - 2  # watching its controller (1, 2)
             # the master's recording holds the module's readings (plausible, scaled by the RIG.toml)
             text = (tmp_path / "m.csv").read_text()
             rows = [ln.split(",") for ln in text.splitlines() if not ln.startswith("#")]

@@ -2,6 +2,7 @@
 on the hub: commissioning read back by the test's own canopen RemoteNode (from the module's EDS), inputs
 by TPDO on the test's SYNC, the drive by RPDO; a refused configuration names the object and the abort code
 (exit 2); a malformed RIG.toml is one line naming the file and the field (exit 2)."""
+
 from __future__ import annotations
 
 import subprocess
@@ -36,7 +37,7 @@ def _rig(hub, text: str | None = None, tmp_path: Path | None = None) -> IoRig:
 def test_commissioned_rig_reads_tpdos_on_sync_and_drives_by_rpdo(rig):
     hub, bus, _ = rig
     node = bus.node
-    assert node.sdo[0x2100].raw == 400 and node.sdo[0x6443][1].raw == 0   # the module's traps, before
+    assert node.sdo[0x2100].raw == 400 and node.sdo[0x6443][1].raw == 0  # the module's traps, before
     io = _rig(hub).start()
     try:
         # what commissioning wrote, read by the test's own client from the module's EDS
@@ -46,28 +47,28 @@ def test_commissioned_rig_reads_tpdos_on_sync_and_drives_by_rpdo(rig):
         node.tpdo.read(from_od=False)
         assert [(v.od.index, v.od.subindex) for v in node.tpdo[1].map] == [(0x6401, k) for k in (1, 2, 3, 4)]
         assert [(v.od.index, v.od.subindex) for v in node.tpdo[2].map] == [(0x6401, 5), (0x6401, 6)]
-        bus.wait(lambda: bus.module_state() == 0x05)        # the driver started it
+        bus.wait(lambda: bus.module_state() == 0x05)  # the driver started it
         samples = []
         for k in range(3):
             _sync(bus)
             samples.append(io.read())
         s = samples[-1]
         assert s.t_s == pytest.approx(0.03)
-        assert abs(s.T_sensor_C - node.sdo[0x6401][1].raw * 10 / 32768 * 10) < 1e-9   # scaled as configured
+        assert abs(s.T_sensor_C - node.sdo[0x6401][1].raw * 10 / 32768 * 10) < 1e-9  # scaled as configured
         assert 15 < s.T_sensor_C < 40 and 15 < s.T_sink_C < 40 and not s.contact and abs(s.current_A) < 1e-3
         io.apply_current(2.0)
-        bus.wait(lambda: node.sdo[0x2101].raw == 6554)       # the RPDO applied: 2 A at 1 A/V
+        bus.wait(lambda: node.sdo[0x2101].raw == 6554)  # the RPDO applied: 2 A at 1 A/V
         _sync(bus)
-        assert io.read().current_A == pytest.approx(2.0, abs=1e-3)   # the drive monitor, next input set
-        io.apply_current(50.0)                                  # clipped to the drive's limit, 3 A
+        assert io.read().current_A == pytest.approx(2.0, abs=1e-3)  # the drive monitor, next input set
+        io.apply_current(50.0)  # clipped to the drive's limit, 3 A
         bus.wait(lambda: node.sdo[0x2101].raw == round(3.0 * 3276.8))
-        node.sdo[0x2110].raw = 1                                # thermocouple opens: its sentinel, NaN
+        node.sdo[0x2110].raw = 1  # thermocouple opens: its sentinel, NaN
         _sync(bus)
         s = io.read()
         assert s.T_sensor_C != s.T_sensor_C and s.Q_W == s.Q_W
     finally:
         io.close()
-    bus.wait(lambda: bus.module_state() == 0x7F)             # closed: PRE-OPERATIONAL, output on substitute
+    bus.wait(lambda: bus.module_state() == 0x7F)  # closed: PRE-OPERATIONAL, output on substitute
     assert node.sdo[0x2101].raw == 0 and node.sdo[0x2102].raw == 1
 
 
@@ -76,14 +77,18 @@ def test_missing_inputs_time_out_then_read_nan(rig):
     hub, bus, _ = rig
     text = SIM_TOML.read_text(encoding="utf-8").replace("stale_limit = 3", "stale_limit = 2")
     cfg = parse_rig_config(text, "RIG.toml")
-    io = IoRig(cfg, transport=parse_bus_string(f"socketcand://127.0.0.1:{hub.port}/vcan0"),
-               controller_id=CONTROLLER_ID, period_s=0.01).start()
+    io = IoRig(
+        cfg,
+        transport=parse_bus_string(f"socketcand://127.0.0.1:{hub.port}/vcan0"),
+        controller_id=CONTROLLER_ID,
+        period_s=0.01,
+    ).start()
     try:
         _sync(bus)
         assert io.read().T_sensor_C == io.read_sdo().T_sensor_C
-        first = io.read()                   # no SYNC: no new inputs, the last sample once
+        first = io.read()  # no SYNC: no new inputs, the last sample once
         assert io.timeouts == 1 and first.T_sensor_C == first.T_sensor_C
-        assert io.read().T_sensor_C != io.read().T_sensor_C   # stale_limit reached: NaN
+        assert io.read().T_sensor_C != io.read().T_sensor_C  # stale_limit reached: NaN
     finally:
         io.close()
 
@@ -93,33 +98,62 @@ def test_a_module_that_refuses_is_named_with_object_and_abort_code(rig, tmp_path
     hub, bus, _ = rig
     # the sampling period is no PDO-mappable object: the module refuses the mapping entry (CiA 301 0x06040041)
     text = SIM_TOML.read_text(encoding="utf-8").replace(
-        "object = 0x6401\nsubindex = 5", "object = 0x2100\nsubindex = 0")
+        "object = 0x6401\nsubindex = 5", "object = 0x2100\nsubindex = 0"
+    )
     with pytest.raises(IoRigError) as err:
-        IoRig(parse_rig_config(text, "RIG.toml"), transport=parse_bus_string(
-            f"socketcand://127.0.0.1:{hub.port}/vcan0"), controller_id=CONTROLLER_ID, period_s=0.01).start()
+        IoRig(
+            parse_rig_config(text, "RIG.toml"),
+            transport=parse_bus_string(f"socketcand://127.0.0.1:{hub.port}/vcan0"),
+            controller_id=CONTROLLER_ID,
+            period_s=0.01,
+        ).start()
     msg = str(err.value)
     assert "modules.io" in msg and "0x1A01:1" in msg and "0x06040041" in msg, msg
     # the node program: one line, exit 2
     bad = tmp_path / "RIG.toml"
     bad.write_text(text, encoding="utf-8")
-    proc = subprocess.run([str(MASTER), "--rig", "io", "--rig-config", str(bad), "--bus",
-                           f"socketcand://127.0.0.1:{hub.port}/vcan0", "--cycles", "1"],
-                          capture_output=True, text=True, timeout=120)
+    proc = subprocess.run(
+        [
+            str(MASTER),
+            "--rig",
+            "io",
+            "--rig-config",
+            str(bad),
+            "--bus",
+            f"socketcand://127.0.0.1:{hub.port}/vcan0",
+            "--cycles",
+            "1",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2, proc.stderr
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "0x1A01:1" in lines[0] and "0x06040041" in lines[0], proc.stderr
 
 
-@pytest.mark.parametrize("edit, field, expected", [
-    (("subindex = 1\nvolts", "subindex = 300\nvolts"), "signals.T_sensor_C.subindex", "an integer 0..255"),
-    (("[signals.Q_W]", "[signals.Q]"), "signals.Q", "one of"),
-    (('module = "io"\nobject = 0x6411', 'module = "dio"\nobject = 0x6411'), "drive.module", "one of io"),
-    (("limit_A = 3.0", "limit_A = -3.0"), "drive.limit_A", "a number > 0"),
-    (("gain = 10.0                  # °C per V", "sign = 2"), "signals.T_sensor_C.sign", "1 or -1"),
-    (("node_id = 3", "node_id = 300"), "modules.io.node_id", "an integer 1..127"),
-    (("sentinels = [32767, -32768]", "sentinels = [40000]"), "signals.T_sensor_C.sentinels", "16-bit"),
-    (("subindex = 6\ngain", "subindex = 5\ngain"), "signals.current_A.subindex", "an input no other signal"),
-])
+@pytest.mark.parametrize(
+    "edit, field, expected",
+    [
+        (
+            ("subindex = 1\nvolts", "subindex = 300\nvolts"),
+            "signals.T_sensor_C.subindex",
+            "an integer 0..255",
+        ),
+        (("[signals.Q_W]", "[signals.Q]"), "signals.Q", "one of"),
+        (('module = "io"\nobject = 0x6411', 'module = "dio"\nobject = 0x6411'), "drive.module", "one of io"),
+        (("limit_A = 3.0", "limit_A = -3.0"), "drive.limit_A", "a number > 0"),
+        (("gain = 10.0                  # °C per V", "sign = 2"), "signals.T_sensor_C.sign", "1 or -1"),
+        (("node_id = 3", "node_id = 300"), "modules.io.node_id", "an integer 1..127"),
+        (("sentinels = [32767, -32768]", "sentinels = [40000]"), "signals.T_sensor_C.sentinels", "16-bit"),
+        (
+            ("subindex = 6\ngain", "subindex = 5\ngain"),
+            "signals.current_A.subindex",
+            "an input no other signal",
+        ),
+    ],
+)
 def test_malformed_rig_toml_names_file_and_field(edit, field, expected):
     text = SIM_TOML.read_text(encoding="utf-8")
     assert edit[0] in text
@@ -129,17 +163,24 @@ def test_malformed_rig_toml_names_file_and_field(edit, field, expected):
     assert msg.startswith(f"RIG.toml: {field}: expected") and expected in msg and "\n" not in msg, msg
 
 
-@pytest.mark.slow   # runs the node program as a process
+@pytest.mark.slow  # runs the node program as a process
 def test_malformed_rig_toml_exits_2_with_one_line(tmp_path):
     bad = tmp_path / "RIG.toml"
-    bad.write_text(SIM_TOML.read_text(encoding="utf-8").replace("[signals.T_sink_C]", "[signals.T_heatsink]"),
-                   encoding="utf-8")
-    proc = subprocess.run([str(MASTER), "--rig", "io", "--rig-config", str(bad), "--cycles", "1"],
-                          capture_output=True, text=True, timeout=120)
+    bad.write_text(
+        SIM_TOML.read_text(encoding="utf-8").replace("[signals.T_sink_C]", "[signals.T_heatsink]"),
+        encoding="utf-8",
+    )
+    proc = subprocess.run(
+        [str(MASTER), "--rig", "io", "--rig-config", str(bad), "--cycles", "1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert proc.returncode == 2
     lines = proc.stderr.strip().splitlines()
-    assert len(lines) == 1 and lines[0].startswith(f"telethermo-master: error: {bad}: signals.T_heatsink: "
-                                                   "expected one of"), proc.stderr
+    assert len(lines) == 1 and lines[0].startswith(
+        f"telethermo-master: error: {bad}: signals.T_heatsink: expected one of"
+    ), proc.stderr
     # the shipped examples load
     for name in ("rig_io_sim.toml", "rig_io_sim_slave.toml"):
         assert {s for s in load_rig_config(bus_config_path(name)).signals} >= {"T_sensor_C", "contact"}

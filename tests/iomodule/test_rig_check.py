@@ -2,6 +2,7 @@
 per injected wiring fault (``--fault``): the CLI, its own process, names each fault in one line (exit 1),
 and a correct rig passes naming none (exit 0); the module's state afterwards is read by the test's own
 canopen RemoteNode (from the module's EDS): the check leaves it PRE-OPERATIONAL with the drive at 0 A."""
+
 from __future__ import annotations
 
 import signal
@@ -36,16 +37,21 @@ FAULTS = {
 }
 
 
-def run_check(faults: list[str], rig_config: Path = SIM_TOML, store: Path | None = None
-              ) -> tuple[subprocess.CompletedProcess, Bus]:
+def run_check(
+    faults: list[str], rig_config: Path = SIM_TOML, store: Path | None = None
+) -> tuple[subprocess.CompletedProcess, Bus]:
     """A hub, a module process with ``faults``, ``telethermo rig check`` against it; the CLI's result and the
     module's state read by the test's own client afterwards (returned closed). ``store``: a controller node
     (``telethermo-master --no-sync``, idle) with that store file is up too, and the check runs ``--store``."""
     with HubThread() as hub:
         bus_arg = f"socketcand://127.0.0.1:{hub.port}/vcan0"
         cmd = [str(BIN / "telethermo-iomodule"), "--node-id", str(MODULE_ID), "--bus", bus_arg]
-        proc = subprocess.Popen(cmd + [a for f in faults for a in ("--fault", f)],
-                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        proc = subprocess.Popen(
+            cmd + [a for f in faults for a in ("--fault", f)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         bus = Bus(hub.port)
         master = None
         try:
@@ -53,15 +59,44 @@ def run_check(faults: list[str], rig_config: Path = SIM_TOML, store: Path | None
             assert proc.poll() is None, proc.communicate()[1]
             extra = []
             if store is not None:
-                master = subprocess.Popen(node_command(
-                    "master", "--bus", bus_arg, "--scene", str(SCENE), "--no-sync", "--mode", "idle",
-                    "--cycles", "0", "--store", str(store), "--log", str(store.with_suffix(".log"))),
-                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+                master = subprocess.Popen(
+                    node_command(
+                        "master",
+                        "--bus",
+                        bus_arg,
+                        "--scene",
+                        str(SCENE),
+                        "--no-sync",
+                        "--mode",
+                        "idle",
+                        "--cycles",
+                        "0",
+                        "--store",
+                        str(store),
+                        "--log",
+                        str(store.with_suffix(".log")),
+                    ),
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                )
                 bus.wait(lambda: any(n == 1 for _, n, _, _ in bus.heartbeats), timeout_s=60, every_s=0.1)
                 extra = ["--store"]
-            res = subprocess.run([str(BIN / "telethermo"), "rig", "check", "1", *extra, "--rig-config",
-                                  str(rig_config),
-                                  "--bus", bus_arg], capture_output=True, text=True, timeout=300)
+            res = subprocess.run(
+                [
+                    str(BIN / "telethermo"),
+                    "rig",
+                    "check",
+                    "1",
+                    *extra,
+                    "--rig-config",
+                    str(rig_config),
+                    "--bus",
+                    bus_arg,
+                ],
+                capture_output=True,
+                text=True,
+                timeout=300,
+            )
             bus.after = (bus.node.sdo[0x2101].raw, bus.wait(lambda: bus.module_state()))
         finally:
             bus.close()
@@ -89,7 +124,7 @@ def test_correct_rig_passes_naming_nothing():
     res, bus = run_check([])
     assert res.returncode == 0, res.stderr
     assert "passed" in res.stdout and res.stderr == ""
-    assert bus.after == (0, 0x7F)           # drive at 0 A, module PRE-OPERATIONAL again
+    assert bus.after == (0, 0x7F)  # drive at 0 A, module PRE-OPERATIONAL again
 
 
 @pytest.mark.slow
@@ -102,12 +137,16 @@ def test_each_injected_fault_is_named(fault):
     assert bus.after == (0, 0x7F)
 
 
-@pytest.mark.slow   # runs the CLI as a process
+@pytest.mark.slow  # runs the CLI as a process
 def test_bad_rig_config_is_one_line_exit_2(tmp_path):
     bad = tmp_path / "RIG.toml"
     bad.write_text(SIM_TOML.read_text(encoding="utf-8").replace("limit_A = 3.0", "limit_A = -1"))
-    res = subprocess.run([str(BIN / "telethermo"), "rig", "check", "--rig-config", str(bad), "--bus",
-                          "virtual:nobody"], capture_output=True, text=True, timeout=60)
+    res = subprocess.run(
+        [str(BIN / "telethermo"), "rig", "check", "--rig-config", str(bad), "--bus", "virtual:nobody"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert res.returncode == 2 and res.stderr.count("\n") == 1, res.stderr
     assert str(bad) in res.stderr and "drive.limit_A" in res.stderr
 
@@ -125,7 +164,7 @@ def test_gain_x10_in_the_rig_file_is_named_at_rest(tmp_path):
 def test_store_saves_on_the_node_only_after_every_step_passed(tmp_path):
     store = tmp_path / "node1.json"
     res, _ = run_check(["sign:2"], store=store)
-    assert named(res) == "sign:Q_W" and not store.exists()       # a fault: nothing written to the node
+    assert named(res) == "sign:Q_W" and not store.exists()  # a fault: nothing written to the node
     res, _ = run_check([], store=store)
     assert res.returncode == 0, res.stderr
     assert "master (node 1): all parameters saved" in res.stdout and store.is_file()

@@ -1,5 +1,6 @@
 """Real CANopen nodes for the monitor's tests: canopen LocalNodes built from bus_config's EDS files
 (the servers), canopen RemoteNodes (the clients) and a sniffer, all on one python-can virtual bus."""
+
 from __future__ import annotations
 
 import itertools
@@ -21,8 +22,13 @@ _channels = itertools.count()
 
 def monitor_config(**kw) -> MonitorConfig:
     """Monitor settings knowing both nodes by their real EDS."""
-    return MonitorConfig(nodes={1: NodeInfo("master", import_od(str(MASTER_EDS), 1)),
-                                2: NodeInfo("slave", import_od(str(SLAVE_EDS), 2))}, **kw)
+    return MonitorConfig(
+        nodes={
+            1: NodeInfo("master", import_od(str(MASTER_EDS), 1)),
+            2: NodeInfo("slave", import_od(str(SLAVE_EDS), 2)),
+        },
+        **kw,
+    )
 
 
 class Collector(can.Listener):
@@ -44,7 +50,7 @@ class CanopenBench:
         self.server = canopen.Network()
         self.client = canopen.Network()
         for nw in (self.server, self.client):
-            nw.NOTIFIER_CYCLE = 0.05      # quick shutdown
+            nw.NOTIFIER_CYCLE = 0.05  # quick shutdown
             nw.connect(interface="virtual", channel=ch)
         self.master = canopen.LocalNode(1, str(MASTER_EDS))
         self.slave = canopen.LocalNode(2, str(SLAVE_EDS))

@@ -1,6 +1,7 @@
 """The monitor benchmark on a short run: its traffic (telethermo.monitor.traffic) is what the monitor decodes
 without complaint, and ``python -m bench.monitor_bench``, run as the program (tests do not import bench/),
 writes the result keys the issue names."""
+
 from __future__ import annotations
 
 import json
@@ -31,18 +32,27 @@ def test_the_benchmark_traffic_decodes_cleanly():
 
 
 def bench(*args: str, env: dict[str, str] | None = None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", *args], cwd=ROOT, capture_output=True, text=True,
-                          timeout=300, env={**os.environ, **(env or {})})
+    return subprocess.run(
+        [sys.executable, "-m", *args],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, **(env or {})},
+    )
 
 
 @pytest.mark.slow  # starts the benchmark, which starts a hub and a sender process
 def test_quick_run_writes_the_result_keys(tmp_path):
-    p = bench("bench.monitor_bench", "--quick", "--frames", "3000",
-              env={"TELETHERMO_BENCH_RESULTS": str(tmp_path)})
+    p = bench(
+        "bench.monitor_bench", "--quick", "--frames", "3000", env={"TELETHERMO_BENCH_RESULTS": str(tmp_path)}
+    )
     assert p.returncode == 0, p.stderr[-2000:]
     data = json.loads((tmp_path / "monitor.json").read_text())
     assert data["frames"] == 3000 and data["repeats"] == 3
-    assert data["decode_frames_per_s"] > 0 and data["anchor_frames_per_s"] > 0 and data["live_frames_per_s"] > 0
+    assert (
+        data["decode_frames_per_s"] > 0 and data["anchor_frames_per_s"] > 0 and data["live_frames_per_s"] > 0
+    )
     assert abs(data["ratio_vs_anchor"] - data["decode_frames_per_s"] / data["anchor_frames_per_s"]) < 1e-3
     assert data["keeps_up_8k"] == (min(data["decode_frames_per_s"], data["live_frames_per_s"]) >= 8000)
     # live over a real hub process, fed by a separate sender process: nothing lost, both rates measured

@@ -7,6 +7,7 @@ what canopen's client never does (a lost segment, a bad CRC, a partial acknowled
 silence in the middle of a sub-block). A sniffer records every frame; the monitor is fed the record
 and must report each transfer: index:sub, EDS name, value, direction, mode, or the abort and its text.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -65,7 +66,7 @@ class Rig:
 
     # raw client: one request, wait for the device's answer (one outstanding request per channel)
     def send(self, data: bytes) -> None:
-        while self.raw.recv(0) is not None:   # answers to requests made by others (canopen's client)
+        while self.raw.recv(0) is not None:  # answers to requests made by others (canopen's client)
             pass
         self.raw.send(can.Message(arbitration_id=0x601, data=pad(data), is_extended_id=False))
 
@@ -126,7 +127,7 @@ def test_real_block_uploads_with_and_without_crc_and_in_small_sub_blocks(rig):
     class SmallBlocks(BlockUploadStream):
         blksize = 2
 
-    with SmallBlocks(rig.node.sdo, 0x1008, 0) as fp:       # 3 segments in sub-blocks of 2 and 1
+    with SmallBlocks(rig.node.sdo, 0x1008, 0) as fp:  # 3 segments in sub-blocks of 2 and 1
         assert fp.read() == NAME
     mon = rig.monitor()
     name = ("upload", "block", "ok", "0x1008:00", "Manufacturer device name", "telethermo master")
@@ -141,13 +142,14 @@ def test_real_block_downloads_with_and_without_crc_and_in_small_sub_blocks(rig):
     values = (7.0e-5, -4.5e2, 1.0e6)
     for value, crc in zip(values, (True, False, True)):
         if value == values[2]:
-            rig.dev.SDO_BLOCK_SIZE = 1                        # two sub-blocks of one segment
+            rig.dev.SDO_BLOCK_SIZE = 1  # two sub-blocks of one segment
         with rig.node.sdo.open(*THETA1, "wb", block_transfer=True, size=8, request_crc_support=crc) as fp:
             fp.write(struct.pack("<d", value))
         assert rig.dev.read("theta1") == value
     mon = rig.monitor()
     assert [_summary(r) for r in _transfers(mon)] == [
-        ("download", "block", "ok", "0x2310:01", "theta.theta1", v) for v in values]
+        ("download", "block", "ok", "0x2310:01", "theta.theta1", v) for v in values
+    ]
     assert mon.log.counts["WARN"] == 0
 
 
@@ -157,16 +159,35 @@ def test_real_block_download_refusals_are_reported_with_their_abort_text(rig):
             with rig.node.sdo.open(index, sub, "wb", block_transfer=True, size=len(data)) as fp:
                 fp.write(data)
 
-    write(*THETA1, struct.pack("<d", 2.0e6))                  # above HighLimit: refused at the end
-    write(0x1008, 0, b"another name")                         # const: refused at initiate
+    write(*THETA1, struct.pack("<d", 2.0e6))  # above HighLimit: refused at the end
+    write(0x1008, 0, b"another name")  # const: refused at initiate
     mon = rig.monitor()
     recs = _transfers(mon)
-    assert [(r.transfer.direction, r.transfer.status, r.transfer.index, r.transfer.abort_code,
-             r.transfer.abort_text, r.transfer.aborted_by) for r in recs] == [
-        ("download", "aborted", 0x2310, 0x06090031, "Value of parameter written too high (download only)", "server"),
-        ("download", "aborted", 0x1008, 0x06010002, "Attempt to write a read only object", "server")]
-    assert recs[0].text() == ("write 0x2310:01 theta.theta1 ABORT 0x06090031 "
-                              "Value of parameter written too high (download only) (by server)")
+    assert [
+        (
+            r.transfer.direction,
+            r.transfer.status,
+            r.transfer.index,
+            r.transfer.abort_code,
+            r.transfer.abort_text,
+            r.transfer.aborted_by,
+        )
+        for r in recs
+    ] == [
+        (
+            "download",
+            "aborted",
+            0x2310,
+            0x06090031,
+            "Value of parameter written too high (download only)",
+            "server",
+        ),
+        ("download", "aborted", 0x1008, 0x06010002, "Attempt to write a read only object", "server"),
+    ]
+    assert recs[0].text() == (
+        "write 0x2310:01 theta.theta1 ABORT 0x06090031 "
+        "Value of parameter written too high (download only) (by server)"
+    )
     assert rig.dev.read("theta1") == 0.0
 
 
@@ -175,9 +196,9 @@ def test_lost_segment_retransmission_and_crc_error_on_real_frames(rig):
     initiate = bytes([0xC6]) + struct.pack("<HBL", *THETA1, 8)
     assert rig.exchange(initiate)[0] == 0xA4
     rig.send(bytes([0x01]) + data[:7])
-    assert rig.exchange(bytes([0x83]) + b"garbage") == pad(bytes([0xA2, 1, 127]))   # seq 2 lost
+    assert rig.exchange(bytes([0x83]) + b"garbage") == pad(bytes([0xA2, 1, 127]))  # seq 2 lost
     assert rig.exchange(bytes([0x81]) + data[7:]) == pad(bytes([0xA2, 1, 127]))
-    assert rig.exchange(bytes([0xC1 | 6 << 2]) + struct.pack("<H", crc16(data))) == pad(b"\xA1")
+    assert rig.exchange(bytes([0xC1 | 6 << 2]) + struct.pack("<H", crc16(data))) == pad(b"\xa1")
     assert rig.exchange(initiate)[0] == 0xA4
     rig.send(bytes([0x01]) + data[:7])
     rig.exchange(bytes([0x82]) + data[7:])
@@ -185,21 +206,32 @@ def test_lost_segment_retransmission_and_crc_error_on_real_frames(rig):
     mon = rig.monitor()
     ok, bad = _transfers(mon)
     assert _summary(ok) == ("download", "block", "ok", "0x2310:01", "theta.theta1", -8.75e5)
-    assert (bad.transfer.status, bad.transfer.abort_code, bad.transfer.abort_text, bad.transfer.aborted_by) == (
-        "aborted", 0x05040004, "CRC error (block mode only)", "server")
+    assert (
+        bad.transfer.status,
+        bad.transfer.abort_code,
+        bad.transfer.abort_text,
+        bad.transfer.aborted_by,
+    ) == ("aborted", 0x05040004, "CRC error (block mode only)", "server")
 
 
 def test_partial_acknowledge_of_a_real_block_upload(rig):
     assert rig.exchange(bytes([0xA4]) + struct.pack("<HBBB", 0x1008, 0, 127, 0))[0] == 0xC6
     rig.send(bytes([0xA3]))
     assert [rig.recv()[0] for _ in range(3)] == [0x01, 0x02, 0x83]
-    rig.send(bytes([0xA2, 1, 127]))                           # only segment 1 kept: 2 and 3 again
+    rig.send(bytes([0xA2, 1, 127]))  # only segment 1 kept: 2 and 3 again
     assert [rig.recv()[0] for _ in range(2)] == [0x01, 0x82]
     assert rig.exchange(bytes([0xA2, 2, 127]))[0] == 0xC1 | 4 << 2
     rig.send(bytes([0xA1]))
     mon = rig.monitor()
     (rec,) = _transfers(mon)
-    assert _summary(rec) == ("upload", "block", "ok", "0x1008:00", "Manufacturer device name", "telethermo master")
+    assert _summary(rec) == (
+        "upload",
+        "block",
+        "ok",
+        "0x1008:00",
+        "Manufacturer device name",
+        "telethermo master",
+    )
     assert mon.log.counts["WARN"] == 0
 
 
@@ -210,18 +242,27 @@ def test_aborts_in_the_middle_of_a_sub_block_are_reported(rig):
     rig.dev.SDO_BLOCK_TIMEOUT_S = 0.05
     assert rig.exchange(bytes([0xC6]) + struct.pack("<HBL", *THETA1, 8))[0] == 0xA4
     rig.send(bytes([0x01]) + b"\x00" * 7)
-    rig.send(struct.pack("<BHBL", 0x80, *THETA1, 0x05040000))            # the client gives up
+    rig.send(struct.pack("<BHBL", 0x80, *THETA1, 0x05040000))  # the client gives up
     assert rig.exchange(bytes([0xA4]) + struct.pack("<HBBB", 0x1008, 0, 127, 0))[0] == 0xC6
     rig.send(bytes([0xA3]))
     assert [rig.recv()[0] for _ in range(3)] == [0x01, 0x02, 0x83]
-    timeout = rig.recv()                                                   # no acknowledge comes
+    timeout = rig.recv()  # no acknowledge comes
     assert timeout[0] == 0x80 and struct.unpack_from("<L", timeout, 4)[0] == 0x05040000
     mon = rig.monitor()
     client_abort, server_abort = _transfers(mon)
-    assert (client_abort.transfer.direction, client_abort.transfer.status, client_abort.transfer.abort_code,
-            client_abort.transfer.aborted_by) == ("download", "aborted", 0x05040000, "client")
-    assert (server_abort.transfer.direction, server_abort.transfer.status, server_abort.transfer.abort_code,
-            server_abort.transfer.abort_text, server_abort.transfer.aborted_by) == (
-        "upload", "aborted", 0x05040000, "SDO protocol timed out", "server")
-    assert server_abort.text() == ("read 0x1008:00 Manufacturer device name ABORT 0x05040000 "
-                                   "SDO protocol timed out (by server)")
+    assert (
+        client_abort.transfer.direction,
+        client_abort.transfer.status,
+        client_abort.transfer.abort_code,
+        client_abort.transfer.aborted_by,
+    ) == ("download", "aborted", 0x05040000, "client")
+    assert (
+        server_abort.transfer.direction,
+        server_abort.transfer.status,
+        server_abort.transfer.abort_code,
+        server_abort.transfer.abort_text,
+        server_abort.transfer.aborted_by,
+    ) == ("upload", "aborted", 0x05040000, "SDO protocol timed out", "server")
+    assert server_abort.text() == (
+        "read 0x1008:00 Manufacturer device name ABORT 0x05040000 SDO protocol timed out (by server)"
+    )

@@ -1,4 +1,5 @@
 """Frame length on the wire: CRC-15 and bit stuffing by ISO 11898-1."""
+
 from hypothesis import given, strategies as st
 
 from telethermo.monitor.busload import _crc15, frame_bits, frame_length_bits, stuff_count
@@ -15,8 +16,8 @@ def test_crc15_check_value():
 
 def test_stuffing_counts_the_stuff_bit_in_the_next_run():
     assert stuff_count([0] * 5) == 1
-    assert stuff_count([0] * 9) == 1          # 00000 [1] 0000: the stuff bit breaks the run
-    assert stuff_count([0] * 10) == 2         # 00000 [1] 00000 [1]
+    assert stuff_count([0] * 9) == 1  # 00000 [1] 0000: the stuff bit breaks the run
+    assert stuff_count([0] * 10) == 2  # 00000 [1] 00000 [1]
     assert stuff_count([0, 0, 0, 0, 0, 1, 1, 1, 1]) == 2  # 00000 [1] 1111 -> five 1s -> stuff again
     assert stuff_count([0, 1] * 20) == 0
 
@@ -27,7 +28,7 @@ def test_unstuffed_lengths():
         bits = frame_bits(0x555, bytes([0x55] * n))
         assert len(bits) == 19 + 8 * n + 15
     assert len(frame_bits(0x1ABCDEF, b"\x00", extended=True)) == 39 + 8 + 15
-    assert len(frame_bits(0x701, b"", remote=True, dlc=1)) == 19 + 15   # no data field in a remote frame
+    assert len(frame_bits(0x701, b"", remote=True, dlc=1)) == 19 + 15  # no data field in a remote frame
 
 
 @given(st.integers(0, 0x7FF), st.binary(min_size=0, max_size=8))
@@ -65,13 +66,16 @@ def test_run_based_stuff_count_equals_the_literal_rule(bits):
 @given(st.lists(st.integers(0, 1), min_size=1, max_size=130))
 def test_table_crc_equals_bitwise_crc(bits):
     from telethermo.monitor.busload import _crc15_bitwise
+
     assert _crc15(bits) == _crc15_bitwise(bits)
 
 
 @given(st.integers(0, 0x1FFFFFFF), st.binary(max_size=8), st.booleans(), st.booleans())
 def test_frame_length_equals_literal_construction(can_id, data, extended, remote):
     from telethermo.monitor.busload import TAIL_BITS
+
     cid = can_id if extended else can_id & 0x7FF
     bits = frame_bits(cid, data, extended=extended, remote=remote)
     assert frame_length_bits(cid, data, extended=extended, remote=remote) == (
-        len(bits) + _stuff_bitwise(bits) + TAIL_BITS)
+        len(bits) + _stuff_bitwise(bits) + TAIL_BITS
+    )

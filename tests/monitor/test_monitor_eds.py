@@ -2,6 +2,7 @@
 truncated EDS (an object listed in [ManufacturerObjects] without its section) is read by canopen without a
 word; the loader of `get` and the nodes (telethermo.device.eds_info) refuses it, and now the monitor does, in
 the same words, exit 2: for a node of the network file and for a further node given by --eds."""
+
 from __future__ import annotations
 
 import json
@@ -22,21 +23,25 @@ def cli(capsys):
         code = main(list(argv))
         out = capsys.readouterr()
         return code, out.out, out.err
+
     return run
 
 
 def truncated_eds(path: Path) -> Path:
     text = (SRC / "slave.eds").read_text()
     start = text.index("[2000]")
-    path.write_text(text[:start] + text[text.index("\n[", start + 1) + 1:])
+    path.write_text(text[:start] + text[text.index("\n[", start + 1) + 1 :])
     return path
 
 
 def a_log(path: Path) -> Path:
     with can.Logger(str(path)) as log:
         for k in range(5):
-            log.on_message_received(can.Message(timestamp=1.0 + 0.01 * k, arbitration_id=0x080, data=[k + 1],
-                                                is_extended_id=False))
+            log.on_message_received(
+                can.Message(
+                    timestamp=1.0 + 0.01 * k, arbitration_id=0x080, data=[k + 1], is_extended_id=False
+                )
+            )
     return path
 
 
@@ -56,10 +61,13 @@ def test_a_further_nodes_truncated_eds_is_refused(cli, tmp_path):
     eds = truncated_eds(tmp_path / "arm.eds")
     code, out, err = cli("monitor", "--replay", str(a_log(tmp_path / "s.log")), "--eds", f"5={eds}", "--json")
     assert code == EXIT_USAGE and out == ""
-    assert err == (f"telethermo monitor: error: --eds 5={eds}: {eds}: 1 listed object(s) have no section "
-                   "(0x2000): truncated or damaged EDS\n")
+    assert err == (
+        f"telethermo monitor: error: --eds 5={eds}: {eds}: 1 listed object(s) have no section "
+        "(0x2000): truncated or damaged EDS\n"
+    )
     good = tmp_path / "arm_ok.eds"
     good.write_bytes((SRC / "slave.eds").read_bytes())
-    code, out, err = cli("monitor", "--replay", str(tmp_path / "s.log"), "--eds", f"5={good}", "--json",
-                         "--no-frames")
+    code, out, err = cli(
+        "monitor", "--replay", str(tmp_path / "s.log"), "--eds", f"5={good}", "--json", "--no-frames"
+    )
     assert code == 0 and json.loads(out.splitlines()[-1])["frames"] == 5

@@ -1,6 +1,7 @@
 """The monitor's lab tools without a terminal: the raw frame list, bounded scrollback of frames and
 events, the pages and keys, the controller state (error frames, python-can bus.state), the incident
 hints, the readable status counters and the timing taken from the network file."""
+
 from __future__ import annotations
 
 import curses
@@ -66,7 +67,7 @@ def test_raw_frame_list_has_one_row_per_cob_id_with_count_period_and_last_data()
 
 def test_frame_history_is_bounded_and_scrolls_back_to_the_oldest_kept():
     mon = Monitor(monitor_config(sync_period_s=0.01))
-    cycles(mon, 1000)       # 5002 frames
+    cycles(mon, 1000)  # 5002 frames
     hist = mon.frames.history
     assert len(hist) == FRAME_HISTORY and hist[-1].cob_id == 0x682
     vs = ViewState(page="log")
@@ -86,7 +87,7 @@ def test_frame_history_is_bounded_and_scrolls_back_to_the_oldest_kept():
 def test_events_scroll_back_on_the_main_page_and_the_event_page():
     mon = Monitor(monitor_config(sync_period_s=0.01))
     cycles(mon, 5)
-    for k in range(40):      # 40 SDO aborts: 40 warnings
+    for k in range(40):  # 40 SDO aborts: 40 warnings
         mon.feed(msg(1.0 + k, 0x601, struct.pack("<BHBf", 0x23, 0x2200, 0, 25.0)))
         mon.feed(msg(1.0 + k + 0.001, 0x581, struct.pack("<BHBL", 0x80, 0x2200, 0, 0x06090031)))
     vs = ViewState()
@@ -121,7 +122,10 @@ def test_help_page_lists_every_key_and_toggles_back():
 
 def test_scroll_window_clamps():
     assert scroll_window(list(range(5)), 10, 3) == ([0, 1, 2, 3, 4], "")
-    assert scroll_window(list(range(20)), 5, 100) == ([0, 1, 2, 3, 4], "lines 1-5 of 20, 15 newer below (End to follow)")
+    assert scroll_window(list(range(20)), 5, 100) == (
+        [0, 1, 2, 3, 4],
+        "lines 1-5 of 20, 15 newer below (End to follow)",
+    )
     assert scroll_window(list(range(20)), 0, 0) == ([], "")
 
 
@@ -132,8 +136,14 @@ def test_socketcan_error_frames_give_controller_state_and_counters():
     assert passive["classes"] == ["controller", "counters"] and passive["controller"] == ["RX passive"]
     assert decode_error_frame(0x040, bytes(8))["state"] == "BUS-OFF"
     mon = Monitor(monitor_config())
-    evs = mon.feed(can.Message(timestamp=1.0, arbitration_id=0x204, is_error_frame=True,
-                               data=bytes([0, 0x10, 0, 0, 0, 0, 96, 130])))[1]
+    evs = mon.feed(
+        can.Message(
+            timestamp=1.0,
+            arbitration_id=0x204,
+            is_error_frame=True,
+            data=bytes([0, 0x10, 0, 0, 0, 0, 96, 130]),
+        )
+    )[1]
     assert [e.kind for e in evs] == ["error_frame", "controller_state"]
     assert "unknown -> ERROR-PASSIVE" in evs[1].text
     head = render_lines(mon, ViewState(), 200, 10)[2]
@@ -149,10 +159,13 @@ def test_virtual_bus_says_its_controller_state_is_unavailable():
         mon = Monitor(monitor_config())
         bus_state_poller(bus)(mon)
         assert mon.controller.state is None
-        assert "controller: unavailable (virtual bus: no controller)" in render_lines(mon, ViewState(), 200, 5)[2]
+        assert (
+            "controller: unavailable (virtual bus: no controller)"
+            in render_lines(mon, ViewState(), 200, 5)[2]
+        )
     finally:
         bus.shutdown()
-    mon.set_bus_state("PASSIVE")        # an interface that implements bus.state (pcan, ixxat, ...)
+    mon.set_bus_state("PASSIVE")  # an interface that implements bus.state (pcan, ixxat, ...)
     assert mon.controller.text() == "controller: ERROR-PASSIVE (from bus.state)"
 
 
@@ -161,7 +174,7 @@ def test_incident_hints_for_heartbeat_loss_emcy_jitter_late_cycles_and_load():
     cycles(mon, 20)
     assert incident_hints(mon) == []
     mon.feed(msg(0.30, 0x082, struct.pack("<HB5s", 0x4210, 0x09, b"\x00" * 5)))
-    mon.tick(5.0)           # no heartbeat for > the timeout
+    mon.tick(5.0)  # no heartbeat for > the timeout
     hints = incident_hints(mon)
     assert f"node 1 master: {HEARTBEAT_LOST}" in hints and f"node 2 slave: {HEARTBEAT_LOST}" in hints
     assert "node 2 slave: " + emcy_hint(0x4210) in hints and "heat sink" in emcy_hint(0x4210)
@@ -169,7 +182,7 @@ def test_incident_hints_for_heartbeat_loss_emcy_jitter_late_cycles_and_load():
     jittery = Monitor(monitor_config(sync_period_s=0.01))
     t = 0.0
     for k in range(40):
-        t += 0.006 if k % 2 else 0.016        # mean 11 ms, jitter 5 ms, every other cycle late
+        t += 0.006 if k % 2 else 0.016  # mean 11 ms, jitter 5 ms, every other cycle late
         jittery.feed(msg(t, 0x080, [k % 240 + 1]))
     text = " | ".join(incident_hints(jittery))
     assert "SYNC jitter 5.00 ms (50% of 10.00 ms)" in text and "19 late SYNC cycles" in text
@@ -194,7 +207,9 @@ def test_status_bar_names_its_counters():
 def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_path):
     src = Path(bus_config.__file__).resolve().parent
     text = (src / "network.toml").read_text()
-    text = text.replace("period_s = 0.010", "period_s = 0.020").replace("consumer_ms = 250", "consumer_ms = 400")
+    text = text.replace("period_s = 0.010", "period_s = 0.020").replace(
+        "consumer_ms = 250", "consumer_ms = 400"
+    )
     assert "lockstep = true" in text
     for eds in ("master.eds", "slave.eds"):
         (tmp_path / eds).write_bytes((src / eds).read_bytes())
@@ -202,7 +217,7 @@ def test_sync_period_and_heartbeat_consumer_time_come_from_the_network_file(tmp_
     mon = Monitor(net_monitor_config(load_network(tmp_path / "network.toml")))
     assert mon.config.sync_period_s == 0.020 and mon.config.sync_lockstep
     assert mon.nodes[1].consumer_time_s == 0.4 and mon.nodes[2].hb_timeout_s == 0.4
-    for k, t in enumerate((0.0, 0.02, 0.04, 0.10)):       # the last SYNC 60 ms after the one before
+    for k, t in enumerate((0.0, 0.02, 0.04, 0.10)):  # the last SYNC 60 ms after the one before
         mon.feed(msg(t, 0x080, [k + 1]))
     assert mon.stats.late_cycles == 1
     snap = mon.snapshot()
@@ -232,9 +247,13 @@ def test_a_silent_live_bus_gets_a_hint_and_a_replay_does_not():
 
 def test_strip_chart_of_the_exchanged_temperatures():
     assert strip_chart([0.0, 1.0, 2.0, 3.0, float("nan"), 3.0], 10, rows=4) == [
-        "   * *", "  *   ", " *    ", "*     "]
+        "   * *",
+        "  *   ",
+        " *    ",
+        "*     ",
+    ]
     mon = Monitor(monitor_config(sync_period_s=0.01))
-    for k in range(500):          # 5 s of bus time: a ramp on the master, constant on the slave
+    for k in range(500):  # 5 s of bus time: a ramp on the master, constant on the slave
         mon.feed(msg(k * 0.01, 0x181, struct.pack("<ff", 30.0 + 0.002 * k, -0.5)))
         mon.feed(msg(k * 0.01 + 0.001, 0x182, struct.pack("<ff", 24.0, 0.5)))
     trace = mon.pdos[(1, "TPDO", 1)].trace
@@ -244,13 +263,21 @@ def test_strip_chart_of_the_exchanged_temperatures():
     lines = render_lines(mon, vs, 100, 20)
     assert lines[3].startswith("TEMPERATURES")
     assert "master TPDO1 estimate_C = 30.998 degC   [30.000..30.980 degC, last 5 s]" in lines[4]
-    assert lines[5].startswith("   30.980 |") and lines[5].rstrip().endswith("*") and lines[8].startswith("   30.000 |*")
+    assert (
+        lines[5].startswith("   30.980 |")
+        and lines[5].rstrip().endswith("*")
+        and lines[8].startswith("   30.000 |*")
+    )
     assert "slave TPDO1 estimate_C = 24.000 degC" in "\n".join(lines)
 
 
 def test_lines_status_names_the_controller_state_once_known():
-    frames = [msg(0.0, 0x701, [0x05]),
-              can.Message(timestamp=0.5, arbitration_id=0x004, is_error_frame=True, data=bytes([0, 0x20, 0, 0, 0, 0, 0, 0]))]
+    frames = [
+        msg(0.0, 0x701, [0x05]),
+        can.Message(
+            timestamp=0.5, arbitration_id=0x004, is_error_frame=True, data=bytes([0, 0x20, 0, 0, 0, 0, 0, 0])
+        ),
+    ]
     out = io.StringIO()
     run_lines(iter(frames), Monitor(monitor_config()), out, as_json=False, frames=False, status_every_s=0)
     status = out.getvalue().strip().splitlines()[-1]

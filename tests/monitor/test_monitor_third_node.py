@@ -1,6 +1,7 @@
 """A third node the network file does not know, decoded by its own EDS (``monitor --eds NODE=FILE``):
 its heartbeat, its TPDO by the EDS mapping and its SDO objects by name; bad ``--eds`` values are one
 line and exit 2."""
+
 from __future__ import annotations
 
 import json
@@ -23,12 +24,16 @@ def arm_eds(tmp_path):
 
 def _log(path):
     w = can.Logger(str(path))
-    frames = [(0.0, 0x705, [0x05]), (0.01, 0x185, struct.pack("<ff", 41.5, 2.25)),
-              (0.02, 0x605, struct.pack("<BHB4x", 0x40, 0x1017, 0)),
-              (0.021, 0x585, struct.pack("<BHBL", 0x4B, 0x1017, 0, 100))]
+    frames = [
+        (0.0, 0x705, [0x05]),
+        (0.01, 0x185, struct.pack("<ff", 41.5, 2.25)),
+        (0.02, 0x605, struct.pack("<BHB4x", 0x40, 0x1017, 0)),
+        (0.021, 0x585, struct.pack("<BHBL", 0x4B, 0x1017, 0, 100)),
+    ]
     for t, cob, data in frames:
-        w.on_message_received(can.Message(timestamp=1.7e9 + t, arbitration_id=cob, data=bytes(data),
-                                          is_extended_id=False))
+        w.on_message_received(
+            can.Message(timestamp=1.7e9 + t, arbitration_id=cob, data=bytes(data), is_extended_id=False)
+        )
     w.stop()
 
 
@@ -46,12 +51,15 @@ def test_a_third_node_is_decoded_by_its_own_eds(tmp_path, arm_eds, capsys):
     assert arm["name"] == "arm" and arm["nmt_state"] == "OPERATIONAL" and arm["sdo_ok"] == 1
 
 
-@pytest.mark.parametrize("spec, message", [
-    ("5", "--eds '5': expected NODE=FILE with NODE a node-ID 1..127, e.g. 5=arm.eds"),
-    ("200={eds}", "--eds '200={eds}': expected NODE=FILE with NODE a node-ID 1..127"),
-    ("5={missing}", "--eds 5={missing}: {missing}: no such EDS file"),
-    ("2={eds}", "--eds 2={eds}: node 2 is the network file's slave, whose EDS is"),
-])
+@pytest.mark.parametrize(
+    "spec, message",
+    [
+        ("5", "--eds '5': expected NODE=FILE with NODE a node-ID 1..127, e.g. 5=arm.eds"),
+        ("200={eds}", "--eds '200={eds}': expected NODE=FILE with NODE a node-ID 1..127"),
+        ("5={missing}", "--eds 5={missing}: {missing}: no such EDS file"),
+        ("2={eds}", "--eds 2={eds}: node 2 is the network file's slave, whose EDS is"),
+    ],
+)
 def test_bad_eds_option_is_one_line(tmp_path, arm_eds, capsys, spec, message):
     log = tmp_path / "t.log"
     _log(log)

@@ -1,6 +1,7 @@
 """The monitor says how the pair is paced from what the bus shows, never from the network file (issue 25:
 a real-time pair was labelled "lockstep" because the shipped network.toml says ``lockstep = true``).
 The shipped network file is used throughout, so the file always says lockstep."""
+
 from __future__ import annotations
 
 import time
@@ -21,7 +22,7 @@ def sync(t: float, k: int) -> can.Message:
 
 def shipped_monitor() -> Monitor:
     net = load_network()
-    assert net.sync.lockstep and net.sync.period_s == 0.010     # what the file claims
+    assert net.sync.lockstep and net.sync.period_s == 0.010  # what the file claims
     return Monitor(monitor_config(net))
 
 
@@ -52,7 +53,7 @@ def test_too_few_or_ambiguous_syncs_are_unknown():
         mon.feed(sync(100.0 + 0.010 * k, k))
     assert mon.snapshot()["sync_lockstep"] is None and "(nominal 10.00, timing unknown)" in rates_line(mon)
     mon = shipped_monitor()
-    for k in range(30):                  # 25 ms against 10 ms: a slow lockstep pair or late real-time cycles
+    for k in range(30):  # 25 ms against 10 ms: a slow lockstep pair or late real-time cycles
         mon.feed(sync(100.0 + 0.025 * k, k))
     snap = mon.snapshot()
     assert snap["sync_lockstep"] is None and "late real-time cycles" in snap["sync_timing_evidence"]
@@ -75,9 +76,9 @@ def test_a_nodes_own_lockstep_object_read_by_canopens_client_decides():
     listener = can.Bus(interface="virtual", channel=channel)
     try:
         node = client_nw.add_node(cfg.node_id, str(cfg.eds))
-        value = node.sdo["lockstep"].raw       # canopen's own client, by the EDS name
+        value = node.sdo["lockstep"].raw  # canopen's own client, by the EDS name
         mon = shipped_monitor()
-        for k in range(30):                    # SYNC timing alone would say the other mode
+        for k in range(30):  # SYNC timing alone would say the other mode
             mon.feed(sync(100.0 + (0.010 if value else 0.003) * k, k))
         assert mon.timing.verdict(mon.stats.sync_intervals_s, 0.010)[0] is (not value)
         t_end = time.monotonic() + 5.0
@@ -87,8 +88,9 @@ def test_a_nodes_own_lockstep_object_read_by_canopens_client_decides():
                 mon.feed(m)
         snap = mon.snapshot()
         assert snap["sync_lockstep"] is bool(value)
-        assert snap["sync_timing_evidence"] == (f"the nodes' lockstep object: node {cfg.node_id} "
-                                                f"{'lockstep' if value else 'real time'} (SDO)")
+        assert snap["sync_timing_evidence"] == (
+            f"the nodes' lockstep object: node {cfg.node_id} {'lockstep' if value else 'real time'} (SDO)"
+        )
     finally:
         listener.shutdown()
         client_nw.disconnect()

@@ -1,4 +1,5 @@
 """The screen renderer, the JSON-line output and the replay pacing (with an injected clock)."""
+
 from __future__ import annotations
 
 import io
@@ -23,11 +24,15 @@ def msg(t, cob, data=b""):
 
 def busy_monitor() -> Monitor:
     mon = Monitor(monitor_config(sync_period_s=0.01))
-    for m in [msg(0.0, 0x701, [0x05]), msg(0.0, 0x702, [0x7F]), msg(0.01, 0x080, [1]),
-              msg(0.011, 0x181, struct.pack("<ff", 33.5, -0.25)),
-              msg(0.02, 0x082, struct.pack("<HB5s", 0x4210, 0x09, b"\x00" * 5)),
-              msg(0.03, 0x601, struct.pack("<BHBf", 0x23, 0x2200, 0, 25.0)),
-              msg(0.031, 0x581, struct.pack("<BHBL", 0x80, 0x2200, 0, 0x06090031))]:
+    for m in [
+        msg(0.0, 0x701, [0x05]),
+        msg(0.0, 0x702, [0x7F]),
+        msg(0.01, 0x080, [1]),
+        msg(0.011, 0x181, struct.pack("<ff", 33.5, -0.25)),
+        msg(0.02, 0x082, struct.pack("<HB5s", 0x4210, 0x09, b"\x00" * 5)),
+        msg(0.03, 0x601, struct.pack("<BHBf", 0x23, 0x2200, 0, 25.0)),
+        msg(0.031, 0x581, struct.pack("<BHBL", 0x80, 0x2200, 0, 0x06090031)),
+    ]:
         mon.feed(m)
     return mon
 
@@ -58,14 +63,17 @@ def test_filter_language():
 def test_json_lines_are_valid_json_with_frames_events_and_final_status():
     mon = Monitor(monitor_config())
     out = io.StringIO()
-    msgs = [msg(0.0, 0x701, [0x05]), msg(0.5, 0x181, struct.pack("<ff", float("nan"), 1.0)),
-            msg(1.2, 0x080, [1])]
+    msgs = [
+        msg(0.0, 0x701, [0x05]),
+        msg(0.5, 0x181, struct.pack("<ff", float("nan"), 1.0)),
+        msg(1.2, 0x080, [1]),
+    ]
     n = run_lines(msgs, mon, out, as_json=True, status_every_s=1.0)
     rows = [json.loads(ln) for ln in out.getvalue().splitlines()]
     assert n == 3
     assert [r["type"] for r in rows] == ["frame", "event", "frame", "event", "frame", "status", "status"]
-    assert rows[3]["kind"] == "heartbeat_lost"   # 0.5 s of silence > the 250 ms consumer time
-    assert rows[2]["fields"]["values"][0]["value"] == "NaN"     # no bare NaN in JSON
+    assert rows[3]["kind"] == "heartbeat_lost"  # 0.5 s of silence > the 250 ms consumer time
+    assert rows[2]["fields"]["values"][0]["value"] == "NaN"  # no bare NaN in JSON
     assert rows[-1]["nodes"][0]["nmt_state"] == "OPERATIONAL"
 
 
@@ -75,7 +83,7 @@ def test_pacer_keeps_the_recorded_spacing_without_drift():
 
     def sleep(dt):
         slept.append(dt)
-        now[0] += dt + 0.002     # every sleep overshoots by 2 ms
+        now[0] += dt + 0.002  # every sleep overshoots by 2 ms
 
     msgs = [msg(t, 0x080) for t in (5.0, 5.1, 5.3, 5.3, 5.6)]
     out = list(paced(msgs, speed=2.0, clock=lambda: now[0], sleep=sleep))
@@ -85,7 +93,7 @@ def test_pacer_keeps_the_recorded_spacing_without_drift():
     assert list(paced(msgs, speed=0, sleep=lambda dt: pytest.fail("no sleep at max speed"))) == msgs
     p = Pacer(1.0, clock=lambda: 0.0)
     assert p.wait_s(msg(10.0, 0x80)) == 0.0 and p.wait_s(msg(10.5, 0x80)) == pytest.approx(0.5)
-    p.shift(2.0)   # a 2 s pause
+    p.shift(2.0)  # a 2 s pause
     assert p.wait_s(msg(10.5, 0x80)) == pytest.approx(2.5)
 
 
@@ -102,6 +110,7 @@ def test_read_log_refuses_missing_and_foreign_files(tmp_path):
 
 def test_monitor_cli_replays_a_log_as_json_and_refuses_bad_files(tmp_path, capsys):
     from telethermo.cli.main import EXIT_OK, EXIT_USAGE, main
+
     log = tmp_path / "s.asc"
     w = can.Logger(str(log))
     for k in range(1, 21):
@@ -114,8 +123,13 @@ def test_monitor_cli_replays_a_log_as_json_and_refuses_bad_files(tmp_path, capsy
     assert status["frames"] == 40 and status["syncs"] == 20 and status["sync_counter"] == 20
     assert status["sync"]["period_s"] == pytest.approx(0.01, abs=1e-5)
     (p,) = status["pdos"]
-    assert p["count"] == 20 and p["values"][0] == {"name": "estimate_C", "value": 50.0, "unit": "degC",
-                                                   "index": 0x2100, "subindex": 0}
+    assert p["count"] == 20 and p["values"][0] == {
+        "name": "estimate_C",
+        "value": 50.0,
+        "unit": "degC",
+        "index": 0x2100,
+        "subindex": 0,
+    }
     assert main(["monitor", "--replay", str(tmp_path / "nope.blf"), "--json"]) == EXIT_USAGE
     err = capsys.readouterr().err
     assert err.strip() == f"telethermo monitor: error: {tmp_path / 'nope.blf'}: no such log file"

@@ -7,6 +7,7 @@ How *fresh* the values are (the share of SYNCs whose peer value is the previous 
 machine's load in real time and is reported, not asserted: CiA 301 gives a synchronous TPDO no deadline
 beyond "after the SYNC", and our real-time schedule does not wait for the peer (lockstep does).
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -16,9 +17,9 @@ import numpy as np
 
 @dataclass(frozen=True)
 class Exchange:
-    rows: int            # rows checked (from the first value the peer sent)
-    fresh: int           # rows whose value is the previous SYNC's
-    staleness_max: int   # the oldest value used, in SYNCs behind the previous one
+    rows: int  # rows checked (from the first value the peer sent)
+    fresh: int  # rows whose value is the previous SYNC's
+    staleness_max: int  # the oldest value used, in SYNCs behind the previous one
     unmatched: list[int]  # rows whose value the peer never sent at an earlier SYNC in order (none wanted)
     stale_untripped: list[int]  # rows older than the miss limit, no peer-loss trip before them (none wanted)
 
@@ -42,7 +43,7 @@ def check_exchange(got, sent, trips=None, miss_limit: int = 10) -> Exchange:
             unmatched.append(k)
             continue
         lb += int(hits[0])
-        age = k - 1 - (lb + int(hits[-1]) - int(hits[0]))   # the youngest match (repeated values)
+        age = k - 1 - (lb + int(hits[-1]) - int(hits[0]))  # the youngest match (repeated values)
         fresh += age == 0
         worst = max(worst, age)
         if age > miss_limit and not any(k - age <= t <= k for t in tripped_at):

@@ -3,6 +3,7 @@ both nodes go safe (peer trip within a cycle or two of the loss, ramp to neutral
 the same port: both nodes reopen their bus by themselves, their peer trips are cleared and the session
 goes on. Observed from the node recordings and by an independent canopen client (RemoteNode from the
 shipped EDS files) on the restarted hub."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -29,8 +30,9 @@ def _log(pair: NodePair, role: str) -> str:
 
 
 def _client(port: int) -> tuple[canopen.Network, dict[str, canopen.RemoteNode]]:
-    net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="telethermo",
-                                  tcp_tune=True))
+    net = canopen.Network(
+        can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="telethermo", tcp_tune=True)
+    )
     net.connect()
     nodes = {}
     for role, node_id in (("master", 1), ("slave", 2)):
@@ -54,26 +56,29 @@ def test_hub_killed_and_restarted_the_pair_goes_safe_and_resumes_by_itself(tmp_p
         # rendering (issue 15) does not apply and the loss must trip at once
         assert wait_for(lambda: pair.progress[0] >= 60, 120), "session did not start"
         port = pair.hub.port
-        pair.hub.proc.kill()                                   # SIGKILL: every TCP stream ends at once
+        pair.hub.proc.kill()  # SIGKILL: every TCP stream ends at once
         pair.hub.proc.wait()
         for role in ("master", "slave"):
             assert wait_for(lambda: "bus lost" in _log(pair, role), 30), f"{role} did not notice the loss"
             assert wait_for(lambda: "-> CUT" in _log(pair, role), 60), f"{role} never cut its current"
         assert pair.master.poll() is None and pair.slave.poll() is None, "a node ended with its bus"
 
-        pair.hub = HubProcess(port=port, log_path=pair.log("hub"))   # the hub comes back where it was
+        pair.hub = HubProcess(port=port, log_path=pair.log("hub"))  # the hub comes back where it was
         pair.hub.start()
         for role in ("master", "slave"):
             assert wait_for(lambda: "bus back" in _log(pair, role), 30), f"{role} did not reopen its bus"
         assert wait_for(lambda: "peer values back: cleared peer_lost" in _log(pair, "master"), 60)
         assert wait_for(lambda: "peer values back: cleared peer_lost" in _log(pair, "slave"), 60)
-        for role in ("master", "slave"):   # issue 25: one line per loss on the terminal, no python-can traceback
+        for role in (
+            "master",
+            "slave",
+        ):  # issue 25: one line per loss on the terminal, no python-can traceback
             err = pair.log(f"{role}-stderr").read_text()
             assert "Traceback" not in err and "bus socketcand://127.0.0.1:" in err and " lost: " in err, err
         k_back = pair.progress[0]
         assert wait_for(lambda: pair.progress[0] >= k_back + 200, 120), "the session did not go on"
 
-        net, nodes = _client(port)                             # an independent client on the new hub
+        net, nodes = _client(port)  # an independent client on the new hub
         for role, node in nodes.items():
             assert node.sdo["active_trips"].raw == 0, f"{role}: trips still latched"
             assert node.sdo[0x1001].raw == 0, f"{role}: error register not clear"
@@ -87,17 +92,20 @@ def test_hub_killed_and_restarted_the_pair_goes_safe_and_resumes_by_itself(tmp_p
 
     for role, prefix in (("master", "m"), ("slave", "s")):
         rec = read_recording_csv(pair.recording(role))
-        peer, state, cur = rec.col(f"{prefix}_peer_estimate_C"), rec.col(f"{prefix}_safety_state"), \
-            rec.col(f"{prefix}_current_A")
+        peer, state, cur = (
+            rec.col(f"{prefix}_peer_estimate_C"),
+            rec.col(f"{prefix}_safety_state"),
+            rec.col(f"{prefix}_current_A"),
+        )
         k_trip = _lost_at(rec, prefix)
         # the peer trip comes at once (not after the 10-cycle PDO miss limit): bus loss is peer loss
-        fresh = np.flatnonzero(np.diff(peer[:k_trip + 1]) != 0) + 1
+        fresh = np.flatnonzero(np.diff(peer[: k_trip + 1]) != 0) + 1
         assert k_trip - fresh[-1] <= 3, f"{role}: trip {k_trip - fresh[-1]} cycles after the last peer PDO"
         k_resume = k_trip + next(i for i, s in enumerate(state[k_trip:]) if s < 2)
         lost = slice(k_trip, k_resume)
         assert np.all(state[lost] >= 2), f"{role}: not safe throughout the outage"
         cut = np.flatnonzero(state[lost] == 3)
-        assert cut.size and np.all(cur[k_trip + cut[0]:k_resume] == 0.0), f"{role}: current not cut"
+        assert cut.size and np.all(cur[k_trip + cut[0] : k_resume] == 0.0), f"{role}: current not cut"
         after = slice(k_resume, len(rec))
         assert np.all(state[after] < 2), f"{role}: tripped again after the return"
         assert np.count_nonzero(np.diff(peer[after])) > 0.9 * (len(rec) - k_resume - 1), f"{role}: peer stale"
@@ -128,7 +136,7 @@ def test_a_short_outage_does_not_leave_lockstep_waiting_for_a_sync_the_slave_nev
         pair.hub = None
         for i in range(5):
             if hub is not None:
-                hub.__exit__(None, None, None)          # closes every client's stream, as a killed hub
+                hub.__exit__(None, None, None)  # closes every client's stream, as a killed hub
             hub = HubThread(HubConfig(port=port, idle_timeout_s=0)).__enter__()
             for role in ("master", "slave"):
                 assert wait_for(lambda: _log(pair, role).count("bus back") > i, 30), f"{role} not back"

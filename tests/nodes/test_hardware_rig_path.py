@@ -10,6 +10,7 @@ Wall-clock *speed* is never asserted: the machine is shared. What is asserted is
 (SYNC k is never sent before t0 + k·period, and, without overruns, the schedule does not drift by more than
 the lateness the producer itself measured) and what it counts (late cycles are counted, not failed).
 """
+
 from __future__ import annotations
 
 import csv
@@ -36,15 +37,19 @@ from tests.nodes.exchange_check import check_exchange
 
 pytestmark = pytest.mark.slow
 
-PERIOD_S = 0.010          # the packaged bus_config/network.toml [sync] period_s
-CYCLES = 300              # 3 s of real time
-AMBIENT_C = 25.0          # scene pads_in_air
-REST_TOL_C = 0.25         # pads at rest: noise (σ 0.02 °C, filtered) and ADC steps, far below this
-SETTLED_C = 0.15          # the rendering master's pad at its pre-set: noise and a settled PI, well below this
-HUB_GRACE_CYCLES = 25     # the hub holds a new client's first 0.2 s of frames (docs/nodes.md): 20 cycles + margin
-RIG = {"master": "telethermo.sim.wallclock:pads_in_air_master", "slave": "telethermo.sim.wallclock:pads_in_air_slave"}
+PERIOD_S = 0.010  # the packaged bus_config/network.toml [sync] period_s
+CYCLES = 300  # 3 s of real time
+AMBIENT_C = 25.0  # scene pads_in_air
+REST_TOL_C = 0.25  # pads at rest: noise (σ 0.02 °C, filtered) and ADC steps, far below this
+SETTLED_C = 0.15  # the rendering master's pad at its pre-set: noise and a settled PI, well below this
+HUB_GRACE_CYCLES = (
+    25  # the hub holds a new client's first 0.2 s of frames (docs/nodes.md): 20 cycles + margin
+)
+RIG = {
+    "master": "telethermo.sim.wallclock:pads_in_air_master",
+    "slave": "telethermo.sim.wallclock:pads_in_air_slave",
+}
 NODE_ID = {"master": 1, "slave": 2}
-
 
 
 class BusWitness(FrameLog):
@@ -55,22 +60,26 @@ class BusWitness(FrameLog):
 
 
 def _logs(out: Path, role: str) -> str:
-    return "".join(p.read_text(errors="replace") for p in (out / f"{role}.log", out / f"{role}-stderr.log")
-                   if p.exists())
+    return "".join(
+        p.read_text(errors="replace") for p in (out / f"{role}.log", out / f"{role}-stderr.log") if p.exists()
+    )
 
 
 def _read_recording(path: Path) -> tuple[dict, list[dict]]:
     lines = path.read_text().splitlines()
-    meta = json.loads(next(ln for ln in lines if ln.startswith("# meta "))[len("# meta "):])
+    meta = json.loads(next(ln for ln in lines if ln.startswith("# meta "))[len("# meta ") :])
     rows = list(csv.DictReader(ln for ln in lines if not ln.startswith("#")))
     return meta, rows
 
 
 def _start_node(role: str, bus: str, out: Path, *args: str, stdout=subprocess.DEVNULL) -> subprocess.Popen:
-    return subprocess.Popen(node_command(role, "--bus", bus, "--rig", RIG[role], "--log", str(out / f"{role}.log"),
-                                         *args),
-                            stdout=stdout, stderr=open(out / f"{role}-stderr.log", "ab"), text=True,
-                            start_new_session=True)
+    return subprocess.Popen(
+        node_command(role, "--bus", bus, "--rig", RIG[role], "--log", str(out / f"{role}.log"), *args),
+        stdout=stdout,
+        stderr=open(out / f"{role}-stderr.log", "ab"),
+        text=True,
+        start_new_session=True,
+    )
 
 
 @pytest.fixture(scope="module")
@@ -86,8 +95,19 @@ def bench(tmp_path_factory):
         # the slave is up (its boot-up / heartbeat on the bus) before the master starts its session
         assert wait_for(lambda: witness.saw(0x700 + NODE_ID["slave"]), 60), _logs(out, "slave")
         t0 = time.monotonic()
-        master = _start_node("master", hub.bus, out, "--mode", "idle", "--cycles", str(CYCLES), "--json",
-                             "--record", str(out / "master.csv"), stdout=subprocess.PIPE)
+        master = _start_node(
+            "master",
+            hub.bus,
+            out,
+            "--mode",
+            "idle",
+            "--cycles",
+            str(CYCLES),
+            "--json",
+            "--record",
+            str(out / "master.csv"),
+            stdout=subprocess.PIPE,
+        )
         stdout, _ = master.communicate(timeout=120)
         wall_total = time.monotonic() - t0
         time.sleep(0.3)  # the last frames reach the witness
@@ -97,9 +117,16 @@ def bench(tmp_path_factory):
         stop_process(slave)
         witness.close()
         hub.stop()
-    results = [json.loads(ln[len("result "):]) for ln in stdout.splitlines() if ln.startswith("result ")]
-    return {"out": out, "master_code": master.returncode, "slave_code": slave_code, "stdout": stdout,
-            "result": results[0] if results else None, "frames": witness.snapshot(), "wall_total_s": wall_total}
+    results = [json.loads(ln[len("result ") :]) for ln in stdout.splitlines() if ln.startswith("result ")]
+    return {
+        "out": out,
+        "master_code": master.returncode,
+        "slave_code": slave_code,
+        "stdout": stdout,
+        "result": results[0] if results else None,
+        "frames": witness.snapshot(),
+        "wall_total_s": wall_total,
+    }
 
 
 def _session_frames(bench) -> list[tuple[float, int, bytes]]:
@@ -109,7 +136,9 @@ def _session_frames(bench) -> list[tuple[float, int, bytes]]:
     return frames[:end]
 
 
-def _expected_mean_step_bounds(result: dict, n_steps: int, jitter_s: float = 0.05) -> tuple[float, float | None]:
+def _expected_mean_step_bounds(
+    result: dict, n_steps: int, jitter_s: float = 0.05
+) -> tuple[float, float | None]:
     """Bounds on the mean step of n_steps SYNC intervals the producer's schedule guarantees: never faster than the
     period (SYNC k is not sent before t0 + k·period) and, without overruns (no re-anchoring), not slower than the
     lateness the producer measured spread over the run; ``jitter_s`` allows for the stamping at either end
@@ -122,9 +151,28 @@ def _expected_mean_step_bounds(result: dict, n_steps: int, jitter_s: float = 0.0
 def test_master_runs_its_cycles_in_real_time(bench):
     r = bench["result"]
     assert r is not None, bench["stdout"] + _logs(bench["out"], "master")
-    print("\nrun 1 (idle, real time):", json.dumps({k: r[k] for k in (
-        "cycles", "wall_s", "late_cycles", "overruns", "lateness_ms_p50", "lateness_ms_p99", "lateness_ms_max",
-        "sync_to_tpdo_ms_p50", "sync_to_tpdo_ms_p99", "cycle_ms_p50", "cycle_ms_p99", "peer")}))
+    print(
+        "\nrun 1 (idle, real time):",
+        json.dumps(
+            {
+                k: r[k]
+                for k in (
+                    "cycles",
+                    "wall_s",
+                    "late_cycles",
+                    "overruns",
+                    "lateness_ms_p50",
+                    "lateness_ms_p99",
+                    "lateness_ms_max",
+                    "sync_to_tpdo_ms_p50",
+                    "sync_to_tpdo_ms_p99",
+                    "cycle_ms_p50",
+                    "cycle_ms_p99",
+                    "peer",
+                )
+            }
+        ),
+    )
     assert r["cycles"] == CYCLES and r["timing"] == "realtime" and r["period_s"] == PERIOD_S
     assert r["lockstep_timeouts"] == 0
     assert f"SYNC producer: {CYCLES} of {CYCLES} cycles run" in _logs(bench["out"], "master")
@@ -143,14 +191,16 @@ def test_sync_period_on_the_bus_is_10_ms(bench):
     syncs = [f for f in _session_frames(bench) if f[1] == 0x080]
     assert len(syncs) == CYCLES
     counters = [f[2][0] for f in syncs]
-    assert counters[0] == 1 and all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))   # none lost
+    assert counters[0] == 1 and all(b == a % 240 + 1 for a, b in zip(counters, counters[1:]))  # none lost
     t = np.array([f[0] for f in syncs])
     steps = np.diff(t)
     mean = float(steps.mean())
     lo, hi = _expected_mean_step_bounds(r, len(steps))
-    print(f"\nSYNC on the bus: mean {mean * 1e3:.4f} ms, median {np.median(steps) * 1e3:.3f} ms, "
-          f"p1..p99 {np.percentile(steps, 1) * 1e3:.2f}..{np.percentile(steps, 99) * 1e3:.2f} ms, "
-          f"late cycles {r['late_cycles']}, overruns {r['overruns']}")
+    print(
+        f"\nSYNC on the bus: mean {mean * 1e3:.4f} ms, median {np.median(steps) * 1e3:.3f} ms, "
+        f"p1..p99 {np.percentile(steps, 1) * 1e3:.2f}..{np.percentile(steps, 99) * 1e3:.2f} ms, "
+        f"late cycles {r['late_cycles']}, overruns {r['overruns']}"
+    )
     # the schedule's own guarantee: never faster than the period (how much slower depends on the machine's
     # load and is reported by the late-cycle count, not failed)
     assert mean >= lo
@@ -181,15 +231,22 @@ def test_both_nodes_saw_the_peer(bench):
     assert 0 < peer["pdos"] <= CYCLES
     merged = merge_recordings(bench["out"] / "master.csv", bench["out"] / "slave.csv")
     for me, other in (("m", "s"), ("s", "m")):
-        ex = check_exchange(merged.col(f"{me}_peer_estimate_C"),
-                            merged.col(f"{other}_estimate_C").astype(np.float32), merged.text(f"{me}_new_trips"))
-        print(f"\n{me}: peer values {ex.fresh} of {ex.rows} the previous SYNC's, "
-              f"oldest {ex.staleness_max} behind")
-        assert ex.rows >= len(merged) // 2, ex    # before: the hub's grace and the first PDO (load-dependent)
+        ex = check_exchange(
+            merged.col(f"{me}_peer_estimate_C"),
+            merged.col(f"{other}_estimate_C").astype(np.float32),
+            merged.text(f"{me}_new_trips"),
+        )
+        print(
+            f"\n{me}: peer values {ex.fresh} of {ex.rows} the previous SYNC's, "
+            f"oldest {ex.staleness_max} behind"
+        )
+        assert ex.rows >= len(merged) // 2, ex  # before: the hub's grace and the first PDO (load-dependent)
         assert not ex.unmatched and not ex.stale_untripped, ex
-    assert peer["losses"] - peer["returns"] in (0, 1)   # every loss but possibly one at the very end resumed
+    assert peer["losses"] - peer["returns"] in (0, 1)  # every loss but possibly one at the very end resumed
     slave_log = _logs(bench["out"], "slave")
-    m = re.search(r"stopped \(SIGTERM\): (\d+) cycles.*pdos=(\d+), missed_cycles=(\d+), losses=(\d+)", slave_log)
+    m = re.search(
+        r"stopped \(SIGTERM\): (\d+) cycles.*pdos=(\d+), missed_cycles=(\d+), losses=(\d+)", slave_log
+    )
     assert m, slave_log[-3000:]
     cycles, pdos, missed, losses = map(int, m.groups())
     print(f"\nslave: {cycles} cycles, peer PDOs {pdos}, missed {missed}, losses {losses}; master peer {peer}")
@@ -212,7 +269,9 @@ def test_pads_at_rest_stay_at_ambient_in_idle(bench):
         assert len(vals) >= CYCLES // 10 - 1, role
         T = np.array([v[0] for v in vals])
         I = np.array([v[1] for v in vals])
-        print(f"\n{role}: T_sensor {T.min():.4f}..{T.max():.4f} °C over {len(T)} TPDO2, |I| max {np.abs(I).max()} A")
+        print(
+            f"\n{role}: T_sensor {T.min():.4f}..{T.max():.4f} °C over {len(T)} TPDO2, |I| max {np.abs(I).max()} A"
+        )
         assert np.all(I == 0.0), role
         assert np.all(np.abs(T - AMBIENT_C) < REST_TOL_C), role
 
@@ -252,24 +311,46 @@ def test_recordings(bench):
 @pytest.mark.parametrize("role", ["master", "slave"])
 def test_lockstep_is_refused_with_a_hardware_rig(role, tmp_path):
     """A hardware rig cannot advance on request: --timing lockstep with --rig is a usage error (exit 2), named."""
-    p = subprocess.run(node_command(role, "--bus", "virtual:tt-rig-refused", "--rig", RIG[role], "--timing",
-                                    "lockstep"), capture_output=True, text=True, timeout=60)
+    p = subprocess.run(
+        node_command(role, "--bus", "virtual:tt-rig-refused", "--rig", RIG[role], "--timing", "lockstep"),
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert p.returncode == 2, p.stderr
     assert f"telethermo-{role}: error: --timing lockstep" in p.stderr and "real time" in p.stderr, p.stderr
     assert "Traceback" not in p.stderr
 
 
-@pytest.mark.parametrize("factory, expected", [
-    ("tests.nodes.rig_factories:wrong_period", "period_s = 0.02 s but the network's SYNC period is 0.01 s"),
-    ("tests.nodes.rig_factories:no_device", "the rig factory failed: OSError: no thermal display on /dev/ttyUSB9"),
-    ("tests.nodes.rig_factories:not_a_rig", "not a telethermo.rig.Rig (missing read, apply_current, period_s, I_max_A)"),
-])
+@pytest.mark.parametrize(
+    "factory, expected",
+    [
+        (
+            "tests.nodes.rig_factories:wrong_period",
+            "period_s = 0.02 s but the network's SYNC period is 0.01 s",
+        ),
+        (
+            "tests.nodes.rig_factories:no_device",
+            "the rig factory failed: OSError: no thermal display on /dev/ttyUSB9",
+        ),
+        (
+            "tests.nodes.rig_factories:not_a_rig",
+            "not a telethermo.rig.Rig (missing read, apply_current, period_s, I_max_A)",
+        ),
+    ],
+)
 def test_a_bad_hardware_rig_is_a_named_usage_error(factory, expected, tmp_path):
     """A driver that fails, returns something else, or runs at another period than the bus: exit 2, one line."""
     root = Path(__file__).resolve().parents[2]
     env = dict(__import__("os").environ, PYTHONPATH=str(root))
-    p = subprocess.run(node_command("master", "--bus", "virtual:tt-rig-bad", "--rig", factory), capture_output=True,
-                       text=True, timeout=60, env=env, cwd=root)
+    p = subprocess.run(
+        node_command("master", "--bus", "virtual:tt-rig-bad", "--rig", factory),
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+        cwd=root,
+    )
     assert p.returncode == 2, p.stderr
     assert expected in p.stderr and "Traceback" not in p.stderr, p.stderr
 
@@ -284,13 +365,24 @@ def test_rig_config_gives_the_driver_its_settings(tmp_path):
     a file that is not TOML, or settings the driver refuses, are one named line (exit 2)."""
     good = tmp_path / "rig.toml"
     good.write_text('port = "/dev/ttyTT0"\ngain = 2.5\n')
-    opts = parse_options(Role.MASTER, ["--bus", "virtual:tt-rigcfg", "--rig", "tests.nodes.rig_factories:configured",
-                                       "--rig-config", str(good)])
+    opts = parse_options(
+        Role.MASTER,
+        [
+            "--bus",
+            "virtual:tt-rigcfg",
+            "--rig",
+            "tests.nodes.rig_factories:configured",
+            "--rig-config",
+            str(good),
+        ],
+    )
     rig = _hardware_rig(opts, 0.01)
     assert rig.gain == 2.5 and rig.period_s == 0.01
     wrong = tmp_path / "wrong.toml"
     wrong.write_text('port = "/dev/ttyUSB9"\n')
-    with pytest.raises(OptionError, match="the rig factory failed: OSError: no thermal display on /dev/ttyUSB9"):
+    with pytest.raises(
+        OptionError, match="the rig factory failed: OSError: no thermal display on /dev/ttyUSB9"
+    ):
         _hardware_rig(dataclasses.replace(opts, rig_config=wrong), 0.01)
     broken = tmp_path / "broken.toml"
     broken.write_text("port = \n")
@@ -316,11 +408,14 @@ def _ident_stream(frames, node_id: int, total: int):
     vals = np.full((3, total), np.nan)
     got = np.zeros((3, total), dtype=int)
     cobs = {0x280 + node_id: 0, 0x380 + node_id: 1, 0x480 + node_id: 2}
-    numbered = [n for n, (_, cid, data) in enumerate(frames) if cid == 0x280 + node_id and len(data) == 8
-                and 1 <= struct.unpack("<I", data[:4])[0] <= total]
+    numbered = [
+        n
+        for n, (_, cid, data) in enumerate(frames)
+        if cid == 0x280 + node_id and len(data) == 8 and 1 <= struct.unpack("<I", data[:4])[0] <= total
+    ]
     if not numbered:
         return vals[0], vals[1], vals[2], np.zeros(total, dtype=int)
-    for _, cid, data in frames[numbered[0]:numbered[-1] + 4]:
+    for _, cid, data in frames[numbered[0] : numbered[-1] + 4]:
         f = cobs.get(cid)
         if f is None or len(data) != 8:
             continue
@@ -338,17 +433,35 @@ def _refit(T, I, Q) -> dict:
     from telethermo.ident import NarmaOrders, UnstableModelError
     from telethermo.ident.experiment import ExperimentSettings, Record, fit_experiment
     from telethermo.ident.plan import IdentifyPlan
-    plan = IdentifyPlan(seed=0, rest_samples=IDENT["rest"], train_samples=IDENT["train"],
-                        validation_samples=IDENT["validation"], amplitude_A=(0.1, 1.0), hold_samples=IDENT["hold"])
+
+    plan = IdentifyPlan(
+        seed=0,
+        rest_samples=IDENT["rest"],
+        train_samples=IDENT["train"],
+        validation_samples=IDENT["validation"],
+        amplitude_A=(0.1, 1.0),
+        hold_samples=IDENT["hold"],
+    )
     n = plan.total
-    rec = Record(t_s=np.arange(n) * PERIOD_S, current_A=I.copy(), T_C=T.copy(), Q_W=Q.copy(),
-                 T_sink_C=np.full(n, np.nan), Q_true_W=np.full(n, np.nan))
+    rec = Record(
+        t_s=np.arange(n) * PERIOD_S,
+        current_A=I.copy(),
+        T_C=T.copy(),
+        Q_W=Q.copy(),
+        T_sink_C=np.full(n, np.nan),
+        Q_true_W=np.full(n, np.nan),
+    )
     try:
-        _, rep = fit_experiment(rec, plan=plan, orders=NarmaOrders.parse(IDENT["orders"]), period_s=PERIOD_S,
-                                method=IDENT["method"],
-                                settings=ExperimentSettings(rest_samples=plan.rest_samples,
-                                                            amplitude_A=plan.amplitude_A,
-                                                            hold_samples=plan.hold_samples))
+        _, rep = fit_experiment(
+            rec,
+            plan=plan,
+            orders=NarmaOrders.parse(IDENT["orders"]),
+            period_s=PERIOD_S,
+            method=IDENT["method"],
+            settings=ExperimentSettings(
+                rest_samples=plan.rest_samples, amplitude_A=plan.amplitude_A, hold_samples=plan.hold_samples
+            ),
+        )
     except UnstableModelError as exc:
         return {"stable": False, "max_pole_modulus": None, "stability_reason": str(exc)}
     return rep
@@ -356,6 +469,7 @@ def _refit(T, I, Q) -> dict:
 
 def _cli(capsys, *argv: str) -> tuple[int, str, str]:
     from telethermo.cli.main import main
+
     code = main(list(argv))
     o = capsys.readouterr()
     return code, o.out, o.err
@@ -376,7 +490,7 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
     hub.start()
     bus = hub.bus
     slave = master = None
-    notes: list[str] = []   # printed at the end (the CLI runs read the captured output in between)
+    notes: list[str] = []  # printed at the end (the CLI runs read the captured output in between)
     witness = BusWitness(bus)
     try:
         slave = _start_node("slave", bus, tmp_path, "--mode", "idle")
@@ -397,34 +511,63 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
         # identification in real time: 50 rest + 400 training + 200 held-out samples at 10 ms
         data = tmp_path / "ident.csv"
         t0 = time.monotonic()
-        code, out, err = _cli(capsys, "identify", "master", "--bus", bus, "--no-load", "--samples", str(IDENT["train"]),
-                              "--validation", str(IDENT["validation"]), "--rest", str(IDENT["rest"]), "--orders",
-                              IDENT["orders"], "--method", IDENT["method"], "--hold", str(IDENT["hold"]), "--quiet",
-                              "--save-data", str(data))
+        code, out, err = _cli(
+            capsys,
+            "identify",
+            "master",
+            "--bus",
+            bus,
+            "--no-load",
+            "--samples",
+            str(IDENT["train"]),
+            "--validation",
+            str(IDENT["validation"]),
+            "--rest",
+            str(IDENT["rest"]),
+            "--orders",
+            IDENT["orders"],
+            "--method",
+            IDENT["method"],
+            "--hold",
+            str(IDENT["hold"]),
+            "--quiet",
+            "--save-data",
+            str(data),
+        )
         t_ident = time.monotonic() - t0
         notes.append(f"identify master in real time: exit {code}, {t_ident:.1f} s\n{out}{err}")
         # the stream on the bus, as the bench analyser saw it: every sample number exactly once
         total = IDENT["rest"] + IDENT["train"] + IDENT["validation"]
         # the witness is a second reader on the hub: the CLI may finish on the last sample before the witness's
         # reader thread has taken it in, so wait (on the condition) until the witness holds the whole stream
-        wait_for(lambda: bool(np.all(_ident_stream(witness.snapshot(), NODE_ID["master"], total)[3] >= 1)), 10)
+        wait_for(
+            lambda: bool(np.all(_ident_stream(witness.snapshot(), NODE_ID["master"], total)[3] >= 1)), 10
+        )
         T, I, Q, seen = _ident_stream(witness.snapshot(), NODE_ID["master"], total)
         assert np.all(seen == 1), f"samples not on the bus once: {np.flatnonzero(seen != 1)[:20]}"
-        assert "missing" not in err and "lost on the bus" not in err   # the CLI had them all from the stream
-        assert np.abs(I).max() > 0.09 and np.all(np.isfinite(T)) and np.all(np.isfinite(Q))   # the PRBS drove it
+        assert "missing" not in err and "lost on the bus" not in err  # the CLI had them all from the stream
+        assert (
+            np.abs(I).max() > 0.09 and np.all(np.isfinite(T)) and np.all(np.isfinite(Q))
+        )  # the PRBS drove it
         # the fit of exactly those samples, done here: the CLI's verdict must be the fit's, not the stream's
         refit = _refit(T, I, Q)
-        notes.append(f"refit of the bus samples: stable {refit['stable']}, max local pole "
-                     f"{refit['max_pole_modulus']}, {refit.get('stability_reason')}")
+        notes.append(
+            f"refit of the bus samples: stable {refit['stable']}, max local pole "
+            f"{refit['max_pole_modulus']}, {refit.get('stability_reason')}"
+        )
         if code == EXIT_OK:
             assert refit["stable"] and "master: model not loaded (--no-load)" in out, (refit, out)
             assert f"max local pole |z| = {refit['max_pole_modulus']:.6f}" in out
             rows = [ln for ln in data.read_text().splitlines() if ln and not ln.startswith("#")]
             head = rows[0].split(",")
-            saved = {c: np.array([float(ln.split(",")[head.index(c)]) for ln in rows[1:]])
-                     for c in ("T_sensor_C", "current_A", "Q_W")}
+            saved = {
+                c: np.array([float(ln.split(",")[head.index(c)]) for ln in rows[1:]])
+                for c in ("T_sensor_C", "current_A", "Q_W")
+            }
             assert len(saved["T_sensor_C"]) == total
-            np.testing.assert_array_equal(saved["T_sensor_C"], T)   # what the CLI recorded is the stream, in order
+            np.testing.assert_array_equal(
+                saved["T_sensor_C"], T
+            )  # what the CLI recorded is the stream, in order
             np.testing.assert_array_equal(saved["current_A"], I)
             np.testing.assert_array_equal(saved["Q_W"], Q)
         else:
@@ -432,7 +575,7 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
             # on a complete stream, which the refit of the bus samples above reproduces
             assert code == EXIT_FAIL and "refused" in err and "fitting" in err, (code, out, err)
             assert not refit["stable"], refit
-        assert _get(capsys, bus, "master", "mode")["mode"] == 0.0        # put back in idle
+        assert _get(capsys, bus, "master", "mode")["mode"] == 0.0  # put back in idle
 
         # virtual rendering of wood on the master: the pad goes to the pre-set temperature (yamamoto eq. 5/7)
         before = _get(capsys, bus, "master", "T_sensor_C")["T_sensor_C"]
@@ -449,20 +592,25 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
             v = _get(capsys, bus, "master", "T_sensor_C", "T_cmd_C")
             trace.append((time.monotonic() - t0, v["T_sensor_C"], v["T_cmd_C"]))
             last = trace[-3:]
-            return len(trace) >= 5 and all(abs(pad - cmd) < SETTLED_C and abs(cmd - last[-1][2]) < 1e-3
-                                           for _, pad, cmd in last)
+            return len(trace) >= 5 and all(
+                abs(pad - cmd) < SETTLED_C and abs(cmd - last[-1][2]) < 1e-3 for _, pad, cmd in last
+            )
 
         ok = wait_for(settled, 15, poll_s=0.2)
-        notes.append(f"render wood: (s, T_sensor_C, T_cmd_C) {[tuple(round(x, 3) for x in p) for p in trace]}")
+        notes.append(
+            f"render wood: (s, T_sensor_C, T_cmd_C) {[tuple(round(x, 3) for x in p) for p in trace]}"
+        )
         assert ok, trace
-        target = trace[-1][2]                          # the rendering pre-set temperature (yamamoto eq. 5/7)
-        assert abs(target - AMBIENT_C) > 1.0          # away from the pad's rest: the pad had to move
+        target = trace[-1][2]  # the rendering pre-set temperature (yamamoto eq. 5/7)
+        assert abs(target - AMBIENT_C) > 1.0  # away from the pad's rest: the pad had to move
         # ... from where the identification left it (its PRBS keeps the pad within ~2 °C of ambient)
         assert abs(before - target) > 0.5, trace
         dist = [abs(p[1] - target) for p in trace]
-        assert dist[-1] < SETTLED_C and dist[-1] < dist[0] - 0.3   # it moved towards the pre-set and reached it
+        assert (
+            dist[-1] < SETTLED_C and dist[-1] < dist[0] - 0.3
+        )  # it moved towards the pre-set and reached it
         held = []
-        for _ in range(4):                                     # ... and holds it (no contact: the pre-set stays)
+        for _ in range(4):  # ... and holds it (no contact: the pre-set stays)
             time.sleep(0.25)
             v = _get(capsys, bus, "master", "T_sensor_C", "T_cmd_C")
             held.append((round(v["T_sensor_C"], 3), round(v["T_cmd_C"], 3)))
@@ -483,13 +631,37 @@ def test_rig_arg_sets_one_driver_setting_over_the_config_file(tmp_path):
     over the file's keys; a malformed one, or one without --rig, is one named line."""
     cfg = tmp_path / "rig.toml"
     cfg.write_text('port = "/dev/ttyUSB9"\ngain = 2.5\n')
-    opts = parse_options(Role.MASTER, ["--bus", "virtual:tt-rigarg", "--rig", "tests.nodes.rig_factories:configured",
-                                       "--rig-config", str(cfg), "--rig-arg", "port=/dev/ttyTT0", "--rig-arg", "gain=4"])
+    opts = parse_options(
+        Role.MASTER,
+        [
+            "--bus",
+            "virtual:tt-rigarg",
+            "--rig",
+            "tests.nodes.rig_factories:configured",
+            "--rig-config",
+            str(cfg),
+            "--rig-arg",
+            "port=/dev/ttyTT0",
+            "--rig-arg",
+            "gain=4",
+        ],
+    )
     assert dict(opts.rig_args) == {"port": "/dev/ttyTT0", "gain": 4}
     rig = _hardware_rig(opts, 0.01)
     assert rig.gain == 4 and isinstance(rig.gain, int)
-    quoted = parse_options(Role.MASTER, ["--bus", "virtual:tt-rigarg", "--rig", "tests.nodes.rig_factories:configured",
-                                         "--rig-arg", 'port="/dev/ttyTT0"', "--rig-arg", "gain=0.5"])
+    quoted = parse_options(
+        Role.MASTER,
+        [
+            "--bus",
+            "virtual:tt-rigarg",
+            "--rig",
+            "tests.nodes.rig_factories:configured",
+            "--rig-arg",
+            'port="/dev/ttyTT0"',
+            "--rig-arg",
+            "gain=0.5",
+        ],
+    )
     assert _hardware_rig(quoted, 0.01).gain == 0.5
     with pytest.raises(OptionError, match=r"--rig-arg 'gain': expected KEY=VALUE"):
         parse_options(Role.MASTER, ["--rig", "tests.nodes.rig_factories:configured", "--rig-arg", "gain"])

@@ -2,6 +2,7 @@
 identified; the master renders that material locally (EMCY 0xFF01, link_fallback_active), for its
 link_loss_render_s (5 s), within the envelope, then ramps to neutral and cuts as before (peer_lost).
 Observed from a third client on the hub and from the master's recording."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -18,7 +19,7 @@ from tests.nodes.test_peer_loss import MISS_LIMIT, PERIOD_S, RAMP_C_PER_S, Obser
 pytestmark = pytest.mark.slow  # starts processes
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
-RENDER_S = 5.0   # CoreParams.link_loss_render_s default (0x2618)
+RENDER_S = 5.0  # CoreParams.link_loss_render_s default (0x2618)
 
 
 def test_slave_killed_during_an_identified_touch(tmp_path):
@@ -41,16 +42,16 @@ def test_slave_killed_during_an_identified_touch(tmp_path):
     rec = read_recording_csv(tmp_path / "master.csv")
     peer = rec.col("m_peer_estimate_C")
     k_trip = next(k for k, t in enumerate(rec.text("m_new_trips")) if "peer_lost" in t)
-    k_last = (np.flatnonzero(np.diff(peer[:k_trip + 1]) != 0) + 1)[-1]      # the last fresh peer value
+    k_last = (np.flatnonzero(np.diff(peer[: k_trip + 1]) != 0) + 1)[-1]  # the last fresh peer value
     # declared lost after the miss limit, then the fallback's 5 s, then the envelope's peer trip
     assert RENDER_S / PERIOD_S <= k_trip - k_last <= RENDER_S / PERIOD_S + MISS_LIMIT + 5
     fb = slice(k_last + MISS_LIMIT + 2, k_trip)
     state, sp, cur = rec.col("m_safety_state")[fb], rec.col("m_setpoint_C")[fb], rec.col("m_current_A")[fb]
-    assert np.all(state < 2)                                   # no peer trip while the fallback renders
+    assert np.all(state < 2)  # no peer trip while the fallback renders
     assert np.all((15.0 <= sp) & (sp <= 43.0))
     assert np.all(np.abs(np.diff(sp)) <= RAMP_C_PER_S * PERIOD_S + 1e-9)
     assert np.all(np.abs(cur) <= 2.4 + 1e-9) and np.count_nonzero(cur) == cur.size
     # the rendered aluminium is colder than the finger (about 25-27 °C), not the neutral 32 °C
     assert np.all(sp[-100:] < 29.0)
     after = rec.col("m_safety_state")[k_trip:]
-    assert np.all(after >= 2) and np.any(after == 3)           # ramp to neutral, then cut, as before
+    assert np.all(after >= 2) and np.any(after == 3)  # ramp to neutral, then cut, as before

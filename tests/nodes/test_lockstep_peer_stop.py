@@ -15,6 +15,7 @@ chooses and never answers a SYNC (as a STOPPED node). The test makes the consume
 then lost, then back STOPPED (or STOPPED at its first heartbeat), and then runs lockstep cycles: none may
 time out waiting for the peer (the buggy producer timed out on every one).
 """
+
 from __future__ import annotations
 
 import threading
@@ -55,7 +56,9 @@ class FakePeer:
     def _loop(self) -> None:
         while not self._stop.wait(0.05):
             if self.beating.is_set():
-                self.bus.send(can.Message(arbitration_id=0x700 + SLAVE_ID, data=[self.state], is_extended_id=False))
+                self.bus.send(
+                    can.Message(arbitration_id=0x700 + SLAVE_ID, data=[self.state], is_extended_id=False)
+                )
 
     def close(self) -> None:
         self._stop.set()
@@ -69,8 +72,17 @@ def pair():
     peer = FakePeer(channel)
     opts = NodeOptions(role=Role.MASTER, scene=SCENE, timing="lockstep", produce_sync=True)
     parts = build_parts(opts, period_s=NET.sync.period_s)
-    rt = NodeRuntime(Role.MASTER, MASTER_ID, NET, TransportSettings("virtual", channel), parts,
-                     mode=Mode.TELEPRESENCE, lockstep=True, produce_sync=True, record_timing=False)
+    rt = NodeRuntime(
+        Role.MASTER,
+        MASTER_ID,
+        NET,
+        TransportSettings("virtual", channel),
+        parts,
+        mode=Mode.TELEPRESENCE,
+        lockstep=True,
+        produce_sync=True,
+        record_timing=False,
+    )
     rt.start()
     yield rt, peer
     rt.stop("test end")
@@ -92,18 +104,20 @@ def _run_cycles(rt: NodeRuntime) -> int:
 @pytest.mark.parametrize("path", ["lost_then_back_stopped", "first_seen_stopped"])
 def test_the_producer_owes_nothing_to_a_peer_that_reports_stopped(pair, path):
     rt, peer = pair
-    status = lambda: rt.device.peer_status(SLAVE_ID)   # noqa: E731
+    status = lambda: rt.device.peer_status(SLAVE_ID)  # noqa: E731
     if path == "lost_then_back_stopped":
-        peer.beating.set()                                               # alive, OPERATIONAL
+        peer.beating.set()  # alive, OPERATIONAL
         assert wait_for(lambda: status() == "alive" and rt.device.peer_state(SLAVE_ID) == 5, 5)
-        peer.beating.clear()                                             # a heartbeat late under load ...
+        peer.beating.clear()  # a heartbeat late under load ...
         assert wait_for(lambda: status() == "lost", 5), "the consumer did not declare the peer lost"
-        peer.state = int(NmtState.STOPPED)                               # ... around the NMT STOP
+        peer.state = int(NmtState.STOPPED)  # ... around the NMT STOP
     else:
         peer.state = int(NmtState.STOPPED)
     peer.beating.set()
-    assert wait_for(lambda: status() == "alive" and rt.device.peer_state(SLAVE_ID) == int(NmtState.STOPPED), 5)
+    assert wait_for(
+        lambda: status() == "alive" and rt.device.peer_state(SLAVE_ID) == int(NmtState.STOPPED), 5
+    )
 
     assert _run_cycles(rt) == CYCLES
     assert rt.stats.lockstep_timeouts == 0, "the producer waited for PDOs of a STOPPED peer"
-    assert rt.stats.cycles == CYCLES          # its own control cycles ran (its envelope reacts to the silence)
+    assert rt.stats.cycles == CYCLES  # its own control cycles ran (its envelope reacts to the silence)

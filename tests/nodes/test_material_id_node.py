@@ -1,5 +1,6 @@
 """The slave node publishes the material it identified (0x2610..0x2614, by SDO) after its probe touches an
 object: the slave program alone on the project's hub, driven as NMT master and SYNC producer from here."""
+
 from __future__ import annotations
 
 import struct
@@ -33,30 +34,37 @@ def test_slave_publishes_the_identified_material_by_sdo(tmp_path):
     (identified_stage 2) with the first one kept in 0x261C; both in the slave's TPDO6 (raw frames), all read
     by a canopen RemoteNode from the shipped slave.eds."""
     with HubThread() as hub:
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="telethermo", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(
+                interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo", tcp_tune=True
+            )
+        )
         net.connect()
         bus_text = f"socketcand://127.0.0.1:{hub.port}/telethermo"
-        proc = subprocess.Popen(node_command("slave", "--bus", bus_text, "--scene", str(SCENE), "--log",
-                                             str(tmp_path / "slave.log")),
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        proc = subprocess.Popen(
+            node_command(
+                "slave", "--bus", bus_text, "--scene", str(SCENE), "--log", str(tmp_path / "slave.log")
+            ),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
         remote = canopen.RemoteNode(SLAVE, str(bus_config_path("slave.eds")))
         net.add_node(remote)
         try:
             sdo = remote.sdo
             assert wait_for(lambda: _answers(sdo), 60), "slave SDO server never answered"
-            net.send_message(0, bytes([0x01, SLAVE]))            # NMT start
+            net.send_message(0, bytes([0x01, SLAVE]))  # NMT start
             assert wait_for(lambda: sdo["identified_touches"].raw == 0, 10)
 
             def cycles(n: int, start: int) -> None:
                 for k in range(start, start + n):
-                    net.send_message(0x181, struct.pack("<ff", 33.6, 0.0))     # the master's finger
-                    net.send_message(0x80, bytes([k % 240 + 1]))               # SYNC
-                    sdo.upload(0x1000, 0)                                       # fence: the cycle ran
+                    net.send_message(0x181, struct.pack("<ff", 33.6, 0.0))  # the master's finger
+                    net.send_message(0x80, bytes([k % 240 + 1]))  # SYNC
+                    sdo.upload(0x1000, 0)  # fence: the cycle ran
 
-            tpdo6: list[bytes] = []                              # the slave's TPDO6, raw
+            tpdo6: list[bytes] = []  # the slave's TPDO6, raw
             net.subscribe(0x6C0 + SLAVE, lambda cob_id, data, ts: tpdo6.append(bytes(data)))
-            cycles(95, 0)                                        # 0.95 s: not touched yet
+            cycles(95, 0)  # 0.95 s: not touched yet
             assert sdo["identified_touches"].raw == 0 and sdo["identified_material"].raw == 0
             assert sdo["identified_stage"].raw == 0 and sdo["identified_early_material"].raw == 0
             first = _cycles_until(cycles, 95, 60, lambda: sdo["identified_touches"].raw == 1)
@@ -80,7 +88,7 @@ def test_slave_publishes_the_identified_material_by_sdo(tmp_path):
             assert refined <= 250, f"refined answer {refined - 100} cycles after the touch (by 1.5 s wanted)"
             assert sdo["identified_touches"].raw == 1 and sdo["identified_early_material"].raw == early
             assert 1 <= sdo["identified_material"].raw <= len(names) or sdo["identified_material"].raw == 255
-            cycles(10, refined)                                  # one more TPDO6 (every 10th SYNC)
+            cycles(10, refined)  # one more TPDO6 (every 10th SYNC)
             T0, early_pdo, stage_pdo = struct.unpack("<fBB", tpdo6[-1])
             assert (early_pdo, stage_pdo) == (early, 2), tpdo6[-1].hex()
             assert abs(T0 - sdo["identified_T_object0_C"].raw) < 1e-4

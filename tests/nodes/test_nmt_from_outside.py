@@ -6,6 +6,7 @@ raw python-can frames (socketcand client) only, no project client code.
 - A slave put into PRE-OPERATIONAL: the master, NMT master of the pair, starts it again as docs/nodes.md
   says (FAIL 3: only a boot-up was answered), and the session resumes.
 """
+
 from __future__ import annotations
 
 import threading
@@ -47,9 +48,13 @@ class Frames(can.Listener):
 
 @pytest.fixture
 def realtime_pair(tmp_path):
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="realtime", cycles=0, seed=0, progress_every=10))
+    pair = NodePair(
+        PairConfig(scene=SCENE, out_dir=tmp_path, timing="realtime", cycles=0, seed=0, progress_every=10)
+    )
     pair.start()
-    bus = can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo", tcp_tune=True)
+    bus = can.Bus(
+        interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo", tcp_tune=True
+    )
     frames = Frames()
     notifier = can.Notifier(bus, [frames], timeout=0.05)
     try:
@@ -72,16 +77,18 @@ def _heartbeat_state(frames: Frames, mark: int, node_id: int) -> int | None:
 
 def test_nmt_stop_of_the_real_time_sync_producer_pauses_it_and_start_resumes(realtime_pair):
     pair, bus, frames = realtime_pair
-    _nmt(bus, 0x02, 1)                                      # stop the master (SYNC producer)
+    _nmt(bus, 0x02, 1)  # stop the master (SYNC producer)
     mark = frames.mark()
     assert wait_for(lambda: _heartbeat_state(frames, mark, 1) == 4, 5), "no STOPPED heartbeat from the master"
     quiet = frames.mark()
-    time.sleep(0.5)                                         # 50 SYNC periods
+    time.sleep(0.5)  # 50 SYNC periods
     assert pair.master.poll() is None, "the master process died on NMT STOP"
     assert not [d for cob, d in frames.since(quiet) if cob == 0x080], "SYNC produced in STOPPED"
-    _nmt(bus, 0x01, 1)                                      # start it again
+    _nmt(bus, 0x01, 1)  # start it again
     resumed = frames.mark()
-    assert wait_for(lambda: sum(cob == 0x080 for cob, _ in frames.since(resumed)) >= 50, 30), "SYNC did not resume"
+    assert wait_for(lambda: sum(cob == 0x080 for cob, _ in frames.since(resumed)) >= 50, 30), (
+        "SYNC did not resume"
+    )
     k = pair.progress[0]
     assert wait_for(lambda: pair.progress[0] >= k + 50, 30), "the master's cycles did not resume"
     assert pair.master.poll() is None
@@ -93,11 +100,14 @@ def test_nmt_stop_of_the_real_time_sync_producer_pauses_it_and_start_resumes(rea
 def test_the_master_starts_a_slave_put_into_pre_operational(realtime_pair):
     pair, bus, frames = realtime_pair
     mark = frames.mark()
-    _nmt(bus, 0x80, 2)                                      # another NMT master puts the slave into PRE-OP
-    assert wait_for(lambda: (0x000, bytes([0x01, 0x02])) in frames.since(mark), 5), \
+    _nmt(bus, 0x80, 2)  # another NMT master puts the slave into PRE-OP
+    assert wait_for(lambda: (0x000, bytes([0x01, 0x02])) in frames.since(mark), 5), (
         "the master did not start the pre-operational slave"
+    )
     started = frames.mark()
-    assert wait_for(lambda: _heartbeat_state(frames, started, 2) == 5, 5), "the slave is not OPERATIONAL again"
+    assert wait_for(lambda: _heartbeat_state(frames, started, 2) == 5, 5), (
+        "the slave is not OPERATIONAL again"
+    )
     # the pair goes on: the slave's TPDO1 on every SYNC again, both processes alive
     again = frames.mark()
     assert wait_for(lambda: sum(cob == 0x182 for cob, _ in frames.since(again)) >= 100, 30)
@@ -110,6 +120,7 @@ def test_cli_nmt_preop_slave_says_the_master_started_it_again(realtime_pair, cap
     """Issue 25: `telethermo nmt preop slave` said "NOT confirmed" (and `telethermo preop:`) because the master
     starts the slave again ~2 ms after its PRE-OPERATIONAL heartbeat. The CLI saw the state; it says who undid it."""
     from telethermo.cli.main import main
+
     pair, bus, frames = realtime_pair
     mark = frames.mark()
     code = main(["nmt", "--bus", pair.bus, "preop", "slave"])
@@ -117,10 +128,14 @@ def test_cli_nmt_preop_slave_says_the_master_started_it_again(realtime_pair, cap
     assert code == 1, (out, err)
     assert out == "slave (node 2): OPERATIONAL\n"
     line = err.strip()
-    assert "\n" not in line and line.startswith("telethermo nmt: slave (node 2) reported PRE-OPERATIONAL, then "
-                                                 "OPERATIONAL: another NMT master sent NMT start "), line
-    assert line.endswith(" ms after its PRE-OPERATIONAL heartbeat (the pair's SYNC producer starts a node that "
-                         "reports PRE-OPERATIONAL or a boot-up: docs/nodes.md); it does not stay there"), line
+    assert "\n" not in line and line.startswith(
+        "telethermo nmt: slave (node 2) reported PRE-OPERATIONAL, then "
+        "OPERATIONAL: another NMT master sent NMT start "
+    ), line
+    assert line.endswith(
+        " ms after its PRE-OPERATIONAL heartbeat (the pair's SYNC producer starts a node that "
+        "reports PRE-OPERATIONAL or a boot-up: docs/nodes.md); it does not stay there"
+    ), line
     # what the CLI says is on the bus: our NMT PRE-OP, the slave's PRE-OP heartbeat, the master's NMT start
     seen = frames.since(mark)
     assert (0x000, bytes([0x80, 0x02])) in seen and (0x702, bytes([0x7F])) in seen
@@ -135,7 +150,9 @@ def test_the_sync_producer_in_pre_operational_produces_sync_but_no_pdo(realtime_
     mark = frames.mark()
     assert wait_for(lambda: _heartbeat_state(frames, mark, 1) == 127, 5), "no PRE-OPERATIONAL heartbeat"
     preop = frames.mark()
-    assert wait_for(lambda: sum(cob == 0x080 for cob, _ in frames.since(preop)) >= 30, 30), "no SYNC in PRE-OPERATIONAL"
+    assert wait_for(lambda: sum(cob == 0x080 for cob, _ in frames.since(preop)) >= 30, 30), (
+        "no SYNC in PRE-OPERATIONAL"
+    )
     k = pair.progress[0]
     cobs = {cob for cob, _ in frames.since(preop)}
     assert not cobs & {0x181, 0x281, 0x381, 0x481}, "a PDO of the master in PRE-OPERATIONAL"
@@ -151,9 +168,13 @@ def test_lockstep_goes_on_while_a_node_is_stopped_and_resumes_in_step(tmp_path, 
     at the SYNC period (peer_lost trip, ramp, cut) and the exchange is back in step after NMT start (it stayed
     at one lockstep timeout per cycle for ever: the unanswered SYNCs were counted as owed). A stopped master
     drops the slave's PDOs: after its NMT start nothing is owed either (the same stall)."""
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=10))
+    pair = NodePair(
+        PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=10)
+    )
     pair.start()
-    bus = can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo", tcp_tune=True)
+    bus = can.Bus(
+        interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo", tcp_tune=True
+    )
     frames = Frames()
     notifier = can.Notifier(bus, [frames], timeout=0.05)
     try:
@@ -163,14 +184,18 @@ def test_lockstep_goes_on_while_a_node_is_stopped_and_resumes_in_step(tmp_path, 
         assert wait_for(lambda: _heartbeat_state(frames, mark, stopped) == 4, 5)
         k = pair.progress[0]
         if stopped == 2:
-            assert wait_for(lambda: pair.progress[0] >= k + 50, 60), "the master stalled while the slave was stopped"
+            assert wait_for(lambda: pair.progress[0] >= k + 50, 60), (
+                "the master stalled while the slave was stopped"
+            )
         else:
             time.sleep(0.5)
         _nmt(bus, 0x01, stopped)
         started = frames.mark()
         assert wait_for(lambda: _heartbeat_state(frames, started, stopped) == 5, 5)
         back = frames.mark()
-        assert wait_for(lambda: frames.count_since(0x182, back) >= 300, 60), "the slave's PDOs did not come back"
+        assert wait_for(lambda: frames.count_since(0x182, back) >= 300, 60), (
+            "the slave's PDOs did not come back"
+        )
         # in step again: one slave TPDO1 per SYNC over the last stretch
         tail = frames.since(back)[-600:]
         syncs = sum(cob == 0x080 for cob, _ in tail)

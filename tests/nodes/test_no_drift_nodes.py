@@ -1,5 +1,6 @@
 """No drift on the nodes (issue 11): two node processes over the hub, the finger lifted at 5 s, the probe in
 air; both pads settle at neutral. The same scene as tests/session/test_no_drift.py, through CAN."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -15,7 +16,7 @@ from telethermo.control.types import Role
 pytestmark = pytest.mark.slow
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "finger_lifted.toml"
-CYCLES = 4000   # 40 s
+CYCLES = 4000  # 40 s
 
 
 def test_pads_in_air_stay_at_neutral_on_the_nodes(tmp_path):

@@ -3,6 +3,7 @@ observed by canopen's own client: ``RemoteNode`` (with its ``NmtMaster``, SDO cl
 consumer) built from the shipped EDS files. The same facts the process tests check (boot-up, NMT start,
 SDO, a lockstep cycle's TPDOs after SYNC, peer loss), in seconds.
 """
+
 from __future__ import annotations
 
 import threading
@@ -68,8 +69,17 @@ class Bench:
         producer = role is Role.MASTER
         opts = NodeOptions(role=role, scene=SCENE, timing="lockstep", produce_sync=producer, model=model)
         parts = build_parts(opts, period_s=NET.sync.period_s)
-        rt = NodeRuntime(role, ID[role], NET, TransportSettings("virtual", self.channel), parts,
-                         mode=Mode.TELEPRESENCE, lockstep=True, produce_sync=producer, record_timing=False)
+        rt = NodeRuntime(
+            role,
+            ID[role],
+            NET,
+            TransportSettings("virtual", self.channel),
+            parts,
+            mode=Mode.TELEPRESENCE,
+            lockstep=True,
+            produce_sync=producer,
+            record_timing=False,
+        )
         self.runtimes.append(rt)
         if start:
             rt.start()
@@ -93,19 +103,19 @@ def test_boot_up_nmt_start_and_sdo_read(bench):
     states: list[int] = []
     node.nmt.add_heartbeat_callback(states.append)
     rt = bench.node(Role.MASTER)
-    assert wait_for(lambda: 0 in states, 5), "no boot-up message"          # boot-up: 0x701 [0x00]
-    assert wait_for(lambda: states and states[-1] == 127, 5)                # then PRE-OPERATIONAL heartbeats
+    assert wait_for(lambda: 0 in states, 5), "no boot-up message"  # boot-up: 0x701 [0x00]
+    assert wait_for(lambda: states and states[-1] == 127, 5)  # then PRE-OPERATIONAL heartbeats
     assert node.nmt.state == "PRE-OPERATIONAL"
     assert rt.device.state is NmtState.PRE_OPERATIONAL
 
-    node.nmt.state = "OPERATIONAL"                                          # NMT start from canopen's NmtMaster
+    node.nmt.state = "OPERATIONAL"  # NMT start from canopen's NmtMaster
     assert wait_for(lambda: rt.device.state is NmtState.OPERATIONAL, 5)
     assert wait_for(lambda: node.nmt.state == "OPERATIONAL", 5), "the heartbeat does not report OPERATIONAL"
 
-    assert node.sdo[0x1017].raw == NET.heartbeat.producer_ms                # heartbeat producer time, ms
-    assert node.sdo[0x1016][1].raw == (ID[Role.SLAVE] << 16) | NET.heartbeat.consumer_ms   # watches its peer
-    assert node.sdo["neutral_C"].raw == pytest.approx(32.0)                 # the controller's parameter, °C
-    assert node.sdo[0x2704].raw is True                                     # lockstep flag
+    assert node.sdo[0x1017].raw == NET.heartbeat.producer_ms  # heartbeat producer time, ms
+    assert node.sdo[0x1016][1].raw == (ID[Role.SLAVE] << 16) | NET.heartbeat.consumer_ms  # watches its peer
+    assert node.sdo["neutral_C"].raw == pytest.approx(32.0)  # the controller's parameter, °C
+    assert node.sdo[0x2704].raw is True  # lockstep flag
     assert node.sdo["mode"].raw == int(Mode.TELEPRESENCE)
 
 
@@ -113,7 +123,7 @@ def test_lockstep_cycles_send_both_tpdo1_after_each_sync(bench):
     slave = bench.node(Role.SLAVE)
     master = bench.node(Role.MASTER)
     node_m = bench.remote(Role.MASTER)
-    node_m.tpdo.read()                                                     # the TPDO1 mapping, by SDO
+    node_m.tpdo.read()  # the TPDO1 mapping, by SDO
     tpdo1_m = node_m.tpdo[1]
     assert tpdo1_m.cob_id == 0x180 + ID[Role.MASTER] and tpdo1_m.enabled
     tpdo1_s_cob = 0x180 + ID[Role.SLAVE]
@@ -125,13 +135,19 @@ def test_lockstep_cycles_send_both_tpdo1_after_each_sync(bench):
     assert master.stats.cycles == n and slave.stats.cycles == n
     assert master.stats.lockstep_timeouts == 0
     # the watching client's own notifier thread may still be handing over the last frames
-    assert wait_for(lambda: bench.sequence().count(SYNC_COB) == n
-                    and bench.sequence().count(tpdo1_m.cob_id) == n and bench.sequence().count(tpdo1_s_cob) == n, 5)
+    assert wait_for(
+        lambda: (
+            bench.sequence().count(SYNC_COB) == n
+            and bench.sequence().count(tpdo1_m.cob_id) == n
+            and bench.sequence().count(tpdo1_s_cob) == n
+        ),
+        5,
+    )
     seq = bench.sequence()
     assert seq.count(SYNC_COB) == n
     syncs = [i for i, cob in enumerate(seq) if cob == SYNC_COB] + [len(seq)]
-    for k in range(n):   # lockstep: both nodes' TPDO1 of SYNC k arrive before SYNC k+1
-        between = seq[syncs[k] + 1:syncs[k + 1]]
+    for k in range(n):  # lockstep: both nodes' TPDO1 of SYNC k arrive before SYNC k+1
+        between = seq[syncs[k] + 1 : syncs[k + 1]]
         assert between.count(tpdo1_m.cob_id) == 1 and between.count(tpdo1_s_cob) == 1, (k, between)
     # canopen's decoding of the last TPDO1 by the EDS mapping: the estimate the master's OD holds (REAL32)
     assert tpdo1_m["estimate_C"].raw == pytest.approx(float(np.float32(master.device.read("estimate_C"))))
@@ -149,18 +165,18 @@ def test_peer_loss_trips_the_master_and_its_return_resumes(bench):
     try:
         assert wait_for(lambda: master.stats.cycles >= 30, 20)
         assert not master.cycle.state.env.trips
-        slave.stop("killed")                                                 # its heartbeat and PDOs stop
+        slave.stop("killed")  # its heartbeat and PDOs stop
         lost = EMCY_CODES[Trip.PEER_LOST]
         assert wait_for(lambda: any(e.code == lost for e in node_m.emcy.log), 10), "no EMCY 0x8130"
         # the heartbeat consumer's EMCY can come before the cycle that latches the trip: wait for that cycle
         assert wait_for(lambda: Trip.PEER_LOST in master.cycle.state.env.trips, 5)
         assert wait_for(lambda: node_m.sdo["active_trips"].raw != 0, 5)
 
-        bench.node(Role.SLAVE)                                               # the slave boots again
+        bench.node(Role.SLAVE)  # the slave boots again
         assert wait_for(lambda: master.stats.peer_resumes == 1, 20), "the master did not resume"
         assert wait_for(lambda: any(e.code == 0x0000 for e in node_m.emcy.log), 5), "no error-reset EMCY"
         assert wait_for(lambda: not master.cycle.state.env.trips, 5)
-        assert master.stats.nmt_starts_sent >= 1                              # it started the rebooted slave
+        assert master.stats.nmt_starts_sent >= 1  # it started the rebooted slave
     finally:
         master.stop_event.set()
         run.join(10)
@@ -172,16 +188,16 @@ def test_sdo_writes_reach_the_parameters_the_model_and_the_identification_servic
     rt = bench.node(Role.MASTER, model=default_model_path())
     assert node.sdo["model_status"].raw == STATUS_LOADED and node.sdo["model_crc32"].raw != 0
     with pytest.raises(canopen.SdoAbortedError) as exc:
-        node.sdo["ident_fetch_sample"].raw = 0               # no experiment recorded yet
+        node.sdo["ident_fetch_sample"].raw = 0  # no experiment recorded yet
     assert exc.value.code == 0x08000024
     with pytest.raises(canopen.SdoAbortedError) as exc:
-        node.sdo["T_max_C"].raw = 60.0                       # above the EDS limit (43 °C)
+        node.sdo["T_max_C"].raw = 60.0  # above the EDS limit (43 °C)
     assert exc.value.code == 0x06090031
     kp0 = rt.settings.params.kp_A_per_C
-    node.sdo["kp_A_per_C"].raw = kp0 + 0.25                  # into the book now, into the controller at SYNC
-    node.sdo["model_command"].raw = CMD_UNLOAD               # the flux estimator needs no model
+    node.sdo["kp_A_per_C"].raw = kp0 + 0.25  # into the book now, into the controller at SYNC
+    node.sdo["model_command"].raw = CMD_UNLOAD  # the flux estimator needs no model
     assert rt.settings.params.kp_A_per_C == kp0 and rt.model is not None
-    assert node.sdo["model_command"].raw == 0                # a command: reads 0
+    assert node.sdo["model_command"].raw == 0  # a command: reads 0
     assert rt.run_producer(2) == 2
     assert rt.settings.params.kp_A_per_C == pytest.approx(kp0 + 0.25)
     assert node.sdo["kp_A_per_C"].raw == pytest.approx(kp0 + 0.25)

@@ -1,5 +1,6 @@
 """The node programs' command line: a scene by file or by the name of a shipped scene (as ``telethermo
 session`` takes it), and one named line for a scene that is neither (issue 13)."""
+
 from __future__ import annotations
 
 import pytest
@@ -19,10 +20,16 @@ def test_a_shipped_scene_by_name_or_by_file():
     assert by_name.scene == by_file.scene == SCENES_DIR / "pads_in_air.toml"
 
 
-@pytest.mark.parametrize("scene, message", [
-    ("no_such_scene", r"--scene 'no_such_scene': .*expected a scene file or a shipped scene \(.*pads_in_air"),
-    ("/tmp/tt-no-such-scene.toml", r"--scene '/tmp/tt-no-such-scene.toml': no such file"),
-])
+@pytest.mark.parametrize(
+    "scene, message",
+    [
+        (
+            "no_such_scene",
+            r"--scene 'no_such_scene': .*expected a scene file or a shipped scene \(.*pads_in_air",
+        ),
+        ("/tmp/tt-no-such-scene.toml", r"--scene '/tmp/tt-no-such-scene.toml': no such file"),
+    ],
+)
 def test_an_unknown_scene_is_one_named_line(scene, message):
     with pytest.raises(OptionError, match=message):
         parse(["--bus", "virtual:x", "--scene", scene])

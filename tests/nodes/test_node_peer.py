@@ -1,4 +1,5 @@
 """The peer link: fresh/missed/alive bookkeeping the control core relies on."""
+
 from __future__ import annotations
 
 import math
@@ -48,9 +49,10 @@ def test_nan_is_passed_on_and_counted():
 
 def test_stand_in_values_until_the_first_pdo_then_lost_if_none_comes():
     from telethermo.control.types import PeerValues
+
     link = PeerLink(max_missed_cycles=3)
     link.start_with(PeerValues(30.0, 0.0, fresh=False, alive=True))
-    pv = link.take()                                  # cycle 0: the stand-in, as the offline runner
+    pv = link.take()  # cycle 0: the stand-in, as the offline runner
     assert (pv.estimate_C, pv.flux_W, pv.fresh, pv.alive) == (30.0, 0.0, False, True)
     assert link.counters.missed_cycles == 0
     assert [link.take().alive for _ in range(4)] == [True, True, True, False]

@@ -1,6 +1,7 @@
 """The node programs' real-time options (issue 12): parsed with one-line errors, applied as far as the
 system permits, each reported; a refused knob is a warning, never a failure. On this machine (a container
 without CAP_SYS_NICE, as a lab PC without root) SCHED_FIFO is refused or granted; both give a line."""
+
 from __future__ import annotations
 
 import gc
@@ -24,11 +25,14 @@ def test_options_reach_the_node():
     assert parse().realtime == RealtimeOptions()
 
 
-@pytest.mark.parametrize("extra, message", [
-    (("--cpu", "a"), "--cpu 'a': expected CPU numbers"),
-    (("--rt-priority", "0"), "--rt-priority 0: expected 1..99"),
-    (("--nice", "40"), "--nice 40: expected -20..19"),
-])
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (("--cpu", "a"), "--cpu 'a': expected CPU numbers"),
+        (("--rt-priority", "0"), "--rt-priority 0: expected 1..99"),
+        (("--nice", "40"), "--nice 40: expected -20..19"),
+    ],
+)
 def test_bad_values_are_one_line(extra, message):
     with pytest.raises(OptionError, match=message):
         parse(*extra)

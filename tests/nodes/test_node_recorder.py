@@ -1,4 +1,5 @@
 """The streaming CSV recorder: exact values back, atomic appearance."""
+
 from __future__ import annotations
 
 import csv
@@ -50,13 +51,16 @@ def test_final_comments_replace_the_header_on_close(tmp_path):
 
 def test_values_are_written_in_their_shortest_round_trip_form(tmp_path):
     import numpy as np
+
     path = tmp_path / "v.csv"
     rec = CsvRecorder(path, ["a", "b", "c", "d", "e", "f"])
     rec.write([0.1, np.float64(1 / 3), True, False, -math.inf, "x|y"])
     rec.write([1e-300, 30.000000000000004, 2, 0, math.nan, ""])
     rec.close()
-    assert path.read_text().splitlines()[1:] == [f"{0.1!r},{1 / 3!r},1,0,-inf,x|y",
-                                                 "1e-300,30.000000000000004,2,0,nan,"]
+    assert path.read_text().splitlines()[1:] == [
+        f"{0.1!r},{1 / 3!r},1,0,-inf,x|y",
+        "1e-300,30.000000000000004,2,0,nan,",
+    ]
 
 
 # ------------------------------------------------------------------ the journal (nothing lost on SIGKILL)
@@ -82,10 +86,12 @@ def _killed_writer(tmp_path, rows: int):
     import subprocess
     import sys
     from pathlib import Path
+
     root = Path(__file__).resolve().parents[2]
     path = tmp_path / "slave.csv"
-    proc = subprocess.Popen([sys.executable, "-c", _CHILD, str(path), str(rows)], stdout=subprocess.PIPE, text=True,
-                            cwd=root)
+    proc = subprocess.Popen(
+        [sys.executable, "-c", _CHILD, str(path), str(rows)], stdout=subprocess.PIPE, text=True, cwd=root
+    )
     try:
         assert proc.stdout.readline().strip() == "ready"
     finally:
@@ -97,12 +103,13 @@ def _killed_writer(tmp_path, rows: int):
 def test_a_killed_writers_journal_is_recovered_with_every_complete_row(tmp_path):
     from telethermo.offline.recording_journal import journal_path, recover_journal
     from telethermo.offline.recording import read_recording_csv
+
     path = _killed_writer(tmp_path, 123)
     assert not path.exists() and journal_path(path).exists()
     assert recover_journal(path) == path
     assert not journal_path(path).exists()
     rec = read_recording_csv(path)
-    np.testing.assert_array_equal(rec.col("sync_cycle"), np.arange(123))   # all rows, the torn one dropped
+    np.testing.assert_array_equal(rec.col("sync_cycle"), np.arange(123))  # all rows, the torn one dropped
     np.testing.assert_array_equal(rec.col("x"), np.arange(123) / 3)
     assert rec.meta["role"] == "slave"
     assert rec.meta["recovered"] == {"journal": "slave.csv.journal", "rows": 123, "dropped_tail_bytes": 6}
@@ -113,6 +120,7 @@ def test_a_killed_writers_journal_is_recovered_with_every_complete_row(tmp_path)
 def test_the_next_start_recovers_the_journal_beside_the_new_recording(tmp_path):
     from telethermo.offline.recording_journal import journal_path
     from telethermo.offline.recording import read_recording_csv
+
     path = _killed_writer(tmp_path, 40)
     rec = CsvRecorder(path, ["t_s", "sync_cycle", "x"], comments=["telethermo-recording 1", "meta {}"])
     assert rec.recovered is not None and rec.recovered.name.startswith("slave.killed-")
@@ -125,18 +133,19 @@ def test_the_next_start_recovers_the_journal_beside_the_new_recording(tmp_path):
 
 def test_a_journal_in_use_is_not_recovered_and_rows_reach_it_without_close(tmp_path):
     from telethermo.offline.recording_journal import RecorderError, journal_path, recover_journal
+
     path = tmp_path / "m.csv"
     rec = CsvRecorder(path, ["a"], flush_every=10**9, sync_interval_s=0.02)
     rec.write([1.5])
     rec.write([2.5])
     n = rec.syncs
-    while rec.syncs < n + 2:   # the timer, not a row count nor close, pushed them out
+    while rec.syncs < n + 2:  # the timer, not a row count nor close, pushed them out
         time.sleep(0.01)
     assert journal_path(path).read_text() == "a\n1.5\n2.5\n"
     with pytest.raises(RecorderError, match="in use by a running node"):
         recover_journal(path)
     with pytest.raises(RecorderError, match="in use by a running node"):
-        CsvRecorder(path, ["a"])          # a second node on the same file: refused, the first one untouched
+        CsvRecorder(path, ["a"])  # a second node on the same file: refused, the first one untouched
     rec.close()
     assert path.read_text() == "a\n1.5\n2.5\n"
 
@@ -144,17 +153,30 @@ def test_a_journal_in_use_is_not_recovered_and_rows_reach_it_without_close(tmp_p
 def test_recordings_merge_on_the_sync_cycle_after_losses_and_fallback_cycles(tmp_path):
     from telethermo.nodes.merge import merge_recordings
     from telethermo.offline.recording import MAGIC
+
     head = [MAGIC[2:], 'meta {"period_s": 0.01}']
     m = CsvRecorder(tmp_path / "m.csv", ["t_s", "sync_cycle", "m_T_sensor_C"], comments=head)
     s = CsvRecorder(tmp_path / "s.csv", ["t_s", "sync_cycle", "s_T_sensor_C"], comments=head)
     for k in range(10):
         m.write([k * 0.01, k, 30 + k])
     # the slave missed SYNC 3 and 4 (killed? not OPERATIONAL), ran two local fallback cycles, then SYNC 5..8
-    for t, c in [(0.0, 0), (0.01, 1), (0.02, 2), (0.03, -1), (0.04, -1), (0.05, 5), (0.06, 6), (0.07, 7), (0.08, 8)]:
+    for t, c in [
+        (0.0, 0),
+        (0.01, 1),
+        (0.02, 2),
+        (0.03, -1),
+        (0.04, -1),
+        (0.05, 5),
+        (0.06, 6),
+        (0.07, 7),
+        (0.08, 8),
+    ]:
         s.write([t, c, 40 + c])
     m.close()
     s.close()
     rec = merge_recordings(tmp_path / "m.csv", tmp_path / "s.csv")
     np.testing.assert_array_equal(rec.col("sync_cycle"), [0, 1, 2, 5, 6, 7, 8])
-    np.testing.assert_array_equal(rec.col("t_s"), np.array([0, 1, 2, 5, 6, 7, 8]) * 0.01)   # the master's axis
-    np.testing.assert_array_equal(rec.col("s_T_sensor_C") - rec.col("m_T_sensor_C"), 10.0)  # same SYNC each row
+    np.testing.assert_array_equal(rec.col("t_s"), np.array([0, 1, 2, 5, 6, 7, 8]) * 0.01)  # the master's axis
+    np.testing.assert_array_equal(
+        rec.col("s_T_sensor_C") - rec.col("m_T_sensor_C"), 10.0
+    )  # same SYNC each row

@@ -1,6 +1,7 @@
 """Issue 25, what a node's terminal shows: one line when it is ready (its bus, what it waits for), and at the end
 a short table, the ``result {json}`` line only with ``--json`` (what the session launcher passes and reads).
 Real processes: our hub, the slave and the master programs (lockstep, pads in air, 300 cycles)."""
+
 from __future__ import annotations
 
 import json
@@ -20,13 +21,31 @@ def _run_pair(tmp_path: Path, *master_args: str) -> tuple[str, str, str]:
     hub = HubProcess(log_path=tmp_path / "hub.log")
     hub.start()
     slave_err = tmp_path / "slave-stderr.log"
-    slave = subprocess.Popen(node_command("slave", "--bus", hub.bus, "--scene", str(SCENE), "--timing", "lockstep"),
-                             stdout=subprocess.DEVNULL, stderr=open(slave_err, "wb"), start_new_session=True)
+    slave = subprocess.Popen(
+        node_command("slave", "--bus", hub.bus, "--scene", str(SCENE), "--timing", "lockstep"),
+        stdout=subprocess.DEVNULL,
+        stderr=open(slave_err, "wb"),
+        start_new_session=True,
+    )
     try:
         assert wait_for(lambda: "ready on" in slave_err.read_text(), 60), slave_err.read_text()
-        master = subprocess.run(node_command("master", "--bus", hub.bus, "--scene", str(SCENE), "--timing",
-                                             "lockstep", "--cycles", "300", *master_args),
-                                capture_output=True, text=True, timeout=180)
+        master = subprocess.run(
+            node_command(
+                "master",
+                "--bus",
+                hub.bus,
+                "--scene",
+                str(SCENE),
+                "--timing",
+                "lockstep",
+                "--cycles",
+                "300",
+                *master_args,
+            ),
+            capture_output=True,
+            text=True,
+            timeout=180,
+        )
         assert master.returncode == 0, master.stderr
     finally:
         stop_process(slave)
@@ -53,4 +72,4 @@ def test_ready_lines_and_the_summary_table(tmp_path):
 def test_json_flag_gives_the_machine_line(tmp_path):
     out, _, _ = _run_pair(tmp_path, "--json")
     results = [ln for ln in out.splitlines() if ln.startswith("result ")]
-    assert len(results) == 1 and json.loads(results[0][len("result "):])["cycles"] == 300
+    assert len(results) == 1 and json.loads(results[0][len("result ") :])["cycles"] == 300

@@ -2,6 +2,7 @@
 session over the hub, killed with -9, its journal recovered by the documented command
 (``telethermo-slave --record FILE --recover``); the recovered file is a valid recording that merges with the
 master's on the SYNC cycle."""
+
 from __future__ import annotations
 
 import subprocess
@@ -20,23 +21,24 @@ from tests.nodes.exchange_check import check_exchange
 pytestmark = pytest.mark.slow  # starts processes
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
-ROW_FLUSH = 200   # CsvRecorder's row-count flush (2 s of rows at 100 Hz). A row of this node is ~700 bytes, so
+ROW_FLUSH = 200  # CsvRecorder's row-count flush (2 s of rows at 100 Hz). A row of this node is ~700 bytes, so
 # the 8 KB file buffer pushes rows out every ~10 cycles anyway; the timed sync that bounds the loss when rows
 # stop coming is tested in test_node_recorder.py. What fails here without the journal: the recovery itself.
 
 
 def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, cycles=0, seed=0, timing="realtime",
-                               progress_every=1))
+    pair = NodePair(
+        PairConfig(scene=SCENE, out_dir=tmp_path, cycles=0, seed=0, timing="realtime", progress_every=1)
+    )
     with pair:
         # past a row-count flush (200), so that the rows asked for are not there by that flush alone
         assert wait_for(lambda: pair.progress[0] >= ROW_FLUSH + 50, 120), "session did not start"
-        k_then = pair.progress[0]          # SYNCs sent by now: the slave has answered 0..k_then-2 at least
+        k_then = pair.progress[0]  # SYNCs sent by now: the slave has answered 0..k_then-2 at least
         t_then = time.monotonic()
-        while time.monotonic() - t_then < 1.0:   # let one second pass before the kill (not an assertion)
+        while time.monotonic() - t_then < 1.0:  # let one second pass before the kill (not an assertion)
             time.sleep(0.05)
         k_kill = pair.progress[0]
-        pair.slave.kill()                  # SIGKILL: no goodbye, no close
+        pair.slave.kill()  # SIGKILL: no goodbye, no close
         pair.slave.wait()
         slave_csv = pair.recording("slave")
         assert not slave_csv.exists() and journal_path(slave_csv).exists()
@@ -44,19 +46,24 @@ def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):
     codes = pair.stop()
     assert codes["master"] == 0
 
-    out = subprocess.run(node_command("slave", "--record", str(slave_csv), "--recover"), capture_output=True,
-                         text=True, timeout=120)
+    out = subprocess.run(
+        node_command("slave", "--record", str(slave_csv), "--recover"),
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == f"recovered {slave_csv}"
     assert not journal_path(slave_csv).exists()
 
-    rec = read_recording_csv(slave_csv)    # a valid recording: magic, meta, header, numbers
+    rec = read_recording_csv(slave_csv)  # a valid recording: magic, meta, header, numbers
     assert rec.meta["recovered"]["journal"] == "slave.csv.journal"
     assert rec.meta["timing"] == "realtime"
     cycles = rec.col("sync_cycle")
     assert cycles[0] == 0 and np.all(np.diff(cycles) == 1)
-    assert cycles[-1] >= k_then - 2, f"rows up to SYNC {k_then - 2} (1 s before the kill) are missing: " \
-                                     f"last row {cycles[-1]}"
+    assert cycles[-1] >= k_then - 2, (
+        f"rows up to SYNC {k_then - 2} (1 s before the kill) are missing: last row {cycles[-1]}"
+    )
     assert cycles[-1] <= k_kill + 5
     assert np.all(np.isfinite(rec.col("s_T_sensor_C")))
 
@@ -65,15 +72,20 @@ def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):
     assert len(merged) == len(rec)
     np.testing.assert_array_equal(merged.col("sync_cycle"), cycles)
     m = read_recording_csv(pair.recording("master"))
-    assert len(m) > len(rec)               # the master ran on after the kill
+    assert len(m) > len(rec)  # the master ran on after the kill
     # the exchange lines up on the SYNC axis: what the master used at SYNC k is what the slave sent at an
     # earlier SYNC, in order, and older than the miss limit only with a peer-loss trip (real time does not
     # wait for the peer: how many are the previous SYNC's depends on the machine's load (85 % with it three
     # times oversubscribed), reported, not asserted)
-    ex = check_exchange(merged.col("m_peer_estimate_C"), merged.col("s_estimate_C").astype(np.float32),
-                        merged.text("m_new_trips"))
-    print(f"\nmaster's peer values: {ex.fresh} of {ex.rows} the previous SYNC's, oldest {ex.staleness_max} "
-          f"SYNCs behind")
+    ex = check_exchange(
+        merged.col("m_peer_estimate_C"),
+        merged.col("s_estimate_C").astype(np.float32),
+        merged.text("m_new_trips"),
+    )
+    print(
+        f"\nmaster's peer values: {ex.fresh} of {ex.rows} the previous SYNC's, oldest {ex.staleness_max} "
+        f"SYNCs behind"
+    )
     # the check covers the run (its first rows: the hub's grace and the slave's first PDO, load-dependent)
     assert ex.rows >= len(merged) // 2 and not ex.unmatched and not ex.stale_untripped, ex
 
@@ -83,17 +95,23 @@ def test_a_slave_stopped_for_more_than_a_counter_wrap_keeps_the_sync_numbering(t
     on at the SYNC period): the slave's device ignores those SYNCs, its runtime still numbers them, so after
     NMT start its rows carry the master's cycle numbers and the merge pairs the right rows."""
     import can
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=1))
+
+    pair = NodePair(
+        PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=1)
+    )
     with pair:
-        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo",
-                      tcp_tune=True)
+        bus = can.Bus(
+            interface="socketcand", host="127.0.0.1", port=pair.hub.port, channel="telethermo", tcp_tune=True
+        )
         try:
-            time.sleep(0.3)                # the hub holds a new client's first 0.2 s back
+            time.sleep(0.3)  # the hub holds a new client's first 0.2 s back
             assert wait_for(lambda: pair.progress[0] >= 100, 120), "session did not start"
-            bus.send(can.Message(arbitration_id=0x000, data=[0x02, 2], is_extended_id=False))   # stop the slave
+            bus.send(
+                can.Message(arbitration_id=0x000, data=[0x02, 2], is_extended_id=False)
+            )  # stop the slave
             k = pair.progress[0]
-            assert wait_for(lambda: pair.progress[0] >= k + 400, 60), "the master stalled"   # > 240 SYNCs
-            bus.send(can.Message(arbitration_id=0x000, data=[0x01, 2], is_extended_id=False))   # start it
+            assert wait_for(lambda: pair.progress[0] >= k + 400, 60), "the master stalled"  # > 240 SYNCs
+            bus.send(can.Message(arbitration_id=0x000, data=[0x01, 2], is_extended_id=False))  # start it
             k = pair.progress[0]
             assert wait_for(lambda: pair.progress[0] >= k + 300, 60)
         finally:
@@ -104,8 +122,8 @@ def test_a_slave_stopped_for_more_than_a_counter_wrap_keeps_the_sync_numbering(t
     assert len(gaps) == 1 and s[gaps[0] + 1] - s[gaps[0]] > 240, "the stop is not one gap of > 240 SYNCs"
     merged = merge_recordings(pair.recording("master"), pair.recording("slave"))
     c = merged.col("sync_cycle")
-    after = np.flatnonzero(c > s[gaps[0] + 1] + 20)          # settled after the return
-    after = after[np.isin(c[after] - 1, c)]                    # the previous cycle merged too
+    after = np.flatnonzero(c > s[gaps[0] + 1] + 20)  # settled after the return
+    after = after[np.isin(c[after] - 1, c)]  # the previous cycle merged too
     assert len(after) >= 200
     prev = np.searchsorted(c, c[after] - 1)
     got = merged.col("m_peer_estimate_C")[after]
@@ -117,26 +135,29 @@ def test_a_restarted_slave_continues_the_masters_sync_numbering(tmp_path):
     """The slave killed after more than a counter wrap (240 SYNCs) and started again: its new recording
     numbers the SYNCs as the master does (it read the master's SYNC count, 0x2713, before its boot-up), not
     modulo 240, so the merge pairs the rows of one SYNC (the exchanged values prove it)."""
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=1))
+    pair = NodePair(
+        PairConfig(scene=SCENE, out_dir=tmp_path, timing="lockstep", cycles=0, seed=0, progress_every=1)
+    )
     with pair:
         assert wait_for(lambda: pair.progress[0] >= 400, 120), "session did not start"
         pair.slave.kill()
         pair.slave.wait()
         k_kill = pair.progress[0]
         pair.start_slave()
-        assert wait_for(lambda: "numbers them from there" in pair.log("slave").read_text(), 60), \
+        assert wait_for(lambda: "numbers them from there" in pair.log("slave").read_text(), 60), (
             "the restarted slave did not read the master's SYNC count"
+        )
         k = pair.progress[0]
         assert wait_for(lambda: pair.progress[0] >= k + 300, 120), "the session did not go on"
     pair.stop()
-    s = read_recording_csv(pair.recording("slave")).col("sync_cycle")   # the restarted slave's rows only
+    s = read_recording_csv(pair.recording("slave")).col("sync_cycle")  # the restarted slave's rows only
     s = s[s >= 0]
     assert s[0] >= k_kill > 240, f"the restarted slave numbered from {s[0]}, the master was at {k_kill}"
     assert np.all(np.diff(s) == 1)
     merged = merge_recordings(pair.recording("master"), pair.recording("slave"))
     c = merged.col("sync_cycle")
-    assert c[0] == s[0] and len(c) >= len(s) - 2 and np.all(np.isin(c, s))   # the master may stop a row early
-    after = np.flatnonzero(c > s[0] + 20)                      # settled after the return
+    assert c[0] == s[0] and len(c) >= len(s) - 2 and np.all(np.isin(c, s))  # the master may stop a row early
+    after = np.flatnonzero(c > s[0] + 20)  # settled after the return
     got = merged.col("m_peer_estimate_C")[after]
     sent = merged.col("s_estimate_C")[after - 1].astype(np.float32).astype(float)
     assert np.count_nonzero(got == sent) >= 0.95 * len(after), "the merge pairs rows of different SYNCs"

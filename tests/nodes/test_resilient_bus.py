@@ -1,5 +1,6 @@
 """The reconnecting bus (telethermo.transport.resilient) against the real hub, stopped and started again on
 the same port, with python-can's socketcand client as the other party and canopen's Network on top."""
+
 from __future__ import annotations
 
 import threading
@@ -56,21 +57,21 @@ def test_canopen_network_survives_the_hub_going_away_and_coming_back():
     net.subscribe(0x181, ev.on_frame)
     other = _client(port)
     try:
-        time.sleep(0.3)   # the hub's join grace
+        time.sleep(0.3)  # the hub's join grace
         other.send(can.Message(arbitration_id=0x181, data=b"\x01", is_extended_id=False))
         assert wait_for(lambda: (0x181, b"\x01") in ev.frames, 10)
 
-        hub.__exit__(None, None, None)            # the hub ends: every client's TCP stream is closed
+        hub.__exit__(None, None, None)  # the hub ends: every client's TCP stream is closed
         other.shutdown()
         assert wait_for(lambda: ev.changes[:1] and ev.changes[0][0] is False, 10), "outage not noticed"
-        for _ in range(5):                        # sends while down: dropped, counted, never raised
+        for _ in range(5):  # sends while down: dropped, counted, never raised
             net.send_message(0x701, b"\x05")
-        net.check()                               # the notifier thread did not die
+        net.check()  # the notifier thread did not die
         assert bus.stats.frames_dropped >= 5 and not bus.is_up
         attempts = bus.stats.attempts
         assert wait_for(lambda: bus.stats.attempts >= attempts + 2, 10), "no retries while the hub is away"
 
-        hub = HubThread(HubConfig(port=port, idle_timeout_s=0)).__enter__()   # back on the same port
+        hub = HubThread(HubConfig(port=port, idle_timeout_s=0)).__enter__()  # back on the same port
         assert wait_for(lambda: len(ev.changes) >= 2, 10), "the bus did not come back by itself"
         assert ev.changes[1][0] is True and bus.is_up
         other = _client(port)
@@ -100,11 +101,11 @@ def test_socketcan_link_state_from_sysfs(tmp_path):
     assert "does not exist" in link_down_reason(settings, tmp_path)
     d = tmp_path / "can7"
     d.mkdir()
-    (d / "flags").write_text("0x80\n")           # IFF_NOARP, not IFF_UP
+    (d / "flags").write_text("0x80\n")  # IFF_NOARP, not IFF_UP
     (d / "operstate").write_text("down\n")
     assert "is down" in link_down_reason(settings, tmp_path)
-    (d / "flags").write_text("0x81\n")           # up, carrier off (bus-off)
+    (d / "flags").write_text("0x81\n")  # up, carrier off (bus-off)
     assert "bus-off" in link_down_reason(settings, tmp_path)
-    (d / "operstate").write_text("unknown\n")    # vcan when up
+    (d / "operstate").write_text("unknown\n")  # vcan when up
     assert link_down_reason(settings, tmp_path) is None
     assert link_down_reason(TransportSettings("virtual", "x")) is None

@@ -1,5 +1,6 @@
 """``telethermo session`` as a user runs it (a real process): figures equal the offline runner's,
 bad input is refused with exit 2, Ctrl-C stops every child cleanly (exit 130, figures of what ran)."""
+
 from __future__ import annotations
 
 import json
@@ -24,10 +25,21 @@ def session(*args: str, **kw) -> subprocess.Popen:
     # a runtime dir of its own, so that the bus the session publishes never redirects this user's commands
     import os
     import tempfile
+
     kw.setdefault("env", dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-run-")))
-    return subprocess.Popen([sys.executable, "-c", "import sys; from telethermo.cli.main import main; sys.exit(main())",
-                             "session", *args],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **kw)
+    return subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from telethermo.cli.main import main; sys.exit(main())",
+            "session",
+            *args,
+        ],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kw,
+    )
 
 
 def processes_mentioning(text: str) -> list[int]:
@@ -57,13 +69,19 @@ def test_session_figures_equal_offline(tmp_path):
     assert "transparency" in out and "aluminium" in out
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["--scene", "no/such/scene.toml"], "no/such/scene.toml"),
-    (["--scene", str(SCENE), "--duration", "-1"], "--duration"),
-    (["--scene", str(SCENE), "--bus", "vcan0"], "INTERFACE:CHANNEL"),
-    (["--scene", str(SCENE), "-i", "kvasr", "-c", "0"], "unknown python-can interface 'kvasr'"),
-    (["--scene", str(SCENE), "-i", "virtual", "-c", "x"], "virtual:x (from -i/-c/-b) exists inside one process only"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["--scene", "no/such/scene.toml"], "no/such/scene.toml"),
+        (["--scene", str(SCENE), "--duration", "-1"], "--duration"),
+        (["--scene", str(SCENE), "--bus", "vcan0"], "INTERFACE:CHANNEL"),
+        (["--scene", str(SCENE), "-i", "kvasr", "-c", "0"], "unknown python-can interface 'kvasr'"),
+        (
+            ["--scene", str(SCENE), "-i", "virtual", "-c", "x"],
+            "virtual:x (from -i/-c/-b) exists inside one process only",
+        ),
+    ],
+)
 def test_bad_input_exit_2(tmp_path, args, fragment):
     p = session(*args, "--out", str(tmp_path))
     _, err = p.communicate(timeout=120)
@@ -72,25 +90,47 @@ def test_bad_input_exit_2(tmp_path, args, fragment):
 
 def test_ctrl_c_stops_everything_cleanly(tmp_path):
     import os
-    run_dir = tmp_path / "run"   # the session publishes its bus there (XDG_RUNTIME_DIR), removes it at the end
+
+    run_dir = tmp_path / "run"  # the session publishes its bus there (XDG_RUNTIME_DIR), removes it at the end
     run_dir.mkdir()
     state = run_dir / "telethermo" / "hub.json"
-    p = session("--scene", str(SCENE), "--out", str(tmp_path), "--timing", "realtime", "--quiet",
-                "--no-plot", env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
+    p = session(
+        "--scene",
+        str(SCENE),
+        "--out",
+        str(tmp_path),
+        "--timing",
+        "realtime",
+        "--quiet",
+        "--no-plot",
+        env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)),
+    )
     try:
-        assert wait_for(lambda: (tmp_path / "master.log").exists()
-                        and "OPERATIONAL" in (tmp_path / "master.log").read_text(), 120)
+        assert wait_for(
+            lambda: (
+                (tmp_path / "master.log").exists() and "OPERATIONAL" in (tmp_path / "master.log").read_text()
+            ),
+            120,
+        )
         doc = json.loads(state.read_text())
         assert doc["pid"] == p.pid and doc["by"] == "telethermo session"
         assert doc["bus"].startswith("socketcand://127.0.0.1:") and doc["bus"].endswith("/telethermo")
+
         # a second terminal's command finds the session's nodes with no bus flag
         # (the master reports OPERATIONAL before the slave's SDO server may answer: ask until it does)
         def get_slave():
-            return subprocess.run([sys.executable, "-m", "telethermo", "get", "slave", "Manufacturer device name"],
-                                  capture_output=True, text=True, timeout=60,
-                                  env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)))
+            return subprocess.run(
+                [sys.executable, "-m", "telethermo", "get", "slave", "Manufacturer device name"],
+                capture_output=True,
+                text=True,
+                timeout=60,
+                env=dict(os.environ, XDG_RUNTIME_DIR=str(run_dir)),
+            )
+
         answers = []
-        assert wait_for(lambda: answers.append(get_slave()) or answers[-1].returncode == 0, 60), answers[-1].stderr
+        assert wait_for(lambda: answers.append(get_slave()) or answers[-1].returncode == 0, 60), answers[
+            -1
+        ].stderr
         assert answers[-1].stderr == "", answers[-1].stderr
         time.sleep(2.0)  # let it run a while (real time, 100 Hz): what ran must be reported
         p.send_signal(signal.SIGINT)
@@ -99,8 +139,8 @@ def test_ctrl_c_stops_everything_cleanly(tmp_path):
         if p.poll() is None:
             p.kill()
     assert p.returncode == 130, err
-    assert processes_mentioning(str(tmp_path)) == []          # hub, master and slave are gone
-    assert not state.exists()                                  # and the published bus with them
+    assert processes_mentioning(str(tmp_path)) == []  # hub, master and slave are gone
+    assert not state.exists()  # and the published bus with them
     assert "stopped (SIGTERM)" in (tmp_path / "slave.log").read_text()
     assert "stopped (SIGTERM)" in (tmp_path / "master.log").read_text()
     fig = json.loads((tmp_path / "summary.json").read_text())  # the figures of what ran

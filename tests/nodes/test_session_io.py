@@ -4,6 +4,7 @@ runs as a user runs it; the test's own canopen client (RemoteNodes from bus_conf
 modules' heartbeats and TPDOs on the same hub and reads one of them by SDO while the session runs. The
 summary's headline is the direct-rig one within what the I/O path may cost (16-bit quantisation, at most one
 cycle): the issue's ratio <= 1.1."""
+
 from __future__ import annotations
 
 import collections
@@ -28,15 +29,16 @@ from telethermo.transport.hub import HubThread
 pytestmark = pytest.mark.slow  # starts processes
 
 SCENE = "probe_touches_al_steel_wood"
-DURATION_S = 2.5       # the aluminium touch at 1 s and its headline window (t_on - 0.5 .. t_on + 1 s)
+DURATION_S = 2.5  # the aluminium touch at 1 s and its headline window (t_on - 0.5 .. t_on + 1 s)
 CYCLES = 250
 OPERATIONAL = 0x05
 
 
 def test_four_node_session_on_io_modules(tmp_path):
     with HubThread() as hub:
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="vcan0", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0", tcp_tune=True)
+        )
         net.connect()
         frames: collections.Counter = collections.Counter()
         states: dict[int, list[int]] = {3: [], 4: []}
@@ -47,24 +49,44 @@ def test_four_node_session_on_io_modules(tmp_path):
                 frames[cob] += 1
                 if cob in (0x703, 0x704):
                     states[cob - 0x700].append(data[0])
+
         for cob in (0x183, 0x283, 0x184, 0x284, 0x203, 0x204, 0x703, 0x704):
             net.subscribe(cob, on_frame)
         nodes = {nid: net.add_node(nid, str(bus_config_path("io_module.eds"))) for nid in (3, 4)}
         env = dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-io-"))
-        p = subprocess.Popen([sys.executable, "-c", "import sys; from telethermo.cli.main import main; "
-                              "sys.exit(main())", "session", "--scene", SCENE, "--io", "--out", str(tmp_path),
-                              "--duration", str(DURATION_S), "--no-plot", "--quiet",
-                              "--bus", f"socketcand://127.0.0.1:{hub.port}/vcan0"],
-                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
+        p = subprocess.Popen(
+            [
+                sys.executable,
+                "-c",
+                "import sys; from telethermo.cli.main import main; sys.exit(main())",
+                "session",
+                "--scene",
+                SCENE,
+                "--io",
+                "--out",
+                str(tmp_path),
+                "--duration",
+                str(DURATION_S),
+                "--no-plot",
+                "--quiet",
+                "--bus",
+                f"socketcand://127.0.0.1:{hub.port}/vcan0",
+            ],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
         try:
             # while the session runs: both modules OPERATIONAL (their controllers started them), and the
             # master's module answers our SDO with what its controller commissioned
-            assert wait_for(lambda: p.poll() is not None or all(OPERATIONAL in s for s in states.values()),
-                            timeout_s=240), states
+            assert wait_for(
+                lambda: p.poll() is not None or all(OPERATIONAL in s for s in states.values()), timeout_s=240
+            ), states
             assert p.poll() is None, p.communicate()[1]
             nodes[3].sdo.RESPONSE_TIMEOUT = 2.0
-            assert nodes[3].sdo[0x2100].raw == 10                    # sampling period, ms
-            assert nodes[3].sdo[0x1016][1].raw >> 16 == 1            # watching the master's heartbeat
+            assert nodes[3].sdo[0x2100].raw == 10  # sampling period, ms
+            assert nodes[3].sdo[0x1016][1].raw >> 16 == 1  # watching the master's heartbeat
             out, err = p.communicate(timeout=300)
         finally:
             if p.poll() is None:
@@ -84,8 +106,10 @@ def test_four_node_session_on_io_modules(tmp_path):
     head_io = fig["transparency"]["headline_error_C"]
     direct = run_offline_session(SCENE, duration_s=DURATION_S, rounding="real32", seed=0).figures
     head_direct = direct["transparency"]["headline_error_C"]
-    print(f"headline via I/O modules {head_io:.4f} °C, direct rig {head_direct:.4f} °C, "
-          f"ratio {head_io / head_direct:.4f}")
+    print(
+        f"headline via I/O modules {head_io:.4f} °C, direct rig {head_direct:.4f} °C, "
+        f"ratio {head_io / head_direct:.4f}"
+    )
     assert 0.9 <= head_io / head_direct <= 1.1
     assert "transparency" in out and "aluminium" in out
     for name in ("io-master-truth.csv", "io-slave-truth.csv", "io-master.log", "io-slave.log"):
@@ -93,7 +117,7 @@ def test_four_node_session_on_io_modules(tmp_path):
 
 
 DETACH_AT_S = 5.0
-DETACH_CYCLES = 1500     # 15 s: the trip comes 7-9 s after the detachment (tests/control/test_detach.py)
+DETACH_CYCLES = 1500  # 15 s: the trip comes 7-9 s after the detachment (tests/control/test_detach.py)
 EMCY_SENSOR_DETACHED = 0x5014
 
 
@@ -104,8 +128,9 @@ def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
     scene = Path(__file__).resolve().parents[2] / "sim" / "scenes" / f"{SCENE}.toml"
     with HubThread() as hub:
         bus = f"socketcand://127.0.0.1:{hub.port}/vcan0"
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="vcan0", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0", tcp_tune=True)
+        )
         net.connect()
         seen: list[tuple[int, bytes]] = []
         lock = threading.Lock()
@@ -113,24 +138,37 @@ def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
         def on_frame(cob, data, ts):
             with lock:
                 seen.append((cob, bytes(data)))
+
         for cob in (0x81, 0x82, 0x203):
             net.subscribe(cob, on_frame)
-        pair = NodePair(PairConfig(scene=scene, out_dir=tmp_path, bus=bus, io=True, cycles=DETACH_CYCLES,
-                                   seed=0, io_faults={"master": [f"detach:{DETACH_AT_S:g}"]}))
+        pair = NodePair(
+            PairConfig(
+                scene=scene,
+                out_dir=tmp_path,
+                bus=bus,
+                io=True,
+                cycles=DETACH_CYCLES,
+                seed=0,
+                io_faults={"master": [f"detach:{DETACH_AT_S:g}"]},
+            )
+        )
         try:
             pair.start()
             assert pair.wait_master(timeout_s=600) == 0, pair.log("master-stderr").read_text()
         finally:
             pair.stop()
             net.disconnect()
-    emcys = [(i, int.from_bytes(d[:2], "little"), d[2]) for i, (c, d) in enumerate(seen)
-             if c == 0x81 and d[:2] != b"\0\0"]
+    emcys = [
+        (i, int.from_bytes(d[:2], "little"), d[2])
+        for i, (c, d) in enumerate(seen)
+        if c == 0x81 and d[:2] != b"\0\0"
+    ]
     detached = [(i, reg) for i, code, reg in emcys if code == EMCY_SENSOR_DETACHED]
-    assert len(detached) == 1 and detached[0][1] & 0x01, emcys   # once, with the generic error bit
+    assert len(detached) == 1 and detached[0][1] & 0x01, emcys  # once, with the generic error bit
     assert not [d for c, d in seen if c == 0x82 and int.from_bytes(d[:2], "little") == EMCY_SENSOR_DETACHED]
     first = detached[0][0]
     after = [d for i, (c, d) in enumerate(seen) if c == 0x203 and i > first]
-    assert len(after) > 50 and all(d == b"\0\0" for d in after[2:]), after[:5]   # the drive cut: 0 A
+    assert len(after) > 50 and all(d == b"\0\0" for d in after[2:]), after[:5]  # the drive cut: 0 A
     rec = read_recording_csv(tmp_path / "master.csv")
     t = rec.col("t_s")
     trips = [(float(t[i]), x) for i, x in enumerate(rec.text("m_new_trips")) if x]
@@ -139,10 +177,22 @@ def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
 
 
 def test_a_render_scene_with_io_is_refused(tmp_path):
-    p = subprocess.run([sys.executable, "-c",
-                        "import sys; from telethermo.cli.main import main; sys.exit(main())", "session",
-                        "--scene", "virtual_materials", "--io", "--out", str(tmp_path)],
-                       capture_output=True, text=True, timeout=120,
-                       env=dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-io-")))
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "import sys; from telethermo.cli.main import main; sys.exit(main())",
+            "session",
+            "--scene",
+            "virtual_materials",
+            "--io",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env=dict(os.environ, XDG_RUNTIME_DIR=tempfile.mkdtemp(prefix="tt-session-io-")),
+    )
     assert p.returncode == 2 and "--io:" in p.stderr and "virtual_materials.toml" in p.stderr
     assert "Traceback" not in p.stderr and not (tmp_path / "master.log").exists()

@@ -2,6 +2,7 @@
 canopen's own client (RemoteNode SDO, raw frames): NMT states gate the PDOs, SDO works where it
 must, reset gives a boot-up, malformed traffic is counted and ignored, NaN in a PDO trips the
 envelope (EMCY) and never reaches the current."""
+
 from __future__ import annotations
 
 import math
@@ -58,14 +59,21 @@ def slave(tmp_path):
     scene = ambient_start_scene(tmp_path)
     with HubThread() as hub:
         bus_text = f"socketcand://127.0.0.1:{hub.port}/telethermo"
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="telethermo", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(
+                interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo", tcp_tune=True
+            )
+        )
         net.connect()
         frames = Frames()
         net.notifier.add_listener(frames)
-        proc = subprocess.Popen(node_command("slave", "--bus", bus_text, "--scene", str(scene), "--log",
-                                             str(tmp_path / "slave.log")),
-                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        proc = subprocess.Popen(
+            node_command(
+                "slave", "--bus", bus_text, "--scene", str(scene), "--log", str(tmp_path / "slave.log")
+            ),
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+        )
         remote = canopen.RemoteNode(SLAVE, str(bus_config_path("slave.eds")))
         net.add_node(remote)
         try:
@@ -95,7 +103,7 @@ def reaches_state(frames, mark, state: int) -> bool:
 def test_nmt_gates_pdos_and_sdo(slave):
     net, remote, frames, _ = slave
     # PRE-OPERATIONAL after boot: SDO works, SYNC gives no PDO
-    assert remote.sdo["mode"].raw == 1          # telepresence (the program's default)
+    assert remote.sdo["mode"].raw == 1  # telepresence (the program's default)
     m = frames.mark()
     sync(net)
     sdo_fence(remote)
@@ -117,8 +125,8 @@ def test_nmt_gates_pdos_and_sdo(slave):
     assert reaches_state(frames, m0, 4)
     m = m0 = frames.mark()
     sync(net, 4)
-    net.send_message(0, bytes([0x80, SLAVE]))    # enter pre-operational
-    sdo_fence(remote)                           # answered in PRE-OPERATIONAL only
+    net.send_message(0, bytes([0x80, SLAVE]))  # enter pre-operational
+    sdo_fence(remote)  # answered in PRE-OPERATIONAL only
     assert not frames.since(m, 0x182)
     assert reaches_state(frames, m0, 127)
     # PRE-OPERATIONAL: SDO read and write (range-checked), no PDO
@@ -138,7 +146,7 @@ def test_nmt_gates_pdos_and_sdo(slave):
     assert wait_for(lambda: (0x702, b"\x00") in frames.since(m), 10)
     boot = m + frames.since(m).index((0x702, b"\x00"))
     assert reaches_state(frames, boot + 1, 127)
-    assert remote.sdo["mode"].raw == 1          # the program's power-on mode again (was set to 0 above)
+    assert remote.sdo["mode"].raw == 1  # the program's power-on mode again (was set to 0 above)
     assert remote.sdo["cycle_counter"].raw == 0
 
 
@@ -150,16 +158,16 @@ def test_malformed_traffic_is_counted_and_ignored(slave):
     malformed0 = remote.sdo["malformed_frames"].raw
     unknown0 = remote.sdo["unknown_cobid_frames"].raw
     m = frames.mark()
-    net.send_message(0x181, b"\x00\x00\x80")           # RPDO1 with 3 bytes instead of 8
-    net.send_message(0x80, b"\x01\x02")                # SYNC with 2 bytes
-    for i in range(300):                               # a burst of frames nobody on this network owns
+    net.send_message(0x181, b"\x00\x00\x80")  # RPDO1 with 3 bytes instead of 8
+    net.send_message(0x80, b"\x01\x02")  # SYNC with 2 bytes
+    for i in range(300):  # a burst of frames nobody on this network owns
         net.send_message(0x555, bytes([i & 0xFF]))
-    net.send_message(0x1ABCDE, b"\x01")                # an extended identifier
+    net.send_message(0x1ABCDE, b"\x01")  # an extended identifier
     sync(net, 7)
     sdo_fence(remote)
     assert remote.sdo["malformed_frames"].raw - malformed0 == 2
     assert remote.sdo["unknown_cobid_frames"].raw - unknown0 == 301
-    assert len(frames.since(m, 0x182)) == 1            # the node still answers the good SYNC
+    assert len(frames.since(m, 0x182)) == 1  # the node still answers the good SYNC
     emcy = [d for _, d in frames.since(m, 0x82)]
     assert any(int.from_bytes(d[:2], "little") == 0x8210 for d in emcy)  # PDO length error
 
@@ -170,7 +178,7 @@ def test_nan_in_a_pdo_trips_the_envelope_not_the_current(slave):
     net.send_message(0, bytes([0x01, SLAVE]))
     assert reaches_state(frames, m0, 5)
     T = 28.0
-    for c in range(1, 31):                             # a healthy peer: RPDO1 before each SYNC
+    for c in range(1, 31):  # a healthy peer: RPDO1 before each SYNC
         net.send_message(0x181, struct.pack("<ff", T, 0.1))
         sync(net, c)
     sdo_fence(remote)
@@ -181,12 +189,12 @@ def test_nan_in_a_pdo_trips_the_envelope_not_the_current(slave):
         net.send_message(0x181, struct.pack("<ff", math.nan, 0.1))
         sync(net, c)
     sdo_fence(remote)
-    assert math.isnan(remote.sdo["peer_estimate_C"].raw)   # the NaN reached the object dictionary ...
+    assert math.isnan(remote.sdo["peer_estimate_C"].raw)  # the NaN reached the object dictionary ...
     emcy = [int.from_bytes(d[:2], "little") for _, d in frames.since(m, 0x82) if len(d) == 8]
-    assert 0xFF02 in emcy                                # ... and tripped the envelope (PEER_INVALID)
-    assert 0x8210 not in emcy                            # no PDO length error: the PDO was processed
+    assert 0xFF02 in emcy  # ... and tripped the envelope (PEER_INVALID)
+    assert 0x8210 not in emcy  # no PDO length error: the PDO was processed
     assert remote.sdo["last_trip_code"].raw == 0xFF02
-    assert remote.sdo["safety_state"].raw in (2, 3)      # ramp to neutral / cut
+    assert remote.sdo["safety_state"].raw in (2, 3)  # ramp to neutral / cut
     current = remote.sdo["current_A"].raw
     assert math.isfinite(current) and abs(current) <= 0.8 * 2.0 * 1.5
     cmd = remote.sdo["T_cmd_C"].raw
@@ -203,23 +211,23 @@ def test_mode_by_sdo_changes_the_control_and_an_impossible_mode_is_refused(slave
 
     def cycles(n, start, T=40.0):
         for c in range(start, start + n):
-            net.send_message(0x181, struct.pack("<ff", T, 0.0))   # the master's finger: warm
+            net.send_message(0x181, struct.pack("<ff", T, 0.0))  # the master's finger: warm
             sync(net, (c % 240) + 1)
         sdo_fence(remote)
 
     cycles(60, 0)
     heating = remote.sdo["current_A"].raw
-    assert heating > 0.05                              # telepresence: tracking a warm finger heats
-    remote.sdo["mode"].raw = 0                         # IDLE
+    assert heating > 0.05  # telepresence: tracking a warm finger heats
+    remote.sdo["mode"].raw = 0  # IDLE
     cycles(60, 60)
-    assert remote.sdo["current_A"].raw == 0.0          # the idle ramp (4 A/s) has brought it to 0
+    assert remote.sdo["current_A"].raw == 0.0  # the idle ramp (4 A/s) has brought it to 0
     with pytest.raises(canopen.SdoAbortedError) as info:
-        remote.sdo["mode"].raw = 2                     # RENDER: the master's job, not the probe's
-    assert info.value.code == 0x08000022               # refused for the present device state ...
-    assert remote.sdo["mode"].raw == 0                 # ... before it was stored
+        remote.sdo["mode"].raw = 2  # RENDER: the master's job, not the probe's
+    assert info.value.code == 0x08000022  # refused for the present device state ...
+    assert remote.sdo["mode"].raw == 0  # ... before it was stored
     remote.sdo["mode"].raw = 1
     cycles(60, 120)
-    assert remote.sdo["current_A"].raw > 0.05          # back to telepresence, heating again
+    assert remote.sdo["current_A"].raw > 0.05  # back to telepresence, heating again
 
 
 def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_sync(slave):
@@ -234,16 +242,24 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
     net, remote, frames, _ = slave
     p = default_params(Role.SLAVE)
     i_max = sim.build_rig(sim.load_scene(SCENE), "slave", seed=1).I_max_A
-    f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0]   # noqa: E731
+    f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0]  # noqa: E731
     sdo = remote.sdo
-    for name, value in (("kp_A_per_C", p.kp_A_per_C), ("ki_A_per_C_s", p.ki_A_per_C_s), ("kQ_A_per_W", p.kQ_A_per_W),
-                        ("R_sensor_C_per_W", p.R_sensor_K_per_W), ("T_min_C", p.safety.T_min_C),
-                        ("T_max_C", p.safety.T_max_C), ("ramp_limit_C_per_s", p.safety.ramp_up_C_per_s),
-                        ("hot_threshold_C", p.safety.hot_C), ("neutral_C", p.safety.neutral_C),
-                        ("current_limit_A", p.safety.current_fraction * i_max), ("sink_trip_C", p.safety.sink_trip_C),
-                        ("mismatch_limit_C", p.safety.mismatch_C)):
+    for name, value in (
+        ("kp_A_per_C", p.kp_A_per_C),
+        ("ki_A_per_C_s", p.ki_A_per_C_s),
+        ("kQ_A_per_W", p.kQ_A_per_W),
+        ("R_sensor_C_per_W", p.R_sensor_K_per_W),
+        ("T_min_C", p.safety.T_min_C),
+        ("T_max_C", p.safety.T_max_C),
+        ("ramp_limit_C_per_s", p.safety.ramp_up_C_per_s),
+        ("hot_threshold_C", p.safety.hot_C),
+        ("neutral_C", p.safety.neutral_C),
+        ("current_limit_A", p.safety.current_fraction * i_max),
+        ("sink_trip_C", p.safety.sink_trip_C),
+        ("mismatch_limit_C", p.safety.mismatch_C),
+    ):
         assert sdo[name].raw == f32(value), name
-    assert sdo["estimator"].raw == 1 and sdo["mode"].raw == 1          # flux estimator, telepresence
+    assert sdo["estimator"].raw == 1 and sdo["mode"].raw == 1  # flux estimator, telepresence
 
     m0 = frames.mark()
     net.send_message(0, bytes([0x01, SLAVE]))
@@ -252,7 +268,7 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
 
     def cycle(T=40.0):
         counter[0] += 1
-        net.send_message(0x181, struct.pack("<ff", T, 0.0))     # the master's finger: warm
+        net.send_message(0x181, struct.pack("<ff", T, 0.0))  # the master's finger: warm
         sync(net, counter[0] % 240 + 1)
         sdo_fence(remote)
         return sdo["T_cmd_C"].raw, sdo["current_A"].raw
@@ -264,9 +280,9 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
     cmd, _ = cycle()
     assert cmd - prev == pytest.approx(p.safety.ramp_up_C_per_s * 0.01, abs=1e-4)
     sdo["ramp_limit_C_per_s"].raw = 1.0
-    assert sdo["T_cmd_C"].raw == cmd                              # no SYNC yet: nothing changed
+    assert sdo["T_cmd_C"].raw == cmd  # no SYNC yet: nothing changed
     nxt, _ = cycle()
-    assert nxt - cmd == pytest.approx(0.01, abs=1e-4)             # the very next SYNC ramps at 1 °C/s
+    assert nxt - cmd == pytest.approx(0.01, abs=1e-4)  # the very next SYNC ramps at 1 °C/s
     # gains: with kp at its maximum the current sits at the current limit from the next SYNC on
     _, cur = cycle()
     assert 0 < cur < 0.5 * p.safety.current_fraction * i_max
@@ -284,20 +300,26 @@ def test_the_od_shows_the_running_controller_and_writes_take_effect_at_the_next_
         assert sdo[name].raw == before
         return info.value.code
 
-    assert refused("estimator", 0) == 0x08000022       # the NARMA estimator needs a model: none loaded
+    assert refused("estimator", 0) == 0x08000022  # the NARMA estimator needs a model: none loaded
     assert refused("estimator", 2) == 0x08000022
-    assert refused("T_min_C", 33.0) == 0x06090030      # the neutral temperature (32 °C) would leave [T_min, T_max]
+    assert (
+        refused("T_min_C", 33.0) == 0x06090030
+    )  # the neutral temperature (32 °C) would leave [T_min, T_max]
     assert refused("mode", 2) == 0x08000022
     assert refused("current_limit_A", 0.0) == 0x06090030
     # reset node: the program's power-on parameters again (not the EDS placeholders)
     m = frames.mark()
     net.send_message(0, bytes([0x81, SLAVE]))
     assert wait_for(lambda: (0x702, b"\x00") in frames.since(m), 10)
-    assert sdo["kp_A_per_C"].raw == f32(p.kp_A_per_C) and sdo["ramp_limit_C_per_s"].raw == f32(p.safety.ramp_up_C_per_s)
+    assert sdo["kp_A_per_C"].raw == f32(p.kp_A_per_C) and sdo["ramp_limit_C_per_s"].raw == f32(
+        p.safety.ramp_up_C_per_s
+    )
     assert sdo["current_limit_A"].raw == f32(p.safety.current_fraction * i_max) and sdo["estimator"].raw == 1
 
 
-def test_after_the_peers_return_only_peer_trips_are_cleared_another_latched_trip_keeps_the_cut(slave, tmp_path):
+def test_after_the_peers_return_only_peer_trips_are_cleared_another_latched_trip_keeps_the_cut(
+    slave, tmp_path
+):
     """What an operator saw once (safety_state 3 after the peer came back, EMCY register 0x19): the peer
     trip is cleared on the peer's return only when it is the only trip; a temperature trip latched before
     keeps the cut (the node says so in its log) until an operator reset (NMT reset node)."""
@@ -319,14 +341,14 @@ def test_after_the_peers_return_only_peer_trips_are_cleared_another_latched_trip
     cycles(20)
     assert sdo["safety_state"].raw < 2
     m = frames.mark()
-    sdo["T_min_C"].raw = 28.0                  # the probe sits at ~25 °C: now below T_min - 2 °C
+    sdo["T_min_C"].raw = 28.0  # the probe sits at ~25 °C: now below T_min - 2 °C
     cycles(3)
-    assert sdo["last_trip_code"].raw == 0x4220 and sdo["safety_state"].raw == 3   # surface_low: cut
-    cycles(15, pdo=False)                      # the peer's PDOs stop: peer_lost on top
+    assert sdo["last_trip_code"].raw == 0x4220 and sdo["safety_state"].raw == 3  # surface_low: cut
+    cycles(15, pdo=False)  # the peer's PDOs stop: peer_lost on top
     emcy = [d for _, d in frames.since(m, 0x82) if len(d) == 8]
     lost = [d for d in emcy if int.from_bytes(d[:2], "little") == 0x8130]
     assert lost and lost[0][2] & 0x18 == 0x18  # register: temperature + communication (+ generic)
-    cycles(20)                                 # the peer is back
+    cycles(20)  # the peer is back
     assert sdo["safety_state"].raw == 3 and sdo["current_A"].raw == 0.0
     assert sdo["Error register"].raw & 0x08
     log = (tmp_path / "slave.log").read_text()
@@ -339,4 +361,4 @@ def test_after_the_peers_return_only_peer_trips_are_cleared_another_latched_trip
     assert reaches_state(frames, m0, 5)
     cycles(20)
     assert sdo["safety_state"].raw < 2 and sdo["Error register"].raw == 0
-    assert sdo["T_min_C"].raw == 0.0   # the probe's power-on clamp
+    assert sdo["T_min_C"].raw == 0.0  # the probe's power-on clamp

@@ -6,6 +6,7 @@ A gain written by SDO and saved reads back after a restart (with a communication
 the node ran); a store file that does not check is refused at boot in one line naming it, and the node
 runs on its defaults; restore-defaults brings the defaults back at the next reset and start; a wrong
 signature is refused with 0x08000020. `telethermo save` / `restore-defaults` do the same from the CLI."""
+
 from __future__ import annotations
 
 import json
@@ -30,7 +31,7 @@ ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "sim" / "scenes" / "free_pad_identification.toml"
 MODEL = ROOT / "telethermo" / "data" / "models" / "sim_tem.json"
 MASTER = 1
-SAVE, LOAD = b"save", b"load"   # CiA 301 signatures as sent: 0x65766173, 0x64616F6C little-endian
+SAVE, LOAD = b"save", b"load"  # CiA 301 signatures as sent: 0x65766173, 0x64616F6C little-endian
 
 
 def f32(x: float) -> float:
@@ -53,8 +54,11 @@ def rig(tmp_path):
     """A hub, a canopen client on it and a way to (re)start the master program with a --store file."""
     with HubThread() as hub:
         bus = f"socketcand://127.0.0.1:{hub.port}/telethermo"
-        net = canopen.Network(can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port,
-                                      channel="telethermo", tcp_tune=True))
+        net = canopen.Network(
+            can.Bus(
+                interface="socketcand", host="127.0.0.1", port=hub.port, channel="telethermo", tcp_tune=True
+            )
+        )
         net.connect()
         boots = Bootups()
         net.notifier.add_listener(boots)
@@ -72,10 +76,27 @@ def rig(tmp_path):
             def start(self, *extra: str) -> None:
                 n = boots.count
                 self.stderr.write_bytes(b"")
-                self.proc = subprocess.Popen(node_command(
-                    "master", "--bus", bus, "--scene", str(SCENE), "--no-sync", "--mode", "idle",
-                    "--cycles", "0", "--store", str(self.store), "--log", str(tmp_path / "m.log"), *extra),
-                    stdout=subprocess.DEVNULL, stderr=open(self.stderr, "wb"))
+                self.proc = subprocess.Popen(
+                    node_command(
+                        "master",
+                        "--bus",
+                        bus,
+                        "--scene",
+                        str(SCENE),
+                        "--no-sync",
+                        "--mode",
+                        "idle",
+                        "--cycles",
+                        "0",
+                        "--store",
+                        str(self.store),
+                        "--log",
+                        str(tmp_path / "m.log"),
+                        *extra,
+                    ),
+                    stdout=subprocess.DEVNULL,
+                    stderr=open(self.stderr, "wb"),
+                )
                 assert wait_for(lambda: boots.count > n or self.proc.poll() is not None, 60), "no boot-up"
                 assert self.proc.poll() is None, self.stderr.read_text()
 
@@ -102,22 +123,22 @@ def test_a_saved_gain_survives_a_restart_and_a_corrupted_store_is_refused(rig):
     rig.start("--model", str(MODEL))
     kp = rig.sdo["kp_A_per_C"]
     default_kp = kp.raw
-    assert rig.sdo[0x1010][1].raw == 1 and rig.sdo[0x1011][3].raw == 1   # capability: saves on command
+    assert rig.sdo[0x1010][1].raw == 1 and rig.sdo[0x1011][3].raw == 1  # capability: saves on command
     assert rig.sdo["store_state"].raw == 0 and not rig.store.exists()
     new_kp = f32(default_kp * 1.5 + 0.1)
     kp.raw = new_kp
     rig.sdo["T_max_C"].raw = 40.5
-    rig.sdo[0x1017].raw = 150                                            # a communication parameter
+    rig.sdo[0x1017].raw = 150  # a communication parameter
     crc = rig.sdo["model_crc32"].raw
     assert crc != 0
     rig.sdo.download(0x1010, 1, SAVE)
-    assert rig.sdo[0x1010][1].raw == 1                                    # reads its capability again
+    assert rig.sdo[0x1010][1].raw == 1  # reads its capability again
     assert rig.sdo["store_state"].raw == 3 and rig.sdo["store_file"].raw == str(rig.store)
     doc = json.loads(rig.store.read_text())
     assert doc["node_id"] == MASTER and doc["crc32"].startswith("0x")
     rig.stop()
 
-    rig.start()                                                           # no --model this time
+    rig.start()  # no --model this time
     assert rig.sdo["kp_A_per_C"].raw == new_kp
     assert rig.sdo["T_max_C"].raw == f32(40.5)
     assert rig.sdo[0x1017].raw == 150
@@ -125,7 +146,7 @@ def test_a_saved_gain_survives_a_restart_and_a_corrupted_store_is_refused(rig):
     assert rig.sdo["store_state"].raw == 1 and rig.sdo["store_saved_unix_s"].raw == int(doc["saved_unix_s"])
     rig.stop()
 
-    text = rig.store.read_text()                                          # damage one stored value
+    text = rig.store.read_text()  # damage one stored value
     rig.store.write_text(text.replace(json.dumps(new_kp), json.dumps(new_kp + 1.0), 1))
     assert rig.store.read_text() != text
     rig.start()
@@ -136,7 +157,7 @@ def test_a_saved_gain_survives_a_restart_and_a_corrupted_store_is_refused(rig):
     assert rig.sdo["model_status"].raw == 0 and rig.sdo["store_state"].raw == 2
     rig.stop()
 
-    rig.store.write_text(text[: len(text) // 2])                          # cut short: not JSON
+    rig.store.write_text(text[: len(text) // 2])  # cut short: not JSON
     rig.start()
     lines = [ln for ln in rig.stderr.read_text().splitlines() if "store" in ln]
     assert len(lines) == 1 and str(rig.store) in lines[0] and "not JSON" in lines[0], lines
@@ -148,13 +169,13 @@ def test_restore_defaults_takes_effect_at_the_next_reset_and_start(rig):
     kp = rig.sdo["kp_A_per_C"]
     default_kp = kp.raw
     kp.raw = f32(default_kp + 0.25)
-    rig.sdo.download(0x1010, 3, SAVE)                                     # application parameters only
-    rig.reset_node()                                                      # reset node restores the store
+    rig.sdo.download(0x1010, 3, SAVE)  # application parameters only
+    rig.reset_node()  # reset node restores the store
     assert rig.sdo["kp_A_per_C"].raw == f32(default_kp + 0.25)
     assert rig.sdo["store_state"].raw == 1
     rig.sdo.download(0x1011, 1, LOAD)
     assert rig.sdo[0x1011][1].raw == 1
-    assert rig.sdo["kp_A_per_C"].raw == f32(default_kp + 0.25)            # not before the next reset
+    assert rig.sdo["kp_A_per_C"].raw == f32(default_kp + 0.25)  # not before the next reset
     assert rig.sdo["store_state"].raw == 4 and not rig.store.exists()
     rig.reset_node()
     assert rig.sdo["kp_A_per_C"].raw == default_kp and rig.sdo["store_state"].raw == 0

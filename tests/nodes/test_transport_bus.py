@@ -1,11 +1,19 @@
 """The bus factory: settings from a table or a string, clear errors, and real buses opened by configuration."""
+
 from __future__ import annotations
 
 import can
 import pytest
 
-from telethermo.transport.bus import (TransportError, TransportSettings, bus_load, frame_bits, open_bus,
-                                      parse_bus_string, settings_from_mapping)
+from telethermo.transport.bus import (
+    TransportError,
+    TransportSettings,
+    bus_load,
+    frame_bits,
+    open_bus,
+    parse_bus_string,
+    settings_from_mapping,
+)
 from telethermo.transport.hub import HubThread
 
 
@@ -18,12 +26,15 @@ def test_parse_strings():
     assert parse_bus_string("socketcan:vcan0").describe() == "socketcan:vcan0"
 
 
-@pytest.mark.parametrize("text, fragment", [
-    ("vcan0", "INTERFACE:CHANNEL"),
-    ("socketcand://127.0.0.1/vcan0", "HOST:PORT"),
-    ("socketcand://127.0.0.1:x/vcan0", "not an integer"),
-    ("socketcand://127.0.0.1:70000/vcan0", "bus.port"),
-])
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("vcan0", "INTERFACE:CHANNEL"),
+        ("socketcand://127.0.0.1/vcan0", "HOST:PORT"),
+        ("socketcand://127.0.0.1:x/vcan0", "not an integer"),
+        ("socketcand://127.0.0.1:70000/vcan0", "bus.port"),
+    ],
+)
 def test_bad_strings_name_the_problem(text, fragment):
     with pytest.raises(TransportError, match=fragment) as info:
         parse_bus_string(text)
@@ -34,13 +45,21 @@ def test_table_errors_name_file_and_field():
     with pytest.raises(TransportError, match=r"network.toml: bus.channel: missing"):
         settings_from_mapping({"interface": "socketcan"}, "network.toml")
     with pytest.raises(TransportError, match=r"network.toml: bus.bitrate: expected an integer"):
-        settings_from_mapping({"interface": "socketcan", "channel": "vcan0", "bitrate": "fast"}, "network.toml")
+        settings_from_mapping(
+            {"interface": "socketcan", "channel": "vcan0", "bitrate": "fast"}, "network.toml"
+        )
     with pytest.raises(TransportError, match=r"network.toml: bus.hots: unknown field"):
         settings_from_mapping({"interface": "socketcan", "channel": "vcan0", "hots": "x"}, "network.toml")
     with pytest.raises(TransportError, match=r"bus.host: socketcand needs"):
         settings_from_mapping({"interface": "socketcand", "channel": "vcan0", "port": 1}, "network.toml")
-    s = settings_from_mapping({"interface": "socketcand", "channel": "vcan0",
-                               "options": {"host": "127.0.0.1", "port": 29536, "tcp_tune": True}}, "network.toml")
+    s = settings_from_mapping(
+        {
+            "interface": "socketcand",
+            "channel": "vcan0",
+            "options": {"host": "127.0.0.1", "port": 29536, "tcp_tune": True},
+        },
+        "network.toml",
+    )
     assert (s.host, s.port, dict(s.options)) == ("127.0.0.1", 29536, {"tcp_tune": True})
 
 
@@ -64,6 +83,7 @@ def test_open_virtual_bus_pair():
 
 def test_open_socketcand_pair_through_hub():
     import time
+
     with HubThread() as hub:
         s = parse_bus_string(f"socketcand://127.0.0.1:{hub.port}/vcan0")
         a, b = open_bus(s), open_bus(s)

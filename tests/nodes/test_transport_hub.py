@@ -1,4 +1,5 @@
 """The socketcand-protocol hub against python-can's own socketcand client (a client no one here wrote)."""
+
 from __future__ import annotations
 
 import os
@@ -45,9 +46,15 @@ def test_forwards_in_order_without_echo_and_losslessly():
         a, b, c = _client(hub.port), _client(hub.port), _client(hub.port)
         try:
             _settle(hub, 3)
-            sent = [can.Message(arbitration_id=0x180 + (i % 3), data=i.to_bytes(4, "little") + bytes([i % 256] * 4),
-                                is_extended_id=False) for i in range(2000)]
-            sent.append(can.Message(arbitration_id=0x80, data=b"", is_extended_id=False))          # DLC 0 (SYNC)
+            sent = [
+                can.Message(
+                    arbitration_id=0x180 + (i % 3),
+                    data=i.to_bytes(4, "little") + bytes([i % 256] * 4),
+                    is_extended_id=False,
+                )
+                for i in range(2000)
+            ]
+            sent.append(can.Message(arbitration_id=0x80, data=b"", is_extended_id=False))  # DLC 0 (SYNC)
             sent.append(can.Message(arbitration_id=0x1ABCDE12, data=b"\x01\x02", is_extended_id=True))
             for m in sent:
                 a.send(m)
@@ -55,8 +62,12 @@ def test_forwards_in_order_without_echo_and_losslessly():
                 got = _recv_all(rx, len(sent))
                 assert len(got) == len(sent)
                 for m, g in zip(sent, got):
-                    assert (g.arbitration_id, bytes(g.data), g.is_extended_id, g.dlc) == \
-                           (m.arbitration_id, bytes(m.data), m.is_extended_id, len(m.data))
+                    assert (g.arbitration_id, bytes(g.data), g.is_extended_id, g.dlc) == (
+                        m.arbitration_id,
+                        bytes(m.data),
+                        m.is_extended_id,
+                        len(m.data),
+                    )
             assert a.recv(0.3) is None  # no echo to the sender
             assert hub.hub.stats.frames_in == len(sent)
             assert hub.hub.stats.frames_out == 2 * len(sent)
@@ -103,12 +114,15 @@ def test_malformed_commands_are_counted_and_ignored():
             raw.sendall(b"< rawmode >")
             assert raw.recv(64) == b"< ok >"
             _settle(hub, 2)
-            bad = [b"< send 123 3 1 2 >",        # DLC says 3, two bytes
-                   b"< send 800 1 1 >",          # 11-bit ID out of range
-                   b"< send 12 1 1 >",           # ID neither 3 nor 8 digits
-                   b"< send 123 9 1 2 3 4 5 6 7 8 9 >",  # DLC 9
-                   b"< send 123 1 zz >",         # not hex
-                   b"< bogus >", b"garbage"]
+            bad = [
+                b"< send 123 3 1 2 >",  # DLC says 3, two bytes
+                b"< send 800 1 1 >",  # 11-bit ID out of range
+                b"< send 12 1 1 >",  # ID neither 3 nor 8 digits
+                b"< send 123 9 1 2 3 4 5 6 7 8 9 >",  # DLC 9
+                b"< send 123 1 zz >",  # not hex
+                b"< bogus >",
+                b"garbage",
+            ]
             raw.sendall(b"".join(bad) + b"< send 321 2 a b >")
             got = _recv_all(rx, 1)
             assert [(m.arbitration_id, bytes(m.data)) for m in got] == [(0x321, b"\x0a\x0b")]
@@ -129,14 +143,21 @@ def test_protocol_helpers():
 def test_refuses_non_loopback_address():
     with pytest.raises(ValueError, match="loopback"):
         HubConfig(host="0.0.0.0")
-    out = subprocess.run([sys.executable, "-m", "telethermo.transport.hub", "--host", "0.0.0.0"],
-                         capture_output=True, text=True, timeout=60)
+    out = subprocess.run(
+        [sys.executable, "-m", "telethermo.transport.hub", "--host", "0.0.0.0"],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert out.returncode == 2 and "loopback" in out.stderr
 
 
 def _start_hub_process(*extra: str) -> tuple[subprocess.Popen, int]:
-    proc = subprocess.Popen([sys.executable, "-m", "telethermo.transport.hub", "--port", "0", *extra],
-                            stdout=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "telethermo.transport.hub", "--port", "0", *extra],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     line = proc.stdout.readline()
     assert line.startswith("telethermo-hub listening on 127.0.0.1:"), line
     return proc, int(line.rsplit(":", 1)[1])
@@ -161,8 +182,10 @@ def test_hub_process_serves_two_clients_and_stops_when_idle():
 
 def test_hub_process_stops_when_its_parent_ends():
     # a parent that starts the hub, prints the hub's pid and exits
-    code = ("import subprocess, sys; p = subprocess.Popen([sys.executable, '-m', 'telethermo.transport.hub', "
-            "'--idle-timeout', '0'], stdout=subprocess.DEVNULL); print(p.pid, flush=True)")
+    code = (
+        "import subprocess, sys; p = subprocess.Popen([sys.executable, '-m', 'telethermo.transport.hub', "
+        "'--idle-timeout', '0'], stdout=subprocess.DEVNULL); print(p.pid, flush=True)"
+    )
     parent = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     pid = int(parent.stdout.strip())
     deadline = time.monotonic() + 30

@@ -1,5 +1,6 @@
 """Both node programs as separate OS processes over our socketcand hub, in lockstep: the recorded
 trajectories equal the offline runner's with REAL32-rounded exchange."""
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -47,10 +48,12 @@ def test_trajectories_equal_offline_runner_with_real32_exchange(hub_session):
     off = run_offline_session(SCENE, duration_s=CYCLES * 0.01, rounding="real32", seed=0).recording
     assert len(off) == CYCLES
     compared = 0
-    np.testing.assert_array_equal(rec.col("sync_cycle"), np.arange(CYCLES))   # one row per SYNC, numbered alike
+    np.testing.assert_array_equal(
+        rec.col("sync_cycle"), np.arange(CYCLES)
+    )  # one row per SYNC, numbered alike
     for c in rec.columns:
         if c == "sync_cycle":
-            continue   # the nodes' own column: the offline runner has none
+            continue  # the nodes' own column: the offline runner has none
         if c in TEXT_COLUMNS:
             assert rec.text(c) == off.text(c), c
             continue
@@ -70,8 +73,8 @@ def test_exchange_is_real32_rounded_and_one_cycle_late(hub_session):
     out, _, _ = hub_session
     rec = merge_recordings(out / "master.csv", out / "slave.csv")
     for me, peer in (("m", "s"), ("s", "m")):
-        got = rec.col(f"{me}_peer_estimate_C")[1:]       # received at SYNC k ...
-        sent = rec.col(f"{peer}_estimate_C")[:-1]        # ... what the peer sent at SYNC k-1
+        got = rec.col(f"{me}_peer_estimate_C")[1:]  # received at SYNC k ...
+        sent = rec.col(f"{peer}_estimate_C")[:-1]  # ... what the peer sent at SYNC k-1
         assert np.array_equal(got, got.astype(np.float32).astype(float))  # REAL32 values
         np.testing.assert_array_equal(got, sent.astype(np.float32).astype(float))
         err = np.abs(got - sent)
@@ -94,23 +97,30 @@ def test_a_stalled_slave_is_waited_for_and_stays_in_step(tmp_path):
     from telethermo.nodes.launch import wait_for
 
     net = tmp_path / "network.toml"
-    net.write_text(f'[bus]\ninterface = "virtual"\nchannel = "x"\n[sync]\nperiod_s = 0.01\n'
-                   f'[heartbeat]\nproducer_ms = 100\nconsumer_ms = 1000\n'
-                   f'[nodes.master]\neds = "{bc("master.eds")}"\n[nodes.slave]\neds = "{bc("slave.eds")}"\n')
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, cycles=400, seed=0, network=net, progress_every=10))
+    net.write_text(
+        f'[bus]\ninterface = "virtual"\nchannel = "x"\n[sync]\nperiod_s = 0.01\n'
+        f"[heartbeat]\nproducer_ms = 100\nconsumer_ms = 1000\n"
+        f'[nodes.master]\neds = "{bc("master.eds")}"\n[nodes.slave]\neds = "{bc("slave.eds")}"\n'
+    )
+    pair = NodePair(
+        PairConfig(scene=SCENE, out_dir=tmp_path, cycles=400, seed=0, network=net, progress_every=10)
+    )
     with pair:
         assert wait_for(lambda: pair.progress[0] >= 100, 120)
         os.kill(pair.slave.pid, signal.SIGSTOP)
         k_stop = pair.progress[0]
-        time.sleep(0.7)                       # > 500 ms lockstep wait, < 1000 ms consumer time
+        time.sleep(0.7)  # > 500 ms lockstep wait, < 1000 ms consumer time
         k_cont = pair.progress[0]
         os.kill(pair.slave.pid, signal.SIGCONT)
         assert pair.wait_master(timeout_s=180) == 0
     pair.stop()
-    assert k_cont - k_stop <= 20                      # the master did not run on without its peer
+    assert k_cont - k_stop <= 20  # the master did not run on without its peer
     assert pair.result["lockstep_timeouts"] == 0
     assert pair.result["peer"]["losses"] == 0
     rec = merge_recordings(tmp_path / "master.csv", tmp_path / "slave.csv")
-    got, sent = rec.col("m_peer_estimate_C")[1:], rec.col("s_estimate_C")[:-1].astype(np.float32).astype(float)
-    assert np.array_equal(got, sent)                  # every cycle in step
+    got, sent = (
+        rec.col("m_peer_estimate_C")[1:],
+        rec.col("s_estimate_C")[:-1].astype(np.float32).astype(float),
+    )
+    assert np.array_equal(got, sent)  # every cycle in step
     assert not any("peer_lost" in t for t in rec.text("m_new_trips"))

@@ -1,6 +1,7 @@
 """The remote-node client (telethermo.remote) against a real CiA 301 device (telethermo.device.Device
 over canopen's LocalNode, from the shipped master EDS) on a python-can virtual bus: SDO by EDS name, the
 local range check, the node's refusals and silence, the TPDO remapping and its restoration, heartbeats."""
+
 from __future__ import annotations
 
 import itertools
@@ -57,7 +58,7 @@ def test_out_of_range_is_refused_locally_and_nothing_is_sent(bus):
     with pytest.raises(UserError, match="out of range"):
         c.set("kp_A_per_C", 500.0)
     assert dev.read("kp_A_per_C") == before
-    with pytest.raises(UserError, match="kp_A_per_"):   # an unknown name: suggestions
+    with pytest.raises(UserError, match="kp_A_per_"):  # an unknown name: suggestions
         c.info("kp")
 
 
@@ -65,7 +66,7 @@ def test_a_refusal_carries_the_abort_code_and_a_silent_node_says_so(bus):
     nw, _, target, _ = bus
     c = NodeClient(nw, target, timeout_s=1.0)
     with pytest.raises(Refused) as e:
-        c.write(c.info("T_sensor_C"), 1.0)            # read-only: the node refuses, not the client
+        c.write(c.info("T_sensor_C"), 1.0)  # read-only: the node refuses, not the client
     assert e.value.code == 0x06010002 and "0x06010002" in str(e.value)
     silent = NodeClient(nw, Target("nobody", 5, target.eds), timeout_s=0.1)
     with pytest.raises(Failure, match="did not answer"):
@@ -76,9 +77,17 @@ def test_writes_follow_cia301_remapping_order():
     saved = pdo.TpdoSettings(0x1801, 0x1A01, 0x281, 10, (0x20000020, 0x20020020))
     new = pdo.remapped(saved, [0x28070020, 0x20010020], transmission_type=1)
     assert pdo.configure_writes(new) == [
-        (0x1801, 1, 0x281 | pdo.PDO_INVALID), (0x1A01, 0, 0), (0x1A01, 1, 0x28070020), (0x1A01, 2, 0x20010020),
-        (0x1A01, 0, 2), (0x1801, 2, 1), (0x1801, 1, 0x281)]
-    assert pdo.remapped(pdo.TpdoSettings(0x1801, 0x1A01, 0x281 | pdo.PDO_INVALID, 10, ()), [], 1).cob_id == 0x281
+        (0x1801, 1, 0x281 | pdo.PDO_INVALID),
+        (0x1A01, 0, 0),
+        (0x1A01, 1, 0x28070020),
+        (0x1A01, 2, 0x20010020),
+        (0x1A01, 0, 2),
+        (0x1801, 2, 1),
+        (0x1801, 1, 0x281),
+    ]
+    assert (
+        pdo.remapped(pdo.TpdoSettings(0x1801, 0x1A01, 0x281 | pdo.PDO_INVALID, 10, ()), [], 1).cob_id == 0x281
+    )
 
 
 def test_a_tpdo_remapped_on_the_node_and_put_back(bus):
@@ -86,8 +95,9 @@ def test_a_tpdo_remapped_on_the_node_and_put_back(bus):
     c = NodeClient(nw, target, timeout_s=1.0)
     saved = pdo.read_tpdo(c, 0x1801, 0x1A01)
     pdo.configure(c, pdo.remapped(saved, [0x28070020, 0x20000020], transmission_type=1))
-    assert pdo.read_tpdo(c, 0x1801, 0x1A01) == pdo.TpdoSettings(0x1801, 0x1A01, saved.cob_id & ~pdo.PDO_INVALID, 1,
-                                                                 (0x28070020, 0x20000020))
+    assert pdo.read_tpdo(c, 0x1801, 0x1A01) == pdo.TpdoSettings(
+        0x1801, 0x1A01, saved.cob_id & ~pdo.PDO_INVALID, 1, (0x28070020, 0x20000020)
+    )
     pdo.configure(c, saved)
     assert pdo.read_tpdo(c, 0x1801, 0x1A01) == saved
     assert dev.read((0x1A01, 0)) == len(saved.entries)

@@ -37,14 +37,17 @@ def test_the_identified_maximum_cooling_current_matches_the_physics(seebeck_x, R
     identified model's local input gain: within -35 %/+10 % (the sink's Joule heating lowers the real peak,
     so the estimate errs on the cold side), or no finding where the peak lies far beyond the drive."""
     sc, _ = condition_scene(base_condition())
-    tem = dataclasses.replace(sc.rig_params.tem, alpha_V_K=sc.rig_params.tem.alpha_V_K * seebeck_x,
-                              R_ohm=sc.rig_params.tem.R_ohm * R_x)
+    tem = dataclasses.replace(
+        sc.rig_params.tem,
+        alpha_V_K=sc.rig_params.tem.alpha_V_K * seebeck_x,
+        R_ohm=sc.rig_params.tem.R_ohm * R_x,
+    )
     rp = sc.rig_params.with_(tem=tem)
     rig = sim.free_pad_rig(period_s=sc.period_s, ambient_C=25.0, seed=3, params=rp)
     model, _ = identify_rig(rig, seed=3)
     est = max_cooling_current_A(model)
     phys = _physical_i_star(tem, 25.0)
-    if phys > 8.0:   # far beyond any drive of the envelope (6 A): a finding is welcome, not required
+    if phys > 8.0:  # far beyond any drive of the envelope (6 A): a finding is welcome, not required
         assert est > 3.0
     else:
         assert 0.65 * phys <= est <= 1.10 * phys, (est, phys)
@@ -56,8 +59,8 @@ def test_the_envelope_never_lets_more_cooling_through_than_the_module_can_use():
     i, active = limit_current(lim, st, -3.0, 30.0, 30.0)
     assert i == pytest.approx(-0.7) and "current_limit" in active
     i, _ = limit_current(lim, st, 6.0, 30.0, 30.0)
-    assert i == pytest.approx(4.0)   # heating keeps the whole 0.8·I_max: Peltier and Joule heat add
-    assert SafetyLimits().I_cool_limit_A == SafetyLimits().I_limit_A   # unknown: no extra limit
+    assert i == pytest.approx(4.0)  # heating keeps the whole 0.8·I_max: Peltier and Joule heat add
+    assert SafetyLimits().I_cool_limit_A == SafetyLimits().I_limit_A  # unknown: no extra limit
     with pytest.raises(ValueError, match="cooling_limit_A"):
         SafetyLimits(cooling_limit_A=0.0)
 
@@ -88,14 +91,14 @@ def test_the_node_holds_the_cooling_limit_of_its_model():
 
 
 def test_the_flux_guard_tapers_the_current_that_pushes_the_flux_towards_its_plausibility_limit():
-    lim = SafetyLimits(I_max_A=5.0)   # Q_abs_max_W 30 W: the taper runs from 24 W to 28.5 W
+    lim = SafetyLimits(I_max_A=5.0)  # Q_abs_max_W 30 W: the taper runs from 24 W to 28.5 W
     st = EnvelopeState(setpoint_C=30.0)
     assert limit_current(lim, st, 3.0, 30.0, 30.0, Q_W=20.0)[0] == pytest.approx(3.0)
     i, active = limit_current(lim, st, 3.0, 30.0, 30.0, Q_W=26.25)
-    assert i == pytest.approx(2.0) and "guard" in active        # half way through the taper: half of 4 A
+    assert i == pytest.approx(2.0) and "guard" in active  # half way through the taper: half of 4 A
     assert limit_current(lim, st, 3.0, 30.0, 30.0, Q_W=29.0)[0] == 0.0
     assert limit_current(lim, st, -3.0, 30.0, 30.0, Q_W=29.0)[0] == pytest.approx(-3.0)  # pulling back passes
-    assert limit_current(lim, st, -3.0, 30.0, 30.0, Q_W=-29.0)[0] == 0.0                # and the mirror case
+    assert limit_current(lim, st, -3.0, 30.0, 30.0, Q_W=-29.0)[0] == 0.0  # and the mirror case
 
 
 @pytest.mark.slow
@@ -104,7 +107,16 @@ def test_a_big_probe_on_a_cold_metal_block_saturates_below_the_flux_trip():
     bring it to the finger's 26 °C, drew more than the 30 W flux plausibility limit and cut the session
     (slave sensor_range at 6.1 s). With the flux guard: no trip, no cut."""
     base = dataclasses.asdict(base_condition())
-    base.update(index=48, materials=("copper", "brass", "oak"), object_T_C=5.9, ambient_C=16.2, delay_ms=31.0,
-                probe_force_N=14.0, s_seebeck_x=2.2, s_R_x=1.0, s_I_max_A=5.5)
+    base.update(
+        index=48,
+        materials=("copper", "brass", "oak"),
+        object_T_C=5.9,
+        ambient_C=16.2,
+        delay_ms=31.0,
+        probe_force_N=14.0,
+        s_seebeck_x=2.2,
+        s_R_x=1.0,
+        s_I_max_A=5.5,
+    )
     r = run_condition(Condition(**base), with_pads=False)
     assert r["trips"] == [] and not r["session_long_cut"], r["trips"]

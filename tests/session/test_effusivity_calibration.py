@@ -1,4 +1,5 @@
 """Relative effusivity from a simulated contact profile, and the per-user finger calibration session."""
+
 import numpy as np
 import pytest
 
@@ -14,8 +15,13 @@ from telethermo.sim.pair import ContactPair  # noqa: E402
 def test_beta_from_simulated_finger_object_profiles(mat):
     """Yamamoto §III-B on the simulator's layered, perfused finger: drop/rise = b_object/b_skin."""
     A = 2.25e-4
-    pair = ContactPair(finger_segment(FingerParams(), A, 0.01), 33.0, slab("obj", material(mat), 0.02, A, 0.01, 1.3, 4.0),
-                       25.0, A)
+    pair = ContactPair(
+        finger_segment(FingerParams(), A, 0.01),
+        33.0,
+        slab("obj", material(mat), 0.02, A, 0.01, 1.3, 4.0),
+        25.0,
+        A,
+    )
     t, Tf, To = list(np.arange(-0.3, 0.0, 0.01)), [33.0] * 30, [25.0] * 30
     for _ in range(150):
         pair.advance(0.01)
@@ -28,6 +34,7 @@ def test_beta_from_simulated_finger_object_profiles(mat):
 
 def test_finger_calibration_on_the_simulated_display():
     from telethermo.offline.calibration import calibrate_finger_offline
+
     cal, rec = calibrate_finger_offline(presets_C=(28.0, 38.0, 29.0, 37.0))
     assert cal.n_touches == 4
     # eq. 1 explains the four touches to < 0.15 °C with one beta_pad (the pad with its current held)

@@ -1,4 +1,5 @@
 """Figures computed from a recording with known errors, and the CSV format round trip."""
+
 import math
 import os
 import stat
@@ -7,13 +8,21 @@ import numpy as np
 import pytest
 
 from telethermo.atomic import write_text_atomic
-from telethermo.offline import (RecordingBuilder, RecordingError, compute_figures, read_recording_csv,
-                                write_recording_csv)
+from telethermo.offline import (
+    RecordingBuilder,
+    RecordingError,
+    compute_figures,
+    read_recording_csv,
+    write_recording_csv,
+)
 from telethermo.offline.transparency import transparency_figures
 
 DT = 0.01
-CONTACTS = [dict(t_on_s=1.0, t_off_s=4.0, object="aluminium"), dict(t_on_s=5.0, t_off_s=8.0, object="steel"),
-            dict(t_on_s=9.0, t_off_s=12.0, object="wood")]
+CONTACTS = [
+    dict(t_on_s=1.0, t_off_s=4.0, object="aluminium"),
+    dict(t_on_s=5.0, t_off_s=8.0, object="steel"),
+    dict(t_on_s=9.0, t_off_s=12.0, object="wood"),
+]
 REF = {"aluminium": 25.6, "steel": 26.9, "wood": 30.1}
 
 
@@ -37,18 +46,33 @@ def make(offset_early=0.2, offset_late=0.05, rendered_shift=None):
             lim = "ramp|current_limit"
         if k == 700:
             trips = "peer_invalid"
-        b.add({"t_s": t, "m_true_surface_C": surf, "ref_T_contact_C": ref, "ref_Q_into_finger_W": q_ref,
-               "m_true_Q_W": q_ref + 0.1, "m_true_Q_into_body_W": q_ref + 0.1, "ref_touching": touching, "m_target_C": 30.0 + 0.1 * math.sin(7 * t),
-               "m_feedback_C": 30.0, "s_target_C": 30.0, "s_feedback_C": 30.0, "m_limits": lim, "m_new_trips": trips,
-               "m_safety_state": 3 if 700 <= k < 720 else 0, "s_safety_state": 0})
+        b.add(
+            {
+                "t_s": t,
+                "m_true_surface_C": surf,
+                "ref_T_contact_C": ref,
+                "ref_Q_into_finger_W": q_ref,
+                "m_true_Q_W": q_ref + 0.1,
+                "m_true_Q_into_body_W": q_ref + 0.1,
+                "ref_touching": touching,
+                "m_target_C": 30.0 + 0.1 * math.sin(7 * t),
+                "m_feedback_C": 30.0,
+                "s_target_C": 30.0,
+                "s_feedback_C": 30.0,
+                "m_limits": lim,
+                "m_new_trips": trips,
+                "m_safety_state": 3 if 700 <= k < 720 else 0,
+                "s_safety_state": 0,
+            }
+        )
     return b.build()
 
 
 def test_transparency_errors_per_phase():
     f = compute_figures(make())
     tr = f["transparency"]
-    assert tr["early_mean_error_C"] == pytest.approx(0.2, abs=1e-9)      # 0-1 s
-    assert tr["early01_mean_error_C"] == pytest.approx(0.2, abs=1e-9)    # 0.1-1 s
+    assert tr["early_mean_error_C"] == pytest.approx(0.2, abs=1e-9)  # 0-1 s
+    assert tr["early01_mean_error_C"] == pytest.approx(0.2, abs=1e-9)  # 0.1-1 s
     assert tr["late_mean_error_C"] == pytest.approx(0.05, abs=1e-9)
     assert tr["pre_contact_mean_error_C"] == pytest.approx(0.0, abs=1e-9)
     # the window [t_on - 0.5 s, t_on + 1 s): 50 samples at 0, 100 at 0.2 °C
@@ -79,8 +103,9 @@ def test_a_null_display_scores_its_closed_form():
         # a pad that draws nothing conveys no cue: the cue order cannot be kept
         assert all(p["cue_J"] == 0.0 for p in f["per_touch"]) and not f["cue"]["order_kept"]
     # holding the finger's temperature before the touches scores 0 before and the full drop after
-    f = transparency_figures(t, np.full_like(t, 33.0), ref, np.zeros_like(t), rec.col("ref_Q_into_finger_W"),
-                             CONTACTS)
+    f = transparency_figures(
+        t, np.full_like(t, 33.0), ref, np.zeros_like(t), rec.col("ref_Q_into_finger_W"), CONTACTS
+    )
     for p in f["per_touch"]:
         assert p["pre_C"] == 0.0 and p["early_C"] == pytest.approx(33.0 - REF[p["object"]], abs=1e-9)
 
@@ -135,7 +160,9 @@ def test_bad_csv_names_file_line_and_column(tmp_path):
     lines[5] = ",".join(row)
     bad = tmp_path / "bad.csv"
     bad.write_text("\n".join(lines))
-    with pytest.raises(RecordingError, match=r"bad\.csv: line 6: column 'm_Q_W': expected a number, got 'abc'"):
+    with pytest.raises(
+        RecordingError, match=r"bad\.csv: line 6: column 'm_Q_W': expected a number, got 'abc'"
+    ):
         read_recording_csv(bad)
     (tmp_path / "x.csv").write_text("t_s\n1\n")
     with pytest.raises(RecordingError, match=r"x\.csv: line 1: expected '# telethermo-recording 1'"):
@@ -144,6 +171,7 @@ def test_bad_csv_names_file_line_and_column(tmp_path):
 
 def test_plot_is_a_png(tmp_path):
     from telethermo.offline.plot import write_session_png
+
     p = write_session_png(tmp_path / "s.png", make())
     assert p.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and p.stat().st_size > 10_000
 

@@ -4,6 +4,7 @@ Figures are physics (truth of the simulator, direct-touch reference): air render
 material cue's order, the envelope; the figures against the optimal-current bound and the null displays
 are measured by bench/transparency_bench.py (docs/control.md), not asserted here.
 """
+
 import json
 
 import numpy as np
@@ -34,7 +35,7 @@ def test_guiatni_air_rendering_keeps_the_finger_natural(guiatni):
     pre = t < 1.0
     skin, ref = rec.col("m_true_surface_C")[pre], rec.col("ref_T_contact_C")[pre]
     assert np.max(np.abs(skin - ref)) <= 0.02
-    q = rec.col("m_true_Q_into_body_W")[pre]          # > 0 heats the finger
+    q = rec.col("m_true_Q_into_body_W")[pre]  # > 0 heats the finger
     air_loss_W = 15.0 * 0.015 * 0.015 * (ref[0] - 25.0)  # h·A·(T_skin − T_air): what air would draw
     assert np.all(np.abs(q) <= 0.02 + air_loss_W)
     assert np.all(np.abs(q + air_loss_W) <= 0.02)
@@ -44,9 +45,11 @@ def test_guiatni_figures_are_the_honest_ones(guiatni):
     tr = guiatni.figures["transparency"]
     assert len(tr["per_touch"]) == 6 and len(tr["per_contact"]) == 6
     # the headline is the mean of the per-touch window errors; early (0-1 s) includes the first 0.1 s
-    assert tr["headline_error_C"] == pytest.approx(np.mean([p["window_C"] for p in tr["per_touch"]]), abs=1e-12)
+    assert tr["headline_error_C"] == pytest.approx(
+        np.mean([p["window_C"] for p in tr["per_touch"]]), abs=1e-12
+    )
     for p in tr["per_touch"]:
-        w = (0.5 * p["pre_C"] + 1.0 * p["early_C"]) / 1.5   # equal sample weights in the 1.5 s window
+        w = (0.5 * p["pre_C"] + 1.0 * p["early_C"]) / 1.5  # equal sample weights in the 1.5 s window
         assert p["window_C"] == pytest.approx(w, abs=0.01)
     assert guiatni.figures["tracking"]["internal"]
 
@@ -59,7 +62,7 @@ def test_guiatni_material_cue_order_kept(guiatni):
     assert cue["order_kept"]
     per = guiatni.figures["transparency"]["per_touch"]
     for p in per:
-        assert p["cue_J"] > 0 and p["direct_cue_J"] > 0        # every touch draws heat from the finger
+        assert p["cue_J"] > 0 and p["direct_cue_J"] > 0  # every touch draws heat from the finger
     wood = [p["cue_J"] for p in per if p["object"] == "wood"]
     metal = [p["cue_J"] for p in per if p["object"] != "wood"]
     assert max(wood) < min(metal)
@@ -84,7 +87,9 @@ def test_yamamoto_render_within_0p2_of_eq1(yamamoto, i, material):
     beta = load_render_table()[material]
     assert pt["beta"] == beta
     # the pre-set is eq. 7 with Table 1's beta, the finger as measured before the touch
-    assert pt["T_pad0_C"] == pytest.approx(pad_preset_temperature(pt["T_finger0_used_C"], 26.0, beta, 2.23), abs=1e-9)
+    assert pt["T_pad0_C"] == pytest.approx(
+        pad_preset_temperature(pt["T_finger0_used_C"], 26.0, beta, 2.23), abs=1e-9
+    )
     # rendered contact temperature (the skin, simulator truth), 0.1-1 s after contact, vs eq. 1 with the
     # skin's true temperature before the touch
     assert abs(pt["early_mean_error_C"]) <= 0.2

@@ -1,5 +1,6 @@
 """The one recording writer: the offline runner's write_recording_csv goes through the nodes' journaled
 CsvRecorder, and the file is the documented format, byte for byte."""
+
 from __future__ import annotations
 
 import math
@@ -14,19 +15,27 @@ from telethermo.offline.recording_journal import journal_path, recover_journal
 
 
 def _rec() -> Recording:
-    return Recording(meta={"scene": "s", "period_s": 0.01},
-                     columns={"t_s": np.array([0.0, 0.01]), "m_T_sensor_C": np.array([33.0, 33.125]),
-                              "m_contact": np.array([0.0, 1.0]), "m_Q_W": np.array([math.nan, -0.1]),
-                              "m_limits": ["", "ramp|guard"]})
+    return Recording(
+        meta={"scene": "s", "period_s": 0.01},
+        columns={
+            "t_s": np.array([0.0, 0.01]),
+            "m_T_sensor_C": np.array([33.0, 33.125]),
+            "m_contact": np.array([0.0, 1.0]),
+            "m_Q_W": np.array([math.nan, -0.1]),
+            "m_limits": ["", "ramp|guard"],
+        },
+    )
 
 
 def test_the_offline_writer_writes_the_documented_format(tmp_path):
     p = write_recording_csv(tmp_path / "r.csv", _rec())
-    assert p.read_bytes() == (b'# telethermo-recording 1\n'
-                              b'# meta {"period_s": 0.01, "scene": "s"}\n'
-                              b't_s,m_T_sensor_C,m_contact,m_Q_W,m_limits\n'
-                              b'0,33,0,nan,\n'
-                              b'0.01,33.125,1,-0.1,ramp|guard\n')
+    assert p.read_bytes() == (
+        b"# telethermo-recording 1\n"
+        b'# meta {"period_s": 0.01, "scene": "s"}\n'
+        b"t_s,m_T_sensor_C,m_contact,m_Q_W,m_limits\n"
+        b"0,33,0,nan,\n"
+        b"0.01,33.125,1,-0.1,ramp|guard\n"
+    )
     assert not journal_path(p).exists()
     back = read_recording_csv(p)
     assert back.text("m_limits") == ["", "ramp|guard"] and back.col("m_T_sensor_C")[1] == 33.125
@@ -50,12 +59,13 @@ def test_a_recovered_recording_gets_the_mode_of_a_new_file(tmp_path, umask):
     old = os.umask(umask)
     try:
         recovered = recover_journal(tmp_path / "slave.csv")
-        journal_path(tmp_path / "r.csv").write_text("# telethermo-recording 1\n# meta {}\nt_s\n0.5\n0.6",
-                                                    encoding="utf-8")
+        journal_path(tmp_path / "r.csv").write_text(
+            "# telethermo-recording 1\n# meta {}\nt_s\n0.5\n0.6", encoding="utf-8"
+        )
         written = write_recording_csv(tmp_path / "r.csv", _rec())
     finally:
         os.umask(old)
-    assert read_recording_csv(recovered).col("t_s").tolist() == [0.5, 0.6]      # the torn 0.7 dropped
+    assert read_recording_csv(recovered).col("t_s").tolist() == [0.5, 0.6]  # the torn 0.7 dropped
     killed = [f for f in tmp_path.iterdir() if ".killed-" in f.name]
     for f in (recovered, written, *killed):
         assert stat.S_IMODE(f.stat().st_mode) == 0o666 & ~umask, f.name

@@ -1,4 +1,5 @@
 """The conduction core against closed forms: semi-infinite contact (perfect and finite h), erf profiles."""
+
 from __future__ import annotations
 
 import math
@@ -8,7 +9,11 @@ import pytest
 from scipy.special import erf
 
 from telethermo.sim import bodies as B
-from telethermo.sim.closed_forms import contact_temperature_C, semi_infinite_flux_W_m2, surface_temperatures_finite_h_C
+from telethermo.sim.closed_forms import (
+    contact_temperature_C,
+    semi_infinite_flux_W_m2,
+    surface_temperatures_finite_h_C,
+)
 from telethermo.sim.contact import contact_resistance_m2K_W
 from telethermo.sim.materials import materials
 from telethermo.sim.pair import ContactPair
@@ -23,8 +28,15 @@ T_OBJECTS_C = [10.0, 25.0, 45.0]
 def semi_infinite(name: str, grid: GridSettings = GridSettings()) -> B.Segment:
     """A slab of the default grid, deep enough (8·√(a·2 s)) to be semi-infinite for 2 s."""
     m = materials()[name]
-    return B.slab(name, m, 8.0 * math.sqrt(m.diffusivity_m2_s * 2.0), A_M2, grid.t_min_s, grid.ratio,
-                  grid.cells_per_length)
+    return B.slab(
+        name,
+        m,
+        8.0 * math.sqrt(m.diffusivity_m2_s * 2.0),
+        A_M2,
+        grid.t_min_s,
+        grid.ratio,
+        grid.cells_per_length,
+    )
 
 
 def run(pair: ContactPair, t_end: float = 2.0, dt: float = 0.01):
@@ -71,7 +83,7 @@ def test_interior_profile_is_erf(name):
         pair.advance(0.01)
     Tc = contact_temperature_C(skin.b, T_FINGER_C, mat.b, 10.0)
     exact = Tc + (10.0 - Tc) * erf(b.x_m / (2.0 * np.sqrt(mat.diffusivity_m2_s * pair.t_s)))
-    got = pair.x[a.n: a.n + b.n]
+    got = pair.x[a.n : a.n + b.n]
     assert np.max(np.abs(got - exact)) <= 0.05
 
 
@@ -102,10 +114,10 @@ def test_force_law_drives_the_contact(force_N):
     """Contact through the force law equals the closed form with h = 1/R''(F), at 2, 8 and 20 N: the
     conductance keeps rising with force and stays finite (never perfect)."""
     R = contact_resistance_m2K_W(force_N)
-    assert R == pytest.approx(5e-4 / force_N ** 2)
+    assert R == pytest.approx(5e-4 / force_N**2)
     assert 0.0 < R < math.inf and math.isinf(contact_resistance_m2K_W(0.0))
     forces = np.linspace(0.2, 20.0, 60)
-    assert np.all(np.diff([contact_resistance_m2K_W(f) for f in forces]) < 0)    # more force, less resistance
+    assert np.all(np.diff([contact_resistance_m2K_W(f) for f in forces]) < 0)  # more force, less resistance
     skin, mat = materials()["skin"], materials()["aluminium"]
     pair = ContactPair(semi_infinite("skin"), 33.0, semi_infinite("aluminium"), 10.0, A_M2, R)
     worst = 0.0
@@ -119,7 +131,11 @@ def test_two_eight_and_twenty_newtons_differ():
     """The skin's surface 20 ms into a touch of aluminium differs between 2, 8 and 20 N by more than the
     closed form's tolerance, in the order of the force (more force: closer to eq. 1's contact temperature)."""
     skin, mat = materials()["skin"], materials()["aluminium"]
-    s = [surface_temperatures_finite_h_C(skin.b, 33.0, mat.b, 10.0, 1.0 / contact_resistance_m2K_W(f), 0.002)[0]
-         for f in (2.0, 8.0, 20.0)]
+    s = [
+        surface_temperatures_finite_h_C(skin.b, 33.0, mat.b, 10.0, 1.0 / contact_resistance_m2K_W(f), 0.002)[
+            0
+        ]
+        for f in (2.0, 8.0, 20.0)
+    ]
     Tc = contact_temperature_C(skin.b, 33.0, mat.b, 10.0)
     assert s[0] > s[1] + 0.05 and s[1] > s[2] + 0.05 and s[2] > Tc

@@ -1,4 +1,5 @@
 """Materials table and relative effusivities against yamamoto Table 1 (see docs/sim.md for the discussion)."""
+
 from __future__ import annotations
 
 import math
@@ -9,8 +10,20 @@ from telethermo import sim
 from telethermo.sim.materials import materials
 from tests.sim.conftest import make_scene, perfect_contact
 
-REQUIRED = ["skin", "eps", "oak", "pvc", "glass", "ceramic", "alumina", "stainless_steel", "carbon_steel", "brass",
-            "aluminium", "copper"]
+REQUIRED = [
+    "skin",
+    "eps",
+    "oak",
+    "pvc",
+    "glass",
+    "ceramic",
+    "alumina",
+    "stainless_steel",
+    "carbon_steel",
+    "brass",
+    "aluminium",
+    "copper",
+]
 YAMAMOTO_TABLE1 = {"eps": 0.043, "oak": 0.74, "ceramic": 2.23, "brass": 5.60}
 
 
@@ -43,13 +56,18 @@ def test_simulated_finger_shows_its_skin_effusivity_early(name):
     simulated layered, perfused finger touching each material at 6 N, gives b_material/b_skin at 50 ms."""
     m, bf = materials(), materials()["skin"].b
     # the contact's own resistance removed, as yamamoto's grease did (the force law is tested in test_closed_forms)
-    scene = perfect_contact(make_scene(slave=[(0.5, 2.0, "o", 6.0)], objects={"o": {"material": name,
-                                       "thickness_mm": 20.0, "T0_C": 25.0}}, duration=2.0))
+    scene = perfect_contact(
+        make_scene(
+            slave=[(0.5, 2.0, "o", 6.0)],
+            objects={"o": {"material": name, "thickness_mm": 20.0, "T0_C": 25.0}},
+            duration=2.0,
+        )
+    )
     ref = sim.build_reference(scene)
     while ref.t_s < 0.495:
         ref.advance(0.005)
     T_f0 = ref.T_contact_C
-    assert 32.0 <= T_f0 <= 34.0                    # the finger's own steady surface temperature in air
+    assert 32.0 <= T_f0 <= 34.0  # the finger's own steady surface temperature in air
     while ref.t_s < 0.55 - 1e-9:
         ref.advance(0.005)
     Tc = ref.T_contact_C

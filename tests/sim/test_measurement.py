@@ -1,4 +1,5 @@
 """Measurement chain: filter response, noise statistics, quantisation, determinism."""
+
 from __future__ import annotations
 
 import math
@@ -15,9 +16,9 @@ def test_filter_is_2nd_order_butterworth_at_the_cutoff():
     b, a = butter2_lowpass(5.0, 100.0)
     w, h = freqz(b, (1.0, *a), worN=[0.0, 5.0, 20.0, 40.0], fs=100.0)
     mag = np.abs(h)
-    assert mag[0] == pytest.approx(1.0, abs=1e-12)                      # unity DC gain
-    assert 20 * math.log10(mag[1]) == pytest.approx(-3.01, abs=0.05)    # −3 dB at the cutoff
-    assert 20 * math.log10(mag[2]) < -22.0                               # ≈ −40 dB/decade beyond
+    assert mag[0] == pytest.approx(1.0, abs=1e-12)  # unity DC gain
+    assert 20 * math.log10(mag[1]) == pytest.approx(-3.01, abs=0.05)  # −3 dB at the cutoff
+    assert 20 * math.log10(mag[2]) < -22.0  # ≈ −40 dB/decade beyond
     assert 20 * math.log10(mag[3]) < 20 * math.log10(mag[2]) - 8.0
 
 
@@ -26,12 +27,12 @@ def test_filter_starts_at_rest_and_tracks_a_step():
     assert [f(25.0) for _ in range(5)] == pytest.approx([25.0] * 5, abs=1e-12)
     ys = [f(30.0) for _ in range(100)]
     assert ys[-1] == pytest.approx(30.0, abs=1e-6)
-    assert max(ys) < 30.0 + 0.05 * 5.0          # Butterworth overshoot ≈ 4 %
+    assert max(ys) < 30.0 + 0.05 * 5.0  # Butterworth overshoot ≈ 4 %
 
 
 def test_noise_level_and_quantisation():
     rng = np.random.default_rng(0)
-    ch = Channel(0.05, 0.01, 0.0, 100.0, rng)   # no filter: see the raw noise
+    ch = Channel(0.05, 0.01, 0.0, 100.0, rng)  # no filter: see the raw noise
     xs = np.array([ch(20.0) for _ in range(20000)])
     assert xs.std() == pytest.approx(0.05, rel=0.05)
     assert xs.mean() == pytest.approx(20.0, abs=0.002)
@@ -57,5 +58,6 @@ def test_same_seed_same_samples_other_seed_other_noise():
             r.advance(0.01)
             out.append((r.read().T_sensor_C, r.read().Q_W))
         return out
+
     assert samples(7) == samples(7)
     assert samples(7) != samples(8)

@@ -1,4 +1,5 @@
 """Property tests on random scenes: no NaN, physically bounded temperatures, determinism with a seed."""
+
 from __future__ import annotations
 
 import math
@@ -9,7 +10,18 @@ from hypothesis import given, settings, strategies as st, HealthCheck
 from telethermo import sim
 from tests.sim.conftest import make_scene
 
-MATERIALS = ["eps", "oak", "pvc", "glass", "ceramic", "stainless_steel", "carbon_steel", "brass", "aluminium", "copper"]
+MATERIALS = [
+    "eps",
+    "oak",
+    "pvc",
+    "glass",
+    "ceramic",
+    "stainless_steel",
+    "carbon_steel",
+    "brass",
+    "aluminium",
+    "copper",
+]
 
 
 @st.composite
@@ -17,15 +29,19 @@ def scenes(draw):
     n_obj = draw(st.integers(1, 3))
     objects = {}
     for k in range(n_obj):
-        objects[f"o{k}"] = {"material": draw(st.sampled_from(MATERIALS)),
-                            "thickness_mm": draw(st.floats(0.05, 40.0)),
-                            "T0_C": draw(st.floats(5.0, 45.0)),
-                            "back": draw(st.sampled_from(["adiabatic", "ambient"]))}
+        objects[f"o{k}"] = {
+            "material": draw(st.sampled_from(MATERIALS)),
+            "thickness_mm": draw(st.floats(0.05, 40.0)),
+            "T0_C": draw(st.floats(5.0, 45.0)),
+            "back": draw(st.sampled_from(["adiabatic", "ambient"])),
+        }
     t, slave = 0.0, []
     for _ in range(draw(st.integers(0, 4))):
         t += draw(st.floats(0.0, 0.4))
         d = draw(st.floats(0.013, 0.5))
-        slave.append((round(t, 3), round(t + d, 3), draw(st.sampled_from(sorted(objects))), draw(st.floats(0.1, 12.0))))
+        slave.append(
+            (round(t, 3), round(t + d, 3), draw(st.sampled_from(sorted(objects))), draw(st.floats(0.1, 12.0)))
+        )
         t = round(t + d, 3) + 0.001
     duration = max(t, 0.5) + 0.2
     mode = draw(st.sampled_from(["always", "none", "intermittent"]))
@@ -33,7 +49,7 @@ def scenes(draw):
         master = [(0.0, duration, "finger", draw(st.floats(0.5, 10.0)))]
     elif mode == "none":
         master = []
-    else:                                   # the finger lifts and touches again (attach/detach of the finger)
+    else:  # the finger lifts and touches again (attach/detach of the finger)
         master, tm = [], 0.0
         while True:
             tm += draw(st.floats(0.0, 0.3))
@@ -44,8 +60,16 @@ def scenes(draw):
             tm = round(tm + d, 3) + 0.001
     ambient = draw(st.floats(15.0, 35.0))
     period = draw(st.sampled_from([0.001, 0.005, 0.01, 0.02]))
-    return make_scene(master=master, slave=slave, objects=objects, kind="telepresence", duration=duration,
-                      period=period, ambient=ambient, noise={"seed": 1})
+    return make_scene(
+        master=master,
+        slave=slave,
+        objects=objects,
+        kind="telepresence",
+        duration=duration,
+        period=period,
+        ambient=ambient,
+        noise={"seed": 1},
+    )
 
 
 def run(scene, role, currents, seed=5):
@@ -72,13 +96,16 @@ def test_no_current_obeys_the_maximum_principle(scene, role):
             assert lo <= T <= hi
         assert math.isnan(T_surf) or lo <= T_surf <= hi
         assert math.isfinite(T_sensor) and math.isfinite(Q)
-        assert lo - 0.2 <= T_sensor <= hi + 0.2           # noise 0.02 °C, filtered
+        assert lo - 0.2 <= T_sensor <= hi + 0.2  # noise 0.02 °C, filtered
     assert np.all(np.isfinite(rig.x))
 
 
 @settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
-@given(scene=scenes(), role=st.sampled_from(["master", "slave"]),
-       currents=st.lists(st.floats(-3.0, 3.0), min_size=1, max_size=8))
+@given(
+    scene=scenes(),
+    role=st.sampled_from(["master", "slave"]),
+    currents=st.lists(st.floats(-3.0, 3.0), min_size=1, max_size=8),
+)
 def test_random_currents_stay_finite_bounded_and_deterministic(scene, role, currents):
     rig, out = run(scene, role, currents)
     for row in out:

@@ -1,4 +1,5 @@
 """Rig behaviour: interface, contact detection, exact events, pruning, grid convergence, reference."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -38,8 +39,8 @@ def test_contact_detector_follows_force_not_schedule_peeking():
         touching.append(rig.truth().touching)
     t = np.arange(1, 101) * 0.01
     on = (t >= 0.2 - 1e-9) & (t < 0.5 - 1e-9)
-    assert flags == list(on)                                  # 0.2 N (light touch) is below the 0.3 N threshold
-    assert touching[75] == "al" and not flags[75]             # ... yet the light touch is real and conducts
+    assert flags == list(on)  # 0.2 N (light touch) is below the 0.3 N threshold
+    assert touching[75] == "al" and not flags[75]  # ... yet the light touch is real and conducts
 
 
 def test_make_and_break_inside_a_step_are_exact():
@@ -54,7 +55,7 @@ def test_make_and_break_inside_a_step_are_exact():
     assert ta.t_s == pytest.approx(0.6) and tb.t_s == pytest.approx(0.6)
     assert ta.T_sensor_true_C == pytest.approx(tb.T_sensor_true_C, abs=1e-9)
     assert ta.Q_true_W == pytest.approx(tb.Q_true_W, abs=1e-9)
-    assert ta.T_sensor_true_C < 24.9       # the cold aluminium did cool the pad
+    assert ta.T_sensor_true_C < 24.9  # the cold aluminium did cool the pad
 
 
 def test_step_size_convergence_with_current():
@@ -69,8 +70,11 @@ def test_step_size_convergence_with_current():
         a.advance(0.01)
         for _ in range(10):
             b.advance(0.001)
-        worst = max(worst, abs(a.truth().T_sensor_true_C - b.truth().T_sensor_true_C),
-                    abs(a.truth().T_pad_C - b.truth().T_pad_C))
+        worst = max(
+            worst,
+            abs(a.truth().T_sensor_true_C - b.truth().T_sensor_true_C),
+            abs(a.truth().T_pad_C - b.truth().T_pad_C),
+        )
     assert worst < 1e-3
 
 
@@ -93,7 +97,7 @@ def test_pruning_does_not_change_the_result():
         full_rig = sim.build_rig(scene, role, noise=False, prune=False)
         full = drive(full_rig, 1200)
         assert np.allclose(pruned, full, atol=1e-8, equal_nan=True)
-        assert len(full_rig.bodies) == 4                       # finger + 3 objects, all integrated
+        assert len(full_rig.bodies) == 4  # finger + 3 objects, all integrated
     rep = sim.build_rig(scene, "slave").pruning_report()
     assert any("finger: not modelled" in r for r in rep)
     assert sum("integrated only while touching" in r for r in rep) == 3
@@ -118,7 +122,9 @@ def test_default_grid_is_within_005_C_of_a_refined_grid():
     # settled starts (the probe at the finger's 33.6 °C making contact with 25 °C aluminium) the make contrast
     # is 8.6 K on the slave too; with the finite contact at 8 N (sim/contact.py) the default grid's largest error
     # is 0.060 °C, within 0.065
-    scene = dataclasses.replace(sim.load_scene("probe_touches_al_steel_wood"), master_start=None, slave_start=None)
+    scene = dataclasses.replace(
+        sim.load_scene("probe_touches_al_steel_wood"), master_start=None, slave_start=None
+    )
     fine = GridSettings(t_min_s=scene.period_s / 8, ratio=1.1, cells_per_length=8.0)
     for role in ("master", "slave"):
         a = drive(sim.build_rig(scene, role, noise=False), 1000)
@@ -127,7 +133,7 @@ def test_default_grid_is_within_005_C_of_a_refined_grid():
 
 
 def test_reference_first_contact_matches_the_effusivity_mix():
-    scene = perfect_contact(make_scene(slave=[(1.0, 4.0, "al", 8.0)], objects=AL, duration=4.0))   # eq. 1
+    scene = perfect_contact(make_scene(slave=[(1.0, 4.0, "al", 8.0)], objects=AL, duration=4.0))  # eq. 1
     ref = sim.build_reference(scene)
     while ref.t_s < 0.985:
         ref.advance(0.01)
@@ -139,19 +145,20 @@ def test_reference_first_contact_matches_the_effusivity_mix():
         ref.advance(0.01)
         assert ref.touching == "al"
         assert ref.T_contact_C == pytest.approx(Tc, abs=0.1)
-        assert ref.Q_finger_W > 0                          # warm finger loses heat into cold aluminium
+        assert ref.Q_finger_W > 0  # warm finger loses heat into cold aluminium
 
 
 def test_master_finger_and_slave_object_heat_flow_signs():
-    scene = make_scene(master=[(0.0, 2.0, "finger", 8.0)], slave=[(0.0, 2.0, "al", 8.0)], objects=AL,
-                       duration=2.0)
+    scene = make_scene(
+        master=[(0.0, 2.0, "finger", 8.0)], slave=[(0.0, 2.0, "al", 8.0)], objects=AL, duration=2.0
+    )
     m, s = sim.build_rig(scene, "master", noise=False), sim.build_rig(scene, "slave", noise=False)
     for _ in range(50):
         m.advance(0.01)
         s.advance(0.01)
     assert m.truth().touching == "finger" and 25.0 < m.truth().T_surface_C < 34.0
-    assert m.read().Q_W < 0                                 # warm finger on a 25 °C pad: heat into the pad
-    assert s.read().Q_W > 0                                 # 25 °C pad on 20 °C aluminium: heat out of the pad
+    assert m.read().Q_W < 0  # warm finger on a 25 °C pad: heat into the pad
+    assert s.read().Q_W > 0  # 25 °C pad on 20 °C aluminium: heat out of the pad
     assert m.read().contact and s.read().contact
 
 
@@ -161,13 +168,14 @@ def test_finger_starts_at_its_own_steady_state():
     T0 = ref.T_contact_C
     assert 32.0 <= T0 <= 34.0
     for _ in range(20):
-        ref.advance(2.0)                     # 40 s in air: nothing moves
+        ref.advance(2.0)  # 40 s in air: nothing moves
     assert ref.T_contact_C == pytest.approx(T0, abs=1e-9)
 
 
 def test_perfusion_rewarms_the_finger_after_a_cold_touch():
     """Pennes perfusion (blood at 37 °C) brings the skin back faster than conduction alone."""
     from telethermo.sim.bodies import FingerParams
+
     cold = {"al": {"material": "aluminium", "thickness_mm": 20.0, "T0_C": 10.0}}
     base = FingerParams()
     still = FingerParams(layers=tuple((m, t, 0.0) for m, t, _ in base.layers))
@@ -182,5 +190,5 @@ def test_perfusion_rewarms_the_finger_after_a_cold_touch():
         T_release = ref.T_contact_C
         while ref.t_s < 25.0 - 1e-9:
             ref.advance(0.05)
-        recovered[label] = (ref.T_contact_C - T_release) / (T0 - T_release)   # fraction of the deficit made up
+        recovered[label] = (ref.T_contact_C - T_release) / (T0 - T_release)  # fraction of the deficit made up
     assert 0.0 < recovered["bloodless"] < recovered["perfused"] < 1.0

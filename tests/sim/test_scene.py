@@ -1,4 +1,5 @@
 """Scenes: the shipped ones load and say what the issue asks; malformed ones fail clearly."""
+
 from __future__ import annotations
 
 import pytest
@@ -61,18 +62,21 @@ force_N = 6.0
 """
 
 
-@pytest.mark.parametrize("mutation, field, expected", [
-    (("duration_s = 10.0", "duration_s = -1.0"), "scene.duration_s", "a number in"),
-    (("duration_s = 10.0", 'duration_s = "ten"'), "scene.duration_s", "a finite number"),
-    (('kind = "telepresence"', 'kind = "holodeck"'), "scene.kind", "one of telepresence, virtual"),
-    (('material = "aluminium"', 'material = "unobtainium"'), "objects.al.material", "a known material"),
-    (("thickness_mm = 10.0", "thickness_mm = 0.0"), "objects.al.thickness_mm", "a number in"),
-    (('object = "al"', 'object = "cu"'), "slave.contacts[0].object", "one of the scene's objects"),
-    (("end_s = 4.0", "end_s = 0.5"), "slave.contacts[0].end_s", "a time after start_s"),
-    (("force_N = 6.0", "force_N = 0.0"), "slave.contacts[0].force_N", "a number in"),
-    (("[scene]", "[scenery]"), "scenery", "a known field"),
-    (("[scene]", "[scene]\nname = 3"), "scene.name", "a non-empty string"),
-])
+@pytest.mark.parametrize(
+    "mutation, field, expected",
+    [
+        (("duration_s = 10.0", "duration_s = -1.0"), "scene.duration_s", "a number in"),
+        (("duration_s = 10.0", 'duration_s = "ten"'), "scene.duration_s", "a finite number"),
+        (('kind = "telepresence"', 'kind = "holodeck"'), "scene.kind", "one of telepresence, virtual"),
+        (('material = "aluminium"', 'material = "unobtainium"'), "objects.al.material", "a known material"),
+        (("thickness_mm = 10.0", "thickness_mm = 0.0"), "objects.al.thickness_mm", "a number in"),
+        (('object = "al"', 'object = "cu"'), "slave.contacts[0].object", "one of the scene's objects"),
+        (("end_s = 4.0", "end_s = 0.5"), "slave.contacts[0].end_s", "a time after start_s"),
+        (("force_N = 6.0", "force_N = 0.0"), "slave.contacts[0].force_N", "a number in"),
+        (("[scene]", "[scenery]"), "scenery", "a known field"),
+        (("[scene]", "[scene]\nname = 3"), "scene.name", "a non-empty string"),
+    ],
+)
 def test_malformed_scene_names_file_field_and_expectation(tmp_path, mutation, field, expected):
     p = write(tmp_path, BASE.replace(*mutation))
     with pytest.raises(SceneError) as ei:
@@ -83,7 +87,9 @@ def test_malformed_scene_names_file_field_and_expectation(tmp_path, mutation, fi
 
 
 def test_overlapping_contacts_and_bad_toml(tmp_path):
-    p = write(tmp_path, BASE + "[[slave.contacts]]\nstart_s = 3.0\nend_s = 5.0\nobject = \"al\"\nforce_N = 6.0\n")
+    p = write(
+        tmp_path, BASE + '[[slave.contacts]]\nstart_s = 3.0\nend_s = 5.0\nobject = "al"\nforce_N = 6.0\n'
+    )
     with pytest.raises(SceneError, match="slave.contacts.*non-overlapping"):
         sim.load_scene(p)
     p = write(tmp_path, "[scene\nduration_s = 1")
@@ -112,11 +118,14 @@ def test_tolerance_picks_the_grid(tmp_path):
         sim.load_scene(p)
 
 
-@pytest.mark.parametrize("mutation, field", [
-    (("duration_s = 10.0", "duration_s = 10.0\nduraton = 3"), "scene.duraton"),
-    (("thickness_mm = 10.0", "thickness_mm = 10.0\nthickness = 3"), "objects.al.thickness"),
-    (("force_N = 6.0", "force_N = 6.0\nforce = 3"), "slave.contacts[0].force"),
-])
+@pytest.mark.parametrize(
+    "mutation, field",
+    [
+        (("duration_s = 10.0", "duration_s = 10.0\nduraton = 3"), "scene.duraton"),
+        (("thickness_mm = 10.0", "thickness_mm = 10.0\nthickness = 3"), "objects.al.thickness"),
+        (("force_N = 6.0", "force_N = 6.0\nforce = 3"), "slave.contacts[0].force"),
+    ],
+)
 def test_unknown_fields_are_refused_not_ignored(tmp_path, mutation, field):
     p = write(tmp_path, BASE.replace(*mutation))
     with pytest.raises(SceneError) as ei:

@@ -1,5 +1,6 @@
 """A scene's [tem] section and ``telethermo identify --tem``: the module round-trips, per-couple values
 scale, the module really drives the rig, and bad values give one line naming the file, field and expectation."""
+
 from __future__ import annotations
 
 import dataclasses
@@ -22,6 +23,7 @@ duration_s = 1.0
 def toml_table(name: str, d: dict) -> str:
     def val(v):
         return str(v).lower() if isinstance(v, bool) else repr(v)
+
     return f"[{name}]\n" + "".join(f"{k} = {val(v)}\n" for k, v in d.items())
 
 
@@ -34,12 +36,19 @@ def write_scene(tmp_path, tem: dict) -> str:
 def test_the_default_module_round_trips_through_a_scene(tmp_path):
     default = load_rig_params()
     sc = sim.load_scene(write_scene(tmp_path, tem_section(default.tem)))
-    assert sc.rig_params == default   # every TEM field and the rest of the rig unchanged
+    assert sc.rig_params == default  # every TEM field and the rest of the rig unchanged
 
 
 def test_per_couple_values_scale_with_the_couples_and_the_module_drives_the_rig(tmp_path):
-    tem = {"couples": 71, "seebeck_per_couple_V_K": 4.0e-4, "R_per_couple_ohm": 0.025, "K_per_couple_W_K": 0.0015,
-           "plate_C_J_K": 1.1, "Imax_A": 6.0, "thomson_V_K": 0.0}
+    tem = {
+        "couples": 71,
+        "seebeck_per_couple_V_K": 4.0e-4,
+        "R_per_couple_ohm": 0.025,
+        "K_per_couple_W_K": 0.0015,
+        "plate_C_J_K": 1.1,
+        "Imax_A": 6.0,
+        "thomson_V_K": 0.0,
+    }
     sc = sim.load_scene(write_scene(tmp_path, tem))
     t = sc.rig_params.tem
     assert (t.alpha_V_K, t.R_ohm, t.K_W_K) == pytest.approx((71 * 4.0e-4, 71 * 0.025, 71 * 0.0015), rel=1e-12)
@@ -61,19 +70,22 @@ def test_per_couple_values_scale_with_the_couples_and_the_module_drives_the_rig(
 GOOD = {"seebeck_V_K": 0.0125, "R_ohm": 0.97, "K_W_K": 0.065, "plate_C_J_K": 0.62, "Imax_A": 3.0}
 
 
-@pytest.mark.parametrize("change, field, expected", [
-    ({"seebeck_V_K": -0.01}, "tem.seebeck_V_K", "a number in (0.0, 1000.0]"),
-    ({"R_ohm": "one"}, "tem.R_ohm", "a number in"),
-    ({"K_W_K": True}, "tem.K_W_K", "a number in"),
-    ({"Imax_A": None}, "tem.Imax_A", "(required)"),
-    ({"plate_C_J_K": None}, "tem.plate_C_J_K", "(required)"),
-    ({"Imax": 3.0}, "tem.Imax", "a known field"),
-    ({"R_per_couple_ohm": 0.03, "couples": 31}, "tem.R_ohm", "exactly one"),
-    ({"R_ohm": None, "R_per_couple_ohm": 0.03}, "tem.couples", "the number of couples"),
-    ({"couples": 2.5}, "tem.couples", "an integer"),
-    ({"sink_plate_C_J_K": 0.5}, "tem.pad_plate_C_J_K", "the same capacity for both plates"),
-    ({"thomson_V_K": float("nan")}, "tem.thomson_V_K", "a number in [-1, 1]"),
-])
+@pytest.mark.parametrize(
+    "change, field, expected",
+    [
+        ({"seebeck_V_K": -0.01}, "tem.seebeck_V_K", "a number in (0.0, 1000.0]"),
+        ({"R_ohm": "one"}, "tem.R_ohm", "a number in"),
+        ({"K_W_K": True}, "tem.K_W_K", "a number in"),
+        ({"Imax_A": None}, "tem.Imax_A", "(required)"),
+        ({"plate_C_J_K": None}, "tem.plate_C_J_K", "(required)"),
+        ({"Imax": 3.0}, "tem.Imax", "a known field"),
+        ({"R_per_couple_ohm": 0.03, "couples": 31}, "tem.R_ohm", "exactly one"),
+        ({"R_ohm": None, "R_per_couple_ohm": 0.03}, "tem.couples", "the number of couples"),
+        ({"couples": 2.5}, "tem.couples", "an integer"),
+        ({"sink_plate_C_J_K": 0.5}, "tem.pad_plate_C_J_K", "the same capacity for both plates"),
+        ({"thomson_V_K": float("nan")}, "tem.thomson_V_K", "a number in [-1, 1]"),
+    ],
+)
 def test_bad_tem_values_give_one_line_naming_file_field_and_expectation(tmp_path, change, field, expected):
     tem = {**GOOD, **change}
     tem = {k: v for k, v in tem.items() if v is not None}
@@ -96,7 +108,11 @@ def test_identify_tem_option_reports_a_bad_file_in_one_line(tmp_path, capsys):
     bad.write_text(toml_table("tem", {**GOOD, "Imax_A": 0}), encoding="utf-8")
     code = cli_main(["identify", "--tem", str(bad), "--out", str(tmp_path / "m.json"), "--quiet"])
     err = capsys.readouterr().err.strip()
-    assert code == 2 and "\n" not in err and f"{bad}: field 'tem.Imax_A': expected a number in (0.0, 100.0]" in err
+    assert (
+        code == 2
+        and "\n" not in err
+        and f"{bad}: field 'tem.Imax_A': expected a number in (0.0, 100.0]" in err
+    )
     missing = tmp_path / "none.toml"
     assert cli_main(["identify", "--tem", str(missing), "--out", str(tmp_path / "m.json"), "--quiet"]) == 2
     assert "an existing TOML file with a [tem] table" in capsys.readouterr().err

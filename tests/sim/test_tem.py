@@ -1,4 +1,5 @@
 """TEM: datasheet derivation, steady state against guiatni eq. 5/6, sign conventions."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -37,16 +38,16 @@ def test_steady_state_matches_guiatni_eq5_eq6(I):
     rig = steady(build_rig(scene, "master", noise=False), I)
     sysm = rig.cfg.system
     x = rig.x[: sysm.n]
-    f0, c0 = sysm.link_flux_functional(0)      # sink -> sink plate
-    f2, c2 = sysm.link_flux_functional(2)      # pad plate -> sensor
+    f0, c0 = sysm.link_flux_functional(0)  # sink -> sink plate
+    f2, c2 = sysm.link_flux_functional(2)  # pad plate -> sensor
     q_sink_to_plate = float(f0 @ x + c0)
     q_plate_to_sensor = float(f2 @ x + c2)
     Ts, Tp = x[1], x[2]
     p = rig.params.tem
-    if I > 0:      # pad is the hot side
+    if I > 0:  # pad is the hot side
         Ph, Pc = eq5_eq6(p, I, Tp, Ts)
         sim_Ph, sim_Pc = q_plate_to_sensor, q_sink_to_plate
-    else:          # sink plate is the hot side
+    else:  # sink plate is the hot side
         Ph, Pc = eq5_eq6(p, I, Ts, Tp)
         sim_Ph, sim_Pc = -q_sink_to_plate, -q_plate_to_sensor
     assert sim_Ph == pytest.approx(Ph, rel=0.01, abs=1e-4)
@@ -62,7 +63,7 @@ def test_datasheet_derivation_reproduces_dTmax_and_Qmax():
     tem = TEMParams.from_datasheet(3.0, 3.75, 67.0, 27.0, tau_V_K=0.0, plate_C_J_K=0.62)
     params = base.with_(tem=tem, sink_R_K_W=1e-5, G_sink_plate_W_K=1e6, h_air_W_m2K=1e-9)
     rig = sim.free_pad_rig(ambient_C=27.0, noise=False, params=params)
-    steady(rig, -tem.I_max_A)          # cool the pad: the pad is the cold side
+    steady(rig, -tem.I_max_A)  # cool the pad: the pad is the cold side
     x = rig.x
     assert x[1] - x[2] == pytest.approx(67.0, rel=0.01)
     assert tem.Qmax_W(27.0) == pytest.approx(6.2, rel=0.15)
@@ -75,8 +76,8 @@ def test_sign_conventions_positive_current_heats_the_pad():
         rig.advance(0.01)
     t = rig.truth()
     assert t.T_pad_C > 25.5 and t.T_sensor_true_C > 25.3
-    assert t.Q_true_W > 0                       # heat flows out of the pad into the air
-    assert t.T_sink_C < 25.0                    # the sink side is pumped
+    assert t.Q_true_W > 0  # heat flows out of the pad into the air
+    assert t.T_sink_C < 25.0  # the sink side is pumped
     rig = sim.free_pad_rig(noise=False)
     rig.apply_current(-1.0)
     for _ in range(200):

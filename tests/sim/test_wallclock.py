@@ -2,6 +2,7 @@
 
 The clock is injected and stepped by hand; the plant is the real simulator. The wrapped rig must equal the
 inner rig advanced by hand by the same time steps with the same currents, bit for bit."""
+
 from __future__ import annotations
 
 import ast
@@ -13,8 +14,15 @@ import numpy as np
 import pytest
 
 from telethermo import sim
-from telethermo.sim.wallclock import (DEFAULT_MAX_CATCH_UP_S, WallClockRig, pads_in_air_master, pads_in_air_slave,
-                           probe_master, probe_slave, wall_clock_rig)
+from telethermo.sim.wallclock import (
+    DEFAULT_MAX_CATCH_UP_S,
+    WallClockRig,
+    pads_in_air_master,
+    pads_in_air_slave,
+    probe_master,
+    probe_slave,
+    wall_clock_rig,
+)
 from telethermo.rig import Rig, RigSample, SimulatedRig
 
 PROBE = "probe_touches_al_steel_wood"
@@ -45,7 +53,7 @@ def test_is_a_rig_without_advance():
     assert isinstance(rig, Rig)
     assert not isinstance(rig, SimulatedRig)
     assert not hasattr(rig, "advance")
-    assert not callable(getattr(rig, "advance", None))   # what nodes.parts tests to choose the real-time path
+    assert not callable(getattr(rig, "advance", None))  # what nodes.parts tests to choose the real-time path
     assert rig.period_s == 0.01 and rig.I_max_A == rig.inner.I_max_A > 0
 
 
@@ -58,8 +66,8 @@ def test_wrapped_equals_inner_advanced_by_the_same_steps_bit_for_bit():
     ref = sim.build_rig(scene, "slave", seed=1)
     rng = np.random.default_rng(7)
     gaps = 0.01 + rng.uniform(-0.004, 0.004, 400)
-    gaps[100] = 0.25                                   # a stall (below the catch-up cap)
-    s0 = rig.read()                                    # the plant's clock starts here: t = 0
+    gaps[100] = 0.25  # a stall (below the catch-up cap)
+    s0 = rig.read()  # the plant's clock starts here: t = 0
     assert _fields(s0) == _fields(ref.read()) and s0.t_s == 0.0
     t_ref = 0.0
     touched = False
@@ -75,7 +83,7 @@ def test_wrapped_equals_inner_advanced_by_the_same_steps_bit_for_bit():
         assert _fields(got) == _fields(want), k
         assert rig.truth() == ref.truth()
         touched |= got.contact
-    assert touched                                     # the aluminium touch (1.0 s of scene time) happened
+    assert touched  # the aluminium touch (1.0 s of scene time) happened
     assert rig.stats.simulated_s == pytest.approx(t_ref, abs=1e-12)
     assert rig.inner.t_s == pytest.approx(t_ref, abs=1e-12)
     assert rig.stats.reads == 401 and rig.stats.advances == 400 and rig.stats.capped_catch_ups == 0
@@ -87,7 +95,7 @@ def test_contact_schedule_runs_in_the_plants_own_time():
     was built and whatever the clock read then."""
     clock = HandClock(t0=5e5)
     rig = WallClockRig(sim.build_rig(sim.load_scene(PROBE), "slave", seed=1), clock=clock)
-    clock.step(123.0)                                  # built long before the first read: nothing simulated
+    clock.step(123.0)  # built long before the first read: nothing simulated
     assert not rig.started and rig.read().t_s == 0.0 and rig.started
     first_touch = None
     for _ in range(150):
@@ -114,7 +122,7 @@ def test_current_is_held_between_reads():
         s = rig.read()
         ref.advance(gap)
         assert s.current_A == 0.6 and _fields(s) == _fields(ref.read())
-    assert rig.truth().T_pad_C > 26.0                  # 0.53 s at 0.6 A: the pad warmed (truth; the filter lags)
+    assert rig.truth().T_pad_C > 26.0  # 0.53 s at 0.6 A: the pad warmed (truth; the filter lags)
     # two commands between the same two reads: the last one is what the plant holds
     rig.apply_current(-0.4)
     rig.apply_current(0.2)
@@ -134,7 +142,7 @@ def test_a_read_with_no_time_elapsed_does_not_advance():
     a = rig.read()
     clock.step(0.01)
     b = rig.read()
-    c = rig.read()                                     # same clock reading: the same sample, nothing integrated
+    c = rig.read()  # same clock reading: the same sample, nothing integrated
     assert b is c and b.t_s == pytest.approx(0.01) and a.t_s == 0.0
     assert rig.stats.reads == 3 and rig.stats.advances == 1
 
@@ -142,7 +150,7 @@ def test_a_read_with_no_time_elapsed_does_not_advance():
 def test_a_huge_gap_is_capped_and_counted():
     """A stalled process (here 30 s between two reads) is simulated for max_catch_up_s only; the rest is skipped
     once (the plant's clock falls behind), counted, and the reads go on in real time from there."""
-    clock = HandClock(t0=1024.0)                       # binary-exact times: the gaps below are exact
+    clock = HandClock(t0=1024.0)  # binary-exact times: the gaps below are exact
     scene = sim.load_scene("pads_in_air")
     rig = WallClockRig(sim.build_rig(scene, "master", seed=0), clock=clock, max_catch_up_s=0.5)
     ref = sim.build_rig(scene, "master", seed=0)
@@ -151,17 +159,17 @@ def test_a_huge_gap_is_capped_and_counted():
     ref.apply_current(0.3)
     assert clock.step(30.0) == 30.0
     s = rig.read()
-    ref.advance(0.5)                                   # what the cap lets through
+    ref.advance(0.5)  # what the cap lets through
     assert _fields(s) == _fields(ref.read()) and s.t_s == 0.5
     assert rig.stats.capped_catch_ups == 1 and rig.stats.skipped_s == 29.5
     assert rig.stats.max_gap_s == 30.0
-    assert clock.step(0.5) == 0.5                      # a gap of exactly the cap: not capped
+    assert clock.step(0.5) == 0.5  # a gap of exactly the cap: not capped
     ref.advance(0.5)
     assert _fields(rig.read()) == _fields(ref.read())
     for _ in range(3):
         ref.advance(clock.step(0.01))
         assert _fields(rig.read()) == _fields(ref.read())
-    assert rig.stats.capped_catch_ups == 1            # ordinary gaps are not counted
+    assert rig.stats.capped_catch_ups == 1  # ordinary gaps are not counted
     assert rig.stats.simulated_s == pytest.approx(0.5 + 0.5 + 0.03, abs=1e-12)
     assert rig.inner.t_s == pytest.approx(rig.stats.simulated_s, abs=1e-12)
     assert DEFAULT_MAX_CATCH_UP_S == WallClockRig(sim.build_rig(scene, "master")).max_catch_up_s == 1.0
@@ -181,18 +189,21 @@ def test_bad_arguments():
 def test_factories_build_the_scenes_rigs_with_the_node_seeds():
     """The --rig factories: zero arguments, the scene's rig of that role, seeds as the node programs (master 0,
     slave 1), so that the first sample equals sim.build_rig(scene, role, seed)'s."""
-    for factory, scene, role, seed in ((pads_in_air_master, "pads_in_air", "master", 0),
-                                       (pads_in_air_slave, "pads_in_air", "slave", 1),
-                                       (probe_master, PROBE, "master", 0), (probe_slave, PROBE, "slave", 1)):
+    for factory, scene, role, seed in (
+        (pads_in_air_master, "pads_in_air", "master", 0),
+        (pads_in_air_slave, "pads_in_air", "slave", 1),
+        (probe_master, PROBE, "master", 0),
+        (probe_slave, PROBE, "slave", 1),
+    ):
         rig = factory()
         assert isinstance(rig, WallClockRig) and rig.inner.name == role
         ref = sim.build_rig(sim.load_scene(scene), role, seed=seed)
         clock = HandClock()
-        rig._clock = clock                             # the factories use time.monotonic; steer this one by hand
+        rig._clock = clock  # the factories use time.monotonic; steer this one by hand
         rig.read()
         ref.advance(clock.step(0.02))
         assert _fields(rig.read()) == _fields(ref.read()), factory.__name__
-    assert probe_master().read().contact                # the finger is on the display from t = 0
+    assert probe_master().read().contact  # the finger is on the display from t = 0
     assert not pads_in_air_master().read().contact
 
 
@@ -200,6 +211,7 @@ def test_real_clock_paces_the_plant():
     """With the default clock the plant's time is the wall time since the first read (no speed assertion:
     only that it is advanced, never ahead of the clock)."""
     import time
+
     rig = pads_in_air_slave()
     t0 = time.monotonic()
     rig.read()
@@ -217,5 +229,9 @@ def test_sim_wallclock_imports_no_controller():
             names.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):
             names.add(node.module)
-    tele = {n for n in names if n.split(".")[0] in ("telethermo", "nodes") and not n.startswith("telethermo.sim")}
-    assert tele == {"telethermo.rig"}   # besides its own package (telethermo.sim); tests/test_layers.py checks all
+    tele = {
+        n for n in names if n.split(".")[0] in ("telethermo", "nodes") and not n.startswith("telethermo.sim")
+    }
+    assert tele == {
+        "telethermo.rig"
+    }  # besides its own package (telethermo.sim); tests/test_layers.py checks all

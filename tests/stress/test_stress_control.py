@@ -1,4 +1,5 @@
 """Fast subset of the control-core stress cases (tests/stress/cases/control.py)."""
+
 import pytest
 
 from tests.stress.cases import control as s
@@ -8,9 +9,21 @@ pytestmark = pytest.mark.stress
 
 
 def test_bad_peer_values_keep_the_envelope():
-    assert_passed(s.case_bad_peer(healthy_s=2.0, bad_s=8.0,
-                                  kinds=("nan_estimate", "-inf_estimate", "1e30_estimate", "inf_flux",
-                                         "90C_estimate_plausible", "peer_lost", "none")))
+    assert_passed(
+        s.case_bad_peer(
+            healthy_s=2.0,
+            bad_s=8.0,
+            kinds=(
+                "nan_estimate",
+                "-inf_estimate",
+                "1e30_estimate",
+                "inf_flux",
+                "90C_estimate_plausible",
+                "peer_lost",
+                "none",
+            ),
+        )
+    )
 
 
 def test_saturation_then_release_no_windup_kick():

@@ -5,6 +5,7 @@ The five findings the fuzz made (``tests.stress.cases.fuzz.KNOWN_FINDINGS``: 29-
 services, a stray SDO segment raising instead of aborting, huge integers and absurd current ranges in the
 scene and model-file loaders) are fixed; each keeps a regression test below.
 """
+
 import json
 import time
 
@@ -46,7 +47,11 @@ def test_29bit_frame_is_not_an_nmt_command():
 
 def test_sdo_segment_request_without_transfer_is_aborted():
     with fr.device_under_fuzz() as (dev, raw, counter, client, log):
-        raw.send(can.Message(arbitration_id=0x600 + fr.MASTER_ID, is_extended_id=False, data=bytes([0x60] + [0] * 7)))
+        raw.send(
+            can.Message(
+                arbitration_id=0x600 + fr.MASTER_ID, is_extended_id=False, data=bytes([0x60] + [0] * 7)
+            )
+        )
         assert counter.wait(1)
         reply = _sdo_reply(raw)
         assert not log.records, log.records
@@ -73,6 +78,7 @@ def test_model_loader_only_model_or_model_file_error():
 
 def test_scene_huge_integer_is_a_scene_error(tmp_path):
     from telethermo import sim
+
     p = tmp_path / "huge.toml"
     text = (sim.scene.SCENES_DIR / "finger_on_display.toml").read_text(encoding="utf-8")
     p.write_text(text.replace("period_s = 0.01", "period_s = 1" + "0" * 400), encoding="utf-8")
@@ -84,7 +90,7 @@ def test_model_huge_integer_is_a_model_file_error(tmp_path):
     from telethermo.ident import ModelFileError, load_model
 
     doc = s.base_model_doc()
-    doc["temperature"]["period_s"] = 10 ** 400
+    doc["temperature"]["period_s"] = 10**400
     p = tmp_path / "huge.json"
     p.write_text(json.dumps(doc), encoding="utf-8")
     with pytest.raises(ModelFileError, match="period_s"):
@@ -106,8 +112,13 @@ def test_sdo_block_download_request_to_a_missing_object_is_aborted_without_an_er
     """A block download (ccs 6) initiate naming an object the dictionary lacks (0x2200 sub 1; 0x2200 is a VAR):
     CiA 301 abort 0x06090011 (sub-index does not exist) for the named object at once, and no ERROR record."""
     with fr.device_under_fuzz() as (dev, raw, counter, client, log):
-        raw.send(can.Message(arbitration_id=0x600 + fr.MASTER_ID, is_extended_id=False,
-                             data=bytes([0xC2, 0x00, 0x22, 0x01, 0, 0, 0, 0])))
+        raw.send(
+            can.Message(
+                arbitration_id=0x600 + fr.MASTER_ID,
+                is_extended_id=False,
+                data=bytes([0xC2, 0x00, 0x22, 0x01, 0, 0, 0, 0]),
+            )
+        )
         assert counter.wait(1)
         reply = _sdo_reply(raw)
         assert not log.records, log.records

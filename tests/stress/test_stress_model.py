@@ -1,4 +1,5 @@
 """Fast subset of the identified-model stress cases (tests/stress/cases/model.py)."""
+
 import pytest
 
 from tests.stress.cases import model as s

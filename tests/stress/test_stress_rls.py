@@ -1,4 +1,5 @@
 """Fast subset of the RLS stress cases (tests/stress/cases/rls.py): same checks, smaller sizes."""
+
 import pytest
 
 from tests.stress.cases import rls as s

@@ -1,4 +1,5 @@
 """Fast subset of the simulator stress cases (tests/stress/cases/sim.py)."""
+
 import pytest
 
 from tests.stress.cases import sim as s

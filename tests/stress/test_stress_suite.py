@@ -2,6 +2,7 @@
 pytest is given ``--stress-size quick|full`` (``python -m bench.stress`` does, with ``--write-results`` for
 bench/results/stress.json); a plain run of the suite skips it (the other tests in tests/stress run the same
 case functions at smaller sizes). A crashing case is a failed entry carrying its traceback."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -14,14 +15,21 @@ pytestmark = pytest.mark.stress
 CASES = registry()
 
 
-def stress_document(entries: list[dict[str, Any]], wall_s: float, *, size: str,
-                    only: list[str] | None) -> dict[str, Any]:
+def stress_document(
+    entries: list[dict[str, Any]], wall_s: float, *, size: str, only: list[str] | None
+) -> dict[str, Any]:
     """bench/results/stress.json: the cases, their count, the failed count and each case's headline."""
     cases = [dict(e) for e in entries]
     n_failed = sum(not r["passed"] for r in cases)
-    data: dict[str, Any] = {"mode": size, "cases": cases, "n_cases": len(cases), "n_failed": n_failed,
-                            "all_passed": n_failed == 0, "wall_s": round(wall_s, 1)}
-    for r in cases:   # a case's headline figures (e.g. the surface rate around trips) at the top level
+    data: dict[str, Any] = {
+        "mode": size,
+        "cases": cases,
+        "n_cases": len(cases),
+        "n_failed": n_failed,
+        "all_passed": n_failed == 0,
+        "wall_s": round(wall_s, 1),
+    }
+    for r in cases:  # a case's headline figures (e.g. the surface rate around trips) at the top level
         data.update(r.pop("headline", {}))
     if only:
         data["only"] = list(only)

@@ -6,6 +6,7 @@ that turns the group's entries into the result document; at the end of the sessi
 entries is written to ``DIR/<group>.json`` with its provenance (machine, versions, date, commit), the
 same shape the benchmarks write.
 """
+
 from __future__ import annotations
 
 import time

@@ -3,6 +3,7 @@
 The search tests use a cheap analytic objective (same class, sessions replaced); the session tests
 run short scenes. No wall-clock assertions.
 """
+
 import json
 import math
 
@@ -18,8 +19,14 @@ sim = pytest.importorskip("sim")
 
 SCENE = "probe_touches_al_steel_wood"
 #: the gains shipped before the tuner (random search of ~400 sets, docs/control.md): the reference point
-REFERENCE = {"master.kp_A_per_C": 1.0, "master.ki_A_per_C_s": 0.1, "master.kpQ_A_per_W": 0.4,
-             "slave.kp_A_per_C": 0.5, "slave.ki_A_per_C_s": 0.1, "slave.kpQ_A_per_W": 0.05}
+REFERENCE = {
+    "master.kp_A_per_C": 1.0,
+    "master.ki_A_per_C_s": 0.1,
+    "master.kpQ_A_per_W": 0.4,
+    "slave.kp_A_per_C": 0.5,
+    "slave.ki_A_per_C_s": 0.1,
+    "slave.kpQ_A_per_W": 0.05,
+}
 
 
 class Analytic(tn.Objective):
@@ -144,11 +151,16 @@ def test_perturbed_scene_differs_in_room_finger_force_and_objects():
 
 
 def test_score_penalises_safety_and_instability():
-    figs = {"transparency": {"early_mean_error_C": 0.5, "late_mean_error_C": 0.2, "per_contact": []},
-            "tracking": {"rms_C": 0.1},
-            "discrimination": {"order_kept": True, "margins_C": [0.2, 0.8], "reference_margins_C": [0.1, 1.8]},
-            "safety": {"time_at_limit_s": {"master": {"ramp": 1.0}, "slave": {}}, "time_cut_s": {"master": 0.0},
-                       "n_trips": 0}}
+    figs = {
+        "transparency": {"early_mean_error_C": 0.5, "late_mean_error_C": 0.2, "per_contact": []},
+        "tracking": {"rms_C": 0.1},
+        "discrimination": {"order_kept": True, "margins_C": [0.2, 0.8], "reference_margins_C": [0.1, 1.8]},
+        "safety": {
+            "time_at_limit_s": {"master": {"ramp": 1.0}, "slave": {}},
+            "time_cut_s": {"master": 0.0},
+            "n_trips": 0,
+        },
+    }
     J, _ = tn.score_figures(figs)
     assert J == pytest.approx(2.0 + 0.2 + 0.05)  # margins reach min(reference, 0.7 °C): no shortfall
     figs["discrimination"]["margins_C"] = [0.05, 0.5]
@@ -162,8 +174,14 @@ def test_score_penalises_safety_and_instability():
 
 #: the most robust point of `telethermo tune --budget 40 --stress 0.15` (bench/results/tuning.json):
 #: better on the two-scene objective and over the ±30 % box, worse on the guiatni scene alone
-ROBUST = {"master.kp_A_per_C": 0.7319, "master.ki_A_per_C_s": 0.1631, "master.kpQ_A_per_W": 0.2752,
-          "slave.kp_A_per_C": 0.492, "slave.ki_A_per_C_s": 0.1097, "slave.kpQ_A_per_W": 0.06887}
+ROBUST = {
+    "master.kp_A_per_C": 0.7319,
+    "master.ki_A_per_C_s": 0.1631,
+    "master.kpQ_A_per_W": 0.2752,
+    "slave.kp_A_per_C": 0.492,
+    "slave.ki_A_per_C_s": 0.1097,
+    "slave.kpQ_A_per_W": 0.06887,
+}
 
 
 def test_tuned_defaults_are_at_least_as_good_as_the_reference_on_the_objective():
@@ -183,8 +201,11 @@ def test_gains_file_round_trip(tmp_path):
     obj.scenes = [sim.load_scene(SCENE)]
     doc = tn.gains_document(res, obj)
     # the file marks what a running node takes by SDO and what needs a start with --gains (apply-gains)
-    assert doc["apply"] == {"mode": "telepresence", "sdo": ["kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"],
-                            "restart": ["kpQ_A_per_W", "kiQ_A_per_W_s"]}
+    assert doc["apply"] == {
+        "mode": "telepresence",
+        "sdo": ["kp_A_per_C", "ki_A_per_C_s", "kQ_A_per_W"],
+        "restart": ["kpQ_A_per_W", "kiQ_A_per_W_s"],
+    }
     path = tn.write_gains(tmp_path / "gains.json", doc)
     loaded = tn.load_gains(path)
     for role in (Role.MASTER, Role.SLAVE):
@@ -222,8 +243,25 @@ def test_cli_tune_writes_a_loadable_gains_file(tmp_path, capsys):
     sub = ap.add_subparsers()
     cli.register(sub)
     out = tmp_path / "gains.json"
-    args = ap.parse_args(["tune", "--scene", SCENE, "--duration", "2", "--budget", "2", "--candidates", "1",
-                          "--corners", "0", "--no-perturbed", "--quiet", "--out", str(out)])
+    args = ap.parse_args(
+        [
+            "tune",
+            "--scene",
+            SCENE,
+            "--duration",
+            "2",
+            "--budget",
+            "2",
+            "--candidates",
+            "1",
+            "--corners",
+            "0",
+            "--no-perturbed",
+            "--quiet",
+            "--out",
+            str(out),
+        ]
+    )
     assert args.func(args) == 0
     text = capsys.readouterr().out
     assert "sensitivity of the chosen point" in text and "master.kp_A_per_C +30%" in text
@@ -233,8 +271,16 @@ def test_cli_tune_writes_a_loadable_gains_file(tmp_path, capsys):
     assert _inside({f"{r.value}.{k}": v for r, d in g.items() for k, v in d.items()}, tn.DEFAULT_SPACE)
 
 
-@pytest.mark.parametrize("argv", [["--budget", "0"], ["--rel", "1.5"], ["--scene", "virtual_materials"],
-                                  ["--scene", "no_such_scene"], ["--start", "missing.json"]])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["--budget", "0"],
+        ["--rel", "1.5"],
+        ["--scene", "virtual_materials"],
+        ["--scene", "no_such_scene"],
+        ["--start", "missing.json"],
+    ],
+)
 def test_cli_tune_refuses_bad_arguments(argv):
     import argparse
 
@@ -258,8 +304,27 @@ def test_cli_tune_record_holds_every_evaluation(tmp_path, capsys):
     ap = argparse.ArgumentParser()
     cli.register(ap.add_subparsers())
     rec = tmp_path / "run.json"
-    args = ap.parse_args(["tune", "--scene", SCENE, "--duration", "1", "--budget", "1", "--candidates", "1",
-                          "--corners", "0", "--stress", "0", "--no-perturbed", "--quiet", "--record", str(rec)])
+    args = ap.parse_args(
+        [
+            "tune",
+            "--scene",
+            SCENE,
+            "--duration",
+            "1",
+            "--budget",
+            "1",
+            "--candidates",
+            "1",
+            "--corners",
+            "0",
+            "--stress",
+            "0",
+            "--no-perturbed",
+            "--quiet",
+            "--record",
+            str(rec),
+        ]
+    )
     assert args.func(args) == 0
     assert f"wrote {rec}" in capsys.readouterr().out
     doc = json.loads(rec.read_text())

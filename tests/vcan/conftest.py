@@ -3,6 +3,7 @@
 Run natively where the kernel has vcan, else inside ../shared/tools/vcan-run (scripts/run-tests
 does this). Without the interface the tests are skipped and say why.
 """
+
 from __future__ import annotations
 
 import os
@@ -31,10 +32,10 @@ producer_ms = 200
 consumer_ms = 3000
 [nodes.master]
 node_id = 1
-eds = "{bus_config_path('master.eds')}"
+eds = "{bus_config_path("master.eds")}"
 [nodes.slave]
 node_id = 2
-eds = "{bus_config_path('slave.eds')}"
+eds = "{bus_config_path("slave.eds")}"
 """
     p = tmp_path / "network.toml"
     p.write_text(text)
@@ -50,8 +51,10 @@ def slow_network(tmp_path, vcan_channel) -> Path:
 def vcan_channel() -> str:
     name = os.environ.get("TELETHERMO_VCAN", "vcan0")
     if not os.path.exists(f"/sys/class/net/{name}"):
-        pytest.skip(f"SocketCAN interface {name!r} does not exist on this kernel (set TELETHERMO_VCAN, "
-                    "or run inside ../shared/tools/vcan-run)")
+        pytest.skip(
+            f"SocketCAN interface {name!r} does not exist on this kernel (set TELETHERMO_VCAN, "
+            "or run inside ../shared/tools/vcan-run)"
+        )
     return name
 
 
@@ -65,6 +68,7 @@ class Candump:
         # -L: log format "(sec.usec) vcan0 181#0011223344556677"; into a file, not a pipe: nobody reads a
         # pipe while the test runs, and a full pipe (64 kB) would block candump and make it lose frames
         import tempfile
+
         self.log = tempfile.TemporaryFile(mode="w+")
         self.proc = subprocess.Popen([exe, "-L", channel], stdout=self.log, text=True)
 

@@ -3,6 +3,7 @@ notice (ENETDOWN, the interface's state), trip peer_lost, cut and keep retrying;
 both reopen their socket by themselves, their peer trips are cleared and the session goes on.
 
 Needs root (the VM of ../shared/tools/vcan-run runs the tests as root); no timing is asserted."""
+
 from __future__ import annotations
 
 import os
@@ -29,26 +30,41 @@ def _log(pair: NodePair, role: str) -> str:
     return p.read_text() if p.exists() else ""
 
 
-def test_interface_down_then_up_the_pair_goes_safe_and_resumes_by_itself(vcan_channel, slow_network, tmp_path):
+def test_interface_down_then_up_the_pair_goes_safe_and_resumes_by_itself(
+    vcan_channel, slow_network, tmp_path
+):
     if os.geteuid() != 0:
         pytest.skip("needs root to set the interface down and up (run inside ../shared/tools/vcan-run)")
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, bus=f"socketcan:{vcan_channel}", cycles=0, seed=0,
-                               network=slow_network, progress_every=10, master_args=["--wait-peer", "300"]))
+    pair = NodePair(
+        PairConfig(
+            scene=SCENE,
+            out_dir=tmp_path,
+            bus=f"socketcan:{vcan_channel}",
+            cycles=0,
+            seed=0,
+            network=slow_network,
+            progress_every=10,
+            master_args=["--wait-peer", "300"],
+        )
+    )
     try:
         pair.start()
         assert wait_for(lambda: pair.progress[0] >= 100, 600), "session did not start"
         _ip_link(vcan_channel, "down")
         try:
             for role in ("master", "slave"):
-                assert wait_for(lambda: "bus lost" in _log(pair, role), 120), f"{role} did not notice the loss"
+                assert wait_for(lambda: "bus lost" in _log(pair, role), 120), (
+                    f"{role} did not notice the loss"
+                )
                 assert wait_for(lambda: "-> CUT" in _log(pair, role), 300), f"{role} never cut its current"
             assert pair.master.poll() is None and pair.slave.poll() is None, "a node ended with its bus"
         finally:
             _ip_link(vcan_channel, "up")
         for role in ("master", "slave"):
             assert wait_for(lambda: "bus back" in _log(pair, role), 120), f"{role} did not reopen its bus"
-            assert wait_for(lambda: "peer values back: cleared peer_lost" in _log(pair, role), 300), \
+            assert wait_for(lambda: "peer values back: cleared peer_lost" in _log(pair, role), 300), (
                 f"{role} did not resume:\n{_log(pair, role)[-3000:]}"
+            )
         k_back = pair.progress[0]
         assert wait_for(lambda: pair.progress[0] >= k_back + 300, 600), "the session did not go on"
     finally:

@@ -1,5 +1,6 @@
 """``telethermo identify master`` over a real SocketCAN vcan: the master program alone (a pad in air),
 the CLI in this process, candump (can-utils) as an independent witness of the stream."""
+
 from __future__ import annotations
 
 import re
@@ -32,12 +33,28 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
     net = ["--network", str(slow_network), "--timeout", "5"]
     node = start_lone_node("master", SCENE, tmp_path, "--network", str(slow_network))
     try:
-        assert wait_for(lambda: cli(capsys, "status", *net, "master")[0] == EXIT_OK, 300, poll_s=1.0), \
-            (tmp_path / "master-stderr.log").read_text()
+        assert wait_for(lambda: cli(capsys, "status", *net, "master")[0] == EXIT_OK, 300, poll_s=1.0), (
+            tmp_path / "master-stderr.log"
+        ).read_text()
         dump = candump()
         time.sleep(1.0)
-        code, out, err = cli(capsys, "identify", "master", *net, "--samples", str(N_TRAIN), "--validation", str(N_VAL),
-                             "--orders", ORDERS, "--out", str(tmp_path / "m.json"), "--save-data", str(tmp_path / "m.csv"), "--quiet")
+        code, out, err = cli(
+            capsys,
+            "identify",
+            "master",
+            *net,
+            "--samples",
+            str(N_TRAIN),
+            "--validation",
+            str(N_VAL),
+            "--orders",
+            ORDERS,
+            "--out",
+            str(tmp_path / "m.json"),
+            "--save-data",
+            str(tmp_path / "m.csv"),
+            "--quiet",
+        )
         time.sleep(0.5)
         frames = dump.stop()
         assert code == EXIT_OK, err
@@ -46,7 +63,7 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
         code, out, err = cli(capsys, "get", *net, "master", "model_crc32", "0x1A02:1", "0x1802:2", "mode")
         assert code == EXIT_OK, err
         vals = [line.split(" = ", 1)[1].split()[0] for line in out.splitlines()]
-        assert vals == [f"0x{crc:08X}", "0x21010020", "10", "0"]   # CRC and mapping entry in hex
+        assert vals == [f"0x{crc:08X}", "0x21010020", "10", "0"]  # CRC and mapping entry in hex
     finally:
         stop_process(node)
     total = REST + N_TRAIN + N_VAL
@@ -62,7 +79,9 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
     rows = [line.split(",") for line in (tmp_path / "m.csv").read_text().splitlines() if line[:1].isdigit()]
     assert len(rows) == total
     q_csv = np.array([float(r[4]) for r in rows], dtype=np.float32)
-    np.testing.assert_array_equal(np.array([q for _, q in numbered], dtype=np.float32), q_csv[np.array(ks) - 1])
+    np.testing.assert_array_equal(
+        np.array([q for _, q in numbered], dtype=np.float32), q_csv[np.array(ks) - 1]
+    )
     # the remapping went by CiA 301 on the bus: PDO invalid (COB-ID bit 31), mapping written, valid again
     sdo_writes = [d for i, d in frames if i == 0x601 and d[0] & 0xE0 == 0x20]
     idx = [(int.from_bytes(d[1:3], "little"), d[3], int.from_bytes(d[4:8], "little")) for d in sdo_writes]

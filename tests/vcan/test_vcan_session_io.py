@@ -6,6 +6,7 @@ the merged recording holds the modules' truth. Skipped where the kernel has no v
 consumers (0x1016, 150 ms from the packaged RIG.toml) watch the controllers' heartbeats, which the slow
 settings space 200 ms apart.
 """
+
 from __future__ import annotations
 
 import time
@@ -18,12 +19,17 @@ from telethermo.nodes.iomodules import fill_truth
 from telethermo.nodes.launch import NodePair, PairConfig
 from telethermo.nodes.merge import merge_recordings
 
-pytestmark = [pytest.mark.vcan, pytest.mark.slow,
-              pytest.mark.skip(reason="not yet green in ../shared/tools/vcan-run: in the emulated VM "
-                               "the four "
-                               "processes' lockstep session did not finish within the VM's 1500 s budget "
-                               "(seen 2026-11-26); the four-node session is tested over the hub "
-                               "(tests/nodes/test_session_io.py). Open gap of issue 24.")]
+pytestmark = [
+    pytest.mark.vcan,
+    pytest.mark.slow,
+    pytest.mark.skip(
+        reason="not yet green in ../shared/tools/vcan-run: in the emulated VM "
+        "the four "
+        "processes' lockstep session did not finish within the VM's 1500 s budget "
+        "(seen 2026-11-26); the four-node session is tested over the hub "
+        "(tests/nodes/test_session_io.py). Open gap of issue 24."
+    ),
+]
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 CYCLES = 200
@@ -32,8 +38,17 @@ CYCLES = 200
 def test_four_node_session_on_vcan(vcan_channel, candump, tmp_path):
     dump = candump()
     time.sleep(1.0)
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, bus=f"socketcan:{vcan_channel}", cycles=CYCLES,
-                               seed=0, master_args=["--wait-peer", "300"], io=True))
+    pair = NodePair(
+        PairConfig(
+            scene=SCENE,
+            out_dir=tmp_path,
+            bus=f"socketcan:{vcan_channel}",
+            cycles=CYCLES,
+            seed=0,
+            master_args=["--wait-peer", "300"],
+            io=True,
+        )
+    )
     with pair:
         assert pair.wait_master(timeout_s=900) == 0, (tmp_path / "master.log").read_text()
     codes = pair.stop()

@@ -1,4 +1,5 @@
 """The real SocketCAN path: our bus factory on vcan, cross-checked with candump."""
+
 from __future__ import annotations
 
 import time
@@ -17,8 +18,10 @@ def test_socketcan_pair_exchanges_frames_and_candump_sees_them(vcan_channel, can
     s = TransportSettings("socketcan", vcan_channel)
     a, b = open_bus(s), open_bus(s)
     try:
-        sent = [can.Message(arbitration_id=0x181, data=bytes([i, 1, 2, 3, 4, 5, 6, 7]), is_extended_id=False)
-                for i in range(20)]
+        sent = [
+            can.Message(arbitration_id=0x181, data=bytes([i, 1, 2, 3, 4, 5, 6, 7]), is_extended_id=False)
+            for i in range(20)
+        ]
         for m in sent:
             a.send(m)
         got = []

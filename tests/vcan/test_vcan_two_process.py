@@ -2,6 +2,7 @@
 equal the offline runner's (REAL32 exchange) and candump (can-utils) counts the expected frames.
 
 One short run (the group runs inside a slow VM where the kernel has no vcan on the host)."""
+
 from __future__ import annotations
 
 import time
@@ -21,11 +22,22 @@ SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_
 CYCLES = 200
 
 
-def test_two_processes_on_vcan_equal_offline_and_candump_agrees(vcan_channel, candump, tmp_path, slow_network):
+def test_two_processes_on_vcan_equal_offline_and_candump_agrees(
+    vcan_channel, candump, tmp_path, slow_network
+):
     dump = candump()
     time.sleep(1.0)
-    pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, bus=f"socketcan:{vcan_channel}", cycles=CYCLES, seed=0,
-                               network=slow_network, master_args=["--wait-peer", "300"]))
+    pair = NodePair(
+        PairConfig(
+            scene=SCENE,
+            out_dir=tmp_path,
+            bus=f"socketcan:{vcan_channel}",
+            cycles=CYCLES,
+            seed=0,
+            network=slow_network,
+            master_args=["--wait-peer", "300"],
+        )
+    )
     with pair:
         assert pair.wait_master(timeout_s=900) == 0, (tmp_path / "master.log").read_text()
     codes = pair.stop()
@@ -36,10 +48,12 @@ def test_two_processes_on_vcan_equal_offline_and_candump_agrees(vcan_channel, ca
     rec = merge_recordings(tmp_path / "master.csv", tmp_path / "slave.csv", scene=SCENE)
     off = run_offline_session(SCENE, duration_s=CYCLES * 0.01, rounding="real32", seed=0).recording
     assert len(rec) == len(off) == CYCLES
-    np.testing.assert_array_equal(rec.col("sync_cycle"), np.arange(CYCLES))   # one row per SYNC, numbered alike
+    np.testing.assert_array_equal(
+        rec.col("sync_cycle"), np.arange(CYCLES)
+    )  # one row per SYNC, numbered alike
     for c in rec.columns:
         if c == "sync_cycle":
-            continue   # the nodes' own column: the offline runner has none
+            continue  # the nodes' own column: the offline runner has none
         if c in TEXT_COLUMNS:
             assert rec.text(c) == off.text(c), c
         else:

@@ -2,6 +2,7 @@
 name to ``(function, full-run kwargs, quick kwargs)``; a case function returns its verdict
 (:class:`tests.stress.cases.case.Case`). tests/stress/test_stress_suite.py runs them (``python -m
 bench.stress``); the other tests in tests/stress call the same functions with smaller sizes."""
+
 from __future__ import annotations
 
 import time
@@ -32,8 +33,14 @@ def run_case(name: str, fn: Callable[..., dict], kwargs: dict) -> dict[str, Any]
     try:
         res = fn(**kwargs)
     except Exception:  # noqa: BLE001 - a crashing case is a finding, not the end of the suite
-        res = {"name": name, "must_hold": must_hold(fn), "passed": False,
-               "failures": [f"crashed: {traceback.format_exc(limit=6)}"], "figures": {},
-               "notes": [], "wall_s": round(time.perf_counter() - t0, 3)}
+        res = {
+            "name": name,
+            "must_hold": must_hold(fn),
+            "passed": False,
+            "failures": [f"crashed: {traceback.format_exc(limit=6)}"],
+            "figures": {},
+            "notes": [],
+            "wall_s": round(time.perf_counter() - t0, 3),
+        }
     res["params"] = dict(kwargs)
     return res

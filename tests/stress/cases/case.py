@@ -5,6 +5,7 @@ hold (each with the measured value in its text) and returns ``case.result()``. T
 (tests/stress/test_stress_suite.py, which ``python -m bench.stress`` runs) and the fast subset (the other
 tests in tests/stress) call the same functions, with smaller sizes in the subset.
 """
+
 from __future__ import annotations
 
 import math
@@ -67,11 +68,19 @@ class Case:
 
     def result(self) -> dict[str, Any]:
         """The case's entry in bench/results/stress.json."""
-        return {"name": self.name, "must_hold": self.must_hold, "passed": self.passed,
-                "failures": list(self.failures), "figures": _plain(self.figures), "notes": list(self.notes),
-                "wall_s": round(time.perf_counter() - self._t0, 3)}
+        return {
+            "name": self.name,
+            "must_hold": self.must_hold,
+            "passed": self.passed,
+            "failures": list(self.failures),
+            "figures": _plain(self.figures),
+            "notes": list(self.notes),
+            "wall_s": round(time.perf_counter() - self._t0, 3),
+        }
 
 
 def assert_passed(result: dict[str, Any]) -> None:
     """For the tests: fail with the case's failed requirements and figures."""
-    assert result["passed"], f"stress case {result['name']} failed: {result['failures']}; figures {result['figures']}"
+    assert result["passed"], (
+        f"stress case {result['name']} failed: {result['failures']}; figures {result['figures']}"
+    )

@@ -5,6 +5,7 @@ touches, ``RigTruth.T_contact_face_C``), which no controller sees. The envelope 
 [T_min_C, T_max_C] and |I| <= 0.8·I_max; the pad itself may lag the setpoint, so it is checked against
 [T_min_C - PAD_TOL_C, T_max_C + PAD_TOL_C].
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -27,10 +28,17 @@ PAD_TOL_C = 0.5
 
 def master_rig(duration_s: float, seed: int = 0):
     """A master rig with the operator's finger on the pad for the whole run (noise on)."""
-    doc = {"scene": {"name": "finger_hold", "kind": "telepresence", "duration_s": duration_s, "period_s": PERIOD_S,
-                     "ambient_C": 25.0},
-           "master": {"contacts": [{"start_s": 0.0, "end_s": duration_s + 1.0, "force_N": 8.0}]},
-           "noise": {"seed": seed}}
+    doc = {
+        "scene": {
+            "name": "finger_hold",
+            "kind": "telepresence",
+            "duration_s": duration_s,
+            "period_s": PERIOD_S,
+            "ambient_C": 25.0,
+        },
+        "master": {"contacts": [{"start_s": 0.0, "end_s": duration_s + 1.0, "force_N": 8.0}]},
+        "noise": {"seed": seed},
+    }
     return sim.build_rig(load_scene_doc(doc, "finger_hold"), "master")
 
 
@@ -74,16 +82,30 @@ class Loop:
 
     def check(self, c: Case, label: str) -> None:
         lim = self.lim
-        c.fig(**{f"{label}_max_abs_current_A": self.max_abs_I, f"{label}_pad_min_C": self.pad_min,
-                 f"{label}_pad_max_C": self.pad_max, f"{label}_setpoint_range_C": (self.sp_min, self.sp_max),
-                 f"{label}_trips": sorted(self.trips)})
-        c.require(self.max_abs_I <= lim.I_limit_A + 1e-12,
-                  f"{label}: |I| max {self.max_abs_I:.4g} A <= {lim.I_limit_A:.4g} A")
-        c.require(lim.T_min_C <= self.sp_min and self.sp_max <= lim.T_max_C,
-                  f"{label}: setpoint [{self.sp_min:.3f}, {self.sp_max:.3f}] within [{lim.T_min_C}, {lim.T_max_C}]")
-        c.require(lim.T_min_C - PAD_TOL_C <= self.pad_min and self.pad_max <= lim.T_max_C + PAD_TOL_C,
-                  f"{label}: pad [{self.pad_min:.3f}, {self.pad_max:.3f}] °C within the envelope ± {PAD_TOL_C}")
-        c.require(self.nonfinite == 0, f"{label}: {self.nonfinite} steps with a non-finite current or estimate")
+        c.fig(
+            **{
+                f"{label}_max_abs_current_A": self.max_abs_I,
+                f"{label}_pad_min_C": self.pad_min,
+                f"{label}_pad_max_C": self.pad_max,
+                f"{label}_setpoint_range_C": (self.sp_min, self.sp_max),
+                f"{label}_trips": sorted(self.trips),
+            }
+        )
+        c.require(
+            self.max_abs_I <= lim.I_limit_A + 1e-12,
+            f"{label}: |I| max {self.max_abs_I:.4g} A <= {lim.I_limit_A:.4g} A",
+        )
+        c.require(
+            lim.T_min_C <= self.sp_min and self.sp_max <= lim.T_max_C,
+            f"{label}: setpoint [{self.sp_min:.3f}, {self.sp_max:.3f}] within [{lim.T_min_C}, {lim.T_max_C}]",
+        )
+        c.require(
+            lim.T_min_C - PAD_TOL_C <= self.pad_min and self.pad_max <= lim.T_max_C + PAD_TOL_C,
+            f"{label}: pad [{self.pad_min:.3f}, {self.pad_max:.3f}] °C within the envelope ± {PAD_TOL_C}",
+        )
+        c.require(
+            self.nonfinite == 0, f"{label}: {self.nonfinite} steps with a non-finite current or estimate"
+        )
 
 
 BAD_PEERS: dict[str, tuple[PeerValues, bool]] = {
@@ -108,12 +130,14 @@ BAD_PEERS: dict[str, tuple[PeerValues, bool]] = {
 
 def case_bad_peer(healthy_s: float = 5.0, bad_s: float = 45.0, kinds: tuple[str, ...] | None = None) -> dict:
     """NaN/±inf/absurd/lost peer values: envelope and current limit hold, invalid peers trip."""
-    c = Case("control_bad_peer_values",
-             "telepresence master with a finger on the pad; after a healthy phase the peer sends NaN, ±inf, ±1e30, "
-             "91 °C, NaN/inf/1e9 W flux, a subnormal, the plausible extremes 90 °C / -20 °C / 30 W, or is lost: "
-             f"|I| <= 0.8·I_max every step, setpoint within [15, 43] °C, pad within [15, 43] ± {PAD_TOL_C} °C, "
-             "invalid or lost peers trip the envelope on the first bad cycle and the current is 0 A within "
-             "neutral_timeout_s + 1 s")
+    c = Case(
+        "control_bad_peer_values",
+        "telepresence master with a finger on the pad; after a healthy phase the peer sends NaN, ±inf, ±1e30, "
+        "91 °C, NaN/inf/1e9 W flux, a subnormal, the plausible extremes 90 °C / -20 °C / 30 W, or is lost: "
+        f"|I| <= 0.8·I_max every step, setpoint within [15, 43] °C, pad within [15, 43] ± {PAD_TOL_C} °C, "
+        "invalid or lost peers trip the envelope on the first bad cycle and the current is 0 A within "
+        "neutral_timeout_s + 1 s",
+    )
     good = PeerValues(33.0, 0.0)
     nh, nb = int(healthy_s / PERIOD_S), int(bad_s / PERIOD_S)
     for name, (bad, must_trip) in BAD_PEERS.items():
@@ -134,9 +158,13 @@ def case_bad_peer(healthy_s: float = 5.0, bad_s: float = 45.0, kinds: tuple[str,
         loop.check(c, name)
         c.fig(**{f"{name}_trip_after_cycles": first_trip_after, f"{name}_cut_after_s": zero_after})
         if must_trip:
-            c.require(first_trip_after == 0, f"{name}: tripped on the first bad cycle (after {first_trip_after})")
-            c.require(zero_after is not None and zero_after <= loop.lim.neutral_timeout_s + 1.0,
-                      f"{name}: current cut after {zero_after} s <= {loop.lim.neutral_timeout_s + 1.0} s")
+            c.require(
+                first_trip_after == 0, f"{name}: tripped on the first bad cycle (after {first_trip_after})"
+            )
+            c.require(
+                zero_after is not None and zero_after <= loop.lim.neutral_timeout_s + 1.0,
+                f"{name}: current cut after {zero_after} s <= {loop.lim.neutral_timeout_s + 1.0} s",
+            )
         else:
             c.require(first_trip_after is None, f"{name}: plausible value did not trip the peer check")
     return c.result()
@@ -144,12 +172,14 @@ def case_bad_peer(healthy_s: float = 5.0, bad_s: float = 45.0, kinds: tuple[str,
 
 def case_saturation_release(saturate_s: float = 180.0, after_s: float = 60.0) -> dict:
     """Minutes of saturation then release: no windup kick (overshoot quantified)."""
-    c = Case("control_saturation_release",
-             f"the peer asks 40 °C, which the pad cannot reach with the current limited to 0.24 A (I_max 0.3 A): the "
-             f"PI saturates for {saturate_s:g} s; then the setpoint drops 1 °C below the plateau: the integrator is "
-             "within the current limit at the release, the current stops heating (< +limit) within 0.05 s of the "
-             "moment the envelope's ramped setpoint passes below the estimate, and the pad rises no more than "
-             "0.1 °C after the release (no windup kick)")
+    c = Case(
+        "control_saturation_release",
+        f"the peer asks 40 °C, which the pad cannot reach with the current limited to 0.24 A (I_max 0.3 A): the "
+        f"PI saturates for {saturate_s:g} s; then the setpoint drops 1 °C below the plateau: the integrator is "
+        "within the current limit at the release, the current stops heating (< +limit) within 0.05 s of the "
+        "moment the envelope's ramped setpoint passes below the estimate, and the pad rises no more than "
+        "0.1 °C after the release (no windup kick)",
+    )
     lim = sf.SafetyLimits(I_max_A=0.3)
     loop = Loop(saturate_s + after_s + 1, safety=lim)
     n_sat = int(saturate_s / PERIOD_S)
@@ -176,31 +206,50 @@ def case_saturation_release(saturate_s: float = 180.0, after_s: float = 60.0) ->
         est[k] = loop.last.status.estimate_C
     loop.check(c, "run")
     rise = pad_max - pad_at_release
-    undershoot = float(target - est[n_after // 2:].min())
-    delay = (left_limit_after - crossed_at) if left_limit_after is not None and crossed_at is not None else None
-    c.fig(saturated_fraction=sat_steps / n_sat, plateau_estimate_C=plateau, integral_at_release_A=integral,
-          current_left_limit_after_s=left_limit_after, setpoint_below_estimate_after_s=crossed_at,
-          stop_heating_delay_s=delay, pad_rise_after_release_C=rise,
-          undershoot_below_new_setpoint_C=undershoot,
-          settled_error_C=float(abs(np.mean(est[-500:]) - target)))
-    c.require(sat_steps / n_sat >= 0.9, f"the PI was saturated {100 * sat_steps / n_sat:.0f} % of the time (>= 90 %)")
-    c.require(abs(integral) <= lim.I_limit_A + 1e-12, f"integrator {integral:.3g} A within ±{lim.I_limit_A} A")
-    c.require(delay is not None and delay <= 0.05,
-              f"current stopped heating {delay} s after the ramped setpoint passed below the estimate (<= 0.05 s)")
+    undershoot = float(target - est[n_after // 2 :].min())
+    delay = (
+        (left_limit_after - crossed_at) if left_limit_after is not None and crossed_at is not None else None
+    )
+    c.fig(
+        saturated_fraction=sat_steps / n_sat,
+        plateau_estimate_C=plateau,
+        integral_at_release_A=integral,
+        current_left_limit_after_s=left_limit_after,
+        setpoint_below_estimate_after_s=crossed_at,
+        stop_heating_delay_s=delay,
+        pad_rise_after_release_C=rise,
+        undershoot_below_new_setpoint_C=undershoot,
+        settled_error_C=float(abs(np.mean(est[-500:]) - target)),
+    )
+    c.require(
+        sat_steps / n_sat >= 0.9,
+        f"the PI was saturated {100 * sat_steps / n_sat:.0f} % of the time (>= 90 %)",
+    )
+    c.require(
+        abs(integral) <= lim.I_limit_A + 1e-12, f"integrator {integral:.3g} A within ±{lim.I_limit_A} A"
+    )
+    c.require(
+        delay is not None and delay <= 0.05,
+        f"current stopped heating {delay} s after the ramped setpoint passed below the estimate (<= 0.05 s)",
+    )
     if integral < 0 < loop.last.current_A or integral <= -lim.I_limit_A + 1e-12:
-        c.note(f"while saturated at +{lim.I_limit_A} A the integrator sat at {integral:+.3g} A: the anti-windup clamp "
-               "[u_min - p - ff, u_max - p - ff] pins it at the opposite rail whenever kp·e alone exceeds the limit")
+        c.note(
+            f"while saturated at +{lim.I_limit_A} A the integrator sat at {integral:+.3g} A: the anti-windup clamp "
+            "[u_min - p - ff, u_max - p - ff] pins it at the opposite rail whenever kp·e alone exceeds the limit"
+        )
     c.require(rise <= 0.1, f"pad rose {rise:.3f} °C after the release (<= 0.1 °C)")
     return c.result()
 
 
 def case_sync_loss_bursts(duration_s: float = 120.0, seed: int = 3) -> dict:
     """Stale peer values, lost SYNCs, SYNC bursts: envelope and current limit hold."""
-    c = Case("control_sync_loss_bursts",
-             "a master fed a random mix of normal cycles, stale peer values (not fresh), lost SYNCs (the rig runs "
-             "2..50 periods between steps), SYNC bursts (2..5 steps on the same sample) and peer-setpoint jumps "
-             "15..43 °C: |I| <= 0.8·I_max, setpoint within [15, 43] °C, pad within the envelope, and a final peer "
-             "loss cuts the current within neutral_timeout_s + 1 s")
+    c = Case(
+        "control_sync_loss_bursts",
+        "a master fed a random mix of normal cycles, stale peer values (not fresh), lost SYNCs (the rig runs "
+        "2..50 periods between steps), SYNC bursts (2..5 steps on the same sample) and peer-setpoint jumps "
+        "15..43 °C: |I| <= 0.8·I_max, setpoint within [15, 43] °C, pad within the envelope, and a final peer "
+        "loss cuts the current within neutral_timeout_s + 1 s",
+    )
     rng = np.random.default_rng(seed)
     loop = Loop(duration_s * 1.6 + 20)
     T_peer = 33.0
@@ -237,12 +286,18 @@ def case_sync_loss_bursts(duration_s: float = 120.0, seed: int = 3) -> dict:
     cut_after = None
     for k in range(int((loop.lim.neutral_timeout_s + 5) / PERIOD_S)):
         loop.step(PeerValues(T_peer, 0.0, fresh=False, alive=False))
-        if cut_after is None and loop.last.current_A == 0.0 and loop.last.status.safety.state == sf.SafetyState.CUT:
+        if (
+            cut_after is None
+            and loop.last.current_A == 0.0
+            and loop.last.status.safety.state == sf.SafetyState.CUT
+        ):
             cut_after = k * PERIOD_S
     loop.check(c, "run")
     c.fig(cut_after_peer_loss_s=cut_after)
-    c.require(cut_after is not None and cut_after <= loop.lim.neutral_timeout_s + 1.0,
-              f"cut {cut_after} s after the peer loss (<= {loop.lim.neutral_timeout_s + 1.0} s)")
+    c.require(
+        cut_after is not None and cut_after <= loop.lim.neutral_timeout_s + 1.0,
+        f"cut {cut_after} s after the peer loss (<= {loop.lim.neutral_timeout_s + 1.0} s)",
+    )
     return c.result()
 
 
@@ -256,10 +311,15 @@ def _real32_diffs(c: Case, sc, duration_s: float, tag: str) -> dict[str, tuple[f
         dIs = np.abs(ra.col(f"{side}_current_A") - rb.col(f"{side}_current_A"))
         dI = float(np.nanmax(dIs))
         dT = float(np.nanmax(np.abs(ra.col(f"{side}_estimate_C") - rb.col(f"{side}_estimate_C"))))
-        c.fig(**{f"{tag}{side}_max_current_diff_A": dI, f"{tag}{side}_max_estimate_diff_C": dT,
-                 f"{tag}{side}_median_current_diff_A": float(np.nanmedian(dIs)),
-                 f"{tag}{side}_p99_current_diff_A": float(np.nanpercentile(dIs, 99)),
-                 f"{tag}{side}_max_current_diff_at_s": float(ra.col("t_s")[int(np.nanargmax(dIs))])})
+        c.fig(
+            **{
+                f"{tag}{side}_max_current_diff_A": dI,
+                f"{tag}{side}_max_estimate_diff_C": dT,
+                f"{tag}{side}_median_current_diff_A": float(np.nanmedian(dIs)),
+                f"{tag}{side}_p99_current_diff_A": float(np.nanpercentile(dIs, 99)),
+                f"{tag}{side}_max_current_diff_at_s": float(ra.col("t_s")[int(np.nanargmax(dIs))]),
+            }
+        )
         out[side] = (dI, dT)
     return out
 
@@ -267,14 +327,16 @@ def _real32_diffs(c: Case, sc, duration_s: float, tag: str) -> dict[str, tuple[f
 def case_real32(duration_s: float = 15.0) -> dict:
     """REAL32 rounding of the exchanged values changes the session by less than 1e-3, and by no more than
     two ADC steps' worth where the rigs quantise."""
-    c = Case("control_real32_rounding",
-             "the guiatni §5.3 scene run offline twice, the exchanged estimates and fluxes exact or rounded to "
-             "REAL32 (as the PDOs carry them). With a continuous measurement chain (ADC quantisation off, noise "
-             "on): both sides' currents differ by <= 1e-3 A and estimates by <= 1e-3 °C at every step (the "
-             "rounding, ~2e-6 °C at 33 °C, is not amplified by the loop). With the rigs' 16-bit ADCs: a 2e-6 °C "
-             "difference can flip an ADC code (1.5 mK), a step the loop sees as it would see noise; estimates "
-             "then differ by <= 2 ADC steps and currents by <= 2 steps through the proportional gains "
-             "(kp·T_lsb + kpQ·Q_lsb per step)")
+    c = Case(
+        "control_real32_rounding",
+        "the guiatni §5.3 scene run offline twice, the exchanged estimates and fluxes exact or rounded to "
+        "REAL32 (as the PDOs carry them). With a continuous measurement chain (ADC quantisation off, noise "
+        "on): both sides' currents differ by <= 1e-3 A and estimates by <= 1e-3 °C at every step (the "
+        "rounding, ~2e-6 °C at 33 °C, is not amplified by the loop). With the rigs' 16-bit ADCs: a 2e-6 °C "
+        "difference can flip an ADC code (1.5 mK), a step the loop sees as it would see noise; estimates "
+        "then differ by <= 2 ADC steps and currents by <= 2 steps through the proportional gains "
+        "(kp·T_lsb + kpQ·Q_lsb per step)",
+    )
     sc = sim.load_scene("probe_touches_al_steel_wood")
     continuous = dataclasses.replace(sc, noise=dataclasses.replace(sc.noise, T_lsb_C=0.0, Q_lsb_W=0.0))
     for side, (dI, dT) in _real32_diffs(c, continuous, duration_s, "").items():
@@ -285,8 +347,13 @@ def case_real32(duration_s: float = 15.0) -> dict:
         p = default_params(Role.MASTER if side == "m" else Role.SLAVE)
         dI_max = 2.0 * (abs(p.kp_A_per_C) * T_lsb + abs(p.kpQ_A_per_W) * Q_lsb)
         c.fig(**{f"adc_{side}_bound_current_A": dI_max, f"adc_{side}_bound_estimate_C": 2.0 * T_lsb})
-        c.require(dI <= dI_max, f"{side} (16-bit ADC): currents differ by {dI:.3g} A <= {dI_max:.3g} A (2 ADC steps)")
-        c.require(dT <= 2.0 * T_lsb, f"{side} (16-bit ADC): estimates differ by {dT:.3g} °C <= {2 * T_lsb:.3g} °C")
+        c.require(
+            dI <= dI_max,
+            f"{side} (16-bit ADC): currents differ by {dI:.3g} A <= {dI_max:.3g} A (2 ADC steps)",
+        )
+        c.require(
+            dT <= 2.0 * T_lsb, f"{side} (16-bit ADC): estimates differ by {dT:.3g} °C <= {2 * T_lsb:.3g} °C"
+        )
     return c.result()
 
 

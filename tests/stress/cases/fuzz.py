@@ -7,6 +7,7 @@
 - **model files**: mutated model JSON through ``telethermo.ident.load_model``: a TemModel or
   ``ModelFileError`` naming the file (and the field, except for whole-file errors); nothing else.
 """
+
 from __future__ import annotations
 
 import json
@@ -27,8 +28,22 @@ from tests.stress.cases.model import identified_model
 from telethermo.ident import ModelFileError, TemModel, load_model
 from telethermo.ident.modelfile import model_to_dict
 
-HUGE_INT = 10 ** 400
-SWEEP_VALUES = (HUGE_INT, -HUGE_INT, math.nan, math.inf, -math.inf, 1e308, -1e308, 5e-324, -0.0, True, "1", [], {})
+HUGE_INT = 10**400
+SWEEP_VALUES = (
+    HUGE_INT,
+    -HUGE_INT,
+    math.nan,
+    math.inf,
+    -math.inf,
+    1e308,
+    -1e308,
+    5e-324,
+    -0.0,
+    True,
+    "1",
+    [],
+    {},
+)
 
 
 def _numeric_paths(doc: Any) -> list[tuple]:
@@ -61,13 +76,21 @@ def _violation_kind(text: str) -> str:
     return "unexplained"
 
 
-
 # ------------------------------------------------------------------------------------------------ mutations
 JSONISH = st.recursive(
-    st.one_of(st.none(), st.booleans(), st.integers(-10**30, 10**30), st.integers(10**300, 10**400),
-              st.floats(allow_nan=True, allow_infinity=True), st.text(max_size=12)),
-    lambda inner: st.one_of(st.lists(inner, max_size=4), st.dictionaries(st.text(max_size=6), inner, max_size=3)),
-    max_leaves=6)
+    st.one_of(
+        st.none(),
+        st.booleans(),
+        st.integers(-(10**30), 10**30),
+        st.integers(10**300, 10**400),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.text(max_size=12),
+    ),
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=4), st.dictionaries(st.text(max_size=6), inner, max_size=3)
+    ),
+    max_leaves=6,
+)
 
 
 def _paths(doc: Any, prefix: tuple = ()) -> list[tuple]:
@@ -120,7 +143,7 @@ def _bytes_mutation(text: bytes, data: st.DataObject) -> bytes:
         if op == "flip" and b:
             b[i] = data.draw(st.integers(0, 255))
         elif op == "delete" and b:
-            del b[i:i + data.draw(st.integers(1, 20))]
+            del b[i : i + data.draw(st.integers(1, 20))]
         else:
             b[i:i] = data.draw(st.binary(min_size=1, max_size=8))
     return bytes(b)
@@ -150,21 +173,26 @@ def _judge_scene(path: Path, label: str, text: bytes, stats: dict, run_steps: in
                 rig.advance(scene.period_s)
                 s = rig.read()
                 if not (math.isfinite(s.T_sensor_C) and math.isfinite(s.Q_W)):
-                    stats["bad"].append(f"{label}: accepted scene gives a non-finite sample <- {text[:300]!r}")
+                    stats["bad"].append(
+                        f"{label}: accepted scene gives a non-finite sample <- {text[:300]!r}"
+                    )
                     return
     except sim.SceneError:
         pass
     except Exception as exc:  # noqa: BLE001
-        stats["bad"].append(f"{label}: accepted scene, then {type(exc).__name__} in build/run: {exc} "
-                            f"<- {text[:300]!r}")
+        stats["bad"].append(
+            f"{label}: accepted scene, then {type(exc).__name__} in build/run: {exc} <- {text[:300]!r}"
+        )
 
 
 def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict:
     """Mutated scene files: a Scene or a SceneError naming file and field."""
-    c = Case("fuzz_scene_loader",
-             "mutated shipped scenes (values of other types, NaN/inf, huge numbers, keys dropped or added, bytes "
-             "flipped) through sim.load_scene: a Scene (whose rigs then build and run finite for a few steps) or "
-             "a SceneError naming the file and a field; never another exception")
+    c = Case(
+        "fuzz_scene_loader",
+        "mutated shipped scenes (values of other types, NaN/inf, huge numbers, keys dropped or added, bytes "
+        "flipped) through sim.load_scene: a Scene (whose rigs then build and run finite for a few steps) or "
+        "a SceneError naming the file and a field; never another exception",
+    )
     bases = {}
     for name in sim.shipped_scenes():
         bases[name] = tomllib.loads((sim.scene.SCENES_DIR / f"{name}.toml").read_text(encoding="utf-8"))
@@ -175,8 +203,13 @@ def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict
         def judge(label: str, text: bytes) -> None:
             _judge_scene(path, label, text, stats, run_steps)
 
-        @settings(max_examples=max_examples, deadline=None, database=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
+        @settings(
+            max_examples=max_examples,
+            deadline=None,
+            database=None,
+            derandomize=True,
+            suppress_health_check=list(HealthCheck),
+        )
         @given(st.sampled_from(sorted(bases)), st.data())
         def structured(name, data):
             doc = _strip_none(mutate(bases[name], data, toml_safe=True))
@@ -186,11 +219,18 @@ def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict
                 return
             judge(f"structured:{name}", text)
 
-        @settings(max_examples=max_examples // 2, deadline=None, database=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
+        @settings(
+            max_examples=max_examples // 2,
+            deadline=None,
+            database=None,
+            derandomize=True,
+            suppress_health_check=list(HealthCheck),
+        )
         @given(st.sampled_from(sorted(bases)), st.data())
         def textual(name, data):
-            judge(f"bytes:{name}", _bytes_mutation((sim.scene.SCENES_DIR / f"{name}.toml").read_bytes(), data))
+            judge(
+                f"bytes:{name}", _bytes_mutation((sim.scene.SCENES_DIR / f"{name}.toml").read_bytes(), data)
+            )
 
         structured()
         textual()
@@ -198,16 +238,26 @@ def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict
         for name, doc in bases.items():
             for p in _numeric_paths(doc):
                 for v in SWEEP_VALUES:
-                    judge(f"sweep:{name}:{'.'.join(map(str, p))}={str(v)[:12]}",
-                          stress_toml.dumps(_strip_none(_replaced(doc, p, v))).encode("utf-8"))
+                    judge(
+                        f"sweep:{name}:{'.'.join(map(str, p))}={str(v)[:12]}",
+                        stress_toml.dumps(_strip_none(_replaced(doc, p, v))).encode("utf-8"),
+                    )
     kinds = [_violation_kind(b) for b in stats["bad"]]
-    c.fig(examples=stats["examples"], accepted=stats["accepted"], scene_errors=stats["scene_errors"],
-          violations=len(stats["bad"]), violations_huge_int_finding=kinds.count("huge_int"),
-          violations_unexplained=kinds.count("unexplained"), first_violations=stats["bad"][:5])
+    c.fig(
+        examples=stats["examples"],
+        accepted=stats["accepted"],
+        scene_errors=stats["scene_errors"],
+        violations=len(stats["bad"]),
+        violations_huge_int_finding=kinds.count("huge_int"),
+        violations_unexplained=kinds.count("unexplained"),
+        first_violations=stats["bad"][:5],
+    )
     if "huge_int" in kinds:
         c.note(KNOWN_FINDINGS["scene_huge_int"])
-    c.require(not stats["bad"], f"only Scene or SceneError(file, field): {len(stats['bad'])} violations, first: "
-                                f"{stats['bad'][:2]}")
+    c.require(
+        not stats["bad"],
+        f"only Scene or SceneError(file, field): {len(stats['bad'])} violations, first: {stats['bad'][:2]}",
+    )
     return c.result()
 
 
@@ -215,16 +265,20 @@ def case_fuzz_scene_loader(max_examples: int = 200, run_steps: int = 10) -> dict
 def base_model_doc() -> dict:
     """The JSON document of the model identified on the simulated rig (tests.stress.cases.model)."""
 
-    return model_to_dict(TemModel(temperature=identified_model(), meta={"rig": "sim.free_pad_rig", "seed": 1}))
+    return model_to_dict(
+        TemModel(temperature=identified_model(), meta={"rig": "sim.free_pad_rig", "seed": 1})
+    )
 
 
 def case_fuzz_model_loader(max_examples: int = 200) -> dict:
     """Mutated model files: a TemModel or a ModelFileError naming the file."""
 
-    c = Case("fuzz_model_loader",
-             "mutated model files (values of other types, NaN/Infinity, ints beyond float range, keys dropped or "
-             "added, bytes flipped) through telethermo.ident.load_model: a TemModel or a ModelFileError naming the "
-             "file (and the field, except for whole-file errors); never another exception")
+    c = Case(
+        "fuzz_model_loader",
+        "mutated model files (values of other types, NaN/Infinity, ints beyond float range, keys dropped or "
+        "added, bytes flipped) through telethermo.ident.load_model: a TemModel or a ModelFileError naming the "
+        "file (and the field, except for whole-file errors); never another exception",
+    )
     base = base_model_doc()
     stats = {"examples": 0, "accepted": 0, "refused": 0, "bad": []}
     with tempfile.TemporaryDirectory() as td:
@@ -245,8 +299,13 @@ def case_fuzz_model_loader(max_examples: int = 200) -> dict:
             except Exception as exc:  # noqa: BLE001 - the finding
                 stats["bad"].append(f"{label}: {type(exc).__name__}: {exc} <- {text[:200]!r}")
 
-        @settings(max_examples=max_examples, deadline=None, database=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
+        @settings(
+            max_examples=max_examples,
+            deadline=None,
+            database=None,
+            derandomize=True,
+            suppress_health_check=list(HealthCheck),
+        )
         @given(st.data())
         def structured(data):
             doc = mutate(base, data, toml_safe=False)
@@ -256,8 +315,13 @@ def case_fuzz_model_loader(max_examples: int = 200) -> dict:
                 return
             judge("structured", text)
 
-        @settings(max_examples=max_examples // 2, deadline=None, database=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
+        @settings(
+            max_examples=max_examples // 2,
+            deadline=None,
+            database=None,
+            derandomize=True,
+            suppress_health_check=list(HealthCheck),
+        )
         @given(st.data())
         def textual(data):
             judge("bytes", _bytes_mutation(json.dumps(base).encode("utf-8"), data))
@@ -275,17 +339,25 @@ def case_fuzz_model_loader(max_examples: int = 200) -> dict:
                     continue
                 judge(f"sweep:{'.'.join(map(str, p))}={str(v)[:12]}", text)
     kinds = [_violation_kind(b) for b in stats["bad"]]
-    c.fig(examples=stats["examples"], accepted=stats["accepted"], refused=stats["refused"],
-          violations=len(stats["bad"]), violations_huge_int_finding=kinds.count("huge_int"),
-          violations_current_range_finding=kinds.count("current_range"),
-          violations_unexplained=kinds.count("unexplained"), first_violations=stats["bad"][:5],
-          first_unexplained=[b for b, k in zip(stats["bad"], kinds) if k == "unexplained"][:5])
+    c.fig(
+        examples=stats["examples"],
+        accepted=stats["accepted"],
+        refused=stats["refused"],
+        violations=len(stats["bad"]),
+        violations_huge_int_finding=kinds.count("huge_int"),
+        violations_current_range_finding=kinds.count("current_range"),
+        violations_unexplained=kinds.count("unexplained"),
+        first_violations=stats["bad"][:5],
+        first_unexplained=[b for b, k in zip(stats["bad"], kinds) if k == "unexplained"][:5],
+    )
     if "huge_int" in kinds:
         c.note(KNOWN_FINDINGS["model_huge_int"])
     if "current_range" in kinds:
         c.note(KNOWN_FINDINGS["model_current_range"])
-    c.require(not stats["bad"], f"only TemModel or ModelFileError(file): {len(stats['bad'])} violations, first: "
-                                f"{stats['bad'][:2]}")
+    c.require(
+        not stats["bad"],
+        f"only TemModel or ModelFileError(file): {len(stats['bad'])} violations, first: {stats['bad'][:2]}",
+    )
     return c.result()
 
 

@@ -7,6 +7,7 @@ loggers), no callback error, the device still answers SDO (canopen's own RemoteN
 frames counted: every frame on a COB-ID no service uses is counted as unknown, every frame of a wrong length
 for NMT/SYNC/heartbeat/RPDO1 as malformed (exact counts for the non-SDO, non-NMT-command frames).
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -31,28 +32,28 @@ MASTER_ID, SLAVE_ID = 1, 2
 #: they stand). Keys are used by the tests to tell these apart from anything new.
 KNOWN_FINDINGS = {
     "29bit": "FINDING (telethermo/device/device.py): a 29-bit (extended) frame whose identifier equals a "
-             "CANopen COB-ID is handled as the 11-bit service (canopen's Network.notify dispatches by "
-             "arbitration_id only): e.g. extended ID 0x000 with data 02 01 puts the node in STOPPED, extended "
-             "0x000 with DLC 0 is counted as a malformed NMT frame. CiA 301 uses 11-bit identifiers only: "
-             "extended frames should be counted as unknown and ignored.",
+    "CANopen COB-ID is handled as the 11-bit service (canopen's Network.notify dispatches by "
+    "arbitration_id only): e.g. extended ID 0x000 with data 02 01 puts the node in STOPPED, extended "
+    "0x000 with DLC 0 is counted as a malformed NMT frame. CiA 301 uses 11-bit identifiers only: "
+    "extended frames should be counted as unknown and ignored.",
     "sdo_segment": "FINDING (telethermo/device/device.py _on_sdo_frame -> canopen SdoServer): an SDO "
-                   "upload-segment (0x60/0x70) or download-segment (0x00..) request with no transfer in progress "
-                   "raises TypeError('required argument is not an integer') out of the device's handler (caught "
-                   "and logged at ERROR by canopen's MessageListener) and no SDO abort is sent; CiA 301 expects "
-                   "abort 0x05040001 (command specifier not valid).",
+    "upload-segment (0x60/0x70) or download-segment (0x00..) request with no transfer in progress "
+    "raises TypeError('required argument is not an integer') out of the device's handler (caught "
+    "and logged at ERROR by canopen's MessageListener) and no SDO abort is sent; CiA 301 expects "
+    "abort 0x05040001 (command specifier not valid).",
     "scene_huge_int": "FINDING (sim/scene.py _R.num): a scene number written as an integer beyond float range "
-                      "(tomllib accepts any size, e.g. period_s = 1 followed by 400 zeros) raises OverflowError "
-                      "('int too large to convert to float') from math.isfinite instead of a SceneError naming the "
-                      "file and the field.",
+    "(tomllib accepts any size, e.g. period_s = 1 followed by 400 zeros) raises OverflowError "
+    "('int too large to convert to float') from math.isfinite instead of a SceneError naming the "
+    "file and the field.",
     "model_huge_int": "FINDING (telethermo/ident/modelfile.py _Reader.num/nums): a model-file number written as an "
-                      "integer beyond float range (json accepts any size, e.g. \"period_s\": 1e400 written as "
-                      "digits) raises OverflowError ('int too large to convert to float') instead of a "
-                      "ModelFileError naming the file and the field.",
+    'integer beyond float range (json accepts any size, e.g. "period_s": 1e400 written as '
+    "digits) raises OverflowError ('int too large to convert to float') instead of a "
+    "ModelFileError naming the file and the field.",
     "model_current_range": "FINDING (telethermo/ident/modelfile.py + stability.py): a model file whose "
-                           "temperature.current_range_A holds a huge finite bound (e.g. [-1e308, 1.0]) passes the "
-                           "field checks, then check_stability evaluates the polynomial poles at that current, "
-                           "overflows, and numpy.linalg.eigvals raises LinAlgError('Array must not contain infs or "
-                           "NaNs') out of load_model instead of a ModelFileError naming the field.",
+    "temperature.current_range_A holds a huge finite bound (e.g. [-1e308, 1.0]) passes the "
+    "field checks, then check_stability evaluates the polynomial poles at that current, "
+    "overflows, and numpy.linalg.eigvals raises LinAlgError('Array must not contain infs or "
+    "NaNs') out of load_model instead of a ModelFileError naming the field.",
 }
 
 
@@ -108,9 +109,16 @@ def device_under_fuzz():
         net.NOTIFIER_CYCLE = 0.05
         net.connect(interface="virtual", channel=channel)
         stack.callback(net.disconnect)
-        dev = Device(net, MASTER_ID, path("master.eds"),
-                     settings=DeviceSettings(heartbeat_producer_ms=100, heartbeat_consumers=((SLAVE_ID, 250),),
-                                             known_node_ids=(MASTER_ID, SLAVE_ID)))
+        dev = Device(
+            net,
+            MASTER_ID,
+            path("master.eds"),
+            settings=DeviceSettings(
+                heartbeat_producer_ms=100,
+                heartbeat_consumers=((SLAVE_ID, 250),),
+                known_node_ids=(MASTER_ID, SLAVE_ID),
+            ),
+        )
         stack.callback(dev.close)
         counter = _Counter()
         net.notifier.add_listener(counter)
@@ -138,17 +146,31 @@ def _rpdo1(dev) -> tuple[int, int]:
 def frame_strategy(dev) -> st.SearchStrategy:
     """(cob_id, extended, dlc-sized payload, remote) biased to the services the device listens to."""
     rp_cob, _ = _rpdo1(dev)
-    services = [0x000, 0x080, 0x600 + MASTER_ID, 0x700 + SLAVE_ID, rp_cob, 0x700 + MASTER_ID, 0x080 + SLAVE_ID,
-                0x180 + MASTER_ID, 0x580 + MASTER_ID, 0x7E5]
+    services = [
+        0x000,
+        0x080,
+        0x600 + MASTER_ID,
+        0x700 + SLAVE_ID,
+        rp_cob,
+        0x700 + MASTER_ID,
+        0x080 + SLAVE_ID,
+        0x180 + MASTER_ID,
+        0x580 + MASTER_ID,
+        0x7E5,
+    ]
     std_id = st.one_of(st.sampled_from(services), st.integers(0, 0x7FF))
     return st.one_of(
         st.tuples(std_id, st.just(False), st.binary(min_size=0, max_size=8), st.just(False)),
-        st.tuples(st.integers(0, 0x1FFFFFFF), st.just(True), st.binary(min_size=0, max_size=8), st.booleans()),
+        st.tuples(
+            st.integers(0, 0x1FFFFFFF), st.just(True), st.binary(min_size=0, max_size=8), st.booleans()
+        ),
         st.tuples(std_id, st.just(False), st.binary(min_size=0, max_size=8), st.just(True)),
     )
 
 
-def expected_counts(frames: list[tuple], known: set[int], rp: tuple[int, int], sync_len: int = 1) -> dict[str, int]:
+def expected_counts(
+    frames: list[tuple], known: set[int], rp: tuple[int, int], sync_len: int = 1
+) -> dict[str, int]:
     """Unknown and malformed frames by CiA 301 (independent of the device's code) for frames that do not
     change the device's state (no SDO requests, no well-formed NMT commands). ``sync_len``: the SYNC's
     length by CiA 301 §7.2.5, 1 byte (the counter) when 0x1019 > 0, else 0."""
@@ -188,15 +210,32 @@ class _FrameFuzz:
         self.sync_len = 1 if dev.read(0x1019) else 0
         self.service_ids = {0x000, 0x080, 0x600 + MASTER_ID, 0x700 + SLAVE_ID, self.rp[0]}
         self.sent = 0
-        self.stats = {"examples": 0, "frames": 0, "unknown_counted": 0, "malformed_counted": 0, "mismatches": [],
-                      "errors": [], "escapes": [], "mismatch_29bit": 0, "mismatch_other": 0, "escape_sdo": 0,
-                      "escape_other": 0}
+        self.stats = {
+            "examples": 0,
+            "frames": 0,
+            "unknown_counted": 0,
+            "malformed_counted": 0,
+            "mismatches": [],
+            "errors": [],
+            "escapes": [],
+            "mismatch_29bit": 0,
+            "mismatch_other": 0,
+            "escape_sdo": 0,
+            "escape_other": 0,
+        }
         self.any_stats = {"examples": 0, "frames": 0}
 
     def send(self, frames) -> None:
         for cob, ext, data, remote in frames:
-            self.raw.send(can.Message(arbitration_id=cob, is_extended_id=ext, data=b"" if remote else data,
-                                      dlc=len(data), is_remote_frame=remote))
+            self.raw.send(
+                can.Message(
+                    arbitration_id=cob,
+                    is_extended_id=ext,
+                    data=b"" if remote else data,
+                    dlc=len(data),
+                    is_remote_frame=remote,
+                )
+            )
         self.sent += len(frames)
         if not self.counter.wait(self.sent):
             self.stats["errors"].append(f"device dispatched {self.counter.n} of {self.sent} frames")
@@ -207,12 +246,17 @@ class _FrameFuzz:
         if len(log.records) <= n_log:
             return
         if any(f[0] == 0x600 + MASTER_ID and not f[3] for f in frames):
-            stats["escape_sdo"] += 1         # FINDING 2 (see KNOWN_FINDINGS)
+            stats["escape_sdo"] += 1  # FINDING 2 (see KNOWN_FINDINGS)
         else:
             stats["escape_other"] += 1
         if len(stats["escapes"]) < 3:
-            stats["escapes"].append({"error": log.records[-1], "state": int(self.dev.state),
-                                     "frames": [(hex(f[0]), f[1], f[2].hex(), f[3]) for f in frames]})
+            stats["escapes"].append(
+                {
+                    "error": log.records[-1],
+                    "state": int(self.dev.state),
+                    "frames": [(hex(f[0]), f[1], f[2].hex(), f[3]) for f in frames],
+                }
+            )
 
     def classified(self, frames) -> None:
         """Frames that change no state: the counts must equal CiA 301's."""
@@ -230,12 +274,17 @@ class _FrameFuzz:
         stats["malformed_counted"] += dm
         if (du, dm) != (exp["unknown"], exp["malformed"]):
             if any(f[1] and f[0] in self.service_ids for f in frames):
-                stats["mismatch_29bit"] += 1     # FINDING 1 (see KNOWN_FINDINGS)
+                stats["mismatch_29bit"] += 1  # FINDING 1 (see KNOWN_FINDINGS)
             else:
                 stats["mismatch_other"] += 1
             if len(stats["mismatches"]) < 5:
-                stats["mismatches"].append({"frames": [(hex(f[0]), f[1], f[2].hex(), f[3]) for f in frames],
-                                            "counted": (du, dm), "expected": (exp["unknown"], exp["malformed"])})
+                stats["mismatches"].append(
+                    {
+                        "frames": [(hex(f[0]), f[1], f[2].hex(), f[3]) for f in frames],
+                        "counted": (du, dm),
+                        "expected": (exp["unknown"], exp["malformed"]),
+                    }
+                )
 
     def anything(self, frames) -> None:
         """Everything, including SDO requests and NMT commands: never a crash."""
@@ -246,8 +295,13 @@ class _FrameFuzz:
         self.any_stats["frames"] += len(frames)
 
     def run(self, strategy, max_examples: int, fn) -> None:
-        @settings(max_examples=max_examples, deadline=None, database=None, derandomize=True,
-                  suppress_health_check=list(HealthCheck))
+        @settings(
+            max_examples=max_examples,
+            deadline=None,
+            database=None,
+            derandomize=True,
+            suppress_health_check=list(HealthCheck),
+        )
         @given(st.lists(strategy, min_size=1, max_size=40))
         def prop(frames):
             fn(frames)
@@ -279,12 +333,14 @@ def _alive_after(raw, make_client, errors: list) -> tuple[bool, bool]:
 def case_fuzz_frames(max_examples: int = 300, seed: int = 0) -> dict:
     """Random CAN frames to a real Device: no crash, counted, still alive."""
 
-    c = Case("fuzz_device_frames",
-             "random frames (COB-IDs incl. 29-bit, DLC 0..8, remote frames, payloads incl. NaN RPDOs) on a "
-             "virtual bus to a real master Device in OPERATIONAL: no exception escapes a frame handler, no "
-             "callback error, unknown COB-IDs and wrong lengths counted exactly, and the device still answers "
-             "SDO (canopen RemoteNode) and sends heartbeats afterwards; with SDO and NMT commands included: "
-             "never a crash and still alive after an NMT reset")
+    c = Case(
+        "fuzz_device_frames",
+        "random frames (COB-IDs incl. 29-bit, DLC 0..8, remote frames, payloads incl. NaN RPDOs) on a "
+        "virtual bus to a real master Device in OPERATIONAL: no exception escapes a frame handler, no "
+        "callback error, unknown COB-IDs and wrong lengths counted exactly, and the device still answers "
+        "SDO (canopen RemoteNode) and sends heartbeats afterwards; with SDO and NMT commands included: "
+        "never a crash and still alive after an NMT reset",
+    )
     with device_under_fuzz() as (dev, raw, counter, client, log):
         fz = _FrameFuzz(dev, raw, counter, log)
         fz.run(frame_strategy(dev).filter(lambda f: not _state_changing(f)), max_examples, fz.classified)
@@ -292,23 +348,40 @@ def case_fuzz_frames(max_examples: int = 300, seed: int = 0) -> dict:
         escaped = list(log.records)
         stats, any_stats = fz.stats, fz.any_stats
         alive, hb = _alive_after(raw, client, stats["errors"])
-        c.fig(classified_examples=stats["examples"], classified_frames=stats["frames"],
-              unknown_counted=stats["unknown_counted"], malformed_counted=stats["malformed_counted"],
-              any_examples=any_stats["examples"], any_frames=any_stats["frames"],
-              callback_errors=dev.stats.callback_errors, escaped_exceptions=len(escaped),
-              rpdo_accepted=dev.stats.rpdo_count, sdo_answers_after=alive, heartbeat_after=hb)
+        c.fig(
+            classified_examples=stats["examples"],
+            classified_frames=stats["frames"],
+            unknown_counted=stats["unknown_counted"],
+            malformed_counted=stats["malformed_counted"],
+            any_examples=any_stats["examples"],
+            any_frames=any_stats["frames"],
+            callback_errors=dev.stats.callback_errors,
+            escaped_exceptions=len(escaped),
+            rpdo_accepted=dev.stats.rpdo_count,
+            sdo_answers_after=alive,
+            heartbeat_after=hb,
+        )
         c.require(not stats["errors"], f"harness and device ran without errors: {stats['errors'][:2]}")
-        c.fig(escapes=stats["escapes"], mismatch_examples=stats["mismatches"],
-              examples_miscounted_29bit_finding=stats["mismatch_29bit"],
-              examples_miscounted_unexplained=stats["mismatch_other"],
-              examples_escaped_sdo_finding=stats["escape_sdo"], examples_escaped_unexplained=stats["escape_other"])
+        c.fig(
+            escapes=stats["escapes"],
+            mismatch_examples=stats["mismatches"],
+            examples_miscounted_29bit_finding=stats["mismatch_29bit"],
+            examples_miscounted_unexplained=stats["mismatch_other"],
+            examples_escaped_sdo_finding=stats["escape_sdo"],
+            examples_escaped_unexplained=stats["escape_other"],
+        )
         if stats["mismatch_29bit"]:
             c.note(KNOWN_FINDINGS["29bit"])
         if stats["escape_sdo"]:
             c.note(KNOWN_FINDINGS["sdo_segment"])
-        c.require(not escaped, f"no exception escaped a frame handler: {escaped[:3]} (examples in figure 'escapes')")
+        c.require(
+            not escaped, f"no exception escaped a frame handler: {escaped[:3]} (examples in figure 'escapes')"
+        )
         c.require(dev.stats.callback_errors == 0, f"callback errors {dev.stats.callback_errors} == 0")
-        c.require(not stats["mismatches"], f"counts as CiA 301 says: {len(stats['mismatches'])} examples differ, "
-                                           f"first: {stats['mismatches'][:1]}")
+        c.require(
+            not stats["mismatches"],
+            f"counts as CiA 301 says: {len(stats['mismatches'])} examples differ, "
+            f"first: {stats['mismatches'][:1]}",
+        )
         c.require(alive and hb, f"device alive afterwards (SDO answer {alive}, heartbeat {hb})")
     return c.result()

@@ -3,6 +3,7 @@
 The reference model is identified here, as a lab would: a PRBS on the simulated free pad
 (``sim.free_pad_rig``), fitted by ``telethermo.ident.fit_narma`` (order 3,3,3,3).
 """
+
 from __future__ import annotations
 
 import functools
@@ -13,8 +14,18 @@ from pathlib import Path
 import numpy as np
 
 from tests.stress.cases.case import Case
-from telethermo.ident import (ModelFileError, NarmaModel, NarmaOrders, TemModel, UnstableModelError, check_stability,
-                              fit_narma, load_model, prbs, save_model)
+from telethermo.ident import (
+    ModelFileError,
+    NarmaModel,
+    NarmaOrders,
+    TemModel,
+    UnstableModelError,
+    check_stability,
+    fit_narma,
+    load_model,
+    prbs,
+    save_model,
+)
 from telethermo import sim
 
 PERIOD_S = 0.01
@@ -35,8 +46,14 @@ def identified_model(n_samples: int = 20_000, seed: int = 1) -> NarmaModel:
 
 
 def _model(orders: tuple[int, int, int, int], theta: list[float], current_range: float = 1.0) -> NarmaModel:
-    return NarmaModel(orders=NarmaOrders(*orders), theta=np.array(theta, dtype=float), period_s=PERIOD_S, T_ref_C=25.0,
-                      current_range_A=(-current_range, current_range), T_range_C=(20.0, 30.0))
+    return NarmaModel(
+        orders=NarmaOrders(*orders),
+        theta=np.array(theta, dtype=float),
+        period_s=PERIOD_S,
+        T_ref_C=25.0,
+        current_range_A=(-current_range, current_range),
+        T_range_C=(20.0, 30.0),
+    )
 
 
 def _second_order(r1: complex, r2: complex, b0: float = 0.01) -> list[float]:
@@ -65,17 +82,22 @@ def synthetic_models() -> dict[str, tuple[NarmaModel, bool]]:
 
 def case_unstable_refused() -> dict:
     """Near-unstable, marginal, unstable and switching-unstable models are refused with a reason."""
-    c = Case("model_unstable_refused",
-             "near-unstable (|z| = 1 - 1e-7), marginal, unstable, oscillatory-unstable, unstable-at-the-range-edge "
-             "and switching-unstable models are refused by check_stability with a reason, and load_model of their "
-             "files raises ModelFileError naming the file and temperature.theta; stable ones are accepted; a fit "
-             "on data of an unstable system raises UnstableModelError")
+    c = Case(
+        "model_unstable_refused",
+        "near-unstable (|z| = 1 - 1e-7), marginal, unstable, oscillatory-unstable, unstable-at-the-range-edge "
+        "and switching-unstable models are refused by check_stability with a reason, and load_model of their "
+        "files raises ModelFileError naming the file and temperature.theta; stable ones are accepted; a fit "
+        "on data of an unstable system raises UnstableModelError",
+    )
     with tempfile.TemporaryDirectory() as td:
         for name, (m, ok) in synthetic_models().items():
             rep = check_stability(m)
             c.fig(**{f"{name}_max_pole": rep.max_pole_modulus, f"{name}_reason": rep.reason or "accepted"})
-            c.require(rep.stable == ok, f"{name}: check_stability says stable={rep.stable}, expected {ok} "
-                                        f"({rep.reason or 'no reason'})")
+            c.require(
+                rep.stable == ok,
+                f"{name}: check_stability says stable={rep.stable}, expected {ok} "
+                f"({rep.reason or 'no reason'})",
+            )
             if not ok:
                 c.require(bool(rep.reason), f"{name}: refused with a reason")
             path = Path(td) / f"{name}.json"
@@ -85,8 +107,10 @@ def case_unstable_refused() -> dict:
                 c.require(ok, f"{name}: load_model refused it")
             except ModelFileError as exc:
                 c.require(not ok, f"{name}: load_model accepted it ({exc})")
-                c.require(exc.path == str(path) and exc.field == "temperature.theta" and str(path) in str(exc),
-                          f"{name}: the error names the file and temperature.theta: {exc}")
+                c.require(
+                    exc.path == str(path) and exc.field == "temperature.theta" and str(path) in str(exc),
+                    f"{name}: the error names the file and temperature.theta: {exc}",
+                )
     # a fit on data from an unstable system (pole 1.002: the record grows by e^(0.002·N))
     rng = np.random.default_rng(7)
     u = prbs(3000, amplitude_A=(0.0, 1.0), hold_samples=5, seed=7)
@@ -112,10 +136,10 @@ def free_run_chunked(model: NarmaModel, current_A: np.ndarray, T0_C: float, chun
     hist_I = np.zeros(0)
     k = 0
     while k < N:
-        seg = current_A[k:k + chunk]
+        seg = current_A[k : k + chunk]
         I = np.concatenate([hist_I, seg])
         T = model.free_run(current_A=I, T0_C=hist_T)
-        new = T[len(hist_I):] if len(hist_I) else T
+        new = T[len(hist_I) :] if len(hist_I) else T
         if not np.all(np.isfinite(new)):
             out["finite"] = False
             break
@@ -165,12 +189,14 @@ def physical_band_C(lo_A: float, hi_A: float) -> tuple[float, float]:
 def case_free_run_24h(hours: float = 24.0) -> dict:
     """The identified model free-runs for 24 simulated hours, bounded and drift-free."""
     n = int(round(hours * 3600 / PERIOD_S))
-    c = Case("model_free_run_24h",
-             f"the order-3 model identified on the simulated rig, free-run over {hours:g} simulated hours "
-             f"({n} samples at {PERIOD_S} s) of PRBS (holds 1..1000 samples) and rests, stays finite, within the "
-             "simulated rig's own steady-state band over the current range (± 2 °C), and returns within 0.05 °C "
-             "of T_ref after the final rest (no drift, no integrating mode); the chunked free run equals the "
-             "one-shot free run and the node's streaming predictor")
+    c = Case(
+        "model_free_run_24h",
+        f"the order-3 model identified on the simulated rig, free-run over {hours:g} simulated hours "
+        f"({n} samples at {PERIOD_S} s) of PRBS (holds 1..1000 samples) and rests, stays finite, within the "
+        "simulated rig's own steady-state band over the current range (± 2 °C), and returns within 0.05 °C "
+        "of T_ref after the final rest (no drift, no integrating mode); the chunked free run equals the "
+        "one-shot free run and the node's streaming predictor",
+    )
     m = identified_model()
     lo, hi = m.current_range_A
     ss = m.steady_state_C(np.linspace(lo, hi, 401))
@@ -191,25 +217,41 @@ def case_free_run_24h(hours: float = 24.0) -> dict:
     stream[0] = pred.T_pred_C
     for k in range(w - 1):
         stream[k + 1] = pred.step(u[k])
-    c.fig(chunked_vs_oneshot_last_C=abs(ch["last_C"] - float(one[-1])),
-          stream_vs_free_run_max_C=float(np.max(np.abs(stream - one))))
+    c.fig(
+        chunked_vs_oneshot_last_C=abs(ch["last_C"] - float(one[-1])),
+        stream_vs_free_run_max_C=float(np.max(np.abs(stream - one))),
+    )
     c.require(abs(ch["last_C"] - float(one[-1])) <= 1e-9, "chunked free run == one-shot free run")
     c.require(float(np.max(np.abs(stream - one))) <= 1e-9, "streaming predictor == free run")
     res = free_run_chunked(m, u, m.T_ref_C)
-    c.fig(samples=res["samples"], hours=res["samples"] * PERIOD_S / 3600, min_C=res["min_C"], max_C=res["max_C"],
-          rig_steady_band_C=phys, model_steady_band_C=(float(ss.min()), float(ss.max())),
-          end_minus_T_ref_C=res.get("last_C", math.nan) - m.T_ref_C, final_rest_s=rest * PERIOD_S, max_pole=float(np.max(np.abs(m.local_poles(np.linspace(lo, hi, 201))))),
-          current_range_A=(lo, hi))
+    c.fig(
+        samples=res["samples"],
+        hours=res["samples"] * PERIOD_S / 3600,
+        min_C=res["min_C"],
+        max_C=res["max_C"],
+        rig_steady_band_C=phys,
+        model_steady_band_C=(float(ss.min()), float(ss.max())),
+        end_minus_T_ref_C=res.get("last_C", math.nan) - m.T_ref_C,
+        final_rest_s=rest * PERIOD_S,
+        max_pole=float(np.max(np.abs(m.local_poles(np.linspace(lo, hi, 201))))),
+        current_range_A=(lo, hi),
+    )
     c.require(res["finite"] and res["samples"] == n, f"finite over all {n} samples (got to {res['samples']})")
-    c.require(band[0] <= res["min_C"] and res["max_C"] <= band[1],
-              f"within [{band[0]:.2f}, {band[1]:.2f}] °C: got [{res['min_C']:.2f}, {res['max_C']:.2f}]")
-    c.require(abs(res.get("last_C", math.nan) - m.T_ref_C) <= 0.05,
-              f"back at T_ref after the rest: {res.get('last_C', math.nan) - m.T_ref_C:+.3g} °C")
+    c.require(
+        band[0] <= res["min_C"] and res["max_C"] <= band[1],
+        f"within [{band[0]:.2f}, {band[1]:.2f}] °C: got [{res['min_C']:.2f}, {res['max_C']:.2f}]",
+    )
+    c.require(
+        abs(res.get("last_C", math.nan) - m.T_ref_C) <= 0.05,
+        f"back at T_ref after the rest: {res.get('last_C', math.nan) - m.T_ref_C:+.3g} °C",
+    )
     if float(ss.max()) > phys[1] + 2.0 or float(ss.min()) < phys[0] - 2.0:
-        c.note(f"the model's own static gain extrapolates beyond the rig: steady states "
-               f"[{float(ss.min()):.1f}, {float(ss.max()):.1f}] °C vs the rig's [{phys[0]:.1f}, {phys[1]:.1f}] °C "
-               "(PRBS bits of 0.1 s carry little power at DC); the free run stays inside because the drive never "
-               "holds long enough")
+        c.note(
+            f"the model's own static gain extrapolates beyond the rig: steady states "
+            f"[{float(ss.min()):.1f}, {float(ss.max()):.1f}] °C vs the rig's [{phys[0]:.1f}, {phys[1]:.1f}] °C "
+            "(PRBS bits of 0.1 s carry little power at DC); the free run stays inside because the drive never "
+            "holds long enough"
+        )
     return c.result()
 
 

@@ -23,6 +23,7 @@ Each case is run from the same state (one run up to the event, copied) three way
 limit on (this tree), off (the code path before it: ``trip_slew_A_per_s`` = inf, research limits), and no event
 at all (the surface's own motion in the same span: the trivial baseline).
 """
+
 from __future__ import annotations
 
 import copy
@@ -62,13 +63,26 @@ IMMEDIATE = frozenset({"nmt_cut", "sensor_nan", "heat_sink_56C"})
 
 def _scene(contact: str, duration_s: float):
     obj = CONTACTS[contact]
-    doc = {"scene": {"name": f"slew_{contact}", "kind": "telepresence", "duration_s": duration_s,
-                     "period_s": PERIOD_S, "ambient_C": 25.0},
-           "master": {"start": "finger", "contacts": [{"start_s": 0.0, "end_s": duration_s + 1.0, "force_N": 8.0}]},
-           "slave": {"start": "finger"}, "noise": {"seed": 1}}
+    doc = {
+        "scene": {
+            "name": f"slew_{contact}",
+            "kind": "telepresence",
+            "duration_s": duration_s,
+            "period_s": PERIOD_S,
+            "ambient_C": 25.0,
+        },
+        "master": {
+            "start": "finger",
+            "contacts": [{"start_s": 0.0, "end_s": duration_s + 1.0, "force_N": 8.0}],
+        },
+        "slave": {"start": "finger"},
+        "noise": {"seed": 1},
+    }
     if obj is not None:
         doc["objects"] = {"block": obj}
-        doc["slave"]["contacts"] = [{"start_s": TOUCH_S, "end_s": duration_s + 1.0, "object": "block", "force_N": 8.0}]
+        doc["slave"]["contacts"] = [
+            {"start_s": TOUCH_S, "end_s": duration_s + 1.0, "object": "block", "force_N": 8.0}
+        ]
     return load_scene_doc(doc, f"slew_{contact}")
 
 
@@ -114,7 +128,7 @@ class Pair:
             sm = dataclasses.replace(sm, T_sink_C=56.0)
         rs = step(ss, self.peer_s, self.ps, self.st_s)
         self.st_s = rs.state
-        if event == "nmt_cut":      # the node runs no cycle outside OPERATIONAL: 0 A
+        if event == "nmt_cut":  # the node runs no cycle outside OPERATIONAL: 0 A
             I_m = 0.0
             if self.trip_at_s is None:
                 self.trip_at_s = sm.t_s
@@ -128,9 +142,15 @@ class Pair:
         if not lost:
             o = rs.out
             T = math.nan if event == "peer_nan" else o.estimate_C
-            self.peer_m = PeerValues(T, o.flux_W, contact=o.contact, material_code=o.material_code,
-                                     material_beta=o.material_beta, material_touch=o.material_touch,
-                                     material_T_object0_C=o.material_T_object0_C)
+            self.peer_m = PeerValues(
+                T,
+                o.flux_W,
+                contact=o.contact,
+                material_code=o.material_code,
+                material_beta=o.material_beta,
+                material_touch=o.material_touch,
+                material_T_object0_C=o.material_T_object0_C,
+            )
         self.currents.append(I_m)
         self.rig_m.apply_current(I_m)
         self.rig_s.apply_current(rs.current_A)
@@ -170,11 +190,15 @@ def run_event(base: Pair, event: str | None, *, slew: bool, t_event_s: float, ma
         if (tr is not None and p.t[-1] >= tr + AFTER_S) or p.t[-1] >= t_event_s + max_s:
             break
     t_trip = p.trip_at_s if p.trip_at_s is not None else t_event_s
-    I = np.asarray(p.currents[n0 - 1:])
+    I = np.asarray(p.currents[n0 - 1 :])
     pre = max_rate(p.t, p.surface, t_event_s, t_trip) if t_trip - t_event_s >= 2 * WINDOW_S else math.nan
-    return {"rate_C_per_s": max_rate(p.t, p.surface, t_trip, t_trip + AFTER_S), "rate_pre_trip_C_per_s": pre,
-            "trip_after_s": None if p.trip_at_s is None else round(p.trip_at_s - t_event_s, 3),
-            "max_current_step_A": float(np.abs(np.diff(I)).max()) if len(I) > 1 else 0.0, "t_trip_s": t_trip}
+    return {
+        "rate_C_per_s": max_rate(p.t, p.surface, t_trip, t_trip + AFTER_S),
+        "rate_pre_trip_C_per_s": pre,
+        "trip_after_s": None if p.trip_at_s is None else round(p.trip_at_s - t_event_s, 3),
+        "max_current_step_A": float(np.abs(np.diff(I)).max()) if len(I) > 1 else 0.0,
+        "t_trip_s": t_trip,
+    }
 
 
 def sweep(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 0.7, 2.0, 5.0)) -> list[dict]:
@@ -191,16 +215,28 @@ def sweep(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 0.7, 2.0,
                 off = run_event(base, event, slew=False, t_event_s=t_ev)
                 t0 = on["t_trip_s"]
                 none = max_rate(*_quiet(base, t0 + AFTER_S), t0, t0 + AFTER_S)
-                fb_none = (max_rate(*_quiet(base, t0), t_ev, t0) if math.isfinite(on["rate_pre_trip_C_per_s"])
-                           else math.nan)   # the surface's own motion over the fallback's span
-                rows.append({"contact": contact, "event": event, "after_touch_s": dt_touch,
-                             "immediate_cut": event in IMMEDIATE, "trip_after_s": on["trip_after_s"],
-                             "rate_slew_C_per_s": on["rate_C_per_s"], "rate_before_C_per_s": off["rate_C_per_s"],
-                             "rate_no_event_C_per_s": none, "rate_fallback_C_per_s": on["rate_pre_trip_C_per_s"],
-                             "rate_fallback_before_C_per_s": off["rate_pre_trip_C_per_s"],
-                             "rate_fallback_no_event_C_per_s": fb_none,
-                             "max_current_step_slew_A": on["max_current_step_A"],
-                             "max_current_step_before_A": off["max_current_step_A"]})
+                fb_none = (
+                    max_rate(*_quiet(base, t0), t_ev, t0)
+                    if math.isfinite(on["rate_pre_trip_C_per_s"])
+                    else math.nan
+                )  # the surface's own motion over the fallback's span
+                rows.append(
+                    {
+                        "contact": contact,
+                        "event": event,
+                        "after_touch_s": dt_touch,
+                        "immediate_cut": event in IMMEDIATE,
+                        "trip_after_s": on["trip_after_s"],
+                        "rate_slew_C_per_s": on["rate_C_per_s"],
+                        "rate_before_C_per_s": off["rate_C_per_s"],
+                        "rate_no_event_C_per_s": none,
+                        "rate_fallback_C_per_s": on["rate_pre_trip_C_per_s"],
+                        "rate_fallback_before_C_per_s": off["rate_pre_trip_C_per_s"],
+                        "rate_fallback_no_event_C_per_s": fb_none,
+                        "max_current_step_slew_A": on["max_current_step_A"],
+                        "max_current_step_before_A": off["max_current_step_A"],
+                    }
+                )
     return rows
 
 
@@ -225,19 +261,31 @@ def _worst(rows: list[dict], key: str, pick) -> tuple[float, dict | None]:
 
 def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 0.7, 2.0, 5.0)) -> dict:
     """The pad surface's rate around trips and cuts: at most the ramp limit + 1 °C/s where the physics allows."""
-    c = Case("control_trip_surface_rate",
-             f"a telepresence pair, the finger on the master, the probe in air or touching an object "
-             f"({', '.join(contacts)}); {', '.join(str(x) for x in after_touch_s)} s after the touch the master "
-             f"meets one of {', '.join(events)}: the true pad surface (mean slope over {WINDOW_S:g} s) moves at "
-             f"most {RATE_LIMIT_C_PER_S:g} °C/s (ramp limit + 1) from the peer trip to {AFTER_S:g} s after it, "
-             "unless the surface moves faster than that with no event at all (the contact's own transient); the "
-             "immediate cuts (NMT, sensor NaN, heat sink) are measured, not bounded (the pad's stored heat)")
+    c = Case(
+        "control_trip_surface_rate",
+        f"a telepresence pair, the finger on the master, the probe in air or touching an object "
+        f"({', '.join(contacts)}); {', '.join(str(x) for x in after_touch_s)} s after the touch the master "
+        f"meets one of {', '.join(events)}: the true pad surface (mean slope over {WINDOW_S:g} s) moves at "
+        f"most {RATE_LIMIT_C_PER_S:g} °C/s (ramp limit + 1) from the peer trip to {AFTER_S:g} s after it, "
+        "unless the surface moves faster than that with no event at all (the contact's own transient); the "
+        "immediate cuts (NMT, sensor NaN, heat sink) are measured, not bounded (the pad's stored heat)",
+    )
     rows = sweep(contacts, events, after_touch_s)
-    c.fig(surface_rate_cases=rows, window_s=WINDOW_S, after_s=AFTER_S,
-          surface_rate_limit_C_per_s=RATE_LIMIT_C_PER_S)
-    for key, label in (("rate_slew_C_per_s", "slew"), ("rate_before_C_per_s", "before"),
-                       ("rate_no_event_C_per_s", "no_event")):
-        for name, pick in (("peer_trips", lambda r: not r["immediate_cut"]), ("immediate_cuts", lambda r: r["immediate_cut"])):
+    c.fig(
+        surface_rate_cases=rows,
+        window_s=WINDOW_S,
+        after_s=AFTER_S,
+        surface_rate_limit_C_per_s=RATE_LIMIT_C_PER_S,
+    )
+    for key, label in (
+        ("rate_slew_C_per_s", "slew"),
+        ("rate_before_C_per_s", "before"),
+        ("rate_no_event_C_per_s", "no_event"),
+    ):
+        for name, pick in (
+            ("peer_trips", lambda r: not r["immediate_cut"]),
+            ("immediate_cuts", lambda r: r["immediate_cut"]),
+        ):
             v, where = _worst(rows, key, pick)
             c.fig(**{f"max_{label}_{name}_C_per_s": v, f"max_{label}_{name}_at": where})
     v, where = _worst(rows, "rate_fallback_C_per_s", lambda r: True)
@@ -246,50 +294,76 @@ def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.
         if r["immediate_cut"]:
             continue
         allowed = max(RATE_LIMIT_C_PER_S, r["rate_no_event_C_per_s"])
-        c.require(r["rate_slew_C_per_s"] <= allowed,
-                  f"{r['contact']} +{r['after_touch_s']} s {r['event']}: surface {r['rate_slew_C_per_s']:.2f} °C/s "
-                  f"after the trip <= {allowed:.2f} °C/s (before the slew: {r['rate_before_C_per_s']:.2f})")
-    for r in rows:   # the link-loss fallback (issue 15: the master renders the identified material before any
+        c.require(
+            r["rate_slew_C_per_s"] <= allowed,
+            f"{r['contact']} +{r['after_touch_s']} s {r['event']}: surface {r['rate_slew_C_per_s']:.2f} °C/s "
+            f"after the trip <= {allowed:.2f} °C/s (before the slew: {r['rate_before_C_per_s']:.2f})",
+        )
+    for r in rows:  # the link-loss fallback (issue 15: the master renders the identified material before any
         # trip) is slewed and lead-bounded as a peer trip is: bounded the same way, against the surface's own
         # motion over the fallback's span
         if math.isfinite(r["rate_fallback_C_per_s"]):
             allowed = max(RATE_LIMIT_C_PER_S, r["rate_fallback_no_event_C_per_s"])
-            c.require(r["rate_fallback_C_per_s"] <= allowed,
-                      f"{r['contact']} +{r['after_touch_s']} s {r['event']}: surface {r['rate_fallback_C_per_s']:.2f} "
-                      f"°C/s during the link-loss fallback <= {allowed:.2f} °C/s (before the slew: "
-                      f"{r['rate_fallback_before_C_per_s']:.2f})")
+            c.require(
+                r["rate_fallback_C_per_s"] <= allowed,
+                f"{r['contact']} +{r['after_touch_s']} s {r['event']}: surface {r['rate_fallback_C_per_s']:.2f} "
+                f"°C/s during the link-loss fallback <= {allowed:.2f} °C/s (before the slew: "
+                f"{r['rate_fallback_before_C_per_s']:.2f})",
+            )
     quiet = [r for r in rows if r["rate_no_event_C_per_s"] <= RATE_LIMIT_C_PER_S]
     head = {}
-    for key, sel in (("", lambda r: not r["immediate_cut"] and r in quiet),
-                     ("_all_peer_trips", lambda r: not r["immediate_cut"]),
-                     ("_immediate_cut", lambda r: r["immediate_cut"] and r in quiet),
-                     ("_immediate_cut_all", lambda r: r["immediate_cut"])):
+    for key, sel in (
+        ("", lambda r: not r["immediate_cut"] and r in quiet),
+        ("_all_peer_trips", lambda r: not r["immediate_cut"]),
+        ("_immediate_cut", lambda r: r["immediate_cut"] and r in quiet),
+        ("_immediate_cut_all", lambda r: r["immediate_cut"]),
+    ):
         head[f"surface_rate_max{key}_C_per_s"] = _worst(rows, "rate_slew_C_per_s", sel)[0]
         head[f"surface_rate_max{key}_before_C_per_s"] = _worst(rows, "rate_before_C_per_s", sel)[0]
     head["surface_rate_max_no_event_C_per_s"] = _worst(rows, "rate_no_event_C_per_s", lambda r: True)[0]
     head["surface_rate_max_fallback_phase_C_per_s"] = _worst(rows, "rate_fallback_C_per_s", lambda r: True)[0]
-    head["surface_rate_max_fallback_phase_before_C_per_s"] = _worst(rows, "rate_fallback_before_C_per_s",
-                                                                    lambda r: True)[0]
-    fb_quiet = lambda r: r["rate_fallback_no_event_C_per_s"] <= RATE_LIMIT_C_PER_S   # noqa: E731
+    head["surface_rate_max_fallback_phase_before_C_per_s"] = _worst(
+        rows, "rate_fallback_before_C_per_s", lambda r: True
+    )[0]
+    fb_quiet = lambda r: r["rate_fallback_no_event_C_per_s"] <= RATE_LIMIT_C_PER_S  # noqa: E731
     head["surface_rate_max_fallback_phase_quiet_C_per_s"] = _worst(rows, "rate_fallback_C_per_s", fb_quiet)[0]
-    head["surface_rate_max_fallback_phase_quiet_before_C_per_s"] = _worst(rows, "rate_fallback_before_C_per_s",
-                                                                          fb_quiet)[0]
+    head["surface_rate_max_fallback_phase_quiet_before_C_per_s"] = _worst(
+        rows, "rate_fallback_before_C_per_s", fb_quiet
+    )[0]
     head["surface_rate_limit_C_per_s"] = RATE_LIMIT_C_PER_S
-    head["surface_rate_cases"] = [[r["contact"], r["event"], r["after_touch_s"], round(r["rate_slew_C_per_s"], 3),
-                                   round(r["rate_before_C_per_s"], 3), round(r["rate_no_event_C_per_s"], 3)]
-                                  for r in rows]
-    head["surface_rate_cases_columns"] = ["contact", "event", "after_touch_s", "slew_C_per_s", "before_C_per_s",
-                                          "no_event_C_per_s"]
-    head["surface_rate_how"] = (f"tests/stress/cases/slew.py: max |slope| of the simulated master pad surface over {WINDOW_S:g} s "
-                                f"windows, trip to +{AFTER_S:g} s; surface_rate_max_C_per_s over the peer trips where the "
-                                "contact alone moves the surface <= the limit (else *_all_*)")
+    head["surface_rate_cases"] = [
+        [
+            r["contact"],
+            r["event"],
+            r["after_touch_s"],
+            round(r["rate_slew_C_per_s"], 3),
+            round(r["rate_before_C_per_s"], 3),
+            round(r["rate_no_event_C_per_s"], 3),
+        ]
+        for r in rows
+    ]
+    head["surface_rate_cases_columns"] = [
+        "contact",
+        "event",
+        "after_touch_s",
+        "slew_C_per_s",
+        "before_C_per_s",
+        "no_event_C_per_s",
+    ]
+    head["surface_rate_how"] = (
+        f"tests/stress/cases/slew.py: max |slope| of the simulated master pad surface over {WINDOW_S:g} s "
+        f"windows, trip to +{AFTER_S:g} s; surface_rate_max_C_per_s over the peer trips where the "
+        "contact alone moves the surface <= the limit (else *_all_*)"
+    )
     res = c.result()
     res["headline"] = head
     return res
 
 
 CASES = {
-    "control_trip_surface_rate": (case_surface_rate, {},
-                                  {"contacts": ("air", "cold_al_18C", "warm_al_40C", "cold_wood_15C"),
-                                   "after_touch_s": (0.5, 5.0)}),
+    "control_trip_surface_rate": (
+        case_surface_rate,
+        {},
+        {"contacts": ("air", "cold_al_18C", "warm_al_40C", "cold_wood_15C"), "after_touch_s": (0.5, 5.0)},
+    )
 }

@@ -3,6 +3,7 @@
 Covers what scenes use: tables, arrays of tables, strings, booleans, integers, floats (incl. nan/inf),
 arrays. Keys that are not bare are quoted.
 """
+
 from __future__ import annotations
 
 import json
