@@ -276,6 +276,8 @@ def render_only(workers: int) -> dict[str, Any]:
     grid = [(m, T) for m in render_sweep.MATERIALS for T in render_sweep.OBJECT_T_C]
     with ProcessPoolExecutor(max_workers=workers) as ex:
         render = [f.result() for f in [ex.submit(render_sweep.render_touch, m, T) for m, T in grid]]
+    # the matrix's keys keep the commit they were measured on
+    old["matrix_provenance"] = old.pop("matrix_provenance", None) or old.pop("provenance", None)
     old.pop("provenance", None)
     out = {**old, **render_sweep.summarise(render), "render_touches": render}
     write_results("envelope", out)

@@ -295,6 +295,8 @@ def table(results_dir: Path) -> str:
             continue
         data = json.loads(f.read_text())
         prov = data.get("provenance", {})
+        if not key.startswith("render_") and data.get("matrix_provenance"):
+            prov = data["matrix_provenance"]  # envelope --render-only: the matrix keeps its own commit
         rows.append(
             f"| {name} | {what} (`{key}`) | {_fmt(data.get(key))} | {target} | "
             f"{str(prov.get('commit', ''))[:8]} | {str(prov.get('date', ''))[:10]} |"

@@ -10,6 +10,11 @@ against
 its limit, and the skin's closest approach during the touch to the clamp it was asked beyond. Outside the band
 the skin should sit at the clamp (within 0.5 °C, or as near as the current allows: ``limited_by`` says which
 limit acted at 0.9 s).
+
+Where the skin clamp stopped eq. 7's pre-set (``limited_by`` has ``preset_clamp``), the same touch runs again
+with the clamps widened to :data:`UNCLAMPED_C` (a research envelope): ``early_rms_unclamped_C`` is what the
+clamp on the pad costs, and ``skin_extreme_unclamped_C`` how far the skin itself then went (DESIGN.md §6: the
+limits should act on the skin, not on a pad that the finger lands on at a different temperature).
 """
 
 from __future__ import annotations
@@ -21,6 +26,9 @@ from typing import Any
 import numpy as np
 
 from telethermo import sim
+from telethermo.control.coreparams import CoreParams
+from telethermo.control.params import default_params
+from telethermo.control.types import Role
 from telethermo.offline.runner import run_offline_session
 from telethermo.sim.materials import materials
 
@@ -29,17 +37,36 @@ MATERIALS = ("eps", "oak", "glass", "stainless_steel", "aluminium", "copper")
 OBJECT_T_C = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0, 45.0, 50.0)
 T_ON_S, T_OFF_S = 5.0, 9.0
 BAND_MARGIN_C = 0.5
+#: the research envelope's clamps for the unclamped re-run, °C
+UNCLAMPED_C = (5.0, 50.0)
 
 
 def render_touch(material: str, T_object_C: float) -> dict[str, Any]:
     """One rendered touch of ``material`` at ``T_object_C`` (see the module docstring)."""
+    row = _touch(material, T_object_C, research=False)
+    if "preset_clamp" in row["limited_by"]:
+        wide = _touch(material, T_object_C, research=True)
+        row["early_rms_unclamped_C"] = wide["early_rms_C"]
+        row["preset_unclamped_C"] = wide["preset_asked_C"]
+        row["skin_extreme_unclamped_C"] = wide["skin_extreme_C"]
+    return row
+
+
+def _research_params(period_s: float) -> CoreParams:
+    """The master's defaults with the clamps widened to :data:`UNCLAMPED_C` (research envelope)."""
+    p = default_params(Role.MASTER, period_s=period_s)
+    lo, hi = UNCLAMPED_C
+    return dataclasses.replace(p, safety=dataclasses.replace(p.safety, T_min_C=lo, T_max_C=hi, research=True))
+
+
+def _touch(material: str, T_object_C: float, *, research: bool) -> dict[str, Any]:
     sc0 = sim.load_scene(SCENE)
     obj = dataclasses.replace(
         sc0.objects["brass"], name="o", material=material, T0_C=T_object_C, thickness_m=0.02
     )
     touch = dataclasses.replace(sc0.master_contacts[0], render="o", start_s=T_ON_S, end_s=T_OFF_S)
     sc = dataclasses.replace(sc0, objects={"o": obj}, master_contacts=(touch,), duration_s=T_OFF_S)
-    res = run_offline_session(sc)
+    res = run_offline_session(sc, master_params=_research_params(sc.period_s) if research else None)
     rec = res.recording
     t, skin, ref = rec.col("t_s"), rec.col("m_true_surface_C"), rec.col("ref_T_contact_C")
     sp, cur = rec.col("m_setpoint_C"), rec.col("m_current_A")
@@ -76,7 +103,13 @@ def render_touch(material: str, T_object_C: float) -> dict[str, Any]:
         "clamp_C": None if inside else clamp,
         "skin_to_clamp_C": None if inside else _closest(skin[(t >= T_ON_S) & (t < T_OFF_S)], clamp, lo),
         "limited_by": limited,
+        "skin_extreme_C": _extreme(skin[(t >= T_ON_S) & (t < T_OFF_S)], Tc, T_f),
     }
+
+
+def _extreme(skin_C: np.ndarray, T_contact_C: float, T_finger_C: float) -> float:
+    """The skin's extreme during the touch on the side the touch pulls it (coldest for a cold object), °C."""
+    return float(np.min(skin_C) if T_contact_C <= T_finger_C else np.max(skin_C))
 
 
 def _closest(skin_C: np.ndarray, clamp_C: float, lo_C: float) -> float:
@@ -104,7 +137,26 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
             for r in inside
             if r["early_rms_C"] > 0.5
         ],
+        **_clamp_cost(inside),
         "render_beyond_band_skin_to_clamp_worst_C": float(max(near)) if near else math.nan,
         "render_beyond_band_at_clamp_within_0p5": int(sum(d <= 0.5 for d in near)),
         "render_beyond_band": len(outside),
+    }
+
+
+def _clamp_cost(inside: list[dict[str, Any]]) -> dict[str, Any]:
+    """What the skin clamp on the pad's pre-set costs inside the band: the touches it limited, the worst early
+    RMS of the others, the worst with the clamp widened, and how far the skin went then, °C."""
+    clamped = [r for r in inside if "early_rms_unclamped_C" in r]
+    free = [r for r in inside if "early_rms_unclamped_C" not in r]
+    nan = math.nan
+    return {
+        "render_inside_band_preset_clamped": len(clamped),
+        "render_early_rms_worst_not_clamped_C": max((r["early_rms_C"] for r in free), default=nan),
+        "render_early_rms_worst_unclamped_C": max(
+            (r.get("early_rms_unclamped_C", r["early_rms_C"]) for r in inside), default=nan
+        ),
+        "render_unclamped_skin_extremes_C": [
+            (r["material"], r["T_object_C"], round(r["skin_extreme_unclamped_C"], 2)) for r in clamped
+        ],
     }
