@@ -5,8 +5,8 @@ the roles differ, unit), where its value lives in the control core's parameters 
 :class:`telethermo.control.core.CoreParams`, with ``convert`` naming the rare non-identity mapping), the
 scope it applies to and one line of documentation. From these rows come:
 
-- the parameter objects of both object dictionaries (``bus_config/od_manufacturer.py``, hence the EDS
-  files written by ``python -m telethermo.bus_config.edsgen``);
+- the parameter objects of both object dictionaries (merged with ``bus_config/objtable.py`` by
+  ``bus_config/od_manufacturer.py``, hence the EDS files written by ``python -m telethermo.bus_config.edsgen``);
 - the mapping between the objects and CoreParams (``nodes/odparams.py``: what an SDO write changes, what
   ``telethermo get`` shows, what a CiA 301 store saves);
 - the parameter table of the docs (``docs/parameters.md``).
@@ -15,8 +15,8 @@ scope it applies to and one line of documentation. From these rows come:
 exits 1 when one of them is stale.
 
 Adding a parameter: one row here (and the code that uses its field). Measured values, status, commands
-(``fault_reset``, ``model_command``) and the TEM model's objects are not operator parameters: they stay
-in ``od_manufacturer.py``.
+(``fault_reset``, ``model_command``) and the TEM model's objects are not operator parameters: they are the
+rows of ``bus_config/objtable.py``.
 """
 from __future__ import annotations
 
