@@ -1,8 +1,9 @@
 """The one typed map from a control cycle's results to the object dictionary: which object carries which
 field of the rig's sample (:class:`telethermo.rig.RigSample`), of the core's step result
 (:class:`telethermo.control.core.StepResult`) and of the slave's material answer
-(:class:`telethermo.control.material_stream.MaterialEstimate`), with the object's index, CiA data type
-and unit (checked against the shipped EDS files by tests/nodes/test_od_publish.py).
+(:class:`telethermo.control.material_stream.MaterialEstimate`). A row names its object; the object's
+index, CiA data type, unit and kind come from its row in ``bus_config/objtable.py`` (the table the EDS
+files are generated from; tests/nodes/test_od_publish.py checks them against the shipped EDS files too).
 
 - :data:`CYCLE`: written every control cycle (TPDO1 carries estimate and flux at this very SYNC);
 - :data:`MATERIAL`: written when the slave has a new answer (a new touch, or its refined answer);
@@ -20,7 +21,7 @@ from dataclasses import dataclass, field
 from operator import attrgetter
 from typing import Any, Callable
 
-from telethermo.bus_config.od_types import BOOLEAN, REAL32, UNSIGNED8, UNSIGNED16, UNSIGNED32
+from telethermo.bus_config.objtable import BY_NAME
 from telethermo.control import safety as sf
 
 #: identified_stage (0x261E) of MaterialEstimate.stage
@@ -38,24 +39,32 @@ def _identity(value: Any) -> Any:
 
 @dataclass(frozen=True)
 class OdRow:
-    """One object the node writes: its index/sub-index, name, CiA data type and unit, and (for a published
-    result) the field it carries: ``source`` (SAMPLE, RESULT or MATERIAL_ANSWER) and ``path`` (dotted
-    attribute path in it), ``encode`` (field value -> object value) and ``finite_or_zero`` (a path of the
-    same source: the object reads 0 while that field is not finite, i.e. no estimate)."""
+    """One object the node writes, by name, and (for a published result) the field it carries: ``source``
+    (SAMPLE, RESULT or MATERIAL_ANSWER) and ``path`` (dotted attribute path in it), ``encode`` (field value
+    -> object value) and ``finite_or_zero`` (a path of the same source: the object reads 0 while that field
+    is not finite, i.e. no estimate). ``index``, ``data_type`` (CiA), ``unit`` and ``kind`` are the
+    object's, from bus_config/objtable.py."""
 
-    index: int
     name: str
-    data_type: int
-    unit: str = ""
     source: str = ""
     path: str = ""
     encode: Callable[[Any], Any] = _identity
     finite_or_zero: str = ""
-    subindex: int = 0
+    index: int = field(init=False)
+    subindex: int = field(init=False, default=0)
+    data_type: int = field(init=False)
+    unit: str = field(init=False)
+    kind: str = field(init=False)
     _get: Callable[[Any], Any] = field(init=False, repr=False, compare=False)
     _guard: Callable[[Any], Any] | None = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
+        obj = BY_NAME.get(self.name)
+        if obj is None or obj.subs:
+            raise ValueError(f"bus_config/objtable.py: no VAR object {self.name!r} (nodes/od_publish.py)")
+        for name, value in (("index", obj.index), ("data_type", obj.data_type), ("unit", obj.unit)):
+            object.__setattr__(self, name, value)
+        object.__setattr__(self, "kind", obj.kind)
         object.__setattr__(self, "_get", attrgetter(self.path) if self.path else _identity)
         object.__setattr__(self, "_guard", attrgetter(self.finite_or_zero) if self.finite_or_zero else None)
 
@@ -87,56 +96,55 @@ def _stage(stage: str) -> int:
     return STAGE_CODES[stage]
 
 
-def _S(index: int, name: str, data_type: int, unit: str, path: str, encode=_identity) -> OdRow:
-    return OdRow(index, name, data_type, unit, SAMPLE, path, encode)
+def _S(name: str, path: str, encode: Callable[[Any], Any] = _identity) -> OdRow:
+    return OdRow(name, SAMPLE, path, encode)
 
 
-def _R(index: int, name: str, data_type: int, unit: str, path: str, encode=_identity) -> OdRow:
-    return OdRow(index, name, data_type, unit, RESULT, path, encode)
+def _R(name: str, path: str, encode: Callable[[Any], Any] = _identity) -> OdRow:
+    return OdRow(name, RESULT, path, encode)
 
 
-def _M(index: int, name: str, data_type: int, path: str, encode=_identity, *, guarded=False) -> OdRow:
-    unit = "degC" if name.endswith("_C") else ""
-    return OdRow(index, name, data_type, unit, MATERIAL_ANSWER, path, encode, "effusivity" if guarded else "")
+def _M(name: str, path: str, encode: Callable[[Any], Any] = _identity, *, guarded: bool = False) -> OdRow:
+    return OdRow(name, MATERIAL_ANSWER, path, encode, "effusivity" if guarded else "")
 
 
 #: written every cycle, from the sample and the step result
 CYCLE: tuple[OdRow, ...] = (
-    _S(0x2000, "T_sensor_C", REAL32, "degC", "T_sensor_C"),
-    _R(0x2001, "Q_W", REAL32, "W", "out.flux_W"),
-    _R(0x2002, "current_A", REAL32, "A", "current_A"),
-    _S(0x2003, "T_sink_C", REAL32, "degC", "T_sink_C"),
-    _S(0x2004, "contact", BOOLEAN, "", "contact", _bool),
-    _S(0x2005, "force_N", REAL32, "N", "force_N"),
-    _R(0x2006, "contact_decision", BOOLEAN, "", "out.contact", _bool),
-    _R(0x2100, "estimate_C", REAL32, "degC", "out.estimate_C"),
-    _R(0x2101, "T_pred_C", REAL32, "degC", "status.T_pred_C"),
-    _R(0x2102, "T_cmd_C", REAL32, "degC", "status.setpoint_C"),
-    _R(0x2619, "link_fallback_active", BOOLEAN, "", "status.link_fallback", _bool),
-    _R(0x2700, "safety_state", UNSIGNED8, "", "status.safety.state", _int),
-    _R(0x2706, "active_trips", UNSIGNED16, "", "state.env.trips", sf.trips_mask),
-    _R(0x2708, "limits_active", UNSIGNED8, "", "status.safety.limits_active", sf.limits_mask),
+    _S("T_sensor_C", "T_sensor_C"),
+    _R("Q_W", "out.flux_W"),
+    _R("current_A", "current_A"),
+    _S("T_sink_C", "T_sink_C"),
+    _S("contact", "contact", _bool),
+    _S("force_N", "force_N"),
+    _R("contact_decision", "out.contact", _bool),
+    _R("estimate_C", "out.estimate_C"),
+    _R("T_pred_C", "status.T_pred_C"),
+    _R("T_cmd_C", "status.setpoint_C"),
+    _R("link_fallback_active", "status.link_fallback", _bool),
+    _R("safety_state", "status.safety.state", _int),
+    _R("active_trips", "state.env.trips", sf.trips_mask),
+    _R("limits_active", "status.safety.limits_active", sf.limits_mask),
 )
 
 #: the slave's material answer (status.material), written when a touch has a new answer
 MATERIAL: tuple[OdRow, ...] = (
-    _M(0x2610, "identified_material", UNSIGNED8, "code"),
-    _M(0x2611, "identified_beta", REAL32, "beta", guarded=True),
-    _M(0x2612, "identified_se_ln_b", REAL32, "se_ln_b", guarded=True),
-    _M(0x2613, "identified_posterior", REAL32, "posterior"),
-    _M(0x2614, "identified_touches", UNSIGNED16, "touch", _u16),
-    _M(0x261A, "identified_T_object0_C", REAL32, "T_object0_C", guarded=True),
-    _M(0x261C, "identified_early_material", UNSIGNED8, "early_code"),
-    _M(0x261D, "identified_early_posterior", REAL32, "early_posterior"),
-    _M(0x261E, "identified_stage", UNSIGNED8, "stage", _stage),
+    _M("identified_material", "code"),
+    _M("identified_beta", "beta", guarded=True),
+    _M("identified_se_ln_b", "se_ln_b", guarded=True),
+    _M("identified_posterior", "posterior"),
+    _M("identified_touches", "touch", _u16),
+    _M("identified_T_object0_C", "T_object0_C", guarded=True),
+    _M("identified_early_material", "early_code"),
+    _M("identified_early_posterior", "early_posterior"),
+    _M("identified_stage", "stage", _stage),
 )
 
 #: what the cycle writes besides results: counters, the last trip's EMCY code, the fault-reset command
-CYCLE_COUNTER = OdRow(0x2702, "cycle_counter", UNSIGNED32)
-LATE_CYCLES = OdRow(0x2703, "late_cycles", UNSIGNED32)
-LAST_TRIP_CODE = OdRow(0x2701, "last_trip_code", UNSIGNED16)
-FAULT_RESET = OdRow(0x240A, "fault_reset", UNSIGNED8)
-FAULT_RESET_BLOCKED_BY = OdRow(0x2707, "fault_reset_blocked_by", UNSIGNED16)
+CYCLE_COUNTER = OdRow("cycle_counter")
+LATE_CYCLES = OdRow("late_cycles")
+LAST_TRIP_CODE = OdRow("last_trip_code")
+FAULT_RESET = OdRow("fault_reset")
+FAULT_RESET_BLOCKED_BY = OdRow("fault_reset_blocked_by")
 NODE_OBJECTS = (CYCLE_COUNTER, LATE_CYCLES, LAST_TRIP_CODE, FAULT_RESET, FAULT_RESET_BLOCKED_BY)
 
 #: fields of the step result (paths as in the rows) that no object carries, and why

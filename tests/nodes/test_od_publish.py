@@ -1,5 +1,6 @@
 """The typed map from a cycle's results to the object dictionary (nodes/od_publish.py): every row names an
-object of the shipped EDS files as canopen's own parser reads them (index, name, type, unit, access), every
+object of the object table and of the shipped EDS files as canopen's own parser reads them (index, name,
+type, unit, access), the values a real step gives have the Python type of their CiA type, every
 field of the step result is published exactly once or declared unpublished, and the values a real step
 produces reach the objects as a canopen SDO client reads them."""
 
@@ -13,6 +14,8 @@ import canopen
 import pytest
 
 from telethermo.bus_config import edsgen, path
+from telethermo.bus_config.objtable import ESTIMATE, MEASURED, STATUS
+from telethermo.bus_config.od_types import BOOLEAN, REAL32, UNSIGNED8, UNSIGNED16, UNSIGNED32
 from telethermo.control import safety as sf
 from telethermo.control.core import StepResult, StepStatus, init_state, step
 from telethermo.control.material_stream import MaterialEstimate
@@ -38,6 +41,19 @@ def test_every_row_is_an_object_of_the_eds_with_its_type_and_unit(role):
 
 def test_each_object_is_written_by_one_row():
     assert len({r.key for r in ROWS}) == len({r.name for r in ROWS}) == len(ROWS)
+    # what a cycle publishes is read-only on the bus: a measurement, an estimate or the node's status
+    assert {r.kind for r in (*op.CYCLE, *op.MATERIAL)} <= {MEASURED, ESTIMATE, STATUS}
+
+
+def test_a_row_names_an_object_of_the_table():
+    with pytest.raises(ValueError, match=r"bus_config/objtable.py: no VAR object 'T_skin_C'"):
+        op.OdRow("T_skin_C", op.SAMPLE, "T_sensor_C")
+    with pytest.raises(ValueError, match="no VAR object 'theta'"):  # an ARRAY is not one value
+        op.OdRow("theta", op.RESULT, "current_A")
+
+
+#: the Python type of a value each CiA type takes (canopen's encode_raw packs it as such)
+PY_TYPES = {BOOLEAN: bool, UNSIGNED8: int, UNSIGNED16: int, UNSIGNED32: int, REAL32: float}
 
 
 def _leaves(cls, prefix: str, expand: dict) -> list[str]:
@@ -79,13 +95,27 @@ def _tripped_slave_step() -> tuple[RigSample, StepResult]:
     return sample, step(sample, PeerValues(34.0, 0.1), params, res.state)
 
 
-def test_a_real_step_and_answer_reach_the_objects_as_canopen_reads_them():
-    sample, res = _tripped_slave_step()
-    assert res.state.env.trips and res.status.safety.limits_active  # the masks are not trivially zero
-    answer = MaterialEstimate(
+def _answer() -> MaterialEstimate:
+    return MaterialEstimate(
         effusivity=7000.0, se_ln_b=0.1, code=3, posterior=0.9, touch=0x1_0005, T_object0_C=24.0,
         early_code=2, early_posterior=0.6, stage="late",
     )  # fmt: skip
+
+
+def test_the_values_of_a_real_step_have_the_python_type_of_their_cia_type():
+    sample, res = _tripped_slave_step()
+    for row in op.CYCLE:
+        value = row.value(sample if row.source == op.SAMPLE else res)
+        assert type(value) is PY_TYPES[row.data_type], (row.name, value)
+    for row in op.MATERIAL:
+        for answer in (_answer(), MaterialEstimate(touch=4, stage="early")):
+            assert type(row.value(answer)) is PY_TYPES[row.data_type], row.name
+
+
+def test_a_real_step_and_answer_reach_the_objects_as_canopen_reads_them():
+    sample, res = _tripped_slave_step()
+    assert res.state.env.trips and res.status.safety.limits_active  # the masks are not trivially zero
+    answer = _answer()
     channel = f"tt-{uuid.uuid4().hex[:10]}"
     nets = [canopen.Network(), canopen.Network()]
     for net in nets:
