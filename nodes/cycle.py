@@ -18,6 +18,7 @@ from __future__ import annotations
 import logging
 import math
 import time
+from typing import Any, Callable
 
 from telethermo.cia301 import ABORT_DEVICE_STATE, EMCY_LINK_FALLBACK
 from telethermo.device.device import SyncTick
@@ -36,58 +37,21 @@ from telethermo.control.types import Mode, PeerValues
 from telethermo.rig import RigSample
 from telethermo.offline.runner import side_row, truth_row
 
+from telethermo.nodes.od_publish import (
+    CYCLE_COUNTER,
+    FAULT_RESET,
+    FAULT_RESET_BLOCKED_BY,
+    LAST_TRIP_CODE,
+    LATE_CYCLES,
+    NODE_OBJECTS,
+    OdRow,
+    Publisher,
+)
 from telethermo.nodes.ports import CycleHost
 
 log = logging.getLogger("telethermo.node")
 
 MAX_TIMING_SAMPLES = 1_000_000
-_WRITERS = (
-    "T_sensor_C",
-    "Q_W",
-    "current_A",
-    "T_sink_C",
-    "contact",
-    "contact_decision",
-    "force_N",
-    "estimate_C",
-    "T_pred_C",
-    "T_cmd_C",
-    "safety_state",
-    "last_trip_code",
-    "cycle_counter",
-    "late_cycles",
-    "active_trips",
-    "fault_reset",
-    "fault_reset_blocked_by",
-    "identified_material",
-    "identified_beta",
-    "identified_se_ln_b",
-    "identified_posterior",
-    "identified_touches",
-    "identified_T_object0_C",
-    "link_fallback_active",
-    "limits_active",
-    "identified_early_material",
-    "identified_early_posterior",
-    "identified_stage",
-)
-#: identified_stage (0x261E) of MaterialEstimate.stage
-STAGE_CODES = {"": 0, "early": 1, "late": 2}
-
-
-def material_status(w, m) -> None:
-    """The slave's identified material (telethermo.control.material_stream.MaterialEstimate) into 0x2610..0x2614
-    and 0x261A; the touch's first answer and which answer 0x2610 holds into 0x261C..0x261E."""
-    ok = math.isfinite(m.effusivity)
-    w["identified_material"](m.code)
-    w["identified_beta"](m.beta if ok else 0.0)
-    w["identified_se_ln_b"](m.se_ln_b if ok else 0.0)
-    w["identified_posterior"](m.posterior)
-    w["identified_touches"](m.touch & 0xFFFF)
-    w["identified_T_object0_C"](m.T_object0_C if ok else 0.0)
-    w["identified_early_material"](m.early_code)
-    w["identified_early_posterior"](m.early_posterior)
-    w["identified_stage"](STAGE_CODES[m.stage])
 
 
 class ControlCycle:
@@ -109,11 +73,13 @@ class ControlCycle:
         self._fault_reset_pending = False
         self._fault_reset_index = -1
         self._link_fallback = False
-        self.w: dict = {}
+        self.publish: Publisher | None = None
+        self._w: dict[OdRow, Callable[[Any], None]] = {}
 
     def bind(self, dev) -> None:
-        self.w = {name: dev.writer(name) for name in _WRITERS}
-        self._fault_reset_index = dev.info.get("fault_reset").index
+        self.publish = Publisher(dev.writer)
+        self._w = {row: dev.writer(row.key) for row in NODE_OBJECTS}
+        self._fault_reset_index = FAULT_RESET.index
         self._r_peer_est = dev.reader("peer_estimate_C")
         self._r_peer_q = dev.reader("peer_Q_W")
         self._r_peer_contact = dev.reader("peer_contact")
@@ -163,8 +129,8 @@ class ControlCycle:
         self._last_T_C = sample.T_sensor_C
         self._last_sample, self._last_peer = sample, peer
         rt.stats.cycles += 1
-        self.w["cycle_counter"](rt.stats.cycles & 0xFFFFFFFF)
-        self.w["late_cycles"](rt.stats.late_cycles & 0xFFFFFFFF)
+        self._w[CYCLE_COUNTER](rt.stats.cycles & 0xFFFFFFFF)
+        self._w[LATE_CYCLES](rt.stats.late_cycles & 0xFFFFFFFF)
         self._raise_trips(res)
         if rt.recorder is not None:
             self._record(sample, res, peer, -1 if fallback else rt.sync_cycle)
@@ -217,21 +183,8 @@ class ControlCycle:
 
     def _publish(self, sample: RigSample, res: StepResult) -> None:
         """This cycle's values into the OD (TPDO1 carries estimate and flux at this SYNC)."""
-        st, w = res.status, self.w
-        w["estimate_C"](res.out.estimate_C)
-        w["Q_W"](res.out.flux_W)
-        w["T_sensor_C"](sample.T_sensor_C)
-        w["current_A"](res.current_A)
-        w["T_sink_C"](sample.T_sink_C)
-        w["contact"](bool(sample.contact))
-        w["contact_decision"](bool(res.out.contact))
-        w["force_N"](sample.force_N)
-        w["T_pred_C"](st.T_pred_C)
-        w["T_cmd_C"](st.setpoint_C)
-        w["safety_state"](int(st.safety.state))
-        w["active_trips"](sf.trips_mask(res.state.env.trips))
-        w["limits_active"](sf.limits_mask(st.safety.limits_active))
-        w["link_fallback_active"](bool(st.link_fallback))
+        st = res.status
+        self.publish.cycle(sample, res)
         if st.safety.state != self._safety_state:
             if self._safety_state is not None:
                 log.info(
@@ -243,7 +196,7 @@ class ControlCycle:
             self._safety_state = st.safety.state
         # a new touch's first answer, and its refined one later in the same touch
         if st.material is not None and (st.material.touch, st.material.stage) != self._material_touch:
-            material_status(w, st.material)
+            self.publish.material(st.material)
             self._material_touch = (st.material.touch, st.material.stage)
 
     def _raise_trips(self, res: StepResult) -> None:
@@ -266,7 +219,7 @@ class ControlCycle:
         self._link_fallback = fb
         for trip in res.status.safety.new_trips:
             code = sf.EMCY_CODES[trip]
-            self.w["last_trip_code"](code)
+            self._w[LAST_TRIP_CODE](code)
             if trip is sf.Trip.PEER_LOST:  # names its peer as the heartbeat consumer names a lost node:
                 # the same loss is one EMCY, another watched node's loss its own (telethermo.device.emcy)
                 self.rt.device.raise_emcy(code, data=bytes([self.rt.peer_id]), subject=self.rt.peer_id)
@@ -297,7 +250,7 @@ class ControlCycle:
             log.warning(
                 "fault reset refused: %s persist", ", ".join(sorted(t.value for t in after.env.trips))
             )
-            self.w["fault_reset_blocked_by"](sf.trips_mask(after.env.trips))  # the client reads why
+            self._w[FAULT_RESET_BLOCKED_BY](sf.trips_mask(after.env.trips))  # the client reads why
             return ABORT_DEVICE_STATE
         return None
 
@@ -306,7 +259,7 @@ class ControlCycle:
         if ev.index != self._fault_reset_index:
             return False
         self._fault_reset_pending = int(ev.value) == 1
-        self.w["fault_reset"](0)  # a command: reads 0
+        self._w[FAULT_RESET](0)  # a command: reads 0
         return True
 
     def _operator_fault_reset(

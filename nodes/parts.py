@@ -6,6 +6,7 @@ session and an offline session of the same scene give the same trajectories up t
 the same rigs (``sim.build_rig(scene, role, seed)``; seeds master 0, slave 1 by default), the same
 default parameters (``telethermo.control.params.default_params``), the same cycle-0 peer values.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -70,6 +71,7 @@ class NodeParts:
     def fit_model(self, model: Any, role: Role) -> None:
         """Derive the gains from ``model`` (None: the shipped gains) for the modes built from now on."""
         self.gain_fit = fit_gains(model, role) if model is not None else None
+
     """Render scenes (master): :class:`telethermo.offline.render_script.RenderScript`, the same script
     the offline runner follows (the next touch's material once the previous touch has ended; the
     finger's skin read before each touch)."""
@@ -77,11 +79,60 @@ class NodeParts:
     """The finger thermometer of a simulated master rig (skin temperature, °C)."""
 
 
-def build_parts(opts: NodeOptions, *, period_s: float, node_id: int | None = None,
-                transport: TransportSettings | None = None) -> NodeParts:
+def build_parts(
+    opts: NodeOptions,
+    *,
+    period_s: float,
+    node_id: int | None = None,
+    transport: TransportSettings | None = None,
+) -> NodeParts:
     """Rig, parameters and model of ``opts``; ``period_s`` is the network's SYNC period, s; ``node_id`` and
     ``transport`` are the node's (the I/O rig, ``--rig io``, commissions its modules to watch ``node_id`` over
     its own connection to ``transport``)."""
+    model, gains = _model_and_gains(opts)
+    meta: dict[str, Any] = {"role": opts.role}
+    if gains:
+        meta["gains"] = {"file": str(opts.gains), **gains}
+    rig, cycles, truth, script, finger_skin = _rig(opts, period_s, node_id, transport, meta)
+    simulated = callable(getattr(rig, "advance", None))
+    if opts.timing == "lockstep" and not (simulated or getattr(rig, "lockstep", False)):
+        raise OptionError(
+            "--timing lockstep: this rig cannot advance on request (hardware runs in real time)"
+        )
+    params_for = _params_maker(opts, period_s, gains, script, rig, lambda: parts.gain_fit)
+    parts = NodeParts(
+        rig=rig,
+        simulated=simulated,
+        params_for=params_for,
+        model=model,
+        period_s=period_s,
+        cycles=cycles,
+        meta=meta,
+        truth=truth,
+        render_script=script,
+        finger_skin=finger_skin,
+    )
+    parts.fit_model(model, opts.role)
+    if parts.gain_fit is not None:
+        meta["gain_fit"] = {
+            "rho": parts.gain_fit["rho"],
+            "max_cooling_A": parts.gain_fit["max_cooling_A"],
+            **parts.gain_fit["margins"],
+        }
+    if not (
+        opts.mode is Mode.RENDER and script is None
+    ):  # without a script, RENDER renders the OD's settings
+        try:
+            params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC
+        except ValueError as exc:
+            raise OptionError(f"--mode {opts.mode.name.lower()}: {exc}") from None
+    if script is not None:
+        meta["render"] = script.meta()
+    return parts
+
+
+def _model_and_gains(opts: NodeOptions) -> tuple[Any, dict[str, float]]:
+    """The TEM model of ``--model`` (None without) and the telepresence gains of ``--gains`` ({} without)."""
     model = None
     if opts.model is not None:
         try:
@@ -94,21 +145,38 @@ def build_parts(opts: NodeOptions, *, period_s: float, node_id: int | None = Non
             gains = dict(load_gains(opts.gains)[opts.role])
         except (ValueError, KeyError) as exc:  # load_gains names the file and the field
             raise OptionError(f"--gains: {exc}") from None
-    meta: dict[str, Any] = {"role": opts.role}
-    if gains:
-        meta["gains"] = {"file": str(opts.gains), **gains}
+    return model, gains
+
+
+def _rig(
+    opts: NodeOptions,
+    period_s: float,
+    node_id: int | None,
+    transport: TransportSettings | None,
+    meta: dict[str, Any],
+):
+    """The rig of ``opts``: (rig, cycles of the scene, truth, render script, finger thermometer), the last
+    four None unless a scene simulates it."""
     if opts.scene is not None:
-        rig, cycles, truth, script, finger_skin = _scene_rig(opts, period_s, meta)
-    elif opts.rig == IO_RIG:
+        return _scene_rig(opts, period_s, meta)
+    if opts.rig == IO_RIG:
         rig = _io_rig(opts, period_s, node_id, transport)
-        cycles = truth = script = finger_skin = None
         meta.update(rig=opts.rig, rig_config=str(opts.rig_config))
-    else:
-        rig, cycles, truth, script, finger_skin = _hardware_rig(opts, period_s), None, None, None, None
-        meta.update(rig=opts.rig)
-    simulated = callable(getattr(rig, "advance", None))
-    if opts.timing == "lockstep" and not (simulated or getattr(rig, "lockstep", False)):
-        raise OptionError("--timing lockstep: this rig cannot advance on request (hardware runs in real time)")
+        return rig, None, None, None, None
+    rig = _hardware_rig(opts, period_s)
+    meta.update(rig=opts.rig)
+    return rig, None, None, None, None
+
+
+def _params_maker(
+    opts: NodeOptions,
+    period_s: float,
+    gains: dict[str, float],
+    script,
+    rig,
+    gain_fit: Callable[[], dict | None],
+) -> Callable[..., CoreParams]:
+    """``params_for(mode, render=None)``: the controller's parameters of ``mode`` on this rig."""
 
     def params_for(mode: Mode, render: RenderSettings | None = None) -> CoreParams:
         """As the offline runner: the defaults of (role, mode) with the envelope at this rig's I_max.
@@ -118,35 +186,25 @@ def build_parts(opts: NodeOptions, *, period_s: float, node_id: int | None = Non
             kw = {"render": render}
         else:
             kw = dict(gains) if mode is Mode.TELEPRESENCE else {}  # tuned gains are telepresence gains
-        p = default_params(opts.role, period_s=period_s, mode=mode, **kw)  # ValueError: RENDER without settings
-        fit = parts.gain_fit
-        if fit is not None:      # gains that fit this rig: derived from its identified model (gain_rule)
+        p = default_params(
+            opts.role, period_s=period_s, mode=mode, **kw
+        )  # ValueError: RENDER without settings
+        fit = gain_fit()
+        if fit is not None:  # gains that fit this rig: derived from its identified model (gain_rule)
             p = fitted_params(p, fit)
         if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
-        tem = tem_limits(rig)      # the detached-sensor check on this rig's TEM (as the offline runner)
+        tem = tem_limits(rig)  # the detached-sensor check on this rig's TEM (as the offline runner)
         if any(getattr(p.safety, k) != v for k, v in tem.items()):
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, **tem))
         return p
 
-    parts = NodeParts(rig=rig, simulated=simulated, params_for=params_for, model=model, period_s=period_s,
-                      cycles=cycles, meta=meta, truth=truth, render_script=script, finger_skin=finger_skin)
-    parts.fit_model(model, opts.role)
-    if parts.gain_fit is not None:
-        meta["gain_fit"] = {"rho": parts.gain_fit["rho"], "max_cooling_A": parts.gain_fit["max_cooling_A"],
-                            **parts.gain_fit["margins"]}
-    if not (opts.mode is Mode.RENDER and script is None):  # without a script, RENDER renders the OD's settings
-        try:
-            params_for(opts.mode)  # refuse a mode this node cannot run now, not at the first SYNC
-        except ValueError as exc:
-            raise OptionError(f"--mode {opts.mode.name.lower()}: {exc}") from None
-    if script is not None:
-        meta["render"] = script.meta()
-    return parts
+    return params_for
 
 
 def _scene_rig(opts: NodeOptions, period_s: float, meta: dict[str, Any]):
-    """The simulated rig of ``opts.scene``: (rig, cycles of the scene, truth, render script, finger thermometer)."""
+    """The simulated rig of ``opts.scene``: (rig, cycles of the scene, truth, render script, finger
+    thermometer)."""
     script = None
     finger_skin = None
     try:
@@ -156,8 +214,10 @@ def _scene_rig(opts: NodeOptions, period_s: float, meta: dict[str, Any]):
     seed = opts.seed if opts.seed is not None else DEFAULT_SEEDS[opts.role]
     rig = sim.build_rig(scene, opts.role, seed=seed)
     if abs(rig.period_s - period_s) > 1e-12:
-        raise OptionError(f"--scene {str(opts.scene)!r}: period_s = {rig.period_s} s but the network's SYNC "
-                          f"period is {period_s} s (network settings [sync] period_s); they must agree")
+        raise OptionError(
+            f"--scene {str(opts.scene)!r}: period_s = {rig.period_s} s but the network's SYNC "
+            f"period is {period_s} s (network settings [sync] period_s); they must agree"
+        )
     cycles = int(round(scene.duration_s / rig.period_s))
     meta.update(scene=getattr(scene, "name", str(opts.scene)), seed=seed)
     truth = rig.truth
@@ -185,8 +245,9 @@ def rig_settings(path: Path | None) -> dict[str, Any]:
         raise OptionError(f"--rig-config {str(path)!r}: not a TOML file: {exc}") from None
 
 
-def _io_rig(opts: NodeOptions, period_s: float, node_id: int | None,
-            transport: TransportSettings | None) -> IoRig:
+def _io_rig(
+    opts: NodeOptions, period_s: float, node_id: int | None, transport: TransportSettings | None
+) -> IoRig:
     """``--rig io``: the I/O rig of ``--rig-config RIG.toml``, its modules commissioned and started."""
     if opts.rig_config is None:
         raise OptionError("--rig io: needs --rig-config RIG.toml (the modules, signals and drive)")
@@ -196,14 +257,20 @@ def _io_rig(opts: NodeOptions, period_s: float, node_id: int | None,
         raise OptionError("--rig io: the node's ID and bus are needed to commission its modules")
     try:
         config = load_rig_config(opts.rig_config)
-        return IoRig(config, transport=transport, controller_id=node_id, period_s=period_s,
-                     lockstep=opts.timing == "lockstep").start()
+        return IoRig(
+            config,
+            transport=transport,
+            controller_id=node_id,
+            period_s=period_s,
+            lockstep=opts.timing == "lockstep",
+        ).start()
     except (RigConfigError, IoRigError) as exc:
         raise OptionError(str(exc)) from None
 
 
 def _hardware_rig(opts: NodeOptions, period_s: float) -> Rig:
-    """The hardware rig of ``opts.rig`` (``module:factory``), checked against the Rig protocol and the period."""
+    """The hardware rig of ``opts.rig`` (``module:factory``), checked against the Rig protocol and the
+    period."""
     module, _, factory = opts.rig.partition(":")
     try:
         make = getattr(importlib.import_module(module), factory)
@@ -213,12 +280,18 @@ def _hardware_rig(opts: NodeOptions, period_s: float) -> Rig:
     try:
         rig = make(**settings)
     except Exception as exc:  # a driver's own error (no device, bad port, ...): one named line
-        raise OptionError(f"--rig {opts.rig!r}: the rig factory failed: {type(exc).__name__}: {exc}") from None
+        raise OptionError(
+            f"--rig {opts.rig!r}: the rig factory failed: {type(exc).__name__}: {exc}"
+        ) from None
     missing = [a for a in ("read", "apply_current", "period_s", "I_max_A") if not hasattr(rig, a)]
     if missing:
-        raise OptionError(f"--rig {opts.rig!r}: the factory returned a {type(rig).__name__}, not a "
-                          f"telethermo.rig.Rig (missing {', '.join(missing)})")
+        raise OptionError(
+            f"--rig {opts.rig!r}: the factory returned a {type(rig).__name__}, not a "
+            f"telethermo.rig.Rig (missing {', '.join(missing)})"
+        )
     if abs(float(rig.period_s) - period_s) > 1e-12:
-        raise OptionError(f"--rig {opts.rig!r}: period_s = {rig.period_s} s but the network's SYNC period is "
-                          f"{period_s} s (network settings [sync] period_s); they must agree")
+        raise OptionError(
+            f"--rig {opts.rig!r}: period_s = {rig.period_s} s but the network's SYNC period is "
+            f"{period_s} s (network settings [sync] period_s); they must agree"
+        )
     return rig

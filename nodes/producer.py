@@ -1,7 +1,8 @@
 """The SYNC producer of the pair (the master by default): the one SYNC scheduler of telethermo.
 
 It is the NMT master of the pair (it starts every node, and each one that reports a boot-up or a
-pre-operational heartbeat, see the node runtime's peer events) and runs the schedule
+pre-operational heartbeat, see the node runtime's peer events; the decisions are :mod:`nodes.nmt_policy`'s,
+carried out here and in the runtime) and runs the schedule
 (DESIGN.md §3):
 
 - **lockstep**: SYNC k+1 only after the peer's PDOs of cycle k, or after a timeout when the peer is
@@ -23,19 +24,26 @@ import threading
 import time
 from typing import Callable, Protocol
 
-from telethermo.device.device import Device, NmtCommand, NmtState
+from telethermo.device.device import Device, NmtState
 from telethermo.device.netconfig import NetworkConfig
 from telethermo.device.sync import SyncProducer
-from telethermo.control.types import Mode
 
 from telethermo.nodes.bus_outage import BusOutage
+from telethermo.nodes.nmt_policy import (
+    SESSION_START,
+    LockstepWait,
+    lockstep_wait,
+    peer_is_paused,
+    peer_schedule_status,
+    session_end_command,
+    sync_while_not_operational,
+)
 from telethermo.nodes.param_slot import ParamSlot
 from telethermo.nodes.parts import NodeParts
 from telethermo.nodes.schedule import LateCycleLog, RealtimeTicker
 from telethermo.nodes.stats import RuntimeStats
 
 log = logging.getLogger("telethermo.node")
-_STOPPED = int(NmtState.STOPPED)
 
 
 class ProducerHost(Protocol):
@@ -76,9 +84,8 @@ def wait_for_peer(rt: ProducerHost, timeout_s: float) -> bool:
 
 
 def peer_paused(rt: ProducerHost) -> bool:
-    """The peer answers no SYNC: it left OPERATIONAL (its heartbeat said so, ``rt.peer_paused``), or its last
-    heartbeat reports STOPPED, whatever event brought that heartbeat (a stopped node never owes a PDO)."""
-    return rt.peer_paused or rt.device.peer_state(rt.peer_id) == _STOPPED
+    """The peer answers no SYNC (:func:`nodes.nmt_policy.peer_is_paused`)."""
+    return peer_is_paused(rt.peer_paused, rt.device.peer_state(rt.peer_id))
 
 
 class _PeerDebt:
@@ -144,7 +151,7 @@ def _not_operational(rt: ProducerHost, ticker: RealtimeTicker | None) -> None:
         ticker.wait_next()
     else:
         rt.stop_event.wait(rt.parts.period_s)
-    if rt.device.state is NmtState.PRE_OPERATIONAL and not rt.stop_event.is_set():
+    if sync_while_not_operational(rt.device.state) and not rt.stop_event.is_set():
         rt.sync.transmit()
 
 
@@ -158,7 +165,7 @@ def run_producer(
     """Start all nodes (NMT) and run ``cycles`` SYNC cycles (0 = until stopped); return cycles run."""
     dev, sync = rt.device, rt.sync
     assert dev is not None and sync is not None
-    dev.nmt_command(NmtCommand.START, 0)
+    dev.nmt_command(SESSION_START, 0)
     period = rt.parts.period_s
     # how long one lockstep cycle waits for the peer's PDO: half the heartbeat consumer time, so that
     # a merely slow peer is told from a lost one (which the heartbeat consumer reports)
@@ -178,9 +185,12 @@ def run_producer(
                 rt.stats.late_cycles = ticker.stats.late_cycles
             late_log.cycle(k, late, lateness)
         # no bus, or back before the peer's: nobody answers (nodes.bus_outage)
-        status = dev.peer_status(rt.peer_id) if not rt.bus_outage.peer_unreachable else "lost"
-        if peer_paused(rt):
-            status = "paused"
+        status = peer_schedule_status(
+            dev.peer_status(rt.peer_id),
+            unreachable=rt.bus_outage.peer_unreachable,
+            paused=rt.peer_paused,
+            peer_state=dev.peer_state(rt.peer_id),
+        )
         debt.refresh(status)
         rt.mark_sync_sent()
         if (
@@ -189,11 +199,10 @@ def run_producer(
             continue  # stopped by an NMT command that came while we waited for the slot: no SYNC sent
         k += 1
         if rt.lockstep:
-            if status == "alive":
+            wait = lockstep_wait(status, rt.settings.mode)
+            if wait is LockstepWait.PEER_PDOS:
                 debt.wait(k, wait_s, patience_s)
-            elif status == "unknown" and rt.settings.mode is not Mode.TELEPRESENCE:
-                pass  # alone on the bus (rendering, identification): nobody to wait for
-            else:
+            elif wait is LockstepWait.PERIOD:
                 # peer lost, not yet seen or not OPERATIONAL: our envelope keeps running, paced by the SYNC period
                 dev.wait_rpdo(debt.last, after=dev.rpdo_count(debt.last), timeout=period)
         if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
@@ -201,6 +210,7 @@ def run_producer(
     late_log.flush()
     # the session is over: every node leaves OPERATIONAL (no PDOs, current 0) before we go silent,
     # so that the peer does not take our end for a loss
-    if dev.state is NmtState.OPERATIONAL:
-        dev.nmt_command(NmtCommand.ENTER_PRE_OPERATIONAL, 0)
+    end = session_end_command(dev.state)
+    if end is not None:
+        dev.nmt_command(end, 0)
     return k

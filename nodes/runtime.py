@@ -17,7 +17,8 @@ is back (fresh PDOs, heartbeat seen) and only peer trips are latched, the node c
 (telethermo.control.peer_policy): the core resumes bumplessly. Other trips stay latched for the operator.
 
 The SYNC producer (master by default) is the NMT master of the pair: it starts every node that reports
-a boot-up or a pre-operational heartbeat.
+a boot-up or a pre-operational heartbeat. The decisions are :mod:`nodes.nmt_policy`'s; this module carries
+them out.
 """
 
 from __future__ import annotations
@@ -45,6 +46,7 @@ from telethermo.nodes.cycle import MAX_TIMING_SAMPLES, ControlCycle
 from telethermo.nodes.fallback import FallbackCycles
 from telethermo.nodes.ident_service import IdentService
 from telethermo.nodes.model_slot import ModelSlot
+from telethermo.nodes.nmt_policy import on_own_nmt, on_peer_event
 from telethermo.nodes.param_slot import ParamSlot
 from telethermo.nodes.parts import NodeParts
 from telethermo.nodes.peer import PeerLink
@@ -289,53 +291,40 @@ class NodeRuntime:
 
     # ------------------------------------------------------------------ callbacks
     def _on_peer(self, ev: PeerEvent) -> None:
+        """The peer's heartbeat event: what the NMT-master policy (nodes.nmt_policy) decides, carried out."""
         if ev.node_id != self.peer_id:
             return
-        if ev.kind == "lost":
+        act = on_peer_event(
+            ev.kind,
+            ev.state,
+            nmt_master=self.produce_sync,
+            stopping=self.stop_event.is_set(),
+            paused=self.peer_paused,
+        )
+        if not act.heartbeat_ok:
             self.peer.on_heartbeat_timeout()
             log.warning("peer %d lost (no heartbeat for %d ms)", ev.node_id, self.net.heartbeat.consumer_ms)
-            if not self.produce_sync:
-                self.fallback.start()
         else:
             self.peer.on_heartbeat()
-            if ev.kind == "bootup":
-                self.peer_boots += 1
-                self.peer_paused = False
-            # the state a heartbeat reports after a loss is news too: a heartbeat late around an NMT STOP turns
-            # the STOPPED report into a "back", not a "state" (the lockstep producer then waited for PDOs the
-            # stopped peer never sends, 2.5 s per cycle); a first heartbeat may report STOPPED as well
-            if ev.kind in ("state", "back") or (ev.kind == "seen" and ev.state == int(NmtState.STOPPED)):
-                self._on_peer_state(ev)
-            if ev.kind == "back":
-                log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
-        # the NMT master starts a peer that (re)booted or reports pre-operational: once per boot-up (a
-        # boot-up after a loss also comes as "back" with state 0), once per pre-operational report
-        # (first heartbeat, return, or a change of state, e.g. another NMT master's command)
-        if (
-            self.produce_sync
-            and not self.stop_event.is_set()
-            and (ev.kind == "bootup" or (ev.kind != "lost" and ev.state == int(NmtState.PRE_OPERATIONAL)))
-        ):
-            self.device.nmt_command(NmtCommand.START, ev.node_id)
-            self.stats.nmt_starts_sent += 1
-
-    def _on_peer_state(self, ev: PeerEvent) -> None:
-        """Another NMT master stopped the peer or put it into PRE-OPERATIONAL (or started it again): a peer
-        that left OPERATIONAL answers no SYNC, so it owes no PDO (lockstep). Only a change from OPERATIONAL
-        counts: before its first start a peer owes its PDOs from the start on. A boot-up (state 0, also as
-        "back" after a loss) is the "bootup" event's."""
-        if not ev.state:
-            return
-        paused = ev.state != int(NmtState.OPERATIONAL)
-        if paused != self.peer_paused and (paused or self.peer_paused):
-            self.peer_paused = paused
+        if act.start_fallback:
+            self.fallback.start()
+        if act.boot:
+            self.peer_boots += 1
+            self.peer_paused = False
+        if act.paused is not None:
+            self.peer_paused = act.paused
             self.peer_pauses += 1
             log.warning(
                 "peer %d reports NMT state %d%s",
                 ev.node_id,
                 ev.state,
-                ": no PDOs owed until it is OPERATIONAL again" if paused else "",
+                ": no PDOs owed until it is OPERATIONAL again" if act.paused else "",
             )
+        if ev.kind == "back":
+            log.warning("peer %d back (NMT state %s)", ev.node_id, ev.state)
+        if act.nmt_start:
+            self.device.nmt_command(NmtCommand.START, ev.node_id)
+            self.stats.nmt_starts_sent += 1
 
     def _on_rpdo(self, ev) -> None:
         if ev.number == 1 and self._waiting_first_rpdo:
@@ -358,15 +347,16 @@ class NodeRuntime:
 
     def _on_nmt(self, old: NmtState, new: NmtState, command: int | None) -> None:
         log.info("NMT %s -> %s%s", old.name, new.name, f" (command 0x{command:02X})" if command else "")
-        if new is not NmtState.OPERATIONAL and old is NmtState.OPERATIONAL:
+        act = on_own_nmt(old, new, command)
+        if act.left_operational:
             self.nmt_leaves += 1
-        if new is not NmtState.OPERATIONAL:
+        if act.cut_current:
             # no control outside OPERATIONAL: the drive holds no current, and the OD says so (0x2002 showed
             # the last cycle's current)
             self.safe_current()
             if self.device is not None and self._w_current is not None:
                 self._w_current(0.0)
-        if command == NmtCommand.RESET_NODE and self.device is not None and new is NmtState.INITIALISING:
+        if act.power_on and self.device is not None:
             # reset application (before the boot-up goes out): this program's power-on values in the
             # controller and the OD, a fresh controller state and peer link
             self._power_on()

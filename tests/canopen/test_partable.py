@@ -73,6 +73,7 @@ def test_the_table_names_each_object_once_and_the_sdo_gains():
     assert len({p.index for p in PARAMS}) == len({p.name for p in PARAMS}) == len(PARAMS)
     assert [p.index for p in PARAMS] == sorted(p.index for p in PARAMS)
     assert set(PARAM_KEYS) == {p.name for p in PARAMS}
+    assert set(partable.DOCS) == set(PARAM_KEYS) and all(partable.DOCS.values())  # each row its doc line
     assert GAIN_KEYS == SDO_GAIN_FIELDS  # a per-mode gain object is named as its CoreParams field
 
 
