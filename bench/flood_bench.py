@@ -28,7 +28,7 @@ import numpy as np
 
 from bench.common import write_results
 from telethermo.nodes.launch import NodePair, PairConfig, wait_for
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.format import read_recording_csv
 from telethermo.transport.bus import open_bus, parse_bus_string
 
 SCENE = Path(__file__).resolve().parent.parent / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"

@@ -48,13 +48,13 @@ from telethermo.control.types import Mode, Role
 from telethermo.device.netconfig import load_network
 from telethermo.nodes.launch import HubProcess, NodePair, PairConfig
 from telethermo.nodes.main import run_result
-from telethermo.nodes.merge import SYNC_CYCLE, merge_recordings
+from telethermo.recording.merge import SYNC_CYCLE, merge_recordings
 from telethermo.nodes.options import NodeOptions
 from telethermo.nodes.parts import build_parts
 from telethermo.nodes.runtime import NodeRuntime
 from telethermo.offline import run_offline_session
-from telethermo.offline.recording import COLUMNS, MAGIC, TEXT_COLUMNS
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.format import COLUMNS, MAGIC, TEXT_COLUMNS
+from telethermo.recording.journal import CsvRecorder
 from telethermo.transport.bus import FrameLog, TransportSettings, bus_load, frame_bits
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -18,13 +18,13 @@ import numpy as np
 
 from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.control.types import Mode, Role
-from telethermo.offline.recording import COLUMNS, MAGIC
-from telethermo.offline.recording_journal import CsvRecorder, RecorderError, recover_journal
+from telethermo.recording.format import COLUMNS, MAGIC
+from telethermo.recording.journal import CsvRecorder, RecorderError, recover_journal
 from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.transport.bus import TransportError
 from telethermo.transport.resolve import resolve_bus
 
-from telethermo.nodes.merge import SYNC_CYCLE
+from telethermo.recording.merge import SYNC_CYCLE
 from telethermo.nodes.options import OptionError, build_parser, options_from_args
 from telethermo.nodes.parts import build_parts
 from telethermo.nodes.realtime import apply_realtime

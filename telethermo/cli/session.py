@@ -22,7 +22,7 @@ from pathlib import Path
 from telethermo import sim
 from telethermo.nodes.iomodules import fill_truth
 from telethermo.nodes.launch import LaunchError, NodePair, PairConfig
-from telethermo.nodes.merge import MergeError, merge_recordings
+from telethermo.recording.merge import MergeError, merge_recordings
 from telethermo.atomic import write_json_atomic
 from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
@@ -30,7 +30,7 @@ from telethermo.cli.progress import Progress
 from telethermo.control.gainsfile import load_gains
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
-from telethermo.offline.recording import RecordingError, write_recording_csv
+from telethermo.recording.format import RecordingError, write_recording_csv
 from telethermo.transport.bus import TransportError
 from telethermo.transport.busargs import add_bus_arguments
 from telethermo.transport.published import publish_if_absent, unpublish

@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from telethermo.nodes.launch import NodePair, PairConfig, node_command, wait_for
-from telethermo.nodes.merge import merge_recordings
-from telethermo.offline.recording_journal import journal_path
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.merge import merge_recordings
+from telethermo.recording.journal import journal_path
+from telethermo.recording.format import read_recording_csv
 from tests.nodes.exchange_check import check_exchange
 
 pytestmark = pytest.mark.slow  # starts processes

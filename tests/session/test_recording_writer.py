@@ -10,8 +10,8 @@ import stat
 import numpy as np
 import pytest
 
-from telethermo.offline.recording import Recording, read_recording_csv, write_recording_csv
-from telethermo.offline.recording_journal import journal_path, recover_journal
+from telethermo.recording.format import Recording, read_recording_csv, write_recording_csv
+from telethermo.recording.journal import journal_path, recover_journal
 
 
 def _rec() -> Recording:

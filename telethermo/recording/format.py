@@ -22,7 +22,7 @@ name                unit   meaning
 t_s                 s      sample time (the rigs' clock)
 sync_cycle          int    node recordings and their merge only (not in COLUMNS; the offline runner has
                            none): the SYNC the row belongs to, the producer's SYNCs numbered from 0 alike
-                           on both nodes; -1 for a slave's local fallback cycle (nodes.merge joins on it)
+                           on both nodes; -1 for a slave's local fallback cycle (recording.merge joins on it)
 X_T_sensor_C        °C     thermocouple at the flux sensor's mid-plane (measured, filtered)
 X_Q_W               W      heat flux through the sensor, > 0 out of the pad (measured, filtered)
 X_T_sink_C          °C     heat-sink temperature (measured)
@@ -70,7 +70,7 @@ from typing import Any
 
 import numpy as np
 
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.journal import CsvRecorder
 
 MAGIC = "# telethermo-recording 1"
 
@@ -174,7 +174,7 @@ def _rows(rec: Recording):
 
 def write_recording_csv(path: str | os.PathLike, rec: Recording) -> Path:
     """Write ``rec`` to ``path`` atomically, through the recordings' one writer
-    (:class:`telethermo.offline.recording_journal.CsvRecorder`, as the nodes)."""
+    (:class:`telethermo.recording.journal.CsvRecorder`, as the nodes)."""
     head = header_comments(rec.meta)
     writer = CsvRecorder(path, list(rec.columns), comments=head, flush_every=1 << 30)
     try:
