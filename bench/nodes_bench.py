@@ -151,7 +151,7 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
         t0, c0 = time.perf_counter(), time.process_time()
         done = master.run_producer(cycles)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        result = run_result(master, done, wall)
+        result = run_result(master, done, wall).to_dict()
         result["cpu_us_per_cycle"] = cpu / max(done, 1) * 1e6   # both nodes, every thread of this process
     finally:
         master.stop("bench")
@@ -174,7 +174,7 @@ def lockstep_processes(cycles: int, folder: Path, *, bus: str | None = None, tim
         obs.close()
     if code != 0 or pair.result is None:
         raise RuntimeError(f"two-process run failed (master exit {code}); logs in {folder}")
-    res = dict(pair.result)
+    res = pair.result.to_dict()
     if obs is not None:
         res["observed"] = obs.load()
     return res

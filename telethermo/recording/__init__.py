@@ -7,7 +7,9 @@ merge, the CLI and the benchmarks):
   fsync'd every 0.5 s so a crash loses at most that, renamed into place on close) and the recovery of a
   journal a killed node left;
 - :mod:`~telethermo.recording.rows`: the row builders (``side_row``, ``truth_row``, ``ref_row``);
-- :mod:`~telethermo.recording.merge`: the two nodes' recordings joined on their SYNC cycle.
+- :mod:`~telethermo.recording.merge`: the two nodes' recordings joined on their SYNC cycle;
+- :mod:`~telethermo.recording.result`: the typed results of a run (:class:`RunResult`, the SYNC producer's
+  figures; :class:`SessionRun`, a session's ``run`` block) with their JSON form.
 
 It sits below the offline harness and the nodes (docs/architecture.md, "Layers") and imports neither.
 """
@@ -23,6 +25,7 @@ from telethermo.recording.format import (
     write_recording_csv,
 )
 from telethermo.recording.merge import SYNC_CYCLE, MergeError, merge_recordings
+from telethermo.recording.result import RealtimeFigures, RunResult, SessionRun
 
 __all__ = [
     "COLUMNS",
@@ -36,4 +39,7 @@ __all__ = [
     "SYNC_CYCLE",
     "MergeError",
     "merge_recordings",
+    "RealtimeFigures",
+    "RunResult",
+    "SessionRun",
 ]

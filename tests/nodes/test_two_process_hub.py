@@ -115,8 +115,8 @@ def test_a_stalled_slave_is_waited_for_and_stays_in_step(tmp_path):
         assert pair.wait_master(timeout_s=180) == 0
     pair.stop()
     assert k_cont - k_stop <= 20  # the master did not run on without its peer
-    assert pair.result["lockstep_timeouts"] == 0
-    assert pair.result["peer"]["losses"] == 0
+    assert pair.result.lockstep_timeouts == 0
+    assert pair.result.peer["losses"] == 0
     rec = merge_recordings(tmp_path / "master.csv", tmp_path / "slave.csv")
     got, sent = (
         rec.col("m_peer_estimate_C")[1:],
