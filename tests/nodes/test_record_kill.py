@@ -23,7 +23,8 @@ pytestmark = pytest.mark.slow  # starts processes
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 ROW_FLUSH = 200  # CsvRecorder's row-count flush (2 s of rows at 100 Hz). A row of this node is ~700 bytes, so
 # the 8 KB file buffer pushes rows out every ~10 cycles anyway; the timed sync that bounds the loss when rows
-# stop coming is tested in test_node_recorder.py. What fails here without the journal: the recovery itself.
+# stop coming is tested in tests/recording/test_journal.py. What fails here without the journal: the recovery
+# itself.
 
 
 def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):
