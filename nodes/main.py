@@ -7,7 +7,6 @@ the run is logged at exit.
 """
 from __future__ import annotations
 
-import json
 import logging
 import signal
 import sys
@@ -18,14 +17,13 @@ import numpy as np
 
 from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.control.types import Mode, Role
-from telethermo.recording.format import COLUMNS, MAGIC
+from telethermo.recording.format import header_comments, node_columns
 from telethermo.recording.journal import CsvRecorder, RecorderError, recover_journal
 from telethermo.recording.result import RealtimeFigures, RunResult
 from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.transport.bus import TransportError
 from telethermo.transport.resolve import resolve_bus
 
-from telethermo.recording.merge import SYNC_CYCLE
 from telethermo.nodes.options import OptionError, build_parser, options_from_args
 from telethermo.nodes.parts import build_parts
 from telethermo.nodes.realtime import apply_realtime
@@ -123,18 +121,15 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 def _recorder(role: Role, opts, parts, node_id: int, transport: str) -> tuple[CsvRecorder, Callable | None]:
     """The node's recording (its side's columns and the SYNC cycle), streamed through the journal, and the
     source of its final comment lines (render scenes: the meta is final at the end), or None."""
-    p = "m_" if role is Role.MASTER else "s_"
-    columns = ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)]
+    columns = node_columns("m" if role is Role.MASTER else "s")
     meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
                 node_id=node_id, timing=opts.timing, transport=transport)
-    recorder = CsvRecorder(opts.record, columns,
-                           comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
+    recorder = CsvRecorder(opts.record, columns, comments=header_comments(meta, allow_nan=True))
     if parts.render_script is None:
         return recorder, None
     # the render script measures each touch's finger temperature as it goes: the meta is final at the end
     script = parts.render_script
-    return recorder, lambda: [MAGIC[2:], "meta " + json.dumps(dict(meta, render=script.meta()), sort_keys=True,
-                                                              default=str)]
+    return recorder, lambda: header_comments(dict(meta, render=script.meta()), allow_nan=True)
 
 
 def _produce(rt: NodeRuntime, opts, parts, log: logging.Logger) -> None:

@@ -17,14 +17,17 @@ It sits below the offline harness and the nodes (docs/architecture.md, "Layers")
 from telethermo.recording.format import (
     COLUMNS,
     MAGIC,
+    SYNC_CYCLE,
     TEXT_COLUMNS,
     Recording,
     RecordingBuilder,
     RecordingError,
+    header_comments,
+    node_columns,
     read_recording_csv,
     write_recording_csv,
 )
-from telethermo.recording.merge import SYNC_CYCLE, MergeError, merge_recordings
+from telethermo.recording.merge import MergeError, merge_recordings
 from telethermo.recording.result import RealtimeFigures, RunResult, SessionRun
 
 __all__ = [
@@ -34,6 +37,8 @@ __all__ = [
     "Recording",
     "RecordingBuilder",
     "RecordingError",
+    "header_comments",
+    "node_columns",
     "read_recording_csv",
     "write_recording_csv",
     "SYNC_CYCLE",

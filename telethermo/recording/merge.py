@@ -21,12 +21,15 @@ from typing import Any
 import numpy as np
 
 from telethermo import sim
-from telethermo.recording.format import COLUMNS, TEXT_COLUMNS, Recording, RecordingError, read_recording_csv
+from telethermo.recording.format import (
+    COLUMNS,
+    SYNC_CYCLE,
+    TEXT_COLUMNS,
+    Recording,
+    RecordingError,
+    read_recording_csv,
+)
 from telethermo.recording.rows import ref_row, scene_contacts
-
-
-SYNC_CYCLE = "sync_cycle"
-"""The column of a node recording that says which SYNC the row belongs to (-1: a local fallback cycle)."""
 
 
 class MergeError(ValueError):
