@@ -28,7 +28,7 @@ import numpy as np
 
 from bench.common import write_results
 from telethermo.nodes.launch import NodePair, PairConfig, wait_for
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.format import read_recording_csv
 from telethermo.transport.bus import open_bus, parse_bus_string
 
 SCENE = Path(__file__).resolve().parent.parent / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
@@ -115,7 +115,7 @@ def run_pair(folder: Path, flood_at: tuple[float, ...], *, wallclock: bool = Fal
     t, sp, state = rec.col("t_s"), rec.col("m_setpoint_C"), rec.col("m_safety_state")
     rise, t0, t1 = no_trip_rise(t, sp, state, rec.text("m_new_trips"))
     log = (folder / "master.log").read_text()
-    peer = (pair.result or {}).get("peer", {})
+    peer = pair.result.peer if pair.result is not None else {}
     return {
         "floods": len(sent),
         "frames_sent_per_flood": sent,
@@ -128,7 +128,7 @@ def run_pair(folder: Path, flood_at: tuple[float, ...], *, wallclock: bool = Fal
         "peer_returns": peer.get("returns"),
         "missed_cycles": peer.get("missed_cycles"),
         "link_fallback_starts": log.count("rendering the last identified material locally"),
-        "late_cycles": (pair.result or {}).get("late_cycles"),
+        "late_cycles": pair.result.late_cycles if pair.result is not None else None,
     }
 
 

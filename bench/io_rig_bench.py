@@ -18,7 +18,6 @@ load of the four nodes at 100 Hz. Called by ``python -m bench.hardware_bench --o
 from __future__ import annotations
 
 import collections
-import json
 import os
 import signal
 import subprocess
@@ -36,6 +35,7 @@ from telethermo.iomodule.iorig import IoRig
 from telethermo.iomodule.module import IoModule
 from telethermo.iomodule.rigconfig import load_rig_config
 from telethermo.offline.runner import run_offline_session
+from telethermo.recording.result import RESULT_PREFIX, RunResult
 from telethermo.transport.bus import DEFAULT_BITRATE, bus_load
 from telethermo.transport.hub import HubThread
 
@@ -145,8 +145,8 @@ def bus_load_4_nodes(cycles: int = 1000) -> dict:
             master = subprocess.run([str(bin_dir / "telethermo-master"), *args, "--rig-config",
                                      str(bus_config_path(TOML["master"])), "--cycles", str(cycles), "--json"],
                                     capture_output=True, text=True, timeout=300)
-            result = next((json.loads(line[7:]) for line in master.stdout.splitlines()
-                           if line.startswith("result ")), None)
+            result = next((RunResult.from_line(line) for line in master.stdout.splitlines()
+                           if line.startswith(RESULT_PREFIX)), None)
             if master.returncode != 0 or result is None:
                 raise RuntimeError(f"master failed ({master.returncode}): {master.stderr.strip()[-400:]}")
         finally:
@@ -170,7 +170,7 @@ def bus_load_4_nodes(cycles: int = 1000) -> dict:
     return {"io_rig_bus_load_100hz": bus_load({d: n / wall_s for d, n in by_dlc.items()}, DEFAULT_BITRATE),
             "io_rig_bus_load_per_cycle": bus_load({d: n / n_sync * 100 for d, n in by_dlc.items()},
                                                   DEFAULT_BITRATE),
-            "io_rig_late_cycles_100hz": result["late_cycles"], "io_rig_session_cycles": result["cycles"],
+            "io_rig_late_cycles_100hz": result.late_cycles, "io_rig_session_cycles": result.cycles,
             "io_rig_session_wall_s": wall_s,
             "io_rig_frames_per_cycle": {f"0x{cob:03X}": round(n / n_sync, 3)
                                         for cob, n in sorted(by_cob.items())},

@@ -35,7 +35,7 @@ TIMED = (
     ("telethermo.sim.rig", "SimRig.advance"),
     ("telethermo.nodes.cycle", "ControlCycle._record"),  # the CSV row (incl. the rig's truth)
     ("telethermo.sim.rig", "SimRig.truth"),
-    ("telethermo.offline.recording_journal", "CsvRecorder.write"),
+    ("telethermo.recording.journal", "CsvRecorder.write"),
     ("telethermo.nodes.cycle", "ControlCycle._publish"),  # ~13 OD writes
     ("telethermo.device.pdo_engine", "PdoEngine.send_sync_tpdos"),
     ("telethermo.device.pdo_engine", "PdoEngine._on_rpdo_frame"),

@@ -48,13 +48,13 @@ from telethermo.control.types import Mode, Role
 from telethermo.device.netconfig import load_network
 from telethermo.nodes.launch import HubProcess, NodePair, PairConfig
 from telethermo.nodes.main import run_result
-from telethermo.nodes.merge import SYNC_CYCLE, merge_recordings
+from telethermo.recording.merge import merge_recordings
 from telethermo.nodes.options import NodeOptions
 from telethermo.nodes.parts import build_parts
 from telethermo.nodes.runtime import NodeRuntime
 from telethermo.offline import run_offline_session
-from telethermo.offline.recording import COLUMNS, MAGIC, TEXT_COLUMNS
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.format import MAGIC, SYNC_CYCLE, TEXT_COLUMNS, node_columns
+from telethermo.recording.journal import CsvRecorder
 from telethermo.transport.bus import FrameLog, TransportSettings, bus_load, frame_bits
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -136,9 +136,8 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
     for role in (Role.SLAVE, Role.MASTER):
         opts = NodeOptions(role=role, scene=SCENE, timing="lockstep", produce_sync=role is Role.MASTER)
         parts = build_parts(opts, period_s=net.sync.period_s)
-        p = "m_" if role is Role.MASTER else "s_"
         meta = dict(parts.meta, period_s=parts.period_s, mode="telepresence", rounding="real32")
-        rec = CsvRecorder(folder / f"{role}.csv", ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)],
+        rec = CsvRecorder(folder / f"{role}.csv", node_columns("m" if role is Role.MASTER else "s"),
                           comments=[MAGIC[2:], "meta " + json.dumps(meta)])
         rt = NodeRuntime(role, net.node(role).node_id, net, transport, parts, mode=Mode.TELEPRESENCE,
                          lockstep=True, produce_sync=role is Role.MASTER, recorder=rec)
@@ -151,7 +150,7 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
         t0, c0 = time.perf_counter(), time.process_time()
         done = master.run_producer(cycles)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-        result = run_result(master, done, wall)
+        result = run_result(master, done, wall).to_dict()
         result["cpu_us_per_cycle"] = cpu / max(done, 1) * 1e6   # both nodes, every thread of this process
     finally:
         master.stop("bench")
@@ -174,7 +173,7 @@ def lockstep_processes(cycles: int, folder: Path, *, bus: str | None = None, tim
         obs.close()
     if code != 0 or pair.result is None:
         raise RuntimeError(f"two-process run failed (master exit {code}); logs in {folder}")
-    res = dict(pair.result)
+    res = pair.result.to_dict()
     if obs is not None:
         res["observed"] = obs.load()
     return res

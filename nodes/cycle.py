@@ -35,7 +35,7 @@ from telethermo.control.core import (
 from telethermo.control.peer_policy import PeerResume, peer_resume, resume
 from telethermo.control.types import Mode, PeerValues
 from telethermo.rig import RigSample
-from telethermo.offline.runner import side_row, truth_row
+from telethermo.recording.rows import side_row, truth_row
 
 from telethermo.nodes.od_publish import (
     CYCLE_COUNTER,

@@ -20,7 +20,7 @@ import numpy as np
 from telethermo.bus_config import path as bus_config_path
 from telethermo.iomodule.rigconfig import load_rig_config
 from telethermo.iomodule.truthlog import read_truth_log
-from telethermo.offline.recording import Recording
+from telethermo.recording.format import Recording
 
 #: the packaged RIG.toml of each side on the simulated modules
 RIG_CONFIGS = {"master": "rig_io_sim.toml", "slave": "rig_io_sim_slave.toml"}

@@ -12,7 +12,6 @@ group, so a terminal's Ctrl-C reaches only the caller, which then stops the chil
 
 from __future__ import annotations
 
-import json
 import os
 import signal
 import subprocess
@@ -23,6 +22,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from telethermo.nodes.iomodules import IoModuleError, IoModuleProcess
+from telethermo.recording.result import RESULT_PREFIX, RunResult
 
 HUB_CHANNEL = "telethermo"
 
@@ -214,8 +214,8 @@ class NodePair:
         self.progress: tuple[int, int] = (0, 0)
         self._progress_lock = threading.Lock()
         self._master_lines: list[str] = []
-        self.result: dict | None = None
-        """The master's ``result {json}`` line (cycles, wall time, late cycles, latencies)."""
+        self.result: RunResult | None = None
+        """The master's ``result {json}`` line (cycles, wall time, late cycles, latencies), typed."""
         self._reader: threading.Thread | None = None
         self.modules: dict[str, IoModuleProcess] = {}
         """The I/O module processes by side (``config.io``)."""
@@ -331,8 +331,8 @@ class NodePair:
             if len(parts) == 3 and parts[0] == "progress":
                 with self._progress_lock:
                     self.progress = (int(parts[1]), int(parts[2]))
-            elif line.startswith("result "):
-                self.result = json.loads(line[len("result ") :])
+            elif line.startswith(RESULT_PREFIX):
+                self.result = RunResult.from_line(line, "telethermo-master's result line")
             else:
                 self._master_lines.append(line.rstrip("\n"))
 

@@ -7,7 +7,6 @@ the run is logged at exit.
 """
 from __future__ import annotations
 
-import json
 import logging
 import signal
 import sys
@@ -18,13 +17,13 @@ import numpy as np
 
 from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.control.types import Mode, Role
-from telethermo.offline.recording import COLUMNS, MAGIC
-from telethermo.offline.recording_journal import CsvRecorder, RecorderError, recover_journal
+from telethermo.recording.format import header_comments, node_columns
+from telethermo.recording.journal import CsvRecorder, RecorderError, recover_journal
+from telethermo.recording.result import RealtimeFigures, RunResult
 from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.transport.bus import TransportError
 from telethermo.transport.resolve import resolve_bus
 
-from telethermo.nodes.merge import SYNC_CYCLE
 from telethermo.nodes.options import OptionError, build_parser, options_from_args
 from telethermo.nodes.parts import build_parts
 from telethermo.nodes.realtime import apply_realtime
@@ -122,18 +121,15 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 def _recorder(role: Role, opts, parts, node_id: int, transport: str) -> tuple[CsvRecorder, Callable | None]:
     """The node's recording (its side's columns and the SYNC cycle), streamed through the journal, and the
     source of its final comment lines (render scenes: the meta is final at the end), or None."""
-    p = "m_" if role is Role.MASTER else "s_"
-    columns = ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(p)]
+    columns = node_columns("m" if role is Role.MASTER else "s")
     meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
                 node_id=node_id, timing=opts.timing, transport=transport)
-    recorder = CsvRecorder(opts.record, columns,
-                           comments=[MAGIC[2:], "meta " + json.dumps(meta, sort_keys=True, default=str)])
+    recorder = CsvRecorder(opts.record, columns, comments=header_comments(meta, allow_nan=True))
     if parts.render_script is None:
         return recorder, None
     # the render script measures each touch's finger temperature as it goes: the meta is final at the end
     script = parts.render_script
-    return recorder, lambda: [MAGIC[2:], "meta " + json.dumps(dict(meta, render=script.meta()), sort_keys=True,
-                                                              default=str)]
+    return recorder, lambda: header_comments(dict(meta, render=script.meta()), allow_nan=True)
 
 
 def _produce(rt: NodeRuntime, opts, parts, log: logging.Logger) -> None:
@@ -153,7 +149,7 @@ def _produce(rt: NodeRuntime, opts, parts, log: logging.Logger) -> None:
     wall = time.perf_counter() - t0
     log.info("SYNC producer: %d of %d cycles run in %.3f s", done, cycles, wall)
     result = run_result(rt, done, wall)
-    print("result " + json.dumps(result) if opts.json else summary_table(result), flush=True)
+    print(result.to_line() if opts.json else summary_table(result), flush=True)
 
 
 def _ready_line(role: Role, node_id: int, bus: str, opts) -> str:
@@ -166,22 +162,21 @@ def _ready_line(role: Role, node_id: int, bus: str, opts) -> str:
     return f"node {node_id} ready on {bus}, producing SYNC ({opts.mode.name.lower()})"
 
 
-def summary_table(r: dict) -> str:
+def summary_table(r: RunResult) -> str:
     """The producer's :func:`run_result` as a terminal shows it: a few lines, not 1 kB of JSON
     (that is ``--json``)."""
-    def ms(key: str) -> str:
-        v = r.get(key)
+    def ms(v: float | None) -> str:
         return "-" if v is None else f"{v:.2f} ms"
 
-    rate = r["cycles_per_s"]
-    rows = [("cycles", f"{r['cycles']} in {r['wall_s']:.1f} s ({'-' if rate is None else f'{rate:,.0f}'}/s, "
-                       f"{r['timing']}, period {r['period_s'] * 1e3:g} ms)"),
-            ("late cycles", f"{r['late_cycles']}" + (
-                f" (worst {ms('lateness_ms_max')}, {r['overruns']} overruns)" if "overruns" in r else "")),
-            ("lockstep timeouts", str(r["lockstep_timeouts"])),
-            ("SYNC -> TPDO", f"p50 {ms('sync_to_tpdo_ms_p50')}, p99 {ms('sync_to_tpdo_ms_p99')}"),
-            ("cycle time", f"p50 {ms('cycle_ms_p50')}, p99 {ms('cycle_ms_p99')}"),
-            ("EMCY raised", str(r["emcy_raised"]))]
+    rate, rt = r.cycles_per_s, r.realtime
+    rows = [("cycles", f"{r.cycles} in {r.wall_s:.1f} s ({'-' if rate is None else f'{rate:,.0f}'}/s, "
+                       f"{r.timing}, period {r.period_s * 1e3:g} ms)"),
+            ("late cycles", f"{r.late_cycles}" + (
+                f" (worst {ms(rt.lateness_ms_max)}, {rt.overruns} overruns)" if rt is not None else "")),
+            ("lockstep timeouts", str(r.lockstep_timeouts)),
+            ("SYNC -> TPDO", f"p50 {ms(r.sync_to_tpdo_ms_p50)}, p99 {ms(r.sync_to_tpdo_ms_p99)}"),
+            ("cycle time", f"p50 {ms(r.cycle_ms_p50)}, p99 {ms(r.cycle_ms_p99)}"),
+            ("EMCY raised", str(r.emcy_raised))]
     return "\n".join(f"  {k:<18} {v}" for k, v in rows) + "\n  (--json: all figures as one JSON line)"
 
 
@@ -196,20 +191,22 @@ def _recover(prog: str, record) -> int:
     return EXIT_OK
 
 
-def run_result(rt, cycles: int, wall_s: float) -> dict:
-    """The SYNC producer's machine-readable summary (one ``result {json}`` line on stdout)."""
+def run_result(rt, cycles: int, wall_s: float) -> RunResult:
+    """The SYNC producer's summary of ``cycles`` run in ``wall_s`` seconds (``--json``: one ``result {json}``
+    line on stdout)."""
     def pct(xs, q):
         return float(np.percentile(np.asarray(xs) * 1e3, q)) if xs else None
 
-    s = rt.stats
-    return {"cycles": cycles, "wall_s": wall_s, "cycles_per_s": cycles / wall_s if wall_s > 0 else None,
-            "timing": "lockstep" if rt.lockstep else "realtime", "period_s": rt.parts.period_s,
-            "late_cycles": s.late_cycles, "lockstep_timeouts": s.lockstep_timeouts,
-            "sync_to_tpdo_ms_p50": pct(s.latencies_s, 50), "sync_to_tpdo_ms_p99": pct(s.latencies_s, 99),
-            "sync_to_tpdo_n": len(s.latencies_s),
-            "cycle_ms_p50": pct(s.cycle_s, 50), "cycle_ms_p99": pct(s.cycle_s, 99),
-            "emcy_raised": s.emcy_raised, "peer": rt.peer.counters.__dict__,
-            "bus": dict(rt.bus.stats.__dict__) if rt.bus is not None else None,
-            **({"lateness_ms_p50": pct(rt.ticker.stats.lateness_s, 50), "lateness_ms_p99": pct(rt.ticker.stats.lateness_s, 99),
-                "lateness_ms_max": rt.ticker.stats.max_lateness_s * 1e3, "overruns": rt.ticker.stats.overruns,
-                "late_tolerance_ms": rt.ticker.tolerance_s * 1e3} if rt.ticker is not None else {})}
+    s, tk = rt.stats, rt.ticker
+    realtime = None if tk is None else RealtimeFigures(
+        lateness_ms_p50=pct(tk.stats.lateness_s, 50), lateness_ms_p99=pct(tk.stats.lateness_s, 99),
+        lateness_ms_max=tk.stats.max_lateness_s * 1e3, overruns=tk.stats.overruns,
+        late_tolerance_ms=tk.tolerance_s * 1e3)
+    return RunResult(
+        cycles=cycles, wall_s=wall_s, cycles_per_s=cycles / wall_s if wall_s > 0 else None,
+        timing="lockstep" if rt.lockstep else "realtime", period_s=rt.parts.period_s,
+        late_cycles=s.late_cycles, lockstep_timeouts=s.lockstep_timeouts,
+        sync_to_tpdo_ms_p50=pct(s.latencies_s, 50), sync_to_tpdo_ms_p99=pct(s.latencies_s, 99),
+        sync_to_tpdo_n=len(s.latencies_s), cycle_ms_p50=pct(s.cycle_s, 50), cycle_ms_p99=pct(s.cycle_s, 99),
+        emcy_raised=s.emcy_raised, peer=rt.peer.counters.__dict__,
+        bus=dict(rt.bus.stats.__dict__) if rt.bus is not None else None, realtime=realtime)

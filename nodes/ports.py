@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Protocol
 
 from telethermo.device.device import Device
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.journal import CsvRecorder
 
 from telethermo.nodes.ident_service import IdentService
 from telethermo.nodes.model_slot import ModelSlot

@@ -37,7 +37,7 @@ from telethermo.device.storage import default_store_path
 from telethermo.device.netconfig import NetworkConfig
 from telethermo.device.sync import SyncProducer
 from telethermo.control.types import Mode, Role
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.journal import CsvRecorder
 from telethermo.transport.bus import TransportSettings
 from telethermo.transport.resilient import ResilientBus
 

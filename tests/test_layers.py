@@ -246,3 +246,50 @@ def test_the_runtime_import_check_sees_type_checking_imports(tmp_path):
         "    from telethermo.nodes.runtime import NodeRuntime\n"
     )
     assert runtime_importers({"telethermo.nodes.part": fake}) == ["part.py:3"]
+
+
+# The recording (issue 26.3) is one format for every path, so it sits below every path that writes or reads
+# it: nothing in it may see the node programs, the offline harness, the CLI or the benchmarks.
+RECORDING = "telethermo.recording"
+ABOVE_THE_RECORDING = ("telethermo.nodes", "telethermo.offline", "telethermo.cli", "bench")
+
+
+def recording_imports_above(mods: dict[str, Path]) -> list[str]:
+    """``path:line: target`` of every import (any level) in the recording package of a package above it."""
+    known = set(modules()) | set(mods)
+    return [
+        f"{path.name if not path.is_relative_to(ROOT) else path.relative_to(ROOT)}:{line}: {target}"
+        for mod, path in mods.items()
+        if mod == RECORDING or mod.startswith(RECORDING + ".")
+        for target, line, _ in project_imports(mod, path, known)
+        if any(target == up or target.startswith(up + ".") for up in ABOVE_THE_RECORDING)
+    ]
+
+
+def test_the_recording_package_is_in_the_layer_map_below_its_users():
+    table = layer_table()
+    assert RECORDING in table, f"{ARCHITECTURE.name}: no layer for {RECORDING}"
+    for user in ABOVE_THE_RECORDING:
+        assert table[RECORDING] < table[user], f"{RECORDING} (layer {table[RECORDING]}) not below {user}"
+    assert any(m.startswith(RECORDING + ".") for m in modules()), f"{RECORDING} has no modules"
+
+
+def test_the_recording_imports_no_nodes_offline_cli_or_bench():
+    found = recording_imports_above(modules())
+    assert not found, f"{RECORDING} imports a package above it: {found}"
+
+
+def test_the_recording_import_check_sees_every_user_above(tmp_path):
+    fake = tmp_path / "fake.py"
+    fake.write_text(
+        "import bench.report\nfrom telethermo.offline.runner import run_offline_session\n"
+        "from telethermo.cli import session\nfrom telethermo.control.types import PeerValues\n"
+        "def f():\n    from telethermo.nodes.launch import NodePair\n"
+    )
+    found = recording_imports_above({"telethermo.recording.fake": fake})
+    assert {f.split(": ")[1] for f in found} == {
+        "bench.report",
+        "telethermo.offline.runner",
+        "telethermo.cli.session",
+        "telethermo.nodes.launch",
+    }, found

@@ -1,6 +1,6 @@
 """``telethermo plot FILE``: a picture of a recording, the same plot as a session's session.png.
 
-FILE is any recording in the telethermo.offline.recording format (an offline or two-process session's
+FILE is any recording in the telethermo.recording.format format (an offline or two-process session's
 ``recording.csv`` or one node's ``--record`` CSV: ``master.csv``, ``slave.csv``), or a bus log
 (``telethermo record`` / python-can: .log, .asc, .blf, .trc, or the decoded CSV ``telethermo record`` writes
 beside its log, ``s.blf.csv``): its PDO values decoded by the EDS mappings
@@ -20,7 +20,7 @@ from telethermo.cli.monitor_setup import monitor_config
 from telethermo.monitor.busplot import decode_bus_log, plot_bus_log_png
 from telethermo.monitor.logread import ReplayError, is_record_csv, read_log
 from telethermo.offline.plot import write_session_png
-from telethermo.offline.recording import RecordingError, read_recording_csv
+from telethermo.recording.format import RecordingError, read_recording_csv
 
 BUS_LOGS = (".log", ".asc", ".blf", ".trc")
 

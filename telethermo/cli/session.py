@@ -22,7 +22,7 @@ from pathlib import Path
 from telethermo import sim
 from telethermo.nodes.iomodules import fill_truth
 from telethermo.nodes.launch import LaunchError, NodePair, PairConfig
-from telethermo.nodes.merge import MergeError, merge_recordings
+from telethermo.recording.merge import MergeError, merge_recordings
 from telethermo.atomic import write_json_atomic
 from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
@@ -30,7 +30,8 @@ from telethermo.cli.progress import Progress
 from telethermo.control.gainsfile import load_gains
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
-from telethermo.offline.recording import RecordingError, write_recording_csv
+from telethermo.recording.format import RecordingError, write_recording_csv
+from telethermo.recording.result import SessionRun
 from telethermo.transport.bus import TransportError
 from telethermo.transport.busargs import add_bus_arguments
 from telethermo.transport.published import publish_if_absent, unpublish
@@ -218,11 +219,12 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
         print(f"telethermo session: error: {exc}", file=sys.stderr)
         return code or EXIT_FAIL
     figures = compute_figures(rec)
-    figures["run"] = {"transport": pair.bus.split("://")[0] if pair.bus else None, "wall_time_s": wall_s,
-                      "cycles": len(rec), "cycles_requested": cycles,
-                      "cycles_per_s": len(rec) / wall_s if wall_s > 0 else None, "complete": len(rec) == cycles,
-                      "master": pair.result,
-                      "io_modules": {r: mod.node_id for r, mod in pair.modules.items()} or None}
+    run = SessionRun(transport=pair.bus.split("://")[0] if pair.bus else None, wall_time_s=wall_s,
+                     cycles=len(rec), cycles_requested=cycles,
+                     cycles_per_s=len(rec) / wall_s if wall_s > 0 else None, complete=len(rec) == cycles,
+                     master=pair.result,
+                     io_modules={r: mod.node_id for r, mod in pair.modules.items()} or None)
+    figures["run"] = run.to_dict()
     write_recording_csv(out / "recording.csv", rec)
     write_json_atomic(out / "summary.json", figures)
     if plot:
@@ -230,24 +232,27 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
             write_session_png(out / "session.png", rec)
         except ImportError as exc:  # matplotlib is the optional 'plot' extra
             print(f"telethermo session: no plot ({exc})", file=sys.stderr)
-    print_summary(figures)
+    print_summary(figures, run)
     print(f"\nwritten: {out / 'recording.csv'}, {out / 'summary.json'}" + (f", {out / 'session.png'}" if plot else ""))
     return code
 
 
-def print_summary(fig: dict) -> None:
-    """The figures as a table (telepresence: transparency per touch, tracking, discrimination, safety)."""
+def print_summary(fig: dict, run: SessionRun | None = None) -> None:
+    """The figures as a table (telepresence: transparency per touch, tracking, discrimination, safety);
+    ``run``: the session's run block (default: the figures' ``run``, if any)."""
     def f(x, unit=""):
         return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3f}{unit}"
 
-    run = fig.get("run", {})
+    if run is None and fig.get("run") is not None:
+        run = SessionRun.from_dict(fig["run"], "summary: run")
+    wall_s = run.wall_time_s if run is not None else 0
     print(f"session {fig.get('scene')}: {fig.get('n_steps')} cycles ({fig.get('duration_s', 0):.2f} s of scene time) "
-          f"in {run.get('wall_time_s', 0):.1f} s wall, start-up included")
-    res = run.get("master") or {}
-    if res.get("cycles_per_s"):
-        print(f"SYNC producer ({res['timing']}): {res['cycles_per_s']:,.0f} cycles/s, {res['late_cycles']} late, "
-              f"{res['lockstep_timeouts']} lockstep timeouts, SYNC->TPDO p50 {f(res.get('sync_to_tpdo_ms_p50'), ' ms')}"
-              f" p99 {f(res.get('sync_to_tpdo_ms_p99'), ' ms')}")
+          f"in {wall_s:.1f} s wall, start-up included")
+    res = run.master if run is not None else None
+    if res is not None and res.cycles_per_s:
+        print(f"SYNC producer ({res.timing}): {res.cycles_per_s:,.0f} cycles/s, {res.late_cycles} late, "
+              f"{res.lockstep_timeouts} lockstep timeouts, SYNC->TPDO p50 {f(res.sync_to_tpdo_ms_p50, ' ms')}"
+              f" p99 {f(res.sync_to_tpdo_ms_p99, ' ms')}")
     tr = fig.get("transparency")
     if tr:
         rows = [["touch", "object", "t_on s", "pre °C", "early 0-1 s °C", "0.1-1 s °C", "late °C", "window °C",

@@ -18,7 +18,7 @@ import math
 from pathlib import Path
 from typing import IO, Any
 
-from telethermo.offline.runner import truth_row
+from telethermo.recording.rows import truth_row
 
 SIDE_PREFIX = {"master": "m", "slave": "s"}
 

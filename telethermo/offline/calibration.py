@@ -17,7 +17,7 @@ import numpy as np
 
 from telethermo.control.rendering import FingerCalibration, calibrate_finger
 from telethermo.offline.figures import EARLY_S
-from telethermo.offline.recording import Recording
+from telethermo.recording.format import Recording
 from telethermo.offline.runner import run_offline_session
 
 

@@ -1,4 +1,4 @@
-"""The figures of a session, each a pure function of a :class:`~telethermo.offline.recording.Recording`.
+"""The figures of a session, each a pure function of a :class:`~telethermo.recording.format.Recording`.
 
 Telepresence (guiatni §5.3; issue 4):
 
@@ -35,7 +35,7 @@ from typing import Any
 
 import numpy as np
 
-from telethermo.offline.recording import Recording
+from telethermo.recording.format import Recording
 from telethermo.offline.oscillation import oscillation_figures
 from telethermo.offline.transparency import transparency_figures
 from telethermo.control.safety import EMCY_CODES, Trip

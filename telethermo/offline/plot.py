@@ -1,6 +1,6 @@
 """The session plot, like guiatni Fig. 10: both sides' temperatures and the direct-touch reference.
 
-One plot for every recording in the telethermo.offline.recording format: an offline or two-process
+One plot for every recording in the telethermo.recording.format format: an offline or two-process
 session's ``recording.csv`` (both sides and the reference) and one node's ``--record`` CSV (``m_*``
 or ``s_*`` columns only). Rows, each drawn only when the recording has data for it: (1) master: the
 finger's skin on the pad (truth), the measured sensor temperature, the master's finger estimate T_f,
@@ -24,7 +24,7 @@ import numpy as np
 from telethermo.atomic import write_bytes_atomic
 from telethermo.control.safety import SafetyState
 from telethermo.offline.figures import contacts_of
-from telethermo.offline.recording import Recording
+from telethermo.recording.format import Recording
 
 WIDTH_IN, ROW_HEIGHT_IN, DPI = 11.0, 2.6, 100
 SIDES = (("m", "master", "C1"), ("s", "slave", "C2"))

@@ -26,7 +26,7 @@ from typing import Any, Callable
 import numpy as np
 
 from telethermo.atomic import write_json_atomic
-from telethermo.control.core import CoreParams, StepResult, init_state, initial_peer, step
+from telethermo.control.core import CoreParams, init_state, initial_peer, step
 from telethermo.control.defaults import HOLD_GAINS
 from telethermo.control.detach import tem_limits
 from telethermo.control.later_phase import DEFAULT_LATER_MODEL
@@ -34,7 +34,8 @@ from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
-from telethermo.offline.recording import Recording, RecordingBuilder, write_recording_csv
+from telethermo.recording.format import Recording, RecordingBuilder, write_recording_csv
+from telethermo.recording.rows import finger_skin_C, ref_row, scene_contacts, side_row, truth_row
 from telethermo.offline.render_script import RenderScript
 from telethermo import sim
 from telethermo.ident import load_model
@@ -53,46 +54,6 @@ class SessionResult:
 
     recording: Recording
     figures: dict[str, Any]
-
-
-def side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[str, Any]:
-    s = res.status
-    return {
-        f"{p}_T_sensor_C": sample.T_sensor_C, f"{p}_Q_W": sample.Q_W, f"{p}_T_sink_C": sample.T_sink_C,
-        f"{p}_current_A": res.current_A, f"{p}_target_C": s.requested_setpoint_C, f"{p}_setpoint_C": s.setpoint_C,
-        f"{p}_feedback_C": s.feedback_C, f"{p}_estimate_C": s.estimate_C, f"{p}_T_pred_C": s.T_pred_C,
-        f"{p}_peer_estimate_C": peer.estimate_C if peer is not None else math.nan,
-        f"{p}_peer_flux_W": peer.flux_W if peer is not None else math.nan,
-        f"{p}_contact": float(s.contact), f"{p}_safety_state": int(s.safety.state),
-        f"{p}_error_register": s.safety.error_register,
-        f"{p}_limits": "|".join(s.safety.limits_active), f"{p}_new_trips": "|".join(t.value for t in s.safety.new_trips),
-    }
-
-
-def truth_row(p: str, rig) -> dict[str, Any]:
-    tr = rig.truth()
-    row = {f"{p}_true_surface_C": tr.T_surface_C, f"{p}_true_Q_W": tr.Q_true_W,
-           f"{p}_true_Q_into_body_W": tr.Q_into_body_W, f"{p}_true_touching": float(tr.touching is not None)}
-    if p == "m":
-        row["m_true_finger_C"] = finger_skin_C(rig, tr)
-    return row
-
-
-def finger_skin_C(rig, tr) -> float:
-    """Truth: the operator's skin temperature on the master, touching or not (in air between touches)."""
-    if tr.touching == "finger":
-        return tr.T_surface_C
-    body = getattr(rig, "bodies", {}).get("finger")
-    if body is None:
-        return math.nan
-    body.advance_detached(rig.t_s)
-    return float(body.surface_C())
-
-
-def ref_row(ref) -> dict[str, Any]:
-    return {"ref_T_contact_C": ref.T_contact_C,   # the reference finger's skin, touching or in air
-            "ref_Q_into_finger_W": -ref.Q_finger_W if ref.touching else 0.0,
-            "ref_touching": float(bool(ref.touching))}
 
 
 def _load_model(model: Any) -> Any:
@@ -322,19 +283,6 @@ def _with_rig_limits(p: CoreParams, rig) -> CoreParams:
     if any(getattr(p.safety, k) != v for k, v in tem.items()):
         p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, **tem))
     return p
-
-
-def scene_contacts(sc, side: str) -> list[dict[str, Any]]:
-    """The scene's touches of the probe (slave) or of the display (master, render scenes)."""
-    out = []
-    if side == "slave":
-        for t in sc.slave_contacts:
-            out.append({"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.body})
-    else:
-        for t in sc.master_contacts:
-            if t.render is not None:
-                out.append({"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.render})
-    return out
 
 
 def _finite_or_none(x: Any) -> Any:

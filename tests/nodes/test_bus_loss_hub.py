@@ -16,7 +16,7 @@ import pytest
 from telethermo.bus_config import path as bus_config_path
 from telethermo.nodes.launch import HubProcess, NodePair, PairConfig, wait_for
 from telethermo.transport.hub import HubConfig, HubThread
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.format import read_recording_csv
 
 pytestmark = pytest.mark.slow  # starts processes
 

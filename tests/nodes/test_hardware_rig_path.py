@@ -32,7 +32,7 @@ from telethermo.nodes.options import OptionError, build_parser, options_from_arg
 from telethermo.nodes.parts import _hardware_rig
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK
 from telethermo.transport.bus import FrameLog
-from telethermo.nodes.merge import merge_recordings
+from telethermo.recording.merge import merge_recordings
 from tests.nodes.exchange_check import check_exchange
 
 pytestmark = pytest.mark.slow

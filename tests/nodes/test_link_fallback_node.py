@@ -12,7 +12,7 @@ import pytest
 
 from telethermo.cia301 import EMCY_LINK_FALLBACK
 from telethermo.nodes.launch import NodePair, PairConfig, wait_for
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.format import read_recording_csv
 
 from tests.nodes.test_peer_loss import MISS_LIMIT, PERIOD_S, RAMP_C_PER_S, Observer
 

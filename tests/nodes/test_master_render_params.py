@@ -23,7 +23,7 @@ from telethermo.bus_config import path as bus_config_path
 from telethermo.nodes.launch import node_command, stop_process, wait_for
 from telethermo.control.core import RenderSettings
 from telethermo.control.rendering import load_render_table
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.format import read_recording_csv
 from telethermo.transport.hub import HubThread
 
 pytestmark = pytest.mark.slow  # starts processes

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from telethermo.nodes.launch import NodePair, PairConfig
-from telethermo.nodes.merge import merge_recordings
+from telethermo.recording.merge import merge_recordings
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
 

@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from telethermo.nodes.launch import HubProcess, node_command, stop_process, wait_for
+from telethermo.recording.result import RunResult
 
 pytestmark = pytest.mark.slow
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "pads_in_air.toml"
@@ -73,3 +74,9 @@ def test_json_flag_gives_the_machine_line(tmp_path):
     out, _, _ = _run_pair(tmp_path, "--json")
     results = [ln for ln in out.splitlines() if ln.startswith("result ")]
     assert len(results) == 1 and json.loads(results[0][len("result ") :])["cycles"] == 300
+    # the typed result reads the real program's line and writes it back byte for byte
+    r = RunResult.from_line(results[0])
+    assert r.cycles == 300 and r.timing == "lockstep" and r.period_s == pytest.approx(0.01)
+    assert r.realtime is None
+    assert r.sync_to_tpdo_n > 0 and r.peer["pdos"] > 0
+    assert r.to_line() == results[0]

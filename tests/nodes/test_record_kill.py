@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from telethermo.nodes.launch import NodePair, PairConfig, node_command, wait_for
-from telethermo.nodes.merge import merge_recordings
-from telethermo.offline.recording_journal import journal_path
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.merge import merge_recordings
+from telethermo.recording.journal import journal_path
+from telethermo.recording.format import read_recording_csv
 from tests.nodes.exchange_check import check_exchange
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -23,7 +23,8 @@ pytestmark = pytest.mark.slow  # starts processes
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 ROW_FLUSH = 200  # CsvRecorder's row-count flush (2 s of rows at 100 Hz). A row of this node is ~700 bytes, so
 # the 8 KB file buffer pushes rows out every ~10 cycles anyway; the timed sync that bounds the loss when rows
-# stop coming is tested in test_node_recorder.py. What fails here without the journal: the recovery itself.
+# stop coming is tested in tests/recording/test_journal.py. What fails here without the journal: the recovery
+# itself.
 
 
 def test_slave_killed_with_sigkill_loses_at_most_one_second_of_rows(tmp_path):

@@ -14,6 +14,7 @@ import pytest
 
 from telethermo.nodes.launch import wait_for
 from telethermo.offline import run_offline_session
+from telethermo.recording.result import SessionRun
 
 pytestmark = pytest.mark.slow  # starts processes
 
@@ -64,6 +65,9 @@ def test_session_figures_equal_offline(tmp_path):
     assert fig["transparency"]["per_contact"] == off["transparency"]["per_contact"]
     assert fig["tracking"] == off["tracking"]
     assert fig["run"]["complete"] and fig["run"]["master"]["lockstep_timeouts"] == 0
+    run = SessionRun.from_dict(fig["run"])  # the typed run block round-trips the summary's JSON
+    assert run.master is not None and run.master.cycles == run.cycles_requested == 250
+    assert json.dumps(run.to_dict()) == json.dumps(fig["run"])
     for name in ("recording.csv", "session.png", "master.csv", "slave.csv", "master.log", "slave.log"):
         assert (tmp_path / name).stat().st_size > 0, name
     assert "transparency" in out and "aluminium" in out

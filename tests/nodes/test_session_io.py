@@ -23,7 +23,7 @@ import pytest
 from telethermo.bus_config import path as bus_config_path
 from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.offline import run_offline_session
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.format import read_recording_csv
 from telethermo.transport.hub import HubThread
 
 pytestmark = pytest.mark.slow  # starts processes

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from telethermo.nodes.launch import NodePair, PairConfig
-from telethermo.nodes.merge import merge_recordings
+from telethermo.recording.merge import merge_recordings
 from telethermo.offline import run_offline_session
-from telethermo.offline.recording import TEXT_COLUMNS
+from telethermo.recording.format import TEXT_COLUMNS
 
 pytestmark = pytest.mark.slow  # starts processes
 
@@ -115,8 +115,8 @@ def test_a_stalled_slave_is_waited_for_and_stays_in_step(tmp_path):
         assert pair.wait_master(timeout_s=180) == 0
     pair.stop()
     assert k_cont - k_stop <= 20  # the master did not run on without its peer
-    assert pair.result["lockstep_timeouts"] == 0
-    assert pair.result["peer"]["losses"] == 0
+    assert pair.result.lockstep_timeouts == 0
+    assert pair.result.peer["losses"] == 0
     rec = merge_recordings(tmp_path / "master.csv", tmp_path / "slave.csv")
     got, sent = (
         rec.col("m_peer_estimate_C")[1:],

@@ -8,13 +8,8 @@ import numpy as np
 import pytest
 
 from telethermo.atomic import write_text_atomic
-from telethermo.offline import (
-    RecordingBuilder,
-    RecordingError,
-    compute_figures,
-    read_recording_csv,
-    write_recording_csv,
-)
+from telethermo.offline import compute_figures
+from telethermo.recording import RecordingBuilder, RecordingError, read_recording_csv, write_recording_csv
 from telethermo.offline.transparency import transparency_figures
 
 DT = 0.01

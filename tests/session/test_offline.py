@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from telethermo.control.rendering import load_render_table, pad_preset_temperature
-from telethermo.offline import compute_figures, read_recording_csv, run_offline_session, write_session
+from telethermo.offline import compute_figures, run_offline_session, write_session
+from telethermo.recording import read_recording_csv
 
 sim = pytest.importorskip("sim")
 

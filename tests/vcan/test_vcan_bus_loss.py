@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from telethermo.nodes.launch import NodePair, PairConfig, wait_for
-from telethermo.offline.recording import read_recording_csv
+from telethermo.recording.format import read_recording_csv
 
 pytestmark = [pytest.mark.vcan, pytest.mark.slow]
 

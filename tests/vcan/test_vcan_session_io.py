@@ -17,7 +17,7 @@ import pytest
 
 from telethermo.nodes.iomodules import fill_truth
 from telethermo.nodes.launch import NodePair, PairConfig
-from telethermo.nodes.merge import merge_recordings
+from telethermo.recording.merge import merge_recordings
 
 pytestmark = [
     pytest.mark.vcan,

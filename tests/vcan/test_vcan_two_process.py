@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 from telethermo.nodes.launch import NodePair, PairConfig
-from telethermo.nodes.merge import merge_recordings
+from telethermo.recording.merge import merge_recordings
 from telethermo.offline import run_offline_session
-from telethermo.offline.recording import TEXT_COLUMNS
+from telethermo.recording.format import TEXT_COLUMNS
 
 pytestmark = [pytest.mark.vcan, pytest.mark.slow]
 

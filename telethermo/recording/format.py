@@ -22,7 +22,7 @@ name                unit   meaning
 t_s                 s      sample time (the rigs' clock)
 sync_cycle          int    node recordings and their merge only (not in COLUMNS; the offline runner has
                            none): the SYNC the row belongs to, the producer's SYNCs numbered from 0 alike
-                           on both nodes; -1 for a slave's local fallback cycle (nodes.merge joins on it)
+                           on both nodes; -1 for a slave's local fallback cycle (recording.merge joins on it)
 X_T_sensor_C        °C     thermocouple at the flux sensor's mid-plane (measured, filtered)
 X_Q_W               W      heat flux through the sensor, > 0 out of the pad (measured, filtered)
 X_T_sink_C          °C     heat-sink temperature (measured)
@@ -70,7 +70,7 @@ from typing import Any
 
 import numpy as np
 
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.journal import CsvRecorder
 
 MAGIC = "# telethermo-recording 1"
 
@@ -98,6 +98,14 @@ SIDE_TEXT = ["limits", "new_trips"]
 REF_NUMERIC = ["m_true_finger_C", "ref_T_contact_C", "ref_Q_into_finger_W", "ref_touching"]
 TEXT_COLUMNS = frozenset(f"{p}_{c}" for p in ("m", "s") for c in SIDE_TEXT)
 COLUMNS = ["t_s"] + [f"{p}_{c}" for p in ("m", "s") for c in SIDE_NUMERIC + SIDE_TEXT] + REF_NUMERIC
+SYNC_CYCLE = "sync_cycle"
+"""The column of a node recording that says which SYNC the row belongs to (-1: a local fallback cycle)."""
+
+
+def node_columns(p: str) -> list[str]:
+    """The columns of one node's recording (``p``: ``"m"`` master, ``"s"`` slave): ``t_s``,
+    :data:`SYNC_CYCLE` and the side's ``p_*`` columns of :data:`COLUMNS`, in their order."""
+    return ["t_s", SYNC_CYCLE] + [c for c in COLUMNS if c.startswith(f"{p}_")]
 
 
 class RecordingError(ValueError):
@@ -161,9 +169,11 @@ def _fmt(v: Any) -> str:
     return repr(f)
 
 
-def header_comments(meta: dict[str, Any]) -> list[str]:
-    """The comment lines that open a recording (without their ``# ``): the magic line and the meta."""
-    return [MAGIC[2:], "meta " + json.dumps(meta, allow_nan=False, sort_keys=True, default=str)]
+def header_comments(meta: dict[str, Any], *, allow_nan: bool = False) -> list[str]:
+    """The comment lines that open a recording (without their ``# ``): the magic line and the meta
+    (``allow_nan``: write a NaN in the meta as JSON's ``NaN`` extension instead of refusing it, as the
+    nodes' recordings always have)."""
+    return [MAGIC[2:], "meta " + json.dumps(meta, allow_nan=allow_nan, sort_keys=True, default=str)]
 
 
 def _rows(rec: Recording):
@@ -174,7 +184,7 @@ def _rows(rec: Recording):
 
 def write_recording_csv(path: str | os.PathLike, rec: Recording) -> Path:
     """Write ``rec`` to ``path`` atomically, through the recordings' one writer
-    (:class:`telethermo.offline.recording_journal.CsvRecorder`, as the nodes)."""
+    (:class:`telethermo.recording.journal.CsvRecorder`, as the nodes)."""
     head = header_comments(rec.meta)
     writer = CsvRecorder(path, list(rec.columns), comments=head, flush_every=1 << 30)
     try:

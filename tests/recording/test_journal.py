@@ -10,7 +10,7 @@ import numpy as np
 
 import pytest
 
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.journal import CsvRecorder
 
 pytestmark = pytest.mark.slow  # starts processes
 
@@ -66,7 +66,7 @@ def test_values_are_written_in_their_shortest_round_trip_form(tmp_path):
 # ------------------------------------------------------------------ the journal (nothing lost on SIGKILL)
 _CHILD = """
 import sys, time
-from telethermo.offline.recording_journal import CsvRecorder
+from telethermo.recording.journal import CsvRecorder
 rec = CsvRecorder(sys.argv[1], ["t_s", "sync_cycle", "x"], flush_every=10**9, sync_interval_s=0.05,
                   comments=["telethermo-recording 1", 'meta {"role": "slave"}'])
 for k in range(int(sys.argv[2])):
@@ -101,8 +101,8 @@ def _killed_writer(tmp_path, rows: int):
 
 
 def test_a_killed_writers_journal_is_recovered_with_every_complete_row(tmp_path):
-    from telethermo.offline.recording_journal import journal_path, recover_journal
-    from telethermo.offline.recording import read_recording_csv
+    from telethermo.recording.journal import journal_path, recover_journal
+    from telethermo.recording.format import read_recording_csv
 
     path = _killed_writer(tmp_path, 123)
     assert not path.exists() and journal_path(path).exists()
@@ -118,8 +118,8 @@ def test_a_killed_writers_journal_is_recovered_with_every_complete_row(tmp_path)
 
 
 def test_the_next_start_recovers_the_journal_beside_the_new_recording(tmp_path):
-    from telethermo.offline.recording_journal import journal_path
-    from telethermo.offline.recording import read_recording_csv
+    from telethermo.recording.journal import journal_path
+    from telethermo.recording.format import read_recording_csv
 
     path = _killed_writer(tmp_path, 40)
     rec = CsvRecorder(path, ["t_s", "sync_cycle", "x"], comments=["telethermo-recording 1", "meta {}"])
@@ -132,7 +132,7 @@ def test_the_next_start_recovers_the_journal_beside_the_new_recording(tmp_path):
 
 
 def test_a_journal_in_use_is_not_recovered_and_rows_reach_it_without_close(tmp_path):
-    from telethermo.offline.recording_journal import RecorderError, journal_path, recover_journal
+    from telethermo.recording.journal import RecorderError, journal_path, recover_journal
 
     path = tmp_path / "m.csv"
     rec = CsvRecorder(path, ["a"], flush_every=10**9, sync_interval_s=0.02)
@@ -151,8 +151,8 @@ def test_a_journal_in_use_is_not_recovered_and_rows_reach_it_without_close(tmp_p
 
 
 def test_recordings_merge_on_the_sync_cycle_after_losses_and_fallback_cycles(tmp_path):
-    from telethermo.nodes.merge import merge_recordings
-    from telethermo.offline.recording import MAGIC
+    from telethermo.recording.merge import merge_recordings
+    from telethermo.recording.format import MAGIC
 
     head = [MAGIC[2:], 'meta {"period_s": 0.01}']
     m = CsvRecorder(tmp_path / "m.csv", ["t_s", "sync_cycle", "m_T_sensor_C"], comments=head)

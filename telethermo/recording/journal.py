@@ -1,7 +1,7 @@
-"""The one writer of recordings (telethermo.offline.recording's CSV format): one CSV row per step,
+"""The one writer of recordings (telethermo.recording.format's CSV format): one CSV row per step,
 streamed to a journal next to the target and renamed into place on close (a reader sees no file or the
 whole one, never a torn one). The nodes stream their rows as they run; the offline runner writes its
-finished recording through the same writer (:func:`telethermo.offline.recording.write_recording_csv`).
+finished recording through the same writer (:func:`telethermo.recording.format.write_recording_csv`).
 
 The journal (``<target>.journal``, e.g. ``slave.csv.journal``) is the recording as written so far: the
 same comment lines, header and rows. It is pushed to the OS and fsync'd every ``sync_interval_s``

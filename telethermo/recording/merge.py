@@ -1,4 +1,4 @@
-"""Merging the two nodes' recordings into one session recording (telethermo.offline.recording
+"""Merging the two nodes' recordings into one session recording (telethermo.recording.format
 format), so that ``compute_figures`` gives the same figures as for an offline session.
 
 Each node records its own side (``m_*`` or ``s_*`` columns, with ``t_s`` and ``sync_cycle``). The
@@ -21,12 +21,15 @@ from typing import Any
 import numpy as np
 
 from telethermo import sim
-from telethermo.offline.recording import COLUMNS, TEXT_COLUMNS, Recording, RecordingError, read_recording_csv
-from telethermo.offline.runner import ref_row, scene_contacts
-
-
-SYNC_CYCLE = "sync_cycle"
-"""The column of a node recording that says which SYNC the row belongs to (-1: a local fallback cycle)."""
+from telethermo.recording.format import (
+    COLUMNS,
+    SYNC_CYCLE,
+    TEXT_COLUMNS,
+    Recording,
+    RecordingError,
+    read_recording_csv,
+)
+from telethermo.recording.rows import ref_row, scene_contacts
 
 
 class MergeError(ValueError):

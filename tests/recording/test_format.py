@@ -10,8 +10,15 @@ import stat
 import numpy as np
 import pytest
 
-from telethermo.offline.recording import Recording, read_recording_csv, write_recording_csv
-from telethermo.offline.recording_journal import journal_path, recover_journal
+from telethermo.recording.format import (
+    COLUMNS,
+    Recording,
+    header_comments,
+    node_columns,
+    read_recording_csv,
+    write_recording_csv,
+)
+from telethermo.recording.journal import journal_path, recover_journal
 
 
 def _rec() -> Recording:
@@ -69,3 +76,22 @@ def test_a_recovered_recording_gets_the_mode_of_a_new_file(tmp_path, umask):
     killed = [f for f in tmp_path.iterdir() if ".killed-" in f.name]
     for f in (recovered, written, *killed):
         assert stat.S_IMODE(f.stat().st_mode) == 0o666 & ~umask, f.name
+
+
+def test_a_node_recording_has_its_side_of_the_columns_and_the_sync_cycle():
+    """Both node programs (and the nodes benchmark) take their columns from the format: each side's, in the
+    documented order, after ``t_s`` and ``sync_cycle``; the two sides and the reference make up COLUMNS."""
+    m, s = node_columns("m"), node_columns("s")
+    assert m[:2] == s[:2] == ["t_s", "sync_cycle"]
+    assert all(c.startswith("m_") for c in m[2:]) and all(c.startswith("s_") for c in s[2:])
+    assert "m_true_finger_C" in m and "m_current_A" in m and "s_new_trips" in s
+    ref = [c for c in COLUMNS if c.startswith("ref_")]
+    assert sorted(["t_s", *m[2:], *s[2:], *ref]) == sorted(COLUMNS)
+
+
+def test_the_header_refuses_nan_in_the_meta_unless_asked():
+    """The offline writer refuses a NaN in the meta (strict JSON); the nodes' recordings write it as NaN."""
+    with pytest.raises(ValueError):
+        header_comments({"x": math.nan})
+    magic, meta = header_comments({"b": math.nan, "a": 1}, allow_nan=True)
+    assert magic == "telethermo-recording 1" and meta == 'meta {"a": 1, "b": NaN}'
