@@ -28,7 +28,7 @@ from telethermo.iomodule.iorig import IoRig, IoRigError
 from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
 from telethermo.rig import Rig
 from telethermo.offline.render_script import RenderScript
-from telethermo.offline.runner import finger_skin_C
+from telethermo.recording.rows import finger_skin_C
 from telethermo.transport.bus import TransportSettings
 
 from telethermo.nodes.options import NodeOptions, OptionError
