@@ -57,6 +57,9 @@ class IoRig:
         self.config = config
         self.period_s = float(period_s)
         self.I_max_A = float(config.drive.limit_A)
+        self.tem = config.tem
+        """The TEM's constants of the RIG.toml's ``[tem]`` (None: not given), for
+        :func:`telethermo.control.detach.tem_limits`."""
         self.controller_id = controller_id
         self.lockstep = lockstep
         self.timeout_s = (
