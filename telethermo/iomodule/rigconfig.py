@@ -151,6 +151,8 @@ class RigConfig:
     """How long a read waits for the inputs of a SYNC, ms (None: half the loop period)."""
     stale_limit: int = 3
     """Loop periods in a row without the inputs after which every signal reads NaN (the envelope trips)."""
+    sdo_timeout_ms: float = 1000.0
+    """How long commissioning waits for each SDO answer of a module, ms."""
     tem: TemConfig | None = None
     """The TEM's constants (``[tem]``; None: the envelope's defaults)."""
     extra: dict[str, Any] = field(default_factory=dict)
@@ -223,7 +225,7 @@ _MODULE_KEYS = {"node_id", "eds", "sampling_ms", "sampling_index", "consumer_ms"
 _SCALE_KEYS = {"module", "object", "subindex", "volts_per_count", "offset_V", "gain", "sign"}
 _SIGNAL_KEYS = _SCALE_KEYS | {"sentinels", "filter_tau_ms", "threshold"}
 _DRIVE_KEYS = _SCALE_KEYS | {"limit_A"}
-_TOP_KEYS = {"modules", "signals", "drive", "input_timeout_ms", "stale_limit", "tem"}
+_TOP_KEYS = {"modules", "signals", "drive", "input_timeout_ms", "stale_limit", "sdo_timeout_ms", "tem"}
 
 
 def _module(source: str, base: Path, name: str, raw: Any) -> ModuleConfig:
@@ -324,6 +326,9 @@ def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigCon
     d.check_keys(_DRIVE_KEYS)
     drive = DriveConfig(limit_A=d.number("limit_A", positive=True), **_where(d, modules))
     timeout = top.number("input_timeout_ms", default=None, positive=True)
+    sdo_timeout_ms = top.number("sdo_timeout_ms", default=1000.0, positive=True)
+    if not 10.0 <= sdo_timeout_ms <= 60000.0:
+        raise RigConfigError(source, "sdo_timeout_ms", "a time 10..60000 ms", sdo_timeout_ms)
     return RigConfig(
         source=source,
         modules=modules,
@@ -331,6 +336,7 @@ def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigCon
         drive=drive,
         input_timeout_ms=timeout,
         stale_limit=top.integer("stale_limit", 1, 1000, 3),
+        sdo_timeout_ms=sdo_timeout_ms,
         tem=_tem(source, raw["tem"]) if "tem" in raw else None,
     )
 
