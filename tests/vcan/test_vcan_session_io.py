@@ -5,14 +5,14 @@ the merged recording holds the modules' truth. Skipped where the kernel has no v
 ../shared/tools/vcan-run).
 
 Settings for the emulated VM (10-20x slower than the host), on all four nodes: the slow network settings
-(controllers' heartbeats 200 ms apart, consumers 3 s), the packaged RIG.toml files with the modules'
-heartbeat consumers (0x1016) at 3 s instead of 150 ms and the commissioning's SDO answers awaited 20 s, the
-two modules booting side by side and given 400 s to answer. Why: with the packaged 100 ms heartbeats and 150 ms
-consumers, one late heartbeat puts a module in its error state (0x1029:1 = 0: PRE-OPERATIONAL, its TPDOs stop;
-nobody starts it again), and from then on every read of its controller waits out the lockstep input timeout,
-2.5 s per cycle (reproduced on the hub by pausing the master 0.4 s: 8 cycles in the next 15 s): the run that
-did not finish in the VM's 1500 s budget. And a module's imports alone take over 60 s in the VM, the
-launcher's former wait for its ready line.
+(controllers' heartbeats 200 ms apart, consumers 3 s), the packaged RIG.toml files with the modules' heartbeat
+consumers (0x1016) at 3 s instead of 150 ms and the commissioning's SDO answers awaited 20 s, the two modules
+booting side by side and given 400 s to answer. Why: with the packaged 100 ms heartbeats and 150 ms consumers,
+one late heartbeat puts a module in its error state (0x1029:1 = 0: PRE-OPERATIONAL, its TPDOs stop; nobody
+starts it again), and from then on every read of its controller waits out the lockstep input timeout, 2.5 s
+per cycle (reproduced on the hub by pausing the master 0.4 s: 8 cycles in the next 15 s): the run that did not
+finish in the VM's 1500 s budget. And a module's imports alone take over 60 s in the VM, the launcher's former
+wait for its ready line.
 """
 
 from __future__ import annotations
