@@ -82,6 +82,12 @@ class IoModuleProcess:
         self.proc: subprocess.Popen[str] | None = None
 
     def start(self, timeout_s: float = 60.0) -> None:
+        """Start the process and wait for its ready line (:meth:`launch`, then :meth:`wait_ready`)."""
+        self.launch()
+        self.wait_ready(timeout_s)
+
+    def launch(self) -> None:
+        """Start the process, not waiting for it (several modules boot side by side)."""
         self.log_path.unlink(missing_ok=True)
         self.truth_path.unlink(missing_ok=True)
         self.proc = subprocess.Popen(
@@ -91,6 +97,10 @@ class IoModuleProcess:
             text=True,
             start_new_session=True,
         )
+
+    def wait_ready(self, timeout_s: float = 60.0) -> None:
+        """Wait at most ``timeout_s`` s for the launched module's ready line (IoModuleError, the process
+        stopped, when it does not come)."""
         box: list[str] = []
         reader = threading.Thread(target=lambda: box.append(self._stdout().readline()), daemon=True)
         reader.start()
@@ -98,7 +108,7 @@ class IoModuleProcess:
         if not box or not box[0].startswith(READY):
             code = self.stop()
             raise IoModuleError(
-                f"the {self.side}'s I/O module (node {self.node_id}) did not come up "
+                f"the {self.side}'s I/O module (node {self.node_id}) did not come up within {timeout_s:g} s "
                 f"(exit {code}); see {self.log_path}"
             )
         threading.Thread(target=lambda: self._stdout().read(), daemon=True).start()  # keep the pipe drained

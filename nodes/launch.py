@@ -184,6 +184,9 @@ class PairConfig:
             instead of a simulated rig in its own process.
         io_faults: ``--fault`` texts of each side's module (telethermo.iomodule.faults), e.g.
             ``{"master": ["detach:5"]}``.
+        io_rig_configs: a side's RIG.toml instead of its packaged one (nodes.iomodules.rig_config), e.g.
+            longer heartbeat-consumer times for a slow machine.
+        io_ready_s: how long the modules (booting side by side) may take to answer, s.
     """
 
     scene: Path
@@ -200,6 +203,8 @@ class PairConfig:
     slave_args: list[str] = field(default_factory=list)
     io: bool = False
     io_faults: dict[str, list[str]] = field(default_factory=dict)
+    io_rig_configs: dict[str, Path] = field(default_factory=dict)
+    io_ready_s: float = 60.0
 
 
 class NodePair:
@@ -267,24 +272,30 @@ class NodePair:
         return None if seed is None else seed + (1 if role == "slave" else 0)
 
     def start_modules(self) -> None:
-        """``config.io``: the I/O module of each side that runs (the slave's only in telepresence), each
-        up and answering before its controller commissions it."""
+        """``config.io``: the I/O module of each side that runs (the slave's only in telepresence), booting
+        side by side, each up and answering (within ``config.io_ready_s``) before its controller commissions
+        it."""
         c = self.config
         assert self.bus is not None
         for role in ("slave", "master") if c.mode != "render" else ("master",):
-            mod = IoModuleProcess(
+            self.modules[role] = IoModuleProcess(
                 role,
                 c.scene,
                 self.bus,
                 self.out_dir,
                 seed=self._seed(role),
                 network=c.network,
+                config=c.io_rig_configs.get(role),
                 faults=c.io_faults.get(role, []),
             )
-            self.modules[role] = mod
+            self.modules[role].launch()
+        deadline = time.monotonic() + c.io_ready_s
+        for mod in self.modules.values():
             try:
-                mod.start()
+                mod.wait_ready(max(1.0, deadline - time.monotonic()))
             except IoModuleError as exc:
+                for other in self.modules.values():  # the ones launched beside it
+                    other.stop()
                 raise LaunchError(str(exc)) from None
 
     def start_slave(self) -> subprocess.Popen:

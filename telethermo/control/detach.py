@@ -149,10 +149,13 @@ def detach_timer(limits: Any, timer_s: float, excess: bool, dt_s: float) -> tupl
 
 
 def tem_limits(rig: Any) -> dict[str, float]:
-    """The envelope fields of a rig's known TEM (``rig.params.tem`` with ``alpha_V_K``, ``R_ohm``, ``K_W_K``,
-    ``tau_V_K``: a simulated rig's), for ``dataclasses.replace(limits, **tem_limits(rig))``; {} for a rig that
-    does not say (a hardware rig: the envelope's own constants stay)."""
-    tem = getattr(getattr(rig, "params", None), "tem", None)
+    """The envelope fields of a rig's known TEM, for ``dataclasses.replace(limits, **tem_limits(rig))``: the
+    rig's ``tem`` (an I/O rig: its RIG.toml's ``[tem]``, telethermo.iomodule.rigconfig) or its ``params.tem``
+    (a simulated rig's), each with ``alpha_V_K``, ``R_ohm``, ``K_W_K``, ``tau_V_K``; {} for a rig that does
+    not say (the envelope's own constants stay)."""
+    tem = getattr(rig, "tem", None)
+    if tem is None:
+        tem = getattr(getattr(rig, "params", None), "tem", None)
     if tem is None:
         return {}
     return {

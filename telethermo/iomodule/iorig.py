@@ -52,11 +52,14 @@ class IoRig:
         period_s: float,
         lockstep: bool = False,
         network: canopen.Network | None = None,
-        sdo_timeout_s: float = 1.0,
+        sdo_timeout_s: float | None = None,
     ):
         self.config = config
         self.period_s = float(period_s)
         self.I_max_A = float(config.drive.limit_A)
+        self.tem = config.tem
+        """The TEM's constants of the RIG.toml's ``[tem]`` (None: not given), for
+        :func:`telethermo.control.detach.tem_limits`."""
         self.controller_id = controller_id
         self.lockstep = lockstep
         self.timeout_s = (
@@ -64,7 +67,8 @@ class IoRig:
             if lockstep
             else (config.input_timeout_ms * 1e-3 if config.input_timeout_ms else 0.5 * period_s)
         )
-        self.sdo_timeout_s = sdo_timeout_s
+        self.sdo_timeout_s = config.sdo_timeout_ms * 1e-3 if sdo_timeout_s is None else sdo_timeout_s
+        """How long commissioning waits for each SDO answer, s (default: the RIG.toml's sdo_timeout_ms)."""
         self._transport = transport
         self._own_network = network is None
         self.network = network

@@ -12,6 +12,11 @@ and to the 16-bit range)::
 
     counts = round((offset_V + sign * I_A / gain) / volts_per_count)
 
+An optional ``[tem]`` table gives the TEM's constants (Seebeck ``alpha_V_K`` V/K, resistance ``R_ohm`` Ω,
+conductance ``K_W_K`` W/K, Thomson ``tau_V_K`` V/K) to the envelope's detached-sensor check
+(:func:`telethermo.control.detach.tem_limits` reads them from :attr:`telethermo.iomodule.iorig.IoRig.tem`);
+without it the envelope keeps its defaults (the shipped 15 × 15 mm module's).
+
 An input reading one of its ``sentinels`` (full scale: an open thermocouple, an overload) is no value:
 the signal reads NaN. ``filter_tau_ms`` > 0 low-passes a signal (first order, on the loop period).
 
@@ -111,6 +116,30 @@ class DriveConfig:
 
 
 @dataclass(frozen=True)
+class TemConfig:
+    """The TEM's constants (guiatni eq. 1-6) for the envelope's detached-sensor check."""
+
+    alpha_V_K: float
+    """Seebeck coefficient of the whole module, V/K (0: the check off)."""
+    R_ohm: float
+    """Electrical resistance, Ω."""
+    K_W_K: float
+    """Thermal conductance between the plates, W/K."""
+    tau_V_K: float = 0.0
+    """Thomson coefficient, V/K (0: the term left out)."""
+
+
+#: accepted ranges (inclusive) of each ``[tem]`` field: wide enough for any single- or two-stage module
+TEM_RANGES = {
+    "alpha_V_K": (0.0, 1.0),
+    "R_ohm": (1e-3, 100.0),
+    "K_W_K": (1e-4, 10.0),
+    "tau_V_K": (-0.1, 0.1),
+}
+TEM_UNITS = {"alpha_V_K": "V/K", "R_ohm": "ohm", "K_W_K": "W/K", "tau_V_K": "V/K"}
+
+
+@dataclass(frozen=True)
 class RigConfig:
     """A whole RIG.toml."""
 
@@ -122,6 +151,10 @@ class RigConfig:
     """How long a read waits for the inputs of a SYNC, ms (None: half the loop period)."""
     stale_limit: int = 3
     """Loop periods in a row without the inputs after which every signal reads NaN (the envelope trips)."""
+    sdo_timeout_ms: float = 1000.0
+    """How long commissioning waits for each SDO answer of a module, ms."""
+    tem: TemConfig | None = None
+    """The TEM's constants (``[tem]``; None: the envelope's defaults)."""
     extra: dict[str, Any] = field(default_factory=dict)
 
 
@@ -192,7 +225,7 @@ _MODULE_KEYS = {"node_id", "eds", "sampling_ms", "sampling_index", "consumer_ms"
 _SCALE_KEYS = {"module", "object", "subindex", "volts_per_count", "offset_V", "gain", "sign"}
 _SIGNAL_KEYS = _SCALE_KEYS | {"sentinels", "filter_tau_ms", "threshold"}
 _DRIVE_KEYS = _SCALE_KEYS | {"limit_A"}
-_TOP_KEYS = {"modules", "signals", "drive", "input_timeout_ms", "stale_limit"}
+_TOP_KEYS = {"modules", "signals", "drive", "input_timeout_ms", "stale_limit", "sdo_timeout_ms", "tem"}
 
 
 def _module(source: str, base: Path, name: str, raw: Any) -> ModuleConfig:
@@ -245,6 +278,18 @@ def _signal(source: str, name: str, raw: Any, modules: dict[str, ModuleConfig]) 
     )
 
 
+def _tem(source: str, raw: Any) -> TemConfig:
+    t = _Table(source, "tem", raw)
+    t.check_keys(set(TEM_RANGES))
+    values = {}
+    for key, (lo, hi) in TEM_RANGES.items():
+        v = t.number(key, default=0.0) if key == "tau_V_K" else t.number(key)
+        if not lo <= v <= hi:
+            raise RigConfigError(source, t.name(key), f"a number {lo:g}..{hi:g} {TEM_UNITS[key]}", v)
+        values[key] = v
+    return TemConfig(**values)
+
+
 def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigConfig:
     """A RIG.toml's text (``source`` names it in errors; ``base`` is the folder of relative paths)."""
     base = Path(".") if base is None else base
@@ -281,6 +326,9 @@ def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigCon
     d.check_keys(_DRIVE_KEYS)
     drive = DriveConfig(limit_A=d.number("limit_A", positive=True), **_where(d, modules))
     timeout = top.number("input_timeout_ms", default=None, positive=True)
+    sdo_timeout_ms = top.number("sdo_timeout_ms", default=1000.0, positive=True)
+    if not 10.0 <= sdo_timeout_ms <= 60000.0:
+        raise RigConfigError(source, "sdo_timeout_ms", "a time 10..60000 ms", sdo_timeout_ms)
     return RigConfig(
         source=source,
         modules=modules,
@@ -288,6 +336,8 @@ def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigCon
         drive=drive,
         input_timeout_ms=timeout,
         stale_limit=top.integer("stale_limit", 1, 1000, 3),
+        sdo_timeout_ms=sdo_timeout_ms,
+        tem=_tem(source, raw["tem"]) if "tem" in raw else None,
     )
 
 

@@ -152,6 +152,7 @@ def test_a_module_that_refuses_is_named_with_object_and_abort_code(rig, tmp_path
             "signals.current_A.subindex",
             "an input no other signal",
         ),
+        (("stale_limit = 3", "stale_limit = 3\nsdo_timeout_ms = 5"), "sdo_timeout_ms", "a time 10..60000 ms"),
     ],
 )
 def test_malformed_rig_toml_names_file_and_field(edit, field, expected):
@@ -185,3 +186,14 @@ def test_malformed_rig_toml_exits_2_with_one_line(tmp_path):
     for name in ("rig_io_sim.toml", "rig_io_sim_slave.toml"):
         assert {s for s in load_rig_config(bus_config_path(name)).signals} >= {"T_sensor_C", "contact"}
     assert load_rig_config(bus_config_path("rig_io_sim_slave.toml")).modules["io"].node_id == MODULE_ID + 1
+
+
+def test_sdo_timeout_of_the_rig_toml_is_the_commissionings_default():
+    text = SIM_TOML.read_text(encoding="utf-8")
+    cfg = parse_rig_config(
+        text.replace("stale_limit = 3", "stale_limit = 3\nsdo_timeout_ms = 2500"), "RIG.toml"
+    )
+    assert cfg.sdo_timeout_ms == 2500.0 and parse_rig_config(text, "RIG.toml").sdo_timeout_ms == 1000.0
+    kw = dict(transport=None, controller_id=CONTROLLER_ID, period_s=0.01)
+    assert IoRig(cfg, **kw).sdo_timeout_s == 2.5
+    assert IoRig(cfg, sdo_timeout_s=0.2, **kw).sdo_timeout_s == 0.2  # rig check's own
