@@ -6,6 +6,7 @@ SDO (``telethermo identify`` reads them as the TPDOs carried them, REAL32).
 from __future__ import annotations
 
 import logging
+from typing import Any, Callable
 
 import numpy as np
 
@@ -15,21 +16,31 @@ from telethermo.control.core import CoreState, StepResult
 from telethermo.control.types import Mode
 from telethermo.rig import RigSample
 
+from telethermo.nodes.od_publish import RESULT, SAMPLE, OdRow
 from telethermo.nodes.param_slot import ParamSlot
 from telethermo.nodes.stats import RuntimeStats
 
 log = logging.getLogger("telethermo.node")
 
 IDENT_NOT_RUN, IDENT_RUNNING, IDENT_DONE, IDENT_INTERRUPTED = 0, 1, 2, 3
-_WRITERS = (
-    "ident_sample",
-    "ident_state",
-    "ident_guard",
-    "ident_start_cycle",
-    "ident_fetched_T_sensor_C",
-    "ident_fetched_current_A",
-    "ident_fetched_Q_W",
+
+#: the experiment's progress, written by :meth:`IdentService.status` (0x2807..0x280A)
+SAMPLE_NUMBER = OdRow("ident_sample")
+STATE = OdRow("ident_state")
+GUARD = OdRow("ident_guard")
+START_CYCLE = OdRow("ident_start_cycle")
+PROGRESS = (SAMPLE_NUMBER, STATE, GUARD, START_CYCLE)
+#: the command that fetches one recorded sample (0x280B: written by SDO, validated here)
+FETCH_SAMPLE = OdRow("ident_fetch_sample")
+#: the record's columns, in order: the field of the cycle each keeps (the value its TPDOs carry) and the
+#: object a fetch writes it to (0x280C..0x280E)
+RECORD = (
+    OdRow("ident_fetched_T_sensor_C", SAMPLE, "T_sensor_C"),
+    OdRow("ident_fetched_current_A", RESULT, "current_A"),
+    OdRow("ident_fetched_Q_W", RESULT, "out.flux_W"),
 )
+#: every object the service writes
+WRITTEN = (*PROGRESS, *RECORD)
 
 
 class IdentService:
@@ -41,22 +52,20 @@ class IdentService:
         self._stats = stats
         self.state = IDENT_NOT_RUN
         self.record: np.ndarray | None = None
-        self._w: dict = {}
-        self._fetch_index = -1
+        self._w: dict[OdRow, Callable[[Any], None]] = {}
 
     def bind(self, dev) -> None:
-        self._w = {name: dev.writer(name) for name in _WRITERS}
-        self._fetch_index = dev.info.get("ident_fetch_sample").index
-        dev.add_write_validator("ident_fetch_sample", self.check_fetch)
+        self._w = {row: dev.writer(row.key) for row in WRITTEN}
+        dev.add_write_validator(FETCH_SAMPLE.key, self.check_fetch)
 
     def power_on(self) -> None:
         self.state = IDENT_NOT_RUN
 
     def status(self, state: CoreState, sample: RigSample, res: StepResult) -> None:
-        """ident_sample / ident_state / ident_guard / ident_start_cycle of this cycle (0x2807..0x280A), and the
-        sample kept for ident_fetch_sample (0x280B): the values its TPDOs carry, as REAL32."""
+        """ident_sample / ident_state / ident_guard / ident_start_cycle of this cycle (0x2807..0x280A), and
+        the sample kept for ident_fetch_sample (0x280B): the values its TPDOs carry, as REAL32."""
         w, k = self._w, state.ident_k
-        w["ident_sample"](k)
+        w[SAMPLE_NUMBER](k)
         mode = self._settings.mode
         if mode is Mode.IDENTIFY:
             plan = self._settings.params.identify
@@ -64,24 +73,25 @@ class IdentService:
             if k == 1:
                 self.record = np.full((total, 3), np.nan, dtype=np.float32)
             if 1 <= k <= total and self.record is not None and len(self.record) == total:
-                self.record[k - 1] = (sample.T_sensor_C, res.current_A, res.out.flux_W)
+                self.record[k - 1] = [row.value(sample if row.source == SAMPLE else res) for row in RECORD]
             if k == 1:
-                w["ident_start_cycle"](self._stats.cycles & 0xFFFFFFFF)
+                w[START_CYCLE](self._stats.cycles & 0xFFFFFFFF)
                 log.info("identification experiment started: %d samples (%s)", total, plan.as_dict())
             new = IDENT_DONE if k >= total else IDENT_RUNNING
             if new == IDENT_DONE and self.state == IDENT_RUNNING:
                 log.info("identification experiment done: %d samples, %d guarded", k, state.ident_guard)
-            w["ident_guard"](state.ident_guard)
+            w[GUARD](state.ident_guard)
         else:
             new = IDENT_INTERRUPTED if self.state == IDENT_RUNNING else self.state
             if new == IDENT_INTERRUPTED and self.state == IDENT_RUNNING:
                 log.warning("identification experiment interrupted (mode %s)", mode.name)
         if new != self.state:
             self.state = new
-            w["ident_state"](new)
+            w[STATE](new)
 
     def check_fetch(self, value) -> int | None:
-        """Validator of ident_fetch_sample (0x280B): a sample the last experiment recorded, else 0x08000024."""
+        """Validator of ident_fetch_sample (0x280B): a sample the last experiment recorded, else
+        0x08000024."""
         rec = self.record
         j = int(value)
         if rec is None or j >= len(rec) or rec[j, 0] != rec[j, 0]:
@@ -89,12 +99,11 @@ class IdentService:
         return None
 
     def on_write(self, ev: WriteEvent) -> bool:
-        """ident_fetch_sample written (validated): the sample into the ident_fetched_* objects. False if not that object."""
-        if ev.index != self._fetch_index:
+        """ident_fetch_sample written (validated): the sample into the ident_fetched_* objects (the record's
+        columns, :data:`RECORD`). False if not that object."""
+        if ev.index != FETCH_SAMPLE.index:
             return False
-        T, I, Q = (float(v) for v in self.record[int(ev.value)])
         w = self._w
-        w["ident_fetched_T_sensor_C"](T)
-        w["ident_fetched_current_A"](I)
-        w["ident_fetched_Q_W"](Q)
+        for row, value in zip(RECORD, self.record[int(ev.value)]):
+            w[row](float(value))
         return True

@@ -203,3 +203,34 @@ def test_sdo_writes_reach_the_parameters_the_model_and_the_identification_servic
     assert node.sdo["kp_A_per_C"].raw == pytest.approx(kp0 + 0.25)
     assert rt.model is None and rt.models_loaded == 1
     assert node.sdo["model_status"].raw == STATUS_NONE and node.sdo["model_crc32"].raw == 0
+
+
+def test_an_identification_experiment_is_recorded_and_fetched_sample_by_sample(bench):
+    """IDENTIFY with a short plan set by SDO: the progress objects (0x2807..0x280A) and, per sample, the
+    fetched objects (0x280C..0x280E) as canopen's SDO client reads them: the record's columns are the
+    sensor temperature, the commanded current (the plan's, as the guard never acted) and the flux."""
+    node = bench.remote(Role.MASTER)
+    rt = bench.node(Role.MASTER)
+    plan = {"ident_rest_samples": 2, "ident_train_samples": 5, "ident_validation_samples": 3}
+    for name, value in {**plan, "ident_hold_samples": 1}.items():
+        node.sdo[name].raw = value
+    node.sdo["mode"].raw = int(Mode.IDENTIFY)  # into the controller at the next SYNC
+    total = sum(plan.values())
+    assert rt.run_producer(total + 2) == total + 2
+    assert node.sdo["ident_state"].raw == 2  # done
+    assert node.sdo["ident_sample"].raw > total and node.sdo["ident_guard"].raw == 0
+    assert node.sdo["ident_start_cycle"].raw == 0  # no cycle before: the mode came in at the first SYNC
+    identify = rt.settings.params.identify
+    assert identify.total == total
+    rows = []
+    for j in range(total):
+        node.sdo["ident_fetch_sample"].raw = j
+        rows.append([node.sdo[n].raw for n in ("ident_fetched_T_sensor_C", "ident_fetched_current_A")])
+        rows[-1].append(node.sdo["ident_fetched_Q_W"].raw)
+    got = np.array(rows)
+    assert np.array_equal(got, rt.ident.record.astype(float))  # REAL32 both ways: exact
+    assert np.array_equal(got[:, 1], identify.currents().astype(np.float32).astype(float))
+    assert np.all((got[:, 0] > 15.0) & (got[:, 0] < 45.0)) and np.any(got[:, 1] != 0.0)
+    with pytest.raises(canopen.SdoAbortedError) as exc:
+        node.sdo["ident_fetch_sample"].raw = total  # beyond the record
+    assert exc.value.code == 0x08000024

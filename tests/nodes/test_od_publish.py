@@ -22,10 +22,13 @@ from telethermo.control.material_stream import MaterialEstimate
 from telethermo.control.params import default_params
 from telethermo.control.types import Outgoing, PeerValues, Role
 from telethermo.device import Device
+from telethermo.nodes import ident_service as ident
 from telethermo.nodes import od_publish as op
 from telethermo.rig import RigSample
 
-ROWS = (*op.CYCLE, *op.MATERIAL, *op.NODE_OBJECTS)
+ROWS = (*op.CYCLE, *op.MATERIAL, *op.NODE_OBJECTS, *ident.WRITTEN, ident.FETCH_SAMPLE)
+#: the commands among them: written by SDO too (each reads 0 again, or selects what the node writes)
+COMMANDS = (op.FAULT_RESET, ident.FETCH_SAMPLE)
 
 
 @pytest.mark.parametrize("role", ("master", "slave"))
@@ -35,14 +38,27 @@ def test_every_row_is_an_object_of_the_eds_with_its_type_and_unit(role):
         var = od[row.index] if row.subindex == 0 else od[row.index][row.subindex]
         assert isinstance(var, canopen.objectdictionary.ODVariable), row.name
         assert (var.name, var.data_type, var.unit) == (row.name, row.data_type, row.unit), row.name
-        # the node writes them; on the bus they are read-only, except the fault-reset command
-        assert var.access_type == ("rw" if row is op.FAULT_RESET else "ro"), row.name
+        # the node writes them; on the bus they are read-only, except the commands
+        assert var.access_type == ("rw" if row in COMMANDS else "ro"), row.name
 
 
 def test_each_object_is_written_by_one_row():
     assert len({r.key for r in ROWS}) == len({r.name for r in ROWS}) == len(ROWS)
     # what a cycle publishes is read-only on the bus: a measurement, an estimate or the node's status
-    assert {r.kind for r in (*op.CYCLE, *op.MATERIAL)} <= {MEASURED, ESTIMATE, STATUS}
+    assert {r.kind for r in (*op.CYCLE, *op.MATERIAL, *ident.WRITTEN)} <= {MEASURED, ESTIMATE, STATUS}
+
+
+def test_the_identification_record_keeps_what_the_tpdos_carry_in_the_fetched_objects_order():
+    """Each column of the experiment's record is a field a cycle row publishes (its TPDOs carry that object),
+    written back by a fetch into the object of the same unit and type (REAL32)."""
+    cycle = {(r.source, r.path): r for r in op.CYCLE}
+    assert [r.name for r in ident.RECORD] == [
+        "ident_fetched_T_sensor_C", "ident_fetched_current_A", "ident_fetched_Q_W",
+    ]  # fmt: skip
+    for row in ident.RECORD:
+        published = cycle[row.source, row.path]
+        assert (row.data_type, row.unit) == (published.data_type, published.unit) and row.data_type == REAL32
+        assert row.name == "ident_fetched_" + published.name
 
 
 def test_a_row_names_an_object_of_the_table():
