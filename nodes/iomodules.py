@@ -22,6 +22,8 @@ from telethermo.iomodule.rigconfig import load_rig_config
 from telethermo.iomodule.truthlog import read_truth_log
 from telethermo.recording.format import Recording
 
+from telethermo.nodes.children import stop_process
+
 #: the packaged RIG.toml of each side on the simulated modules
 RIG_CONFIGS = {"master": "rig_io_sim.toml", "slave": "rig_io_sim_slave.toml"}
 READY = "telethermo-iomodule node "
@@ -118,17 +120,8 @@ class IoModuleProcess:
         return self.proc.stdout
 
     def stop(self, timeout_s: float = 10.0) -> int | None:
-        proc = self.proc
-        if proc is None:
-            return None
-        if proc.poll() is None:
-            proc.terminate()
-            try:
-                proc.wait(timeout=timeout_s)
-            except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        return proc.returncode
+        """End the module (SIGTERM, SIGKILL after ``timeout_s`` s); its exit code, None if never launched."""
+        return stop_process(self.proc, timeout_s=timeout_s)
 
 
 def fill_truth(rec: Recording, truth_csv: Path) -> int:

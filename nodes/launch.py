@@ -21,6 +21,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from telethermo.nodes.children import stop_process
 from telethermo.nodes.iomodules import IoModuleError, IoModuleProcess
 from telethermo.recording.result import RESULT_PREFIX, RunResult
 
@@ -106,25 +107,6 @@ def _readline_with_timeout(proc: subprocess.Popen, timeout_s: float) -> str:
     t.start()
     t.join(timeout_s)
     return box[0] if box else ""
-
-
-def stop_process(
-    proc: subprocess.Popen | None, *, timeout_s: float = 10.0, sig: int = signal.SIGTERM
-) -> int | None:
-    """Send ``sig`` to a child we started (by its pid), wait, escalate to SIGKILL; return its exit code."""
-    if proc is None:
-        return None
-    if proc.poll() is None:
-        try:
-            proc.send_signal(sig)
-        except ProcessLookupError:
-            pass
-        try:
-            proc.wait(timeout=timeout_s)
-        except subprocess.TimeoutExpired:
-            proc.kill()
-            proc.wait()
-    return proc.returncode
 
 
 def node_command(role: str, *args: str) -> list[str]:
