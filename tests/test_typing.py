@@ -1,5 +1,5 @@
 """mypy, configured in pyproject.toml ([tool.mypy]), is clean: a plain ``mypy`` in the project root checks
-telethermo/control, telethermo/device and telethermo/ident with the strict flags and reports no error.
+telethermo/control, telethermo/device, telethermo/ident and telethermo/recording with the strict flags and reports no error.
 Runs the mypy installed in the test's own interpreter (the .venv: ``make install`` puts it there through
 the ``dev`` extra)."""
 
@@ -16,7 +16,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-STRICT_PACKAGES = ("telethermo/control", "telethermo/device", "telethermo/ident")
+STRICT_PACKAGES = ("telethermo/control", "telethermo/device", "telethermo/ident", "telethermo/recording")
 
 
 def _mypy_config() -> dict:

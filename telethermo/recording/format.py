@@ -66,7 +66,7 @@ import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 import numpy as np
 
@@ -140,7 +140,7 @@ class RecordingBuilder:
 
     def __init__(self, meta: dict[str, Any]) -> None:
         self.meta = dict(meta)
-        self._cols: dict[str, list] = {c: [] for c in COLUMNS}
+        self._cols: dict[str, list[Any]] = {c: [] for c in COLUMNS}
 
     def add(self, row: dict[str, Any]) -> None:
         """Append one step; columns missing from ``row`` get NaN (or '' for text)."""
@@ -176,13 +176,13 @@ def header_comments(meta: dict[str, Any], *, allow_nan: bool = False) -> list[st
     return [MAGIC[2:], "meta " + json.dumps(meta, allow_nan=allow_nan, sort_keys=True, default=str)]
 
 
-def _rows(rec: Recording):
+def _rows(rec: Recording) -> Iterator[list[str]]:
     cols = list(rec.columns.values())
     for i in range(len(rec)):
         yield [_fmt(c[i]) for c in cols]
 
 
-def write_recording_csv(path: str | os.PathLike, rec: Recording) -> Path:
+def write_recording_csv(path: str | os.PathLike[str], rec: Recording) -> Path:
     """Write ``rec`` to ``path`` atomically, through the recordings' one writer
     (:class:`telethermo.recording.journal.CsvRecorder`, as the nodes)."""
     head = header_comments(rec.meta)
@@ -196,7 +196,7 @@ def write_recording_csv(path: str | os.PathLike, rec: Recording) -> Path:
     return writer.close()
 
 
-def read_recording_csv(path: str | os.PathLike) -> Recording:
+def read_recording_csv(path: str | os.PathLike[str]) -> Recording:
     """Read a recording; :class:`RecordingError` names the file, line and column on bad input."""
     path = Path(path)
     try:

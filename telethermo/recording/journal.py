@@ -30,14 +30,14 @@ import os
 import tempfile
 import threading
 from pathlib import Path
-from typing import Any, Iterable, Mapping, Sequence
+from typing import Any, BinaryIO, Iterable, Mapping, Sequence
 
 from telethermo.atomic import file_mode
 
 try:
     import fcntl
 except ImportError:  # not POSIX: no lock (a journal in use could then be recovered under a running node)
-    fcntl = None
+    fcntl = None  # type: ignore[assignment]  # the module or None: tested before each use
 
 log = logging.getLogger("telethermo.node")
 
@@ -48,7 +48,7 @@ class RecorderError(OSError):
     """A journal that cannot be recovered (names the file and why)."""
 
 
-def journal_path(path: str | os.PathLike) -> Path:
+def journal_path(path: str | os.PathLike[str]) -> Path:
     """Where the recording of ``path`` is journaled while it is written."""
     path = Path(path)
     return path.with_name(path.name + JOURNAL_SUFFIX)
@@ -88,7 +88,7 @@ class CsvRecorder:
 
     def __init__(
         self,
-        path: str | os.PathLike,
+        path: str | os.PathLike[str],
         columns: Sequence[str],
         *,
         flush_every: int = 200,
@@ -134,6 +134,7 @@ class CsvRecorder:
         self._flusher.start()
 
     def write(self, row: Mapping[str, Any] | Sequence[Any]) -> None:
+        values: Iterable[Any]
         if isinstance(row, Mapping):
             values = map(row.__getitem__, self.columns)
         elif len(row) != len(self.columns):
@@ -235,7 +236,7 @@ def _killed_name(path: Path, journal: Path) -> Path:
     raise RecorderError(f"{path}: no free name for the recovered recording")
 
 
-def recover_journal(path: str | os.PathLike, *, target: str | os.PathLike | None = None) -> Path:
+def recover_journal(path: str | os.PathLike[str], *, target: str | os.PathLike[str] | None = None) -> Path:
     """Turn the journal of ``path`` (left by a killed node) into a normal recording at ``target``
     (default ``path``); return ``target``.
 
@@ -291,7 +292,7 @@ def recover_journal(path: str | os.PathLike, *, target: str | os.PathLike | None
     return target
 
 
-def _scan(fh, journal: Path) -> tuple[list[str], str, int, int]:
+def _scan(fh: BinaryIO, journal: Path) -> tuple[list[str], str, int, int]:
     """The comment lines and the header of a journal, the number of complete rows after them (each ended
     by a line end, with as many fields as the header) and their size in bytes."""
     comments: list[str] = []
@@ -315,7 +316,7 @@ def _scan(fh, journal: Path) -> tuple[list[str], str, int, int]:
     return comments, header, rows, body
 
 
-def _mark_meta(line: str, info: dict) -> str:
+def _mark_meta(line: str, info: dict[str, Any]) -> str:
     if not line.startswith("# meta "):
         return line
     try:

@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from telethermo import sim
+from telethermo.sim import build_reference, load_scene
 from telethermo.recording.format import (
     COLUMNS,
     SYNC_CYCLE,
@@ -68,16 +68,16 @@ def merge_recordings(
     meta["mode"] = m.meta.get("mode", "telepresence")
     cols: dict[str, Any] = {"t_s": t}
     for rec, idx in ((m, mi), (s, si)):
-        if rec is None:
+        if rec is None or idx is None:
             continue
         for c, v in rec.columns.items():
             if c != "t_s":
                 cols[c] = [v[i] for i in idx] if c in TEXT_COLUMNS else np.asarray(v, dtype=float)[idx]
     if scene is not None:
-        sc = sim.load_scene(scene) if isinstance(scene, (str, Path)) else scene
+        sc = load_scene(scene) if isinstance(scene, (str, Path)) else scene
         meta["contacts"] = scene_contacts(sc, "slave" if meta["mode"] == "telepresence" else "master")
         if reference:
-            ref = sim.build_reference(sc)
+            ref = build_reference(sc)
             period = float(meta.get("period_s") or sc.period_s)
             rows = []
             for _ in range(n_master if n else 0):  # the master's rows are consecutive periods of its rig
@@ -107,11 +107,11 @@ def _join_on_cycle(m: Recording, s: Recording | None) -> tuple[np.ndarray, np.nd
             first[c] = j
     mi, si, seen = [], [], set()
     for i, c in enumerate(mc):
-        j = first.get(c)
-        if j is not None and c not in seen:
+        at = first.get(c)
+        if at is not None and c not in seen:
             seen.add(c)
             mi.append(i)
-            si.append(j)
+            si.append(at)
     return np.asarray(mi, dtype=int), np.asarray(si, dtype=int)
 
 

@@ -12,13 +12,68 @@ Units are in the column names (°C, W, A; s for times), see :mod:`telethermo.rec
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, Protocol
 
 from telethermo.control.core import StepResult
 from telethermo.control.types import PeerValues
+from telethermo.rig import RigSample
 
 
-def side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[str, Any]:
+# What the rows read of the simulator's objects (telethermo.sim, which mypy cannot follow through the
+# package-dir mapping): read-only views, so that sim's frozen dataclasses and properties match.
+class Truth(Protocol):
+    """A rig's ground truth now (``sim.RigTruth``)."""
+
+    @property
+    def T_surface_C(self) -> float: ...
+    @property
+    def Q_true_W(self) -> float: ...
+    @property
+    def Q_into_body_W(self) -> float: ...
+    @property
+    def touching(self) -> str | None: ...
+
+
+class TruthSource(Protocol):
+    """A simulated rig (``sim.SimRig``, or ``sim.WallClockRig`` around one)."""
+
+    def truth(self) -> Truth: ...
+
+
+class Reference(Protocol):
+    """The direct-touch reference (``sim.DirectTouch``)."""
+
+    @property
+    def T_contact_C(self) -> float: ...
+    @property
+    def Q_finger_W(self) -> float: ...
+    @property
+    def touching(self) -> str | None: ...
+
+
+class Contact(Protocol):
+    """One touch of a scene's schedule (``sim.touch.Touch``)."""
+
+    @property
+    def start_s(self) -> float: ...
+    @property
+    def end_s(self) -> float: ...
+    @property
+    def body(self) -> str: ...
+    @property
+    def render(self) -> str | None: ...
+
+
+class Contacts(Protocol):
+    """A scene's touch schedules (``sim.Scene``)."""
+
+    @property
+    def master_contacts(self) -> tuple[Contact, ...]: ...
+    @property
+    def slave_contacts(self) -> tuple[Contact, ...]: ...
+
+
+def side_row(p: str, sample: RigSample, res: StepResult, peer: PeerValues | None) -> dict[str, Any]:
     """The ``p``-prefixed (``"m"`` or ``"s"``) columns of one step: the rig's ``sample`` (°C, W), the
     controller's result ``res`` (current A, setpoints °C, contact, safety) and the ``peer`` values it used."""
     s = res.status
@@ -42,11 +97,11 @@ def side_row(p: str, sample, res: StepResult, peer: PeerValues | None) -> dict[s
     }
 
 
-def truth_row(p: str, rig) -> dict[str, Any]:
+def truth_row(p: str, rig: TruthSource) -> dict[str, Any]:
     """The ``p``-prefixed truth columns of a simulated ``rig`` now (°C, W, 0/1; the master's adds the
     operator's skin, ``m_true_finger_C``)."""
     tr = rig.truth()
-    row = {
+    row: dict[str, Any] = {
         f"{p}_true_surface_C": tr.T_surface_C,
         f"{p}_true_Q_W": tr.Q_true_W,
         f"{p}_true_Q_into_body_W": tr.Q_into_body_W,
@@ -57,18 +112,19 @@ def truth_row(p: str, rig) -> dict[str, Any]:
     return row
 
 
-def finger_skin_C(rig, tr) -> float:
-    """Truth: the operator's skin temperature on the master, touching or not (in air between touches)."""
+def finger_skin_C(rig: object, tr: Truth) -> float:
+    """Truth: the operator's skin temperature on the master, touching or not (in air between touches), °C.
+    ``rig``: the master's simulated rig, ``tr``: its truth now (a rig without bodies: NaN between touches)."""
     if tr.touching == "finger":
         return tr.T_surface_C
     body = getattr(rig, "bodies", {}).get("finger")
     if body is None:
         return math.nan
-    body.advance_detached(rig.t_s)
+    body.advance_detached(rig.t_s)  # type: ignore[attr-defined]  # a rig with bodies is a sim.SimRig
     return float(body.surface_C())
 
 
-def ref_row(ref) -> dict[str, Any]:
+def ref_row(ref: Reference) -> dict[str, Any]:
     """The direct-touch reference's columns now: its finger's skin (°C), the heat flux into it (W) and
     whether it touches (0/1)."""
     return {
@@ -78,7 +134,7 @@ def ref_row(ref) -> dict[str, Any]:
     }
 
 
-def scene_contacts(sc, side: str) -> list[dict[str, Any]]:
+def scene_contacts(sc: Contacts, side: str) -> list[dict[str, Any]]:
     """The scene's touches of the probe (slave) or of the display (master, render scenes)."""
     out = []
     if side == "slave":
