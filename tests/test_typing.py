@@ -1,5 +1,6 @@
 """mypy, configured in pyproject.toml ([tool.mypy]), is clean: a plain ``mypy`` in the project root checks
-telethermo/control, telethermo/device, telethermo/ident and telethermo/recording with the strict flags and reports no error.
+telethermo/control, telethermo/device, telethermo/ident and telethermo/recording with the strict flags and
+reports no error.
 Runs the mypy installed in the test's own interpreter (the .venv: ``make install`` puts it there through
 the ``dev`` extra)."""
 

@@ -75,7 +75,8 @@ class Contacts(Protocol):
 
 def side_row(p: str, sample: RigSample, res: StepResult, peer: PeerValues | None) -> dict[str, Any]:
     """The ``p``-prefixed (``"m"`` or ``"s"``) columns of one step: the rig's ``sample`` (°C, W), the
-    controller's result ``res`` (current A, setpoints °C, contact, safety) and the ``peer`` values it used."""
+    controller's result ``res`` (current A, setpoints °C, contact, safety) and the ``peer`` values it
+    used."""
     s = res.status
     return {
         f"{p}_T_sensor_C": sample.T_sensor_C,
