@@ -30,9 +30,8 @@ from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
 from telethermo.bus_config import path as _path
-from telethermo.bus_config.edsgen import (
-    EDS_DATE, EDS_TIME, _check_value, _mapping, _pdo_comm, _pdo_map, _var_lines,
-)
+from telethermo.bus_config.edsgen import EDS_DATE, EDS_TIME, _check_value, _var_lines
+from telethermo.bus_config.od_communication import _mapping, _pdo_comm, _pdo_map
 from telethermo.bus_config.od_types import (
     INTEGER16, INTEGER32, UNSIGNED8, UNSIGNED16, UNSIGNED32, VISIBLE_STRING, Obj, Var, _uint,
 )
