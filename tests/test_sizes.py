@@ -51,7 +51,7 @@ def test_the_length_check_sees_a_long_function(tmp_path):
 #: lines over 110 characters in telethermo/, nodes/, sim/, bus_config/, bench/ and tests/ (issue 26's target is
 #: 0; ruff's E501 is off until the tree is reflowed): this count may only fall. Lower it when you fix lines.
 MAX_LINE = 110
-LONG_LINES_CEILING = 384
+LONG_LINES_CEILING = 341
 
 
 def long_lines(root: Path = ROOT) -> list[str]:
