@@ -10,10 +10,12 @@
 Each pair runs back to back, the first of the pair alternating, after one warm-up of each (so the files
 are in the page cache for both, and both run from cached bytecode: the children run without
 PYTHONDONTWRITEBYTECODE, which this machine's environment sets, so that telethermo's modules, installed
-editable from the source tree, get the __pycache__ that pip compiled for the anchors' packages). Ratios are of the medians (>= 5 each). Writes bench/results/cli.json
-(keys: help_ratio_vs_can_viewer, get_ratio_vs_raw_canopen, the four medians in seconds, every run's time,
-the commands). Target: each ratio <= 1.5.
+editable from the source tree, get the __pycache__ that pip compiled for the anchors' packages). Ratios
+are of the medians (>= 5 each). Writes bench/results/cli.json (keys: help_ratio_vs_can_viewer,
+get_ratio_vs_raw_canopen, the four medians in seconds, every run's time, the commands). Target: each
+ratio <= 1.5.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -35,7 +37,7 @@ from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, w
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "sim" / "scenes" / "free_pad_identification.toml"
-OBJECT = "kp_A_per_C"   # a REAL32 of the master's dictionary
+OBJECT = "kp_A_per_C"  # a REAL32 of the master's dictionary
 
 # the anchor of `get`: what a CANopen engineer writes by hand for one SDO read (argv: host port channel
 # eds index subindex); prints the raw bytes in hex
@@ -89,7 +91,6 @@ def interleaved(a: list[str], b: list[str], repeats: int) -> tuple[list[float], 
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-
     repeats = 5 if quick else 11
     tt = telethermo_command()
     help_tt, help_viewer = tt + ["--help"], [sys.executable, "-m", "can.viewer", "--help"]
@@ -103,11 +104,23 @@ def run(quick: bool = False) -> dict[str, Any]:
     node = start_lone_node("master", SCENE, work, "--bus", hub.bus, timing="realtime")
     try:
         get_tt = tt + ["get", "--bus", hub.bus, "master", OBJECT]
-        if not wait_for(lambda: subprocess.run(get_tt + ["--timeout", "0.3"], capture_output=True).returncode == 0,
-                        60, poll_s=0.2):
+        if not wait_for(
+            lambda: subprocess.run(get_tt + ["--timeout", "0.3"], capture_output=True).returncode == 0,
+            60,
+            poll_s=0.2,
+        ):
             raise RuntimeError(f"the master node did not answer (see {work})")
-        raw = [sys.executable, "-c", RAW_CANOPEN, "127.0.0.1", str(hub.port), hub.bus.rsplit("/", 1)[1], str(eds),
-               hex(info.index), hex(info.subindex)]
+        raw = [
+            sys.executable,
+            "-c",
+            RAW_CANOPEN,
+            "127.0.0.1",
+            str(hub.port),
+            hub.bus.rsplit("/", 1)[1],
+            str(eds),
+            hex(info.index),
+            hex(info.subindex),
+        ]
         g_tt, g_raw, out_tt, out_raw = interleaved(get_tt, raw, repeats)
     finally:
         stop_process(node)
@@ -121,33 +134,62 @@ def run(quick: bool = False) -> dict[str, Any]:
 
     med = statistics.median
     data = {
-        "quick": quick, "repeats": repeats, "object": OBJECT,
+        "quick": quick,
+        "repeats": repeats,
+        "object": OBJECT,
         "help_ratio_vs_can_viewer": med(h_tt) / med(h_viewer),
         "get_ratio_vs_raw_canopen": med(g_tt) / med(g_raw),
-        "help_median_s": med(h_tt), "can_viewer_help_median_s": med(h_viewer),
-        "get_median_s": med(g_tt), "raw_canopen_get_median_s": med(g_raw),
+        "help_median_s": med(h_tt),
+        "can_viewer_help_median_s": med(h_viewer),
+        "get_median_s": med(g_tt),
+        "raw_canopen_get_median_s": med(g_raw),
         "runs_s": {"help": h_tt, "can_viewer_help": h_viewer, "get": g_tt, "raw_canopen_get": g_raw},
-        "commands": {"help": " ".join(help_tt), "can_viewer_help": " ".join(help_viewer),
-                     "get": " ".join(get_tt), "raw_canopen_get": "python -c RAW_CANOPEN (bench/cli_bench.py) "
-                     "127.0.0.1 PORT telethermo master.eds " + f"{info.index:#06x} {info.subindex}"},
+        "commands": {
+            "help": " ".join(help_tt),
+            "can_viewer_help": " ".join(help_viewer),
+            "get": " ".join(get_tt),
+            "raw_canopen_get": "python -c RAW_CANOPEN (bench/cli_bench.py) "
+            "127.0.0.1 PORT telethermo master.eds " + f"{info.index:#06x} {info.subindex}",
+        },
         "node": "nodes.master alone on telethermo-hub, --timing realtime --mode idle",
         "bytecode_cache": "children run without PYTHONDONTWRITEBYTECODE (warm-up writes __pycache__)",
         "target_ratio": 1.5,
     }
-    print_table(["", "telethermo, s", "anchor, s", "ratio", "target"], [
-        ["--help vs python -m can.viewer --help", data["help_median_s"], data["can_viewer_help_median_s"],
-         data["help_ratio_vs_can_viewer"], "<= 1.5"],
-        [f"get master {OBJECT} vs raw canopen SDO read", data["get_median_s"], data["raw_canopen_get_median_s"],
-         data["get_ratio_vs_raw_canopen"], "<= 1.5"],
-    ])
+    _print_ratios(data)
     path = write_results("cli", data)
     print(f"results: {path} (medians of {repeats}, interleaved)")
     return data
 
 
+def _print_ratios(data: dict[str, Any]) -> None:
+    """The two timings against their anchors, s, as a table."""
+    print_table(
+        ["", "telethermo, s", "anchor, s", "ratio", "target"],
+        [
+            [
+                "--help vs python -m can.viewer --help",
+                data["help_median_s"],
+                data["can_viewer_help_median_s"],
+                data["help_ratio_vs_can_viewer"],
+                "<= 1.5",
+            ],
+            [
+                f"get master {OBJECT} vs raw canopen SDO read",
+                data["get_median_s"],
+                data["raw_canopen_get_median_s"],
+                data["get_ratio_vs_raw_canopen"],
+                "<= 1.5",
+            ],
+        ],
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.cli_bench", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.cli_bench",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="5 runs of each instead of 11")
     run(quick=ap.parse_args(argv).quick)
     return 0

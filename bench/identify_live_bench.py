@@ -11,6 +11,7 @@ bench/results/identify_live.json (keys: samples, live_wall_s, live_experiment_s,
 live_heldout_free_run_max_C, offline_experiment_s, offline_fit_s, offline_heldout_free_run_max_C,
 max_abs_T_bus_vs_offline_C, crc_verified).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -48,9 +49,8 @@ def _read_samples(path: Path) -> tuple[dict[str, str], np.ndarray, np.ndarray]:
 
 
 def run(quick: bool = False) -> dict[str, Any]:
-
-    # >= 10,000 training samples (guiatni's M): shorter experiments give marginally unstable 4,4,1,1 models too
-    # often to be a CI benchmark (2,500: 3 of 12 experiments refused; 4,000: 1 of 12; 10,000: 0 of 12)
+    # >= 10,000 training samples (guiatni's M): shorter experiments give marginally unstable 4,4,1,1 models
+    # too often to be a CI benchmark (2,500: 3 of 12 experiments refused; 4,000: 1 of 12; 10,000: 0 of 12)
     n_train, n_val, seed = (10_000, 2_000, 4) if quick else (10_000, 5_000, 0)
     settings = ExperimentSettings()
     plan = settings.plan(seed=seed, train_samples=n_train, validation_samples=n_val)
@@ -60,14 +60,23 @@ def run(quick: bool = False) -> dict[str, Any]:
     node = start_lone_node("master", SCENE, work, "--bus", hub.bus)
     cli = [sys.executable, "-m", "telethermo.cli.main"]
     try:
-        if not wait_for(lambda: subprocess.run(cli + ["status", "--bus", hub.bus, "master", "--timeout", "0.3"],
-                                               capture_output=True).returncode == 0, 60, poll_s=0.2):
+        if not wait_for(
+            lambda: (
+                subprocess.run(
+                    cli + ["status", "--bus", hub.bus, "master", "--timeout", "0.3"], capture_output=True
+                ).returncode
+                == 0
+            ),
+            60,
+            poll_s=0.2,
+        ):
             raise RuntimeError(f"the master node did not answer (see {work})")
         t0 = time.perf_counter()
-        proc = subprocess.run(cli + ["identify", "master", "--bus", hub.bus, "--samples", str(n_train), "--validation",
-                                     str(n_val), "--seed", str(seed), "--out", str(work / "model.json"),
-                                     "--save-data", str(work / "samples.csv"), "--quiet"],
-                              capture_output=True, text=True)
+        proc = subprocess.run(
+            cli + _identify_args(hub.bus, work, n_train, n_val, seed),
+            capture_output=True,
+            text=True,
+        )
         wall = time.perf_counter() - t0
     finally:
         stop_process(node)
@@ -90,32 +99,79 @@ def run(quick: bool = False) -> dict[str, Any]:
     rec = run_excitation(rig, plan.currents(), settings=settings)
     t_exp_off = time.perf_counter() - t1
     t2 = time.perf_counter()
-    _, rep = fit_experiment(rec, plan=plan, orders=NarmaOrders(4, 4, 1, 1), period_s=rig.period_s, settings=settings)
+    _, rep = fit_experiment(
+        rec, plan=plan, orders=NarmaOrders(4, 4, 1, 1), period_s=rig.period_s, settings=settings
+    )
     t_fit_off = time.perf_counter() - t2
     data = {
-        "quick": quick, "samples": plan.total, "plan": plan.as_dict(), "orders": "4,4,1,1",
+        "quick": quick,
+        "samples": plan.total,
+        "plan": plan.as_dict(),
+        "orders": "4,4,1,1",
         "live_wall_s": wall,
         "live_experiment_s": float(m_time.group(1)) if m_time else None,
         "live_fit_s": float(m_time.group(2)) if m_time else None,
         "live_heldout_free_run_max_C": float(m_err.group(1)) if m_err else None,
-        "offline_experiment_s": t_exp_off, "offline_fit_s": t_fit_off,
+        "offline_experiment_s": t_exp_off,
+        "offline_fit_s": t_fit_off,
         "offline_heldout_free_run_max_C": rep["heldout_free_run_max_C"],
         "max_abs_T_bus_vs_offline_C": float(np.max(np.abs(T_bus - rec.T_C))),
         "max_abs_I_bus_vs_offline_A": float(np.max(np.abs(I_bus - rec.current_A))),
         "crc_verified": crc_ok,
         "live_samples_per_s": plan.total / float(m_time.group(1)) if m_time else None,
     }
-    print_table(["path", "run time, s", "experiment, s", "fit, s", "held-out worst, °C"], [
-        ["live node (hub, lockstep) + load", f"{wall:.2f}", f"{data['live_experiment_s']:.2f}",
-         f"{data['live_fit_s']:.2f}", f"{data['live_heldout_free_run_max_C']:.4f}"],
-        ["offline, same rig and plan", f"{t_exp_off + t_fit_off:.2f}", f"{t_exp_off:.2f}", f"{t_fit_off:.2f}",
-         f"{data['offline_heldout_free_run_max_C']:.4f}"],
-    ])
-    print(f"samples from the bus vs the offline rig: max |ΔT| {data['max_abs_T_bus_vs_offline_C']:.2e} °C, "
-          f"max |ΔI| {data['max_abs_I_bus_vs_offline_A']:.2e} A; model CRC verified: {crc_ok}")
+    _print(data, wall, t_exp_off, t_fit_off, crc_ok)
     path = write_results("identify_live", data)
     print(f"results: {path}")
     return data
+
+
+def _identify_args(bus: str, work: Path, n_train: int, n_val: int, seed: int) -> list[str]:
+    """``telethermo identify master`` on ``bus`` with the plan's lengths, writing into ``work``."""
+    return [
+        "identify",
+        "master",
+        "--bus",
+        bus,
+        "--samples",
+        str(n_train),
+        "--validation",
+        str(n_val),
+        "--seed",
+        str(seed),
+        "--out",
+        str(work / "model.json"),
+        "--save-data",
+        str(work / "samples.csv"),
+        "--quiet",
+    ]
+
+
+def _print(data: dict[str, Any], wall: float, t_exp_off: float, t_fit_off: float, crc_ok: bool) -> None:
+    """The live and the offline path side by side (times in s, errors in °C)."""
+    print_table(
+        ["path", "run time, s", "experiment, s", "fit, s", "held-out worst, °C"],
+        [
+            [
+                "live node (hub, lockstep) + load",
+                f"{wall:.2f}",
+                f"{data['live_experiment_s']:.2f}",
+                f"{data['live_fit_s']:.2f}",
+                f"{data['live_heldout_free_run_max_C']:.4f}",
+            ],
+            [
+                "offline, same rig and plan",
+                f"{t_exp_off + t_fit_off:.2f}",
+                f"{t_exp_off:.2f}",
+                f"{t_fit_off:.2f}",
+                f"{data['offline_heldout_free_run_max_C']:.4f}",
+            ],
+        ],
+    )
+    print(
+        f"samples from the bus vs the offline rig: max |ΔT| {data['max_abs_T_bus_vs_offline_C']:.2e} °C, "
+        f"max |ΔI| {data['max_abs_I_bus_vs_offline_A']:.2e} A; model CRC verified: {crc_ok}"
+    )
 
 
 def main(argv: list[str] | None = None) -> int:

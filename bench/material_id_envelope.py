@@ -1,7 +1,7 @@
 """Material identification across the operating envelope (issue 23): accuracy, abstains and honest confidence.
 
-``python -m bench.material_id_bench --envelope [--quick]`` (or ``python -m bench.material_id_envelope``) merges
-the ``material_id_envelope_*`` keys into ``bench/results/material_id.json``.
+``python -m bench.material_id_bench --envelope [--quick]`` (or ``python -m bench.material_id_envelope``)
+merges the ``material_id_envelope_*`` keys into ``bench/results/material_id.json``.
 
 Touches (:func:`envelope_draws`, seeds :data:`ENVELOPE`, disjoint from the calibration's, the evaluation's and
 the held-out set's: :func:`check_seeds`): the ten materials in turn; object 5–50 °C, room 15–32 °C (uniform);
@@ -10,14 +10,15 @@ noise × 1–3; one touch in four with another probe TEM (:func:`other_tem`: 71 
 same pellets); the probe resting at the finger's natural temperature in that room (where the slave's default
 controller leaves it), the slave's default controller, as bench/material_id_bench.py otherwise.
 
-Figures per stratum (:data:`STRATA`; the band within :data:`NEAR_C` °C of the probe is its own stratum and is left
-out of the others, where a passive probe learns little): accuracy with abstains counted wrong, abstain
+Figures per stratum (:data:`STRATA`; the band within :data:`NEAR_C` °C of the probe is its own stratum and is
+left out of the others, where a passive probe learns little): accuracy with abstains counted wrong, abstain
 fraction, expected calibration error of the answers (10 bins of the published posterior), confident
 precision (accuracy of the answers with posterior ≥ 0.9, with their count), the commonest-class baseline and,
 in the full run, the oracle of telethermo/offline/material_oracle.py (knows the simulator; object
 temperature, contact resistance and thickness profiled out) on a sample of the stratum's touches. The same
 keys on in-box touches (the bench's evaluation draws) for comparison.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -33,13 +34,19 @@ from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
 from telethermo.offline.material_oracle import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
-from telethermo.control.material_stream import (MaterialIdParams, UNKNOWN_CODE, fit_units,
-                                                late_samples)
+from telethermo.control.material_stream import MaterialIdParams, UNKNOWN_CODE, fit_units, late_samples
 from telethermo.sim.materials import material
 from telethermo.sim.tem import load_rig_params
+
 # the envelope's touches live in the library (the tests draw them too); re-exported for the calibration
-from telethermo.offline.material_touches import (ENVELOPE, ENVELOPE_N, OTHER_TEM_COUPLES,
-                                                 envelope_draws, noise_of, other_tem)
+from telethermo.offline.material_touches import (
+    ENVELOPE,
+    ENVELOPE_N,
+    OTHER_TEM_COUPLES,
+    envelope_draws,
+    noise_of,
+    other_tem,
+)
 
 #: the envelope's touches of the quick run (the full run's seeds and size, ENVELOPE and ENVELOPE_N, and the
 #: development set's, DEVELOPMENT, are telethermo.offline.material_touches')
@@ -61,14 +68,19 @@ STRATA: dict[str, Callable[[dict], bool]] = {
     "room_gt_28C": lambda t: t["ambient_C"] > 28.0,
     "other_tem": lambda t: t["other_tem"],
     "noise_gt_x2": lambda t: t["noise_x"] > 2.0,
-    "object_force_thickness_tem_in_box": lambda t: (15.0 <= t["T_object_C"] <= 35.0 and 2.0 <= t["force_N"] <= 10.0
-                                                    and 1e-3 <= t["thickness_m"] <= 20e-3 and not t["other_tem"]),
+    "object_force_thickness_tem_in_box": lambda t: (
+        15.0 <= t["T_object_C"] <= 35.0
+        and 2.0 <= t["force_N"] <= 10.0
+        and 1e-3 <= t["thickness_m"] <= 20e-3
+        and not t["other_tem"]
+    ),
 }
 
 
 def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
-    """ValueError when ``n`` touches of ``seeds`` meet the calibration's references, the bench's evaluation or its
-    held-out touches (by draw seed or simulator seed range): nothing trained or tuned on them is reported."""
+    """ValueError when ``n`` touches of ``seeds`` meet the calibration's references, the bench's evaluation or
+    its held-out touches (by draw seed or simulator seed range): nothing trained or tuned on them is
+    reported."""
     ranges = [(mb.EVALUATION, mb.EVALUATION_N), (mb.HELDOUT, mb.HELDOUT_N)]
     if p.calibration is not None:
         info = json.loads(p.calibration.info)
@@ -78,24 +90,42 @@ def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
             ranges.append(((int(d["draw_seed"]), int(d["sim_seed_first"])), int(d["touches"])))
     for (draw, first), m in ranges:
         if seeds[0] == draw or (seeds[1] < first + m and seeds[1] + n > first):
-            raise ValueError(f"envelope seeds {seeds} (n {n}) meet another set's {(draw, first)} (n {m}): refused")
+            raise ValueError(
+                f"envelope seeds {seeds} (n {n}) meet another set's {(draw, first)} (n {m}): refused"
+            )
 
 
 def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str]) -> dict:
     """Simulate one touch and return what the slave published, scored (``answer`` −1: none, −2: abstained)."""
     params = rigs[t["other_tem"]]
     T_probe = mb.finger_natural_C(params, t["ambient_C"])
-    _, _, i0, est, step_s = mb.simulate_touch(params, sims[t["class"]], t["thickness_m"], t["T_object_C"],
-                                              t["force_N"], T_probe, seed=t["seed"], t_on_s=t["t_on_s"],
-                                              noise=noise_of(t["noise_x"]), ambient_C=t["ambient_C"], post_s=POST_S)
+    _, _, i0, est, step_s = mb.simulate_touch(
+        params,
+        sims[t["class"]],
+        t["thickness_m"],
+        t["T_object_C"],
+        t["force_N"],
+        T_probe,
+        seed=t["seed"],
+        t_on_s=t["t_on_s"],
+        noise=noise_of(t["noise_x"]),
+        ambient_C=t["ambient_C"],
+        post_s=POST_S,
+    )
     b_true = material(sims[t["class"]]).b
     ok_b = est is not None and math.isfinite(est.effusivity) and math.isfinite(est.se_ln_b)
     early = replace(est, code=est.early_code, posterior=est.early_posterior) if est is not None else None
-    return t | {"T_probe_C": T_probe, "answer": _answer(est, names), "posterior": _post(est),
-                "answer_early": _answer(early, names), "posterior_early": _post(early),
-                "stage": est.stage if est is not None else "",
-                "within_ci95": (abs(math.log(est.effusivity / b_true)) <= 1.96 * est.se_ln_b) if ok_b else None,
-                "fit_step_ms": _fit_cycles_ms(step_s, i0), "step_median_ms": 1e3 * float(np.median(step_s))}
+    return t | {
+        "T_probe_C": T_probe,
+        "answer": _answer(est, names),
+        "posterior": _post(est),
+        "answer_early": _answer(early, names),
+        "posterior_early": _post(early),
+        "stage": est.stage if est is not None else "",
+        "within_ci95": (abs(math.log(est.effusivity / b_true)) <= 1.96 * est.se_ln_b) if ok_b else None,
+        "fit_step_ms": _fit_cycles_ms(step_s, i0),
+        "step_median_ms": 1e3 * float(np.median(step_s)),
+    }
 
 
 def _answer(est, names: list[str]) -> int:
@@ -128,8 +158,14 @@ def ece(post: np.ndarray, right: np.ndarray, bins: int = 10) -> float | None:
     if post.size == 0:
         return None
     idx = np.minimum((post * bins).astype(int), bins - 1)
-    return float(sum(abs(post[idx == b].mean() - right[idx == b].mean()) * np.sum(idx == b)
-                     for b in range(bins) if np.any(idx == b)) / post.size)
+    return float(
+        sum(
+            abs(post[idx == b].mean() - right[idx == b].mean()) * np.sum(idx == b)
+            for b in range(bins)
+            if np.any(idx == b)
+        )
+        / post.size
+    )
 
 
 def stratum_figures(rows: list[dict]) -> dict[str, Any]:
@@ -138,9 +174,13 @@ def stratum_figures(rows: list[dict]) -> dict[str, Any]:
     if not rows:
         return {"n": 0}
     early = [r | {"answer": r["answer_early"], "posterior": r["posterior_early"]} for r in rows]
-    return _figures(rows) | {"early": {k: v for k, v in _figures(early).items()
-                                       if k in ("accuracy", "abstain_fraction", "ece", "confident_n",
-                                                "confident_precision")}}
+    return _figures(rows) | {
+        "early": {
+            k: v
+            for k, v in _figures(early).items()
+            if k in ("accuracy", "abstain_fraction", "ece", "confident_n", "confident_precision")
+        }
+    }
 
 
 def _figures(rows: list[dict]) -> dict[str, Any]:
@@ -153,16 +193,20 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
     cov = [r["within_ci95"] for r in rows if r["within_ci95"] is not None]
     orc = [r["oracle"] for r in rows if r.get("oracle") is not None]
     e = ece(post[answered], right[answered])
-    return {"n": len(rows), "accuracy": round(float(right.mean()), 3),
-            "abstain_fraction": round(float(np.mean(ans == -2)), 3),
-            "no_estimate_fraction": round(float(np.mean(ans == -1)), 3),
-            "accuracy_of_answers": round(float(right[answered].mean()), 3) if answered.any() else None,
-            "ece": round(e, 3) if e is not None else None,
-            "confident_n": int(conf.sum()),
-            "confident_precision": round(float(right[conf].mean()), 3) if conf.any() else None,
-            "ci95_coverage": round(float(np.mean(cov)), 3) if cov else None,
-            "baseline_commonest_class": round(float(np.bincount(truth).max() / truth.size), 3),
-            "oracle": round(float(np.mean(orc)), 3) if orc else None, "oracle_n": len(orc)}
+    return {
+        "n": len(rows),
+        "accuracy": round(float(right.mean()), 3),
+        "abstain_fraction": round(float(np.mean(ans == -2)), 3),
+        "no_estimate_fraction": round(float(np.mean(ans == -1)), 3),
+        "accuracy_of_answers": round(float(right[answered].mean()), 3) if answered.any() else None,
+        "ece": round(e, 3) if e is not None else None,
+        "confident_n": int(conf.sum()),
+        "confident_precision": round(float(right[conf].mean()), 3) if conf.any() else None,
+        "ci95_coverage": round(float(np.mean(cov)), 3) if cov else None,
+        "baseline_commonest_class": round(float(np.bincount(truth).max() / truth.size), 3),
+        "oracle": round(float(np.mean(orc)), 3) if orc else None,
+        "oracle_n": len(orc),
+    }
 
 
 def oracle(rigs: dict, t: dict, sims: list[str], rng: np.random.Generator) -> float:
@@ -206,8 +250,10 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     fit_ms = [r["fit_step_ms"][0] for r in rows if r["fit_step_ms"][0] is not None]
     late_ms = [r["fit_step_ms"][1] for r in rows if r["fit_step_ms"][1] is not None]
     step_med = float(np.median([r["step_median_ms"] for r in rows]))
-    inbox = [t | {"ambient_C": mb.AMBIENT_C, "noise_x": 1.0, "other_tem": False}
-             for t in mb.draws(INBOX_QUICK_N if quick else INBOX_N, mb.EVALUATION)]
+    inbox = [
+        t | {"ambient_C": mb.AMBIENT_C, "noise_x": 1.0, "other_tem": False}
+        for t in mb.draws(INBOX_QUICK_N if quick else INBOX_N, mb.EVALUATION)
+    ]
     in_rows = [run_touch(rigs, t, sims, names) for t in inbox]
     if not quick:
         rng = np.random.default_rng(2323)
@@ -226,47 +272,80 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
         "material_id_envelope_accuracy_early": allf["early"]["accuracy"],
         "material_id_abstain_fraction_early": allf["early"]["abstain_fraction"],
         "material_id_confident_precision_worst_stratum_early": worst(
-            {k: v.get("early", {}) for k, v in strata.items()}, "confident_precision")[0],
-        "material_id_ece_worst_stratum_early": worst({k: v.get("early", {}) for k, v in strata.items()}, "ece",
-                                                     high_is_good=False)[0],
+            {k: v.get("early", {}) for k, v in strata.items()}, "confident_precision"
+        )[0],
+        "material_id_ece_worst_stratum_early": worst(
+            {k: v.get("early", {}) for k, v in strata.items()}, "ece", high_is_good=False
+        )[0],
         "material_id_ci95_coverage": allf["ci95_coverage"],
         "material_id_fit_cycle_worst_ms": round(float(np.median(fit_ms)), 3),
         "material_id_core_step_median_ms": round(step_med, 3),
         "material_id_fit_cycle_worst_over_step_median": round(float(np.median(fit_ms)) / step_med, 1),
         "material_id_late_fit_cycle_worst_ms": round(float(np.median(late_ms)), 3) if late_ms else None,
-        "material_id_late_fit_cycle_worst_over_step_median": (round(float(np.median(late_ms)) / step_med, 1)
-                                                              if late_ms else None),
+        "material_id_late_fit_cycle_worst_over_step_median": (
+            round(float(np.median(late_ms)) / step_med, 1) if late_ms else None
+        ),
         "material_id_abstain_fraction": allf["abstain_fraction"],
         "material_id_envelope_ece": allf["ece"],
         "material_id_envelope_confident_precision": allf["confident_precision"],
         "material_id_envelope_ci95_coverage": allf["ci95_coverage"],
-        "material_id_worst_stratum_accuracy_late": w_acc, "material_id_worst_stratum_accuracy_late_which": w_acc_name,
-        "material_id_ece_worst_stratum": w_ece, "material_id_ece_worst_stratum_which": w_ece_name,
+        "material_id_worst_stratum_accuracy_late": w_acc,
+        "material_id_worst_stratum_accuracy_late_which": w_acc_name,
+        "material_id_ece_worst_stratum": w_ece,
+        "material_id_ece_worst_stratum_which": w_ece_name,
         "material_id_confident_precision_worst_stratum": w_cp,
         "material_id_confident_precision_worst_stratum_which": w_cp_name,
         "material_id_envelope_strata": strata,
-        "material_id_inbox_same_keys": in_fig | {"draws": "bench evaluation draws (15, 1000 + i), first "
-                                                 f"{len(in_rows)}, near-probe band left out"},
-        "material_id_envelope_conditions": {
-            "draw_seed": ENVELOPE[0], "sim_seed_first": ENVELOPE[1], "T_object_C": [5.0, 50.0],
-            "ambient_C": [15.0, 32.0], "force_N": [0.5, 20.0], "thickness_mm": [0.3, 20.0], "noise_x": [1.0, 3.0],
-            "other_tem": f"{OTHER_TEM_COUPLES} couples, one touch in four", "near_band_C": NEAR_C,
-            "confident_posterior": CONFIDENT, "oracle": (f"every {ORACLE_EVERY}th touch and all of the near band, "
-                                                         f"{ORACLE_DRAWS} noise draws" if not quick else "not run"),
-            "early_answer": "0.44 s after contact: 0.3 s window + 14 fit cycles (network in its box, else physics)",
-            "late_answer": "1.31 s after contact: physics posterior over a 1.2 s window + 10 fit cycles",
-            "tick": "fit_cycle_worst: per touch the slowest core step of the early fit's cycles (late_: of the "
-                    "refined fit's), median over touches; core_step_median: median of the touches' median steps"},
+        "material_id_inbox_same_keys": in_fig
+        | {"draws": f"bench evaluation draws (15, 1000 + i), first {len(in_rows)}, near-probe band left out"},
+        "material_id_envelope_conditions": _conditions(quick),
         "material_id_envelope_run_s": round(time.perf_counter() - t0, 1),
+    }
+
+
+def _conditions(quick: bool) -> dict[str, Any]:
+    """The envelope's draw conditions and what the figures mean, for the results file."""
+    return {
+        "draw_seed": ENVELOPE[0],
+        "sim_seed_first": ENVELOPE[1],
+        "T_object_C": [5.0, 50.0],
+        "ambient_C": [15.0, 32.0],
+        "force_N": [0.5, 20.0],
+        "thickness_mm": [0.3, 20.0],
+        "noise_x": [1.0, 3.0],
+        "other_tem": f"{OTHER_TEM_COUPLES} couples, one touch in four",
+        "near_band_C": NEAR_C,
+        "confident_posterior": CONFIDENT,
+        "oracle": (
+            f"every {ORACLE_EVERY}th touch and all of the near band, {ORACLE_DRAWS} noise draws"
+            if not quick
+            else "not run"
+        ),
+        "early_answer": "0.44 s after contact: 0.3 s window + 14 fit cycles "
+        "(network in its box, else physics)",
+        "late_answer": "1.31 s after contact: physics posterior over a 1.2 s window + 10 fit cycles",
+        "tick": "fit_cycle_worst: per touch the slowest core step of the early fit's cycles "
+        "(late_: of the refined fit's), median over touches; "
+        "core_step_median: median of the touches' median steps",
     }
 
 
 def print_envelope(fig: dict[str, Any]) -> None:
     """One line per stratum."""
-    cols = ("n", "accuracy", "abstain_fraction", "ece", "confident_precision", "confident_n",
-            "baseline_commonest_class", "oracle")
+    cols = (
+        "n",
+        "accuracy",
+        "abstain_fraction",
+        "ece",
+        "confident_precision",
+        "confident_n",
+        "baseline_commonest_class",
+        "oracle",
+    )
     print(f"{'stratum':24s} " + " ".join(f"{c[:12]:>12s}" for c in cols))
-    for name, v in list(fig["material_id_envelope_strata"].items()) + [("inbox", fig["material_id_inbox_same_keys"])]:
+    for name, v in list(fig["material_id_envelope_strata"].items()) + [
+        ("inbox", fig["material_id_inbox_same_keys"])
+    ]:
         print(f"{name:24s} " + " ".join(f"{str(v.get(c)):>12s}" for c in cols))
     for k, v in fig.items():
         if not isinstance(v, dict):
@@ -285,7 +364,9 @@ def run(quick: bool) -> dict[str, Any]:
 
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.material_id_envelope", description=__doc__)
-    ap.add_argument("--quick", action="store_true", help=f"{ENVELOPE_QUICK_N} touches instead of {ENVELOPE_N}")
+    ap.add_argument(
+        "--quick", action="store_true", help=f"{ENVELOPE_QUICK_N} touches instead of {ENVELOPE_N}"
+    )
     args = ap.parse_args(argv)
     run(args.quick)
     return 0

@@ -22,16 +22,17 @@ lockstep CPU us per cycle): on 2 shared cores the wall-time ratio moves with the
 
 Writes bench/results/nodes.json (keys: lockstep_cycles_per_s_virtual, lockstep_cycles_per_s_hub,
 lockstep_cycles_per_s_vcan, raw_anchor_cycles_per_s_virtual, raw_anchor_cycles_per_s_hub,
-lockstep_ratio_vs_raw_virtual, lockstep_ratio_vs_raw_hub, lockstep_cpu_ratio_vs_raw_virtual, late_cycles_100hz_60s, late_fraction_1khz, ...).
+lockstep_ratio_vs_raw_virtual, lockstep_ratio_vs_raw_hub, lockstep_cpu_ratio_vs_raw_virtual,
+late_cycles_100hz_60s, late_fraction_1khz, ...).
 ``--lockstep-only`` measures the lockstep figures and ratios only and writes nodes_lockstep.json.
 """
+
 from __future__ import annotations
 
 import argparse
 import json
 import os
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -41,12 +42,13 @@ from typing import Any
 import numpy as np
 
 from bench.common import print_table, write_results
+from bench.nodes_report import ROW_HEADER, print_ratios, print_summary
+from bench.nodes_anchor import ANCHOR_FRAMES, anchor_hub, anchor_virtual, nominal_bus_load, vcan_lockstep
 import tomllib
-from bench.raw_anchor import anchor_process, anchor_virtual_cpu
 from telethermo.bus_config import path as bc
 from telethermo.control.types import Mode, Role
 from telethermo.device.netconfig import load_network
-from telethermo.nodes.launch import HubProcess, NodePair, PairConfig
+from telethermo.nodes.launch import NodePair, PairConfig
 from telethermo.nodes.main import run_result
 from telethermo.recording.merge import merge_recordings
 from telethermo.nodes.options import NodeOptions
@@ -55,16 +57,22 @@ from telethermo.nodes.runtime import NodeRuntime
 from telethermo.offline import run_offline_session
 from telethermo.recording.format import MAGIC, SYNC_CYCLE, TEXT_COLUMNS, node_columns
 from telethermo.recording.journal import CsvRecorder
-from telethermo.transport.bus import FrameLog, TransportSettings, bus_load, frame_bits
+from telethermo.transport.bus import FrameLog, TransportSettings, frame_bits
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = ROOT / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
-VCAN_RUN = ROOT.parent / "shared" / "tools" / "vcan-run"
 
 
 # ---------------------------------------------------------------------------------------- helpers
-def _network_file(folder: Path, *, period_s: float = 0.01, interface: str = "virtual", channel: str = "telethermo",
-                  producer_ms: int = 100, consumer_ms: int = 250) -> Path:
+def _network_file(
+    folder: Path,
+    *,
+    period_s: float = 0.01,
+    interface: str = "virtual",
+    channel: str = "telethermo",
+    producer_ms: int = 100,
+    consumer_ms: int = 250,
+) -> Path:
     p = folder / f"network_{int(round(1 / period_s))}hz_{interface}.toml"
     p.write_text(f"""[bus]
 interface = "{interface}"
@@ -79,10 +87,10 @@ producer_ms = {producer_ms}
 consumer_ms = {consumer_ms}
 [nodes.master]
 node_id = 1
-eds = "{bc('master.eds')}"
+eds = "{bc("master.eds")}"
 [nodes.slave]
 node_id = 2
-eds = "{bc('slave.eds')}"
+eds = "{bc("slave.eds")}"
 """)
     return p
 
@@ -92,8 +100,14 @@ def _scene_at(folder: Path, period_s: float) -> Path:
     text = SCENE.read_text()
     doc = tomllib.loads(text)
     old = doc.get("scene", {}).get("period_s", 0.01)
-    lines = [(f"period_s = {period_s}" if ln.strip().startswith("period_s") and float(ln.split("=")[1].split("#")[0]) == old
-              else ln) for ln in text.splitlines()]
+    lines = [
+        (
+            f"period_s = {period_s}"
+            if ln.strip().startswith("period_s") and float(ln.split("=")[1].split("#")[0]) == old
+            else ln
+        )
+        for ln in text.splitlines()
+    ]
     p = folder / f"scene_{int(round(1 / period_s))}hz.toml"
     p.write_text("\n".join(lines) + "\n")
     return p
@@ -111,7 +125,7 @@ def _offline_deviation(master_csv: Path, slave_csv: Path, cycles: int) -> tuple[
         return None, "the rows are not the SYNC cycles 0..n-1"
     for c in rec.columns:
         if c == SYNC_CYCLE:
-            continue   # the node recordings' own column (the offline runner has none): checked above
+            continue  # the node recordings' own column (the offline runner has none): checked above
         if c in TEXT_COLUMNS:
             if rec.text(c) != off.text(c):
                 k = next(i for i, (x, y) in enumerate(zip(rec.text(c), off.text(c))) if x != y)
@@ -137,10 +151,22 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
         opts = NodeOptions(role=role, scene=SCENE, timing="lockstep", produce_sync=role is Role.MASTER)
         parts = build_parts(opts, period_s=net.sync.period_s)
         meta = dict(parts.meta, period_s=parts.period_s, mode="telepresence", rounding="real32")
-        rec = CsvRecorder(folder / f"{role}.csv", node_columns("m" if role is Role.MASTER else "s"),
-                          comments=[MAGIC[2:], "meta " + json.dumps(meta)])
-        rt = NodeRuntime(role, net.node(role).node_id, net, transport, parts, mode=Mode.TELEPRESENCE,
-                         lockstep=True, produce_sync=role is Role.MASTER, recorder=rec)
+        rec = CsvRecorder(
+            folder / f"{role}.csv",
+            node_columns("m" if role is Role.MASTER else "s"),
+            comments=[MAGIC[2:], "meta " + json.dumps(meta)],
+        )
+        rt = NodeRuntime(
+            role,
+            net.node(role).node_id,
+            net,
+            transport,
+            parts,
+            mode=Mode.TELEPRESENCE,
+            lockstep=True,
+            produce_sync=role is Role.MASTER,
+            recorder=rec,
+        )
         rt.start()
         runtimes[role] = rt
     master = runtimes[Role.MASTER]
@@ -151,18 +177,36 @@ def lockstep_virtual(cycles: int, folder: Path, tag: str) -> dict[str, Any]:
         done = master.run_producer(cycles)
         wall, cpu = time.perf_counter() - t0, time.process_time() - c0
         result = run_result(master, done, wall).to_dict()
-        result["cpu_us_per_cycle"] = cpu / max(done, 1) * 1e6   # both nodes, every thread of this process
+        result["cpu_us_per_cycle"] = cpu / max(done, 1) * 1e6  # both nodes, every thread of this process
     finally:
         master.stop("bench")
         runtimes[Role.SLAVE].stop("bench")
     return result
 
 
-def lockstep_processes(cycles: int, folder: Path, *, bus: str | None = None, timing: str = "lockstep",
-                       scene: Path = SCENE, network: Path | None = None, observe: bool = False) -> dict[str, Any]:
+def lockstep_processes(
+    cycles: int,
+    folder: Path,
+    *,
+    bus: str | None = None,
+    timing: str = "lockstep",
+    scene: Path = SCENE,
+    network: Path | None = None,
+    observe: bool = False,
+) -> dict[str, Any]:
     """The two node programs as processes (our hub unless ``bus``); the master's result line."""
-    pair = NodePair(PairConfig(scene=scene, out_dir=folder, bus=bus, timing=timing, cycles=cycles, seed=0,
-                               network=network, master_args=["--wait-peer", "600"]))
+    pair = NodePair(
+        PairConfig(
+            scene=scene,
+            out_dir=folder,
+            bus=bus,
+            timing=timing,
+            cycles=cycles,
+            seed=0,
+            network=network,
+            master_args=["--wait-peer", "600"],
+        )
+    )
     obs = None
     with pair:
         if observe and pair.hub is not None:
@@ -205,35 +249,12 @@ class _Observer:
         per_cob: dict[str, int] = {}
         for cob, _ in inside:
             per_cob[f"0x{cob:03X}"] = per_cob.get(f"0x{cob:03X}", 0) + 1
-        return {"window_s": t1 - t0, "frames": len(inside), "frames_per_cob": dict(sorted(per_cob.items())),
-                "bus_load_1mbit": bits / (t1 - t0) / 1e6}
-
-
-def nominal_bus_load(period_s: float) -> float:
-    """The contract's load at 1 Mbit/s: SYNC (1 byte), two TPDO1 (8), the master's contact TPDO5 (1) and the
-    slave's (8: the flag and its identified material) per cycle, each node's three status TPDOs (8 bytes) every
-    10th SYNC and the slave's TPDO6 (4 bytes, counted as 8) every 10th SYNC, two heartbeats (1 byte) every 100 ms."""
-    f = 1.0 / period_s
-    return bus_load({1: 2 * f + 2 * 10.0, 8: 3 * f + 2 * 3 * f / 10 + f / 10})
-
-
-def vcan_lockstep(cycles: int, timeout_s: float = 1200) -> tuple[float | None, str]:
-    """Lockstep cycles/s of the two node processes on vcan0 inside vcan-run; (value, note)."""
-    if not VCAN_RUN.is_file():
-        return None, f"{VCAN_RUN} not found: the kernel here has no vcan"
-    cmd = [str(VCAN_RUN), "--timeout", str(int(timeout_s)), "--", "env", "PYTHONDONTWRITEBYTECODE=1",
-           sys.executable, "-m", "bench.nodes_bench", "--vcan-child", str(cycles)]
-    try:
-        out = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout_s + 120, cwd=ROOT)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        return None, f"vcan-run failed: {exc}"
-    for line in out.stdout.splitlines():
-        if line.startswith("vcan-result "):
-            res = json.loads(line[len("vcan-result "):])
-            return res["cycles_per_s"], (f"{cycles} cycles, two processes on vcan0 inside vcan-run (qemu software "
-                                         "emulation: Python 10-20x slower than on the host; not comparable)")
-    tail = (out.stdout + out.stderr).strip().splitlines()[-5:]
-    return None, f"vcan-run exit {out.returncode}: {' | '.join(tail)}"
+        return {
+            "window_s": t1 - t0,
+            "frames": len(inside),
+            "frames_per_cob": dict(sorted(per_cob.items())),
+            "bus_load_1mbit": bits / (t1 - t0) / 1e6,
+        }
 
 
 def _vcan_child(cycles: int) -> int:
@@ -246,34 +267,12 @@ def _vcan_child(cycles: int) -> int:
     return 0
 
 
-# ---------------------------------------------------------------------------------------- the anchor
-ANCHOR_FRAMES = ("per cycle, raw python-can: SYNC 0x080 (1 byte) + 0x181 (8) + 0x681 (1) out, 0x182 (8) + 0x682 (8) "
-                 "back, the next SYNC after 0x682 (the frames of one lockstep node cycle, without the status "
-                 "TPDOs every 10th SYNC and the heartbeats)")
-
-
-def anchor_virtual(cycles: int, channel: str) -> tuple[float, float]:
-    """Raw ping-pong on the virtual bus, the responder in a thread (bench.raw_anchor): (cycles/s, CPU s per cycle)."""
-    return anchor_virtual_cpu(cycles, channel)
-
-
-def anchor_hub(cycles: int) -> float:
-    """Raw ping-pong cycles/s over our hub (the same program the node pair uses), the responder in
-    another process (bench.raw_anchor)."""
-    hub = HubProcess()
-    hub.start()
-    try:
-        return anchor_process(cycles, hub.bus)
-    finally:
-        hub.stop()
-
-
 # ---------------------------------------------------------------------------------------- main
-ROW_HEADER = ["run", "cycles", "wall s", "cycles/s", "max |dev| vs offline", "SYNC->TPDO p50 ms", "p99 ms"]
 
 
 def _lockstep_virtual(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, Any], rows: list) -> None:
-    """Lockstep on the in-process virtual bus, interleaved with its raw ping-pong anchor (same machine load)."""
+    """Lockstep on the in-process virtual bus, interleaved with its raw ping-pong anchor (same machine
+    load)."""
     runs, anchors, anchor_cpu = [], [], []
     for i in range(repeats):
         folder = tmp / f"virtual{i}"
@@ -282,8 +281,9 @@ def _lockstep_virtual(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, An
         anchors.append(rate)
         anchor_cpu.append(cpu_s * 1e6)
         runs.append(lockstep_virtual(ls_cycles, folder, f"v{i}"))
-    dev_v, note_v = _offline_deviation(tmp / f"virtual{repeats - 1}" / "master.csv",
-                                       tmp / f"virtual{repeats - 1}" / "slave.csv", ls_cycles)
+    dev_v, note_v = _offline_deviation(
+        tmp / f"virtual{repeats - 1}" / "master.csv", tmp / f"virtual{repeats - 1}" / "slave.csv", ls_cycles
+    )
     v = statistics.median(r["cycles_per_s"] for r in runs)
     out["lockstep_cycles_per_s_virtual"] = v
     out["lockstep_virtual_runs"] = runs
@@ -301,8 +301,17 @@ def _lockstep_virtual(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, An
     out["lockstep_cpu_ratio_vs_raw_virtual"] = ca / cl
     out["max_deviation_from_offline"] = {"virtual": dev_v, "note_virtual": note_v}
     rows.append(["raw ping-pong anchor, virtual", ls_cycles, ls_cycles / av, av, None, None, None])
-    rows.append(["lockstep, virtual (1 process)", ls_cycles, ls_cycles / v, v, dev_v,
-                 runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
+    rows.append(
+        [
+            "lockstep, virtual (1 process)",
+            ls_cycles,
+            ls_cycles / v,
+            v,
+            dev_v,
+            runs[-1]["sync_to_tpdo_ms_p50"],
+            runs[-1]["sync_to_tpdo_ms_p99"],
+        ]
+    )
 
 
 def _lockstep_hub(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, Any], rows: list) -> None:
@@ -311,8 +320,9 @@ def _lockstep_hub(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, Any], 
     for i in range(repeats):
         anchors.append(anchor_hub(ls_cycles))
         runs.append(lockstep_processes(ls_cycles, tmp / f"hub{i}"))
-    dev_h, note_h = _offline_deviation(tmp / f"hub{repeats - 1}" / "master.csv",
-                                       tmp / f"hub{repeats - 1}" / "slave.csv", ls_cycles)
+    dev_h, note_h = _offline_deviation(
+        tmp / f"hub{repeats - 1}" / "master.csv", tmp / f"hub{repeats - 1}" / "slave.csv", ls_cycles
+    )
     h = statistics.median(r["cycles_per_s"] for r in runs)
     out["lockstep_cycles_per_s_hub"] = h
     out["lockstep_hub_runs"] = runs
@@ -323,11 +333,24 @@ def _lockstep_hub(tmp: Path, repeats: int, ls_cycles: int, out: dict[str, Any], 
     out["lockstep_ratio_vs_raw_hub"] = h / ah
     out["raw_anchor_frames"] = ANCHOR_FRAMES
     rows.append(["raw ping-pong anchor, hub", ls_cycles, ls_cycles / ah, ah, None, None, None])
-    rows.append(["lockstep, hub (2 processes)", ls_cycles, ls_cycles / h, h, dev_h,
-                 runs[-1]["sync_to_tpdo_ms_p50"], runs[-1]["sync_to_tpdo_ms_p99"]])
+    rows.append(
+        [
+            "lockstep, hub (2 processes)",
+            ls_cycles,
+            ls_cycles / h,
+            h,
+            dev_h,
+            runs[-1]["sync_to_tpdo_ms_p50"],
+            runs[-1]["sync_to_tpdo_ms_p99"],
+        ]
+    )
     dev = out["max_deviation_from_offline"]
-    out["max_deviation_from_offline"] = {"virtual": dev["virtual"], "hub": dev_h, "note_virtual": dev["note_virtual"],
-                                         "note_hub": note_h}
+    out["max_deviation_from_offline"] = {
+        "virtual": dev["virtual"],
+        "hub": dev_h,
+        "note_virtual": dev["note_virtual"],
+        "note_hub": note_h,
+    }
 
 
 def _realtime(tmp: Path, quick: bool, out: dict[str, Any], rows: list) -> dict[str, Any]:
@@ -344,8 +367,17 @@ def _realtime(tmp: Path, quick: bool, out: dict[str, Any], rows: list) -> dict[s
     out["bus_load_1mbit_100hz_measured"] = r100.get("observed", {}).get("bus_load_1mbit")
     out["bus_load_1mbit_100hz_nominal"] = nominal_bus_load(0.01)
     out["bus_load_1mbit_1khz_nominal"] = nominal_bus_load(0.001)
-    rows.append([f"real time 100 Hz, hub, {rt100_s:g} s", r100["cycles"], r100["wall_s"], r100["cycles_per_s"], None,
-                 r100["sync_to_tpdo_ms_p50"], r100["sync_to_tpdo_ms_p99"]])
+    rows.append(
+        [
+            f"real time 100 Hz, hub, {rt100_s:g} s",
+            r100["cycles"],
+            r100["wall_s"],
+            r100["cycles_per_s"],
+            None,
+            r100["sync_to_tpdo_ms_p50"],
+            r100["sync_to_tpdo_ms_p99"],
+        ]
+    )
     n1k = int(round(rt1k_s / 0.001))
     scene1k = _scene_at(tmp, 0.001)
     net1k = _network_file(tmp, period_s=0.001)
@@ -353,28 +385,31 @@ def _realtime(tmp: Path, quick: bool, out: dict[str, Any], rows: list) -> dict[s
     out["late_fraction_1khz"] = r1k["late_cycles"] / max(1, r1k["cycles"])
     out["realtime_1khz"] = r1k
     out["bus_load_1mbit_1khz_measured"] = r1k.get("observed", {}).get("bus_load_1mbit")
-    rows.append([f"real time 1 kHz, hub, {rt1k_s:g} s", r1k["cycles"], r1k["wall_s"], r1k["cycles_per_s"], None,
-                 r1k["sync_to_tpdo_ms_p50"], r1k["sync_to_tpdo_ms_p99"]])
+    rows.append(
+        [
+            f"real time 1 kHz, hub, {rt1k_s:g} s",
+            r1k["cycles"],
+            r1k["wall_s"],
+            r1k["cycles_per_s"],
+            None,
+            r1k["sync_to_tpdo_ms_p50"],
+            r1k["sync_to_tpdo_ms_p99"],
+        ]
+    )
     return r1k
-
-
-def _print_summary(out: dict[str, Any], rows: list, r1k: dict[str, Any]) -> None:
-    print_table(ROW_HEADER, [[c if c is not None else "n/a" for c in r] for r in rows])
-    _print_ratios(out)
-    print(f"late cycles: 100 Hz {out['late_cycles_100hz']}; 1 kHz {r1k['late_cycles']} of {r1k['cycles']} "
-          f"({100 * out['late_fraction_1khz']:.2f} %)")
-    print(f"bus load at 1 Mbit/s: 100 Hz measured {_pct(out['bus_load_1mbit_100hz_measured'])} "
-          f"(nominal {_pct(out['bus_load_1mbit_100hz_nominal'])}); 1 kHz measured "
-          f"{_pct(out['bus_load_1mbit_1khz_measured'])} (nominal {_pct(out['bus_load_1mbit_1khz_nominal'])})")
-    print(f"vcan: {out['lockstep_vcan_note']}")
 
 
 def run(quick: bool = False, *, lockstep_only: bool = False) -> dict[str, Any]:
     repeats = 2 if quick else 3
     ls_cycles = 1000 if quick else 3000
     vcan_cycles = 300
-    out: dict[str, Any] = {"quick": quick, "scene": SCENE.name, "repeats": repeats, "lockstep_cycles": ls_cycles,
-                           "load_average_at_start": list(os.getloadavg())}
+    out: dict[str, Any] = {
+        "quick": quick,
+        "scene": SCENE.name,
+        "repeats": repeats,
+        "lockstep_cycles": ls_cycles,
+        "load_average_at_start": list(os.getloadavg()),
+    }
     rows: list = []
     with tempfile.TemporaryDirectory(prefix="nodes_bench_") as tmp:
         tmp = Path(tmp)
@@ -382,47 +417,55 @@ def run(quick: bool = False, *, lockstep_only: bool = False) -> dict[str, Any]:
         _lockstep_hub(tmp, repeats, ls_cycles, out, rows)
         if lockstep_only:
             print_table(ROW_HEADER, [[c if c is not None else "n/a" for c in r] for r in rows])
-            _print_ratios(out)
+            print_ratios(out)
             out["load_average_at_end"] = list(os.getloadavg())
             write_results("nodes_lockstep", out)
             return out
         # -- lockstep, two processes on vcan0 (VM)
         if quick:
-            vc, note = None, "skipped in --quick (a VM boot and 10-20x slower Python: ~90 s); see the full run"
+            vc, note = (
+                None,
+                "skipped in --quick (a VM boot and 10-20x slower Python: ~90 s); see the full run",
+            )
         else:
             vc, note = vcan_lockstep(vcan_cycles)
         out["lockstep_cycles_per_s_vcan"] = vc
         out["lockstep_vcan_note"] = note
-        rows.append(["lockstep, vcan0 in VM (2 proc.)", vcan_cycles, vcan_cycles / vc if vc else None, vc, None,
-                     None, None])
+        rows.append(
+            [
+                "lockstep, vcan0 in VM (2 proc.)",
+                vcan_cycles,
+                vcan_cycles / vc if vc else None,
+                vc,
+                None,
+                None,
+                None,
+            ]
+        )
         r1k = _realtime(tmp, quick, out, rows)
-    _print_summary(out, rows, r1k)
+    print_summary(out, rows, r1k)
     out["load_average_at_end"] = list(os.getloadavg())
-    print(f"machine load average (1, 5, 15 min): start {out['load_average_at_start']}, end {out['load_average_at_end']}"
-          " -- these figures depend on it (2 shared cores)")
+    print(
+        f"machine load average (1, 5, 15 min): start {out['load_average_at_start']}, "
+        f"end {out['load_average_at_end']}"
+        " -- these figures depend on it (2 shared cores)"
+    )
     write_results("nodes", out)
     return out
 
 
-def _print_ratios(out: dict[str, Any]) -> None:
-    for t in ("virtual", "hub"):
-        print(f"lockstep vs raw ping-pong, {t}: {out[f'lockstep_cycles_per_s_{t}']:.0f} / "
-              f"{out[f'raw_anchor_cycles_per_s_{t}']:.0f} cycles/s = ratio {out[f'lockstep_ratio_vs_raw_{t}']:.2f} "
-              "(goal >= 0.75)")
-    print(f"in CPU time of the process, virtual: anchor {out['raw_anchor_cpu_us_per_cycle_virtual']:.0f} us / lockstep "
-          f"{out['lockstep_cpu_us_per_cycle_virtual']:.0f} us per cycle = ratio {out['lockstep_cpu_ratio_vs_raw_virtual']:.2f}")
-
-
-def _pct(x: float | None) -> str:
-    return "n/a" if x is None else f"{100 * x:.2f} %"
-
-
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m bench.nodes_bench", description=__doc__,
-                                 formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.nodes_bench",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     ap.add_argument("--quick", action="store_true", help="short runs (CI)")
-    ap.add_argument("--lockstep-only", action="store_true",
-                    help="only the lockstep runs and their raw anchors (writes nodes_lockstep.json)")
+    ap.add_argument(
+        "--lockstep-only",
+        action="store_true",
+        help="only the lockstep runs and their raw anchors (writes nodes_lockstep.json)",
+    )
     ap.add_argument("--vcan-child", type=int, metavar="CYCLES", help=argparse.SUPPRESS)
     args = ap.parse_args(argv)
     if args.vcan_child:

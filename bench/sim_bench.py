@@ -17,6 +17,7 @@ loosest tolerance whose error is within 10 % (or below) of the default simulator
 
 Run: ``python -m bench.sim_bench [--quick]``; writes bench/results/sim.json.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,8 +38,10 @@ DURATION_S = 10.0
 REFINED = GridSettings(t_min_s=0.01 / 8, ratio=1.1, cells_per_length=8.0)
 # the simulator's grid presets (sim.plant.GRID_PRESETS) at the scene's 10 ms period; the errors recorded in
 # GRID_PRESETS (used to pick a grid from a scene's tolerance) are the ones this benchmark measures
-GRIDS = {name: GridSettings(t_min_s=0.01 * t_fac, ratio=ratio, cells_per_length=cpl)
-         for name, (t_fac, ratio, cpl, _err) in GRID_PRESETS.items()}
+GRIDS = {
+    name: GridSettings(t_min_s=0.01 * t_fac, ratio=ratio, cells_per_length=cpl)
+    for name, (t_fac, ratio, cpl, _err) in GRID_PRESETS.items()
+}
 
 
 def scene_10s():
@@ -51,8 +54,15 @@ def currents(n: int, period_s: float, seed: int = 42) -> np.ndarray:
     return np.repeat(rng.uniform(-1.5, 1.5, n // hold + 1), hold)[:n]
 
 
-def run_sim(scene, *, grid: GridSettings | None = None, substeps: int = 1, prune: bool = True,
-            duration_s: float = DURATION_S, record: bool = True):
+def run_sim(
+    scene,
+    *,
+    grid: GridSettings | None = None,
+    substeps: int = 1,
+    prune: bool = True,
+    duration_s: float = DURATION_S,
+    record: bool = True,
+):
     """Two rigs in lockstep; returns the (n, 6) array of true temperatures (or None)."""
     rigs = [sim.build_rig(scene, r, grid=grid, prune=prune) for r in ("master", "slave")]
     n = int(round(duration_s / scene.period_s))
@@ -67,7 +77,7 @@ def run_sim(scene, *, grid: GridSettings | None = None, substeps: int = 1, prune
             rig.read()
             if record:
                 t = rig.truth()
-                out[k, 3 * j: 3 * j + 3] = (t.T_sensor_true_C, t.T_pad_C, t.T_surface_C)
+                out[k, 3 * j : 3 * j + 3] = (t.T_sensor_true_C, t.T_pad_C, t.T_surface_C)
     return out
 
 
@@ -75,7 +85,7 @@ def paired_ratio(slow, fast, repeats: int) -> tuple[float, float, float]:
     """Median over interleaved pairs of time(slow)/time(fast), and the median times (s): interleaving makes
     the ratio robust to the load of a shared machine drifting during the run."""
     ratios, ts, tf = [], [], []
-    slow(), fast()                                   # warm-up
+    slow(), fast()  # warm-up
     for _ in range(repeats):
         t0 = time.perf_counter()
         slow()
@@ -106,7 +116,7 @@ def run_bdf(scene, rtol: float, atol: float, duration_s: float):
             cur = I[k] if j == 0 else -I[k]
             rig.apply_current(cur)
             t_end = rig.t_s + dt
-            while rig.t_s < t_end - 1e-9:              # honour contact events like the simulator does
+            while rig.t_s < t_end - 1e-9:  # honour contact events like the simulator does
                 t_stop = min(t_end, rig._next_event) if rig._next_event > rig.t_s + 1e-9 else t_end
                 _bdf_segment(rig, cur, t_stop - rig.t_s, rtol, atol)
                 rig.t_s = t_stop
@@ -114,7 +124,7 @@ def run_bdf(scene, rtol: float, atol: float, duration_s: float):
                     rig._switch()
                     rig._next_event = rig.schedule.next_event_after(rig.t_s + 1e-9)
             t = rig.truth()
-            out[k, 3 * j: 3 * j + 3] = (t.T_sensor_true_C, t.T_pad_C, t.T_surface_C)
+            out[k, 3 * j : 3 * j + 3] = (t.T_sensor_true_C, t.T_pad_C, t.T_surface_C)
     return out
 
 
@@ -149,32 +159,25 @@ def _bdf_segment(rig, I: float, dt: float, rtol: float, atol: float) -> None:
 def run(quick: bool = False) -> dict:
     scene = scene_10s()
     repeats = 3 if quick else 5
-    print(f"sim benchmark: {SCENE} first {DURATION_S:g} s, two rigs, period {scene.period_s * 1e3:g} ms "
-          f"({'quick' if quick else 'full'})")
+    print(
+        f"sim benchmark: {SCENE} first {DURATION_S:g} s, two rigs, period {scene.period_s * 1e3:g} ms "
+        f"({'quick' if quick else 'full'})"
+    )
     ref = run_sim(scene, grid=REFINED, substeps=10)
-    rows, table = [], {}
-    for gname, grid in GRIDS.items():
-        for sub in (1, 2):
-            if quick and sub == 2 and gname != "default":
-                continue
-            res = run_sim(scene, grid=grid, substeps=sub)
-            t = median_time_s(lambda: run_sim(scene, grid=grid, substeps=sub, record=False), repeats=repeats)
-            err = max_err(res, ref)
-            table[f"{gname}/{sub}"] = {"wall_s": t, "wall_per_sim_s": t / DURATION_S,
-                                       "realtime_factor": DURATION_S / t, "max_error_C": err,
-                                       "recorded_preset_error_C": GRID_PRESETS[gname][3]}
-            rows.append([gname, f"{scene.period_s / sub * 1e3:g} ms", t / DURATION_S, DURATION_S / t, err])
-    print_table(["grid", "step", "wall s per sim s", "x real time", "max error °C"], rows)
+    table = _grid_table(scene, ref, quick, repeats)
     default = table["default/1"]
     # the per-call run without building (what a long session sees) for information
     # ---- pruning
-    pruning_speedup, t_unpruned, t_pruned = paired_ratio(lambda: run_sim(scene, prune=False, record=False),
-                                                         lambda: run_sim(scene, record=False), repeats)
+    pruning_speedup, t_unpruned, t_pruned = paired_ratio(
+        lambda: run_sim(scene, prune=False, record=False), lambda: run_sim(scene, record=False), repeats
+    )
     unpruned = run_sim(scene, prune=False)
     pruned = run_sim(scene)
     pruning_err = max_err(pruned, unpruned)
-    print_table(["variant", "wall s", "max |Δ| vs other °C"],
-                [["pruned (default)", t_pruned, pruning_err], ["unpruned", t_unpruned, pruning_err]])
+    print_table(
+        ["variant", "wall s", "max |Δ| vs other °C"],
+        [["pruned (default)", t_pruned, pruning_err], ["unpruned", t_unpruned, pruning_err]],
+    )
     # ---- solve_ivp BDF baseline
     bdf_dur = 2.0 if quick else DURATION_S
     nb = int(round(bdf_dur / scene.period_s))
@@ -188,8 +191,11 @@ def run(quick: bool = False) -> dict:
         atol = rtol * 1e-2
         res = run_bdf(scene, rtol, atol, bdf_dur)
         e = max_err(res, ref_b)
-        ratio, tb, _ = paired_ratio(lambda: run_bdf(scene, rtol, atol, bdf_dur),
-                                    lambda: run_sim(scene, duration_s=bdf_dur, record=False), bdf_repeats)
+        ratio, tb, _ = paired_ratio(
+            lambda: run_bdf(scene, rtol, atol, bdf_dur),
+            lambda: run_sim(scene, duration_s=bdf_dur, record=False),
+            bdf_repeats,
+        )
         bdf.append({"rtol": rtol, "atol": atol, "wall_s": tb, "max_error_C": e, "time_ratio_vs_sim": ratio})
         bdf_rows.append([f"BDF rtol={rtol:g}", tb, e, ratio])
     bdf_rows.append(["sim (default)", t_ours_b, our_err_b, 1.0])
@@ -198,13 +204,21 @@ def run(quick: bool = False) -> dict:
     chosen = max(eligible, key=lambda b: b["rtol"]) if eligible else min(bdf, key=lambda b: b["max_error_C"])
     speedup = chosen["time_ratio_vs_sim"]
     result = {
-        "scene": SCENE, "duration_s": DURATION_S, "period_s": scene.period_s, "rigs": 2, "quick": quick,
+        "scene": SCENE,
+        "duration_s": DURATION_S,
+        "period_s": scene.period_s,
+        "rigs": 2,
+        "quick": quick,
         "realtime_factor": default["realtime_factor"],
         "max_error_C": default["max_error_C"],
         "speedup_vs_solve_ivp": speedup,
-        "solve_ivp_equal_error": {"rtol": chosen["rtol"], "max_error_C": chosen["max_error_C"],
-                                  "sim_max_error_C": our_err_b, "window_s": bdf_dur,
-                                  "equal_error_found": bool(eligible)},
+        "solve_ivp_equal_error": {
+            "rtol": chosen["rtol"],
+            "max_error_C": chosen["max_error_C"],
+            "sim_max_error_C": our_err_b,
+            "window_s": bdf_dur,
+            "equal_error_found": bool(eligible),
+        },
         "pruning_speedup": pruning_speedup,
         "pruning_max_error_C": pruning_err,
         "settings": table,
@@ -212,12 +226,37 @@ def run(quick: bool = False) -> dict:
         "targets": {"realtime_factor": 200.0, "max_error_C": 0.05, "speedup_vs_solve_ivp": 10.0},
         "pruning_report": {r: sim.build_rig(scene, r).pruning_report() for r in ("master", "slave")},
     }
-    print(f"realtime_factor {result['realtime_factor']:.0f}x  max_error_C {result['max_error_C']:.4f}  "
-          f"speedup_vs_solve_ivp {speedup:.1f}x (BDF rtol {chosen['rtol']:g})  pruning_speedup "
-          f"{pruning_speedup:.2f}x (Δ {pruning_err:.1e} °C)")
+    print(
+        f"realtime_factor {result['realtime_factor']:.0f}x  max_error_C {result['max_error_C']:.4f}  "
+        f"speedup_vs_solve_ivp {speedup:.1f}x (BDF rtol {chosen['rtol']:g})  pruning_speedup "
+        f"{pruning_speedup:.2f}x (Δ {pruning_err:.1e} °C)"
+    )
     path = write_results("sim", result)
     print(f"wrote {path}")
     return result
+
+
+def _grid_table(scene, ref: np.ndarray, quick: bool, repeats: int) -> dict[str, dict[str, float]]:
+    """Each grid preset and substep count against the refined reference ``ref`` (°C): wall time, s,
+    real-time factor and max error, °C; printed as a table."""
+    rows, table = [], {}
+    for gname, grid in GRIDS.items():
+        for sub in (1, 2):
+            if quick and sub == 2 and gname != "default":
+                continue
+            res = run_sim(scene, grid=grid, substeps=sub)
+            t = median_time_s(lambda: run_sim(scene, grid=grid, substeps=sub, record=False), repeats=repeats)
+            err = max_err(res, ref)
+            table[f"{gname}/{sub}"] = {
+                "wall_s": t,
+                "wall_per_sim_s": t / DURATION_S,
+                "realtime_factor": DURATION_S / t,
+                "max_error_C": err,
+                "recorded_preset_error_C": GRID_PRESETS[gname][3],
+            }
+            rows.append([gname, f"{scene.period_s / sub * 1e3:g} ms", t / DURATION_S, DURATION_S / t, err])
+    print_table(["grid", "step", "wall s per sim s", "x real time", "max error °C"], rows)
+    return table
 
 
 def plot(result: dict, out_dir: str) -> list[str]:
@@ -227,6 +266,7 @@ def plot(result: dict, out_dir: str) -> list[str]:
     import os
 
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -259,13 +299,25 @@ def plot(result: dict, out_dir: str) -> list[str]:
             rig.advance(scene.period_s)
         ref.advance(scene.period_s)
         tm, ts = rigs[0].truth(), rigs[1].truth()
-        rows.append((tm.t_s, rigs[0].read().T_sensor_C, tm.T_surface_C, rigs[1].read().T_sensor_C, ts.T_surface_C,
-                     ref.T_contact_C))
+        rows.append(
+            (
+                tm.t_s,
+                rigs[0].read().T_sensor_C,
+                tm.T_surface_C,
+                rigs[1].read().T_sensor_C,
+                ts.T_surface_C,
+                ref.T_contact_C,
+            )
+        )
     a = np.array(rows)
     fig, ax = plt.subplots(figsize=(7, 4))
-    for col, lab in ((1, "master T_sensor (measured)"), (2, "master finger surface (truth)"),
-                     (3, "slave T_sensor (measured)"), (4, "slave object surface (truth)"),
-                     (5, "reference: finger touching directly")):
+    for col, lab in (
+        (1, "master T_sensor (measured)"),
+        (2, "master finger surface (truth)"),
+        (3, "slave T_sensor (measured)"),
+        (4, "slave object surface (truth)"),
+        (5, "reference: finger touching directly"),
+    ):
         ax.plot(a[:, 0], a[:, col], lw=1, label=lab)
     ax.set_xlabel("t, s")
     ax.set_ylabel("°C")

@@ -13,6 +13,7 @@ twice; the finger rests on the display, which starts neutral at the finger's nat
   10 min in air after the scene (finger lifted, probe in air).
 The figures are those of :mod:`telethermo.offline.transparency`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,8 +26,15 @@ from typing import Any
 import numpy as np
 
 from telethermo import sim
-from telethermo.offline.bound import (BatchedPlant, Window, causal_bound, foresight_bound, matched_start,
-                                      replay, window_errors)
+from telethermo.offline.bound import (
+    BatchedPlant,
+    Window,
+    causal_bound,
+    foresight_bound,
+    matched_start,
+    replay,
+    window_errors,
+)
 from bench.common import current_results_dir, print_table, write_results
 from telethermo.sim.compile import finger_natural_C
 from telethermo.atomic import write_bytes_atomic
@@ -39,13 +47,19 @@ from telethermo.offline.runner import run_offline_session
 from telethermo.offline.transparency import DSKIN_AT_S, cue_discrimination, transparency_figures
 
 SCENE = "probe_touches_al_steel_wood"
-PRE_N, EARLY_N = 50, 100          # samples at 10 ms: 0.5 s before, 1 s after each touch
+PRE_N, EARLY_N = 50, 100  # samples at 10 ms: 0.5 s before, 1 s after each touch
 
 
 def honest(rec) -> dict[str, Any]:
     """The transparency figures of a session recording."""
-    return transparency_figures(rec.col("t_s"), rec.col("m_true_surface_C"), rec.col("ref_T_contact_C"),
-                                rec.col("m_true_Q_into_body_W"), rec.col("ref_Q_into_finger_W"), contacts_of(rec))
+    return transparency_figures(
+        rec.col("t_s"),
+        rec.col("m_true_surface_C"),
+        rec.col("ref_T_contact_C"),
+        rec.col("m_true_Q_into_body_W"),
+        rec.col("ref_Q_into_finger_W"),
+        contacts_of(rec),
+    )
 
 
 def reference_track(sc) -> tuple[np.ndarray, np.ndarray, np.ndarray, dict[int, np.ndarray]]:
@@ -105,8 +119,9 @@ def _contacts(sc) -> list[dict[str, Any]]:
     return [{"t_on_s": c.start_s, "t_off_s": c.end_s, "object": c.body} for c in sc.slave_contacts]
 
 
-def run_bound(sc, t_ref, skin_ref, cells, *, maxiter: int, front_weights: tuple[float, ...],
-              front_touches: int) -> dict[str, Any]:
+def run_bound(
+    sc, t_ref, skin_ref, cells, *, maxiter: int, front_weights: tuple[float, ...], front_touches: int
+) -> dict[str, Any]:
     """The causal bound per touch, its replay check, and the foreknowledge front."""
     mk = lambda: sim.build_rig(sc, "master", noise=False)  # noqa: E731
     rig = mk()
@@ -115,20 +130,37 @@ def run_bound(sc, t_ref, skin_ref, cells, *, maxiter: int, front_weights: tuple[
     for i, c in enumerate(sc.slave_contacts):
         k0 = int(round(c.start_s / sc.period_s)) - PRE_N
         n_early = min(EARLY_N, int(round((c.end_s - c.start_s) / sc.period_s)))
-        w = Window(t0_s=k0 * sc.period_s, n_pre=PRE_N, n_early=n_early, x0=matched_start(rig, cells[k0]),
-                   ref_C=skin_ref[k0: k0 + PRE_N + n_early])
+        w = Window(
+            t0_s=k0 * sc.period_s,
+            n_pre=PRE_N,
+            n_early=n_early,
+            x0=matched_start(rig, cells[k0]),
+            ref_C=skin_ref[k0 : k0 + PRE_N + n_early],
+        )
         t0 = time.perf_counter()
         u = causal_bound(plant, w, maxiter=maxiter)
         heat: list = []
         skin = plant.run(w.x0, u[:-1, None], heat)[:, 0]
         q = np.array(heat)[:, 0]
-        cue_J = -float(np.sum(q[PRE_N: PRE_N + n_early]) * sc.period_s)
+        cue_J = -float(np.sum(q[PRE_N : PRE_N + n_early]) * sc.period_s)
         replayed = replay(mk, w, u, sc.period_s)
         err = window_errors(skin, w)
-        per.append({"object": c.body, **err, "cue_J": cue_J, "replay_max_diff_C": float(np.max(np.abs(skin - replayed))),
-                    "optimise_s": time.perf_counter() - t0,
-                    "dskin_at": {f"{d:g}s": float(skin[min(PRE_N + int(round(d / sc.period_s)), len(skin) - 1)]
-                                                  - skin[PRE_N - 1]) for d in DSKIN_AT_S if d <= 1.0}})
+        per.append(
+            {
+                "object": c.body,
+                **err,
+                "cue_J": cue_J,
+                "replay_max_diff_C": float(np.max(np.abs(skin - replayed))),
+                "optimise_s": time.perf_counter() - t0,
+                "dskin_at": {
+                    f"{d:g}s": float(
+                        skin[min(PRE_N + int(round(d / sc.period_s)), len(skin) - 1)] - skin[PRE_N - 1]
+                    )
+                    for d in DSKIN_AT_S
+                    if d <= 1.0
+                },
+            }
+        )
         traj.append({"t_s": (k0 + np.arange(len(skin))) * sc.period_s, "skin_C": skin, "current_A": u})
         if i < front_touches:
             for wp in front_weights:
@@ -139,7 +171,8 @@ def run_bound(sc, t_ref, skin_ref, cells, *, maxiter: int, front_weights: tuple[
 
 
 def drift_after_scene(quick: bool) -> dict[str, Any]:
-    """Both pads in air after the scene: the finger lifted at the end, the probe in air, 10 min (2 min quick)."""
+    """Both pads in air after the scene: the finger lifted at the end, the probe in air, 10 min
+    (2 min quick)."""
     sc = sim.load_scene(SCENE)
     T_after = 120.0 if quick else 600.0
     fingers = tuple(dataclasses.replace(t, end_s=min(t.end_s, sc.duration_s)) for t in sc.master_contacts)
@@ -153,9 +186,15 @@ def drift_after_scene(quick: bool) -> dict[str, Any]:
     for side in ("m", "s"):
         est = rec.col(f"{side}_estimate_C")
         dev[side] = float(np.max(np.abs(est[late] - neutral)))
-    return {"duration_in_air_s": T_after, "neutral_C": neutral, "max_dev_master_C": dev["m"],
-            "max_dev_slave_C": dev["s"], "drift_C": max(dev.values()),
-            "final_master_C": float(rec.col("m_estimate_C")[-1]), "final_slave_C": float(rec.col("s_estimate_C")[-1])}
+    return {
+        "duration_in_air_s": T_after,
+        "neutral_C": neutral,
+        "max_dev_master_C": dev["m"],
+        "max_dev_slave_C": dev["s"],
+        "drift_C": max(dev.values()),
+        "final_master_C": float(rec.col("m_estimate_C")[-1]),
+        "final_slave_C": float(rec.col("s_estimate_C")[-1]),
+    }
 
 
 def _r_sensor_sensitivity(sc) -> tuple[dict[str, float], dict[str, Any]]:
@@ -164,8 +203,11 @@ def _r_sensor_sensitivity(sc) -> tuple[dict[str, float], dict[str, Any]]:
     for fac in (0.8, 0.9, 1.1, 1.2):
         pm = default_params(Role.MASTER)
         ps = default_params(Role.SLAVE)
-        r = run_offline_session(sc, master_params=dataclasses.replace(pm, R_sensor_K_per_W=pm.R_sensor_K_per_W * fac),
-                                slave_params=dataclasses.replace(ps, R_sensor_K_per_W=ps.R_sensor_K_per_W * fac))
+        r = run_offline_session(
+            sc,
+            master_params=dataclasses.replace(pm, R_sensor_K_per_W=pm.R_sensor_K_per_W * fac),
+            slave_params=dataclasses.replace(ps, R_sensor_K_per_W=ps.R_sensor_K_per_W * fac),
+        )
         if fac in (0.9, 1.1):
             sens[f"x{fac:g}"] = honest(r.recording)["headline_error_C"]
         sens[f"x{fac:g}_all"] = honest(r.recording)["headline_error_C"]
@@ -177,8 +219,11 @@ def _null_displays(sc, skin_ref, q_ref, contacts) -> dict[str, dict[str, Any]]:
     """The trivial displays of the same run: hold 25.5 °C, hold the finger's natural temperature, I = 0."""
     T_nat = finger_natural_C(sc, sc.rig_params, sim.build_rig(sc, "master").grid)
     nulls = {}
-    for name, kind, T in (("hold_25.5C", "hold", 25.5), (f"hold_natural_{T_nat:.2f}C", "hold", T_nat),
-                          ("zero_current", "zero", None)):
+    for name, kind, T in (
+        ("hold_25.5C", "hold", 25.5),
+        (f"hold_natural_{T_nat:.2f}C", "hold", T_nat),
+        ("zero_current", "zero", None),
+    ):
         t, skin, q = null_display(sc, kind, T)
         nulls[name] = transparency_figures(t, skin, skin_ref[: len(t)], q, q_ref[: len(t)], contacts)
     return nulls
@@ -193,38 +238,42 @@ def run(quick: bool = False) -> dict[str, Any]:
     # controllers
     proj = run_offline_session(sc)
     f_proj = honest(proj.recording)
-    paper = run_offline_session(sc, master_params=default_params(Role.MASTER, **PAPER_GAINS[Role.MASTER]),
-                                slave_params=default_params(Role.SLAVE, **PAPER_GAINS[Role.SLAVE]))
+    paper = run_offline_session(
+        sc,
+        master_params=default_params(Role.MASTER, **PAPER_GAINS[Role.MASTER]),
+        slave_params=default_params(Role.SLAVE, **PAPER_GAINS[Role.SLAVE]),
+    )
     f_paper = honest(paper.recording)
     sens, est_err = _r_sensor_sensitivity(sc)
     est_err = {"x1": estimator_errors(proj.recording), **est_err}
     nulls = _null_displays(sc, skin_ref, q_ref, contacts)
 
     # the bound
-    b = run_bound(sc, t_ref, skin_ref, cells, maxiter=40 if quick else 150,
-                  front_weights=(0.9, 0.5) if quick else (0.95, 0.8, 0.5, 0.2, 0.05),
-                  front_touches=1 if quick else 3)
+    b = run_bound(
+        sc,
+        t_ref,
+        skin_ref,
+        cells,
+        maxiter=40 if quick else 150,
+        front_weights=(0.9, 0.5) if quick else (0.95, 0.8, 0.5, 0.2, 0.05),
+        front_touches=1 if quick else 3,
+    )
     bper = b["per_touch"]
     bound_head = float(np.mean([p["window_C"] for p in bper]))
 
     # the cue contrast the bound trajectory itself reaches (same direct cues)
-    bound_cue = cue_discrimination([{"object": bp["object"], "cue_J": bp["cue_J"], "direct_cue_J": p["direct_cue_J"]}
-                                    for bp, p in zip(bper, f_proj["per_touch"])])
-    per_touch = []
-    for p, bp in zip(f_proj["per_touch"], bper):
-        per_touch.append({"object": p["object"], "pre_C": p["pre_C"], "early_C": p["early_C"],
-                          "early01_C": p["early01_C"], "late_C": p["late_C"], "window_C": p["window_C"],
-                          "bound_early_C": bp["early_C"], "bound_pre_C": bp["pre_C"],
-                          "early_limit_C": max(1.25 * bp["early_C"], bp["early_C"] + 0.15),
-                          "cue_J": p["cue_J"], "direct_cue_J": p["direct_cue_J"], "bound_cue_J": bp["cue_J"],
-                          "dskin_at": p["dskin_at"], "bound_dskin_at": bp["dskin_at"]})
+    bound_cue = _bound_cue(bper, f_proj["per_touch"])
+    per_touch = _per_touch(f_proj["per_touch"], bper)
     drift = drift_after_scene(quick)
     out = {
-        "scene": SCENE, "quick": quick,
-        "headline_error_C": f_proj["headline_error_C"], "bound_headline_error_C": bound_head,
+        "scene": SCENE,
+        "quick": quick,
+        "headline_error_C": f_proj["headline_error_C"],
+        "bound_headline_error_C": bound_head,
         "headline_ratio_to_bound": f_proj["headline_error_C"] / bound_head,
         "pre_contact_mean_error_C": f_proj["pre_contact_mean_error_C"],
-        "early_mean_error_C": f_proj["early_mean_error_C"], "early01_mean_error_C": f_proj["early01_mean_error_C"],
+        "early_mean_error_C": f_proj["early_mean_error_C"],
+        "early01_mean_error_C": f_proj["early01_mean_error_C"],
         "late_mean_error_C": f_proj["late_mean_error_C"],
         # the figure a limit cycle cannot hide behind (telethermo.offline.oscillation), paper law beside
         "oscillation_worst_ratio": proj.figures["oscillation"]["worst_ratio"],
@@ -235,20 +284,20 @@ def run(quick: bool = False) -> dict[str, Any]:
         "null_display_min_ratio_to_project": min(v["headline_error_C"] for v in nulls.values())
         / f_proj["headline_error_C"],
         "paper_law_headline_error_C": f_paper["headline_error_C"],
-        "paper_law": {k: f_paper[k] for k in ("pre_contact_mean_error_C", "early_mean_error_C", "late_mean_error_C")},
-        "cue_order_kept": f_proj["cue"]["order_kept"], "cue_contrast_ratio_min": f_proj["cue"]["contrast_ratio_min"],
+        "paper_law": {
+            k: f_paper[k] for k in ("pre_contact_mean_error_C", "early_mean_error_C", "late_mean_error_C")
+        },
+        "cue_order_kept": f_proj["cue"]["order_kept"],
+        "cue_contrast_ratio_min": f_proj["cue"]["contrast_ratio_min"],
         "cue": f_proj["cue"],
-        "bound_cue_contrast_ratio_min": bound_cue["contrast_ratio_min"], "bound_cue": bound_cue,
-        "drift_10min_C": drift["drift_C"], "drift": drift,
+        "bound_cue_contrast_ratio_min": bound_cue["contrast_ratio_min"],
+        "bound_cue": bound_cue,
+        "drift_10min_C": drift["drift_C"],
+        "drift": drift,
         "r_sensor_sensitivity": {k: v for k, v in sens.items() if not k.endswith("_all")},
         "r_sensor_headline_C": {k[:-4]: v for k, v in sens.items() if k.endswith("_all")},
         "estimator_error_vs_truth_C": est_err,
-        "bound": {"per_touch": bper, "front": b["front"],
-                  "replay_max_diff_C": max(p["replay_max_diff_C"] for p in bper),
-                  "how": "finger cells = the direct-touch finger's at t_on - 0.5 s, pad plate and sensor at its "
-                         "surface temperature; currents every 10 ms, |I| <= 0.8*I_max; before t_on they minimise "
-                         "the pre-contact error only (no foreknowledge), from t_on the early error "
-                         "(telethermo/offline/bound.py)"},
+        "bound": _bound_summary(b),
         "run_s": time.perf_counter() - t_start,
     }
     out["checks"] = _checks(out)
@@ -256,6 +305,56 @@ def run(quick: bool = False) -> dict[str, Any]:
     write_results("transparency", out)
     _plot(out, b, proj.recording, paper.recording, t_ref, skin_ref)
     return out
+
+
+def _per_touch(
+    proj_touches: list[dict[str, Any]], bound_touches: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """Per touch: the project's figures (°C, J) beside the bound's, and the early limit derived from it."""
+    per_touch = []
+    for p, bp in zip(proj_touches, bound_touches):
+        per_touch.append(
+            {
+                "object": p["object"],
+                "pre_C": p["pre_C"],
+                "early_C": p["early_C"],
+                "early01_C": p["early01_C"],
+                "late_C": p["late_C"],
+                "window_C": p["window_C"],
+                "bound_early_C": bp["early_C"],
+                "bound_pre_C": bp["pre_C"],
+                "early_limit_C": max(1.25 * bp["early_C"], bp["early_C"] + 0.15),
+                "cue_J": p["cue_J"],
+                "direct_cue_J": p["direct_cue_J"],
+                "bound_cue_J": bp["cue_J"],
+                "dskin_at": p["dskin_at"],
+                "bound_dskin_at": bp["dskin_at"],
+            }
+        )
+    return per_touch
+
+
+def _bound_cue(bound_touches: list[dict[str, Any]], proj_touches: list[dict[str, Any]]) -> dict[str, Any]:
+    """The cue discrimination of the bound's trajectory, against the same direct-touch cues, J."""
+    return cue_discrimination(
+        [
+            {"object": bp["object"], "cue_J": bp["cue_J"], "direct_cue_J": p["direct_cue_J"]}
+            for bp, p in zip(bound_touches, proj_touches)
+        ]
+    )
+
+
+def _bound_summary(b: dict[str, Any]) -> dict[str, Any]:
+    """The bound's part of the results: per touch, the front, the replay check and how it is computed."""
+    return {
+        "per_touch": b["per_touch"],
+        "front": b["front"],
+        "replay_max_diff_C": max(p["replay_max_diff_C"] for p in b["per_touch"]),
+        "how": "finger cells = the direct-touch finger's at t_on - 0.5 s, pad plate and sensor at its "
+        "surface temperature; currents every 10 ms, |I| <= 0.8*I_max; before t_on they minimise "
+        "the pre-contact error only (no foreknowledge), from t_on the early error "
+        "(telethermo/offline/bound.py)",
+    }
 
 
 def _checks(o: dict[str, Any]) -> dict[str, bool]:
@@ -268,29 +367,52 @@ def _checks(o: dict[str, Any]) -> dict[str, bool]:
         "cue_order_kept": bool(o["cue_order_kept"]),
         "cue_contrast_ok": o["cue_contrast_ratio_min"] >= min(0.5, 0.9 * o["bound_cue_contrast_ratio_min"]),
         "drift_le_1C": o["drift_10min_C"] <= 1.0,
-        "r_sensor_within_20pct": all(abs(v / o["headline_error_C"] - 1) <= 0.2
-                                     for v in o["r_sensor_sensitivity"].values()),
+        "r_sensor_within_20pct": all(
+            abs(v / o["headline_error_C"] - 1) <= 0.2 for v in o["r_sensor_sensitivity"].values()
+        ),
     }
 
 
 def _print(o: dict[str, Any]) -> None:
-    rows = [[p["object"], f"{p['pre_C']:.2f}", f"{p['early_C']:.2f}", f"{p['bound_early_C']:.2f}",
-             f"{p['early_limit_C']:.2f}", f"{p['late_C']:.2f}", f"{p['cue_J']:.2f}", f"{p['direct_cue_J']:.2f}"]
-            for p in o["per_touch"]]
-    print_table(["touch", "pre °C", "early °C", "bound early", "limit", "late °C", "cue J", "direct cue J"], rows)
-    print(f"headline {o['headline_error_C']:.3f} °C, bound {o['bound_headline_error_C']:.3f} °C, paper's law "
-          f"{o['paper_law_headline_error_C']:.3f} °C; nulls "
-          + ", ".join(f"{k} {v:.3f}" for k, v in o["null_displays"].items()))
-    print(f"cue order kept {o['cue_order_kept']}, contrast min {o['cue_contrast_ratio_min']:.2f}; drift "
-          f"{o['drift_10min_C']:.3f} °C; headline at R_sensor x0.8..x1.2 {o['r_sensor_headline_C']}")
-    print("estimator |estimate - truth| while touching, R_sensor prior x0.8 / x1 / x1.2: " + ", ".join(
-        f"{k}: finger {v['finger_C']:.3f} object {v['object_C']:.3f}" for k, v in o["estimator_error_vs_truth_C"].items()))
+    rows = [
+        [
+            p["object"],
+            f"{p['pre_C']:.2f}",
+            f"{p['early_C']:.2f}",
+            f"{p['bound_early_C']:.2f}",
+            f"{p['early_limit_C']:.2f}",
+            f"{p['late_C']:.2f}",
+            f"{p['cue_J']:.2f}",
+            f"{p['direct_cue_J']:.2f}",
+        ]
+        for p in o["per_touch"]
+    ]
+    print_table(
+        ["touch", "pre °C", "early °C", "bound early", "limit", "late °C", "cue J", "direct cue J"], rows
+    )
+    print(
+        f"headline {o['headline_error_C']:.3f} °C, bound {o['bound_headline_error_C']:.3f} °C, paper's law "
+        f"{o['paper_law_headline_error_C']:.3f} °C; nulls "
+        + ", ".join(f"{k} {v:.3f}" for k, v in o["null_displays"].items())
+    )
+    print(
+        f"cue order kept {o['cue_order_kept']}, contrast min {o['cue_contrast_ratio_min']:.2f}; drift "
+        f"{o['drift_10min_C']:.3f} °C; headline at R_sensor x0.8..x1.2 {o['r_sensor_headline_C']}"
+    )
+    print(
+        "estimator |estimate - truth| while touching, R_sensor prior x0.8 / x1 / x1.2: "
+        + ", ".join(
+            f"{k}: finger {v['finger_C']:.3f} object {v['object_C']:.3f}"
+            for k, v in o["estimator_error_vs_truth_C"].items()
+        )
+    )
     print("checks: " + ", ".join(f"{k}={'ok' if v else 'NOT MET'}" for k, v in o["checks"].items()))
 
 
 def _plot(o: dict[str, Any], b: dict[str, Any], rec, rec_paper, t_ref, skin_ref) -> None:
     try:
         import matplotlib
+
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
     except ImportError:
@@ -331,8 +453,12 @@ def _plot(o: dict[str, Any], b: dict[str, Any], rec, rec_paper, t_ref, skin_ref)
     ax = fig.add_subplot(3, 2, 5)
     for touch in sorted({f["touch"] for f in b["front"]}):
         pts = sorted((f for f in b["front"] if f["touch"] == touch), key=lambda f: f["pre_C"])
-        ax.plot([f["pre_C"] for f in pts], [f["early_C"] for f in pts], "o-", label=f"bound front, touch {touch + 1} "
-                f"({pts[0]['object']})")
+        ax.plot(
+            [f["pre_C"] for f in pts],
+            [f["early_C"] for f in pts],
+            "o-",
+            label=f"bound front, touch {touch + 1} ({pts[0]['object']})",
+        )
         pc = per[touch]
         ax.plot([pc["pre_C"]], [pc["early_C"]], "s", ms=9, label=f"project, touch {touch + 1}")
         ax.plot([b["per_touch"][touch]["pre_C"]], [b["per_touch"][touch]["early_C"]], "x", ms=9, color="k")
@@ -342,8 +468,11 @@ def _plot(o: dict[str, Any], b: dict[str, Any], rec, rec_paper, t_ref, skin_ref)
     ax.legend(fontsize=6)
     ax = fig.add_subplot(3, 2, 6)
     names = ["project", "paper's law"] + list(o["null_displays"]) + ["bound"]
-    vals = [o["headline_error_C"], o["paper_law_headline_error_C"]] + list(o["null_displays"].values()) + \
-        [o["bound_headline_error_C"]]
+    vals = (
+        [o["headline_error_C"], o["paper_law_headline_error_C"]]
+        + list(o["null_displays"].values())
+        + [o["bound_headline_error_C"]]
+    )
     ax.barh(names, vals, color=["C0", "C1"] + ["0.6"] * len(o["null_displays"]) + ["C2"])
     ax.set_xlabel("headline error °C (mean |skin − direct| over t_on − 0.5 s .. t_on + 1 s)")
     fig.tight_layout()

@@ -22,6 +22,7 @@ What a lab's generic analog I/O module offers (docs/hardware.md, reference/canop
 - 0x2101 output actual (the DAC counts applied now), 0x2102 output in its error state (0/1).
 - 0x2110 simulated wiring fault: bit n-1 set = input n open circuit (reads 0x7FFF, EMCY 0xFF10).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -30,11 +31,18 @@ from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
 from telethermo.bus_config import path as _path
-from telethermo.bus_config.edsgen import (
-    EDS_DATE, EDS_TIME, _check_value, _mapping, _pdo_comm, _pdo_map, _var_lines,
-)
+from telethermo.bus_config.edsgen import EDS_DATE, EDS_TIME, _check_value, _var_lines
+from telethermo.bus_config.od_communication import _V, _mapping, _pdo_comm, _pdo_map
 from telethermo.bus_config.od_types import (
-    INTEGER16, INTEGER32, UNSIGNED8, UNSIGNED16, UNSIGNED32, VISIBLE_STRING, Obj, Var, _uint,
+    INTEGER16,
+    INTEGER32,
+    UNSIGNED8,
+    UNSIGNED16,
+    UNSIGNED32,
+    VISIBLE_STRING,
+    Obj,
+    Var,
+    _uint,
 )
 
 FILE_NAME = "io_module.eds"
@@ -49,92 +57,254 @@ SAMPLING_INDEX, OUTPUT_ACTUAL_INDEX, OUTPUT_ERROR_INDEX, OPEN_CIRCUIT_INDEX = 0x
 _UNITS = {SAMPLING_INDEX: "ms"}
 
 
-def _int(name: str, data_type: int, access: str, default: int, low: int | None = None,
-         high: int | None = None,
-         pdo: bool = False, description: str = "") -> Var:
+def _int(
+    name: str,
+    data_type: int,
+    access: str,
+    default: int,
+    low: int | None = None,
+    high: int | None = None,
+    pdo: bool = False,
+    description: str = "",
+) -> Var:
     """A signed integer entry (decimal text: CiA 306 allows either)."""
-    return Var(name, data_type, access, str(default), None if low is None else str(low),
-               None if high is None else str(high), pdo, description)
+    return Var(
+        name,
+        data_type,
+        access,
+        str(default),
+        None if low is None else str(low),
+        None if high is None else str(high),
+        pdo,
+        description,
+    )
 
 
 def _array(index: int, name: str, subs: list[Var], sub0_access: str = "const") -> Obj:
-    return Obj(index, name, object_type=0x8, subs={
-        0: _uint("Highest sub-index supported", UNSIGNED8, sub0_access, len(subs)),
-        **{i: v for i, v in enumerate(subs, 1)}})
+    return Obj(
+        index,
+        name,
+        object_type=0x8,
+        subs={
+            0: _uint("Highest sub-index supported", UNSIGNED8, sub0_access, len(subs)),
+            **{i: v for i, v in enumerate(subs, 1)},
+        },
+    )
 
 
 def communication_objects() -> list[Obj]:
     """0x1000..0x1FFF of the I/O module."""
-    V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
+    return [*_device_objects(), *_emcy_heartbeat_identity_objects(), *_pdo_objects()]
+
+
+def _device_objects() -> list[Obj]:
+    """0x1000..0x100A: device type (CiA 401), error register and history, SYNC, names and versions."""
     return [
-        V(0x1000, _uint("Device type", UNSIGNED32, "ro", DEVICE_TYPE,
-                        description="CiA 401 analog inputs and outputs")),
-        V(0x1001, _uint("Error register", UNSIGNED8, "ro", 0, pdo=True)),
-        Obj(0x1003, "Pre-defined error field", object_type=0x8, subs={
-            0: _uint("Number of errors", UNSIGNED8, "rw", 0, description="write 0 to clear the history"),
-            **{i: _uint(f"Standard error field {i}", UNSIGNED32, "ro", 0) for i in range(1, 9)}}),
-        V(0x1005, _uint("COB-ID SYNC", UNSIGNED32, "rw", 0x80, description="consumes SYNC")),
-        V(0x1006, _uint("Communication cycle period", UNSIGNED32, "rw", 10000, 0, 10_000_000,
-                        description="us: the simulated plant advances by this at every SYNC")),
-        V(0x1008, Var("Manufacturer device name", VISIBLE_STRING, "const",
-                       "telethermo io module (simulated)")),
-        V(0x1009, Var("Manufacturer hardware version", VISIBLE_STRING, "const", "sim")),
-        V(0x100A, Var("Manufacturer software version", VISIBLE_STRING, "const", "0.1.0")),
-        V(0x1014, _uint("COB-ID EMCY", UNSIGNED32, "ro", "$NODEID+0x80")),
-        V(0x1015, _uint("Inhibit time EMCY", UNSIGNED16, "rw", 10, 0, 0xFFFF, description="100 us units")),
-        _array(0x1016, "Consumer heartbeat time", [
-            _uint(f"Consumer heartbeat time {i}", UNSIGNED32, "rw", 0,
-                  description="bits 16-23 node-ID, bits 0-15 time in ms (0: unused)") for i in (1, 2)]),
-        V(0x1017, _uint("Producer heartbeat time", UNSIGNED16, "rw", 100, 0, 0xFFFF, description="ms")),
-        Obj(0x1018, "Identity object", object_type=0x9, subs={
-            0: _uint("Highest sub-index supported", UNSIGNED8, "const", 4),
-            1: _uint("Vendor-ID", UNSIGNED32, "ro", 0, description="no CiA vendor-ID assigned"),
-            2: _uint("Product code", UNSIGNED32, "ro", 0x0401),
-            3: _uint("Revision number", UNSIGNED32, "ro", 0x00010000),
-            4: _uint("Serial number", UNSIGNED32, "ro", 0)}),
-        V(0x1019, _uint("Synchronous counter overflow value", UNSIGNED8, "rw", 0, 0, 240,
-                        description="0 no counter, 2..240 counter wraps after this value")),
-        _array(0x1029, "Error behaviour", [
-            _uint("Communication error", UNSIGNED8, "rw", 0, 0, 2,
-                  description="0 pre-operational, 1 no change, 2 stopped")], sub0_access="ro"),
+        _V(
+            0x1000,
+            _uint(
+                "Device type", UNSIGNED32, "ro", DEVICE_TYPE, description="CiA 401 analog inputs and outputs"
+            ),
+        ),
+        _V(0x1001, _uint("Error register", UNSIGNED8, "ro", 0, pdo=True)),
+        Obj(
+            0x1003,
+            "Pre-defined error field",
+            object_type=0x8,
+            subs={
+                0: _uint("Number of errors", UNSIGNED8, "rw", 0, description="write 0 to clear the history"),
+                **{i: _uint(f"Standard error field {i}", UNSIGNED32, "ro", 0) for i in range(1, 9)},
+            },
+        ),
+        _V(0x1005, _uint("COB-ID SYNC", UNSIGNED32, "rw", 0x80, description="consumes SYNC")),
+        _V(
+            0x1006,
+            _uint(
+                "Communication cycle period",
+                UNSIGNED32,
+                "rw",
+                10000,
+                0,
+                10_000_000,
+                description="us: the simulated plant advances by this at every SYNC",
+            ),
+        ),
+        _V(
+            0x1008,
+            Var("Manufacturer device name", VISIBLE_STRING, "const", "telethermo io module (simulated)"),
+        ),
+        _V(0x1009, Var("Manufacturer hardware version", VISIBLE_STRING, "const", "sim")),
+        _V(0x100A, Var("Manufacturer software version", VISIBLE_STRING, "const", "0.1.0")),
+    ]
+
+
+def _emcy_heartbeat_identity_objects() -> list[Obj]:
+    """0x1014..0x1029: EMCY, heartbeats, identity, SYNC counter, error behaviour."""
+    return [
+        _V(0x1014, _uint("COB-ID EMCY", UNSIGNED32, "ro", "$NODEID+0x80")),
+        _V(0x1015, _uint("Inhibit time EMCY", UNSIGNED16, "rw", 10, 0, 0xFFFF, description="100 us units")),
+        _array(
+            0x1016,
+            "Consumer heartbeat time",
+            [
+                _uint(
+                    f"Consumer heartbeat time {i}",
+                    UNSIGNED32,
+                    "rw",
+                    0,
+                    description="bits 16-23 node-ID, bits 0-15 time in ms (0: unused)",
+                )
+                for i in (1, 2)
+            ],
+        ),
+        _V(0x1017, _uint("Producer heartbeat time", UNSIGNED16, "rw", 100, 0, 0xFFFF, description="ms")),
+        Obj(
+            0x1018,
+            "Identity object",
+            object_type=0x9,
+            subs={
+                0: _uint("Highest sub-index supported", UNSIGNED8, "const", 4),
+                1: _uint("Vendor-ID", UNSIGNED32, "ro", 0, description="no CiA vendor-ID assigned"),
+                2: _uint("Product code", UNSIGNED32, "ro", 0x0401),
+                3: _uint("Revision number", UNSIGNED32, "ro", 0x00010000),
+                4: _uint("Serial number", UNSIGNED32, "ro", 0),
+            },
+        ),
+        _V(
+            0x1019,
+            _uint(
+                "Synchronous counter overflow value",
+                UNSIGNED8,
+                "rw",
+                0,
+                0,
+                240,
+                description="0 no counter, 2..240 counter wraps after this value",
+            ),
+        ),
+        _array(
+            0x1029,
+            "Error behaviour",
+            [
+                _uint(
+                    "Communication error",
+                    UNSIGNED8,
+                    "rw",
+                    0,
+                    0,
+                    2,
+                    description="0 pre-operational, 1 no change, 2 stopped",
+                )
+            ],
+            sub0_access="ro",
+        ),
+    ]
+
+
+def _pdo_objects() -> list[Obj]:
+    """0x1400..0x1A01: the drive RPDO and the two input TPDOs."""
+    return [
         _pdo_comm(0x1400, "RPDO1 communication parameter", "$NODEID+0x200", 255, tpdo=False),
         _pdo_map(0x1600, "RPDO1 mapping parameter", [_mapping(0x6411, 1, 16)]),
         _pdo_comm(0x1800, "TPDO1 communication parameter", "$NODEID+0x180", 1, tpdo=True),
         _pdo_comm(0x1801, "TPDO2 communication parameter", "$NODEID+0x280", 1, tpdo=True),
         _pdo_map(0x1A00, "TPDO1 mapping parameter", [_mapping(0x6401, s, 16) for s in (1, 2, 3, 4)]),
-        _pdo_map(0x1A01, "TPDO2 mapping parameter", [_mapping(0x6401, 5, 16), _mapping(0x6401, 6, 16),
-                                                     _mapping(OUTPUT_ACTUAL_INDEX, 0, 16)]),
+        _pdo_map(
+            0x1A01,
+            "TPDO2 mapping parameter",
+            [_mapping(0x6401, 5, 16), _mapping(0x6401, 6, 16), _mapping(OUTPUT_ACTUAL_INDEX, 0, 16)],
+        ),
     ]
 
 
 def profile_objects() -> list[Obj]:
     """The CiA 401 objects 0x6000..: analog inputs and outputs, output error mode and substitute value."""
     return [
-        _array(0x6401, "Read analog input 16-bit", [
-            _int(f"Analog input {i}", INTEGER16, "ro", 0, pdo=True, description="ADC counts") for i in
-            range(1, N_INPUTS + 1)]),
-        _array(0x6411, "Write analog output 16-bit", [
-            _int("Analog output 1", INTEGER16, "rw", 0, -32768, 32767, pdo=True, description="DAC counts")]),
-        _array(0x6443, "Analog output error mode", [
-            _uint("Error mode output 1", UNSIGNED8, "rw", 0, 0, 1,
-                  description="0 keep the last value (the example EDS default), "
-                              "1 go to the substitute value")]),
-        _array(0x6444, "Analog output error value integer", [
-            _int("Error value output 1", INTEGER32, "rw", 0, -32768, 32767, description="DAC counts")]),
+        _array(
+            0x6401,
+            "Read analog input 16-bit",
+            [
+                _int(f"Analog input {i}", INTEGER16, "ro", 0, pdo=True, description="ADC counts")
+                for i in range(1, N_INPUTS + 1)
+            ],
+        ),
+        _array(
+            0x6411,
+            "Write analog output 16-bit",
+            [_int("Analog output 1", INTEGER16, "rw", 0, -32768, 32767, pdo=True, description="DAC counts")],
+        ),
+        _array(
+            0x6443,
+            "Analog output error mode",
+            [
+                _uint(
+                    "Error mode output 1",
+                    UNSIGNED8,
+                    "rw",
+                    0,
+                    0,
+                    1,
+                    description="0 keep the last value (the example EDS default), "
+                    "1 go to the substitute value",
+                )
+            ],
+        ),
+        _array(
+            0x6444,
+            "Analog output error value integer",
+            [_int("Error value output 1", INTEGER32, "rw", 0, -32768, 32767, description="DAC counts")],
+        ),
     ]
 
 
 def manufacturer_objects() -> list[Obj]:
     V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
     return [
-        V(SAMPLING_INDEX, _uint("adc_sampling_period_ms", UNSIGNED16, "rw", 400, 1, 1000,
-                                description="period of the ADC conversions of every input")),
-        V(OUTPUT_ACTUAL_INDEX, _int("output_actual", INTEGER16, "ro", 0, pdo=True,
-                                    description="DAC counts applied now (0x6411 or its error value)")),
-        V(OUTPUT_ERROR_INDEX, _uint("output_error_state", UNSIGNED8, "ro", 0,
-                                    description="1 while the output is in its error state")),
-        V(OPEN_CIRCUIT_INDEX, _uint("sim_open_circuit", UNSIGNED8, "rw", 0, 0, (1 << N_INPUTS) - 1,
-                                    description="simulated wiring fault: bit n-1 set opens input n")),
+        V(
+            SAMPLING_INDEX,
+            _uint(
+                "adc_sampling_period_ms",
+                UNSIGNED16,
+                "rw",
+                400,
+                1,
+                1000,
+                description="period of the ADC conversions of every input",
+            ),
+        ),
+        V(
+            OUTPUT_ACTUAL_INDEX,
+            _int(
+                "output_actual",
+                INTEGER16,
+                "ro",
+                0,
+                pdo=True,
+                description="DAC counts applied now (0x6411 or its error value)",
+            ),
+        ),
+        V(
+            OUTPUT_ERROR_INDEX,
+            _uint(
+                "output_error_state",
+                UNSIGNED8,
+                "ro",
+                0,
+                description="1 while the output is in its error state",
+            ),
+        ),
+        V(
+            OPEN_CIRCUIT_INDEX,
+            _uint(
+                "sim_open_circuit",
+                UNSIGNED8,
+                "rw",
+                0,
+                0,
+                (1 << N_INPUTS) - 1,
+                description="simulated wiring fault: bit n-1 set opens input n",
+            ),
+        ),
     ]
 
 
@@ -146,18 +316,41 @@ def render() -> str:
     n_rx = sum(1 for o in comm if 0x1400 <= o.index <= 0x15FF)
     n_tx = sum(1 for o in comm if 0x1800 <= o.index <= 0x19FF)
     out = [
-        "[FileInfo]", f"FileName={FILE_NAME}", "FileVersion=1", "FileRevision=0", "EDSVersion=4.0",
+        "[FileInfo]",
+        f"FileName={FILE_NAME}",
+        "FileVersion=1",
+        "FileRevision=0",
+        "EDSVersion=4.0",
         "Description=telethermo simulated CiA 401 analog I/O module, generated by bus_config/io_eds.py",
-        f"CreationTime={EDS_TIME}", f"CreationDate={EDS_DATE}", "CreatedBy=telethermo",
-        f"ModificationTime={EDS_TIME}", f"ModificationDate={EDS_DATE}", "ModifiedBy=telethermo", "",
-        "[DeviceInfo]", "VendorName=telethermo", "VendorNumber=0x00000000",
+        f"CreationTime={EDS_TIME}",
+        f"CreationDate={EDS_DATE}",
+        "CreatedBy=telethermo",
+        f"ModificationTime={EDS_TIME}",
+        f"ModificationDate={EDS_DATE}",
+        "ModifiedBy=telethermo",
+        "",
+        "[DeviceInfo]",
+        "VendorName=telethermo",
+        "VendorNumber=0x00000000",
         "ProductName=telethermo io module",
-        "ProductNumber=0x00000401", "RevisionNumber=0x00010000", "OrderCode=telethermo-iomodule",
+        "ProductNumber=0x00000401",
+        "RevisionNumber=0x00010000",
+        "OrderCode=telethermo-iomodule",
         *[f"BaudRate_{r}={int(r in (125, 250, 500, 1000))}" for r in (10, 20, 50, 125, 250, 500, 800, 1000)],
-        "SimpleBootUpMaster=0", "SimpleBootUpSlave=1", "Granularity=8", "DynamicChannelsSupported=0",
-        "GroupMessaging=0", f"NrOfRXPDO={n_rx}", f"NrOfTXPDO={n_tx}", "LSS_Supported=0", "",
-        "[DummyUsage]", *[f"Dummy{i:04d}=0" for i in range(1, 8)], "",
-        "[Comments]", "Lines=2",
+        "SimpleBootUpMaster=0",
+        "SimpleBootUpSlave=1",
+        "Granularity=8",
+        "DynamicChannelsSupported=0",
+        "GroupMessaging=0",
+        f"NrOfRXPDO={n_rx}",
+        f"NrOfTXPDO={n_tx}",
+        "LSS_Supported=0",
+        "",
+        "[DummyUsage]",
+        *[f"Dummy{i:04d}=0" for i in range(1, 8)],
+        "",
+        "[Comments]",
+        "Lines=2",
         "Line1=Analog counts: 16-bit, -32768..32767 is -10 V..+10 V (305.2 uV per count).",
         "Line2=0x6443/0x6444 default to hold (the DS401 example's trap): commissioning sets substitute 0 A.",
         "",
@@ -173,8 +366,13 @@ def render() -> str:
                 lines.insert(-1, f"Unit={_UNITS[o.index]}")
             out += lines
             continue
-        out += [f"[{o.index:04X}]", f"ParameterName={o.name}", f"ObjectType=0x{o.object_type:X}",
-                f"SubNumber=0x{len(o.subs):X}", ""]
+        out += [
+            f"[{o.index:04X}]",
+            f"ParameterName={o.name}",
+            f"ObjectType=0x{o.object_type:X}",
+            f"SubNumber=0x{len(o.subs):X}",
+            "",
+        ]
         for sub, var in o.subs.items():
             out += _var_lines(f"{o.index:04X}sub{sub:X}", var)
     for line in out:

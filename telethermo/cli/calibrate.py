@@ -6,8 +6,9 @@ at different pre-sets (or one with a known finger temperature) determine β_pad 
 (:func:`telethermo.control.rendering.calibrate_finger`). The touches come either from the command
 line (``--touch T_PAD0:T_CONTACT``) or from the live master (``--live``): T_pad0 is the mean pad
 surface temperature (T_sensor - Q·R_sensor/2, guiatni eq. 29) in the 0.5 s before the contact
-detector closes, T_contact its mean 0.1..1 s after (yamamoto's early-time window), read by SDO. ``--apply`` writes β_pad and T_f0 into the
-master (pad_beta, finger_T0_C), range-checked like ``telethermo set``.
+detector closes, T_contact its mean 0.1..1 s after (yamamoto's early-time window), read by SDO.
+``--apply`` writes β_pad and T_f0 into the master (pad_beta, finger_T0_C), range-checked like
+``telethermo set``.
 """
 
 from __future__ import annotations

@@ -92,8 +92,9 @@ def open_can(args: argparse.Namespace, net: NetworkConfig) -> tuple[can.BusABC, 
     ts = rb.settings
     if ts.interface == "virtual" and rb.source == str(net.path):
         print(
-            f"telethermo {getattr(args, 'command', '')}: note: {ts.describe()} (from {net.path}) is a bus inside "
-            f"this process only, and no hub or session is running (none in {state_file()}); give the bus with "
+            f"telethermo {getattr(args, 'command', '')}: note: {ts.describe()} (from {net.path}) "
+            "is a bus inside this process only, and no hub or session is running "
+            f"(none in {state_file()}); give the bus with "
             "--bus or -i/-c, CAN_INTERFACE/CAN_CHANNEL or ~/.canrc, or start telethermo-hub",
             file=sys.stderr,
         )

@@ -44,7 +44,8 @@ def _read(node: NodeClient, t: Target, key: str):
 
 
 def _persists(node: NodeClient, before: dict) -> str:
-    """Why the node refused: the trips blocking the reset (fault_reset_blocked_by), the last trip and the error register."""
+    """Why the node refused: the trips blocking the reset (fault_reset_blocked_by), the last trip and the
+    error register."""
     t = node.t
     trip_info, trip = before["last_trip_code"]
     reg_info, reg = before["0x1001"]
@@ -98,7 +99,8 @@ def run(args: argparse.Namespace) -> int:
                 time.sleep(0.05)
             (st_info, was), reg_info = before["safety_state"], before["0x1001"][0]
             print(
-                f"{t.role} (node {t.node_id}): safety {_safety(st_info, was)} -> {_safety(st_info, st)} ({st}), "
+                f"{t.role} (node {t.node_id}): "
+                f"safety {_safety(st_info, was)} -> {_safety(st_info, st)} ({st}), "
                 f"error register {values.fmt(reg, reg_info, node.eds)}"
             )
     if refused:

@@ -89,7 +89,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         if found:
             print(
-                f"{'NODE':>4} {'ROLE':7} {'NMT':16} {'VENDOR':>10} {'PRODUCT':>10} {'REV':>10} {'SERIAL':>10}  NAME"
+                f"{'NODE':>4} {'ROLE':7} {'NMT':16} {'VENDOR':>10} {'PRODUCT':>10} {'REV':>10} "
+                f"{'SERIAL':>10}  NAME"
             )
         for f in found:
             h = lambda v: "-" if v is None else f"0x{v:08X}"  # noqa: E731

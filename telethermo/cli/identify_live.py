@@ -24,6 +24,7 @@ What it does, as a CANopen configuration tool would (every step by SDO, on any p
 The remote-node side (SDO by name, the PDO remapping, the stream, samples fetched again, the model load)
 is :mod:`telethermo.remote`; this module is the command's sequence and what it says.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,6 +43,7 @@ import numpy as np
 from telethermo.device.netconfig import NetworkConfig
 from telethermo.cli import common
 from telethermo.cli.identify_output import print_report
+from telethermo.cli.identify_record import check_record
 from telethermo.cli.progress import Progress
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, UserError
 from telethermo.control.types import Mode
@@ -60,8 +62,15 @@ from telethermo.remote.targets import Target, lookup, node_targets, resolve_node
 #: this may go unseen; one that disturbs a fit lasts longer)
 CONTACT_POLL_S = 0.1
 
-PLAN_KEYS = ("ident_seed", "ident_rest_samples", "ident_train_samples", "ident_validation_samples",
-             "ident_amplitude_min_A", "ident_amplitude_max_A", "ident_hold_samples")
+PLAN_KEYS = (
+    "ident_seed",
+    "ident_rest_samples",
+    "ident_train_samples",
+    "ident_validation_samples",
+    "ident_amplitude_min_A",
+    "ident_amplitude_max_A",
+    "ident_hold_samples",
+)
 
 
 @dataclass
@@ -88,8 +97,8 @@ def parse_amplitude(text: str) -> tuple[float, float]:
 
 
 def run_live(args: argparse.Namespace) -> int:
-    """``telethermo identify NODE``; SIGTERM (a kill, a batch system's stop) is handled like Ctrl-C: the node is
-    put back before the command ends."""
+    """``telethermo identify NODE``; SIGTERM (a kill, a batch system's stop) is handled like Ctrl-C: the
+    node is put back before the command ends."""
     if threading.current_thread() is not threading.main_thread():
         return _run_live(args)
 
@@ -112,16 +121,26 @@ def _settings(args: argparse.Namespace, target: Target) -> tuple[NarmaOrders, Id
     lo, hi = parse_amplitude(args.amplitude_A)
     n_val = args.validation if args.validation is not None else max(args.samples // 2, 1)
     try:
-        plan = IdentifyPlan(seed=args.seed, rest_samples=args.rest, train_samples=args.samples,
-                            validation_samples=n_val, amplitude_A=(lo, hi), hold_samples=args.hold)
+        plan = IdentifyPlan(
+            seed=args.seed,
+            rest_samples=args.rest,
+            train_samples=args.samples,
+            validation_samples=n_val,
+            amplitude_A=(lo, hi),
+            hold_samples=args.hold,
+        )
     except ValueError as exc:
         raise UserError(str(exc).replace("IdentifyPlan.", "plan: ")) from None
     if args.samples < 4 * orders.d + 200:
-        raise UserError(f"--samples must be at least {4 * orders.d + 200} for orders {args.orders}, got {args.samples}")
+        raise UserError(
+            f"--samples must be at least {4 * orders.d + 200} for orders {args.orders}, got {args.samples}"
+        )
     if orders.d > 48:
-        raise UserError(f"--orders {args.orders}: {orders.d} parameters; a node holds at most 48 (object 0x2310)")
+        raise UserError(
+            f"--orders {args.orders}: {orders.d} parameters; a node holds at most 48 (object 0x2310)"
+        )
     for key in PLAN_KEYS:
-        lookup(target, key)   # an EDS without the identification objects: say so before touching the node
+        lookup(target, key)  # an EDS without the identification objects: say so before touching the node
     out = Path(args.out) if args.out else None
     if out is not None and out.exists() and out.is_dir():
         raise UserError(f"--out {out}: is a directory; expected a file name")
@@ -153,27 +172,33 @@ def _run_live(args: argparse.Namespace) -> int:
                 _restore(changes)
 
 
-def _check_node(nw: canopen.Network, net: NetworkConfig, hb: HeartbeatWatch, target: Target,
-                args: argparse.Namespace) -> Changes:
+def _check_node(
+    nw: canopen.Network, net: NetworkConfig, hb: HeartbeatWatch, target: Target, args: argparse.Namespace
+) -> Changes:
     """The node runs on this bus, OPERATIONAL, not identifying already, its pad in air (or --force)."""
     if not hb.wait_for(lambda: target.node_id in hb.last, heartbeat_wait_s(net) + 1.0):
         raise Failure(f"{target.role} (node {target.node_id}) sends no heartbeat: is it running on this bus?")
     state = hb.state_name(target.node_id)
     if state != "OPERATIONAL":
-        raise Failure(f"{target.role} (node {target.node_id}) is {state}: identification runs on its SYNC "
-                      f"cycle (start it: telethermo nmt start {target.role})")
+        raise Failure(
+            f"{target.role} (node {target.node_id}) is {state}: identification runs on its SYNC "
+            f"cycle (start it: telethermo nmt start {target.role})"
+        )
     client = NodeClient(nw, target, args.timeout)
     mode0 = int(client.get("mode"))
     if mode0 == int(Mode.IDENTIFY):
         raise Failure(f"{target.role} is already in identify mode (another identification running?)")
     if int(client.get("contact")) and not args.force:
-        raise Failure(f"{target.role}: its pad is touched (contact = 1); identification needs a pad in air "
-                      "(lift the finger or the probe), or --force")
+        raise Failure(
+            f"{target.role}: its pad is touched (contact = 1); identification needs a pad in air "
+            "(lift the finger or the probe), or --force"
+        )
     return Changes(client, mode0)
 
 
-def _idle_peers(nw: canopen.Network, net: NetworkConfig, hb: HeartbeatWatch, changes: Changes,
-                timeout_s: float) -> None:
+def _idle_peers(
+    nw: canopen.Network, net: NetworkConfig, hb: HeartbeatWatch, changes: Changes, timeout_s: float
+) -> None:
     """A peer in telepresence goes idle while its partner runs a PRBS (put back by :func:`_restore`)."""
     for t in node_targets(net):
         if t.node_id != changes.client.t.node_id and t.node_id in hb.last:
@@ -185,7 +210,9 @@ def _idle_peers(nw: canopen.Network, net: NetworkConfig, hb: HeartbeatWatch, cha
             if pmode == int(Mode.TELEPRESENCE):
                 changes.peers.append((peer, pmode))
                 peer.set("mode", int(Mode.IDLE))
-                print(f"{t.role} (node {t.node_id}): telepresence -> idle for the experiment", file=sys.stderr)
+                print(
+                    f"{t.role} (node {t.node_id}): telepresence -> idle for the experiment", file=sys.stderr
+                )
 
 
 def _start_stream(nw: canopen.Network, changes: Changes, plan: IdentifyPlan) -> Stream:
@@ -204,24 +231,37 @@ def _start_stream(nw: canopen.Network, changes: Changes, plan: IdentifyPlan) -> 
     # only what this command needs from now on (in the kernel on SocketCAN): the stream, SDO responses,
     # heartbeats; a reader that also parsed every SYNC and PDO of a lockstep session falls behind on a slow
     # computer
-    nw.bus.set_filters([{"can_id": c, "can_mask": 0x7FF, "extended": False} for c in cobs] +
-                       [{"can_id": 0x580, "can_mask": 0x780, "extended": False},
-                        {"can_id": 0x700, "can_mask": 0x780, "extended": False}])
+    nw.bus.set_filters(
+        [{"can_id": c, "can_mask": 0x7FF, "extended": False} for c in cobs]
+        + [
+            {"can_id": 0x580, "can_mask": 0x780, "extended": False},
+            {"can_id": 0x700, "can_mask": 0x780, "extended": False},
+        ]
+    )
     for c in cobs:
         nw.subscribe(c, stream.on_frame)
     return stream
 
 
-def _experiment(nw: canopen.Network, client: NodeClient, plan: IdentifyPlan, stream: Stream,
-                args: argparse.Namespace, net: NetworkConfig) -> tuple[Record, dict]:
+def _experiment(
+    nw: canopen.Network,
+    client: NodeClient,
+    plan: IdentifyPlan,
+    stream: Stream,
+    args: argparse.Namespace,
+    net: NetworkConfig,
+) -> tuple[Record, dict]:
     """Run the plan in IDENTIFY mode and record it from the bus (lost samples fetched by SDO); the record
     and its provenance. Failure if samples are missing or the record is not of a free pad at full current."""
     period_s = net.sync.period_s
     lo, hi = plan.amplitude_A
-    print(f"identify {client.t.role} (node {client.t.node_id}): {plan.total} samples "
-          f"({plan.rest_samples} rest + {plan.train_samples} training + {plan.validation_samples} held-out, "
-          f"{lo:g}..{hi:g} A, {plan.hold_samples} samples per bit) at {period_s * 1e3:g} ms "
-          f"({plan.total * period_s:.0f} s in real time)", file=sys.stderr)
+    print(
+        f"identify {client.t.role} (node {client.t.node_id}): {plan.total} samples "
+        f"({plan.rest_samples} rest + {plan.train_samples} training + {plan.validation_samples} held-out, "
+        f"{lo:g}..{hi:g} A, {plan.hold_samples} samples per bit) at {period_s * 1e3:g} ms "
+        f"({plan.total * period_s:.0f} s in real time)",
+        file=sys.stderr,
+    )
     t0 = time.perf_counter()
     client.set("mode", int(Mode.IDENTIFY))
     touches = _wait(stream, client, plan, period_s, quiet=args.quiet)
@@ -229,19 +269,36 @@ def _experiment(nw: canopen.Network, client: NodeClient, plan: IdentifyPlan, str
     nw.bus.set_filters(None)
     fetched = fetch_lost(stream, client, plan, notice=_notice)
     if stream.missing() or stream.duplicates:
-        raise Failure(f"{stream.missing()} of {plan.total} samples missing and {stream.duplicates} "
-                      "values repeated on the bus; nothing fitted or loaded: run again")
+        raise Failure(
+            f"{stream.missing()} of {plan.total} samples missing and {stream.duplicates} "
+            "values repeated on the bus; nothing fitted or loaded: run again"
+        )
     guard = int(client.get("ident_guard"))
     start_cycle = int(client.get("ident_start_cycle"))
-    _check_record(stream, client, plan, touches, period_s, force=args.force)
-    print("identify: fitting (least squares, output-error refinement, stability check) ...", file=sys.stderr,
-          flush=True)
-    rec = Record(t_s=np.arange(plan.total) * period_s, current_A=stream.I_A.copy(), T_C=stream.T_C.copy(),
-                 Q_W=stream.Q_W.copy(), T_sink_C=np.full(plan.total, np.nan),
-                 Q_true_W=np.full(plan.total, np.nan), guard_interventions=guard)
-    meta = {"rig": "live node", "node": client.t.role, "node_id": client.t.node_id,
-            "bus": common.transport(args, net).describe(), "start_cycle": start_cycle,
-            "samples_fetched_by_sdo": fetched, "experiment_wall_s": t_exp}
+    check_record(stream, client, plan, touches, period_s, force=args.force)
+    print(
+        "identify: fitting (least squares, output-error refinement, stability check) ...",
+        file=sys.stderr,
+        flush=True,
+    )
+    rec = Record(
+        t_s=np.arange(plan.total) * period_s,
+        current_A=stream.I_A.copy(),
+        T_C=stream.T_C.copy(),
+        Q_W=stream.Q_W.copy(),
+        T_sink_C=np.full(plan.total, np.nan),
+        Q_true_W=np.full(plan.total, np.nan),
+        guard_interventions=guard,
+    )
+    meta = {
+        "rig": "live node",
+        "node": client.t.role,
+        "node_id": client.t.node_id,
+        "bus": common.transport(args, net).describe(),
+        "start_cycle": start_cycle,
+        "samples_fetched_by_sdo": fetched,
+        "experiment_wall_s": t_exp,
+    }
     return rec, meta
 
 
@@ -249,32 +306,58 @@ def _notice(text: str) -> None:
     print(f"identify: {text}", file=sys.stderr, flush=True)
 
 
-def _fit_and_load(args: argparse.Namespace, client: NodeClient, plan: IdentifyPlan, orders: NarmaOrders,
-                  rec: Record, meta: dict, out: Path | None, period_s: float) -> int:
+def _fit_and_load(
+    args: argparse.Namespace,
+    client: NodeClient,
+    plan: IdentifyPlan,
+    orders: NarmaOrders,
+    rec: Record,
+    meta: dict,
+    out: Path | None,
+    period_s: float,
+) -> int:
     """Fit and validate the models on the record (the node holds 0 A in IDENTIFY, its plan done), report,
     write what was asked, and load the model into the node while it still holds 0 A there."""
     t = client.t
     t_exp = meta.pop("experiment_wall_s")
-    settings = ExperimentSettings(rest_samples=plan.rest_samples, amplitude_A=plan.amplitude_A,
-                                  hold_samples=plan.hold_samples)
+    settings = ExperimentSettings(
+        rest_samples=plan.rest_samples, amplitude_A=plan.amplitude_A, hold_samples=plan.hold_samples
+    )
     try:
-        tem, rep = fit_experiment(rec, plan=plan, orders=orders, period_s=period_s, settings=settings,
-                                  method=args.method, meta=meta, keep_record=bool(args.plot),
-                                  source="telethermo identify (live node)")
+        tem, rep = fit_experiment(
+            rec,
+            plan=plan,
+            orders=orders,
+            period_s=period_s,
+            settings=settings,
+            method=args.method,
+            meta=meta,
+            keep_record=bool(args.plot),
+            source="telethermo identify (live node)",
+        )
     except UnstableModelError as exc:
-        print(f"telethermo identify: {exc}; no model written or loaded (a longer experiment, --samples 10000 "
-              "or more, or lower orders give a better-determined model)", file=sys.stderr)
+        print(
+            f"telethermo identify: {exc}; no model written or loaded (a longer experiment, --samples 10000 "
+            "or more, or lower orders give a better-determined model)",
+            file=sys.stderr,
+        )
         return EXIT_FAIL
     rep["experiment_wall_s"] = t_exp
     rep["samples_fetched_by_sdo"] = meta["samples_fetched_by_sdo"]
     if args.save_data:
-        path = save_record_csv(args.save_data, rec, plan, comments={**meta, "plan": plan.as_dict(),
-                                                                    "guard_interventions": rec.guard_interventions})
+        path = save_record_csv(
+            args.save_data,
+            rec,
+            plan,
+            comments={**meta, "plan": plan.as_dict(), "guard_interventions": rec.guard_interventions},
+        )
         print(f"samples written: {path}", file=sys.stderr)
     print_report(rep, tem, (t.role,) if t.role in ("master", "slave") else ("master", "slave"))
     if not rep["stable"]:
-        print(f"telethermo identify: model refused ({rep['stability_reason']}); nothing written or loaded",
-              file=sys.stderr)
+        print(
+            f"telethermo identify: model refused ({rep['stability_reason']}); nothing written or loaded",
+            file=sys.stderr,
+        )
         return EXIT_FAIL
     if out is not None:
         save_model(out, tem)
@@ -306,57 +389,9 @@ def _sigint_deferred():
             raise KeyboardInterrupt
 
 
-def contact_spans(polls: list[tuple[int, bool]]) -> list[tuple[int, int]]:
-    """The (first, last) sample numbers of each run of contact among ``polls`` (sample number reached when the
-    contact flag was read, flag), in the order read."""
-    spans: list[tuple[int, int]] = []
-    start = last = None
-    for k, flag in polls + [(0, False)]:
-        if flag:
-            start = k if start is None else start
-            last = k
-        elif start is not None:
-            spans.append((start, last))
-            start = None
-    return spans
-
-
-def contact_reason(spans: list[tuple[int, int]], period_s: float) -> str:
-    """``contact at 12.3-14.1 s`` (and the next runs, at most three) of the experiment: sample k at
-    (k-1)·period."""
-    def at(a: int, b: int) -> str:
-        ta, tb = max(a - 1, 0) * period_s, max(b - 1, 0) * period_s
-        return f"{ta:.1f} s" if round(ta, 1) == round(tb, 1) else f"{ta:.1f}-{tb:.1f} s"
-    text = ", ".join(at(a, b) for a, b in spans[:3])
-    more = f" and {len(spans) - 3} more" if len(spans) > 3 else ""
-    return f"contact at {text}{more} of the experiment"
-
-
-def _check_record(stream: Stream, client: NodeClient, plan: IdentifyPlan, touches: list[tuple[int, bool]],
-                  period_s: float, *, force: bool) -> None:
-    """Refuse a record the envelope cut or a touch disturbed (Failure): the node's safety state, the contact
-    flag read throughout the experiment (``touches``) and now, and the recorded currents against the plan (a
-    planned non-zero current recorded as 0 A is a cut)."""
-    st, trip = int(client.get("safety_state")), int(client.get("last_trip_code"))
-    planned = plan.currents()
-    cut = int(np.sum((planned != 0.0) & (stream.I_A == 0.0)))
-    if st == 3 or cut:
-        raise Failure(f"{client.t.role}: the safety envelope cut the current during the experiment ({cut} samples "
-                      f"at 0 A instead of the plan's; safety state {st}, last trip 0x{trip:04X}); nothing fitted "
-                      "or loaded (see telethermo status; telethermo fault-reset once the cause is gone)")
-    spans = contact_spans(touches + [(plan.total, bool(int(client.get("contact"))))])
-    if not spans:
-        return
-    reason = contact_reason(spans, period_s)
-    if force:
-        print(f"telethermo identify: {client.t.role}: {reason}; fitted anyway (--force)", file=sys.stderr)
-        return
-    raise Failure(f"{client.t.role}: {reason}: the fit needs a free pad; lift the probe and run again "
-                  "(nothing fitted or loaded)")
-
-
-def _wait(stream: Stream, client: NodeClient, plan: IdentifyPlan, period_s: float, *,
-          quiet: bool) -> list[tuple[int, bool]]:
+def _wait(
+    stream: Stream, client: NodeClient, plan: IdentifyPlan, period_s: float, *, quiet: bool
+) -> list[tuple[int, bool]]:
     """Until every sample arrived, or the node says the experiment is done (samples lost on the bus are
     fetched afterwards); Failure if the node stops running it or interrupts it. Returns the contact flag read
     every :data:`CONTACT_POLL_S` meanwhile: (the sample number then reached, flag)."""
@@ -384,14 +419,18 @@ def _wait(stream: Stream, client: NodeClient, plan: IdentifyPlan, period_s: floa
             last_poll = now
             st = int(client.get("ident_state"))
             if st == 2 and now - last_t > 0.5:
-                return touches   # done, its last frames lost: fetched by SDO
+                return touches  # done, its last frames lost: fetched by SDO
             if st == 3 or (st == 0 and now - last_t > stall_s):
                 mode = int(client.get("mode"))
-                raise Failure(f"{client.t.role}: the experiment was interrupted (ident_state "
-                              f"{IDENT_STATE_NAMES.get(st, st)}, mode {mode}) after {top} of {plan.total} samples")
+                raise Failure(
+                    f"{client.t.role}: the experiment was interrupted (ident_state "
+                    f"{IDENT_STATE_NAMES.get(st, st)}, mode {mode}) after {top} of {plan.total} samples"
+                )
         if now - last_t > stall_s:
-            raise Failure(f"{client.t.role}: no identification sample for {stall_s:.0f} s after {top} of "
-                          f"{plan.total} (is the SYNC producer running?)")
+            raise Failure(
+                f"{client.t.role}: no identification sample for {stall_s:.0f} s after {top} of "
+                f"{plan.total} (is the SYNC producer running?)"
+            )
 
 
 def _restore(changes: Changes) -> None:
@@ -417,5 +456,7 @@ def _restore(changes: Changes) -> None:
     for peer, pmode in changes.peers:
         attempt(f"{peer.t.role} mode", peer.set, "mode", pmode)
     for p in problems:
-        print(f"telethermo identify: could not restore {p} (NMT reset node restores the power-on settings)",
-              file=sys.stderr)
+        print(
+            f"telethermo identify: could not restore {p} (NMT reset node restores the power-on settings)",
+            file=sys.stderr,
+        )

@@ -45,13 +45,16 @@ def print_report(rep: dict, model=None, roles: tuple[str, ...] = ()) -> None:
         f"held-out free run         worst {rep['heldout_free_run_max_C']:.4f} °C, "
         f"rms {rep['heldout_free_run_rms_C']:.4f} °C",
         f"held-out one-step         worst {rep['heldout_one_step_max_C']:.4f} °C",
-        f"heat flux (held-out)      worst {rep['flux_heldout_max_W']:.4f} W, rms {rep['flux_heldout_rms_W']:.4f} W"
+        f"heat flux (held-out)      worst {rep['flux_heldout_max_W']:.4f} W, "
+        f"rms {rep['flux_heldout_rms_W']:.4f} W"
         f"{' (with current terms)' if rep['flux_with_current'] else ''}",
         f"stability                 {'stable' if rep['stable'] else 'UNSTABLE: ' + rep['stability_reason']}, "
         f"max local pole |z| = {rep['max_pole_modulus']:.6f}",
         f"safety guard              {rep['guard_interventions']} interventions; T {rep['T_range_C'][0]:.2f}.."
-        f"{rep['T_range_C'][1]:.2f} °C, I {rep['current_range_A'][0]:+.2f}..{rep['current_range_A'][1]:+.2f} A",
-        f"time                      experiment {rep['experiment_wall_s']:.2f} s, fit {rep['fit_wall_s']:.2f} s",
+        f"{rep['T_range_C'][1]:.2f} °C, "
+        f"I {rep['current_range_A'][0]:+.2f}..{rep['current_range_A'][1]:+.2f} A",
+        f"time                      experiment {rep['experiment_wall_s']:.2f} s, "
+        f"fit {rep['fit_wall_s']:.2f} s",
     ]
     if "capacity_points" in rep:
         lines.append(

@@ -9,7 +9,8 @@ a callable taking the parsed args and returning an exit code). So ``--help``, ``
 and one broken subcommand module cannot break the others.
 
 Exit codes (stable, for scripts): 0 ok, 1 runtime failure (e.g. a node did not answer, SDO abort),
-2 usage or input error (bad argument, bad file), 130 interrupted (Ctrl-C; `record` ends normally on Ctrl-C: 0).
+2 usage or input error (bad argument, bad file), 130 interrupted (Ctrl-C; `record` ends normally on
+Ctrl-C: 0).
 """
 
 from __future__ import annotations

@@ -118,7 +118,8 @@ def run(args: argparse.Namespace) -> int:
                     raise
                 absent.add(t.node_id)
                 print(
-                    f"{t.role} (node {t.node_id}): not answering, so not set to idle (the master renders alone)"
+                    f"{t.role} (node {t.node_id}): not answering, so not set to idle "
+                    "(the master renders alone)"
                 )
         wanted = {
             t.node_id: (t, v) for t, info, v in planned if info.key == "mode" and t.node_id not in absent

@@ -11,8 +11,9 @@ with one line saying what is wrong and how to fix it (exit 1). NODE's heartbeat 
 consumer watches (0x1016), as in the session.
 
 With every step passed it prints the figures (exit 0); ``--store`` then saves NODE's parameters
-(``telethermo save NODE``, CiA 301 0x1010; NODE up without producing SYNC: ``--no-sync``, no ``--rig io``). The rig's own settings are the RIG.toml, written into the
-modules by the driver at each start: the check has nothing of its own to store on the node.
+(``telethermo save NODE``, CiA 301 0x1010; NODE up without producing SYNC: ``--no-sync``, no
+``--rig io``). The rig's own settings are the RIG.toml, written into the modules by the driver at each
+start: the check has nothing of its own to store on the node.
 
 Run it with no controller driving the modules (no other SYNC producer on the bus).
 """

@@ -10,6 +10,7 @@ recording). Then it merges the two recordings (plus the scene's direct-touch ref
 figures (the same as the offline runner's) and writes into ``--out``: ``recording.csv``,
 ``summary.json``, ``session.png``, and each node's ``master.csv``/``slave.csv`` and logs.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -27,6 +28,7 @@ from telethermo.atomic import write_json_atomic
 from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
 from telethermo.cli.progress import Progress
+from telethermo.cli.session_summary import print_summary
 from telethermo.control.gainsfile import load_gains
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
@@ -39,25 +41,50 @@ from telethermo.transport.resolve import resolve_bus
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("session", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "session", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--scene", required=True, type=Path, help="scene file (TOML) or a shipped scene's name")
-    p.add_argument("--out", type=Path, default=Path("out/session"), help="output folder (default out/session)")
-    add_bus_arguments(p).description += (". A session's bus joins two processes: when none is configured (or "
-                                          "only network.toml's in-process virtual bus), the session starts our "
-                                          "loopback hub")
-    p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
-    p.add_argument("--model", type=Path, help="identified TEM model file for both nodes (default: none; the flux "
-                                              "estimator needs none)")
-    p.add_argument("--gains", type=Path, help="tuned gains file of `telethermo tune --out` for both nodes "
-                                              "(default: the shipped gains)")
-    p.add_argument("--timing", choices=["lockstep", "realtime"], default="lockstep",
-                   help="lockstep (default: as fast as the two processes go) or realtime (wall clock)")
-    p.add_argument("--duration", type=float, metavar="S", help="run S seconds of scene time (default: the scene's)")
-    p.add_argument("--seed", type=int, default=0, help="noise seed (master; the slave gets seed+1; default 0)")
-    p.add_argument("--io", action="store_true",
-                   help="each side's rig behind a simulated CiA 401 I/O module (telethermo-iomodule, its "
-                        "own process); the controllers drive them with --rig io and the packaged RIG.toml: "
-                        "four nodes")
+    p.add_argument(
+        "--out", type=Path, default=Path("out/session"), help="output folder (default out/session)"
+    )
+    add_bus_arguments(p).description += (
+        ". A session's bus joins two processes: when none is configured (or "
+        "only network.toml's in-process virtual bus), the session starts our "
+        "loopback hub"
+    )
+    p.add_argument(
+        "--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)"
+    )
+    p.add_argument(
+        "--model",
+        type=Path,
+        help="identified TEM model file for both nodes (default: none; the flux estimator needs none)",
+    )
+    p.add_argument(
+        "--gains",
+        type=Path,
+        help="tuned gains file of `telethermo tune --out` for both nodes (default: the shipped gains)",
+    )
+    p.add_argument(
+        "--timing",
+        choices=["lockstep", "realtime"],
+        default="lockstep",
+        help="lockstep (default: as fast as the two processes go) or realtime (wall clock)",
+    )
+    p.add_argument(
+        "--duration", type=float, metavar="S", help="run S seconds of scene time (default: the scene's)"
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, help="noise seed (master; the slave gets seed+1; default 0)"
+    )
+    p.add_argument(
+        "--io",
+        action="store_true",
+        help="each side's rig behind a simulated CiA 401 I/O module (telethermo-iomodule, its "
+        "own process); the controllers drive them with --rig io and the packaged RIG.toml: "
+        "four nodes",
+    )
     p.add_argument("--no-plot", action="store_true", help="do not write session.png")
     p.add_argument("--quiet", action="store_true", help="no progress display")
     p.set_defaults(func=run)
@@ -81,16 +108,24 @@ def _session_bus(args: argparse.Namespace) -> str | None:
     network.toml's in-process virtual bus)."""
     try:
         net = load_network(args.network)
-        rb = resolve_bus(net, bus=args.bus, interface=args.interface, channel=args.channel, bitrate=args.bitrate,
-                         use_published=False)
+        rb = resolve_bus(
+            net,
+            bus=args.bus,
+            interface=args.interface,
+            channel=args.channel,
+            bitrate=args.bitrate,
+            use_published=False,
+        )
     except (NetworkConfigError, TransportError) as exc:
         raise UserError(str(exc)) from None
     if rb.settings.interface != "virtual":
         return rb.settings.describe()
     if rb.source == str(net.path):
         return None
-    raise UserError(f"{rb.settings.describe()} (from {rb.source}) exists inside one process only; the session's "
-                    "two node processes need socketcan, socketcand or no bus setting (then our hub)")
+    raise UserError(
+        f"{rb.settings.describe()} (from {rb.source}) exists inside one process only; the session's "
+        "two node processes need socketcan, socketcand or no bus setting (then our hub)"
+    )
 
 
 def _checked_files(args: argparse.Namespace) -> list[str]:
@@ -114,15 +149,22 @@ def _mode(args: argparse.Namespace, scene, scene_path: Path) -> str:
     rendering script from the scene, which a --rig io node does not load), else telepresence."""
     mode = "render" if getattr(scene, "kind", "") == "virtual" else "telepresence"
     if args.io and mode == "render":
-        raise UserError(f"--io: {scene_path}: a virtual (render) scene; --io runs telepresence scenes (the "
-                        "master renders from the scene's script only with its own simulated rig)")
+        raise UserError(
+            f"--io: {scene_path}: a virtual (render) scene; --io runs telepresence scenes (the "
+            "master renders from the scene's script only with its own simulated rig)"
+        )
     return mode
 
 
 def _print_modules(pair: NodePair) -> None:
     if pair.modules:
-        print("I/O modules: " + ", ".join(f"{r} node {m.node_id} (pid {m.proc.pid if m.proc else '-'})"
-                                          for r, m in pair.modules.items()), file=sys.stderr)
+        print(
+            "I/O modules: "
+            + ", ".join(
+                f"{r} node {m.node_id} (pid {m.proc.pid if m.proc else '-'})" for r, m in pair.modules.items()
+            ),
+            file=sys.stderr,
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -137,10 +179,21 @@ def run(args: argparse.Namespace) -> int:
     out = args.out
     out.mkdir(parents=True, exist_ok=True)
     mode = _mode(args, scene, scene_path)
-    cfg = PairConfig(scene=scene_path, out_dir=out, bus=bus, network=args.network, model=args.model,
-                     mode=mode, timing=args.timing, cycles=cycles, seed=args.seed,
-                     progress_every=max(1, cycles // 100), master_args=gains_args, slave_args=gains_args,
-                     io=args.io)
+    cfg = PairConfig(
+        scene=scene_path,
+        out_dir=out,
+        bus=bus,
+        network=args.network,
+        model=args.model,
+        mode=mode,
+        timing=args.timing,
+        cycles=cycles,
+        seed=args.seed,
+        progress_every=max(1, cycles // 100),
+        master_args=gains_args,
+        slave_args=gains_args,
+        io=args.io,
+    )
     pair = NodePair(cfg)
     interrupted = published = False
     bar = None
@@ -153,35 +206,18 @@ def run(args: argparse.Namespace) -> int:
         except LaunchError as exc:
             print(f"telethermo session: error: {exc}", file=sys.stderr)
             return EXIT_FAIL
-        # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag, unless
-        # a hub (or another session) published first: that one stays findable, during and after this session
-        try:
-            other = publish_if_absent(pair.bus, "telethermo session")
-            published = other is None
-            if other is not None:
-                print(f"telethermo session: {other.by} (pid {other.pid}) stays the bus other terminals find "
-                      f"({other.bus}); this session's nodes: --bus {pair.bus}", file=sys.stderr)
-        except OSError as exc:
-            print(f"telethermo session: warning: cannot publish the bus ({exc}); other terminals need --bus {pair.bus}",
-                  file=sys.stderr)
+        published = _publish(pair)
         where = pair.bus if bus else f"{pair.bus} (our hub, pid {pair.hub.proc.pid})"
         if not args.quiet:
             _print_modules(pair)
-            print(f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, {args.timing}, "
-                  f"on {where}", file=sys.stderr)
+            print(
+                f"session {scene.name} ({mode}): {cycles} cycles of {scene.period_s * 1e3:g} ms, "
+                f"{args.timing}, on {where}",
+                file=sys.stderr,
+            )
         if not args.quiet:
             bar = Progress("session", cycles, unit="cycles")
-        while pair.master.poll() is None:
-            time.sleep(0.2)
-            if bar is not None:
-                k, n = pair.progress
-                bar.update(k, n or cycles, rate=k / max(1e-9, time.monotonic() - t0))
-            if pair.slave is not None and pair.slave.poll() is not None and pair.master.poll() is None:
-                if bar is not None:
-                    bar.close()
-                print(f"telethermo session: the slave process ended (exit {pair.slave.returncode}); "
-                      f"see {pair.log('slave')}", file=sys.stderr)
-                break
+        _wait(pair, bar, cycles, t0)
     except KeyboardInterrupt:
         interrupted = True
         if bar is not None:
@@ -200,8 +236,15 @@ def run(args: argparse.Namespace) -> int:
     failed = {r: c for r, c in codes.items() if r in ("master", "slave") and c not in (0, None)}
     if failed:
         print(f"telethermo session: node exit codes {failed}; logs in {out}", file=sys.stderr)
-    return _report(pair, scene, out, wall, cycles, plot=not args.no_plot,
-                   code=EXIT_INTERRUPTED if interrupted else (EXIT_FAIL if failed else EXIT_OK))
+    return _report(
+        pair,
+        scene,
+        out,
+        wall,
+        cycles,
+        plot=not args.no_plot,
+        code=EXIT_INTERRUPTED if interrupted else (EXIT_FAIL if failed else EXIT_OK),
+    )
 
 
 def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, code: int) -> int:
@@ -212,18 +255,23 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
         return code or EXIT_FAIL
     try:
         rec = merge_recordings(m, s, scene=scene)
-        for mod in pair.modules.values():   # --io: the plant's truth is in the modules' processes
+        for mod in pair.modules.values():  # --io: the plant's truth is in the modules' processes
             fill_truth(rec, mod.truth_path)
             rec.meta.setdefault("scene", scene.name)
     except (MergeError, RecordingError, ValueError, OSError) as exc:
         print(f"telethermo session: error: {exc}", file=sys.stderr)
         return code or EXIT_FAIL
     figures = compute_figures(rec)
-    run = SessionRun(transport=pair.bus.split("://")[0] if pair.bus else None, wall_time_s=wall_s,
-                     cycles=len(rec), cycles_requested=cycles,
-                     cycles_per_s=len(rec) / wall_s if wall_s > 0 else None, complete=len(rec) == cycles,
-                     master=pair.result,
-                     io_modules={r: mod.node_id for r, mod in pair.modules.items()} or None)
+    run = SessionRun(
+        transport=pair.bus.split("://")[0] if pair.bus else None,
+        wall_time_s=wall_s,
+        cycles=len(rec),
+        cycles_requested=cycles,
+        cycles_per_s=len(rec) / wall_s if wall_s > 0 else None,
+        complete=len(rec) == cycles,
+        master=pair.result,
+        io_modules={r: mod.node_id for r, mod in pair.modules.items()} or None,
+    )
     figures["run"] = run.to_dict()
     write_recording_csv(out / "recording.csv", rec)
     write_json_atomic(out / "summary.json", figures)
@@ -232,80 +280,49 @@ def _report(pair, scene, out: Path, wall_s: float, cycles: int, *, plot: bool, c
             write_session_png(out / "session.png", rec)
         except ImportError as exc:  # matplotlib is the optional 'plot' extra
             print(f"telethermo session: no plot ({exc})", file=sys.stderr)
-    print_summary(figures, run)
-    print(f"\nwritten: {out / 'recording.csv'}, {out / 'summary.json'}" + (f", {out / 'session.png'}" if plot else ""))
+    print_summary(figures)
+    print(
+        f"\nwritten: {out / 'recording.csv'}, {out / 'summary.json'}"
+        + (f", {out / 'session.png'}" if plot else "")
+    )
     return code
 
 
-def print_summary(fig: dict, run: SessionRun | None = None) -> None:
-    """The figures as a table (telepresence: transparency per touch, tracking, discrimination, safety);
-    ``run``: the session's run block (default: the figures' ``run``, if any)."""
-    def f(x, unit=""):
-        return "n/a" if x is None or (isinstance(x, float) and not math.isfinite(x)) else f"{x:.3f}{unit}"
-
-    if run is None and fig.get("run") is not None:
-        run = SessionRun.from_dict(fig["run"], "summary: run")
-    wall_s = run.wall_time_s if run is not None else 0
-    print(f"session {fig.get('scene')}: {fig.get('n_steps')} cycles ({fig.get('duration_s', 0):.2f} s of scene time) "
-          f"in {wall_s:.1f} s wall, start-up included")
-    res = run.master if run is not None else None
-    if res is not None and res.cycles_per_s:
-        print(f"SYNC producer ({res.timing}): {res.cycles_per_s:,.0f} cycles/s, {res.late_cycles} late, "
-              f"{res.lockstep_timeouts} lockstep timeouts, SYNC->TPDO p50 {f(res.sync_to_tpdo_ms_p50, ' ms')}"
-              f" p99 {f(res.sync_to_tpdo_ms_p99, ' ms')}")
-    tr = fig.get("transparency")
-    if tr:
-        rows = [["touch", "object", "t_on s", "pre °C", "early 0-1 s °C", "0.1-1 s °C", "late °C", "window °C",
-                 "cue J", "direct cue J", "skin 1 s °C", "direct 1 s °C"]]
-        for i, p in enumerate(tr["per_touch"], 1):
-            rows.append([str(i), p["object"], f(p["t_on_s"]), f(p["pre_C"]), f(p["early_C"]), f(p["early01_C"]),
-                         f(p["late_C"]), f(p["window_C"]), f(p["cue_J"]), f(p["direct_cue_J"]), f(p["dskin_C"]),
-                         f(p["direct_dskin_C"])])
-        _table(rows)
-        print(f"transparency (|skin - direct-touch skin|): headline {f(tr['headline_error_C'], ' °C')} over "
-              f"t_on-0.5..t_on+1 s; pre-contact {f(tr['pre_contact_mean_error_C'], ' °C')}, early "
-              f"{f(tr['early_mean_error_C'], ' °C')}, late {f(tr['late_mean_error_C'], ' °C')}")
-    osc = fig.get("oscillation")
-    if osc:
-        verdict = "OSCILLATING" if osc["oscillating"] else "no oscillation"
-        print(f"oscillation in settled contact ({osc['band_Hz'][0]:g}-{osc['band_Hz'][1]:g} Hz): {verdict}: worst "
-              f"skin/direct-touch ratio {f(osc['worst_ratio'])} (limit {osc['limit']:g}), skin "
-              f"{f(osc['skin_band_rms_max_C'], ' °C')} RMS, current {f(osc['current_band_rms_max_A'], ' A')} RMS")
-    cue = fig.get("discrimination_cue")
-    if cue:
-        print(f"material cue (heat drawn in the first second): cue order (ours) kept the direct-touch order "
-              f"{' > '.join(cue['direct_order_most_heat_first'])}: {_yes(cue['order_kept'])}, smallest contrast ratio "
-              f"{f(cue['contrast_ratio_min'])}")
-    rnd = fig.get("render")
-    if rnd:
-        rows = [["touch", "material", "beta", "T_contact eq.1 °C", "rendered early °C", "error °C"]]
-        for i, p in enumerate(rnd["per_touch"], 1):
-            rows.append([str(i), str(p["material"]), f(p.get("beta")), f(p["T_contact_eq1_C"]),
-                         f(p["rendered_early_mean_C"]), f(p["early_mean_error_C"])])
-        _table(rows)
-        print(f"render: largest |mean error| {f(rnd.get('max_abs_mean_error_C'), ' °C')}")
-    trk = fig.get("tracking")
-    if trk:
-        print(f"tracking RMS in steady contact (internal: each controller vs its own estimate): master "
-              f"{f(trk.get('master_rms_C'), ' °C')}, slave {f(trk.get('slave_rms_C'), ' °C')}")
-    d = fig.get("discrimination")
-    if d:
-        print(f"rendered early temperature per material (0.1-1 s, mean over its touches; follows the finger's "
-              f"history): rendered order {' < '.join(d['rendered_order_coldest_first'])} kept the direct-touch "
-              f"temperature order {' < '.join(d['reference_order_coldest_first'])} with margins > 0: "
-              f"{_yes(d['order_kept'])}, min margin {f(d['min_margin_C'], ' °C')} (threshold {d['threshold_C']} °C)")
-    sfy = fig.get("safety", {})
-    if sfy:
-        print(f"safety: {sfy.get('n_trips', 0)} trips; time cut {sfy.get('time_cut_s')}")
+def _publish(pair: NodePair) -> bool:
+    """Publish the session's bus for other terminals unless one is published; True if we did."""
+    # a second terminal's `telethermo status` / `monitor` finds this session's bus with no flag, unless
+    # a hub (or another session) published first: that one stays findable, during and after this session
+    try:
+        other = publish_if_absent(pair.bus, "telethermo session")
+        if other is not None:
+            print(
+                f"telethermo session: {other.by} (pid {other.pid}) stays the bus other terminals find "
+                f"({other.bus}); this session's nodes: --bus {pair.bus}",
+                file=sys.stderr,
+            )
+        return other is None
+    except OSError as exc:
+        print(
+            f"telethermo session: warning: cannot publish the bus ({exc}); "
+            f"other terminals need --bus {pair.bus}",
+            file=sys.stderr,
+        )
+        return False
 
 
-def _yes(flag) -> str:
-    return "yes" if flag else "no"
-
-
-def _table(rows: list[list[str]]) -> None:
-    widths = [max(len(r[i]) for r in rows) for i in range(len(rows[0]))]
-    for j, r in enumerate(rows):
-        print("  ".join(c.rjust(w) for c, w in zip(r, widths)))
-        if j == 0:
-            print("  ".join("-" * w for w in widths))
+def _wait(pair: NodePair, bar: Progress | None, cycles: int, t0: float) -> None:
+    """Until the master ends (or the slave ends first), updating the progress bar; ``t0``: monotonic s."""
+    while pair.master.poll() is None:
+        time.sleep(0.2)
+        if bar is not None:
+            k, n = pair.progress
+            bar.update(k, n or cycles, rate=k / max(1e-9, time.monotonic() - t0))
+        if pair.slave is not None and pair.slave.poll() is not None and pair.master.poll() is None:
+            if bar is not None:
+                bar.close()
+            print(
+                f"telethermo session: the slave process ended (exit {pair.slave.returncode}); "
+                f"see {pair.log('slave')}",
+                file=sys.stderr,
+            )
+            break

@@ -12,6 +12,7 @@ the run's full record (every evaluation; ``python -m bench.tune`` puts it into b
 Each evaluation costs one offline session per scene (≈ 1 s each for 30 s of scene on this VM).
 The tuner itself is :mod:`telethermo.tuning`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -28,46 +29,116 @@ from telethermo.cli.main import EXIT_OK, EXIT_USAGE, UserError
 
 
 def register(subparsers) -> None:
-    p = subparsers.add_parser("tune", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = subparsers.add_parser(
+        "tune", description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
+    )
     p.add_argument("--scene", required=True, help="telepresence scene: a TOML file or a shipped scene's name")
-    p.add_argument("--budget", type=int, default=60,
-                   help="search points (default 60; each costs 3 evaluations: the point and its two stress corners; "
-                        "the robustness check adds (2·gains + corners)·(candidates + 1) more)")
+    p.add_argument(
+        "--budget",
+        type=int,
+        default=60,
+        help="search points (default 60; each costs 3 evaluations: the point and its two stress corners; "
+        "the robustness check adds (2·gains + corners)·(candidates + 1) more)",
+    )
     p.add_argument("--out", type=Path, help="write the tuned gains here (JSON, atomic)")
-    p.add_argument("--method", choices=["nelder-mead", "de"], default="nelder-mead",
-                   help="bounded Nelder-Mead from the shipped gains (default) or differential evolution")
-    p.add_argument("--seed", type=int, default=0, help="seed of the sessions' noise and of the optimiser (default 0)")
-    p.add_argument("--start", type=Path, metavar="GAINS.json",
-                   help="start the search from a gains file (e.g. an earlier --out; default: the shipped gains)")
-    p.add_argument("--candidates", type=int, default=3, help="distinct best points checked for robustness (default 3)")
-    p.add_argument("--rel", type=float, default=0.3, help="relative half-width of the robustness box (default 0.3)")
-    p.add_argument("--corners", type=int, default=4, help="random corners of the box checked (default 4)")
-    p.add_argument("--stress", type=float, metavar="REL",
-                   help="relative size of the stress corners the search minimises over (default: --rel; 0: the "
-                        "centre alone)")
-    p.add_argument("--duration", type=float, metavar="S", help="run S seconds of each scene (default: the scene's)")
-    w = tn.Weights()
-    p.add_argument("--w-early", type=float, default=w.early_per_C, metavar="W",
-                   help=f"weight of the transparency early mean error, 1/°C (default {w.early_per_C:g})")
-    p.add_argument("--w-late", type=float, default=w.late_per_C, metavar="W",
-                   help=f"weight of the transparency late mean error, 1/°C (default {w.late_per_C:g})")
-    p.add_argument("--w-tracking", type=float, default=w.tracking_per_C, metavar="W",
-                   help=f"weight of the steady tracking RMS, 1/°C (default {w.tracking_per_C:g})")
-    p.add_argument("--w-margin", type=float, default=w.margin_per_C, metavar="W",
-                   help=f"weight of the discrimination margin shortfall, 1/°C (default {w.margin_per_C:g})")
-    p.add_argument("--w-limit", type=float, default=w.limit_per_s, metavar="W",
-                   help=f"weight of the time at envelope limits, 1/s (default {w.limit_per_s:g})")
+    p.add_argument(
+        "--method",
+        choices=["nelder-mead", "de"],
+        default="nelder-mead",
+        help="bounded Nelder-Mead from the shipped gains (default) or differential evolution",
+    )
+    p.add_argument(
+        "--seed", type=int, default=0, help="seed of the sessions' noise and of the optimiser (default 0)"
+    )
+    p.add_argument(
+        "--start",
+        type=Path,
+        metavar="GAINS.json",
+        help="start the search from a gains file (e.g. an earlier --out; default: the shipped gains)",
+    )
+    _add_robustness_args(p)
+    p.add_argument(
+        "--duration", type=float, metavar="S", help="run S seconds of each scene (default: the scene's)"
+    )
+    _add_weight_args(p)
     p.add_argument("--no-perturbed", action="store_true", help="tune on the scene alone (not recommended)")
-    p.add_argument("--envelope", type=int, default=0, metavar="N",
-                   help="also average over N scenes drawn across the operating envelope (room 15-32 °C, objects "
-                        "5-50 °C, force 0.5-20 N, finger ±30 %%, noise ×1-3; the shipped TEM: other modules get "
-                        "these gains through the gain rule after identify). Seeded apart from the envelope "
-                        "benchmark's evaluation draws")
-    p.add_argument("--record", type=Path, metavar="RUN.json",
-                   help="also write the run's full record here (every evaluation, the candidates, the sensitivity "
-                        "tables; JSON, atomic)")
+    p.add_argument(
+        "--envelope",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also average over N scenes drawn across the operating envelope (room 15-32 °C, objects "
+        "5-50 °C, force 0.5-20 N, finger ±30 %%, noise ×1-3; the shipped TEM: other modules get "
+        "these gains through the gain rule after identify). Seeded apart from the envelope "
+        "benchmark's evaluation draws",
+    )
+    p.add_argument(
+        "--record",
+        type=Path,
+        metavar="RUN.json",
+        help="also write the run's full record here (every evaluation, the candidates, the sensitivity "
+        "tables; JSON, atomic)",
+    )
     p.add_argument("--quiet", action="store_true", help="no per-evaluation progress")
     p.set_defaults(func=run)
+
+
+def _add_robustness_args(p: argparse.ArgumentParser) -> None:
+    """The robustness box: candidates, its size and corners, the stress corners of the search."""
+    p.add_argument(
+        "--candidates", type=int, default=3, help="distinct best points checked for robustness (default 3)"
+    )
+    p.add_argument(
+        "--rel", type=float, default=0.3, help="relative half-width of the robustness box (default 0.3)"
+    )
+    p.add_argument("--corners", type=int, default=4, help="random corners of the box checked (default 4)")
+    p.add_argument(
+        "--stress",
+        type=float,
+        metavar="REL",
+        help="relative size of the stress corners the search minimises over (default: --rel; 0: the "
+        "centre alone)",
+    )
+
+
+def _add_weight_args(p: argparse.ArgumentParser) -> None:
+    """The weights of the tuning objective's terms (defaults: :class:`~telethermo.tuning.Weights`)."""
+    w = tn.Weights()
+    p.add_argument(
+        "--w-early",
+        type=float,
+        default=w.early_per_C,
+        metavar="W",
+        help=f"weight of the transparency early mean error, 1/°C (default {w.early_per_C:g})",
+    )
+    p.add_argument(
+        "--w-late",
+        type=float,
+        default=w.late_per_C,
+        metavar="W",
+        help=f"weight of the transparency late mean error, 1/°C (default {w.late_per_C:g})",
+    )
+    p.add_argument(
+        "--w-tracking",
+        type=float,
+        default=w.tracking_per_C,
+        metavar="W",
+        help=f"weight of the steady tracking RMS, 1/°C (default {w.tracking_per_C:g})",
+    )
+    p.add_argument(
+        "--w-margin",
+        type=float,
+        default=w.margin_per_C,
+        metavar="W",
+        help=f"weight of the discrimination margin shortfall, 1/°C (default {w.margin_per_C:g})",
+    )
+    p.add_argument(
+        "--w-limit",
+        type=float,
+        default=w.limit_per_s,
+        metavar="W",
+        help=f"weight of the time at envelope limits, 1/s (default {w.limit_per_s:g})",
+    )
 
 
 def _fmt(x: Any, nd: int = 3) -> str:
@@ -88,8 +159,17 @@ def _table(headers: list[str], rows: list[list[Any]]) -> str:
 
 def _row(label: str, ev) -> list[Any]:
     s = ev.summary()
-    return [label, ev.J, s["early_C"], s["late_C"], s["tracking_rms_C"], s["margin_shortfall_C"], s["limit_s"],
-            s["trips"], s["order_kept"]]
+    return [
+        label,
+        ev.J,
+        s["early_C"],
+        s["late_C"],
+        s["tracking_rms_C"],
+        s["margin_shortfall_C"],
+        s["limit_s"],
+        s["trips"],
+        s["order_kept"],
+    ]
 
 
 HEADERS = ["point", "J", "early °C", "late °C", "track °C", "margin short °C", "limit s", "trips", "order"]
@@ -125,27 +205,39 @@ def _weights(args: argparse.Namespace) -> tn.Weights:
         v = getattr(args, name)
         if not (v >= 0 and math.isfinite(v)):
             raise UserError(f"--{name.replace('_', '-')} {v}: expected a finite number >= 0")
-    return tn.Weights(early_per_C=args.w_early, late_per_C=args.w_late, tracking_per_C=args.w_tracking,
-                      limit_per_s=args.w_limit, margin_per_C=args.w_margin)
+    return tn.Weights(
+        early_per_C=args.w_early,
+        late_per_C=args.w_late,
+        tracking_per_C=args.w_tracking,
+        limit_per_s=args.w_limit,
+        margin_per_C=args.w_margin,
+    )
 
 
 def _report(res: tn.TuneResult, obj: tn.Objective, rel: float, wall: float) -> None:
     """Print the candidates, the sensitivity table of the chosen point and the search's totals."""
     print("\ncandidates (centre J, worst J over the ±%d %% box, the worst point):" % round(rel * 100))
-    pool = res.candidates + ([res.reference] if res.reference is not None and res.reference not in res.candidates else [])
+    pool = res.candidates + (
+        [res.reference] if res.reference is not None and res.reference not in res.candidates else []
+    )
     rows = []
     for rob in pool:
         tag = "reference (shipped)" if rob is res.reference else "candidate"
         tag += " *chosen*" if rob is res.chosen else ""
-        rows.append([tag, rob.centre.J, rob.worst.J, rob.worst_label] +
-                    [rob.centre.gains[k] for k in obj.keys])
+        rows.append(
+            [tag, rob.centre.J, rob.worst.J, rob.worst_label] + [rob.centre.gains[k] for k in obj.keys]
+        )
     print(_table(["point", "J", "worst J", "worst at"] + obj.keys, rows))
     print(f"\nsensitivity of the chosen point (±{rel:.0%} on each gain, then random corners):")
-    print(_table(HEADERS, [_row("centre", res.chosen.centre)] + [_row(lab, ev) for lab, ev in res.chosen.rows]))
+    print(
+        _table(HEADERS, [_row("centre", res.chosen.centre)] + [_row(lab, ev) for lab, ev in res.chosen.rows])
+    )
     print("\nchosen gains: " + ", ".join(f"{k} = {v:.4g}" for k, v in res.best.gains.items()))
-    print(f"search: {res.search.method}, budget {res.search.budget} points, {len(res.search.points)} points, "
-          f"{res.search.n_evaluations} evaluations; "
-          f"{len(obj.history)} evaluations in all ({obj.n_sessions} sessions), wall time {wall:.0f} s")
+    print(
+        f"search: {res.search.method}, budget {res.search.budget} points, {len(res.search.points)} points, "
+        f"{res.search.n_evaluations} evaluations; "
+        f"{len(obj.history)} evaluations in all ({obj.n_sessions} sessions), wall time {wall:.0f} s"
+    )
 
 
 def _write(path: Path, what: str, doc: dict[str, Any], writer) -> None:
@@ -174,16 +266,32 @@ def run(args: argparse.Namespace) -> int:
             best[0] = ev.J
         if not args.quiet:
             s = ev.summary()
-            print(f"  eval {n:4d}  J {ev.J:7.3f}  (best {best[0]:.3f})  early {s['early_C']:.3f} °C  "
-                  f"track {s['tracking_rms_C']:.3f} °C  [{time.perf_counter() - t0:6.1f} s]", flush=True)
+            print(
+                f"  eval {n:4d}  J {ev.J:7.3f}  (best {best[0]:.3f})  early {s['early_C']:.3f} °C  "
+                f"track {s['tracking_rms_C']:.3f} °C  [{time.perf_counter() - t0:6.1f} s]",
+                flush=True,
+            )
 
     obj = tn.Objective(scenes, seed=args.seed, duration_s=args.duration, progress=progress, weights=weights)
-    print(f"telethermo tune: scenes {', '.join(s.name for s in scenes)}; gains "
-          f"{', '.join(f'{s.key} [{s.lo:g}, {s.hi:g}]' for s in obj.space)}", flush=True)
+    print(
+        f"telethermo tune: scenes {', '.join(s.name for s in scenes)}; gains "
+        f"{', '.join(f'{s.key} [{s.lo:g}, {s.hi:g}]' for s in obj.space)}",
+        flush=True,
+    )
     if x0 is not None:
         x0 = {k: v for k, v in x0.items() if k in obj.keys}
-    res = tn.tune(obj, budget=args.budget, method=args.method, seed=args.seed, candidates=args.candidates, x0=x0,
-                  rel=args.rel, corners=args.corners, stress_rel=args.stress, on_stage=lambda m: print(f"- {m}", flush=True))
+    res = tn.tune(
+        obj,
+        budget=args.budget,
+        method=args.method,
+        seed=args.seed,
+        candidates=args.candidates,
+        x0=x0,
+        rel=args.rel,
+        corners=args.corners,
+        stress_rel=args.stress,
+        on_stage=lambda m: print(f"- {m}", flush=True),
+    )
     wall = time.perf_counter() - t0
     _report(res, obj, args.rel, wall)
 
@@ -191,8 +299,18 @@ def run(args: argparse.Namespace) -> int:
     if args.out is not None:
         _write(args.out, "--out", doc, tn.write_gains)
     if args.record is not None:
-        record = tn.run_record(res, obj, doc, scene=scene.name, budget=args.budget, method=args.method,
-                               seed=args.seed, rel=args.rel, corners=args.corners, wall_time_s=wall)
+        record = tn.run_record(
+            res,
+            obj,
+            doc,
+            scene=scene.name,
+            budget=args.budget,
+            method=args.method,
+            seed=args.seed,
+            rel=args.rel,
+            corners=args.corners,
+            wall_time_s=wall,
+        )
         _write(args.record, "--record", record, write_json_atomic)
     return EXIT_OK
 

@@ -9,7 +9,9 @@
 - :mod:`~telethermo.ident.stability`: stability check of an identified model.
 - :mod:`~telethermo.ident.modelfile`: model files (JSON).
 - :mod:`~telethermo.ident.odmodel`: a model in a node's object dictionary (the one model <-> OD API).
-- :mod:`~telethermo.ident.experiment`: the identification experiment on a rig.
+- :mod:`~telethermo.ident.experiment`: the identification experiment on a rig; its settings in
+  :mod:`~telethermo.ident.experiment_settings`.
+- :mod:`~telethermo.ident.capacity_experiment`: the capacity experiment (steady states, eq. 13 fit).
 """
 
 from telethermo.ident.capacity import CapacityModel, fit_capacity

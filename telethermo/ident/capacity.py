@@ -56,7 +56,8 @@ class CapacityModel:
         object.__setattr__(self, "metrics", dict(self.metrics))
 
     def predict(self, *, current_A: np.ndarray | float, T_C: np.ndarray | float) -> np.ndarray:
-        """Steady-state heat out of the pad, W, at current ``current_A`` (A) and pad temperature ``T_C`` (°C)."""
+        """Steady-state heat out of the pad, W, at current ``current_A`` (A) and pad temperature
+        ``T_C`` (°C)."""
         I = np.asarray(current_A, dtype=float)
         T = np.asarray(T_C, dtype=float)
         X = capacity_regressors(np.ravel(I), np.ravel(np.broadcast_to(T, I.shape)))

@@ -16,6 +16,7 @@ Q = 0 at rest. Fitted by **output error** (the free-run flux error, Levenberg-Ma
 least-squares start, every trial model stable), not by equation error: with noise on both T and Q
 the equation-error LS gives biased, even unstable, models (it did on the simulated rig).
 """
+
 from __future__ import annotations
 
 import math
@@ -57,7 +58,10 @@ class FluxArma:
         arrs = {k: np.array(getattr(self, k), dtype=float).reshape(-1) for k in ("c", "d", "e", "g", "h")}
         if not 1 <= arrs["c"].size <= MAX_ORDER or not 1 <= arrs["d"].size <= MAX_ORDER + 1:
             raise ValueError(f"FluxArma needs 1..{MAX_ORDER} c and 1..{MAX_ORDER + 1} d coefficients")
-        if not arrs["e"].size == arrs["g"].size == arrs["h"].size or arrs["e"].size not in (0, arrs["d"].size - 1):
+        if not arrs["e"].size == arrs["g"].size == arrs["h"].size or arrs["e"].size not in (
+            0,
+            arrs["d"].size - 1,
+        ):
             raise ValueError("FluxArma current terms e, g, h must all be empty or have m = len(d) - 1 values")
         if not all(np.all(np.isfinite(a)) for a in arrs.values()):
             raise ValueError("FluxArma coefficients must be finite")
@@ -102,17 +106,27 @@ class FluxArma:
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.e]), a, I)
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.g]), a, I * I)
             out += scipy.signal.lfilter(np.concatenate([[0.0], self.h]), a, I * T)
-        return cast(np.ndarray, out)   # scipy is untyped
+        return cast(np.ndarray, out)  # scipy is untyped
 
-    def errors(self, *, T_C: np.ndarray, Q_W: np.ndarray, current_A: np.ndarray | None = None,
-               start: int = 0) -> dict[str, float]:
+    def errors(
+        self, *, T_C: np.ndarray, Q_W: np.ndarray, current_A: np.ndarray | None = None, start: int = 0
+    ) -> dict[str, float]:
         """Free-run errors on a record from sample ``start`` on, W."""
         e = (self.free_run(T_C=T_C, current_A=current_A) - _as_1d("Q_W", Q_W))[start:]
-        return {"free_run_max_W": float(np.max(np.abs(e))), "free_run_rms_W": float(np.sqrt(np.mean(e ** 2)))}
+        return {"free_run_max_W": float(np.max(np.abs(e))), "free_run_rms_W": float(np.sqrt(np.mean(e**2)))}
 
 
-def fit_flux_arma(*, T_C: np.ndarray, Q_W: np.ndarray, n: int = 3, m: int = 3, period_s: float = 0.01,
-                  T_ref_C: float, current_A: np.ndarray | None = None, max_nfev: int = 400) -> FluxArma:
+def fit_flux_arma(
+    *,
+    T_C: np.ndarray,
+    Q_W: np.ndarray,
+    n: int = 3,
+    m: int = 3,
+    period_s: float = 0.01,
+    T_ref_C: float,
+    current_A: np.ndarray | None = None,
+    max_nfev: int = 400,
+) -> FluxArma:
     """Fit the flux model by output error (see the module docstring).
 
     Args:
@@ -139,22 +153,16 @@ def fit_flux_arma(*, T_C: np.ndarray, Q_W: np.ndarray, n: int = 3, m: int = 3, p
     n_in = (m + 1) + (3 * m if I is not None else 0)
     if len(T) < 4 * (n + n_in):
         raise ValueError(f"need at least {4 * (n + n_in)} samples, got {len(T)}")
-    # FIR least-squares start (c = 0): always stable
-    L = m
-    cols = [T[L - j:len(T) - j] for j in range(m + 1)]
-    if I is not None:
-        cols += [I[L - j:len(T) - j] for j in range(1, m + 1)] + [I[L - j:len(T) - j] ** 2 for j in range(1, m + 1)]
-        cols += [I[L - j:len(T) - j] * T[L - j:len(T) - j] for j in range(1, m + 1)]
-    A = np.column_stack(cols)
-    scale = np.sqrt(np.mean(A * A, axis=0))
-    scale[scale == 0] = 1.0
-    b0 = np.linalg.lstsq(A / scale, Q[L:], rcond=None)[0] / scale
-    x0 = np.concatenate([np.zeros(n), b0])
+    x0 = _fir_start(T, Q, I, n, m)
 
     def unpack(x: np.ndarray) -> FluxArma:
         k = n + m + 1
-        e, g, h = (x[k:k + m], x[k + m:k + 2 * m], x[k + 2 * m:]) if I is not None else (np.zeros(0),) * 3
-        return FluxArma(c=x[:n], d=x[n:n + m + 1], e=e, g=g, h=h, period_s=float(period_s), T_ref_C=float(T_ref_C))
+        e, g, h = (
+            (x[k : k + m], x[k + m : k + 2 * m], x[k + 2 * m :]) if I is not None else (np.zeros(0),) * 3
+        )
+        return FluxArma(
+            c=x[:n], d=x[n : n + m + 1], e=e, g=g, h=h, period_s=float(period_s), T_ref_C=float(T_ref_C)
+        )
 
     penalty = np.full(len(Q), 10.0 * (np.max(np.abs(Q)) + 1.0))
 
@@ -170,8 +178,33 @@ def fit_flux_arma(*, T_C: np.ndarray, Q_W: np.ndarray, n: int = 3, m: int = 3, p
     if pmax >= 0.9999:
         raise ValueError(f"flux model refused: pole |z| = {pmax:.6f} not inside the unit circle")
     r = sol.fun
-    object.__setattr__(model, "metrics", {
-        "n_samples": int(len(T)), "fit": "output-error", "with_current": I is not None,
-        "train_free_run_rms_W": float(np.sqrt(np.mean(r ** 2))), "train_free_run_max_W": float(np.max(np.abs(r))),
-        "max_pole_modulus": pmax, "nfev": int(sol.nfev)})
+    object.__setattr__(
+        model,
+        "metrics",
+        {
+            "n_samples": int(len(T)),
+            "fit": "output-error",
+            "with_current": I is not None,
+            "train_free_run_rms_W": float(np.sqrt(np.mean(r**2))),
+            "train_free_run_max_W": float(np.max(np.abs(r))),
+            "max_pole_modulus": pmax,
+            "nfev": int(sol.nfev),
+        },
+    )
     return model
+
+
+def _fir_start(T: np.ndarray, Q: np.ndarray, I: np.ndarray | None, n: int, m: int) -> np.ndarray:
+    """The optimiser's start: the FIR least-squares fit (c = 0), always stable; T in K from T_ref."""
+    L = m
+    cols = [T[L - j : len(T) - j] for j in range(m + 1)]
+    if I is not None:
+        cols += [I[L - j : len(T) - j] for j in range(1, m + 1)] + [
+            I[L - j : len(T) - j] ** 2 for j in range(1, m + 1)
+        ]
+        cols += [I[L - j : len(T) - j] * T[L - j : len(T) - j] for j in range(1, m + 1)]
+    A = np.column_stack(cols)
+    scale = np.sqrt(np.mean(A * A, axis=0))
+    scale[scale == 0] = 1.0
+    b0 = np.linalg.lstsq(A / scale, Q[L:], rcond=None)[0] / scale
+    return np.concatenate([np.zeros(n), b0])

@@ -14,8 +14,10 @@ Format (``format`` = "telethermo-tem-model", ``format_version`` = 1; see docs/id
         "metrics": {...}, "data_sha256": "<64 hex>"
       },
       "flux": null | {"kind": "arma", "period_s": 0.01, "T_ref_C": 25.0, "c": [n], "d": [m+1],
-                      "e": [m or 0], "g": [m or 0], "h": [m or 0], "metrics": {...}},  # current terms (flux.py)
-      "capacity": null | {"kind": "capacity-eq13", "theta": [5 numbers], "current_range_A": [lo, hi], "metrics": {...}},
+                      "e": [m or 0], "g": [m or 0], "h": [m or 0],  # current terms (flux.py)
+                      "metrics": {...}},
+      "capacity": null | {"kind": "capacity-eq13", "theta": [5 numbers], "current_range_A": [lo, hi],
+                          "metrics": {...}},
       "meta": {...}                          # free-form provenance: rig, scene, seed, date, ...
     }
 
@@ -23,6 +25,7 @@ Loading validates every field (type, length, finiteness, ranges, the orders agai
 column names, flux period = temperature period) and the stability of the temperature model; any
 failure raises :class:`ModelFileError` naming the file, the field and what was expected.
 """
+
 from __future__ import annotations
 
 import json
@@ -72,7 +75,8 @@ class TemModel:
 
 
 def default_model_path() -> Path:
-    """The shipped model of the default simulated rig (``sim.free_pad_rig()``): telethermo/data/models/sim_tem.json."""
+    """The shipped model of the default simulated rig (``sim.free_pad_rig()``):
+    telethermo/data/models/sim_tem.json."""
     return Path(__file__).resolve().parent.parent / "data" / "models" / "sim_tem.json"
 
 
@@ -95,25 +99,46 @@ def model_to_dict(tem: TemModel) -> dict[str, Any]:
     """The JSON document of ``tem`` (see the module docstring)."""
     t = tem.temperature
     doc: dict[str, Any] = {
-        "format": FORMAT, "format_version": FORMAT_VERSION, "units": dict(UNITS),
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "units": dict(UNITS),
         "temperature": {
-            "kind": "narma", "orders": t.orders.as_dict(), "period_s": t.period_s, "T_ref_C": t.T_ref_C,
-            "current_range_A": list(t.current_range_A), "T_range_C": list(t.T_range_C),
-            "columns": t.orders.column_names(), "theta": [float(v) for v in t.theta],
-            "metrics": _clean(t.metrics), "data_sha256": t.data_sha256,
+            "kind": "narma",
+            "orders": t.orders.as_dict(),
+            "period_s": t.period_s,
+            "T_ref_C": t.T_ref_C,
+            "current_range_A": list(t.current_range_A),
+            "T_range_C": list(t.T_range_C),
+            "columns": t.orders.column_names(),
+            "theta": [float(v) for v in t.theta],
+            "metrics": _clean(t.metrics),
+            "data_sha256": t.data_sha256,
         },
-        "flux": None, "capacity": None, "meta": _clean(tem.meta),
+        "flux": None,
+        "capacity": None,
+        "meta": _clean(tem.meta),
     }
     if tem.flux is not None:
         f = tem.flux
-        doc["flux"] = {"kind": "arma", "period_s": f.period_s, "T_ref_C": f.T_ref_C, "c": [float(v) for v in f.c],
-                       "d": [float(v) for v in f.d], "e": [float(v) for v in f.e], "g": [float(v) for v in f.g],
-                       "h": [float(v) for v in f.h],
-                       "metrics": _clean(f.metrics)}
+        doc["flux"] = {
+            "kind": "arma",
+            "period_s": f.period_s,
+            "T_ref_C": f.T_ref_C,
+            "c": [float(v) for v in f.c],
+            "d": [float(v) for v in f.d],
+            "e": [float(v) for v in f.e],
+            "g": [float(v) for v in f.g],
+            "h": [float(v) for v in f.h],
+            "metrics": _clean(f.metrics),
+        }
     if tem.capacity is not None:
         c = tem.capacity
-        doc["capacity"] = {"kind": "capacity-eq13", "theta": [float(v) for v in c.theta],
-                           "current_range_A": list(c.current_range_A), "metrics": _clean(c.metrics)}
+        doc["capacity"] = {
+            "kind": "capacity-eq13",
+            "theta": [float(v) for v in c.theta],
+            "current_range_A": list(c.current_range_A),
+            "metrics": _clean(c.metrics),
+        }
     return doc
 
 
@@ -147,13 +172,15 @@ class _Reader:
         return ModelFileError(self.path, fld, expected, g[:80])
 
     @overload
-    def obj(self, parent: dict[str, Any], key: str, fld: str, *,
-            optional: Literal[False] = False) -> dict[str, Any]: ...
+    def obj(
+        self, parent: dict[str, Any], key: str, fld: str, *, optional: Literal[False] = False
+    ) -> dict[str, Any]: ...
     @overload
     def obj(self, parent: dict[str, Any], key: str, fld: str, *, optional: bool) -> dict[str, Any] | None: ...
 
-    def obj(self, parent: dict[str, Any], key: str, fld: str, *,
-            optional: bool = False) -> dict[str, Any] | None:
+    def obj(
+        self, parent: dict[str, Any], key: str, fld: str, *, optional: bool = False
+    ) -> dict[str, Any] | None:
         if key not in parent:
             if optional:
                 return None
@@ -181,11 +208,22 @@ class _Reader:
             raise self.err(fld, f"an integer in [{lo}, {hi}]", "missing" if key not in parent else v)
         return v
 
-    def nums(self, parent: dict[str, Any], key: str, fld: str, *, length: int | None = None, min_len: int = 1,
-             max_len: int = 10_000) -> np.ndarray:
+    def nums(
+        self,
+        parent: dict[str, Any],
+        key: str,
+        fld: str,
+        *,
+        length: int | None = None,
+        min_len: int = 1,
+        max_len: int = 10_000,
+    ) -> np.ndarray:
         v = parent.get(key)
-        want = f"a list of {length} finite numbers" if length is not None else \
-            f"a list of {min_len}..{max_len} finite numbers"
+        want = (
+            f"a list of {length} finite numbers"
+            if length is not None
+            else f"a list of {min_len}..{max_len} finite numbers"
+        )
         if not isinstance(v, list):
             raise self.err(fld, want, "missing" if key not in parent else v)
         if (length is not None and len(v) != length) or not (min_len <= len(v) <= max_len):
@@ -210,8 +248,13 @@ class _Reader:
         return m
 
 
-def model_from_dict(doc: Any, *, path: str | os.PathLike[str] = "<dict>", check_stability: bool = True,
-                    expect_period_s: float | None = None) -> TemModel:
+def model_from_dict(
+    doc: Any,
+    *,
+    path: str | os.PathLike[str] = "<dict>",
+    check_stability: bool = True,
+    expect_period_s: float | None = None,
+) -> TemModel:
     """Validate a model document and build the :class:`TemModel` (errors: :class:`ModelFileError`)."""
     r = _Reader(path)
     if not isinstance(doc, dict):
@@ -219,22 +262,42 @@ def model_from_dict(doc: Any, *, path: str | os.PathLike[str] = "<dict>", check_
     if doc.get("format") != FORMAT:
         raise r.err("format", f"'{FORMAT}'", doc.get("format", "missing"))
     if doc.get("format_version") != FORMAT_VERSION:
-        raise r.err("format_version", f"{FORMAT_VERSION} (the version this program reads)",
-                    doc.get("format_version", "missing"))
+        raise r.err(
+            "format_version",
+            f"{FORMAT_VERSION} (the version this program reads)",
+            doc.get("format_version", "missing"),
+        )
     units = doc.get("units", UNITS)
     if units != UNITS:
         raise r.err("units", f"{UNITS}", units)
+    temp = _temperature_from_dict(r, doc, check_stability, expect_period_s)
+    flux = _flux_from_dict(r, doc, temp.period_s)
+    cap = _capacity_from_dict(r, doc)
+    meta = doc.get("meta", {})
+    if not isinstance(meta, dict):
+        raise r.err("meta", "an object", meta)
+    return TemModel(temperature=temp, flux=flux, capacity=cap, meta=meta)
+
+
+def _temperature_from_dict(
+    r: _Reader, doc: dict[str, Any], check_stability: bool, expect_period_s: float | None
+) -> NarmaModel:
+    """The document's ``temperature`` (NARMA) model, validated."""
     t = r.obj(doc, "temperature", "temperature")
     if t.get("kind") != "narma":
         raise r.err("temperature.kind", "'narma'", t.get("kind", "missing"))
     od = r.obj(t, "orders", "temperature.orders")
-    orders = NarmaOrders(n=r.int_(od, "n", "temperature.orders.n", 1, MAX_ORDER),
-                         m=r.int_(od, "m", "temperature.orders.m", 1, MAX_ORDER),
-                         p=r.int_(od, "p", "temperature.orders.p", 0, MAX_ORDER),
-                         q=r.int_(od, "q", "temperature.orders.q", 0, MAX_ORDER))
+    orders = NarmaOrders(
+        n=r.int_(od, "n", "temperature.orders.n", 1, MAX_ORDER),
+        m=r.int_(od, "m", "temperature.orders.m", 1, MAX_ORDER),
+        p=r.int_(od, "p", "temperature.orders.p", 0, MAX_ORDER),
+        q=r.int_(od, "q", "temperature.orders.q", 0, MAX_ORDER),
+    )
     period = r.num(t, "period_s", "temperature.period_s", positive=True)
     if expect_period_s is not None and not math.isclose(period, expect_period_s, rel_tol=1e-9):
-        raise r.err("temperature.period_s", f"{expect_period_s} s (the control period it is loaded for)", period)
+        raise r.err(
+            "temperature.period_s", f"{expect_period_s} s (the control period it is loaded for)", period
+        )
     T_ref = r.num(t, "T_ref_C", "temperature.T_ref_C")
     if not -50.0 <= T_ref <= 150.0:
         raise r.err("temperature.T_ref_C", "a temperature in [-50, 150] °C", T_ref)
@@ -244,54 +307,86 @@ def model_from_dict(doc: Any, *, path: str | os.PathLike[str] = "<dict>", check_
     Tr = r.range_(t, "T_range_C", "temperature.T_range_C") if "T_range_C" in t else (T_ref, T_ref)
     theta = r.nums(t, "theta", "temperature.theta", length=orders.d)
     if "columns" in t and t["columns"] != orders.column_names():
-        raise r.err("temperature.columns", f"the regressors of orders {orders.as_dict()} in θ order",
-                    str(t["columns"]))
+        raise r.err(
+            "temperature.columns",
+            f"the regressors of orders {orders.as_dict()} in θ order",
+            str(t["columns"]),
+        )
     sha = t.get("data_sha256", "")
     if not isinstance(sha, str) or (sha and not re.fullmatch(r"[0-9a-f]{64}", sha)):
         raise r.err("temperature.data_sha256", "'' or 64 lower-case hex digits", sha)
-    temp = NarmaModel(orders=orders, theta=theta, period_s=period, T_ref_C=T_ref, current_range_A=cr,
-                      T_range_C=Tr, metrics=r.metrics(t, "temperature.metrics"), data_sha256=sha)
+    temp = NarmaModel(
+        orders=orders,
+        theta=theta,
+        period_s=period,
+        T_ref_C=T_ref,
+        current_range_A=cr,
+        T_range_C=Tr,
+        metrics=r.metrics(t, "temperature.metrics"),
+        data_sha256=sha,
+    )
     if check_stability:
         rep = _check(temp)
         if not rep.stable:
             raise r.err("temperature.theta", "a stable model", rep.reason)
-    flux = None
+    return temp
+
+
+def _flux_from_dict(r: _Reader, doc: dict[str, Any], period: float) -> FluxArma | None:
+    """The document's optional ``flux`` (ARMA) model, validated; ``period``: the temperature model's, s."""
     f = r.obj(doc, "flux", "flux", optional=True)
-    if f is not None:
-        if f.get("kind") != "arma":
-            raise r.err("flux.kind", "'arma'", f.get("kind", "missing"))
-        fp = r.num(f, "period_s", "flux.period_s", positive=True)
-        if not math.isclose(fp, period, rel_tol=1e-9):
-            raise r.err("flux.period_s", f"the temperature model's period {period} s", fp)
-        c = r.nums(f, "c", "flux.c", min_len=1, max_len=MAX_ORDER)
-        d = r.nums(f, "d", "flux.d", min_len=1, max_len=MAX_ORDER + 1)
-        m = len(d) - 1
-        e = r.nums(f, "e", "flux.e", min_len=0, max_len=m) if "e" in f else np.zeros(0)
-        g = r.nums(f, "g", "flux.g", min_len=0, max_len=m) if "g" in f else np.zeros(0)
-        h = r.nums(f, "h", "flux.h", min_len=0, max_len=m) if "h" in f else np.zeros(0)
-        if len(e) not in (0, m) or not len(g) == len(h) == len(e):
-            raise r.err("flux.e", f"'e', 'g', 'h' all empty or all of {m} numbers (len(d) - 1)",
-                        f"{len(e)}, {len(g)} and {len(h)} values")
-        flux = FluxArma(c=c, d=d, e=e, g=g, h=h, period_s=fp, T_ref_C=r.num(f, "T_ref_C", "flux.T_ref_C"),
-                        metrics=r.metrics(f, "flux.metrics"))
-        if np.max(np.abs(flux.poles())) >= 1.0:
-            raise r.err("flux.c", "a stable ARMA model (poles inside the unit circle)", list(map(float, c)))
-    cap = None
+    if f is None:
+        return None
+    if f.get("kind") != "arma":
+        raise r.err("flux.kind", "'arma'", f.get("kind", "missing"))
+    fp = r.num(f, "period_s", "flux.period_s", positive=True)
+    if not math.isclose(fp, period, rel_tol=1e-9):
+        raise r.err("flux.period_s", f"the temperature model's period {period} s", fp)
+    c = r.nums(f, "c", "flux.c", min_len=1, max_len=MAX_ORDER)
+    d = r.nums(f, "d", "flux.d", min_len=1, max_len=MAX_ORDER + 1)
+    m = len(d) - 1
+    e = r.nums(f, "e", "flux.e", min_len=0, max_len=m) if "e" in f else np.zeros(0)
+    g = r.nums(f, "g", "flux.g", min_len=0, max_len=m) if "g" in f else np.zeros(0)
+    h = r.nums(f, "h", "flux.h", min_len=0, max_len=m) if "h" in f else np.zeros(0)
+    if len(e) not in (0, m) or not len(g) == len(h) == len(e):
+        raise r.err(
+            "flux.e",
+            f"'e', 'g', 'h' all empty or all of {m} numbers (len(d) - 1)",
+            f"{len(e)}, {len(g)} and {len(h)} values",
+        )
+    flux = FluxArma(
+        c=c,
+        d=d,
+        e=e,
+        g=g,
+        h=h,
+        period_s=fp,
+        T_ref_C=r.num(f, "T_ref_C", "flux.T_ref_C"),
+        metrics=r.metrics(f, "flux.metrics"),
+    )
+    if np.max(np.abs(flux.poles())) >= 1.0:
+        raise r.err("flux.c", "a stable ARMA model (poles inside the unit circle)", list(map(float, c)))
+    return flux
+
+
+def _capacity_from_dict(r: _Reader, doc: dict[str, Any]) -> CapacityModel | None:
+    """The document's optional ``capacity`` (eq. 13) model, validated."""
     cd = r.obj(doc, "capacity", "capacity", optional=True)
-    if cd is not None:
-        if cd.get("kind") != "capacity-eq13":
-            raise r.err("capacity.kind", "'capacity-eq13'", cd.get("kind", "missing"))
-        cap = CapacityModel(theta=r.nums(cd, "theta", "capacity.theta", length=5),
-                            current_range_A=r.range_(cd, "current_range_A", "capacity.current_range_A"),
-                            metrics=r.metrics(cd, "capacity.metrics"))
-    meta = doc.get("meta", {})
-    if not isinstance(meta, dict):
-        raise r.err("meta", "an object", meta)
-    return TemModel(temperature=temp, flux=flux, capacity=cap, meta=meta)
+    if cd is None:
+        return None
+    if cd.get("kind") != "capacity-eq13":
+        raise r.err("capacity.kind", "'capacity-eq13'", cd.get("kind", "missing"))
+    cap = CapacityModel(
+        theta=r.nums(cd, "theta", "capacity.theta", length=5),
+        current_range_A=r.range_(cd, "current_range_A", "capacity.current_range_A"),
+        metrics=r.metrics(cd, "capacity.metrics"),
+    )
+    return cap
 
 
-def load_model(path: str | os.PathLike[str], *, check_stability: bool = True,
-               expect_period_s: float | None = None) -> TemModel:
+def load_model(
+    path: str | os.PathLike[str], *, check_stability: bool = True, expect_period_s: float | None = None
+) -> TemModel:
     """Read and validate a model file (see the module docstring).
 
     Args:
@@ -311,5 +406,7 @@ def load_model(path: str | os.PathLike[str], *, check_stability: bool = True,
     try:
         doc = json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ModelFileError(path, "", "valid JSON", f"{exc.msg} at line {exc.lineno} column {exc.colno}") from None
+        raise ModelFileError(
+            path, "", "valid JSON", f"{exc.msg} at line {exc.lineno} column {exc.colno}"
+        ) from None
     return model_from_dict(doc, path=path, check_stability=check_stability, expect_period_s=expect_period_s)

@@ -2,7 +2,8 @@
 
 The model (eq. 10), written as a linear regression T(t) = θᵀφ(t) (eq. 11)::
 
-    T(t) = Σ_{i=1..n} Σ_{k=0..p} θ_a[i,k] · I(t-i)^k · T(t-i)  +  Σ_{j=1..m} Σ_{h=0..q} θ_b[j,h] · I(t-j)^(h+1)
+    T(t) = Σ_{i=1..n} Σ_{k=0..p} θ_a[i,k] · I(t-i)^k · T(t-i)
+         + Σ_{j=1..m} Σ_{h=0..q} θ_b[j,h] · I(t-j)^(h+1)
 
 with guiatni's a_ik = -θ_a[i,k] and b_jh = θ_b[j,h]; d = n(p+1) + m(q+1) parameters.
 
@@ -343,7 +344,8 @@ class NarmaModel:
         return out
 
     def predictor(self, T0_C: float, *, T_ref_C: float | None = None) -> "NarmaPredictor":
-        """A streaming free-run predictor for a node, starting at rest at ``T0_C`` (see :class:`NarmaPredictor`)."""
+        """A streaming free-run predictor for a node, starting at rest at ``T0_C``
+        (see :class:`NarmaPredictor`)."""
         return NarmaPredictor(self, T0_C, T_ref_C=T_ref_C)
 
     def errors(
@@ -355,8 +357,8 @@ class NarmaModel:
         ``T0_C`` overrides it, e.g. with the known rest temperature). Not from the first ``lag``
         samples copied as history: a TEM model at 10 ms has AR coefficients that nearly cancel
         (1 - Σα ~ 1e-8), and the noise in a copied history excites its slow modes with an enormous
-        gain. Errors are taken from sample ``warmup`` (default: the lag) on. Keys: ``free_run_max_C``, ``free_run_rms_C``,
-        ``one_step_max_C``, ``one_step_rms_C``.
+        gain. Errors are taken from sample ``warmup`` (default: the lag) on. Keys: ``free_run_max_C``,
+        ``free_run_rms_C``, ``one_step_max_C``, ``one_step_rms_C``.
         """
         T = _as_1d("T_C", T_C)
         L = self.orders.lag
@@ -449,7 +451,8 @@ class NarmaPredictor:
         self.T_pred_C, self.n_clamped, self.n_steps = float(T_pred), int(n_clamped), int(n_steps)
 
     def step(self, current_A: float) -> float:
-        """Commit the current held over the coming period (A); return the prediction for the next sample, °C."""
+        """Commit the current held over the coming period (A); return the prediction for the next
+        sample, °C."""
         I = float(current_A)
         if not math.isfinite(I):
             raise ValueError(f"current_A must be finite, got {current_A!r}")

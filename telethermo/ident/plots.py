@@ -1,5 +1,6 @@
 """Figures of an identification run, after guiatni Fig. 3-5: capacity fit (Fig. 3), measured vs
-estimated temperature (Fig. 4) and heat flux (Fig. 5) on the held-out PRBS. Needs matplotlib (extra 'plot')."""
+estimated temperature (Fig. 4) and heat flux (Fig. 5) on the held-out PRBS. Needs matplotlib (extra
+'plot')."""
 
 from __future__ import annotations
 

@@ -24,6 +24,7 @@ and how to fix it. The steps:
 The windows are those of a pad in air with a TEM of a few amperes (the simulated rig: +1.2 °C and +0.13 W
 after 1 s at 0.3 A); a lab whose pad is much heavier or lighter reads the step's figures in the report.
 """
+
 from __future__ import annotations
 
 import math
@@ -73,11 +74,15 @@ class Report:
     step: dict[str, float] = field(default_factory=dict)
 
     def lines(self) -> list[str]:
-        out = ["sampling: " + ", ".join(f"module {m} new inputs every {v:.0f} ms"
-                                         for m, v in self.sampling_ms.items())]
+        out = [
+            "sampling: "
+            + ", ".join(f"module {m} new inputs every {v:.0f} ms" for m, v in self.sampling_ms.items())
+        ]
         out.append("at rest (0 A): " + ", ".join(f"{k} {v:.3g}" for k, v in self.rest.items()))
-        out.append(f"step {self.step_A:+.2f} A for {STEP_S:g} s: " + ", ".join(f"{k} {v:+.3g}"
-                                                                            for k, v in self.step.items()))
+        out.append(
+            f"step {self.step_A:+.2f} A for {STEP_S:g} s: "
+            + ", ".join(f"{k} {v:+.3g}" for k, v in self.step.items())
+        )
         return out
 
 
@@ -89,16 +94,31 @@ class RigCheck:
     """``RigCheck(config, network, controller_id=..., period_s=..., counter_overflow=...).run()``: the
     :class:`Report` of a rig that passed, or :class:`RigCheckFailed` naming the first fault."""
 
-    def __init__(self, config: RigConfig, network: canopen.Network, *, controller_id: int, period_s: float,
-                 counter_overflow: int = 0, sdo_timeout_s: float = 1.0,
-                 progress: Callable[[str], None] = lambda _: None):
+    def __init__(
+        self,
+        config: RigConfig,
+        network: canopen.Network,
+        *,
+        controller_id: int,
+        period_s: float,
+        counter_overflow: int = 0,
+        sdo_timeout_s: float = 1.0,
+        progress: Callable[[str], None] = lambda _: None,
+    ):
         self.config = config
         self.network = network
         self.period_s = float(period_s)
         self.overflow = int(counter_overflow)
         self.progress = progress
-        self.rig = IoRig(config, transport=None, network=network, controller_id=controller_id,
-                         period_s=period_s, lockstep=True, sdo_timeout_s=sdo_timeout_s)
+        self.rig = IoRig(
+            config,
+            transport=None,
+            network=network,
+            controller_id=controller_id,
+            period_s=period_s,
+            lockstep=True,
+            sdo_timeout_s=sdo_timeout_s,
+        )
         self.report = Report()
         self._counter = 0
 
@@ -113,9 +133,13 @@ class RigCheck:
         before = self.rig.timeouts
         sample = self.rig.read()
         if self.rig.timeouts > before:
-            raise _fail("inputs", "inputs", f"{self.config.source}: the modules' TPDOs did not answer a SYNC "
-                        f"within {self.rig.timeout_s:g} s: check the modules' node_id and that nothing else "
-                        "drives them")
+            raise _fail(
+                "inputs",
+                "inputs",
+                f"{self.config.source}: the modules' TPDOs did not answer a SYNC "
+                f"within {self.rig.timeout_s:g} s: check the modules' node_id and that nothing else "
+                "drives them",
+            )
         self.sample = sample
 
     def _values(self) -> dict[str, float]:
@@ -141,8 +165,12 @@ class RigCheck:
         finally:
             self.network.unsubscribe(0x80)
         if seen:
-            raise _fail("bus", "sync", "another node sends SYNC (a controller running with --rig io?): stop "
-                        "it before rig check; the check drives the modules itself")
+            raise _fail(
+                "bus",
+                "sync",
+                "another node sends SYNC (a controller running with --rig io?): stop "
+                "it before rig check; the check drives the modules itself",
+            )
 
     def run(self) -> Report:
         self.quiet_bus()
@@ -172,10 +200,14 @@ class RigCheck:
             var = obj if isinstance(obj, canopen.objectdictionary.ODVariable) else obj[0]
             got = int(var.decode_raw(node.sdo.upload(mod.sampling_index, 0)))
             if got > period_ms:
-                raise _fail("sampling", f"sampling:{name}", f"module {name} (node {mod.node_id}): sampling "
-                            f"period 0x{mod.sampling_index:04X} = {got} ms, the {period_ms:g} ms loop needs "
-                            f"<= "
-                            f"{period_ms:g} ms: set modules.{name}.sampling_ms")
+                raise _fail(
+                    "sampling",
+                    f"sampling:{name}",
+                    f"module {name} (node {mod.node_id}): sampling "
+                    f"period 0x{mod.sampling_index:04X} = {got} ms, the {period_ms:g} ms loop needs "
+                    f"<= "
+                    f"{period_ms:g} ms: set modules.{name}.sampling_ms",
+                )
         changes = {name: 0 for name in cfg.modules}
         last = None
         small = STEP_FRACTION * 0.5 * cfg.drive.limit_A
@@ -197,15 +229,22 @@ class RigCheck:
             self.report.sampling_ms[name] = every_ms
             if every_ms > 1.5 * period_ms:
                 mod = cfg.modules[name]
-                seen = (f"new inputs only every ~{every_ms:.0f} ms ({n} in {SAMPLING_SYNCS - 1} SYNCs of "
-                        f"{period_ms:g} ms)"
-                        if n else f"no new inputs in {SAMPLING_SYNCS - 1} SYNCs of {period_ms:g} ms (>= "
-                                  f"{every_ms:.0f} ms)")
-                raise _fail("sampling", f"sampling:{name}", f"module {name} (node {mod.node_id}): {seen}, "
-                            f"the loop needs <= {period_ms:g} ms: set the module's own sampling object "
-                            f"(modules.{name}.sampling_index, now "
-                            f"{'none' if mod.sampling_index is None else f'0x{mod.sampling_index:04X}'}) "
-                            "from its manual")
+                seen = (
+                    f"new inputs only every ~{every_ms:.0f} ms ({n} in {SAMPLING_SYNCS - 1} SYNCs of "
+                    f"{period_ms:g} ms)"
+                    if n
+                    else f"no new inputs in {SAMPLING_SYNCS - 1} SYNCs of {period_ms:g} ms (>= "
+                    f"{every_ms:.0f} ms)"
+                )
+                raise _fail(
+                    "sampling",
+                    f"sampling:{name}",
+                    f"module {name} (node {mod.node_id}): {seen}, "
+                    f"the loop needs <= {period_ms:g} ms: set the module's own sampling object "
+                    f"(modules.{name}.sampling_index, now "
+                    f"{'none' if mod.sampling_index is None else f'0x{mod.sampling_index:04X}'}) "
+                    "from its manual",
+                )
 
     def _rest(self) -> None:
         cfg = self.config
@@ -217,46 +256,75 @@ class RigCheck:
             code = counts[name]
             if code in sig.sentinels:
                 kind = "open" if code > 0 else "short"
-                what = ("open circuit or positive overload: an open thermocouple, a loose wire, or an "
-                        "amplifier "
-                        "gain far too high" if code > 0 else
-                        "negative overload: a shorted or reversed sensor, or an amplifier gain far too high")
-                raise _fail("rest", f"{kind}:{name}", f"{self._where(name)} reads {code}, its sentinel: "
-                            f"{what}: check that input's wiring and amplifier")
+                what = (
+                    "open circuit or positive overload: an open thermocouple, a loose wire, or an "
+                    "amplifier gain far too high"
+                    if code > 0
+                    else "negative overload: a shorted or reversed sensor, or an amplifier gain far too high"
+                )
+                raise _fail(
+                    "rest",
+                    f"{kind}:{name}",
+                    f"{self._where(name)} reads {code}, its sentinel: "
+                    f"{what}: check that input's wiring and amplifier",
+                )
         self.report.rest = {k: round(v, 4) for k, v in vals.items()}
         for name in TEMPERATURES:
             v, (lo, hi) = vals[name], REST_RANGES[name]
             if lo <= v <= hi:
                 continue
             if counts[name] == 0:
-                raise _fail("rest", f"short:{name}", f"{self._where(name)} reads exactly 0 V ({v:g} °C): a "
-                            "shorted sensor or amplifier input: check its wiring")
+                raise _fail(
+                    "rest",
+                    f"short:{name}",
+                    f"{self._where(name)} reads exactly 0 V ({v:g} °C): a shorted sensor or amplifier "
+                    "input: check its wiring",
+                )
             if lo <= -v <= hi:
-                raise _fail("rest", f"sign:{name}", f"{self._where(name)} reads {v:.1f} °C at room "
-                            f"temperature: its sign is reversed: swap the amplifier's leads or set "
-                            f"signals.{name}.sign = "
-                            f"{-cfg.signals[name].sign}")
+                raise _fail(
+                    "rest",
+                    f"sign:{name}",
+                    f"{self._where(name)} reads {v:.1f} °C at room temperature: its sign is reversed: "
+                    f"swap the amplifier's leads or set signals.{name}.sign = {-cfg.signals[name].sign}",
+                )
             for factor in (10.0, 0.1):
                 if lo <= v / factor <= hi:
-                    raise _fail("rest", f"scale:{name}", f"{self._where(name)} reads {v:.1f} °C at room "
-                                f"temperature, {factor:g}x a plausible value: fix signals.{name}.gain "
-                                f"(now {cfg.signals[name].gain:g}) or the amplifier's range")
-            raise _fail("rest", f"range:{name}", f"{self._where(name)} reads {v:.1f} °C at rest, expected "
-                        f"{lo:g}..{hi:g} °C: check its scaling (gain, offset_V) and wiring")
+                    raise _fail(
+                        "rest",
+                        f"scale:{name}",
+                        f"{self._where(name)} reads {v:.1f} °C at room "
+                        f"temperature, {factor:g}x a plausible value: fix signals.{name}.gain "
+                        f"(now {cfg.signals[name].gain:g}) or the amplifier's range",
+                    )
+            raise _fail(
+                "rest",
+                f"range:{name}",
+                f"{self._where(name)} reads {v:.1f} °C at rest, expected "
+                f"{lo:g}..{hi:g} °C: check its scaling (gain, offset_V) and wiring",
+            )
         limit = 0.02 * cfg.drive.limit_A
         if abs(vals["current_A"]) > limit:
-            raise _fail("rest", "offset:current_A", f"{self._where('current_A')} reads "
-                        f"{vals['current_A']:.3f} A with the drive at 0 A (> {limit:g}): fix its offset_V "
-                        f"or the drive's offset_V")
+            raise _fail(
+                "rest",
+                "offset:current_A",
+                f"{self._where('current_A')} reads {vals['current_A']:.3f} A with the drive at 0 A "
+                f"(> {limit:g}): fix its offset_V or the drive's offset_V",
+            )
         for name in ("Q_W", "force_N"):
             if name in vals and not REST_RANGES[name][0] <= vals[name] <= REST_RANGES[name][1]:
-                raise _fail("rest", f"range:{name}", f"{self._where(name)} reads {vals[name]:.3f} at rest "
-                            f"with nothing on the pad, expected {REST_RANGES[name]}: check its offset_V, "
-                            f"gain and "
-                            "wiring")
+                raise _fail(
+                    "rest",
+                    f"range:{name}",
+                    f"{self._where(name)} reads {vals[name]:.3f} at rest with nothing on the pad, "
+                    f"expected {REST_RANGES[name]}: check its offset_V, gain and wiring",
+                )
         if "contact" in vals and vals["contact"] >= cfg.signals["contact"].threshold:
-            raise _fail("rest", "contact", f"{self._where('contact')} reads touched ({vals['contact']:.2f}) "
-                        "with nothing on the pad: take the finger off, or fix its sign/threshold")
+            raise _fail(
+                "rest",
+                "contact",
+                f"{self._where('contact')} reads touched ({vals['contact']:.2f}) "
+                "with nothing on the pad: take the finger off, or fix its sign/threshold",
+            )
 
     def _step(self) -> None:
         cfg, rep = self.config, self.report
@@ -272,8 +340,12 @@ class RigCheck:
                 vals = self._values()
                 if any(not math.isfinite(v) for v in vals.values()):
                     bad = [s for s, v in vals.items() if not math.isfinite(v)][0]
-                    raise _fail("current step", f"open:{bad}", f"{self._where(bad)} went to its sentinel "
-                                f"during a {step_A:.2f} A step: a loose wire or an amplifier range too small")
+                    raise _fail(
+                        "current step",
+                        f"open:{bad}",
+                        f"{self._where(bad)} went to its sentinel "
+                        f"during a {step_A:.2f} A step: a loose wire or an amplifier range too small",
+                    )
                 if max(abs(vals[t] - rest[t]) for t in TEMPERATURES) > STEP_ABORT_C:
                     break
                 if k >= n - n // 4:
@@ -285,8 +357,12 @@ class RigCheck:
         d = {s: end[s] - rest[s] for s in end}
         d["current_A"] = mean["current_A"]
         d["Q_W"] = mean["Q_W"] - rest["Q_W"]
-        rep.step = {"current_A": round(d["current_A"], 4), "dT_sensor_C": round(d["T_sensor_C"], 4),
-                    "dT_sink_C": round(d["T_sink_C"], 4), "dQ_W": round(d["Q_W"], 4)}
+        rep.step = {
+            "current_A": round(d["current_A"], 4),
+            "dT_sensor_C": round(d["T_sensor_C"], 4),
+            "dT_sink_C": round(d["T_sink_C"], 4),
+            "dQ_W": round(d["Q_W"], 4),
+        }
         self._check_current(step_A, d, mean)
         self._check_thermocouple(d)
         self._check_flux(d)
@@ -298,77 +374,113 @@ class RigCheck:
         if abs(ratio) < 0.2:
             for other, v in mean.items():
                 if other != "current_A" and abs(abs(v) - step_A) < 0.1 * step_A:
-                    raise _fail("current step", f"swap:current_A:{other}", f"{self._where('current_A')} "
-                                f"reads {got:.3f} A for {step_A:.2f} A commanded while {self._where(other)} "
-                                f"reads {v:.3f}: the two inputs are swapped: exchange them in RIG.toml or "
-                                "the wires")
+                    raise _fail(
+                        "current step",
+                        f"swap:current_A:{other}",
+                        f"{self._where('current_A')} "
+                        f"reads {got:.3f} A for {step_A:.2f} A commanded while {self._where(other)} "
+                        f"reads {v:.3f}: the two inputs are swapped: exchange them in RIG.toml or "
+                        "the wires",
+                    )
             if abs(dT) < STEP_RISE_C[0]:
-                raise _fail("current step", "drive", f"drive (module {cfg.drive.module} "
-                            f"0x{cfg.drive.index:04X}:{cfg.drive.subindex}): {step_A:.2f} A commanded, no "
-                            "current measured and the pad did not move: check the amplifier's enable, its "
-                            "wiring to the TEM and the drive object")
-            raise _fail("current step", "missing:current_A", f"{self._where('current_A')} reads {got:.3f} A "
-                        f"while {step_A:.2f} A moves the pad: the current monitor is not on that input")
+                raise _fail(
+                    "current step",
+                    "drive",
+                    f"drive (module {cfg.drive.module} "
+                    f"0x{cfg.drive.index:04X}:{cfg.drive.subindex}): {step_A:.2f} A commanded, no "
+                    "current measured and the pad did not move: check the amplifier's enable, its "
+                    "wiring to the TEM and the drive object",
+                )
+            raise _fail(
+                "current step",
+                "missing:current_A",
+                f"{self._where('current_A')} reads {got:.3f} A "
+                f"while {step_A:.2f} A moves the pad: the current monitor is not on that input",
+            )
         if ratio < 0:
             if dT < 0:
-                raise _fail("current step", "sign:drive", f"drive: {step_A:+.2f} A commanded cooled the pad "
-                            f"({dT:+.2f} °C) and the monitor reads {got:+.3f} A: the current amplifier or "
-                            f"the TEM is "
-                            f"wired "
-                            f"reversed: swap the TEM's leads or set drive.sign = {-cfg.drive.sign}")
-            raise _fail("current step", "sign:current_A", f"{self._where('current_A')} reads {got:+.3f} A "
-                        f"for {step_A:+.2f} A commanded while the pad heats ({dT:+.2f} °C): the monitor's "
-                        f"sign "
-                        f"is "
-                        f"reversed: set signals.current_A.sign = {-cfg.signals['current_A'].sign}")
+                raise _fail(
+                    "current step",
+                    "sign:drive",
+                    f"drive: {step_A:+.2f} A commanded cooled the pad ({dT:+.2f} °C) and the monitor "
+                    f"reads {got:+.3f} A: the current amplifier or the TEM is wired reversed: "
+                    f"swap the TEM's leads or set drive.sign = {-cfg.drive.sign}",
+                )
+            raise _fail(
+                "current step",
+                "sign:current_A",
+                f"{self._where('current_A')} reads {got:+.3f} A for {step_A:+.2f} A commanded while "
+                f"the pad heats ({dT:+.2f} °C): the monitor's sign is reversed: "
+                f"set signals.current_A.sign = {-cfg.signals['current_A'].sign}",
+            )
         if abs(ratio - 1) > 0.2:
-            raise _fail("current step", "scale:current_A", f"{self._where('current_A')} reads {got:.3f} A "
-                        f"for {step_A:.2f} A commanded ({ratio:.2f}x): fix signals.current_A.gain (now "
-                        f"{cfg.signals['current_A'].gain:g}) or drive.gain (the amplifier's A/V, now "
-                        f"{cfg.drive.gain:g})")
+            raise _fail(
+                "current step",
+                "scale:current_A",
+                f"{self._where('current_A')} reads {got:.3f} A "
+                f"for {step_A:.2f} A commanded ({ratio:.2f}x): fix signals.current_A.gain (now "
+                f"{cfg.signals['current_A'].gain:g}) or drive.gain (the amplifier's A/V, now "
+                f"{cfg.drive.gain:g})",
+            )
 
     def _check_thermocouple(self, d: dict[str, float]) -> None:
         cfg, dT, dS = self.config, d["T_sensor_C"], d["T_sink_C"]
         lo, hi = STEP_RISE_C
         if abs(dT) < lo and abs(dS) >= lo:
-            raise _fail("current step", "swap:T_sensor_C:T_sink_C", f"{self._where('T_sensor_C')} did not "
-                        f"move ({dT:+.2f} °C) under the step while {self._where('T_sink_C')} did "
-                        f"({dS:+.2f} °C): "
-                        f"the "
-                        "two inputs are swapped: exchange them in RIG.toml or the wires")
+            raise _fail(
+                "current step",
+                "swap:T_sensor_C:T_sink_C",
+                f"{self._where('T_sensor_C')} did not move ({dT:+.2f} °C) under the step while "
+                f"{self._where('T_sink_C')} did ({dS:+.2f} °C): "
+                "the two inputs are swapped: exchange them in RIG.toml or the wires",
+            )
         if dT < -lo:
-            raise _fail("current step", "sign:T_sensor_C", f"{self._where('T_sensor_C')} fell by {-dT:.2f} "
-                        f"°C while a heating current flowed: its sign is reversed: set "
-                        f"signals.T_sensor_C.sign = "
-                        f"{-cfg.signals['T_sensor_C'].sign} or swap the amplifier's leads")
+            raise _fail(
+                "current step",
+                "sign:T_sensor_C",
+                f"{self._where('T_sensor_C')} fell by {-dT:.2f} °C while a heating current flowed: "
+                f"its sign is reversed: set signals.T_sensor_C.sign = "
+                f"{-cfg.signals['T_sensor_C'].sign} or swap the amplifier's leads",
+            )
         if not lo <= dT <= hi:
-            raise _fail("current step", "scale:T_sensor_C", f"{self._where('T_sensor_C')} rose by {dT:.3f} "
-                        f"°C in {STEP_S:g} s at {STEP_FRACTION:.0%} of limit_A, expected {lo:g}..{hi:g} °C "
-                        f"for a "
-                        f"pad in "
-                        "air: check signals.T_sensor_C.gain and that the thermocouple is on the pad")
+            raise _fail(
+                "current step",
+                "scale:T_sensor_C",
+                f"{self._where('T_sensor_C')} rose by {dT:.3f} °C in {STEP_S:g} s at "
+                f"{STEP_FRACTION:.0%} of limit_A, expected {lo:g}..{hi:g} °C for a pad in air: "
+                "check signals.T_sensor_C.gain and that the thermocouple is on the pad",
+            )
         if abs(dS) > abs(dT) / 3:
-            raise _fail("current step", "T_sink_C", f"{self._where('T_sink_C')} moved {dS:+.2f} °C, as much "
-                        f"as the pad ({dT:+.2f} °C): the heat-sink sensor is not on the heat sink (or on "
-                        f"the wrong "
-                        f"input)")
+            raise _fail(
+                "current step",
+                "T_sink_C",
+                f"{self._where('T_sink_C')} moved {dS:+.2f} °C, as much as the pad ({dT:+.2f} °C): "
+                "the heat-sink sensor is not on the heat sink (or on the wrong input)",
+            )
 
     def _check_flux(self, d: dict[str, float]) -> None:
         cfg, dQ = self.config, d["Q_W"]
         lo, hi = STEP_FLUX_W
         if abs(dQ) < lo:
-            raise _fail("current step", "missing:Q_W", f"{self._where('Q_W')} moved {dQ:+.4f} W under a "
-                        f"heating step, expected {lo:g}..{hi:g} W: the flux sensor is not on that input or "
-                        f"not in the "
-                        f"stack")
+            raise _fail(
+                "current step",
+                "missing:Q_W",
+                f"{self._where('Q_W')} moved {dQ:+.4f} W under a heating step, expected "
+                f"{lo:g}..{hi:g} W: the flux sensor is not on that input or not in the stack",
+            )
         if dQ < 0:
-            raise _fail("current step", "sign:Q_W", f"{self._where('Q_W')} went {dQ:+.3f} W while the pad "
-                        f"heated; the convention (telethermo/rig.py) is Q_W > 0 for heat flowing from the "
-                        f"TEM into the "
-                        "pad: "
-                        f"set signals.Q_W.sign = {-cfg.signals['Q_W'].sign}")
+            raise _fail(
+                "current step",
+                "sign:Q_W",
+                f"{self._where('Q_W')} went {dQ:+.3f} W while the pad heated; the convention "
+                "(telethermo/rig.py) is Q_W > 0 for heat flowing from the TEM into the pad: "
+                f"set signals.Q_W.sign = {-cfg.signals['Q_W'].sign}",
+            )
         if dQ > hi:
-            raise _fail("current step", "scale:Q_W", f"{self._where('Q_W')} went {dQ:+.3f} W under a "
-                        f"{STEP_FRACTION:.0%} step, expected {lo:g}..{hi:g} W for a pad in air: fix "
-                        f"signals.Q_W.gain (now "
-                        f"{cfg.signals['Q_W'].gain:g}) or the amplifier's range")
+            raise _fail(
+                "current step",
+                "scale:Q_W",
+                f"{self._where('Q_W')} went {dQ:+.3f} W under a {STEP_FRACTION:.0%} step, "
+                f"expected {lo:g}..{hi:g} W for a pad in air: fix signals.Q_W.gain "
+                f"(now {cfg.signals['Q_W'].gain:g}) or the amplifier's range",
+            )

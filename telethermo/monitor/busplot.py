@@ -26,7 +26,8 @@ WIDTH_IN, ROW_HEIGHT_IN, DPI = 11.0, 2.6, 110
 
 @dataclass
 class BusSeries:
-    """The decoded log: series[(node name, object name)] = (times s, values), units, EMCYs (t s, node, code)."""
+    """The decoded log: series[(node name, object name)] = (times s, values), units, EMCYs
+    (t s, node, code)."""
 
     series: dict[tuple[str, str], tuple[list[float], list[float]]] = field(default_factory=dict)
     units: dict[tuple[str, str], str] = field(default_factory=dict)

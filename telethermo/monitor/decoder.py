@@ -183,4 +183,7 @@ def describe_emcy(f: dict[str, Any]) -> str:
     if "code" not in f:
         return f.get("error", "EMCY")
     regs = ",".join(f["register_bits"]) or "none"
-    return f"EMCY 0x{f['code']:04X} {f['code_text']}; register 0x{f['register']:02X} [{regs}]; mfr {f['manufacturer']}"
+    return (
+        f"EMCY 0x{f['code']:04X} {f['code_text']}; register 0x{f['register']:02X} [{regs}]; "
+        f"mfr {f['manufacturer']}"
+    )

@@ -22,8 +22,9 @@ from .material import ABSTAIN_CODE
 
 TPDO_COMM, TPDO_MAP, RPDO_COMM, RPDO_MAP = 0x1800, 0x1A00, 0x1400, 0x1600
 
-#: our objects whose value is a material code of the rendering table (the master's rendered material, the slave's
-#: identified one and the master's copy of it): (index, EDS name), so that another vendor's 0x26xx is left alone
+#: our objects whose value is a material code of the rendering table (the master's rendered material, the
+#: slave's identified one and the master's copy of it): (index, EDS name), so that another vendor's 0x26xx
+#: is left alone
 MATERIAL_CODE_OBJECTS = frozenset(
     {
         (0x2600, "material_code"),

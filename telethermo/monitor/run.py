@@ -1,4 +1,5 @@
 """The monitor's loops: plain line / JSON-line output for scripts, and the curses view."""
+
 from __future__ import annotations
 
 import json
@@ -28,8 +29,11 @@ def _clean(obj: Any) -> Any:
 
 
 #: why an interface gives no controller state (python-can's base class answers ACTIVE whatever happens)
-NO_STATE = {"VirtualBus": "virtual bus: no controller", "SocketCanDaemonBus": "socketcand does not forward it",
-            "SocketcanBus": "SocketCAN: only from error frames"}
+NO_STATE = {
+    "VirtualBus": "virtual bus: no controller",
+    "SocketCanDaemonBus": "socketcand does not forward it",
+    "SocketcanBus": "SocketCAN: only from error frames",
+}
 
 
 def bus_state_poller(bus: can.BusABC) -> Callable[[Monitor], None]:
@@ -44,6 +48,7 @@ def bus_state_poller(bus: can.BusABC) -> Callable[[Monitor], None]:
             mon.set_bus_state(bus.state.name)
         except (can.CanError, NotImplementedError, OSError) as exc:
             mon.set_bus_state(None, f"bus.state failed: {exc}")
+
     return poll
 
 
@@ -51,10 +56,19 @@ def dumps(obj: dict) -> str:
     return json.dumps(_clean(obj), allow_nan=False, separators=(",", ":"))
 
 
-def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *, as_json: bool,
-              frames: bool = True, status_every_s: float = 1.0, max_frames: int | None = None,
-              until: Callable[[], bool] | None = None, now: Callable[[], float] | None = None,
-              poll: Callable[[Monitor], None] | None = None) -> int:
+def run_lines(
+    source: Iterable[can.Message | None],
+    mon: Monitor,
+    out: TextIO,
+    *,
+    as_json: bool,
+    frames: bool = True,
+    status_every_s: float = 1.0,
+    max_frames: int | None = None,
+    until: Callable[[], bool] | None = None,
+    now: Callable[[], float] | None = None,
+    poll: Callable[[Monitor], None] | None = None,
+) -> int:
     """Print decoded frames (if ``frames``), events and a status line every ``status_every_s`` of bus
     time; a final status at the end. ``source`` yields None when a live bus is idle; ``now`` then
     gives the bus clock for heartbeat timeouts; ``poll`` reads the controller state before each
@@ -66,16 +80,7 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
         if poll is not None:
             poll(mon)
         snap = mon.snapshot()
-        if as_json:
-            out.write(dumps(snap) + "\n")
-        else:
-            sy = snap["sync"]
-            nodes = "  ".join(f"{x['node']}:{x['name'] or '?'}={x['nmt_state']}" for x in snap["nodes"])
-            sync = f"SYNC {sy['period_s'] * 1e3:.2f}±{sy['jitter_s'] * 1e3:.2f} ms" if sy["period_s"] else "SYNC --"
-            out.write(f"{fmt_time(snap['t_s'])} STATUS frames/s {snap['frames_per_s']:.0f} load "
-                      f"{snap['bus_load_pct']:.1f}% {sync} late {snap['late_cycles']} missed {snap['missed_pdos']} "
-                      f"err {snap['error_frames']} | {nodes}"
-                      + (f" | controller {ctl['state']}" if (ctl := snap["controller"])["state"] else "") + "\n")
+        out.write(dumps(snap) + "\n" if as_json else _status_line(snap))
 
     try:
         for msg in source:
@@ -85,18 +90,20 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
                 if now is not None:
                     evs = mon.tick(now())
                     for e in evs:
-                        out.write(dumps(e.to_json()) + "\n" if as_json else
-                                  f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
+                        out.write(_event_line(e, as_json))
                 out.flush()
                 continue
             frame, evs = mon.feed(msg)
             n += 1
             if frames:
-                out.write(dumps(frame.to_json()) + "\n" if as_json else
-                          f"{fmt_time(frame.t_s)} {frame.kind:10s} 0x{frame.cob_id:03X} [{len(frame.data)}] "
-                          f"{frame.data.hex(' '):23s} {frame.text}\n")
+                out.write(
+                    dumps(frame.to_json()) + "\n"
+                    if as_json
+                    else f"{fmt_time(frame.t_s)} {frame.kind:10s} 0x{frame.cob_id:03X} [{len(frame.data)}] "
+                    f"{frame.data.hex(' '):23s} {frame.text}\n"
+                )
             for e in evs:
-                out.write(dumps(e.to_json()) + "\n" if as_json else f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n")
+                out.write(_event_line(e, as_json))
             if status_every_s > 0:
                 if next_status is None:
                     next_status = frame.t_s + status_every_s
@@ -106,7 +113,7 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
             if max_frames is not None and n >= max_frames:
                 break
     except KeyboardInterrupt:
-        emit_status()   # Ctrl-C: the script still gets the final state
+        emit_status()  # Ctrl-C: the script still gets the final state
         out.flush()
         raise
     emit_status()
@@ -114,10 +121,37 @@ def run_lines(source: Iterable[can.Message | None], mon: Monitor, out: TextIO, *
     return n
 
 
-def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: ViewState, *,
-               pacer: Pacer | None = None, now: Callable[[], float] | None = None,
-               refresh_s: float = 0.2, until: Callable[[], bool] | None = None,
-               poll: Callable[[Monitor], None] | None = None) -> int:
+def _event_line(e: Event, as_json: bool) -> str:
+    """One event as a JSON line or a text line."""
+    return dumps(e.to_json()) + "\n" if as_json else f"{fmt_time(e.t_s)} {e.severity:5s} {e.text}\n"
+
+
+def _status_line(snap: dict) -> str:
+    """The text status line of a :meth:`Monitor.snapshot`."""
+    sy = snap["sync"]
+    nodes = "  ".join(f"{x['node']}:{x['name'] or '?'}={x['nmt_state']}" for x in snap["nodes"])
+    sync = f"SYNC {sy['period_s'] * 1e3:.2f}±{sy['jitter_s'] * 1e3:.2f} ms" if sy["period_s"] else "SYNC --"
+    return (
+        f"{fmt_time(snap['t_s'])} STATUS frames/s {snap['frames_per_s']:.0f} load "
+        f"{snap['bus_load_pct']:.1f}% {sync} late {snap['late_cycles']} missed {snap['missed_pdos']} "
+        f"err {snap['error_frames']} | {nodes}"
+        + (f" | controller {ctl['state']}" if (ctl := snap["controller"])["state"] else "")
+        + "\n"
+    )
+
+
+def run_curses(
+    stdscr,
+    source: Iterable[can.Message | None],
+    mon: Monitor,
+    vs: ViewState,
+    *,
+    pacer: Pacer | None = None,
+    now: Callable[[], float] | None = None,
+    refresh_s: float = 0.2,
+    until: Callable[[], bool] | None = None,
+    poll: Callable[[Monitor], None] | None = None,
+) -> int:
     """The live view. ``pacer`` paces a replay (pausing stops it); for a live bus ``now`` gives the
     time for ticks and a pause only freezes the screen. A damaged log ends the replay with the frames
     decoded so far still shown and the error in ``vs.error`` (and the event log). Returns the number of
@@ -127,7 +161,7 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
     n = 0
     last_draw = 0.0
     pending: can.Message | None = None
-    idle = False      # the live source had nothing to give the last time it was asked
+    idle = False  # the live source had nothing to give the last time it was asked
     while True:
         t = time.monotonic()
         if t - last_draw >= refresh_s or vs.done:
@@ -136,7 +170,7 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
             if poll is not None:
                 poll(mon)
             if now is not None and idle:
-                mon.tick(now())   # only with no frame waiting: a backlog must not look like silence
+                mon.tick(now())  # only with no frame waiting: a backlog must not look like silence
             if not vs.paused:
                 view.draw(mon)
             elif vs.paused and view.prev and "[PAUSED]" not in view.prev[0]:
@@ -157,7 +191,9 @@ def run_curses(stdscr, source: Iterable[can.Message | None], mon: Monitor, vs: V
             except StopIteration:
                 vs.done = True
                 continue
-            except ReplayError as exc:    # a damaged log: keep what was decoded on the screen, say why it stopped
+            except (
+                ReplayError
+            ) as exc:  # a damaged log: keep what was decoded on the screen, say why it stopped
                 vs.done, vs.error = True, str(exc)
                 mon.log.add([Event(mon.stats.t_last or 0.0, ERROR, "replay_error", None, str(exc))])
                 continue

@@ -6,6 +6,7 @@ frame brings its own timestamp (:meth:`Monitor.feed`) and the caller says what t
 frame arrives (:meth:`Monitor.tick`, for heartbeat timeouts and rates on a silent bus). The same
 object therefore serves a live bus, a replay at recorded speed and a replay as fast as possible.
 """
+
 from __future__ import annotations
 
 from collections import deque
@@ -17,6 +18,7 @@ from .busload import message_length_bits
 from .events import ERROR, INFO, WARN, Event, EventLog
 from .frames import FrameTable
 from .health import ControllerHealth, decode_error_frame
+from .liveness import EVENT_HOLDOFF_S, heartbeat_timeouts, missed_pdos, on_heartbeat
 from .pdo import PdoDef, PdoMap, od_value as _value, od_var as _var, decode_pdo
 from .records import STRIP_DT_S, BusStats, MonitorConfig, NodeState, PdoState, SdoRecord
 from .sdo import SdoChannel, SdoTransfer
@@ -25,9 +27,6 @@ from .timing import TimingSeen
 
 #: frame lengths kept by content (periodic traffic repeats its frames: SYNC counters, heartbeats, flags)
 BITS_CACHE = 4096
-
-#: a repeated WARN of the same kind (late cycle, missing PDO) is logged at most once per this bus time, s
-EVENT_HOLDOFF_S = 1.0
 
 
 class Monitor:
@@ -48,12 +47,12 @@ class Monitor:
         self._late_event_t: float | None = None
         self._late_unreported = 0
         self._sync_cob = cia301.COB_SYNC
-        self.timing = TimingSeen()   # lockstep or real time, from what the bus shows (never the network file)
-        self.material = MaterialSeen()   # the identified material, its touch and posterior, as seen
+        self.timing = TimingSeen()  # lockstep or real time, from what the bus shows (never the network file)
+        self.material = MaterialSeen()  # the identified material, its touch and posterior, as seen
         self._bits: dict[tuple, int] = {}
         self._handlers = {k: getattr(self, f"_on_{k.lower()}") for k in dec.KINDS}
-        self.first_tick_s: float | None = None   # live: the first tick's time (a replay never ticks), s
-        self.now_s: float | None = None          # live: the last tick's time, s
+        self.first_tick_s: float | None = None  # live: the first tick's time (a replay never ticks), s
+        self.now_s: float | None = None  # live: the last tick's time, s
         for n, info in self.config.nodes.items():
             self._node(n).name = info.name
         self._load_heartbeat_config()
@@ -101,9 +100,14 @@ class Monitor:
         data = bytes(msg.data or b"")
         events: list[Event] = []
         self._account(t, msg, data)
-        kind, node = dec.classify(msg.arbitration_id, extended=bool(msg.is_extended_id),
-                                  remote=bool(msg.is_remote_frame), error=bool(msg.is_error_frame),
-                                  sync_cob_id=self._sync_cob, pdo_cob_ids=self.pdo_map.table)
+        kind, node = dec.classify(
+            msg.arbitration_id,
+            extended=bool(msg.is_extended_id),
+            remote=bool(msg.is_remote_frame),
+            error=bool(msg.is_error_frame),
+            sync_cob_id=self._sync_cob,
+            pdo_cob_ids=self.pdo_map.table,
+        )
         frame = dec.Frame(t, msg.arbitration_id, data, kind, node)
         self._handlers[kind](frame, events)
         self.frames.add(frame, bool(msg.is_extended_id))
@@ -156,19 +160,7 @@ class Monitor:
         s.bus_load = self._window_bits / (self.config.bitrate_bps * span)
 
     def _check_timeouts(self, now: float) -> list[Event]:
-        out = []
-        for st in self.nodes.values():
-            to = st.hb_timeout_s
-            if st.last_hb_t is None or to is None or st.hb_lost:
-                continue
-            if now - st.last_hb_t > to:
-                st.hb_lost = True
-                st.hb_losses += 1
-                out.append(Event(now, ERROR, "heartbeat_lost", st.node,
-                                 f"node {st.node} {st.name}: heartbeat lost (none for {(now - st.last_hb_t) * 1e3:.1f} ms "
-                                 f"> {'consumer time' if st.consumer_time_s else 'timeout'} {to * 1e3:.0f} ms)".replace(" :", ":"),
-                                 {"silence_s": now - st.last_hb_t, "timeout_s": to}))
-        return out
+        return heartbeat_timeouts(self.nodes.values(), now)
 
     # -- per service -----------------------------------------------------------------------------
     def _on_error_frame(self, f: dec.Frame, ev: list[Event]) -> None:
@@ -182,8 +174,16 @@ class Monitor:
             f.text += f"; TX errors {info['tx_errors']}, RX errors {info['rx_errors']}"
         ev.append(Event(f.t_s, WARN, "error_frame", None, "CAN " + f.text, {"data": f.data.hex(), **info}))
         if info["state"] is not None and info["state"] != before:
-            ev.append(Event(f.t_s, ERROR if info["state"] == "BUS-OFF" else WARN, "controller_state", None,
-                            f"CAN controller {before or 'unknown'} -> {info['state']}", {"state": info["state"]}))
+            ev.append(
+                Event(
+                    f.t_s,
+                    ERROR if info["state"] == "BUS-OFF" else WARN,
+                    "controller_state",
+                    None,
+                    f"CAN controller {before or 'unknown'} -> {info['state']}",
+                    {"state": info["state"]},
+                )
+            )
 
     def _on_unknown(self, f: dec.Frame, ev: list[Event]) -> None:
         self.stats.unknown_frames += 1
@@ -191,11 +191,16 @@ class Monitor:
 
     def _malformed(self, f: dec.Frame, ev: list[Event], text: str) -> None:
         self.stats.malformed += 1
-        ev.append(Event(f.t_s, WARN, "malformed", f.node, f"{f.kind} 0x{f.cob_id:03X}: {text}",
-                        {"data": f.data.hex()}))
+        ev.append(
+            Event(
+                f.t_s, WARN, "malformed", f.node, f"{f.kind} 0x{f.cob_id:03X}: {text}", {"data": f.data.hex()}
+            )
+        )
 
     def _on_lss(self, f: dec.Frame, ev: list[Event]) -> None:
-        f.text = f"LSS {'master' if f.cob_id == cia301.COB_LSS_RX else 'slave'} cs 0x{f.data[:1].hex() or '--'}"
+        f.text = (
+            f"LSS {'master' if f.cob_id == cia301.COB_LSS_RX else 'slave'} cs 0x{f.data[:1].hex() or '--'}"
+        )
 
     def _on_nmt(self, f: dec.Frame, ev: list[Event]) -> None:
         f.fields = dec.decode_nmt(f.data)
@@ -229,8 +234,16 @@ class Monitor:
             self._malformed(f, ev, f.fields["error"])
         if c is not None and s.sync_counter is not None and c != s.sync_counter + 1 and c != 1:
             s.sync_counter_errors += 1
-            ev.append(Event(f.t_s, WARN, "sync_counter", None,
-                            f"SYNC counter jumped {s.sync_counter} -> {c}", {"previous": s.sync_counter, "counter": c}))
+            ev.append(
+                Event(
+                    f.t_s,
+                    WARN,
+                    "sync_counter",
+                    None,
+                    f"SYNC counter jumped {s.sync_counter} -> {c}",
+                    {"previous": s.sync_counter, "counter": c},
+                )
+            )
         s.sync_counter = c
         if self._last_sync_t is not None:
             dt = f.t_s - self._last_sync_t
@@ -243,31 +256,30 @@ class Monitor:
                 # every late cycle is counted; the log gets at most one event per second of bus time
                 if self._late_event_t is None or f.t_s - self._late_event_t >= EVENT_HOLDOFF_S:
                     n = self._late_unreported
-                    ev.append(Event(f.t_s, WARN, "late_cycle", None,
-                                    f"late cycle: SYNC after {dt * 1e3:.2f} ms (period {per * 1e3:.2f} ms)"
-                                    + (f"; {n} late cycles since the last report" if n > 1 else ""),
-                                    {"interval_s": dt, "period_s": per, "late_since_last_event": n}))
+                    ev.append(
+                        Event(
+                            f.t_s,
+                            WARN,
+                            "late_cycle",
+                            None,
+                            f"late cycle: SYNC after {dt * 1e3:.2f} ms (period {per * 1e3:.2f} ms)"
+                            + (f"; {n} late cycles since the last report" if n > 1 else ""),
+                            {"interval_s": dt, "period_s": per, "late_since_last_event": n},
+                        )
+                    )
                     self._late_event_t, self._late_unreported = f.t_s, 0
         self._last_sync_t = f.t_s
         # PDOs on every SYNC (transmission type 1) from OPERATIONAL nodes must have come in between
-        for p in self.pdos.values():
-            if p.armed:
-                p.missing += 1
-                p.missing_streak += 1
-                s.missed_pdos += 1
-                p.unreported += 1
-                if p.missing_streak == 1 and (p.event_t is None or f.t_s - p.event_t >= EVENT_HOLDOFF_S):
-                    n = p.unreported
-                    ev.append(Event(f.t_s, WARN, "pdo_missing", p.pdef.node,
-                                    f"node {p.pdef.node} {p.pdef.label} (0x{p.pdef.cob_id:03X}) not seen before the next SYNC "
-                                    f"(late or lost)" + (f"; {n} cycles since the last report" if n > 1 else ""),
-                                    {"cob_id": p.pdef.cob_id, "missing_since_last_event": n}))
-                    p.event_t, p.unreported = f.t_s, 0
-            p.armed = False
+        ev += missed_pdos(self.pdos.values(), f.t_s, s)
         for pdef in self.pdo_map.table.values():
             if pdef.direction == "TPDO" and pdef.valid and pdef.transmission_type == 1:
                 st = self.nodes.get(pdef.node)
-                if st is not None and st.nmt_state == "OPERATIONAL" and st.nmt_pending is None and not st.hb_lost:
+                if (
+                    st is not None
+                    and st.nmt_state == "OPERATIONAL"
+                    and st.nmt_pending is None
+                    and not st.hb_lost
+                ):
                     self._pdo_state(pdef).armed = True
 
     def _pdo_state(self, pdef: PdoDef) -> PdoState:
@@ -315,45 +327,21 @@ class Monitor:
             f.text = f"heartbeat {f.fields['error']}"
             self._malformed(f, ev, f.fields["error"])
             return
-        st = self._node(f.node)
-        new = f.fields["state_name"]
-        f.text = f"{'boot-up' if f.fields['boot_up'] else 'heartbeat ' + new} node {f.node}"
-        st.heartbeats += 1
+        on_heartbeat(self._node(f.node), f, ev)
         if f.fields["boot_up"]:
-            st.boot_ups += 1
-            if st.nmt_state == cia301.NMT_UNKNOWN or st.reset_pending:
-                ev.append(Event(f.t_s, INFO, "boot_up", f.node, f"node {f.node} {st.name}: boot-up".replace(" :", ":")))
-            else:
-                ev.append(Event(f.t_s, WARN, "boot_up", f.node,
-                                f"node {f.node} {st.name}: unexpected boot-up (was {st.nmt_state})".replace(" :", ":")))
-            st.reset_pending = False
             self.pdo_map.reset_node(f.node)
-            st.after_boot = True     # boot-up -> first heartbeat is not a heartbeat period
-        elif st.last_hb_t is not None and not st.after_boot:
-            dt = f.t_s - st.last_hb_t
-            st.hb_period_last_s = dt
-            st.hb_period_min_s = dt if st.hb_period_min_s is None else min(st.hb_period_min_s, dt)
-            st.hb_period_max_s = dt if st.hb_period_max_s is None else max(st.hb_period_max_s, dt)
-        else:
-            st.after_boot = False
-        if st.hb_lost:
-            st.hb_lost = False
-            ev.append(Event(f.t_s, INFO, "heartbeat_back", f.node, f"node {f.node} {st.name}: heartbeat back"
-                            .replace(" :", ":")))
-        if new != st.nmt_state and not f.fields["boot_up"]:
-            ev.append(Event(f.t_s, INFO, "nmt_state", f.node,
-                            f"node {f.node} {st.name}: {st.nmt_state} -> {new}".replace(" :", ":"),
-                            {"from": st.nmt_state, "to": new}))
-        st.nmt_state = new
-        st.last_hb_t = f.t_s
-        st.nmt_pending = None
 
     def _on_pdo(self, f: dec.Frame, ev: list[Event]) -> None:
         pdef = self.pdo_map.lookup(f.cob_id)
         if pdef is None:
             base = f.cob_id & 0x780
-            label = (f"TPDO{cia301.DEFAULT_TPDO_BASE.index(base) + 1}" if base in cia301.DEFAULT_TPDO_BASE else
-                     f"RPDO{cia301.DEFAULT_RPDO_BASE.index(base) + 1}" if base in cia301.DEFAULT_RPDO_BASE else "PDO")
+            label = (
+                f"TPDO{cia301.DEFAULT_TPDO_BASE.index(base) + 1}"
+                if base in cia301.DEFAULT_TPDO_BASE
+                else f"RPDO{cia301.DEFAULT_RPDO_BASE.index(base) + 1}"
+                if base in cia301.DEFAULT_RPDO_BASE
+                else "PDO"
+            )
             f.fields = {"mapping": None, "guess": label}
             f.text = f"{label}? node {f.node} (no mapping known) {f.data.hex(' ')}"
             return
@@ -367,15 +355,17 @@ class Monitor:
         p.values = values
         for v in values:
             self._observe_value(pdef.node, v.name, v.value, pdef.label)
-        if p.trace_t is None or f.t_s - p.trace_t >= 0.99 * STRIP_DT_S:    # 1 %: float bus times
+        if p.trace_t is None or f.t_s - p.trace_t >= 0.99 * STRIP_DT_S:  # 1 %: float bus times
             p.trace.append((f.t_s, tuple(v.value for v in values)))
             p.trace_t = f.t_s
         p.armed = False
         p.missing_streak = 0
-        f.fields = {"pdo": pdef.label, "producer" if pdef.direction == "TPDO" else "consumer": pdef.node,
-                    "values": [v.to_json() for v in values]}
-        f.text = f"{pdef.label} node {pdef.node}: " + ", ".join(
-            v.text() for v in values)
+        f.fields = {
+            "pdo": pdef.label,
+            "producer" if pdef.direction == "TPDO" else "consumer": pdef.node,
+            "values": [v.to_json() for v in values],
+        }
+        f.text = f"{pdef.label} node {pdef.node}: " + ", ".join(v.text() for v in values)
         if err:
             f.fields["error"] = err
             ev.append(Event(f.t_s, WARN, "pdo_length", pdef.node, err, {"cob_id": f.cob_id}))
@@ -403,9 +393,13 @@ class Monitor:
                 self._observe_config(f, tr, ev)
             elif tr.status == "aborted":
                 st.sdo_aborts += 1
-                ev.append(Event(f.t_s, WARN, "sdo_abort", f.node, f"node {f.node} SDO {rec.text()}", rec.to_json()))
+                ev.append(
+                    Event(f.t_s, WARN, "sdo_abort", f.node, f"node {f.node} SDO {rec.text()}", rec.to_json())
+                )
             else:
-                ev.append(Event(f.t_s, WARN, "sdo_error", f.node, f"node {f.node} SDO {rec.text()}", rec.to_json()))
+                ev.append(
+                    Event(f.t_s, WARN, "sdo_error", f.node, f"node {f.node} SDO {rec.text()}", rec.to_json())
+                )
         elif step.problem:
             ev.append(Event(f.t_s, WARN, "sdo_error", f.node, f"node {f.node} SDO {step.problem}", {}))
 
@@ -429,8 +423,16 @@ class Monitor:
     def _observe_config(self, f: dec.Frame, tr: SdoTransfer, ev: list[Event]) -> None:
         change = self.pdo_map.observe_sdo(tr.node, tr.index, tr.subindex, tr.data)
         if change:
-            ev.append(Event(f.t_s, INFO, "pdo_remap", tr.node, change,
-                            {"index": tr.index, "subindex": tr.subindex, "data": tr.data.hex()}))
+            ev.append(
+                Event(
+                    f.t_s,
+                    INFO,
+                    "pdo_remap",
+                    tr.node,
+                    change,
+                    {"index": tr.index, "subindex": tr.subindex, "data": tr.data.hex()},
+                )
+            )
         if tr.direction != "download" or not tr.data:
             return
         raw = int.from_bytes(tr.data[:4], "little")
@@ -445,22 +447,47 @@ class Monitor:
     def timing_json(self) -> dict[str, Any]:
         """The pair's timing as the bus shows it (:mod:`.timing`), and what the network file says."""
         lockstep, why = self.timing.verdict(self.stats.sync_intervals_s, self.config.sync_period_s)
-        return {"sync_lockstep": lockstep, "sync_timing_evidence": why,
-                "network_file_lockstep": self.config.sync_lockstep}
+        return {
+            "sync_lockstep": lockstep,
+            "sync_timing_evidence": why,
+            "network_file_lockstep": self.config.sync_lockstep,
+        }
 
     def snapshot(self) -> dict[str, Any]:
         """The whole state as JSON-able data (for --json and tests)."""
         s = self.stats
-        return {"type": "status", "t_s": s.t_last, "frames": s.frames, "frames_per_s": s.frames_per_s,
-                "bus_load_pct": 100.0 * s.bus_load, "bitrate_bps": self.config.bitrate_bps,
-                "error_frames": s.error_frames, "unknown_frames": s.unknown_frames, "malformed": s.malformed,
-                "syncs": s.syncs, "sync_counter": s.sync_counter, "sync_counter_errors": s.sync_counter_errors,
-                "sync": s.sync_summary(), "sync_period_nominal_s": self.config.sync_period_s,
-                **self.timing_json(), "late_cycles": s.late_cycles, "missed_pdos": s.missed_pdos,
-                "materials": self.material.to_json(),
-                "events": dict(self.log.counts), "controller": self.controller.to_json(),
-                "cob_ids": [r.to_json() for r in self.frames.sorted_rows()],
-                "nodes": [st.to_json() for _, st in sorted(self.nodes.items())],
-                "pdos": [{"node": p.pdef.node, "pdo": p.pdef.label, "cob_id": p.pdef.cob_id, "count": p.count,
-                          "missing": p.missing, "values": [v.to_json() for v in p.values]}
-                         for _, p in sorted(self.pdos.items())]}
+        return {
+            "type": "status",
+            "t_s": s.t_last,
+            "frames": s.frames,
+            "frames_per_s": s.frames_per_s,
+            "bus_load_pct": 100.0 * s.bus_load,
+            "bitrate_bps": self.config.bitrate_bps,
+            "error_frames": s.error_frames,
+            "unknown_frames": s.unknown_frames,
+            "malformed": s.malformed,
+            "syncs": s.syncs,
+            "sync_counter": s.sync_counter,
+            "sync_counter_errors": s.sync_counter_errors,
+            "sync": s.sync_summary(),
+            "sync_period_nominal_s": self.config.sync_period_s,
+            **self.timing_json(),
+            "late_cycles": s.late_cycles,
+            "missed_pdos": s.missed_pdos,
+            "materials": self.material.to_json(),
+            "events": dict(self.log.counts),
+            "controller": self.controller.to_json(),
+            "cob_ids": [r.to_json() for r in self.frames.sorted_rows()],
+            "nodes": [st.to_json() for _, st in sorted(self.nodes.items())],
+            "pdos": [
+                {
+                    "node": p.pdef.node,
+                    "pdo": p.pdef.label,
+                    "cob_id": p.pdef.cob_id,
+                    "count": p.count,
+                    "missing": p.missing,
+                    "values": [v.to_json() for v in p.values],
+                }
+                for _, p in sorted(self.pdos.items())
+            ],
+        }

@@ -95,7 +95,8 @@ def status_lines(mon: Monitor, vs: ViewState) -> list[str]:
     nominal = f" (nominal {per * 1e3:.2f}, {timing})" if per else f" (no nominal period, {timing})"
     sync_txt = (
         f"SYNC {sync['period_s'] * 1e3:.2f} ms ±{sync['jitter_s'] * 1e3:.2f} "
-        f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] #{s.sync_counter if s.sync_counter is not None else '-'}"
+        f"[{sync['min_s'] * 1e3:.2f}..{sync['max_s'] * 1e3:.2f}] "
+        f"#{s.sync_counter if s.sync_counter is not None else '-'}"
         if sync["period_s"] is not None
         else "SYNC --"
     ) + nominal
@@ -118,12 +119,13 @@ def _node_lines(mon: Monitor) -> list[str]:
         if st.last_emcy:
             e = st.last_emcy
             emcy = (
-                f"0x{e['code']:04X} {e['code_text'][:30]} reg 0x{e['register']:02X} {fmt_time(st.last_emcy_t)}"
-                + ("" if st.emcy_active else " (reset)")
+                f"0x{e['code']:04X} {e['code_text'][:30]} reg 0x{e['register']:02X} "
+                f"{fmt_time(st.last_emcy_t)}" + ("" if st.emcy_active else " (reset)")
             )
         lines.append(
-            f"{n:4d} {st.name[:8]:8s} {st.nmt_state:16s} {_ms(st.hb_period_last_s)}/{_ms(st.hb_period_min_s)}/"
-            f"{_ms(st.hb_period_max_s)}  {to_txt:9s} {st.boot_ups:4d} {st.sdo_ok:6d}/{st.sdo_aborts:<5d} {emcy}"
+            f"{n:4d} {st.name[:8]:8s} {st.nmt_state:16s} "
+            f"{_ms(st.hb_period_last_s)}/{_ms(st.hb_period_min_s)}/{_ms(st.hb_period_max_s)}  "
+            f"{to_txt:9s} {st.boot_ups:4d} {st.sdo_ok:6d}/{st.sdo_aborts:<5d} {emcy}"
         )
     return lines
 
@@ -140,7 +142,8 @@ def _main_body(mon: Monitor, vs: ViewState, room: int) -> list[str]:
         vals = "  ".join(v.text() for v in p.values)
         name = mon.nodes[p.pdef.node].name if p.pdef.node in mon.nodes else ""
         lines.append(
-            f"  0x{p.pdef.cob_id:03X} {p.pdef.label:6s} {name[:8]:8s} n={p.count:<7d} miss={p.missing:<4d} {vals}"
+            f"  0x{p.pdef.cob_id:03X} {p.pdef.label:6s} {name[:8]:8s} "
+            f"n={p.count:<7d} miss={p.missing:<4d} {vals}"
         )
     lines += ["", "SDO (last transfer per node)"]
     for n, st in sorted(mon.nodes.items()):

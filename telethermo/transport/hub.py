@@ -5,13 +5,7 @@ Clients are python-can's own ``socketcand`` interface::
 
     can.Bus(interface="socketcand", host="127.0.0.1", port=PORT, channel="vcan0", tcp_tune=True)
 
-Protocol (the subset python-can's client uses, after socketcand's ``doc/protocol.md``)::
-
-    hub  -> client   < hi >                      on connect
-    client -> hub    < open CHANNEL >            hub answers < ok >
-    client -> hub    < rawmode >                 hub answers < ok >; from now on the client receives
-    hub  -> client   < frame ID SEC.USEC HEX >   ID: 3 hex digits (11-bit) or 8 (29-bit); HEX: data, no spaces
-    client -> hub    < send ID DLC B0 B1 ... >   DLC and bytes in hex
+Protocol: :mod:`telethermo.transport.socketcand` (the subset python-can's client uses).
 
 Bus semantics: each channel name is one bus; a frame sent by one client goes to every OTHER client
 in raw mode on the same channel (no echo, as on a CAN bus), in the order the hub received them,
@@ -25,6 +19,7 @@ then delivered in order: python-can's client reads the ``< ok >`` of ``< rawmode
 The hub binds 127.0.0.1 (or ::1) only, and stops by itself when its parent process ends
 (``parent_pid``) or after ``idle_timeout_s`` without any client.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,6 +37,7 @@ from dataclasses import dataclass, field
 
 from telethermo.atomic import write_text_atomic
 from telethermo.transport.published import publish, unpublish
+from telethermo.transport.socketcand import format_frame, parse_send
 
 log = logging.getLogger(__name__)
 
@@ -71,8 +67,10 @@ class HubConfig:
 
     def __post_init__(self) -> None:
         if not is_loopback(self.host):
-            raise ValueError(f"hub host {self.host!r}: expected a loopback address (127.0.0.1 or ::1); "
-                             "the hub never listens on a network")
+            raise ValueError(
+                f"hub host {self.host!r}: expected a loopback address (127.0.0.1 or ::1); "
+                "the hub never listens on a network"
+            )
         if not (0 <= self.port <= 65535):
             raise ValueError(f"hub port {self.port}: expected 0..65535")
         if self.idle_timeout_s < 0 or self.join_grace_s < 0:
@@ -108,45 +106,9 @@ class _Client:
     outbuf: bytearray = field(default_factory=bytearray)
     channel: str | None = None
     raw: bool = False
-    held: deque = field(default_factory=deque)   # frames held during the join grace period
+    held: deque = field(default_factory=deque)  # frames held during the join grace period
     release_at: float = 0.0
     writing: bool = False
-
-
-def parse_send(command: str) -> tuple[str, bytes] | None:
-    """Parse the body of ``< send ID DLC B0 ... >`` (without the brackets) into (ID text, data).
-
-    The ID text keeps its width (3 hex digits = 11-bit, 8 = 29-bit) so the frame goes out in the
-    same format. Returns None for a malformed command (bad ID, DLC > 8 or not matching the bytes).
-    """
-    parts = command.split()
-    if len(parts) < 3 or parts[0] != "send":
-        return None
-    can_id, dlc_text, byte_texts = parts[1], parts[2], parts[3:]
-    try:
-        ident = int(can_id, 16)
-        dlc = int(dlc_text, 16)
-        data = bytes(int(b, 16) for b in byte_texts)
-    except ValueError:
-        return None
-    if len(can_id) == 3:
-        if ident > 0x7FF:
-            return None
-    elif len(can_id) == 8:
-        if ident > 0x1FFFFFFF:
-            return None
-    else:
-        return None
-    if not (0 <= dlc <= 8) or dlc != len(data):
-        return None
-    return can_id.upper(), data
-
-
-def format_frame(can_id: str, data: bytes, timestamp_s: float) -> bytes:
-    """``< frame ID SEC.USEC HEX >`` as socketcand sends it."""
-    sec = int(timestamp_s)
-    usec = int((timestamp_s - sec) * 1e6)
-    return f"< frame {can_id} {sec}.{usec:06d} {data.hex().upper()} >".encode("ascii")
 
 
 class Hub:
@@ -306,7 +268,7 @@ class Hub:
                 else:
                     pos = start
                 break
-            self._command(client, bytes(buf[start + 1:end]).decode("ascii", "replace").strip())
+            self._command(client, bytes(buf[start + 1 : end]).decode("ascii", "replace").strip())
             if client.sock.fileno() not in self._clients:
                 return
             pos = end + 1
@@ -398,8 +360,8 @@ def _process_alive(pid: int) -> bool:
 class HubThread:
     """A hub running in a background thread of this process (tests, benchmarks)::
 
-        with HubThread() as hub:
-            bus = can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0")
+    with HubThread() as hub:
+        bus = can.Bus(interface="socketcand", host="127.0.0.1", port=hub.port, channel="vcan0")
     """
 
     def __init__(self, config: HubConfig | None = None) -> None:
@@ -425,34 +387,57 @@ class HubThread:
 DEFAULT_CHANNEL = "telethermo"
 
 
-def main(argv: list[str] | None = None) -> int:
-    """``telethermo-hub``: run the hub until its parent ends, the idle timeout, or SIGINT/SIGTERM."""
-
+def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="telethermo-hub",
         description="Loopback-only CAN hub speaking the socketcand protocol (python-can interface "
-                    "'socketcand'): every frame from one client goes to all other clients on the same "
-                    "channel, ordered and lossless. Prints 'telethermo-hub listening on HOST:PORT' once ready.")
+        "'socketcand'): every frame from one client goes to all other clients on the same "
+        "channel, ordered and lossless. Prints 'telethermo-hub listening on HOST:PORT' once ready.",
+    )
     parser.add_argument("--host", default="127.0.0.1", help="loopback address to bind (127.0.0.1 or ::1)")
     parser.add_argument("--port", type=int, default=0, help="TCP port (0 = any free port; default 0)")
     parser.add_argument("--port-file", help="also write the chosen port to this file (atomically)")
-    parser.add_argument("--idle-timeout", type=float, default=60.0, metavar="S",
-                        help="stop after S seconds with no client (0 = never; default 60)")
-    parser.add_argument("--parent-pid", type=int, default=None,
-                        help="stop when this process ends (default: the process that started the hub)")
+    parser.add_argument(
+        "--idle-timeout",
+        type=float,
+        default=60.0,
+        metavar="S",
+        help="stop after S seconds with no client (0 = never; default 60)",
+    )
+    parser.add_argument(
+        "--parent-pid",
+        type=int,
+        default=None,
+        help="stop when this process ends (default: the process that started the hub)",
+    )
     parser.add_argument("--no-parent-watch", action="store_true", help="do not stop with the parent process")
-    parser.add_argument("--channel", default=DEFAULT_CHANNEL,
-                        help=f"the channel name published for clients (default {DEFAULT_CHANNEL}; the hub serves any)")
-    parser.add_argument("--no-publish", action="store_true",
-                        help="do not publish where the hub listens (by default the commands and node programs "
-                             "of this user find it with no flag: telethermo.transport.published)")
+    parser.add_argument(
+        "--channel",
+        default=DEFAULT_CHANNEL,
+        help=f"the channel name published for clients (default {DEFAULT_CHANNEL}; the hub serves any)",
+    )
+    parser.add_argument(
+        "--no-publish",
+        action="store_true",
+        help="do not publish where the hub listens (by default the commands and node programs "
+        "of this user find it with no flag: telethermo.transport.published)",
+    )
     parser.add_argument("-v", "--verbose", action="store_true", help="log connections")
-    args = parser.parse_args(argv)
-    logging.basicConfig(level=logging.INFO if args.verbose else logging.WARNING,
-                        format="telethermo-hub: %(message)s")
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    """``telethermo-hub``: run the hub until its parent ends, the idle timeout, or SIGINT/SIGTERM."""
+
+    args = _parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING, format="telethermo-hub: %(message)s"
+    )
     parent = None if args.no_parent_watch else (args.parent_pid or os.getppid())
     try:
-        config = HubConfig(host=args.host, port=args.port, idle_timeout_s=args.idle_timeout, parent_pid=parent)
+        config = HubConfig(
+            host=args.host, port=args.port, idle_timeout_s=args.idle_timeout, parent_pid=parent
+        )
     except ValueError as exc:
         print(f"telethermo-hub: error: {exc}", file=sys.stderr)
         return 2
@@ -470,20 +455,26 @@ def main(argv: list[str] | None = None) -> int:
     if not args.no_publish:
         try:
             state = publish(where, "telethermo-hub")
-        except OSError as exc:   # the hub works without it; the clients then need --bus
+        except OSError as exc:  # the hub works without it; the clients then need --bus
             print(f"telethermo-hub: warning: cannot publish where it listens ({exc})", file=sys.stderr)
             args.no_publish = True
     print(f"telethermo-hub listening on {args.host}:{port}", flush=True)
     if not args.no_publish:
-        print(f"telethermo-hub: clients of this user find it with no flag ({where}, published in {state})", flush=True)
+        print(
+            f"telethermo-hub: clients of this user find it with no flag ({where}, published in {state})",
+            flush=True,
+        )
     try:
         reason = hub.serve_forever()
     finally:
         if not args.no_publish:
             unpublish()
     s = hub.stats
-    print(f"telethermo-hub stopped ({reason}): {s.clients_accepted} clients, {s.frames_in} frames in, "
-          f"{s.frames_out} out, {s.malformed} malformed, {s.dropped_clients} dropped", flush=True)
+    print(
+        f"telethermo-hub stopped ({reason}): {s.clients_accepted} clients, {s.frames_in} frames in, "
+        f"{s.frames_out} out, {s.malformed} malformed, {s.dropped_clients} dropped",
+        flush=True,
+    )
     return 0
 
 

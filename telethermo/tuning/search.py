@@ -4,17 +4,23 @@ Every point the optimiser proposes is clipped to the bounds *before* a session r
 tests check that none leaves them). The search minimises the worst of a point and its two *stress
 corners* (:func:`stress_corners`). Deterministic for a seed.
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 import scipy.optimize as so
 
 from telethermo.tuning.objective import Evaluation, Objective
 from telethermo.tuning.space import GainSpec, clip_gains, default_gains
+
+
+#: the log-gain box, (low, high) per axis; the search's cost of a point in log-gains
+_Bounds = list[tuple[float, float]]
+_Cost = Callable[[np.ndarray], float]
 
 
 class _BudgetSpent(Exception):
@@ -62,8 +68,15 @@ def stress_corners(gains: dict[str, float], space: Sequence[GainSpec], rel: floa
     return out
 
 
-def search(objective: Objective, *, budget: int = 60, method: str = "nelder-mead", seed: int = 0,
-           x0: dict[str, float] | None = None, stress_rel: float = 0.3) -> SearchResult:
+def search(
+    objective: Objective,
+    *,
+    budget: int = 60,
+    method: str = "nelder-mead",
+    seed: int = 0,
+    x0: dict[str, float] | None = None,
+    stress_rel: float = 0.3,
+) -> SearchResult:
     """Minimise over the log-gain box with at most ``budget`` search points.
 
     At each point the search minimises ``max(J(centre), J(stiff corner), J(soft corner))`` of the
@@ -91,7 +104,11 @@ def search(objective: Objective, *, budget: int = 60, method: str = "nelder-mead
         if len(points) >= budget:
             raise _BudgetSpent
         c = objective.evaluate(g)
-        st = [objective.evaluate(x) for x in stress_corners(g, objective.space, stress_rel)] if stress_rel > 0 else []
+        st = (
+            [objective.evaluate(x) for x in stress_corners(g, objective.space, stress_rel)]
+            if stress_rel > 0
+            else []
+        )
         p = SearchPoint(c, max([c.J] + [e.J for e in st]), st)
         seen[key] = p
         points.append(p)
@@ -106,27 +123,64 @@ def search(objective: Objective, *, budget: int = 60, method: str = "nelder-mead
     proposals.append(start_g)
     start = point(start_g)
     bounds = objective.log_bounds
-    d = len(objective.space)
     try:
         if method == "nelder-mead":
-            x_start = objective.to_x(start_g)
-            simplex = [x_start]
-            for i in range(d):
-                x = x_start.copy()
-                lo, hi = bounds[i]
-                step = math.log(1.25)
-                x[i] = x[i] + step if x[i] + step <= hi else x[i] - step
-                x[i] = min(max(x[i], lo), hi)
-                simplex.append(x)
-            so.minimize(f, x_start, method="Nelder-Mead", bounds=bounds,
-                        options=dict(initial_simplex=np.array(simplex), maxfev=10 * budget, xatol=1e-3, fatol=1e-4))
+            _nelder_mead(f, objective.to_x(start_g), bounds, budget)
         else:
-            popsize = max(2, min(8, budget // (3 * d) or 2))
-            maxiter = max(1, budget // (popsize * d) - 1)
-            so.differential_evolution(f, bounds, popsize=popsize, maxiter=maxiter, seed=seed, polish=False,
-                                      init="latinhypercube", tol=0.0, updating="immediate", x0=objective.to_x(start_g))
+            _differential_evolution(f, objective.to_x(start_g), bounds, budget, seed)
     except _BudgetSpent:
         pass
     best = min(points, key=lambda p: (p.value, p.centre.J))
-    return SearchResult(method=method, budget=budget, seed=seed, stress_rel=stress_rel, best=best, start=start,
-                        points=points, proposals=proposals, n_evaluations=len(objective.history) - n0)
+    return SearchResult(
+        method=method,
+        budget=budget,
+        seed=seed,
+        stress_rel=stress_rel,
+        best=best,
+        start=start,
+        points=points,
+        proposals=proposals,
+        n_evaluations=len(objective.history) - n0,
+    )
+
+
+def _initial_simplex(x_start: np.ndarray, bounds: _Bounds) -> list[np.ndarray]:
+    """``x_start`` and, per axis, a vertex 25 % up the gain (down when that leaves the bounds)."""
+    simplex = [x_start]
+    for i in range(len(x_start)):
+        x = x_start.copy()
+        lo, hi = bounds[i]
+        step = math.log(1.25)
+        x[i] = x[i] + step if x[i] + step <= hi else x[i] - step
+        x[i] = min(max(x[i], lo), hi)
+        simplex.append(x)
+    return simplex
+
+
+def _nelder_mead(f: _Cost, x_start: np.ndarray, bounds: _Bounds, budget: int) -> None:
+    simplex = _initial_simplex(x_start, bounds)
+    so.minimize(
+        f,
+        x_start,
+        method="Nelder-Mead",
+        bounds=bounds,
+        options=dict(initial_simplex=np.array(simplex), maxfev=10 * budget, xatol=1e-3, fatol=1e-4),
+    )
+
+
+def _differential_evolution(f: _Cost, x_start: np.ndarray, bounds: _Bounds, budget: int, seed: int) -> None:
+    d = len(bounds)
+    popsize = max(2, min(8, budget // (3 * d) or 2))
+    maxiter = max(1, budget // (popsize * d) - 1)
+    so.differential_evolution(
+        f,
+        bounds,
+        popsize=popsize,
+        maxiter=maxiter,
+        seed=seed,
+        polish=False,
+        init="latinhypercube",
+        tol=0.0,
+        updating="immediate",
+        x0=x_start,
+    )

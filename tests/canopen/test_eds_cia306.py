@@ -1,4 +1,5 @@
-"""The EDS files (both nodes and the simulated I/O module) against CiA 306 basics, read by an independent INI reader (configparser), not by
+"""The EDS files (both nodes and the simulated I/O module) against CiA 306 basics, read by an independent INI
+reader (configparser), not by
 canopen's parser or the project's EdsInfo: required sections and keys, object lists consistent with
 the object sections, valid ObjectType/DataType/AccessType/PDOMapping, numbers that parse, defaults and
 limits inside the data type and inside each other; and lines every EDS reader can split (issue 12:

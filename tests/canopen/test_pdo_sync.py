@@ -82,7 +82,8 @@ def test_sync_start_value_delays_the_first_transmission(lab):
 
 
 def test_sync_start_value_and_mapping_change_only_while_the_pdo_is_invalid(lab):
-    """CiA 301 7.5.2.35/36: SYNC start value and mapping of a valid PDO are refused (0x06090030, 0x06010000, as
+    """CiA 301 7.5.2.35/36: SYNC start value and mapping of a valid PDO are refused (0x06090030, 0x06010000,
+    as
     CANopenNode); the mapping procedure (invalid, sub 0 = 0, entries, sub 0 = n, valid) is accepted."""
     lab.device("slave")
     node = lab.client("slave")
@@ -112,7 +113,8 @@ def test_sync_start_value_and_mapping_change_only_while_the_pdo_is_invalid(lab):
 
 def test_a_sync_of_the_wrong_length_is_not_processed_and_raises_emcy_0x8240(lab):
     """CiA 301 7.2.5: with 0x1019 > 0 a SYNC carries the counter (DLC 1); DLC 0 or 2 is refused (no TPDO) with
-    EMCY 0x8240 "unexpected SYNC data length" (byte 3: the length), its error reset at once (0x1003 keeps it)."""
+    EMCY 0x8240 "unexpected SYNC data length" (byte 3: the length), its error reset at once (0x1003 keeps
+    it)."""
     lab.device("slave")
     node = lab.client("slave")
     bus = lab.raw_bus()
@@ -352,7 +354,8 @@ def test_a_peer_answering_before_the_producers_own_tick_is_not_committed_one_cyc
         for _ in range(20):
             n, n2 = master.rpdo_count(1), master.rpdo_count(2)
             sync.transmit()
-            # every PDO of the cycle is in before the next SYNC, as the lockstep producer waits for the last one
+            # every PDO of the cycle is in before the next SYNC, as the lockstep producer waits for the last
+            # one
             assert master.wait_rpdo(1, after=n, timeout=5.0) and master.wait_rpdo(2, after=n2, timeout=5.0)
             drain(observer)
     finally:

@@ -23,7 +23,8 @@ def test_bench_command_runs_the_suite_as_a_process():
 
 def test_the_cli_does_not_import_bench():
     code = (
-        "import sys; from telethermo.cli.main import build_parser; build_parser('bench'); build_parser('tune'); "
+        "import sys; from telethermo.cli.main import build_parser; build_parser('bench'); "
+        "build_parser('tune'); "
         "print(sorted(m for m in sys.modules if m == 'bench' or m.startswith('bench.')))"
     )
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)

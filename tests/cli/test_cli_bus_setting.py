@@ -156,7 +156,8 @@ def test_a_node_program_refuses_an_unknown_interface_in_one_line(isolated):
     )
     assert proc.returncode == EXIT_USAGE, proc.stderr
     assert proc.stderr.strip().splitlines() == [
-        "telethermo-master: error: environment (CAN_INTERFACE, CAN_CHANNEL, CAN_BITRATE, CAN_CONFIG): bus.interface: "
+        "telethermo-master: error: environment (CAN_INTERFACE, CAN_CHANNEL, CAN_BITRATE, CAN_CONFIG): "
+        "bus.interface: "
         "unknown python-can interface 'kvasr'; expected one of " + ", ".join(sorted(can.VALID_INTERFACES))
     ]
 
@@ -249,7 +250,8 @@ def test_a_stale_or_damaged_state_file_is_ignored(isolated, tmp_path):
 
 
 def test_a_malformed_canrc_is_named_without_a_section_it_does_not_have(isolated, cli):
-    """Issue 25: a damaged ~/.canrc was reported as "[telethermo] of ~/.canrc: cannot read", a section the file
+    """Issue 25: a damaged ~/.canrc was reported as "[telethermo] of ~/.canrc: cannot read", a section the
+    file
     does not have (python-can reads the whole file with configparser before any section is looked up)."""
     canrc(isolated, "[default]\ninterface = virtual\nthis is not a key\n")
     code, out, err = cli("get", "master", "mode")

@@ -123,7 +123,8 @@ def test_a_touch_during_the_experiment_is_refused_with_when(tmp_path, capsys):
         )
         assert m, err
         t_on, t_off = float(m.group(1)), float(m.group(2))
-        # what the command saw lies within what the test did (seen on the bus around the touch), 0.2 s of polling
+        # what the command saw lies within what the test did (seen on the bus around the touch), 0.2 s of
+        # polling
         assert (k_on - 1) * PERIOD_S - 0.05 <= t_on and t_off <= (k_off - 1) * PERIOD_S + 0.25, (
             k_on,
             k_off,

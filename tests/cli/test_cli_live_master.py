@@ -48,7 +48,9 @@ def test_get_from_the_running_node(bus, capsys):
         "master 0x2500 mode": "0 (idle)",
         "master 0x2203 estimator": "1 (flux)",
         "master 0x2700 safety_state": vals["master 0x2700 safety_state"],
-        "master 0x1A00:01 TPDO1 mapping parameter.Application object 1": "0x21000020 (0x2100:00 estimate_C, 32 bits)",
+        "master 0x1A00:01 TPDO1 mapping parameter.Application object 1": (
+            "0x21000020 (0x2100:00 estimate_C, 32 bits)"
+        ),
         "master 0x2000 T_sensor_C": vals["master 0x2000 T_sensor_C"],
     }
     assert vals["master 0x2700 safety_state"] in ("0 (ok)", "1 (limiting)")

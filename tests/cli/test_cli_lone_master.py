@@ -110,7 +110,8 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
     assert tem.temperature.metrics["heldout_free_run_max_C"] == pytest.approx(worst, abs=1e-4)
 
     # the recorded samples are the node's, in order: an identical simulated rig, idle for the cycles the
-    # node ran before the experiment and then driven by the plan, reads the same temperatures (REAL32 on the bus)
+    # node ran before the experiment and then driven by the plan, reads the same temperatures (REAL32 on the
+    # bus)
     header = {}
     rows = []
     for line in data.read_text().splitlines():

@@ -122,7 +122,8 @@ def bench_with_pair(bench):
 
 def test_mode_and_fault_reset_address_only_the_master_and_the_slave(bench_with_pair, cli):
     """Issue 25: a third device in network.toml (the docs suggest adding one) broke `mode` and `fault-reset`:
-    they wrote `mode` to every node of the file. The amplifier's EDS has a `mode` object: it must not change."""
+    they wrote `mode` to every node of the file. The amplifier's EDS has a `mode` object: it must not
+    change."""
     net, devs = bench_with_pair
     amp = canopen.Network()
     amp.connect(interface="virtual", channel="tt-other")
@@ -145,7 +146,8 @@ def test_mode_and_fault_reset_address_only_the_master_and_the_slave(bench_with_p
 
 
 def test_status_of_an_absent_device_exits_1(bench, cli):
-    """Issue 25: `status` of a device named in the file but absent from the bus exited 0 (no EDS: nothing read).
+    """Issue 25: `status` of a device named in the file but absent from the bus exited 0 (no EDS: nothing
+    read).
     Exit 1 like every node that does not answer; a present EDS-less device shows its 0x1000."""
     net = network(bench.parent, NET + "[nodes.ghost]\nnode_id = 9\n")
     code, out, err = cli(

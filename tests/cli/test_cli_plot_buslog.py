@@ -19,7 +19,8 @@ pytest.importorskip("matplotlib")
 
 
 def write_log(path, n=50):
-    """n cycles: SYNC, master TPDO1 (0x181), slave TPDO1 (0x182); an EMCY 0x8130 from the master at cycle 30."""
+    """n cycles: SYNC, master TPDO1 (0x181), slave TPDO1 (0x182); an EMCY 0x8130 from the master at cycle
+    30."""
     with can.Logger(str(path)) as log:
         for k in range(n):
             t = 1000.0 + 0.01 * k

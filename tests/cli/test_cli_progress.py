@@ -1,5 +1,6 @@
 """telethermo.cli.progress.Progress, the one progress display of the CLI: in place on a terminal, a plain line
-~every 10 % elsewhere (a log, a pipe: never a carriage return); and ``identify`` into a pipe, a real process."""
+~every 10 % elsewhere (a log, a pipe: never a carriage return); and ``identify`` into a pipe, a real
+process."""
 
 from __future__ import annotations
 

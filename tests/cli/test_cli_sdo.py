@@ -62,7 +62,8 @@ def test_download_typed(nodes, foreign, cli):
     assert out == "node 5 0x2001:00 <- f4 01 (UNSIGNED16 0x1F4): written\n"
     assert foreign.sdo.upload(0x2001, 0) == b"\xf4\x01"
     assert cli("sdo", *nodes.bus, "5", "0x2001", "--type", "u16")[1] == "node 5 0x2001:00 = 500 (0x01F4)\n"
-    # the size is the type's: a u8 sent to a 16-bit object is the node's to refuse (canopen's LocalNode takes it)
+    # the size is the type's: a u8 sent to a 16-bit object is the node's to refuse (canopen's LocalNode takes
+    # it)
     code, _, err = cli("sdo", *nodes.bus, "5", "0x2001", "7")
     assert (
         code == EXIT_USAGE

@@ -80,7 +80,8 @@ def recovered(lab: Lab, timeout_s: float = 30.0) -> str:
         sdo = lab.sdo(nid)
         expect(
             wait_for(lambda: sdo[0x1001].raw == 0 and sdo["active_trips"].raw == 0, timeout_s, 0.1),
-            f"node {nid}: 0x1001 = 0x{sdo[0x1001].raw:02X}, active_trips = 0x{sdo['active_trips'].raw:03X} after recovery",
+            f"node {nid}: 0x1001 = 0x{sdo[0x1001].raw:02X}, active_trips = 0x{sdo['active_trips'].raw:03X} "
+            "after recovery",
         )
     expect(lab.processes_alive(), "a node process ended")
     return "recovered"
@@ -272,7 +273,8 @@ def sync_start_value(lab: Lab) -> str:
 
 
 def sync_length(lab: Lab) -> str:
-    """A SYNC of the wrong length (0x1019 > 0: DLC 1): not processed, EMCY 0x8240 with the length, then reset."""
+    """A SYNC of the wrong length (0x1019 > 0: DLC 1): not processed, EMCY 0x8240 with the length, then
+    reset."""
     mark = lab.frames.mark()
     for data in (b"", b"\x01\x02"):
         lab.net.send_message(0x80, data)

@@ -344,7 +344,8 @@ def test_a_fault_reset_does_not_restart_an_identification_experiment():
     kpq=st.floats(0, 5),
 )
 def test_peer_trips_never_step_the_current_beyond_the_slew(seq, kp, ki, kq, kpq):
-    """Random gains, contacts (flux, the contact flag), peers (values, loss, NaN, stale) through the whole core:
+    """Random gains, contacts (flux, the contact flag), peers (values, loss, NaN, stale) through the whole
+    core:
     while a peer trip is latched and no hard cut, the commanded current falls towards 0 A or grows by at most
     trip_slew_A_per_s·period_s per step; |I| <= I_limit_A and the setpoint within [15, 43] °C always."""
     p = CoreParams(role=Role.MASTER, kp_A_per_C=kp, ki_A_per_C_s=ki, kQ_A_per_W=kq, kpQ_A_per_W=kpq)
@@ -375,9 +376,12 @@ def test_peer_trips_never_step_the_current_beyond_the_slew(seq, kp, ki, kq, kpq)
     pattern=st.lists(st.sampled_from(["frozen", "stale", "burst"]), min_size=5, max_size=80),
 )
 def test_a_starved_peer_cannot_make_the_setpoint_climb(valid, own, pattern):
-    """The flood aftermath (issue 12): a peer alive but starved never drives the master's setpoint beyond the values
-    it was given. Values frozen or stale (fresh False): the setpoint moves towards the last one, never past it;
-    old values re-delivered in bursts as if fresh: the setpoint stays within [min, max] of the setpoint when the
+    """The flood aftermath (issue 12): a peer alive but starved never drives the master's setpoint beyond the
+    values
+    it was given. Values frozen or stale (fresh False): the setpoint moves towards the last one, never past
+    it;
+    old values re-delivered in bursts as if fresh: the setpoint stays within [min, max] of the setpoint when
+    the
     starvation began and the values received. Any pad temperature, flux, gains of the shipped master."""
     p = dataclasses.replace(default_params(Role.MASTER, period_s=0.01), air_rendering=False)
     r = step(S(contact=True), PeerValues(33.0, 0.0), p, init_state(p, None, S(contact=True)))

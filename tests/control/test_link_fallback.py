@@ -191,7 +191,8 @@ def test_link_loss_during_a_touch_keeps_the_envelope(est, beta, code, render_s, 
 
 
 def test_link_loss_render_s_is_an_od_parameter_of_the_node():
-    """0x2618 link_loss_render_s: a node's SDO write reaches CoreParams (all modes), the OD image shows it, and an
+    """0x2618 link_loss_render_s: a node's SDO write reaches CoreParams (all modes), the OD image shows it,
+    and an
     out-of-range value is refused (CoreParams' own check: the EDS range is 0..60 s)."""
 
     def params_for(mode, render=None):

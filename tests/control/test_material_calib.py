@@ -1,4 +1,5 @@
-"""The calibrated material classifier (telethermo/control/material_calib.py): its file, its errors, its physics."""
+"""The calibrated material classifier (telethermo/control/material_calib.py): its file, its errors, its
+physics."""
 
 from __future__ import annotations
 
@@ -116,7 +117,8 @@ def test_calibration_seeds_are_disjoint_from_the_evaluation_touches():
 
 
 def test_classifier_names_thick_slabs_at_a_large_temperature_difference():
-    """Ten materials, 20 mm slabs (semi-infinite within 0.3 s), 6 N, object 20 °C below the probe (ΔT ≈ 14 °C),
+    """Ten materials, 20 mm slabs (semi-infinite within 0.3 s), 6 N, object 20 °C below the probe (ΔT ≈ 14
+    °C),
     noise on, seeds no calibration touch used: at least 9 of the 10 are named right."""
     T_probe = finger_natural_C(PARAMS)
     names = [SIM_TO_TABLE[m] for m in SIM_TO_TABLE]
@@ -176,7 +178,8 @@ def test_whitener_maps_the_floored_noise_covariance_to_the_identity():
 def test_the_shipped_metric_is_in_units_of_the_rigs_noise():
     """The difference between a touch with the rig's noise and the same touch without it (seeds no calibration
     touch used), through the shipped calibration's whitening: each component's variance is at most about one
-    (the whitening's floor only lowers it), and the largest is near one. A calibration in °C would give 1e-4."""
+    (the whitening's floor only lowers it), and the largest is near one. A calibration in °C would give
+    1e-4."""
     T_probe = finger_natural_C(PARAMS)
     mats = list(SIM_TO_TABLE)
     Z = []
@@ -223,8 +226,10 @@ def test_the_core_classifies_the_window_the_calibration_was_built_on():
 
 
 def test_a_touch_without_an_effusivity_is_published_unknown():
-    """An object within 0.3 °C of the probe: neither form of the physics fit gives an effusivity (the batch fit
-    says None); the network would still name a class, but the evidence is weak (issue 23), so the slave publishes
+    """An object within 0.3 °C of the probe: neither form of the physics fit gives an effusivity (the batch
+    fit
+    says None); the network would still name a class, but the evidence is weak (issue 23), so the slave
+    publishes
     "unknown" with posterior 0 and a NaN effusivity, the touch counted (seeds no calibration touch used)."""
     T_probe = finger_natural_C(PARAMS)
     T, Q, i0, est, _ = simulate_touch(

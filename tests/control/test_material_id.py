@@ -1,4 +1,5 @@
-"""Material identification on the slave (issue 15): physics of the estimator, the classifier, the core's output."""
+"""Material identification on the slave (issue 15): physics of the estimator, the classifier, the core's
+output."""
 
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""The physics posterior (issue 23; telethermo.control.material_physics): abstains where the physics cannot tell,
+"""The physics posterior (issue 23; telethermo.control.material_physics): abstains where the physics cannot
+tell,
 and a posterior calibrated on held-out envelope touches through the slave's core."""
 
 from __future__ import annotations
@@ -53,7 +54,8 @@ def test_unknown_code_renders_as_unknown():
 def test_posterior_is_calibrated_on_held_out_envelope_touches():
     """60 envelope touches of seeds no calibration or tuning used (draw 6262, simulator 1500000 + i), the
     objects >= 4 °C from the probe: the mean posterior of the physics answers lies
-    within 0.12 of their accuracy, and the calibrated 95 % interval of every fit's b contains the truth in 80-100 %."""
+    within 0.12 of their accuracy, and the calibrated 95 % interval of every fit's b contains the truth in
+    80-100 %."""
     base = load_rig_params()
     rigs = {False: base, True: other_tem(base)}
     sims = list(SIM_TO_TABLE)

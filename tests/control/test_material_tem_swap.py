@@ -85,7 +85,8 @@ def test_the_test_set_is_disjoint_from_every_calibration_and_evaluation():
         "0.500/0.518, difference 0.33/0.31 (paired SE 0.024). The calibrated network learnt the closed-loop "
         "transient of the shipped module; on another one it scored 0.368, so the node now tells its box "
         "('another_tem', telethermo.control.gain_rule.same_module) and the TEM-independent physics posterior "
-        "answers, which is right about half the time in the box: a network calibrated through the probe's own "
+        "answers, which is right about half the time in the box: a network calibrated through the probe's "
+        "own "
         "identified model is what would close the gap"
     ),
 )

@@ -1,4 +1,5 @@
-"""Training the material classifier's networks (telethermo/control/material_train.py): it reaches the Bayes rate of
+"""Training the material classifier's networks (telethermo/control/material_train.py): it reaches the Bayes
+rate of
 a problem whose Bayes rate is known, and the calibration it builds classifies as its networks do."""
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ def test_a_trained_network_reaches_the_bayes_rate_of_a_problem_no_line_separates
 
 
 def test_a_built_calibration_classifies_touch_vectors_as_its_networks_do(tmp_path):
-    """Synthetic touch vectors (n_win 6: twelve values, °C), two classes told apart by one fast component that a
+    """Synthetic touch vectors (n_win 6: twelve values, °C), two classes told apart by one fast component
+    that a
     large slow one (the nuisance) hides in °C; noise covariance known. The saved and loaded calibration's
     single-touch classification equals the batch accuracy's decisions, and is right where the classes differ
     by many noise units."""

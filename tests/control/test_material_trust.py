@@ -1,4 +1,5 @@
-"""The slave names a material only inside what its calibration knows (issue 23; telethermo.control.material_trust):
+"""The slave names a material only inside what its calibration knows (issue 23;
+telethermo.control.material_trust):
 simulated touches through the slave's core, the shipped calibration."""
 
 from __future__ import annotations
@@ -42,7 +43,8 @@ def test_an_object_hotter_than_the_probe_is_identified_from_the_reversed_flux():
 
 
 def test_a_probe_resting_elsewhere_is_named_by_the_physics_not_the_network():
-    """Room at 18 °C: the probe rests 2 °C below the references' rest, outside the network's box: the answer is
+    """Room at 18 °C: the probe rests 2 °C below the references' rest, outside the network's box: the answer
+    is
     the physics posterior's (glass at 20 °C: named glass, not the network's class of an untrained rest)."""
     rest = finger_natural_C(PARAMS, 18.0)
     _, _, _, est, _ = simulate_touch(

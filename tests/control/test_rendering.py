@@ -65,7 +65,8 @@ def test_eq5_equals_eq7_with_relative_effusivities():
 def _semi_infinite_pair(t, Tf0, To0, bf, bo, h):
     """Surface temperatures of two semi-infinite bodies with a contact conductance h (Carslaw & Jaeger):
     both surfaces see the same flux q(t); dT_f = -q*t-kernel/bf, dT_o = +kernel/bo."""
-    # with contact resistance: T_o,s - T_o0 = (Tf0-To0)*bf/(bf+bo)*(1 - exp(x^2) erfc(x)), x = h sqrt(t)(1/bf+1/bo)
+    # with contact resistance: T_o,s - T_o0 = (Tf0-To0)*bf/(bf+bo)*(1 - exp(x^2) erfc(x)), x = h
+    # sqrt(t)(1/bf+1/bo)
     x = h * np.sqrt(t) * (1 / bf + 1 / bo)
     g = 1 - erfcx(x)
     dT = Tf0 - To0

@@ -216,8 +216,10 @@ def _grows_within_slew(prev, i, step):
     I0=st.floats(-1.6, 1.6),
 )
 def test_peer_trips_slew_the_current_and_the_envelope_holds(seq, slew, lead, I0):
-    """Random requests (any controller, any gains), surfaces, peers, trips and link-loss fallbacks: while a peer
-    trip is latched or the fallback renders, and no hard cut, the current falls to 0 A at once or grows at most
+    """Random requests (any controller, any gains), surfaces, peers, trips and link-loss fallbacks: while a
+    peer
+    trip is latched or the fallback renders, and no hard cut, the current falls to 0 A at once or grows at
+    most
     trip_slew_A_per_s; a hard cut is 0 A at once; |I| <= I_limit_A, the setpoint within the clamps, no heating
     within guard_C of T_max_C."""
     lim = sf.SafetyLimits(I_max_A=2.0, trip_slew_A_per_s=slew, trip_lead_C=lead)
@@ -250,7 +252,8 @@ def test_peer_trips_slew_the_current_and_the_envelope_holds(seq, slew, lead, I0)
 
 
 def test_the_neutral_ramp_waits_for_a_lagging_surface():
-    """A peer trip with the pad at 18 °C: the setpoint leads the surface by at most trip_lead_C (it waits), and
+    """A peer trip with the pad at 18 °C: the setpoint leads the surface by at most trip_lead_C (it waits),
+    and
     without the lead bound (research: inf) it runs ahead at the ramp limit."""
     for lead, expect in ((1.5, 18.0 + 1.5), (math.inf, 18.0 + 100 * 0.05)):
         lim = sf.SafetyLimits(I_max_A=2.0, trip_lead_C=lead, research=lead == math.inf)

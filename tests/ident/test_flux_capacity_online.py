@@ -1,4 +1,5 @@
-"""Heat-flux ARMA (eq. 12), capacity model (eq. 13) and the streaming RLS identifier, on data from known models."""
+"""Heat-flux ARMA (eq. 12), capacity model (eq. 13) and the streaming RLS identifier, on data from known
+models."""
 
 import numpy as np
 import pytest

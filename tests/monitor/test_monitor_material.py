@@ -15,7 +15,8 @@ from .conftest import monitor_config
 
 
 def _tpdo5(code: int, touches: int, beta: float) -> can.Message:
-    # slave 0x1A04: 0x2006 contact (8 bits), 0x2610 identified_material (8), 0x2614 touches (16), 0x2611 beta (32)
+    # slave 0x1A04: 0x2006 contact (8 bits), 0x2610 identified_material (8), 0x2614 touches (16), 0x2611 beta
+    # (32)
     return can.Message(
         timestamp=1.0,
         arbitration_id=0x682,

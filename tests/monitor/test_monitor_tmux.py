@@ -78,7 +78,10 @@ def test_view_in_a_real_terminal(tmp_path):
     _log(log)
     sock = f"tt-test-{time.monotonic_ns()}"
     done = tmp_path / "rc"
-    cmd = f"{sys.executable} -m telethermo.cli.main monitor --replay {log} --speed 0; echo $? > {done}; sleep 30"
+    cmd = (
+        f"{sys.executable} -m telethermo.cli.main monitor --replay {log} --speed 0; "
+        f"echo $? > {done}; sleep 30"
+    )
     # curses believes LINES/COLUMNS over the terminal's real size: do not pass on the test runner's
     env = {k: v for k, v in os.environ.items() if k not in ("LINES", "COLUMNS")}
     subprocess.run(

@@ -1,4 +1,5 @@
-"""Hardware-rig factories for the node programs' tests (``--rig MODULE:FACTORY``): drivers that go wrong, and a
+"""Hardware-rig factories for the node programs' tests (``--rig MODULE:FACTORY``): drivers that go wrong, and
+a
 pad whose contact flag the test sets (tests/cli/test_cli_identify_contact.py)."""
 
 from __future__ import annotations

@@ -52,7 +52,8 @@ def test_hub_killed_and_restarted_the_pair_goes_safe_and_resumes_by_itself(tmp_p
     pair.start()
     net = None
     try:
-        # before the probe's first touch (1.0 s): no material identified yet, so the master's graceful link-loss
+        # before the probe's first touch (1.0 s): no material identified yet, so the master's graceful
+        # link-loss
         # rendering (issue 15) does not apply and the loss must trip at once
         assert wait_for(lambda: pair.progress[0] >= 60, 120), "session did not start"
         port = pair.hub.port
@@ -122,7 +123,8 @@ def test_a_short_outage_does_not_leave_lockstep_waiting_for_a_sync_the_slave_nev
     """The hub gone for a few milliseconds (a new one on the same port at once, in this process): shorter
     than the heartbeat consumer time, so neither node need see the other lost, and the two reopen at
     different times. The session goes on with few lockstep timeouts. (A SYNC the master sends before the slave
-    is back is never answered, and lockstep then waited its patience bound on every later cycle, for good: seen
+    is back is never answered, and lockstep then waited its patience bound on every later cycle, for good:
+    seen
     in the vcan VM, tests/vcan/test_vcan_bus_loss.py; on this fast host the two reopen too close together for
     it to happen reliably, so this test guards the quick-outage path, not that race.)"""
     pair = NodePair(PairConfig(scene=SCENE, out_dir=tmp_path, cycles=0, seed=0, progress_every=10))

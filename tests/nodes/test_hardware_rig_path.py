@@ -1,4 +1,5 @@
-"""The node programs' hardware path (``--rig MODULE:FACTORY``, real time), exercised with a simulated plant paced
+"""The node programs' hardware path (``--rig MODULE:FACTORY``, real time), exercised with a simulated plant
+paced
 by the wall clock (sim.wallclock: a ``telethermo.rig.Rig`` with no ``advance``): what a lab checks on a bench.
 
 Both programs run as OS processes over our socketcand hub, with ``--rig sim.wallclock:pads_in_air_master`` /
@@ -84,7 +85,8 @@ def _start_node(role: str, bus: str, out: Path, *args: str, stdout=subprocess.DE
 
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory):
-    """Run 1: the pair in idle, real time, the master for CYCLES cycles, both recording; a witness on the bus."""
+    """Run 1: the pair in idle, real time, the master for CYCLES cycles, both recording; a witness on the
+    bus."""
     out = tmp_path_factory.mktemp("rig_path")
     hub = HubProcess(idle_timeout_s=60, log_path=out / "hub.log")
     hub.start()
@@ -139,8 +141,10 @@ def _session_frames(bench) -> list[tuple[float, int, bytes]]:
 def _expected_mean_step_bounds(
     result: dict, n_steps: int, jitter_s: float = 0.05
 ) -> tuple[float, float | None]:
-    """Bounds on the mean step of n_steps SYNC intervals the producer's schedule guarantees: never faster than the
-    period (SYNC k is not sent before t0 + k·period) and, without overruns (no re-anchoring), not slower than the
+    """Bounds on the mean step of n_steps SYNC intervals the producer's schedule guarantees: never faster
+    than the
+    period (SYNC k is not sent before t0 + k·period) and, without overruns (no re-anchoring), not slower than
+    the
     lateness the producer measured spread over the run; ``jitter_s`` allows for the stamping at either end
     (hub read, rig read). With overruns only the lower bound holds (None)."""
     slack = (result["lateness_ms_max"] * 1e-3 + jitter_s) / n_steps
@@ -185,7 +189,8 @@ def test_master_runs_its_cycles_in_real_time(bench):
 
 
 def test_sync_period_on_the_bus_is_10_ms(bench):
-    """Every SYNC on the bus, its counter in sequence, and the mean SYNC period from the hub's timestamps within
+    """Every SYNC on the bus, its counter in sequence, and the mean SYNC period from the hub's timestamps
+    within
     the bounds the producer's schedule guarantees (no wall-clock speed assertion beyond its own lateness)."""
     r = bench["result"]
     syncs = [f for f in _session_frames(bench) if f[1] == 0x080]
@@ -209,9 +214,12 @@ def test_sync_period_on_the_bus_is_10_ms(bench):
 
 
 def test_both_nodes_saw_the_peer(bench):
-    """No EMCY during the session (a peer-loss trip would raise 0x8130), the slave never lost the master, and the
-    master had the slave's PDOs for every cycle but the first ones (the master in idle does not await its peer,
-    and the hub holds a newly connected client's first 0.2 s of frames), with any start-up miss over by the end.
+    """No EMCY during the session (a peer-loss trip would raise 0x8130), the slave never lost the master, and
+    the
+    master had the slave's PDOs for every cycle but the first ones (the master in idle does not await its
+    peer,
+    and the hub holds a newly connected client's first 0.2 s of frames), with any start-up miss over by the
+    end.
     Every SYNC was answered by both nodes' TPDO1."""
     frames = _session_frames(bench)
     emcy = [f for f in frames if f[1] in (0x080 + NODE_ID["master"], 0x080 + NODE_ID["slave"])]
@@ -219,7 +227,8 @@ def test_both_nodes_saw_the_peer(bench):
     # (0x8130) and its reset (0x0000) are then the envelope working; nothing else may be raised
     assert all(int.from_bytes(f[2][:2], "little") in (0x8130, 0x0000) for f in emcy), emcy
     assert sum(1 for f in frames if f[1] == 0x180 + NODE_ID["master"]) == CYCLES
-    # the slave answers SYNC k when it gets to it: its last TPDO1 may follow the master's end of session on the bus
+    # the slave answers SYNC k when it gets to it: its last TPDO1 may follow the master's end of session on
+    # the bus
     assert sum(1 for f in bench["frames"] if f[1] == 0x180 + NODE_ID["slave"]) == CYCLES
     peer = bench["result"]["peer"]
     assert peer["non_finite"] == 0
@@ -251,9 +260,11 @@ def test_both_nodes_saw_the_peer(bench):
     cycles, pdos, missed, losses = map(int, m.groups())
     print(f"\nslave: {cycles} cycles, peer PDOs {pdos}, missed {missed}, losses {losses}; master peer {peer}")
     assert cycles == CYCLES and pdos + missed == CYCLES - 1
-    # the session ends with the master's NMT enter pre-operational; its heartbeat stops a moment later, which the
+    # the session ends with the master's NMT enter pre-operational; its heartbeat stops a moment later, which
+    # the
     # slave may or may not report before its own SIGTERM: only a loss during the session counts. On an idle
-    # machine there is none (missed 0); a loaded one may delay PDOs past the miss limit: every such loss resumed
+    # machine there is none (missed 0); a loaded one may delay PDOs past the miss limit: every such loss
+    # resumed
     session, _, _ = slave_log.partition("-> PRE_OPERATIONAL (command 0x80)")
     if missed == 0 and not emcy:
         assert "lost" not in session, session[-3000:]
@@ -263,14 +274,16 @@ def test_both_nodes_saw_the_peer(bench):
 
 
 def test_pads_at_rest_stay_at_ambient_in_idle(bench):
-    """TPDO2 of both nodes on the bus (T_sensor_C, current_A every 10 SYNCs): no current, the pads at ambient."""
+    """TPDO2 of both nodes on the bus (T_sensor_C, current_A every 10 SYNCs): no current, the pads at
+    ambient."""
     for role in ("master", "slave"):
         vals = [struct.unpack("<ff", f[2]) for f in bench["frames"] if f[1] == 0x280 + NODE_ID[role]]
         assert len(vals) >= CYCLES // 10 - 1, role
         T = np.array([v[0] for v in vals])
         I = np.array([v[1] for v in vals])
         print(
-            f"\n{role}: T_sensor {T.min():.4f}..{T.max():.4f} °C over {len(T)} TPDO2, |I| max {np.abs(I).max()} A"
+            f"\n{role}: T_sensor {T.min():.4f}..{T.max():.4f} °C over {len(T)} TPDO2, |I| max "
+            f"{np.abs(I).max()} A"
         )
         assert np.all(I == 0.0), role
         assert np.all(np.abs(T - AMBIENT_C) < REST_TOL_C), role
@@ -310,7 +323,8 @@ def test_recordings(bench):
 
 @pytest.mark.parametrize("role", ["master", "slave"])
 def test_lockstep_is_refused_with_a_hardware_rig(role, tmp_path):
-    """A hardware rig cannot advance on request: --timing lockstep with --rig is a usage error (exit 2), named."""
+    """A hardware rig cannot advance on request: --timing lockstep with --rig is a usage error (exit 2),
+    named."""
     p = subprocess.run(
         node_command(role, "--bus", "virtual:tt-rig-refused", "--rig", RIG[role], "--timing", "lockstep"),
         capture_output=True,
@@ -340,7 +354,8 @@ def test_lockstep_is_refused_with_a_hardware_rig(role, tmp_path):
     ],
 )
 def test_a_bad_hardware_rig_is_a_named_usage_error(factory, expected, tmp_path):
-    """A driver that fails, returns something else, or runs at another period than the bus: exit 2, one line."""
+    """A driver that fails, returns something else, or runs at another period than the bus: exit 2, one
+    line."""
     root = Path(__file__).resolve().parents[2]
     env = dict(__import__("os").environ, PYTHONPATH=str(root))
     p = subprocess.run(
@@ -392,17 +407,22 @@ def test_rig_config_gives_the_driver_its_settings(tmp_path):
         parse_options(Role.MASTER, ["--scene", "sim/scenes/pads_in_air.toml", "--rig-config", str(good)])
 
 
-# The experiment of `telethermo identify master` here: 650 samples, 6.5 s of real time. Orders 2,2,0,0 fitted by
+# The experiment of `telethermo identify master` here: 650 samples, 6.5 s of real time. Orders 2,2,0,0 fitted
+# by
 # least squares: stable in 30 of 30 offline experiments of this size (PRBS seeds 0..29). The first-order model
-# (1,1,0,0) cannot hold the pad's fast and slow modes at once; its one pole lands on either side of the unit circle
+# (1,1,0,0) cannot hold the pad's fast and slow modes at once; its one pole lands on either side of the unit
+# circle
 # (offline 3 of 10 seeds stable; live 2 of 5 runs, the others refused with |z| = 1.012..1.026).
 IDENT = {"rest": 50, "train": 400, "validation": 200, "hold": 5, "orders": "2,2,0,0", "method": "ls"}
 
 
 def _ident_stream(frames, node_id: int, total: int):
-    """The identification samples on the bus, decoded as ``telethermo identify`` decodes them: TPDO2, TPDO3 and
-    TPDO4, each (sample number 1..total, value): T_sensor_C, current_A, Q_W. Frames of the EDS mappings (before
-    and after the experiment) are told apart by the sample number's range, as the CLI does; TPDO4's EDS mapping
+    """The identification samples on the bus, decoded as ``telethermo identify`` decodes them: TPDO2, TPDO3
+    and
+    TPDO4, each (sample number 1..total, value): T_sensor_C, current_A, Q_W. Frames of the EDS mappings
+    (before
+    and after the experiment) are told apart by the sample number's range, as the CLI does; TPDO4's EDS
+    mapping
     starts with the cycle counter, so only the frames between the first and the last numbered TPDO2 count.
     Returns T, I, Q and how often each sample number was seen with all three values."""
     vals = np.full((3, total), np.nan)
@@ -427,7 +447,8 @@ def _ident_stream(frames, node_id: int, total: int):
 
 
 def _refit(T, I, Q) -> dict:
-    """The identification fit (telethermo.ident.experiment.fit_experiment, as `telethermo identify NODE` calls it,
+    """The identification fit (telethermo.ident.experiment.fit_experiment, as `telethermo identify NODE`
+    calls it,
     with the CLI's default plan seed 0 and amplitudes 0.1..1 A) of samples taken from the bus: its report
     ('stable', 'max_pole_modulus', ...)."""
     from telethermo.ident import NarmaOrders, UnstableModelError
@@ -484,7 +505,8 @@ def _get(capsys, bus: str, node: str, *names: str) -> dict[str, float]:
 
 def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
     """Run 2: the pair in idle until stopped; the operator's CLI in process. `telethermo identify master`
-    records every sample of a 650-sample experiment over the real-time stream; then `telethermo mode render wood`
+    records every sample of a 650-sample experiment over the real-time stream; then `telethermo mode render
+    wood`
     and the master's pad goes to the rendering pre-set temperature."""
     hub = HubProcess(idle_timeout_s=60, log_path=tmp_path / "hub.log")
     hub.start()
@@ -538,7 +560,8 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
         notes.append(f"identify master in real time: exit {code}, {t_ident:.1f} s\n{out}{err}")
         # the stream on the bus, as the bench analyser saw it: every sample number exactly once
         total = IDENT["rest"] + IDENT["train"] + IDENT["validation"]
-        # the witness is a second reader on the hub: the CLI may finish on the last sample before the witness's
+        # the witness is a second reader on the hub: the CLI may finish on the last sample before the
+        # witness's
         # reader thread has taken it in, so wait (on the condition) until the witness holds the whole stream
         wait_for(
             lambda: bool(np.all(_ident_stream(witness.snapshot(), NODE_ID["master"], total)[3] >= 1)), 10
@@ -571,7 +594,8 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
             np.testing.assert_array_equal(saved["current_A"], I)
             np.testing.assert_array_equal(saved["Q_W"], Q)
         else:
-            # a small model of a short experiment may be refused (see IDENT): acceptable only as the fit's verdict
+            # a small model of a short experiment may be refused (see IDENT): acceptable only as the fit's
+            # verdict
             # on a complete stream, which the refit of the bus samples above reproduces
             assert code == EXIT_FAIL and "refused" in err and "fitting" in err, (code, out, err)
             assert not refit["stable"], refit
@@ -587,7 +611,8 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
         t0 = time.monotonic()
 
         def settled() -> bool:
-            """Three readings in a row (~1 s) of the pad at the command, the command (ramp-limited) at rest: past
+            """Three readings in a row (~1 s) of the pad at the command, the command (ramp-limited) at rest:
+            past
             the render controller's overshoot (~0.4 °C, ~1 s after the switch, here)."""
             v = _get(capsys, bus, "master", "T_sensor_C", "T_cmd_C")
             trace.append((time.monotonic() - t0, v["T_sensor_C"], v["T_cmd_C"]))

@@ -117,7 +117,8 @@ def master(tmp_path):
 
 
 def targets(rs: RenderSettings) -> tuple[float, float]:
-    """What RENDER asks for with ``rs``: T_pad0 before the detected contact (eq. 7), T_contact after (eq. 1)."""
+    """What RENDER asks for with ``rs``: T_pad0 before the detected contact (eq. 7), T_contact after (eq.
+    1)."""
     return rs.T_pad0_C, rs.T_contact_C
 
 

@@ -117,8 +117,10 @@ def test_the_master_starts_a_slave_put_into_pre_operational(realtime_pair):
 
 
 def test_cli_nmt_preop_slave_says_the_master_started_it_again(realtime_pair, capsys):
-    """Issue 25: `telethermo nmt preop slave` said "NOT confirmed" (and `telethermo preop:`) because the master
-    starts the slave again ~2 ms after its PRE-OPERATIONAL heartbeat. The CLI saw the state; it says who undid it."""
+    """Issue 25: `telethermo nmt preop slave` said "NOT confirmed" (and `telethermo preop:`) because the
+    master
+    starts the slave again ~2 ms after its PRE-OPERATIONAL heartbeat. The CLI saw the state; it says who
+    undid it."""
     from telethermo.cli.main import main
 
     pair, bus, frames = realtime_pair

@@ -1,4 +1,5 @@
-"""Issue 25, what a node's terminal shows: one line when it is ready (its bus, what it waits for), and at the end
+"""Issue 25, what a node's terminal shows: one line when it is ready (its bus, what it waits for), and at the
+end
 a short table, the ``result {json}`` line only with ``--json`` (what the session launcher passes and reads).
 Real processes: our hub, the slave and the master programs (lockstep, pads in air, 300 cycles)."""
 

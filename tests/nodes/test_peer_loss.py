@@ -179,7 +179,8 @@ def test_real_time_resume_after_the_slave_is_killed_and_restarted(tmp_path):
     assert codes["master"] == 0
     rec = read_recording_csv(tmp_path / "master.csv")
     state, cur = rec.col("m_safety_state"), rec.col("m_current_A")
-    # the kill's episode: the trip whose ramp ended in the cut (on a loaded machine a slow peer may have caused
+    # the kill's episode: the trip whose ramp ended in the cut (on a loaded machine a slow peer may have
+    # caused
     # an earlier, brief peer trip that resumed before the cut: that is the envelope working, not this case)
     k_cut = int(np.flatnonzero(state == 3)[0])
     k_trip = max(k for k, t in enumerate(rec.text("m_new_trips")[: k_cut + 1]) if "peer_lost" in t)

@@ -1,4 +1,5 @@
-"""The bus factory: settings from a table or a string, clear errors, and real buses opened by configuration."""
+"""The bus factory: settings from a table or a string, clear errors, and real buses opened by
+configuration."""
 
 from __future__ import annotations
 

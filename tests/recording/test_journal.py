@@ -73,7 +73,8 @@ for k in range(int(sys.argv[2])):
     rec.write([k * 0.01, k, k / 3])
 while rec.syncs < 2:          # the flusher has run after the last row: it is on disk
     time.sleep(0.01)
-rec._fh.write("99.0,9")       # a row torn by the kill (no line end), as a kill in the middle of a write leaves
+# a row torn by the kill (no line end), as a kill in the middle of a write leaves
+rec._fh.write("99.0,9")
 rec._fh.flush()
 print("ready", flush=True)
 time.sleep(600)
@@ -81,7 +82,8 @@ time.sleep(600)
 
 
 def _killed_writer(tmp_path, rows: int):
-    """A process writing ``rows`` rows with no row-count flush (only the journal's timer), killed with SIGKILL."""
+    """A process writing ``rows`` rows with no row-count flush (only the journal's timer), killed with
+    SIGKILL."""
     import signal
     import subprocess
     import sys

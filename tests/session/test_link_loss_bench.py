@@ -1,4 +1,5 @@
-"""The link-loss figures (quick: carbon steel and oak, 20 mm blocks): while the slave is lost during a touch, the
+"""The link-loss figures (quick: carbon steel and oak, 20 mm blocks): while the slave is lost during a touch,
+the
 master's fallback keeps the operator's skin closer to the direct touch than the ramp to neutral does, and it
 really renders (the master's setpoint is the identified material's, not neutral)."""
 

@@ -82,7 +82,8 @@ def scene_file(touches, ambient):
     peers=[(10.0, 0.0, False)],
     render=(1.0, 0.0),
 )  # found when the display's guard used only the contact
-#                                                          face (issue 22): a chattering finger, face at 14.70 °C
+#                                                          face (issue 22): a chattering finger, face at
+# 14.70 °C
 @example(
     kp=5.0,
     ki=0.0,

@@ -55,7 +55,8 @@ def test_simulated_finger_shows_its_skin_effusivity_early(name):
     """yamamoto's way of measuring β (ratio of the finger's drop to the object's rise), applied to the
     simulated layered, perfused finger touching each material at 6 N, gives b_material/b_skin at 50 ms."""
     m, bf = materials(), materials()["skin"].b
-    # the contact's own resistance removed, as yamamoto's grease did (the force law is tested in test_closed_forms)
+    # the contact's own resistance removed, as yamamoto's grease did (the force law is tested in
+    # test_closed_forms)
     scene = perfect_contact(
         make_scene(
             slave=[(0.5, 2.0, "o", 6.0)],

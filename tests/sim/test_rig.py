@@ -120,7 +120,8 @@ def test_thin_foil_is_lumped_within_budget():
 def test_default_grid_is_within_005_C_of_a_refined_grid():
     # the grid presets' errors were measured on this scene with both rigs starting at ambient; with the
     # settled starts (the probe at the finger's 33.6 °C making contact with 25 °C aluminium) the make contrast
-    # is 8.6 K on the slave too; with the finite contact at 8 N (sim/contact.py) the default grid's largest error
+    # is 8.6 K on the slave too; with the finite contact at 8 N (sim/contact.py) the default grid's largest
+    # error
     # is 0.060 °C, within 0.065
     scene = dataclasses.replace(
         sim.load_scene("probe_touches_al_steel_wood"), master_start=None, slave_start=None

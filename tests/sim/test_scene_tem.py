@@ -1,5 +1,6 @@
 """A scene's [tem] section and ``telethermo identify --tem``: the module round-trips, per-couple values
-scale, the module really drives the rig, and bad values give one line naming the file, field and expectation."""
+scale, the module really drives the rig, and bad values give one line naming the file, field and
+expectation."""
 
 from __future__ import annotations
 

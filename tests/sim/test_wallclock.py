@@ -148,7 +148,8 @@ def test_a_read_with_no_time_elapsed_does_not_advance():
 
 
 def test_a_huge_gap_is_capped_and_counted():
-    """A stalled process (here 30 s between two reads) is simulated for max_catch_up_s only; the rest is skipped
+    """A stalled process (here 30 s between two reads) is simulated for max_catch_up_s only; the rest is
+    skipped
     once (the plant's clock falls behind), counted, and the reads go on in real time from there."""
     clock = HandClock(t0=1024.0)  # binary-exact times: the gaps below are exact
     scene = sim.load_scene("pads_in_air")
@@ -187,7 +188,8 @@ def test_bad_arguments():
 
 
 def test_factories_build_the_scenes_rigs_with_the_node_seeds():
-    """The --rig factories: zero arguments, the scene's rig of that role, seeds as the node programs (master 0,
+    """The --rig factories: zero arguments, the scene's rig of that role, seeds as the node programs (master
+    0,
     slave 1), so that the first sample equals sim.build_rig(scene, role, seed)'s."""
     for factory, scene, role, seed in (
         (pads_in_air_master, "pads_in_air", "master", 0),

@@ -1,4 +1,5 @@
-"""Fast subset of the fuzz cases (tests/stress/cases/fuzz.py): hypothesis against a real Device on a python-can
+"""Fast subset of the fuzz cases (tests/stress/cases/fuzz.py): hypothesis against a real Device on a
+python-can
 virtual bus, against sim.load_scene and against telethermo.ident.load_model.
 
 The five findings the fuzz made (``tests.stress.cases.fuzz.KNOWN_FINDINGS``: 29-bit frames reaching 11-bit
@@ -109,7 +110,8 @@ def test_model_huge_current_range_is_a_model_file_error(tmp_path):
 
 
 def test_sdo_block_download_request_to_a_missing_object_is_aborted_without_an_error_log():
-    """A block download (ccs 6) initiate naming an object the dictionary lacks (0x2200 sub 1; 0x2200 is a VAR):
+    """A block download (ccs 6) initiate naming an object the dictionary lacks (0x2200 sub 1; 0x2200 is a
+    VAR):
     CiA 301 abort 0x06090011 (sub-index does not exist) for the named object at once, and no ERROR record."""
     with fr.device_under_fuzz() as (dev, raw, counter, client, log):
         raw.send(

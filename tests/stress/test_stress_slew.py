@@ -22,9 +22,12 @@ def test_peer_trip_in_a_cold_contact_keeps_the_surface_within_ramp_plus_one():
 
 def test_link_loss_fallback_start_in_a_warm_touch_keeps_the_surface_within_ramp_plus_one():
     """The fallback replaces telepresence's feed-forward and flux terms in one step, as a peer trip does: the
-    envelope slews and lead-bounds it the same way (before: 8.2 °C/s in a 40 °C oak touch moving at 2.6 alone).
-    0.7 s into the touch: the slave's identification (0.3 s window + its staged fit) has reached the master, so
-    the fallback starts (lost earlier, the master has no material to render and the peer trip acts at once)."""
+    envelope slews and lead-bounds it the same way (before: 8.2 °C/s in a 40 °C oak touch moving at 2.6
+    alone).
+    0.7 s into the touch: the slave's identification (0.3 s window + its staged fit) has reached the master,
+    so
+    the fallback starts (lost earlier, the master has no material to render and the peer trip acts at
+    once)."""
     res = s.case_surface_rate(contacts=("warm_wood_40C",), events=("peer_lost",), after_touch_s=(0.7,))
     assert_passed(res)
     (row,) = res["figures"]["surface_rate_cases"]

@@ -67,7 +67,8 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
     finally:
         stop_process(node)
     total = REST + N_TRAIN + N_VAL
-    # candump saw the samples of the experiment numbered 1..total, in order, in TPDO2 (0x281: number, T_sensor_C) after the
+    # candump saw the samples of the experiment numbered 1..total, in order, in TPDO2 (0x281: number,
+    # T_sensor_C) after the
     # remapping (in this slow VM a reader's socket may overflow: candump's too, so not all of them are
     # required here; the CLI fetched its own lost ones by SDO); their temperatures are what the CLI recorded,
     # bit for bit (REAL32). (TPDO2's EDS mapping starts with T_sensor_C: its REAL32 bits read as a number are

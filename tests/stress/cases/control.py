@@ -132,7 +132,8 @@ def case_bad_peer(healthy_s: float = 5.0, bad_s: float = 45.0, kinds: tuple[str,
     """NaN/±inf/absurd/lost peer values: envelope and current limit hold, invalid peers trip."""
     c = Case(
         "control_bad_peer_values",
-        "telepresence master with a finger on the pad; after a healthy phase the peer sends NaN, ±inf, ±1e30, "
+        "telepresence master with a finger on the pad; after a healthy phase the peer sends NaN, ±inf, "
+        "±1e30, "
         "91 °C, NaN/inf/1e9 W flux, a subnormal, the plausible extremes 90 °C / -20 °C / 30 W, or is lost: "
         f"|I| <= 0.8·I_max every step, setpoint within [15, 43] °C, pad within [15, 43] ± {PAD_TOL_C} °C, "
         "invalid or lost peers trip the envelope on the first bad cycle and the current is 0 A within "
@@ -174,8 +175,10 @@ def case_saturation_release(saturate_s: float = 180.0, after_s: float = 60.0) ->
     """Minutes of saturation then release: no windup kick (overshoot quantified)."""
     c = Case(
         "control_saturation_release",
-        f"the peer asks 40 °C, which the pad cannot reach with the current limited to 0.24 A (I_max 0.3 A): the "
-        f"PI saturates for {saturate_s:g} s; then the setpoint drops 1 °C below the plateau: the integrator is "
+        "the peer asks 40 °C, which the pad cannot reach with the current limited to 0.24 A (I_max 0.3 A): "
+        "the "
+        f"PI saturates for {saturate_s:g} s; then the setpoint drops 1 °C below the plateau: the integrator "
+        "is "
         "within the current limit at the release, the current stops heating (< +limit) within 0.05 s of the "
         "moment the envelope's ramped setpoint passes below the estimate, and the pad rises no more than "
         "0.1 °C after the release (no windup kick)",
@@ -234,8 +237,10 @@ def case_saturation_release(saturate_s: float = 180.0, after_s: float = 60.0) ->
     )
     if integral < 0 < loop.last.current_A or integral <= -lim.I_limit_A + 1e-12:
         c.note(
-            f"while saturated at +{lim.I_limit_A} A the integrator sat at {integral:+.3g} A: the anti-windup clamp "
-            "[u_min - p - ff, u_max - p - ff] pins it at the opposite rail whenever kp·e alone exceeds the limit"
+            f"while saturated at +{lim.I_limit_A} A the integrator sat at {integral:+.3g} A: the "
+            "anti-windup clamp "
+            "[u_min - p - ff, u_max - p - ff] pins it at the opposite rail whenever kp·e alone exceeds the "
+            "limit"
         )
     c.require(rise <= 0.1, f"pad rose {rise:.3f} °C after the release (<= 0.1 °C)")
     return c.result()
@@ -302,7 +307,8 @@ def case_sync_loss_bursts(duration_s: float = 120.0, seed: int = 3) -> dict:
 
 
 def _real32_diffs(c: Case, sc, duration_s: float, tag: str) -> dict[str, tuple[float, float]]:
-    """Run ``sc`` offline exact and REAL32-rounded; per side (max |ΔI| A, max |Δestimate| °C), figures ``tag``."""
+    """Run ``sc`` offline exact and REAL32-rounded; per side (max |ΔI| A, max |Δestimate| °C), figures
+    ``tag``."""
     a = run_offline_session(sc, duration_s=duration_s, rounding="none")
     b = run_offline_session(sc, duration_s=duration_s, rounding="real32")
     ra, rb = a.recording, b.recording

@@ -276,7 +276,8 @@ def case_fuzz_model_loader(max_examples: int = 200) -> dict:
     c = Case(
         "fuzz_model_loader",
         "mutated model files (values of other types, NaN/Infinity, ints beyond float range, keys dropped or "
-        "added, bytes flipped) through telethermo.ident.load_model: a TemModel or a ModelFileError naming the "
+        "added, bytes flipped) through telethermo.ident.load_model: a TemModel or a ModelFileError naming "
+        "the "
         "file (and the field, except for whole-file errors); never another exception",
     )
     base = base_model_doc()

@@ -41,11 +41,13 @@ KNOWN_FINDINGS = {
     "raises TypeError('required argument is not an integer') out of the device's handler (caught "
     "and logged at ERROR by canopen's MessageListener) and no SDO abort is sent; CiA 301 expects "
     "abort 0x05040001 (command specifier not valid).",
-    "scene_huge_int": "FINDING (sim/scene.py _R.num): a scene number written as an integer beyond float range "
+    "scene_huge_int": "FINDING (sim/scene.py _R.num): a scene number written as an integer beyond float "
+    "range "
     "(tomllib accepts any size, e.g. period_s = 1 followed by 400 zeros) raises OverflowError "
     "('int too large to convert to float') from math.isfinite instead of a SceneError naming the "
     "file and the field.",
-    "model_huge_int": "FINDING (telethermo/ident/modelfile.py _Reader.num/nums): a model-file number written as an "
+    "model_huge_int": "FINDING (telethermo/ident/modelfile.py _Reader.num/nums): a model-file number "
+    "written as an "
     'integer beyond float range (json accepts any size, e.g. "period_s": 1e400 written as '
     "digits) raises OverflowError ('int too large to convert to float') instead of a "
     "ModelFileError naming the file and the field.",

@@ -84,7 +84,8 @@ def case_unstable_refused() -> dict:
     """Near-unstable, marginal, unstable and switching-unstable models are refused with a reason."""
     c = Case(
         "model_unstable_refused",
-        "near-unstable (|z| = 1 - 1e-7), marginal, unstable, oscillatory-unstable, unstable-at-the-range-edge "
+        "near-unstable (|z| = 1 - 1e-7), marginal, unstable, oscillatory-unstable, "
+        "unstable-at-the-range-edge "
         "and switching-unstable models are refused by check_stability with a reason, and load_model of their "
         "files raises ModelFileError naming the file and temperature.theta; stable ones are accepted; a fit "
         "on data of an unstable system raises UnstableModelError",
@@ -127,8 +128,10 @@ def case_unstable_refused() -> dict:
 
 
 def free_run_chunked(model: NarmaModel, current_A: np.ndarray, T0_C: float, chunk: int = 500_000) -> dict:
-    """Free run of ``model`` over a long current record in chunks (model.free_run, exact continuation: each chunk
-    starts from the previous chunk's last ``lag`` outputs and currents). Returns extremes and the finiteness."""
+    """Free run of ``model`` over a long current record in chunks (model.free_run, exact continuation: each
+    chunk
+    starts from the previous chunk's last ``lag`` outputs and currents). Returns extremes and the
+    finiteness."""
     L = model.orders.lag
     N = len(current_A)
     out = {"min_C": math.inf, "max_C": -math.inf, "finite": True, "samples": 0}
@@ -153,7 +156,8 @@ def free_run_chunked(model: NarmaModel, current_A: np.ndarray, T0_C: float, chun
 
 
 def long_current(n: int, seed: int = 11) -> np.ndarray:
-    """A 24 h-like drive: PRBS segments with holds of 1, 10, 100 and 1000 samples, full and half amplitude, and
+    """A 24 h-like drive: PRBS segments with holds of 1, 10, 100 and 1000 samples, full and half amplitude,
+    and
     rests at 0 A, cycling (the worst a model could see in a day)."""
     parts = []
     holds = (1, 10, 100, 1000)
@@ -203,7 +207,8 @@ def case_free_run_24h(hours: float = 24.0) -> dict:
     phys = physical_band_C(lo, hi)
     band = (phys[0] - 2.0, phys[1] + 2.0)
     u = long_current(n) * max(abs(lo), abs(hi))
-    # the end at rest (half an hour of a day, and at least 12 time constants of the slowest pole): the free run
+    # the end at rest (half an hour of a day, and at least 12 time constants of the slowest pole): the free
+    # run
     # must come back to T_ref
     z = float(np.max(np.abs(m.local_poles(np.linspace(lo, hi, 201)))))
     rest = min(max(n // 48, int(12 / -math.log(z))), n // 2)
@@ -248,8 +253,10 @@ def case_free_run_24h(hours: float = 24.0) -> dict:
     if float(ss.max()) > phys[1] + 2.0 or float(ss.min()) < phys[0] - 2.0:
         c.note(
             f"the model's own static gain extrapolates beyond the rig: steady states "
-            f"[{float(ss.min()):.1f}, {float(ss.max()):.1f}] °C vs the rig's [{phys[0]:.1f}, {phys[1]:.1f}] °C "
-            "(PRBS bits of 0.1 s carry little power at DC); the free run stays inside because the drive never "
+            f"[{float(ss.min()):.1f}, {float(ss.max()):.1f}] °C vs the rig's [{phys[0]:.1f}, {phys[1]:.1f}] "
+            "°C "
+            "(PRBS bits of 0.1 s carry little power at DC); the free run stays inside because the drive "
+            "never "
             "holds long enough"
         )
     return c.result()

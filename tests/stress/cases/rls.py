@@ -121,8 +121,10 @@ def _idle_variant(c: Case, variant: str, rng, n_idle: int, phases: dict, ref_ste
     )
     if variant == "stuck" and st["to_1pct"] > 1.5 * ref_step["to_1pct"]:
         c.note(
-            f"stuck: re-convergence took {st['to_1pct']} samples vs {ref_step['to_1pct']} never idle: while the "
-            "trace is capped, the constant-trace scaling cancels the forgetting in the one excited direction, "
+            f"stuck: re-convergence took {st['to_1pct']} samples vs {ref_step['to_1pct']} never idle: while "
+            "the "
+            "trace is capped, the constant-trace scaling cancels the forgetting in the one excited "
+            "direction, "
             f"so information there keeps accumulating (min eig of K {idle['min_eig']:.2g}) and has to be "
             "forgotten again when excitation returns; the delay grows with the log of the idle time. "
             "Directional forgetting would not have it (see telethermo/ident/rls.py's choice)."
@@ -189,7 +191,8 @@ def case_collinear(n: int = 20_000, seed: int = 2) -> dict:
     c = Case(
         "rls_ill_conditioned_collinear",
         "regressors with an exact copy, a 1e-9 near-copy and columns scaled 1e3 and 1e-3: K stays positive "
-        "semi-definite with tr K <= trace_max, θ finite, the fit residual on the second half <= 1.2 σ and the "
+        "semi-definite with tr K <= trace_max, θ finite, the fit residual on the second half <= 1.2 σ and "
+        "the "
         "predictions equal batch least squares (lstsq) within 0.1 σ RMS",
     )
     rng = np.random.default_rng(seed)
@@ -238,7 +241,8 @@ def case_lambda_bounds(n: int = 20_000, seed: int = 3) -> dict:
     """λ1, λ2 just inside their bounds run safely; values outside are refused."""
     c = Case(
         "rls_lambda_near_bounds",
-        "λ1 in (0, 1] and λ2 in (0, 2): values outside (and NaN/inf) are refused with a ValueError naming the "
+        "λ1 in (0, 1] and λ2 in (0, 2): values outside (and NaN/inf) are refused with a ValueError naming "
+        "the "
         "factor; values just inside run with θ finite and tr K <= trace_max, and converge within 0.05 of θ* "
         "whenever the memory 1/(1-λ1) exceeds 10 samples and λ2 >= 0.5",
     )
@@ -334,9 +338,11 @@ def case_nonfinite_bursts(n: int = 20_000, seed: int = 5) -> dict:
     """NaN/inf bursts are rejected and counted and change nothing; overflowing finite samples are survived."""
     c = Case(
         "rls_nonfinite_bursts",
-        "bursts of NaN/±inf in φ or y are rejected, counted exactly, and leave θ and K bit-identical to a run "
+        "bursts of NaN/±inf in φ or y are rejected, counted exactly, and leave θ and K bit-identical to a "
+        "run "
         "without them; finite samples up to 1e300 that overflow the update leave θ and K finite (counted as "
-        "numerical failures or rejections) with no parameter jump; with a trace floor (trace_min) the estimate "
+        "numerical failures or rejections) with no parameter jump; with a trace floor (trace_min) the "
+        "estimate "
         "still converges within 0.05",
     )
     rng = np.random.default_rng(seed)
@@ -369,7 +375,8 @@ def case_nonfinite_bursts(n: int = 20_000, seed: int = 5) -> dict:
         "θ and K bit-identical to the run without the bad samples "
         f"(max |Δθ| {float(np.max(np.abs(a.theta - b.theta))):.3g})",
     )
-    # finite but huge samples: magnitudes 1e10, 1e20, ... (up to 1e300 when n allows), each a consistent sample
+    # finite but huge samples: magnitudes 1e10, 1e20, ... (up to 1e300 when n allows), each a consistent
+    # sample
     # (y = θ*ᵀφ + noise, all scaled): no reason for θ to move. Default estimator and one with a trace floor.
     for label, kw in (("huge_default", {}), ("huge_trace_min", {"trace_min": 1e-4 * D * 1e4})):
         r = Rls(D, lambda1=0.999, **kw)
@@ -404,21 +411,26 @@ def case_nonfinite_bursts(n: int = 20_000, seed: int = 5) -> dict:
         c.require(math.isfinite(worst_theta) and np.all(np.isfinite(r.K)), f"{label}: θ and K finite")
         c.require(
             worst_theta <= 1.5 * float(np.max(np.abs(THETA))),
-            f"{label}: no parameter jump on consistent huge samples: max |θ| {worst_theta:.3g} <= 1.5 max |θ*|",
+            f"{label}: no parameter jump on consistent huge samples: max |θ| {worst_theta:.3g} <= 1.5 max "
+            "|θ*|",
         )
         if kw:
             c.require(err <= 0.05, f"{label}: ‖θ - θ*‖ after the huge samples {err:.3g} <= 0.05")
         elif h.trace < 1e-12:
             c.note(
-                f"FINDING (telethermo/ident/rls.py, default trace_min = 0): consistent samples of magnitude up to "
+                "FINDING (telethermo/ident/rls.py, default trace_min = 0): consistent samples of magnitude "
+                "up to "
                 f"1e{10 * used} collapse K to tr K = {h.trace:.2g} (every direction informed by ~1e200): the "
-                f"estimator is frozen (‖θ - θ*‖ = {err:.3g} at the end) until forgetting regrows K, ~ln(1/trK)/"
-                "(1-λ1) samples; only a covariance reset or a trace floor (trace_min) recovers it. A plausibility "
+                f"estimator is frozen (‖θ - θ*‖ = {err:.3g} at the end) until forgetting regrows K, "
+                "~ln(1/trK)/"
+                "(1-λ1) samples; only a covariance reset or a trace floor (trace_min) recovers it. A "
+                "plausibility "
                 "bound on |φ| or a default trace_min would."
             )
         if caught:
             c.note(
-                f"{label}: {len(caught)} numpy RuntimeWarnings (overflow in the update's products) for samples of "
+                f"{label}: {len(caught)} numpy RuntimeWarnings (overflow in the update's products) for "
+                "samples of "
                 "1e160..1e300; the update catches the non-finite result, the warnings are only noise"
             )
     return c.result()

@@ -76,7 +76,8 @@ def _cells(rig) -> np.ndarray:
 
 
 def drive(rig, current_A: np.ndarray | None, n: int, *, every: int = 1, probe=None) -> dict:
-    """Advance ``n`` periods with the given currents (None: 0 A); track extremes of every state and samples."""
+    """Advance ``n`` periods with the given currents (None: 0 A); track extremes of every state and
+    samples."""
     out = {
         "min_C": math.inf,
         "max_C": -math.inf,
@@ -272,7 +273,8 @@ def case_force_steps(n_steps: int = 20) -> dict:
     """Force steps 0.2 N <-> 100 N: the heat flow follows, energy balanced."""
     c = Case(
         "sim_force_steps",
-        "the probe holds copper at 5 °C with the force stepping 0.2 N <-> 100 N every 0.5 s (adjacent touches): "
+        "the probe holds copper at 5 °C with the force stepping 0.2 N <-> 100 N every 0.5 s (adjacent "
+        "touches): "
         "the heat flow into the copper jumps up on every step up and down on every step down (contact "
         "conductance grows with force), no NaN, within [5, 25] °C at 0 A, energy residual <= "
         f"{ENERGY_REL_TOL:g}",
@@ -324,7 +326,8 @@ def case_soak(hours: float = 24.0) -> dict:
     n = int(round(hours * 3600 / PERIOD_S))
     c = Case(
         "sim_long_soak",
-        f"{hours:g} simulated hours at the default 10 ms step ({n} steps) of a probe touching aluminium, steel "
+        f"{hours:g} simulated hours at the default 10 ms step ({n} steps) of a probe touching aluminium, "
+        "steel "
         "and oak (20 s every minute) under a ±0.8 A PRBS: no NaN, temperatures within the rig's steady band, "
         f"energy residual <= {ENERGY_REL_TOL:g} of the throughput at the end",
     )

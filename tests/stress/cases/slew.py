@@ -1,6 +1,7 @@
 """How fast the master's pad surface moves around trips and cuts (issue 12: ramp limit + 1 °C/s).
 
-A telepresence pair (both control cores, both simulated rigs, the exchange of tests.stress.cases.control's offline
+A telepresence pair (both control cores, both simulated rigs, the exchange of tests.stress.cases.control's
+offline
 timing: values sent in cycle k are used in cycle k+1) runs with the operator's finger on the master's pad; the
 probe (slave) touches an object of a contact condition (:data:`CONTACTS`) from ``TOUCH_S``. At a chosen moment
 after the touch one event (:data:`EVENTS`) hits the master:
@@ -8,19 +9,23 @@ after the touch one event (:data:`EVENTS`) hits the master:
 - ``peer_lost``: both sides lose each other (the last values, not fresh, not alive), as a heartbeat timeout or
   a lost bus does (nodes/bus_outage.py maps a bus loss to exactly this); with the default graceful link loss
   (the master renders the identified material up to 5 s, then the envelope's peer trip);
-- ``peer_lost_no_fallback``: the same with the link-loss fallback off (link_loss_render_s = 0): the peer trip at once;
+- ``peer_lost_no_fallback``: the same with the link-loss fallback off (link_loss_render_s = 0): the peer trip
+at once;
 - ``peer_nan``: the slave's estimate arrives as NaN (PEER_INVALID);
 - ``nmt_cut``: NMT STOP / PRE-OPERATIONAL of the master: the node cuts the drive to 0 A at once and runs no
   control cycle (nodes/runtime.py ``_on_nmt``);
 - ``sensor_nan``: the master's thermocouple reads NaN (SENSOR_INVALID: cut at once, DESIGN.md §6);
 - ``heat_sink_56C``: the master's heat-sink reading jumps to 56 °C (HEAT_SINK, over-temperature: cut at once).
 
-Measured: the simulator's true pad surface (``RigTruth.T_contact_face_C``, the flux sensor's top face the finger
+Measured: the simulator's true pad surface (``RigTruth.T_contact_face_C``, the flux sensor's top face the
+finger
 touches; no controller sees it), its rate as the mean slope over a sliding :data:`WINDOW_S` window (what the
 skin perceives integrates over ~0.1 s; a 10 ms difference would mostly show the sensor-noise-driven current
-chatter), max |rate| over the windows ending from the event to ``AFTER_S`` after the envelope's trip (or the cut).
+chatter), max |rate| over the windows ending from the event to ``AFTER_S`` after the envelope's trip (or the
+cut).
 Each case is run from the same state (one run up to the event, copied) three ways: the envelope's trip slew
-limit on (this tree), off (the code path before it: ``trip_slew_A_per_s`` = inf, research limits), and no event
+limit on (this tree), off (the code path before it: ``trip_slew_A_per_s`` = inf, research limits), and no
+event
 at all (the surface's own motion in the same span: the trivial baseline).
 """
 
@@ -98,7 +103,8 @@ def _params(role: Role, rig, *, slew: bool, fallback: bool = True):
 
 
 class Pair:
-    """Both cores and rigs, stepped one cycle at a time; the master's pad surface recorded after each advance."""
+    """Both cores and rigs, stepped one cycle at a time; the master's pad surface recorded after each
+    advance."""
 
     def __init__(self, contact: str, duration_s: float) -> None:
         sc = _scene(contact, duration_s)
@@ -260,7 +266,8 @@ def _worst(rows: list[dict], key: str, pick) -> tuple[float, dict | None]:
 
 
 def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.5, 0.7, 2.0, 5.0)) -> dict:
-    """The pad surface's rate around trips and cuts: at most the ramp limit + 1 °C/s where the physics allows."""
+    """The pad surface's rate around trips and cuts: at most the ramp limit + 1 °C/s where the physics
+    allows."""
     c = Case(
         "control_trip_surface_rate",
         f"a telepresence pair, the finger on the master, the probe in air or touching an object "
@@ -306,7 +313,8 @@ def case_surface_rate(contacts=tuple(CONTACTS), events=EVENTS, after_touch_s=(0.
             allowed = max(RATE_LIMIT_C_PER_S, r["rate_fallback_no_event_C_per_s"])
             c.require(
                 r["rate_fallback_C_per_s"] <= allowed,
-                f"{r['contact']} +{r['after_touch_s']} s {r['event']}: surface {r['rate_fallback_C_per_s']:.2f} "
+                f"{r['contact']} +{r['after_touch_s']} s {r['event']}: surface "
+                f"{r['rate_fallback_C_per_s']:.2f} "
                 f"°C/s during the link-loss fallback <= {allowed:.2f} °C/s (before the slew: "
                 f"{r['rate_fallback_before_C_per_s']:.2f})",
             )
