@@ -37,8 +37,8 @@ from typing import Any, cast
 from telethermo.control import safety as sf
 from telethermo.control.contact import ContactState, contact_step
 from telethermo.control.coreparams import NO_GAINS, CoreParams, Feedback, RenderPhase, RenderSettings
-from telethermo.control.estimators import (Estimator, SnapshotPredictor, TemperaturePredictor, estimate_flux,
-                                          estimate_model)
+from telethermo.control.estimators import (Estimator, SnapshotPredictor, TemperaturePredictor, as_predictor,
+                                          estimate_flux, estimate_model)
 from telethermo.control.later_phase import later_setpoint, later_start
 from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
 from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step, prepare
@@ -170,22 +170,6 @@ class StepResult:
     status: StepStatus
 
 
-def _as_predictor(predictor_or_model: Any, T0_C: float) -> TemperaturePredictor | None:
-    """A predictor from a predictor, a model with ``.temperature.predictor(T0_C=...)`` or None."""
-    if predictor_or_model is None:
-        return None
-    if isinstance(predictor_or_model, TemperaturePredictor):
-        predictor_or_model.reset(T0_C)
-        return predictor_or_model
-    temp = getattr(predictor_or_model, "temperature", None)
-    if temp is not None and callable(getattr(temp, "predictor", None)):
-        return cast(TemperaturePredictor, temp.predictor(T0_C=T0_C))
-    if callable(getattr(predictor_or_model, "predictor", None)):
-        return cast(TemperaturePredictor, predictor_or_model.predictor(T0_C=T0_C))
-    raise TypeError("init_state: expected a TemperaturePredictor (step/reset), a model with "
-                    f".temperature.predictor(T0_C=...), or None; got {type(predictor_or_model).__name__}")
-
-
 def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSample) -> CoreState:
     """Initial state from the first sample (the pad assumed at rest at ``first_sample.T_sensor_C``).
 
@@ -196,7 +180,7 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
         raise ValueError(f"init_state: estimator {params.estimator.value!r} / feedback {params.feedback.value!r} "
                          "needs a TEM model (predictor_or_model is None)")
     T0 = first_sample.T_sensor_C if math.isfinite(first_sample.T_sensor_C) else params.safety.neutral_C
-    pred = _as_predictor(predictor_or_model, T0)
+    pred = as_predictor(predictor_or_model, T0)
     cell = _PredictorCell(pred) if pred is not None else None
     snap = cast(SnapshotPredictor, pred).snapshot() if cell is not None and cell.can_snapshot else None
     # bumpless from the current the rig is already driving (a display that was holding its pad)
@@ -214,7 +198,7 @@ def replace_model(state: CoreState, predictor_or_model: Any, T0_C: float) -> Cor
     :func:`init_state` starts one. For a model loaded into a running node (the pad may not be at rest:
     T_pred then carries the pad's transient until it decays). None is only for parameters that need
     no model (FLUX estimator, ESTIMATE feedback): the caller checks."""
-    pred = _as_predictor(predictor_or_model, T0_C)
+    pred = as_predictor(predictor_or_model, T0_C)
     cell = _PredictorCell(pred) if pred is not None else None
     snap = cast(SnapshotPredictor, pred).snapshot() if cell is not None and cell.can_snapshot else None
     return replace(state, cell=cell, pred_tick=0, pred_snapshot=snap, T_pred_C=T0_C if pred is not None else math.nan)
