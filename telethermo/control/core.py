@@ -42,7 +42,8 @@ from telethermo.control.estimators import (Estimator, SnapshotPredictor, Tempera
 from telethermo.control.later_phase import later_setpoint, later_start
 from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
 from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step, prepare
-from telethermo.control.pi import PIComponents, PIState, bumpless, pi_step
+from telethermo.control.osc_guard import OscGuardState, guard_step
+from telethermo.control.pi import PIComponents, PIGains, PIState, bumpless, pi_step
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.ident.plan import guarded_current
 from telethermo.rig import RigSample
@@ -83,6 +84,7 @@ class CoreState:
             touch and whenever the rendered object changes.
         material: (slave) the material identification's collector and last result.
         link: (master, telepresence) the graceful link loss's memory (:mod:`telethermo.control.link_fallback`).
+        osc: (slave) the oscillation guard's memory and kp scale (:mod:`telethermo.control.osc_guard`).
     """
 
     k: int
@@ -103,6 +105,7 @@ class CoreState:
     cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
     material: MaterialState = field(default_factory=MaterialState)
     link: LinkState = field(default_factory=LinkState)
+    osc: OscGuardState = field(default_factory=OscGuardState)
 
 
 @dataclass(frozen=True, slots=True)
@@ -416,6 +419,12 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
     r = _request(sample, peer, params, state, e, peer_alive and peer_ok)
     r, link, fallback, fb_started = _link(sample, peer, params, state, e, peer_alive and peer_ok, r)
+    # 3c. the slave's oscillation guard: kp detuned in contact once the exchange loop rang (osc_guard.py)
+    osc = guard_step(state.osc, cast(PeerValues, peer).estimate_C if peer_alive and peer_ok else math.nan,
+                     cst.since_s if cst.contact else None, params.osc_guard_C, dt)
+    if osc.scale < 1.0 and cst.contact and r.gains is params.gains:
+        r = replace(r, gains=PIGains(params.kp_A_per_C * osc.scale, params.ki_A_per_C_s),
+                    source=r.source + (osc.scale,))
     # 4. envelope on setpoint (no peer needed while the link-loss fallback renders); bumpless re-seed of the
     # ramp at the render contact switch
     env_in = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, e.s_hi, e.s_lo, T_pred,
@@ -441,7 +450,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
                           source=r.source, render_phase=r.phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
                           finger_seen=state.finger_seen or cst.contact or bool(sample.contact),
-                          pred_snapshot=snap, cell=state.cell, render_later=r.later_st, material=mat, link=link)
+                          pred_snapshot=snap, cell=state.cell, render_later=r.later_st, material=mat, link=link,
+                          osc=osc)
     status = StepStatus(safety=sf.summarize(env, new_trips, active), requested_setpoint_C=r.req, setpoint_C=sp,
                         feedback_C=y, T_pred_C=T_pred, estimate_C=est, estimate_model_C=e.e_model,
                         estimate_flux_C=e.e_flux, contact=cst.contact,
