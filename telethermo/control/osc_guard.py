@@ -35,7 +35,10 @@ after a saturated metal touch: a band RMS of 1.1 °C on the base scene) leaves o
 settle, a ring two and more: amplitude alone cannot tell the two apart (a 0.1 °C band RMS threshold fired on
 the base scene and cost its headline 1.252 -> 1.317 °C). Measured on the §5.3 scene's finger estimate: at
 most one lobe with SETTLE_S = 0.7 s (0.5 s gave two on the first wood touch, so the margin is 0.2 s). The
-count restarts at every detection and every touch. Pure functions.
+count restarts at every detection and every touch. A lobe counts only if it lasts between :data:`MIN_LOBE_S`
+(shorter: the sensor noise's lobes) and :data:`MAX_LOBE_S` (longer: a slow transient, which the two
+high-passes answer with two lobes of opposite sign; with sensor noise ×3 the base scene's second lobe, 2.1 s
+long, ended after the settle and fired the guard: headline 1.259 -> 1.331 °C at seed 3). Pure functions.
 """
 
 from __future__ import annotations
@@ -46,6 +49,12 @@ from dataclasses import dataclass
 BAND_LOW_HZ = 0.3
 BAND_HIGH_HZ = 5.0
 LOBES = 2
+#: a lobe shorter than this is noise, not a half-cycle of a ring (the rings seen: 0.6-2.7 Hz, half-periods
+#: 0.19-0.8 s; the sensor noise's lobes in the band last 0.05-0.1 s), s
+MIN_LOBE_S = 0.15
+#: a lobe longer than the band's half-period at BAND_LOW_HZ is a slow transient through the high-passes (which
+#: turn one recovery into two lobes of opposite sign), not a ring, s
+MAX_LOBE_S = 0.5 / BAND_LOW_HZ
 SETTLE_S = 0.7
 #: the probe's kp in contact after a ring, a share of its own
 DETUNE = 0.25
@@ -62,6 +71,7 @@ class OscGuardState:
     lp: float = 0.0
     sign: int = 0
     peak: float = 0.0
+    length_s: float = 0.0
     run: int = 0
     scale: float = 1.0
     detections: int = 0
@@ -95,12 +105,14 @@ def guard_step(
     h1 = a * (st.h1 + x_C - st.x_prev)
     h2 = a * (st.h2 + h1 - st.h1)
     lp = st.lp + b * (h2 - st.lp)
-    sign, peak, run = st.sign, max(st.peak, abs(lp)), st.run
+    sign, peak, run, length = st.sign, max(st.peak, abs(lp)), st.run, st.length_s + dt_s
     s_now = 1 if lp > 0 else -1
-    if s_now != sign:  # a lobe ended: count it if it was large and in settled contact
-        run = run + 1 if (contact_s >= SETTLE_S and st.peak >= threshold_C) else 0
-        sign, peak = s_now, abs(lp)
+    if s_now != sign:  # a lobe ended: count it if it was large, long and in settled contact
+        long_enough = MIN_LOBE_S <= st.length_s <= MAX_LOBE_S
+        big = contact_s >= SETTLE_S and st.peak >= threshold_C and long_enough
+        run = run + 1 if big else 0
+        sign, peak, length = s_now, abs(lp), 0.0
     scale, det = st.scale, st.detections
     if run >= LOBES and scale > DETUNE:
         scale, det, run = DETUNE, det + 1, 0
-    return OscGuardState(x_C, h1, h2, lp, sign, peak, run, scale, det)
+    return OscGuardState(x_C, h1, h2, lp, sign, peak, length, run, scale, det)
