@@ -37,12 +37,13 @@ from typing import Any, cast
 from telethermo.control import safety as sf
 from telethermo.control.contact import ContactState, contact_step
 from telethermo.control.coreparams import NO_GAINS, CoreParams, Feedback, RenderPhase, RenderSettings
-from telethermo.control.estimators import (Estimator, SnapshotPredictor, TemperaturePredictor, estimate_flux,
-                                          estimate_model)
+from telethermo.control.estimators import (Estimator, SnapshotPredictor, TemperaturePredictor, as_predictor,
+                                          estimate_flux, estimate_model)
 from telethermo.control.later_phase import later_setpoint, later_start
 from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
 from telethermo.control.material_stream import MaterialEstimate, MaterialState, material_step, prepare
-from telethermo.control.pi import PIComponents, PIState, bumpless, pi_step
+from telethermo.control.osc_guard import OscGuardState, guard_step
+from telethermo.control.pi import PIComponents, PIGains, PIState, bumpless, pi_step
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.ident.plan import guarded_current
 from telethermo.rig import RigSample
@@ -83,6 +84,7 @@ class CoreState:
             touch and whenever the rendered object changes.
         material: (slave) the material identification's collector and last result.
         link: (master, telepresence) the graceful link loss's memory (:mod:`telethermo.control.link_fallback`).
+        osc: (slave) the oscillation guard's memory and kp scale (:mod:`telethermo.control.osc_guard`).
     """
 
     k: int
@@ -103,6 +105,7 @@ class CoreState:
     cell: _PredictorCell | None = field(default=None, compare=False, repr=False)
     material: MaterialState = field(default_factory=MaterialState)
     link: LinkState = field(default_factory=LinkState)
+    osc: OscGuardState = field(default_factory=OscGuardState)
 
 
 @dataclass(frozen=True, slots=True)
@@ -170,22 +173,6 @@ class StepResult:
     status: StepStatus
 
 
-def _as_predictor(predictor_or_model: Any, T0_C: float) -> TemperaturePredictor | None:
-    """A predictor from a predictor, a model with ``.temperature.predictor(T0_C=...)`` or None."""
-    if predictor_or_model is None:
-        return None
-    if isinstance(predictor_or_model, TemperaturePredictor):
-        predictor_or_model.reset(T0_C)
-        return predictor_or_model
-    temp = getattr(predictor_or_model, "temperature", None)
-    if temp is not None and callable(getattr(temp, "predictor", None)):
-        return cast(TemperaturePredictor, temp.predictor(T0_C=T0_C))
-    if callable(getattr(predictor_or_model, "predictor", None)):
-        return cast(TemperaturePredictor, predictor_or_model.predictor(T0_C=T0_C))
-    raise TypeError("init_state: expected a TemperaturePredictor (step/reset), a model with "
-                    f".temperature.predictor(T0_C=...), or None; got {type(predictor_or_model).__name__}")
-
-
 def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSample) -> CoreState:
     """Initial state from the first sample (the pad assumed at rest at ``first_sample.T_sensor_C``).
 
@@ -196,7 +183,7 @@ def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSam
         raise ValueError(f"init_state: estimator {params.estimator.value!r} / feedback {params.feedback.value!r} "
                          "needs a TEM model (predictor_or_model is None)")
     T0 = first_sample.T_sensor_C if math.isfinite(first_sample.T_sensor_C) else params.safety.neutral_C
-    pred = _as_predictor(predictor_or_model, T0)
+    pred = as_predictor(predictor_or_model, T0)
     cell = _PredictorCell(pred) if pred is not None else None
     snap = cast(SnapshotPredictor, pred).snapshot() if cell is not None and cell.can_snapshot else None
     # bumpless from the current the rig is already driving (a display that was holding its pad)
@@ -214,7 +201,7 @@ def replace_model(state: CoreState, predictor_or_model: Any, T0_C: float) -> Cor
     :func:`init_state` starts one. For a model loaded into a running node (the pad may not be at rest:
     T_pred then carries the pad's transient until it decays). None is only for parameters that need
     no model (FLUX estimator, ESTIMATE feedback): the caller checks."""
-    pred = _as_predictor(predictor_or_model, T0_C)
+    pred = as_predictor(predictor_or_model, T0_C)
     cell = _PredictorCell(pred) if pred is not None else None
     snap = cast(SnapshotPredictor, pred).snapshot() if cell is not None and cell.can_snapshot else None
     return replace(state, cell=cell, pred_tick=0, pred_snapshot=snap, T_pred_C=T0_C if pred is not None else math.nan)
@@ -432,6 +419,12 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     peer_ok = peer is not None and sf.peer_valid(lim, peer.estimate_C, peer.flux_W)
     r = _request(sample, peer, params, state, e, peer_alive and peer_ok)
     r, link, fallback, fb_started = _link(sample, peer, params, state, e, peer_alive and peer_ok, r)
+    # 3c. the slave's oscillation guard: kp detuned in contact once the exchange loop rang (osc_guard.py)
+    osc = guard_step(state.osc, cast(PeerValues, peer).estimate_C if peer_alive and peer_ok else math.nan,
+                     cst.since_s if cst.contact else None, params.osc_guard_C, dt)
+    if osc.scale < 1.0 and cst.contact and r.gains is params.gains:
+        r = replace(r, gains=PIGains(params.kp_A_per_C * osc.scale, params.ki_A_per_C_s),
+                    source=r.source + (osc.scale,))
     # 4. envelope on setpoint (no peer needed while the link-loss fallback renders); bumpless re-seed of the
     # ramp at the render contact switch
     env_in = sf.EnvelopeInput(Ts, Q, sample.T_sink_C, sample.current_A, e.s_hi, e.s_lo, T_pred,
@@ -457,7 +450,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
                           source=r.source, render_phase=r.phase, T_pred_C=T_pred, ident_k=ident_k,
                           ident_guard=ident_guard, pred_tick=tick,
                           finger_seen=state.finger_seen or cst.contact or bool(sample.contact),
-                          pred_snapshot=snap, cell=state.cell, render_later=r.later_st, material=mat, link=link)
+                          pred_snapshot=snap, cell=state.cell, render_later=r.later_st, material=mat, link=link,
+                          osc=osc)
     status = StepStatus(safety=sf.summarize(env, new_trips, active), requested_setpoint_C=r.req, setpoint_C=sp,
                         feedback_C=y, T_pred_C=T_pred, estimate_C=est, estimate_model_C=e.e_model,
                         estimate_flux_C=e.e_flux, contact=cst.contact,

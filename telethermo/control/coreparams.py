@@ -143,6 +143,9 @@ class CoreParams:
             operator touches and it identified the material in this touch or the last, render that material
             locally for at most this long, s, before the ramp to neutral (0: ramp at once, as before;
             :mod:`telethermo.control.link_fallback`).
+        osc_guard_C: (slave, telepresence) the oscillation guard's threshold, °C: when successive half-cycles
+            of the finger estimate received (its 0.3-5 Hz band) peak at or above it in settled contact, they
+            set the probe's kp in contact to a quarter; 0: off (:mod:`telethermo.control.osc_guard`).
     """
 
     role: Role
@@ -171,6 +174,7 @@ class CoreParams:
     T_air_C: float = CORE["T_air_C"]
     material_id: MaterialIdParams | None = field(default_factory=MaterialIdParams)
     link_loss_render_s: float = CORE["link_loss_render_s"]
+    osc_guard_C: float = CORE["osc_guard_C"]
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
     _air_gains: Any = field(default=None, init=False, repr=False, compare=False)
@@ -199,6 +203,7 @@ class CoreParams:
         _finite_number(o, "G_air_W_per_K", self.G_air_W_per_K, lo=0.0, hi=1.0)
         _finite_number(o, "T_air_C", self.T_air_C, lo=-20.0, hi=60.0)
         _finite_number(o, "link_loss_render_s", self.link_loss_render_s, lo=0.0, hi=60.0)
+        _finite_number(o, "osc_guard_C", self.osc_guard_C, lo=0.0, hi=10.0)
         if not isinstance(self.air_rendering, bool):
             raise ValueError(f"{o}.air_rendering: expected True or False, got {self.air_rendering!r}")
         if not isinstance(self.identify, IdentifyPlan):

@@ -16,7 +16,7 @@ The predictor is anything with ``step(current_A) -> T_pred_C`` and ``reset(T_C)`
 from __future__ import annotations
 
 from enum import Enum
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, cast, runtime_checkable
 
 
 class Estimator(str, Enum):
@@ -92,4 +92,22 @@ def estimate(
         return estimate_model(T_sensor_C, T_pred_C)
     return fused_weight * estimate_model(T_sensor_C, T_pred_C) + (1.0 - fused_weight) * estimate_flux(
         T_sensor_C, Q_W, R_sensor_K_per_W
+    )
+
+
+def as_predictor(predictor_or_model: Any, T0_C: float) -> TemperaturePredictor | None:
+    """A predictor from a predictor, a model with ``.temperature.predictor(T0_C=...)`` or None."""
+    if predictor_or_model is None:
+        return None
+    if isinstance(predictor_or_model, TemperaturePredictor):
+        predictor_or_model.reset(T0_C)
+        return predictor_or_model
+    temp = getattr(predictor_or_model, "temperature", None)
+    if temp is not None and callable(getattr(temp, "predictor", None)):
+        return cast(TemperaturePredictor, temp.predictor(T0_C=T0_C))
+    if callable(getattr(predictor_or_model, "predictor", None)):
+        return cast(TemperaturePredictor, predictor_or_model.predictor(T0_C=T0_C))
+    raise TypeError(
+        "init_state: expected a TemperaturePredictor (step/reset), a model with "
+        f".temperature.predictor(T0_C=...), or None; got {type(predictor_or_model).__name__}"
     )
