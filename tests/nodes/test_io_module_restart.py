@@ -43,6 +43,8 @@ class Listener:
         self.net.subscribe(TPDO1, self._on)
         self.node = self.net.add_node(MODULE, str(bus_config_path("io_module.eds")))
         self.node.sdo.RESPONSE_TIMEOUT = 2.0
+        self.controller = self.net.add_node(2, str(bus_config_path("slave.eds")))  # the slave controller
+        self.controller.sdo.RESPONSE_TIMEOUT = 2.0
 
     def _on(self, cob: int, data: bytearray, ts: float) -> None:
         with self.lock:
@@ -86,6 +88,8 @@ def test_a_module_that_lost_its_controller_is_started_again(tmp_path):
             # ... and its inputs flow again: a steady stream of TPDOs, no further loss
             assert wait_for(lambda: seen.since(back).count(("tpdo", 0)) >= 100, 120), seen.since(back)[-20:]
             assert seen.node.sdo[0x2102].raw == 0 and seen.node.sdo[0x6444][1].raw == 0
+            # the controller counts it where its other counters are (status: 0x270A module_restarts)
+            assert wait_for(lambda: seen.controller.sdo["module_restarts"].raw >= 1, 30)
             assert pair.wait_master(timeout_s=600) == 0, pair.log("master-stderr").read_text()
         finally:
             codes = pair.stop()
