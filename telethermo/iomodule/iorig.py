@@ -20,6 +20,7 @@ import logging
 import math
 import struct
 import threading
+from collections.abc import Callable
 
 import canopen
 
@@ -188,7 +189,7 @@ class IoRig:
             self.network.disconnect()
         self.network = None
 
-    def watch_controller(self, controller_ok) -> None:  # type: ignore[no-untyped-def]
+    def watch_controller(self, controller_ok: Callable[[], tuple[bool, bool]]) -> None:
         """``controller_ok() -> (OPERATIONAL, link healthy)`` of the controller driving this rig: while both
         hold, a module reporting PRE-OPERATIONAL or a boot-up is checked and started again."""
         if self.supervisor is not None:
