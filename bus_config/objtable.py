@@ -166,6 +166,8 @@ OBJECTS: tuple[ObjRow, ...] = (
     _o(0x2706, "active_trips", UNSIGNED16, STATUS, "", pdo=True),
     _o(0x2707, "fault_reset_blocked_by", UNSIGNED16, STATUS, ""),
     _o(0x2708, "limits_active", UNSIGNED8, STATUS, ""),
+    _o(0x2709, "input_timeouts", UNSIGNED32, STATUS, ""),
+    _o(0x270A, "module_restarts", UNSIGNED32, STATUS, ""),
     _o(0x2710, "malformed_frames", UNSIGNED32, DIAGNOSTIC, ""),
     _o(0x2711, "unknown_cobid_frames", UNSIGNED32, DIAGNOSTIC, ""),
     _o(0x2712, "callback_errors", UNSIGNED32, DIAGNOSTIC, ""),
@@ -265,6 +267,8 @@ DOCS: dict[str, str] = {
     "last_trip_code": "EMCY code of the last trip (0 none)",
     "cycle_counter": "control cycles run",
     "late_cycles": "real-time cycles that missed their slot",
+    "input_timeouts": "rig reads that waited out the input timeout and reused the last inputs (--rig io)",
+    "module_restarts": "NMT STARTs sent to an I/O module that left OPERATIONAL while this node ran (--rig io)",
     "lockstep": "1 lockstep, 0 real time",
     "peer_alive": "1 while the peer's heartbeat is seen",
     "active_trips": (

@@ -42,7 +42,9 @@ from telethermo.nodes.od_publish import (
     FAULT_RESET,
     FAULT_RESET_BLOCKED_BY,
     LAST_TRIP_CODE,
+    INPUT_TIMEOUTS,
     LATE_CYCLES,
+    MODULE_RESTARTS,
     NODE_OBJECTS,
     OdRow,
     Publisher,
@@ -131,6 +133,9 @@ class ControlCycle:
         rt.stats.cycles += 1
         self._w[CYCLE_COUNTER](rt.stats.cycles & 0xFFFFFFFF)
         self._w[LATE_CYCLES](rt.stats.late_cycles & 0xFFFFFFFF)
+        stats = rt.rig_counters()  # --rig io: the driver's counters (0 for a rig that keeps none)
+        self._w[INPUT_TIMEOUTS](stats.input_timeouts & 0xFFFFFFFF)
+        self._w[MODULE_RESTARTS](stats.module_restarts & 0xFFFFFFFF)
         self._raise_trips(res)
         if rt.recorder is not None:
             self._record(sample, res, peer, -1 if fallback else rt.sync_cycle)

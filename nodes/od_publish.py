@@ -142,10 +142,20 @@ MATERIAL: tuple[OdRow, ...] = (
 #: what the cycle writes besides results: counters, the last trip's EMCY code, the fault-reset command
 CYCLE_COUNTER = OdRow("cycle_counter")
 LATE_CYCLES = OdRow("late_cycles")
+INPUT_TIMEOUTS = OdRow("input_timeouts")
+MODULE_RESTARTS = OdRow("module_restarts")
 LAST_TRIP_CODE = OdRow("last_trip_code")
 FAULT_RESET = OdRow("fault_reset")
 FAULT_RESET_BLOCKED_BY = OdRow("fault_reset_blocked_by")
-NODE_OBJECTS = (CYCLE_COUNTER, LATE_CYCLES, LAST_TRIP_CODE, FAULT_RESET, FAULT_RESET_BLOCKED_BY)
+NODE_OBJECTS = (
+    CYCLE_COUNTER,
+    LATE_CYCLES,
+    INPUT_TIMEOUTS,
+    MODULE_RESTARTS,
+    LAST_TRIP_CODE,
+    FAULT_RESET,
+    FAULT_RESET_BLOCKED_BY,
+)
 
 #: fields of the step result (paths as in the rows) that no object carries, and why
 NOT_PUBLISHED: dict[str, str] = {

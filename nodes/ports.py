@@ -43,3 +43,7 @@ class CycleHost(Protocol):
     peer_id: int
     produce_sync: bool
     lockstep: bool
+
+    def rig_counters(self) -> RuntimeStats:
+        """The rig driver's counters (input timeouts, module restarts) copied into ``stats``."""
+        ...

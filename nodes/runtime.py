@@ -186,6 +186,9 @@ class NodeRuntime:
         dev.add_write_listener(self._on_write)
         dev.add_nmt_listener(self._on_nmt)
         self._w_current = dev.writer("current_A")
+        watch = getattr(self.parts.rig, "watch_controller", None)
+        if callable(watch):  # --rig io: restart a module that left OPERATIONAL while we run
+            watch(lambda: (dev.state is NmtState.OPERATIONAL, not self.bus_outage.down))
         for part in (self.settings, self.models, self.ident, self.cycle):
             part.bind(dev)
         self._power_on()
@@ -270,17 +273,29 @@ class NodeRuntime:
                     self.network.disconnect()
                 except Exception as exc:  # the bus may already be gone (hub ended)
                     log.warning("disconnect: %s", exc)
+            self.rig_counters()
             log.info(
-                "node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d EMCY, peer %s, bus %s",
+                "node %d stopped (%s): %d cycles, %d late, %d lockstep timeouts, %d input timeouts, "
+                "%d module restarts, %d EMCY, peer %s, bus %s",
                 self.node_id,
                 reason,
                 self.stats.cycles,
                 self.stats.late_cycles,
                 self.stats.lockstep_timeouts,
+                self.stats.input_timeouts,
+                self.stats.module_restarts,
                 self.stats.emcy_raised,
                 self.peer.counters,
                 self.bus.stats if self.bus else None,
             )
+
+    def rig_counters(self) -> RuntimeStats:
+        """The rig driver's counters into :attr:`stats` (``--rig io``: reads that waited out the input timeout,
+        module restarts; 0 for a rig that keeps none); returns the stats."""
+        rig = self.parts.rig
+        self.stats.input_timeouts = int(getattr(rig, "timeouts", 0))
+        self.stats.module_restarts = int(getattr(rig, "module_restarts", 0))
+        return self.stats
 
     def safe_current(self) -> None:
         """The rig's current to 0 A (a failure is logged, never raised)."""

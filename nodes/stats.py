@@ -18,6 +18,11 @@ class RuntimeStats:
     nmt_starts_sent: int = 0
     cycle_errors: int = 0
     fallback_cycles: int = 0
+    input_timeouts: int = 0
+    """Rig reads that waited out the rig's input timeout (``--rig io``: ``input_timeout_ms``, lockstep
+    2.5 s) and reused the last inputs."""
+    module_restarts: int = 0
+    """NMT STARTs sent to an I/O module that left OPERATIONAL while this node ran (``--rig io``)."""
     latencies_s: list[float] = field(default_factory=list)
     """SYNC producer: SYNC sent -> first peer TPDO1 received, s (one per cycle with a PDO)."""
     cycle_s: list[float] = field(default_factory=list)

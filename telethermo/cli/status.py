@@ -40,6 +40,8 @@ FIELDS = (
     ("latched trips", "active_trips"),
     ("cycles", "cycle_counter"),
     ("late cycles", "late_cycles"),
+    ("input timeouts", "input_timeouts"),
+    ("module restarts", "module_restarts"),
     ("lockstep", "lockstep"),
     ("peer alive", "peer_alive"),
     ("link fallback", "link_fallback_active"),

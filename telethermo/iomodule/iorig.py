@@ -20,10 +20,12 @@ import logging
 import math
 import struct
 import threading
+from collections.abc import Callable
 
 import canopen
 
 from telethermo.iomodule.commission import CommissionError, ModuleSetup, commission
+from telethermo.iomodule.restart import ModuleSupervisor
 from telethermo.iomodule.rigconfig import RigConfig
 from telethermo.rig import RigSample
 from telethermo.transport.bus import TransportSettings, open_bus
@@ -85,6 +87,10 @@ class IoRig:
         self.stale = 0
         """Reads in a row that found no new input set."""
         self.timeouts = 0
+        """Reads that waited out the input timeout (``input_timeout_ms``; lockstep: ``LOCKSTEP_TIMEOUT_S``)
+        without a new input set, so their cycles reused the last inputs."""
+        self.supervisor: ModuleSupervisor | None = None
+        """Restarts a module that went PRE-OPERATIONAL while the controller runs (:mod:`.restart`)."""
         self.current_A = 0.0
         self._drive_cob = 0x200 + config.modules[config.drive.module].node_id
         self._last = RigSample(0.0, math.nan, math.nan, math.nan, False, math.nan)
@@ -133,7 +139,8 @@ class IoRig:
             self.network.connect()
         cfg = self.config
         by_id = {m.node_id: m for m in cfg.modules.values()}
-        for setup in self.setups():
+        setups = self.setups()
+        for setup in setups:
             mod = by_id[setup.node_id]
             node = self.network.add_node(mod.node_id, str(mod.eds))
             node.sdo.RESPONSE_TIMEOUT = self.sdo_timeout_s
@@ -157,6 +164,10 @@ class IoRig:
         self.apply_current(0.0)
         for node in self.nodes.values():
             node.nmt.send_command(0x01)  # OPERATIONAL: the output follows our RPDO
+        self.supervisor = ModuleSupervisor(
+            self.network, self.nodes, {s.node_id: s for s in setups}, source=str(cfg.source)
+        )
+        self.supervisor.start()
         log.info("%s: %d module(s) commissioned and started", cfg.source, len(self.nodes))
         return self
 
@@ -164,6 +175,8 @@ class IoRig:
         """Drive to 0 A, modules to PRE-OPERATIONAL (their output applies the substitute), bus released."""
         if self.network is None:
             return
+        if self.supervisor is not None:  # no restart of the modules we now put into PRE-OPERATIONAL
+            self.supervisor.stop()
         try:
             self.apply_current(0.0)
             for node in self.nodes.values():
@@ -175,6 +188,17 @@ class IoRig:
         if self._own_network:
             self.network.disconnect()
         self.network = None
+
+    def watch_controller(self, controller_ok: Callable[[], tuple[bool, bool]]) -> None:
+        """``controller_ok() -> (OPERATIONAL, link healthy)`` of the controller driving this rig: while both
+        hold, a module reporting PRE-OPERATIONAL or a boot-up is checked and started again."""
+        if self.supervisor is not None:
+            self.supervisor.controller_ok = controller_ok
+
+    @property
+    def module_restarts(self) -> int:
+        """NMT STARTs sent to modules that had left OPERATIONAL while the controller ran."""
+        return self.supervisor.restarts if self.supervisor is not None else 0
 
     # ------------------------------------------------------------------ loop
     def _on_tpdo(self, cob: int, data: bytearray, timestamp: float) -> None:

@@ -1,0 +1,113 @@
+"""A module that lost its controller is started again by it (issue 24, robustness): four processes in lockstep
+over the hub (``NodePair(io=True)``: two controllers on ``--rig io``, two ``telethermo-iomodule``). The slave's
+controller is frozen (SIGSTOP) until its module, watching its heartbeat, declares it lost and goes
+PRE-OPERATIONAL (the test's own canopen listener sees the module's heartbeat say so), then thawed (SIGCONT).
+The controller, OPERATIONAL with a healthy link, re-checks the module's commissioning and sends it NMT START:
+the module's heartbeat reports OPERATIONAL again, its input TPDOs flow again and the session completes. Without
+the restart the module stays PRE-OPERATIONAL and every slave cycle waits out the 2.5 s input timeout."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from pathlib import Path
+
+import can
+import canopen
+import pytest
+
+from telethermo.bus_config import path as bus_config_path
+from telethermo.nodes.launch import NodePair, PairConfig, wait_for
+from telethermo.transport.hub import HubThread
+
+pytestmark = pytest.mark.slow  # starts processes
+
+SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+CYCLES = 3000
+MODULE, OPERATIONAL, PRE_OPERATIONAL = 4, 0x05, 0x7F  # the slave's module (rig_io_sim_slave.toml)
+TPDO1 = 0x180 + MODULE
+
+
+class Listener:
+    """The module's heartbeats and input TPDOs as a third party sees them (canopen on raw frames)."""
+
+    def __init__(self, port: int) -> None:
+        self.net = canopen.Network(
+            can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="vcan0", tcp_tune=True)
+        )
+        self.net.connect()
+        self.lock = threading.Lock()
+        self.events: list[tuple[str, int]] = []  # ("hb", state) / ("tpdo", 0), in arrival order
+        self.net.subscribe(0x700 + MODULE, self._on)
+        self.net.subscribe(TPDO1, self._on)
+        self.node = self.net.add_node(MODULE, str(bus_config_path("io_module.eds")))
+        self.node.sdo.RESPONSE_TIMEOUT = 2.0
+        self.controller = self.net.add_node(2, str(bus_config_path("slave.eds")))  # the slave controller
+        self.controller.sdo.RESPONSE_TIMEOUT = 2.0
+
+    def _on(self, cob: int, data: bytearray, ts: float) -> None:
+        with self.lock:
+            self.events.append(("hb", data[0] & 0x7F) if cob == 0x700 + MODULE else ("tpdo", 0))
+
+    def mark(self) -> int:
+        with self.lock:
+            return len(self.events)
+
+    def since(self, k: int) -> list[tuple[str, int]]:
+        with self.lock:
+            return self.events[k:]
+
+
+@pytest.mark.parametrize("timing", ["lockstep", "realtime"])
+def test_a_module_that_lost_its_controller_is_started_again(tmp_path, timing):
+    """Lockstep: without the restart every slave cycle waits out 2.5 s. Real time (100 Hz): without it the
+    slave's inputs read NaN from then on."""
+    with HubThread() as hub:
+        bus = f"socketcand://127.0.0.1:{hub.port}/vcan0"
+        seen = Listener(hub.port)
+        config = PairConfig(
+            scene=SCENE, out_dir=tmp_path, bus=bus, io=True, cycles=CYCLES, seed=0, timing=timing
+        )
+        pair = NodePair(config)
+        try:
+            pair.start()
+            assert wait_for(lambda: pair.progress[0] >= 200 or pair.master.poll() is not None, 300)
+            assert pair.master.poll() is None, pair.log("master-stderr").read_text()
+            before = seen.mark()
+            os.kill(pair.slave.pid, signal.SIGSTOP)
+            try:
+                # the module's consumer (150 ms) declares its controller lost: PRE-OPERATIONAL, drive cut
+                lost = wait_for(lambda: ("hb", PRE_OPERATIONAL) in seen.since(before), 60)
+            finally:
+                os.kill(pair.slave.pid, signal.SIGCONT)
+            assert lost, seen.since(before)[-20:]
+            after = seen.since(before).index(("hb", PRE_OPERATIONAL)) + before
+
+            def restarted() -> int | None:
+                ev = seen.since(after)
+                return next((after + i for i, e in enumerate(ev) if e == ("hb", OPERATIONAL)), None)
+
+            # the controller started it again (a third party sees the module's heartbeat say so) ...
+            assert wait_for(lambda: restarted() is not None, 60), seen.since(after)[-20:]
+            back = restarted()
+            # ... and its inputs flow again: a steady stream of TPDOs, no further loss
+            assert wait_for(lambda: seen.since(back).count(("tpdo", 0)) >= 100, 120), seen.since(back)[-20:]
+            assert seen.node.sdo[0x2102].raw == 0 and seen.node.sdo[0x6444][1].raw == 0
+            # the controller counts it where its other counters are (status: 0x270A module_restarts)
+            assert wait_for(lambda: seen.controller.sdo["module_restarts"].raw >= 1, 30)
+            assert pair.wait_master(timeout_s=600) == 0, pair.log("master-stderr").read_text()
+        finally:
+            codes = pair.stop()
+            seen.net.disconnect()
+    assert pair.result is not None and pair.result.cycles == CYCLES
+    slave_log = pair.log("slave").read_text()  # the node's --log file
+    restarts = [ln for ln in slave_log.splitlines() if "NMT START sent (restart" in ln]
+    assert restarts and "io module 4" in restarts[0], slave_log[-3000:]
+    stopped = [ln for ln in slave_log.splitlines() if "module restarts" in ln]
+    # one restart per loss the module reported (a loaded machine may stall the thawed controller past the
+    # 150 ms consumer time once more), and none at the session's end, when the master's NMT command put every
+    # node into PRE-OPERATIONAL
+    losses = pair.out_dir.joinpath("io-slave.log").read_text().count("(node 2 lost)")
+    assert stopped and f" {losses} module restarts" in stopped[-1] and len(restarts) == losses >= 1, stopped
+    print(restarts[0], stopped[-1], codes, sep="\n")
