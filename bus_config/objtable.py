@@ -268,7 +268,9 @@ DOCS: dict[str, str] = {
     "cycle_counter": "control cycles run",
     "late_cycles": "real-time cycles that missed their slot",
     "input_timeouts": "rig reads that waited out the input timeout and reused the last inputs (--rig io)",
-    "module_restarts": "NMT STARTs sent to an I/O module that left OPERATIONAL while this node ran (--rig io)",
+    "module_restarts": (
+        "NMT STARTs sent to an I/O module that left OPERATIONAL while this node ran (--rig io)"
+    ),
     "lockstep": "1 lockstep, 0 real time",
     "peer_alive": "1 while the peer's heartbeat is seen",
     "active_trips": (

@@ -290,8 +290,8 @@ class NodeRuntime:
             )
 
     def rig_counters(self) -> RuntimeStats:
-        """The rig driver's counters into :attr:`stats` (``--rig io``: reads that waited out the input timeout,
-        module restarts; 0 for a rig that keeps none); returns the stats."""
+        """The rig driver's counters into :attr:`stats` (``--rig io``: reads that waited out the input
+        timeout, module restarts; 0 for a rig that keeps none); returns the stats."""
         rig = self.parts.rig
         self.stats.input_timeouts = int(getattr(rig, "timeouts", 0))
         self.stats.module_restarts = int(getattr(rig, "module_restarts", 0))

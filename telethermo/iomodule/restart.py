@@ -4,9 +4,9 @@ heartbeat reports PRE-OPERATIONAL (or a boot-up) while the controller is OPERATI
 healthy, the controller re-checks the module's commissioning by SDO (every value it wrote at start-up read
 back, among them 0x6443:1 = substitute and 0x6444:1 = the code of 0 A; a module that forgot them, e.g. after a
 reset, is commissioned again) and sends it NMT START; the restart is counted and logged in one line. A module
-another NMT master put into PRE-OPERATIONAL or STOPPED (its command seen on the bus, addressed to the module or
-to all nodes: the SYNC producer's end of a session) is held: it is not started again until a START or a reset
-for it is seen.
+another NMT master put into PRE-OPERATIONAL or STOPPED (its command seen on the bus, addressed to the module
+or to all nodes: the SYNC producer's end of a session) is held: it is not started again until a START or a
+reset for it is seen.
 
 :func:`module_action` is the decision (pure: the module's state seen, the controller's state -> action);
 :class:`ModuleSupervisor` carries it out (the heartbeat subscription on the driver's own network, a worker
@@ -42,7 +42,8 @@ class ModuleAction(enum.Enum):
     """Re-check the commissioning, then NMT START."""
 
 
-#: NMT commands (CiA 301 7.2.8.3.1) that hold a module where another NMT master put it, and those that end the hold
+#: NMT commands (CiA 301 7.2.8.3.1) that hold a module where another NMT master put it, and those that
+#: end the hold
 HOLDING_COMMANDS = (0x02, 0x80)
 RELEASING_COMMANDS = (0x01, 0x81, 0x82)
 

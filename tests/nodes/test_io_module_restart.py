@@ -1,10 +1,11 @@
 """A module that lost its controller is started again by it (issue 24, robustness): four processes in lockstep
-over the hub (``NodePair(io=True)``: two controllers on ``--rig io``, two ``telethermo-iomodule``). The slave's
-controller is frozen (SIGSTOP) until its module, watching its heartbeat, declares it lost and goes
+over the hub (``NodePair(io=True)``: two controllers on ``--rig io``, two ``telethermo-iomodule``). The
+slave's controller is frozen (SIGSTOP) until its module, watching its heartbeat, declares it lost and goes
 PRE-OPERATIONAL (the test's own canopen listener sees the module's heartbeat say so), then thawed (SIGCONT).
 The controller, OPERATIONAL with a healthy link, re-checks the module's commissioning and sends it NMT START:
-the module's heartbeat reports OPERATIONAL again, its input TPDOs flow again and the session completes. Without
-the restart the module stays PRE-OPERATIONAL and every slave cycle waits out the 2.5 s input timeout."""
+the module's heartbeat reports OPERATIONAL again, its input TPDOs flow again and the session completes.
+Without the restart the module stays PRE-OPERATIONAL and every slave cycle waits out the 2.5 s input
+timeout."""
 
 from __future__ import annotations
 
