@@ -92,6 +92,9 @@ def test_identify_a_live_node_and_load_the_model(master, capsys):
         "--save-data",
         str(data),
         "--quiet",
+        # the SDO answers of a real-time node on a loaded 2-core machine can exceed the default 1 s
+        "--timeout",
+        "5",
     )
     assert code == EXIT_OK, err
     m = re.search(r"CRC-32 0x([0-9A-F]{8}) verified", text)
