@@ -91,7 +91,7 @@ def test_four_node_session_on_vcan(vcan_channel, candump, tmp_path, slow_network
     )
     assert codes == {"master": 0, "slave": 0, "io-master": 0, "io-slave": 0}, (codes, logs(pair.out_dir))
     # no cycle waited out its inputs, and no module lost its controller (output error state, PRE-OPERATIONAL)
-    assert pair.result is not None and pair.result["lockstep_timeouts"] == 0, pair.result
+    assert pair.result is not None and pair.result.lockstep_timeouts == 0, pair.result
     for side in ("master", "slave"):
         assert "lost" not in (pair.out_dir / f"io-{side}.log").read_text(), logs(pair.out_dir)
     time.sleep(0.5)
