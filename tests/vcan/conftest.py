@@ -61,15 +61,15 @@ def vcan_channel() -> str:
 class Candump:
     """``candump`` (Debian's can-utils: a client no one here wrote) logging every frame on a channel."""
 
-    def __init__(self, channel: str) -> None:
+    def __init__(self, channel: str, log_path: Path) -> None:
         exe = shutil.which("candump")
         if exe is None:
             pytest.skip("candump not installed (apt-get install can-utils): cross-check skipped")
         # -L: log format "(sec.usec) vcan0 181#0011223344556677"; into a file, not a pipe: nobody reads a
-        # pipe while the test runs, and a full pipe (64 kB) would block candump and make it lose frames
-        import tempfile
-
-        self.log = tempfile.TemporaryFile(mode="w+")
+        # pipe while the test runs, and a full pipe (64 kB) would block candump and make it lose frames. A
+        # named file, not an unlinked temporary one: in ../shared/tools/vcan-run the file system is the host's
+        # over 9p, where an open file that has no name can be lost under memory pressure (ENOENT on read).
+        self.log = open(log_path, "w+", encoding="utf-8")
         self.proc = subprocess.Popen([exe, "-L", channel], stdout=self.log, text=True)
 
     def stop(self) -> list[tuple[int, bytes]]:
@@ -89,11 +89,11 @@ class Candump:
 
 
 @pytest.fixture
-def candump(vcan_channel):
+def candump(vcan_channel, tmp_path):
     dumps = []
 
     def start() -> Candump:
-        d = Candump(vcan_channel)
+        d = Candump(vcan_channel, tmp_path / f"candump-{len(dumps)}.log")
         dumps.append(d)
         return d
 
