@@ -31,18 +31,28 @@ from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
 from telethermo.bus_config import path as _path
-from telethermo.bus_config.edsgen import _check_value, _var_lines, eds_header
-from telethermo.bus_config.od_communication import _V, _mapping, _pdo_comm, _pdo_map
+from telethermo.bus_config.edsgen import _var_lines as edsgen_var_lines
+from telethermo.bus_config.edsgen import eds_header, pdo_counts, render_eds
+from telethermo.bus_config.od_communication import (
+    _V,
+    _mapping,
+    _pdo_comm,
+    _pdo_map,
+    device_type,
+    emcy_heartbeat_identity_objects,
+    error_objects,
+    name_objects,
+    sync_objects,
+)
 from telethermo.bus_config.od_types import (
     INTEGER16,
     INTEGER32,
     UNSIGNED8,
     UNSIGNED16,
-    UNSIGNED32,
-    VISIBLE_STRING,
     Obj,
     Var,
     _uint,
+    array_obj,
 )
 
 FILE_NAME = "io_module.eds"
@@ -53,8 +63,8 @@ N_INPUTS = 6
 #: CiA 301 0x1000: profile 401 (low word 0x0191), additional information AI (0x04) and AO (0x08)
 DEVICE_TYPE = (0x04 | 0x08) << 16 | 0x0191
 SAMPLING_INDEX, OUTPUT_ACTUAL_INDEX, OUTPUT_ERROR_INDEX, OPEN_CIRCUIT_INDEX = 0x2100, 0x2101, 0x2102, 0x2110
-#: Unit= of the manufacturer objects whose name ends in a unit od_types does not know
-_UNITS = {SAMPLING_INDEX: "ms"}
+#: Unit= of the manufacturer objects whose name ends in a unit od_types does not know, by EDS section
+_UNITS = {f"{SAMPLING_INDEX:04X}": "ms"}
 
 
 def _int(
@@ -80,124 +90,27 @@ def _int(
     )
 
 
-def _array(index: int, name: str, subs: list[Var], sub0_access: str = "const") -> Obj:
-    return Obj(
-        index,
-        name,
-        object_type=0x8,
-        subs={
-            0: _uint("Highest sub-index supported", UNSIGNED8, sub0_access, len(subs)),
-            **{i: v for i, v in enumerate(subs, 1)},
-        },
-    )
-
-
 def communication_objects() -> list[Obj]:
-    """0x1000..0x1FFF of the I/O module."""
-    return [*_device_objects(), *_emcy_heartbeat_identity_objects(), *_pdo_objects()]
-
-
-def _device_objects() -> list[Obj]:
-    """0x1000..0x100A: device type (CiA 401), error register and history, SYNC, names and versions."""
+    """0x1000..0x1FFF of the I/O module: the nodes' builders (bus_config/od_communication.py) with the
+    module's values, no store/restore, 0x1029 error behaviour, its PDOs."""
+    heartbeat_doc = "bits 16-23 node-ID, bits 0-15 time in ms (0: unused)"
+    error_behaviour = _uint(
+        "Communication error",
+        UNSIGNED8,
+        "rw",
+        0,
+        0,
+        2,
+        description="0 pre-operational, 1 no change, 2 stopped",
+    )
     return [
-        _V(
-            0x1000,
-            _uint(
-                "Device type", UNSIGNED32, "ro", DEVICE_TYPE, description="CiA 401 analog inputs and outputs"
-            ),
-        ),
-        _V(0x1001, _uint("Error register", UNSIGNED8, "ro", 0, pdo=True)),
-        Obj(
-            0x1003,
-            "Pre-defined error field",
-            object_type=0x8,
-            subs={
-                0: _uint("Number of errors", UNSIGNED8, "rw", 0, description="write 0 to clear the history"),
-                **{i: _uint(f"Standard error field {i}", UNSIGNED32, "ro", 0) for i in range(1, 9)},
-            },
-        ),
-        _V(0x1005, _uint("COB-ID SYNC", UNSIGNED32, "rw", 0x80, description="consumes SYNC")),
-        _V(
-            0x1006,
-            _uint(
-                "Communication cycle period",
-                UNSIGNED32,
-                "rw",
-                10000,
-                0,
-                10_000_000,
-                description="us: the simulated plant advances by this at every SYNC",
-            ),
-        ),
-        _V(
-            0x1008,
-            Var("Manufacturer device name", VISIBLE_STRING, "const", "telethermo io module (simulated)"),
-        ),
-        _V(0x1009, Var("Manufacturer hardware version", VISIBLE_STRING, "const", "sim")),
-        _V(0x100A, Var("Manufacturer software version", VISIBLE_STRING, "const", "0.1.0")),
-    ]
-
-
-def _emcy_heartbeat_identity_objects() -> list[Obj]:
-    """0x1014..0x1029: EMCY, heartbeats, identity, SYNC counter, error behaviour."""
-    return [
-        _V(0x1014, _uint("COB-ID EMCY", UNSIGNED32, "ro", "$NODEID+0x80")),
-        _V(0x1015, _uint("Inhibit time EMCY", UNSIGNED16, "rw", 10, 0, 0xFFFF, description="100 us units")),
-        _array(
-            0x1016,
-            "Consumer heartbeat time",
-            [
-                _uint(
-                    f"Consumer heartbeat time {i}",
-                    UNSIGNED32,
-                    "rw",
-                    0,
-                    description="bits 16-23 node-ID, bits 0-15 time in ms (0: unused)",
-                )
-                for i in (1, 2)
-            ],
-        ),
-        _V(0x1017, _uint("Producer heartbeat time", UNSIGNED16, "rw", 100, 0, 0xFFFF, description="ms")),
-        Obj(
-            0x1018,
-            "Identity object",
-            object_type=0x9,
-            subs={
-                0: _uint("Highest sub-index supported", UNSIGNED8, "const", 4),
-                1: _uint("Vendor-ID", UNSIGNED32, "ro", 0, description="no CiA vendor-ID assigned"),
-                2: _uint("Product code", UNSIGNED32, "ro", 0x0401),
-                3: _uint("Revision number", UNSIGNED32, "ro", 0x00010000),
-                4: _uint("Serial number", UNSIGNED32, "ro", 0),
-            },
-        ),
-        _V(
-            0x1019,
-            _uint(
-                "Synchronous counter overflow value",
-                UNSIGNED8,
-                "rw",
-                0,
-                0,
-                240,
-                description="0 no counter, 2..240 counter wraps after this value",
-            ),
-        ),
-        _array(
-            0x1029,
-            "Error behaviour",
-            [
-                _uint(
-                    "Communication error",
-                    UNSIGNED8,
-                    "rw",
-                    0,
-                    0,
-                    2,
-                    description="0 pre-operational, 1 no change, 2 stopped",
-                )
-            ],
-            sub0_access="ro",
-        ),
+        device_type(DEVICE_TYPE, "CiA 401 analog inputs and outputs"),
+        *error_objects("write 0 to clear the history"),
+        *sync_objects(0x80, "consumes SYNC", "us: the simulated plant advances by this at every SYNC"),
+        *name_objects("telethermo io module (simulated)"),
+        *emcy_heartbeat_identity_objects([(0, heartbeat_doc)] * 2, product_code=0x0401, sync_overflow=0),
+        array_obj(0x1029, "Error behaviour", [error_behaviour], sub0_access="ro"),
+        *_pdo_objects(),
     ]
 
 
@@ -220,7 +133,7 @@ def _pdo_objects() -> list[Obj]:
 def profile_objects() -> list[Obj]:
     """The CiA 401 objects 0x6000..: analog inputs and outputs, output error mode and substitute value."""
     return [
-        _array(
+        array_obj(
             0x6401,
             "Read analog input 16-bit",
             [
@@ -228,12 +141,12 @@ def profile_objects() -> list[Obj]:
                 for i in range(1, N_INPUTS + 1)
             ],
         ),
-        _array(
+        array_obj(
             0x6411,
             "Write analog output 16-bit",
             [_int("Analog output 1", INTEGER16, "rw", 0, -32768, 32767, pdo=True, description="DAC counts")],
         ),
-        _array(
+        array_obj(
             0x6443,
             "Analog output error mode",
             [
@@ -249,7 +162,7 @@ def profile_objects() -> list[Obj]:
                 )
             ],
         ),
-        _array(
+        array_obj(
             0x6444,
             "Analog output error value integer",
             [_int("Error value output 1", INTEGER32, "rw", 0, -32768, 32767, description="DAC counts")],
@@ -258,9 +171,8 @@ def profile_objects() -> list[Obj]:
 
 
 def manufacturer_objects() -> list[Obj]:
-    V = lambda idx, var: Obj(idx, var.name, var=var)  # noqa: E731
     return [
-        V(
+        _V(
             SAMPLING_INDEX,
             _uint(
                 "adc_sampling_period_ms",
@@ -272,7 +184,7 @@ def manufacturer_objects() -> list[Obj]:
                 description="period of the ADC conversions of every input",
             ),
         ),
-        V(
+        _V(
             OUTPUT_ACTUAL_INDEX,
             _int(
                 "output_actual",
@@ -283,7 +195,7 @@ def manufacturer_objects() -> list[Obj]:
                 description="DAC counts applied now (0x6411 or its error value)",
             ),
         ),
-        V(
+        _V(
             OUTPUT_ERROR_INDEX,
             _uint(
                 "output_error_state",
@@ -293,7 +205,7 @@ def manufacturer_objects() -> list[Obj]:
                 description="1 while the output is in its error state",
             ),
         ),
-        V(
+        _V(
             OPEN_CIRCUIT_INDEX,
             _uint(
                 "sim_open_circuit",
@@ -308,49 +220,31 @@ def manufacturer_objects() -> list[Obj]:
     ]
 
 
+def _var_lines(section: str, var: Var) -> list[str]:
+    """edsgen's VAR section, with the Unit= (last) of the objects in :data:`_UNITS`."""
+    lines = edsgen_var_lines(section, var)
+    unit = _UNITS.get(section)
+    if unit is not None:
+        lines.insert(-1, f"Unit={unit}")
+    return lines
+
+
 def render() -> str:
     """The EDS text of the I/O module."""
-    comm, manu = communication_objects() + profile_objects(), manufacturer_objects()
-    mandatory = [o for o in comm if o.index in (0x1000, 0x1001, 0x1018)]
-    optional = [o for o in comm if o not in mandatory]
-    n_rx = sum(1 for o in comm if 0x1400 <= o.index <= 0x15FF)
-    n_tx = sum(1 for o in comm if 0x1800 <= o.index <= 0x19FF)
-    out = eds_header(
+    comm = communication_objects() + profile_objects()
+    header = eds_header(
         FILE_NAME,
         "telethermo simulated CiA 401 analog I/O module, generated by bus_config/io_eds.py",
         "telethermo io module",
         0x0401,
         "telethermo-iomodule",
-        (n_rx, n_tx),
+        pdo_counts(comm),
         [
             "Analog counts: 16-bit, -32768..32767 is -10 V..+10 V (305.2 uV per count).",
             "0x6443/0x6444 default to hold (the DS401 example's trap): commissioning sets substitute 0 A.",
         ],
     )
-    lists = (("MandatoryObjects", mandatory), ("OptionalObjects", optional), ("ManufacturerObjects", manu))
-    for title, objs in lists:
-        out += [f"[{title}]", f"SupportedObjects={len(objs)}"]
-        out += [f"{i}=0x{o.index:04X}" for i, o in enumerate(objs, 1)] + [""]
-    for o in comm + manu:
-        if o.var is not None:
-            lines = _var_lines(f"{o.index:04X}", o.var)
-            if o.index in _UNITS:
-                lines.insert(-1, f"Unit={_UNITS[o.index]}")
-            out += lines
-            continue
-        out += [
-            f"[{o.index:04X}]",
-            f"ParameterName={o.name}",
-            f"ObjectType=0x{o.object_type:X}",
-            f"SubNumber=0x{len(o.subs):X}",
-            "",
-        ]
-        for sub, var in o.subs.items():
-            out += _var_lines(f"{o.index:04X}sub{sub:X}", var)
-    for line in out:
-        if "=" in line:
-            _check_value(FILE_NAME, line.split("=", 1)[1])
-    return "\n".join(out)
+    return render_eds(FILE_NAME, header, comm, manufacturer_objects(), _var_lines)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -5,9 +5,11 @@ table, these rows are the whole manufacturer part of both object dictionaries: `
 merges the two in index order, and ``python -m telethermo.bus_config.edsgen`` writes the EDS files and the
 docs tables from them (``--check``: tests/canopen/test_partable.py).
 
-A row gives the index, name (ending in its unit, see ``edsgen``), CiA data type, what the object is
-(``kind``), its unit, access, default and range (writable objects), PDO flag and, for an ARRAY, its number
-of entries and their names (``sub_name`` + 1..n); its one line of documentation is in :data:`DOCS`. The
+A row (:class:`ObjRow`) holds the index, name (ending in its unit, see ``edsgen``), CiA data type, what the
+object is (``kind``), its unit, access, default and range (writable objects), PDO flag and, for an ARRAY,
+its number of entries and their names (``sub_name`` + 1..n); its one line of documentation is in
+:data:`DOCS`. Each row is written with the constructor of its kind (``_measured`` .. ``_diagnostic``),
+which sets what the kind implies (access, PDO flag, default), so a row gives only what is its own. The
 objects are the same on both nodes (a node leaves the ones of the other's role at their default).
 """
 
@@ -29,6 +31,7 @@ from telethermo.bus_config.od_types import (
     _real,
     _real64,
     _uint,
+    array_obj,
 )
 
 Num = Union[int, float, str]
@@ -83,108 +86,141 @@ class ObjRow:
         """The object dictionary object."""
         if not self.subs:
             return Obj(self.index, self.name, var=self.entry(self.name))
-        count = _uint("Highest sub-index supported", UNSIGNED8, "const", self.subs)
-        entries = {i: self.entry(f"{self.sub_name}{i}") for i in range(1, self.subs + 1)}
-        return Obj(self.index, self.name, object_type=0x8, subs={0: count, **entries})
+        entries = [self.entry(f"{self.sub_name}{i}") for i in range(1, self.subs + 1)]
+        return array_obj(self.index, self.name, entries)
 
 
-def _o(
+# One constructor a kind: each says once what the kind implies (who writes it, so its access and range;
+# whether a PDO carries it), a row gives only what is its own.
+
+
+def _measured(index: int, name: str, data_type: int, unit: str = "") -> ObjRow:
+    """Measured by the node from its rig each cycle: read-only, PDO-mappable."""
+    return ObjRow(index, name, data_type, MEASURED, unit, pdo=True)
+
+
+def _estimate(index: int, name: str, data_type: int, unit: str = "") -> ObjRow:
+    """Estimated by the node's control core each cycle: read-only, PDO-mappable."""
+    return ObjRow(index, name, data_type, ESTIMATE, unit, pdo=True)
+
+
+def _received(index: int, name: str, data_type: int, unit: str, low: Num, high: Num) -> ObjRow:
+    """The peer's value, written by an RPDO: "rww", default 0, PDO-mappable (``low``..``high`` limit SDO
+    writes only)."""
+    zero = 0.0 if data_type in (REAL32, REAL64) else 0
+    return ObjRow(index, name, data_type, RECEIVED, unit, "rww", zero, low, high, pdo=True)
+
+
+def _model(
     index: int,
     name: str,
     data_type: int,
-    kind: str,
     unit: str,
-    access: str = "ro",
-    default: Num = 0,
-    low: Num | None = None,
-    high: Num | None = None,
+    default: Num,
+    low: Num,
+    high: Num,
     *,
-    pdo: bool = False,
     subs: int = 0,
     sub_name: str = "",
 ) -> ObjRow:
-    return ObjRow(index, name, data_type, kind, unit, access, default, low, high, pdo, subs, sub_name)
+    """One of the TEM model's objects: written by SDO ("rw", ``low``..``high``), never PDO-mapped."""
+    return ObjRow(index, name, data_type, MODEL, unit, "rw", default, low, high, subs=subs, sub_name=sub_name)
+
+
+def _command(index: int, name: str, data_type: int, high: int) -> ObjRow:
+    """A command: written by SDO ("rw", 0..``high``), dimensionless, default 0."""
+    return ObjRow(index, name, data_type, COMMAND, "", "rw", 0, 0, high)
+
+
+def _status(
+    index: int, name: str, data_type: int, unit: str = "", *, pdo: bool = False, default: Num = 0
+) -> ObjRow:
+    """The node's state, written by the node: read-only."""
+    return ObjRow(index, name, data_type, STATUS, unit, default=default, pdo=pdo)
+
+
+def _diagnostic(index: int, name: str) -> ObjRow:
+    """A counter of the device layer: UNSIGNED32, read-only, dimensionless."""
+    return ObjRow(index, name, UNSIGNED32, DIAGNOSTIC, "")
 
 
 #: every manufacturer object that is not an operator parameter, in index order
 OBJECTS: tuple[ObjRow, ...] = (
-    _o(0x2000, "T_sensor_C", REAL32, MEASURED, "degC", pdo=True),
-    _o(0x2001, "Q_W", REAL32, MEASURED, "W", pdo=True),
-    _o(0x2002, "current_A", REAL32, MEASURED, "A", pdo=True),
-    _o(0x2003, "T_sink_C", REAL32, MEASURED, "degC", pdo=True),
-    _o(0x2004, "contact", BOOLEAN, MEASURED, "", pdo=True),
-    _o(0x2005, "force_N", REAL32, MEASURED, "N", pdo=True),
-    _o(0x2006, "contact_decision", BOOLEAN, ESTIMATE, "", pdo=True),
-    _o(0x2100, "estimate_C", REAL32, ESTIMATE, "degC", pdo=True),
-    _o(0x2101, "T_pred_C", REAL32, ESTIMATE, "degC", pdo=True),
-    _o(0x2102, "T_cmd_C", REAL32, ESTIMATE, "degC", pdo=True),
-    _o(0x2103, "peer_estimate_C", REAL32, RECEIVED, "degC", "rww", 0.0, -273.15, 1000.0, pdo=True),
-    _o(0x2104, "peer_Q_W", REAL32, RECEIVED, "W", "rww", 0.0, -1000.0, 1000.0, pdo=True),
-    _o(0x2105, "peer_contact", BOOLEAN, RECEIVED, "", "rww", 0, 0, 1, pdo=True),
-    _o(0x2300, "narma_n", UNSIGNED8, MODEL, "", "rw", 3, 0, 8),
-    _o(0x2301, "narma_m", UNSIGNED8, MODEL, "", "rw", 3, 0, 8),
-    _o(0x2302, "narma_p", UNSIGNED8, MODEL, "", "rw", 3, 0, 4),
-    _o(0x2303, "narma_q", UNSIGNED8, MODEL, "", "rw", 3, 0, 4),
-    _o(0x2304, "model_period_s", REAL32, MODEL, "s", "rw", 0.01, 0.0005, 1.0),
-    _o(0x2305, "model_T_ref_C", REAL32, MODEL, "degC", "rw", 25.0, -20.0, 80.0),
-    _o(0x2306, "theta_len", UNSIGNED8, MODEL, "", "rw", 0, 0, 48),
-    _o(0x2307, "flux_n", UNSIGNED8, MODEL, "", "rw", 0, 0, 8),
-    _o(0x2308, "flux_m", UNSIGNED8, MODEL, "", "rw", 0, 0, 7),
-    _o(0x230A, "model_I_min_A", REAL64, MODEL, "A", "rw", -1.0, -10.0, 10.0),
-    _o(0x230B, "model_I_max_A", REAL64, MODEL, "A", "rw", 1.0, -10.0, 10.0),
-    _o(0x230C, "flux_with_current", BOOLEAN, MODEL, "", "rw", 0, 0, 1),
-    _o(0x230D, "model_command", UNSIGNED8, COMMAND, "", "rw", 0, 0, 2),
-    _o(0x230E, "model_status", UNSIGNED8, STATUS, ""),
-    _o(0x230F, "model_crc32", UNSIGNED32, STATUS, ""),
-    _o(0x2310, "theta", REAL64, MODEL, "", "rw", 0.0, -1.0e6, 1.0e6, subs=48, sub_name="theta"),
-    _o(0x2311, "flux_coeffs", REAL64, MODEL, "", "rw", 0.0, -1.0e6, 1.0e6, subs=16, sub_name="flux_coeff"),
-    _o(0x240A, "fault_reset", UNSIGNED8, COMMAND, "", "rw", 0, 0, 1),
-    _o(0x2610, "identified_material", UNSIGNED8, STATUS, "", pdo=True),
-    _o(0x2611, "identified_beta", REAL32, STATUS, "", pdo=True),
-    _o(0x2612, "identified_se_ln_b", REAL32, STATUS, ""),
-    _o(0x2613, "identified_posterior", REAL32, STATUS, ""),
-    _o(0x2614, "identified_touches", UNSIGNED16, STATUS, "", pdo=True),
-    _o(0x2615, "peer_identified_material", UNSIGNED8, RECEIVED, "", "rww", 0, 0, 255, pdo=True),
-    _o(0x2616, "peer_identified_touches", UNSIGNED16, RECEIVED, "", "rww", 0, 0, 0xFFFF, pdo=True),
-    _o(0x2617, "peer_identified_beta", REAL32, RECEIVED, "", "rww", 0.0, -1.0e6, 1.0e6, pdo=True),
-    _o(0x2619, "link_fallback_active", BOOLEAN, STATUS, "", pdo=True),
-    _o(0x261A, "identified_T_object0_C", REAL32, STATUS, "degC", pdo=True),
-    _o(
-        0x261B, "peer_identified_T_object0_C", REAL32, RECEIVED, "degC", "rww", 0.0, -273.15, 1000.0, pdo=True
-    ),
-    _o(0x261C, "identified_early_material", UNSIGNED8, STATUS, "", pdo=True),
-    _o(0x261D, "identified_early_posterior", REAL32, STATUS, ""),
-    _o(0x261E, "identified_stage", UNSIGNED8, STATUS, "", pdo=True),
-    _o(0x261F, "peer_identified_early_material", UNSIGNED8, RECEIVED, "", "rww", 0, 0, 255, pdo=True),
-    _o(0x2620, "peer_identified_stage", UNSIGNED8, RECEIVED, "", "rww", 0, 0, 2, pdo=True),
-    _o(0x2700, "safety_state", UNSIGNED8, STATUS, "", pdo=True),
-    _o(0x2701, "last_trip_code", UNSIGNED16, STATUS, "", pdo=True),
-    _o(0x2702, "cycle_counter", UNSIGNED32, STATUS, "", pdo=True),
-    _o(0x2703, "late_cycles", UNSIGNED32, STATUS, "", pdo=True),
-    _o(0x2704, "lockstep", BOOLEAN, STATUS, "", pdo=True),
-    _o(0x2705, "peer_alive", BOOLEAN, STATUS, "", pdo=True),
-    _o(0x2706, "active_trips", UNSIGNED16, STATUS, "", pdo=True),
-    _o(0x2707, "fault_reset_blocked_by", UNSIGNED16, STATUS, ""),
-    _o(0x2708, "limits_active", UNSIGNED8, STATUS, ""),
-    _o(0x2709, "input_timeouts", UNSIGNED32, STATUS, ""),
-    _o(0x270A, "module_restarts", UNSIGNED32, STATUS, ""),
-    _o(0x2710, "malformed_frames", UNSIGNED32, DIAGNOSTIC, ""),
-    _o(0x2711, "unknown_cobid_frames", UNSIGNED32, DIAGNOSTIC, ""),
-    _o(0x2712, "callback_errors", UNSIGNED32, DIAGNOSTIC, ""),
-    _o(0x2713, "sync_count", UNSIGNED32, DIAGNOSTIC, ""),
-    _o(0x2714, "rpdo_count", UNSIGNED32, DIAGNOSTIC, ""),
-    _o(0x2715, "peer_losses", UNSIGNED32, DIAGNOSTIC, ""),
-    _o(0x2720, "store_state", UNSIGNED8, STATUS, ""),
-    _o(0x2721, "store_saved_unix_s", UNSIGNED32, STATUS, "s"),
-    _o(0x2722, "store_file", VISIBLE_STRING, STATUS, "", "ro", "-"),
-    _o(0x2807, "ident_sample", UNSIGNED32, STATUS, "", pdo=True),
-    _o(0x2808, "ident_state", UNSIGNED8, STATUS, "", pdo=True),
-    _o(0x2809, "ident_guard", UNSIGNED32, STATUS, ""),
-    _o(0x280A, "ident_start_cycle", UNSIGNED32, STATUS, ""),
-    _o(0x280B, "ident_fetch_sample", UNSIGNED32, COMMAND, "", "rw", 0, 0, 1_000_000),
-    _o(0x280C, "ident_fetched_T_sensor_C", REAL32, STATUS, "degC"),
-    _o(0x280D, "ident_fetched_current_A", REAL32, STATUS, "A"),
-    _o(0x280E, "ident_fetched_Q_W", REAL32, STATUS, "W"),
+    _measured(0x2000, "T_sensor_C", REAL32, "degC"),
+    _measured(0x2001, "Q_W", REAL32, "W"),
+    _measured(0x2002, "current_A", REAL32, "A"),
+    _measured(0x2003, "T_sink_C", REAL32, "degC"),
+    _measured(0x2004, "contact", BOOLEAN),
+    _measured(0x2005, "force_N", REAL32, "N"),
+    _estimate(0x2006, "contact_decision", BOOLEAN),
+    _estimate(0x2100, "estimate_C", REAL32, "degC"),
+    _estimate(0x2101, "T_pred_C", REAL32, "degC"),
+    _estimate(0x2102, "T_cmd_C", REAL32, "degC"),
+    _received(0x2103, "peer_estimate_C", REAL32, "degC", -273.15, 1000.0),
+    _received(0x2104, "peer_Q_W", REAL32, "W", -1000.0, 1000.0),
+    _received(0x2105, "peer_contact", BOOLEAN, "", 0, 1),
+    _model(0x2300, "narma_n", UNSIGNED8, "", 3, 0, 8),
+    _model(0x2301, "narma_m", UNSIGNED8, "", 3, 0, 8),
+    _model(0x2302, "narma_p", UNSIGNED8, "", 3, 0, 4),
+    _model(0x2303, "narma_q", UNSIGNED8, "", 3, 0, 4),
+    _model(0x2304, "model_period_s", REAL32, "s", 0.01, 0.0005, 1.0),
+    _model(0x2305, "model_T_ref_C", REAL32, "degC", 25.0, -20.0, 80.0),
+    _model(0x2306, "theta_len", UNSIGNED8, "", 0, 0, 48),
+    _model(0x2307, "flux_n", UNSIGNED8, "", 0, 0, 8),
+    _model(0x2308, "flux_m", UNSIGNED8, "", 0, 0, 7),
+    _model(0x230A, "model_I_min_A", REAL64, "A", -1.0, -10.0, 10.0),
+    _model(0x230B, "model_I_max_A", REAL64, "A", 1.0, -10.0, 10.0),
+    _model(0x230C, "flux_with_current", BOOLEAN, "", 0, 0, 1),
+    _command(0x230D, "model_command", UNSIGNED8, 2),
+    _status(0x230E, "model_status", UNSIGNED8),
+    _status(0x230F, "model_crc32", UNSIGNED32),
+    _model(0x2310, "theta", REAL64, "", 0.0, -1.0e6, 1.0e6, subs=48, sub_name="theta"),
+    _model(0x2311, "flux_coeffs", REAL64, "", 0.0, -1.0e6, 1.0e6, subs=16, sub_name="flux_coeff"),
+    _command(0x240A, "fault_reset", UNSIGNED8, 1),
+    _status(0x2610, "identified_material", UNSIGNED8, pdo=True),
+    _status(0x2611, "identified_beta", REAL32, pdo=True),
+    _status(0x2612, "identified_se_ln_b", REAL32),
+    _status(0x2613, "identified_posterior", REAL32),
+    _status(0x2614, "identified_touches", UNSIGNED16, pdo=True),
+    _received(0x2615, "peer_identified_material", UNSIGNED8, "", 0, 255),
+    _received(0x2616, "peer_identified_touches", UNSIGNED16, "", 0, 0xFFFF),
+    _received(0x2617, "peer_identified_beta", REAL32, "", -1.0e6, 1.0e6),
+    _status(0x2619, "link_fallback_active", BOOLEAN, pdo=True),
+    _status(0x261A, "identified_T_object0_C", REAL32, "degC", pdo=True),
+    _received(0x261B, "peer_identified_T_object0_C", REAL32, "degC", -273.15, 1000.0),
+    _status(0x261C, "identified_early_material", UNSIGNED8, pdo=True),
+    _status(0x261D, "identified_early_posterior", REAL32),
+    _status(0x261E, "identified_stage", UNSIGNED8, pdo=True),
+    _received(0x261F, "peer_identified_early_material", UNSIGNED8, "", 0, 255),
+    _received(0x2620, "peer_identified_stage", UNSIGNED8, "", 0, 2),
+    _status(0x2700, "safety_state", UNSIGNED8, pdo=True),
+    _status(0x2701, "last_trip_code", UNSIGNED16, pdo=True),
+    _status(0x2702, "cycle_counter", UNSIGNED32, pdo=True),
+    _status(0x2703, "late_cycles", UNSIGNED32, pdo=True),
+    _status(0x2704, "lockstep", BOOLEAN, pdo=True),
+    _status(0x2705, "peer_alive", BOOLEAN, pdo=True),
+    _status(0x2706, "active_trips", UNSIGNED16, pdo=True),
+    _status(0x2707, "fault_reset_blocked_by", UNSIGNED16),
+    _status(0x2708, "limits_active", UNSIGNED8),
+    _status(0x2709, "input_timeouts", UNSIGNED32),
+    _status(0x270A, "module_restarts", UNSIGNED32),
+    _diagnostic(0x2710, "malformed_frames"),
+    _diagnostic(0x2711, "unknown_cobid_frames"),
+    _diagnostic(0x2712, "callback_errors"),
+    _diagnostic(0x2713, "sync_count"),
+    _diagnostic(0x2714, "rpdo_count"),
+    _diagnostic(0x2715, "peer_losses"),
+    _status(0x2720, "store_state", UNSIGNED8),
+    _status(0x2721, "store_saved_unix_s", UNSIGNED32, "s"),
+    _status(0x2722, "store_file", VISIBLE_STRING, default="-"),
+    _status(0x2807, "ident_sample", UNSIGNED32, pdo=True),
+    _status(0x2808, "ident_state", UNSIGNED8, pdo=True),
+    _status(0x2809, "ident_guard", UNSIGNED32),
+    _status(0x280A, "ident_start_cycle", UNSIGNED32),
+    _command(0x280B, "ident_fetch_sample", UNSIGNED32, 1_000_000),
+    _status(0x280C, "ident_fetched_T_sensor_C", REAL32, "degC"),
+    _status(0x280D, "ident_fetched_current_A", REAL32, "A"),
+    _status(0x280E, "ident_fetched_Q_W", REAL32, "W"),
 )
 BY_NAME: dict[str, ObjRow] = {o.name: o for o in OBJECTS}
 

@@ -4,7 +4,16 @@ identity, and the PDOs between the two nodes."""
 
 from __future__ import annotations
 
-from telethermo.bus_config.od_types import UNSIGNED8, UNSIGNED16, UNSIGNED32, VISIBLE_STRING, Obj, Var, _uint
+from telethermo.bus_config.od_types import (
+    UNSIGNED8,
+    UNSIGNED16,
+    UNSIGNED32,
+    VISIBLE_STRING,
+    Obj,
+    Var,
+    _uint,
+    array_obj,
+)
 
 NODE_IDS = {"master": 1, "slave": 2}
 #: TPDO5 (the contact flag, 1 byte, every SYNC) goes on 0x680 + node-ID: outside CiA 301's predefined
@@ -73,25 +82,21 @@ def _store_restore(index: int, title: str, signature: str) -> Obj:
             3: "Restore application default parameters",
         }
     )
-    return Obj(
+    return array_obj(
         index,
         title,
-        object_type=0x8,
-        subs={
-            0: _uint("Highest sub-index supported", UNSIGNED8, "const", 3),
-            **{
-                i: _uint(
-                    names[i],
-                    UNSIGNED32,
-                    "rw",
-                    1,
-                    description=f"{what[i]}: reads 1 (saved on command), write '{signature}' "
-                    f"(0x{int.from_bytes(signature.encode(), 'little'):08X}), "
-                    "else abort 0x08000020",
-                )
-                for i in (1, 2, 3)
-            },
-        },
+        [
+            _uint(
+                names[i],
+                UNSIGNED32,
+                "rw",
+                1,
+                description=f"{what[i]}: reads 1 (saved on command), write '{signature}' "
+                f"(0x{int.from_bytes(signature.encode(), 'little'):08X}), "
+                "else abort 0x08000020",
+            )
+            for i in (1, 2, 3)
+        ],
     )
 
 
@@ -110,74 +115,71 @@ def _V(idx: int, var: Var) -> Obj:
     return Obj(idx, var.name, var=var)
 
 
-def _device_objects(role: str) -> list[Obj]:
-    """0x1000..0x1011: device type, error register and history, SYNC, names and versions, store/restore."""
+# The builders of 0x1000..0x1019, shared with the I/O module's dictionary (bus_config/io_eds.py): each takes
+# what differs between the devices (values and their one line of documentation).
+
+
+def device_type(value: int, doc: str) -> Obj:
+    """0x1000: the device profile number (low word) and its additional information (high word)."""
+    return _V(0x1000, _uint("Device type", UNSIGNED32, "ro", value, description=doc))
+
+
+def error_objects(clear_doc: str) -> list[Obj]:
+    """0x1001 error register (PDO-mappable) and 0x1003 the history of 8 errors; ``clear_doc`` says what a
+    write of sub 0 (the number of errors) does."""
     return [
-        _V(0x1000, _uint("Device type", UNSIGNED32, "ro", 0, description="no device profile")),
         _V(0x1001, _uint("Error register", UNSIGNED8, "ro", 0, pdo=True)),
         Obj(
             0x1003,
             "Pre-defined error field",
             object_type=0x8,
             subs={
-                0: _uint(
-                    "Number of errors",
-                    UNSIGNED8,
-                    "rw",
-                    0,
-                    description="write 0 to clear the history (other values: abort 0x06090030)",
-                ),
+                0: _uint("Number of errors", UNSIGNED8, "rw", 0, description=clear_doc),
                 **{i: _uint(f"Standard error field {i}", UNSIGNED32, "ro", 0) for i in range(1, 9)},
             },
         ),
-        _V(
-            0x1005,
-            _uint(
-                "COB-ID SYNC",
-                UNSIGNED32,
-                "rw",
-                0x40000080 if role == "master" else 0x80,
-                description="bit 30 set: this node produces SYNC",
-            ),
-        ),
-        _V(
-            0x1006,
-            _uint("Communication cycle period", UNSIGNED32, "rw", 10000, 0, 10_000_000, description="us"),
-        ),
-        _V(0x1008, Var("Manufacturer device name", VISIBLE_STRING, "const", f"telethermo {role}")),
-        _V(0x1009, Var("Manufacturer hardware version", VISIBLE_STRING, "const", "sim")),
-        _V(0x100A, Var("Manufacturer software version", VISIBLE_STRING, "const", "0.1.0")),
-        _store_restore(0x1010, "Store parameters", "save"),
-        _store_restore(0x1011, "Restore default parameters", "load"),
     ]
 
 
-def _emcy_heartbeat_identity_objects(own: int, peer: int) -> list[Obj]:
-    """0x1014..0x1019: EMCY, heartbeats (the peer's consumed), identity, SYNC counter."""
+def sync_objects(cob_id: int, cob_id_doc: str, period_doc: str) -> list[Obj]:
+    """0x1005 COB-ID SYNC (bit 30 set: the device produces SYNC) and 0x1006 the communication cycle period
+    (us, default 10000 us)."""
+    return [
+        _V(0x1005, _uint("COB-ID SYNC", UNSIGNED32, "rw", cob_id, description=cob_id_doc)),
+        _V(
+            0x1006,
+            _uint(
+                "Communication cycle period", UNSIGNED32, "rw", 10000, 0, 10_000_000, description=period_doc
+            ),
+        ),
+    ]
+
+
+def name_objects(device_name: str) -> list[Obj]:
+    """0x1008..0x100A: the device name, hardware version ("sim") and software version."""
+    return [
+        _V(0x1008, Var("Manufacturer device name", VISIBLE_STRING, "const", device_name)),
+        _V(0x1009, Var("Manufacturer hardware version", VISIBLE_STRING, "const", "sim")),
+        _V(0x100A, Var("Manufacturer software version", VISIBLE_STRING, "const", "0.1.0")),
+    ]
+
+
+def emcy_heartbeat_identity_objects(
+    consumers: list[tuple[int, str]], product_code: int, sync_overflow: int
+) -> list[Obj]:
+    """0x1014..0x1019: EMCY (COB-ID, inhibit time in 100 us units), the consumer heartbeat entries
+    (``consumers``: default and documentation of each; bits 16-23 node-ID, bits 0-15 time in ms), the
+    producer heartbeat (100 ms), identity (``product_code``) and the SYNC counter overflow value."""
     return [
         _V(0x1014, _uint("COB-ID EMCY", UNSIGNED32, "ro", "$NODEID+0x80")),
         _V(0x1015, _uint("Inhibit time EMCY", UNSIGNED16, "rw", 10, 0, 0xFFFF, description="100 us units")),
-        Obj(
+        array_obj(
             0x1016,
             "Consumer heartbeat time",
-            object_type=0x8,
-            subs={
-                0: _uint("Highest sub-index supported", UNSIGNED8, "const", 2),
-                1: _uint(
-                    "Consumer heartbeat time 1",
-                    UNSIGNED32,
-                    "rw",
-                    (peer << 16) | 250,
-                    description="the peer: bits 16-23 node-ID, bits 0-15 time in ms",
-                ),
-                2: _uint(
-                    "Consumer heartbeat time 2",
-                    UNSIGNED32,
-                    "rw",
-                    0,
-                    description="spare (0: unused): bits 16-23 node-ID, bits 0-15 time in ms",
-                ),
-            },
+            [
+                _uint(f"Consumer heartbeat time {i}", UNSIGNED32, "rw", default, description=doc)
+                for i, (default, doc) in enumerate(consumers, 1)
+            ],
         ),
         _V(0x1017, _uint("Producer heartbeat time", UNSIGNED16, "rw", 100, 0, 0xFFFF, description="ms")),
         Obj(
@@ -187,7 +189,7 @@ def _emcy_heartbeat_identity_objects(own: int, peer: int) -> list[Obj]:
             subs={
                 0: _uint("Highest sub-index supported", UNSIGNED8, "const", 4),
                 1: _uint("Vendor-ID", UNSIGNED32, "ro", 0, description="no CiA vendor-ID assigned"),
-                2: _uint("Product code", UNSIGNED32, "ro", own),
+                2: _uint("Product code", UNSIGNED32, "ro", product_code),
                 3: _uint("Revision number", UNSIGNED32, "ro", 0x00010000),
                 4: _uint("Serial number", UNSIGNED32, "ro", 0),
             },
@@ -198,13 +200,37 @@ def _emcy_heartbeat_identity_objects(own: int, peer: int) -> list[Obj]:
                 "Synchronous counter overflow value",
                 UNSIGNED8,
                 "rw",
-                240,
+                sync_overflow,
                 0,
                 240,
                 description="0 no counter, 2..240 counter wraps after this value",
             ),
         ),
     ]
+
+
+def _device_objects(role: str) -> list[Obj]:
+    """0x1000..0x1011: device type, error register and history, SYNC, names and versions, store/restore."""
+    return [
+        device_type(0, "no device profile"),
+        *error_objects("write 0 to clear the history (other values: abort 0x06090030)"),
+        *sync_objects(
+            0x40000080 if role == "master" else 0x80, "bit 30 set: this node produces SYNC", period_doc="us"
+        ),
+        *name_objects(f"telethermo {role}"),
+        _store_restore(0x1010, "Store parameters", "save"),
+        _store_restore(0x1011, "Restore default parameters", "load"),
+    ]
+
+
+def _emcy_heartbeat_identity_objects(own: int, peer: int) -> list[Obj]:
+    """0x1014..0x1019 of a node: it watches the peer's heartbeat (250 ms), its product code is its node-ID
+    and its SYNC counter overflows at 240."""
+    consumers = [
+        ((peer << 16) | 250, "the peer: bits 16-23 node-ID, bits 0-15 time in ms"),
+        (0, "spare (0: unused): bits 16-23 node-ID, bits 0-15 time in ms"),
+    ]
+    return emcy_heartbeat_identity_objects(consumers, product_code=own, sync_overflow=240)
 
 
 def _rpdo_objects(role: str, peer: int) -> list[Obj]:

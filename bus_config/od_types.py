@@ -105,3 +105,10 @@ def _uint(name, data_type, access, default, low=None, high=None, pdo=False, desc
         pdo,
         description,
     )
+
+
+def array_obj(index: int, name: str, entries: list[Var], sub0_access: str = "const") -> Obj:
+    """An ARRAY object (CiA 301 type 0x8): sub 0 "Highest sub-index supported" (UNSIGNED8, ``sub0_access``)
+    reads the number of ``entries``, which are subs 1..n."""
+    count = _uint("Highest sub-index supported", UNSIGNED8, sub0_access, len(entries))
+    return Obj(index, name, object_type=0x8, subs={0: count, **dict(enumerate(entries, 1))})

@@ -101,44 +101,29 @@ def _add_robustness_args(p: argparse.ArgumentParser) -> None:
     )
 
 
+#: the objective's weights on the command line: option, its :class:`~telethermo.tuning.Weights` field (the
+#: default), what it weighs and its unit
+WEIGHT_OPTIONS = (
+    ("--w-early", "early_per_C", "the transparency early mean error", "1/°C"),
+    ("--w-late", "late_per_C", "the transparency late mean error", "1/°C"),
+    ("--w-tracking", "tracking_per_C", "the steady tracking RMS", "1/°C"),
+    ("--w-margin", "margin_per_C", "the discrimination margin shortfall", "1/°C"),
+    ("--w-limit", "limit_per_s", "the time at envelope limits", "1/s"),
+)
+
+
 def _add_weight_args(p: argparse.ArgumentParser) -> None:
-    """The weights of the tuning objective's terms (defaults: :class:`~telethermo.tuning.Weights`)."""
+    """The weights of the tuning objective's terms (:data:`WEIGHT_OPTIONS`)."""
     w = tn.Weights()
-    p.add_argument(
-        "--w-early",
-        type=float,
-        default=w.early_per_C,
-        metavar="W",
-        help=f"weight of the transparency early mean error, 1/°C (default {w.early_per_C:g})",
-    )
-    p.add_argument(
-        "--w-late",
-        type=float,
-        default=w.late_per_C,
-        metavar="W",
-        help=f"weight of the transparency late mean error, 1/°C (default {w.late_per_C:g})",
-    )
-    p.add_argument(
-        "--w-tracking",
-        type=float,
-        default=w.tracking_per_C,
-        metavar="W",
-        help=f"weight of the steady tracking RMS, 1/°C (default {w.tracking_per_C:g})",
-    )
-    p.add_argument(
-        "--w-margin",
-        type=float,
-        default=w.margin_per_C,
-        metavar="W",
-        help=f"weight of the discrimination margin shortfall, 1/°C (default {w.margin_per_C:g})",
-    )
-    p.add_argument(
-        "--w-limit",
-        type=float,
-        default=w.limit_per_s,
-        metavar="W",
-        help=f"weight of the time at envelope limits, 1/s (default {w.limit_per_s:g})",
-    )
+    for option, field, what, unit in WEIGHT_OPTIONS:
+        default = getattr(w, field)
+        p.add_argument(
+            option,
+            type=float,
+            default=default,
+            metavar="W",
+            help=f"weight of {what}, {unit} (default {default:g})",
+        )
 
 
 def _fmt(x: Any, nd: int = 3) -> str:
@@ -201,17 +186,14 @@ def _start_gains(path: Path | None) -> dict[str, float] | None:
 
 
 def _weights(args: argparse.Namespace) -> tn.Weights:
-    for name in ("w_early", "w_late", "w_tracking", "w_margin", "w_limit"):
-        v = getattr(args, name)
+    """The objective's weights given by the :data:`WEIGHT_OPTIONS` (UserError for one < 0 or not finite)."""
+    weights = {}
+    for option, field, _, _ in WEIGHT_OPTIONS:
+        v = getattr(args, option[2:].replace("-", "_"))
         if not (v >= 0 and math.isfinite(v)):
-            raise UserError(f"--{name.replace('_', '-')} {v}: expected a finite number >= 0")
-    return tn.Weights(
-        early_per_C=args.w_early,
-        late_per_C=args.w_late,
-        tracking_per_C=args.w_tracking,
-        limit_per_s=args.w_limit,
-        margin_per_C=args.w_margin,
-    )
+            raise UserError(f"{option} {v}: expected a finite number >= 0")
+        weights[field] = v
+    return tn.Weights(**weights)
 
 
 def _report(res: tn.TuneResult, obj: tn.Objective, rel: float, wall: float) -> None:

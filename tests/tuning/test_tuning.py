@@ -296,6 +296,31 @@ def test_cli_tune_refuses_bad_arguments(argv):
         args.func(args)
 
 
+@pytest.mark.parametrize(
+    ("option", "field"),
+    [
+        ("--w-early", "early_per_C"),
+        ("--w-late", "late_per_C"),
+        ("--w-tracking", "tracking_per_C"),
+        ("--w-margin", "margin_per_C"),
+        ("--w-limit", "limit_per_s"),
+    ],
+)
+def test_cli_tune_each_weight_option_sets_its_own_weight(option, field):
+    import argparse
+    import dataclasses
+
+    from telethermo.cli import tune as cli
+    from telethermo.cli.main import UserError
+
+    ap = argparse.ArgumentParser()
+    cli.register(ap.add_subparsers())
+    weights = cli._weights(ap.parse_args(["tune", "--scene", SCENE, option, "7.5"]))
+    assert weights == dataclasses.replace(tn.Weights(), **{field: 7.5})
+    with pytest.raises(UserError, match=rf"^{option} -1.0: expected a finite number >= 0$"):
+        cli._weights(ap.parse_args(["tune", "--scene", SCENE, option, "-1"]))
+
+
 def test_cli_tune_record_holds_every_evaluation(tmp_path, capsys):
     import argparse
 
