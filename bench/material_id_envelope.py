@@ -7,8 +7,10 @@ Touches (:func:`envelope_draws`, seeds :data:`ENVELOPE`, disjoint from the calib
 the held-out set's: :func:`check_seeds`): the ten materials in turn; object 5–50 °C, room 15–32 °C (uniform);
 force 0.5–20 N and thickness 0.3–20 mm (log-uniform, so that the low strata are populated); the rig's sensor
 noise × 1–3; one touch in four with another probe TEM (:func:`other_tem`: 71 couples instead of 31, the
-same pellets); the probe resting at the finger's natural temperature in that room (where the slave's default
-controller leaves it), the slave's default controller, as bench/material_id_bench.py otherwise.
+same pellets), whose slave runs what ``telethermo identify`` on it gives (:func:`after_identify`: the identified
+model's gains, and the classifier's box told it is another module), as issue 23 asks; the probe resting at the
+finger's natural temperature in that room (where the slave's controller leaves it), as
+bench/material_id_bench.py otherwise.
 
 Figures per stratum (:data:`STRATA`; the band within :data:`NEAR_C` °C of the probe is its own stratum and is
 left out of the others, where a passive probe learns little): accuracy with abstains counted wrong, abstain
@@ -34,6 +36,8 @@ from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
 from telethermo.offline.material_oracle import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
+from telethermo.control.types import Role
+from telethermo.offline.envelope import identified_params
 from telethermo.control.material_stream import MaterialIdParams, UNKNOWN_CODE, fit_units, late_samples
 from telethermo.sim.materials import material
 from telethermo.sim.tem import load_rig_params
@@ -55,6 +59,8 @@ INBOX_N, INBOX_QUICK_N = 300, 100
 NEAR_C = 2.0
 CONFIDENT = 0.9
 ORACLE_EVERY, ORACLE_DRAWS = 4, 100
+#: the seed of the other TEM's identification (as tests/control/test_material_tem_swap.py's)
+IDENTIFY_SEED = 7
 #: simulated after the touch, s: the refined answer (1.2 s window + its fit) is out by 1.32 s
 POST_S = 1.45
 
@@ -95,8 +101,9 @@ def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
             )
 
 
-def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str]) -> dict:
-    """Simulate one touch and return what the slave published, scored (``answer`` −1: none, −2: abstained)."""
+def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str], cores: dict | None = None) -> dict:
+    """Simulate one touch and return what the slave published, scored (``answer`` −1: none, −2: abstained).
+    ``cores``: the slave core's parameters per ``other_tem`` (None: its defaults)."""
     params = rigs[t["other_tem"]]
     T_probe = mb.finger_natural_C(params, t["ambient_C"])
     _, _, i0, est, step_s = mb.simulate_touch(
@@ -111,6 +118,7 @@ def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str]) -> dict:
         noise=noise_of(t["noise_x"]),
         ambient_C=t["ambient_C"],
         post_s=POST_S,
+        core_params=(cores or {}).get(t["other_tem"]),
     )
     b_true = material(sims[t["class"]]).b
     ok_b = est is not None and math.isfinite(est.effusivity) and math.isfinite(est.se_ln_b)
@@ -209,6 +217,16 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
     }
 
 
+def after_identify(params) -> Any:
+    """The slave core's parameters on the rig ``params`` after ``telethermo identify`` on its free pad, once, in
+    the default room (telethermo.offline.envelope.identified_params, seed :data:`IDENTIFY_SEED`): the gains of
+    the identified model, and the material classifier's box told that this is another module when it is."""
+    cp, fit = identified_params(Role.SLAVE, params, mb.AMBIENT_C, mb.PERIOD_S, IDENTIFY_SEED)
+    if fit.get("identify_refused"):
+        raise RuntimeError(f"identify refused the other TEM's model: {fit}")
+    return cp
+
+
 def oracle(rigs: dict, t: dict, sims: list[str], rng: np.random.Generator) -> float:
     """The unknown-nuisance oracle's accuracy on touch ``t`` (telethermo/offline/material_oracle.py, its
     noise × noise_x)."""
@@ -246,7 +264,8 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     rigs = {False: base, True: other_tem(base)}
     sims = list(mb.SIM_TO_TABLE)
     names = [mb.SIM_TO_TABLE[m] for m in sims]
-    rows = [run_touch(rigs, t, sims, names) for t in envelope_draws(n, ENVELOPE)]
+    cores = {True: after_identify(rigs[True])}
+    rows = [run_touch(rigs, t, sims, names, cores) for t in envelope_draws(n, ENVELOPE)]
     fit_ms = [r["fit_step_ms"][0] for r in rows if r["fit_step_ms"][0] is not None]
     late_ms = [r["fit_step_ms"][1] for r in rows if r["fit_step_ms"][1] is not None]
     step_med = float(np.median([r["step_median_ms"] for r in rows]))
@@ -313,7 +332,10 @@ def _conditions(quick: bool) -> dict[str, Any]:
         "force_N": [0.5, 20.0],
         "thickness_mm": [0.3, 20.0],
         "noise_x": [1.0, 3.0],
-        "other_tem": f"{OTHER_TEM_COUPLES} couples, one touch in four",
+        "other_tem": (
+            f"{OTHER_TEM_COUPLES} couples, one touch in four, the slave after identify on it "
+            f"(seed {IDENTIFY_SEED})"
+        ),
         "near_band_C": NEAR_C,
         "confident_posterior": CONFIDENT,
         "oracle": (
