@@ -1,11 +1,11 @@
 """The flood aftermath (issue 12): 2 s floods of COB-ID 0x001 at full rate during a real-time session.
 
 Once, after such a flood, the master's setpoint was seen climbing 27.8 -> 39.4 °C with no trip. This runs the
-pair in real time over our hub (scene probe_touches_al_steel_wood, 100 Hz), a third client sending 0x001 frames
-as fast as it can for 2 s during each of the scene's touches (the link-loss fallback, peer trips and resumes
-all get exercised), and reads the master's recording: the largest rise of its setpoint within a stretch with no
-trip latched, the highest setpoint, and the peer losses; the same pair without a flood in the same run is the
-baseline.
+pair in real time over our hub (scene probe_touches_al_steel_wood, 100 Hz), a third client sending 0x001
+frames as fast as it can for 2 s during each of the scene's touches (the link-loss fallback, peer trips and
+resumes all get exercised), and reads the master's recording: the largest rise of its setpoint within a
+stretch with no trip latched, the highest setpoint, and the peer losses; the same pair without a flood in the
+same run is the baseline.
 
     python -m bench.flood_bench [--runs N]               # bench/results/flood.json
     python -m bench.flood_bench --wallclock [--runs N]   # rigs paced by the wall clock: flood_wallclock.json
@@ -152,8 +152,8 @@ def run(runs: int = 3, wallclock: bool = False) -> dict[str, Any]:
         "rigs": "sim.wallclock (current held through missed cycles)"
         if wallclock
         else "scene (advanced per cycle)",
-        "how": f"{runs} real-time sessions over the hub, scene {SCENE.stem}, a 2 s flood of 0x001 at full rate "
-        f"at each of {FLOOD_AT_S} s; baseline: one session without flood in the same run",
+        "how": f"{runs} real-time sessions over the hub, scene {SCENE.stem}, a 2 s flood of 0x001 at full "
+        f"rate at each of {FLOOD_AT_S} s; baseline: one session without flood in the same run",
     }
     print(
         f"{out['floods']} floods in {runs} runs: largest no-trip setpoint rise {worst:.2f} °C (quiet "

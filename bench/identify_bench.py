@@ -336,7 +336,9 @@ def run(quick: bool = False) -> dict[str, Any]:
         "capacity_rel_error": cap_rel,
         "justified_order": just["orders"],
         "justified_order_worst_error_C": just["heldout_max_C"],
-        "justified_rule": "smallest d whose held-out worst-case error (LS + OE) is within 10 % (or 5 mK) of the best",
+        "justified_rule": (
+            "smallest d whose held-out worst-case error (LS + OE) is within 10 % (or 5 mK) of the best"
+        ),
         "order_table": rows,
         "length_table": lrows,
         "flux_table": flux_rows,

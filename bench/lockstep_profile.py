@@ -95,7 +95,8 @@ def _table(title: str, per_s: float, cycles: int, acc: dict[str, list]) -> None:
     print(f"{title}: {per_s:.0f} cycles/s = {1e6 / per_s:.0f} us per cycle")
     for name, (calls, secs) in sorted(acc.items(), key=lambda kv: -kv[1][1]):
         print(
-            f"  {name:34s} {calls:7d} calls {secs * 1e6 / cycles:8.1f} us/cycle {secs * 1e6 / calls:8.1f} us/call"
+            f"  {name:34s} {calls:7d} calls {secs * 1e6 / cycles:8.1f} us/cycle "
+            f"{secs * 1e6 / calls:8.1f} us/call"
         )
 
 

@@ -1,10 +1,11 @@
 """The physics posterior's calibration (telethermo.control.material_physics.EARLY / LATE), measured again.
 
-``python -m bench.material_physics_calibrate [--touches N]`` simulates N (600) envelope touches of their own seeds
-(draw 3131, simulator 1200000 + i; refused by check_seeds if they meet another set), fits the physics model over
-the early (0.3 s) and the late (1.2 s) window, and prints the factor, floor and outlier share that maximise the
-likelihood of the true material (touches with a fit and a fitted |ΔT| ≥ 2 °C), and the interval's factor and floor
-of the Gaussian alone (the same maximum): the constants to put into material_physics. About 1 min here.
+``python -m bench.material_physics_calibrate [--touches N]`` simulates N (600) envelope touches of their own
+seeds (draw 3131, simulator 1200000 + i; refused by check_seeds if they meet another set), fits the physics
+model over the early (0.3 s) and the late (1.2 s) window, and prints the factor, floor and outlier share that
+maximise the likelihood of the true material (touches with a fit and a fitted |ΔT| ≥ 2 °C), and the interval's
+factor and floor of the Gaussian alone (the same maximum): the constants to put into material_physics.
+About 1 min here.
 """
 
 from __future__ import annotations

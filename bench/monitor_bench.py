@@ -95,8 +95,8 @@ def measure(quick: bool, n_frames: int | None = None) -> dict[str, Any]:
         "quick": quick,
         "runs_frames_per_s": {k: [round(x) for x in v] for k, v in runs.items()},
         "anchor": "python-can virtual bus recv() of the same frames, same run",
-        "mix": "1 ms SYNC cycle: SYNC, 2x TPDO1 (8 B), TPDO5 (master 1 B, slave 8 B); heartbeats and an SDO read every "
-        "100 cycles; an EMCY and its reset every 1000",
+        "mix": "1 ms SYNC cycle: SYNC, 2x TPDO1 (8 B), TPDO5 (master 1 B, slave 8 B); heartbeats and an SDO "
+        "read every 100 cycles; an EMCY and its reset every 1000",
     }
 
 

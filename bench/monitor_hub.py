@@ -32,7 +32,8 @@ from telethermo.monitor.state import Monitor
 from telethermo.nodes.launch import HubProcess
 from telethermo.transport.bus import open_bus, parse_bus_string
 
-# python-can's socketcand client logs every TCP read that splits a frame (a warning per few frames at this rate)
+# python-can's socketcand client logs every TCP read that splits a frame
+# (a warning per few frames at this rate)
 logging.getLogger("can.interfaces.socketcand").setLevel(logging.ERROR)
 
 GRACE_S = (
@@ -121,8 +122,8 @@ def measure_hub(n_frames: int, repeats: int) -> dict:
         "hub_frames": n_frames,
         "hub_repeats": repeats,
         "hub_runs_frames_per_s": {k: [round(x) for x in v] for k, v in runs.items()},
-        "hub_anchor": "python-can socketcand client recv() over the same hub process, same run; one sender process "
-        "sending the mix as fast as it can",
+        "hub_anchor": "python-can socketcand client recv() over the same hub process, same run; one sender "
+        "process sending the mix as fast as it can",
     }
 
 

@@ -5,9 +5,9 @@ One cycle is the frames a lockstep node cycle puts on the bus, sent and received
 python-can: the pinger (the master's place) sends SYNC (COB-ID 0x080, 1 byte: the counter, as
 0x1019 = 240 gives) and its own TPDO1 (0x181, 8 bytes) and TPDO5 (0x681, 1 byte: the contact flag);
 the responder (the slave's place) answers each SYNC with its TPDO1 (0x182, 8 bytes) and TPDO5 (0x682,
-8 bytes: the contact flag and its identified material) and ignores everything else; the pinger sends the next SYNC once the responder's last frame
-(0x682) is in, as the lockstep master waits for the slave's last synchronous RPDO. Not in the anchor:
-the status TPDOs every 10th SYNC and the heartbeats (a node's own work).
+8 bytes: the contact flag and its identified material) and ignores everything else; the pinger sends the next
+SYNC once the responder's last frame (0x682) is in, as the lockstep master waits for the slave's last
+synchronous RPDO. Not in the anchor: the status TPDOs every 10th SYNC and the heartbeats (a node's own work).
 
 The node benchmark divides its lockstep cycles/s by the anchor's, measured in the same run on the same
 transport: ``lockstep_ratio_vs_raw_virtual`` (responder in a thread of this process, python-can's

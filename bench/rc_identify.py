@@ -38,11 +38,13 @@ def table_toml(rows: list[dict]) -> str:
     """The rows as the render_rc.toml text."""
     head = [
         "# Later-phase RC model (benali-khoudja §4): tau = R*C per material / thickness / back / load,",
-        "# identified on the simulator by bench/rc_identify.py (do not edit: rerun `python -m bench.rc_identify`).",
+        "# identified on the simulator by bench/rc_identify.py "
+        "(do not edit: rerun `python -m bench.rc_identify`).",
         f"# Object at {T_HOT_C} °C cooling on the finger ({FORCE_N} N) in {AMBIENT_C} °C air; fit of",
         f"# T_inf + (T_0 - T_inf)*exp(-t/tau) over {FIT_FROM_S}..{DURATION_S} s of the contact face; load = "
         f"{LOAD_G:g} g brass weight on the back.",
-        "# final_fraction = (T_inf - T_finger0)/(T_object0 - T_finger0); fit_rms_C = RMS residual of the fit.",
+        "# final_fraction = (T_inf - T_finger0)/(T_object0 - T_finger0); "
+        "fit_rms_C = RMS residual of the fit.",
         "",
     ]
     out = list(head)

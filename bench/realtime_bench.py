@@ -4,7 +4,8 @@ seconds, for 10 minutes (``--duration``). Figures: peer-lost trips (EMCY 0x8130 
 node), the late-cycle fraction and the SYNC->TPDO latency (median and p99) of the master, and the same pair
 on the quiet machine for a short run in the same session as the baseline.
 
-    python -m bench.realtime_bench [--duration S] [--no-rt]   # bench/results/realtime.json (realtime_no_rt.json)
+    python -m bench.realtime_bench [--duration S] [--no-rt]
+        # -> bench/results/realtime.json (realtime_no_rt.json with --no-rt)
 
 Not a timed test: a benchmark. The nodes run with the real-time options a lab would use (``--rt-priority
 50 --gc freeze``; ``--no-rt`` runs without them, to see what they buy).
@@ -131,10 +132,11 @@ def run(duration_s: float = 600.0, rt: bool = True, baseline_s: float = 30.0) ->
         f"status every {CLI_EVERY_S:g} s; node options {' '.join(RT_ARGS) if rt else 'none'}",
     }
     print(
-        f"loaded {duration_s:g} s: peer-lost trips {loaded['peer_lost_trips']}, late {loaded['late_cycles']} of "
-        f"{loaded['cycles']} ({100 * loaded['late_fraction']:.2f} %), SYNC->TPDO p50 {loaded['latency_p50_ms']} "
-        f"ms p99 {loaded['latency_p99_ms']} ms, {loaded['cli_commands']} CLI commands ({loaded['cli_failures']} "
-        f"failed); quiet {baseline_s:g} s: late {100 * quiet['late_fraction']:.2f} %, p99 {quiet['latency_p99_ms']} ms"
+        f"loaded {duration_s:g} s: peer-lost trips {loaded['peer_lost_trips']}, "
+        f"late {loaded['late_cycles']} of {loaded['cycles']} ({100 * loaded['late_fraction']:.2f} %), "
+        f"SYNC->TPDO p50 {loaded['latency_p50_ms']} ms p99 {loaded['latency_p99_ms']} ms, "
+        f"{loaded['cli_commands']} CLI commands ({loaded['cli_failures']} failed); "
+        f"quiet {baseline_s:g} s: late {100 * quiet['late_fraction']:.2f} %, p99 {quiet['latency_p99_ms']} ms"
     )
     print(f"wrote {write_results('realtime' if rt else 'realtime_no_rt', out)}")
     return out

@@ -9,7 +9,8 @@ object). The figure is the RMS of the operator's skin temperature minus the same
 touches the same object directly (sim.build_reference), over 0-1 s (early_C) and 1-10 s (late_C) after
 the touch.
 
-    python -m bench.rendering_bench [--quick]      # bench/results/rendering.json key later_phase, rendering.png
+    python -m bench.rendering_bench [--quick]
+        # -> bench/results/rendering.json key later_phase, rendering.png
 
 ``later_phase_figures(quick)`` (telethermo/offline/later_phase_figures.py) returns the later-phase figures;
 ``run`` measures the slave's material identification in the same run (bench/material_id_bench.py) and writes

@@ -90,7 +90,8 @@ HEADLINE = [
     (
         "nodes_lockstep",
         "lockstep_cpu_ratio_vs_raw_virtual",
-        "the virtual ratio in CPU time of the process (anchor CPU/cycle over lockstep CPU/cycle; less load-sensitive than wall time)",
+        "the virtual ratio in CPU time of the process (anchor CPU/cycle over lockstep CPU/cycle; "
+        "less load-sensitive than wall time)",
         "≥ 0.75",
     ),
     (

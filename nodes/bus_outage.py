@@ -9,10 +9,11 @@
 - **Bus back**: the bus reopened by itself; until the peer's first heartbeat after that
   (:attr:`BusOutage.awaiting_peer`) the peer may still be without its bus (the two nodes reopen at
   different times), so the SYNC producer owes it nothing for the SYNCs it sends meanwhile (a SYNC the
-  peer never saw would otherwise be waited for in lockstep forever); one log line and EMCY 0x8140 ("recovered from bus off", CiA
-  301), whose error is cleared at once (0x1003 keeps it; the error-reset EMCY follows when no other error,
-  e.g. the peer trip's 0x8130, is active). The peer is alive again when its heartbeat and fresh PDOs are
-  seen; then the peer trips are cleared as for any peer return (telethermo.control.peer_policy).
+  peer never saw would otherwise be waited for in lockstep forever); one log line and EMCY 0x8140 ("recovered
+  from bus off", CiA 301), whose error is cleared at once (0x1003 keeps it; the error-reset EMCY follows when
+  no other error, e.g. the peer trip's 0x8130, is active). The peer is alive again when its heartbeat and
+  fresh PDOs are seen; then the peer trips are cleared as for any peer return
+  (telethermo.control.peer_policy).
 """
 
 from __future__ import annotations
@@ -66,7 +67,8 @@ class BusOutage:
         self.awaiting_peer = False
 
     def on_change(self, up: bool, reason: str) -> None:
-        """The bus went down (``up`` False) or is back; runs in the thread that noticed (quick, never raises)."""
+        """The bus went down (``up`` False) or is back; runs in the thread that noticed (quick,
+        never raises)."""
         with self._lock:
             if up == (not self.down):
                 return

@@ -97,7 +97,8 @@ class ControlCycle:
         dev.add_write_validator("fault_reset", self.check_fault_reset)
 
     def swap_model(self, tem, neutral_C: float) -> None:
-        """A new model from now on: its predictor starts at the last measured T_sensor (else ``neutral_C``)."""
+        """A new model from now on: its predictor starts at the last measured T_sensor
+        (else ``neutral_C``)."""
         if self.state is not None:
             T0 = self._last_T_C if self._last_T_C == self._last_T_C else neutral_C
             self.state = replace_model(self.state, tem, T0)
@@ -205,8 +206,8 @@ class ControlCycle:
             self._material_touch = (st.material.touch, st.material.stage)
 
     def _raise_trips(self, res: StepResult) -> None:
-        """An EMCY for every new trip (and last_trip_code); the link-loss fallback's EMCY when it starts (cleared
-        when it ends)."""
+        """An EMCY for every new trip (and last_trip_code); the link-loss fallback's EMCY when it starts
+        (cleared when it ends)."""
         stats = self.rt.stats
         fb = res.status.link_fallback
         if res.status.link_fallback_started:

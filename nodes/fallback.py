@@ -1,6 +1,6 @@
-"""A SYNC consumer without SYNC: when the SYNC producer is gone (its heartbeat lost, or this node's bus), the node runs its
-cycles on a local timer (peer lost: the envelope ramps to neutral, then cuts) until SYNC or the peer's
-heartbeat come back. Fallback cycles are recorded with ``sync_cycle`` -1.
+"""A SYNC consumer without SYNC: when the SYNC producer is gone (its heartbeat lost, or this node's bus), the
+node runs its cycles on a local timer (peer lost: the envelope ramps to neutral, then cuts) until SYNC or the
+peer's heartbeat come back. Fallback cycles are recorded with ``sync_cycle`` -1.
 """
 
 from __future__ import annotations

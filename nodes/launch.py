@@ -119,7 +119,8 @@ def start_lone_node(
 ) -> subprocess.Popen:
     """One node program alone until stopped (``--cycles 0``, no wait for a peer), e.g. the master a
     ``telethermo identify`` talks to; ``bus_args``: ``--bus B`` or ``--network FILE``. Its log goes to
-    ``out_dir/<role>.log`` and its stderr to ``out_dir/<role>-stderr.log``. Stop it with :func:`stop_process`."""
+    ``out_dir/<role>.log`` and its stderr to ``out_dir/<role>-stderr.log``. Stop it with
+    :func:`stop_process`."""
     out_dir.mkdir(parents=True, exist_ok=True)
     return subprocess.Popen(
         node_command(
@@ -219,8 +220,8 @@ class NodePair:
 
     def _common(self, role: str) -> list[str]:
         c = self.config
-        # a session of simulated rigs keeps its parameter store in its own folder: settings a lab saved for its
-        # hardware nodes (the per-user default store) never change a session's figures
+        # a session of simulated rigs keeps its parameter store in its own folder: settings a lab saved for
+        # its hardware nodes (the per-user default store) never change a session's figures
         rig = (
             ["--rig", "io", "--rig-config", str(self.modules[role].config)]
             if c.io

@@ -26,7 +26,8 @@ from telethermo.nodes.parts import NodeParts
 log = logging.getLogger("telethermo.node")
 
 MODEL_INDICES = frozenset(range(0x2300, 0x2309)) | frozenset(range(0x230A, 0x2310)) | {0x2310, 0x2311}
-"""Objects of the TEM model (telethermo.ident.odmodel) and its command: 0x2309 R_sensor is a controller parameter."""
+"""Objects of the TEM model (telethermo.ident.odmodel) and its command:
+0x2309 R_sensor is a controller parameter."""
 
 
 class ModelSlot:

@@ -135,7 +135,8 @@ class OwnNmtActions:
 
 
 def on_own_nmt(old: NmtState, new: NmtState, command: int | None) -> OwnNmtActions:
-    """The actions for this node's NMT transition ``old`` -> ``new`` (``command``: the NMT command, if one)."""
+    """The actions for this node's NMT transition ``old`` -> ``new`` (``command``: the NMT command,
+    if one)."""
     return OwnNmtActions(
         cut_current=new is not NmtState.OPERATIONAL,
         left_operational=old is NmtState.OPERATIONAL and new is not NmtState.OPERATIONAL,

@@ -81,7 +81,8 @@ class ParamBook:
 
     Args:
         role: the node's role.
-        params_for: ``(mode, render) -> CoreParams``, the defaults (ValueError for a mode the node cannot run).
+        params_for: ``(mode, render) -> CoreParams``, the defaults (ValueError for a mode the node
+            cannot run).
         has_model: a TEM model is loaded (the MODEL and FUSED estimators need one).
         table: the rendering table (material -> β), in file order (material_code k = k-th entry).
         od_material: the OD's power-on material (material_code, material_beta, object_T0_C) used
@@ -118,9 +119,11 @@ class ParamBook:
         self.beta_pad: float | None = None
         """pad_beta written by the operator (applies to the script's touches too)."""
         self.finger_T0_C: float | None = None
-        """finger_T0_C written by the operator (on a script: until its thermometer measures the next touch)."""
+        """finger_T0_C written by the operator
+        (on a script: until its thermometer measures the next touch)."""
         self.later: dict[str, float] = {}
-        """later_model, object_thickness_mm, object_back written by the operator (telethermo.control.later_phase)."""
+        """later_model, object_thickness_mm, object_back written by the operator
+        (telethermo.control.later_phase)."""
         self._later_built: dict[tuple, Any] = {}
         if script_first is not None:
             self.render = script_first

@@ -4,7 +4,8 @@ sees them each cycle (:class:`telethermo.control.types.PeerValues`).
 The peer is *lost* when the heartbeat consumer (0x1016) reports a timeout, or when its TPDO1 has
 been missing for more than ``max_missed_cycles`` consecutive cycles, or at once when this node's own bus
 is lost (:meth:`PeerLink.on_bus_down`); it is back when its heartbeat
-is seen again and a fresh PDO arrives (the rule: :func:`telethermo.control.peer_policy.peer_alive`). Thread-safe: the bus's receive thread writes, the cycle reads.
+is seen again and a fresh PDO arrives (the rule: :func:`telethermo.control.peer_policy.peer_alive`).
+Thread-safe: the bus's receive thread writes, the cycle reads.
 """
 
 from __future__ import annotations
@@ -117,8 +118,8 @@ class PeerLink:
 
     def take(self, material: tuple[int, float, int, float] | None = None) -> PeerValues | None:
         """The values for this cycle (None before the first PDO or :meth:`start_with`); marks them consumed.
-        ``material``: the slave's identification as its PDOs last brought it (code, beta, touches, T_object0 °C),
-        carried in the same PeerValues (one object per cycle, no copy)."""
+        ``material``: the slave's identification as its PDOs last brought it (code, beta, touches,
+        T_object0 °C), carried in the same PeerValues (one object per cycle, no copy)."""
         with self._lock:
             if self._fresh:
                 self._missed = 0

@@ -203,7 +203,8 @@ def run_producer(
             if wait is LockstepWait.PEER_PDOS:
                 debt.wait(k, wait_s, patience_s)
             elif wait is LockstepWait.PERIOD:
-                # peer lost, not yet seen or not OPERATIONAL: our envelope keeps running, paced by the SYNC period
+                # peer lost, not yet seen or not OPERATIONAL: our envelope keeps running,
+                # paced by the SYNC period
                 dev.wait_rpdo(debt.last, after=dev.rpdo_count(debt.last), timeout=period)
         if progress is not None and progress_every and (k % progress_every == 0 or k == cycles):
             progress(k, cycles)

@@ -64,7 +64,8 @@ ANCHOR_WAIT_S = 0.25
 
 
 class NodeRuntime:
-    """One node process's machinery. ``start()``, then ``run_producer(...)`` or ``wait()``, then ``stop()``."""
+    """One node process's machinery. ``start()``, then ``run_producer(...)`` or ``wait()``,
+    then ``stop()``."""
 
     def __init__(
         self,
@@ -126,7 +127,8 @@ class NodeRuntime:
         )
         self.bus: ResilientBus | None = None
         self.sync_cycle = -1
-        """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter (both nodes alike)."""
+        """The SYNC cycle being run: SYNCs numbered from 0 by unwrapping the SYNC counter
+        (both nodes alike)."""
         self._sync_numbering = SyncNumbering(None)
         self.network: canopen.Network | None = None
         self.device: Device | None = None
@@ -348,7 +350,8 @@ class NodeRuntime:
                 self.stats.latencies_s.append(time.monotonic() - self._sync_sent_at)
 
     def _on_write(self, ev: WriteEvent) -> None:
-        """An accepted SDO write (validated before it was stored; device lock held), to the part it concerns."""
+        """An accepted SDO write (validated before it was stored; device lock held),
+        to the part it concerns."""
         if self.settings.book is None:
             return
         for on_write in (

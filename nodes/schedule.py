@@ -146,9 +146,9 @@ class LateCycleLog:
 
 
 class SyncNumbering:
-    """The producer's SYNCs numbered from 0, alike on every node, from the 1-byte SYNC counter (1..``overflow``,
-    0x1019): each node unwraps the counter it sees, so SYNC k has number k on the master and on the slave
-    (telethermo.recording.merge joins the two recordings on it).
+    """The producer's SYNCs numbered from 0, alike on every node, from the 1-byte SYNC counter
+    (1..``overflow``, 0x1019): each node unwraps the counter it sees, so SYNC k has number k on the master and
+    on the slave (telethermo.recording.merge joins the two recordings on it).
 
     Right as long as a node misses fewer than ``overflow`` SYNCs in a row (the node runtime also feeds it
     the SYNC frames its device ignores in STOPPED); the time that passed cannot tell how many wraps were

@@ -18,7 +18,8 @@ from telethermo.sim.bodies import Segment
 
 @dataclass(frozen=True, slots=True)
 class Boundary:
-    """An end of the chain: conductance from the end face to a reservoir at T_C (0 = adiabatic, inf = Dirichlet)."""
+    """An end of the chain: conductance from the end face to a reservoir at T_C (0 = adiabatic,
+    inf = Dirichlet)."""
 
     G_W_K: float
     T_C: float = 0.0
@@ -109,7 +110,8 @@ class System:
         f[i] = 1.0
         if math.isinf(G_half):
             return f, 0.0
-        # T_face = x_i ∓ flux/G_half (flux leaving through the back face lowers it; entering the front raises it)
+        # T_face = x_i ∓ flux/G_half (flux leaving through the back face lowers it;
+        # entering the front raises it)
         return f + sign * flux / G_half, sign * f0 / G_half
 
     def steady_state(self, u_W: dict[int, float] | None = None) -> np.ndarray:

@@ -1,4 +1,5 @@
-"""Compile a scene into simulated rigs (only the models each rig needs) and into the direct-touch reference."""
+"""Compile a scene into simulated rigs (only the models each rig needs) and into the direct-touch
+reference."""
 
 from __future__ import annotations
 
@@ -19,8 +20,8 @@ LUMP_BUDGET_C = 0.01
 
 
 def lump_error_estimate_C(spec: BodySpec, params: RigParams, t_min_s: float, dT_C: float = 15.0) -> float:
-    """Estimated surface-vs-mean error of lumping a slab, °C: q(t_min)·L/(3λ), with q the semi-infinite contact
-    flux between the flux sensor and the slab material for a ``dT_C`` step (q = ΔT·b_eff/√(π·t))."""
+    """Estimated surface-vs-mean error of lumping a slab, °C: q(t_min)·L/(3λ), with q the semi-infinite
+    contact flux between the flux sensor and the slab material for a ``dT_C`` step (q = ΔT·b_eff/√(π·t))."""
     mat = material(spec.material)
     bs = material(params.sensor_material).b
     b_eff = bs * mat.b / (bs + mat.b)
@@ -77,8 +78,8 @@ def build_rig(
 ) -> SimRig:
     """The simulated rig ``role`` ("master" or "slave") of a scene.
 
-    The master's pad carries the operator's finger per the master schedule; the slave's pad touches the scene's
-    objects per the slave schedule. ``seed`` (default: the scene's noise.seed) seeds the sensor noise.
+    The master's pad carries the operator's finger per the master schedule; the slave's pad touches the
+    scene's objects per the slave schedule. ``seed`` (default: the scene's noise.seed) seeds the sensor noise.
     ``prune=False`` builds every body of the scene into each rig and integrates detached bodies every step
     (the unpruned baseline of the benchmark). ``noise=False`` turns the noise off.
     """

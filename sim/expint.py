@@ -2,8 +2,8 @@
 
 For C·dx/dt = K·x + s + E·u(t), with u linear over the step (first-order hold between u_n and u_{n+1}):
 z = C^½·x makes the system symmetric, M = C^-½·K·C^-½ = V·Λ·Vᵀ, and each mode is integrated exactly with the
-φ-functions φ1(z) = (e^z − 1)/z, φ2 = (e^z − 1 − z)/z², φ3 = (e^z − 1 − z − z²/2)/z³. Stiffness (µm skin cells,
-metal slabs) costs nothing: there is no stability limit and no time-discretisation error for the
+φ-functions φ1(z) = (e^z − 1)/z, φ2 = (e^z − 1 − z)/z², φ3 = (e^z − 1 − z − z²/2)/z³. Stiffness (µm skin
+cells, metal slabs) costs nothing: there is no stability limit and no time-discretisation error for the
 conduction; the only approximation is the hold on u (the TEM plate heats, which depend weakly on the plate
 temperatures through α·I·T and are solved implicitly, 2×2, at the end of the step).
 

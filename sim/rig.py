@@ -1,4 +1,5 @@
-"""A simulated rig: the plant of sim.plant behind the project's rig interface (telethermo.rig.SimulatedRig)."""
+"""A simulated rig: the plant of sim.plant behind the project's rig interface
+(telethermo.rig.SimulatedRig)."""
 
 from __future__ import annotations
 
@@ -50,7 +51,8 @@ class RigTruth:
 
 
 def plate_heats(rows: tuple, alpha_V_K: float, tau_V_K: float, R_ohm: float, I_A, Ts_C, Tp_C, y1, y2):
-    """Electrical heat into the (sink, pad) plates at the start (u0, u1) and the end (v0, v1) of one exact step, W.
+    """Electrical heat into the (sink, pad) plates at the start (u0, u1) and the end (v0, v1) of one
+    exact step, W.
 
     The plate heats are u = U·[T_s, T_p] + w (sim.tem docstring; T in °C, the Kelvin offset in w), and the
     plate temperatures at the end of the step solve p' = P·y_n + P·B1·(U·p' + w) (2×2, exactly). ``rows``:
@@ -354,9 +356,9 @@ class SimRig:
         return s
 
     def energy_balance(self) -> dict[str, float]:
-        """Energy since t = 0, J: electrical input, heat out to reservoirs (ambient, blood, core), change of the
-        stored heat, and the residual in − out − stored (all bodies of this rig included; detached bodies are
-        first brought to the current time)."""
+        """Energy since t = 0, J: electrical input, heat out to reservoirs (ambient, blood, core), change of
+        the stored heat, and the residual in − out − stored (all bodies of this rig included; detached bodies
+        are first brought to the current time)."""
         for b in self.bodies.values():
             if not b.attached:
                 b.advance_detached(self.t_s)

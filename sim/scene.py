@@ -47,16 +47,18 @@ Format (all times s, temperatures °C, forces N, lengths mm)::
     Q_sigma_W = 0.002
     cutoff_Hz = 5.0
 
-    [tem]                          # optional: the rigs' thermo-electric module (default: sim/data/tem_15x15.toml)
-    couples = 31                   # needed only with per-couple values (seebeck_per_couple_V_K, R_per_couple_ohm,
-    seebeck_V_K = 0.0125           #   K_per_couple_W_K); else module values: Seebeck V/K, resistance ohm,
-    R_ohm = 0.971                  #   conductance W/K (see sim.tem.parse_tem_section)
+    [tem]                          # optional: the rigs' thermo-electric module
+                                   #   (default: sim/data/tem_15x15.toml)
+    couples = 31                   # needed only with per-couple values (seebeck_per_couple_V_K,
+    seebeck_V_K = 0.0125           #   R_per_couple_ohm, K_per_couple_W_K); else module values: Seebeck
+    R_ohm = 0.971                  #   V/K, resistance ohm, conductance W/K (see sim.tem.parse_tem_section)
     K_W_K = 0.0652
     thomson_V_K = 1.9e-3           # optional
     plate_C_J_K = 0.62             # each plate's heat capacity, J/K
     Imax_A = 3.0
 
-    [numerics]                     # optional: error tolerance that picks the grid (sim.GridSettings.for_tolerance)
+    [numerics]                     # optional: error tolerance that picks the grid
+                                   #   (sim.GridSettings.for_tolerance)
     tolerance_C = 0.05
 
     [record]                       # optional: what a runner should record
@@ -259,7 +261,8 @@ def _contacts(
             raise SceneError(
                 r.path,
                 prefix,
-                f"non-overlapping contacts (contact at {b.start_s} s starts before the one at {a.start_s} s ends at {a.end_s} s)",
+                f"non-overlapping contacts (contact at {b.start_s} s starts before the one at {a.start_s} s "
+                f"ends at {a.end_s} s)",
             )
     return tuple(out)
 

@@ -110,7 +110,8 @@ class RigParams:
         sensor_thickness_m: heat-flux sensor thickness, m.
         sensor_material: name in the materials table.
         sensor_cells: grid cells across the sensor (odd), or 0: graded from both faces (default).
-        R_at_1N_m2K_W, force_exponent: contact law R_at_1N·F^(−n) (see :func:`sim.contact.contact_resistance_m2K_W`).
+        R_at_1N_m2K_W, force_exponent: contact law R_at_1N·F^(−n) (see
+        :func:`sim.contact.contact_resistance_m2K_W`).
         detect_threshold_N: the contact detector fires above this force, N.
         h_air_W_m2K: loss of a free surface to ambient, W/(m²·K).
     """
@@ -187,7 +188,8 @@ def load_rig_params(path: str | Path | None = None) -> RigParams:
     )
 
 
-#: [tem] section of a scene or a --tem file: key -> (what, unit). Module values, or per-couple ones times ``couples``.
+#: [tem] section of a scene or a --tem file: key -> (what, unit). Module values,
+#: or per-couple ones times ``couples``.
 TEM_KEYS = (
     "couples",
     "seebeck_V_K",

@@ -49,7 +49,8 @@ from telethermo.sim.scene import load_scene
 DEFAULT_MAX_CATCH_UP_S = 1.0
 """The longest stretch of wall time one read simulates, s (a longer gap is skipped beyond it, and counted)."""
 
-#: default noise seeds of the node programs (nodes.parts.DEFAULT_SEEDS), repeated here: sim/ must not import nodes/
+#: default noise seeds of the node programs (nodes.parts.DEFAULT_SEEDS), repeated here:
+#: sim/ must not import nodes/
 SEEDS = {"master": 0, "slave": 1}
 
 
@@ -152,7 +153,8 @@ class WallClockRig:
             return self._inner.read()
 
     def apply_current(self, current_A: float) -> None:
-        """Command the drive current, A: held from now on (the plant sees it over the time to the next read)."""
+        """Command the drive current, A: held from now on (the plant sees it over the time to the next
+        read)."""
         with self._lock:
             self._inner.apply_current(current_A)
 

@@ -71,7 +71,9 @@ SDO_ABORT_CODES = {
     ABORT_GENERAL: "General error",
     ABORT_APPLICATION: "Data cannot be transferred or stored to the application",
     ABORT_LOCAL_CONTROL: "Data cannot be transferred or stored to the application because of local control",
-    ABORT_DEVICE_STATE: "Data cannot be transferred or stored to the application because of the present device state",
+    ABORT_DEVICE_STATE: (
+        "Data cannot be transferred or stored to the application because of the present device state"
+    ),
     ABORT_NO_OD: "Object dictionary dynamic generation fails or no object dictionary is present",
     ABORT_NO_DATA: "No data available",
 }

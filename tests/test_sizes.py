@@ -48,11 +48,11 @@ def test_the_length_check_sees_a_long_function(tmp_path):
     assert [s.split()[1] for s in long_functions(f, MAX_FUNCTION_LINES)] == ["long"]
 
 
-#: lines over 110 characters in telethermo/, nodes/, sim/, bus_config/, bench/ and tests/ (issue 26's target
-#: is
-#: 0; ruff's E501 is off until the tree is reflowed): this count may only fall. Lower it when you fix lines.
+#: lines over 110 characters in telethermo/, nodes/, sim/, bus_config/, bench/ and tests/ (issue 26's
+#: target is 0; ruff's E501 is off until the tree is reflowed): this count may only fall. Lower it when you
+#: fix lines.
 MAX_LINE = 110
-LONG_LINES_CEILING = 196
+LONG_LINES_CEILING = 57
 
 
 def long_lines(root: Path = ROOT) -> list[str]:

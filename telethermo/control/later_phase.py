@@ -5,8 +5,9 @@ Three models, chosen per render (``RenderSettings.later``):
 - ``semi_infinite`` (yamamoto): eq. 1's T_contact for the whole touch (an object of infinite
   thickness: an aluminium foil and block feel the same);
 - ``rc``: benali-khoudja's RC analog (:mod:`telethermo.control.later_rc`);
-- ``conduction`` (the default of render sessions, :data:`DEFAULT_LATER_MODEL`): a few-cell conduction model of the object with its thickness and back
-  (:mod:`telethermo.control.later_conduction`), driven by the flux the finger sends into the pad.
+- ``conduction`` (the default of render sessions, :data:`DEFAULT_LATER_MODEL`): a few-cell conduction model of
+  the object with its thickness and back (:mod:`telethermo.control.later_conduction`), driven by the flux the
+  finger sends into the pad.
 
     lp = later_phase("conduction", VirtualObject("aluminium", 1.0), dt_s=0.01)
     st = later_start(lp, T_object0_C)                       # at the touch

@@ -1,4 +1,5 @@
-"""Graceful link loss (issue 15): the master renders the last identified material locally while the slave is lost.
+"""Graceful link loss (issue 15): the master renders the last identified material locally while the
+slave is lost.
 
 In telepresence the master tracks the slave's object estimate. When the slave is lost (peer not alive, or its
 values invalid) the envelope ramps to neutral and cuts (DESIGN.md §6). If the operator is touching at that
@@ -219,7 +220,8 @@ def link_step(
 
     Args:
         st: the link state. peer: this step's :class:`~telethermo.control.types.PeerValues` (or None).
-        peer_usable: the peer is alive and its values valid. contact: the master's contact (the finger on the pad).
+        peer_usable: the peer is alive and its values valid.
+        contact: the master's contact (the finger on the pad).
         est_C: the master's estimate, °C. q_in_W: heat from the finger into the pad (−Q of its sensor), W.
         T_surface_est_C: the pad's surface estimate, °C (the conduction model's input).
         render_s: the longest fallback, s (0: never). dt_s: control period, s.

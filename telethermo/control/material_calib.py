@@ -1,4 +1,5 @@
-"""Calibrated material classifier: the touch's own transient, classified by a network trained on reference touches.
+"""Calibrated material classifier: the touch's own transient, classified by a network trained on
+reference touches.
 
 Why: the physics estimator (telethermo.control.material_id) fits a lumped probe model that its bias limits
 (the sensor's graded transient, its lower half driven by the controller, the first ~50 ms); and the
@@ -7,12 +8,13 @@ detection and the TEM's Joule heat), so no fixed model of the kind fits it. Mate
 are calibrated on reference samples instead; so is this classifier.
 
 The touch vector (:func:`touch_vector`, °C): the filtered T_sensor's change since the pre-contact mean over
-the 0.3 s window, then the flux's change times ``q_weight_K_per_W``. The network's input (:func:`network_input`)
-is that vector less the references' mean, whitened by the covariance of the rig's noise in it (:func:`whitener`:
-in units of that noise, the fast components that tell the materials apart are not drowned by the large slow
-ones that object temperature and force move) and divided by one overall scale. The classifier (:func:`classify_vector`) is a small ensemble of fully connected ReLU networks, each
-trained (telethermo.control.material_train) to give the posterior of the material over reference touches that
-vary force, thickness, object temperature and the touch's instant: those nuisances are marginalised by the
+the 0.3 s window, then the flux's change times ``q_weight_K_per_W``. The network's input
+(:func:`network_input`) is that vector less the references' mean, whitened by the covariance of the rig's
+noise in it (:func:`whitener`: in units of that noise, the fast components that tell the materials apart are
+not drowned by the large slow ones that object temperature and force move) and divided by one overall scale.
+The classifier (:func:`classify_vector`) is a small ensemble of fully connected ReLU networks, each trained
+(telethermo.control.material_train) to give the posterior of the material over reference touches that vary
+force, thickness, object temperature and the touch's instant: those nuisances are marginalised by the
 training, not fitted per touch. The ensemble's posterior is the mean of its members'.
 
 Why a network and not the nearest references (the previous form, local affine models of the k nearest):
@@ -80,8 +82,8 @@ def touch_vector(inp: FitInput, q_weight_K_per_W: float) -> np.ndarray:
 
 
 def network_input(cal: Calibration, v: np.ndarray) -> np.ndarray | None:
-    """The networks' input for touch vector ``v`` (float32), or None when it was measured with another window or
-    is not finite."""
+    """The networks' input for touch vector ``v`` (float32), or None when it was measured with another window
+    or is not finite."""
     if v.shape != cal.center.shape or not np.isfinite(v).all():
         return None
     return inputs(cal.center, cal.whiten, cal.scale, v)
@@ -113,7 +115,8 @@ def logits(layers: tuple[tuple[np.ndarray, np.ndarray], ...], x: np.ndarray) -> 
 
 
 def posterior(cal: Calibration, x: np.ndarray) -> np.ndarray:
-    """The ensemble's posterior over ``cal.classes`` (mean of its members' softmax) for inputs ``x`` (pure)."""
+    """The ensemble's posterior over ``cal.classes`` (mean of its members' softmax) for inputs ``x``
+    (pure)."""
     return cast(np.ndarray, np.mean([np.exp(log_softmax(logits(net, x))) for net in cal.nets], axis=0))
 
 
@@ -125,10 +128,10 @@ def n_units(cal: Calibration) -> int:
 def network_unit(
     cal: Calibration, x: np.ndarray, h: np.ndarray | None, probs: tuple[np.ndarray, ...], k: int
 ) -> tuple[np.ndarray | None, tuple[np.ndarray, ...]]:
-    """Unit ``k`` of the staged classification of input ``x`` (pure): one layer of one network, so that no control
-    cycle carries a whole network (a 512 × 512 layer is 0.03 ms here but milliseconds on an emulated or small
-    CPU). ``h`` the previous layer's output (None at a network's first), ``probs`` the softmax of the networks
-    done so far; returns the new (h, probs)."""
+    """Unit ``k`` of the staged classification of input ``x`` (pure): one layer of one network, so that no
+    control cycle carries a whole network (a 512 × 512 layer is 0.03 ms here but milliseconds on an emulated
+    or small CPU). ``h`` the previous layer's output (None at a network's first), ``probs`` the softmax of the
+    networks done so far; returns the new (h, probs)."""
     j, i = 0, k
     while i >= len(cal.nets[j]):
         i, j = i - len(cal.nets[j]), j + 1
@@ -161,8 +164,8 @@ def classify_vector(cal: Calibration, v: np.ndarray) -> tuple[int, float] | None
 def whitener(noise_cov: np.ndarray, reg: float) -> np.ndarray:
     """W with W·(Σ + reg·mean(diag Σ)·I)·Wᵀ = I (pure): the touch vector's measurement noise made white.
 
-    Σ is the covariance of the touch vector's noise (the rig's noise through its low-pass, the pre-contact mean
-    and the controller's response to it); the filter leaves it nearly singular at high frequency, where a
+    Σ is the covariance of the touch vector's noise (the rig's noise through its low-pass, the pre-contact
+    mean and the controller's response to it); the filter leaves it nearly singular at high frequency, where a
     model's own error would be amplified without bound, hence the floor ``reg`` (relative to the mean
     variance)."""
     S = np.asarray(noise_cov, float)

@@ -1,4 +1,5 @@
-"""Material identification on the slave: the touched object's effusivity from the probe's own contact transient.
+"""Material identification on the slave: the touched object's effusivity from the probe's own contact
+transient.
 
 What the slave measures (telethermo.rig.RigSample): the thermocouple at the flux sensor's mid-plane
 ``T_sensor_C`` and the thickness-mean flux ``Q_W`` through the sensor (> 0 out of the pad), both after the
@@ -23,9 +24,9 @@ weighs the early samples more; both are fitted and the one with the smaller stan
 (the energy form wins on insulators, the flux form on metals behind a contact resistance).
 
 The rig's filter is linear and time-invariant, as are I½ and ∫, so the relation holds for the filtered
-signals once the filter's memory of the pre-contact state is removed: the filter's response to the touch's step, ``s(k)`` (1 at the touch, → 0), times the
-pre-contact means (:func:`filter_release`; the rig's documented 2nd-order Butterworth, ``cutoff_Hz`` = 0
-for an unfiltered rig).
+signals once the filter's memory of the pre-contact state is removed: the filter's response to the touch's
+step, ``s(k)`` (1 at the touch, → 0), times the pre-contact means (:func:`filter_release`; the rig's
+documented 2nd-order Butterworth, ``cutoff_Hz`` = 0 for an unfiltered rig).
 
 Identifiability: the probe's own temperature history is what separates b from T_o0. For two ideal
 semi-infinite bodies the face temperature is constant (eq. 1) and only b·(T_c − T_o0) is seen; the probe's
@@ -62,8 +63,9 @@ from telethermo.control.rendering import DEFAULT_RENDER_TABLE
 
 @dataclass(frozen=True, slots=True)
 class ProbeParams:
-    """What the estimator knows of the probe (design values of the default rig: 0.42 mm flux sensor, 15 × 15 mm,
-    2.0 W/(m·K), 5 Hz filter; the same constants as telethermo.control.core's R_sensor and contact's c_top).
+    """What the estimator knows of the probe (design values of the default rig: 0.42 mm flux sensor,
+    15 × 15 mm, 2.0 W/(m·K), 5 Hz filter; the same constants as telethermo.control.core's R_sensor and
+    contact's c_top).
 
     Attributes:
         R_half_K_per_W: thermal resistance from the thermocouple (mid-plane) to the contact face, K/W.
@@ -153,7 +155,8 @@ class Classification:
 
 def butter2_lowpass(cutoff_Hz: float, fs_Hz: float) -> tuple[tuple[float, float, float], tuple[float, float]]:
     """Coefficients (b0, b1, b2), (a1, a2) of the rig's 2nd-order Butterworth (bilinear, pre-warped, capped at
-    0.4·Nyquist): the measurement chain the rigs document (sim/measurement.py; hardware: the node's filter)."""
+    0.4·Nyquist): the measurement chain the rigs document (sim/measurement.py; hardware: the node's
+    filter)."""
     fc = min(cutoff_Hz, 0.4 * fs_Hz / 2.0)
     k = math.tan(math.pi * fc / fs_Hz)
     q = 1.0 / math.sqrt(2.0)

@@ -1,12 +1,12 @@
-"""Physics-first identification anywhere in the envelope (issue 23): a posterior over the table's materials from
-the physics fit's effusivity, with the object's temperature and the direction of the heat flow as inputs.
+"""Physics-first identification anywhere in the envelope (issue 23): a posterior over the table's materials
+from the physics fit's effusivity, with the object's temperature and the direction of the heat flow as inputs.
 
-The physics fit (telethermo.control.material_id) measures the object's effusivity b and initial temperature T_o0
-from the probe's own filtered T_sensor and Q, whatever the sign of the heat flow: its relation
-E = b·A·I½[T_os − T_o0] holds for an object hotter than the probe (E < 0, T_os − T_o0 < 0, b > 0) as for a colder
-one, and it does not involve the TEM or the controller (the probe's sensor alone, ProbeParams). It is biased by
-its own lumped sensor model, most on metals behind a contact resistance and on thin slabs, far beyond its
-standard error se_ln_b. So each table material m gets the likelihood
+The physics fit (telethermo.control.material_id) measures the object's effusivity b and initial temperature
+T_o0 from the probe's own filtered T_sensor and Q, whatever the sign of the heat flow: its relation
+E = b·A·I½[T_os − T_o0] holds for an object hotter than the probe (E < 0, T_os − T_o0 < 0, b > 0) as for a
+colder one, and it does not involve the TEM or the controller (the probe's sensor alone, ProbeParams). It is
+biased by its own lumped sensor model, most on metals behind a contact resistance and on thin slabs, far
+beyond its standard error se_ln_b. So each table material m gets the likelihood
 
     L_m = (1 − ε)·N(ln b_fit; ln b_m, σ) + ε / W,   σ² = (k·se_ln_b)² + f²,
 
@@ -14,8 +14,9 @@ a Gaussian of the fit's own uncertainty inflated by a calibrated factor ``k`` an
 outlier share ``ε`` spread over W = 12 in ln b (the fit's heavy tail: a metal read as an insulator), and the
 posterior is L_m normalised (equal priors). The published effusivity interval is b·exp(±1.96·σ_ci) with
 σ_ci² = (k_ci·se_ln_b)² + f_ci², whose factor and floor were fitted on the same calibration touches for its
-coverage. All constants (:data:`EARLY`, :data:`LATE`) are measured by ``python -m bench.material_physics_calibrate``
-on 600 envelope touches of their own seeds (draw 3131, simulator 1200000 + i), disjoint from every evaluation.
+coverage. All constants (:data:`EARLY`, :data:`LATE`) are measured by
+``python -m bench.material_physics_calibrate`` on 600 envelope touches of their own seeds (draw 3131,
+simulator 1200000 + i), disjoint from every evaluation.
 
 Abstains, only where the physics cannot tell (:func:`decide`): no fit; a fitted |T_probe − T_o0| below
 :data:`MIN_DT_C` (the object draws almost no heat); a posterior below :data:`MIN_POSTERIOR`. Pure.
@@ -77,8 +78,8 @@ def posterior(est: EffusivityEstimate, ln_b_table: np.ndarray, cal: PhysicsCalib
 def decide(
     est: EffusivityEstimate | None, T_probe_C: float, ln_b_table: np.ndarray, cal: PhysicsCalibration
 ) -> tuple[int, float, str]:
-    """(0-based index of the likeliest material or −1, its posterior, why abstained or "") for fit ``est`` of a
-    touch by a probe resting at ``T_probe_C`` °C (the pre-contact mean)."""
+    """(0-based index of the likeliest material or −1, its posterior, why abstained or "") for fit ``est`` of
+    a touch by a probe resting at ``T_probe_C`` °C (the pre-contact mean)."""
     if est is None or not (math.isfinite(est.b) and est.b > 0 and math.isfinite(est.T_object0_C)):
         return -1, 0.0, "no_fit"
     if abs(T_probe_C - est.T_object0_C) < MIN_DT_C:

@@ -58,8 +58,9 @@ from telethermo.control.rendering import load_render_table
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
 #: (sim/data/materials.toml [materials.skin]: √(0.21 · 1200 · 3590); telethermo/data/render_materials.toml)
 B_SKIN_REF = 951.15
-#: the published code of an abstention ("unknown"): the touch lies outside what the classifier was calibrated on, or
-#: its evidence is weak; the effusivity and object temperature the physics fit measured are still published
+#: the published code of an abstention ("unknown"): the touch lies outside what the classifier was
+#: calibrated on, or its evidence is weak; the effusivity and object temperature the physics fit measured
+#: are still published
 UNKNOWN_CODE = 255
 
 
@@ -123,9 +124,10 @@ class MaterialIdParams:
     Attributes:
         probe: the estimator's probe model (:class:`ProbeParams`).
         classes: (code, name, effusivity) of the rendering table's entries with an effusivity.
-        calibration: the calibrated classifier (default: the shipped file, telethermo/data/material_classifier.npz,
-            loaded once); None: the nearest table effusivity of the physics fit. Used only when its period and
-            window are the core's (:func:`calibrated`); its materials must be among ``classes``.
+        calibration: the calibrated classifier (default: the shipped file,
+            telethermo/data/material_classifier.npz, loaded once); None: the nearest table effusivity of the
+            physics fit. Used only when its period and window are the core's (:func:`calibrated`); its
+            materials must be among ``classes``.
         box: what the calibration was measured on; a touch outside it is named by the physics posterior
             (telethermo.control.material_physics) instead of the network; None: the network always names it.
         early, late: the physics posterior's calibration of the early (0.3 s) and refined answer (1.2 s of
@@ -168,10 +170,10 @@ def fit_units(p: MaterialIdParams, dt_s: float) -> int:
 @dataclass(frozen=True, slots=True)
 class FitJob:
     """A touch's fit under way: ``inp`` its window (None: not built yet, from ``rows``), ``fits`` the forms
-    fitted so far, ``chosen`` (form, estimate) once both are ((None, None): no effusivity, the calibrated class
-    alone), ``deviations`` the noise realisations' so far, ``x`` the networks' input, ``h`` and ``probs`` the
-    staged classification's state and ``unit`` its next unit; ``late``: the refined answer's fit (physics only,
-    the late window)."""
+    fitted so far, ``chosen`` (form, estimate) once both are ((None, None): no effusivity, the calibrated
+    class alone), ``deviations`` the noise realisations' so far, ``x`` the networks' input, ``h`` and
+    ``probs`` the staged classification's state and ``unit`` its next unit; ``late``: the refined answer's fit
+    (physics only, the late window)."""
 
     rows: tuple[tuple[float, float], ...]
     n_pre: int
@@ -189,8 +191,8 @@ class FitJob:
 @dataclass(frozen=True, slots=True)
 class MaterialState:
     """Collector: ``pre`` the last pre-contact (T_sensor_C, Q_W) samples, ``post`` those since the touch,
-    ``done`` the touch's window was collected, ``job`` its fit under way, ``last`` the held result, ``late`` the
-    refined answer's fit was started."""
+    ``done`` the touch's window was collected, ``job`` its fit under way, ``last`` the held result, ``late``
+    the refined answer's fit was started."""
 
     pre: tuple[tuple[float, float], ...] = ()
     post: tuple[tuple[float, float], ...] = ()
@@ -210,7 +212,8 @@ def late_samples(p: MaterialIdParams, dt_s: float) -> int:
 
 def prepare(p: MaterialIdParams, dt_s: float) -> None:
     """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release)
-    now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls it)."""
+    now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls
+    it)."""
     for n_win in (int(round(p.probe.window_s / dt_s)), late_samples(p, dt_s)):
         if n_win >= 6:
             half_integral_matrix(n_win, dt_s, 0.5 * dt_s)
@@ -220,9 +223,10 @@ def prepare(p: MaterialIdParams, dt_s: float) -> None:
 def material_step(
     p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W: float, contact: bool, dt_s: float
 ) -> MaterialState:
-    """Advance the collector by one sample and the fit under way by one unit of work (pure). The early window's
-    fit starts when its ``window_s`` is collected; while the contact lasts the samples go on being collected
-    and the refined answer's fit starts when :func:`late_samples` are (and the early fit is done)."""
+    """Advance the collector by one sample and the fit under way by one unit of work (pure). The early
+    window's fit starts when its ``window_s`` is collected; while the contact lasts the samples go on being
+    collected and the refined answer's fit starts when :func:`late_samples` are (and the early fit is
+    done)."""
     job, last = st.job, st.last
     if job is not None:
         job, last = _fit_unit(p, job, last, dt_s)

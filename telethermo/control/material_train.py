@@ -1,8 +1,8 @@
 """Training the calibrated material classifier's networks on reference touches (offline; pure numpy).
 
-A lab re-calibrates on touches of its own reference samples (docs/material_id.md); the shipped file is built the
-same way on simulated ones (bench/material_calibrate.py). :func:`build_calibration` maps the touch vectors to
-the networks' input (telethermo.control.material_calib.input_map: the rig's noise whitened) and trains
+A lab re-calibrates on touches of its own reference samples (docs/material_id.md); the shipped file is built
+the same way on simulated ones (bench/material_calibrate.py). :func:`build_calibration` maps the touch vectors
+to the networks' input (telethermo.control.material_calib.input_map: the rig's noise whitened) and trains
 ``n_nets`` fully connected ReLU networks (:func:`train_network`) by Adam on the cross-entropy of the material,
 each from its own seed; their mean posterior is the classifier's.
 

@@ -1,12 +1,12 @@
 """When the calibrated classifier may name a material, and when it must say "unknown" (issue 23).
 
 The calibrated network (telethermo.control.material_calib) was trained on reference touches of one box:
-objects at 15–35 °C, 2–10 N, 1–20 mm, the shipped probe TEM, the rig's noise, the probe resting at the finger's
-natural 33.65 °C (room 25 °C). Outside it the network still answers, and confidently: on touches drawn across
-the envelope (bench/material_id_envelope.py) 31 % of its answers at posterior ≥ 0.9 were right. It sees only
-changes since the pre-contact mean, so what matters physically is where the probe rested, the temperature
-difference between the probe and the object, and the direction of the heat flow. :func:`abstain_reason`
-checks what the node measures itself against the calibration's :class:`CalibrationBox`:
+objects at 15–35 °C, 2–10 N, 1–20 mm, the shipped probe TEM, the rig's noise, the probe resting at the
+finger's natural 33.65 °C (room 25 °C). Outside it the network still answers, and confidently: on touches
+drawn across the envelope (bench/material_id_envelope.py) 31 % of its answers at posterior ≥ 0.9 were right.
+It sees only changes since the pre-contact mean, so what matters physically is where the probe rested, the
+temperature difference between the probe and the object, and the direction of the heat flow.
+:func:`abstain_reason` checks what the node measures itself against the calibration's :class:`CalibrationBox`:
 
 - ``probe_rest``: the probe's own temperature before contact (the mean of the pre-contact samples) differs
   from the calibration's rest by more than ``rest_tol_C`` (the rest moves ~0.28 °C per °C of room under the
@@ -40,11 +40,13 @@ from telethermo.control.material_id import EffusivityEstimate, FitInput
 
 @dataclass(frozen=True, slots=True)
 class CalibrationBox:
-    """What the calibration knows (defaults: the shipped calibration, telethermo/data/material_classifier.npz).
+    """What the calibration knows (defaults: the shipped calibration,
+    telethermo/data/material_classifier.npz).
 
     Attributes:
-        rest_C: the probe's pre-contact temperature the references were taken at, °C (the finger's natural skin
-            temperature in still air at 25 °C under the slave's default controller, bench/material_id_bench.py).
+        rest_C: the probe's pre-contact temperature the references were taken at, °C (the finger's natural
+            skin temperature in still air at 25 °C under the slave's default controller,
+            bench/material_id_bench.py).
         rest_tol_C: the largest |pre-contact mean − rest_C| still answered, °C.
         T_object_C: the references' object temperatures, °C (lowest, highest).
         min_dT_C: the smallest fitted probe−object difference still answered, °C (below it the touch draws too

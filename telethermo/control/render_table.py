@@ -50,8 +50,8 @@ def _names(path: Path) -> tuple[str, ...]:
 
 def material_name(code: int, path: str | Path | None = None) -> str:
     """The name of material ``code`` of a rendering table (1-based, in file order: the object dictionary's
-    material codes 0x2600/0x2610/0x2615); "unknown" for :data:`UNKNOWN_CODE` (the slave abstained), "none" for 0
-    and for any other code past the table's end."""
+    material codes 0x2600/0x2610/0x2615); "unknown" for :data:`UNKNOWN_CODE` (the slave abstained), "none" for
+    0 and for any other code past the table's end."""
     if code == UNKNOWN_CODE:
         return "unknown"
     names = _names(Path(path) if path is not None else DEFAULT_RENDER_TABLE)

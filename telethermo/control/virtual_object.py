@@ -1,4 +1,5 @@
-"""Virtual objects of the render mode: material, thickness and back condition (as the simulator's scene objects).
+"""Virtual objects of the render mode: material, thickness and back condition (as the simulator's scene
+objects).
 
     table = load_object_table()                      # telethermo/data/render_objects.toml
     obj = VirtualObject("aluminium", thickness_mm=1.0, back="adiabatic")

@@ -297,13 +297,15 @@ class Device:
     def wait_rpdo(self, number: int = 1, *, after: int, timeout: float) -> bool:
         """Block until more than ``after`` RPDOs of channel ``number`` were accepted; False on timeout.
 
-        For a lockstep SYNC producer: ``n = dev.rpdo_count(1); sync.transmit(); dev.wait_rpdo(1, after=n, ...)``.
-        Never call this from a callback (it would block the receive thread).
+        For a lockstep SYNC producer:
+        ``n = dev.rpdo_count(1); sync.transmit(); dev.wait_rpdo(1, after=n, ...)``. Never call this from a
+        callback (it would block the receive thread).
         """
         return self.pdos.wait_rpdo(number, after=after, timeout=timeout)
 
     def trigger_tpdo(self, number: int) -> None:
-        """Event for TPDO ``number``: type 0 goes at the next SYNC, types 254/255 now (inhibit time permitting)."""
+        """Event for TPDO ``number``: type 0 goes at the next SYNC, types 254/255 now
+        (inhibit time permitting)."""
         self.pdos.trigger(number)
 
     # ------------------------------------------------------------------ heartbeat

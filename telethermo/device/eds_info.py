@@ -260,7 +260,8 @@ class EdsInfo:
 
 
 def parse_index_key(key: ObjectKey) -> tuple[int, int] | None:
-    """``0x2200`` / ``0x1018sub1`` / ``0x1018:1`` / ``0x1018.1`` / (index, sub) / int -> (index, sub); else None."""
+    """``0x2200`` / ``0x1018sub1`` / ``0x1018:1`` / ``0x1018.1`` / (index, sub) / int -> (index, sub);
+    else None."""
     if isinstance(key, tuple):
         return int(key[0]), int(key[1])
     if isinstance(key, int):

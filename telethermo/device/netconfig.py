@@ -238,7 +238,8 @@ def _eds_path(file: Path, t: "_Section", default: str | None) -> Path | None:
 
 
 def _pair(file: Path, table: dict[str, Any]) -> dict[str, NodeConfig]:
-    """[nodes.master] and [nodes.slave]: this system's two nodes (defaults: node-IDs 1 and 2, the shipped EDS)."""
+    """[nodes.master] and [nodes.slave]: this system's two nodes (defaults: node-IDs 1 and 2,
+    the shipped EDS)."""
     nodes: dict[str, NodeConfig] = {}
     defaults = {"master": 1, "slave": 2}
     for role in ROLES:

@@ -78,8 +78,8 @@ class PdoEngine:
                 plan, sub, int(value)
             )  # ``plan`` still holds the values before this write
         elif plan.valid or (sub > 0 and self.core.u(plan.map_index, 0) != 0):
-            # CiA 301 7.5.2.36 mapping procedure: PDO invalid (COB-ID bit 31), sub 0 to 0, the entries, sub 0 to
-            # their count, PDO valid; a write out of that order is refused as CANopenNode does (0x06010000)
+            # CiA 301 7.5.2.36 mapping procedure: PDO invalid (COB-ID bit 31), sub 0 to 0, the entries, sub 0
+            # to their count, PDO valid; a write out of that order is refused as CANopenNode does (0x06010000)
             raise SdoAbortedError(ABORT_UNSUPPORTED_ACCESS)
         elif sub > 0 and value:
             pdo_mod.mappable(self.core.node, value >> 16, (value >> 8) & 0xFF, value & 0xFF, tx=tx)
@@ -264,7 +264,8 @@ class PdoEngine:
                 self._send(tp)
 
     def trigger(self, number: int) -> None:
-        """Event for TPDO ``number``: type 0 goes at the next SYNC, types 254/255 now (inhibit time permitting)."""
+        """Event for TPDO ``number``: type 0 goes at the next SYNC, types 254/255 now
+        (inhibit time permitting)."""
         tp = self.tpdos[number]
         if self.core.state != NmtState.OPERATIONAL or not tp.valid:
             return

@@ -14,7 +14,8 @@ current limit), is chosen to minimise the mean |skin − direct-touch skin|:
 The plant is integrated exactly as ``sim.rig.SimRig`` does (same step matrices, same implicit solve of the
 plate temperatures), batched over columns so that a forward-difference gradient over every current costs
 one batched run; :func:`replay` re-runs a current sequence through ``SimRig`` itself (the bound is checked
-against it to 1e-9 °C; the plate solve is sim.rig.plate_heats itself, on arrays). L-BFGS-B (scipy) does the search; the smooth |e| ≈ √(e² + ε²), ε = 0.01 °C.
+against it to 1e-9 °C; the plate solve is sim.rig.plate_heats itself, on arrays). L-BFGS-B (scipy) does the
+search; the smooth |e| ≈ √(e² + ε²), ε = 0.01 °C.
 """
 
 from __future__ import annotations

@@ -144,7 +144,13 @@ def draw_conditions(n: int, seed: int, *, corners: bool = True) -> list[Conditio
                 else lo + u[i, j] * (hi - lo)
             )
         mats = tuple(str(m) for m in rng.choice(MATERIALS, size=3, replace=False))
-        cond = Condition(index=i, design="lhs", materials=mats, seed=seed * 100003 + i, **kw)  # type: ignore[arg-type]
+        cond = Condition(
+            index=i,
+            design="lhs",
+            materials=mats,  # type: ignore[arg-type]
+            seed=seed * 100003 + i,
+            **kw,
+        )
         out.append(cond)
     if corners:
         for c in range(16):

@@ -51,7 +51,8 @@ Q_WEIGHT_K_PER_W = 3.0
 #: touches simulated twice (noise on and off) for the noise covariance; its floor (material_calib.whitener)
 NOISE_TOUCHES, NOISE_FLOOR = 2000, 0.01
 #: the extra reference touches' (draw seed, first simulator seed), classes (ceramic and the five metals: the
-#: effusivity hides behind the contact resistance, where the classes are hardest to tell apart) and force range
+#: effusivity hides behind the contact resistance, where the classes are hardest to tell apart) and
+#: force range
 DENSE, DENSE_CLASSES, DENSE_FORCE_N = (1616, 400_000), (4, 5, 6, 7, 8, 9), 6.0
 
 
@@ -111,9 +112,9 @@ def _vectors(chunk: list[dict]) -> list[tuple[np.ndarray | None, int]]:
 def reference_set(
     n: int, seeds: tuple[int, int], dense: bool = False, jobs: int = 1, chunk: int = 2000
 ) -> tuple[np.ndarray, np.ndarray]:
-    """(touch vectors, class indices) of ``n`` reference touches (touches without a window left out); ``dense``:
-    drawn by :func:`dense_draws` instead of the bench's distribution; simulated in ``jobs`` processes (the same
-    touches in the same order whatever ``jobs``)."""
+    """(touch vectors, class indices) of ``n`` reference touches (touches without a window left out);
+    ``dense``: drawn by :func:`dense_draws` instead of the bench's distribution; simulated in ``jobs``
+    processes (the same touches in the same order whatever ``jobs``)."""
     refuse_overlap(n, seeds)
     todo = dense_draws(n, seeds) if dense else draws(n, seeds)
     parts = [todo[i : i + chunk] for i in range(0, len(todo), chunk)]
@@ -190,9 +191,9 @@ def calibrate(
     cache: Path | None = None,
     check: bool = False,
 ) -> dict:
-    """Simulate ``n`` reference touches (and ``n_dense`` extra ones, :func:`dense_draws`) in ``jobs`` processes
-    (or read them from ``cache``), with ``check`` validate on a fifth left out, train on all, write ``out``;
-    returns what was done."""
+    """Simulate ``n`` reference touches (and ``n_dense`` extra ones, :func:`dense_draws`) in ``jobs``
+    processes (or read them from ``cache``), with ``check`` validate on a fifth left out, train on all, write
+    ``out``; returns what was done."""
     classes = [SIM_TO_TABLE[m] for m in SIM_TO_TABLE]
     V, y, S = touches(n, n_dense, jobs, cache)
     score = validate(V, y, classes, S, settings) if check else None
@@ -210,7 +211,8 @@ def calibrate(
         "references_kept": int(len(y)),
         "period_s": PERIOD_S,
         "source": "simulated (python -m bench.material_calibrate): force 2-10 N, object "
-        "15-35 C, thickness 1-20 mm, noise on, slave default controller, probe at the finger's natural temperature",
+        "15-35 C, thickness 1-20 mm, noise on, slave default controller, probe at the finger's natural "
+        "temperature",
         "onset": "the slave's contact detector (as telethermo.control.material_stream)",
         "whitening": {"noise_touches": min(NOISE_TOUCHES, n), "floor": NOISE_FLOOR},
         "training": dict(vars(settings)),

@@ -204,16 +204,19 @@ def bound_figures(
         "material_id_accuracy_bound": float(prof_a.mean()),
         "material_id_accuracy_bound_known_nuisance": float(known_a.mean()),
         "material_id_accuracy_bound_method": (
-            "Monte-Carlo accuracy of an oracle that knows the simulator: per touch, noiseless true T_sensor and Q "
-            f"over the {WINDOW_S} s window for each of the 10 materials, the rig's noise (sigma and ADC step, "
-            f"white before its invertible filter) drawn {DRAWS} times; headline: object temperature, contact "
-            "resistance and thickness unknown, profiled out per candidate in the linearisation about the touch's "
-            "values (GLRT; local, so still optimistic); _known_nuisance: ML knowing them (strict upper bound)"
+            "Monte-Carlo accuracy of an oracle that knows the simulator: per touch, noiseless true T_sensor "
+            f"and Q over the {WINDOW_S} s window for each of the 10 materials, the rig's noise (sigma and "
+            f"ADC step, white before its invertible filter) drawn {DRAWS} times; headline: object "
+            "temperature, contact resistance and thickness unknown, profiled out per candidate in the "
+            "linearisation about the touch's values (GLRT; local, so still optimistic); _known_nuisance: ML "
+            "knowing them (strict upper bound)"
         ),
         "material_id_unidentifiable_fraction": float(np.mean(prof_a < 0.5)),
         "material_id_identifiable_n": int(ident.sum()),
         "material_id_accuracy_identifiable": float(right[ident].mean()) if ident.any() else math.nan,
-        "material_id_identifiable_rule": "touches the unknown-nuisance oracle classifies right in >= 95 % of draws",
+        "material_id_identifiable_rule": (
+            "touches the unknown-nuisance oracle classifies right in >= 95 % of draws"
+        ),
         "material_id_bound_by_dT": by_dT,
         "material_id_bound_by_material": per_class,
     }

@@ -1,6 +1,6 @@
-"""Simulated touches of the slave's probe for material identification (issues 15, 23): the probe resting at the
-finger's natural temperature touches a slab under the slave's core, and the seeds of every set of touches that
-calibrates or evaluates the identification (so that a new set can be checked disjoint from them).
+"""Simulated touches of the slave's probe for material identification (issues 15, 23): the probe resting at
+the finger's natural temperature touches a slab under the slave's core, and the seeds of every set of touches
+that calibrates or evaluates the identification (so that a new set can be checked disjoint from them).
 
 Used by the material benchmarks (bench/material_id_bench.py and its neighbours, which re-export these names)
 and by the tests; also the envelope's touches (:func:`envelope_draws`, :func:`other_tem`, :func:`noise_of`).
@@ -42,15 +42,16 @@ PERIOD_S = 0.01
 PRE_S, POST_S = 0.2, 0.6
 AMBIENT_C = 25.0
 
-#: (draw seed, first simulator seed) of the evaluation touches, of the held-out set (never used for anything but
-#: this report) and of the calibration's reference touches (bench/material_calibrate.py)
+#: (draw seed, first simulator seed) of the evaluation touches, of the held-out set (never used for anything
+#: but this report) and of the calibration's reference touches (bench/material_calibrate.py)
 EVALUATION, EVALUATION_N = (15, 1000), 600
 HELDOUT, HELDOUT_N = (2525, 300_000), 600
 CALIBRATION = (1515, 100_000)
 
 
 def refuse_overlap(n: int, seeds: tuple[int, int]) -> None:
-    """ValueError when a calibration's touch seeds meet the evaluation touches (nothing trained on them is reported)."""
+    """ValueError when a calibration's touch seeds meet the evaluation touches (nothing trained on them is
+    reported)."""
     lo, hi = EVALUATION[1], EVALUATION[1] + EVALUATION_N
     if (
         seeds[0] in (EVALUATION[0], HELDOUT[0])
@@ -81,8 +82,8 @@ def draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     return out
 
 
-#: (draw seed, first simulator seed) and size of the envelope's touches, of the development set the abstain rule
-#: was set on (bench/material_id_envelope.py) and of the physics posterior's calibration touches
+#: (draw seed, first simulator seed) and size of the envelope's touches, of the development set the abstain
+#: rule was set on (bench/material_id_envelope.py) and of the physics posterior's calibration touches
 #: (bench/material_physics_calibrate.py)
 ENVELOPE, ENVELOPE_N = (2323, 600_000), 1000
 DEVELOPMENT, DEVELOPMENT_N = (4343, 700_000), 2000
@@ -156,9 +157,9 @@ def simulate_touch(
     slave's default control. The onset is the detector's, not the rig's flag: the core's window starts there
     (telethermo.control.material_stream), so every offline fit and every reference touch is aligned the same
     way. ``noise`` None: the rig's default noise; ``identify`` False: the core without material identification
-    (same current, faster: for reference touches); ``ambient_C``: the room, °C; ``post_s``: simulated after the
-    touch, s; ``core_params``: the slave core's parameters (None: its defaults, e.g. the gains a swapped TEM's
-    identified model gives, telethermo.offline.envelope.identified_params)."""
+    (same current, faster: for reference touches); ``ambient_C``: the room, °C; ``post_s``: simulated after
+    the touch, s; ``core_params``: the slave core's parameters (None: its defaults, e.g. the gains a swapped
+    TEM's identified model gives, telethermo.offline.envelope.identified_params)."""
     grid = GridSettings(t_min_s=PERIOD_S)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, ambient_C, params.h_air_W_m2K, grid)

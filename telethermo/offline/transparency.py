@@ -5,22 +5,23 @@ between (``ref_T_contact_C``, ``ref_Q_into_finger_W``). The operator's skin on t
 ``m_true_surface_C`` (the finger's skin on the pad) and the heat the pad exchanges with it
 ``m_true_Q_into_body_W`` (> 0 heats the finger). Per touch of the probe (t_on = the scene's contact):
 
-============ ============================== ====================================================================
+============ ============================== ==================================================================
 figure       window                         meaning
-============ ============================== ====================================================================
+============ ============================== ==================================================================
 pre_C        [t_on − 0.5 s, t_on)           mean |skin − direct skin|: the finger before the touch
-early_C      [t_on, t_on + 1 s)             mean |skin − direct skin|: yamamoto's early phase, the material cue
+early_C      [t_on, t_on + 1 s)             mean |skin − direct skin|: yamamoto's early phase, the
+                                            material cue
 early01_C    [t_on + 0.1 s, t_on + 1 s)     the same without the first 0.1 s (the earlier figure; secondary)
 late_C       [t_on + 1 s, t_on + 3 s)       mean |skin − direct skin|
 window_C     [t_on − 0.5 s, t_on + 1 s)     mean |skin − direct skin| over the approach and the early phase:
                                             the **headline** averages it over the touches. A display that
                                             ignores the probe cannot game it: it must keep the finger natural
                                             before the touch *and* follow the object after.
-cue_J        [t_on, t_on + 1 s]             heat drawn out of the finger, J (display); direct_cue_J the same in
-                                            direct touch
+cue_J        [t_on, t_on + 1 s]             heat drawn out of the finger, J (display); direct_cue_J the
+                                            same in direct touch
 dskin_C      t_on → t_on + 1 s              skin change (display; direct_dskin_C in direct touch); also at
                                             0.5 s and 3 s (``dskin_at``)
-============ ============================== ====================================================================
+============ ============================== ==================================================================
 
 Windows after the contact are clipped at the release. **Discrimination** is judged on the cue: for every
 pair of materials the direct-touch order of the mean cue must be kept by the display, and the contrast ratio

@@ -1,4 +1,5 @@
-"""Every heartbeat and boot-up on the bus (CiA 301 §7.2.8.3.2.2): which nodes are alive, in which NMT state."""
+"""Every heartbeat and boot-up on the bus (CiA 301 §7.2.8.3.2.2): which nodes are alive,
+in which NMT state."""
 
 from __future__ import annotations
 

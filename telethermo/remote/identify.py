@@ -114,9 +114,10 @@ def write_plan(client: NodeClient, plan: IdentifyPlan) -> None:
 def fetch_lost(
     stream: Stream, client: NodeClient, plan: IdentifyPlan, notice: Callable[[str], None] | None = None
 ) -> int:
-    """Samples lost on the bus (a busy computer's CAN socket overflows; a real bus can drop frames too) fetched
-    again by SDO from the node's record of the experiment (0x280B..0x280E). Returns how many; Failure when so
-    many are lost (over a fifth) that the stream is not worth patching. ``notice`` is told how many it fetches."""
+    """Samples lost on the bus (a busy computer's CAN socket overflows; a real bus can drop frames too)
+    fetched again by SDO from the node's record of the experiment (0x280B..0x280E). Returns how many; Failure
+    when so many are lost (over a fifth) that the stream is not worth patching. ``notice`` is told how many it
+    fetches."""
     lost = np.flatnonzero(~stream.seen)
     if not len(lost):
         return 0
@@ -140,7 +141,8 @@ def fetch_lost(
 
 def load_model(client: NodeClient, tem: TemModel, timeout_s: float = 5.0) -> int:
     """Write ``tem`` into the node's model objects by SDO, load it (0x230D = 1) and check the node's CRC-32 of
-    the model it then runs (0x230F) against the CRC of what was written. Returns the CRC; Failure otherwise."""
+    the model it then runs (0x230F) against the CRC of what was written. Returns the CRC;
+    Failure otherwise."""
     entries = odmodel.model_entries(tem)
     for e in entries:
         client.set((e.index, e.sub), e.value)

@@ -41,7 +41,8 @@ def read_tpdo(client: NodeClient, comm: int, mapping: int) -> TpdoSettings:
 
 def configure_writes(s: TpdoSettings) -> list[tuple[int, int, int]]:
     """The SDO writes (index, sub, value) that give a TPDO the settings ``s``, in order: invalid, mapping
-    emptied, entries, entry count, transmission type, then the COB-ID of ``s`` (valid or not, as ``s`` says)."""
+    emptied, entries, entry count, transmission type, then the COB-ID of ``s`` (valid or not,
+    as ``s`` says)."""
     writes = [(s.comm, 1, s.cob_id | PDO_INVALID), (s.mapping, 0, 0)]
     writes += [(s.mapping, k, e) for k, e in enumerate(s.entries, start=1)]
     writes += [(s.mapping, 0, len(s.entries)), (s.comm, 2, s.transmission_type), (s.comm, 1, s.cob_id)]

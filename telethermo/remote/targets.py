@@ -14,7 +14,8 @@ from telethermo.remote.errors import UserError
 
 @dataclass(frozen=True)
 class Target:
-    """A node as the operator names it (``eds`` None: a node-ID outside the network file, e.g. for ``sdo``)."""
+    """A node as the operator names it (``eds`` None: a node-ID outside the network file,
+    e.g. for ``sdo``)."""
 
     role: str
     node_id: int
@@ -56,7 +57,8 @@ def resolve_node(net: NetworkConfig, text: str) -> Target:
 
 
 def resolve_any_node(net: NetworkConfig, text: str) -> Target:
-    """Like :func:`resolve_node`, and also any node-ID 1..127 outside the network file (no EDS: raw SDO, NMT)."""
+    """Like :func:`resolve_node`, and also any node-ID 1..127 outside the network file (no EDS:
+    raw SDO, NMT)."""
     try:
         return resolve_node(net, text)
     except UserError:

@@ -8,8 +8,8 @@ Supported by name (any other python-can interface works through ``options``):
 - ``socketcand``: python-can's socketcand client (``tcp_tune=True``) against a socketcand server,
   e.g. our loopback hub (``telethermo-hub``) for two processes on a kernel without CAN.
 
-A transport is written either as a table (the ``[bus]`` table of the network settings file; ``host`` and ``port`` may
-also sit at its top level)::
+A transport is written either as a table (the ``[bus]`` table of the network settings file; ``host`` and
+``port`` may also sit at its top level)::
 
     [bus]
     interface = "socketcand"
@@ -215,7 +215,8 @@ RCVBUF_BYTES = 8 * 1024 * 1024
 
 
 def enlarge_receive_buffer(bus: can.BusABC, size: int = RCVBUF_BYTES) -> int:
-    """Give a SocketCAN bus a bigger socket receive buffer; returns the size in force, bytes (0: not a socket).
+    """Give a SocketCAN bus a bigger socket receive buffer; returns the size in force, bytes
+    (0: not a socket).
 
     Each CAN frame costs the socket buffer a whole kernel buffer (~800 bytes), so the default holds ~250
     frames: a reader that is not scheduled for a few milliseconds while a lockstep session or a 1 kHz

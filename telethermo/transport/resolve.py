@@ -59,7 +59,8 @@ def python_can_layers(
     given: Mapping[str, Any], config_path: str | None = None
 ) -> tuple[dict[str, Any], dict[str, str]]:
     """python-can's sources merged key by key, first wins: ``given`` (flags), ``can.rc``, the environment
-    (``_telethermo`` suffix first), the config file (``[telethermo]`` first). Returns (config, key -> source)."""
+    (``_telethermo`` suffix first), the config file (``[telethermo]`` first).
+    Returns (config, key -> source)."""
 
     layers: list[tuple[str, Any]] = [
         (_FLAG, lambda: dict(given)),

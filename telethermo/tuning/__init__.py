@@ -1,4 +1,5 @@
-"""Gain tuning of the bilateral pair: an objective built on offline sessions, a bounded search, a robustness check.
+"""Gain tuning of the bilateral pair: an objective built on offline sessions, a bounded search,
+a robustness check.
 
     from telethermo.tuning import Objective, tuning_scenes, tune, gains_document
     obj = Objective(tuning_scenes("probe_touches_al_steel_wood"))      # nominal + a perturbed variant
@@ -8,14 +9,16 @@
 
 One module per concept:
 
-| module | what |
-|---|---|
-| :mod:`~telethermo.tuning.space` | the searched gains and their bounds (:class:`GainSpec`, :data:`DEFAULT_SPACE`) |
-| :mod:`~telethermo.tuning.scenes` | the tuning scenes: the scene and its perturbed variant (the only ``sim`` user) |
-| :mod:`~telethermo.tuning.objective` | J(gains) from offline sessions (:class:`Objective`, :func:`score_figures`) |
-| :mod:`~telethermo.tuning.search` | the bounded search with stress corners (:func:`search`) |
-| :mod:`~telethermo.tuning.robust` | the ±rel box check and the robust choice (:func:`tune`) |
-| :mod:`~telethermo.tuning.document` | the gains file of a run (:func:`gains_document`) and its full record (:func:`run_record`) |
+- :mod:`~telethermo.tuning.space`: the searched gains and their bounds (:class:`GainSpec`,
+  :data:`DEFAULT_SPACE`)
+- :mod:`~telethermo.tuning.scenes`: the tuning scenes: the scene and its perturbed variant (the only
+  ``sim`` user)
+- :mod:`~telethermo.tuning.objective`: J(gains) from offline sessions (:class:`Objective`,
+  :func:`score_figures`)
+- :mod:`~telethermo.tuning.search`: the bounded search with stress corners (:func:`search`)
+- :mod:`~telethermo.tuning.robust`: the ±rel box check and the robust choice (:func:`tune`)
+- :mod:`~telethermo.tuning.document`: the gains file of a run (:func:`gains_document`) and its full record
+  (:func:`run_record`)
 
 The gains-file format itself (read, validate, write) lives in :mod:`telethermo.control.gainsfile`,
 which the nodes import; it is re-exported here. The tuner sits above the control core and the offline

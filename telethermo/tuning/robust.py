@@ -124,8 +124,8 @@ def tune(
     say = on_stage or (lambda _m: None)
     stress_rel = rel if stress_rel is None else stress_rel
     say(
-        f"search: {method}, budget {budget} points, {len(objective.space)} gains, {len(objective.scenes)} scenes, "
-        f"stress corners ±{stress_rel:.0%}"
+        f"search: {method}, budget {budget} points, {len(objective.space)} gains, "
+        f"{len(objective.scenes)} scenes, stress corners ±{stress_rel:.0%}"
     )
     sr = search(objective, budget=budget, method=method, seed=seed, x0=x0, stress_rel=stress_rel)
     cands = distinct_best(sr.points, objective.space, candidates)
@@ -135,7 +135,8 @@ def tune(
     robs: list[Robustness] = []
     for i, p in enumerate(cands):
         say(
-            f"robustness of candidate {i + 1}/{len(cands)} (J = {p.centre.J:.3f}, searched value {p.value:.3f})"
+            f"robustness of candidate {i + 1}/{len(cands)} "
+            f"(J = {p.centre.J:.3f}, searched value {p.value:.3f})"
         )
         robs.append(robustness(objective, p.gains, rel=rel, corners=corners, seed=seed))
     ref_key = objective.memo_key(ref_g)

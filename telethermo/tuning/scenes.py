@@ -76,8 +76,8 @@ def perturbed_scene(scene: Any) -> Any:
 def envelope_scenes(n: int, seed: int = TUNE_ENVELOPE_SEED) -> list[Any]:
     """``n`` §5.3 scenes drawn across the operating envelope (telethermo.offline.envelope: room, objects'
     temperature, materials and thickness, force, finger, noise) with the shipped TEM on both rigs: the tuner
-    tunes the reference gains on the reference module, and the gain rule (telethermo.control.gain_rule) carries
-    them to another module through its identified model. Seeded apart from the evaluation design."""
+    tunes the reference gains on the reference module, and the gain rule (telethermo.control.gain_rule)
+    carries them to another module through its identified model. Seeded apart from the evaluation design."""
     shipped = {
         f: getattr(Condition(index=0, design="", materials=("oak", "oak", "oak")), f)
         for f in Condition.__dataclass_fields__
