@@ -7,9 +7,9 @@ Touches (:func:`envelope_draws`, seeds :data:`ENVELOPE`, disjoint from the calib
 the held-out set's: :func:`check_seeds`): the ten materials in turn; object 5–50 °C, room 15–32 °C (uniform);
 force 0.5–20 N and thickness 0.3–20 mm (log-uniform, so that the low strata are populated); the rig's sensor
 noise × 1–3; one touch in four with another probe TEM (:func:`other_tem`: 71 couples instead of 31, the
-same pellets), whose slave runs what ``telethermo identify`` on it gives (:func:`after_identify`: the identified
-model's gains, and the classifier's box told it is another module), as issue 23 asks; the probe resting at the
-finger's natural temperature in that room (where the slave's controller leaves it), as
+same pellets), whose slave runs what ``telethermo identify`` on it gives (:func:`after_identify`: the
+identified model's gains, and the classifier's box told it is another module), as issue 23 asks; the probe
+resting at the finger's natural temperature in that room (where the slave's controller leaves it), as
 bench/material_id_bench.py otherwise.
 
 Figures per stratum (:data:`STRATA`; the band within :data:`NEAR_C` °C of the probe is its own stratum and is
@@ -218,9 +218,9 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
 
 
 def after_identify(params) -> Any:
-    """The slave core's parameters on the rig ``params`` after ``telethermo identify`` on its free pad, once, in
-    the default room (telethermo.offline.envelope.identified_params, seed :data:`IDENTIFY_SEED`): the gains of
-    the identified model, and the material classifier's box told that this is another module when it is."""
+    """The slave core's parameters on the rig ``params`` after ``telethermo identify`` on its free pad, once,
+    in the default room (telethermo.offline.envelope.identified_params, seed :data:`IDENTIFY_SEED`): the gains
+    of the identified model, and the material classifier's box told that this is another module when it is."""
     cp, fit = identified_params(Role.SLAVE, params, mb.AMBIENT_C, mb.PERIOD_S, IDENTIFY_SEED)
     if fit.get("identify_refused"):
         raise RuntimeError(f"identify refused the other TEM's model: {fit}")
