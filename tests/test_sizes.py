@@ -52,7 +52,7 @@ def test_the_length_check_sees_a_long_function(tmp_path):
 #: is
 #: 0; ruff's E501 is off until the tree is reflowed): this count may only fall. Lower it when you fix lines.
 MAX_LINE = 110
-LONG_LINES_CEILING = 160
+LONG_LINES_CEILING = 139
 
 
 def long_lines(root: Path = ROOT) -> list[str]:
