@@ -28,9 +28,10 @@ predictor offers them (``telethermo.ident``'s NarmaPredictor does); a predictor 
 single-use (re-using an old state raises). Pass a *model* (not one predictor object) when both sides share
 it: each ``init_state`` then builds its own predictor.
 
-The state and its start are in :mod:`telethermo.control.core_state`, the result types in
-:mod:`telethermo.control.core_result`, stages 2-5 in :mod:`telethermo.control.core_stages`; this module
-runs them in order and is where the core's public names are imported from.
+The state, its start and the prediction (stage 1) are in :mod:`telethermo.control.core_state`, the result
+types in :mod:`telethermo.control.core_result`, stages 2-6 in :mod:`telethermo.control.core_stages` (3c,
+the oscillation guard, here); this module runs them in order and is where the core's public names are
+imported from.
 """
 
 from __future__ import annotations

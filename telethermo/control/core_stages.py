@@ -1,8 +1,9 @@
 """The stages of one control step (:func:`telethermo.control.core.step`, numbered as in its docstring):
 2. the estimates, the credible surface band and contact (:func:`estimates`); 3. what the mode asks for
-(:func:`request`), 3b. the master's graceful link loss (:func:`link`); 4. the bumpless re-seed of the
-envelope's ramp at the render contact switch (:func:`seeded_envelope`); 5. the mode's controller
-(:func:`control`). Each is a pure function of (sample, peer, params, state) and the earlier stages.
+(:func:`request`), 3b. the master's graceful link loss (:func:`link`); 4. the envelope on the setpoint
+(:func:`envelope`), with the bumpless re-seed of its ramp at the render contact switch
+(:func:`seeded_envelope`); 5. the mode's controller (:func:`control`); 6. the envelope on the current
+(:func:`limit`). Each is a pure function of (sample, peer, params, state) and the earlier stages.
 """
 
 from __future__ import annotations
