@@ -5,6 +5,7 @@ Exit codes: 0 ok (including a stop by SIGINT/SIGTERM), 1 runtime failure, 2 bad 
 A SYNC producer prints ``progress K N`` lines on stdout when asked (``--progress``); the summary of
 the run is logged at exit.
 """
+
 from __future__ import annotations
 
 import logging
@@ -63,10 +64,11 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 
     try:
         net = load_network(opts.network)
-        transport = resolve_bus(net, bus=opts.bus, interface=opts.interface, channel=opts.channel,
-                                bitrate=opts.bitrate).settings
+        transport = resolve_bus(
+            net, bus=opts.bus, interface=opts.interface, channel=opts.channel, bitrate=opts.bitrate
+        ).settings
         node_id = opts.node_id or net.node(role).node_id
-        EdsInfo(net.node(role).eds)   # a damaged EDS is a bad file (exit 2, its line), not a failed start
+        EdsInfo(net.node(role).eds)  # a damaged EDS is a bad file (exit 2, its line), not a failed start
         parts = build_parts(opts, period_s=net.sync.period_s, node_id=node_id, transport=transport)
     except (OptionError, NetworkConfigError, TransportError, EdsError) as exc:
         print(f"{prog}: error: {exc}", file=sys.stderr)
@@ -76,14 +78,31 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
     if opts.record is not None:
         try:
             recorder, final_comments = _recorder(role, opts, parts, node_id, transport.describe())
-        except OSError as exc:   # RecorderError: the journal is held by a running node; no space; ...
+        except OSError as exc:  # RecorderError: the journal is held by a running node; no space; ...
             print(f"{prog}: error: --record {opts.record}: {exc}", file=sys.stderr)
             return EXIT_USAGE
 
     lockstep = opts.timing == "lockstep"
-    rt = NodeRuntime(role, node_id, net, transport, parts, mode=opts.mode, lockstep=lockstep,
-                     produce_sync=opts.produce_sync, recorder=recorder, store_path=opts.store)
+    rt = NodeRuntime(
+        role,
+        node_id,
+        net,
+        transport,
+        parts,
+        mode=opts.mode,
+        lockstep=lockstep,
+        produce_sync=opts.produce_sync,
+        recorder=recorder,
+        store_path=opts.store,
+    )
     rt.final_comments = final_comments
+    return _serve(prog, rt, opts, parts, log)
+
+
+def _serve(prog: str, rt: NodeRuntime, opts, parts, log: logging.Logger) -> int:
+    """Start the node, run it until it is done or signalled (SIGINT/SIGTERM), then stop it and close its
+    rig; the exit code (a failed start or a cycle error: 1)."""
+    role, node_id, transport = rt.role, rt.node_id, rt.transport
     reason = ["finished"]
 
     def on_signal(signum, _frame):
@@ -97,11 +116,15 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         try:
             rt.start()
         except Exception as exc:  # the bus cannot be opened, the hub is not there, ...
-            print(f"{prog}: error: cannot start node {node_id} on {transport.describe()}: {exc}", file=sys.stderr)
+            print(
+                f"{prog}: error: cannot start node {node_id} on {transport.describe()}: {exc}",
+                file=sys.stderr,
+            )
             code = EXIT_FAIL
             return code
         print(_ready_line(role, node_id, transport.describe(), opts), file=sys.stderr, flush=True)
-        for note in apply_realtime(opts.realtime):   # after start-up: what is frozen/locked is the running node
+        # after start-up: what is frozen/locked is the running node
+        for note in apply_realtime(opts.realtime):
             (log.warning if note.startswith("WARNING") else log.info)(note.removeprefix("WARNING "))
         if opts.produce_sync:
             _produce(rt, opts, parts, log)
@@ -122,8 +145,15 @@ def _recorder(role: Role, opts, parts, node_id: int, transport: str) -> tuple[Cs
     """The node's recording (its side's columns and the SYNC cycle), streamed through the journal, and the
     source of its final comment lines (render scenes: the meta is final at the end), or None."""
     columns = node_columns("m" if role is Role.MASTER else "s")
-    meta = dict(parts.meta, period_s=parts.period_s, mode=opts.mode.name.lower(), rounding="real32",
-                node_id=node_id, timing=opts.timing, transport=transport)
+    meta = dict(
+        parts.meta,
+        period_s=parts.period_s,
+        mode=opts.mode.name.lower(),
+        rounding="real32",
+        node_id=node_id,
+        timing=opts.timing,
+        transport=transport,
+    )
     recorder = CsvRecorder(opts.record, columns, comments=header_comments(meta, allow_nan=True))
     if parts.render_script is None:
         return recorder, None
@@ -165,18 +195,27 @@ def _ready_line(role: Role, node_id: int, bus: str, opts) -> str:
 def summary_table(r: RunResult) -> str:
     """The producer's :func:`run_result` as a terminal shows it: a few lines, not 1 kB of JSON
     (that is ``--json``)."""
+
     def ms(v: float | None) -> str:
         return "-" if v is None else f"{v:.2f} ms"
 
     rate, rt = r.cycles_per_s, r.realtime
-    rows = [("cycles", f"{r.cycles} in {r.wall_s:.1f} s ({'-' if rate is None else f'{rate:,.0f}'}/s, "
-                       f"{r.timing}, period {r.period_s * 1e3:g} ms)"),
-            ("late cycles", f"{r.late_cycles}" + (
-                f" (worst {ms(rt.lateness_ms_max)}, {rt.overruns} overruns)" if rt is not None else "")),
-            ("lockstep timeouts", str(r.lockstep_timeouts)),
-            ("SYNC -> TPDO", f"p50 {ms(r.sync_to_tpdo_ms_p50)}, p99 {ms(r.sync_to_tpdo_ms_p99)}"),
-            ("cycle time", f"p50 {ms(r.cycle_ms_p50)}, p99 {ms(r.cycle_ms_p99)}"),
-            ("EMCY raised", str(r.emcy_raised))]
+    rows = [
+        (
+            "cycles",
+            f"{r.cycles} in {r.wall_s:.1f} s ({'-' if rate is None else f'{rate:,.0f}'}/s, "
+            f"{r.timing}, period {r.period_s * 1e3:g} ms)",
+        ),
+        (
+            "late cycles",
+            f"{r.late_cycles}"
+            + (f" (worst {ms(rt.lateness_ms_max)}, {rt.overruns} overruns)" if rt is not None else ""),
+        ),
+        ("lockstep timeouts", str(r.lockstep_timeouts)),
+        ("SYNC -> TPDO", f"p50 {ms(r.sync_to_tpdo_ms_p50)}, p99 {ms(r.sync_to_tpdo_ms_p99)}"),
+        ("cycle time", f"p50 {ms(r.cycle_ms_p50)}, p99 {ms(r.cycle_ms_p99)}"),
+        ("EMCY raised", str(r.emcy_raised)),
+    ]
     return "\n".join(f"  {k:<18} {v}" for k, v in rows) + "\n  (--json: all figures as one JSON line)"
 
 
@@ -194,19 +233,37 @@ def _recover(prog: str, record) -> int:
 def run_result(rt, cycles: int, wall_s: float) -> RunResult:
     """The SYNC producer's summary of ``cycles`` run in ``wall_s`` seconds (``--json``: one ``result {json}``
     line on stdout)."""
+
     def pct(xs, q):
         return float(np.percentile(np.asarray(xs) * 1e3, q)) if xs else None
 
     s, tk = rt.stats, rt.ticker
-    realtime = None if tk is None else RealtimeFigures(
-        lateness_ms_p50=pct(tk.stats.lateness_s, 50), lateness_ms_p99=pct(tk.stats.lateness_s, 99),
-        lateness_ms_max=tk.stats.max_lateness_s * 1e3, overruns=tk.stats.overruns,
-        late_tolerance_ms=tk.tolerance_s * 1e3)
+    realtime = (
+        None
+        if tk is None
+        else RealtimeFigures(
+            lateness_ms_p50=pct(tk.stats.lateness_s, 50),
+            lateness_ms_p99=pct(tk.stats.lateness_s, 99),
+            lateness_ms_max=tk.stats.max_lateness_s * 1e3,
+            overruns=tk.stats.overruns,
+            late_tolerance_ms=tk.tolerance_s * 1e3,
+        )
+    )
     return RunResult(
-        cycles=cycles, wall_s=wall_s, cycles_per_s=cycles / wall_s if wall_s > 0 else None,
-        timing="lockstep" if rt.lockstep else "realtime", period_s=rt.parts.period_s,
-        late_cycles=s.late_cycles, lockstep_timeouts=s.lockstep_timeouts,
-        sync_to_tpdo_ms_p50=pct(s.latencies_s, 50), sync_to_tpdo_ms_p99=pct(s.latencies_s, 99),
-        sync_to_tpdo_n=len(s.latencies_s), cycle_ms_p50=pct(s.cycle_s, 50), cycle_ms_p99=pct(s.cycle_s, 99),
-        emcy_raised=s.emcy_raised, peer=rt.peer.counters.__dict__,
-        bus=dict(rt.bus.stats.__dict__) if rt.bus is not None else None, realtime=realtime)
+        cycles=cycles,
+        wall_s=wall_s,
+        cycles_per_s=cycles / wall_s if wall_s > 0 else None,
+        timing="lockstep" if rt.lockstep else "realtime",
+        period_s=rt.parts.period_s,
+        late_cycles=s.late_cycles,
+        lockstep_timeouts=s.lockstep_timeouts,
+        sync_to_tpdo_ms_p50=pct(s.latencies_s, 50),
+        sync_to_tpdo_ms_p99=pct(s.latencies_s, 99),
+        sync_to_tpdo_n=len(s.latencies_s),
+        cycle_ms_p50=pct(s.cycle_s, 50),
+        cycle_ms_p99=pct(s.cycle_s, 99),
+        emcy_raised=s.emcy_raised,
+        peer=rt.peer.counters.__dict__,
+        bus=dict(rt.bus.stats.__dict__) if rt.bus is not None else None,
+        realtime=realtime,
+    )

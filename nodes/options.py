@@ -3,6 +3,7 @@
 Both programs take the same options; only the defaults differ (node-ID, SYNC production, mode).
 Values not given on the command line come from the network settings file (bus_config/network.toml).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -17,7 +18,12 @@ from telethermo.sim.errors import SceneError
 from telethermo.sim.scene import scene_path
 from telethermo.transport.busargs import add_bus_arguments
 
-MODE_NAMES = {"idle": Mode.IDLE, "telepresence": Mode.TELEPRESENCE, "render": Mode.RENDER, "identify": Mode.IDENTIFY}
+MODE_NAMES = {
+    "idle": Mode.IDLE,
+    "telepresence": Mode.TELEPRESENCE,
+    "render": Mode.RENDER,
+    "identify": Mode.IDENTIFY,
+}
 
 
 class OptionError(ValueError):
@@ -87,68 +93,154 @@ class NodeOptions:
 
 def build_parser(role: Role) -> argparse.ArgumentParser:
     other = "slave" if role is Role.MASTER else "master"
-    what = ("thermal display under the operator's finger; produces SYNC by default"
-            if role is Role.MASTER else "robotic thermal probe; follows the master's SYNC by default")
+    what = (
+        "thermal display under the operator's finger; produces SYNC by default"
+        if role is Role.MASTER
+        else "robotic thermal probe; follows the master's SYNC by default"
+    )
     p = argparse.ArgumentParser(
         prog=f"telethermo-{role}",
         description=f"The telethermo {role} CANopen node ({what}). On each SYNC: read the rig, run the "
-                    f"control core, apply the current, send TPDO1 (estimate, heat flux) to the {other}. "
-                    "SIGINT/SIGTERM stop it cleanly (current to zero, last heartbeat, recording flushed).",
-        epilog="exit codes: 0 ok (also a stop by SIGINT/SIGTERM, Ctrl-C), 1 runtime failure, 2 bad option or file")
+        f"control core, apply the current, send TPDO1 (estimate, heat flux) to the {other}. "
+        "SIGINT/SIGTERM stop it cleanly (current to zero, last heartbeat, recording flushed).",
+        epilog="exit codes: 0 ok (also a stop by SIGINT/SIGTERM, Ctrl-C), 1 runtime failure, "
+        "2 bad option or file",
+    )
     p.add_argument("--node-id", type=int, help="CANopen node-ID 1..127 (default: from the network settings)")
-    p.add_argument("--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)")
+    p.add_argument(
+        "--network", type=Path, help="network settings file (default: packaged bus_config/network.toml)"
+    )
     add_bus_arguments(p)
-    rig = p.add_mutually_exclusive_group()   # one of them is required, except with --recover
-    rig.add_argument("--scene", type=Path, help="scene file (TOML) or the name of a shipped scene: simulated rig")
-    rig.add_argument("--rig", metavar="MODULE:FACTORY",
-                     help="hardware rig: FACTORY(**settings) returns a telethermo.rig.Rig; io: CANopen I/O "
-                          "modules described by --rig-config RIG.toml (docs/hardware.md)")
-    p.add_argument("--rig-config", type=Path, metavar="FILE.toml",
-                   help="settings of the --rig driver: the TOML file's top-level keys are FACTORY's keyword arguments")
-    p.add_argument("--rig-arg", action="append", default=[], metavar="KEY=VALUE",
-                   help="one setting of the --rig driver (repeatable; over --rig-config's): VALUE is read as a TOML "
-                        "value (2.5, true, \"text\") or else taken as text, e.g. --rig-arg port=/dev/ttyUSB0")
-    p.add_argument("--model", type=Path, help="identified model file (default: none; the flux estimator, the default, "
-                                              "needs none; `telethermo identify` or a model file loads one)")
-    p.add_argument("--gains", type=Path, help="tuned gains file written by `telethermo tune --out` "
-                                              "(telepresence gains of this node's role; default: the shipped ones)")
-    p.add_argument("--mode", choices=list(MODE_NAMES), default=None,
-                   help="initial mode (default: telepresence); object 0x2500 changes it by SDO")
-    p.add_argument("--record", type=Path, help="write this node's signals to this CSV file (journaled in "
-                                               "FILE.journal, synced every 0.5 s, while the node runs)")
-    p.add_argument("--recover", action="store_true",
-                   help="with --record FILE: turn FILE.journal, left by a node that was killed, into FILE "
-                        "(every complete row) and exit; the next start with --record FILE does it by itself, "
-                        "into FILE's stem + .killed-<UTC time>")
-    p.add_argument("--timing", choices=["lockstep", "realtime"],
-                   help="lockstep (default with --scene) or realtime (default with --rig)")
-    sync = p.add_mutually_exclusive_group()
-    sync.add_argument("--sync", dest="produce_sync", action="store_true", default=None,
-                      help="produce SYNC (default for the master)")
-    sync.add_argument("--no-sync", dest="produce_sync", action="store_false", help="do not produce SYNC")
-    p.add_argument("--cycles", type=int, help="SYNC producer: stop after N cycles (default: the scene's "
-                                              "duration; 0 = until SIGINT/SIGTERM)")
-    p.add_argument("--seed", type=int, help="noise seed of the simulated rig")
-    p.add_argument("--wait-peer", type=float, default=30.0, metavar="S",
-                   help="SYNC producer: wait up to S s for the peer's boot-up before starting (default 30)")
-    p.add_argument("--progress", type=int, default=0, metavar="K", help="print 'progress k n' every K cycles")
-    p.add_argument("--json", action="store_true",
-                   help="SYNC producer: end with one 'result {json}' line on stdout (for programs: the "
-                        "launcher of telethermo session reads it) instead of the summary table")
-    rt = p.add_argument_group("real time (lab PC; each knob is applied as far as the system permits, else a warning)")
-    rt.add_argument("--cpu", metavar="N[,M]", help="pin the node to these CPUs (e.g. 1, or 2,3)")
-    rt.add_argument("--rt-priority", type=int, metavar="P", help="SCHED_FIFO priority 1..99 (needs CAP_SYS_NICE)")
-    rt.add_argument("--nice", type=int, metavar="N", help="nice value -20..19 (negative needs CAP_SYS_NICE)")
-    rt.add_argument("--mlock", action="store_true", help="lock the node's memory (no page faults in a cycle)")
-    rt.add_argument("--gc", choices=["default", "freeze"], default="default",
-                    help="freeze: move start-up objects out of the garbage collector, rarer generation-0 runs")
-    p.add_argument("--store", type=Path, metavar="FILE.json",
-                   help="the node's parameter store (CiA 301 0x1010 save / 0x1011 restore defaults; "
-                        "`telethermo save NODE`): read at boot, written on save (default: "
-                        "$XDG_STATE_HOME/telethermo/node<ID>.json, ~/.local/state/... when unset)")
+    _add_rig_arguments(p)
+    _add_run_arguments(p)
+    _add_realtime_arguments(p)
+    p.add_argument(
+        "--store",
+        type=Path,
+        metavar="FILE.json",
+        help="the node's parameter store (CiA 301 0x1010 save / 0x1011 restore defaults; "
+        "`telethermo save NODE`): read at boot, written on save (default: "
+        "$XDG_STATE_HOME/telethermo/node<ID>.json, ~/.local/state/... when unset)",
+    )
     p.add_argument("--log", type=Path, help="also write the log to this file")
     p.add_argument("-v", "--verbose", action="store_true", help="log at INFO level")
     return p
+
+
+def _add_rig_arguments(p: argparse.ArgumentParser) -> None:
+    """What the node drives and with what: the simulated or hardware rig, its settings, model and gains."""
+    rig = p.add_mutually_exclusive_group()  # one of them is required, except with --recover
+    rig.add_argument(
+        "--scene", type=Path, help="scene file (TOML) or the name of a shipped scene: simulated rig"
+    )
+    rig.add_argument(
+        "--rig",
+        metavar="MODULE:FACTORY",
+        help="hardware rig: FACTORY(**settings) returns a telethermo.rig.Rig; io: CANopen I/O "
+        "modules described by --rig-config RIG.toml (docs/hardware.md)",
+    )
+    p.add_argument(
+        "--rig-config",
+        type=Path,
+        metavar="FILE.toml",
+        help="settings of the --rig driver: the TOML file's top-level keys are FACTORY's keyword arguments",
+    )
+    p.add_argument(
+        "--rig-arg",
+        action="append",
+        default=[],
+        metavar="KEY=VALUE",
+        help="one setting of the --rig driver (repeatable; over --rig-config's): VALUE is read as a TOML "
+        'value (2.5, true, "text") or else taken as text, e.g. --rig-arg port=/dev/ttyUSB0',
+    )
+    p.add_argument(
+        "--model",
+        type=Path,
+        help="identified model file (default: none; the flux estimator, the default, "
+        "needs none; `telethermo identify` or a model file loads one)",
+    )
+    p.add_argument(
+        "--gains",
+        type=Path,
+        help="tuned gains file written by `telethermo tune --out` "
+        "(telepresence gains of this node's role; default: the shipped ones)",
+    )
+
+
+def _add_run_arguments(p: argparse.ArgumentParser) -> None:
+    """How the node runs: its mode, recording, timing, SYNC production, length and output."""
+    p.add_argument(
+        "--mode",
+        choices=list(MODE_NAMES),
+        default=None,
+        help="initial mode (default: telepresence); object 0x2500 changes it by SDO",
+    )
+    p.add_argument(
+        "--record",
+        type=Path,
+        help="write this node's signals to this CSV file (journaled in "
+        "FILE.journal, synced every 0.5 s, while the node runs)",
+    )
+    p.add_argument(
+        "--recover",
+        action="store_true",
+        help="with --record FILE: turn FILE.journal, left by a node that was killed, into FILE "
+        "(every complete row) and exit; the next start with --record FILE does it by itself, "
+        "into FILE's stem + .killed-<UTC time>",
+    )
+    p.add_argument(
+        "--timing",
+        choices=["lockstep", "realtime"],
+        help="lockstep (default with --scene) or realtime (default with --rig)",
+    )
+    sync = p.add_mutually_exclusive_group()
+    sync.add_argument(
+        "--sync",
+        dest="produce_sync",
+        action="store_true",
+        default=None,
+        help="produce SYNC (default for the master)",
+    )
+    sync.add_argument("--no-sync", dest="produce_sync", action="store_false", help="do not produce SYNC")
+    p.add_argument(
+        "--cycles",
+        type=int,
+        help="SYNC producer: stop after N cycles (default: the scene's duration; 0 = until SIGINT/SIGTERM)",
+    )
+    p.add_argument("--seed", type=int, help="noise seed of the simulated rig")
+    p.add_argument(
+        "--wait-peer",
+        type=float,
+        default=30.0,
+        metavar="S",
+        help="SYNC producer: wait up to S s for the peer's boot-up before starting (default 30)",
+    )
+    p.add_argument("--progress", type=int, default=0, metavar="K", help="print 'progress k n' every K cycles")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="SYNC producer: end with one 'result {json}' line on stdout (for programs: the "
+        "launcher of telethermo session reads it) instead of the summary table",
+    )
+
+
+def _add_realtime_arguments(p: argparse.ArgumentParser) -> None:
+    """The real-time knobs of a lab PC (telethermo.nodes.realtime)."""
+    rt = p.add_argument_group(
+        "real time (lab PC; each knob is applied as far as the system permits, else a warning)"
+    )
+    rt.add_argument("--cpu", metavar="N[,M]", help="pin the node to these CPUs (e.g. 1, or 2,3)")
+    rt.add_argument(
+        "--rt-priority", type=int, metavar="P", help="SCHED_FIFO priority 1..99 (needs CAP_SYS_NICE)"
+    )
+    rt.add_argument("--nice", type=int, metavar="N", help="nice value -20..19 (negative needs CAP_SYS_NICE)")
+    rt.add_argument("--mlock", action="store_true", help="lock the node's memory (no page faults in a cycle)")
+    rt.add_argument(
+        "--gc",
+        choices=["default", "freeze"],
+        default="default",
+        help="freeze: move start-up objects out of the garbage collector, rarer generation-0 runs",
+    )
 
 
 def _scene_file(arg: Path | None) -> Path | None:
@@ -173,12 +265,18 @@ def _realtime_options(args: argparse.Namespace) -> RealtimeOptions:
         raise OptionError(f"--rt-priority {args.rt_priority}: expected 1..99")
     if args.nice is not None and not -20 <= args.nice <= 19:
         raise OptionError(f"--nice {args.nice}: expected -20..19")
-    return RealtimeOptions(cpus=cpus, rt_priority=args.rt_priority, nice=args.nice, mlock=args.mlock,
-                           gc_freeze=args.gc == "freeze")
+    return RealtimeOptions(
+        cpus=cpus,
+        rt_priority=args.rt_priority,
+        nice=args.nice,
+        mlock=args.mlock,
+        gc_freeze=args.gc == "freeze",
+    )
 
 
 def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
     """Validate the parsed arguments (files exist, ranges) into :class:`NodeOptions`."""
+
     def existing(path: Path | None, what: str) -> Path | None:
         if path is not None and not path.is_file():
             raise OptionError(f"{what} {str(path)!r}: no such file")
@@ -205,8 +303,10 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
     produce_sync = args.produce_sync if args.produce_sync is not None else role is Role.MASTER
     timing = args.timing or ("lockstep" if args.scene is not None else "realtime")
     if timing == "lockstep" and args.scene is None and args.rig != "io":
-        raise OptionError("--timing lockstep needs a simulated rig (--scene) or simulated I/O modules "
-                          "(--rig io): hardware runs in real time")
+        raise OptionError(
+            "--timing lockstep needs a simulated rig (--scene) or simulated I/O modules "
+            "(--rig io): hardware runs in real time"
+        )
     mode = MODE_NAMES[args.mode] if args.mode else (Mode.TELEPRESENCE)
     if mode is Mode.RENDER and role is Role.SLAVE:
         raise OptionError("--mode render: virtual rendering runs on the master alone")
@@ -215,23 +315,44 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
     if args.store is not None and args.store.is_dir():
         raise OptionError(f"--store {str(args.store)!r}: is a directory, expected a file path (FILE.json)")
     return NodeOptions(
-        role=role, node_id=args.node_id, network=existing(args.network, "--network"), bus=args.bus,
-        interface=args.interface, channel=args.channel, bitrate=args.bitrate,
-        scene=_scene_file(args.scene), rig=args.rig,
-        rig_config=existing(args.rig_config, "--rig-config"), rig_args=tuple(rig_arg(a) for a in args.rig_arg),
-        realtime=_realtime_options(args), model=existing(args.model, "--model"),
-        gains=existing(args.gains, "--gains"), mode=mode,
-        record=args.record, timing=timing, produce_sync=produce_sync, cycles=args.cycles, seed=args.seed,
-        wait_peer_s=args.wait_peer, progress_every=max(0, args.progress), json=args.json,
-        log=args.log, verbose=args.verbose, store=args.store)
+        role=role,
+        node_id=args.node_id,
+        network=existing(args.network, "--network"),
+        bus=args.bus,
+        interface=args.interface,
+        channel=args.channel,
+        bitrate=args.bitrate,
+        scene=_scene_file(args.scene),
+        rig=args.rig,
+        rig_config=existing(args.rig_config, "--rig-config"),
+        rig_args=tuple(rig_arg(a) for a in args.rig_arg),
+        realtime=_realtime_options(args),
+        model=existing(args.model, "--model"),
+        gains=existing(args.gains, "--gains"),
+        mode=mode,
+        record=args.record,
+        timing=timing,
+        produce_sync=produce_sync,
+        cycles=args.cycles,
+        seed=args.seed,
+        wait_peer_s=args.wait_peer,
+        progress_every=max(0, args.progress),
+        json=args.json,
+        log=args.log,
+        verbose=args.verbose,
+        store=args.store,
+    )
 
 
 def rig_arg(text: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` of ``--rig-arg``: VALUE as a TOML value when it is one (2.5, true, "x", [1, 2]), else text."""
+    """``KEY=VALUE`` of ``--rig-arg``: VALUE as a TOML value when it is one (2.5, true, "x", [1, 2]),
+    else text."""
     key, sep, value = text.partition("=")
     key = key.strip()
     if not sep or not key.isidentifier():
-        raise OptionError(f"--rig-arg {text!r}: expected KEY=VALUE with KEY a Python identifier (e.g. port=/dev/ttyUSB0)")
+        raise OptionError(
+            f"--rig-arg {text!r}: expected KEY=VALUE with KEY a Python identifier (e.g. port=/dev/ttyUSB0)"
+        )
     try:
         return key, tomllib.loads(f"v = {value}")["v"]
     except tomllib.TOMLDecodeError:

@@ -39,106 +39,85 @@ error register 0x1001 (:data:`ERROR_REGISTER_BITS`). Trips latch: they stay acti
 status lists ``new_trips`` (raised in this very step: send one EMCY each) and ``cleared_trips``
 (send the "error reset" EMCY 0x0000 when ``trips`` becomes empty).
 """
+
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from enum import IntEnum
 
+from telethermo.control.current_guard import FLUX_GUARD_START, FLUX_GUARD_STOP, limit_current, slewing
 from telethermo.control.detach import detach_excess, detach_timer, sensor_average
-from telethermo.control.safety_limits import (DEFAULT_T_MAX_C, DEFAULT_T_MIN_C, DEFAULT_TRIP_LEAD_C,  # noqa: F401
-                                              DEFAULT_TRIP_SLEW_A_PER_S, PROBE_T_MAX_C, PROBE_T_MIN_C, PROTECTS,
-                                              LIMIT_NAMES, SafetyLimits, limits_from_mask, limits_mask,
-                                              probe_limits)
-from telethermo.control.trips import (CUT_TRIPS, EMCY_CODES, ERROR_REGISTER_BITS, PEER_TRIPS, ErrorRegisterBit, Trip,  # noqa: F401
-                                      error_register, trips_from_mask, trips_mask)
+from telethermo.control.envelope_state import EnvelopeState, EnvelopeStatus, SafetyState, summarize
+from telethermo.control.safety_limits import (
+    DEFAULT_T_MAX_C,
+    DEFAULT_T_MIN_C,
+    DEFAULT_TRIP_LEAD_C,
+    DEFAULT_TRIP_SLEW_A_PER_S,
+    PROBE_T_MAX_C,
+    PROBE_T_MIN_C,
+    PROTECTS,
+    LIMIT_NAMES,
+    SafetyLimits,
+    limits_from_mask,
+    limits_mask,
+    probe_limits,
+)
+from telethermo.control.trips import (
+    CUT_TRIPS,
+    EMCY_CODES,
+    ERROR_REGISTER_BITS,
+    PEER_TRIPS,
+    ErrorRegisterBit,
+    Trip,
+    error_register,
+    trips_from_mask,
+    trips_mask,
+)
 
-class SafetyState(IntEnum):
-    """Summary of the envelope's state (the integer is what a node puts in its status object)."""
 
-    OK = 0               # nothing limits the controller
-    LIMITING = 1         # a clamp, ramp, guard or the current limit is active this step
-    RAMP_TO_NEUTRAL = 2  # peer lost/invalid: setpoint ramping to neutral_C
-    CUT = 3              # current cut (latched trip or neutral reached after peer loss)
-
-
-
-
-# The public names, with those re-exported from trips and safety_limits (the envelope's one import point).
+# The public names, with those re-exported from trips, safety_limits, envelope_state and current_guard (the
+# envelope's one import point).
 __all__ = [
     # trips
-    "CUT_TRIPS", "EMCY_CODES", "ERROR_REGISTER_BITS", "PEER_TRIPS", "ErrorRegisterBit", "Trip",
-    "error_register", "trips_from_mask", "trips_mask",
+    "CUT_TRIPS",
+    "EMCY_CODES",
+    "ERROR_REGISTER_BITS",
+    "PEER_TRIPS",
+    "ErrorRegisterBit",
+    "Trip",
+    "error_register",
+    "trips_from_mask",
+    "trips_mask",
     # safety_limits
-    "DEFAULT_T_MAX_C", "DEFAULT_T_MIN_C", "DEFAULT_TRIP_LEAD_C", "DEFAULT_TRIP_SLEW_A_PER_S", "PROBE_T_MAX_C",
-    "PROBE_T_MIN_C", "PROTECTS", "SafetyLimits", "probe_limits", "LIMIT_NAMES", "limits_from_mask",
+    "DEFAULT_T_MAX_C",
+    "DEFAULT_T_MIN_C",
+    "DEFAULT_TRIP_LEAD_C",
+    "DEFAULT_TRIP_SLEW_A_PER_S",
+    "PROBE_T_MAX_C",
+    "PROBE_T_MIN_C",
+    "PROTECTS",
+    "SafetyLimits",
+    "probe_limits",
+    "LIMIT_NAMES",
+    "limits_from_mask",
     "limits_mask",
+    # envelope_state
+    "SafetyState",
+    "EnvelopeState",
+    "EnvelopeStatus",
+    "summarize",
+    # current_guard
+    "FLUX_GUARD_START",
+    "FLUX_GUARD_STOP",
+    "slewing",
+    "limit_current",
     # this module
-    "SafetyState", "EnvelopeState", "EnvelopeStatus", "check_sample", "peer_valid", "EnvelopeInput",
-    "envelope_step", "slewing", "limit_current", "clear_trips", "summarize",
+    "check_sample",
+    "peer_valid",
+    "EnvelopeInput",
+    "envelope_step",
+    "clear_trips",
 ]
-
-
-# ---------------------------------------------------------------------------------------------
-# state and status
-
-
-@dataclass(frozen=True, slots=True)
-class EnvelopeState:
-    """What the envelope remembers between steps.
-
-    Attributes:
-        setpoint_C: the ramped setpoint of the previous step, °C (None before the first step).
-        trips: latched trips.
-        hot_time_s: continuous time the surface has spent above hot_C, s.
-        mismatch_time_s: continuous time the model-vs-sensor mismatch has been exceeded, s.
-        detach_time_s: the detached-sensor check's leaky timer, s (:mod:`telethermo.control.detach`);
-        sensor_avg_C: the sensor's running average for it, °C (NaN before the first reading).
-        neutral_time_s: time since the peer trip started the ramp to neutral, s.
-        cut: current cut (latched with the trips that caused it).
-        link_fallback: the master's link-loss fallback rendered in this step (``EnvelopeInput.link_fallback``),
-            for :func:`slewing`.
-    """
-
-    setpoint_C: float | None = None
-    trips: frozenset[Trip] = frozenset()
-    hot_time_s: float = 0.0
-    mismatch_time_s: float = 0.0
-    neutral_time_s: float = 0.0
-    cut: bool = False
-    detach_time_s: float = 0.0
-    sensor_avg_C: float = math.nan
-    link_fallback: bool = False
-
-
-@dataclass(frozen=True, slots=True)
-class EnvelopeStatus:
-    """What the envelope did this step (for the node's EMCY/status objects and the recordings).
-
-    Attributes:
-        state: summary (:class:`SafetyState`).
-        trips: active (latched) trips, sorted by name.
-        new_trips: trips raised in this step (send one EMCY each, code ``EMCY_CODES[t]``).
-        error_register: value for object 0x1001.
-        limits_active: names of the limits that acted this step (subset of "setpoint_clamp",
-            "ramp", "hot_cap", "guard", "current_limit", "neutral_ramp", "cut").
-    """
-
-    state: SafetyState
-    trips: tuple[Trip, ...]
-    new_trips: tuple[Trip, ...]
-    error_register: int
-    limits_active: tuple[str, ...]
-
-    @property
-    def emcy_codes(self) -> tuple[int, ...]:
-        """CiA 301 error codes of the active trips."""
-        return tuple(EMCY_CODES[t] for t in self.trips)
-
-    @property
-    def new_emcy_codes(self) -> tuple[int, ...]:
-        """CiA 301 error codes to send now (one EMCY per trip raised in this step)."""
-        return tuple(EMCY_CODES[t] for t in self.new_trips)
 
 
 def _finite(*xs: float) -> bool:
@@ -149,8 +128,9 @@ def _finite(*xs: float) -> bool:
     return True
 
 
-def check_sample(limits: SafetyLimits, T_sensor_C: float, Q_W: float, T_sink_C: float,
-                 current_A: float) -> set[Trip]:
+def check_sample(
+    limits: SafetyLimits, T_sensor_C: float, Q_W: float, T_sink_C: float, current_A: float
+) -> set[Trip]:
     """Plausibility trips of one rig sample (pure)."""
     trips: set[Trip] = set()
     if not _finite(T_sensor_C, Q_W, T_sink_C, current_A):
@@ -158,8 +138,10 @@ def check_sample(limits: SafetyLimits, T_sensor_C: float, Q_W: float, T_sink_C: 
         return trips
     if abs(T_sensor_C) >= limits.open_tc_C or abs(T_sink_C) >= limits.open_tc_C:
         trips.add(Trip.OPEN_THERMOCOUPLE)
-    elif not (limits.sensor_min_C <= T_sensor_C <= limits.sensor_max_C
-              and limits.sensor_min_C <= T_sink_C <= limits.sensor_max_C):
+    elif not (
+        limits.sensor_min_C <= T_sensor_C <= limits.sensor_max_C
+        and limits.sensor_min_C <= T_sink_C <= limits.sensor_max_C
+    ):
         trips.add(Trip.SENSOR_RANGE)
     if abs(Q_W) > limits.Q_abs_max_W:
         trips.add(Trip.SENSOR_RANGE)
@@ -172,8 +154,11 @@ def check_sample(limits: SafetyLimits, T_sensor_C: float, Q_W: float, T_sink_C: 
 
 def peer_valid(limits: SafetyLimits, estimate_C: float, flux_W: float) -> bool:
     """True if the peer's values are finite and plausible."""
-    return (_finite(estimate_C, flux_W) and limits.peer_T_min_C <= estimate_C <= limits.peer_T_max_C
-            and abs(flux_W) <= limits.peer_Q_abs_max_W)
+    return (
+        _finite(estimate_C, flux_W)
+        and limits.peer_T_min_C <= estimate_C <= limits.peer_T_max_C
+        and abs(flux_W) <= limits.peer_Q_abs_max_W
+    )
 
 
 @dataclass(frozen=True, slots=True)
@@ -205,8 +190,9 @@ class EnvelopeInput:
     link_fallback: bool = False
 
 
-def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput,
-                  dt_s: float) -> tuple[set[Trip], float, float, float]:
+def _judge_sample(
+    limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput, dt_s: float
+) -> tuple[set[Trip], float, float, float]:
     """The trips this step's measurements raise, and the new mismatch, hot and detach timers, s."""
     raised = set(check_sample(limits, inp.T_sensor_C, inp.Q_W, inp.T_sink_C, inp.current_meas_A))
 
@@ -218,8 +204,11 @@ def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
 
     # model vs sensor mismatch, held for mismatch_time_s
     mismatch_time = state.mismatch_time_s
-    if math.isfinite(inp.T_pred_C) and math.isfinite(inp.T_sensor_C) \
-            and abs(inp.T_pred_C - inp.T_sensor_C) > limits.mismatch_C:
+    if (
+        math.isfinite(inp.T_pred_C)
+        and math.isfinite(inp.T_sensor_C)
+        and abs(inp.T_pred_C - inp.T_sensor_C) > limits.mismatch_C
+    ):
         mismatch_time += dt_s
         if mismatch_time >= limits.mismatch_time_s:
             raised.add(Trip.MODEL_MISMATCH)
@@ -236,8 +225,14 @@ def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
         hot_time = 0.0
 
     # a sensor off the pad: far more current than holding the last setpoint takes, held (control.detach)
-    excess = not state.cut and detach_excess(limits, T_sensor_C=inp.T_sensor_C, T_avg_C=state.sensor_avg_C,
-                                             current_A=inp.current_meas_A, T_sink_C=inp.T_sink_C, Q_W=inp.Q_W)
+    excess = not state.cut and detach_excess(
+        limits,
+        T_sensor_C=inp.T_sensor_C,
+        T_avg_C=state.sensor_avg_C,
+        current_A=inp.current_meas_A,
+        T_sink_C=inp.T_sink_C,
+        Q_W=inp.Q_W,
+    )
     detach_time, detached = detach_timer(limits, state.detach_time_s, excess, dt_s)
     if detached:
         raised.add(Trip.SENSOR_DETACHED)
@@ -253,8 +248,8 @@ def _judge_sample(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
 
 def _lead_bound(limits: SafetyLimits, prev_C: float, sp_C: float, inp: EnvelopeInput) -> float:
     """The neutral ramp's setpoint, °C, kept within ``trip_lead_C`` ahead of the credible surface in the
-    direction it moves (it waits for a pad that lags, it never moves back): the controller's error stays small,
-    so the surface does not overshoot the ramp's rate catching up a setpoint that ran away."""
+    direction it moves (it waits for a pad that lags, it never moves back): the controller's error stays
+    small, so the surface does not overshoot the ramp's rate catching up a setpoint that ran away."""
     lead = limits.trip_lead_C
     if not (math.isfinite(inp.surface_hi_C) and math.isfinite(inp.surface_lo_C)) or lead == math.inf:
         return sp_C
@@ -265,8 +260,9 @@ def _lead_bound(limits: SafetyLimits, prev_C: float, sp_C: float, inp: EnvelopeI
     return sp_C
 
 
-def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput, requested_C: float,
-                  dt_s: float) -> tuple[float, EnvelopeState, tuple[str, ...], frozenset[Trip]]:
+def envelope_step(
+    limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput, requested_C: float, dt_s: float
+) -> tuple[float, EnvelopeState, tuple[str, ...], frozenset[Trip]]:
     """Judge one step: raise trips, ramp/clamp the requested setpoint.
 
     Returns ``(setpoint_C, new_state, limits_active, new_trips)``. The setpoint is always finite and
@@ -312,88 +308,18 @@ def envelope_step(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput
             cut = True
     if cut:
         active.append("cut")
-    new_state = EnvelopeState(setpoint_C=sp, trips=trips, hot_time_s=hot_time, mismatch_time_s=mismatch_time,
-                              neutral_time_s=neutral_time, cut=cut, link_fallback=inp.link_fallback,
-                              detach_time_s=detach_time,
-                              sensor_avg_C=sensor_average(state.sensor_avg_C, inp.T_sensor_C, dt_s))
+    new_state = EnvelopeState(
+        setpoint_C=sp,
+        trips=trips,
+        hot_time_s=hot_time,
+        mismatch_time_s=mismatch_time,
+        neutral_time_s=neutral_time,
+        cut=cut,
+        link_fallback=inp.link_fallback,
+        detach_time_s=detach_time,
+        sensor_avg_C=sensor_average(state.sensor_avg_C, inp.T_sensor_C, dt_s),
+    )
     return sp, new_state, tuple(active), new_trips
-
-
-def _outward_cap(limits: SafetyLimits, room_C: float) -> float:
-    """Largest current driving the surface outwards with ``room_C`` left to the guard's stop, A (>= 0)."""
-    lim = limits.I_limit_A
-    if room_C <= 0.0:
-        return 0.0
-    return lim if limits.taper_C <= 0.0 or room_C >= limits.taper_C else lim * room_C / limits.taper_C
-
-
-#: the flux guard (:func:`limit_current`): the current that drives the heat flux outwards is tapered from
-#: this fraction of ``Q_abs_max_W`` to 0 at :data:`FLUX_GUARD_STOP`, so that a big module pressed on a cold
-#: or hot metal block saturates below the flux plausibility trip instead of ending the session there
-FLUX_GUARD_START = 0.8
-FLUX_GUARD_STOP = 0.95
-
-
-def _flux_cap(limits: SafetyLimits, Q_out_W: float) -> float:
-    """Largest current driving the flux further outwards when ``Q_out_W`` already flows that way, A."""
-    q_max = limits.Q_abs_max_W
-    room = (FLUX_GUARD_STOP * q_max - Q_out_W) / ((FLUX_GUARD_STOP - FLUX_GUARD_START) * q_max)
-    return limits.I_limit_A * min(max(room, 0.0), 1.0) if math.isfinite(Q_out_W) else 0.0
-
-
-def slewing(state: EnvelopeState) -> bool:
-    """The trip slew limit applies: a peer trip is latched or the link-loss fallback renders, and no hard cut
-    (:data:`CUT_TRIPS`)."""
-    return bool(state.trips & PEER_TRIPS or state.link_fallback) and not state.trips & CUT_TRIPS
-
-
-def limit_current(limits: SafetyLimits, state: EnvelopeState, requested_A: float, surface_hi_C: float,
-                  surface_lo_C: float, previous_A: float = math.nan,
-                  dt_s: float = 0.0, Q_W: float = 0.0) -> tuple[float, tuple[str, ...]]:
-    """The current that may reach the TEM, A, and the limits that acted.
-
-    NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
-    within ``guard_C`` of T_min_C only heating (I >= 0); over the ``taper_C`` band before that the
-    outward current is capped linearly (full at the band's inner edge). Then |I| <= I_limit_A, and a
-    cooling current (I < 0) |I| <= I_cool_limit_A (the TEM's maximum-cooling current, where known).
-    The flux guard ("guard"): with ``Q_W`` (the measured flux out of the pad, W) beyond
-    :data:`FLUX_GUARD_START`·Q_abs_max_W, the current pushing it further (heating while Q_W > 0, cooling
-    while Q_W < 0) is tapered to 0 A at :data:`FLUX_GUARD_STOP`·Q_abs_max_W.
-
-    Trip slew: while :func:`slewing` and ``previous_A`` (the current of the previous step, A) is finite, the
-    result may fall towards 0 A at once (as a cut does) but grows beyond ``previous_A`` (or beyond 0 A in the
-    other direction) by at most ``trip_slew_A_per_s``·``dt_s`` ("slew"): the feed-forward that a peer trip
-    removes can no longer flip the drive from full cooling to full heating in one step. The guard's and the
-    current limit's caps still act at once. A hard cut (:data:`CUT_TRIPS`), a non-finite request or surface
-    band give 0 A at once. The link-loss fallback (``state.link_fallback``) slews the same way (:func:`slewing`).
-    """
-    slew = slewing(state) and math.isfinite(previous_A) and dt_s > 0.0
-    if (state.cut and not slew) or not math.isfinite(requested_A):
-        return 0.0, ("cut",)
-    if not (math.isfinite(surface_hi_C) and math.isfinite(surface_lo_C)):
-        return 0.0, ("cut",)
-    active: list[str] = []
-    lim, cool = limits.I_limit_A, limits.I_cool_limit_A
-    hi_cap = min(lim, _outward_cap(limits, limits.T_max_C - limits.guard_C - surface_hi_C),
-                 _flux_cap(limits, Q_W))
-    lo_cap = min(cool, _outward_cap(limits, surface_lo_C - (limits.T_min_C + limits.guard_C)),
-                 _flux_cap(limits, -Q_W))
-    i = 0.0 if state.cut else requested_A
-    if slew:   # towards 0 A at once (as a cut), away from it (beyond the previous current) at the slew rate
-        step = limits.trip_slew_A_per_s * dt_s
-        slewed = min(max(i, min(previous_A, 0.0) - step), max(previous_A, 0.0) + step)
-        if slewed != i:
-            i = slewed
-            active.append("slew")
-    if state.cut:
-        active.append("cut")
-    if i > hi_cap:
-        active.append("guard" if hi_cap < lim else "current_limit")
-        i = hi_cap
-    elif i < -lo_cap:
-        active.append("guard" if lo_cap < cool else "current_limit")
-        i = -lo_cap
-    return i, tuple(active)
 
 
 def clear_trips(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput) -> EnvelopeState:
@@ -411,14 +337,24 @@ def clear_trips(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput) 
         still.add(Trip.SURFACE_HIGH)
     if math.isfinite(inp.surface_lo_C) and inp.surface_lo_C < limits.T_min_C - limits.surface_trip_margin_C:
         still.add(Trip.SURFACE_LOW)
-    if Trip.TIME_AT_TEMPERATURE in state.trips and math.isfinite(inp.surface_hi_C) \
-            and inp.surface_hi_C > limits.hot_C - 1.0:
+    if (
+        Trip.TIME_AT_TEMPERATURE in state.trips
+        and math.isfinite(inp.surface_hi_C)
+        and inp.surface_hi_C > limits.hot_C - 1.0
+    ):
         still.add(Trip.TIME_AT_TEMPERATURE)
     # the model still disagrees with the sensor (or cannot say): the mismatch persists (a good model
     # loaded, or the sensor back, removes it); without a model there is nothing to mismatch
     T_pred = inp.T_pred_C
-    if Trip.MODEL_MISMATCH in state.trips and not math.isnan(T_pred) and (
-            math.isinf(T_pred) or not math.isfinite(inp.T_sensor_C) or abs(T_pred - inp.T_sensor_C) > limits.mismatch_C):
+    if (
+        Trip.MODEL_MISMATCH in state.trips
+        and not math.isnan(T_pred)
+        and (
+            math.isinf(T_pred)
+            or not math.isfinite(inp.T_sensor_C)
+            or abs(T_pred - inp.T_sensor_C) > limits.mismatch_C
+        )
+    ):
         still.add(Trip.MODEL_MISMATCH)
     if inp.peer_required and not inp.peer_alive:
         still.add(Trip.PEER_LOST)
@@ -428,21 +364,13 @@ def clear_trips(limits: SafetyLimits, state: EnvelopeState, inp: EnvelopeInput) 
     cut = bool(trips & (CUT_TRIPS | PEER_TRIPS))
     mid = 0.5 * (inp.surface_hi_C + inp.surface_lo_C)
     sp = min(max(mid, limits.T_min_C), limits.T_max_C) if math.isfinite(mid) else state.setpoint_C
-    return replace(state, trips=trips, cut=cut, setpoint_C=sp, mismatch_time_s=0.0, neutral_time_s=0.0,
-                   detach_time_s=0.0,
-                   hot_time_s=0.0 if Trip.TIME_AT_TEMPERATURE not in trips else state.hot_time_s)
-
-
-def summarize(state: EnvelopeState, new_trips: frozenset[Trip], limits_active: tuple[str, ...]) -> EnvelopeStatus:
-    """Build the step's :class:`EnvelopeStatus`."""
-    trips = tuple(sorted(state.trips, key=lambda t: t.value))
-    if state.cut:
-        s = SafetyState.CUT
-    elif state.trips & PEER_TRIPS:
-        s = SafetyState.RAMP_TO_NEUTRAL
-    elif limits_active or state.trips:
-        s = SafetyState.LIMITING
-    else:
-        s = SafetyState.OK
-    return EnvelopeStatus(state=s, trips=trips, new_trips=tuple(sorted(new_trips, key=lambda t: t.value)),
-                          error_register=error_register(state.trips), limits_active=limits_active)
+    return replace(
+        state,
+        trips=trips,
+        cut=cut,
+        setpoint_C=sp,
+        mismatch_time_s=0.0,
+        neutral_time_s=0.0,
+        detach_time_s=0.0,
+        hot_time_s=0.0 if Trip.TIME_AT_TEMPERATURE not in trips else state.hot_time_s,
+    )

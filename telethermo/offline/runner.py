@@ -14,6 +14,7 @@ One step k (what the two nodes do on SYNC k, see docs/control.md "exchange timin
 Render sessions (``mode="render"``): the master alone renders the virtual materials of the scene's
 touches (yamamoto), the reference is the finger touching the real material.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -62,13 +63,24 @@ def _load_model(model: Any) -> Any:
     return load_model(model)
 
 
-def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, slave_params: CoreParams | None = None,
-                        master_model: Any = None, slave_model: Any = None, duration_s: float | None = None,
-                        rounding: str = "none", seed: int | None = 0, mode: str | None = None,
-                        render_options: dict[str, Any] | None = None,
-                        peer_loss_s: tuple[float, float] | None = None, slave_rig_params: Any = None,
-                        delay_cycles: int = 0, delay_jitter_cycles: int = 0,
-                        rig_path: Callable[[Any, str], Any] | None = None) -> SessionResult:
+def run_offline_session(
+    scene: Any,
+    *,
+    master_params: CoreParams | None = None,
+    slave_params: CoreParams | None = None,
+    master_model: Any = None,
+    slave_model: Any = None,
+    duration_s: float | None = None,
+    rounding: str = "none",
+    seed: int | None = 0,
+    mode: str | None = None,
+    render_options: dict[str, Any] | None = None,
+    peer_loss_s: tuple[float, float] | None = None,
+    slave_rig_params: Any = None,
+    delay_cycles: int = 0,
+    delay_jitter_cycles: int = 0,
+    rig_path: Callable[[Any, str], Any] | None = None,
+) -> SessionResult:
     """Run a scene offline and return the recording and its figures.
 
     ``scene``: a name or path (``sim.load_scene``) or a loaded scene. ``*_params``: controller
@@ -85,17 +97,11 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     ``delay_cycles``, ``delay_jitter_cycles``: extra one-way transport delay of the exchanged values, in
     cycles, on both streams: each value arrives ``delay_cycles`` plus a uniform 0..jitter cycles late (seeded
     by ``seed``), never before a value sent earlier (CAN keeps the order); the peer uses the newest arrived.
-    ``rig_path``: (telepresence) ``rig_path(rig, role)`` returns what the controller of ``role`` drives instead
-    of the simulated rig itself, e.g. the rig behind simulated I/O modules (bench.io_rig_bench); it keeps the
-    rig's ``truth``/``bodies``/``t_s`` for the recording.
+    ``rig_path``: (telepresence) ``rig_path(rig, role)`` returns what the controller of ``role`` drives
+    instead of the simulated rig itself, e.g. the rig behind simulated I/O modules (bench.io_rig_bench); it
+    keeps the rig's ``truth``/``bodies``/``t_s`` for the recording.
     """
-    if rounding not in ROUNDINGS:
-        raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
-    sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
-    if mode is None:
-        mode = "render" if sc.kind == "virtual" else "telepresence"
-    if mode not in ("telepresence", "render"):
-        raise ValueError(f"run_offline_session: mode: expected 'telepresence' or 'render', got {mode!r}")
+    sc, mode = _scene_and_mode(scene, mode, rounding)
     rig_m = sim.build_rig(sc, "master", seed=seed)
     period = rig_m.period_s
     T_end = float(duration_s if duration_s is not None else sc.duration_s)
@@ -103,25 +109,50 @@ def run_offline_session(scene: Any, *, master_params: CoreParams | None = None, 
     rnd = round_real32 if rounding == "real32" else (lambda x: x)
     ref = sim.build_reference(sc)
 
-    if mode == "render" and not any(t.render is not None for t in sc.master_contacts):
-        return _run_hold(sc, rig_m, ref, master_params, _load_model(master_model), n_steps, period, rounding,
-                         **(render_options or {}))
-    if mode == "render":
-        return _run_render(sc, rig_m, ref, master_params, _load_model(master_model), n_steps, period, rounding,
-                           **(render_options or {}))
+    if mode == "render":  # the master alone: it renders the touches' materials, or holds its pad
+        lone = _run_render if any(t.render is not None for t in sc.master_contacts) else _run_hold
+        model_m, opts = _load_model(master_model), render_options or {}
+        return lone(sc, rig_m, ref, master_params, model_m, n_steps, period, rounding, **opts)
 
     sc_s = sc if slave_rig_params is None else dataclasses.replace(sc, rig_params=slave_rig_params)
     rig_s = sim.build_rig(sc_s, "slave", seed=None if seed is None else seed + 1)
     if rig_path is not None:
         rig_m, rig_s = rig_path(rig_m, "master"), rig_path(rig_s, "slave")
-    return _run_telepresence(sc, rig_m, rig_s, ref, master_params, slave_params, _load_model(master_model),
-                             _load_model(slave_model), n_steps, rnd, rounding, seed, peer_loss_s,
-                             _DelayLine(delay_cycles, delay_jitter_cycles, seed))
+    models = (_load_model(master_model), _load_model(slave_model))
+    link = _DelayLine(delay_cycles, delay_jitter_cycles, seed)
+    rigs, params = (rig_m, rig_s), (master_params, slave_params)
+    return _run_telepresence(sc, rigs, ref, params, models, n_steps, rnd, rounding, seed, peer_loss_s, link)
 
 
-def _run_telepresence(sc, rig_m, rig_s, ref, master_params, slave_params, model_m, model_s, n_steps: int, rnd,
-                      rounding: str, seed: int | None, peer_loss_s, link: "_DelayLine") -> SessionResult:
-    """Both sides in lockstep (see the module docstring)."""
+def _scene_and_mode(scene: Any, mode: str | None, rounding: str) -> tuple[Any, str]:
+    """The loaded scene and the session's mode ("render" for a virtual scene unless given), after
+    checking ``rounding`` and ``mode`` (ValueError naming the argument)."""
+    if rounding not in ROUNDINGS:
+        raise ValueError(f"run_offline_session: rounding: expected one of {ROUNDINGS}, got {rounding!r}")
+    sc = sim.load_scene(scene) if isinstance(scene, (str, os.PathLike)) else scene
+    if mode is None:
+        mode = "render" if sc.kind == "virtual" else "telepresence"
+    if mode not in ("telepresence", "render"):
+        raise ValueError(f"run_offline_session: mode: expected 'telepresence' or 'render', got {mode!r}")
+    return sc, mode
+
+
+def _run_telepresence(
+    sc,
+    rigs: tuple[Any, Any],
+    ref,
+    params: tuple[CoreParams | None, CoreParams | None],
+    models: tuple[Any, Any],
+    n_steps: int,
+    rnd,
+    rounding: str,
+    seed: int | None,
+    peer_loss_s,
+    link: "_DelayLine",
+) -> SessionResult:
+    """Both sides in lockstep (see the module docstring): ``rigs``, ``params`` (None: the defaults) and
+    ``models`` are (master's, slave's)."""
+    (rig_m, rig_s), (master_params, slave_params), (model_m, model_s) = rigs, params, models
     period = rig_m.period_s
     if rig_s.period_s != period:
         raise ValueError(f"run_offline_session: the rigs' periods differ ({period} s vs {rig_s.period_s} s)")
@@ -129,16 +160,25 @@ def _run_telepresence(sc, rig_m, rig_s, ref, master_params, slave_params, model_
     ps = slave_params or default_params(Role.SLAVE, period_s=period)
     for name, p in (("master_params", pm), ("slave_params", ps)):
         if abs(p.period_s - period) > 1e-12:
-            raise ValueError(f"run_offline_session: {name}.period_s = {p.period_s} s but the rig runs at {period} s")
+            raise ValueError(
+                f"run_offline_session: {name}.period_s = {p.period_s} s but the rig runs at {period} s"
+            )
     pm, ps = _with_rig_limits(pm, rig_m), _with_rig_limits(ps, rig_s)
     sm0, ss0 = rig_m.read(), rig_s.read()
     st_m = init_state(pm, model_m, sm0)
     st_s = init_state(ps, model_s, ss0)
     peer_m, peer_s = initial_peer(sm0), initial_peer(ss0)
 
-    meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "telepresence",
-            "rounding": rounding, "seed": seed, "contacts": scene_contacts(sc, "slave"),
-            "master_params": _params_meta(pm), "slave_params": _params_meta(ps)}
+    meta = {
+        "scene": getattr(sc, "name", ""),
+        "period_s": period,
+        "mode": "telepresence",
+        "rounding": rounding,
+        "seed": seed,
+        "contacts": scene_contacts(sc, "slave"),
+        "master_params": _params_meta(pm),
+        "slave_params": _params_meta(ps),
+    }
     b = RecordingBuilder(meta)
     for _k in range(n_steps):
         sm, ss = rig_m.read(), rig_s.read()
@@ -166,10 +206,17 @@ def _run_telepresence(sc, rig_m, rig_s, ref, master_params, slave_params, model_
 
 
 def _received(out: Outgoing, rnd) -> PeerValues:
-    """What the peer receives of ``out`` in the next cycle (TPDO1 and the contact PDO; REAL32 with ``rnd``)."""
-    return PeerValues(rnd(out.estimate_C), rnd(out.flux_W), contact=out.contact, material_code=out.material_code,
-                      material_beta=rnd(out.material_beta), material_touch=out.material_touch,
-                      material_T_object0_C=rnd(out.material_T_object0_C))
+    """What the peer receives of ``out`` in the next cycle (TPDO1 and the contact PDO; REAL32 with
+    ``rnd``)."""
+    return PeerValues(
+        rnd(out.estimate_C),
+        rnd(out.flux_W),
+        contact=out.contact,
+        material_code=out.material_code,
+        material_beta=rnd(out.material_beta),
+        material_touch=out.material_touch,
+        material_T_object0_C=rnd(out.material_T_object0_C),
+    )
 
 
 class _DelayLine:
@@ -177,15 +224,17 @@ class _DelayLine:
 
     def __init__(self, cycles: int, jitter: int, seed: int | None) -> None:
         if cycles < 0 or jitter < 0:
-            raise ValueError(f"run_offline_session: delay_cycles/delay_jitter_cycles: expected >= 0, got "
-                             f"{cycles}/{jitter}")
+            raise ValueError(
+                f"run_offline_session: delay_cycles/delay_jitter_cycles: expected >= 0, got {cycles}/{jitter}"
+            )
         self.cycles, self.jitter = int(cycles), int(jitter)
         self.rng = np.random.default_rng(None if seed is None else seed + 7)
         self.queue: list[tuple[int, PeerValues, PeerValues]] = []
         self.last_due = -1
 
-    def pass_on(self, k: int, to_m: PeerValues, to_s: PeerValues, cur_m: PeerValues,
-                cur_s: PeerValues) -> tuple[PeerValues, PeerValues]:
+    def pass_on(
+        self, k: int, to_m: PeerValues, to_s: PeerValues, cur_m: PeerValues, cur_s: PeerValues
+    ) -> tuple[PeerValues, PeerValues]:
         """Send (to_m, to_s) in cycle k; return what each side holds for cycle k + 1."""
         if self.cycles == 0 and self.jitter == 0:
             return to_m, to_s
@@ -202,10 +251,23 @@ def _lost(peer: PeerValues) -> PeerValues:
     return dataclasses.replace(peer, fresh=False, alive=False)
 
 
-def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, beta_pad: float = 2.23,
-                T_finger0_C: float = 34.0, finger_thermometer: bool = True,
-                thermometer_lead_s: float = 1.0, calibration_presets_C: list[float] | None = None,
-                later_model: str = DEFAULT_LATER_MODEL.value) -> SessionResult:
+def _run_render(
+    sc,
+    rig_m,
+    ref,
+    params,
+    model,
+    n_steps,
+    period,
+    rounding,
+    *,
+    beta_pad: float = 2.23,
+    T_finger0_C: float = 34.0,
+    finger_thermometer: bool = True,
+    thermometer_lead_s: float = 1.0,
+    calibration_presets_C: list[float] | None = None,
+    later_model: str = DEFAULT_LATER_MODEL.value,
+) -> SessionResult:
     """Master alone renders each touch's virtual material (settings from the scene's touches).
 
     ``finger_thermometer``: read the finger's skin temperature ``thermometer_lead_s`` before each
@@ -215,28 +277,44 @@ def _run_render(sc, rig_m, ref, params, model, n_steps, period, rounding, *, bet
     ``later_model``: the later-phase model (telethermo.control.later_phase: semi_infinite, rc, conduction;
     default conduction).
     """
-    script = RenderScript(sc, beta_pad=beta_pad, T_finger0_C=T_finger0_C, finger_thermometer=finger_thermometer,
-                          thermometer_lead_s=thermometer_lead_s, calibration_presets_C=calibration_presets_C,
-                          later_model=later_model)
+    script = RenderScript(
+        sc,
+        beta_pad=beta_pad,
+        T_finger0_C=T_finger0_C,
+        finger_thermometer=finger_thermometer,
+        thermometer_lead_s=thermometer_lead_s,
+        calibration_presets_C=calibration_presets_C,
+        later_model=later_model,
+    )
     base = params or default_params(Role.MASTER, period_s=period, mode=Mode.RENDER, render=script.first)
     base = _with_rig_limits(base, rig_m)
     s0 = rig_m.read()
     state = init_state(dataclasses.replace(base, mode=Mode.RENDER, render=script.first), model, s0)
-    meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "render", "rounding": rounding,
-            "contacts": scene_contacts(sc, "master"), "finger_thermometer": finger_thermometer, "later_model": later_model,
-            "master_params": _params_meta(base)}
+    meta = {
+        "scene": getattr(sc, "name", ""),
+        "period_s": period,
+        "mode": "render",
+        "rounding": rounding,
+        "contacts": scene_contacts(sc, "master"),
+        "finger_thermometer": finger_thermometer,
+        "later_model": later_model,
+        "master_params": _params_meta(base),
+    }
 
     def params_at(smp) -> CoreParams:
         rs = script.settings_at(smp.t_s, period, lambda: finger_skin_C(rig_m, rig_m.truth()))
         return dataclasses.replace(base, mode=Mode.RENDER, render=rs)
 
-    rec = _lone_master(RecordingBuilder(meta), rig_m, ref, state, n_steps, period, params_at, None, with_ref=True)
+    rec = _lone_master(
+        RecordingBuilder(meta), rig_m, ref, state, n_steps, period, params_at, None, with_ref=True
+    )
     rec.meta["render"] = script.meta()
     return SessionResult(rec, compute_figures(rec))
 
 
-def _run_hold(sc, rig_m, ref, params, model, n_steps, period, rounding, *, hold_C: float | None = None,
-              **_ignored: Any) -> SessionResult:
+def _run_hold(
+    sc, rig_m, ref, params, model, n_steps, period, rounding, *, hold_C: float | None = None, **_ignored: Any
+) -> SessionResult:
     """A virtual scene that renders nothing (e.g. finger_on_display): the master alone regulates its pad
     at ``hold_C`` (default: the envelope's neutral 32 °C) with the telepresence law against a constant
     virtual peer (estimate hold_C, no flux), whatever touches it."""
@@ -246,18 +324,36 @@ def _run_hold(sc, rig_m, ref, params, model, n_steps, period, rounding, *, hold_
     peer = PeerValues(T_hold, 0.0)
     s0 = rig_m.read()
     state = init_state(base, model, s0)
-    meta = {"scene": getattr(sc, "name", ""), "period_s": period, "mode": "hold", "rounding": rounding,
-            "hold_C": T_hold, "master_params": _params_meta(base),
-            "contacts": [{"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.body} for t in sc.master_contacts]}
-    rec = _lone_master(RecordingBuilder(meta), rig_m, ref, state, n_steps, period, lambda _smp: base, peer,
-                       with_ref=False)
+    meta = {
+        "scene": getattr(sc, "name", ""),
+        "period_s": period,
+        "mode": "hold",
+        "rounding": rounding,
+        "hold_C": T_hold,
+        "master_params": _params_meta(base),
+        "contacts": [{"t_on_s": t.start_s, "t_off_s": t.end_s, "object": t.body} for t in sc.master_contacts],
+    }
+    rec = _lone_master(
+        RecordingBuilder(meta), rig_m, ref, state, n_steps, period, lambda _smp: base, peer, with_ref=False
+    )
     return SessionResult(rec, compute_figures(rec))
 
 
-def _lone_master(b: RecordingBuilder, rig_m, ref, state, n_steps: int, period: float,
-                 params_at: Callable[[Any], CoreParams], peer: PeerValues | None, *, with_ref: bool) -> Recording:
+def _lone_master(
+    b: RecordingBuilder,
+    rig_m,
+    ref,
+    state,
+    n_steps: int,
+    period: float,
+    params_at: Callable[[Any], CoreParams],
+    peer: PeerValues | None,
+    *,
+    with_ref: bool,
+) -> Recording:
     """The master alone for ``n_steps`` periods (render or hold): each sample's parameters from
-    ``params_at(sample)``, a fixed (or no) peer; the reference rig advances alongside (its row with ``with_ref``)."""
+    ``params_at(sample)``, a fixed (or no) peer; the reference rig advances alongside (its row with
+    ``with_ref``)."""
     for _k in range(n_steps):
         smp = rig_m.read()
         r = step(smp, peer, params_at(smp), state)
@@ -297,8 +393,9 @@ def _params_meta(p: CoreParams) -> dict[str, Any]:
         if f.name in ("safety", "contact", "render"):
             d[f.name] = dataclasses.asdict(v) if v is not None else None
             if d[f.name]:
-                d[f.name] = {k: (x.value if hasattr(x, "value") else _finite_or_none(x))
-                             for k, x in d[f.name].items()}
+                d[f.name] = {
+                    k: (x.value if hasattr(x, "value") else _finite_or_none(x)) for k, x in d[f.name].items()
+                }
         else:
             d[f.name] = v.value if hasattr(v, "value") else v
     return d
@@ -307,9 +404,10 @@ def _params_meta(p: CoreParams) -> dict[str, Any]:
 def write_session(out_dir: str | os.PathLike, result: SessionResult, *, png: bool = True) -> dict[str, Path]:
     """Write ``recording.csv``, ``summary.json`` and ``session.png`` into ``out_dir`` (atomically)."""
     out = Path(out_dir)
-    paths = {"csv": write_recording_csv(out / "recording.csv", result.recording),
-             "json": write_json_atomic(out / "summary.json", result.figures)}
+    paths = {
+        "csv": write_recording_csv(out / "recording.csv", result.recording),
+        "json": write_json_atomic(out / "summary.json", result.figures),
+    }
     if png:
         paths["png"] = write_session_png(out / "session.png", result.recording)
     return paths
-
