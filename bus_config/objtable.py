@@ -3,7 +3,7 @@ estimates, the peer's values received by PDO, the TEM model's objects, commands,
 diagnostics (the operator parameters are the rows of ``bus_config/partable.py``). With the parameter
 table, these rows are the whole manufacturer part of both object dictionaries: ``od_manufacturer.py``
 merges the two in index order, and ``python -m telethermo.bus_config.edsgen`` writes the EDS files and the
-docs tables from them (``--check``: tests/canopen/test_partable.py).
+docs tables from them (``--check``: tests/bus_config/test_partable.py).
 
 A row (:class:`ObjRow`) holds the index, name (ending in its unit, see ``edsgen``), CiA data type, what the
 object is (``kind``), its unit, access, default and range (writable objects), PDO flag and, for an ARRAY,

@@ -343,7 +343,7 @@ def markdown() -> str:
         "",
         "Generated from `bus_config/partable.py` by `python -m telethermo.bus_config.edsgen`: "
         "do not edit "
-        "by hand (`tests/canopen/test_partable.py` fails when this page, the EDS files and the table "
+        "by hand (`tests/bus_config/test_partable.py` fails when this page, the EDS files and the table "
         "disagree). Every parameter is `rw` by SDO and shown by `telethermo get`; stored: saved by a "
         "CiA 301 store (0x1010, `telethermo save`); scope: which of the controller's parameters a write "
         "changes (the master's envelope guards skin, the slave's the probe's hardware).",

@@ -49,7 +49,7 @@ MIN_GAIN_MARGIN_DB = 6.0
 MIN_PHASE_MARGIN_DEG = 40.0
 # ρ never raises the shipped gains: a module with a weaker free-pad response (a heavier plate: ×2 gave
 # ρ 1.8) still meets the margins on its free-pad model but oscillated in contact with aluminium (skin
-# 0.26 °C, current 0.70 A RMS in band; tests/session/test_gain_rule.py found it). Lowering is what the
+# 0.26 °C, current 0.70 A RMS in band; tests/control/test_gain_rule.py found it). Lowering is what the
 # free-pad model can vouch for.
 RHO_MIN, RHO_MAX = 0.2, 1.0
 #: the current gains of CoreParams the rule scales (A per °C or W, and their integral gains)

@@ -3,6 +3,8 @@ bus_config's EDS and network settings) on a python-can virtual bus, for the CLI'
 
 from __future__ import annotations
 
+import contextlib
+import io
 import itertools
 import time
 
@@ -11,7 +13,7 @@ from pathlib import Path
 import canopen
 import pytest
 
-from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process
+from telethermo.nodes.launch import HubProcess, start_lone_node, stop_process, wait_for
 
 from telethermo.device.device import Device
 from telethermo.device.netconfig import load_network
@@ -72,12 +74,19 @@ FREE_PAD_SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "free_
 
 @pytest.fixture(scope="module")
 def lone_master(tmp_path_factory):
-    """A master node process alone on our hub (a pad in air, lockstep, idle): (bus string, its folder)."""
+    """A master node process alone on our hub (a pad in air, lockstep, idle), answering SDO: (bus string, its
+    folder). Every test of a module may run first (``-k``), so the fixture waits for the node, not a test."""
     out = tmp_path_factory.mktemp("lone-master")
     hub = HubProcess(log_path=out / "hub.log")
     hub.start()
     proc = start_lone_node("master", FREE_PAD_SCENE, out, "--bus", hub.bus)
+
+    def answers() -> bool:
+        with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(io.StringIO()):
+            return main(["get", "--bus", hub.bus, "--timeout", "0.3", "master", "mode"]) == 0
+
     try:
+        assert wait_for(answers, 60), f"the lone master does not answer SDO (its log: {out})"
         yield hub.bus, out
     finally:
         stop_process(proc)

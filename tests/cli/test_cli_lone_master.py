@@ -260,7 +260,8 @@ def test_identify_refuses_a_node_that_is_not_operational(master, capsys):
 def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, capsys):
     bus, _ = master
     # a heat-sink trip: the sink (at ambient, 25 °C) above a lowered trip temperature; it latches and cuts
-    assert set_(capsys, bus, "sink_trip_C", 20.0)[0] == EXIT_OK
+    code, out, err = set_(capsys, bus, "sink_trip_C", 20.0)
+    assert code == EXIT_OK, out + err
     assert wait_for(lambda: get(capsys, bus, "safety_state") == "3", 10)
     assert int(get(capsys, bus, "0x1001"), 16) != 0 and int(get(capsys, bus, "last_trip_code"), 16) != 0
     # the cause persists: refused, nothing cleared, the trip named
@@ -272,7 +273,10 @@ def test_fault_reset_clears_a_latched_trip_only_once_its_cause_is_gone(master, c
     assert get(capsys, bus, "safety_state") == "3"
     # the cause gone, the trip stays latched until the operator resets it
     assert set_(capsys, bus, "sink_trip_C", 55.0)[0] == EXIT_OK
-    time.sleep(0.5)
+    c0 = int(get(capsys, bus, "cycle_counter"), 0)  # 50 of its cycles (0.5 s) run without the cause
+    assert wait_for(lambda: int(get(capsys, bus, "cycle_counter"), 0) >= c0 + 50, 30), (
+        "the master's cycles stopped"
+    )
     assert get(capsys, bus, "safety_state") == "3"
     code, out, err = cli(capsys, "fault-reset", "--bus", bus, "master")
     assert code == EXIT_OK, err

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import struct
-import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -349,7 +348,12 @@ def _nmt_stop(nid: int) -> Callable[[Lab], str]:
         expect(lab.wait_heartbeat(nid, STOPPED, since=mark), f"no STOPPED heartbeat of node {nid}")
         quiet = lab.frames.mark()
         expect(_sdo_silent(lab, nid), f"node {nid} answered SDO in STOPPED")
-        time.sleep(0.3)
+        # the window checked below lasts 5 of the node's own heartbeats (0.5 s), not a wall-clock slot it may
+        # have slept through on a loaded machine
+        expect(
+            wait_for(lambda: lab.heartbeat_states(nid, quiet).count(STOPPED) >= 5, 10),
+            f"node {nid} stopped its heartbeat in STOPPED",
+        )
         cobs = [c for c, _ in lab.frames.since(quiet)]
         expect(
             not {0x180 + nid, 0x280 + nid, 0x380 + nid, 0x480 + nid} & set(cobs),

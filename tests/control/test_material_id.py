@@ -29,23 +29,12 @@ from telethermo.control.material_stream import (
 from telethermo.control.rendering import load_render_table, relative_effusivity_from_contact
 from telethermo.control.material_trust import CalibrationBox
 from telethermo.control.types import PeerValues, Role
+from telethermo.offline.material_touches import SIM_TO_TABLE
 from telethermo.rig import RigSample
 
 PARAMS = load_rig_params()
 DT = 0.01
 T_PROBE, T_OBJ = 33.0, 20.0
-SIM_TO_TABLE = {
-    "eps": "eps",
-    "oak": "wood",
-    "pvc": "pvc",
-    "glass": "glass",
-    "ceramic": "ceramic",
-    "stainless_steel": "stainless_steel",
-    "carbon_steel": "carbon_steel",
-    "brass": "brass",
-    "aluminium": "aluminium",
-    "copper": "copper",
-}
 
 
 def touch(

@@ -59,6 +59,13 @@ class BusWitness(FrameLog):
     def saw(self, can_id: int) -> bool:
         return any(f[1] == can_id for f in self.snapshot())
 
+    def saw_the_session_end(self) -> bool:
+        """The master's end of session (NMT enter pre-operational, all nodes) and every slave TPDO1 (the
+        slave answers SYNC k when it gets to it: its last may follow the master's end on the bus)."""
+        frames = self.snapshot()
+        slave_tpdo1 = sum(1 for f in frames if f[1] == 0x180 + NODE_ID["slave"])
+        return slave_tpdo1 >= CYCLES and any(f[1] == 0x000 and f[2][:1] == b"\x80" for f in frames)
+
 
 def _logs(out: Path, role: str) -> str:
     return "".join(
@@ -112,7 +119,7 @@ def bench(tmp_path_factory):
         )
         stdout, _ = master.communicate(timeout=120)
         wall_total = time.monotonic() - t0
-        time.sleep(0.3)  # the last frames reach the witness
+        wait_for(witness.saw_the_session_end, 10)  # the last frames reach the witness (the tests assert them)
         slave_code = stop_process(slave)
     finally:
         stop_process(master)

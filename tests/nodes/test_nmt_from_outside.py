@@ -10,7 +10,6 @@ raw python-can frames (socketcand client) only, no project client code.
 from __future__ import annotations
 
 import threading
-import time
 from pathlib import Path
 
 import can
@@ -75,13 +74,19 @@ def _heartbeat_state(frames: Frames, mark: int, node_id: int) -> int | None:
     return states[-1] if states else None
 
 
+def _heartbeats(frames: Frames, mark: int, node_id: int, state: int) -> int:
+    """Heartbeats of ``node_id`` reporting NMT ``state`` since ``mark``: a node's own clock, 100 ms a beat."""
+    return sum(1 for cob, d in frames.since(mark) if cob == 0x700 + node_id and d == bytes([state]))
+
+
 def test_nmt_stop_of_the_real_time_sync_producer_pauses_it_and_start_resumes(realtime_pair):
     pair, bus, frames = realtime_pair
     _nmt(bus, 0x02, 1)  # stop the master (SYNC producer)
     mark = frames.mark()
     assert wait_for(lambda: _heartbeat_state(frames, mark, 1) == 4, 5), "no STOPPED heartbeat from the master"
     quiet = frames.mark()
-    time.sleep(0.5)  # 50 SYNC periods
+    # 5 heartbeats in STOPPED: the master ran on ~50 SYNC periods (0.5 s of its own clock) meanwhile
+    assert wait_for(lambda: _heartbeats(frames, quiet, 1, 4) >= 5, 10), "the master's heartbeat stopped"
     assert pair.master.poll() is None, "the master process died on NMT STOP"
     assert not [d for cob, d in frames.since(quiet) if cob == 0x080], "SYNC produced in STOPPED"
     _nmt(bus, 0x01, 1)  # start it again
@@ -189,8 +194,9 @@ def test_lockstep_goes_on_while_a_node_is_stopped_and_resumes_in_step(tmp_path, 
             assert wait_for(lambda: pair.progress[0] >= k + 50, 60), (
                 "the master stalled while the slave was stopped"
             )
-        else:
-            time.sleep(0.5)
+        else:  # the master stays STOPPED for 5 of its heartbeats (0.5 s)
+            stopped_at = frames.mark()
+            assert wait_for(lambda: _heartbeats(frames, stopped_at, stopped, 4) >= 5, 10)
         _nmt(bus, 0x01, stopped)
         started = frames.mark()
         assert wait_for(lambda: _heartbeat_state(frames, started, stopped) == 5, 5)

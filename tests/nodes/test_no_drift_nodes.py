@@ -1,5 +1,5 @@
 """No drift on the nodes (issue 11): two node processes over the hub, the finger lifted at 5 s, the probe in
-air; both pads settle at neutral. The same scene as tests/session/test_no_drift.py, through CAN."""
+air; both pads settle at neutral. The same scene as tests/offline/test_no_drift.py, through CAN."""
 
 from __future__ import annotations
 

@@ -15,10 +15,25 @@ import pytest
 from telethermo.nodes.launch import wait_for
 from telethermo.offline import run_offline_session
 from telethermo.recording.result import SessionRun
+from telethermo.transport.bus import open_bus, parse_bus_string
 
 pytestmark = pytest.mark.slow  # starts processes
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+
+
+def syncs_seen(bus_text: str, n: int, timeout_s: float) -> int:
+    """SYNC frames (COB-ID 0x080) that a client of the bus ``bus_text`` sees, counted up to ``n`` or for at
+    most ``timeout_s`` s."""
+    bus = open_bus(parse_bus_string(bus_text))
+    try:
+        seen, deadline = 0, time.monotonic() + timeout_s
+        while seen < n and time.monotonic() < deadline:
+            msg = bus.recv(0.2)
+            seen += msg is not None and msg.arbitration_id == 0x080
+        return seen
+    finally:
+        bus.shutdown()
 
 
 def session(*args: str, **kw) -> subprocess.Popen:
@@ -136,7 +151,8 @@ def test_ctrl_c_stops_everything_cleanly(tmp_path):
             -1
         ].stderr
         assert answers[-1].stderr == "", answers[-1].stderr
-        time.sleep(2.0)  # let it run a while (real time, 100 Hz): what ran must be reported
+        # let it run a while: 100 SYNC cycles seen on its bus (1 s at 100 Hz); what ran must be reported
+        assert syncs_seen(doc["bus"], 100, 60) == 100, "the session's pair does not run its SYNC cycles"
         p.send_signal(signal.SIGINT)
         out, err = p.communicate(timeout=120)
     finally:

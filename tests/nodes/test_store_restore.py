@@ -22,6 +22,8 @@ from canopen.sdo import SdoAbortedError
 
 from telethermo.bus_config import path as bus_config_path
 from telethermo.cli.main import main as cli_main
+from telethermo.device import load_network
+from telethermo.ident import default_model_path
 from telethermo.nodes.launch import node_command, stop_process, wait_for
 from telethermo.transport.hub import HubThread
 
@@ -29,8 +31,8 @@ pytestmark = pytest.mark.slow  # starts processes
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENE = ROOT / "sim" / "scenes" / "free_pad_identification.toml"
-MODEL = ROOT / "telethermo" / "data" / "models" / "sim_tem.json"
-MASTER = 1
+MODEL = default_model_path()  # the shipped model of the simulated rig
+MASTER = load_network().node("master").node_id  # the shipped network.toml's, as the program uses
 SAVE, LOAD = b"save", b"load"  # CiA 301 signatures as sent: 0x65766173, 0x64616F6C little-endian
 
 

@@ -140,9 +140,11 @@ def test_a_journal_in_use_is_not_recovered_and_rows_reach_it_without_close(tmp_p
     rec = CsvRecorder(path, ["a"], flush_every=10**9, sync_interval_s=0.02)
     rec.write([1.5])
     rec.write([2.5])
-    n = rec.syncs
-    while rec.syncs < n + 2:  # the timer, not a row count nor close, pushed them out
+    # the timer, not a row count nor close, pushes them out (polled with a deadline: no hang if it never runs)
+    n, deadline = rec.syncs, time.monotonic() + 30
+    while rec.syncs < n + 2 and time.monotonic() < deadline:
         time.sleep(0.01)
+    assert rec.syncs >= n + 2, "the recorder's sync timer did not run"
     assert journal_path(path).read_text() == "a\n1.5\n2.5\n"
     with pytest.raises(RecorderError, match="in use by a running node"):
         recover_journal(path)

@@ -320,7 +320,10 @@ def _alive_after(raw, make_client, errors: list) -> tuple[bool, bool]:
     try:
         client = make_client()
         raw.send(can.Message(arbitration_id=0, is_extended_id=False, data=bytes([0x81, MASTER_ID])))
-        time.sleep(0.2)
+        booted, t_end = False, time.monotonic() + 5.0
+        while time.monotonic() < t_end and not booted:  # its boot-up message: the reset is over
+            m = raw.recv(0.1)
+            booted = m is not None and m.arbitration_id == 0x700 + MASTER_ID and bytes(m.data) == b"\x00"
         vendor = client.sdo.upload(0x1018, 1)
         alive = len(vendor) == 4
         t_end = time.monotonic() + 1.0

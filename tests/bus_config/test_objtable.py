@@ -1,5 +1,5 @@
 """The manufacturer objects of both EDS files come entirely from the two tables: the operator parameters
-(bus_config/partable.py, tests/canopen/test_partable.py) and every other object (bus_config/objtable.py:
+(bus_config/partable.py, tests/bus_config/test_partable.py) and every other object (bus_config/objtable.py:
 measurements, estimates, received peer values, model, commands, status, diagnostics). Checked with
 canopen's own EDS parser (and EdsInfo for the REAL limits canopen drops)."""
 
