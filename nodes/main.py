@@ -20,7 +20,8 @@ from telethermo.device.netconfig import NetworkConfigError, load_network
 from telethermo.control.types import Mode, Role
 from telethermo.recording.format import header_comments, node_columns
 from telethermo.recording.journal import CsvRecorder, RecorderError, recover_journal
-from telethermo.recording.result import RealtimeFigures, RunResult
+from telethermo.iomodule.iorig import IoRig
+from telethermo.recording.result import IoRigCounters, RealtimeFigures, RunResult
 from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.transport.bus import TransportError
 from telethermo.transport.resolve import resolve_bus
@@ -216,6 +217,13 @@ def summary_table(r: RunResult) -> str:
         ("cycle time", f"p50 {ms(r.cycle_ms_p50)}, p99 {ms(r.cycle_ms_p99)}"),
         ("EMCY raised", str(r.emcy_raised)),
     ]
+    if r.io_rig is not None:
+        rows.append(
+            (
+                "I/O rig",
+                f"{r.io_rig.input_timeouts} input timeouts, {r.io_rig.module_restarts} module restarts",
+            )
+        )
     return "\n".join(f"  {k:<18} {v}" for k, v in rows) + "\n  (--json: all figures as one JSON line)"
 
 
@@ -249,6 +257,10 @@ def run_result(rt, cycles: int, wall_s: float) -> RunResult:
             late_tolerance_ms=tk.tolerance_s * 1e3,
         )
     )
+    io_rig = None
+    if isinstance(rt.parts.rig, IoRig):  # --rig io: its counters (0x2709, 0x270A) read now
+        rt.rig_counters()
+        io_rig = IoRigCounters(input_timeouts=s.input_timeouts, module_restarts=s.module_restarts)
     return RunResult(
         cycles=cycles,
         wall_s=wall_s,
@@ -266,4 +278,5 @@ def run_result(rt, cycles: int, wall_s: float) -> RunResult:
         peer=rt.peer.counters.__dict__,
         bus=dict(rt.bus.stats.__dict__) if rt.bus is not None else None,
         realtime=realtime,
+        io_rig=io_rig,
     )

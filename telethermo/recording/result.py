@@ -66,6 +66,16 @@ class RealtimeFigures:
 
 
 @dataclass(frozen=True)
+class IoRigCounters:
+    """The I/O rig's counters (a producer on ``--rig io`` only; the OD's 0x2709 and 0x270A)."""
+
+    input_timeouts: int
+    """Rig reads that waited out the input timeout and reused the last inputs."""
+    module_restarts: int
+    """NMT STARTs the node sent to an I/O module that had left OPERATIONAL while it ran."""
+
+
+@dataclass(frozen=True)
 class RunResult:
     """The SYNC producer's figures of one run (``telethermo-master --json``'s ``result`` line)."""
 
@@ -101,12 +111,17 @@ class RunResult:
     """The reconnecting bus's counters (outages, reopens, ``down_s`` in s, ...); None without one."""
     realtime: RealtimeFigures | None = None
     """The ticker's figures (real-time timing only; their keys are absent from the JSON otherwise)."""
+    io_rig: IoRigCounters | None = None
+    """The I/O rig's counters (``--rig io`` only; their keys are absent from the JSON otherwise)."""
 
     def to_dict(self) -> dict[str, Any]:
-        """The JSON object: the fields in order, the real-time figures flattened at the end."""
-        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "realtime"}
-        if self.realtime is not None:
-            d.update(dataclasses.asdict(self.realtime))
+        """The JSON object: the fields in order, then the real-time figures and the I/O rig's counters
+        flattened at the end."""
+        nested = ("realtime", "io_rig")
+        d = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in nested}
+        for part in (self.realtime, self.io_rig):
+            if part is not None:
+                d.update(dataclasses.asdict(part))
         return d
 
     def to_json(self) -> str:
@@ -123,6 +138,12 @@ class RunResult:
                 lateness_ms_max=_check(where, d, "lateness_ms_max", _NUM),
                 overruns=_check(where, d, "overruns", (int,)),
                 late_tolerance_ms=_check(where, d, "late_tolerance_ms", _NUM),
+            )
+        io = None
+        if "input_timeouts" in d or "module_restarts" in d:
+            io = IoRigCounters(
+                input_timeouts=_check(where, d, "input_timeouts", (int,)),
+                module_restarts=_check(where, d, "module_restarts", (int,)),
             )
         return cls(
             cycles=_check(where, d, "cycles", (int,)),
@@ -141,6 +162,7 @@ class RunResult:
             peer=_check(where, d, "peer", (dict,)),
             bus=_check(where, d, "bus", (dict,), optional=True),
             realtime=rt,
+            io_rig=io,
         )
 
     @classmethod

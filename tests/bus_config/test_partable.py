@@ -77,12 +77,21 @@ def test_the_table_names_each_object_once_and_the_sdo_gains():
     assert GAIN_KEYS == SDO_GAIN_FIELDS  # a per-mode gain object is named as its CoreParams field
 
 
-def _params_for(mode, render=None):
-    return (
-        default_params(Role.MASTER, mode=mode, render=render)
-        if render is not None
-        else default_params(Role.MASTER, mode=mode)
-    )
+def _params_for(role: Role):
+    def params_for(mode, render=None):
+        return (
+            default_params(role, mode=mode, render=render)
+            if render is not None
+            else default_params(role, mode=mode)
+        )
+
+    return params_for
+
+
+def _settable_on(p) -> str:
+    """The role whose object can change the row's value: the master's unless its range is one value
+    (a slave-side parameter such as osc_guard_C, fixed at 0 on the master)."""
+    return "master" if p.value("low", "master") < p.value("high", "master") else "slave"
 
 
 def _image(book: ParamBook) -> dict:
@@ -92,8 +101,8 @@ def _image(book: ParamBook) -> dict:
     )
 
 
-def _candidates(p, now):
-    lo, hi = p.value("low", "master"), p.value("high", "master")
+def _candidates(p, now, role):
+    lo, hi = p.value("low", role), p.value("high", role)
     if p.is_real:
         return [c for c in (now * 0.9, now * 1.1, now - 0.5, now + 0.5, (lo + hi) / 2) if lo <= c <= hi]
     return [c for c in (int(now) + 1, int(now) - 1, int(now) + 2) if lo <= c <= hi]
@@ -105,11 +114,13 @@ def test_a_write_of_every_row_reaches_coreparams_and_shows_in_the_od_image(p):
     back (the mapping object <-> CoreParams field is total and consistent). A row whose object has no
     mapping in nodes/odparams.py fails here."""
     table = load_render_table()
-    book = ParamBook(Role.MASTER, _params_for, has_model=True, table=table, od_material=(1, 0.4, 25.0))
+    role = Role(_settable_on(p))
+    book = ParamBook(role, _params_for(role), has_model=True, table=table, od_material=(1, 0.4, 25.0))
     before = _image(book)
     assert set(before) == set(PARAM_KEYS)
-    accepted = [c for c in _candidates(p, before[p.name]) if book.check(p.name, c) is None]
-    assert accepted, f"{p.name}: none of {_candidates(p, before[p.name])} accepted"
+    cands = _candidates(p, before[p.name], role.value)
+    accepted = [c for c in cands if book.check(p.name, c) is None]
+    assert accepted, f"{p.name}: none of {cands} accepted"
     value = accepted[0]
     params_before = book.params(Mode.RENDER if p.scope == partable.RENDER else None)
     book.apply(p.name, value)

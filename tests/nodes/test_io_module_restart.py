@@ -27,29 +27,34 @@ pytestmark = pytest.mark.slow  # starts processes
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
 CYCLES = 3000
 MODULE, OPERATIONAL, PRE_OPERATIONAL = 4, 0x05, 0x7F  # the slave's module (rig_io_sim_slave.toml)
-TPDO1 = 0x180 + MODULE
+
+
+MASTER_MODULE = 3  # the master's module (rig_io_sim.toml)
 
 
 class Listener:
-    """The module's heartbeats and input TPDOs as a third party sees them (canopen on raw frames)."""
+    """A module's heartbeats and input TPDOs as a third party sees them (canopen on raw frames); by default
+    the slave's module and controller."""
 
-    def __init__(self, port: int) -> None:
+    def __init__(self, port: int, module: int = MODULE, role: str = "slave") -> None:
         self.net = canopen.Network(
             can.Bus(interface="socketcand", host="127.0.0.1", port=port, channel="vcan0", tcp_tune=True)
         )
         self.net.connect()
+        self.module = module
         self.lock = threading.Lock()
         self.events: list[tuple[str, int]] = []  # ("hb", state) / ("tpdo", 0), in arrival order
-        self.net.subscribe(0x700 + MODULE, self._on)
-        self.net.subscribe(TPDO1, self._on)
-        self.node = self.net.add_node(MODULE, str(bus_config_path("io_module.eds")))
+        self.net.subscribe(0x700 + module, self._on)
+        self.net.subscribe(0x180 + module, self._on)
+        self.node = self.net.add_node(module, str(bus_config_path("io_module.eds")))
         self.node.sdo.RESPONSE_TIMEOUT = 2.0
-        self.controller = self.net.add_node(2, str(bus_config_path("slave.eds")))  # the slave controller
+        node_id = {"master": 1, "slave": 2}[role]
+        self.controller = self.net.add_node(node_id, str(bus_config_path(f"{role}.eds")))  # its controller
         self.controller.sdo.RESPONSE_TIMEOUT = 2.0
 
     def _on(self, cob: int, data: bytearray, ts: float) -> None:
         with self.lock:
-            self.events.append(("hb", data[0] & 0x7F) if cob == 0x700 + MODULE else ("tpdo", 0))
+            self.events.append(("hb", data[0] & 0x7F) if cob == 0x700 + self.module else ("tpdo", 0))
 
     def mark(self) -> int:
         with self.lock:
@@ -111,4 +116,41 @@ def test_a_module_that_lost_its_controller_is_started_again(tmp_path, timing):
     # node into PRE-OPERATIONAL
     losses = pair.out_dir.joinpath("io-slave.log").read_text().count("(node 2 lost)")
     assert stopped and f" {losses} module restarts" in stopped[-1] and len(restarts) == losses >= 1, stopped
+    # the master's result carries its own I/O rig's counters: its module never lost the master
+    master_losses = pair.out_dir.joinpath("io-master.log").read_text().count("(node 1 lost)")
+    assert pair.result.io_rig is not None and pair.result.io_rig.module_restarts == master_losses
     print(restarts[0], stopped[-1], codes, sep="\n")
+
+
+def test_the_master_result_counts_the_restarts_of_its_module(tmp_path):
+    """The master (the SYNC producer, whose ``result`` line is the session summary's ``run.master``) frozen
+    until its module declares it lost: the module_restarts of its result equals the losses its module
+    reported and the restarts its log names."""
+    with HubThread() as hub:
+        bus = f"socketcand://127.0.0.1:{hub.port}/vcan0"
+        seen = Listener(hub.port, MASTER_MODULE, "master")
+        config = PairConfig(scene=SCENE, out_dir=tmp_path, bus=bus, io=True, cycles=1500, seed=0)
+        pair = NodePair(config)
+        try:
+            pair.start()
+            assert wait_for(lambda: pair.progress[0] >= 200 or pair.master.poll() is not None, 300)
+            assert pair.master.poll() is None, pair.log("master-stderr").read_text()
+            before = seen.mark()
+            os.kill(pair.master.pid, signal.SIGSTOP)
+            try:
+                lost = wait_for(lambda: ("hb", PRE_OPERATIONAL) in seen.since(before), 60)
+            finally:
+                os.kill(pair.master.pid, signal.SIGCONT)
+            assert lost, seen.since(before)[-20:]
+            after = seen.since(before).index(("hb", PRE_OPERATIONAL)) + before
+            assert wait_for(lambda: ("hb", OPERATIONAL) in seen.since(after), 60), seen.since(after)[-20:]
+            assert pair.wait_master(timeout_s=600) == 0, pair.log("master-stderr").read_text()
+        finally:
+            pair.stop()
+            seen.net.disconnect()
+    assert pair.result is not None and pair.result.cycles == 1500
+    losses = pair.out_dir.joinpath("io-master.log").read_text().count("(node 1 lost)")
+    master_log = pair.log("master").read_text()
+    restarts = [ln for ln in master_log.splitlines() if "NMT START sent (restart" in ln]
+    assert pair.result.io_rig is not None, pair.result
+    assert pair.result.io_rig.module_restarts == len(restarts) == losses >= 1, (pair.result.io_rig, losses)

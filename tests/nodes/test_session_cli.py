@@ -83,6 +83,7 @@ def test_session_figures_equal_offline(tmp_path):
     run = SessionRun.from_dict(fig["run"])  # the typed run block round-trips the summary's JSON
     assert run.master is not None and run.master.cycles == run.cycles_requested == 250
     assert json.dumps(run.to_dict()) == json.dumps(fig["run"])
+    assert run.master.io_rig is None and "module_restarts" not in fig["run"]["master"]  # a simulated rig
     for name in ("recording.csv", "session.png", "master.csv", "slave.csv", "master.log", "slave.log"):
         assert (tmp_path / name).stat().st_size > 0, name
     assert "transparency" in out and "aluminium" in out

@@ -101,6 +101,8 @@ def test_four_node_session_on_io_modules(tmp_path):
     assert fig["n_steps"] == CYCLES and fig["run"]["complete"]
     assert fig["run"]["io_modules"] == {"slave": 4, "master": 3}
     assert fig["run"]["master"]["lockstep_timeouts"] == 0 and fig["safety"]["n_trips"] == 0
+    # the master's I/O rig counters (0x2709, 0x270A) in the summary: no module lost it, no read timed out
+    assert (fig["run"]["master"]["input_timeouts"], fig["run"]["master"]["module_restarts"]) == (0, 0)
     # the modules' truth filled the recording: the operator's skin under the pad, the probe touching at 1 s
     assert fig["transparency"]["per_touch"][0]["object"] == "aluminium"
     head_io = fig["transparency"]["headline_error_C"]

@@ -69,7 +69,15 @@ def slave(tmp_path):
         net.notifier.add_listener(frames)
         proc = subprocess.Popen(
             node_command(
-                "slave", "--bus", bus_text, "--scene", str(scene), "--log", str(tmp_path / "slave.log")
+                "slave",
+                "--bus",
+                bus_text,
+                "--scene",
+                str(scene),
+                "--log",
+                str(tmp_path / "slave.log"),
+                "--store",  # its own parameter store: never the per-user one
+                str(tmp_path / "slave-store.json"),
             ),
             stdout=subprocess.DEVNULL,
             stderr=subprocess.PIPE,
@@ -362,3 +370,30 @@ def test_after_the_peers_return_only_peer_trips_are_cleared_another_latched_trip
     cycles(20)
     assert sdo["safety_state"].raw < 2 and sdo["Error register"].raw == 0
     assert sdo["T_min_C"].raw == 0.0  # the probe's power-on clamp
+
+
+def test_the_oscillation_guard_threshold_is_a_stored_bus_parameter_in_range(slave, tmp_path):
+    """osc_guard_C (0x2204) with canopen's SdoClient from the shipped slave.eds: the slave shows its guard's
+    0.15 °C; 0.3 is written and read back; 2.0 and -0.1 lie outside 0..1 °C and are refused (too high, too
+    low), the value unchanged. Saved (0x1010) and after a reset node, the node shows 0.3 again: the stored
+    value replayed through the controller's parameters into the OD image (a value the mapping lost would
+    show the controller's 0.15)."""
+    net, remote, frames, _ = slave
+    f32 = lambda x: struct.unpack("<f", struct.pack("<f", x))[0]  # noqa: E731
+    guard = remote.sdo[0x2204]
+    assert guard.name == "osc_guard_C" and guard.raw == f32(0.15)
+    guard.raw = 0.3
+    assert guard.raw == f32(0.3)
+    codes = []
+    for bad in (2.0, -0.1):
+        with pytest.raises(canopen.SdoAbortedError) as info:
+            guard.raw = bad
+        codes.append(info.value.code)
+        assert guard.raw == f32(0.3)
+    assert codes == [0x06090031, 0x06090032]  # CiA 301: value too high, too low (0x0609003x: range)
+    remote.sdo.download(0x1010, 1, b"save")
+    assert "osc_guard_C" in (tmp_path / "slave-store.json").read_text(encoding="utf-8")
+    m = frames.mark()
+    net.send_message(0, bytes([0x81, SLAVE]))
+    assert wait_for(lambda: (0x702, b"\x00") in frames.since(m), 10)
+    assert guard.raw == f32(0.3)

@@ -11,7 +11,13 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from telethermo.recording.result import RESULT_PREFIX, RealtimeFigures, RunResult, SessionRun
+from telethermo.recording.result import (
+    RESULT_PREFIX,
+    IoRigCounters,
+    RealtimeFigures,
+    RunResult,
+    SessionRun,
+)
 
 # A lockstep producer's result as nodes/main.py wrote it as a hand-built dict (keys in its order).
 LOCKSTEP = {
@@ -52,6 +58,38 @@ def test_the_result_line_is_byte_compatible(legacy):
     assert r.to_line() == line
     assert list(r.to_dict()) == list(legacy)
     assert (r.realtime is None) == (legacy["timing"] == "lockstep")
+
+
+def test_an_io_rig_producer_carries_its_counters_and_other_rigs_none():
+    """``--rig io``: the I/O rig's counters (0x2709 input_timeouts, 0x270A module_restarts) follow the
+    ticker's keys; any other rig writes neither key and reads back None."""
+    io_line = dict(REALTIME, input_timeouts=3, module_restarts=2)
+    r = RunResult.from_dict(io_line)
+    assert r.io_rig == IoRigCounters(input_timeouts=3, module_restarts=2)
+    assert r.to_json() == json.dumps(io_line) and list(r.to_dict())[-2:] == [
+        "input_timeouts",
+        "module_restarts",
+    ]
+    for legacy in (LOCKSTEP, REALTIME):
+        plain = RunResult.from_dict(legacy)
+        assert plain.io_rig is None and "module_restarts" not in plain.to_dict()
+    with pytest.raises(ValueError, match="master's line: missing field 'input_timeouts'"):
+        RunResult.from_dict(dict(LOCKSTEP, module_restarts=1), "master's line")
+    with pytest.raises(ValueError, match="field 'module_restarts': expected int"):
+        RunResult.from_dict(dict(LOCKSTEP, input_timeouts=0, module_restarts=1.5))
+    block = {
+        "transport": "socketcand",
+        "wall_time_s": 14.9,
+        "cycles": 300,
+        "cycles_requested": 300,
+        "cycles_per_s": 20.1,
+        "complete": True,
+        "master": dict(LOCKSTEP, input_timeouts=0, module_restarts=1),
+        "io_modules": {"master": 3, "slave": 4},
+    }
+    run = SessionRun.from_json(json.dumps(block))  # the session summary's run block
+    assert run.master is not None and run.master.io_rig == IoRigCounters(0, 1)
+    assert run.to_json() == json.dumps(block)
 
 
 def test_the_typed_fields_carry_the_values():
