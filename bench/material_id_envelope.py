@@ -94,6 +94,12 @@ def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
         d = info.get("dense") or {}
         if d:
             ranges.append(((int(d["draw_seed"]), int(d["sim_seed_first"])), int(d["touches"])))
+    for env in (p.envelope, p.envelope_late):  # the envelope classifiers' reference touches
+        if env is not None:
+            info = json.loads(env.info)
+            ranges.append(
+                ((int(info["draw_seed"]), int(info["sim_seed_first"])), int(info["reference_touches"]))
+            )
     for (draw, first), m in ranges:
         if seeds[0] == draw or (seeds[1] < first + m and seeds[1] + n > first):
             raise ValueError(

@@ -29,6 +29,7 @@ valid only for the probe, controller, rest temperature and sampling it was measu
 from __future__ import annotations
 
 import io
+import math
 import zipfile
 from dataclasses import dataclass
 from pathlib import Path
@@ -42,6 +43,10 @@ from telethermo.control.material_id import FitInput
 
 #: the shipped calibration (bench/material_calibrate.py, simulated reference touches)
 DEFAULT_CALIBRATION = Path(__file__).resolve().parent.parent / "data" / "material_classifier.npz"
+#: the shipped envelope classifiers of the early (0.3 s) and the refined (1.2 s) answer
+#: (telethermo.offline.material_envelope_calibration)
+ENVELOPE_EARLY = DEFAULT_CALIBRATION.with_name("material_envelope_early.npz")
+ENVELOPE_LATE = DEFAULT_CALIBRATION.with_name("material_envelope_late.npz")
 FORMAT = "telethermo-material-classifier-2"
 
 
@@ -60,6 +65,9 @@ class Calibration:
         nets: the ensemble's members, each its layers' (weights (in × out), biases (out)) as float32; ReLU
             between layers, softmax after the last.
         info: how it was calibrated (JSON text), for the record.
+        features: what it classifies: "touch" (:func:`touch_vector`, the in-box classifier) or "envelope"
+            (:func:`envelope_vector`, the envelope classifier, every ``sub``-th sample); the input map of an
+            envelope classifier standardises each feature (``whiten`` diagonal, ``scale`` 1).
     """
 
     classes: tuple[str, ...]
@@ -71,6 +79,8 @@ class Calibration:
     scale: float
     nets: tuple[tuple[tuple[np.ndarray, np.ndarray], ...], ...]
     info: str = ""
+    features: str = "touch"
+    sub: int = 1
 
 
 def touch_vector(inp: FitInput, q_weight_K_per_W: float) -> np.ndarray:
@@ -79,6 +89,36 @@ def touch_vector(inp: FitInput, q_weight_K_per_W: float) -> np.ndarray:
     dT = inp.T[n:] - float(np.mean(inp.T[:n]))
     dQ = (inp.Q[n:] - float(np.mean(inp.Q[:n]))) * q_weight_K_per_W
     return np.concatenate([dT, dQ])
+
+
+def envelope_vector(inp: FitInput, q_weight_K_per_W: float, sub: int) -> np.ndarray:
+    """The envelope classifier's touch features (pure): the touch vector over the window (every ``sub``-th
+    sample, the last of each group), divided by its own length and by the direction of the heat flow (so that
+    a touch of an object hotter than the probe has the shape of a colder one's), then ln of that length
+    (°C), the direction (+1: heat into the object), the probe's pre-contact temperature (°C) and its
+    pre-contact flux times ``q_weight_K_per_W`` (°C). The object's temperature difference sets the length,
+    the material and the contact the shape: physics that the network then need not learn from examples."""
+    n = inp.n_pre
+    T0, Q0 = float(np.mean(inp.T[:n])), float(np.mean(inp.Q[:n]))
+    dT = (inp.T[n:] - T0)[sub - 1 :: sub]
+    dQ = ((inp.Q[n:] - Q0) * q_weight_K_per_W)[sub - 1 :: sub]
+    v = np.concatenate([dT, dQ])
+    length = float(np.linalg.norm(v)) + 1e-9
+    sign = 1.0 if float(np.sum(dQ)) >= 0.0 else -1.0
+    return np.concatenate([v * (sign / length), [math.log(length), sign, T0, Q0 * q_weight_K_per_W]])
+
+
+def calibration_vector(cal: Calibration, inp: FitInput) -> np.ndarray:
+    """The vector calibration ``cal`` classifies for window ``inp``: :func:`touch_vector` or, for an envelope
+    classifier (``features`` "envelope"), :func:`envelope_vector`."""
+    if cal.features == "envelope":
+        return envelope_vector(inp, cal.q_weight_K_per_W, cal.sub)
+    return touch_vector(inp, cal.q_weight_K_per_W)
+
+
+def vector_size(features: str, n_win: int, sub: int) -> int:
+    """Length of the vector of a calibration of ``features`` over ``n_win`` samples (every ``sub``-th)."""
+    return 2 * len(range(sub - 1, n_win, sub)) + 4 if features == "envelope" else 2 * n_win
 
 
 def network_input(cal: Calibration, v: np.ndarray) -> np.ndarray | None:
@@ -209,6 +249,8 @@ def save_calibration(cal: Calibration, path: str | Path) -> Path:
         n_nets=np.array(len(cal.nets)),
         n_layers=np.array(len(cal.nets[0]) if cal.nets else 0),
         info=np.array(cal.info),
+        features=np.array(cal.features),
+        sub=np.array(cal.sub),
         **cast(dict[str, Any], _net_fields(cal)),
     )
     return write_bytes_atomic(path, buf.getvalue())
@@ -272,10 +314,15 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
             raise ValueError(f"{path}: field 'classes': expected ≥ 2 material names")
         dt, qw, scale = (_scalar(path, data, key, 0.0) for key in ("dt_s", "q_weight_K_per_W", "scale"))
         n_win = int(_scalar(path, data, "n_win", 5.0))
+        features = str(data["features"]) if "features" in data.files else "touch"
+        if features not in ("touch", "envelope"):
+            raise ValueError(f"{path}: field 'features': expected 'touch' or 'envelope', got {features!r}")
+        sub = int(_scalar(path, data, "sub", 0.0)) if "sub" in data.files else 1
+        size = vector_size(features, n_win, sub)
         center, whiten = _field(path, data, "center", 1), _field(path, data, "whiten", 2)
-        if center.shape != (2 * n_win,) or whiten.shape != (center.size, center.size):
+        if center.shape != (size,) or whiten.shape != (center.size, center.size):
             raise ValueError(
-                f"{path}: field 'center'/'whiten': expected {2 * n_win} values per touch (n_win {n_win})"
+                f"{path}: field 'center'/'whiten': expected {size} values per touch (n_win {n_win})"
             )
         nets = _nets(path, data, center.size, classes.size)
         info = str(data["info"]) if "info" in data.files else ""
@@ -289,4 +336,6 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
             scale,
             nets,
             info,
+            features,
+            sub,
         )

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import math
 import zipfile
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -41,6 +42,8 @@ from telethermo.control.material_stream import (
     material_step,
 )
 from telethermo.control.material_train import TrainSettings
+from telethermo.control.params import default_params
+from telethermo.control.types import Role
 from telethermo.sim.measurement import NoiseParams
 from telethermo.sim.tem import load_rig_params
 
@@ -227,20 +230,25 @@ def test_the_core_classifies_the_window_the_calibration_was_built_on():
 
 def test_a_touch_without_an_effusivity_is_published_unknown():
     """An object within 0.3 °C of the probe: neither form of the physics fit gives an effusivity (the batch
-    fit
-    says None); the network would still name a class, but the evidence is weak (issue 23), so the slave
-    publishes
-    "unknown" with posterior 0 and a NaN effusivity, the touch counted (seeds no calibration touch used)."""
+    fit says None); the in-box network would still name a class, but the evidence is weak (issue 23), so the
+    slave publishes "unknown" with posterior 0 and a NaN effusivity, the touch counted (seeds no calibration
+    touch used): with its envelope classifier (an early window without a fit) and without it (the physics
+    posterior)."""
     T_probe = finger_natural_C(PARAMS)
-    T, Q, i0, est, _ = simulate_touch(
-        PARAMS, "glass", 0.001637, 33.909, 3.25, T_probe, seed=950_053, t_on_s=0.2073
-    )
+    kw = dict(seed=950_053, t_on_s=0.2073)
+    T, Q, i0, _, _ = simulate_touch(PARAMS, "glass", 0.001637, 33.909, 3.25, T_probe, **kw)
     assert abs(33.909 - T_probe) < 0.5 and mi.estimate_effusivity(T, Q, i0, PERIOD_S) is None
     assert (
         classify_vector(CAL, touch_vector(mi.fit_input(T, Q, i0, PERIOD_S), CAL.q_weight_K_per_W)) is not None
     )
-    assert est is not None and est.touch == 1 and est.code == UNKNOWN_CODE and est.posterior == 0.0
-    assert est.abstained in ("flux_reversed", "no_fit", "weak_evidence") and math.isnan(est.effusivity)
+    cp = default_params(Role.SLAVE, period_s=PERIOD_S)
+    physics = replace(cp, material_id=replace(cp.material_id, envelope=None, envelope_late=None))
+    for core in (cp, physics):
+        _, _, _, est, _ = simulate_touch(
+            PARAMS, "glass", 0.001637, 33.909, 3.25, T_probe, core_params=core, **kw
+        )
+        assert est is not None and est.touch == 1 and est.code == UNKNOWN_CODE and est.posterior == 0.0
+        assert est.abstained in ("flux_reversed", "no_fit", "weak_evidence") and math.isnan(est.effusivity)
 
 
 @pytest.mark.slow  # the calibration runs its touches in a process pool

@@ -53,10 +53,11 @@ def test_a_probe_resting_elsewhere_is_named_by_the_physics_not_the_network():
     assert NAMES.get(est.code) == "glass" and 0.2 <= est.posterior < 1.0, est
 
 
-def test_on_another_module_the_physics_names_the_touch_not_the_network():
+def test_on_another_module_the_envelope_classifier_names_the_touch_not_the_network():
     """The same in-box touch (aluminium at 25 °C) with the box told that the probe is another module than the
-    calibration's (what the node does after identify finds one): the network's answer is replaced by the
-    physics posterior's ("another_tem"); with the shipped module the network names it."""
+    calibration's (what the node does after identify finds one): the in-box network does not answer, the
+    envelope classifier (trained on a family of modules) does; with the shipped module the network names
+    it."""
     core = default_params(Role.SLAVE)
     mid = core.material_id
     other = dataclasses.replace(
@@ -66,7 +67,7 @@ def test_on_another_module_the_physics_names_the_touch_not_the_network():
     _, _, _, ship, _ = simulate_touch(PARAMS, "aluminium", 0.02, 25.0, 8.0, REST_C, core_params=core, **kw)
     _, _, _, swap, _ = simulate_touch(PARAMS, "aluminium", 0.02, 25.0, 8.0, REST_C, core_params=other, **kw)
     assert ship.by == "network", ship
-    assert swap.by == "physics" and swap.posterior < 1.0, swap
+    assert swap.by == "envelope" and swap.posterior < 1.0, swap
 
 
 def test_an_object_at_the_probe_temperature_is_unknown():

@@ -1,0 +1,38 @@
+"""Train the slave's envelope classifiers on simulated reference touches across the envelope (issue 23).
+
+``python -m bench.material_envelope_calibrate [--touches 48000] [--jobs 2] [--refs CACHE.npz]``
+
+The procedure (reference touches on the shipped probe and a family of other modules after ``identify``, the
+envelope vectors, one network per answer) is telethermo/offline/material_envelope_calibration.py's
+:func:`calibrate`; it writes telethermo/data/material_envelope_early.npz and material_envelope_late.npz.
+About 20 min of simulation in 2 processes on this shared machine, 3 min of training; ``--refs`` keeps the
+simulated touches so that training again does not simulate again.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+from telethermo.offline.material_envelope_calibration import calibrate
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.material_envelope_calibrate",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    ap.add_argument("--touches", type=int, default=48_000, help="reference touches (48000)")
+    ap.add_argument("--jobs", type=int, default=2, help="simulating processes (2)")
+    ap.add_argument("--refs", help="keep the simulated touches in this .npz (read it when it exists)")
+    args = ap.parse_args(argv)
+    t0 = time.perf_counter()
+    early, late = calibrate(args.touches, args.jobs, args.refs)
+    print(f"wrote the early ({early.n_win} samples) and the refined ({late.n_win}) envelope classifiers")
+    print(f"{time.perf_counter() - t0:.0f} s")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,151 @@
+"""The envelope classifier (issue 23; telethermo.control.material_calib.envelope_vector, the slave's staged
+classification outside the in-box classifier's box, telethermo/data/material_envelope_*.npz)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from telethermo.control import material_id as mi
+from telethermo.control.material_calib import (
+    ENVELOPE_EARLY,
+    ENVELOPE_LATE,
+    calibration_vector,
+    classify_vector,
+    envelope_vector,
+    load_calibration,
+    save_calibration,
+)
+from telethermo.control.material_stream import UNKNOWN_CODE, default_classes, default_envelope
+from telethermo.control.material_train import TrainSettings
+from telethermo.offline.material_envelope_calibration import build
+from telethermo.offline.material_touches import SIM_TO_TABLE, finger_natural_C, noise_of, simulate_touch
+from telethermo.sim.tem import load_rig_params
+
+DT = 0.01
+PARAMS = load_rig_params()
+NAMES = {code: name for code, name, _ in default_classes()}
+shipped = pytest.mark.skipif(
+    default_envelope(ENVELOPE_EARLY) is None or default_envelope(ENVELOPE_LATE) is None,
+    reason="no shipped envelope classifiers",
+)
+
+
+def _inp(T: np.ndarray, Q: np.ndarray) -> mi.FitInput:
+    inp = mi.fit_input(T, Q, 5, DT)
+    assert inp is not None
+    return inp
+
+
+def test_a_hotter_object_has_the_shape_of_a_colder_one_with_the_flow_reversed():
+    """Mirror a touch about the probe's pre-contact state (T0 − d, Q0 − q): the shape features are equal, the
+    size (ln of the length) too, only the direction of the heat flow changes sign."""
+    rng = np.random.default_rng(3)
+    t = np.arange(35) * DT
+    d = np.where(t >= 0.05, -4.0 * (1 - np.exp(-(t - 0.05) / 0.08)), 0.0) + rng.normal(0, 0.01, t.size)
+    q = np.where(t >= 0.05, 0.9 * np.exp(-(t - 0.05) / 0.12), 0.0) + rng.normal(0, 0.002, t.size)
+    cold = envelope_vector(_inp(33.6 + d, 0.05 + q), 3.0, 1)
+    hot = envelope_vector(_inp(33.6 - d, 0.05 - q), 3.0, 1)
+    m = 60
+    assert cold[m + 1] == 1.0 and hot[m + 1] == -1.0
+    assert np.allclose(cold[:m], hot[:m], atol=1e-9) and cold[m] == pytest.approx(hot[m], abs=1e-9)
+    assert cold[m + 2] == pytest.approx(hot[m + 2], abs=0.05)  # the probe's pre-contact mean
+    assert np.linalg.norm(cold[:m]) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_every_fourth_sample_of_the_late_window():
+    T = 33.6 - np.linspace(0, 3, 125)
+    Q = 0.05 + np.linspace(0, 1, 125)
+    inp = mi.fit_input(T, Q, 5, DT, replace(mi.ProbeParams(), window_s=1.2))
+    assert inp is not None
+    assert envelope_vector(inp, 3.0, 4).shape == (2 * 30 + 4,)
+
+
+def _tiny(tmp_path):
+    rng = np.random.default_rng(1)
+    V = rng.normal(size=(200, 64))
+    y = rng.integers(0, len(SIM_TO_TABLE), 200)
+    cal = build(V, y, 0.3, 1, TrainSettings(hidden=8, layers=1, epochs=1, warmup=1), "{}")
+    return cal, save_calibration(cal, tmp_path / "env.npz"), V
+
+
+def test_the_file_keeps_what_it_classifies(tmp_path):
+    cal, path, V = _tiny(tmp_path)
+    back = load_calibration(path)
+    assert back.features == "envelope" and back.sub == 1 and back.n_win == 30
+    assert classify_vector(back, V[0]) == classify_vector(cal, V[0])
+    assert classify_vector(back, V[0][:-1]) is None  # another size: not classified
+
+
+def test_a_malformed_envelope_file_names_its_field(tmp_path):
+    _, path, _ = _tiny(tmp_path)
+    with np.load(path) as f:
+        fields = {k: f[k] for k in f.files}
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **(fields | {"features": np.array("spectrum")}))
+    with pytest.raises(ValueError, match=r"bad\.npz: field 'features'"):
+        load_calibration(bad)
+    np.savez(bad, **(fields | {"sub": np.array(2)}))  # 2 × 15 + 4 values expected, 64 given
+    with pytest.raises(ValueError, match=r"bad\.npz: field 'center'/'whiten': expected 34 values"):
+        load_calibration(bad)
+
+
+@shipped
+def test_the_staged_answer_is_the_batch_classification():
+    """A probe resting at 18 °C room's rest (outside the in-box classifier's box): the slave's early answer is
+    the envelope classifier's, the same class and posterior as the batch classification of the window."""
+    rest = finger_natural_C(PARAMS, 18.0)
+    T, Q, i0, est, _ = simulate_touch(
+        PARAMS, "pvc", 0.02, 10.0, 5.0, rest, seed=940_001, t_on_s=0.2043, ambient_C=18.0, post_s=0.6
+    )
+    assert est.by == "envelope" and est.stage == "early", est
+    env = default_envelope(ENVELOPE_EARLY)
+    inp = mi.fit_input(T, Q, i0, DT)
+    i, post = classify_vector(env, calibration_vector(env, inp))
+    assert est.posterior == pytest.approx(post, rel=1e-6)
+    assert est.code == UNKNOWN_CODE or NAMES[est.code] == env.classes[i]
+
+
+@shipped
+@pytest.mark.slow
+def test_envelope_posterior_is_calibrated_on_held_out_touches():
+    """120 envelope touches of seeds nothing was trained or chosen on (draw 9393, simulator 6100000 + i),
+    objects ≥ 2 °C from the probe, the shipped probe: the refined answers' mean posterior lies within 0.1 of
+    their accuracy (binomial SE about 0.045), and the answers at posterior ≥ 0.9 are right in ≥ 80 %."""
+    rng = np.random.default_rng(9393)
+    sims = list(SIM_TO_TABLE)
+    post, right = [], []
+    for i in range(120):
+        ambient = float(rng.uniform(15.0, 32.0))
+        rest = finger_natural_C(PARAMS, ambient)
+        T_obj = float(rng.uniform(5.0, 50.0))
+        force = math.exp(rng.uniform(math.log(0.5), math.log(20.0)))
+        thick = math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))
+        noise_x = float(rng.uniform(1.0, 3.0))
+        if abs(T_obj - rest) < 2.0:
+            continue
+        _, _, _, est, _ = simulate_touch(
+            PARAMS,
+            sims[i % 10],
+            thick,
+            T_obj,
+            force,
+            rest,
+            seed=6_100_000 + i,
+            t_on_s=0.2043,
+            noise=noise_of(noise_x),
+            ambient_C=ambient,
+            post_s=1.45,
+        )
+        if est is None or est.code in (0, UNKNOWN_CODE):
+            continue
+        post.append(est.posterior)
+        right.append(NAMES[est.code] == SIM_TO_TABLE[sims[i % 10]])
+    post_a, right_a = np.array(post), np.array(right, float)
+    assert len(post_a) >= 60
+    assert abs(post_a.mean() - right_a.mean()) <= 0.1, (post_a.mean(), right_a.mean(), len(post_a))
+    conf = post_a >= 0.9
+    assert conf.sum() >= 5 and right_a[conf].mean() >= 0.8, (conf.sum(), right_a[conf].mean())
