@@ -185,7 +185,7 @@ def _rows(rec: Recording) -> Iterator[list[str]]:
 def write_recording_csv(path: str | os.PathLike[str], rec: Recording) -> Path:
     """Write ``rec`` to ``path`` atomically, through the recordings' one writer
     (:class:`telethermo.recording.journal.CsvRecorder`, as the nodes)."""
-    head = header_comments(rec.meta)
+    head = header_comments(rec.meta, allow_nan=True)  # as the nodes: a NaN parameter (e.g. no tau) is kept
     writer = CsvRecorder(path, list(rec.columns), comments=head, flush_every=1 << 30)
     try:
         for row in _rows(rec):

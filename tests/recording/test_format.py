@@ -89,8 +89,18 @@ def test_a_node_recording_has_its_side_of_the_columns_and_the_sync_cycle():
     assert sorted(["t_s", *m[2:], *s[2:], *ref]) == sorted(COLUMNS)
 
 
+def test_a_nan_in_the_meta_is_written_and_read_back(tmp_path):
+    """The offline writer keeps a NaN of the meta as the nodes' recordings do (JSON's NaN extension): the
+    shipped render scene's meta carries one (the later phase's tau_s it does not use), and refusing it made
+    write_session fail on that scene."""
+    rec = _rec()
+    rec = Recording(meta=dict(rec.meta, tau_s=math.nan), columns=rec.columns)
+    back = read_recording_csv(write_recording_csv(tmp_path / "r.csv", rec))
+    assert math.isnan(back.meta["tau_s"]) and back.meta["scene"] == "s"
+
+
 def test_the_header_refuses_nan_in_the_meta_unless_asked():
-    """The offline writer refuses a NaN in the meta (strict JSON); the nodes' recordings write it as NaN."""
+    """header_comments alone refuses a NaN (strict JSON) unless asked; both writers ask."""
     with pytest.raises(ValueError):
         header_comments({"x": math.nan})
     magic, meta = header_comments({"b": math.nan, "a": 1}, allow_nan=True)
