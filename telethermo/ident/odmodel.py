@@ -39,6 +39,8 @@ from dataclasses import dataclass
 from typing import Any, Callable, cast
 
 import numpy as np
+from canopen.objectdictionary import ODVariable
+from canopen.objectdictionary import datatypes as dt
 
 from telethermo.ident import stability
 from telethermo.ident.flux import FluxArma
@@ -52,11 +54,10 @@ CMD_LOAD, CMD_UNLOAD = 1, 2
 STATUS_NONE, STATUS_LOADED, STATUS_EDITED = 0, 1, 2
 STATUS_NAMES = {STATUS_NONE: "none", STATUS_LOADED: "loaded", STATUS_EDITED: "edited (not loaded)"}
 
-_PACK = {
-    "u8": struct.Struct("<B"),
-    "f32": struct.Struct("<f"),
-    "f64": struct.Struct("<d"),
-    "bool": struct.Struct("<?"),
+#: a model object's kind -> its encoding, from canopen's own table of the CiA 301 types
+_PACK: dict[str, struct.Struct] = {
+    kind: ODVariable.STRUCT_TYPES[code]
+    for kind, code in (("u8", dt.UNSIGNED8), ("f32", dt.REAL32), ("f64", dt.REAL64), ("bool", dt.BOOLEAN))
 }
 #: the scalar model objects: name -> (index, kind)
 SCALARS: dict[str, tuple[int, str]] = {

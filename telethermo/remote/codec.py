@@ -7,23 +7,30 @@ from __future__ import annotations
 import struct
 from typing import Any
 
+from canopen.objectdictionary import ODVariable
+from canopen.objectdictionary import datatypes as dt
+
 from telethermo.device.eds_info import VarInfo
 from telethermo.remote.errors import Failure, UserError
 
-#: CiA 301 data type code -> its encoding (BOOLEAN .. UNSIGNED64; VISIBLE_STRING and others: none)
-STRUCTS = {
-    0x0001: struct.Struct("<?"),
-    0x0002: struct.Struct("<b"),
-    0x0003: struct.Struct("<h"),
-    0x0004: struct.Struct("<i"),
-    0x0005: struct.Struct("<B"),
-    0x0006: struct.Struct("<H"),
-    0x0007: struct.Struct("<I"),
-    0x0008: struct.Struct("<f"),
-    0x0011: struct.Struct("<d"),
-    0x0015: struct.Struct("<q"),
-    0x001B: struct.Struct("<Q"),
+#: the fixed-size CiA 301 types a value can be given as (``--type``)
+_TYPE_CODES = {
+    "u8": dt.UNSIGNED8,
+    "u16": dt.UNSIGNED16,
+    "u32": dt.UNSIGNED32,
+    "u64": dt.UNSIGNED64,
+    "i8": dt.INTEGER8,
+    "i16": dt.INTEGER16,
+    "i32": dt.INTEGER32,
+    "i64": dt.INTEGER64,
+    "f32": dt.REAL32,
+    "f64": dt.REAL64,
 }
+#: CiA 301 data type code -> its encoding, from canopen's own table (ODVariable.STRUCT_TYPES): BOOLEAN and the
+#: types above; VISIBLE_STRING and the others have none
+STRUCTS = {code: ODVariable.STRUCT_TYPES[code] for code in (dt.BOOLEAN, *_TYPE_CODES.values())}
+#: CiA 301 data type code -> its name, from canopen's datatypes module
+_NAMES = {v: n for n in dir(dt) if n.isupper() and isinstance(v := getattr(dt, n), int)}
 
 
 def struct_of(info: VarInfo) -> struct.Struct | None:
@@ -49,33 +56,10 @@ def decode(info: VarInfo, data: bytes) -> Any:
 
 #: --type -> (struct format or None for text, CiA 301 type name)
 TYPES: dict[str, tuple[str | None, str]] = {
-    "u8": ("<B", "UNSIGNED8"),
-    "u16": ("<H", "UNSIGNED16"),
-    "u32": ("<I", "UNSIGNED32"),
-    "u64": ("<Q", "UNSIGNED64"),
-    "i8": ("<b", "INTEGER8"),
-    "i16": ("<h", "INTEGER16"),
-    "i32": ("<i", "INTEGER32"),
-    "i64": ("<q", "INTEGER64"),
-    "f32": ("<f", "REAL32"),
-    "f64": ("<d", "REAL64"),
-    "str": (None, "VISIBLE_STRING"),
-}
+    name: (STRUCTS[code].format, _NAMES[code]) for name, code in _TYPE_CODES.items()
+} | {"str": (None, "VISIBLE_STRING")}
 #: CiA 301 data type code of an EDS entry -> --type
-EDS_TYPES = {
-    0x0001: "u8",
-    0x0002: "i8",
-    0x0003: "i16",
-    0x0004: "i32",
-    0x0005: "u8",
-    0x0006: "u16",
-    0x0007: "u32",
-    0x0008: "f32",
-    0x0009: "str",
-    0x0011: "f64",
-    0x0015: "i64",
-    0x001B: "u64",
-}
+EDS_TYPES = {dt.BOOLEAN: "u8", dt.VISIBLE_STRING: "str"} | {code: name for name, code in _TYPE_CODES.items()}
 
 
 def encode_as(type_name: str, text: str) -> bytes:
