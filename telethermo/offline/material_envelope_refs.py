@@ -32,6 +32,7 @@ from telethermo.offline.material_touches import (
     PERIOD_S,
     PRE_S,
     SIM_TO_TABLE,
+    envelope_conditions,
     finger_natural_C,
     noise_of,
     simulate_touch,
@@ -100,11 +101,7 @@ def reference_draws(n: int, seeds: tuple[int, int], n_rigs: int) -> list[dict[st
         out.append(
             {
                 "class": i % len(SIM_TO_TABLE),
-                "T_object_C": float(rng.uniform(5.0, 50.0)),
-                "ambient_C": float(rng.uniform(15.0, 32.0)),
-                "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
-                "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
-                "noise_x": float(rng.uniform(1.0, 3.0)),
+                **envelope_conditions(rng),
                 "rig": 0 if shipped else int(rng.integers(1, max(n_rigs, 2))),
                 "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)),
                 "seed": seeds[1] + i,

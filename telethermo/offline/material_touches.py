@@ -92,6 +92,18 @@ PHYSICS_CALIBRATION, PHYSICS_CALIBRATION_N = (3131, 1_200_000), 600
 OTHER_TEM_COUPLES, SHIPPED_COUPLES = 71, 31
 
 
+def envelope_conditions(rng: np.random.Generator) -> dict[str, float]:
+    """One touch's conditions across the envelope, drawn from ``rng`` in this order: object 5–50 °C, room
+    15–32 °C (uniform), force 0.5–20 N and thickness 0.3–20 mm (log-uniform), noise × 1–3."""
+    return {
+        "T_object_C": float(rng.uniform(5.0, 50.0)),
+        "ambient_C": float(rng.uniform(15.0, 32.0)),
+        "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
+        "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
+        "noise_x": float(rng.uniform(1.0, 3.0)),
+    }
+
+
 def envelope_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     """``n`` touches across the envelope (bench/material_id_envelope.py): material i mod 10, object 5–50 °C,
     room 15–32 °C, force 0.5–20 N and thickness 0.3–20 mm (log-uniform), noise × 1–3, another TEM in four."""
@@ -101,11 +113,7 @@ def envelope_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
         out.append(
             {
                 "class": i % len(SIM_TO_TABLE),
-                "T_object_C": float(rng.uniform(5.0, 50.0)),
-                "ambient_C": float(rng.uniform(15.0, 32.0)),
-                "force_N": float(math.exp(rng.uniform(math.log(0.5), math.log(20.0)))),
-                "thickness_m": float(math.exp(rng.uniform(math.log(0.3e-3), math.log(20e-3)))),
-                "noise_x": float(rng.uniform(1.0, 3.0)),
+                **envelope_conditions(rng),
                 "other_tem": bool(rng.uniform() < 0.25),
                 "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)),
                 "seed": seeds[1] + i,
