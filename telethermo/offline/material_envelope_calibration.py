@@ -90,7 +90,7 @@ def build(
     )
 
 
-def scores(cal: Calibration, V: np.ndarray, y: np.ndarray) -> np.ndarray:
+def scores(cal: Calibration, V: np.ndarray) -> np.ndarray:
     """The classifier's posterior (touches × classes) of vectors ``V`` (a batch, for development)."""
     return posterior(cal, inputs(cal.center, cal.whiten, cal.scale, V))
 
