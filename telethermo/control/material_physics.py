@@ -64,7 +64,7 @@ class PhysicsCalibration:
 
 #: the early answer's (0.3 s window) and the refined answer's (1.2 s window) calibration
 EARLY = PhysicsCalibration(window_s=0.3, k=2.0, floor_ln=0.3, outlier=0.5, k_ci=2.0, floor_ci_ln=1.3)
-LATE = PhysicsCalibration(window_s=1.2, k=4.0, floor_ln=0.4, outlier=0.3, k_ci=6.0, floor_ci_ln=0.7)
+LATE = PhysicsCalibration(window_s=1.2, k=4.0, floor_ln=0.4, outlier=0.3, k_ci=6.0, floor_ci_ln=0.8)
 
 
 def posterior(est: EffusivityEstimate, ln_b_table: np.ndarray, cal: PhysicsCalibration) -> np.ndarray:
