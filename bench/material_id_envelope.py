@@ -28,7 +28,7 @@ import json
 import math
 import time
 from dataclasses import replace
-from typing import Any, Callable
+from typing import Any, Callable, cast
 
 import numpy as np
 
@@ -47,17 +47,23 @@ from telethermo.offline.material_touches import (
     ENVELOPE,
     ENVELOPE_N,
     OTHER_TEM_COUPLES,
+    OUTSIDE,
     envelope_draws,
     noise_of,
     other_tem,
+    outside_draws,
 )
 
 #: the envelope's touches of the quick run (the full run's seeds and size, ENVELOPE and ENVELOPE_N, and the
 #: development set's, DEVELOPMENT, are telethermo.offline.material_touches')
 ENVELOPE_QUICK_N = 250
 INBOX_N, INBOX_QUICK_N = 300, 100
+#: touches with one condition beyond the envelope (material_touches.outside_draws), full and quick run
+OUTSIDE_N, OUTSIDE_QUICK_N = 200, 50
 NEAR_C = 2.0
 CONFIDENT = 0.9
+#: the label draws of the ECE floor (a perfectly calibrated classifier at the same posteriors)
+ECE_FLOOR_SEED = 60606
 ORACLE_EVERY, ORACLE_DRAWS = 4, 100
 #: the seed of the other TEM's identification (as tests/control/test_material_tem_swap.py's)
 IDENTIFY_SEED = 7
@@ -182,6 +188,18 @@ def ece(post: np.ndarray, right: np.ndarray, bins: int = 10) -> float | None:
     )
 
 
+def ece_floor(post: np.ndarray, draws: int = 400, seed: int = ECE_FLOOR_SEED) -> float | None:
+    """The ECE a perfectly calibrated classifier would show on answers with posteriors ``post``: each answer
+    right with probability its posterior, the median over ``draws`` such label draws. The baseline of
+    :func:`ece` at this many answers (its sampling noise): an ECE near the floor is as calibrated as
+    ``post.size`` answers can show."""
+    if post.size == 0:
+        return None
+    rng = np.random.default_rng(seed)
+    vals = [cast(float, ece(post, rng.random(post.size) < post)) for _ in range(draws)]
+    return float(np.median(vals))
+
+
 def stratum_figures(rows: list[dict]) -> dict[str, Any]:
     """The refined answer's accuracy (abstains wrong), abstain fraction, ECE, confident precision, baseline,
     oracle of ``rows``, and the early answer's (``early``)."""
@@ -192,7 +210,7 @@ def stratum_figures(rows: list[dict]) -> dict[str, Any]:
         "early": {
             k: v
             for k, v in _figures(early).items()
-            if k in ("accuracy", "abstain_fraction", "ece", "confident_n", "confident_precision")
+            if k in ("accuracy", "abstain_fraction", "ece", "ece_floor", "confident_n", "confident_precision")
         }
     }
 
@@ -207,6 +225,7 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
     cov = [r["within_ci95"] for r in rows if r["within_ci95"] is not None]
     orc = [r["oracle"] for r in rows if r.get("oracle") is not None]
     e = ece(post[answered], right[answered])
+    e_floor = ece_floor(post[answered])
     return {
         "n": len(rows),
         "accuracy": round(float(right.mean()), 3),
@@ -214,6 +233,7 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
         "no_estimate_fraction": round(float(np.mean(ans == -1)), 3),
         "accuracy_of_answers": round(float(right[answered].mean()), 3) if answered.any() else None,
         "ece": round(e, 3) if e is not None else None,
+        "ece_floor": round(e_floor, 3) if e_floor is not None else None,
         "confident_n": int(conf.sum()),
         "confident_precision": round(float(right[conf].mean()), 3) if conf.any() else None,
         "ci95_coverage": round(float(np.mean(cov)), 3) if cov else None,
@@ -221,6 +241,35 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
         "oracle": round(float(np.mean(orc)), 3) if orc else None,
         "oracle_n": len(orc),
     }
+
+
+def outside_figures(rows: list[dict]) -> dict[str, Any]:
+    """Per kind of condition beyond the envelope and over all: how many answers are "unknown" (refined /
+    early), how often the named ones are right, and the confident ones (posterior ≥ 0.9)."""
+
+    def one(rs: list[dict]) -> dict[str, Any]:
+        truth = np.array([r["class"] for r in rs])
+        out: dict[str, Any] = {"n": len(rs)}
+        for stage, a_key, p_key in (
+            ("late", "answer", "posterior"),
+            ("early", "answer_early", "posterior_early"),
+        ):
+            ans, post = np.array([r[a_key] for r in rs]), np.array([r[p_key] for r in rs])
+            named, conf = ans >= 0, (ans >= 0) & (post >= CONFIDENT)
+            out[stage] = {
+                "unknown_fraction": round(float(np.mean(~named)), 3),
+                "named_accuracy": round(float(np.mean(ans[named] == truth[named])), 3)
+                if named.any()
+                else None,
+                "confident_n": int(conf.sum()),
+                "confident_precision": (
+                    round(float(np.mean(ans[conf] == truth[conf])), 3) if conf.any() else None
+                ),
+            }
+        return out
+
+    kinds = sorted({r["kind"] for r in rows})
+    return {"all": one(rows)} | {k: one([r for r in rows if r["kind"] == k]) for k in kinds}
 
 
 def after_identify(params) -> Any:
@@ -260,6 +309,15 @@ def worst(strata: dict[str, Any], key: str, high_is_good: bool = True) -> tuple[
     return (min if high_is_good else max)(vals)
 
 
+def _inbox_rows(rigs: dict, sims: list[str], names: list[str], quick: bool) -> list[dict]:
+    """The bench's in-box evaluation touches (the default room and noise, the shipped probe), scored."""
+    inbox = [
+        t | {"ambient_C": mb.AMBIENT_C, "noise_x": 1.0, "other_tem": False}
+        for t in mb.draws(INBOX_QUICK_N if quick else INBOX_N, mb.EVALUATION)
+    ]
+    return [run_touch(rigs, t, sims, names) for t in inbox]
+
+
 def envelope_figures(quick: bool) -> dict[str, Any]:
     """Run the envelope's and the in-box touches and return the keys (module docstring)."""
     t0 = time.perf_counter()
@@ -275,16 +333,15 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     fit_ms = [r["fit_step_ms"][0] for r in rows if r["fit_step_ms"][0] is not None]
     late_ms = [r["fit_step_ms"][1] for r in rows if r["fit_step_ms"][1] is not None]
     step_med = float(np.median([r["step_median_ms"] for r in rows]))
-    inbox = [
-        t | {"ambient_C": mb.AMBIENT_C, "noise_x": 1.0, "other_tem": False}
-        for t in mb.draws(INBOX_QUICK_N if quick else INBOX_N, mb.EVALUATION)
-    ]
-    in_rows = [run_touch(rigs, t, sims, names) for t in inbox]
+    in_rows = _inbox_rows(rigs, sims, names, quick)
     if not quick:
         rng = np.random.default_rng(2323)
         for i, r in enumerate(rows):
             if i % ORACLE_EVERY == 0 or abs(r["T_object_C"] - r["T_probe_C"]) < NEAR_C:
                 r["oracle"] = oracle(rigs, r, sims, rng)
+    n_out = OUTSIDE_QUICK_N if quick else OUTSIDE_N
+    check_seeds(p, n_out, OUTSIDE)
+    outside = outside_figures([run_touch(rigs, t, sims, names, cores) for t in outside_draws(n_out, OUTSIDE)])
     strata = split(rows)
     in_fig = stratum_figures([r for r in in_rows if abs(r["T_object_C"] - r["T_probe_C"]) >= NEAR_C])
     allf = strata["all_outside_near_band"]
@@ -318,8 +375,23 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
         "material_id_worst_stratum_accuracy_late_which": w_acc_name,
         "material_id_ece_worst_stratum": w_ece,
         "material_id_ece_worst_stratum_which": w_ece_name,
+        "material_id_ece_worst_stratum_floor": strata[w_ece_name]["ece_floor"] if w_ece_name else None,
+        "material_id_ece_excess_over_floor_worst": worst(
+            {
+                k: v | {"excess": round(v["ece"] - v["ece_floor"], 3)}
+                for k, v in strata.items()
+                if v.get("ece")
+            },
+            "excess",
+            high_is_good=False,
+        )[0],
         "material_id_confident_precision_worst_stratum": w_cp,
         "material_id_confident_precision_worst_stratum_which": w_cp_name,
+        "material_id_outside_n_touches": n_out,
+        "material_id_outside_unknown_fraction": outside["all"]["late"]["unknown_fraction"],
+        "material_id_outside_unknown_fraction_early": outside["all"]["early"]["unknown_fraction"],
+        "material_id_outside_confident_precision": outside["all"]["late"]["confident_precision"],
+        "material_id_outside": outside,
         "material_id_envelope_strata": strata,
         "material_id_inbox_same_keys": in_fig
         | {"draws": f"bench evaluation draws (15, 1000 + i), first {len(in_rows)}, near-probe band left out"},
@@ -365,6 +437,7 @@ def print_envelope(fig: dict[str, Any]) -> None:
         "accuracy",
         "abstain_fraction",
         "ece",
+        "ece_floor",
         "confident_precision",
         "confident_n",
         "baseline_commonest_class",
@@ -375,6 +448,13 @@ def print_envelope(fig: dict[str, Any]) -> None:
         ("inbox", fig["material_id_inbox_same_keys"])
     ]:
         print(f"{name:24s} " + " ".join(f"{str(v.get(c)):>12s}" for c in cols))
+    print("beyond the envelope (unknown fraction, named accuracy, confident precision (n); refined | early)")
+    for kind, v in fig.get("material_id_outside", {}).items():
+        cells = [
+            f"{s['unknown_fraction']} {s['named_accuracy']} {s['confident_precision']} ({s['confident_n']})"
+            for s in (v["late"], v["early"])
+        ]
+        print(f"  {kind:12s} n {v['n']:4d}: " + " | ".join(cells))
     for k, v in fig.items():
         if not isinstance(v, dict):
             print(f"{k}: {v}")
