@@ -6,7 +6,9 @@ The procedure (reference touches on the shipped probe and a family of other modu
 envelope vectors, one network per answer) is telethermo/offline/material_envelope_calibration.py's
 :func:`calibrate`; it writes telethermo/data/material_envelope_early.npz and material_envelope_late.npz.
 About 20 min of simulation in 2 processes on this shared machine, 3 min of training; ``--refs`` keeps the
-simulated touches so that training again does not simulate again.
+simulated touches so that training again does not simulate again. ``--ranges-only --refs CACHE.npz`` records
+the range of the references' network inputs in the shipped classifiers (their novelty check) without
+training again.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from telethermo.offline.material_envelope_calibration import calibrate
+from telethermo.offline.material_envelope_calibration import calibrate, record_ranges
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -26,8 +28,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--touches", type=int, default=48_000, help="reference touches (48000)")
     ap.add_argument("--jobs", type=int, default=2, help="simulating processes (2)")
     ap.add_argument("--refs", help="keep the simulated touches in this .npz (read it when it exists)")
+    ap.add_argument(
+        "--ranges-only",
+        action="store_true",
+        help="only record the references' input ranges in the shipped classifiers (needs --refs)",
+    )
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
+    if args.ranges_only:
+        if not args.refs:
+            ap.error("--ranges-only needs --refs (the reference touches the classifiers were trained on)")
+        record_ranges(args.refs)
+        print(f"recorded the references' input ranges ({time.perf_counter() - t0:.0f} s)")
+        return 0
     early, late = calibrate(args.touches, args.jobs, args.refs)
     print(f"wrote the early ({early.n_win} samples) and the refined ({late.n_win}) envelope classifiers")
     print(f"{time.perf_counter() - t0:.0f} s")

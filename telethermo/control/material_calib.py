@@ -31,7 +31,7 @@ from __future__ import annotations
 import io
 import math
 import zipfile
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, cast
 
@@ -68,6 +68,9 @@ class Calibration:
         features: what it classifies: "touch" (:func:`touch_vector`, the in-box classifier) or "envelope"
             (:func:`envelope_vector`, the envelope classifier, every ``sub``-th sample); the input map of an
             envelope classifier standardises each feature (``whiten`` diagonal, ``scale`` 1).
+        x_lo, x_hi: the lowest and highest value of each network input over the references it was trained
+            on (None: not recorded): a touch beyond them lies outside what it learnt
+            (:func:`outside_references`).
     """
 
     classes: tuple[str, ...]
@@ -81,6 +84,26 @@ class Calibration:
     info: str = ""
     features: str = "touch"
     sub: int = 1
+    x_lo: np.ndarray | None = None
+    x_hi: np.ndarray | None = None
+
+
+def with_ranges(cal: Calibration, X: np.ndarray) -> Calibration:
+    """``cal`` with the range of its references' network inputs ``X`` (touches × inputs) recorded."""
+    X = np.asarray(X, float)
+    if X.ndim != 2 or X.shape[1] != cal.center.size:
+        raise ValueError(f"expected touches × {cal.center.size} network inputs, got {X.shape}")
+    return replace(cal, x_lo=X.min(axis=0), x_hi=X.max(axis=0))
+
+
+def outside_references(cal: Calibration, x: np.ndarray, margin: float) -> bool:
+    """Whether network input ``x`` lies beyond the references' range (:func:`with_ranges`) by more than
+    ``margin`` in any input (the inputs are standardised: ``margin`` is in the references' standard
+    deviations). False when the calibration has no recorded range (pure)."""
+    if cal.x_lo is None or cal.x_hi is None:
+        return False
+    x = np.asarray(x, float)
+    return bool(np.any(x < cal.x_lo - margin) or np.any(x > cal.x_hi + margin))
 
 
 def touch_vector(inp: FitInput, q_weight_K_per_W: float) -> np.ndarray:
@@ -252,6 +275,7 @@ def save_calibration(cal: Calibration, path: str | Path) -> Path:
         features=np.array(cal.features),
         sub=np.array(cal.sub),
         **cast(dict[str, Any], _net_fields(cal)),
+        **({} if cal.x_lo is None or cal.x_hi is None else {"x_lo": cal.x_lo, "x_hi": cal.x_hi}),
     )
     return write_bytes_atomic(path, buf.getvalue())
 
@@ -326,6 +350,13 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
             )
         nets = _nets(path, data, center.size, classes.size)
         info = str(data["info"]) if "info" in data.files else ""
+        x_lo = x_hi = None
+        if "x_lo" in data.files or "x_hi" in data.files:
+            x_lo, x_hi = _field(path, data, "x_lo", 1), _field(path, data, "x_hi", 1)
+            if x_lo.shape != center.shape or x_hi.shape != center.shape or np.any(x_lo > x_hi):
+                raise ValueError(
+                    f"{path}: field 'x_lo'/'x_hi': expected {center.size} ranges (low ≤ high) per input"
+                )
         return Calibration(
             tuple(str(c) for c in classes),
             dt,
@@ -338,4 +369,6 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
             info,
             features,
             sub,
+            x_lo.astype(float) if x_lo is not None else None,
+            x_hi.astype(float) if x_hi is not None else None,
         )

@@ -56,7 +56,7 @@ from telethermo.control.material_calib import (
     touch_vector,
 )
 from telethermo.control import material_physics as mp
-from telethermo.control.material_trust import CalibrationBox, abstain_reason, pre_contact
+from telethermo.control.material_trust import CalibrationBox, abstain_reason, envelope_novelty, pre_contact
 from telethermo.control.rendering import load_render_table
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
@@ -440,7 +440,7 @@ def _classify_unit(
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last
     i, post = decide(probs)
     if job.net == "envelope":
-        answer = _envelope_answer(p, cal, i, post, est, job.late, pre_contact(inp)[0])
+        answer = _envelope_answer(p, cal, i, post, est, job.late, pre_contact(inp)[0], job.x)
         if job.late:
             return None, _late_result(p, job, last, answer)
         return None, _result(p, est, *answer, n, p.early, "envelope")
@@ -467,6 +467,7 @@ def _envelope_answer(
     est: EffusivityEstimate | None,
     late: bool,
     T_probe_C: float,
+    x: np.ndarray | None = None,
 ) -> tuple[int, float, str]:
     """(code, posterior, why abstained) of the envelope classifier's likeliest class ``i`` for a probe resting
     at ``T_probe_C``: abstained where the touch draws almost no heat, whatever the network says (the early
@@ -477,7 +478,11 @@ def _envelope_answer(
     held back 15 % of the early answers outside the 2 °C band, accuracy 0.556 -> 0.494, and still left the
     band's confident answers 73 % right), and the classifier was trained on touches within 2 °C of the probe
     too. The refined answer without a fit over its 1.2 s (a thin slab that has come to the probe's
-    temperature) is named: the classifier needs none."""
+    temperature) is named: the classifier needs none. A touch outside what the classifier learnt is
+    "unknown" too (material_trust.envelope_novelty)."""
+    novel = envelope_novelty(cal, x, est)
+    if novel is not None:
+        return UNKNOWN_CODE, post, novel
     if est is None and not late:
         return UNKNOWN_CODE, 0.0, "no_fit"
     if est is not None and abs(T_probe_C - est.T_object0_C) < ENVELOPE_MIN_DT_C:

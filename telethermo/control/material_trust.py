@@ -35,7 +35,16 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from telethermo.control.material_calib import Calibration, outside_references
 from telethermo.control.material_id import EffusivityEstimate, FitInput
+
+#: the envelope classifier's novelty check (:func:`envelope_novelty`): how far beyond its references' range
+#: (their standard deviations) an input may lie, the objects' temperatures it learnt (the envelope's, °C) and
+#: how far beyond them (°C) the physics fit's object may lie; chosen on development touches inside and outside
+#: the envelope (``python -m bench.material_novelty_margin``, docs/material_id.md)
+ENVELOPE_NOVELTY_MARGIN = 0.0
+ENVELOPE_T_OBJECT_C = (5.0, 50.0)
+ENVELOPE_T_MARGIN_C = 10.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,4 +107,18 @@ def abstain_reason(
         return "object_temperature"
     if not float(np.linalg.norm(x)) <= box.max_input_norm:
         return "far_from_references"
+    return None
+
+
+def envelope_novelty(cal: Calibration, x: np.ndarray | None, est: EffusivityEstimate | None) -> str | None:
+    """Why a touch lies outside what the envelope classifier ``cal`` learnt, or None: its network input ``x``
+    lies beyond the references' range by more than :data:`ENVELOPE_NOVELTY_MARGIN` in some input
+    (``outside_references``), or the physics fit ``est`` puts the object more than
+    :data:`ENVELOPE_T_MARGIN_C` beyond the temperatures it learnt (``object_temperature``): there it would
+    guess (a 60–90 °C object was named right in 7 % of early answers on the development touches)."""
+    if x is not None and outside_references(cal, x, ENVELOPE_NOVELTY_MARGIN):
+        return "outside_references"
+    lo, hi = ENVELOPE_T_OBJECT_C
+    if est is not None and not lo - ENVELOPE_T_MARGIN_C <= est.T_object0_C <= hi + ENVELOPE_T_MARGIN_C:
+        return "object_temperature"
     return None

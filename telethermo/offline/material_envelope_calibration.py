@@ -29,8 +29,10 @@ from telethermo.control.material_calib import (
     Calibration,
     envelope_vector,
     inputs,
+    load_calibration,
     posterior,
     save_calibration,
+    with_ranges,
 )
 from telethermo.control.material_train import TrainSettings, train_network
 from telethermo.offline.material_envelope_refs import (
@@ -75,7 +77,7 @@ def build(
     whiten = np.diag(1.0 / (V.std(axis=0) + 1e-6))
     X = inputs(center, whiten, 1.0, V)
     net = train_network(X, y, len(SIM_TO_TABLE), settings, settings.seed)
-    return Calibration(
+    cal = Calibration(
         classes=tuple(SIM_TO_TABLE.values()),
         dt_s=PERIOD_S,
         n_win=int(round(window_s / PERIOD_S)),
@@ -88,6 +90,7 @@ def build(
         features="envelope",
         sub=sub,
     )
+    return with_ranges(cal, X)
 
 
 def scores(cal: Calibration, V: np.ndarray) -> np.ndarray:
@@ -131,6 +134,24 @@ def calibrate(
         )
         cal = build(V, y[ok], window_s, sub, settings, info)
         save_calibration(cal, dest)
+        made.append(cal)
+    return made[0], made[1]
+
+
+def record_ranges(
+    refs: str | Path, paths: tuple[Path, Path] = (ENVELOPE_EARLY, ENVELOPE_LATE)
+) -> tuple[Calibration, Calibration]:
+    """Record the range of the references' network inputs (material_calib.with_ranges) in the classifiers at
+    ``paths`` (early, refined) from the reference touches they were trained on (``refs``, as
+    :func:`calibrate` keeps them), the networks unchanged; written atomically."""
+    with np.load(Path(refs)) as f:
+        T, Q = f["T"], f["Q"]
+    made = []
+    for (window_s, sub), path in zip((EARLY, LATE), paths):
+        cal = load_calibration(path)
+        V, _ = vectors(T, Q, KEEP_PRE, window_s, sub)
+        cal = with_ranges(cal, inputs(cal.center, cal.whiten, cal.scale, V))
+        save_calibration(cal, path)
         made.append(cal)
     return made[0], made[1]
 

@@ -122,6 +122,39 @@ def envelope_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
     return out
 
 
+#: (draw seed, first simulator seed) of touches outside the envelope: the bench's and the development set the
+#: envelope classifier's novelty margin was chosen on (bench/material_id_envelope.py)
+OUTSIDE, OUTSIDE_DEVELOPMENT = (5353, 6_500_000), (5454, 6_600_000)
+#: what lies outside the envelope, one kind per touch in turn: (condition, low, high, log-scale)
+OUTSIDE_KINDS: tuple[tuple[str, str, float, float, bool], ...] = (
+    ("hot_object", "T_object_C", 60.0, 90.0, False),  # a cup of tea
+    ("cold_object", "T_object_C", -15.0, 0.0, False),  # from the freezer
+    ("hard_press", "force_N", 40.0, 100.0, True),
+    ("foil", "thickness_m", 0.02e-3, 0.1e-3, True),
+    ("noisy", "noise_x", 6.0, 10.0, False),
+)
+
+
+def outside_draws(n: int, seeds: tuple[int, int]) -> list[dict]:
+    """``n`` touches each with one condition beyond the envelope (:data:`OUTSIDE_KINDS` in turn, ``kind``
+    names it), the others drawn as :func:`envelope_draws`' (another TEM in four)."""
+    rng = np.random.default_rng(seeds[0])
+    out = []
+    for i in range(n):
+        t = {
+            "class": i % len(SIM_TO_TABLE),
+            **envelope_conditions(rng),
+            "other_tem": bool(rng.uniform() < 0.25),
+            "t_on_s": PRE_S + float(rng.uniform(0.0, PERIOD_S)),
+            "seed": seeds[1] + i,
+        }
+        kind, key, lo, hi, log = OUTSIDE_KINDS[(i // len(SIM_TO_TABLE)) % len(OUTSIDE_KINDS)]
+        u = float(rng.uniform())
+        t[key] = math.exp(math.log(lo) + u * math.log(hi / lo)) if log else lo + u * (hi - lo)
+        out.append(t | {"kind": kind})
+    return out
+
+
 def other_tem(params):
     """The rig with a 71-couple module of the same pellets (Seebeck, resistance, conductance × 71/31)."""
     k = OTHER_TEM_COUPLES / SHIPPED_COUPLES

@@ -16,7 +16,9 @@ from telethermo.control.material_calib import (
     calibration_vector,
     classify_vector,
     envelope_vector,
+    inputs,
     load_calibration,
+    outside_references,
     save_calibration,
 )
 from telethermo.control.material_stream import UNKNOWN_CODE, default_classes, default_envelope
@@ -91,6 +93,51 @@ def test_a_malformed_envelope_file_names_its_field(tmp_path):
     np.savez(bad, **(fields | {"sub": np.array(2)}))  # 2 × 15 + 4 values expected, 64 given
     with pytest.raises(ValueError, match=r"bad\.npz: field 'center'/'whiten': expected 34 values"):
         load_calibration(bad)
+
+
+def test_the_references_range_is_kept_and_bounds_what_is_named(tmp_path):
+    """build() records each input's range over its references; the file keeps it; a reference is inside, an
+    input one reference standard deviation beyond the highest is outside at a smaller margin, not at a
+    larger one."""
+    cal, path, V = _tiny(tmp_path)
+    X = inputs(cal.center, cal.whiten, cal.scale, V)
+    assert np.allclose(cal.x_lo, X.min(axis=0)) and np.allclose(cal.x_hi, X.max(axis=0))
+    back = load_calibration(path)
+    assert np.array_equal(back.x_lo, cal.x_lo) and np.array_equal(back.x_hi, cal.x_hi)
+    assert not any(outside_references(back, x, 0.0) for x in X)
+    beyond = X[0].copy()
+    beyond[7] = cal.x_hi[7] + 1.0
+    assert outside_references(back, beyond, 0.5) and not outside_references(back, beyond, 1.5)
+    assert not outside_references(replace(back, x_lo=None, x_hi=None), beyond, 0.0)  # no range: no check
+
+
+def test_a_malformed_range_names_its_field(tmp_path):
+    _, path, _ = _tiny(tmp_path)
+    with np.load(path) as f:
+        fields = {k: f[k] for k in f.files}
+    bad = tmp_path / "bad.npz"
+    np.savez(bad, **(fields | {"x_lo": fields["x_hi"] + 1.0}))
+    with pytest.raises(ValueError, match=r"bad\.npz: field 'x_lo'/'x_hi': expected 64 ranges"):
+        load_calibration(bad)
+    np.savez(bad, **{k: v for k, v in fields.items() if k != "x_hi"})
+    with pytest.raises(ValueError, match=r"bad\.npz: missing field 'x_hi'"):
+        load_calibration(bad)
+
+
+@shipped
+def test_a_cup_of_tea_is_unknown_not_guessed():
+    """An 85 °C object (the envelope ends at 50 °C), touched by the probe resting in an 18 °C room (outside
+    the in-box classifier's box): its input lies beyond the references, or the physics fit puts the object
+    beyond the temperatures the classifier learnt, so the early and the refined answer are "unknown",
+    whatever the network would say."""
+    rest = finger_natural_C(PARAMS, 18.0)
+    _, _, i0, est, _ = simulate_touch(
+        PARAMS, "glass", 0.01, 85.0, 5.0, rest, seed=941_003, t_on_s=0.2043, ambient_C=18.0, post_s=1.45
+    )
+    assert i0 >= 0 and est is not None and est.stage == "late", est
+    assert est.code == UNKNOWN_CODE, est
+    assert est.abstained in ("outside_references", "object_temperature"), est
+    assert est.early_code == UNKNOWN_CODE, est
 
 
 @shipped
