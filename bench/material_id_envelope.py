@@ -34,6 +34,7 @@ import numpy as np
 
 from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
+from bench.material_id_scores import CONFIDENT, ece, ece_floor, outside_figures, position_worst_ms
 from telethermo.offline.material_oracle import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
 from telethermo.control.types import Role
@@ -61,9 +62,6 @@ INBOX_N, INBOX_QUICK_N = 300, 100
 #: touches with one condition beyond the envelope (material_touches.outside_draws), full and quick run
 OUTSIDE_N, OUTSIDE_QUICK_N = 200, 50
 NEAR_C = 2.0
-CONFIDENT = 0.9
-#: the label draws of the ECE floor (a perfectly calibrated classifier at the same posteriors)
-ECE_FLOOR_SEED = 60606
 ORACLE_EVERY, ORACLE_DRAWS = 4, 100
 #: the seed of the other TEM's identification (as tests/control/test_material_tem_swap.py's)
 IDENTIFY_SEED = 7
@@ -144,6 +142,7 @@ def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str], cores: dic
         "stage": est.stage if est is not None else "",
         "within_ci95": (abs(math.log(est.effusivity / b_true)) <= 1.96 * est.se_ln_b) if ok_b else None,
         "fit_step_ms": _fit_cycles_ms(step_s, i0),
+        "fit_positions_ms": _fit_positions_ms(step_s, i0),
         "step_median_ms": 1e3 * float(np.median(step_s)),
     }
 
@@ -173,31 +172,13 @@ def _fit_cycles_ms(step_s: np.ndarray, i0: int) -> tuple[float | None, float | N
     return tuple(1e3 * float(np.max(step_s[i])) if i else None for i in out[:2])
 
 
-def ece(post: np.ndarray, right: np.ndarray, bins: int = 10) -> float | None:
-    """Expected calibration error of answers with posteriors ``post`` (10 equal bins on [0, 1])."""
-    if post.size == 0:
-        return None
-    idx = np.minimum((post * bins).astype(int), bins - 1)
-    return float(
-        sum(
-            abs(post[idx == b].mean() - right[idx == b].mean()) * np.sum(idx == b)
-            for b in range(bins)
-            if np.any(idx == b)
-        )
-        / post.size
-    )
-
-
-def ece_floor(post: np.ndarray, draws: int = 400, seed: int = ECE_FLOOR_SEED) -> float | None:
-    """The ECE a perfectly calibrated classifier would show on answers with posteriors ``post``: each answer
-    right with probability its posterior, the median over ``draws`` such label draws. The baseline of
-    :func:`ece` at this many answers (its sampling noise): an ECE near the floor is as calibrated as
-    ``post.size`` answers can show."""
-    if post.size == 0:
-        return None
-    rng = np.random.default_rng(seed)
-    vals = [cast(float, ece(post, rng.random(post.size) < post)) for _ in range(draws)]
-    return float(np.median(vals))
+def _fit_positions_ms(step_s: np.ndarray, i0: int) -> list[float]:
+    """The core steps (ms) of the cycles that carry the early fit's units, in order (empty: no contact)."""
+    if i0 < 0:
+        return []
+    p = MaterialIdParams()
+    k0 = i0 + int(round(p.probe.window_s / mb.PERIOD_S))
+    return [1e3 * float(v) for v in step_s[k0 : k0 + fit_units(p, mb.PERIOD_S) + 1]]
 
 
 def stratum_figures(rows: list[dict]) -> dict[str, Any]:
@@ -241,35 +222,6 @@ def _figures(rows: list[dict]) -> dict[str, Any]:
         "oracle": round(float(np.mean(orc)), 3) if orc else None,
         "oracle_n": len(orc),
     }
-
-
-def outside_figures(rows: list[dict]) -> dict[str, Any]:
-    """Per kind of condition beyond the envelope and over all: how many answers are "unknown" (refined /
-    early), how often the named ones are right, and the confident ones (posterior ≥ 0.9)."""
-
-    def one(rs: list[dict]) -> dict[str, Any]:
-        truth = np.array([r["class"] for r in rs])
-        out: dict[str, Any] = {"n": len(rs)}
-        for stage, a_key, p_key in (
-            ("late", "answer", "posterior"),
-            ("early", "answer_early", "posterior_early"),
-        ):
-            ans, post = np.array([r[a_key] for r in rs]), np.array([r[p_key] for r in rs])
-            named, conf = ans >= 0, (ans >= 0) & (post >= CONFIDENT)
-            out[stage] = {
-                "unknown_fraction": round(float(np.mean(~named)), 3),
-                "named_accuracy": round(float(np.mean(ans[named] == truth[named])), 3)
-                if named.any()
-                else None,
-                "confident_n": int(conf.sum()),
-                "confident_precision": (
-                    round(float(np.mean(ans[conf] == truth[conf])), 3) if conf.any() else None
-                ),
-            }
-        return out
-
-    kinds = sorted({r["kind"] for r in rows})
-    return {"all": one(rows)} | {k: one([r for r in rows if r["kind"] == k]) for k in kinds}
 
 
 def after_identify(params) -> Any:
@@ -318,6 +270,27 @@ def _inbox_rows(rigs: dict, sims: list[str], names: list[str], quick: bool) -> l
     return [run_touch(rigs, t, sims, names) for t in inbox]
 
 
+def _tick_keys(rows: list[dict]) -> dict[str, Any]:
+    """The fit's cost on the tick: per touch the slowest fit cycle (median over touches), the slowest cycle
+    position (material_id_scores.position_worst_ms), each over the median core step of the same run."""
+    fit_ms = [r["fit_step_ms"][0] for r in rows if r["fit_step_ms"][0] is not None]
+    late_ms = [r["fit_step_ms"][1] for r in rows if r["fit_step_ms"][1] is not None]
+    step_med = float(np.median([r["step_median_ms"] for r in rows]))
+    return {
+        "material_id_fit_cycle_worst_ms": round(float(np.median(fit_ms)), 3),
+        "material_id_core_step_median_ms": round(step_med, 3),
+        "material_id_fit_cycle_worst_over_step_median": round(float(np.median(fit_ms)) / step_med, 1),
+        "material_id_fit_position_worst_ms": round(cast(float, position_worst_ms(rows)), 3),
+        "material_id_fit_position_worst_over_step_median": round(
+            cast(float, position_worst_ms(rows)) / step_med, 1
+        ),
+        "material_id_late_fit_cycle_worst_ms": round(float(np.median(late_ms)), 3) if late_ms else None,
+        "material_id_late_fit_cycle_worst_over_step_median": (
+            round(float(np.median(late_ms)) / step_med, 1) if late_ms else None
+        ),
+    }
+
+
 def envelope_figures(quick: bool) -> dict[str, Any]:
     """Run the envelope's and the in-box touches and return the keys (module docstring)."""
     t0 = time.perf_counter()
@@ -330,9 +303,6 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     names = [mb.SIM_TO_TABLE[m] for m in sims]
     cores = {True: after_identify(rigs[True])}
     rows = [run_touch(rigs, t, sims, names, cores) for t in envelope_draws(n, ENVELOPE)]
-    fit_ms = [r["fit_step_ms"][0] for r in rows if r["fit_step_ms"][0] is not None]
-    late_ms = [r["fit_step_ms"][1] for r in rows if r["fit_step_ms"][1] is not None]
-    step_med = float(np.median([r["step_median_ms"] for r in rows]))
     in_rows = _inbox_rows(rigs, sims, names, quick)
     if not quick:
         rng = np.random.default_rng(2323)
@@ -360,13 +330,7 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
             {k: v.get("early", {}) for k, v in strata.items()}, "ece", high_is_good=False
         )[0],
         "material_id_ci95_coverage": allf["ci95_coverage"],
-        "material_id_fit_cycle_worst_ms": round(float(np.median(fit_ms)), 3),
-        "material_id_core_step_median_ms": round(step_med, 3),
-        "material_id_fit_cycle_worst_over_step_median": round(float(np.median(fit_ms)) / step_med, 1),
-        "material_id_late_fit_cycle_worst_ms": round(float(np.median(late_ms)), 3) if late_ms else None,
-        "material_id_late_fit_cycle_worst_over_step_median": (
-            round(float(np.median(late_ms)) / step_med, 1) if late_ms else None
-        ),
+        **_tick_keys(rows),
         "material_id_abstain_fraction": allf["abstain_fraction"],
         "material_id_envelope_ece": allf["ece"],
         "material_id_envelope_confident_precision": allf["confident_precision"],

@@ -480,7 +480,7 @@ def _envelope_answer(
     too. The refined answer without a fit over its 1.2 s (a thin slab that has come to the probe's
     temperature) is named: the classifier needs none. A touch outside what the classifier learnt is
     "unknown" too (material_trust.envelope_novelty)."""
-    novel = envelope_novelty(cal, x, est)
+    novel = envelope_novelty(cal, x, est, late)
     if novel is not None:
         return UNKNOWN_CODE, post, novel
     if est is None and not late:
