@@ -44,23 +44,26 @@ class InputFileError(ValueError):
         got_text = "" if got is ABSENT else f", got {got!r}"
         return cls(f"{file}: {field}: expected {expected}{got_text}", file, field)
 
+    @classmethod
+    def whole(cls: type[E], file: str | Path, problem: str, field: str | None = None) -> E:
+        """An error of the whole file, or of a line of it (``field``: "line 3"): ``file: problem``."""
+        return cls(f"{file}: {problem}", file, field)
 
-def decode_line(exc: tomllib.TOMLDecodeError) -> int | None:
-    """The line a TOML syntax error is on (Python 3.11's error has it in its text only)."""
+
+def decode_line(exc: tomllib.TOMLDecodeError, text: str) -> int:
+    """The line a TOML syntax error is on (Python 3.11's error has it in its text only; "at end of
+    document": the last line)."""
     m = re.search(r"at line (\d+)", str(exc))
-    return int(m.group(1)) if m else None
+    return int(m.group(1)) if m else text.count("\n") + 1
 
 
 def parse_toml(text: str, source: str | Path, error: type[InputFileError] = InputFileError) -> dict[str, Any]:
-    """The TOML document of ``text`` (``source`` names it in errors)."""
+    """The TOML document of ``text`` (``source`` names it in errors, with the line of a syntax error)."""
     try:
         return tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        line = decode_line(exc)
-        where = f"{source}: line {line}" if line is not None else f"{source}"
-        raise error(
-            f"{where}: not valid TOML ({exc})", source, None if line is None else f"line {line}"
-        ) from None
+        line = decode_line(exc, text)
+        raise error.whole(source, f"line {line}: not valid TOML ({exc})", f"line {line}") from None
 
 
 def load_toml(
@@ -70,26 +73,41 @@ def load_toml(
     ``error`` with one line (``what`` says what the file should have been)."""
     file = Path(path)
     try:
-        text = file.read_text(encoding="utf-8")
+        data = file.read_bytes()
     except FileNotFoundError:
-        raise error(f"{file}: no such file (expected {what})", file) from None
+        raise error.whole(file, f"no such file (expected {what})") from None
     except IsADirectoryError:
-        raise error(f"{file}: is a folder (expected {what})", file) from None
+        raise error.whole(file, f"a folder, not a file (expected {what})") from None
     except OSError as exc:
-        raise error(f"{file}: cannot read ({exc.strerror or exc})", file) from None
-    except UnicodeDecodeError:
-        raise error(f"{file}: cannot read (expected {what} in UTF-8)", file) from None
+        raise error.whole(file, f"cannot read ({exc.strerror or exc})") from None
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        bad = data[exc.start]
+        raise error.whole(file, f"line {line}: not UTF-8 text (byte 0x{bad:02X})", f"line {line}") from None
     return parse_toml(text, file, error)
 
 
-def _range(lo: Any, hi: Any) -> str:
+def _g(v: Any) -> str:
+    return str(v) if isinstance(v, int) else f"{v:g}"
+
+
+def _finite(v: Any) -> bool:
+    """True for a number a float can hold (TOML integers have no size limit)."""
+    try:
+        return math.isfinite(v)
+    except OverflowError:
+        return False
+
+
+def _range(lo: Any, hi: Any, lo_open: bool = False) -> str:
+    """ " in [lo, hi]" ("(lo, hi]" when ``lo_open``), " >= lo", " <= hi" or ""."""
     if lo is not None and hi is not None:
-        return (
-            f" in [{lo:g}, {hi:g}]" if isinstance(lo, float) or isinstance(hi, float) else f" in [{lo}, {hi}]"
-        )
+        return f" in {'(' if lo_open else '['}{_g(lo)}, {_g(hi)}]"
     if lo is not None:
-        return f" >= {lo:g}"
-    return "" if hi is None else f" <= {hi:g}"
+        return f" {'>' if lo_open else '>='} {_g(lo)}"
+    return "" if hi is None else f" <= {_g(hi)}"
 
 
 class Section:
@@ -197,6 +215,7 @@ class Section:
         *,
         positive: builtins.bool = False,
         nonzero: builtins.bool = False,
+        lo_open: builtins.bool = False,
         expected: builtins.str | None = None,
     ) -> Any:
         """A finite number (integers accepted, returned as float) in [lo, hi], > 0 when ``positive``,
@@ -204,13 +223,15 @@ class Section:
         if expected is None:
             bounded = lo is not None or hi is not None
             kind = "a number > 0" if positive else "a non-zero number" if nonzero else None
-            expected = (kind or ("a number" if bounded else "a finite number")) + _range(lo, hi) + unit
+            expected = (
+                (kind or ("a number" if bounded else "a finite number")) + _range(lo, hi, lo_open) + unit
+            )
         v = self.get(key, default, expected)
         if key not in self.raw:
             return v
         ok = not isinstance(v, builtins.bool) and isinstance(v, (builtins.int, builtins.float))
-        ok = ok and math.isfinite(v) and not (positive and v <= 0) and not (nonzero and v == 0)
-        ok = ok and (lo is None or v >= lo) and (hi is None or v <= hi)
+        ok = ok and _finite(v) and not (positive and v <= 0) and not (nonzero and v == 0)
+        ok = ok and (lo is None or v > lo or (v == lo and not lo_open)) and (hi is None or v <= hi)
         if not ok:
             raise self.fail(key, expected, v)
         return builtins.float(v)
