@@ -90,7 +90,10 @@ def load_toml(
 
 
 def _g(v: Any) -> str:
-    return str(v) if isinstance(v, int) else f"{v:g}"
+    """A bound as a person writes it: 10000, 0.001, 1000000 (not 1e+06), 1e-05."""
+    if isinstance(v, int) or (v.is_integer() and abs(v) < 1e16):
+        return str(int(v))
+    return f"{v:g}"
 
 
 def _finite(v: Any) -> bool:
