@@ -44,7 +44,6 @@ import numpy as np
 from bench.common import print_table, write_results
 from bench.nodes_report import ROW_HEADER, print_ratios, print_summary
 from bench.nodes_anchor import ANCHOR_FRAMES, anchor_hub, anchor_virtual, nominal_bus_load, vcan_lockstep
-import tomllib
 from telethermo.bus_config import path as bc
 from telethermo.control.types import Mode, Role
 from telethermo.device.netconfig import load_network
@@ -57,6 +56,7 @@ from telethermo.nodes.runtime import NodeRuntime
 from telethermo.offline import run_offline_session
 from telethermo.recording.format import MAGIC, SYNC_CYCLE, TEXT_COLUMNS, node_columns
 from telethermo.recording.journal import CsvRecorder
+from telethermo.sim.scene import load_scene
 from telethermo.transport.bus import FrameLog, TransportSettings, frame_bits
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -98,8 +98,7 @@ eds = "{bc("slave.eds")}"
 def _scene_at(folder: Path, period_s: float) -> Path:
     """The benchmark scene with another control period (the scene's period must equal the SYNC period)."""
     text = SCENE.read_text()
-    doc = tomllib.loads(text)
-    old = doc.get("scene", {}).get("period_s", 0.01)
+    old = load_scene(SCENE).period_s
     lines = [
         (
             f"period_s = {period_s}"

@@ -7,12 +7,12 @@ Values not given on the command line come from the network settings file (bus_co
 from __future__ import annotations
 
 import argparse
-import tomllib
 from dataclasses import dataclass
 from typing import Any
 from pathlib import Path
 
 from telethermo.control.types import Mode, Role
+from telethermo.inputfile import InputFileError, parse_toml
 from telethermo.nodes.realtime import RealtimeOptions, parse_cpus
 from telethermo.sim.errors import SceneError
 from telethermo.sim.scene import scene_path
@@ -354,6 +354,6 @@ def rig_arg(text: str) -> tuple[str, Any]:
             f"--rig-arg {text!r}: expected KEY=VALUE with KEY a Python identifier (e.g. port=/dev/ttyUSB0)"
         )
     try:
-        return key, tomllib.loads(f"v = {value}")["v"]
-    except tomllib.TOMLDecodeError:
+        return key, parse_toml(f"v = {value}", "--rig-arg")["v"]
+    except InputFileError:  # not a TOML value: the text itself
         return key, value

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import importlib
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Callable
@@ -24,6 +23,7 @@ from telethermo.control.gainsfile import load_gains
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.ident import load_model
+from telethermo.inputfile import InputFileError, load_toml
 from telethermo.iomodule.iorig import IoRig, IoRigError
 from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
 from telethermo.rig import Rig
@@ -238,11 +238,9 @@ def rig_settings(path: Path | None) -> dict[str, Any]:
     if path is None:
         return {}
     try:
-        return tomllib.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise OptionError(f"--rig-config {str(path)!r}: cannot read it: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise OptionError(f"--rig-config {str(path)!r}: not a TOML file: {exc}") from None
+        return load_toml(path, InputFileError, "a TOML file of the rig driver's settings")
+    except InputFileError as exc:  # one line naming the file (and the line of a syntax error)
+        raise OptionError(f"--rig-config {exc}") from None
 
 
 def _io_rig(

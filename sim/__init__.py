@@ -5,7 +5,8 @@
     master, slave = sim.build_rig(scene, "master"), sim.build_rig(scene, "slave")
     ref = sim.build_reference(scene)
 
-sim/ depends on numpy, scipy, tomllib and telethermo.rig only: it never uses the controller's models.
+sim/ depends on numpy, scipy, telethermo.rig and telethermo.inputfile (the TOML reader) only: it never uses
+the controller's models.
 """
 
 from telethermo.sim.compile import build_rig, free_pad_rig

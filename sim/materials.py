@@ -6,11 +6,11 @@ The data live in ``sim/data/materials.toml``; :func:`materials` returns them as 
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
 
+from telethermo.inputfile import Section, load_toml
 from telethermo.sim.errors import SceneError
 
 DATA_DIR = Path(__file__).resolve().parent / "data"
@@ -54,23 +54,22 @@ class Material:
 
 
 def _load(path: Path) -> dict[str, Material]:
-    with open(path, "rb") as fh:
-        try:
-            raw = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError(path, "<toml>", f"valid TOML ({exc})") from None
-    table = raw.get("materials")
-    if not isinstance(table, dict) or not table:
-        raise SceneError(path, "materials", "a table of materials")
+    top = Section(
+        path,
+        "",
+        load_toml(path, SceneError, "a materials table"),
+        {"materials"},
+        error=SceneError,
+        dotted=True,
+    )
+    table = top.table("materials", expected="a table of materials")
+    if not table.raw:
+        raise top.fail("materials", "a table of materials", {})
     out = {}
-    for name, props in table.items():
-        vals = {}
-        for key in ("lambda_W_mK", "rho_kg_m3", "c_J_kgK"):
-            v = props.get(key) if isinstance(props, dict) else None
-            if not isinstance(v, (int, float)) or isinstance(v, bool) or not v > 0 or not math.isfinite(v):
-                raise SceneError(path, f"materials.{name}.{key}", "a positive number", v)
-            vals[key] = float(v)
-        out[name] = Material(name=name, source=str(props.get("source", "")), **vals)
+    for name in table.raw:
+        props = table.table(name, {"lambda_W_mK", "rho_kg_m3", "c_J_kgK", "source"})
+        vals = {key: props.float(key, positive=True) for key in ("lambda_W_mK", "rho_kg_m3", "c_J_kgK")}
+        out[name] = Material(name=name, source=props.str("source", "", nonempty=False), **vals)
     return out
 
 

@@ -68,12 +68,11 @@ Format (all times s, temperatures °C, forces N, lengths mm)::
 
 from __future__ import annotations
 
-import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from telethermo.inputfile import ABSENT, Section, load_toml
 from telethermo.sim.bodies import FingerParams
 from telethermo.sim.errors import SceneError
 from telethermo.sim.materials import materials
@@ -133,152 +132,66 @@ def shipped_scenes() -> list[str]:
     return sorted(p.stem for p in SCENES_DIR.glob("*.toml"))
 
 
-def _is_finite(v: int | float) -> bool:
-    """True for a number a float can hold (TOML integers have no size limit)."""
-    try:
-        return math.isfinite(float(v))
-    except OverflowError:
-        return False
-
-
-class _R:
-    """Typed field reader that raises SceneError naming the file and field."""
-
-    def __init__(self, path: str) -> None:
-        self.path = path
-
-    def known(self, raw: dict, allowed: tuple[str, ...], prefix: str) -> None:
-        """Refuse unknown keys (a typo must not be silently ignored)."""
-        for key in raw:
-            if key not in allowed:
-                raise SceneError(self.path, prefix + key, f"a known field ({', '.join(allowed)})")
-
-    def table(self, raw: dict, key: str, prefix: str = "", required: bool = False) -> dict:
-        v = raw.get(key)
-        if v is None:
-            if required:
-                raise SceneError(self.path, prefix + key, "a table")
-            return {}
-        if not isinstance(v, dict):
-            raise SceneError(self.path, prefix + key, "a table", v)
-        return v
-
-    def num(
-        self,
-        raw: dict,
-        key: str,
-        prefix: str,
-        default: Any = None,
-        lo: float = -math.inf,
-        hi: float = math.inf,
-        lo_open: bool = False,
-    ) -> float:
-        v = raw.get(key, default)
-        field_ = prefix + key
-        if v is None:
-            raise SceneError(self.path, field_, "a number (required)")
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not _is_finite(v):
-            raise SceneError(self.path, field_, "a finite number", v)
-        if (v <= lo if lo_open else v < lo) or v > hi:
-            rng = f"{'(' if lo_open else '['}{lo}, {hi}]"
-            raise SceneError(self.path, field_, f"a number in {rng}", v)
-        return float(v)
-
-    def string(
-        self, raw: dict, key: str, prefix: str, default: Any = None, choices: tuple | None = None
-    ) -> str:
-        v = raw.get(key, default)
-        if not isinstance(v, str) or not v:
-            raise SceneError(
-                self.path,
-                prefix + key,
-                "a non-empty string" + (f" (one of {', '.join(choices)})" if choices else ""),
-                v,
-            )
-        if choices and v not in choices:
-            raise SceneError(self.path, prefix + key, f"one of {', '.join(choices)}", v)
-        return v
+def _table(parent: Section, path: str, raw: Any, allowed: tuple[str, ...]) -> Section:
+    """A sub-table of a scene as a Section (errors: SceneError, dotted field names)."""
+    return Section(parent.file, path, raw, set(allowed), error=SceneError, dotted=True)
 
 
 def _contacts(
-    r: _R,
-    raw: list,
-    prefix: str,
-    duration: float,
-    objects: dict,
-    kind: str,
-    is_master: bool,
-    known_materials: set[str],
+    side: Section, duration: float, objects: dict, is_master: bool, known_materials: set[str]
 ) -> tuple[Touch, ...]:
-    if not isinstance(raw, list):
-        raise SceneError(r.path, prefix, "an array of tables [[...contacts]]", raw)
+    raw = side.list("contacts", [], "an array of tables [[...contacts]]")
+    keys = (
+        ("start_s", "end_s", "force_N", "render", "object")
+        if is_master
+        else ("start_s", "end_s", "force_N", "object")
+    )
     out = []
-    for k, c in enumerate(raw):
-        p = f"{prefix}[{k}]."
-        if not isinstance(c, dict):
-            raise SceneError(r.path, prefix + f"[{k}]", "a table", c)
-        r.known(
-            c,
-            ("start_s", "end_s", "force_N", "render", "object")
-            if is_master
-            else ("start_s", "end_s", "force_N", "object"),
-            p,
-        )
-        start = r.num(c, "start_s", p, lo=0.0, hi=duration)
-        end = r.num(c, "end_s", p, lo=0.0, hi=math.inf)
+    for k, raw_c in enumerate(raw):
+        c = _table(side, f"{side.path}.contacts[{k}]", raw_c, keys)
+        start = c.float("start_s", ABSENT, 0.0, duration)
+        end = c.float("end_s", ABSENT, 0.0)
         if not end > start:
-            raise SceneError(r.path, p + "end_s", f"a time after start_s = {start}", end)
-        force = r.num(c, "force_N", p, lo=0.0, hi=100.0, lo_open=True)
+            raise c.fail("end_s", f"a time after start_s = {start}", end)
+        force = c.float("force_N", ABSENT, 0.0, 100.0, lo_open=True)
         render = None
         if is_master:
             body = "finger"
-            if "object" in c and c["object"] != "finger":
-                raise SceneError(
-                    r.path,
-                    p + "object",
-                    "'finger' (only the operator's finger touches the master)",
-                    c["object"],
+            if c.raw.get("object", "finger") != "finger":
+                raise c.fail(
+                    "object", "'finger' (only the operator's finger touches the master)", c.raw["object"]
                 )
-            if "render" in c:
-                render = r.string(c, "render", p)
+            if c.has("render"):
+                render = c.str("render")
                 if render not in objects and render not in known_materials:
-                    raise SceneError(
-                        r.path, p + "render", "an object of [objects] or a material name", render
-                    )
+                    raise c.fail("render", "an object of [objects] or a material name", render)
         else:
-            body = r.string(c, "object", p)
+            body = c.str("object")
             if body not in objects:
-                raise SceneError(
-                    r.path,
-                    p + "object",
-                    f"one of the scene's objects ({', '.join(sorted(objects)) or 'none'})",
-                    body,
+                raise c.fail(
+                    "object", f"one of the scene's objects ({', '.join(sorted(objects)) or 'none'})", body
                 )
         out.append(Touch(start, end, body, force, render))
     out.sort(key=lambda t: t.start_s)
-    for k, (a, b) in enumerate(zip(out, out[1:])):
+    for a, b in zip(out, out[1:]):
         if b.start_s < a.end_s:
-            raise SceneError(
-                r.path,
-                prefix,
+            raise side.fail(
+                "contacts",
                 f"non-overlapping contacts (contact at {b.start_s} s starts before the one at {a.start_s} s "
                 f"ends at {a.end_s} s)",
             )
     return tuple(out)
 
 
-def _finger(r: _R, raw: dict, path: str, known: set[str]) -> FingerParams:
+def _finger(top: Section, known: set[str]) -> FingerParams:
     """[finger]: its layers [material, thickness_mm, perfusion_1_s], blood and core temperatures, °C."""
-    fr = r.table(raw, "finger")
-    r.known(fr, ("layers", "T_blood_C", "core_C"), "finger.")
+    fr = top.table("finger", {"layers", "T_blood_C", "core_C"}, {})
     defaults = FingerParams()
     layers = defaults.layers
-    if "layers" in fr:
-        lr = fr["layers"]
-        if not isinstance(lr, list) or not lr:
-            raise SceneError(
-                path, "finger.layers", "a non-empty array of [material, thickness_mm, perfusion_1_s]", lr
-            )
+    if fr.has("layers"):
+        lr = fr.list("layers", expected="a non-empty array of [material, thickness_mm, perfusion_1_s]")
+        if not lr:
+            raise fr.fail("layers", "a non-empty array of [material, thickness_mm, perfusion_1_s]", lr)
         layers = []
         for k, L in enumerate(lr):
             if (
@@ -287,146 +200,126 @@ def _finger(r: _R, raw: dict, path: str, known: set[str]) -> FingerParams:
                 or not isinstance(L[0], str)
                 or not all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in L[1:])
             ):
-                raise SceneError(
-                    path, f"finger.layers[{k}]", "[material, thickness_mm > 0, perfusion_1_s >= 0]", L
-                )
+                raise fr.fail(f"layers[{k}]", "[material, thickness_mm > 0, perfusion_1_s >= 0]", L)
             if L[0] not in known:
-                raise SceneError(
-                    path, f"finger.layers[{k}]", f"a known material ({', '.join(sorted(known))})", L[0]
-                )
+                raise fr.fail(f"layers[{k}]", f"a known material ({', '.join(sorted(known))})", L[0])
             if not (L[1] > 0 and L[2] >= 0):
-                raise SceneError(path, f"finger.layers[{k}]", "thickness_mm > 0 and perfusion_1_s >= 0", L)
+                raise fr.fail(f"layers[{k}]", "thickness_mm > 0 and perfusion_1_s >= 0", L)
             layers.append((L[0], float(L[1]) * 1e-3, float(L[2])))
         layers = tuple(layers)
     return FingerParams(
         layers=layers,
-        T_blood_C=r.num(fr, "T_blood_C", "finger.", default=defaults.T_blood_C, lo=30.0, hi=42.0),
-        core_C=r.num(fr, "core_C", "finger.", default=defaults.core_C, lo=30.0, hi=42.0),
+        T_blood_C=fr.float("T_blood_C", defaults.T_blood_C, 30.0, 42.0),
+        core_C=fr.float("core_C", defaults.core_C, 30.0, 42.0),
     )
 
 
-def _objects(r: _R, raw: dict, path: str, known: set[str], ambient: float) -> dict[str, BodySpec]:
+def _objects(top: Section, known: set[str], ambient: float) -> dict[str, BodySpec]:
     """[objects.NAME]: material, thickness_mm, T0_C (°C), back."""
     objects: dict[str, BodySpec] = {}
-    for oname, o in r.table(raw, "objects").items():
-        p = f"objects.{oname}."
-        if not isinstance(o, dict):
-            raise SceneError(path, f"objects.{oname}", "a table", o)
-        r.known(o, ("material", "thickness_mm", "T0_C", "back"), p)
+    table = top.table("objects", None, {})
+    for oname in table.raw:
+        o = table.table(oname, {"material", "thickness_mm", "T0_C", "back"})
         if oname == "finger":
-            raise SceneError(path, f"objects.{oname}", "an object name other than 'finger' (reserved)")
-        mat = r.string(o, "material", p)
+            raise table.fail(oname, "an object name other than 'finger' (reserved)")
+        mat = o.str("material")
         if mat not in known:
-            raise SceneError(path, p + "material", f"a known material ({', '.join(sorted(known))})", mat)
+            raise o.fail("material", f"a known material ({', '.join(sorted(known))})", mat)
         objects[oname] = BodySpec(
             name=oname,
             kind="slab",
             material=mat,
-            thickness_m=r.num(o, "thickness_mm", p, lo=0.0, hi=1000.0, lo_open=True) * 1e-3,
-            T0_C=r.num(o, "T0_C", p, default=ambient, lo=-20.0, hi=100.0),
-            back=r.string(o, "back", p, default="adiabatic", choices=("adiabatic", "ambient")),
+            thickness_m=o.float("thickness_mm", ABSENT, 0.0, 1000.0, lo_open=True) * 1e-3,
+            T0_C=o.float("T0_C", ambient, -20.0, 100.0),
+            back=o.str("back", "adiabatic", ("adiabatic", "ambient")),
         )
     return objects
 
 
-def _start(r: _R, table: dict, path: str, side: str) -> Any:
+def _start(side: Section) -> Any:
     """[master]/[slave] start: "finger" or a temperature in [15, 43] °C (None: not given)."""
-    start = table.get("start")
-    if start is None:
-        return None
-    if isinstance(start, str):
-        if start != "finger":
-            raise SceneError(path, f"{side}.start", '"finger" or a temperature in [15, 43] °C', start)
-        return start
-    return r.num(table, "start", f"{side}.", lo=15.0, hi=43.0)
+    start = side.raw.get("start")
+    if isinstance(start, str) and start != "finger":
+        raise side.fail("start", '"finger" or a temperature in [15, 43] °C', start)
+    return start if start is None or isinstance(start, str) else side.float("start", ABSENT, 15.0, 43.0)
 
 
-def _sides(r: _R, raw: dict, path: str, kind: str, duration: float, objects: dict, known: set[str]) -> tuple:
+def _sides(top: Section, kind: str, duration: float, objects: dict, known: set[str]) -> tuple:
     """[master] and [slave]: (master contacts, slave contacts, master start, slave start)."""
     for side in ("master", "slave"):  # a header with nothing under it: a file cut short, not a choice
-        if side in raw and raw[side] == {}:
-            raise SceneError(
-                path,
+        if top.raw.get(side) == {}:
+            raise top.fail(
                 side,
                 f"contacts ([[{side}.contacts]]) or start under [{side}] (an empty "
                 f"[{side}] table: is the file cut short?)",
             )
-    mr = r.table(raw, "master")
-    r.known(mr, ("contacts", "start"), "master.")
-    master_start = _start(r, mr, path, "master")
-    master = _contacts(r, mr.get("contacts", []), "master.contacts", duration, objects, kind, True, known)
+    mr = top.table("master", {"contacts", "start"}, {})
+    master_start = _start(mr)
+    master = _contacts(mr, duration, objects, True, known)
     if master_start == "finger" and not any(t.start_s <= 1e-9 < t.end_s for t in master):
-        raise SceneError(
-            path,
-            "master.start",
+        raise mr.fail(
+            "start",
             '"finger" only with the finger on the display at t = 0 (a master contact from 0 s)',
             master_start,
         )
-    sr = r.table(raw, "slave")
-    r.known(sr, ("contacts", "start"), "slave.")
-    if sr.get("start") is not None and kind != "telepresence":
-        raise SceneError(path, "slave.start", "no slave settings in a 'virtual' scene (master only)")
-    slave_start = _start(r, sr, path, "slave")
-    if kind == "virtual" and sr.get("contacts"):
-        raise SceneError(path, "slave.contacts", "no slave contacts in a 'virtual' scene (master only)")
-    slave = _contacts(r, sr.get("contacts", []), "slave.contacts", duration, objects, kind, False, known)
+    sr = top.table("slave", {"contacts", "start"}, {})
+    if sr.raw.get("start") is not None and kind != "telepresence":
+        raise sr.fail("start", "no slave settings in a 'virtual' scene (master only)")
+    slave_start = _start(sr)
+    if kind == "virtual" and sr.raw.get("contacts"):
+        raise sr.fail("contacts", "no slave contacts in a 'virtual' scene (master only)")
+    slave = _contacts(sr, duration, objects, False, known)
     return master, slave, master_start, slave_start
 
 
-def _noise(r: _R, raw: dict, path: str) -> tuple[NoiseParams, int | None]:
+def _noise(top: Section) -> tuple[NoiseParams, int | None]:
     """[noise]: the measurement chain's noise and its seed."""
-    nz = r.table(raw, "noise")
-    r.known(nz, ("seed", "T_sigma_C", "Q_sigma_W", "T_lsb_C", "Q_lsb_W", "cutoff_Hz", "enabled"), "noise.")
-    if not isinstance(nz.get("enabled", True), bool):
-        raise SceneError(path, "noise.enabled", "true or false", nz.get("enabled"))
+    keys = {"seed", "T_sigma_C", "Q_sigma_W", "T_lsb_C", "Q_lsb_W", "cutoff_Hz", "enabled"}
+    nz = top.table("noise", keys, {})
     d = NoiseParams()
+    enabled = nz.bool("enabled", True)
     noise = NoiseParams(
-        T_sigma_C=r.num(nz, "T_sigma_C", "noise.", default=d.T_sigma_C, lo=0.0, hi=5.0),
-        Q_sigma_W=r.num(nz, "Q_sigma_W", "noise.", default=d.Q_sigma_W, lo=0.0, hi=5.0),
-        T_lsb_C=r.num(nz, "T_lsb_C", "noise.", default=d.T_lsb_C, lo=0.0, hi=1.0),
-        Q_lsb_W=r.num(nz, "Q_lsb_W", "noise.", default=d.Q_lsb_W, lo=0.0, hi=1.0),
-        cutoff_Hz=r.num(nz, "cutoff_Hz", "noise.", default=d.cutoff_Hz, lo=0.0, hi=1e4),
-        enabled=bool(nz.get("enabled", True)),
+        T_sigma_C=nz.float("T_sigma_C", d.T_sigma_C, 0.0, 5.0),
+        Q_sigma_W=nz.float("Q_sigma_W", d.Q_sigma_W, 0.0, 5.0),
+        T_lsb_C=nz.float("T_lsb_C", d.T_lsb_C, 0.0, 1.0),
+        Q_lsb_W=nz.float("Q_lsb_W", d.Q_lsb_W, 0.0, 1.0),
+        cutoff_Hz=nz.float("cutoff_Hz", d.cutoff_Hz, 0.0, 1e4),
+        enabled=enabled,
     )
-    seed = nz.get("seed")
-    if seed is not None and (isinstance(seed, bool) or not isinstance(seed, int) or seed < 0):
-        raise SceneError(path, "noise.seed", "a non-negative integer", seed)
-    return noise, seed
+    return noise, nz.int("seed", None, 0, expected="a non-negative integer")
 
 
-def _record(r: _R, raw: dict, path: str, period: float, duration: float) -> tuple[list[str], float]:
+def _record(top: Section, period: float, duration: float) -> tuple[list[str], float]:
     """[record]: the signals to record and how often, s."""
-    rec = r.table(raw, "record")
-    r.known(rec, ("signals", "every_s"), "record.")
-    signals = rec.get("signals", ["T_sensor_C", "Q_W", "current_A", "contact"])
-    if not isinstance(signals, list) or not all(isinstance(s, str) for s in signals):
-        raise SceneError(path, "record.signals", "an array of signal names", signals)
+    rec = top.table("record", {"signals", "every_s"}, {})
+    signals = rec.list("signals", ["T_sensor_C", "Q_W", "current_A", "contact"], "an array of signal names")
+    if not all(isinstance(s, str) for s in signals):
+        raise rec.fail("signals", "an array of signal names", signals)
     for s in signals:
         if s not in RECORDABLE:
-            raise SceneError(path, "record.signals", f"names among {', '.join(RECORDABLE)}", s)
-    return signals, r.num(rec, "every_s", "record.", default=period, lo=period, hi=duration)
+            raise rec.fail("signals", f"names among {', '.join(RECORDABLE)}", s)
+    return signals, rec.float("every_s", period, period, duration)
+
+
+_TOP = {"scene", "finger", "objects", "master", "slave", "noise", "record", "numerics", "tem"}
 
 
 def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Scene:
     """Validate a scene given as a dict (as read from TOML); ``path`` names it in errors."""
-    r = _R(path)
-    r.known(raw, ("scene", "finger", "objects", "master", "slave", "noise", "record", "numerics", "tem"), "")
-    sc = r.table(raw, "scene", required=True)
-    r.known(sc, ("name", "kind", "description", "duration_s", "period_s", "ambient_C"), "scene.")
-    name = r.string(sc, "name", "scene.", default=Path(path).stem)
-    kind = r.string(sc, "kind", "scene.", default="telepresence", choices=KINDS)
-    duration = r.num(sc, "duration_s", "scene.", lo=0.0, hi=1e6, lo_open=True)
-    period = r.num(sc, "period_s", "scene.", default=0.01, lo=1e-4, hi=1.0)
-    ambient = r.num(sc, "ambient_C", "scene.", default=25.0, lo=-20.0, hi=60.0)
+    top = Section(path, "", raw, _TOP, error=SceneError, dotted=True)
+    sc = top.table("scene", {"name", "kind", "description", "duration_s", "period_s", "ambient_C"})
+    name = sc.str("name", Path(path).stem)
+    kind = sc.str("kind", "telepresence", KINDS)
+    duration = sc.float("duration_s", ABSENT, 0.0, 1e6, lo_open=True)
+    period = sc.float("period_s", 0.01, 1e-4, 1.0)
+    ambient = sc.float("ambient_C", 25.0, -20.0, 60.0)
     known = set(materials())
-    finger = _finger(r, raw, path, known)
-    objects = _objects(r, raw, path, known, ambient)
-    master, slave, master_start, slave_start = _sides(r, raw, path, kind, duration, objects, known)
-    noise, seed = _noise(r, raw, path)
-    signals, every = _record(r, raw, path, period, duration)
-    num = r.table(raw, "numerics")
-    r.known(num, ("tolerance_C",), "numerics.")
-    tolerance = r.num(num, "tolerance_C", "numerics.", default=0.05, lo=0.0, hi=10.0, lo_open=True)
+    finger = _finger(top, known)
+    objects = _objects(top, known, ambient)
+    master, slave, master_start, slave_start = _sides(top, kind, duration, objects, known)
+    noise, seed = _noise(top)
+    signals, every = _record(top, period, duration)
+    tolerance = top.table("numerics", {"tolerance_C"}, {}).float("tolerance_C", 0.05, 0.0, 10.0, lo_open=True)
     rig = rig_params or load_rig_params()
     if "tem" in raw:
         rig = parse_tem_section(raw["tem"], path, rig)
@@ -447,7 +340,7 @@ def parse_scene(raw: dict, path: str, rig_params: RigParams | None = None) -> Sc
         record_signals=tuple(signals),
         record_every_s=every,
         rig_params=rig,
-        description=str(sc.get("description", "")),
+        description=str(sc.raw.get("description", "")),
         tolerance_C=tolerance,
         master_start=master_start,
         slave_start=slave_start,
@@ -472,18 +365,7 @@ def scene_path(path_or_name: str | Path) -> Path:
 def load_scene(path_or_name: str | Path) -> Scene:
     """Load a scene from a TOML path, or a shipped scene by name (e.g. "probe_touches_al_steel_wood").
 
-    Raises SceneError (a ValueError) naming the file, the field and what was expected.
+    Raises SceneError (a ValueError) naming the file, the field (or line) and what was expected.
     """
     p = scene_path(path_or_name)
-    try:
-        with open(p, "rb") as fh:
-            raw = tomllib.load(fh)
-    except FileNotFoundError:
-        raise SceneError(str(p), "<file>", "an existing scene file") from None
-    except IsADirectoryError:
-        raise SceneError(str(p), "<file>", "a file, not a directory") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(str(p), "<toml>", f"valid TOML ({exc})") from None
-    except UnicodeDecodeError as exc:
-        raise SceneError(str(p), "<file>", f"UTF-8 text ({exc})") from None
-    return parse_scene(raw, str(p))
+    return parse_scene(load_toml(p, SceneError, "a scene file"), str(p))

@@ -15,11 +15,10 @@ term (eq. 2) integrated over the pellet, τ·I·ΔT/2 on each side with the sign
 
 from __future__ import annotations
 
-import math
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from telethermo.inputfile import ABSENT, Section, load_toml
 from telethermo.sim.errors import SceneError
 
 KELVIN = 273.15
@@ -140,51 +139,53 @@ class RigParams:
         return replace(self, **kw)
 
 
-def _num(raw: dict, path: Path, section: str, key: str, positive: bool = True) -> float:
-    v = raw.get(section, {}).get(key)
-    if (
-        not isinstance(v, (int, float))
-        or isinstance(v, bool)
-        or not math.isfinite(v)
-        or (positive and v <= 0)
-    ):
-        raise SceneError(path, f"{section}.{key}", "a positive number" if positive else "a number", v)
-    return float(v)
+#: the tables of a TEM/rig parameter file and their keys
+RIG_FILE_KEYS = {
+    "datasheet": {"Imax_A", "Vmax_V", "dTmax_K", "Qmax_W", "Th_C"},
+    "module": {"side_mm", "couples", "thomson_V_K", "plate_C_J_K"},
+    "sink": {"R_K_W", "C_J_K", "G_sink_plate_W_K", "G_plate_sensor_W_K"},
+    "sensor": {"thickness_mm", "material", "cells"},
+    "contact": {"R_at_1N_m2K_W", "force_exponent", "detect_threshold_N", "h_air_W_m2K"},
+}
 
 
 def load_rig_params(path: str | Path | None = None) -> RigParams:
     """Read a TEM/rig parameter file (default ``sim/data/tem_15x15.toml``)."""
     path = Path(path or TEM_FILE)
-    with open(path, "rb") as fh:
-        try:
-            raw = tomllib.load(fh)
-        except tomllib.TOMLDecodeError as exc:
-            raise SceneError(path, "<toml>", f"valid TOML ({exc})") from None
-    tem = TEMParams.from_datasheet(
-        _num(raw, path, "datasheet", "Imax_A"),
-        _num(raw, path, "datasheet", "Vmax_V"),
-        _num(raw, path, "datasheet", "dTmax_K"),
-        _num(raw, path, "datasheet", "Th_C", positive=False),
-        tau_V_K=_num(raw, path, "module", "thomson_V_K", positive=False),
-        plate_C_J_K=_num(raw, path, "module", "plate_C_J_K"),
+    top = Section(
+        path,
+        "",
+        load_toml(path, SceneError, "a TEM/rig parameter file"),
+        set(RIG_FILE_KEYS),
+        error=SceneError,
+        dotted=True,
     )
-    cells = raw.get("sensor", {}).get("cells", 0)
-    if not isinstance(cells, int) or isinstance(cells, bool) or cells < 0 or (cells and cells % 2 == 0):
-        raise SceneError(path, "sensor.cells", "0 (graded) or an odd positive integer", cells)
+    ds, mod, sink, sensor, contact = (top.table(name, keys, {}) for name, keys in RIG_FILE_KEYS.items())
+    tem = TEMParams.from_datasheet(
+        ds.float("Imax_A", positive=True),
+        ds.float("Vmax_V", positive=True),
+        ds.float("dTmax_K", positive=True),
+        ds.float("Th_C"),
+        tau_V_K=mod.float("thomson_V_K"),
+        plate_C_J_K=mod.float("plate_C_J_K", positive=True),
+    )
+    cells = sensor.int("cells", 0, 0, expected="0 (graded) or an odd positive integer")
+    if cells and cells % 2 == 0:
+        raise sensor.fail("cells", "0 (graded) or an odd positive integer", cells)
     return RigParams(
         tem=tem,
-        side_m=_num(raw, path, "module", "side_mm") * 1e-3,
-        sink_R_K_W=_num(raw, path, "sink", "R_K_W"),
-        sink_C_J_K=_num(raw, path, "sink", "C_J_K"),
-        G_sink_plate_W_K=_num(raw, path, "sink", "G_sink_plate_W_K"),
-        G_plate_sensor_W_K=_num(raw, path, "sink", "G_plate_sensor_W_K"),
-        sensor_thickness_m=_num(raw, path, "sensor", "thickness_mm") * 1e-3,
-        sensor_material=str(raw.get("sensor", {}).get("material", "flux_sensor")),
+        side_m=mod.float("side_mm", positive=True) * 1e-3,
+        sink_R_K_W=sink.float("R_K_W", positive=True),
+        sink_C_J_K=sink.float("C_J_K", positive=True),
+        G_sink_plate_W_K=sink.float("G_sink_plate_W_K", positive=True),
+        G_plate_sensor_W_K=sink.float("G_plate_sensor_W_K", positive=True),
+        sensor_thickness_m=sensor.float("thickness_mm", positive=True) * 1e-3,
+        sensor_material=sensor.str("material", "flux_sensor"),
         sensor_cells=cells,
-        R_at_1N_m2K_W=_num(raw, path, "contact", "R_at_1N_m2K_W"),
-        force_exponent=_num(raw, path, "contact", "force_exponent"),
-        detect_threshold_N=_num(raw, path, "contact", "detect_threshold_N"),
-        h_air_W_m2K=_num(raw, path, "contact", "h_air_W_m2K"),
+        R_at_1N_m2K_W=contact.float("R_at_1N_m2K_W", positive=True),
+        force_exponent=contact.float("force_exponent", positive=True),
+        detect_threshold_N=contact.float("detect_threshold_N", positive=True),
+        h_air_W_m2K=contact.float("h_air_W_m2K", positive=True),
     )
 
 
@@ -211,20 +212,6 @@ _PER_COUPLE = (
 )
 
 
-def _tem_num(raw: dict, path: str, key: str, lo: float, hi: float, default: float | None = None) -> float:
-    v = raw.get(key, default)
-    if v is None:
-        raise SceneError(path, f"tem.{key}", f"a number in ({lo}, {hi}] (required)")
-    if (
-        isinstance(v, bool)
-        or not isinstance(v, (int, float))
-        or not math.isfinite(float(v))
-        or not lo < v <= hi
-    ):
-        raise SceneError(path, f"tem.{key}", f"a number in ({lo}, {hi}]", v)
-    return float(v)
-
-
 def parse_tem_section(raw: object, path: str | Path, base: RigParams | None = None) -> RigParams:
     """The rig of ``base`` (default: the shipped module) with the TEM of a ``[tem]`` table.
 
@@ -235,56 +222,38 @@ def parse_tem_section(raw: object, path: str | Path, base: RigParams | None = No
     ``pad_plate_C_J_K``, if given, must be equal); ``thomson_V_K`` (optional, default: the base module's).
     Errors are one line naming the file, the field and what was expected (:class:`SceneError`).
     """
-    path = str(path)
-    if not isinstance(raw, dict):
-        raise SceneError(path, "tem", "a table [tem]", raw)
-    for key in raw:
-        if key not in TEM_KEYS:
-            raise SceneError(path, f"tem.{key}", f"a known field ({', '.join(TEM_KEYS)})")
+    t = Section(str(path), "tem", raw, set(TEM_KEYS), error=SceneError, dotted=True, expected="a table [tem]")
     base = base or load_rig_params()
-    couples = raw.get("couples")
-    if couples is not None and (
-        isinstance(couples, bool) or not isinstance(couples, int) or not 0 < couples <= 10_000
-    ):
-        raise SceneError(path, "tem.couples", "an integer in [1, 10000]", couples)
+    couples = t.int("couples", None, 1, 10_000)
     vals = {}
     for module_key, couple_key in _PER_COUPLE:
-        if (module_key in raw) == (couple_key in raw):
-            raise SceneError(path, f"tem.{module_key}", f"either {module_key} or {couple_key} (exactly one)")
-        if module_key in raw:
-            vals[module_key] = _tem_num(raw, path, module_key, 0.0, 1e3)
+        if t.has(module_key) == t.has(couple_key):
+            raise t.fail(module_key, f"either {module_key} or {couple_key} (exactly one)")
+        if t.has(module_key):
+            vals[module_key] = t.float(module_key, ABSENT, 0.0, 1e3, lo_open=True)
         elif couples is None:
-            raise SceneError(path, "tem.couples", f"the number of couples (for {couple_key})")
+            raise t.fail("couples", f"the number of couples (for {couple_key})")
         else:
-            vals[module_key] = couples * _tem_num(raw, path, couple_key, 0.0, 10.0)
+            vals[module_key] = couples * t.float(couple_key, ABSENT, 0.0, 10.0, lo_open=True)
     plates = {
-        k: _tem_num(raw, path, k, 0.0, 1e3)
+        k: t.float(k, ABSENT, 0.0, 1e3, lo_open=True)
         for k in ("plate_C_J_K", "sink_plate_C_J_K", "pad_plate_C_J_K")
-        if k in raw
+        if t.has(k)
     }
     if not plates:
-        raise SceneError(path, "tem.plate_C_J_K", "a number in (0.0, 1000.0] (required)")
+        raise t.fail("plate_C_J_K", "a number in (0, 1000] (missing)")
     if max(plates.values()) - min(plates.values()) > 1e-12 * max(plates.values()):
-        raise SceneError(
-            path,
-            "tem.pad_plate_C_J_K",
+        raise t.fail(
+            "pad_plate_C_J_K",
             f"the same capacity for both plates (the lumped TEM model has one plate capacity), got {plates}",
         )
-    th = raw.get("thomson_V_K", base.tem.tau_V_K)
-    if (
-        isinstance(th, bool)
-        or not isinstance(th, (int, float))
-        or not math.isfinite(float(th))
-        or abs(th) > 1.0
-    ):
-        raise SceneError(path, "tem.thomson_V_K", "a number in [-1, 1] V/K", th)
     tem = TEMParams(
         alpha_V_K=vals["seebeck_V_K"],
         R_ohm=vals["R_ohm"],
         K_W_K=vals["K_W_K"],
-        tau_V_K=float(th),
+        tau_V_K=t.float("thomson_V_K", float(base.tem.tau_V_K), -1.0, 1.0, " V/K"),
         plate_C_J_K=next(iter(plates.values())),
-        I_max_A=_tem_num(raw, path, "Imax_A", 0.0, 100.0),
+        I_max_A=t.float("Imax_A", ABSENT, 0.0, 100.0, lo_open=True),
     )
     return base.with_(tem=tem)
 
@@ -293,14 +262,7 @@ def load_tem_file(path: str | Path) -> RigParams:
     """The default rig with the TEM of a TOML file's ``[tem]`` table (the scene format; ``telethermo identify
     --tem FILE``). SceneError names the file and the field."""
     p = Path(path)
-    try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (FileNotFoundError, IsADirectoryError):
-        raise SceneError(str(p), "<file>", "an existing TOML file with a [tem] table") from None
-    except UnicodeDecodeError as exc:
-        raise SceneError(str(p), "<file>", f"UTF-8 text ({exc})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(str(p), "<toml>", f"valid TOML ({exc})") from None
+    raw = load_toml(p, SceneError, "a TOML file with a [tem] table")
     if "tem" not in raw:
         raise SceneError(str(p), "tem", "a [tem] table")
     return parse_tem_section(raw["tem"], p)

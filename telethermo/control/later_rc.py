@@ -16,7 +16,6 @@ load; bench/rc_identify.py on the simulator) and stored in telethermo/data/rende
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import cast
@@ -25,7 +24,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
 
+from telethermo.inputfile import Section, load_toml
+
 DEFAULT_RC_TABLE = Path(__file__).resolve().parent.parent / "data" / "render_rc.toml"
+#: the keys of an [[entry]] (thickness mm, load g, tau s; fit_rms_C: the fit's residual, °C, for the record)
+RC_KEYS = {"material", "thickness_mm", "back", "load_g", "tau_s", "final_fraction", "fit_rms_C"}
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,36 +69,23 @@ def fit_exponential(t_s: ArrayLike, T_C: ArrayLike) -> tuple[float, float, float
 def load_rc_table(path: str | Path | None = None) -> list[RcEntry]:
     """The identified τ table ([[entry]] array of tables); errors name the file and the field."""
     path = Path(path) if path is not None else DEFAULT_RC_TABLE
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read the RC table: {exc}") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from exc
-    rows = data.get("entry")
-    if not isinstance(rows, list) or not rows:
-        raise ValueError(f"{path}: field 'entry': expected a non-empty array of tables")
+    top = Section(path, "", load_toml(path, what="an RC table (TOML)"), {"entry"})
+    rows = top.list("entry", expected="a non-empty array of tables [[entry]]")
+    if not rows:
+        raise top.fail("entry", "a non-empty array of tables [[entry]]", rows)
     out = []
-    for k, e in enumerate(rows):
-        f = f"entry[{k}]"
-        try:
-            out.append(
-                RcEntry(
-                    str(e["material"]),
-                    float(e["thickness_mm"]),
-                    str(e["back"]),
-                    float(e["load_g"]),
-                    float(e["tau_s"]),
-                    float(e["final_fraction"]),
-                )
+    for k, raw in enumerate(rows):
+        e = Section(path, f"entry[{k}]", raw, RC_KEYS)
+        out.append(
+            RcEntry(
+                e.str("material"),
+                e.float("thickness_mm", positive=True),
+                e.str("back"),
+                e.float("load_g", lo=0.0),
+                e.float("tau_s", positive=True, expected="a time > 0 s"),
+                e.float("final_fraction"),
             )
-        except (KeyError, TypeError, ValueError) as exc:
-            raise ValueError(
-                f"{path}: field '{f}': expected material, thickness_mm, back, load_g, tau_s, "
-                f"final_fraction ({exc!r})"
-            ) from None
-        if not (out[-1].tau_s > 0 and out[-1].thickness_mm > 0 and math.isfinite(out[-1].tau_s)):
-            raise ValueError(f"{path}: field '{f}.tau_s': expected a time > 0, got {out[-1].tau_s!r}")
+        )
     return out
 
 

@@ -50,7 +50,6 @@ from __future__ import annotations
 
 import functools
 import math
-import tomllib
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import cast
@@ -58,6 +57,7 @@ from typing import cast
 import numpy as np
 from numpy.typing import ArrayLike
 
+from telethermo.inputfile import Section, load_toml
 from telethermo.control.rendering import DEFAULT_RENDER_TABLE
 
 
@@ -467,16 +467,9 @@ def load_effusivity_table(path: str | Path | None = None) -> dict[str, float]:
     """Material -> effusivity (W·s^½/(m²·K)) of the rendering-table entries that give ``effusivity``, in file
     order; errors name the file and the field."""
     path = Path(path) if path is not None else DEFAULT_RENDER_TABLE
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, tomllib.TOMLDecodeError) as exc:
-        raise ValueError(f"{path}: cannot read rendering table: {exc}") from exc
-    out: dict[str, float] = {}
-    for name, entry in data.items():
-        if not isinstance(entry, dict) or "effusivity" not in entry:
-            continue
-        b = entry["effusivity"]
-        if isinstance(b, bool) or not isinstance(b, (int, float)) or not math.isfinite(b) or b <= 0:
-            raise ValueError(f"{path}: [{name}].effusivity: expected a number > 0, got {b!r}")
-        out[name] = float(b)
-    return out
+    top = Section(path, "", load_toml(path, what="a rendering table (TOML)"))
+    return {
+        name: top.table(name).float("effusivity", positive=True)
+        for name, entry in top.raw.items()
+        if isinstance(entry, dict) and "effusivity" in entry
+    }

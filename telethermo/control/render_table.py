@@ -5,37 +5,25 @@ so the light CLI commands (``telethermo status``) can name a material without im
 from __future__ import annotations
 
 import functools
-import math
-import tomllib
 from pathlib import Path
 
+from telethermo.inputfile import Section, load_toml
+
 DEFAULT_RENDER_TABLE = Path(__file__).resolve().parent.parent / "data" / "render_materials.toml"
+#: the keys of a material's table (beta, dimensionless; effusivity, W·s^½/(m²·K); source, text)
+RENDER_KEYS = {"beta", "effusivity", "source"}
 
 
 def load_render_table(path: str | Path | None = None) -> dict[str, float]:
     """Material -> β from a rendering table (TOML); errors name the file and the field."""
     path = Path(path) if path is not None else DEFAULT_RENDER_TABLE
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read rendering table: {exc}") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from exc
-    out: dict[str, float] = {}
-    for name, entry in data.items():
-        if not isinstance(entry, dict):
-            raise ValueError(f"{path}: [{name}]: expected a table with 'beta', got {type(entry).__name__}")
-        beta = entry.get("beta")
-        if (
-            isinstance(beta, bool)
-            or not isinstance(beta, (int, float))
-            or not math.isfinite(beta)
-            or beta <= 0
-        ):
-            raise ValueError(f"{path}: [{name}].beta: expected a number > 0, got {beta!r}")
-        out[name] = float(beta)
+    top = Section(path, "", load_toml(path, what="a rendering table (TOML)"))
+    out = {
+        name: top.table(name, RENDER_KEYS, expected="a table with 'beta'").float("beta", positive=True)
+        for name in top.raw
+    }
     if not out:
-        raise ValueError(f"{path}: no materials")
+        raise top.fail(None, "at least one [material] table with 'beta'")
     return out
 
 

@@ -12,9 +12,10 @@ rendering table's names ("wood", "contact_pad") find their material.
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+
+from telethermo.inputfile import Section, load_toml
 
 DEFAULT_OBJECT_TABLE = Path(__file__).resolve().parent.parent / "data" / "render_objects.toml"
 BACKS = ("adiabatic", "ambient")
@@ -99,39 +100,28 @@ class VirtualObject:
             raise ValueError(f"VirtualObject.area_m2: expected an area in (0, 1) m², got {self.area_m2!r}")
 
 
-def _num(path: Path, field: str, v: object) -> float:
-    if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v) or v <= 0:
-        raise ValueError(f"{path}: field '{field}': expected a number > 0, got {v!r}")
-    return float(v)
-
-
 def load_object_table(path: str | Path | None = None) -> ObjectTable:
     """Read the object table (TOML); errors name the file and the field."""
     path = Path(path) if path is not None else DEFAULT_OBJECT_TABLE
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ValueError(f"{path}: cannot read the object table: {exc}") from exc
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: not valid TOML: {exc}") from exc
-    finger = data.pop("finger", {})
-    b_f = _num(path, "finger.b_W_s05_m2K", finger.get("b_W_s05_m2K") if isinstance(finger, dict) else finger)
+    top = Section(path, "", load_toml(path, what="an object table (TOML)"))
+    b_f = top.table("finger", {"b_W_s05_m2K"}, {}).float("b_W_s05_m2K", positive=True)
     mats: dict[str, ObjectMaterial] = {}
     aliases: dict[str, str] = {}
-    for name, e in data.items():
-        if not isinstance(e, dict):
-            raise ValueError(f"{path}: field '{name}': expected a table, got {e!r}")
+    for name in top.raw:
+        if name == "finger":
+            continue
+        e = top.table(name, {"lambda_W_mK", "rho_c_J_m3K", "source", "aliases"})
         mats[name] = ObjectMaterial(
             name,
-            _num(path, f"{name}.lambda_W_mK", e.get("lambda_W_mK")),
-            _num(path, f"{name}.rho_c_J_m3K", e.get("rho_c_J_m3K")),
-            str(e.get("source", "")),
+            e.float("lambda_W_mK", positive=True),
+            e.float("rho_c_J_m3K", positive=True),
+            e.str("source", "", nonempty=False),
         )
-        al = e.get("aliases", [])
-        if not isinstance(al, list) or not all(isinstance(a, str) for a in al):
-            raise ValueError(f"{path}: field '{name}.aliases': expected an array of names, got {al!r}")
+        al = e.list("aliases", [], "an array of names")
+        if not all(isinstance(a, str) for a in al):
+            raise e.fail("aliases", "an array of names", al)
         for a in al:
             aliases[a] = name
     if not mats:
-        raise ValueError(f"{path}: no materials")
+        raise top.fail(None, "at least one [material] table")
     return ObjectTable(mats, aliases, b_f)

@@ -8,22 +8,20 @@ the field (``[section] key``) and what was expected, e.g.::
 
 from __future__ import annotations
 
-import builtins
-import math
-import tomllib
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, cast
+from typing import Any
 
 from telethermo.device.settings import DeviceSettings
+from telethermo.inputfile import InputFileError, Section, load_toml
 from telethermo.bus_config import path
 from telethermo.bus_config.edsgen import CONTACT_PDO_BASE, IDENT_PDO_BASE
 
 ROLES = ("master", "slave")
 
 
-class NetworkConfigError(ValueError):
+class NetworkConfigError(InputFileError):
     """A network settings file is missing, unreadable or has a bad field."""
 
 
@@ -115,135 +113,67 @@ def default_path() -> Path:
     return Path(path("network.toml"))  # typed Path also where mypy cannot resolve telethermo.bus_config
 
 
-class _Section:
-    """Typed, checked access to one TOML table; refuses unknown keys."""
-
-    def __init__(self, file: Path, name: str, table: Any, allowed: set[str]):
-        if not isinstance(table, dict):
-            raise NetworkConfigError(f"{file}: [{name}]: expected a table, got {table!r}")
-        unknown = sorted(set(table) - allowed)
-        if unknown:
-            raise NetworkConfigError(
-                f"{file}: [{name}] {unknown[0]}: unknown key (expected one of {', '.join(sorted(allowed))})"
-            )
-        self.file, self.name, self.table = file, name, table
-
-    def error(self, key: str, expected: str, value: Any) -> NetworkConfigError:
-        return NetworkConfigError(f"{self.file}: [{self.name}] {key}: expected {expected}, got {value!r}")
-
-    def str(self, key: str, default: str, choices: tuple[str, ...] | None = None) -> str:
-        v = self.table.get(key, default)
-        if not isinstance(v, str) or not v or (choices and v not in choices):
-            raise self.error(key, f"one of {', '.join(choices)}" if choices else "a non-empty string", v)
-        return v
-
-    def int(self, key: builtins.str, default: int, lo: int, hi: int, what: builtins.str = "") -> int:
-        v = self.table.get(key, default)
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            raise self.error(key, f"an integer in [{lo}, {hi}]{what}", v)
-        return cast(builtins.int, v)  # checked above (mypy does not narrow Any through the `or`)
-
-    def float(
-        self,
-        key: builtins.str,
-        default: builtins.float,
-        lo: builtins.float,
-        hi: builtins.float,
-        what: builtins.str = "",
-    ) -> builtins.float:
-        v = self.table.get(key, default)
-        if (
-            isinstance(v, bool)
-            or not isinstance(v, (int, float))
-            or not math.isfinite(v)
-            or not lo <= v <= hi
-        ):
-            raise self.error(key, f"a number in [{lo:g}, {hi:g}]{what}", v)
-        return float(v)
-
-    def bool(self, key: builtins.str, default: builtins.bool) -> builtins.bool:
-        v = self.table.get(key, default)
-        if not isinstance(v, bool):
-            raise self.error(key, "true or false", v)
-        return v
-
-
 def load_network(path: str | Path | None = None) -> NetworkConfig:
     """Load and validate a network settings file (default: bus_config/network.toml)."""
     file = Path(path) if path is not None else default_path()
-    try:
-        with open(file, "rb") as fh:
-            doc = tomllib.load(fh)
-    except FileNotFoundError:
-        raise NetworkConfigError(f"{file}: no such file (expected a network settings TOML file)") from None
-    except OSError as exc:
-        raise NetworkConfigError(f"{file}: cannot read ({exc.strerror})") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise NetworkConfigError(f"{file}: not valid TOML ({exc})") from None
-
-    top = _Section(file, "top level", doc, {"bus", "sync", "heartbeat", "nodes"})
-    b = _Section(file, "bus", top.table.get("bus", {}), {"interface", "channel", "bitrate", "options"})
-    options = b.table.get("options", {})
-    if not isinstance(options, dict):
-        raise NetworkConfigError(
-            f"{file}: [bus] options: expected a table of can.Bus keyword arguments, got {options!r}"
-        )
+    doc = load_toml(file, NetworkConfigError, "a network settings TOML file")
+    top = Section(file, "", doc, {"bus", "sync", "heartbeat", "nodes"}, error=NetworkConfigError)
+    b = top.table("bus", {"interface", "channel", "bitrate", "options"}, {})
+    options = b.table("options", None, {}, "a table of can.Bus keyword arguments")
     bus = BusConfig(
         interface=b.str("interface", "virtual"),
         channel=b.str("channel", "telethermo"),
         bitrate=b.int("bitrate", 1_000_000, 10_000, 1_000_000),
-        options=dict(options),
+        options=dict(options.raw),
     )
-    s = _Section(
-        file, "sync", top.table.get("sync", {}), {"producer", "period_s", "counter_overflow", "lockstep"}
-    )
+    s = top.table("sync", {"producer", "period_s", "counter_overflow", "lockstep"}, {})
     overflow = s.int("counter_overflow", 240, 0, 240, " (0 = no counter; 1 is not allowed)")
     if overflow == 1:
-        raise s.error("counter_overflow", "0 (no counter) or an integer in [2, 240]", overflow)
+        raise s.fail("counter_overflow", "0 (no counter) or an integer in [2, 240]", overflow)
     sync = SyncConfig(
         producer=s.str("producer", "master", ("master", "slave", "none")),
         period_s=s.float("period_s", 0.010, 0.0001, 1.0, " s"),
         counter_overflow=overflow,
         lockstep=s.bool("lockstep", True),
     )
-    h = _Section(file, "heartbeat", top.table.get("heartbeat", {}), {"producer_ms", "consumer_ms"})
+    h = top.table("heartbeat", {"producer_ms", "consumer_ms"}, {})
     producer_ms = h.int("producer_ms", 100, 0, 65535, " ms")
     consumer_ms = h.int("consumer_ms", 250, 0, 65535, " ms")
     if consumer_ms and producer_ms and consumer_ms <= producer_ms:
-        raise h.error(
+        raise h.fail(
             "consumer_ms",
             f"an integer > producer_ms ({producer_ms}) so that one late heartbeat is not a loss",
             consumer_ms,
         )
     heartbeat = HeartbeatConfig(producer_ms=producer_ms, consumer_ms=consumer_ms)
 
-    table = top.table.get("nodes", {})
+    table = top.table("nodes", None, {})
     nodes = _pair(file, table)
-    for name, t in table.items():
+    for name, t in table.raw.items():
         if name not in ROLES:
             nodes[name] = _other_node(file, name, t, nodes)
     return NetworkConfig(path=file, bus=bus, sync=sync, heartbeat=heartbeat, nodes=nodes)
 
 
-def _eds_path(file: Path, t: "_Section", default: str | None) -> Path | None:
+def _eds_path(file: Path, t: Section, default: str | None) -> Path | None:
     """The node's EDS (relative to the network file), checked to exist; None when optional and not given."""
-    given = t.table.get("eds", default)
+    given = t.raw.get("eds", default)
     if given is None:
         return None
     eds = Path(t.str("eds", default or ""))  # given is not None: a table entry or a default
     eds = eds if eds.is_absolute() else (file.parent / eds)
     if not eds.is_file():
-        raise t.error("eds", f"an existing EDS file (looked for {eds})", given)
+        raise t.fail("eds", f"an existing EDS file (looked for {eds})", given)
     return eds.resolve()
 
 
-def _pair(file: Path, table: dict[str, Any]) -> dict[str, NodeConfig]:
+def _pair(file: Path, table: Section) -> dict[str, NodeConfig]:
     """[nodes.master] and [nodes.slave]: this system's two nodes (defaults: node-IDs 1 and 2,
     the shipped EDS)."""
     nodes: dict[str, NodeConfig] = {}
     defaults = {"master": 1, "slave": 2}
     for role in ROLES:
-        t = _Section(file, f"nodes.{role}", table.get(role, {}), {"node_id", "eds"})
+        t = table.table(role, {"node_id", "eds"}, {})
         nodes[role] = NodeConfig(
             role, t.int("node_id", defaults[role], 1, 127), _eds_path(file, t, f"{role}.eds")
         )
@@ -262,9 +192,14 @@ def _other_node(file: Path, name: str, raw: Any, nodes: dict[str, NodeConfig]) -
             f"{file}: [nodes.{name}]: expected a node name of lower-case letters, digits, "
             "'_' or '-', starting with a letter"
         )
-    if not isinstance(raw, dict):
-        raise NetworkConfigError(f"{file}: [nodes.{name}]: expected a table (node_id, eds), got {raw!r}")
-    t = _Section(file, f"nodes.{name}", raw, {"node_id", "eds"})
+    t = Section(
+        file,
+        f"nodes.{name}",
+        raw,
+        {"node_id", "eds"},
+        error=NetworkConfigError,
+        expected="a table (node_id, eds)",
+    )
     if "node_id" not in raw:
         raise NetworkConfigError(
             f"{file}: [nodes.{name}] node_id: missing (a node other than master and slave "
@@ -273,5 +208,5 @@ def _other_node(file: Path, name: str, raw: Any, nodes: dict[str, NodeConfig]) -
     node_id = t.int("node_id", 0, 1, 127)
     for other in nodes.values():
         if other.node_id == node_id:
-            raise t.error("node_id", f"a node-ID not used by [nodes.{other.role}] ({node_id})", node_id)
+            raise t.fail("node_id", f"a node-ID not used by [nodes.{other.role}] ({node_id})", node_id)
     return NodeConfig(name, node_id, _eds_path(file, t, None))

@@ -27,13 +27,13 @@ A malformed file is refused with one line naming the file, the field and what wa
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from telethermo.bus_config import path as bus_config_path
 from telethermo.bus_config.io_eds import FILE_NAME as IO_EDS, SAMPLING_INDEX
+from telethermo.inputfile import ABSENT, InputFileError, Section, load_toml, parse_toml
 
 #: the signals a rig must give, and the optional ones
 REQUIRED_SIGNALS = ("T_sensor_C", "Q_W", "current_A", "T_sink_C", "contact")
@@ -44,13 +44,8 @@ DEFAULT_SENTINELS = (0x7FFF, -0x8000)
 INT16 = (-0x8000, 0x7FFF)
 
 
-class RigConfigError(ValueError):
+class RigConfigError(InputFileError):
     """A malformed RIG.toml; the message names the file, the field and what was expected."""
-
-    def __init__(self, source: str, fieldname: str, expected: str, got: Any = None):
-        got_text = "" if got is None else f", got {got!r}"
-        super().__init__(f"{source}: {fieldname}: expected {expected}{got_text}")
-        self.source, self.field = source, fieldname
 
 
 @dataclass(frozen=True)
@@ -158,67 +153,11 @@ class RigConfig:
     extra: dict[str, Any] = field(default_factory=dict)
 
 
-class _Table:
-    """A TOML table read field by field, each field's error naming ``source`` and its dotted path."""
-
-    def __init__(self, source: str, prefix: str, raw: Any):
-        self.source, self.prefix = source, prefix
-        if not isinstance(raw, dict):
-            raise RigConfigError(source, prefix, "a table", raw)
-        self.raw = raw
-
-    def name(self, key: str) -> str:
-        return f"{self.prefix}.{key}" if self.prefix else key
-
-    def check_keys(self, allowed: set[str]) -> None:
-        for key in self.raw:
-            if key not in allowed:
-                raise RigConfigError(
-                    self.source, self.name(key), f"one of {', '.join(sorted(allowed))} (an unknown key)"
-                )
-
-    def integer(self, key: str, lo: int, hi: int, default: Any = ...) -> int:
-        v = self._get(key, default)
-        if v is default and default is not ...:
-            return v
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            raise RigConfigError(self.source, self.name(key), f"an integer {lo}..{hi}", v)
-        return v
-
-    def number(self, key: str, *, default: Any = ..., positive: bool = False, nonzero: bool = False) -> float:
-        v = self._get(key, default)
-        if v is default and default is not ...:
-            return v
-        ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
-        if ok and positive and not v > 0:
-            ok = False
-        if ok and nonzero and v == 0:
-            ok = False
-        if not ok:
-            what = "a number > 0" if positive else "a non-zero number" if nonzero else "a finite number"
-            raise RigConfigError(self.source, self.name(key), what, v)
-        return float(v)
-
-    def text(self, key: str, choices: tuple[str, ...] | None = None) -> str:
-        v = self._get(key)
-        if not isinstance(v, str) or (choices is not None and v not in choices):
-            raise RigConfigError(
-                self.source, self.name(key), f"one of {', '.join(choices)}" if choices else "a text", v
-            )
-        return v
-
-    def sign(self, key: str = "sign") -> int:
-        v = self._get(key, 1)
-        if v not in (1, -1) or isinstance(v, bool):
-            raise RigConfigError(self.source, self.name(key), "1 or -1", v)
-        return int(v)
-
-    def _get(self, key: str, default: Any = ...) -> Any:
-        if key in self.raw:
-            return self.raw[key]
-        if default is ...:
-            raise RigConfigError(self.source, self.name(key), "a value (missing)")
-        return default
+def _sign(t: Section, key: str = "sign") -> int:
+    v = t.get(key, 1)
+    if v not in (1, -1) or isinstance(v, bool):
+        raise t.fail(key, "1 or -1", v)
+    return int(v)
 
 
 _MODULE_KEYS = {"node_id", "eds", "sampling_ms", "sampling_index", "consumer_ms", "error_behaviour"}
@@ -228,126 +167,101 @@ _DRIVE_KEYS = _SCALE_KEYS | {"limit_A"}
 _TOP_KEYS = {"modules", "signals", "drive", "input_timeout_ms", "stale_limit", "sdo_timeout_ms", "tem"}
 
 
-def _module(source: str, base: Path, name: str, raw: Any) -> ModuleConfig:
-    t = _Table(source, f"modules.{name}", raw)
-    t.check_keys(_MODULE_KEYS)
-    eds = base / t.text("eds") if "eds" in t.raw else bus_config_path(IO_EDS)
+def _module(base: Path, t: Section) -> ModuleConfig:
+    eds = base / t.str("eds") if t.has("eds") else bus_config_path(IO_EDS)
     if not eds.is_file():
-        raise RigConfigError(source, t.name("eds"), "an EDS file (relative to the RIG.toml)", str(eds))
-    sampling_index = t.integer("sampling_index", -1, 0xFFFF, SAMPLING_INDEX)
+        raise t.fail("eds", "an EDS file (relative to the RIG.toml)", str(eds))
+    sampling_index = t.int("sampling_index", SAMPLING_INDEX, -1, 0xFFFF)
     return ModuleConfig(
-        name=name,
-        node_id=t.integer("node_id", 1, 127),
+        name=t.path.rsplit(".", 1)[-1],
+        node_id=t.int("node_id", ABSENT, 1, 127),
         eds=eds,
-        sampling_ms=t.integer("sampling_ms", 1, 1000, 10),
+        sampling_ms=t.int("sampling_ms", 10, 1, 1000),
         sampling_index=None if sampling_index < 0 else sampling_index,
-        consumer_ms=t.integer("consumer_ms", 1, 0xFFFF, 150),
-        error_behaviour=t.integer("error_behaviour", 0, 2, 0),
+        consumer_ms=t.int("consumer_ms", 150, 1, 0xFFFF),
+        error_behaviour=t.int("error_behaviour", 0, 0, 2),
     )
 
 
-def _where(t: _Table, modules: dict[str, ModuleConfig]) -> dict[str, Any]:
+def _where(t: Section, modules: dict[str, ModuleConfig]) -> dict[str, Any]:
     return dict(
-        module=t.text("module", tuple(modules)),
-        index=t.integer("object", 0x1000, 0xFFFF),
-        subindex=t.integer("subindex", 0, 255),
-        volts_per_count=t.number("volts_per_count", default=DEFAULT_VOLTS_PER_COUNT, positive=True),
-        offset_V=t.number("offset_V", default=0.0),
-        gain=t.number("gain", default=1.0, nonzero=True),
-        sign=t.sign(),
+        module=t.str("module", choices=tuple(modules)),
+        index=t.int("object", ABSENT, 0x1000, 0xFFFF),
+        subindex=t.int("subindex", ABSENT, 0, 255),
+        volts_per_count=t.float("volts_per_count", DEFAULT_VOLTS_PER_COUNT, positive=True),
+        offset_V=t.float("offset_V", 0.0),
+        gain=t.float("gain", 1.0, nonzero=True),
+        sign=_sign(t),
     )
 
 
-def _signal(source: str, name: str, raw: Any, modules: dict[str, ModuleConfig]) -> SignalConfig:
-    t = _Table(source, f"signals.{name}", raw)
-    t.check_keys(_SIGNAL_KEYS)
-    sentinels = t.raw.get("sentinels", list(DEFAULT_SENTINELS))
-    if not isinstance(sentinels, list) or not all(
+def _signal(t: Section, modules: dict[str, ModuleConfig]) -> SignalConfig:
+    sentinels = t.list("sentinels", list(DEFAULT_SENTINELS), "a list of 16-bit codes (-32768..32767)")
+    if not all(
         isinstance(s, int) and not isinstance(s, bool) and INT16[0] <= s <= INT16[1] for s in sentinels
     ):
-        raise RigConfigError(source, t.name("sentinels"), "a list of 16-bit codes (-32768..32767)", sentinels)
-    tau = t.number("filter_tau_ms", default=0.0)
-    if tau < 0:
-        raise RigConfigError(source, t.name("filter_tau_ms"), "a time >= 0 ms (0: no filter)", tau)
+        raise t.fail("sentinels", "a list of 16-bit codes (-32768..32767)", sentinels)
     return SignalConfig(
-        name=name,
+        name=t.path.rsplit(".", 1)[-1],
         sentinels=tuple(sentinels),
-        filter_tau_ms=tau,
-        threshold=t.number("threshold", default=0.5),
+        filter_tau_ms=t.float("filter_tau_ms", 0.0, 0.0, expected="a time >= 0 ms (0: no filter)"),
+        threshold=t.float("threshold", 0.5),
         **_where(t, modules),
     )
 
 
-def _tem(source: str, raw: Any) -> TemConfig:
-    t = _Table(source, "tem", raw)
-    t.check_keys(set(TEM_RANGES))
-    values = {}
-    for key, (lo, hi) in TEM_RANGES.items():
-        v = t.number(key, default=0.0) if key == "tau_V_K" else t.number(key)
-        if not lo <= v <= hi:
-            raise RigConfigError(source, t.name(key), f"a number {lo:g}..{hi:g} {TEM_UNITS[key]}", v)
-        values[key] = v
+def _tem(t: Section) -> TemConfig:
+    values = {
+        key: t.float(key, 0.0 if key == "tau_V_K" else ABSENT, lo, hi, f" {TEM_UNITS[key]}")
+        for key, (lo, hi) in TEM_RANGES.items()
+    }
     return TemConfig(**values)
 
 
 def parse_rig_config(text: str, source: str, base: Path | None = None) -> RigConfig:
     """A RIG.toml's text (``source`` names it in errors; ``base`` is the folder of relative paths)."""
+    return _rig_config(parse_toml(text, source, RigConfigError), source, base)
+
+
+def _rig_config(raw: dict[str, Any], source: str, base: Path | None) -> RigConfig:
     base = Path(".") if base is None else base
-    try:
-        raw = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise RigConfigError(source, "(syntax)", f"a TOML file ({exc})") from None
-    top = _Table(source, "", raw)
-    top.check_keys(_TOP_KEYS)
-    mods = _Table(source, "modules", top._get("modules"))
+    top = Section(source, "", raw, _TOP_KEYS, error=RigConfigError, dotted=True)
+    mods = top.table("modules")
     if not mods.raw:
-        raise RigConfigError(source, "modules", "at least one [modules.NAME] table")
-    modules = {name: _module(source, base, name, m) for name, m in mods.raw.items()}
+        raise mods.fail(None, "at least one [modules.NAME] table")
+    modules = {name: _module(base, mods.table(name, _MODULE_KEYS)) for name in mods.raw}
     ids = [m.node_id for m in modules.values()]
     if len(set(ids)) != len(ids):
-        raise RigConfigError(source, "modules", "one node_id per module", ids)
-    sigs = _Table(source, "signals", top._get("signals"))
-    sigs.check_keys(set(REQUIRED_SIGNALS + OPTIONAL_SIGNALS))
+        raise mods.fail(None, "one node_id per module", ids)
+    sigs = top.table("signals", set(REQUIRED_SIGNALS + OPTIONAL_SIGNALS))
     for name in REQUIRED_SIGNALS:
-        sigs._get(name)
-    signals = {name: _signal(source, name, raw_sig, modules) for name, raw_sig in sigs.raw.items()}
+        sigs.table(name)
+    signals = {name: _signal(sigs.table(name, _SIGNAL_KEYS), modules) for name in sigs.raw}
     seen: dict[tuple[str, int, int], str] = {}
     for s in signals.values():
         key = (s.module, s.index, s.subindex)
         if key in seen:
-            raise RigConfigError(
-                source,
-                f"signals.{s.name}.subindex",
-                f"an input no other signal uses ({seen[key]} reads it)",
-                s.subindex,
+            raise sigs.table(s.name).fail(
+                "subindex", f"an input no other signal uses ({seen[key]} reads it)", s.subindex
             )
         seen[key] = s.name
-    d = _Table(source, "drive", top._get("drive"))
-    d.check_keys(_DRIVE_KEYS)
-    drive = DriveConfig(limit_A=d.number("limit_A", positive=True), **_where(d, modules))
-    timeout = top.number("input_timeout_ms", default=None, positive=True)
-    sdo_timeout_ms = top.number("sdo_timeout_ms", default=1000.0, positive=True)
-    if not 10.0 <= sdo_timeout_ms <= 60000.0:
-        raise RigConfigError(source, "sdo_timeout_ms", "a time 10..60000 ms", sdo_timeout_ms)
+    d = top.table("drive", _DRIVE_KEYS)
+    drive = DriveConfig(limit_A=d.float("limit_A", positive=True), **_where(d, modules))
     return RigConfig(
         source=source,
         modules=modules,
         signals=signals,
         drive=drive,
-        input_timeout_ms=timeout,
-        stale_limit=top.integer("stale_limit", 1, 1000, 3),
-        sdo_timeout_ms=sdo_timeout_ms,
-        tem=_tem(source, raw["tem"]) if "tem" in raw else None,
+        input_timeout_ms=top.float("input_timeout_ms", None, positive=True),
+        stale_limit=top.int("stale_limit", 3, 1, 1000),
+        sdo_timeout_ms=top.float(
+            "sdo_timeout_ms", 1000.0, 10.0, 60000.0, " ms", expected="a time in [10, 60000] ms"
+        ),
+        tem=_tem(top.table("tem", set(TEM_RANGES))) if top.has("tem") else None,
     )
 
 
 def load_rig_config(path: str | Path) -> RigConfig:
     """Read a RIG.toml (RigConfigError for a file that cannot be read or is malformed)."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise RigConfigError(
-            str(p), "(file)", "a readable UTF-8 TOML file", getattr(exc, "strerror", None) or str(exc)
-        ) from None
-    return parse_rig_config(text, str(p), p.parent)
+    return _rig_config(load_toml(p, RigConfigError, "a RIG.toml file"), str(p), p.parent)

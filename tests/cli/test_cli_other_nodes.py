@@ -53,7 +53,10 @@ def test_other_nodes_load_with_their_id_and_optional_eds(tmp_path):
             r"\[nodes.arm2\] node_id: expected a node-ID not used by \[nodes.arm\] \(5\), got 5",
         ),
         ("[nodes.Arm]\nnode_id = 9\n", r"\[nodes.Arm\]: expected a node name of lower-case letters"),
-        ("[nodes.arm2]\nnode_id = 9\ncolour = 1\n", r"\[nodes.arm2\] colour: unknown key"),
+        (
+            "[nodes.arm2]\nnode_id = 9\ncolour = 1\n",
+            r"\[nodes.arm2\] colour: expected one of eds, node_id \(an unknown key\)",
+        ),
         (
             "[nodes.arm2]\nnode_id = 200\n",
             r"\[nodes.arm2\] node_id: expected an integer in \[1, 127\], got 200",

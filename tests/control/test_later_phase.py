@@ -192,6 +192,6 @@ def test_object_table_errors_name_the_file_and_field(tmp_path):
         "[finger]\nb_W_s05_m2K = 951.0\n[glass]\nlambda_W_mK = -1.4\nrho_c_J_m3K = 1.0\n", encoding="utf-8"
     )
     with pytest.raises(
-        ValueError, match=r"objects.toml: field 'glass.lambda_W_mK': expected a number > 0, got -1.4"
+        ValueError, match=r"objects.toml: \[glass\] lambda_W_mK: expected a number > 0, got -1.4"
     ):
         load_object_table(p)

@@ -144,20 +144,24 @@ def test_a_module_that_refuses_is_named_with_object_and_abort_code(rig, tmp_path
         (
             ("subindex = 1\nvolts", "subindex = 300\nvolts"),
             "signals.T_sensor_C.subindex",
-            "an integer 0..255",
+            "an integer in [0, 255]",
         ),
         (("[signals.Q_W]", "[signals.Q]"), "signals.Q", "one of"),
         (('module = "io"\nobject = 0x6411', 'module = "dio"\nobject = 0x6411'), "drive.module", "one of io"),
         (("limit_A = 3.0", "limit_A = -3.0"), "drive.limit_A", "a number > 0"),
         (("gain = 10.0                  # °C per V", "sign = 2"), "signals.T_sensor_C.sign", "1 or -1"),
-        (("node_id = 3", "node_id = 300"), "modules.io.node_id", "an integer 1..127"),
+        (("node_id = 3", "node_id = 300"), "modules.io.node_id", "an integer in [1, 127]"),
         (("sentinels = [32767, -32768]", "sentinels = [40000]"), "signals.T_sensor_C.sentinels", "16-bit"),
         (
             ("subindex = 6\ngain", "subindex = 5\ngain"),
             "signals.current_A.subindex",
             "an input no other signal",
         ),
-        (("stale_limit = 3", "stale_limit = 3\nsdo_timeout_ms = 5"), "sdo_timeout_ms", "a time 10..60000 ms"),
+        (
+            ("stale_limit = 3", "stale_limit = 3\nsdo_timeout_ms = 5"),
+            "sdo_timeout_ms",
+            "a time in [10, 60000] ms",
+        ),
     ],
 )
 def test_malformed_rig_toml_names_file_and_field(edit, field, expected):

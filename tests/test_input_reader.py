@@ -1,0 +1,249 @@
+"""telethermo.inputfile, the one reader of TOML input files (issue 26 item 5): every error is one line naming
+the file and the line (a syntax error) or the field and what was expected; and each reader ported onto it
+turns a malformed file into that line, through the real loader or program, exit 2 and no traceback.
+
+Exit-2 tests that exist elsewhere and are not repeated here: the node program on a bad RIG.toml
+(tests/iomodule/test_iorig.py, test_rig_tem.py), ``telethermo session`` on a cut-short scene
+(tests/sim/test_scene_truncated.py), ``telethermo identify --tem`` on a bad [tem] table
+(tests/sim/test_scene_tem.py)."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+
+import pytest
+
+from telethermo.cli.main import EXIT_USAGE, main as cli_main
+from telethermo.control.later_rc import load_rc_table
+from telethermo.control.material_id import load_effusivity_table
+from telethermo.control.render_table import load_render_table
+from telethermo.control.types import Role
+from telethermo.control.virtual_object import load_object_table
+from telethermo.device.netconfig import NetworkConfigError, load_network
+from telethermo.inputfile import ABSENT, InputFileError, Section, load_toml, parse_toml
+from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
+from telethermo.nodes.main import run_node
+from telethermo.sim.errors import SceneError
+from telethermo.sim.scene import load_scene
+from telethermo.bus_config import path as bus_config_path
+
+SIM_RIG = bus_config_path("rig_io_sim.toml")
+
+
+def one_line(exc: BaseException) -> str:
+    msg = str(exc)
+    assert msg and "\n" not in msg, msg
+    return msg
+
+
+# ------------------------------------------------------------------------------------------ loading a file
+def test_a_toml_syntax_error_names_the_file_and_its_line(tmp_path):
+    p = tmp_path / "a.toml"
+    p.write_text('[bus]\nbitrate = 1000000\nchannel = "x\n', encoding="utf-8")
+    with pytest.raises(InputFileError) as err:
+        load_toml(p)
+    assert one_line(err.value).startswith(f"{p}: line 3: not valid TOML (")
+    assert err.value.file == str(p) and err.value.field == "line 3"
+    # a document cut short names its last line, and text given as a string names its source
+    with pytest.raises(InputFileError, match=r"^RIG.toml: line 2: not valid TOML \(.*end of document"):
+        parse_toml("[a]\nx = [1,", "RIG.toml")
+
+
+def test_a_missing_unreadable_or_non_utf8_file_is_one_line(tmp_path):
+    with pytest.raises(InputFileError) as err:
+        load_toml(tmp_path / "none.toml", what="a network settings TOML file")
+    assert (
+        one_line(err.value)
+        == f"{tmp_path / 'none.toml'}: no such file (expected a network settings TOML file)"
+    )
+    with pytest.raises(InputFileError, match=r": a folder, not a file \(expected a TOML file\)$"):
+        load_toml(tmp_path)
+    p = tmp_path / "latin1.toml"
+    p.write_bytes(b'[a]\nname = "x"\nplace = "M\xfcnchen"\n')
+    with pytest.raises(InputFileError) as err:
+        load_toml(p)
+    assert one_line(err.value) == f"{p}: line 3: not UTF-8 text (byte 0xFC)"
+
+
+def test_a_caller_gets_its_own_error_type():
+    with pytest.raises(NetworkConfigError) as err:
+        parse_toml("x = ", "net.toml", NetworkConfigError)
+    assert isinstance(err.value, InputFileError) and isinstance(err.value, ValueError)
+
+
+# ------------------------------------------------------------------------------------ reading the fields
+DOC = {"nodes": {"master": {"node_id": 200, "eds": "master.eds"}}, "sync": {"period_s": "fast"}}
+
+
+def section(name: str, dotted: bool = False, allowed: set[str] | None = None) -> Section:
+    return Section("net.toml", "", DOC, dotted=dotted).table(name, allowed)
+
+
+@pytest.mark.parametrize(
+    "read, message",
+    [
+        (
+            lambda: section("nodes").table("master").int("node_id", 1, 1, 127),
+            "net.toml: [nodes.master] node_id: expected an integer in [1, 127], got 200",
+        ),
+        (
+            lambda: section("sync").float("period_s", 0.01, 0.0001, 1.0, " s"),
+            "net.toml: [sync] period_s: expected a number in [0.0001, 1] s, got 'fast'",
+        ),
+        (
+            lambda: section("nodes").table("master", {"node_id"}),
+            "net.toml: [nodes.master] eds: expected one of node_id (an unknown key)",
+        ),
+        (
+            lambda: section("nodes").table("master").float("R_ohm", ABSENT, 0.0, 100.0, " ohm", lo_open=True),
+            "net.toml: [nodes.master] R_ohm: expected a number in (0, 100] ohm (missing)",
+        ),
+        (
+            lambda: section("nodes").table("master").str("eds", choices=("a.eds", "b.eds")),
+            "net.toml: [nodes.master] eds: expected one of a.eds, b.eds, got 'master.eds'",
+        ),
+        (
+            lambda: section("nodes").table("master").bool("eds"),
+            "net.toml: [nodes.master] eds: expected true or false, got 'master.eds'",
+        ),
+        (
+            lambda: section("nodes").table("master").list("eds"),
+            "net.toml: [nodes.master] eds: expected a list, got 'master.eds'",
+        ),
+        (
+            lambda: section("nodes").table("master").table("eds"),
+            "net.toml: [nodes.master.eds]: expected a table, got 'master.eds'",
+        ),
+        (lambda: section("bus"), "net.toml: bus: expected a table (missing)"),
+        (
+            lambda: section("nodes", dotted=True).table("master").int("node_id", 1, 1, 127),
+            "net.toml: nodes.master.node_id: expected an integer in [1, 127], got 200",
+        ),
+        (
+            lambda: Section("net.toml", "", {"n": 10**400}).float("n", positive=True),
+            f"net.toml: n: expected a number > 0, got {10**400!r}",
+        ),
+    ],
+)
+def test_a_field_error_is_one_line_naming_file_field_and_expectation(read, message):
+    with pytest.raises(InputFileError) as err:
+        read()
+    assert one_line(err.value) == message
+
+
+def test_good_fields_read_with_their_types_and_defaults():
+    t = Section("f.toml", "a", {"n": 3, "x": 2, "s": "io", "b": False, "l": [1]}, {"n", "x", "s", "b", "l"})
+    assert t.int("n", ABSENT, 1, 5) == 3 and t.int("m", 7) == 7
+    x = t.float("x", ABSENT, 0.0, 10.0)
+    assert x == 2.0 and isinstance(x, float) and t.float("y", None) is None
+    assert t.str("s", choices=("io", "sim")) == "io" and t.bool("b") is False and t.list("l") == [1]
+    assert t.table("sub", None, {}).raw == {}
+
+
+# ------------------------------------------------------------------------ each ported reader, end to end
+@pytest.fixture(autouse=True)
+def root_logging():
+    """The node program, run in-process, sets up the root logger (force=True): give the next test its own."""
+    root = logging.getLogger()
+    handlers, level = root.handlers[:], root.level
+    yield
+    root.handlers[:] = handlers
+    root.setLevel(level)
+
+
+def test_a_bad_network_file_stops_the_node_program_with_exit_2_and_one_line(tmp_path, capsys):
+    bad = tmp_path / "network.toml"
+    bad.write_text("[heartbeat]\nproducer_ms = 100\nconsumer_ms = 80\n", encoding="utf-8")
+    code = run_node(
+        Role.MASTER, ["--scene", "free_pad_identification", "--network", str(bad), "--cycles", "1"]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith(f"telethermo-master: error: {bad}: [heartbeat] consumer_ms: expected an integer >")
+
+
+def test_a_bad_network_file_stops_the_cli_with_exit_2_and_one_line(tmp_path, capsys):
+    bad = tmp_path / "network.toml"
+    bad.write_text("[sync]\nperiod_s = 0.010\nlock_step = true\n", encoding="utf-8")
+    code = cli_main(["get", "--network", str(bad), "master", "mode"])
+    err = capsys.readouterr().err
+    assert code == EXIT_USAGE and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"{bad}: [sync] lock_step: expected one of counter_overflow, lockstep, period_s, producer" in err
+
+
+def test_a_bad_rig_toml_stops_the_node_program_in_process(tmp_path, capsys):
+    """The in-process twin of the slow process test of tests/iomodule: refused before any module is
+    commissioned."""
+    bad = tmp_path / "RIG.toml"
+    bad.write_text(SIM_RIG.read_text(encoding="utf-8").replace("node_id = 3", "node_id = 300", 1), "utf-8")
+    with pytest.raises(RigConfigError, match=r"modules.io.node_id: expected an integer in \[1, 127\]"):
+        load_rig_config(bad)
+    code = run_node(Role.MASTER, ["--bus", "virtual:tt-inputfile", "--rig", "io", "--rig-config", str(bad)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"{bad}: modules.io.node_id: expected an integer in [1, 127], got 300" in err
+
+
+def test_a_bad_scene_stops_the_node_program_with_exit_2_and_one_line(tmp_path, capsys):
+    bad = tmp_path / "scene.toml"
+    bad.write_text("[scene]\nduration_s = 1.0\nperiod_s = 5.0\n", encoding="utf-8")
+    with pytest.raises(SceneError) as exc:
+        load_scene(bad)
+    assert one_line(exc.value) == f"{bad}: field 'scene.period_s': expected a number in [0.0001, 1], got 5.0"
+    code = run_node(Role.MASTER, ["--bus", "virtual:tt-inputfile", "--scene", str(bad), "--cycles", "1"])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert str(exc.value) in err
+
+
+def test_a_broken_rig_driver_settings_file_stops_the_node_program(tmp_path, capsys):
+    bad = tmp_path / "driver.toml"
+    bad.write_text("port = \n", encoding="utf-8")
+    argv = ["--bus", "virtual:tt-inputfile", "--rig", "tests.nodes.rig_factories:configured"]
+    code = run_node(Role.MASTER, [*argv, "--rig-config", str(bad)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"--rig-config {bad}: line 1: not valid TOML" in err
+
+
+@pytest.mark.parametrize(
+    "load, text, message",
+    [
+        (load_render_table, "[wood]\nbeta = 0\n", "[wood] beta: expected a number > 0, got 0"),
+        (load_render_table, "[wood]\nbeta = 1.0\nbetta = 2\n", "[wood] betta: expected one of beta,"),
+        (
+            load_effusivity_table,
+            "[oak]\nbeta = 1.0\neffusivity = -3\n",
+            "[oak] effusivity: expected a number > 0",
+        ),
+        (
+            load_object_table,
+            "[finger]\nb_W_s05_m2K = 951.0\n[oak]\nlambda_W_mK = 0.2\n",
+            "[oak] rho_c_J_m3K:",
+        ),
+        (
+            load_rc_table,
+            '[[entry]]\nmaterial = "oak"\nthickness_mm = 1.0\nback = "adiabatic"\nload_g = 0.0\n'
+            "tau_s = -2.0\nfinal_fraction = 0.2\n",
+            "[entry[0]] tau_s: expected a time > 0 s, got -2.0",
+        ),
+        (load_rc_table, "entry = []\n", "entry: expected a non-empty array of tables [[entry]], got []"),
+    ],
+)
+def test_the_control_tables_name_file_and_field(tmp_path, load, text, message):
+    p = tmp_path / "table.toml"
+    p.write_text(text, encoding="utf-8")
+    with pytest.raises(InputFileError) as err:
+        load(p)
+    assert one_line(err.value).startswith(f"{p}: ") and message in str(err.value), err.value
+    with pytest.raises(ValueError, match=r"no such file"):
+        load(tmp_path / "none.toml")
+
+
+def test_the_shipped_files_load_unchanged():
+    assert load_network().node("slave").node_id == 2
+    assert load_rig_config(SIM_RIG).modules
+    assert len(load_render_table()) == len(load_effusivity_table()) + 1
+    assert load_object_table().canonical("wood") == "oak" and load_rc_table()
+    assert Path(load_scene("free_pad_identification").path).is_file()
