@@ -10,9 +10,9 @@ canopen's RemoteNode and the EMCY frames come from canopen's EMCY consumer (no p
 from __future__ import annotations
 
 import threading
-import time
 
 from telethermo.device import DeviceSettings
+from telethermo.nodes.launch import wait_for
 
 HB_MS = 150
 
@@ -21,13 +21,8 @@ def _codes(node) -> list[int]:
     return [e.code for e in list(node.emcy.log)]
 
 
-def _wait(pred, timeout: float = 3.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
+def _wait(pred, timeout: float = 10.0) -> bool:
+    return wait_for(pred, timeout, poll_s=0.01)
 
 
 class Beater:

@@ -11,6 +11,7 @@ import pytest
 from canopen import SdoAbortedError
 
 from telethermo.device import DeviceSettings
+from telethermo.nodes.launch import wait_for
 from tests.device.conftest import run_due_jobs
 
 
@@ -26,15 +27,14 @@ def heartbeats(lab, bus, cob_id: int, n: int, timeout: float = 5.0) -> list[floa
     return stamps
 
 
-def wait_emcy(node, code: int, timeout: float = 3.0):
+def wait_emcy(node, code: int, timeout: float = 10.0):
     """The first EMCY with ``code`` in canopen's EMCY consumer log (waiting up to ``timeout`` s)."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        for e in list(node.emcy.log):
-            if e.code == code:
-                return e
-        time.sleep(0.01)
-    return None
+
+    def first():
+        return next((e for e in list(node.emcy.log) if e.code == code), None)
+
+    wait_for(lambda: first() is not None, timeout, poll_s=0.01)
+    return first()
 
 
 def test_producer_period_follows_0x1017_and_0_stops_it(lab):

@@ -7,24 +7,19 @@ from canopen's RemoteNode and EMCY consumer."""
 from __future__ import annotations
 
 import struct
-import time
 
 import can
 
 from telethermo.device import NmtCommand
+from telethermo.nodes.launch import wait_for
 
 from tests.device.conftest import ManualClock
 
 RPDO1 = 0x182  # the master's RPDO1: the slave's TPDO1 (8 bytes, type 1)
 
 
-def _wait(pred, timeout: float = 5.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
+def _wait(pred, timeout: float = 10.0) -> bool:
+    return wait_for(pred, timeout, poll_s=0.01)
 
 
 def _codes(node) -> list[int]:
