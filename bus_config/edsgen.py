@@ -11,7 +11,7 @@ checked in: they are the contract other tools read). Regenerate after editing th
 Naming convention (the operator CLI ``get``/``set`` and the bus monitor rely on it):
 
 - Communication objects (0x1000..0x1FFF) keep their CiA 301 names.
-- Manufacturer objects (0x2000..) have snake_case names that end in their unit:
+- Manufacturer objects (0x2000..) have snake_case names that end in their unit (telethermo/units.py):
   ``_C`` °C, ``_W`` W, ``_A`` A, ``_N`` N, ``_s`` s, ``_C_per_s`` °C/s, ``_A_per_C`` A/°C,
   ``_A_per_C_s`` A/(°C·s), ``_A_per_W`` A/W, ``_C_per_W`` °C/W; no suffix = dimensionless
   (count, code, flag, model order). The same unit is in the non-standard ``Unit=`` key (ASCII:

@@ -31,7 +31,6 @@ from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
 from telethermo.bus_config import path as _path
-from telethermo.bus_config.edsgen import _var_lines as edsgen_var_lines
 from telethermo.bus_config.edsgen import eds_header, pdo_counts, render_eds
 from telethermo.bus_config.od_communication import (
     _V,
@@ -63,8 +62,6 @@ N_INPUTS = 6
 #: CiA 301 0x1000: profile 401 (low word 0x0191), additional information AI (0x04) and AO (0x08)
 DEVICE_TYPE = (0x04 | 0x08) << 16 | 0x0191
 SAMPLING_INDEX, OUTPUT_ACTUAL_INDEX, OUTPUT_ERROR_INDEX, OPEN_CIRCUIT_INDEX = 0x2100, 0x2101, 0x2102, 0x2110
-#: Unit= of the manufacturer objects whose name ends in a unit od_types does not know, by EDS section
-_UNITS = {f"{SAMPLING_INDEX:04X}": "ms"}
 
 
 def _int(
@@ -220,15 +217,6 @@ def manufacturer_objects() -> list[Obj]:
     ]
 
 
-def _var_lines(section: str, var: Var) -> list[str]:
-    """edsgen's VAR section, with the Unit= (last) of the objects in :data:`_UNITS`."""
-    lines = edsgen_var_lines(section, var)
-    unit = _UNITS.get(section)
-    if unit is not None:
-        lines.insert(-1, f"Unit={unit}")
-    return lines
-
-
 def render() -> str:
     """The EDS text of the I/O module."""
     comm = communication_objects() + profile_objects()
@@ -244,7 +232,7 @@ def render() -> str:
             "0x6443/0x6444 default to hold (the DS401 example's trap): commissioning sets substitute 0 A.",
         ],
     )
-    return render_eds(FILE_NAME, header, comm, manufacturer_objects(), _var_lines)
+    return render_eds(FILE_NAME, header, comm, manufacturer_objects())
 
 
 def main(argv: list[str] | None = None) -> int:

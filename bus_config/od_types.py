@@ -5,25 +5,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from telethermo.units import SUFFIXES, unit_of_name
+
 
 # CiA 301 data types
 BOOLEAN, INTEGER8, INTEGER16, INTEGER32 = 0x0001, 0x0002, 0x0003, 0x0004
 UNSIGNED8, UNSIGNED16, UNSIGNED32, REAL32, VISIBLE_STRING = 0x0005, 0x0006, 0x0007, 0x0008, 0x0009
 REAL64 = 0x0011
 
-UNIT_TEXT = {  # name suffix -> ASCII unit for the Unit= key (longest suffixes first when matching)
-    "_A_per_C_s": "A/(degC*s)",
-    "_A_per_C": "A/degC",
-    "_A_per_W": "A/W",
-    "_C_per_s": "degC/s",
-    "_C_per_W": "degC/W",
-    "_C": "degC",
-    "_W": "W",
-    "_A": "A",
-    "_N": "N",
-    "_s": "s",
-    "_mm": "mm",
-}
+#: name suffix -> ASCII unit for the Unit= key: the naming rule of the one unit table
+UNIT_TEXT = dict(SUFFIXES)
 
 
 @dataclass(frozen=True)
@@ -43,12 +34,7 @@ class Var:
 
     @property
     def unit(self) -> str:
-        if self.unit_text:
-            return self.unit_text
-        for suffix, text in UNIT_TEXT.items():
-            if self.name.endswith(suffix):
-                return text
-        return ""
+        return self.unit_text or unit_of_name(self.name)
 
 
 @dataclass(frozen=True)

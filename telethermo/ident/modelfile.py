@@ -43,10 +43,12 @@ from telethermo.ident.capacity import CapacityModel
 from telethermo.ident.flux import FluxArma
 from telethermo.ident.narma import MAX_ORDER, NarmaModel, NarmaOrders
 from telethermo.ident.stability import check_stability as _check
+from telethermo.units import MODEL_KINDS, base_unit
 
 FORMAT = "telethermo-tem-model"
 FORMAT_VERSION = 1
-UNITS = {"temperature": "degC", "current": "A", "heat_flux": "W", "time": "s"}
+#: the unit of each quantity in a model file (kind -> unit name of the one unit table)
+UNITS = {kind: base_unit(kind) for kind in MODEL_KINDS}
 
 
 class ModelFileError(ValueError):

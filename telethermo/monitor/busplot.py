@@ -16,8 +16,10 @@ import can
 
 from telethermo.cia301 import emcy_code_text
 from telethermo.monitor.pdo import PdoMap, decode_pdo
+from telethermo.units import UNITS, spellings
 
-UNIT_PANELS = (("°C", ("degC", "°C", "C")), ("W", ("W",)), ("A", ("A",)))
+#: (panel label, spellings of its unit): the units that get a panel of their own
+UNIT_PANELS = tuple((UNITS[u].symbol, spellings(u)) for u in ("degC", "W", "A"))
 #: the panels in drawing order: the units, then 8-bit codes, counters (wider integers), other numbers
 PANELS = ("°C", "W", "A", "code", "count", "other")
 PANEL_LABELS = {"code": "state, code", "count": "count", "other": "value"}

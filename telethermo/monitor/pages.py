@@ -8,6 +8,8 @@ import math
 from itertools import islice
 from typing import Callable, Sequence
 
+from telethermo.units import spellings
+
 from .events import Event
 from .frames import CobRow
 from .state import Monitor
@@ -129,7 +131,8 @@ def page_help(room: int) -> list[str]:
 
 #: rows of one signal's strip chart
 STRIP_ROWS = 4
-TEMPERATURE_UNITS = ("degC", "°C")
+#: the spellings of the temperature unit a PDO value may carry (not the bare "C" of a foreign EDS)
+TEMPERATURE_UNITS = tuple(s for s in spellings("degC") if s != "C")
 
 
 def strip_chart(values: list[float], width: int, rows: int = STRIP_ROWS) -> list[str]:

@@ -6,7 +6,7 @@ Light on purpose (``get``/``set`` import it): no numpy, only the control core's 
 import nothing but the standard library.
 
 - **Unit**: the EDS ``Unit=`` key; else the name's unit suffix (``_C`` degC, ``_A_per_W`` A/W, ... the
-  convention of bus_config/edsgen.py); else a time unit the description starts with (CiA 301 objects:
+  naming rule of telethermo/units.py); else a time unit the description starts with (CiA 301 objects:
   ``ms``, ``us``, ``100 us units`` -> ``x100 us``).
 - **Hex**: COB-IDs (``COB-ID SYNC = 0x40000080 (COB-ID 0x080, produces SYNC)``), PDO mapping entries
   (``0x20000020 (0x2000:00 T_sensor_C, 32 bits)``), heartbeat consumer entries (``0x000200FA (node 2,
@@ -32,21 +32,10 @@ from telethermo.control.types import Mode
 from telethermo.cia301 import emcy_code_text, error_register_names
 from telethermo.remote.codec import struct_of
 from telethermo.remote.errors import UserError
+from telethermo.units import SUFFIXES, unit_of_name
 
-#: name suffix -> unit (the naming convention of bus_config/edsgen.py; longest first)
-NAME_UNITS = (
-    ("_A_per_C_s", "A/(degC*s)"),
-    ("_A_per_C", "A/degC"),
-    ("_A_per_W", "A/W"),
-    ("_C_per_s", "degC/s"),
-    ("_C_per_W", "degC/W"),
-    ("_C", "degC"),
-    ("_W", "W"),
-    ("_A", "A"),
-    ("_N", "N"),
-    ("_s", "s"),
-    ("_mm", "mm"),
-)
+#: name suffix -> unit (the naming rule of the one unit table, telethermo/units.py; longest first)
+NAME_UNITS = SUFFIXES
 _TIME_UNIT = re.compile(r"^(?:(\d+) )?(us|ms|s)\b( units)?")
 _ENUM_ITEM = re.compile(r"^(\d+) ([A-Za-z][^()]*?)\s*(?:\(.*\))?$")
 _UNSIGNED = {0x0005: 2, 0x0006: 4, 0x0007: 8, 0x001B: 16}  # data type -> hex digits
@@ -56,9 +45,9 @@ def unit_of(info: VarInfo) -> str:
     """The unit to print after a value of ``info`` ('' if dimensionless)."""
     if info.unit:
         return info.unit
-    for suffix, unit in NAME_UNITS:
-        if info.name.endswith(suffix):
-            return unit
+    unit = unit_of_name(info.name)
+    if unit:
+        return unit
     m = _TIME_UNIT.match(info.description)
     if m and info.data_type in _UNSIGNED:
         return f"x{m.group(1)} {m.group(2)}" if m.group(1) else m.group(2)

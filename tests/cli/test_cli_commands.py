@@ -159,7 +159,7 @@ def test_record_writes_a_log_that_logreader_reads_back_whole(nodes, cli, tmp_pat
         while not stop.is_set():
             sender.send(can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False))
             k += 1
-            time.sleep(0.002)
+            time.sleep(0.002)  # paces the SYNC stream on purpose (a bus at ~500 frames/s)
 
     th = threading.Thread(target=send)
     th.start()

@@ -32,7 +32,7 @@ def record_with_sync(cli, channel: str, out, *extra: str, frames: int = 20):
         while not stop.is_set():
             sender.send(can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False))
             k += 1
-            time.sleep(0.002)
+            time.sleep(0.002)  # paces the SYNC stream on purpose (a bus at ~500 frames/s)
 
     th = threading.Thread(target=send)
     th.start()
@@ -119,7 +119,7 @@ def test_ctrl_c_is_the_normal_stop(tmp_path):
         while time.monotonic() < t_end:
             sender.send(can.Message(arbitration_id=0x080, data=[k % 240 + 1], is_extended_id=False))
             k += 1
-            time.sleep(0.01)
+            time.sleep(0.01)  # paces the SYNC stream on purpose (100 frames/s for 2 s)
         proc.send_signal(signal.SIGINT)
         out, err = proc.communicate(timeout=30)
         assert proc.returncode == 0, err
@@ -186,7 +186,7 @@ def test_a_candump_log_keeps_the_hub_channel_name(tmp_path):
         assert proc.stderr.readline().startswith("recording socketcand://")
         while proc.poll() is None:
             sender.send(can.Message(arbitration_id=0x080, data=[1], is_extended_id=False))
-            time.sleep(0.02)
+            time.sleep(0.02)  # paces the frames on purpose (50/s until the recorder stops by itself)
         out, err = proc.communicate(timeout=30)
         assert proc.returncode == 0, err
         lines = log.read_text().splitlines()
@@ -233,7 +233,7 @@ def record_frames(cli, out, frames, *extra: str):
         while not stop.is_set():
             for cob, data in frames:
                 sender.send(can.Message(arbitration_id=cob, data=data, is_extended_id=False))
-            time.sleep(0.005)
+            time.sleep(0.005)  # paces the frame mix on purpose (one round every 5 ms)
 
     th = threading.Thread(target=send)
     th.start()

@@ -12,6 +12,7 @@ from telethermo.device.eds_info import EdsInfo
 from telethermo.remote import values
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE
 from telethermo.cli.params import describe
+from telethermo import units
 
 EDS = EdsInfo(cfg_path("master.eds"))
 
@@ -67,7 +68,8 @@ def test_units_always():
     # an EDS without Unit= keys (another vendor's, or an old one): the unit from the name's suffix
     bare = dataclasses.replace(EDS.get("ramp_limit_C_per_s"), unit="")
     assert values.fmt(2.5, bare) == "2.5 degC/s"
-    assert dict(values.NAME_UNITS) == edsgen.UNIT_TEXT  # one naming convention
+    # one naming rule: the unit table's, not a copy (telethermo/units.py)
+    assert values.NAME_UNITS is units.SUFFIXES and edsgen.UNIT_TEXT == dict(units.SUFFIXES)
 
 
 def test_get_names_the_node_on_every_line(nodes, cli):

@@ -8,8 +8,10 @@ bus on the same channel.
 from __future__ import annotations
 
 import contextlib
+import threading
 import time
 import uuid
+from typing import Callable
 
 import can
 import canopen
@@ -42,8 +44,12 @@ class Lab:
         start: bool = True,
         node_id: int | None = None,
         settings: DeviceSettings | None = None,
+        clock: Callable[[], float] | None = None,
     ) -> Device:
-        dev = Device(self.network(), node_id or NODE_IDS[role], path(f"{role}.eds"), settings=settings)
+        extra = {} if clock is None else {"clock": clock}
+        dev = Device(
+            self.network(), node_id or NODE_IDS[role], path(f"{role}.eds"), settings=settings, **extra
+        )
         self._stack.callback(dev.close)
         if start:
             dev.start()
@@ -67,6 +73,34 @@ class Lab:
             if msg is not None and predicate(msg):
                 return msg
         return None
+
+
+class ManualClock:
+    """A monotonic clock (s) that moves only when the test moves it: given to a device, its deadlines
+    (RPDO timeout, heartbeat consumer, EMCY inhibit) fall due when the test says, so "nothing happens
+    within X s" is a fact of the clock, not of a sleep on a loaded machine."""
+
+    def __init__(self, t0_s: float = 1000.0):
+        self.t_s = t0_s
+
+    def __call__(self) -> float:
+        return self.t_s
+
+    def advance(self, dt_s: float, *devices: Device) -> None:
+        """Move the clock by ``dt_s`` and return once each device's timer thread has run every job that
+        fell due."""
+        self.t_s += dt_s
+        for dev in devices:
+            run_due_jobs(dev)
+
+
+def run_due_jobs(dev: Device) -> None:
+    """Return once the device's timer thread has run every job due by its clock's time now, and finished
+    the one it was running: two probe jobs in turn (the second runs only after the batch of the first)."""
+    for _ in range(2):
+        ran = threading.Event()
+        dev.core.scheduler.set("test-probe", dev.core.clock(), ran.set)
+        assert ran.wait(30.0), "the device's timer thread did not run its due jobs"
 
 
 @pytest.fixture

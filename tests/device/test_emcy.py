@@ -3,18 +3,16 @@ history (newest first, 8 kept, cleared by writing 0), error reset, inhibit time,
 
 from __future__ import annotations
 
-import time
 
 import pytest
 from canopen import SdoAbortedError
 
 from telethermo.device import NmtCommand
+from telethermo.nodes.launch import wait_for
 
 
-def wait_log(node, n: int, timeout: float = 3.0) -> list:
-    end = time.monotonic() + timeout
-    while len(node.emcy.log) < n and time.monotonic() < end:
-        time.sleep(0.005)
+def wait_log(node, n: int, timeout: float = 10.0) -> list:
+    wait_for(lambda: len(node.emcy.log) >= n, timeout, poll_s=0.005)
     return list(node.emcy.log)
 
 

@@ -10,9 +10,9 @@ canopen's RemoteNode and the EMCY frames come from canopen's EMCY consumer (no p
 from __future__ import annotations
 
 import threading
-import time
 
 from telethermo.device import DeviceSettings
+from telethermo.nodes.launch import wait_for
 
 HB_MS = 150
 
@@ -21,13 +21,8 @@ def _codes(node) -> list[int]:
     return [e.code for e in list(node.emcy.log)]
 
 
-def _wait(pred, timeout: float = 3.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
+def _wait(pred, timeout: float = 10.0) -> bool:
+    return wait_for(pred, timeout, poll_s=0.01)
 
 
 class Beater:
@@ -81,7 +76,7 @@ def test_a_returning_heartbeat_leaves_the_trip_it_shares_0x8130_with(lab):
     dev.raise_emcy(0x8130)  # the node program's peer_lost trip (nodes/runtime.py)
     assert _wait(lambda: 0x8130 in _codes(node))
     _seen(dev, peer, 2)  # the heartbeat is back, the trip still latched
-    time.sleep(0.1)
+    # the SDO round trip orders the frames: an EMCY the heartbeat's handling sent is in the log by its answer
     assert node.sdo["Error register"].raw == 0x11
     assert 0x0000 not in _codes(node)
     assert _codes(node) == [0x8130]  # one loss, one EMCY 0x8130 (not one per holder)
@@ -98,8 +93,7 @@ def test_an_unrelated_watched_node_returning_does_not_clear_the_peers_error(lab)
     _lose(dev, other, 5)
     _lose(dev, peer, 2)
     _seen(dev, other, 5)  # node 5 is back, node 2 still silent
-    time.sleep(0.1)
-    assert node.sdo["Error register"].raw == 0x11
+    assert node.sdo["Error register"].raw == 0x11  # (the round trip orders the frames, as above)
     assert 0x0000 not in _codes(node)
     _seen(dev, peer, 2)
     assert _wait(lambda: 0x0000 in _codes(node))
@@ -148,9 +142,10 @@ def test_one_emcy_per_lost_node_while_the_peer_trip_holds_0x8130(lab):
     _lose(dev, other, 5)  # lost again: a new occurrence
     assert _wait(lambda: _codes(node) == [0x8130] * 3)
     _lose(dev, peer, 2)  # the trip's own peer: the same error, no frame
-    time.sleep(0.1)
+    with dev.core.lock:  # the timer's loss handling (status, then its EMCY, under this lock) is over
+        pass
+    assert node.sdo[0x1003][0].raw == 3 and node.sdo["Error register"].raw == 0x11  # and its frames are in
     assert _codes(node) == [0x8130] * 3
-    assert node.sdo[0x1003][0].raw == 3 and node.sdo["Error register"].raw == 0x11
     _seen(dev, other, 5)
     _seen(dev, peer, 2)
     dev.clear_emcy(0x8130)

@@ -10,6 +10,7 @@ import pytest
 from canopen.sdo import SdoCommunicationError
 
 from telethermo.device import DeviceSettings, NmtCommand, NmtState
+from telethermo.nodes.launch import wait_for
 
 FAST_HB = DeviceSettings(heartbeat_producer_ms=20)
 
@@ -126,10 +127,7 @@ def test_commands_for_other_nodes_are_ignored_and_broadcast_applies(lab):
     node1.sdo["mode"].raw  # an SDO round trip: frames are handled in order, so the NMT frame was seen
     assert dev.state is NmtState.PRE_OPERATIONAL
     node1.network.nmt.state = "OPERATIONAL"  # broadcast (node-ID 0)
-    end = time.monotonic() + 2.0
-    while dev.state is not NmtState.OPERATIONAL and time.monotonic() < end:
-        time.sleep(0.01)
-    assert dev.state is NmtState.OPERATIONAL
+    assert wait_for(lambda: dev.state is NmtState.OPERATIONAL, 10.0, poll_s=0.01)
 
 
 def test_local_nmt_command_applies_to_self_and_is_sent(lab):

@@ -13,6 +13,7 @@ import pytest
 from canopen import SdoAbortedError
 
 from telethermo.device import DeviceSettings, NmtCommand, NmtState, OdWriteError, SyncProducer
+from telethermo.nodes.launch import wait_for
 
 
 def drain(bus) -> list[can.Message]:
@@ -376,13 +377,10 @@ def test_a_stopped_producer_sends_no_sync_and_resumes_on_nmt_start(lab):
     for _ in range(3):
         sync.transmit()
     node.nmt.send_command(0x02)  # NMT stop from another master (canopen's NmtMaster)
-    end = time.monotonic() + 2
-    while dev.state is not NmtState.STOPPED and time.monotonic() < end:
-        time.sleep(0.005)
+    assert wait_for(lambda: dev.state is NmtState.STOPPED, 10.0, poll_s=0.005)
     assert sync.transmit() is None and sync.transmit() is None
     node.nmt.send_command(0x01)  # NMT start: SYNC again, the counter restarts at 1
-    while dev.state is not NmtState.OPERATIONAL and time.monotonic() < end + 2:
-        time.sleep(0.005)
+    assert wait_for(lambda: dev.state is NmtState.OPERATIONAL, 10.0, poll_s=0.005)
     assert sync.transmit() is not None and sync.transmit() is not None
     syncs = [m.data[0] for m in drain(bus) if m.arbitration_id == 0x80]
     assert syncs == [1, 2, 3, 1, 2]  # before the stop, then CANopenNode's restart at 1

@@ -7,30 +7,27 @@ from canopen's RemoteNode and EMCY consumer."""
 from __future__ import annotations
 
 import struct
-import time
 
 import can
 
 from telethermo.device import NmtCommand
+from telethermo.nodes.launch import wait_for
+
+from tests.device.conftest import ManualClock
 
 RPDO1 = 0x182  # the master's RPDO1: the slave's TPDO1 (8 bytes, type 1)
 
 
-def _wait(pred, timeout: float = 5.0) -> bool:
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if pred():
-            return True
-        time.sleep(0.01)
-    return pred()
+def _wait(pred, timeout: float = 10.0) -> bool:
+    return wait_for(pred, timeout, poll_s=0.01)
 
 
 def _codes(node) -> list[int]:
     return [e.code for e in list(node.emcy.log)]
 
 
-def _setup(lab, timer_ms: int):
-    dev = lab.device("master")
+def _setup(lab, timer_ms: int, clock: ManualClock | None = None):
+    dev = lab.device("master", clock=clock)
     node = lab.client("master")
     node.sdo["Inhibit time EMCY"].raw = 0
     node.sdo[0x1400][5].raw = timer_ms
@@ -43,36 +40,57 @@ def _rpdo(bus) -> None:
     bus.send(can.Message(arbitration_id=RPDO1, data=struct.pack("<ff", 30.0, 0.5), is_extended_id=False))
 
 
-def test_a_late_rpdo_raises_0x8250_once_and_the_next_one_clears_it(lab):
-    dev, node, bus = _setup(lab, 150)
-    time.sleep(0.4)  # no RPDO yet: not monitored, no error
-    assert _codes(node) == [] and node.sdo["Error register"].raw == 0
-    n = dev.stats.rpdo_count
+def _rpdo_taken(dev, bus) -> None:
+    """An RPDO, and back once the device has taken it (its deadline counts from the clock's time now)."""
+    n = dev.rpdo_count(1)
     _rpdo(bus)
-    assert _wait(lambda: dev.stats.rpdo_count > n)
-    assert _wait(lambda: 0x8250 in _codes(node))  # silent for longer than 150 ms
+    assert dev.wait_rpdo(1, after=n, timeout=10.0)
+
+
+def _no_new_emcy(node, codes: list[int]) -> None:
+    """The EMCYs seen are ``codes``: an SDO round trip first, so that an EMCY the device sent before its
+    answer has reached canopen's EMCY consumer (the client handles frames in order)."""
+    node.sdo["Error register"].raw
+    assert _codes(node) == codes
+
+
+def test_a_late_rpdo_raises_0x8250_once_and_the_next_one_clears_it(lab):
+    clock = ManualClock()
+    dev, node, bus = _setup(lab, 150, clock)
+    clock.advance(0.4, dev)  # no RPDO yet: not monitored, no error
+    _no_new_emcy(node, [])
+    assert node.sdo["Error register"].raw == 0
+    _rpdo_taken(dev, bus)
+    clock.advance(0.149, dev)  # silent for 149 ms: within the 150 ms
+    _no_new_emcy(node, [])
+    clock.advance(0.002, dev)  # silent for longer than 150 ms
+    assert _wait(lambda: 0x8250 in _codes(node))
     emcy = list(node.emcy.log)[-1]
     assert emcy.code == 0x8250 and emcy.data[0] == 1 and emcy.register == 0x11
     assert node.sdo[0x1003][1].raw & 0xFFFF == 0x8250
-    time.sleep(0.4)
-    assert _codes(node) == [0x8250]  # once, not once per event time
+    clock.advance(0.4, dev)
+    _no_new_emcy(node, [0x8250])  # once, not once per event time
     _rpdo(bus)
     assert _wait(lambda: _codes(node) == [0x8250, 0x0000])
     assert node.sdo["Error register"].raw == 0
+    clock.advance(0.151, dev)
     assert _wait(lambda: _codes(node)[-1] == 0x8250)  # monitored again from that RPDO
 
 
 def test_rpdos_in_time_raise_nothing_and_timer_0_is_off(lab):
-    dev, node, bus = _setup(lab, 0)
-    _rpdo(bus)
-    time.sleep(0.3)
-    assert _codes(node) == []
+    clock = ManualClock()
+    dev, node, bus = _setup(lab, 0, clock)
+    _rpdo_taken(dev, bus)
+    clock.advance(0.3, dev)
+    _no_new_emcy(node, [])
     node.sdo[0x1400][5].raw = 1000
-    _rpdo(bus)
-    for _ in range(5):  # every 50 ms: well inside 1000 ms
-        time.sleep(0.05)
-        _rpdo(bus)
-    assert _codes(node) == [] and node.sdo["Error register"].raw == 0
+    _rpdo_taken(dev, bus)
+    for _ in range(5):  # one every 900 ms: each within the 1000 ms of the one before
+        clock.advance(0.9, dev)
+        _rpdo_taken(dev, bus)
+    clock.advance(0.9, dev)
+    _no_new_emcy(node, [])
+    assert node.sdo["Error register"].raw == 0
 
 
 def test_the_rpdo_timeout_and_the_programs_peer_trip_keep_their_own_errors(lab):
@@ -99,8 +117,9 @@ def test_switching_the_timer_off_takes_its_error_with_it(lab):
 
 
 def test_leaving_operational_stops_the_monitoring(lab):
-    dev, node, bus = _setup(lab, 150)
-    _rpdo(bus)
+    clock = ManualClock()
+    dev, node, bus = _setup(lab, 150, clock)
+    _rpdo_taken(dev, bus)
     dev.nmt_command(NmtCommand.ENTER_PRE_OPERATIONAL, 1)
-    time.sleep(0.4)
-    assert _codes(node) == []
+    clock.advance(0.4, dev)
+    _no_new_emcy(node, [])

@@ -14,6 +14,7 @@ from canopen.objectdictionary import import_od
 
 from telethermo import bus_config
 from telethermo.monitor.records import MonitorConfig, NodeInfo
+from telethermo.nodes.launch import wait_for
 
 EDS_DIR = Path(bus_config.__file__).resolve().parent
 MASTER_EDS, SLAVE_EDS = EDS_DIR / "master.eds", EDS_DIR / "slave.eds"
@@ -59,11 +60,9 @@ class CanopenBench:
         self.r_master = self.client.add_node(1, str(MASTER_EDS))
         self.r_slave = self.client.add_node(2, str(SLAVE_EDS))
 
-    def wait_frames(self, n: int, timeout_s: float = 5.0) -> list[can.Message]:
+    def wait_frames(self, n: int, timeout_s: float = 10.0) -> list[can.Message]:
         """Wait until the sniffer has ``n`` frames (the virtual bus is asynchronous)."""
-        deadline = time.monotonic() + timeout_s
-        while len(self.collector.messages) < n and time.monotonic() < deadline:
-            time.sleep(0.005)
+        wait_for(lambda: len(self.collector.messages) >= n, timeout_s, poll_s=0.005)
         return list(self.collector.messages)
 
     def exchange(self, node: int, data: bytes, timeout_s: float = 10.0) -> can.Message:

@@ -14,6 +14,8 @@ from pathlib import Path
 import can
 import pytest
 
+from telethermo.nodes.launch import wait_for
+
 pytestmark = [
     pytest.mark.skipif(shutil.which("tmux") is None, reason="tmux is not installed"),
     pytest.mark.slow,
@@ -126,9 +128,7 @@ def test_view_in_a_real_terminal(tmp_path):
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "p"], check=True)
         _wait_screen(sock, "[PAUSED]")
         subprocess.run(["tmux", "-L", sock, "send-keys", "-t", "mon", "q"], check=True)
-        deadline = time.monotonic() + 10
-        while not done.exists() and time.monotonic() < deadline:
-            time.sleep(0.1)
+        assert wait_for(done.exists, 30, poll_s=0.1), "the monitor did not exit"
         assert done.read_text().strip() == "0"
     finally:
         subprocess.run(["tmux", "-L", sock, "kill-server"], capture_output=True)
@@ -164,9 +164,7 @@ def test_damaged_log_keeps_the_decoded_screen_and_says_where(tmp_path):
         assert f"{log}:33: damaged row" in screen and "[END OF LOG]" not in screen
         assert "1 master   OPERATIONAL" in screen and "#29" in screen  # what was decoded stays
         keys(sock, "q")
-        deadline = time.monotonic() + 10
-        while not done.exists() and time.monotonic() < deadline:
-            time.sleep(0.1)
+        assert wait_for(done.exists, 30, poll_s=0.1), "the monitor did not exit"
         assert done.read_text().strip() == "2"
         assert f"{log}:33: damaged row" in err.read_text() and "Traceback" not in err.read_text()
     finally:

@@ -643,6 +643,8 @@ def test_operator_cli_against_the_real_time_pair(tmp_path, capsys):
         )  # it moved towards the pre-set and reached it
         held = []
         for _ in range(4):  # ... and holds it (no contact: the pre-set stays)
+            # a fixed pace on purpose: samples of a real-time rig spread over 1 s (an absence check, "it
+            # does not drift", on the node programs' wall clock, which the test cannot drive)
             time.sleep(0.25)
             v = _get(capsys, bus, "master", "T_sensor_C", "T_cmd_C")
             held.append((round(v["T_sensor_C"], 3), round(v["T_cmd_C"], 3)))

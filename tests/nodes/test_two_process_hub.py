@@ -109,7 +109,9 @@ def test_a_stalled_slave_is_waited_for_and_stays_in_step(tmp_path):
         assert wait_for(lambda: pair.progress[0] >= 100, 120)
         os.kill(pair.slave.pid, signal.SIGSTOP)
         k_stop = pair.progress[0]
-        time.sleep(0.7)  # > 500 ms lockstep wait, < 1000 ms consumer time
+        # a fixed stall on purpose: the slave stopped longer than the 500 ms lockstep wait and shorter than
+        # the 1000 ms heartbeat consumer time (what is asserted is the master's behaviour in that window)
+        time.sleep(0.7)
         k_cont = pair.progress[0]
         os.kill(pair.slave.pid, signal.SIGCONT)
         assert pair.wait_master(timeout_s=180) == 0

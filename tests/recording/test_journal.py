@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import csv
 import math
-import time
 
 import numpy as np
 
 import pytest
 
+from telethermo.nodes.launch import wait_for
 from telethermo.recording.journal import CsvRecorder
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -77,7 +77,7 @@ while rec.syncs < 2:          # the flusher has run after the last row: it is on
 rec._fh.write("99.0,9")
 rec._fh.flush()
 print("ready", flush=True)
-time.sleep(600)
+time.sleep(600)  # on purpose: the parent kills this process while it sleeps
 """
 
 
@@ -141,10 +141,8 @@ def test_a_journal_in_use_is_not_recovered_and_rows_reach_it_without_close(tmp_p
     rec.write([1.5])
     rec.write([2.5])
     # the timer, not a row count nor close, pushes them out (polled with a deadline: no hang if it never runs)
-    n, deadline = rec.syncs, time.monotonic() + 30
-    while rec.syncs < n + 2 and time.monotonic() < deadline:
-        time.sleep(0.01)
-    assert rec.syncs >= n + 2, "the recorder's sync timer did not run"
+    n = rec.syncs
+    assert wait_for(lambda: rec.syncs >= n + 2, 30, poll_s=0.01), "the recorder's sync timer did not run"
     assert journal_path(path).read_text() == "a\n1.5\n2.5\n"
     with pytest.raises(RecorderError, match="in use by a running node"):
         recover_journal(path)

@@ -11,6 +11,7 @@ import time
 import can
 import pytest
 
+from telethermo.nodes.launch import wait_for
 from telethermo.transport.hub import HubConfig, HubThread, format_frame, parse_send
 
 pytestmark = pytest.mark.slow  # starts processes
@@ -187,13 +188,14 @@ def test_hub_process_stops_when_its_parent_ends():
     )
     parent = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
     pid = int(parent.stdout.strip())
-    deadline = time.monotonic() + 30
-    while time.monotonic() < deadline:
+
+    def gone() -> bool:
         try:
             os.kill(pid, 0)
         except ProcessLookupError:
-            break
-        time.sleep(0.1)
-    else:
+            return True
+        return False
+
+    if not wait_for(gone, 30, poll_s=0.1):
         os.kill(pid, 9)
         raise AssertionError("hub outlived its parent")

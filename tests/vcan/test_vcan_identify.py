@@ -37,7 +37,7 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
             tmp_path / "master-stderr.log"
         ).read_text()
         dump = candump()
-        time.sleep(1.0)
+        time.sleep(1.0)  # candump gives no sign that it listens: time for it to bind its socket
         code, out, err = cli(
             capsys,
             "identify",
@@ -55,7 +55,7 @@ def test_identify_a_live_node_on_vcan(vcan_channel, candump, tmp_path, slow_netw
             str(tmp_path / "m.csv"),
             "--quiet",
         )
-        time.sleep(0.5)
+        time.sleep(0.5)  # candump shows nothing until it stops: time to read the last frames
         frames = dump.stop()
         assert code == EXIT_OK, err
         crc = int(re.search(r"CRC-32 0x([0-9A-F]{8}) verified", out).group(1), 16)

@@ -61,7 +61,7 @@ def logs(tmp_path: Path) -> str:
 
 def test_four_node_session_on_vcan(vcan_channel, candump, tmp_path, slow_network):
     dump = candump()
-    time.sleep(1.0)
+    time.sleep(1.0)  # candump gives no sign that it listens: time for it to bind its socket
     pair = NodePair(
         PairConfig(
             scene=SCENE,
@@ -94,7 +94,7 @@ def test_four_node_session_on_vcan(vcan_channel, candump, tmp_path, slow_network
     assert pair.result is not None and pair.result.lockstep_timeouts == 0, pair.result
     for side in ("master", "slave"):
         assert "lost" not in (pair.out_dir / f"io-{side}.log").read_text(), logs(pair.out_dir)
-    time.sleep(0.5)
+    time.sleep(0.5)  # candump shows nothing until it stops: time to read the last frames
     frames = dump.stop()
     # candump: every cycle one SYNC, each module's two input TPDOs, each controller's drive RPDO
     count = {

@@ -26,7 +26,7 @@ def test_two_processes_on_vcan_equal_offline_and_candump_agrees(
     vcan_channel, candump, tmp_path, slow_network
 ):
     dump = candump()
-    time.sleep(1.0)
+    time.sleep(1.0)  # candump gives no sign that it listens: time for it to bind its socket
     pair = NodePair(
         PairConfig(
             scene=SCENE,
@@ -42,7 +42,7 @@ def test_two_processes_on_vcan_equal_offline_and_candump_agrees(
         assert pair.wait_master(timeout_s=900) == 0, (tmp_path / "master.log").read_text()
     codes = pair.stop()
     assert codes == {"master": 0, "slave": 0}
-    time.sleep(0.5)
+    time.sleep(0.5)  # candump shows nothing until it stops: time to read the last frames
     frames = dump.stop()
 
     rec = merge_recordings(tmp_path / "master.csv", tmp_path / "slave.csv", scene=SCENE)
