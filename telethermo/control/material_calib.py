@@ -256,6 +256,11 @@ def _net_fields(cal: Calibration) -> dict[str, np.ndarray]:
     return out
 
 
+def _range_fields(cal: Calibration) -> dict[str, np.ndarray]:
+    """The references' input range fields (none when not recorded)."""
+    return {} if cal.x_lo is None or cal.x_hi is None else {"x_lo": cal.x_lo, "x_hi": cal.x_hi}
+
+
 def save_calibration(cal: Calibration, path: str | Path) -> Path:
     """Write the calibration file atomically (a reader sees the old file or the new one)."""
     buf = io.BytesIO()
@@ -275,7 +280,7 @@ def save_calibration(cal: Calibration, path: str | Path) -> Path:
         features=np.array(cal.features),
         sub=np.array(cal.sub),
         **cast(dict[str, Any], _net_fields(cal)),
-        **({} if cal.x_lo is None or cal.x_hi is None else {"x_lo": cal.x_lo, "x_hi": cal.x_hi}),
+        **cast(dict[str, Any], _range_fields(cal)),
     )
     return write_bytes_atomic(path, buf.getvalue())
 
