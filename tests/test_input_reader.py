@@ -21,7 +21,15 @@ from telethermo.control.render_table import load_render_table
 from telethermo.control.types import Role
 from telethermo.control.virtual_object import load_object_table
 from telethermo.device.netconfig import NetworkConfigError, load_network
-from telethermo.inputfile import ABSENT, InputFileError, Section, load_toml, parse_toml
+from telethermo.inputfile import (
+    ABSENT,
+    InputFileError,
+    Section,
+    load_json,
+    load_toml,
+    parse_json,
+    parse_toml,
+)
 from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
 from telethermo.nodes.main import run_node
 from telethermo.sim.errors import SceneError
@@ -70,6 +78,70 @@ def test_a_caller_gets_its_own_error_type():
     with pytest.raises(NetworkConfigError) as err:
         parse_toml("x = ", "net.toml", NetworkConfigError)
     assert isinstance(err.value, InputFileError) and isinstance(err.value, ValueError)
+
+
+# ------------------------------------------------------------------------------------------- JSON files
+def test_a_json_syntax_error_names_the_file_its_line_and_column(tmp_path):
+    p = tmp_path / "gains.json"
+    p.write_text('{\n  "format": "x",\n  "master": {"kp": 1.0\n  "slave": {}\n}\n', encoding="utf-8")
+    with pytest.raises(InputFileError) as err:
+        load_json(p)
+    assert one_line(err.value) == f"{p}: line 4 column 3: not valid JSON (Expecting ',' delimiter)"
+    assert err.value.file == str(p) and err.value.field == "line 4"
+    with pytest.raises(
+        InputFileError, match=r"^m.json: line 1 column 12: not valid JSON \(Expecting value\)$"
+    ):
+        parse_json('{"theta": [', "m.json")
+
+
+def test_a_json_file_that_is_missing_unreadable_not_utf8_or_too_big_is_one_line(tmp_path):
+    with pytest.raises(NetworkConfigError) as err:
+        load_json(tmp_path / "none.json", "a gains file", NetworkConfigError)
+    assert one_line(err.value) == f"{tmp_path / 'none.json'}: no such file (expected a gains file)"
+    with pytest.raises(InputFileError, match=r": a folder, not a file \(expected a JSON file\)$"):
+        load_json(tmp_path)
+    p = tmp_path / "latin1.json"
+    p.write_bytes(b'{"a": 1,\n "place": "M\xfcnchen"}\n')
+    with pytest.raises(InputFileError) as err:
+        load_json(p)
+    assert one_line(err.value) == f"{p}: line 2: not UTF-8 text (byte 0xFC)"
+    # Python's limits are errors of the file too, not a traceback: an integer of 5000 digits, deep nesting
+    with pytest.raises(InputFileError, match=r"^big.json: not valid JSON \(Exceeds the limit"):
+        parse_json('{"n": ' + "9" * 5000 + "}", "big.json")
+    with pytest.raises(InputFileError, match=r"^deep.json: not valid JSON \(maximum recursion depth"):
+        parse_json('{"a": ' + "[" * 100_000 + "]" * 100_000 + "}", "deep.json")
+
+
+@pytest.mark.parametrize(
+    "text, kind", [("[1, 2]", "an array"), ('"gains"', "a string"), ("3.5", "a number"), ("null", "null")]
+)
+def test_a_json_top_level_that_is_not_an_object_is_one_line(text, kind):
+    with pytest.raises(InputFileError) as err:
+        parse_json(text, "model.json")
+    assert one_line(err.value) == f"model.json: top level: expected a JSON object {{...}}, got {kind}"
+
+
+def test_json_fields_read_through_the_section_with_dotted_names():
+    doc = parse_json(
+        '{"format": "g/1", "master": {"kp": 2, "ki": 0.5, "on": true, "x": NaN}, "list": [1, 2.5]}', "g.json"
+    )
+    master = doc.table("master")
+    kp = master.float("kp", positive=True)
+    assert kp == 2.0 and isinstance(kp, float) and master.float("ki") == 0.5
+    assert doc.str("format", choices=("g/1",)) == "g/1" and doc.list("list") == [1, 2.5]
+    assert master.bool("on") is True and master.int("n", 4) == 4
+    cases = [
+        (lambda: master.float("on"), "g.json: master.on: expected a finite number, got True"),
+        (lambda: master.int("on"), "g.json: master.on: expected an integer, got True"),
+        (lambda: master.float("x"), "g.json: master.x: expected a finite number, got nan"),
+        (lambda: doc.table("slave"), "g.json: slave: expected a table (missing)"),
+        (lambda: doc.table("format", expected="an object"), "g.json: format: expected an object, got 'g/1'"),
+        (lambda: master.table("kp"), "g.json: master.kp: expected a table, got 2"),
+    ]
+    for read, message in cases:
+        with pytest.raises(InputFileError) as err:
+            read()
+        assert one_line(err.value) == message
 
 
 # ------------------------------------------------------------------------------------ reading the fields
