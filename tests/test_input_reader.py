@@ -9,12 +9,14 @@ Exit-2 tests that exist elsewhere and are not repeated here: the node program on
 
 from __future__ import annotations
 
+import json
 import logging
 from pathlib import Path
 
 import pytest
 
 from telethermo.cli.main import EXIT_USAGE, main as cli_main
+from telethermo.control.gainsfile import GAINS_FORMAT, apply_marks, load_gains
 from telethermo.control.later_rc import load_rc_table
 from telethermo.control.material_id import load_effusivity_table
 from telethermo.control.render_table import load_render_table
@@ -319,3 +321,56 @@ def test_the_shipped_files_load_unchanged():
     assert len(load_render_table()) == len(load_effusivity_table()) + 1
     assert load_object_table().canonical("wood") == "oak" and load_rc_table()
     assert Path(load_scene("free_pad_identification").path).is_file()
+
+
+# ----------------------------------------------------------------------------- the JSON readers, end to end
+def gains_doc(**changes) -> dict:
+    doc = {"format": GAINS_FORMAT, "apply": apply_marks(), "master": {"kp_A_per_C": 1.5}, "slave": {}}
+    return {k: v for k, v in dict(doc, **changes).items() if v is not None}
+
+
+@pytest.mark.parametrize(
+    "doc, message",
+    [
+        (gains_doc(format="gains/2"), "format: expected one of telethermo.gains/1, got 'gains/2'"),
+        (gains_doc(slave=None), "slave: expected an object of gains (missing)"),
+        (gains_doc(slave=[1.0]), "slave: expected an object of gains, got [1.0]"),
+        (gains_doc(master={"kp_A_per_C": True}), "master.kp_A_per_C: expected a finite number, got True"),
+        (gains_doc(master={"kp_A_per_C": -1}), "master.kp_A_per_C: expected >= 0.0, got -1.0"),
+        (gains_doc(master={"kp": 1}), "master.kp: expected one of kQ_A_per_W, kiQ_A_per_W_s, ki_A_per_C_s,"),
+    ],
+)
+def test_a_bad_gains_file_names_file_and_field(tmp_path, doc, message):
+    p = tmp_path / "gains.json"
+    p.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(InputFileError) as err:
+        load_gains(p)
+    assert one_line(err.value).startswith(f"{p}: {message}"), err.value
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            '{"format": "telethermo.gains/1",\n "master": {"kp_A_per_C": 1.5,}}',
+            "line 2 column 31: not valid JSON",
+        ),
+        (
+            json.dumps(gains_doc(apply={"mode": "render", "sdo": [], "restart": []})),
+            "apply.mode: expected one of",
+        ),
+        (
+            json.dumps(gains_doc(apply={"mode": "telepresence", "sdo": "kp_A_per_C"})),
+            "apply.sdo: expected a list",
+        ),
+    ],
+)
+def test_a_bad_gains_file_stops_apply_gains_with_exit_2_and_one_line(tmp_path, capsys, text, message):
+    bad = tmp_path / "gains.json"
+    bad.write_text(text, encoding="utf-8")
+    code = cli_main(["apply-gains", "--bus", "virtual:tt-inputfile", str(bad), "master"])
+    out, err = capsys.readouterr()
+    assert code == EXIT_USAGE and out == "" and err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith(f"telethermo apply-gains: error: {bad}: {message}"), err
+    code = cli_main(["apply-gains", "--bus", "virtual:tt-inputfile", str(tmp_path / "none.json")])
+    assert code == EXIT_USAGE and "none.json: no such file (expected a gains file" in capsys.readouterr().err
