@@ -23,6 +23,7 @@ from telethermo.control.render_table import load_render_table
 from telethermo.control.types import Role
 from telethermo.control.virtual_object import load_object_table
 from telethermo.device.netconfig import NetworkConfigError, load_network
+from telethermo.ident import ModelFileError, load_model
 from telethermo.inputfile import (
     ABSENT,
     InputFileError,
@@ -374,3 +375,44 @@ def test_a_bad_gains_file_stops_apply_gains_with_exit_2_and_one_line(tmp_path, c
     assert err.startswith(f"telethermo apply-gains: error: {bad}: {message}"), err
     code = cli_main(["apply-gains", "--bus", "virtual:tt-inputfile", str(tmp_path / "none.json")])
     assert code == EXIT_USAGE and "none.json: no such file (expected a gains file" in capsys.readouterr().err
+
+
+NODE_ARGS = ["--bus", "virtual:tt-inputfile", "--scene", "free_pad_identification", "--cycles", "1"]
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            '{"format": "telethermo-tem-model",\n "format_version": 1,,}',
+            "line 2 column 22: not valid JSON (Expecting property name",
+        ),
+        ("[]", "top level: expected a JSON object {...}, got an array"),
+        ('{"format": "telethermo-tem-model", "format_version": true}', "field 'format_version': expected 1"),
+        (
+            '{"format": "telethermo-tem-model", "format_version": 1, "temperature": {"kind": "narma", '
+            '"orders": {"n": 2, "m": 1, "p": true, "q": 0}}}',
+            "field 'temperature.orders.p': expected an integer in [0, 8], got True",
+        ),
+    ],
+)
+def test_a_bad_model_file_stops_the_node_program_with_exit_2_and_one_line(tmp_path, capsys, text, message):
+    bad = tmp_path / "model.json"
+    bad.write_text(text, encoding="utf-8")
+    with pytest.raises(ModelFileError) as exc:
+        load_model(bad)
+    assert one_line(exc.value).startswith(f"model file {bad}: {message}"), exc.value
+    assert exc.value.path == exc.value.file == str(bad)
+    code = run_node(Role.MASTER, [*NODE_ARGS, "--model", str(bad)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert str(exc.value) in err
+
+
+def test_a_broken_gains_file_stops_the_node_program_with_exit_2_and_one_line(tmp_path, capsys):
+    bad = tmp_path / "gains.json"
+    bad.write_bytes(b'{"format": "telethermo.gains/1", "master": {"kp_A_per_C": 1.5\xb5}}')
+    code = run_node(Role.MASTER, [*NODE_ARGS, "--gains", str(bad)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"--gains: {bad}: line 1: not UTF-8 text (byte 0xB5)" in err
