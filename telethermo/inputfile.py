@@ -18,6 +18,7 @@ from __future__ import annotations
 import builtins
 import json
 import math
+import os
 import re
 import tomllib
 from pathlib import Path
@@ -69,7 +70,7 @@ def parse_toml(text: str, source: str | Path, error: type[InputFileError] = Inpu
         raise error.whole(source, f"line {line}: not valid TOML ({exc})", f"line {line}") from None
 
 
-def _read_text(path: str | Path, error: type[InputFileError], what: str) -> tuple[Path, str]:
+def _read_text(path: str | os.PathLike[str], error: type[InputFileError], what: str) -> tuple[Path, str]:
     """The UTF-8 text of ``path``; a missing, unreadable or non-UTF-8 file raises ``error`` with one line."""
     file = Path(path)
     try:
@@ -89,7 +90,7 @@ def _read_text(path: str | Path, error: type[InputFileError], what: str) -> tupl
 
 
 def load_toml(
-    path: str | Path, error: type[InputFileError] = InputFileError, what: str = "a TOML file"
+    path: str | os.PathLike[str], error: type[InputFileError] = InputFileError, what: str = "a TOML file"
 ) -> dict[str, Any]:
     """Read and parse the TOML file ``path``: a missing, unreadable, non-UTF-8 or malformed file raises
     ``error`` with one line (``what`` says what the file should have been)."""
@@ -122,7 +123,7 @@ def parse_json(text: str, file: str | Path, error: type[InputFileError] = InputF
 
 
 def load_json(
-    path: str | Path, what: str = "a JSON file", error: type[InputFileError] = InputFileError
+    path: str | os.PathLike[str], what: str = "a JSON file", error: type[InputFileError] = InputFileError
 ) -> Section:
     """Read and parse the JSON file ``path`` (see :func:`parse_json`): a missing, unreadable, non-UTF-8 or
     malformed file raises ``error`` with one line (``what`` says what the file should have been)."""
