@@ -1,20 +1,24 @@
-"""One reader for every TOML input file: load it, and read its tables field by field, every error one line
-naming the file, the field and what was expected (issue 26 item 5)::
+"""One reader for every TOML and JSON input file: load it, and read its tables (objects) field by field,
+every error one line naming the file, the field (or line) and what was expected (issue 26 item 5)::
 
     bus_config/network.toml: [heartbeat] consumer_ms: expected an integer in [0, 65535] ms, got -1
     RIG.toml: signals.T_sensor_C.subindex: expected an integer in [0, 255], got 300
     scene.toml: line 3: not valid TOML (Expected '=' after a key in a key/value pair (at line 3, column 5))
+    gains.json: master.kp_A_per_C: expected a finite number, got 'fast'
+    node1.json: line 4 column 1: not valid JSON (Expecting ',' delimiter)
 
 A field is named ``[table] key`` (``key`` at the top level) or, for a reader made with ``dotted=True``, by
-its dotted path (``table.key``). Every error is an :class:`InputFileError`; a caller passes its own
-subclass (``error=NetworkConfigError``) so that its CLI, which turns that type into ``prog: error: <line>``
-and exit status 2 without a traceback, keeps doing so.
+its dotted path (``table.key``), as the fields of a JSON file always are. Every error is an
+:class:`InputFileError`; a caller passes its own subclass (``error=NetworkConfigError``) so that its CLI,
+which turns that type into ``prog: error: <line>`` and exit status 2 without a traceback, keeps doing so.
 """
 
 from __future__ import annotations
 
 import builtins
+import json
 import math
+import os
 import re
 import tomllib
 from pathlib import Path
@@ -66,11 +70,8 @@ def parse_toml(text: str, source: str | Path, error: type[InputFileError] = Inpu
         raise error.whole(source, f"line {line}: not valid TOML ({exc})", f"line {line}") from None
 
 
-def load_toml(
-    path: str | Path, error: type[InputFileError] = InputFileError, what: str = "a TOML file"
-) -> dict[str, Any]:
-    """Read and parse the TOML file ``path``: a missing, unreadable, non-UTF-8 or malformed file raises
-    ``error`` with one line (``what`` says what the file should have been)."""
+def _read_text(path: str | os.PathLike[str], error: type[InputFileError], what: str) -> tuple[Path, str]:
+    """The UTF-8 text of ``path``; a missing, unreadable or non-UTF-8 file raises ``error`` with one line."""
     file = Path(path)
     try:
         data = file.read_bytes()
@@ -81,12 +82,53 @@ def load_toml(
     except OSError as exc:
         raise error.whole(file, f"cannot read ({exc.strerror or exc})") from None
     try:
-        text = data.decode("utf-8")
+        return file, data.decode("utf-8")
     except UnicodeDecodeError as exc:
         line = data[: exc.start].count(b"\n") + 1
         bad = data[exc.start]
         raise error.whole(file, f"line {line}: not UTF-8 text (byte 0x{bad:02X})", f"line {line}") from None
+
+
+def load_toml(
+    path: str | os.PathLike[str], error: type[InputFileError] = InputFileError, what: str = "a TOML file"
+) -> dict[str, Any]:
+    """Read and parse the TOML file ``path``: a missing, unreadable, non-UTF-8 or malformed file raises
+    ``error`` with one line (``what`` says what the file should have been)."""
+    file, text = _read_text(path, error, what)
     return parse_toml(text, file, error)
+
+
+_JSON_KINDS = {list: "an array", str: "a string", bool: "true or false", type(None): "null"}
+
+
+def parse_json(text: str, file: str | Path, error: type[InputFileError] = InputFileError) -> Section:
+    """The top-level object of the JSON document ``text`` as a :class:`Section` whose fields are named by
+    their dotted path (``master.kp_A_per_C``); ``file`` names the document in errors. A syntax error names
+    its line and column; a top level that is not an object is one line naming the file.
+
+    JSON numbers read as Python ints and floats (``true`` is not a number, as in TOML); the non-standard
+    ``NaN`` and ``Infinity`` that Python's reader takes read as floats that :meth:`Section.float` refuses
+    as not finite."""
+    try:
+        doc = json.loads(text)
+    except json.JSONDecodeError as exc:
+        where = f"line {exc.lineno}"
+        raise error.whole(file, f"{where} column {exc.colno}: not valid JSON ({exc.msg})", where) from None
+    except (ValueError, RecursionError) as exc:  # an integer of > 4300 digits; nesting deeper than ~1000
+        raise error.whole(file, f"not valid JSON ({str(exc).splitlines()[0]})") from None
+    if not isinstance(doc, dict):
+        kind = _JSON_KINDS.get(type(doc), "a number")
+        raise error.whole(file, f"top level: expected a JSON object {{...}}, got {kind}", "top level")
+    return Section(file, "", doc, error=error, dotted=True)
+
+
+def load_json(
+    path: str | os.PathLike[str], what: str = "a JSON file", error: type[InputFileError] = InputFileError
+) -> Section:
+    """Read and parse the JSON file ``path`` (see :func:`parse_json`): a missing, unreadable, non-UTF-8 or
+    malformed file raises ``error`` with one line (``what`` says what the file should have been)."""
+    file, text = _read_text(path, error, what)
+    return parse_json(text, file, error)
 
 
 def _g(v: Any) -> str:
@@ -114,7 +156,7 @@ def _range(lo: Any, hi: Any, lo_open: bool = False) -> str:
 
 
 class Section:
-    """One TOML table of ``file`` read field by field, each error naming the field.
+    """One TOML table (or JSON object) of ``file`` read field by field, each error naming the field.
 
     ``path`` is the table's dotted name ("" for the top level); ``allowed`` (when given) are its only
     keys. A ``default`` of :data:`ABSENT` makes a field required."""

@@ -9,19 +9,30 @@ Exit-2 tests that exist elsewhere and are not repeated here: the node program on
 
 from __future__ import annotations
 
+import json
 import logging
 from pathlib import Path
 
 import pytest
 
 from telethermo.cli.main import EXIT_USAGE, main as cli_main
+from telethermo.control.gainsfile import GAINS_FORMAT, apply_marks, load_gains
 from telethermo.control.later_rc import load_rc_table
 from telethermo.control.material_id import load_effusivity_table
 from telethermo.control.render_table import load_render_table
 from telethermo.control.types import Role
 from telethermo.control.virtual_object import load_object_table
 from telethermo.device.netconfig import NetworkConfigError, load_network
-from telethermo.inputfile import ABSENT, InputFileError, Section, load_toml, parse_toml
+from telethermo.ident import ModelFileError, load_model
+from telethermo.inputfile import (
+    ABSENT,
+    InputFileError,
+    Section,
+    load_json,
+    load_toml,
+    parse_json,
+    parse_toml,
+)
 from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
 from telethermo.nodes.main import run_node
 from telethermo.sim.errors import SceneError
@@ -70,6 +81,70 @@ def test_a_caller_gets_its_own_error_type():
     with pytest.raises(NetworkConfigError) as err:
         parse_toml("x = ", "net.toml", NetworkConfigError)
     assert isinstance(err.value, InputFileError) and isinstance(err.value, ValueError)
+
+
+# ------------------------------------------------------------------------------------------- JSON files
+def test_a_json_syntax_error_names_the_file_its_line_and_column(tmp_path):
+    p = tmp_path / "gains.json"
+    p.write_text('{\n  "format": "x",\n  "master": {"kp": 1.0\n  "slave": {}\n}\n', encoding="utf-8")
+    with pytest.raises(InputFileError) as err:
+        load_json(p)
+    assert one_line(err.value) == f"{p}: line 4 column 3: not valid JSON (Expecting ',' delimiter)"
+    assert err.value.file == str(p) and err.value.field == "line 4"
+    with pytest.raises(
+        InputFileError, match=r"^m.json: line 1 column 12: not valid JSON \(Expecting value\)$"
+    ):
+        parse_json('{"theta": [', "m.json")
+
+
+def test_a_json_file_that_is_missing_unreadable_not_utf8_or_too_big_is_one_line(tmp_path):
+    with pytest.raises(NetworkConfigError) as err:
+        load_json(tmp_path / "none.json", "a gains file", NetworkConfigError)
+    assert one_line(err.value) == f"{tmp_path / 'none.json'}: no such file (expected a gains file)"
+    with pytest.raises(InputFileError, match=r": a folder, not a file \(expected a JSON file\)$"):
+        load_json(tmp_path)
+    p = tmp_path / "latin1.json"
+    p.write_bytes(b'{"a": 1,\n "place": "M\xfcnchen"}\n')
+    with pytest.raises(InputFileError) as err:
+        load_json(p)
+    assert one_line(err.value) == f"{p}: line 2: not UTF-8 text (byte 0xFC)"
+    # Python's limits are errors of the file too, not a traceback: an integer of 5000 digits, deep nesting
+    with pytest.raises(InputFileError, match=r"^big.json: not valid JSON \(Exceeds the limit"):
+        parse_json('{"n": ' + "9" * 5000 + "}", "big.json")
+    with pytest.raises(InputFileError, match=r"^deep.json: not valid JSON \(maximum recursion depth"):
+        parse_json('{"a": ' + "[" * 100_000 + "]" * 100_000 + "}", "deep.json")
+
+
+@pytest.mark.parametrize(
+    "text, kind", [("[1, 2]", "an array"), ('"gains"', "a string"), ("3.5", "a number"), ("null", "null")]
+)
+def test_a_json_top_level_that_is_not_an_object_is_one_line(text, kind):
+    with pytest.raises(InputFileError) as err:
+        parse_json(text, "model.json")
+    assert one_line(err.value) == f"model.json: top level: expected a JSON object {{...}}, got {kind}"
+
+
+def test_json_fields_read_through_the_section_with_dotted_names():
+    doc = parse_json(
+        '{"format": "g/1", "master": {"kp": 2, "ki": 0.5, "on": true, "x": NaN}, "list": [1, 2.5]}', "g.json"
+    )
+    master = doc.table("master")
+    kp = master.float("kp", positive=True)
+    assert kp == 2.0 and isinstance(kp, float) and master.float("ki") == 0.5
+    assert doc.str("format", choices=("g/1",)) == "g/1" and doc.list("list") == [1, 2.5]
+    assert master.bool("on") is True and master.int("n", 4) == 4
+    cases = [
+        (lambda: master.float("on"), "g.json: master.on: expected a finite number, got True"),
+        (lambda: master.int("on"), "g.json: master.on: expected an integer, got True"),
+        (lambda: master.float("x"), "g.json: master.x: expected a finite number, got nan"),
+        (lambda: doc.table("slave"), "g.json: slave: expected a table (missing)"),
+        (lambda: doc.table("format", expected="an object"), "g.json: format: expected an object, got 'g/1'"),
+        (lambda: master.table("kp"), "g.json: master.kp: expected a table, got 2"),
+    ]
+    for read, message in cases:
+        with pytest.raises(InputFileError) as err:
+            read()
+        assert one_line(err.value) == message
 
 
 # ------------------------------------------------------------------------------------ reading the fields
@@ -247,3 +322,97 @@ def test_the_shipped_files_load_unchanged():
     assert len(load_render_table()) == len(load_effusivity_table()) + 1
     assert load_object_table().canonical("wood") == "oak" and load_rc_table()
     assert Path(load_scene("free_pad_identification").path).is_file()
+
+
+# ----------------------------------------------------------------------------- the JSON readers, end to end
+def gains_doc(**changes) -> dict:
+    doc = {"format": GAINS_FORMAT, "apply": apply_marks(), "master": {"kp_A_per_C": 1.5}, "slave": {}}
+    return {k: v for k, v in dict(doc, **changes).items() if v is not None}
+
+
+@pytest.mark.parametrize(
+    "doc, message",
+    [
+        (gains_doc(format="gains/2"), "format: expected one of telethermo.gains/1, got 'gains/2'"),
+        (gains_doc(slave=None), "slave: expected an object of gains (missing)"),
+        (gains_doc(slave=[1.0]), "slave: expected an object of gains, got [1.0]"),
+        (gains_doc(master={"kp_A_per_C": True}), "master.kp_A_per_C: expected a finite number, got True"),
+        (gains_doc(master={"kp_A_per_C": -1}), "master.kp_A_per_C: expected >= 0.0, got -1.0"),
+        (gains_doc(master={"kp": 1}), "master.kp: expected one of kQ_A_per_W, kiQ_A_per_W_s, ki_A_per_C_s,"),
+    ],
+)
+def test_a_bad_gains_file_names_file_and_field(tmp_path, doc, message):
+    p = tmp_path / "gains.json"
+    p.write_text(json.dumps(doc), encoding="utf-8")
+    with pytest.raises(InputFileError) as err:
+        load_gains(p)
+    assert one_line(err.value).startswith(f"{p}: {message}"), err.value
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            '{"format": "telethermo.gains/1",\n "master": {"kp_A_per_C": 1.5,}}',
+            "line 2 column 31: not valid JSON",
+        ),
+        (
+            json.dumps(gains_doc(apply={"mode": "render", "sdo": [], "restart": []})),
+            "apply.mode: expected one of",
+        ),
+        (
+            json.dumps(gains_doc(apply={"mode": "telepresence", "sdo": "kp_A_per_C"})),
+            "apply.sdo: expected a list",
+        ),
+    ],
+)
+def test_a_bad_gains_file_stops_apply_gains_with_exit_2_and_one_line(tmp_path, capsys, text, message):
+    bad = tmp_path / "gains.json"
+    bad.write_text(text, encoding="utf-8")
+    code = cli_main(["apply-gains", "--bus", "virtual:tt-inputfile", str(bad), "master"])
+    out, err = capsys.readouterr()
+    assert code == EXIT_USAGE and out == "" and err.count("\n") == 1 and "Traceback" not in err, err
+    assert err.startswith(f"telethermo apply-gains: error: {bad}: {message}"), err
+    code = cli_main(["apply-gains", "--bus", "virtual:tt-inputfile", str(tmp_path / "none.json")])
+    assert code == EXIT_USAGE and "none.json: no such file (expected a gains file" in capsys.readouterr().err
+
+
+NODE_ARGS = ["--bus", "virtual:tt-inputfile", "--scene", "free_pad_identification", "--cycles", "1"]
+
+
+@pytest.mark.parametrize(
+    "text, message",
+    [
+        (
+            '{"format": "telethermo-tem-model",\n "format_version": 1,,}',
+            "line 2 column 22: not valid JSON (Expecting property name",
+        ),
+        ("[]", "top level: expected a JSON object {...}, got an array"),
+        ('{"format": "telethermo-tem-model", "format_version": true}', "field 'format_version': expected 1"),
+        (
+            '{"format": "telethermo-tem-model", "format_version": 1, "temperature": {"kind": "narma", '
+            '"orders": {"n": 2, "m": 1, "p": true, "q": 0}}}',
+            "field 'temperature.orders.p': expected an integer in [0, 8], got True",
+        ),
+    ],
+)
+def test_a_bad_model_file_stops_the_node_program_with_exit_2_and_one_line(tmp_path, capsys, text, message):
+    bad = tmp_path / "model.json"
+    bad.write_text(text, encoding="utf-8")
+    with pytest.raises(ModelFileError) as exc:
+        load_model(bad)
+    assert one_line(exc.value).startswith(f"model file {bad}: {message}"), exc.value
+    assert exc.value.path == exc.value.file == str(bad)
+    code = run_node(Role.MASTER, [*NODE_ARGS, "--model", str(bad)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert str(exc.value) in err
+
+
+def test_a_broken_gains_file_stops_the_node_program_with_exit_2_and_one_line(tmp_path, capsys):
+    bad = tmp_path / "gains.json"
+    bad.write_bytes(b'{"format": "telethermo.gains/1", "master": {"kp_A_per_C": 1.5\xb5}}')
+    code = run_node(Role.MASTER, [*NODE_ARGS, "--gains", str(bad)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"--gains: {bad}: line 1: not UTF-8 text (byte 0xB5)" in err

@@ -13,13 +13,13 @@ one line then names the keys that need the restart.
 from __future__ import annotations
 
 import argparse
-import json
 from pathlib import Path
 
 from telethermo.cli import common
 from telethermo.cli.params import line  # the line `set` prints
-from telethermo.control.gainsfile import GAIN_FIELDS, apply_marks, load_gains
+from telethermo.control.gainsfile import GAIN_FIELDS, GAINS_FILE, apply_marks, read_gains
 from telethermo.control.types import Mode, Role
+from telethermo.inputfile import InputFileError, Section, load_json
 from telethermo.remote.client import NodeClient
 from telethermo.remote.errors import Failure, Refused, UserError
 from telethermo.remote.targets import PAIR_ROLES, Target, eds_info, lookup, pair_targets, resolve_node
@@ -41,23 +41,21 @@ def register(subparsers) -> None:
     p.set_defaults(func=run)
 
 
-def marks(doc: dict, path: Path) -> tuple[list[str], list[str]]:
-    """The file's (sdo keys, restart keys); UserError naming the file and the field of a wrong entry."""
-    mark = doc.get("apply", apply_marks())
-    if not isinstance(mark, dict) or mark.get("mode") != "telepresence":
-        raise UserError(f'{path}: apply: expected an object with "mode": "telepresence", "sdo" and "restart"')
+def marks(doc: Section) -> tuple[list[str], list[str]]:
+    """The file's (sdo keys, restart keys); InputFileError naming the file and the field of a wrong entry."""
+    whole = 'an object with "mode": "telepresence", "sdo" and "restart"'
+    mark = doc.table("apply", default=apply_marks(), expected=whole)
+    mark.str("mode", choices=("telepresence",))
+    expected = f"a list of gain names from {', '.join(GAIN_FIELDS)}"
     lists = []
     for field in ("sdo", "restart"):
-        keys = mark.get(field)
-        if not isinstance(keys, list) or any(k not in GAIN_FIELDS for k in keys):
-            raise UserError(
-                f"{path}: apply.{field}: expected a list of gain names from "
-                f"{', '.join(GAIN_FIELDS)}, got {keys!r}"
-            )
+        keys = mark.list(field, expected=expected)
+        if any(k not in GAIN_FIELDS for k in keys):
+            raise mark.fail(field, expected, keys)
         lists.append(keys)
     if set(lists[0]) & set(lists[1]) or set(lists[0]) | set(lists[1]) != set(GAIN_FIELDS):
-        raise UserError(
-            f"{path}: apply: sdo and restart must split the gains {', '.join(GAIN_FIELDS)} between them"
+        raise doc.error.whole(
+            doc.file, f"apply: sdo and restart must split the gains {', '.join(GAIN_FIELDS)} between them"
         )
     return lists[0], lists[1]
 
@@ -76,10 +74,11 @@ def _targets(args: argparse.Namespace, net) -> list[Target]:
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
     try:
-        gains = load_gains(args.file)  # validated: format, names, numbers, CoreParams ranges
-    except ValueError as exc:
+        doc = load_json(args.file, GAINS_FILE)
+        gains = read_gains(doc)  # validated: format, names, numbers, CoreParams ranges
+        sdo_keys, restart_keys = marks(doc)
+    except InputFileError as exc:
         raise UserError(str(exc)) from None
-    sdo_keys, restart_keys = marks(json.loads(args.file.read_text(encoding="utf-8")), args.file)
     targets = _targets(args, net)
     plan = []
     for t in targets:

@@ -12,14 +12,16 @@ does); a store that cannot be written is refused with 0x06060000 (hardware error
 :class:`StoreRestore` is the protocol part on a :class:`~telethermo.device.device.Device`; what is
 stored and how it is put back is the program's (its ``save(group)`` / ``restore(group)``).
 :class:`StoreFile` is the file: one JSON document per node, written atomically
-(:mod:`telethermo.atomic`) with a CRC-32 over its canonical content, refused whole (with one line
-naming the file and what was wrong) when it does not check.
+(:mod:`telethermo.atomic`) with a CRC-32 over its canonical content, read through
+:func:`telethermo.inputfile.load_json` and refused whole (with one line naming the file, the field and what
+was wrong) when it does not check.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import re
 import zlib
 from pathlib import Path
 from typing import Any, Callable
@@ -29,6 +31,7 @@ from canopen.sdo import SdoAbortedError
 from telethermo.atomic import write_json_atomic
 from telethermo.cia301 import ABORT_APPLICATION, ABORT_HARDWARE
 from telethermo.device.device import Device
+from telethermo.inputfile import ABSENT, InputFileError, load_json
 
 STORE_INDEX, RESTORE_INDEX = 0x1010, 0x1011
 SAVE_SIGNATURE = 0x65766173  # "save"
@@ -42,8 +45,14 @@ NOT_STORED = frozenset({0x1003, 0x1005, STORE_INDEX, RESTORE_INDEX})
 FORMAT = "telethermo-store 1"
 
 
-class StoreError(ValueError):
-    """A store file that cannot be used; the message names the file and what was wrong."""
+class StoreError(InputFileError):
+    """A store file that cannot be used: one line naming the file, the field and what was expected
+    (``file: field 'F': expected E[, got G]``; an error of the whole file or a line: ``file: problem``)."""
+
+    @classmethod
+    def at(cls, file: str | Path, field: str, expected: str, got: Any = ABSENT) -> StoreError:
+        got_text = "" if got is ABSENT else f", got {got!r}"
+        return cls(f"{file}: field '{field}': expected {expected}{got_text}", file, field)
 
 
 class StoreRestore:
@@ -102,37 +111,35 @@ class StoreFile:
 
     def read(self) -> dict[str, Any]:
         """The checked content. StoreError naming the file and the fault (unreadable, not JSON, wrong format,
-        checksum mismatch, another node's file); FileNotFoundError if there is none."""
-        where = str(self.path)
+        checksum mismatch, another node's file, a field of the wrong type); FileNotFoundError if there is
+        none."""
         try:
-            text = self.path.read_text(encoding="utf-8")
-        except FileNotFoundError:
+            doc = load_json(self.path, f"the store file of node {self.node_id}", StoreError)
+        except StoreError:
+            if not self.path.exists():
+                raise FileNotFoundError(2, "no store file", str(self.path)) from None
             raise
-        except (OSError, UnicodeDecodeError) as exc:
-            raise StoreError(f"{where}: cannot be read ({exc})") from None
-        try:
-            doc = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise StoreError(f"{where}: line {exc.lineno}: not JSON ({exc.msg})") from None
-        if not isinstance(doc, dict) or doc.get("format") != FORMAT:
-            raise StoreError(f"{where}: field 'format': expected {FORMAT!r}")
-        crc = doc.pop("crc32", None)
-        if not isinstance(crc, str) or not crc.startswith("0x"):
-            raise StoreError(f"{where}: field 'crc32': expected a hex checksum '0x........'")
-        actual = _crc(doc)
+        if doc.get("format", None) != FORMAT:
+            raise doc.fail("format", repr(FORMAT), doc.get("format", ABSENT))
+        crc = doc.get("crc32", None)
+        if not isinstance(crc, str) or not re.fullmatch(r"0x[0-9A-Fa-f]{8}", crc):
+            raise doc.fail("crc32", "a hex checksum '0x........'", doc.get("crc32", ABSENT))
+        body = {k: v for k, v in doc.raw.items() if k != "crc32"}
+        actual = _crc(body)
         if int(crc, 16) != actual:
             raise StoreError(
-                f"{where}: field 'crc32': checksum {crc} does not match the content "
-                f"(0x{actual:08X}): the file was changed or damaged"
+                f"{self.path}: field 'crc32': checksum {crc} does not match the content "
+                f"(0x{actual:08X}): the file was changed or damaged",
+                self.path,
+                "crc32",
             )
-        if doc.get("node_id") != self.node_id:
-            raise StoreError(
-                f"{where}: field 'node_id': expected {self.node_id}, the file is node {doc.get('node_id')}'s"
-            )
+        doc.int("node_id", expected=f"{self.node_id} (this node's ID)", lo=self.node_id, hi=self.node_id)
+        if doc.get("saved_unix_s", None) is not None:
+            doc.float("saved_unix_s", lo=0.0, unit=" s")
         for key in ("communication", "application"):
-            if doc.get(key) is not None and not isinstance(doc[key], dict):
-                raise StoreError(f"{where}: field {key!r}: expected an object or null")
-        return doc
+            if doc.get(key, None) is not None:
+                doc.table(key, expected="an object or null")
+        return body
 
     def write(
         self, *, communication: dict[str, Any] | None, application: dict[str, Any] | None, saved_unix_s: float

@@ -28,13 +28,12 @@ failure raises :class:`ModelFileError` naming the file, the field and what was e
 
 from __future__ import annotations
 
-import json
 import math
 import os
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal, overload
+from typing import Any
 
 import numpy as np
 
@@ -43,6 +42,7 @@ from telethermo.ident.capacity import CapacityModel
 from telethermo.ident.flux import FluxArma
 from telethermo.ident.narma import MAX_ORDER, NarmaModel, NarmaOrders
 from telethermo.ident.stability import check_stability as _check
+from telethermo.inputfile import ABSENT, InputFileError, Section, load_json
 from telethermo.units import MODEL_KINDS, base_unit
 
 FORMAT = "telethermo-tem-model"
@@ -51,18 +51,32 @@ FORMAT_VERSION = 1
 UNITS = {kind: base_unit(kind) for kind in MODEL_KINDS}
 
 
-class ModelFileError(ValueError):
+class ModelFileError(InputFileError):
     """A model file is missing, malformed, inconsistent or holds an unstable model.
 
-    Attributes: ``path`` (the file), ``field`` (dotted JSON path, '' for the whole file), ``expected``
-    (what was expected), ``got`` (what was found, short).
+    Attributes: ``path`` (the file), ``field`` (dotted JSON path, '' for the whole file, "line 3" for a
+    syntax error), ``expected`` (what was expected), ``got`` (what was found, short).
     """
 
     def __init__(self, path: str | os.PathLike[str], field: str, expected: str, got: str = "") -> None:
-        self.path, self.field, self.expected, self.got = str(path), field, expected, got
         where = f"field '{field}': " if field else ""
         tail = f", got {got}" if got else ""
-        super().__init__(f"model file {self.path}: {where}expected {expected}{tail}")
+        super().__init__(f"model file {path}: {where}expected {expected}{tail}", str(path), field)
+        self.path, self.field, self.expected, self.got = str(path), field, expected, got
+
+    @classmethod
+    def at(cls, file: str | Path, field: str, expected: str, got: Any = ABSENT) -> ModelFileError:
+        """A field's error (for :class:`~telethermo.inputfile.Section`), ``got`` cut to 80 characters."""
+        text = "" if got is ABSENT else got if isinstance(got, str) else repr(got)
+        return cls(file, field, expected, text[:80])
+
+    @classmethod
+    def whole(cls, file: str | Path, problem: str, field: str | None = None) -> ModelFileError:
+        """An error of the whole file (missing, not UTF-8, not JSON): ``model file F: problem``."""
+        err = cls.__new__(cls)
+        InputFileError.__init__(err, f"model file {file}: {problem}", str(file), field or "")
+        err.path, err.field, err.expected, err.got = str(file), field or "", problem, ""
+        return err
 
 
 @dataclass(frozen=True)
@@ -155,7 +169,25 @@ MAX_CURRENT_A = 100.0
 """Largest |current| a model file may claim to cover, A (TEMs of this class run at a few A)."""
 
 
-def _is_finite(v: int | float) -> bool:
+def _numbers(
+    s: Section, key: str, *, length: int | None = None, min_len: int = 1, max_len: int = 10_000
+) -> np.ndarray:
+    """The list field ``key`` of finite numbers (``length`` of them, or ``min_len``..``max_len``)."""
+    want = (
+        f"a list of {length} finite numbers"
+        if length is not None
+        else f"a list of {min_len}..{max_len} finite numbers"
+    )
+    v = s.list(key, expected=want)
+    if (length is not None and len(v) != length) or not (min_len <= len(v) <= max_len):
+        raise s.fail(key, want, f"{len(v)} values")
+    for i, x in enumerate(v):
+        if isinstance(x, bool) or not isinstance(x, (int, float)) or not _finite(x):
+            raise s.fail(f"{key}[{i}]", "a finite number", x)
+    return np.asarray(v, dtype=float)
+
+
+def _finite(v: int | float) -> bool:
     """True for a number a float can hold (JSON integers have no size limit)."""
     try:
         return math.isfinite(float(v))
@@ -163,91 +195,30 @@ def _is_finite(v: int | float) -> bool:
         return False
 
 
-class _Reader:
-    """Typed field access that raises ModelFileError with the dotted field name."""
+def _range(s: Section, key: str) -> tuple[float, float]:
+    """The field ``key``: ``[min, max]``, two finite numbers with min <= max."""
+    lo, hi = _numbers(s, key, length=2)
+    if lo > hi:
+        raise s.fail(key, "[min, max] with min <= max", [lo, hi])
+    return float(lo), float(hi)
 
-    def __init__(self, path: str | os.PathLike[str]) -> None:
-        self.path = path
 
-    def err(self, fld: str, expected: str, got: Any = "") -> ModelFileError:
-        g = got if isinstance(got, str) else repr(got)
-        return ModelFileError(self.path, fld, expected, g[:80])
+def _metrics(s: Section) -> dict[str, Any]:
+    """The free-form ``metrics`` object ({} when absent or null)."""
+    m = s.get("metrics", None)
+    if m is not None and not isinstance(m, dict):
+        raise s.fail("metrics", "an object", m)
+    return m or {}
 
-    @overload
-    def obj(
-        self, parent: dict[str, Any], key: str, fld: str, *, optional: Literal[False] = False
-    ) -> dict[str, Any]: ...
-    @overload
-    def obj(self, parent: dict[str, Any], key: str, fld: str, *, optional: bool) -> dict[str, Any] | None: ...
 
-    def obj(
-        self, parent: dict[str, Any], key: str, fld: str, *, optional: bool = False
-    ) -> dict[str, Any] | None:
-        if key not in parent:
-            if optional:
-                return None
-            raise self.err(fld, "an object (missing)")
-        v = parent[key]
-        if v is None and optional:
-            return None
-        if not isinstance(v, dict):
-            raise self.err(fld, "an object", v)
-        return v
+def _kind(s: Section, kind: str) -> None:
+    if s.get("kind", None) != kind:
+        raise s.fail("kind", f"'{kind}'", s.get("kind", "missing"))
 
-    def num(self, parent: dict[str, Any], key: str, fld: str, *, positive: bool = False) -> float:
-        if key not in parent:
-            raise self.err(fld, "a number (missing)")
-        v = parent[key]
-        if isinstance(v, bool) or not isinstance(v, (int, float)) or not _is_finite(v):
-            raise self.err(fld, "a finite number", v)
-        if positive and v <= 0:
-            raise self.err(fld, "a positive number", v)
-        return float(v)
 
-    def int_(self, parent: dict[str, Any], key: str, fld: str, lo: int, hi: int) -> int:
-        v = parent.get(key)
-        if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
-            raise self.err(fld, f"an integer in [{lo}, {hi}]", "missing" if key not in parent else v)
-        return v
-
-    def nums(
-        self,
-        parent: dict[str, Any],
-        key: str,
-        fld: str,
-        *,
-        length: int | None = None,
-        min_len: int = 1,
-        max_len: int = 10_000,
-    ) -> np.ndarray:
-        v = parent.get(key)
-        want = (
-            f"a list of {length} finite numbers"
-            if length is not None
-            else f"a list of {min_len}..{max_len} finite numbers"
-        )
-        if not isinstance(v, list):
-            raise self.err(fld, want, "missing" if key not in parent else v)
-        if (length is not None and len(v) != length) or not (min_len <= len(v) <= max_len):
-            raise self.err(fld, want, f"{len(v)} values")
-        for i, x in enumerate(v):
-            if isinstance(x, bool) or not isinstance(x, (int, float)) or not _is_finite(x):
-                raise self.err(f"{fld}[{i}]", "a finite number", x)
-        return np.asarray(v, dtype=float)
-
-    def range_(self, parent: dict[str, Any], key: str, fld: str) -> tuple[float, float]:
-        lo, hi = self.nums(parent, key, fld, length=2)
-        if lo > hi:
-            raise self.err(fld, "[min, max] with min <= max", [lo, hi])
-        return float(lo), float(hi)
-
-    def metrics(self, parent: dict[str, Any], fld: str) -> dict[str, Any]:
-        m = parent.get("metrics", {})
-        if m is None:
-            return {}
-        if not isinstance(m, dict):
-            raise self.err(fld, "an object", m)
-        return m
+def _optional(doc: Section, key: str) -> Section | None:
+    """The object ``key`` of ``doc``, None when absent or null."""
+    return None if doc.get(key, None) is None else doc.table(key, expected="an object")
 
 
 def model_from_dict(
@@ -258,65 +229,65 @@ def model_from_dict(
     expect_period_s: float | None = None,
 ) -> TemModel:
     """Validate a model document and build the :class:`TemModel` (errors: :class:`ModelFileError`)."""
-    r = _Reader(path)
     if not isinstance(doc, dict):
-        raise r.err("", "a JSON object at the top level", type(doc).__name__)
-    if doc.get("format") != FORMAT:
-        raise r.err("format", f"'{FORMAT}'", doc.get("format", "missing"))
-    if doc.get("format_version") != FORMAT_VERSION:
-        raise r.err(
-            "format_version",
-            f"{FORMAT_VERSION} (the version this program reads)",
-            doc.get("format_version", "missing"),
-        )
+        raise ModelFileError(path, "", "a JSON object at the top level", type(doc).__name__)
+    section = Section(str(path), "", doc, error=ModelFileError, dotted=True)
+    return read_model(section, check_stability=check_stability, expect_period_s=expect_period_s)
+
+
+def read_model(
+    doc: Section, *, check_stability: bool = True, expect_period_s: float | None = None
+) -> TemModel:
+    """The :class:`TemModel` of a model document read through ``doc`` (errors: :class:`ModelFileError`
+    naming the file, the dotted field and what was expected)."""
+    if doc.get("format", None) != FORMAT:
+        raise doc.fail("format", f"'{FORMAT}'", doc.get("format", "missing"))
+    # a JSON true equals 1 in Python: read as an integer first
+    expected = f"{FORMAT_VERSION} (the version this program reads)"
+    doc.int("format_version", lo=FORMAT_VERSION, hi=FORMAT_VERSION, expected=expected)
     units = doc.get("units", UNITS)
     if units != UNITS:
-        raise r.err("units", f"{UNITS}", units)
-    temp = _temperature_from_dict(r, doc, check_stability, expect_period_s)
-    flux = _flux_from_dict(r, doc, temp.period_s)
-    cap = _capacity_from_dict(r, doc)
+        raise doc.fail("units", f"{UNITS}", units)
+    temp = _temperature(doc.table("temperature", expected="an object"), check_stability, expect_period_s)
+    flux = _optional(doc, "flux")
+    cap = _optional(doc, "capacity")
     meta = doc.get("meta", {})
     if not isinstance(meta, dict):
-        raise r.err("meta", "an object", meta)
-    return TemModel(temperature=temp, flux=flux, capacity=cap, meta=meta)
-
-
-def _temperature_from_dict(
-    r: _Reader, doc: dict[str, Any], check_stability: bool, expect_period_s: float | None
-) -> NarmaModel:
-    """The document's ``temperature`` (NARMA) model, validated."""
-    t = r.obj(doc, "temperature", "temperature")
-    if t.get("kind") != "narma":
-        raise r.err("temperature.kind", "'narma'", t.get("kind", "missing"))
-    od = r.obj(t, "orders", "temperature.orders")
-    orders = NarmaOrders(
-        n=r.int_(od, "n", "temperature.orders.n", 1, MAX_ORDER),
-        m=r.int_(od, "m", "temperature.orders.m", 1, MAX_ORDER),
-        p=r.int_(od, "p", "temperature.orders.p", 0, MAX_ORDER),
-        q=r.int_(od, "q", "temperature.orders.q", 0, MAX_ORDER),
+        raise doc.fail("meta", "an object", meta)
+    return TemModel(
+        temperature=temp,
+        flux=None if flux is None else _flux(flux, temp.period_s),
+        capacity=None if cap is None else _capacity(cap),
+        meta=meta,
     )
-    period = r.num(t, "period_s", "temperature.period_s", positive=True)
+
+
+def _temperature(t: Section, check_stability: bool, expect_period_s: float | None) -> NarmaModel:
+    """The document's ``temperature`` (NARMA) model, validated."""
+    _kind(t, "narma")
+    od = t.table("orders", expected="an object")
+    orders = NarmaOrders(
+        n=od.int("n", lo=1, hi=MAX_ORDER),
+        m=od.int("m", lo=1, hi=MAX_ORDER),
+        p=od.int("p", lo=0, hi=MAX_ORDER),
+        q=od.int("q", lo=0, hi=MAX_ORDER),
+    )
+    period = t.float("period_s", positive=True, expected="a positive number (s)")
     if expect_period_s is not None and not math.isclose(period, expect_period_s, rel_tol=1e-9):
-        raise r.err(
-            "temperature.period_s", f"{expect_period_s} s (the control period it is loaded for)", period
-        )
-    T_ref = r.num(t, "T_ref_C", "temperature.T_ref_C")
-    if not -50.0 <= T_ref <= 150.0:
-        raise r.err("temperature.T_ref_C", "a temperature in [-50, 150] °C", T_ref)
-    cr = r.range_(t, "current_range_A", "temperature.current_range_A")
+        raise t.fail("period_s", f"{expect_period_s} s (the control period it is loaded for)", period)
+    T_ref = t.float("T_ref_C", lo=-50.0, hi=150.0, expected="a temperature in [-50, 150] °C")
+    cr = _range(t, "current_range_A")
     if max(abs(cr[0]), abs(cr[1])) > MAX_CURRENT_A:
-        raise r.err("temperature.current_range_A", f"a current range within ±{MAX_CURRENT_A:g} A", list(cr))
-    Tr = r.range_(t, "T_range_C", "temperature.T_range_C") if "T_range_C" in t else (T_ref, T_ref)
-    theta = r.nums(t, "theta", "temperature.theta", length=orders.d)
-    if "columns" in t and t["columns"] != orders.column_names():
-        raise r.err(
-            "temperature.columns",
-            f"the regressors of orders {orders.as_dict()} in θ order",
-            str(t["columns"]),
+        raise t.fail("current_range_A", f"a current range within ±{MAX_CURRENT_A:g} A", list(cr))
+    Tr = _range(t, "T_range_C") if t.has("T_range_C") else (T_ref, T_ref)
+    theta = _numbers(t, "theta", length=orders.d)
+    if t.has("columns") and t.raw["columns"] != orders.column_names():
+        raise t.fail(
+            "columns", f"the regressors of orders {orders.as_dict()} in θ order", str(t.raw["columns"])
         )
     sha = t.get("data_sha256", "")
     if not isinstance(sha, str) or (sha and not re.fullmatch(r"[0-9a-f]{64}", sha)):
-        raise r.err("temperature.data_sha256", "'' or 64 lower-case hex digits", sha)
+        raise t.fail("data_sha256", "'' or 64 lower-case hex digits", sha)
     temp = NarmaModel(
         orders=orders,
         theta=theta,
@@ -324,72 +295,53 @@ def _temperature_from_dict(
         T_ref_C=T_ref,
         current_range_A=cr,
         T_range_C=Tr,
-        metrics=r.metrics(t, "temperature.metrics"),
+        metrics=_metrics(t),
         data_sha256=sha,
     )
     if check_stability:
         rep = _check(temp)
         if not rep.stable:
-            raise r.err("temperature.theta", "a stable model", rep.reason)
+            raise t.fail("theta", "a stable model", rep.reason)
     return temp
 
 
-def _flux_from_dict(r: _Reader, doc: dict[str, Any], period: float) -> FluxArma | None:
-    """The document's optional ``flux`` (ARMA) model, validated; ``period``: the temperature model's, s."""
-    f = r.obj(doc, "flux", "flux", optional=True)
-    if f is None:
-        return None
-    if f.get("kind") != "arma":
-        raise r.err("flux.kind", "'arma'", f.get("kind", "missing"))
-    fp = r.num(f, "period_s", "flux.period_s", positive=True)
+def _flux(f: Section, period: float) -> FluxArma:
+    """The document's ``flux`` (ARMA) model, validated; ``period``: the temperature model's, s."""
+    _kind(f, "arma")
+    fp = f.float("period_s", positive=True, expected="a positive number (s)")
     if not math.isclose(fp, period, rel_tol=1e-9):
-        raise r.err("flux.period_s", f"the temperature model's period {period} s", fp)
-    c = r.nums(f, "c", "flux.c", min_len=1, max_len=MAX_ORDER)
-    d = r.nums(f, "d", "flux.d", min_len=1, max_len=MAX_ORDER + 1)
+        raise f.fail("period_s", f"the temperature model's period {period} s", fp)
+    c = _numbers(f, "c", min_len=1, max_len=MAX_ORDER)
+    d = _numbers(f, "d", min_len=1, max_len=MAX_ORDER + 1)
     m = len(d) - 1
-    e = r.nums(f, "e", "flux.e", min_len=0, max_len=m) if "e" in f else np.zeros(0)
-    g = r.nums(f, "g", "flux.g", min_len=0, max_len=m) if "g" in f else np.zeros(0)
-    h = r.nums(f, "h", "flux.h", min_len=0, max_len=m) if "h" in f else np.zeros(0)
+    e, g, h = (_numbers(f, k, min_len=0, max_len=m) if f.has(k) else np.zeros(0) for k in "egh")
     if len(e) not in (0, m) or not len(g) == len(h) == len(e):
-        raise r.err(
-            "flux.e",
+        raise f.fail(
+            "e",
             f"'e', 'g', 'h' all empty or all of {m} numbers (len(d) - 1)",
             f"{len(e)}, {len(g)} and {len(h)} values",
         )
-    flux = FluxArma(
-        c=c,
-        d=d,
-        e=e,
-        g=g,
-        h=h,
-        period_s=fp,
-        T_ref_C=r.num(f, "T_ref_C", "flux.T_ref_C"),
-        metrics=r.metrics(f, "flux.metrics"),
-    )
+    flux = FluxArma(c=c, d=d, e=e, g=g, h=h, period_s=fp, T_ref_C=f.float("T_ref_C"), metrics=_metrics(f))
     if np.max(np.abs(flux.poles())) >= 1.0:
-        raise r.err("flux.c", "a stable ARMA model (poles inside the unit circle)", list(map(float, c)))
+        raise f.fail("c", "a stable ARMA model (poles inside the unit circle)", list(map(float, c)))
     return flux
 
 
-def _capacity_from_dict(r: _Reader, doc: dict[str, Any]) -> CapacityModel | None:
-    """The document's optional ``capacity`` (eq. 13) model, validated."""
-    cd = r.obj(doc, "capacity", "capacity", optional=True)
-    if cd is None:
-        return None
-    if cd.get("kind") != "capacity-eq13":
-        raise r.err("capacity.kind", "'capacity-eq13'", cd.get("kind", "missing"))
-    cap = CapacityModel(
-        theta=r.nums(cd, "theta", "capacity.theta", length=5),
-        current_range_A=r.range_(cd, "current_range_A", "capacity.current_range_A"),
-        metrics=r.metrics(cd, "capacity.metrics"),
+def _capacity(cd: Section) -> CapacityModel:
+    """The document's ``capacity`` (eq. 13) model, validated."""
+    _kind(cd, "capacity-eq13")
+    return CapacityModel(
+        theta=_numbers(cd, "theta", length=5),
+        current_range_A=_range(cd, "current_range_A"),
+        metrics=_metrics(cd),
     )
-    return cap
 
 
 def load_model(
     path: str | os.PathLike[str], *, check_stability: bool = True, expect_period_s: float | None = None
 ) -> TemModel:
-    """Read and validate a model file (see the module docstring).
+    """Read and validate a model file (see the module docstring), through
+    :func:`telethermo.inputfile.load_json`.
 
     Args:
         path: the JSON file.
@@ -397,18 +349,7 @@ def load_model(
         expect_period_s: if given, the model's sample period must equal it (the node's control period).
 
     Raises:
-        ModelFileError: naming the file, the field and what was expected.
+        ModelFileError: naming the file, the field (or the line) and what was expected.
     """
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ModelFileError(path, "", "an existing file", "no such file") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ModelFileError(path, "", "a readable UTF-8 file", str(exc)) from None
-    try:
-        doc = json.loads(text)
-    except json.JSONDecodeError as exc:
-        raise ModelFileError(
-            path, "", "valid JSON", f"{exc.msg} at line {exc.lineno} column {exc.colno}"
-        ) from None
-    return model_from_dict(doc, path=path, check_stability=check_stability, expect_period_s=expect_period_s)
+    doc = load_json(path, "a TEM model file (telethermo identify --out)", ModelFileError)
+    return read_model(doc, check_stability=check_stability, expect_period_s=expect_period_s)

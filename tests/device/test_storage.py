@@ -14,6 +14,7 @@ from telethermo.device.storage import (
     StoreError,
     StoreFile,
     StoreRestore,
+    _crc,
     communication_image,
     install_communication,
 )
@@ -81,7 +82,7 @@ def test_the_store_file_round_trips_and_each_fault_is_named(tmp_path):
         return json.dumps({k: v for k, v in dict(json.loads(good), **kw).items() if v is not None})
 
     cases = {
-        good[:40]: "not JSON",
+        good[:40]: "not valid JSON",
         changed(format="telethermo-store 9"): "field 'format'",
         changed(application={"params": [["kp_A_per_C", 3.0]], "model": None}): "field 'crc32': checksum",
         changed(crc32=None): "field 'crc32': expected",
@@ -96,4 +97,35 @@ def test_the_store_file_round_trips_and_each_fault_is_named(tmp_path):
         StoreFile(f.path, 2).read()
     assert f.remove() and not f.remove()
     with pytest.raises(FileNotFoundError):
+        f.read()
+
+
+def test_a_store_file_with_a_field_of_the_wrong_type_is_refused_naming_it(tmp_path):
+    """A file whose checksum is right but whose fields are not (written by hand, the CRC recomputed) is
+    refused with one line, as a damaged one is; before, a malformed checksum ('0xzz') or a text
+    saved_unix_s escaped as a bare ValueError past the node's fallback to its defaults."""
+    f = _file(tmp_path)
+    good = json.loads(f.path.read_text())
+
+    def with_crc(**kw) -> str:
+        body = {k: v for k, v in dict(good, **kw).items() if k != "crc32"}
+        return json.dumps(dict(body, crc32=f"0x{_crc(body):08X}"))
+
+    cases = {
+        json.dumps(
+            dict(good, crc32="0xzz")
+        ): "field 'crc32': expected a hex checksum '0x........', got '0xzz'",
+        with_crc(saved_unix_s="yesterday"): "field 'saved_unix_s': expected a number >= 0 s, got 'yesterday'",
+        with_crc(node_id="1"): "field 'node_id': expected 1 (this node's ID), got '1'",
+        with_crc(application=[1]): "field 'application': expected an object or null, got [1]",
+        "[1, 2]": "top level: expected a JSON object {...}, got an array",
+        '{"format": "telethermo-store 1",\n"node_id": 1 }}': "line 2 column 15: not valid JSON (Extra data)",
+    }
+    for text, message in cases.items():
+        f.path.write_text(text)
+        with pytest.raises(StoreError) as exc:
+            f.read()
+        assert str(exc.value) == f"{f.path}: {message}"
+    f.path.write_bytes(b'{"format": "telethermo-store 1", "x": "\xff"}')
+    with pytest.raises(StoreError, match=r": line 1: not UTF-8 text \(byte 0xFF\)$"):
         f.read()

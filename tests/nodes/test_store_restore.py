@@ -162,7 +162,7 @@ def test_a_saved_gain_survives_a_restart_and_a_corrupted_store_is_refused(rig):
     rig.store.write_text(text[: len(text) // 2])  # cut short: not JSON
     rig.start()
     lines = [ln for ln in rig.stderr.read_text().splitlines() if "store" in ln]
-    assert len(lines) == 1 and str(rig.store) in lines[0] and "not JSON" in lines[0], lines
+    assert len(lines) == 1 and str(rig.store) in lines[0] and "not valid JSON" in lines[0], lines
     assert rig.sdo["kp_A_per_C"].raw == default_kp and rig.sdo["store_state"].raw == 2
 
 
