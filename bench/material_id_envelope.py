@@ -111,25 +111,40 @@ def check_seeds(p: MaterialIdParams, n: int, seeds: tuple[int, int]) -> None:
             )
 
 
-def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str], cores: dict | None = None) -> dict:
-    """Simulate one touch and return what the slave published, scored (``answer`` −1: none, −2: abstained).
+def simulate_drawn(
+    rigs: dict,
+    t: dict,
+    sims: list[str],
+    cores: dict | None = None,
+    post_s: float = POST_S,
+    identify: bool = True,
+) -> tuple:
+    """material_touches.simulate_touch of drawn touch ``t`` (its material, object, force, onset, noise, room)
+    on ``rigs[t["other_tem"]]``, the probe resting at the finger's natural temperature in that room;
     ``cores``: the slave core's parameters per ``other_tem`` (None: its defaults)."""
     params = rigs[t["other_tem"]]
-    T_probe = mb.finger_natural_C(params, t["ambient_C"])
-    _, _, i0, est, step_s = mb.simulate_touch(
+    return mb.simulate_touch(
         params,
         sims[t["class"]],
         t["thickness_m"],
         t["T_object_C"],
         t["force_N"],
-        T_probe,
+        mb.finger_natural_C(params, t["ambient_C"]),
         seed=t["seed"],
         t_on_s=t["t_on_s"],
+        identify=identify,
         noise=noise_of(t["noise_x"]),
         ambient_C=t["ambient_C"],
-        post_s=POST_S,
+        post_s=post_s,
         core_params=(cores or {}).get(t["other_tem"]),
     )
+
+
+def run_touch(rigs: dict, t: dict, sims: list[str], names: list[str], cores: dict | None = None) -> dict:
+    """Simulate one touch and return what the slave published, scored (``answer`` −1: none, −2: abstained).
+    ``cores``: the slave core's parameters per ``other_tem`` (None: its defaults)."""
+    T_probe = mb.finger_natural_C(rigs[t["other_tem"]], t["ambient_C"])
+    _, _, i0, est, step_s = simulate_drawn(rigs, t, sims, cores)
     b_true = material(sims[t["class"]]).b
     ok_b = est is not None and math.isfinite(est.effusivity) and math.isfinite(est.se_ln_b)
     early = replace(est, code=est.early_code, posterior=est.early_posterior) if est is not None else None

@@ -62,21 +62,7 @@ def measure(draws: list[dict], cores: dict) -> list[tuple[str, float, float, flo
     cals = [load_calibration(ENVELOPE_EARLY), load_calibration(ENVELOPE_LATE)]
     out = []
     for t in draws:
-        params = rigs[t["other_tem"]]
-        T, Q, i0, est, _ = mt.simulate_touch(
-            params,
-            sims[t["class"]],
-            t["thickness_m"],
-            t["T_object_C"],
-            t["force_N"],
-            mt.finger_natural_C(params, t["ambient_C"]),
-            seed=t["seed"],
-            t_on_s=t["t_on_s"],
-            noise=mt.noise_of(t["noise_x"]),
-            ambient_C=t["ambient_C"],
-            post_s=me.POST_S,
-            core_params=cores.get(t["other_tem"]),
-        )
+        T, Q, i0, est, _ = me.simulate_drawn(rigs, t, sims, cores)
         early = replace(est, code=est.early_code, posterior=est.early_posterior) if est is not None else None
         right = tuple(me._answer(x, names) == t["class"] for x in (early, est))
         if i0 < 0:

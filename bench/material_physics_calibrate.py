@@ -39,22 +39,7 @@ def fits(n: int, window_s: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, n
     probe = replace(mi.ProbeParams(), window_s=window_s)
     out = []
     for t in me.envelope_draws(n, SEEDS):
-        params = rigs[t["other_tem"]]
-        T_probe = mb.finger_natural_C(params, t["ambient_C"])
-        T, Q, i0, _, _ = mb.simulate_touch(
-            params,
-            sims[t["class"]],
-            t["thickness_m"],
-            t["T_object_C"],
-            t["force_N"],
-            T_probe,
-            seed=t["seed"],
-            t_on_s=t["t_on_s"],
-            identify=False,
-            noise=me.noise_of(t["noise_x"]),
-            ambient_C=t["ambient_C"],
-            post_s=window_s + 0.1,
-        )
+        T, Q, i0, _, _ = me.simulate_drawn(rigs, t, sims, post_s=window_s + 0.1, identify=False)
         e = mi.estimate_effusivity(T, Q, i0, mb.PERIOD_S, probe) if i0 >= 0 else None
         if e is not None and math.isfinite(e.b) and e.b > 0 and math.isfinite(e.se_ln_b):
             dT = abs(float(np.mean(T[i0 - 5 : i0])) - e.T_object0_C)
