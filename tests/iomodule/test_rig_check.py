@@ -97,7 +97,13 @@ def run_check(
                 text=True,
                 timeout=300,
             )
-            bus.after = (bus.node.sdo[0x2101].raw, bus.wait(lambda: bus.module_state()))
+            # the check's last NMT (PRE-OPERATIONAL) may still be on its way when the CLI has exited: the
+            # state is the module's heartbeat once it says PRE-OPERATIONAL, or its last one after 10 s
+            try:
+                state = bus.wait(lambda: bus.module_state() == 0x7F and 0x7F, timeout_s=10, every_s=0.05)
+            except AssertionError:
+                state = bus.module_state()
+            bus.after = (bus.node.sdo[0x2101].raw, state)
         finally:
             bus.close()
             stop_process(master)
