@@ -18,9 +18,12 @@ and the residual floor of the likelihood and of the published interval:
 - the floors: s² = Σr²/(N − p) over the residuals r (p = 1 or 2 fitted parameters); the likelihood's floor
   f² = s² − mean((k·scale·se)²), the interval's f_ci² = q²·s²·(1 + p/N) − mean((k_ci·scale·se)²) with q the
   Student-t 97.5 % quantile of N − p degrees of freedom over 1.96 (a prediction interval: few touches
-  claim a wider one), both at least :data:`MIN_FLOOR_LN` (a sample's effusivity differs from the table's
-  handbook value by about that much, so three touches that happen to agree cannot claim perfection).
-  k, k_ci and the outlier share stay the shipped calibration's.
+  claim a wider one), each never below the calibration it corrects (the shipped EARLY/LATE floors: the
+  spread that the touch's conditions, thickness, force, contact and object temperature, add across the
+  envelope, which reference touches of a few thick samples at room temperature cannot see) nor below
+  :data:`MIN_FLOOR_LN` (a sample's effusivity differs from the table's handbook value by about that much):
+  three touches that happen to agree cannot claim perfection. k, k_ci and the outlier share stay the
+  shipped calibration's.
 
 :func:`lab_params` puts a :class:`LabCorrection` into the identification's settings (MaterialIdParams.early
 and .late, whose posterior and published interval apply it, PhysicsCalibration.corrected). The lab file
@@ -47,7 +50,8 @@ from telethermo.control.material_stream import MaterialIdParams
 from telethermo.inputfile import InputFileError, Section, load_json
 
 LAB_FORMAT = "telethermo.material-lab/1"
-#: the smallest floor of ln b a lab calibration may claim, for the likelihood and the interval
+#: the smallest floor of ln b a lab file may hold, for the likelihood and the interval (fit_window also keeps
+#: the floors of the calibration it corrects)
 MIN_FLOOR_LN = 0.15
 #: an affine correction needs this many touches (two parameters and two residuals left for the floor) ...
 MIN_AFFINE_TOUCHES = 4
@@ -139,14 +143,16 @@ def fit_window(touches: Sequence[LabTouch], window_s: float, base: mp.PhysicsCal
     r = y - (offset + scale * x)
     s2 = float(np.sum(r**2)) / max(n - p, 1)
     q = float(stats.t.ppf(0.975, max(n - p, 1))) / 1.96
-    floor = max(MIN_FLOOR_LN, math.sqrt(max(0.0, s2 - float(np.mean((base.k * scale * se) ** 2)))))
+    floor = max(
+        MIN_FLOOR_LN, base.floor_ln, math.sqrt(max(0.0, s2 - float(np.mean((base.k * scale * se) ** 2))))
+    )
     ci_var = q**2 * s2 * (1.0 + p / n) - float(np.mean((base.k_ci * scale * se) ** 2))
     return LabWindow(
         window_s=window_s,
         offset_ln=offset,
         scale=scale,
         floor_ln=floor,
-        floor_ci_ln=max(MIN_FLOOR_LN, math.sqrt(max(0.0, ci_var))),
+        floor_ci_ln=max(MIN_FLOOR_LN, base.floor_ci_ln, math.sqrt(max(0.0, ci_var))),
         model=model,
         why=why,
         n_touches=n,
