@@ -18,7 +18,9 @@ changes (a thicker sensor reads insulators far too high, metals about right). On
 Scored as the slave's physics posterior publishes it (telethermo.control.material_physics.decide, the fit
 over 0.3 s and 1.2 s): accuracy with abstentions counted wrong, and the coverage of the true effusivity by
 the published 95 % interval (touches with a fit), before (the shipped EARLY/LATE) and after the lab's
-correction (the median over the repeats, and the worst repeat). ``material_lab_touches_needed``: the smallest
+correction (the median over the repeats, the worst and the best repeat). The top-level keys are the lab
+probe's refined answer (``_early_``: the first answer; ``_shipped_``: the shipped probe's, calibrated the
+same way) at the K reported. ``material_lab_touches_needed``: the smallest
 K whose median refined accuracy is within :data:`ENOUGH_TOL` of the largest K's and whose interval coverage
 stays in 0.90–0.98 in every repeat.
 """
@@ -239,6 +241,10 @@ def main(argv: list[str] | None = None) -> int:
         "material_lab_touches_needed": needed,
         "material_lab_ci95_coverage_after": lab["after"][k_report]["ci95_coverage_late"]["median"],
         "material_lab_ci95_coverage_before": lab["before"]["ci95_coverage_late"],
+        "material_lab_accuracy_early_before": lab["before"]["accuracy_early"],
+        "material_lab_accuracy_early_after": lab["after"][k_report]["accuracy_early"]["median"],
+        "material_lab_shipped_accuracy_before": figs["shipped"]["before"]["accuracy_late"],
+        "material_lab_shipped_accuracy_after": figs["shipped"]["after"][k_report]["accuracy_late"]["median"],
         "material_lab_reported_at_touches": int(k_report),
         "material_lab_probe": {"sensor_thickness_mm": LAB_SENSOR_MM, "shipped_mm": 0.42},
         "material_lab_references": list(REFERENCES),
