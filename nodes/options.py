@@ -47,6 +47,8 @@ class NodeOptions:
         rig_args: ``--rig-arg KEY=VALUE`` settings, over those of ``rig_config``.
         model: identified model file (None: no model; the flux estimator needs none).
         gains: tuned gains file of `telethermo tune` (None: the shipped defaults); telepresence mode only.
+        material_lab: the slave's material lab file of `telethermo calibrate-material` (None: the shipped
+            calibration of the physics fit; telethermo.control.material_lab).
         mode: initial mode (changeable by SDO on object 0x2500).
         record: CSV file for this node's signals (None: no recording).
         timing: "lockstep" (SYNC k+1 after every node's cycle-k PDO) or "realtime" (wall clock).
@@ -76,6 +78,7 @@ class NodeOptions:
     realtime: RealtimeOptions = RealtimeOptions()
     model: Path | None = None
     gains: Path | None = None
+    material_lab: Path | None = None
     mode: Mode = Mode.TELEPRESENCE
     record: Path | None = None
     timing: str | None = None
@@ -164,6 +167,13 @@ def _add_rig_arguments(p: argparse.ArgumentParser) -> None:
         type=Path,
         help="tuned gains file written by `telethermo tune --out` "
         "(telepresence gains of this node's role; default: the shipped ones)",
+    )
+    p.add_argument(
+        "--material-lab",
+        type=Path,
+        metavar="FILE.json",
+        help="slave: this probe's calibration of the material identification's physics fit, written by "
+        "`telethermo calibrate-material --out` (default: the shipped probe's)",
     )
 
 
@@ -329,6 +339,7 @@ def options_from_args(role: Role, args: argparse.Namespace) -> NodeOptions:
         realtime=_realtime_options(args),
         model=existing(args.model, "--model"),
         gains=existing(args.gains, "--gains"),
+        material_lab=existing(args.material_lab, "--material-lab"),
         mode=mode,
         record=args.record,
         timing=timing,

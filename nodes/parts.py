@@ -20,6 +20,8 @@ from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.detach import tem_limits
 from telethermo.control.gain_rule import fit_gains, fitted_params
 from telethermo.control.gainsfile import load_gains
+from telethermo.control.material_lab import LabCorrection, lab_params, load_lab
+from telethermo.control.material_stream import MaterialIdParams
 from telethermo.control.params import default_params
 from telethermo.control.types import Mode, Role
 from telethermo.ident import load_model
@@ -99,7 +101,10 @@ def build_parts(
         raise OptionError(
             "--timing lockstep: this rig cannot advance on request (hardware runs in real time)"
         )
-    params_for = _params_maker(opts, period_s, gains, script, rig, lambda: parts.gain_fit)
+    lab = _material_lab(opts)
+    if lab is not None:
+        meta["material_lab"] = str(opts.material_lab)
+    params_for = _params_maker(opts, period_s, gains, script, rig, lambda: parts.gain_fit, lab)
     parts = NodeParts(
         rig=rig,
         simulated=simulated,
@@ -148,6 +153,23 @@ def _model_and_gains(opts: NodeOptions) -> tuple[Any, dict[str, float]]:
     return model, gains
 
 
+def _material_lab(opts: NodeOptions) -> LabCorrection | None:
+    """The slave's lab calibration of the physics fit (``--material-lab``; None without)."""
+    if opts.material_lab is None:
+        return None
+    if opts.role is not Role.SLAVE:
+        raise OptionError("--material-lab: the slave's material identification; the master has none")
+    try:
+        lab = load_lab(opts.material_lab)
+        lab_params(MaterialIdParams(), lab)  # windows the slave's: refused now, not at the first touch
+    except ValueError as exc:  # InputFileError names the file and the field
+        text = str(exc)
+        raise OptionError(
+            text if str(opts.material_lab) in text else f"{opts.material_lab}: {text}"
+        ) from None
+    return lab
+
+
 def _rig(
     opts: NodeOptions,
     period_s: float,
@@ -175,6 +197,7 @@ def _params_maker(
     script,
     rig,
     gain_fit: Callable[[], dict | None],
+    lab: LabCorrection | None = None,
 ) -> Callable[..., CoreParams]:
     """``params_for(mode, render=None)``: the controller's parameters of ``mode`` on this rig."""
 
@@ -194,6 +217,8 @@ def _params_maker(
             p = fitted_params(p, fit)
         if abs(p.safety.I_max_A - rig.I_max_A) > 1e-12:
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, I_max_A=float(rig.I_max_A)))
+        if lab is not None and p.material_id is not None:  # this probe's calibration of the physics fit
+            p = dataclasses.replace(p, material_id=lab_params(p.material_id, lab))
         tem = tem_limits(rig)  # the detached-sensor check on this rig's TEM (as the offline runner)
         if any(getattr(p.safety, k) != v for k, v in tem.items()):
             p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, **tem))

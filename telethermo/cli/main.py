@@ -64,6 +64,10 @@ COMMANDS: dict[str, Command] = {
     "save": Command("store", "store a node's parameters (CiA 301 0x1010): restored at each start"),
     "restore-defaults": Command("store", "a node's default parameters from its next reset or start (0x1011)"),
     "calibrate-finger": Command("calibrate", "per-user finger calibration (yamamoto): β_pad and T_finger0"),
+    "calibrate-material": Command(
+        "calibrate_material",
+        "calibrate the material identification's physics fit of this probe from recorded reference touches",
+    ),
     "record": Command("record", "record the bus to a .log/.asc/.blf file plus a decoded CSV"),
     "replay": Command("replay", "send a recorded log's frames onto a bus (at the recorded pace, filtered)"),
     "dbc": Command("dbc", "write a DBC file of the PDO layout, for cantools and CAN viewers"),

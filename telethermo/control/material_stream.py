@@ -321,6 +321,7 @@ def _result(
             stage="early",
             by=by,
         )
+    est = cast(EffusivityEstimate, cal.corrected(est))  # a lab's correction (material_lab), with its interval
     return MaterialEstimate(
         est.b, cal.sigma_ci(est.se_ln_b), code, post, n, est.T_object0_C, why, code, post, "early", by
     )
@@ -344,6 +345,7 @@ def _late_result(
         code, post, why = answer
     elif last.by == "network":  # the network's class in its box stands; b is refined
         code, post, why = last.code, last.posterior, last.abstained
+    est = late.corrected(est)  # a lab's correction of the fit (material_lab); decide applies its own
     if est is None:
         return replace(last, code=code, posterior=post, abstained=why, stage="late")
     return replace(
