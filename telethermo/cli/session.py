@@ -30,6 +30,7 @@ from telethermo.cli.main import EXIT_FAIL, EXIT_INTERRUPTED, EXIT_OK, UserError
 from telethermo.cli.progress import Progress
 from telethermo.cli.session_summary import print_summary
 from telethermo.control.gainsfile import load_gains
+from telethermo.control.material_lab import load_lab
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
 from telethermo.recording.format import RecordingError, write_recording_csv
@@ -65,6 +66,12 @@ def register(subparsers) -> None:
         "--gains",
         type=Path,
         help="tuned gains file of `telethermo tune --out` for both nodes (default: the shipped gains)",
+    )
+    p.add_argument(
+        "--material-lab",
+        type=Path,
+        metavar="LAB.json",
+        help="the slave's material lab file of `telethermo calibrate-material` (default: none)",
     )
     p.add_argument(
         "--timing",
@@ -126,6 +133,17 @@ def _session_bus(args: argparse.Namespace) -> str | None:
         f"{rb.settings.describe()} (from {rb.source}) exists inside one process only; the session's "
         "two node processes need socketcan, socketcand or no bus setting (then our hub)"
     )
+
+
+def _lab_args(args: argparse.Namespace) -> list[str]:
+    """The slave's ``--material-lab`` argument, its file refused here with its field (not in a node log)."""
+    if args.material_lab is None:
+        return []
+    try:
+        load_lab(args.material_lab)
+    except ValueError as exc:
+        raise UserError(f"--material-lab: {exc}") from None
+    return ["--material-lab", str(args.material_lab.resolve())]
 
 
 def _checked_files(args: argparse.Namespace) -> list[str]:
@@ -191,7 +209,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress_every=max(1, cycles // 100),
         master_args=gains_args,
-        slave_args=gains_args,
+        slave_args=gains_args + _lab_args(args),
         io=args.io,
     )
     pair = NodePair(cfg)

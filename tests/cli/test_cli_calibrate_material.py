@@ -155,3 +155,31 @@ def test_slave_refuses_a_malformed_lab_file(recordings, tmp_path):
     assert f"{bad}: early.floor_ci_ln: expected a number in [0.15, 10]" in r.stderr
     assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
     np.testing.assert_equal(ml.load_lab(ml.save_lab(tmp_path / "ok.json", lab)), lab)
+
+
+@pytest.mark.slow
+def test_session_passes_the_lab_file_to_the_slave_only(recordings, tmp_path):
+    """``telethermo session --material-lab``: a malformed file is refused before any node starts (one line
+    naming the file and the field, exit 2); a good one reaches the slave process (its recording's header names
+    it) and not the master."""
+    lab = ml.LabCorrection(early=ml.LabWindow(0.3, n_touches=6, offset_ln=0.2, floor_ln=0.3, floor_ci_ln=1.3))
+    good = ml.save_lab(tmp_path / "lab.json", lab)
+    doc = ml.lab_document(lab)
+    doc["early"]["floor_ln"] = "wide"
+    bad = tmp_path / "bad.json"
+    bad.write_text(json.dumps(doc))
+    scene = recordings["pvc"].with_suffix(".toml")
+    r = cli("session", "--scene", str(scene), "--out", str(tmp_path / "o1"), "--material-lab", str(bad))
+    assert r.returncode == 2 and f"{bad}: early.floor_ln: expected a number" in r.stderr, r.stderr
+    assert len(r.stderr.strip().splitlines()) == 1 and "Traceback" not in r.stderr
+    assert not list((tmp_path / "o1").glob("*.csv"))
+    out = tmp_path / "o2"
+    r = cli(
+        "session", "--scene", str(scene), "--out", str(out), "--duration", "0.5", "--material-lab", str(good)
+    )
+    assert r.returncode == 0, r.stderr
+    heads = {
+        p.name: [ln for ln in p.read_text().splitlines() if ln.startswith("#")] for p in out.glob("*.csv")
+    }
+    named = [name for name, head in heads.items() if any(str(good.resolve()) in ln for ln in head)]
+    assert named and all("slave" in n for n in named), heads.keys()
