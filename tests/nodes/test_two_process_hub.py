@@ -116,7 +116,8 @@ def test_a_stalled_slave_is_waited_for_and_stays_in_step(tmp_path):
         # a fixed stall on purpose: the slave stopped longer than the 3 s lockstep wait and shorter than
         # the 6 s heartbeat consumer time (what is asserted is the master's behaviour in that window). The
         # master's progress is read 1 s into the stall (its lines from before the stop are read by then,
-        # however late the reader thread ran) and at its end: no cycle in between but the one in flight
+        # unless the test's reader thread is a second late) and at its end: no cycle in between but the one
+        # in flight
         time.sleep(1.0)
         k_held = pair.progress[0]
         time.sleep(STALL_S - 1.0)
