@@ -88,9 +88,17 @@ def test_a_module_put_into_pre_operational_by_another_master_or_while_we_do_not_
         bus.network.nmt.send_command(0x81)  # reset: boot-up, then PRE-OPERATIONAL heartbeats
         bus.wait(lambda: _states_since(bus, k).count(PRE_OPERATIONAL) >= 5, timeout_s=30)
         assert io.module_restarts == 0 and OPERATIONAL not in _states_since(bus, k)
-        # another NMT master holds it in PRE-OPERATIONAL: not started, although we run now
-        state["ok"] = (True, True)
+        # another NMT master holds it in PRE-OPERATIONAL: not started, although we run now. We run only once
+        # the controller has taken the command in: until then the module's PRE-OPERATIONAL heartbeats (of
+        # the reset above) are due for a restart, and one that came between "we run" and the command would
+        # start it (a loaded machine delays the command's way through the hub to the controller). The
+        # controller's network calls its subscribers in turn: ours, subscribed after the supervisor's, runs
+        # after the supervisor has seen the command
+        seen = []
+        io.supervisor.network.subscribe(0x000, lambda cob, data, ts: seen.append(bytes(data)))
         bus.network.nmt.send_command(0x80)
+        bus.wait(lambda: bytes([0x80, 0]) in seen)
+        state["ok"] = (True, True)
         k = len(bus.heartbeats)
         bus.wait(lambda: _states_since(bus, k).count(PRE_OPERATIONAL) >= 5, timeout_s=30)
         assert io.module_restarts == 0 and OPERATIONAL not in _states_since(bus, k)

@@ -15,11 +15,13 @@ from pathlib import Path
 import can
 import pytest
 
+from telethermo.bus_config import path as bc
 from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 
 pytestmark = pytest.mark.slow  # starts processes
 
 SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_al_steel_wood.toml"
+SLOW_HEARTBEAT_MS = 1000  # the heartbeat period of the pair the `telethermo nmt` test runs against, ms
 
 
 class Frames(can.Listener):
@@ -45,10 +47,17 @@ class Frames(can.Listener):
         return sum(1 for cob, _ in self.since(mark) if cob == cob_id)
 
 
-@pytest.fixture
-def realtime_pair(tmp_path):
+def _realtime_pair(tmp_path, network: Path | None = None):
     pair = NodePair(
-        PairConfig(scene=SCENE, out_dir=tmp_path, timing="realtime", cycles=0, seed=0, progress_every=10)
+        PairConfig(
+            scene=SCENE,
+            out_dir=tmp_path,
+            timing="realtime",
+            cycles=0,
+            seed=0,
+            progress_every=10,
+            network=network,
+        )
     )
     pair.start()
     bus = can.Bus(
@@ -63,6 +72,35 @@ def realtime_pair(tmp_path):
         notifier.stop()
         bus.shutdown()
         pair.stop()
+
+
+@pytest.fixture
+def realtime_pair(tmp_path):
+    yield from _realtime_pair(tmp_path)
+
+
+def slow_heartbeat_network(tmp_path: Path) -> Path:
+    """The packaged network file with heartbeats 1 s apart (consumers 3 s): a node's next heartbeat comes
+    1 s after the one before, not 100 ms."""
+    text = bc("network.toml").read_text(encoding="utf-8")
+    for old, new in (
+        ("producer_ms = 100 ", f"producer_ms = {SLOW_HEARTBEAT_MS} "),
+        ("consumer_ms = 250 ", f"consumer_ms = {3 * SLOW_HEARTBEAT_MS} "),
+        ('eds = "master.eds"', f'eds = "{bc("master.eds")}"'),
+        ('eds = "slave.eds"', f'eds = "{bc("slave.eds")}"'),
+    ):
+        assert text.count(old) == 1, old
+        text = text.replace(old, new)
+    net = tmp_path / "network.toml"
+    net.write_text(text, encoding="utf-8")
+    return net
+
+
+@pytest.fixture
+def slow_heartbeat_pair(tmp_path):
+    net = slow_heartbeat_network(tmp_path)
+    for got in _realtime_pair(tmp_path, net):
+        yield (*got, net)
 
 
 def _nmt(bus, command: int, node_id: int) -> None:
@@ -121,16 +159,17 @@ def test_the_master_starts_a_slave_put_into_pre_operational(realtime_pair):
     assert len(starts) == 1, f"{len(starts)} NMT starts for one pre-operational episode"
 
 
-def test_cli_nmt_preop_slave_says_the_master_started_it_again(realtime_pair, capsys):
+def test_cli_nmt_preop_slave_says_the_master_started_it_again(slow_heartbeat_pair, capsys):
     """Issue 25: `telethermo nmt preop slave` said "NOT confirmed" (and `telethermo preop:`) because the
-    master
-    starts the slave again ~2 ms after its PRE-OPERATIONAL heartbeat. The CLI saw the state; it says who
-    undid it."""
+    master starts the slave again ~2 ms after its PRE-OPERATIONAL heartbeat. The CLI saw the state; it says
+    who undid it. The CLI reads the state from the slave's next heartbeat: the pair's heartbeats are 1 s
+    apart so that the master's NMT start (through the hub, on a loaded machine) comes before that one (with
+    100 ms, a master slower than 100 ms left the slave's next heartbeat PRE-OPERATIONAL)."""
     from telethermo.cli.main import main
 
-    pair, bus, frames = realtime_pair
+    pair, bus, frames, net = slow_heartbeat_pair
     mark = frames.mark()
-    code = main(["nmt", "--bus", pair.bus, "preop", "slave"])
+    code = main(["nmt", "--network", str(net), "--bus", pair.bus, "preop", "slave"])
     out, err = capsys.readouterr()
     assert code == 1, (out, err)
     assert out == "slave (node 2): OPERATIONAL\n"

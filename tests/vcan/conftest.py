@@ -9,8 +9,10 @@ from __future__ import annotations
 import os
 import shutil
 import subprocess
+import time
 from pathlib import Path
 
+import can
 import pytest
 
 from telethermo.bus_config import path as bus_config_path
@@ -58,8 +60,19 @@ def vcan_channel() -> str:
     return name
 
 
+#: the 29-bit ID of the test's marker frames to candump: no CANopen service (our devices count it as an
+#: unknown frame, canopen's clients ignore it), left out of :meth:`Candump.stop`'s frames
+MARKER_ID = 0x1FFFFFF0
+
+
 class Candump:
-    """``candump`` (Debian's can-utils: a client no one here wrote) logging every frame on a channel."""
+    """``candump`` (Debian's can-utils: a client no one here wrote) logging every frame on a channel.
+
+    It gives no sign that it listens, and it drops what is still in its socket when SIGINT comes: the test
+    sends it a marker frame (``MARKER_ID``) and waits, bounded, until candump has logged it, once it is
+    started (it listens from then on) and before it is stopped (vcan queues frames in the order they were
+    sent, so every frame sent before the marker is logged). A fixed sleep instead (1 s, 0.5 s) lost the
+    first or the last frames when a loaded machine or the VM of vcan-run was slower than that."""
 
     def __init__(self, channel: str, log_path: Path) -> None:
         exe = shutil.which("candump")
@@ -69,11 +82,36 @@ class Candump:
         # pipe while the test runs, and a full pipe (64 kB) would block candump and make it lose frames. A
         # named file, not an unlinked temporary one: in ../shared/tools/vcan-run the file system is the host's
         # over 9p, where an open file that has no name can be lost under memory pressure (ENOENT on read).
+        # stdbuf -oL: a line in the file per frame as it comes (the markers are read while it runs)
+        self.channel, self.log_path, self.markers = channel, log_path, 0
         self.log = open(log_path, "w+", encoding="utf-8")
-        self.proc = subprocess.Popen([exe, "-L", channel], stdout=self.log, text=True)
+        self.proc = subprocess.Popen(["stdbuf", "-oL", exe, "-L", channel], stdout=self.log, text=True)
+        self.mark()
+
+    def mark(self, timeout_s: float = 120.0) -> None:
+        """Send a marker frame (again every second) until candump has logged it."""
+        self.markers += 1
+        data = self.markers.to_bytes(4, "little")
+        line = f"{MARKER_ID:08X}#{data.hex().upper()}"
+        bus = can.Bus(interface="socketcan", channel=self.channel)
+        try:
+            deadline = time.monotonic() + timeout_s
+            while True:
+                bus.send(can.Message(arbitration_id=MARKER_ID, data=data, is_extended_id=True))
+                resend = time.monotonic() + 1.0
+                while time.monotonic() < resend:
+                    if line in self.log_path.read_text(encoding="utf-8"):
+                        return
+                    time.sleep(0.02)
+                assert self.proc.poll() is None, f"candump exited ({self.proc.returncode})"
+                assert time.monotonic() < deadline, f"candump did not log its marker within {timeout_s} s"
+        finally:
+            bus.shutdown()
 
     def stop(self) -> list[tuple[int, bytes]]:
-        """Stop it (SIGINT, by pid) and return the frames it saw as (COB-ID, data)."""
+        """Stop it (SIGINT, by pid) once every frame sent so far is logged and return the frames it saw as
+        (COB-ID, data), the markers left out."""
+        self.mark()
         self.proc.send_signal(2)
         self.proc.wait(timeout=30)
         self.log.seek(0)
@@ -84,7 +122,8 @@ class Candump:
             parts = line.split()
             if len(parts) == 3 and "#" in parts[2]:
                 ident, data = parts[2].split("#", 1)
-                frames.append((int(ident, 16), bytes.fromhex(data)))
+                if int(ident, 16) != MARKER_ID:
+                    frames.append((int(ident, 16), bytes.fromhex(data)))
         return frames
 
 
