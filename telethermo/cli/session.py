@@ -18,6 +18,7 @@ import math
 import signal
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 from telethermo import sim
@@ -135,15 +136,16 @@ def _session_bus(args: argparse.Namespace) -> str | None:
     )
 
 
-def _lab_args(args: argparse.Namespace) -> list[str]:
-    """The slave's ``--material-lab`` argument, its file refused here with its field (not in a node log)."""
-    if args.material_lab is None:
+def _node_file(option: str, path: Path | None, load: Callable[[Path], object]) -> list[str]:
+    """``[option, path]`` for the node programs, the file read by ``load`` here first so that a bad one is
+    refused with its field, not in a node's log ([] without a file)."""
+    if path is None:
         return []
     try:
-        load_lab(args.material_lab)
+        load(path)
     except ValueError as exc:
-        raise UserError(f"--material-lab: {exc}") from None
-    return ["--material-lab", str(args.material_lab.resolve())]
+        raise UserError(f"{option}: {exc}") from None
+    return [option, str(path.resolve())]
 
 
 def _checked_files(args: argparse.Namespace) -> list[str]:
@@ -153,13 +155,7 @@ def _checked_files(args: argparse.Namespace) -> list[str]:
         raise UserError(f"--network {str(args.network)!r}: no such file")
     if args.model is not None and not args.model.is_file():
         raise UserError(f"--model {str(args.model)!r}: no such file")
-    if args.gains is None:
-        return []
-    try:
-        load_gains(args.gains)
-    except ValueError as exc:
-        raise UserError(f"--gains: {exc}") from None
-    return ["--gains", str(args.gains.resolve())]
+    return _node_file("--gains", args.gains, load_gains)
 
 
 def _mode(args: argparse.Namespace, scene, scene_path: Path) -> str:
@@ -209,7 +205,7 @@ def run(args: argparse.Namespace) -> int:
         seed=args.seed,
         progress_every=max(1, cycles // 100),
         master_args=gains_args,
-        slave_args=gains_args + _lab_args(args),
+        slave_args=gains_args + _node_file("--material-lab", args.material_lab, load_lab),
         io=args.io,
     )
     pair = NodePair(cfg)
