@@ -256,6 +256,30 @@ HEADLINE = [
         "≤ 0.5",
     ),
     ("envelope", "workers_2_speedup", "the first conditions on 2 workers vs 1, same run", "≥ 1.7"),
+    (
+        "envelope_probe_flux",
+        "candidate_beats_best_pad_fraction",
+        "experiment, not shipped: the matrix with the probe's flux loop (2 W deadband); beats the best pad",
+        "shipped 0.495",
+    ),
+    (
+        "envelope_probe_flux",
+        "candidate_oscillating_conditions",
+        "the same experiment: oscillating conditions (why it is not adopted: docs/control.md)",
+        "shipped 25",
+    ),
+    (
+        "material_lab",
+        "material_lab_touches_needed",
+        "lab calibration of the material physics fit: reference touches needed (a 0.7 mm sensor probe)",
+        "a handful",
+    ),
+    (
+        "material_lab",
+        "material_lab_accuracy_after",
+        "the same probe, physics posterior after the lab calibration (before: material_lab_accuracy_before)",
+        "report",
+    ),
     ("stress", "n_failed", "stress cases failed (of n_cases)", "0"),
     (
         "stress",
