@@ -93,9 +93,8 @@ def recording_touches(path: Path) -> list[tuple[Any, Any]]:
         if i0 < n_pre or on[i0 - n_pre : i0].any():
             continue  # the probe was not open long enough before: no pre-contact state
         fits = ml.touch_fits(T, Q, int(i0), dt, WINDOWS)
-        for w, window_s in enumerate(WINDOWS):  # the contact must last the whole window
-            n_win = int(round(window_s / dt))
-            if not on[i0 : i0 + n_win].all() or len(on) < i0 + n_win:
+        for w, window_s in enumerate(WINDOWS):  # the contact must last the whole window (touch_fits: None
+            if not on[i0 : i0 + int(round(window_s / dt))].all():  # when the samples end before it)
                 fits[w] = None
         out.append(tuple(fits))
     return out
