@@ -43,6 +43,11 @@ class NmtSlave:
         self._reset(whole)
         if old is not NmtState.INITIALISING:
             core.call(self.listeners, old, NmtState.INITIALISING, command)
+        # PRE-OPERATIONAL before the boot-up goes out: a client that answers the boot-up with an SDO request
+        # (the notifier thread checks the state without the lock) must find the server serving, however late
+        # this thread runs after the send; the listeners still hear of it after the boot-up, as before
+        core.state = NmtState.PRE_OPERATIONAL
+        adapter.set_nmt_state(core.node, int(NmtState.PRE_OPERATIONAL))
         core.send(0x700 + core.node_id, b"\x00")  # boot-up
         self.set_state(NmtState.PRE_OPERATIONAL, command, old=NmtState.INITIALISING)
         self._booted()

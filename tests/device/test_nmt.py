@@ -3,6 +3,7 @@ in OPERATIONAL, SDO in PRE-OPERATIONAL and OPERATIONAL only, resets restore the 
 
 from __future__ import annotations
 
+import threading
 import time
 
 import can
@@ -44,6 +45,33 @@ def test_power_on_sends_bootup_then_heartbeats_in_pre_operational(lab):
     hb = lab.recv_until(bus, lambda m: m.arbitration_id == 0x701)
     assert hb is not None and list(hb.data) == [0x7F]
     assert dev.state is NmtState.PRE_OPERATIONAL
+
+
+def test_an_sdo_request_answering_the_bootup_is_served_however_late_the_booting_thread_runs(lab):
+    """A client that reads the node as soon as its boot-up arrives: the request reaches the notifier thread
+    while the thread that sent the boot-up may not have run one more line (a loaded machine). The booting
+    thread is held here for 0.3 s right after the boot-up leaves; the request must still be answered."""
+    dev = lab.device("master", start=False, settings=FAST_HB)
+    node = lab.client("master")
+    node.sdo.RESPONSE_TIMEOUT = 3.0
+    send = dev.core.send
+
+    def send_then_stall(cob_id: int, data: bytes) -> None:
+        send(cob_id, data)
+        if cob_id == 0x701 and bytes(data) == b"\x00":
+            time.sleep(0.3)  # the booting thread descheduled right after the boot-up
+
+    answered: list = []
+
+    def on_bootup(can_id: int, data: bytearray, timestamp: float) -> None:
+        if bytes(data) == b"\x00":  # read from a thread of the client's, as a tool reacting to the boot-up
+            threading.Thread(target=lambda: answered.append(node.sdo["kp_A_per_C"].raw), daemon=True).start()
+
+    node.network.subscribe(0x701, on_bootup)
+    dev.core.send = send_then_stall
+    dev.start()
+    assert wait_for(lambda: answered, 5.0), "the SDO request sent on the boot-up was never answered"
+    assert answered == [pytest.approx(0.5)] and dev.state is NmtState.PRE_OPERATIONAL
 
 
 def test_pdos_only_in_operational_and_sdo_not_in_stopped(lab):
