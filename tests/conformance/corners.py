@@ -175,6 +175,9 @@ def emcy_consistency(lab: Lab) -> str:
         not sample.bad,
         f"0x1001 disagreed with what is active (trips, fallback, alive, 0x1001): {sample.bad[:5]}",
     )
+    # 0x1001 = 0 comes with the error-reset EMCY, but that frame may still be on its way to the test's
+    # listener (EMCY inhibit time 0x1015, the hub, its reader thread): wait for it before reading the EMCYs
+    wait_for(lambda: lab.emcy_codes(MASTER, mark)[-1:] == [0x0000], 10, 0.05)
     frames = [d for c, d in lab.frames.since(mark) if c == 0x80 + MASTER and len(d) == 8]
     hb_nodes = [d[3] for d in frames if int.from_bytes(d[:2], "little") == EMCY_HEARTBEAT]
     expect(

@@ -18,6 +18,7 @@ import canopen
 import pytest
 
 from telethermo.bus_config import path as bus_config_path
+from telethermo.nodes.launch import wait_for
 from telethermo.transport.hub import HubThread
 
 pytestmark = pytest.mark.slow
@@ -136,8 +137,12 @@ def test_four_node_session_runs_on_the_modules(tmp_path):
             assert master.returncode == 0, master.stderr
             result = json.loads(next(ln[7:] for ln in master.stdout.splitlines() if ln.startswith("result ")))
             assert result["cycles"] == CYCLES
-            # every cycle: both modules' inputs and the master's drive RPDOs on the bus
-            for cob in (0x183, 0x184, 0x283, 0x284, 0x203):
+            # every cycle: both modules' inputs and the master's drive RPDOs on the bus. The master's exit
+            # does not mean the test's listener has them: its last RPDOs and the modules' TPDOs answering
+            # its last SYNCs may still be on their way through the hub to the test's notifier thread
+            cobs = (0x183, 0x184, 0x283, 0x284, 0x203)
+            wait_for(lambda: all(frames[cob] >= CYCLES - 2 for cob in cobs), 60)
+            for cob in cobs:
                 assert frames[cob] >= CYCLES - 2, (hex(cob), frames)
             # the slave's: one per cycle it ran, and it ran every SYNC from the first on. Its last few SYNCs
             # may be no cycles: the master ends the session with NMT PRE-OPERATIONAL right after its last
@@ -151,6 +156,8 @@ def test_four_node_session_runs_on_the_modules(tmp_path):
             k = s_rows[0].index("sync_cycle")
             s_cycles = [int(r[k]) for r in s_rows[1:]]
             assert s_cycles == list(range(len(s_cycles))) and len(s_cycles) >= CYCLES // 2, s_cycles
+            # its drive RPDOs: one per row; the last ones may still be on their way to the test's listener
+            wait_for(lambda: frames[0x204] >= len(s_cycles), 60)
             assert frames[0x204] >= len(s_cycles), (len(s_cycles), frames)
             # the drives moved
             assert all(len(codes) > 3 for codes in drive.values()), drive

@@ -104,9 +104,11 @@ def _kill_controller(rig, *, error_mode: int) -> dict:
         # the RPDO sets the output at once (0x2101); the drive monitor (0x6401:6) shows it from the next
         # SYNC's conversion, which a loaded machine may deliver after the test's next SDO read: wait for both
         bus.wait(
-            lambda: node.sdo[0x2101].raw == TWO_AMPS
-            and node.sdo[0x6401][6].raw == TWO_AMPS
-            and bus.module_state() == 0x05,
+            lambda: (
+                node.sdo[0x2101].raw == TWO_AMPS
+                and node.sdo[0x6401][6].raw == TWO_AMPS
+                and bus.module_state() == 0x05
+            ),
             timeout_s=20,
         )
         before = {

@@ -89,6 +89,9 @@ def test_missing_inputs_time_out_then_read_nan(rig):
         period_s=0.01,
     ).start()
     try:
+        # start() sent its NMT START on the driver's own connection: a SYNC of the test's connection may pass
+        # it in the hub and reach a module still PRE-OPERATIONAL (no TPDOs): the heartbeat says when it runs
+        bus.wait(lambda: bus.module_state() == 0x05)
         _sync(bus)
         assert io.read().T_sensor_C == io.read_sdo().T_sensor_C
         assert io.timeouts == 0

@@ -21,6 +21,8 @@ import pytest
 from telethermo.bus_config import path as bus_config_path
 from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.transport.hub import HubThread
+from tests.nodes.module_losses import losses as module_losses
+from tests.nodes.module_losses import restarts as module_restarts
 
 pytestmark = pytest.mark.slow  # starts processes
 
@@ -99,7 +101,10 @@ def test_a_module_that_lost_its_controller_is_started_again(tmp_path, timing):
             back = restarted()
             # ... and its inputs flow again: a steady stream of TPDOs, no further loss
             assert wait_for(lambda: seen.since(back).count(("tpdo", 0)) >= 100, 120), seen.since(back)[-20:]
-            assert seen.node.sdo[0x2102].raw == 0 and seen.node.sdo[0x6444][1].raw == 0
+            # the output out of its error state, on the substitute the driver commissioned. Waited for: a
+            # loaded machine may stall the thawed controller past the consumer time once more (counted below:
+            # one restart per loss), and the module then is in its error state until that restart
+            assert wait_for(lambda: seen.node.sdo[0x2102].raw == 0 and seen.node.sdo[0x6444][1].raw == 0, 60)
             # the controller counts it where its other counters are (status: 0x270A module_restarts)
             assert wait_for(lambda: seen.controller.sdo["module_restarts"].raw >= 1, 30)
             assert pair.wait_master(timeout_s=600) == 0, pair.log("master-stderr").read_text()
@@ -111,14 +116,19 @@ def test_a_module_that_lost_its_controller_is_started_again(tmp_path, timing):
     restarts = [ln for ln in slave_log.splitlines() if "NMT START sent (restart" in ln]
     assert restarts and "io module 4" in restarts[0], slave_log[-3000:]
     stopped = [ln for ln in slave_log.splitlines() if "module restarts" in ln]
-    # one restart per loss the module reported (a loaded machine may stall the thawed controller past the
-    # 150 ms consumer time once more), and none at the session's end, when the master's NMT command put every
-    # node into PRE-OPERATIONAL
-    losses = pair.out_dir.joinpath("io-slave.log").read_text().count("(node 2 lost)")
-    assert stopped and f" {losses} module restarts" in stopped[-1] and len(restarts) == losses >= 1, stopped
-    # the master's result carries its own I/O rig's counters: its module never lost the master
-    master_losses = pair.out_dir.joinpath("io-master.log").read_text().count("(node 1 lost)")
-    assert pair.result.io_rig is not None and pair.result.io_rig.module_restarts == master_losses
+    # one restart per loss the module reported in the session (a loaded machine may stall the thawed
+    # controller past the 150 ms consumer time once more), none without a loss, and none at the session's end,
+    # when the master's NMT command put every node into PRE-OPERATIONAL (losses before the session:
+    # tests/nodes/module_losses.py)
+    io_log = pair.out_dir / "io-slave.log"
+    losses, in_session = module_losses(io_log, 2), module_losses(io_log, 2, pair.log("slave"))
+    assert stopped and f" {len(restarts)} module restarts" in stopped[-1], stopped
+    assert 1 <= in_session <= len(restarts) <= losses, (in_session, len(restarts), losses)
+    # the master's result carries its own I/O rig's counters: its module lost the master only if it stalled
+    io_log, master_log = pair.out_dir / "io-master.log", pair.log("master")
+    master_restarts = module_restarts(master_log)
+    assert pair.result.io_rig is not None and pair.result.io_rig.module_restarts == master_restarts
+    assert module_losses(io_log, 1, master_log) <= master_restarts <= module_losses(io_log, 1)
     print(restarts[0], stopped[-1], codes, sep="\n")
 
 
@@ -149,8 +159,11 @@ def test_the_master_result_counts_the_restarts_of_its_module(tmp_path):
             pair.stop()
             seen.net.disconnect()
     assert pair.result is not None and pair.result.cycles == 1500
-    losses = pair.out_dir.joinpath("io-master.log").read_text().count("(node 1 lost)")
+    io_log = pair.out_dir / "io-master.log"
+    losses, in_session = module_losses(io_log, 1), module_losses(io_log, 1, pair.log("master"))
     master_log = pair.log("master").read_text()
     restarts = [ln for ln in master_log.splitlines() if "NMT START sent (restart" in ln]
     assert pair.result.io_rig is not None, pair.result
-    assert pair.result.io_rig.module_restarts == len(restarts) == losses >= 1, (pair.result.io_rig, losses)
+    assert pair.result.io_rig.module_restarts == len(restarts), (pair.result.io_rig, restarts)
+    # one restart per loss in the session (the freeze's at least), none without a loss (module_losses)
+    assert 1 <= in_session <= len(restarts) <= losses, (in_session, len(restarts), losses)

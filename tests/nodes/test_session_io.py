@@ -25,6 +25,8 @@ from telethermo.nodes.launch import NodePair, PairConfig, wait_for
 from telethermo.offline import run_offline_session
 from telethermo.recording.format import read_recording_csv
 from telethermo.transport.hub import HubThread
+from tests.nodes.module_losses import losses as module_losses
+from tests.nodes.module_losses import restarts as module_restarts
 
 pytestmark = pytest.mark.slow  # starts processes
 
@@ -112,6 +114,10 @@ def test_four_node_session_on_io_modules(tmp_path):
             assert nodes[3].sdo[0x2100].raw == 10  # sampling period, ms
             assert nodes[3].sdo[0x1016][1].raw >> 16 == 1  # watching the master's heartbeat
             out, err = p.communicate(timeout=300)
+            # the session's exit does not mean the test's listener has every frame: the last ones may still
+            # be on their way through the hub to its notifier thread (which the disconnect below ends)
+            cobs = (0x183, 0x283, 0x184, 0x284, 0x203, 0x204)
+            wait_for(lambda: all(frames[cob] >= CYCLES for cob in cobs), 60)
         finally:
             if p.poll() is None:
                 p.terminate()
@@ -119,19 +125,19 @@ def test_four_node_session_on_io_modules(tmp_path):
             net.disconnect()
     assert p.returncode == 0, err
     # every cycle: each module's two input TPDOs and its controller's drive RPDO were on the bus
-    for cob in (0x183, 0x283, 0x184, 0x284, 0x203, 0x204):
+    for cob in cobs:
         assert frames[cob] >= CYCLES, (hex(cob), frames)
     fig = json.loads((tmp_path / "summary.json").read_text())
     assert fig["n_steps"] == CYCLES and fig["run"]["complete"]
     assert fig["run"]["io_modules"] == {"slave": 4, "master": 3}
     assert fig["run"]["master"]["lockstep_timeouts"] == 0 and fig["safety"]["n_trips"] == 0
     # the master's I/O rig counters (0x2709, 0x270A) in the summary: no read timed out, and one restart per
-    # loss of the master its module reported (none, unless a heartbeat came 130 ms late)
-    master_losses = (tmp_path / "io-master.log").read_text().count("(node 1 lost)")
-    assert (fig["run"]["master"]["input_timeouts"], fig["run"]["master"]["module_restarts"]) == (
-        0,
-        master_losses,
-    )
+    # loss of the master its module reported in the session (none, unless a heartbeat came 130 ms late); a
+    # loss during the master's start-up is repaired by the session's NMT START (tests/nodes/module_losses.py)
+    restarts = module_restarts(tmp_path / "master.log")
+    assert (fig["run"]["master"]["input_timeouts"], fig["run"]["master"]["module_restarts"]) == (0, restarts)
+    io_log = tmp_path / "io-master.log"
+    assert module_losses(io_log, 1, tmp_path / "master.log") <= restarts <= module_losses(io_log, 1)
     # the modules' truth filled the recording: the operator's skin under the pad, the probe touching at 1 s
     assert fig["transparency"]["per_touch"][0]["object"] == "aluminium"
     head_io = fig["transparency"]["headline_error_C"]
