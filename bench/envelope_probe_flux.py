@@ -6,7 +6,8 @@ below) writes ``bench/results/envelope_probe_flux_bounded.json`` instead: the sa
 gains bounded by the delay margin of the identified loop (:mod:`telethermo.control.flux_bound`: kpQ from the
 identified model and the condition's one-way delay, kiQ's zero a decade below the crossover);
 ``--bound delay-kp`` bounds kpQ alike but keeps kiQ at the candidate's ratio to kpQ
-(``..._bounded_kp.json``).
+(``..._bounded_kp.json``); ``--bound zero`` is the bound at no delay whatever the condition's (the
+candidate's kpQ, kiQ's zero a decade below: ``..._bounded_zero.json``), to tell the delay from the zero.
 
 docs/control.md traces half the matrix's losses to the best constant pad to the probe following the finger
 estimate that a saturated display cannot pull down (condition 68: the probe gives the object 23.4 J where the
@@ -61,10 +62,11 @@ def _slave_params(role, *args, **kwargs):
     if role is Role.SLAVE:
         s = p.kp_A_per_C / SHIPPED_SLAVE_KP
         kpQ, kiQ = _CANDIDATE["kpQ"] * s, _CANDIDATE["kiQ"] * s
-        if _CANDIDATE["bound"] in ("delay", "delay-kp"):
+        if _CANDIDATE["bound"] != "none":
             model = _MODELS.get(Role.SLAVE)  # None: identify refused, the shipped gains (ρ 1) run
             plant = linear_plant(model) if model is not None else reference_plant()
-            b = flux_gain_bound(plant, reference_plant(), _CANDIDATE["delay_s"], _CANDIDATE["kpQ"], rho=s)
+            delay_s = 0.0 if _CANDIDATE["bound"] == "zero" else _CANDIDATE["delay_s"]
+            b = flux_gain_bound(plant, reference_plant(), delay_s, _CANDIDATE["kpQ"], rho=s)
             kpQ, kiQ = b["kpQ_A_per_W"], b["kiQ_A_per_W_s"]
             if (
                 _CANDIDATE["bound"] == "delay-kp"
@@ -190,9 +192,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", help="comma-separated condition indices, or 'check' (see check_groups)")
     ap.add_argument(
         "--bound",
-        choices=("none", "delay", "delay-kp"),
+        choices=("none", "delay", "delay-kp", "zero"),
         default="none",
-        help="bound the flux gains by the delay margin (delay-kp: kpQ only, kiQ keeps its ratio to kpQ)",
+        help="bound the flux gains by the delay margin (delay-kp: kpQ only, kiQ keeps its ratio to kpQ; "
+        "zero: the bound at no delay, i.e. the candidate's kpQ with kiQ's zero a decade below)",
     )
     ap.add_argument("--candidate-run", default=str(RESULTS_DIR / "envelope_probe_flux.json"))
     a = ap.parse_args(argv)
@@ -219,12 +222,14 @@ def main(argv: list[str] | None = None) -> int:
     base = [r for r in cand if r["index"] == -1]
     cand = [r for r in cand if r["index"] != -1]
     data = {"candidate": candidate, **summary(shipped, cand)}
+    if a.bound != "none":  # this run is the bounded loop; "candidate" names the fixed-deadband one in groups
+        data = {k.replace("candidate_", "bounded_", 1): v for k, v in data.items()}
     if base:
         data["base"] = base[0]
     if groups is not None:
         data["groups"] = group_summary(groups, shipped, cand_rows, cand)
     data["conditions"] = cand
-    suffix = {"none": "", "delay": "_bounded", "delay-kp": "_bounded_kp"}[a.bound]
+    suffix = {"none": "", "delay": "_bounded", "delay-kp": "_bounded_kp", "zero": "_bounded_zero"}[a.bound]
     path = write_results("envelope_probe_flux" + suffix, data)
     print(json.dumps({k: v for k, v in data.items() if k != "conditions"}, indent=1))
     print(f"written {path}")
