@@ -68,9 +68,7 @@ def _slave_params(role, *args, **kwargs):
             delay_s = 0.0 if _CANDIDATE["bound"] == "zero" else _CANDIDATE["delay_s"]
             b = flux_gain_bound(plant, reference_plant(), delay_s, _CANDIDATE["kpQ"], rho=s)
             kpQ, kiQ = b["kpQ_A_per_W"], b["kiQ_A_per_W_s"]
-            if (
-                _CANDIDATE["bound"] == "delay-kp"
-            ):  # kiQ keeps the candidate's ratio to kpQ (its zero, 0.27 Hz)
+            if _CANDIDATE["bound"] == "delay-kp":  # kiQ keeps the candidate's ratio to kpQ (zero 0.27 Hz)
                 kiQ = kpQ * _CANDIDATE["kiQ"] / _CANDIDATE["kpQ"]
         _USED.update(kpQ_A_per_W=kpQ, kiQ_A_per_W_s=kiQ)
         p = dataclasses.replace(p, kpQ_A_per_W=kpQ, kiQ_A_per_W_s=kiQ)
