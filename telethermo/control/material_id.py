@@ -59,6 +59,7 @@ from numpy.typing import ArrayLike
 
 from telethermo.inputfile import Section, load_toml
 from telethermo.control.rendering import DEFAULT_RENDER_TABLE
+from telethermo.control.small_lstsq import NormalEquations
 
 
 @dataclass(frozen=True, slots=True)
@@ -215,7 +216,7 @@ def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbePara
     if not (np.isfinite(Tw).all() and np.isfinite(Qw).all()):
         return None
     Rh = probe.R_half_K_per_W
-    T_pre, Q_pre = float(np.mean(Tw[:n_pre])), float(np.mean(Qw[:n_pre]))
+    T_pre, Q_pre = float(Tw[:n_pre].sum()) / n_pre, float(Qw[:n_pre].sum()) / n_pre  # np.mean's arithmetic
     Ta, Qa = Tw[n_pre:], Qw[n_pre:]
     s = filter_release(n_win, probe.cutoff_Hz, dt_s)
     q = Qa - Q_pre * s  # F[Q·H]
@@ -274,13 +275,26 @@ def noise_deviation(
     ``(probe.noise_seed, k)``, filtered like the signals) is added to the window and ``form`` refitted (1.0
     when the refit fails): the noise enters every later sample through the integrals, which the residuals do
     not show."""
-    rng = np.random.default_rng((probe.noise_seed, k))
     n, dt = inp.T.size, inp.dt_s
-    nT = lowpass(probe.T_sigma_C * rng.standard_normal(n + 50), probe.cutoff_Hz, dt)[50:]
-    nQ = lowpass(probe.Q_sigma_W * rng.standard_normal(n + 50), probe.cutoff_Hz, dt)[50:]
+    nT, nQ = noise_realisation(probe.noise_seed, k, n, probe.T_sigma_C, probe.Q_sigma_W, probe.cutoff_Hz, dt)
     w = _window(inp.T + nT, inp.Q + nQ, inp.n_pre, dt, probe)
     e = fit_form(FitInput(inp.T, inp.Q, inp.n_pre, dt, w), form, probe) if w is not None else None
     return math.log(e.b) - ln_b if e is not None else 1.0
+
+
+@functools.lru_cache(maxsize=64)
+def noise_realisation(
+    seed: int, k: int, n: int, T_sigma_C: float, Q_sigma_W: float, cutoff_Hz: float, dt_s: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k``-th realisation of the rig's documented noise over ``n`` samples, filtered like the signals
+    (°C, W; the filter run in over 50 samples first). Seeded by ``(seed, k)``, so the same for every touch:
+    cached (read-only), a noise unit of the fit does not redraw and refilter it inside a control cycle."""
+    rng = np.random.default_rng((seed, k))
+    nT = lowpass(T_sigma_C * rng.standard_normal(n + 50), cutoff_Hz, dt_s)[50:]
+    nQ = lowpass(Q_sigma_W * rng.standard_normal(n + 50), cutoff_Hz, dt_s)[50:]
+    nT.flags.writeable = False
+    nQ.flags.writeable = False
+    return nT, nQ
 
 
 def best_form(fits: list[tuple[str, EffusivityEstimate | None]]) -> tuple[str, EffusivityEstimate] | None:
@@ -410,14 +424,15 @@ def _fit(
     contact resistance's) is kept >= 0 (refit without it), parameter ``i_pos`` must come out > 0.
     Returns (θ, standard error of θ[i_pos], residuals) or None."""
     use_prior = bool(np.any(prior_row))
+    Xc = np.vstack([X, prior_row]) if use_prior else X
+    yc = np.append(y, prior_y) if use_prior else y
+    normal = NormalEquations(Xc, yc)
     for cols in (3, 2):
-        Xc = np.vstack([X[:, :cols], prior_row[:cols]]) if use_prior else X[:, :cols]
-        yc = np.append(y, prior_y) if use_prior else y
-        XtX = Xc.T @ Xc
-        if not np.isfinite(XtX).all() or np.linalg.cond(XtX) > 1e16:
+        solved = normal.solve(cols)
+        if solved is None:
             return None
-        cov = np.linalg.inv(XtX)
-        theta = cov @ (Xc.T @ yc)
+        theta_l, cov_l = solved
+        theta, cov = np.array(theta_l), np.array(cov_l)
         if cols == 3 and theta[2] < 0:
             continue
         if not theta[i_pos] > 0:

@@ -40,6 +40,7 @@ from telethermo.control.material_id import (
     load_effusivity_table,
     noise_deviation,
     noise_draws,
+    noise_realisation,
     with_noise_spread,
 )
 from telethermo.control.material_calib import (
@@ -244,13 +245,20 @@ def late_samples(p: MaterialIdParams, dt_s: float) -> int:
 
 
 def prepare(p: MaterialIdParams, dt_s: float) -> None:
-    """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release)
+    """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release,
+    the noise realisations)
     now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls
     it)."""
-    for n_win in (int(round(p.probe.window_s / dt_s)), late_samples(p, dt_s)):
+    pr = p.probe
+    n_pre = max(1, int(round(pr.pre_s / dt_s)))
+    for n_win in (int(round(pr.window_s / dt_s)), late_samples(p, dt_s)):
         if n_win >= 6:
             half_integral_matrix(n_win, dt_s, 0.5 * dt_s)
-            filter_release(n_win, p.probe.cutoff_Hz, dt_s)
+            filter_release(n_win, pr.cutoff_Hz, dt_s)
+            for k in range(noise_draws(pr)):
+                noise_realisation(
+                    pr.noise_seed, k, n_pre + n_win, pr.T_sigma_C, pr.Q_sigma_W, pr.cutoff_Hz, dt_s
+                )
 
 
 def material_step(
