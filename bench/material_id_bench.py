@@ -111,7 +111,7 @@ def tick_figures(step_s: list[np.ndarray], fit_cycles: list[slice], batch_s: lis
         "material_id_fit_cycle_worst_over_step_median": round(worst_fit / med, 1),
         "material_id_batch_fit_over_step_median": round(batch / med, 1),
         "material_id_tick_note": (
-            "the fit runs spread over fit_units cycles after the window (2 + noise_draws "
+            "the fit runs spread over fit_units cycles after the window (3 + noise_draws "
             "+ one per network layer, telethermo.control.material_stream); "
             "fit_cycle_worst: per touch the slowest "
             "of those cycles' core steps, median over touches; batch_fit: the physics fit in "

@@ -182,7 +182,7 @@ def _fit_cycles_ms(step_s: np.ndarray, i0: int) -> tuple[float | None, float | N
     cyc = [range(i0 + n_win, i0 + n_win + fit_units(p, mb.PERIOD_S) + 1)]
     n_late = late_samples(p, mb.PERIOD_S)
     if n_late:
-        cyc.append(range(i0 + n_late, i0 + n_late + 2 + noise_draws(p.probe) + 1))
+        cyc.append(range(i0 + n_late, i0 + n_late + 3 + noise_draws(p.probe) + 1))
     out = [[k for k in c if k < step_s.size] for c in cyc] + [[]]
     return tuple(1e3 * float(np.max(step_s[i])) if i else None for i in out[:2])
 

@@ -368,8 +368,8 @@ def _energy_form(
     probe: ProbeParams,
 ) -> EffusivityEstimate | None:
     """E = b·A·I½[T_top·H] − (b·T_o0)·A·I½[H] − (b·R_c)·A·I½[q·H]: θ = (b, b·T_o0, b·R_c)."""
-    M = probe.area_m2 * half_integral_matrix(E.size, dt_s, onset_s)  # A·I½
-    X = np.column_stack([M @ top_H, -(M @ (1.0 - s)), -(M @ q)])
+    a = probe.area_m2  # A·I½ of the three signals in one product (the cached matrix is never rescaled)
+    X = (half_integral_matrix(E.size, dt_s, onset_s) @ np.column_stack([top_H, 1.0 - s, q])) * (a, -a, -a)
     k0 = int(round(probe.skip_s / dt_s))
     wp = probe.prior_weight
     fit = _fit(X[k0:], E[k0:], wp * np.array([probe.prior_T_object_C, -1.0, 0.0]), 0.0, 0)
@@ -398,8 +398,9 @@ def _flux_form(
 ) -> EffusivityEstimate | None:
     """T_top·H = T_o0·H + (1/b)·I½[q_top]/A + R_c·q_top, q_top = dE/dt: θ = (T_o0, 1/b, R_c)."""
     q_top = _slope(E, dt_s, probe.slope_half_width)
-    M = half_integral_matrix(E.size, dt_s, onset_s) / probe.area_m2
-    X = np.column_stack([1.0 - s, M @ q_top, q_top])
+    X = np.column_stack(
+        [1.0 - s, (half_integral_matrix(E.size, dt_s, onset_s) @ q_top) / probe.area_m2, q_top]
+    )
     k0 = int(round(probe.skip_s / dt_s))
     wt = probe.prior_weight_C
     fit = _fit(X[k0:], top_H[k0:], wt * np.array([1.0, 0.0, 0.0]), wt * probe.prior_T_object_C, 1)

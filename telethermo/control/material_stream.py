@@ -4,12 +4,12 @@ The slave's core calls :func:`material_step` every cycle with the sample and its
 nothing touches, the last ``pre_s`` of samples are kept; from the first contact sample on, ``window_s`` of
 samples are collected. The fit (:func:`telethermo.control.material_id.estimate_effusivity`'s stages) then
 runs spread over the following cycles, one unit of work per cycle so that no control cycle carries the
-whole fit: the window's signals and the energy form, the flux form, each of the ``noise_draws`` noise
+whole fit: the window's signals, the energy form, the flux form, each of the ``noise_draws`` noise
 realisations of the confidence, then the classification: with a calibration
 (telethermo.control.material_calib, default the shipped one) its networks' posterior, else the nearest table
 effusivity. The networks run one layer per cycle. The result (the physics fit's effusivity and standard error
-of ln b, the class and its posterior) is published :func:`fit_units` cycles after the window is complete (14
-with the defaults and the shipped network of four layers: 0.14 s at 100 Hz; when neither form of the physics
+of ln b, the class and its posterior) is published :func:`fit_units` cycles after the window is complete (15
+with the defaults and the shipped network of four layers: 0.15 s at 100 Hz; when neither form of the physics
 fit gives an effusivity, the calibrated class alone, effusivity NaN, without the noise realisations' cycles)
 and held until the next touch's fit completes (a release clears nothing: the operator may ask
 what was touched last; a fit under way finishes even if the finger leaves). The staged fit equals the
@@ -192,11 +192,11 @@ def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
 
 
 def fit_units(p: MaterialIdParams, dt_s: float) -> int:
-    """Cycles from the window's completion to the published result (one unit of work each: the window and the
-    energy form, the flux form, each noise realisation, then the classification: one layer of the calibrated
-    networks per cycle, or the nearest effusivity in one)."""
+    """Cycles from the window's completion to the published result (one unit of work each: the window's
+    signals, the energy form, the flux form, each noise realisation, then the classification: one layer of the
+    calibrated networks per cycle, or the nearest effusivity in one)."""
     cal = cast(Calibration, p.calibration)  # not None when calibrated
-    return 2 + noise_draws(p.probe) + (n_units(cal) if calibrated(p, dt_s) else 1)
+    return 1 + len(FORMS) + noise_draws(p.probe) + (n_units(cal) if calibrated(p, dt_s) else 1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -368,19 +368,26 @@ def _late_result(
     )
 
 
+@functools.lru_cache(maxsize=8)
+def _late_probe(probe: ProbeParams, window_s: float) -> ProbeParams:
+    """The probe's settings with the refined answer's window (built once, not in every unit's cycle)."""
+    return replace(probe, window_s=window_s)
+
+
 def _fit_unit(
     p: MaterialIdParams, job: FitJob, last: MaterialEstimate, dt_s: float
 ) -> tuple[FitJob | None, MaterialEstimate]:
     """One unit of the fit: (the job, or None when finished, and the held result, new when finished)."""
-    probe = replace(p.probe, window_s=cast(mp.PhysicsCalibration, p.late).window_s) if job.late else p.probe
+    probe = _late_probe(p.probe, cast(mp.PhysicsCalibration, p.late).window_s) if job.late else p.probe
     n = last.touch + 1
-    if job.inp is None and not job.fits:  # window and the energy form
-        inp = fit_input([r[0] for r in job.rows], [r[1] for r in job.rows], job.n_pre, dt_s, probe)
+    if job.inp is None:  # the window's signals
+        rows = np.array(job.rows, dtype=float).reshape(-1, 2)  # (T_sensor_C, Q_W) per sample
+        inp = fit_input(rows[:, 0], rows[:, 1], job.n_pre, dt_s, probe)
         if inp is None:
             return None, (last if job.late else MaterialEstimate(touch=n))
-        return replace(job, inp=inp, fits=((FORMS[0], fit_form(inp, FORMS[0], probe)),)), last
-    inp = cast(FitInput, job.inp)  # built by the first unit
-    if job.chosen is None:  # the other form, the better one
+        return replace(job, inp=inp), last
+    inp = job.inp
+    if job.chosen is None:  # one form per unit, then the better one
         fits = job.fits + tuple(
             (f, fit_form(inp, f, probe)) for f in FORMS[len(job.fits) : len(job.fits) + 1]
         )

@@ -145,7 +145,7 @@ def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
     assert T.size > i0 + 30 + 20
     p = MaterialIdParams()
     assert (
-        calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 2 + mi.noise_draws(p.probe) + n_units(CAL) == 14
+        calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 3 + mi.noise_draws(p.probe) + n_units(CAL) == 15
     )
     n_win, units = int(round(p.probe.window_s / PERIOD_S)), fit_units(p, PERIOD_S)
     st = MaterialState()
@@ -163,7 +163,7 @@ def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
 
 def test_another_period_falls_back_to_the_physics_classification():
     p = MaterialIdParams()
-    assert not calibrated(p, 0.001) and fit_units(p, 0.001) == 3 + mi.noise_draws(p.probe)
+    assert not calibrated(p, 0.001) and fit_units(p, 0.001) == 4 + mi.noise_draws(p.probe)
 
 
 def test_whitener_maps_the_floored_noise_covariance_to_the_identity():

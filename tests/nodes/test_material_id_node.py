@@ -68,7 +68,7 @@ def test_slave_publishes_the_identified_material_by_sdo(tmp_path):
             assert sdo["identified_touches"].raw == 0 and sdo["identified_material"].raw == 0
             assert sdo["identified_stage"].raw == 0 and sdo["identified_early_material"].raw == 0
             first = _cycles_until(cycles, 95, 60, lambda: sdo["identified_touches"].raw == 1)
-            # the touch at 1.0 s: its first 0.3 s, then the fit spread over the next 14 cycles
+            # the touch at 1.0 s: its first 0.3 s, then the fit spread over the next 15 cycles
             assert first <= 150, f"first answer {first - 100} cycles after the touch (at most 0.5 s wanted)"
             assert sdo["identified_stage"].raw == 1
             early = sdo["identified_early_material"].raw
