@@ -143,7 +143,7 @@ def _P(
 _LO, _HI = {"master": 15.0, "slave": 0.0}, {"master": 43.0, "slave": 60.0}
 _HOT = {"master": 41.0, "slave": 58.0}
 # the oscillation guard's threshold, degC (0: off): the slave's guard; the master's stays off
-_GUARD, _GUARD_HI = {"master": 0.3, "slave": 0.15}, {"master": 1.0, "slave": 1.0}
+_GUARD, _GUARD_HI = {"master": 0.0, "slave": 0.15}, {"master": 0.0, "slave": 1.0}
 _EST_DOC = (
     "eq. 30/31, 2*T_sensor - T_pred, with T_pred from: 0 the NARMA model (eq. 32), "
     "1 the flux sensor, T1 of eq. 28 as T_sensor + Q*R_sensor/2 (default), 2 both fused "
@@ -157,9 +157,9 @@ DOCS: dict[str, str] = {
     "kQ_A_per_W": "heat-flux feed-forward gain (peer's flux)",
     "estimator": _EST_DOC,
     "osc_guard_C": (
-        "oscillation guard (telepresence): two half-cycles in a row of the peer's estimate's 0.3-5 Hz band "
-        "(the master's also of its own skin estimate), each peaking at least this high in settled contact, "
-        "quarter kp in contact (the master's ki too, 0: off)"
+        "(slave) oscillation guard: two half-cycles in a row of the received finger estimate's 0.3-5 Hz "
+        "band, each peaking at least this high in settled contact, quarter the probe's kp in contact (0: "
+        "off, the master's is always off)"
     ),
     "R_sensor_C_per_W": "flux-sensor thermal resistance e/(kS), eq. 29",
     "T_min_C": (
@@ -225,7 +225,7 @@ PARAMS: tuple[Param, ...] = (
     _P(0x2201, "ki_A_per_C_s", REAL32, 0.1, 0.0, 20.0, "A/(degC*s)", "ki_A_per_C_s", GAINS),
     _P(0x2202, "kQ_A_per_W", REAL32, 0.0, -20.0, 20.0, "A/W", "kQ_A_per_W", GAINS),
     _P(0x2203, "estimator", UNSIGNED8, 0, 0, 2, "", "estimator", ALL, convert=ESTIMATOR_CODE),
-    # -- the oscillation guard of either side (issue 22; telethermo.control.osc_guard)
+    # -- the slave's oscillation guard (issue 22; telethermo.control.osc_guard); the master runs none
     _P(0x2204, "osc_guard_C", REAL32, _GUARD, 0.0, _GUARD_HI, "degC", "osc_guard_C", ALL),
     # -- flux sensor (eq. 29)
     _P(0x2309, "R_sensor_C_per_W", REAL32, 2.0, 0.0, 1000.0, "degC/W", "R_sensor_K_per_W", ALL),

@@ -48,7 +48,7 @@ from telethermo.control.core_state import CoreState, init_state, predict, replac
 from telethermo.control.coreparams import CoreParams, Feedback, RenderPhase, RenderSettings
 from telethermo.control.estimators import estimate_flux
 from telethermo.control.material_stream import MaterialState, material_step
-from telethermo.control.osc_guard import OscGuardState, detuned, guard_step
+from telethermo.control.osc_guard import OscGuardState, guard_step
 from telethermo.control.pi import PIGains
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.rig import RigSample
@@ -87,7 +87,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     r, link, fallback, fb_started = stages.link(sample, peer, params, state, e, peer_alive and peer_ok, r)
     # 3c. the slave's oscillation guard: kp detuned in contact once the exchange loop rang (osc_guard.py)
     peer_C = cast(PeerValues, peer).estimate_C if peer_alive and peer_ok else math.nan
-    r, osc, osc_own = _osc_guarded(params, state, r, peer_C, est, cst)
+    r, osc = _osc_guarded(params, state, r, peer_C, cst)
     # 4. envelope on setpoint (no peer needed while the link-loss fallback renders); bumpless re-seed of the
     # ramp at the render contact switch
     peer_state = (peer_alive, peer_ok)
@@ -124,7 +124,6 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         material=mat,
         link=link,
         osc=osc,
-        osc_own=osc_own,
     )
     status = StepStatus(
         safety=sf.summarize(env, new_trips, active),
@@ -148,28 +147,21 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
 
 
 def _osc_guarded(
-    params: CoreParams, state: CoreState, r: stages.Request, peer_C: float, own_C: float, cst: ContactState
-) -> tuple[stages.Request, OscGuardState, OscGuardState]:
-    """Stage 3c (:mod:`telethermo.control.osc_guard`): the guards' next states from the peer's usable
-    estimate ``peer_C`` (°C, NaN if none), on the master (in telepresence only) also from its own skin
-    estimate ``own_C`` (°C), and the contact; while either detunes (scale < 1) in contact, the request's own
-    gains get kp scaled (the master's ki too: :func:`telethermo.control.osc_guard.detuned`), and the setpoint
-    source keys the scale, for a bumpless switch."""
-    master = params.role is Role.MASTER
-    if master and params.mode is not Mode.TELEPRESENCE:  # the display guards the exchange loop only
-        return r, state.osc, state.osc_own
-    since = cst.since_s if cst.contact else None
-    osc = guard_step(state.osc, peer_C, since, params.osc_guard_C, params.period_s)
-    own = (
-        guard_step(state.osc_own, own_C, since, params.osc_guard_C, params.period_s)
-        if master
-        else state.osc_own
+    params: CoreParams, state: CoreState, r: stages.Request, peer_C: float, cst: ContactState
+) -> tuple[stages.Request, OscGuardState]:
+    """Stage 3c (:mod:`telethermo.control.osc_guard`): the guard's next state from the peer's usable
+    estimate ``peer_C`` (°C, NaN if none) and the contact; while it detunes (scale < 1) in contact, the
+    request's own gains get kp scaled (and the setpoint source key the scale, for a bumpless switch)."""
+    osc = guard_step(
+        state.osc, peer_C, cst.since_s if cst.contact else None, params.osc_guard_C, params.period_s
     )
-    scale = min(osc.scale, own.scale)
-    if scale < 1.0 and cst.contact and r.gains is params.gains:
-        kp, ki = detuned(params.kp_A_per_C, params.ki_A_per_C_s, scale, master)
-        r = replace(r, gains=PIGains(kp, ki), source=r.source + (scale,))
-    return r, osc, own
+    if osc.scale < 1.0 and cst.contact and r.gains is params.gains:
+        r = replace(
+            r,
+            gains=PIGains(params.kp_A_per_C * osc.scale, params.ki_A_per_C_s),
+            source=r.source + (osc.scale,),
+        )
+    return r, osc
 
 
 def _outgoing(

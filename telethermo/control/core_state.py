@@ -61,9 +61,7 @@ class CoreState:
         material: (slave) the material identification's collector and last result.
         link: (master, telepresence) the graceful link loss's memory
             (:mod:`telethermo.control.link_fallback`).
-        osc: the oscillation guard's memory and kp scale on the peer's estimate
-            (:mod:`telethermo.control.osc_guard`).
-        osc_own: (master) the second guard's, on the display's own skin estimate.
+        osc: (slave) the oscillation guard's memory and kp scale (:mod:`telethermo.control.osc_guard`).
     """
 
     k: int
@@ -85,7 +83,6 @@ class CoreState:
     material: MaterialState = field(default_factory=MaterialState)
     link: LinkState = field(default_factory=LinkState)
     osc: OscGuardState = field(default_factory=OscGuardState)
-    osc_own: OscGuardState = field(default_factory=OscGuardState)
 
 
 def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSample) -> CoreState:

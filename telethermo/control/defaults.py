@@ -42,7 +42,7 @@ CORE: dict[str, float] = dict(
     G_air_W_per_K=15.0 * 0.015 * 0.015,  # still air, h = 15 W/(m²·K) over 15 × 15 mm
     T_air_C=25.0,
     link_loss_render_s=5.0,  # graceful link loss: render locally this long, s
-    osc_guard_C=0.0,  # the oscillation guard off (GAINS turn it on in telepresence)
+    osc_guard_C=0.0,  # the slave's oscillation guard off (GAINS turn it on for the slave)
 )
 
 #: role -> parameters at the reference period of 10 ms (telepresence), tuned on probe_touches_al_steel_wood
@@ -63,7 +63,6 @@ GAINS: dict[Role, dict[str, Any]] = {
         air_rendering=True,
         air_kpQ_A_per_W=0.16,
         air_kiQ_A_per_W_s=2.1,
-        osc_guard_C=0.3,  # a ring of the probe's estimate or of the own skin estimate quarters kp and ki
     ),
     Role.SLAVE: dict(
         kp_A_per_C=0.43,

@@ -116,12 +116,3 @@ def guard_step(
     if run >= LOBES and scale > DETUNE:
         scale, det, run = DETUNE, det + 1, 0
     return OscGuardState(x_C, h1, h2, lp, sign, peak, length, run, scale, det)
-
-
-def detuned(kp_A_per_C: float, ki_A_per_C_s: float, scale: float, master: bool) -> tuple[float, float]:
-    """The PI gains in contact after a ring (``scale`` < 1; 1: unchanged), A/°C and A/(°C·s). The probe
-    scales kp alone (module docstring). The display scales both: its PI's zero stays where the gain rule put
-    it and the crossover moves down, to where its plant leaves more phase; kp alone would move the zero up
-    towards the crossover and take phase away (measured on the base scene with a guard firing: oscillation
-    figure 1.37 -> 1.74 with kp alone)."""
-    return kp_A_per_C * scale, ki_A_per_C_s * (scale if master else 1.0)
