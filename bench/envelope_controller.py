@@ -1,0 +1,101 @@
+"""The envelope matrix's controller-dependent half, measured again: ``python -m bench.envelope_controller
+[--workers N] [--out NAME]`` rewrites ``bench/results/envelope.json`` after a change of the controller (about
+13 min on 2 workers here, against about 40 for the whole bench), or writes ``NAME.json`` beside it: a
+candidate's figures next to the shipped ones, the shipped file untouched.
+
+What depends on the controller is re-run for every condition of the existing envelope.json and the base
+scene, on the same draws: each side's identification and gains, the telepresence session with them and its
+figures, and the shipped gains' session on the same draw (the before-figure). What does not is kept as
+measured, with the commit it was measured on (``matrix_provenance``): the three constant pads of each
+condition (held skins against the direct touch: no controller in them), the optimal-current bounds of the
+bound subset (the same), the render sweep (render mode: the telepresence changes this mode is run for do
+not reach it; the bench's ``--render-only`` measures it again) and the 1-vs-2-worker timing. The summary
+keys (``envelope_*``, ``base_*``, the failing conditions, the spread of each figure) are recomputed from the
+new rows by the same functions as :mod:`bench.envelope_bench`, and the figures of the run they replace are
+kept under ``previous_controller``, so the change is read in one file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+from bench.common import current_results_dir, write_results
+from bench.envelope_bench import bound_summary, plot, summarise
+from telethermo.offline.envelope import Condition, run_condition
+
+#: the summary keys compared against the run they replace
+COMPARED = (
+    "envelope_oscillating_conditions",
+    "envelope_session_long_cuts",
+    "envelope_unexpected_trips",
+    "envelope_beats_best_pad_fraction",
+    "envelope_cue_order_kept_fraction",
+    "envelope_median_ratio_to_bound",
+    "envelope_captured_fraction_median",
+    "base_headline_C",
+    "base_pre_contact_C",
+    "base_oscillation_ratio",
+)
+#: what a row keeps from the previous run: controller-independent (the constant pads)
+KEPT = ("pads", "best_pad", "best_pad_headline_C")
+
+
+def rerun(old_row: dict[str, Any]) -> dict[str, Any]:
+    """One condition's controller-dependent figures again, its pads kept; ``beats_best_pad`` recomputed."""
+    row = run_condition(Condition(**old_row["condition"]), with_pads=False, with_shipped=True)
+    row.update({k: old_row[k] for k in KEPT})
+    row["beats_best_pad"] = bool(row["headline_C"] < row["best_pad_headline_C"])
+    return row
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.envelope_controller", description=__doc__.split("\n")[0]
+    )
+    ap.add_argument("--workers", type=int, default=2, help="processes on this machine (default 2)")
+    ap.add_argument(
+        "--out", default="envelope", help="result name: bench/results/NAME.json and .png (default envelope)"
+    )
+    a = ap.parse_args(argv)
+    path = current_results_dir() / "envelope.json"
+    old = json.loads(path.read_text(encoding="utf-8"))
+    t0 = time.perf_counter()
+    with ProcessPoolExecutor(max_workers=a.workers) as ex:
+        fut_base = ex.submit(rerun, old["base"])
+        rows = list(ex.map(rerun, [r for r in old["conditions"] if "error" not in r]))
+        base = fut_base.result()
+    rows += [r for r in old["conditions"] if "error" in r]  # listed again, never dropped
+    bounds = [
+        {k: b[k] for k in ("index", "bound_headline_C", "replay_max_diff_C")} for b in old["bound_conditions"]
+    ]
+    new = {**summarise(rows, base), **bound_summary([r for r in rows if "error" not in r], bounds, base)}
+    out = {
+        **old,
+        **new,
+        "previous_controller": {k: old.get(k) for k in COMPARED}
+        | {"provenance": old.get("provenance") or old.get("matrix_provenance")},
+        "controller_wall_s": time.perf_counter() - t0,
+        "controller_rerun": "identified and shipped sessions of every condition re-run on this commit; pads, "
+        "bounds, render sweep and worker timing kept from matrix_provenance (controller-independent)",
+        "base": base,
+        "conditions": rows,
+    }
+    out["matrix_provenance"] = old.get("matrix_provenance") or old.get("provenance")
+    out.pop("provenance", None)
+    write_results(a.out, out)
+    plot([r for r in rows if "error" not in r], str(current_results_dir() / f"{a.out}.png"))
+    for k in COMPARED:
+        print(f"{k:40s} {old.get(k)!s:>22.22} -> {out[k]!s:.22}")
+    print(
+        f"failing conditions: {len(out['failing_conditions'])} of {len(rows)}; "
+        f"wall {out['controller_wall_s']:.0f} s"
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
