@@ -159,6 +159,20 @@ TARGETS: list[Target] = [
         "effusivity 95 % interval coverage",
     ),
     T("material_id", "material_id_fit_cycle_worst_ms", "<=", 0.51, "worst fit work in one control cycle, ms"),
+    T(
+        "material_id",
+        "material_id_fit_position_worst_ms",
+        "<=",
+        0.51,
+        "slowest cycle position of the early fit (median over touches), ms",
+    ),
+    T(
+        "material_id",
+        "material_id_late_fit_cycle_worst_ms",
+        "<=",
+        0.51,
+        "slowest cycle of the refined answer's fit (median over touches), ms",
+    ),
 ]
 
 
