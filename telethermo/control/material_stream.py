@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import functools
 import math
-from pathlib import Path
 
 import numpy as np
 from dataclasses import dataclass, field, replace
@@ -37,20 +36,17 @@ from telethermo.control.material_id import (
     fit_form,
     fit_input,
     half_integral_matrix,
-    load_effusivity_table,
     noise_deviation,
     noise_draws,
     noise_realisation,
     with_noise_spread,
 )
 from telethermo.control.material_calib import (
-    DEFAULT_CALIBRATION,
     ENVELOPE_EARLY,
     ENVELOPE_LATE,
     Calibration,
     calibration_vector,
     decide,
-    load_calibration,
     n_units,
     network_input,
     network_unit,
@@ -58,7 +54,7 @@ from telethermo.control.material_calib import (
 )
 from telethermo.control import material_physics as mp
 from telethermo.control.material_trust import CalibrationBox, abstain_reason, envelope_novelty, pre_contact
-from telethermo.control.rendering import load_render_table
+from telethermo.control.material_defaults import default_calibration, default_classes, default_envelope
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
 #: (sim/data/materials.toml [materials.skin]: √(0.21 · 1200 · 3590); telethermo/data/render_materials.toml)
@@ -106,26 +102,6 @@ class MaterialEstimate:
     def beta(self) -> float:
         """Relative effusivity b/b_skin (the rendering table's and the OD's material_beta scale)."""
         return self.effusivity / B_SKIN_REF
-
-
-@functools.lru_cache(maxsize=1)
-def default_calibration() -> Calibration | None:
-    """The shipped calibration (loaded once per process; None while none is shipped, e.g. before
-    bench/material_calibrate.py has written it: the physics classification then; a malformed file raises)."""
-    return load_calibration() if DEFAULT_CALIBRATION.exists() else None
-
-
-@functools.lru_cache(maxsize=2)
-def default_envelope(path: Path) -> Calibration | None:
-    """A shipped envelope classifier (loaded once per process; None while it is not shipped)."""
-    return load_calibration(path) if path.exists() else None
-
-
-@functools.lru_cache(maxsize=1)
-def default_classes() -> tuple[tuple[int, str, float], ...]:
-    """(code, name, effusivity) of the default rendering table (code = 1-based position in the file)."""
-    codes = {name: i + 1 for i, name in enumerate(load_render_table())}
-    return tuple((codes[n], n, b) for n, b in load_effusivity_table().items())
 
 
 @dataclass(frozen=True, slots=True)
