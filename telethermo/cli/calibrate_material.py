@@ -25,7 +25,7 @@ import numpy as np
 from telethermo.cli.main import UserError
 from telethermo.control import material_lab as ml
 from telethermo.control import material_physics as mp
-from telethermo.control.material_id import ProbeParams, load_effusivity_table
+from telethermo.control.material_id import ProbeParams, load_effusivity_table, pre_samples
 from telethermo.inputfile import InputFileError, Section, load_toml
 from telethermo.recording import RecordingError, read_recording_csv
 
@@ -86,7 +86,7 @@ def recording_touches(path: Path) -> list[tuple[Any, Any]]:
         raise UserError(f"{path}: header: expected the slave's columns {', '.join(cols)}, missing {missing}")
     T, Q, contact = (rec.col(c) for c in cols)
     dt = _period(path, rec)
-    n_pre = max(1, int(round(ProbeParams().pre_s / dt)))
+    n_pre = pre_samples(ProbeParams(), dt)
     on = np.nan_to_num(contact) > 0.5
     out = []
     for i0 in np.flatnonzero(on[1:] & ~on[:-1]) + 1:

@@ -200,6 +200,11 @@ def half_integral_matrix(n: int, dt_s: float, onset_s: float) -> np.ndarray:
     return cast(np.ndarray, M)
 
 
+def pre_samples(probe: ProbeParams, dt_s: float) -> int:
+    """The samples kept before a touch (``probe.pre_s`` at period ``dt_s``, s; at least one)."""
+    return max(1, int(round(probe.pre_s / dt_s)))
+
+
 #: a fit window's signals (:func:`_window`): E (J), T_top·H (°C), q (W), the filter's release s
 Window = tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]
 
@@ -208,7 +213,7 @@ def _window(T: np.ndarray, Q: np.ndarray, i0: int, dt_s: float, probe: ProbePara
     """(E, T_top, q, s) of the fit window, or None. All are the filtered signals of the touch alone (the
     pre-contact state removed with the filter's release ``s``): E the heat into the object since the touch,
     J (∫Q dt minus the heat stored in the sensor's upper half), T_top the contact face, °C, q the flux, W."""
-    n_pre = max(1, int(round(probe.pre_s / dt_s)))
+    n_pre = pre_samples(probe, dt_s)
     n_win = int(round(probe.window_s / dt_s))
     if i0 < n_pre or T.shape != Q.shape or T.ndim != 1 or T.size < i0 + n_win or n_win < 6:
         return None
@@ -252,7 +257,7 @@ def fit_input(
     """The touch's window (``probe.pre_s`` before the first contact sample ``i_contact``, ``probe.window_s``
     after), or None when the samples are too few or not finite."""
     T, Q = np.asarray(T_sensor_C, float), np.asarray(Q_W, float)
-    n_pre = max(1, int(round(probe.pre_s / dt_s)))
+    n_pre = pre_samples(probe, dt_s)
     i0 = int(i_contact)
     if T.ndim != 1 or T.shape != Q.shape or i0 < n_pre:
         return None
@@ -433,7 +438,7 @@ def _fit(
         if solved is None:
             return None
         theta_l, cov_l = solved
-        theta, cov = np.array(theta_l), np.array(cov_l)
+        theta = np.array(theta_l)
         if cols == 3 and theta[2] < 0:
             continue
         if not theta[i_pos] > 0:
@@ -443,7 +448,7 @@ def _fit(
         rho = _lag1(resid)
         sigma2 = float(resid @ resid) / max(n - cols, 1) * (1.0 + rho) / (1.0 - rho)
         theta = np.append(theta, 0.0) if cols == 2 else theta
-        return theta, math.sqrt(max(sigma2 * cov[i_pos, i_pos], 0.0)), resid
+        return theta, math.sqrt(max(sigma2 * cov_l[i_pos][i_pos], 0.0)), resid
     return None
 
 

@@ -39,6 +39,7 @@ from telethermo.control.material_id import (
     noise_deviation,
     noise_draws,
     noise_realisation,
+    pre_samples,
     with_noise_spread,
 )
 from telethermo.control.material_calib import (
@@ -226,7 +227,7 @@ def prepare(p: MaterialIdParams, dt_s: float) -> None:
     now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls
     it)."""
     pr = p.probe
-    n_pre = max(1, int(round(pr.pre_s / dt_s)))
+    n_pre = pre_samples(pr, dt_s)
     for n_win in (int(round(pr.window_s / dt_s)), late_samples(p, dt_s)):
         if n_win >= 6:
             half_integral_matrix(n_win, dt_s, 0.5 * dt_s)
@@ -247,7 +248,7 @@ def material_step(
     job, last = st.job, st.last
     if job is not None:
         job, last = _fit_unit(p, job, last, dt_s)
-    n_pre = max(1, int(round(p.probe.pre_s / dt_s)))
+    n_pre = pre_samples(p.probe, dt_s)
     n_win = int(round(p.probe.window_s / dt_s))
     n_late = late_samples(p, dt_s)
     x = (float(T_sensor_C), float(Q_W))
