@@ -8,6 +8,9 @@ identified model and the condition's one-way delay, kiQ's zero a decade below th
 ``--bound delay-kp`` bounds kpQ alike but keeps kiQ at the candidate's ratio to kpQ
 (``..._bounded_kp.json``); ``--bound zero`` is the bound at no delay whatever the condition's (the
 candidate's kpQ, kiQ's zero a decade below: ``..._bounded_zero.json``), to tell the delay from the zero.
+``--settle S`` schedules the flux integral instead of sizing it: the candidate's gains, but the flux error
+charges the integrator only after S s of uninterrupted contact (the proportional part acts from the touch on;
+``..._settle.json``).
 
 docs/control.md traces half the matrix's losses to the best constant pad to the probe following the finger
 estimate that a saturated display cannot pull down (condition 68: the probe gives the object 23.4 J where the
@@ -35,6 +38,7 @@ from bench.common import RESULTS_DIR, write_results
 from telethermo.control import core_stages
 from telethermo.control.flux_bound import flux_gain_bound
 from telethermo.control.gain_rule import linear_plant, reference_plant
+from telethermo.control.pi import FluxPIGains
 from telethermo.control.defaults import GAINS
 from telethermo.control.types import Role
 from telethermo.offline import envelope
@@ -43,7 +47,15 @@ SHIPPED_SLAVE_KP = GAINS[Role.SLAVE]["kp_A_per_C"]  # 0.43 A/°C
 _identified = envelope.identified_params
 _request = core_stages._telepresence_request
 _fit_gains = envelope.fit_gains
-_CANDIDATE: dict[str, Any] = {"kpQ": 0.258, "kiQ": 0.43, "deadband": 2.0, "bound": "none", "delay_s": 0.0}
+_CANDIDATE: dict[str, Any] = {
+    "kpQ": 0.258,
+    "kiQ": 0.43,
+    "deadband": 2.0,
+    "bound": "none",
+    "delay_s": 0.0,
+    "settle_s": 0.0,
+}
+_CONTACT_AGE = {"s": 0.0}  # the slave's time in uninterrupted contact, s (one session per process at a time)
 _MODELS: dict[Role, Any] = {}  # the last identified model per role (the bound reads the slave's)
 _USED: dict[str, float] = {}  # the slave's flux gains of the last condition, A/W and A/(W·s)
 #: the check subset of ``--only check``: conditions named in docs/control.md, and how many others to draw
@@ -79,12 +91,19 @@ def _deadband_request(sample, peer, params, state, e, usable):
     r = _request(sample, peer, params, state, e, usable)
     if params.role is Role.SLAVE and math.isfinite(r.eQ):
         r = dataclasses.replace(r, eQ=math.copysign(max(abs(r.eQ) - _CANDIDATE["deadband"], 0.0), r.eQ))
+    if params.role is Role.SLAVE and _CANDIDATE["settle_s"] > 0.0:
+        _CONTACT_AGE["s"] = _CONTACT_AGE["s"] + params.period_s if e.cst.contact else 0.0
+        if _CONTACT_AGE["s"] < _CANDIDATE["settle_s"] and r.fg is not None:
+            r = dataclasses.replace(r, fg=FluxPIGains(r.fg.kp_A_per_W, 0.0))
     return r
 
 
 def _run(job: tuple[dict[str, Any], dict[str, Any]]) -> dict[str, Any]:
     cond, candidate = job
-    _CANDIDATE.update({"bound": "none", **candidate}, delay_s=float(cond.get("delay_ms", 0.0)) / 1000.0)
+    _CANDIDATE.update(
+        {"bound": "none", "settle_s": 0.0, **candidate}, delay_s=float(cond.get("delay_ms", 0.0)) / 1000.0
+    )
+    _CONTACT_AGE["s"] = 0.0
     envelope.identified_params = _slave_params
     envelope.fit_gains = _recording_fit_gains
     core_stages._telepresence_request = _deadband_request
@@ -195,6 +214,7 @@ def main(argv: list[str] | None = None) -> int:
         help="bound the flux gains by the delay margin (delay-kp: kpQ only, kiQ keeps its ratio to kpQ; "
         "zero: the bound at no delay, i.e. the candidate's kpQ with kiQ's zero a decade below)",
     )
+    ap.add_argument("--settle", type=float, default=0.0, help="contact time before the flux integral acts, s")
     ap.add_argument("--candidate-run", default=str(RESULTS_DIR / "envelope_probe_flux.json"))
     a = ap.parse_args(argv)
     with open(a.shipped, encoding="utf-8") as f:
@@ -212,15 +232,17 @@ def main(argv: list[str] | None = None) -> int:
     candidate = {"kpQ": a.kpQ, "kiQ": a.kiQ, "deadband": a.deadband}
     if a.bound != "none":
         candidate["bound"] = a.bound
+    if a.settle > 0.0:
+        candidate["settle_s"] = a.settle
     jobs = [(c["condition"], candidate) for c in shipped]
-    if a.bound != "none":  # the base scene: its headline must stay <= 1.255 °C (issue 22)
+    if a.bound != "none" or a.settle > 0.0:  # the base scene: its headline must stay <= 1.255 °C (issue 22)
         jobs.append((dataclasses.asdict(envelope.base_condition()), candidate))
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
         cand = list(ex.map(_run, jobs))
     base = [r for r in cand if r["index"] == -1]
     cand = [r for r in cand if r["index"] != -1]
     data = {"candidate": candidate, **summary(shipped, cand)}
-    if a.bound != "none":  # this run is the bounded loop; "candidate" names the fixed-deadband one in groups
+    if a.bound != "none" or a.settle > 0.0:  # "candidate" names the fixed-deadband run in groups
         data = {k.replace("candidate_", "bounded_", 1): v for k, v in data.items()}
     if base:
         data["base"] = base[0]
@@ -228,6 +250,7 @@ def main(argv: list[str] | None = None) -> int:
         data["groups"] = group_summary(groups, shipped, cand_rows, cand)
     data["conditions"] = cand
     suffix = {"none": "", "delay": "_bounded", "delay-kp": "_bounded_kp", "zero": "_bounded_zero"}[a.bound]
+    suffix += f"_settle{a.settle:g}" if a.settle > 0.0 else ""
     path = write_results("envelope_probe_flux" + suffix, data)
     print(json.dumps({k: v for k, v in data.items() if k != "conditions"}, indent=1))
     print(f"written {path}")
