@@ -41,6 +41,7 @@ from bench.common import current_results_dir, print_table, write_results
 from telethermo.bus_config import path
 from telethermo.cia301 import EMCY_HEARTBEAT
 from telethermo.iomodule.scaling import COUNTS_PER_V
+from telethermo.nodes.children import readline_within, stop_process
 from telethermo.transport.hub import HubThread
 
 MODULE_ID, CONTROLLER_ID, CONSUMER_MS = 3, 1, 150
@@ -111,7 +112,9 @@ def measure(runs: int) -> dict:
                     stdout=subprocess.PIPE,
                     text=True,
                 )
-                standin.stdout.readline()
+                if not readline_within(standin, 30.0):
+                    stop_process(standin)
+                    raise RuntimeError("the stand-in controller printed no ready line within 30 s")
                 _wait(lambda: node.sdo[0x2101].raw == TWO_AMPS, 20, "2 A applied")
                 time.sleep(0.2)  # a few heartbeats in: the kill lands anywhere in the 50 ms heartbeat period
                 t_kill = time.monotonic()

@@ -29,6 +29,7 @@ import can
 
 from telethermo.monitor.traffic import monitor_config, traffic
 from telethermo.monitor.state import Monitor
+from telethermo.nodes.children import readline_within
 from telethermo.nodes.launch import HubProcess
 from telethermo.transport.bus import open_bus, parse_bus_string
 
@@ -73,7 +74,7 @@ def receive_rate(bus_text: str, n_frames: int, *, decode: bool, timeout_s: float
     got, t_first, t_last = 0, 0.0, 0.0
     try:
         assert sender.stdout is not None and sender.stdin is not None
-        if sender.stdout.readline().strip() != "ready":
+        if readline_within(sender, 30.0).strip() != "ready":
             raise RuntimeError("the sender process did not start")
         time.sleep(GRACE_S)
         sender.stdin.write("go\n")

@@ -27,6 +27,7 @@ import threading
 import time
 
 import can
+from telethermo.nodes.children import readline_within
 from telethermo.nodes.launch import HubProcess
 from telethermo.transport.bus import TransportSettings, open_bus, parse_bus_string
 
@@ -113,7 +114,7 @@ def anchor_process(cycles: int, bus: str) -> float:
         start_new_session=True,
     )
     try:
-        line = proc.stdout.readline()
+        line = readline_within(proc, 30.0)
         if line.strip() != "ready":
             raise RuntimeError(f"raw anchor responder did not start: {line.strip() or 'no output'}")
         mine = open_bus(parse_bus_string(bus))

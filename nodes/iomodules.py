@@ -22,7 +22,7 @@ from telethermo.iomodule.rigconfig import load_rig_config
 from telethermo.iomodule.truthlog import read_truth_log
 from telethermo.recording.format import Recording
 
-from telethermo.nodes.children import stop_process
+from telethermo.nodes.children import readline_within, stop_process
 
 #: the packaged RIG.toml of each side on the simulated modules
 RIG_CONFIGS = {"master": "rig_io_sim.toml", "slave": "rig_io_sim_slave.toml"}
@@ -103,11 +103,8 @@ class IoModuleProcess:
     def wait_ready(self, timeout_s: float = 60.0) -> None:
         """Wait at most ``timeout_s`` s for the launched module's ready line (IoModuleError, the process
         stopped, when it does not come)."""
-        box: list[str] = []
-        reader = threading.Thread(target=lambda: box.append(self._stdout().readline()), daemon=True)
-        reader.start()
-        reader.join(timeout_s)
-        if not box or not box[0].startswith(READY):
+        assert self.proc is not None
+        if not readline_within(self.proc, timeout_s).startswith(READY):
             code = self.stop()
             raise IoModuleError(
                 f"the {self.side}'s I/O module (node {self.node_id}) did not come up within {timeout_s:g} s "

@@ -21,7 +21,7 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from telethermo.nodes.children import stop_process
+from telethermo.nodes.children import readline_within, stop_process
 from telethermo.nodes.iomodules import IoModuleError, IoModuleProcess
 from telethermo.recording.result import RESULT_PREFIX, RunResult
 
@@ -72,7 +72,7 @@ class HubProcess:
         self.proc = subprocess.Popen(
             cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, start_new_session=True
         )
-        line = _readline_with_timeout(self.proc, timeout_s)
+        line = readline_within(self.proc, timeout_s)
         if not line.startswith("telethermo-hub listening on "):
             self.stop()
             raise LaunchError(f"telethermo-hub did not start: {line.strip() or 'no output'}")
@@ -99,14 +99,6 @@ class HubProcess:
 
     def stop(self) -> None:
         stop_process(self.proc, timeout_s=5.0)
-
-
-def _readline_with_timeout(proc: subprocess.Popen, timeout_s: float) -> str:
-    box: list[str] = []
-    t = threading.Thread(target=lambda: box.append(proc.stdout.readline()), daemon=True)
-    t.start()
-    t.join(timeout_s)
-    return box[0] if box else ""
 
 
 def node_command(role: str, *args: str) -> list[str]:
