@@ -196,6 +196,13 @@ class IoRig:
             self.supervisor.controller_ok = controller_ok
 
     @property
+    def heartbeat_limit_ms(self) -> int:
+        """The longest heartbeat period (0x1017) the controller may keep, ms: a third of the shortest time
+        its modules watch it (RIG.toml ``consumer_ms``), so that two heartbeats late or lost in a row (a
+        loaded machine) do not make a module cut the drive; the node lowers its period to this at power-on."""
+        return max(1, min(m.consumer_ms for m in self.config.modules.values()) // 3)
+
+    @property
     def module_restarts(self) -> int:
         """NMT STARTs sent to modules that had left OPERATIONAL while the controller ran."""
         return self.supervisor.restarts if self.supervisor is not None else 0

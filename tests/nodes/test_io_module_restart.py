@@ -145,6 +145,9 @@ def test_the_master_result_counts_the_restarts_of_its_module(tmp_path):
             pair.start()
             assert wait_for(lambda: pair.progress[0] >= 200 or pair.master.poll() is not None, 300)
             assert pair.master.poll() is None, pair.log("master-stderr").read_text()
+            # network.toml says 100 ms; the module watches for 150 ms (rig_io_sim.toml), so the controller
+            # beats every 50 ms (a third of it): read by the test's own SDO client from master.eds
+            assert seen.controller.sdo[0x1017].raw == 50
             before = seen.mark()
             os.kill(pair.master.pid, signal.SIGSTOP)
             try:
@@ -154,6 +157,7 @@ def test_the_master_result_counts_the_restarts_of_its_module(tmp_path):
             assert lost, seen.since(before)[-20:]
             after = seen.since(before).index(("hb", PRE_OPERATIONAL)) + before
             assert wait_for(lambda: ("hb", OPERATIONAL) in seen.since(after), 60), seen.since(after)[-20:]
+            assert "heartbeat every 50 ms, not 100 ms" in pair.log("master").read_text()
             assert pair.wait_master(timeout_s=600) == 0, pair.log("master-stderr").read_text()
         finally:
             pair.stop()

@@ -35,8 +35,8 @@ DURATION_S = 2.5  # the aluminium touch at 1 s and its headline window (t_on - 0
 CYCLES = 250
 OPERATIONAL = 0x05
 #: the controllers' heartbeat period in test_four_node_session_on_io_modules, ms: the packaged RIG.toml's
-#: modules watch their controller for 150 ms, which the packaged 100 ms heartbeats miss when one is 50 ms late
-#: (a loaded machine); 20 ms leaves 130 ms. The pair's own consumer time: 3 s, not 250 ms
+#: modules watch their controller for 150 ms; a node on them beats at most every 50 ms by itself (a third of
+#: it, nodes.runtime), and 20 ms leaves 130 ms for a loaded machine. The pair's own consumer: 3 s, not 250
 FAST_HEARTBEAT_MS = 20
 
 
