@@ -66,9 +66,20 @@ def _refuse(*_args, **_kwargs):
     )
 
 
+def _warm_font_cache() -> None:
+    """matplotlib (the optional ``plot`` extra) lists the system's fonts with ``fc-list`` the first time it
+    builds its font cache: on a fresh machine that was the first plotting test's process, refused by the fast
+    tier. Built here, before the guard, it is not a test's process."""
+    try:
+        import matplotlib.font_manager  # noqa: F401  (optional extra: imported only to build its cache)
+    except ImportError:
+        pass
+
+
 def pytest_configure(config: pytest.Config) -> None:
     """With --no-processes, starting a process raises for the whole session (module-scoped fixtures too)."""
     if config.getoption("--no-processes"):
+        _warm_font_cache()
         _SAVED["popen"] = subprocess.Popen.__init__
         _SAVED["start"] = multiprocessing.process.BaseProcess.start
         subprocess.Popen.__init__ = _refuse  # type: ignore[method-assign]
