@@ -25,10 +25,8 @@ import json
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
-import numpy as np
-
 from bench.common import RESULTS_DIR, write_results
-from bench.transparency_bench import EARLY_N, PRE_N, reference_track, run_bound
+from bench.transparency_bench import reference_track, run_bound
 from telethermo.offline.envelope import Condition, condition_scene
 from telethermo.offline.transparency import cue_discrimination
 
@@ -37,14 +35,9 @@ def bound_cues(cond: dict[str, Any]) -> dict[str, Any]:
     """The bound's and the direct touch's cue per touch of one condition, and whether the order is kept."""
     c = Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
     sc, _ = condition_scene(c)
-    _t, skin_ref, q_ref, cells = reference_track(sc)
-    b = run_bound(sc, _t, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0)
-    per = []
-    for contact, p in zip(sc.slave_contacts, b["per_touch"]):
-        k0 = int(round(contact.start_s / sc.period_s)) - PRE_N
-        n_early = min(EARLY_N, int(round((contact.end_s - contact.start_s) / sc.period_s)))
-        direct = -float(np.sum(q_ref[k0 + PRE_N : k0 + PRE_N + n_early]) * sc.period_s)
-        per.append({"object": p["object"], "cue_J": p["cue_J"], "direct_cue_J": direct})
+    t_ref, skin_ref, q_ref, cells = reference_track(sc)
+    b = run_bound(sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0, q_ref=q_ref)
+    per = [{k: p[k] for k in ("object", "cue_J", "direct_cue_J")} for p in b["per_touch"]]
     cue = cue_discrimination(per)
     return {"index": c.index, "bound_order_kept": bool(cue["order_kept"]), "per_touch": per}
 

@@ -120,9 +120,19 @@ def _contacts(sc) -> list[dict[str, Any]]:
 
 
 def run_bound(
-    sc, t_ref, skin_ref, cells, *, maxiter: int, front_weights: tuple[float, ...], front_touches: int
+    sc,
+    t_ref,
+    skin_ref,
+    cells,
+    *,
+    maxiter: int,
+    front_weights: tuple[float, ...],
+    front_touches: int,
+    q_ref: np.ndarray | None = None,
 ) -> dict[str, Any]:
-    """The causal bound per touch, its replay check, and the foreknowledge front."""
+    """The causal bound per touch, its replay check, and the foreknowledge front. With ``q_ref`` (the direct
+    touch's heat into the finger, W, per period: :func:`reference_track`) each touch also carries the direct
+    touch's cue over the same samples as the bound's (``direct_cue_J``)."""
     mk = lambda: sim.build_rig(sc, "master", noise=False)  # noqa: E731
     rig = mk()
     plant = BatchedPlant(rig, sc.period_s)
@@ -143,6 +153,10 @@ def run_bound(
         skin = plant.run(w.x0, u[:-1, None], heat)[:, 0]
         q = np.array(heat)[:, 0]
         cue_J = -float(np.sum(q[PRE_N : PRE_N + n_early]) * sc.period_s)
+        direct = {}
+        if q_ref is not None:
+            k1 = k0 + PRE_N
+            direct["direct_cue_J"] = -float(np.sum(q_ref[k1 : k1 + n_early]) * sc.period_s)
         replayed = replay(mk, w, u, sc.period_s)
         err = window_errors(skin, w)
         per.append(
@@ -150,6 +164,7 @@ def run_bound(
                 "object": c.body,
                 **err,
                 "cue_J": cue_J,
+                **direct,
                 "replay_max_diff_C": float(np.max(np.abs(skin - replayed))),
                 "optimise_s": time.perf_counter() - t0,
                 "dskin_at": {
