@@ -120,15 +120,7 @@ def _contacts(sc) -> list[dict[str, Any]]:
 
 
 def run_bound(
-    sc,
-    t_ref,
-    skin_ref,
-    cells,
-    *,
-    maxiter: int,
-    front_weights: tuple[float, ...],
-    front_touches: int,
-    q_ref: np.ndarray | None = None,
+    sc, t_ref, skin_ref, cells, *, maxiter: int, front_weights: tuple, front_touches: int, q_ref=None
 ) -> dict[str, Any]:
     """The causal bound per touch, its replay check, and the foreknowledge front. With ``q_ref`` (the direct
     touch's heat into the finger, W, per period: :func:`reference_track`) each touch also carries the direct
@@ -153,10 +145,10 @@ def run_bound(
         skin = plant.run(w.x0, u[:-1, None], heat)[:, 0]
         q = np.array(heat)[:, 0]
         cue_J = -float(np.sum(q[PRE_N : PRE_N + n_early]) * sc.period_s)
-        direct = {}
-        if q_ref is not None:
-            k1 = k0 + PRE_N
-            direct["direct_cue_J"] = -float(np.sum(q_ref[k1 : k1 + n_early]) * sc.period_s)
+        k1 = k0 + PRE_N  # the direct touch's cue over the bound's samples (with q_ref)
+        direct = (
+            {} if q_ref is None else {"direct_cue_J": -float(np.sum(q_ref[k1 : k1 + n_early]) * sc.period_s)}
+        )
         replayed = replay(mk, w, u, sc.period_s)
         err = window_errors(skin, w)
         per.append(
