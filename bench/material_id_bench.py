@@ -1,7 +1,9 @@
 """Material identification on the slave (issue 15): effusivity and class from the first 0.3 s of a touch.
 
-``python -m bench.material_id_bench [--quick]`` writes ``bench/results/material_id.json`` (the coordinator
-merges its keys into ``bench/results/rendering.json``).
+``python -m bench.material_id_bench [--quick]`` merges its keys into ``bench/results/material_id.json``
+(the coordinator merges them into ``bench/results/rendering.json``). The envelope run (``--envelope``) owns
+the keys issue 23 names there; this run writes its own figure of those as ``material_id_box_*``
+(:func:`box_keys`), so the two runs keep each other's keys in either order.
 
 Each touch: the default simulated probe (sim/data/tem_15x15.toml, 10 ms, measurement noise on, 5 Hz
 filter) rests in air at the finger's natural skin temperature (the pair has been running before: the
@@ -35,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from bench import material_id_envelope as envelope  # its --envelope run (it uses this module's touches)
-from bench.common import print_table, write_results
+from bench.common import current_results_dir, print_table, write_results
 from telethermo.offline.material_oracle import bound_figures
 from telethermo.sim.materials import material
 from telethermo.sim.tem import load_rig_params
@@ -425,8 +427,20 @@ def run(quick: bool) -> dict[str, Any]:
     suite runs them inside the rendering benchmark, into rendering.json)."""
     fig = material_id_figures(quick)
     print_material_id(fig)
-    print(f"wrote {write_results('material_id', fig)}")
+    path = current_results_dir() / "material_id.json"
+    old = json.loads(path.read_text()) if path.exists() else {}
+    print(f"wrote {write_results('material_id', old | box_keys(fig))}")
     return fig
+
+
+def box_keys(fig: dict[str, Any]) -> dict[str, Any]:
+    """``fig`` for material_id.json: the keys issue 23 gave to the envelope run
+    (:data:`bench.material_id_envelope.ENVELOPE_OWNS`) renamed ``material_id_box_*``, so that neither run
+    overwrites the other's figure whatever order they run in (the rest of the file is kept)."""
+    return {
+        (k.replace("material_id_", "material_id_box_", 1) if k in envelope.ENVELOPE_OWNS else k): v
+        for k, v in fig.items()
+    }
 
 
 def main(argv: list[str] | None = None) -> int:

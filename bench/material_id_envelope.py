@@ -67,6 +67,16 @@ ORACLE_EVERY, ORACLE_DRAWS = 4, 100
 IDENTIFY_SEED = 7
 #: simulated after the touch, s: the refined answer (1.2 s window + its fit) is out by 1.32 s
 POST_S = 1.45
+#: keys of material_id.json that issue 23 names for this run and the in-box run (bench/material_id_bench.py)
+#: also computes: that run writes its own as ``material_id_box_*`` (material_id_bench.box_keys)
+ENVELOPE_OWNS = frozenset(
+    {
+        "material_id_ci95_coverage",
+        "material_id_fit_cycle_worst_ms",
+        "material_id_core_step_median_ms",
+        "material_id_fit_cycle_worst_over_step_median",
+    }
+)
 
 STRATA: dict[str, Callable[[dict], bool]] = {
     "object_lt_15C": lambda t: t["T_object_C"] < 15.0,
