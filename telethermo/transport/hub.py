@@ -34,6 +34,7 @@ import signal
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
 from telethermo.transport.published import publish, unpublish
@@ -54,6 +55,10 @@ class HubConfig:
         port: TCP port; 0 = let the kernel choose (read :attr:`Hub.port` after :meth:`Hub.start`).
         idle_timeout_s: stop after this many seconds with no client connected, s (0 = never).
         parent_pid: stop when this process no longer exists (None = do not watch).
+        parent_is_own: ``parent_pid`` is the hub's own parent (the default of ``telethermo-hub``): then a
+            re-parenting (to init or a subreaper) also says it ended, as does a parent that ended before the
+            hub looked (the hub then finds init for its parent). A process named by ``--parent-pid`` is
+            watched by its PID alone: the hub may be started with ``nohup``/``setsid`` beside it.
         join_grace_s: hold back frames for a client that just entered raw mode this long, s.
         max_backlog_bytes: a client whose unsent backlog exceeds this is disconnected, bytes.
     """
@@ -62,6 +67,7 @@ class HubConfig:
     port: int = 0
     idle_timeout_s: float = 60.0
     parent_pid: int | None = None
+    parent_is_own: bool = False
     join_grace_s: float = 0.2
     max_backlog_bytes: int = 16 * 1024 * 1024
 
@@ -200,7 +206,9 @@ class Hub:
                     self.stop(f"idle for {self.config.idle_timeout_s:g} s")
                 if self.config.parent_pid is not None and now >= next_parent_check:
                     next_parent_check = now + 0.25
-                    if not _process_alive(self.config.parent_pid) or os.getppid() == 1:
+                    ppid = os.getppid()
+                    reparented = self.config.parent_is_own and (ppid != self.config.parent_pid or ppid == 1)
+                    if reparented or not _process_alive(self.config.parent_pid):
                         self.stop(f"parent process {self.config.parent_pid} ended")
         finally:
             self._close_all()
@@ -348,13 +356,22 @@ class Hub:
 
 
 def _process_alive(pid: int) -> bool:
+    """``pid`` runs: it exists and (where /proc tells) is not a zombie that its parent has not reaped yet.
+
+    By its PID alone, not by whether it is still this process's parent: a hub started with
+    ``nohup``/``setsid`` or from a shell that is PID 1 is re-parented, or has init for its parent, while the
+    process it watches runs on."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:
-        return True
-    return True
+        pass
+    try:
+        stat = Path(f"/proc/{pid}/stat").read_text()
+    except OSError:
+        return True  # no /proc (or the process just went): the signal check stands
+    return stat.rpartition(")")[2].split()[:1] != ["Z"]
 
 
 class HubThread:
@@ -408,9 +425,14 @@ def _parser() -> argparse.ArgumentParser:
         "--parent-pid",
         type=int,
         default=None,
-        help="stop when this process ends (default: the process that started the hub)",
+        help="stop when this process ends, watched by its PID (so the hub may be started with nohup or "
+        "setsid beside it; default: the process that started the hub, which a re-parenting also ends)",
     )
-    parser.add_argument("--no-parent-watch", action="store_true", help="do not stop with the parent process")
+    parser.add_argument(
+        "--no-parent-watch",
+        action="store_true",
+        help="do not stop with the parent process (a hub left running for hours: --idle-timeout 0 too)",
+    )
     parser.add_argument(
         "--channel",
         default=DEFAULT_CHANNEL,
@@ -436,7 +458,11 @@ def main(argv: list[str] | None = None) -> int:
     parent = None if args.no_parent_watch else (args.parent_pid or os.getppid())
     try:
         config = HubConfig(
-            host=args.host, port=args.port, idle_timeout_s=args.idle_timeout, parent_pid=parent
+            host=args.host,
+            port=args.port,
+            idle_timeout_s=args.idle_timeout,
+            parent_pid=parent,
+            parent_is_own=parent is not None and not args.parent_pid,
         )
     except ValueError as exc:
         print(f"telethermo-hub: error: {exc}", file=sys.stderr)

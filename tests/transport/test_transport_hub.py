@@ -7,6 +7,7 @@ import socket
 import subprocess
 import sys
 import time
+from pathlib import Path
 
 import can
 import pytest
@@ -199,3 +200,39 @@ def test_hub_process_stops_when_its_parent_ends():
     if not wait_for(gone, 30, poll_s=0.1):
         os.kill(pid, 9)
         raise AssertionError("hub outlived its parent")
+
+
+def test_hub_watching_another_process_outlives_its_own_parent(tmp_path):
+    # the lab's case: `setsid nohup telethermo-hub --parent-pid P &` (the hub is re-parented at once) must run
+    # as long as P does, and stop when P ends
+    watched = subprocess.Popen(["sleep", "120"])
+    port_file = tmp_path / "port"
+    code = (
+        "import subprocess, sys; p = subprocess.Popen([sys.executable, '-m', 'telethermo.transport.hub', "
+        f"'--idle-timeout', '0', '--no-publish', '--port', '0', '--port-file', {str(port_file)!r}, "
+        f"'--parent-pid', '{watched.pid}'], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, "
+        "start_new_session=True); print(p.pid, flush=True)"
+    )
+    try:
+        parent = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+        pid = int(parent.stdout.strip())
+
+        def gone() -> bool:  # ended: no such process, or a zombie that init has not reaped yet
+            try:
+                return Path(f"/proc/{pid}/stat").read_text().rpartition(")")[2].split()[0] == "Z"
+            except OSError:
+                return True
+
+        assert wait_for(lambda: port_file.exists() and port_file.read_text().strip() != "", 60, poll_s=0.05)
+        # listening, its parent gone: the parent check runs every 0.25 s, so four checks have passed by now
+        time.sleep(1.0)
+        assert not gone(), "the hub stopped although the process it watches still runs"
+        watched.kill()
+        watched.wait()
+        if not wait_for(gone, 30, poll_s=0.1):
+            os.kill(pid, 9)
+            raise AssertionError("hub outlived the process it watches")
+    finally:
+        if watched.poll() is None:
+            watched.kill()
+            watched.wait()
