@@ -141,5 +141,6 @@ def test_a_damaged_record_csv_row_is_exit_2_in_monitor_too(cli, tmp_path):
     )
     code, _, err = cli("monitor", "--replay", str(path), "--json", "--no-frames")
     assert code == EXIT_USAGE and err == (
-        f"telethermo monitor: error: {path}:3: damaged row (dlc 3 but 1 data bytes)\n"
+        f"telethermo monitor: error: {path}:3: damaged row (dlc 3 but 1 data bytes), "
+        "1 frame (0.000 s of recording) read before it\n"
     )
