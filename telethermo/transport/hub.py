@@ -34,9 +34,9 @@ import signal
 import time
 from collections import deque
 from dataclasses import dataclass, field
-from pathlib import Path
 
 from telethermo.atomic import write_text_atomic
+from telethermo.transport.procwatch import process_alive
 from telethermo.transport.published import publish, unpublish
 from telethermo.transport.socketcand import format_frame, parse_send
 
@@ -208,7 +208,7 @@ class Hub:
                     next_parent_check = now + 0.25
                     ppid = os.getppid()
                     reparented = self.config.parent_is_own and (ppid != self.config.parent_pid or ppid == 1)
-                    if reparented or not _process_alive(self.config.parent_pid):
+                    if reparented or not process_alive(self.config.parent_pid):
                         self.stop(f"parent process {self.config.parent_pid} ended")
         finally:
             self._close_all()
@@ -353,25 +353,6 @@ class Hub:
                     pass
                 sock.close()
         self._sel.close()
-
-
-def _process_alive(pid: int) -> bool:
-    """``pid`` runs: it exists and (where /proc tells) is not a zombie that its parent has not reaped yet.
-
-    By its PID alone, not by whether it is still this process's parent: a hub started with
-    ``nohup``/``setsid`` or from a shell that is PID 1 is re-parented, or has init for its parent, while the
-    process it watches runs on."""
-    try:
-        os.kill(pid, 0)
-    except ProcessLookupError:
-        return False
-    except PermissionError:
-        pass
-    try:
-        stat = Path(f"/proc/{pid}/stat").read_text()
-    except OSError:
-        return True  # no /proc (or the process just went): the signal check stands
-    return stat.rpartition(")")[2].split()[:1] != ["Z"]
 
 
 class HubThread:
