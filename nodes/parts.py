@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import Any, Callable
 
 from telethermo import sim
+from telethermo.bus_config.partable import BY_NAME
 from telethermo.control.core import CoreParams, RenderSettings
 from telethermo.control.detach import tem_limits
 from telethermo.control.gain_rule import fit_gains, fitted_params
@@ -150,7 +151,24 @@ def _model_and_gains(opts: NodeOptions) -> tuple[Any, dict[str, float]]:
             gains = dict(load_gains(opts.gains)[opts.role])
         except (ValueError, KeyError) as exc:  # load_gains names the file and the field
             raise OptionError(f"--gains: {exc}") from None
+        _check_od_ranges(opts.gains, opts.role, gains)
     return model, gains
+
+
+def _check_od_ranges(path: Path, role: Role, gains: dict[str, float]) -> None:
+    """Refuse a gain the node's object dictionary would refuse by SDO (out of its EDS range, abort
+    0609 0030), as ``telethermo apply-gains`` does: the node must not start with a value its own OD
+    cannot hold. OptionError names the file, the field, the value and the range."""
+    for key, value in gains.items():
+        p = BY_NAME.get(key)
+        if p is None or p.field != (key,):
+            continue  # a gain with no object (kpQ, kiQ): CoreParams checks it
+        lo, hi = p.value("low", role.value), p.value("high", role.value)
+        if not lo <= value <= hi:
+            raise OptionError(
+                f"--gains {path}: {role.value}.{key} = {value:g} is out of the object dictionary's range "
+                f"{lo:g} .. {hi:g} {p.unit} (0x{p.index:04X}, as telethermo apply-gains refuses it)"
+            )
 
 
 def _material_lab(opts: NodeOptions) -> LabCorrection | None:

@@ -416,3 +416,18 @@ def test_a_broken_gains_file_stops_the_node_program_with_exit_2_and_one_line(tmp
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
     assert f"--gains: {bad}: line 1: not UTF-8 text (byte 0xB5)" in err
+
+
+@pytest.mark.parametrize(
+    "key, value, rng", [("kp_A_per_C", 99.0, "0 .. 20"), ("kQ_A_per_W", -25.0, "-20 .. 20")]
+)
+def test_a_gain_beyond_the_od_range_stops_the_node_program(tmp_path, capsys, key, value, rng):
+    # a value the node's own OD would refuse by SDO (0x2200..0x2202, EDS range) must not start the node either
+    # (telethermo apply-gains refuses the same file); CoreParams alone accepted kp 99
+    doc = {"format": GAINS_FORMAT, "master": {key: value}, "slave": {}}
+    path = tmp_path / "gains.json"
+    path.write_text(json.dumps(doc), encoding="utf-8")
+    code = run_node(Role.MASTER, [*NODE_ARGS, "--gains", str(path)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert f"master.{key} = {value:g} is out of the object dictionary's range {rng}" in err, err
