@@ -57,7 +57,9 @@ def print_summary(fig: dict) -> None:
     if fig.get("oscillation"):
         _print_oscillation(fig["oscillation"])
     cue = fig.get("discrimination_cue")
-    if cue:
+    if cue and cue.get("n_materials_compared", 2) < 2:
+        print(f"material cue (heat drawn in the first second): n/a ({_touched(cue)})")
+    elif cue:
         print(
             f"material cue (heat drawn in the first second): cue order (ours) kept the direct-touch order "
             f"{' > '.join(cue['direct_order_most_heat_first'])}: {_yes(cue['order_kept'])}, "
@@ -116,7 +118,16 @@ def _print_render(rnd: dict) -> None:
     print(f"render: largest |mean error| {_f(rnd.get('max_abs_mean_error_C'), ' °C')}")
 
 
+def _touched(d: dict) -> str:
+    """Why an order across materials is not judged: fewer than two were touched within the session."""
+    n = d.get("n_materials_compared", 0)
+    return f"{n} material{'' if n == 1 else 's'} touched within the session: no order to keep"
+
+
 def _print_discrimination(d: dict) -> None:
+    if d.get("n_materials_compared", 2) < 2:
+        print(f"rendered early temperature per material: n/a ({_touched(d)})")
+        return
     print(
         f"rendered early temperature per material (0.1-1 s, mean over its touches; follows the finger's "
         f"history): rendered order {' < '.join(d['rendered_order_coldest_first'])} kept the direct-touch "

@@ -266,8 +266,10 @@ def _discrimination(per: list[dict]) -> dict[str, Any]:
         }
         for k, v in objs.items()
     }
-    ref_order = sorted(table, key=lambda k: table[k]["reference_C"])
-    ren_order = sorted(table, key=lambda k: table[k]["rendered_C"])
+    # objects a shortened session never touched have no early temperature and no place in the order
+    seen = [k for k, v in table.items() if math.isfinite(v["rendered_C"]) and math.isfinite(v["reference_C"])]
+    ref_order = sorted(seen, key=lambda k: table[k]["reference_C"])
+    ren_order = sorted(seen, key=lambda k: table[k]["rendered_C"])
     margins = [table[b]["rendered_C"] - table[a]["rendered_C"] for a, b in zip(ref_order, ref_order[1:])]
     ref_margins = [
         table[b]["reference_C"] - table[a]["reference_C"] for a, b in zip(ref_order, ref_order[1:])
@@ -276,7 +278,8 @@ def _discrimination(per: list[dict]) -> dict[str, Any]:
         "objects": table,
         "reference_order_coldest_first": ref_order,
         "rendered_order_coldest_first": ren_order,
-        "order_kept": ref_order == ren_order and all(m > 0 for m in margins),
+        "order_kept": len(seen) >= 2 and ref_order == ren_order and all(m > 0 for m in margins),
+        "n_materials_compared": len(seen),
         "margins_C": margins,
         "reference_margins_C": ref_margins,
         "min_margin_C": float(min(margins)) if margins else math.nan,

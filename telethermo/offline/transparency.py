@@ -64,8 +64,12 @@ def _finite_mean(v: list[float]) -> float:
 
 
 def _at(t: np.ndarray, y: np.ndarray, ts: float) -> float:
-    """y at the last sample at or before ``ts`` (NaN outside the record)."""
+    """y at the last sample at or before ``ts`` (NaN outside the record: before its first sample, or more
+    than one period after its last, as for a touch a shortened session never reached)."""
     k = int(np.searchsorted(t, ts + 1e-9, side="right")) - 1
+    period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+    if len(t) == 0 or ts > t[-1] + period + 1e-9:
+        return math.nan
     return float(y[k]) if 0 <= k < len(y) else math.nan
 
 
@@ -115,7 +119,8 @@ def cue_discrimination(per_touch: list[dict[str, Any]]) -> dict[str, Any]:
     """Order and contrast of the material cue (heat drawn in the first second), display vs direct touch.
 
     ``per_touch``: dicts with ``object``, ``cue_J`` and ``direct_cue_J``. Returns the per-material mean
-    cues, the direct order (most heat drawn first), whether the display keeps it on every pair, and the
+    cues, the direct order (most heat drawn first) of the materials with a cue (``n_materials_compared``;
+    fewer than two: no pair, and ``order_kept`` False), whether the display keeps it on every pair, and the
     contrast ratio of every pair."""
     mats: dict[str, dict[str, list[float]]] = {}
     for p in per_touch:
@@ -130,7 +135,9 @@ def cue_discrimination(per_touch: list[dict[str, Any]]) -> dict[str, Any]:
         }
         for k, v in mats.items()
     }
-    order = sorted(table, key=lambda k: -table[k]["direct_J"])
+    # a material whose touches left no cue (a session ended before them) is in no pair
+    scored = [k for k, v in table.items() if math.isfinite(v["display_J"]) and math.isfinite(v["direct_J"])]
+    order = sorted(scored, key=lambda k: -table[k]["direct_J"])
     pairs = []
     for i, a in enumerate(order):
         for b in order[i + 1 :]:
@@ -151,6 +158,7 @@ def cue_discrimination(per_touch: list[dict[str, Any]]) -> dict[str, Any]:
         "materials": table,
         "direct_order_most_heat_first": order,
         "order_kept": bool(pairs) and all(p["order_kept"] for p in pairs),
+        "n_materials_compared": len(order),
         "pairs": pairs,
         "contrast_ratio_min": float(min(ratios)) if ratios else math.nan,
     }

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from telethermo.atomic import write_text_atomic
+from telethermo.cli.session_summary import print_summary
 from telethermo.offline import compute_figures
 from telethermo.recording import RecordingBuilder, RecordingError, read_recording_csv, write_recording_csv
 from telethermo.offline.transparency import transparency_figures
@@ -21,9 +22,9 @@ CONTACTS = [
 REF = {"aluminium": 25.6, "steel": 26.9, "wood": 30.1}
 
 
-def make(offset_early=0.2, offset_late=0.05, rendered_shift=None):
+def make(offset_early=0.2, offset_late=0.05, rendered_shift=None, t_end_s=13.0):
     b = RecordingBuilder({"scene": "synthetic", "period_s": DT, "mode": "telepresence", "contacts": CONTACTS})
-    t_all = np.round(np.arange(0, 13, DT), 10)
+    t_all = np.round(np.arange(0, t_end_s, DT), 10)
     for k, t in enumerate(t_all):
         ref, q_ref, touching, surf = 33.0, 0.0, 0, 33.0
         lim, trips = "", ""
@@ -124,6 +125,34 @@ def test_discrimination_order_and_margins():
     assert d2["order_kept"] and not d2["margins_above_threshold"]
     d3 = compute_figures(make(rendered_shift={"steel": -1.5}))["discrimination"]
     assert not d3["order_kept"]
+
+
+def test_a_session_ended_early_judges_only_the_touches_it_reached(capsys):
+    # `telethermo session --duration 3`: the steel and wood touches never happen. They had a skin change of
+    # 0.000 °C and an order "aluminium < steel < wood" judged over one material; now n/a, no order
+    f = compute_figures(make(t_end_s=3.0))
+    per = f["transparency"]["per_touch"]
+    assert math.isfinite(per[0]["dskin_C"]) and per[0]["dskin_C"] == pytest.approx(
+        REF["aluminium"] + 0.05 - 33.0, abs=1e-9
+    )
+    assert all(p["dskin_C"] is None and p["cue_J"] is None for p in per[1:])  # NaN, as JSON null
+    assert (
+        f["discrimination_cue"]["n_materials_compared"] == 1
+        and not f["discrimination_cue"]["order_kept"]
+        and not f["discrimination_cue"]["pairs"]
+    )
+    d = f["discrimination"]
+    assert (
+        d["n_materials_compared"] == 1
+        and not d["order_kept"]
+        and d["reference_order_coldest_first"] == ["aluminium"]
+    )
+    print_summary(f)
+    out = capsys.readouterr().out
+    assert out.count("n/a (1 material touched within the session: no order to keep)") == 2, out
+    assert "steel < wood" not in out
+    # the full session still compares all three
+    assert compute_figures(make())["discrimination_cue"]["n_materials_compared"] == 3
 
 
 def test_safety_time_at_limits_and_trips():
