@@ -26,6 +26,7 @@ from telethermo import sim
 from telethermo import tuning as tn
 from telethermo.atomic import write_json_atomic
 from telethermo.cli.main import EXIT_OK, EXIT_USAGE, UserError
+from telethermo.offline.transparency import LATE_S
 
 
 def register(subparsers) -> None:
@@ -230,6 +231,21 @@ def _write(path: Path, what: str, doc: dict[str, Any], writer) -> None:
     print(f"wrote {path}")
 
 
+def _check_duration(duration_s: float | None, scene) -> None:
+    """UserError for a ``--duration`` that ends before the scene's first touch is scored: its late window
+    (t_on + LATE_S[1] s) and the tracking in steady contact need it, or every evaluation scores J = 100
+    (a non-finite figure) and the run writes meaningless gains."""
+    touches = scene.slave_contacts
+    if duration_s is None or not touches:
+        return
+    need = min(c.start_s for c in touches) + LATE_S[1]
+    if duration_s < need:
+        raise UserError(
+            f"--duration {duration_s:g}: expected >= {need:g} s for scene {scene.name}: its first touch "
+            f"(t_on {min(c.start_s for c in touches):g} s) is scored up to {LATE_S[1]:g} s after it"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     _check(args)
     try:
@@ -237,6 +253,7 @@ def run(args: argparse.Namespace) -> int:
         scenes = tn.tuning_scenes(scene, perturbed=not args.no_perturbed, envelope=max(0, args.envelope))
     except ValueError as exc:  # SceneError names the file and the field; a virtual scene is refused
         raise UserError(str(exc)) from None
+    _check_duration(args.duration, scene)
     x0 = _start_gains(args.start)
     weights = _weights(args)
 

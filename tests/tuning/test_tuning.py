@@ -249,7 +249,7 @@ def test_cli_tune_writes_a_loadable_gains_file(tmp_path, capsys):
             "--scene",
             SCENE,
             "--duration",
-            "2",
+            "4",
             "--budget",
             "2",
             "--candidates",
@@ -279,6 +279,7 @@ def test_cli_tune_writes_a_loadable_gains_file(tmp_path, capsys):
         ["--scene", "virtual_materials"],
         ["--scene", "no_such_scene"],
         ["--start", "missing.json"],
+        ["--duration", "2"],  # ends before the first touch (t_on 1 s) is scored: every J would be 100
     ],
 )
 def test_cli_tune_refuses_bad_arguments(argv):
@@ -335,7 +336,7 @@ def test_cli_tune_record_holds_every_evaluation(tmp_path, capsys):
             "--scene",
             SCENE,
             "--duration",
-            "1",
+            "4",
             "--budget",
             "1",
             "--candidates",
