@@ -28,6 +28,7 @@ from telethermo.control import material_physics as mp
 from telethermo.control.material_id import ProbeParams, load_effusivity_table, pre_samples
 from telethermo.inputfile import InputFileError, Section, load_toml
 from telethermo.recording import RecordingError, read_recording_csv
+from telethermo.offline.material_touches import SIM_TO_TABLE
 
 WINDOWS = (mp.EARLY.window_s, mp.LATE.window_s)
 
@@ -66,12 +67,23 @@ def touches_file(path: Path) -> list[tuple[Path, str]]:
         )
         items = top.list("touch", expected="a list of [[touch]] tables")
         out = []
+        table = load_effusivity_table()
         for k, item in enumerate(items):
             t = Section(path, f"touch[{k}]", item, {"recording", "material"})
-            out.append((path.parent / t.str("recording"), t.str("material")))
+            material = t.str("material")
+            if material not in table:
+                raise UserError(f"{path}: [touch[{k}]] material: {_unknown(material, table)}")
+            out.append((path.parent / t.str("recording"), material))
     except InputFileError as exc:
         raise UserError(str(exc)) from None
     return out
+
+
+def _unknown(material: str, table: dict) -> str:
+    """What was expected instead of ``material`` (a scene's name of a table material is pointed out)."""
+    alias = SIM_TO_TABLE.get(material)
+    hint = f" (the scenes' {material!r} is the table's {alias!r})" if alias and alias != material else ""
+    return f"expected one of {', '.join(table)}, got {material!r}{hint}"
 
 
 def recording_touches(path: Path) -> list[tuple[Any, Any]]:
@@ -118,7 +130,7 @@ def run(args: argparse.Namespace) -> int:
         raise UserError("no touches: give --touch RECORDING:MATERIAL (repeat) or --touches FILE.toml")
     for path, material in pairs:
         if material not in table:
-            raise UserError(f"{path}: material {material!r}: expected one of {', '.join(table)}")
+            raise UserError(f"{path}: material: {_unknown(material, table)}")
     per: dict[str, list] = {}
     sources = []
     for path, material in pairs:

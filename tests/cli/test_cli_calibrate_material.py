@@ -132,6 +132,12 @@ def test_bad_input_is_one_line_naming_the_file_and_field(recordings, tmp_path):
     listing.write_text('[[touch]]\nrecording = "a.csv"\n')
     r = cli("calibrate-material", "--touches", str(listing), "--out", str(tmp_path / "x.json"))
     assert r.returncode == 2 and f"{listing}: [touch[0]] material: expected a non-empty string" in r.stderr
+    # a scene's material name that the table spells otherwise: the listing's field, and the table's name
+    listing.write_text(f'[[touch]]\nrecording = "{pvc}"\nmaterial = "oak"\n')
+    r = cli("calibrate-material", "--touches", str(listing), "--out", str(tmp_path / "x.json"))
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert f"{listing}: [touch[0]] material: expected one of " in r.stderr, r.stderr
+    assert "the table's 'wood'" in r.stderr
     assert not (tmp_path / "x.json").exists()
 
 
