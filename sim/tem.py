@@ -258,14 +258,30 @@ def parse_tem_section(raw: object, path: str | Path, base: RigParams | None = No
     return base.with_(tem=tem)
 
 
+#: what a --tem file holds (the expectation of load_tem_file's errors)
+TEM_FILE_FORMATS = (
+    "a TOML file with a [datasheet] table (the format of sim/data/tem_15x15.toml) "
+    "or a [tem] table (the scene format)"
+)
+
+
 def load_tem_file(path: str | Path) -> RigParams:
-    """The default rig with the TEM of a TOML file's ``[tem]`` table (the scene format; ``telethermo identify
-    --tem FILE``). SceneError names the file and the field."""
+    """The rig of a ``telethermo identify --tem FILE``: the file is either
+
+    * a TEM/rig parameter file with a ``[datasheet]`` table, the format of the shipped
+      ``sim/data/tem_15x15.toml`` (a lab's copy of it describing its own module): read by
+      :func:`load_rig_params`, the TEM derived from the datasheet ratings; or
+    * a TOML file with a ``[tem]`` table (the scene format, :func:`parse_tem_section`): the default rig
+      with that module.
+
+    SceneError names the file and the field."""
     p = Path(path)
-    raw = load_toml(p, SceneError, "a TOML file with a [tem] table")
-    if "tem" not in raw:
-        raise SceneError(str(p), "tem", "a [tem] table")
-    return parse_tem_section(raw["tem"], p)
+    raw = load_toml(p, SceneError, TEM_FILE_FORMATS)
+    if "tem" in raw:
+        return parse_tem_section(raw["tem"], p)
+    if "datasheet" in raw:
+        return load_rig_params(p)
+    raise SceneError.whole(p, f"no [datasheet] or [tem] table (expected {TEM_FILE_FORMATS})")
 
 
 def tem_section(p: TEMParams) -> dict[str, float]:

@@ -63,8 +63,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--tem",
         metavar="TOML",
-        help="simulated rig: its thermo-electric module from the file's [tem] "
-        "table (the scene format; default: sim/data/tem_15x15.toml)",
+        help="simulated rig: its thermo-electric module, from a file in the format of the default "
+        "sim/data/tem_15x15.toml ([datasheet] ratings and the rig's hardware) or from a [tem] table "
+        "(the scene format)",
     )
     _add_experiment_args(p)
     p.add_argument(

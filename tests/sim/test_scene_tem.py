@@ -5,13 +5,16 @@ expectation."""
 from __future__ import annotations
 
 import dataclasses
+from pathlib import Path
 
 import pytest
 
 from telethermo import sim
 from telethermo.sim.errors import SceneError
-from telethermo.sim.tem import load_rig_params, load_tem_file, tem_section
+from telethermo.sim.tem import TEM_FILE, TEMParams, load_rig_params, load_tem_file, tem_section
+from telethermo.cli import identify as identify_cli
 from telethermo.cli.main import main as cli_main
+from telethermo.ident import UnstableModelError
 
 BASE = """[scene]
 name = "tem_scene"
@@ -116,4 +119,56 @@ def test_identify_tem_option_reports_a_bad_file_in_one_line(tmp_path, capsys):
     )
     missing = tmp_path / "none.toml"
     assert cli_main(["identify", "--tem", str(missing), "--out", str(tmp_path / "m.json"), "--quiet"]) == 2
-    assert "no such file (expected a TOML file with a [tem] table)" in capsys.readouterr().err
+    assert "no such file (expected a TOML file with a [datasheet] table" in capsys.readouterr().err
+
+
+def _stop_before_the_experiment(monkeypatch) -> list:
+    """Replace the experiment by a stub that keeps the rig it was given and refuses the model (exit 1)."""
+    rigs: list = []
+
+    def stub(rig, **_kw):
+        rigs.append(rig)
+        raise UnstableModelError("stub: the experiment is not run in this test")
+
+    monkeypatch.setattr(identify_cli, "identify_rig", stub)
+    return rigs
+
+
+def test_identify_tem_loads_the_default_file_its_help_names(tmp_path, monkeypatch, capsys):
+    with pytest.raises(SystemExit):
+        cli_main(["identify", "--help"])
+    help_text = " ".join(capsys.readouterr().out.split())
+    assert "sim/data/tem_15x15.toml" in help_text
+    default = Path(__file__).resolve().parents[2] / "sim" / "data" / "tem_15x15.toml"
+    assert default.resolve() == TEM_FILE.resolve()
+    assert load_tem_file(default) == load_rig_params()  # the same rig as no --tem at all
+    rigs = _stop_before_the_experiment(monkeypatch)
+    code = cli_main(["identify", "--tem", str(default), "--out", str(tmp_path / "m.json"), "--quiet"])
+    assert code == 1 and "stub: the experiment is not run" in capsys.readouterr().err  # past loading
+    assert rigs and rigs[0].I_max_A == 3.0
+
+
+def test_identify_tem_takes_a_labs_copy_of_the_default_file(tmp_path, monkeypatch, capsys):
+    lab = tmp_path / "lab_module.toml"
+    lab.write_text(TEM_FILE.read_text(encoding="utf-8").replace("Imax_A = 3.0", "Imax_A = 6.0"), "utf-8")
+    params = load_tem_file(lab)
+    assert params.tem == TEMParams.from_datasheet(
+        6.0, 3.75, 67.0, 27.0, tau_V_K=1.9e-3, plate_C_J_K=0.62
+    )  # derived as the simulator derives the shipped module
+    assert params.with_(tem=load_rig_params().tem) == load_rig_params()  # the rest of the rig as written
+    rigs = _stop_before_the_experiment(monkeypatch)
+    code = cli_main(["identify", "--tem", str(lab), "--out", str(tmp_path / "m.json"), "--quiet"])
+    assert code == 1 and rigs and rigs[0].I_max_A == 6.0
+    # a bad rating in a datasheet file: one line naming the file and the field
+    lab.write_text(TEM_FILE.read_text(encoding="utf-8").replace("Vmax_V = 3.75", "Vmax_V = -1"), "utf-8")
+    with pytest.raises(SceneError, match=r"field 'datasheet\.Vmax_V'"):
+        load_tem_file(lab)
+
+
+def test_a_tem_file_with_neither_table_says_which_formats_it_takes(tmp_path):
+    p = tmp_path / "empty.toml"
+    p.write_text("[module]\nside_mm = 15.0\n", encoding="utf-8")
+    with pytest.raises(SceneError) as ei:
+        load_tem_file(p)
+    msg = str(ei.value)
+    assert "\n" not in msg and "[datasheet]" in msg and "sim/data/tem_15x15.toml" in msg and "[tem]" in msg
