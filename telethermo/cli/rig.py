@@ -1,5 +1,5 @@
 """``telethermo rig check [NODE] --rig-config RIG.toml``: commissioning of an I/O rig before a finger goes on
-the pad (issue 24 item 3; docs/hardware.md, "Rig check").
+the pad (docs/hardware.md, "Rig check").
 
 The check talks to the I/O modules of the RIG.toml directly (the controller node NODE is not yet trusted:
 nothing is written to it): it commissions them as the I/O rig driver would, produces the SYNCs itself and
@@ -26,6 +26,7 @@ import sys
 import canopen
 
 from telethermo.cli import common, store
+from telethermo.cli.main import plain_text
 from telethermo.iomodule.rigcheck import RigCheck, RigCheckFailed
 from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
 from telethermo.remote.errors import Failure, UserError
@@ -36,8 +37,10 @@ def register(subparsers) -> None:
     p = subparsers.add_parser("rig", description=__doc__)
     p.set_defaults(func=run)  # an ACTION is required: argparse refuses `telethermo rig` alone (exit 2)
     sub = p.add_subparsers(dest="rig_command", metavar="ACTION", required=True)
-    c = sub.add_parser(
-        "check", help="verify an I/O rig's wiring step by step (nothing written to NODE)", description=__doc__
+    c = sub.add_parser(  # a nested parser: not passed through main's plain_text by the registry
+        "check",
+        help="verify an I/O rig's wiring step by step (nothing written to NODE)",
+        description=plain_text(__doc__ or ""),
     )
     common.add_bus_options(c)
     c.add_argument(
