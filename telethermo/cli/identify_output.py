@@ -6,6 +6,13 @@ from __future__ import annotations
 from telethermo.control.gain_rule import MIN_GAIN_MARGIN_DB, MIN_PHASE_MARGIN_DEG, fit_gains
 from telethermo.control.types import Role
 
+#: width of the report's label column: every value starts in the same column
+LABEL_WIDTH = 26
+
+
+def _row(label: str, value: str) -> str:
+    return f"{label:<{LABEL_WIDTH}}{value}"
+
 
 def gain_lines(model, roles: tuple[str, ...]) -> list[str]:
     """What the node will run on this model: the gain rule's factor and the loop's margins on the model
@@ -15,12 +22,14 @@ def gain_lines(model, roles: tuple[str, ...]) -> list[str]:
         fit = fit_gains(model, Role[role.upper()])
         m = fit["margins"]
         ok = "meets" if fit["meets_minimum"] else "BELOW"
-        pad = " " * (17 - len(role))
         out.append(
-            f"gains ({role}){pad}x{fit['rho']:.3f} of the shipped; on this model gain margin "
-            f"{m['gain_margin_dB']:.1f} dB, phase margin {m['phase_margin_deg']:.1f}°, crossover "
-            f"{m['crossover_Hz']:.2f} Hz ({ok} the minimum {MIN_GAIN_MARGIN_DB:g} dB / "
-            f"{MIN_PHASE_MARGIN_DEG:g}°)"
+            _row(
+                f"gains ({role})",
+                f"x{fit['rho']:.3f} of the shipped; on this model gain margin "
+                f"{m['gain_margin_dB']:.1f} dB, phase margin {m['phase_margin_deg']:.1f}°, crossover "
+                f"{m['crossover_Hz']:.2f} Hz ({ok} the minimum {MIN_GAIN_MARGIN_DB:g} dB / "
+                f"{MIN_PHASE_MARGIN_DEG:g}°)",
+            )
         )
     if not roles:
         return out
@@ -30,7 +39,7 @@ def gain_lines(model, roles: tuple[str, ...]) -> list[str]:
         if cool is None
         else f"{cool:.2f} A (beyond it the Joule heat wins: the node holds its cooling current there)"
     )
-    out.append(f"max cooling current        {what}")
+    out.append(_row("max cooling current", what))
     return out
 
 
