@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
             try:
                 check_range(info, values[key])
             except UserError as exc:
-                raise UserError(f"{args.file}: {t.role}.{key}: {exc}; not sent") from None
+                raise UserError(f"{args.file}: {t.role}.{key}: {exc}") from None  # exc says "not sent"
             plan.append((t, info, values[key]))
 
     with common.canopen_network(args, net) as nw:

@@ -208,11 +208,14 @@ def parse_value(info: VarInfo, text: str) -> float | int | bool:
 
 
 def check_range(info: VarInfo, value: float | int | bool) -> None:
-    """Refuse locally what the node would refuse: out of the EDS range, or out of the type's range."""
+    """Refuse locally what the node would refuse: out of the EDS range, or out of the type's range. Every
+    refusal ends with "; not sent" (callers that add context say it no more)."""
     if isinstance(value, bool):
         return
     if isinstance(value, float) and math.isnan(value):
-        raise UserError(f"{info.key}: NaN is not a value; allowed range {info.range_text() or 'any number'}")
+        raise UserError(
+            f"{info.key}: NaN is not a value; allowed range {info.range_text() or 'any number'}; not sent"
+        )
     if info.low is not None and value < info.low or info.high is not None and value > info.high:
         raise UserError(f"{info.key} = {value:g} is out of range {info.range_text()}; not sent")
     st = struct_of(info)

@@ -107,3 +107,14 @@ def test_apply_gains_to_a_running_master(lone_master, cli, tmp_path):
     assert back[0] == EXIT_OK, back
     # the gains went to telepresence's set: idle runs its own again
     assert cli("get", "--bus", bus, "master", "kp_A_per_C")[1] == before
+
+
+def test_an_out_of_range_gain_is_refused_before_the_bus_saying_not_sent_once(cli, tmp_path):
+    f = gains_file(tmp_path)
+    doc = json.loads(f.read_text())
+    doc["master"]["kp_A_per_C"] = 50.0  # the file format takes it, the EDS range does not
+    f.write_text(json.dumps(doc))
+    code, out, err = cli("apply-gains", "--bus", "virtual:none", str(f), "master")
+    assert code == EXIT_USAGE and out == "" and err.count("\n") == 1, (out, err)
+    assert f"{f}: master.kp_A_per_C: kp_A_per_C = 50 is out of range [" in err
+    assert err.rstrip().endswith("; not sent") and err.count("not sent") == 1, err
