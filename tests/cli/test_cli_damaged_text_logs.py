@@ -8,33 +8,19 @@ python-can's reader on the lines before the damage."""
 
 from __future__ import annotations
 
-import struct
 import time
 
 import can
 import pytest
 
 from telethermo.cli.main import EXIT_USAGE
+from tests.support.canframes import pair_frames as frames
 from telethermo.monitor.logread import ReplayError, is_record_csv, read_log
 
 pytest.importorskip("matplotlib")
 
 READERS = {".asc": can.ASCReader, ".trc": can.TRCReader, ".csv": can.CSVReader, ".log": can.CanutilsLogReader}
 TEXT = (".asc", ".trc", ".log.csv", ".log")
-
-
-def frames(n: int):
-    """n cycles of SYNC + both TPDO1 (estimate_C, Q_W), 10 ms apart."""
-    for k in range(n):
-        t = 1000.0 + 0.01 * k
-        yield can.Message(timestamp=t, arbitration_id=0x080, data=bytes([k % 240 + 1]), is_extended_id=False)
-        for nid in (1, 2):
-            yield can.Message(
-                timestamp=t + 0.001 * nid,
-                arbitration_id=0x180 + nid,
-                data=struct.pack("<ff", 30.0 + 0.01 * k, -0.1 * nid),
-                is_extended_id=False,
-            )
 
 
 def write(path, n: int) -> list[str]:

@@ -13,25 +13,12 @@ import can
 import pytest
 
 from telethermo.cli.main import EXIT_USAGE
+from tests.support.canframes import pair_frames as frames
 
 pytest.importorskip("matplotlib")
 
 BLF_EXPECTED = "expected a Vector BLF file as its writer closed it"
 LOG_EXPECTED = "expected a candump -L line '(TIME) CHANNEL ID#DATA', e.g. '(1.000000) can0 181#00ff'"
-
-
-def frames(n: int):
-    """n cycles of SYNC + both TPDO1 (estimate_C, Q_W), 10 ms apart."""
-    for k in range(n):
-        t = 1000.0 + 0.01 * k
-        yield can.Message(timestamp=t, arbitration_id=0x080, data=bytes([k % 240 + 1]), is_extended_id=False)
-        for nid in (1, 2):
-            yield can.Message(
-                timestamp=t + 0.001 * nid,
-                arbitration_id=0x180 + nid,
-                data=struct.pack("<ff", 30.0 + 0.01 * k, -0.1 * nid),
-                is_extended_id=False,
-            )
 
 
 def write(path, n: int) -> None:
