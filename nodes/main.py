@@ -24,7 +24,7 @@ from telethermo.iomodule.iorig import IoRig
 from telethermo.recording.result import IoRigCounters, RealtimeFigures, RunResult
 from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.transport.bus import TransportError
-from telethermo.transport.resolve import resolve_bus
+from telethermo.transport.resolve import ResolvedBus, resolve_bus
 
 from telethermo.nodes.options import OptionError, build_parser, options_from_args
 from telethermo.nodes.parts import build_parts
@@ -65,9 +65,10 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
 
     try:
         net = load_network(opts.network)
-        transport = resolve_bus(
+        resolved = resolve_bus(
             net, bus=opts.bus, interface=opts.interface, channel=opts.channel, bitrate=opts.bitrate
-        ).settings
+        )
+        transport = resolved.settings
         node_id = opts.node_id or net.node(role).node_id
         EdsInfo(net.node(role).eds)  # a damaged EDS is a bad file (exit 2, its line), not a failed start
         parts = build_parts(opts, period_s=net.sync.period_s, node_id=node_id, transport=transport)
@@ -97,12 +98,30 @@ def run_node(role: Role, argv: list[str] | None = None) -> int:
         store_path=opts.store,
     )
     rt.final_comments = final_comments
-    return _serve(prog, rt, opts, parts, log)
+    return _serve(prog, rt, opts, parts, log, warning=_virtual_bus_warning(prog, resolved))
 
 
-def _serve(prog: str, rt: NodeRuntime, opts, parts, log: logging.Logger) -> int:
+def _virtual_bus_warning(prog: str, resolved: ResolvedBus) -> str | None:
+    """The line a node on python-can's in-process ``virtual`` bus prints once it runs (None on any other
+    bus): a node program is a process of its own (run_node installs the signal handlers, so it is the main
+    thread), and no other process (its peer node, ``telethermo get``, a session) can join that bus."""
+    ts = resolved.settings
+    if ts.interface != "virtual":
+        return None
+    return (
+        f"{prog}: warning: {ts.describe()} (from {resolved.source}) is a bus inside this process only: "
+        "no other process (the peer node, telethermo get/monitor) can reach this node; start "
+        "telethermo-hub in another terminal and restart this node (it then needs no flag), or give "
+        "--bus socketcan:can0 (or -i/-c, CAN_INTERFACE/CAN_CHANNEL, ~/.canrc)"
+    )
+
+
+def _serve(
+    prog: str, rt: NodeRuntime, opts, parts, log: logging.Logger, *, warning: str | None = None
+) -> int:
     """Start the node, run it until it is done or signalled (SIGINT/SIGTERM), then stop it and close its
-    rig; the exit code (a failed start or a cycle error: 1)."""
+    rig; the exit code (a failed start or a cycle error: 1). ``warning``: a line printed once the node runs,
+    after its ready line."""
     role, node_id, transport = rt.role, rt.node_id, rt.transport
     reason = ["finished"]
 
@@ -124,6 +143,8 @@ def _serve(prog: str, rt: NodeRuntime, opts, parts, log: logging.Logger) -> int:
             code = EXIT_FAIL
             return code
         print(_ready_line(role, node_id, transport.describe(), opts), file=sys.stderr, flush=True)
+        if warning is not None:
+            print(warning, file=sys.stderr, flush=True)
         # after start-up: what is frozen/locked is the running node
         for note in apply_realtime(opts.realtime):
             (log.warning if note.startswith("WARNING") else log.info)(note.removeprefix("WARNING "))
