@@ -32,6 +32,7 @@ from telethermo.cli.progress import Progress
 from telethermo.cli.session_summary import print_summary
 from telethermo.control.gainsfile import load_gains
 from telethermo.control.material_lab import load_lab
+from telethermo.ident import load_model
 from telethermo.offline.figures import compute_figures
 from telethermo.offline.plot import write_session_png
 from telethermo.recording.format import RecordingError, write_recording_csv
@@ -149,12 +150,13 @@ def _node_file(option: str, path: Path | None, load: Callable[[Path], object]) -
 
 
 def _checked_files(args: argparse.Namespace) -> list[str]:
-    """Refuse a missing --network/--model file and a bad --gains file here, with its field, not in two node
-    logs; the gains arguments of the node programs."""
+    """Refuse a missing --network file and a missing or bad --model/--gains file here, with its field, not in
+    two node logs; the gains arguments of the node programs."""
     if args.network is not None and not args.network.is_file():
         raise UserError(f"--network {str(args.network)!r}: no such file")
     if args.model is not None and not args.model.is_file():
         raise UserError(f"--model {str(args.model)!r}: no such file")
+    _node_file("--model", args.model, load_model)  # read as the nodes read it (ModelFileError: file, field)
     return _node_file("--gains", args.gains, load_gains)
 
 

@@ -108,6 +108,28 @@ def test_bad_input_exit_2(tmp_path, args, fragment):
     assert p.returncode == 2 and fragment in err
 
 
+@pytest.mark.parametrize(
+    "text, reason",
+    [
+        ("t_s,T_C\n0.0,22.0\n", "line 1 column 1: not valid JSON"),  # a recording given by mistake
+        ('{"format": "telethermo-tem-model", "format_version": true}', "field 'format_version': expected 1"),
+    ],
+)
+def test_a_bad_model_file_is_refused_before_any_node_starts(tmp_path, text, reason):
+    """--model is read here as the nodes read it (telethermo.ident.load_model), as --gains and
+    --material-lab are: one line naming the file and the reason, exit 2, no node started (it was
+    "the slave process ended (exit 2)", the reason only in slave.log)."""
+    bad = tmp_path / "rec_garbage.csv"
+    bad.write_text(text)
+    out = tmp_path / "out"
+    p = session("--scene", str(SCENE), "--out", str(out), "--model", str(bad))
+    _, err = p.communicate(timeout=120)
+    assert p.returncode == 2, err
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith(f"telethermo session: error: --model: model file {bad}: {reason}"), err
+    assert "Traceback" not in err and not (out / "slave.log").exists() and not (out / "master.log").exists()
+
+
 def test_ctrl_c_stops_everything_cleanly(tmp_path):
     import os
 
