@@ -255,7 +255,10 @@ def _scene_rig(opts: NodeOptions, period_s: float, meta: dict[str, Any]):
     except ValueError as exc:  # SceneError names the file and the field
         raise OptionError(str(exc)) from None
     seed = opts.seed if opts.seed is not None else DEFAULT_SEEDS[opts.role]
-    rig = sim.build_rig(scene, opts.role, seed=seed)
+    try:
+        rig = sim.build_rig(scene, opts.role, seed=seed)
+    except ValueError as exc:  # SceneError: e.g. a virtual (display-only) scene given to the slave
+        raise OptionError(str(exc)) from None
     if abs(rig.period_s - period_s) > 1e-12:
         raise OptionError(
             f"--scene {str(opts.scene)!r}: period_s = {rig.period_s} s but the network's SYNC "

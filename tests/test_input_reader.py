@@ -431,3 +431,12 @@ def test_a_gain_beyond_the_od_range_stops_the_node_program(tmp_path, capsys, key
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
     assert f"master.{key} = {value:g} is out of the object dictionary's range {rng}" in err, err
+
+
+def test_a_display_only_scene_given_to_the_slave_is_one_line(capsys):
+    # sim.build_rig refuses a 'virtual' scene for the probe; the node program printed its traceback
+    scene = Path(__file__).resolve().parents[1] / "sim" / "scenes" / "free_pad_identification.toml"
+    code = run_node(Role.SLAVE, ["--scene", str(scene)])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert "field 'scene.kind': expected a scene with a slave rig ('telepresence'), got 'virtual'" in err
