@@ -90,9 +90,7 @@ def heartbeat_timeouts(nodes: Iterable[NodeState], now: float) -> list[Event]:
                     "heartbeat_lost",
                     st.node,
                     f"node {st.node} {st.name}: heartbeat lost (none for {(now - st.last_hb_t) * 1e3:.1f} ms "
-                    f"> {'consumer time' if st.consumer_time_s else 'timeout'} {to * 1e3:.0f} ms)".replace(
-                        " :", ":"
-                    ),
+                    f"> {st.hb_timeout_from} {to * 1e3:.0f} ms)".replace(" :", ":"),
                     {"silence_s": now - st.last_hb_t, "timeout_s": to},
                 )
             )

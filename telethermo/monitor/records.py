@@ -15,6 +15,12 @@ from .pdo import PdoDef, PdoValue, format_value
 from .sdo import SdoChannel, SdoTransfer
 
 
+#: a node with no producer or consumer time in the settings counts as lost after this many times the longest
+#: heartbeat period measured, once it has beaten this often (a lab's CiA 401 module beats at its own 0x1017)
+MEASURED_FACTOR = 2.0
+MEASURED_MIN_BEATS = 4
+
+
 @dataclass(frozen=True)
 class NodeInfo:
     """What the monitor knows of a node before it sees it: its name and object dictionary."""
@@ -121,14 +127,27 @@ class NodeState:
 
     @property
     def hb_timeout_s(self) -> float | None:
-        """Time without heartbeat after which the node counts as lost, s."""
+        """Time without heartbeat after which the node counts as lost, s: the consumer time watching it, else
+        1.5 × its producer time (0x1017, network settings), else, for a node the settings do not name (a
+        lab's I/O module), :data:`MEASURED_FACTOR` × the longest period measured over at least
+        :data:`MEASURED_MIN_BEATS` heartbeats."""
         if self.consumer_time_s:
             return self.consumer_time_s
         if self.producer_time_s:
             return self.producer_time_s * self._factor
+        if self.heartbeats >= MEASURED_MIN_BEATS and self.hb_period_max_s:
+            return self.hb_period_max_s * MEASURED_FACTOR
         return None
 
     _factor: float = 1.5
+
+    @property
+    def hb_timeout_from(self) -> str:
+        """What :attr:`hb_timeout_s` comes from: "consumer time", "timeout" (the producer time) or
+        "measured period"."""
+        if self.consumer_time_s:
+            return "consumer time"
+        return "timeout" if self.producer_time_s else "measured period"
 
     def to_json(self) -> dict[str, Any]:
         return {

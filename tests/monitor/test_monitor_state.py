@@ -64,6 +64,21 @@ def test_heartbeat_period_timeout_against_consumer_time_and_return():
     assert [e.kind for e in ev] == ["heartbeat_back"] and not st.hb_lost
 
 
+def test_a_node_the_settings_do_not_name_is_watched_at_twice_its_measured_period():
+    # a lab's CiA 401 module (node 9, in no network file) beats every 100 ms: killed, it must show as lost
+    mon = Monitor(monitor_config())
+    feed(mon, *(msg(20.0 + 0.1 * k, 0x709, [0x05]) for k in range(3)))
+    assert mon.nodes[9].hb_timeout_s is None  # three beats: not yet a period to trust
+    assert mon.tick(21.0) == []
+    feed(mon, msg(21.05, 0x709, [0x05]), msg(21.15, 0x709, [0x05]))  # longest period now 0.85 s (a gap)
+    st = mon.nodes[9]
+    assert st.hb_timeout_s == pytest.approx(2 * 0.85) and st.hb_timeout_from == "measured period"
+    assert mon.tick(21.15 + 1.69) == []
+    (lost,) = mon.tick(21.15 + 1.71)
+    assert (lost.kind, lost.node) == ("heartbeat_lost", 9) and "measured period 1700 ms" in lost.text
+    assert st.hb_lost and mon.tick(30.0) == []
+
+
 def test_unexpected_boot_up_is_a_warning_but_one_after_nmt_reset_is_not():
     mon = Monitor(monitor_config())
     feed(mon, msg(0.0, 0x701, [0x00]), msg(0.1, 0x701, [0x05]))
