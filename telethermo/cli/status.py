@@ -156,5 +156,9 @@ def run(args: argparse.Namespace) -> int:
             for label, text in r.get("text", {}).items():
                 print(f"  {label:15s} {text}")
     if silent:
-        raise Failure(f"no SDO answer from {', '.join(silent)}")
+        rb = common.resolved_bus(args, net)  # which bus was asked: a node on another one answers nothing
+        raise Failure(
+            f"no SDO answer from {', '.join(silent)} on {rb.settings.describe()} (from {rb.source}); "
+            "are they on this bus (--bus, -i/-c)?"
+        )
     return 0

@@ -157,7 +157,11 @@ def test_status_of_an_absent_device_exits_1(bench, cli):
         "status", "ghost", "--network", str(net), "--bus", "virtual:tt-other", "--timeout", "0.3"
     )
     assert code == 1, (out, err)
-    assert err == "telethermo status: no SDO answer from ghost\n"
+    # which bus was asked, so that a node on another channel or interface is found by the reader
+    assert err == (
+        "telethermo status: no SDO answer from ghost on virtual:tt-other (from --bus); "
+        "are they on this bus (--bus, -i/-c)?\n"
+    )
     assert "ghost (node 9) did not answer reading 0x1000 device type" in out
     code, out, err = cli("status", "arm", "--network", str(net), "--timeout", "1")
     assert code == 0 and "  device type     0x" in out, (out, err)
