@@ -301,6 +301,11 @@ def _io_rig(
         raise OptionError("--rig io: the node's ID and bus are needed to commission its modules")
     try:
         config = load_rig_config(opts.rig_config)
+        if config.controller not in (None, opts.role.value):
+            raise OptionError(
+                f"--rig-config {opts.rig_config}: controller = {config.controller!r}: this rig is driven by "
+                f"the {config.controller}'s node, not by telethermo-{opts.role.value}"
+            )
         return IoRig(
             config,
             transport=transport,

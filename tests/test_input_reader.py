@@ -440,3 +440,25 @@ def test_a_display_only_scene_given_to_the_slave_is_one_line(capsys):
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
     assert "field 'scene.kind': expected a scene with a slave rig ('telepresence'), got 'virtual'" in err
+
+
+def test_a_rig_toml_names_its_controller_and_the_other_side_refuses_it(tmp_path, capsys):
+    # the slave's rig file given to the master: the master would commission the slave's module to watch it
+    slave_rig = bus_config_path("rig_io_sim_slave.toml")
+    assert (load_rig_config(SIM_RIG).controller, load_rig_config(slave_rig).controller) == ("master", "slave")
+    code = run_node(
+        Role.MASTER, ["--bus", "virtual:tt-inputfile", "--rig", "io", "--rig-config", str(slave_rig)]
+    )
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "Traceback" not in err, err
+    assert "controller = 'slave': this rig is driven by the slave's node, not by telethermo-master" in err
+    bad = tmp_path / "RIG.toml"
+    bad.write_text(
+        SIM_RIG.read_text(encoding="utf-8").replace('controller = "master"', 'controller = "left"')
+    )
+    with pytest.raises(RigConfigError, match=r"controller: expected one of master, slave, got 'left'"):
+        load_rig_config(bad)
+    bad.write_text(SIM_RIG.read_text(encoding="utf-8").replace('controller = "master"', ""))
+    assert load_rig_config(bad).controller is None  # not said: rig check takes the master, with a note
+    code = cli_main(["rig", "check", "--rig-config", str(bad), "--bus", "virtual:nobody", "--timeout", "0.2"])
+    assert "rig check: note: no NODE given" in capsys.readouterr().err

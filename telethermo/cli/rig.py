@@ -46,9 +46,10 @@ def register(subparsers) -> None:
     c.add_argument(
         "node",
         nargs="?",
-        default="master",
+        default=None,
         metavar="NODE",
-        help="the controller node the rig belongs to: master, slave or a node-ID (default master)",
+        help="the controller node the rig belongs to: master, slave or a node-ID (default: the RIG.toml's "
+        "controller, else master)",
     )
     c.add_argument(
         "--rig-config", required=True, metavar="RIG.toml", help="the rig's file (docs/hardware.md)"
@@ -65,11 +66,19 @@ def register(subparsers) -> None:
 @common.failures
 def run(args: argparse.Namespace) -> int:
     net = common.network(args)
-    target = resolve_node(net, args.node)
     try:
         config = load_rig_config(args.rig_config)
     except RigConfigError as exc:
         raise UserError(str(exc)) from None
+    node = args.node or config.controller
+    if node is None:
+        node = "master"
+        print(
+            f"rig check: note: no NODE given and {config.source} names no controller: checking it for the "
+            'master (give NODE, or controller = "slave" in the file)',
+            file=sys.stderr,
+        )
+    target = resolve_node(net, node)
     say = (lambda _: None) if args.quiet else (lambda text: print(f"rig check: {text}", flush=True))
     with common.canopen_network(args, net) as nw:
         check = RigCheck(

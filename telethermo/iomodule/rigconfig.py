@@ -148,6 +148,9 @@ class RigConfig:
     """Loop periods in a row without the inputs after which every signal reads NaN (the envelope trips)."""
     sdo_timeout_ms: float = 1000.0
     """How long commissioning waits for each SDO answer of a module, ms."""
+    controller: str | None = None
+    """The side whose controller drives this rig ("master" or "slave"; None: not said): ``rig check``'s
+    default NODE, and a node program of the other side refuses the file."""
     tem: TemConfig | None = None
     """The TEM's constants (``[tem]``; None: the envelope's defaults)."""
     extra: dict[str, Any] = field(default_factory=dict)
@@ -164,7 +167,16 @@ _MODULE_KEYS = {"node_id", "eds", "sampling_ms", "sampling_index", "consumer_ms"
 _SCALE_KEYS = {"module", "object", "subindex", "volts_per_count", "offset_V", "gain", "sign"}
 _SIGNAL_KEYS = _SCALE_KEYS | {"sentinels", "filter_tau_ms", "threshold"}
 _DRIVE_KEYS = _SCALE_KEYS | {"limit_A"}
-_TOP_KEYS = {"modules", "signals", "drive", "input_timeout_ms", "stale_limit", "sdo_timeout_ms", "tem"}
+_TOP_KEYS = {
+    "modules",
+    "signals",
+    "drive",
+    "input_timeout_ms",
+    "stale_limit",
+    "sdo_timeout_ms",
+    "tem",
+    "controller",
+}
 
 
 def _module(base: Path, t: Section) -> ModuleConfig:
@@ -258,6 +270,7 @@ def _rig_config(raw: dict[str, Any], source: str, base: Path | None) -> RigConfi
             "sdo_timeout_ms", 1000.0, 10.0, 60000.0, " ms", expected="a time in [10, 60000] ms"
         ),
         tem=_tem(top.table("tem", set(TEM_RANGES))) if top.has("tem") else None,
+        controller=top.str("controller", None, choices=("master", "slave")),
     )
 
 
