@@ -221,6 +221,13 @@ class IoRig:
         with self._cond:
             return dict(self._counts)
 
+    def silent_modules(self) -> str:
+        """The modules whose TPDOs have not brought the input set the loop waits for, as
+        ``"modules.NAME (node N)"`` (comma-separated; call with the inputs' lock held or after the loop)."""
+        by_node = {m.node_id: m.name for m in self.config.modules.values()}
+        nodes = sorted({cob & 0x7F for cob, n in self._arrived.items() if n <= self._consumed})
+        return ", ".join(f"modules.{by_node.get(k, '?')} (node {k})" for k in nodes) or "no module"
+
     def _complete(self) -> int:
         return min(self._arrived.values()) if self._arrived else 0
 
@@ -232,8 +239,18 @@ class IoRig:
                 self.timeouts += 1
                 self.stale += 1
                 if self.stale >= self.config.stale_limit:
+                    if self.stale == self.config.stale_limit:  # once per outage: which module went silent
+                        log.warning(
+                            "%s: no inputs for %d periods from %s: every signal reads NaN (the envelope "
+                            "trips on it); is the module powered, on this bus, OPERATIONAL?",
+                            self.config.source,
+                            self.stale,
+                            self.silent_modules(),
+                        )
                     self._last = RigSample(self._last.t_s, math.nan, math.nan, math.nan, False, math.nan)
                 return self._last
+            if self.stale >= self.config.stale_limit:
+                log.warning("%s: inputs back after %d periods", self.config.source, self.stale)
             self.stale = 0
             self.sets += 1
             self._consumed = self._complete()

@@ -5,6 +5,8 @@ by TPDO on the test's SYNC, the drive by RPDO; a refused configuration names the
 
 from __future__ import annotations
 
+import logging
+
 import subprocess
 import sys
 from pathlib import Path
@@ -74,7 +76,7 @@ def test_commissioned_rig_reads_tpdos_on_sync_and_drives_by_rpdo(rig):
 
 
 @pytest.mark.slow
-def test_missing_inputs_time_out_then_read_nan(rig):
+def test_missing_inputs_time_out_then_read_nan(rig, caplog):
     hub, bus, _ = rig
     # a generous input timeout (1 s, not the shipped 5 ms): the read after a SYNC gets its inputs however
     # loaded the machine is; the reads without a SYNC still wait it out, count it and go stale
@@ -97,7 +99,17 @@ def test_missing_inputs_time_out_then_read_nan(rig):
         assert io.timeouts == 0
         first = io.read()  # no SYNC: no new inputs, the last sample once
         assert io.timeouts == 1 and first.T_sensor_C == first.T_sensor_C
-        assert io.read().T_sensor_C != io.read().T_sensor_C  # stale_limit reached: NaN
+        with caplog.at_level(logging.WARNING, logger="telethermo.iomodule.iorig"):
+            assert io.read().T_sensor_C != io.read().T_sensor_C  # stale_limit reached: NaN
+            # the node's log says which module went silent, once (not only the envelope's sensor trip)
+            assert [r.getMessage() for r in caplog.records] == [
+                "RIG.toml: no inputs for 2 periods from modules.io (node 3): every signal reads NaN (the "
+                "envelope trips on it); is the module powered, on this bus, OPERATIONAL?"
+            ]
+            _sync(bus)
+            back = io.read()  # the inputs of that SYNC
+            assert back.T_sensor_C == back.T_sensor_C
+            assert caplog.records[-1].getMessage() == "RIG.toml: inputs back after 3 periods"
     finally:
         io.close()
 
