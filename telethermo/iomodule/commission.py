@@ -22,9 +22,26 @@ PDO_INVALID = 0x80000000
 class CommissionError(RuntimeError):
     """A module refused a configuration write, or read back another value; the message names both."""
 
-    def __init__(self, message: str, *, index: int, subindex: int, code: int | None = None):
+    def __init__(
+        self,
+        message: str,
+        *,
+        index: int,
+        subindex: int,
+        code: int | None = None,
+        mapped: tuple[int, int] | None = None,
+    ):
         super().__init__(message)
         self.index, self.subindex, self.code = index, subindex, code
+        self.mapped = mapped
+        """For a refused PDO mapping entry: the (index, subindex) it mapped (the signal's object)."""
+
+
+def _mapped(index: int, sub: int, value: int) -> tuple[int, int] | None:
+    """The (index, subindex) a PDO mapping entry ``value`` maps (0x1600–0x17FF, 0x1A00–0x1BFF, sub >= 1)."""
+    if sub >= 1 and (0x1600 <= index <= 0x17FF or 0x1A00 <= index <= 0x1BFF):
+        return (value >> 16) & 0xFFFF, (value >> 8) & 0xFF
+    return None
 
 
 def _entry(index: int, sub: int, bits: int = 16) -> int:
@@ -106,12 +123,17 @@ def commission(node: canopen.RemoteNode, setup: ModuleSetup) -> list[tuple[int, 
         try:
             node.sdo.download(index, sub, _encode(node, index, sub, value))
         except canopen.SdoAbortedError as exc:
+            mapped = _mapped(index, sub, value)
+            shown = (
+                f"0x{value:08X} (maps 0x{mapped[0]:04X}:{mapped[1]}, {value & 0xFF} bit)" if mapped else value
+            )
             raise CommissionError(
-                f"io module {node.id}: {_name(node, index, sub)} = {value} refused: abort "
+                f"io module {node.id}: {_name(node, index, sub)} = {shown} refused: abort "
                 f"0x{exc.code:08X} ({sdo_abort_text(exc.code)})",
                 index=index,
                 subindex=sub,
                 code=exc.code,
+                mapped=mapped,
             ) from None
     final = {(i, s): v for i, s, v in writes}
     back = []

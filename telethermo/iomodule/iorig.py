@@ -41,6 +41,18 @@ class IoRigError(RuntimeError):
     """The modules cannot be reached or refuse their configuration; the message names module and object."""
 
 
+def _mapping_hint(cfg: RigConfig, exc: CommissionError) -> str:
+    """For a refused PDO mapping: which entry of the RIG.toml put that object there, and what to check."""
+    if exc.mapped is None:
+        return ""
+    idx, sub = exc.mapped
+    where = [f"signals.{s.name}" for s in cfg.signals.values() if (s.index, s.subindex) == (idx, sub)]
+    if (cfg.drive.index, cfg.drive.subindex) == (idx, sub):
+        where.append("drive")
+    owner = " and ".join(where) or "no entry"
+    return f"; 0x{idx:04X}:{sub} is {owner} of the file: is it an object of this module (its EDS or manual)?"
+
+
 class IoRig:
     """A rig on CANopen I/O modules: ``IoRig(config, transport=..., controller_id=..., period_s=...)``, then
     :meth:`start` (commissioning), then ``read``/``apply_current`` once per SYNC; :meth:`close` at the end."""
@@ -145,15 +157,23 @@ class IoRig:
             node = self.network.add_node(mod.node_id, str(mod.eds))
             node.sdo.RESPONSE_TIMEOUT = self.sdo_timeout_s
             self.nodes[mod.name] = node
+            sdo_log = logging.getLogger("canopen.sdo.client")  # the failure is ours to say, in one line
+            level = sdo_log.level
+            sdo_log.setLevel(logging.CRITICAL)
             try:
                 node.nmt.send_command(0x80)  # PRE-OPERATIONAL: PDO mapping may change
                 commission(node, setup)
             except CommissionError as exc:
-                raise IoRigError(f"{cfg.source}: modules.{mod.name}: {exc}") from None
+                hint = _mapping_hint(cfg, exc)
+                raise IoRigError(f"{cfg.source}: modules.{mod.name}: {exc}{hint}") from None
             except canopen.SdoCommunicationError as exc:
+                bus = self._transport.describe() if self._transport else "the node's bus"
                 raise IoRigError(
-                    f"{cfg.source}: modules.{mod.name}: node {mod.node_id} does not answer SDO ({exc})"
+                    f"{cfg.source}: modules.{mod.name}: node {mod.node_id} does not answer SDO ({exc}); "
+                    f"is the module powered, set to node-ID {mod.node_id}, and on this bus ({bus})?"
                 ) from None
+            finally:
+                sdo_log.setLevel(level)
             names = [s.name for s in cfg.signals.values() if s.module == mod.name]
             for k in range(0, len(names), PER_TPDO):
                 cob = 0x180 + 0x100 * (k // PER_TPDO) + mod.node_id

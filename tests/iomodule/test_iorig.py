@@ -130,6 +130,9 @@ def test_a_module_that_refuses_is_named_with_object_and_abort_code(rig, tmp_path
         ).start()
     msg = str(err.value)
     assert "modules.io" in msg and "0x1A01:1" in msg and "0x06040041" in msg, msg
+    # the refused value decoded, and the file's entry that put the object there
+    assert "= 0x21000010 (maps 0x2100:0, 16 bit) refused" in msg, msg
+    assert "0x2100:0 is signals." in msg and "of the file: is it an object of this module" in msg, msg
     # the node program: one line, exit 2
     bad = tmp_path / "RIG.toml"
     bad.write_text(text, encoding="utf-8")
@@ -222,3 +225,25 @@ def test_sdo_timeout_of_the_rig_toml_is_the_commissionings_default():
     kw = dict(transport=None, controller_id=CONTROLLER_ID, period_s=0.01)
     assert IoRig(cfg, **kw).sdo_timeout_s == 2.5
     assert IoRig(cfg, sdo_timeout_s=0.2, **kw).sdo_timeout_s == 0.2  # rig check's own
+
+
+def test_a_module_that_is_not_there_is_one_line_saying_what_to_check(caplog):
+    # no module on the bus: the driver's one line says what to check, and canopen's own "Transfer aborted"
+    # ERROR line does not appear beside it
+    text = SIM_TOML.read_text(encoding="utf-8").replace(
+        "stale_limit = 3", "stale_limit = 3\nsdo_timeout_ms = 50"
+    )
+    rig = IoRig(
+        parse_rig_config(text, "RIG.toml"),
+        transport=parse_bus_string("virtual:tt-no-module"),
+        controller_id=CONTROLLER_ID,
+        period_s=0.01,
+    )
+    with caplog.at_level(logging.DEBUG, logger="canopen"), pytest.raises(IoRigError) as err:
+        rig.start()
+    msg = str(err.value)
+    assert msg.startswith("RIG.toml: modules.io: node 3 does not answer SDO"), msg
+    assert msg.endswith("is the module powered, set to node-ID 3, and on this bus (virtual:tt-no-module)?"), (
+        msg
+    )
+    assert not [r for r in caplog.records if r.levelno >= logging.ERROR], caplog.records
