@@ -16,6 +16,7 @@ import canopen
 import pytest
 
 from telethermo.bus_config import path as cfg_path
+from tests.support.busenv import isolate_bus_settings
 from telethermo.device.netconfig import load_network
 from telethermo.cli.main import EXIT_FAIL, EXIT_OK, EXIT_USAGE
 from telethermo.transport.bus import TransportError
@@ -24,24 +25,12 @@ from telethermo.transport.resolve import resolve_bus
 
 pytestmark = pytest.mark.slow  # starts processes
 
-ENV_KEYS = ("CAN_INTERFACE", "CAN_CHANNEL", "CAN_BITRATE", "CAN_CONFIG")
-
 
 @pytest.fixture(autouse=True)
 def isolated(tmp_path, monkeypatch):
     """A HOME, runtime dir and working directory of our own; no CAN_* variables; python-can's config files
     only under that HOME (not /etc/can.conf of this machine)."""
-    home = tmp_path / "home"
-    home.mkdir()
-    (tmp_path / "run").mkdir()
-    monkeypatch.setenv("HOME", str(home))
-    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path / "run"))
-    for key in ENV_KEYS:
-        monkeypatch.delenv(key, raising=False)
-        monkeypatch.delenv(f"{key}_telethermo", raising=False)
-    monkeypatch.setattr(can.util, "CONFIG_FILES", [p for p in can.util.CONFIG_FILES if p.startswith("~")])
-    monkeypatch.chdir(tmp_path)
-    return home
+    return isolate_bus_settings(tmp_path, monkeypatch)
 
 
 def canrc(home: Path, text: str) -> None:

@@ -12,31 +12,21 @@ import signal
 import subprocess
 from pathlib import Path
 
-import can.util
 import pytest
 
 from telethermo.control.types import Role
 from telethermo.nodes.launch import node_command, stop_process, wait_for
 from telethermo.nodes.main import run_node
+from tests.support.busenv import isolate_bus_settings
 
 SCENES = Path(__file__).resolve().parents[2] / "sim" / "scenes"
 SCENE = SCENES / "free_pad_identification.toml"
-ENV_KEYS = ("CAN_INTERFACE", "CAN_CHANNEL", "CAN_BITRATE", "CAN_CONFIG")
 
 
 @pytest.fixture
 def no_bus_setting(tmp_path, monkeypatch):
     """No --bus, CAN_* variable, python-can config file or published hub: network.toml's virtual bus."""
-    home = tmp_path / "home"
-    home.mkdir()
-    (tmp_path / "run").mkdir()
-    monkeypatch.setenv("HOME", str(home))
-    monkeypatch.setenv("XDG_RUNTIME_DIR", str(tmp_path / "run"))
-    for key in ENV_KEYS:
-        monkeypatch.delenv(key, raising=False)
-        monkeypatch.delenv(f"{key}_telethermo", raising=False)
-    monkeypatch.setattr(can.util, "CONFIG_FILES", [p for p in can.util.CONFIG_FILES if p.startswith("~")])
-    monkeypatch.chdir(tmp_path)
+    isolate_bus_settings(tmp_path, monkeypatch)
 
 
 @pytest.fixture
