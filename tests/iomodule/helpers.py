@@ -47,6 +47,22 @@ class Bus:
             time.sleep(every_s)
         raise AssertionError(f"timed out waiting for {what}")
 
+    def sdo_settled(self, attempts: int = 20) -> None:
+        """Make the test's next SDO reads its own: the driver's client shares the module's one SDO channel
+        (CiA 301: one client per server channel at a time), and under load a duplicate answer to a request
+        it retried after its timeout may still be on its way when its commissioning returns. The module
+        answers in order, so 0x1000 is read until the answer is this read's; a stray (canopen: "returned a
+        value for ... instead") is dropped, and the answer of the read it spoilt with it."""
+        for _ in range(attempts):
+            try:
+                if self.node.sdo.upload(0x1000, 0):
+                    return
+            except canopen.SdoCommunicationError as exc:
+                if "instead" not in str(exc):
+                    raise
+                time.sleep(0.2)  # the spoilt read's own answer arrives meanwhile; the next request drops it
+        raise AssertionError(f"the module's SDO channel did not settle in {attempts} reads")
+
     def module_state(self) -> int | None:
         states = [s for _, n, s, _ in self.heartbeats if n == MODULE_ID]
         return states[-1] if states else None

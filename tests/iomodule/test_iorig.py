@@ -42,6 +42,7 @@ def test_commissioned_rig_reads_tpdos_on_sync_and_drives_by_rpdo(rig):
     assert node.sdo[0x2100].raw == 400 and node.sdo[0x6443][1].raw == 0  # the module's traps, before
     io = _rig(hub).start()
     try:
+        bus.sdo_settled()
         # what commissioning wrote, read by the test's own client from the module's EDS
         assert node.sdo[0x2100].raw == 10 and node.sdo[0x1006].raw == 10_000
         assert node.sdo[0x6443][1].raw == 1 and node.sdo[0x6444][1].raw == 0 and node.sdo[0x1029][1].raw == 0

@@ -68,6 +68,7 @@ def test_a_reset_module_is_commissioned_again_and_started(rig):
         bus.wait(lambda: OPERATIONAL in _states_since(bus, boot), timeout_s=30)
         bus.wait(lambda: io.module_restarts >= 1, timeout_s=10)
         assert io.module_restarts == 1 and io.supervisor.failures == 0
+        bus.sdo_settled()
         node = bus.node  # what the controller wrote again, read by the test's own client
         assert node.sdo[0x2100].raw == 10 and node.sdo[0x6443][1].raw == 1 and node.sdo[0x6444][1].raw == 0
         assert node.sdo[0x1016][1].raw == (CONTROLLER_ID << 16) | 150
