@@ -1,11 +1,12 @@
 """Train the slave's envelope classifiers on simulated reference touches across the envelope (issue 23).
 
-``python -m bench.material_envelope_calibrate [--touches 48000] [--jobs 2] [--refs CACHE.npz]``
+``python -m bench.material_envelope_calibrate [--touches 192000] [--jobs 2] [--refs CACHE.npz]``
 
 The procedure (reference touches on the shipped probe and a family of other modules after ``identify``, the
 envelope vectors, one network per answer) is telethermo/offline/material_envelope_calibration.py's
 :func:`calibrate`; it writes telethermo/data/material_envelope_early.npz and material_envelope_late.npz.
-About 20 min of simulation in 2 processes on this shared machine, 3 min of training; ``--refs`` keeps the
+About 13 min of simulation in 2 processes on this machine when it is quiet, 3 min of training (192 000
+touches; docs/material_id.md, "More references", says why that many); ``--refs`` keeps the
 simulated touches so that training again does not simulate again. ``--ranges-only --refs CACHE.npz`` records
 the range of the references' network inputs in the shipped classifiers (their novelty check) without
 training again.
@@ -17,6 +18,7 @@ import argparse
 import time
 
 from telethermo.offline.material_envelope_calibration import calibrate, record_ranges
+from telethermo.offline.material_envelope_refs import ENV_REFERENCES_N
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -25,7 +27,9 @@ def main(argv: list[str] | None = None) -> int:
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    ap.add_argument("--touches", type=int, default=48_000, help="reference touches (48000)")
+    ap.add_argument(
+        "--touches", type=int, default=ENV_REFERENCES_N, help=f"reference touches ({ENV_REFERENCES_N})"
+    )
     ap.add_argument("--jobs", type=int, default=2, help="simulating processes (2)")
     ap.add_argument("--refs", help="keep the simulated touches in this .npz (read it when it exists)")
     ap.add_argument(

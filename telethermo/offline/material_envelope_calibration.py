@@ -4,7 +4,7 @@
 Two classifiers, one per answer: the early one over the 0.3 s window (every sample), the refined one over
 1.2 s (every 4th sample), each a network over telethermo.control.material_calib.envelope_vector (the touch's
 shape, divided by its size and by the direction of its heat flow, then that size, the direction and the
-probe's pre-contact state), trained on :mod:`telethermo.offline.material_envelope_refs`' touches (48 000, the
+probe's pre-contact state), trained on :mod:`telethermo.offline.material_envelope_refs`' touches (192 000, the
 shipped probe and a family of other modules after ``identify``). The slave uses them outside the in-box
 classifier's box (telethermo.control.material_stream). Features and network size were chosen on a
 development set of other seeds (material_envelope_refs.ENV_DEVELOPMENT; docs/material_id.md).

@@ -40,7 +40,7 @@ from telethermo.offline.material_touches import (
 from telethermo.sim.tem import load_rig_params
 
 #: (draw seed, first simulator seed) of the envelope classifier's reference touches and of its development set
-ENV_REFERENCES, ENV_REFERENCES_N = (7171, 5_000_000), 48_000
+ENV_REFERENCES, ENV_REFERENCES_N = (7171, 5_000_000), 192_000
 ENV_DEVELOPMENT, ENV_DEVELOPMENT_N = (6262, 4_000_000), 3000
 #: the other probe modules of the family: how many, and the seed of their draw
 N_TEMS, TEM_FAMILY_SEED = 12, 8181
