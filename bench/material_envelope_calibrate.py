@@ -5,8 +5,8 @@
 The procedure (reference touches on the shipped probe and a family of other modules after ``identify``, the
 envelope vectors, one network per answer) is telethermo/offline/material_envelope_calibration.py's
 :func:`calibrate`; it writes telethermo/data/material_envelope_early.npz and material_envelope_late.npz.
-About 13 min of simulation in 2 processes on this machine when it is quiet, 3 min of training (192 000
-touches; docs/material_id.md, "More references", says why that many); ``--refs`` keeps the
+About 13 min of simulation in 2 processes on this machine when it is quiet, 5 min of training (192 000
+touches, 60 epochs; docs/material_id.md, "More references", says why); ``--refs`` keeps the
 simulated touches so that training again does not simulate again. ``--ranges-only --refs CACHE.npz`` records
 the range of the references' network inputs in the shipped classifiers (their novelty check) without
 training again.

@@ -49,8 +49,8 @@ from telethermo.offline.material_touches import PERIOD_S, SIM_TO_TABLE
 Q_WEIGHT_K_PER_W = 3.0
 #: (window s, every n-th sample) of the early and the refined answer's classifier
 EARLY, LATE = (0.3, 1), (1.2, 4)
-#: how the networks are trained (the development set's choice: 3 × 256, 30 epochs)
-SETTINGS = TrainSettings(hidden=256, layers=3, epochs=30, batch=256, warmup=50, weight_decay=1e-4)
+#: how the networks are trained (the development set's choice: 3 × 256, 60 epochs; docs/material_id.md)
+SETTINGS = TrainSettings(hidden=256, layers=3, epochs=60, batch=256, warmup=50, weight_decay=1e-4)
 
 
 def vectors(
