@@ -9,7 +9,6 @@ the run is logged at exit.
 from __future__ import annotations
 
 import logging
-import signal
 import sys
 import time
 from typing import Callable
@@ -30,6 +29,7 @@ from telethermo.nodes.options import OptionError, build_parser, options_from_arg
 from telethermo.nodes.parts import build_parts
 from telethermo.nodes.realtime import apply_realtime
 from telethermo.nodes.runtime import NodeRuntime
+from telethermo.stopsignal import StopOnSignal
 
 EXIT_OK, EXIT_FAIL, EXIT_USAGE = 0, 1, 2
 
@@ -122,15 +122,26 @@ def _serve(
     """Start the node, run it until it is done or signalled (SIGINT/SIGTERM), then stop it and close its
     rig; the exit code (a failed start or a cycle error: 1). ``warning``: a line printed once the node runs,
     after its ready line."""
-    role, node_id, transport = rt.role, rt.node_id, rt.transport
     reason = ["finished"]
 
-    def on_signal(signum, _frame):
-        reason[0] = signal.Signals(signum).name
-        rt.stop_event.set()
+    def on_signal(name: str) -> None:  # from StopOnSignal's watcher thread, which then sets stop_event
+        reason[0] = name
 
-    signal.signal(signal.SIGTERM, on_signal)
-    signal.signal(signal.SIGINT, on_signal)
+    with StopOnSignal(rt.stop_event, on_signal=on_signal):
+        return _run(prog, rt, opts, parts, log, reason, warning)
+
+
+def _run(
+    prog: str,
+    rt: NodeRuntime,
+    opts,
+    parts,
+    log: logging.Logger,
+    reason: list[str],
+    warning: str | None,
+) -> int:
+    """:func:`_serve`'s body, inside its signal context."""
+    role, node_id, transport = rt.role, rt.node_id, rt.transport
     code = EXIT_OK
     try:
         try:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import signal
 import sys
 import threading
 from pathlib import Path
@@ -20,13 +19,15 @@ from pathlib import Path
 import canopen
 
 from telethermo.device import DeviceSettings, NetworkConfigError, load_network
-from telethermo.iomodule.faults import FaultError, parse_faults
+from telethermo.iomodule.faults import FaultError, Faults, parse_faults
 from telethermo.iomodule.module import IoModule
 from telethermo.iomodule.truthlog import TruthLog
 from telethermo.sim.compile import build_rig
 from telethermo.sim.errors import SceneError
+from telethermo.rig import SimulatedRig
 from telethermo.sim.scene import load_scene
-from telethermo.transport.bus import TransportError
+from telethermo.stopsignal import StopOnSignal
+from telethermo.transport.bus import TransportError, TransportSettings
 from telethermo.transport.busargs import add_bus_arguments
 from telethermo.transport.resilient import ResilientBus
 from telethermo.transport.resolve import resolve_bus
@@ -108,8 +109,19 @@ def main(argv: list[str] | None = None) -> int:
         sync_period_us=round(net.sync.period_s * 1e6), sync_counter_overflow=net.sync.counter_overflow
     )
     stop = threading.Event()
-    signal.signal(signal.SIGTERM, lambda *_: stop.set())
-    signal.signal(signal.SIGINT, lambda *_: stop.set())
+    with StopOnSignal(stop):
+        return _serve(transport, args, rig, settings, faults, stop)
+
+
+def _serve(
+    transport: TransportSettings,
+    args: argparse.Namespace,
+    rig: SimulatedRig,
+    settings: DeviceSettings,
+    faults: Faults,
+    stop: threading.Event,
+) -> int:
+    """Open the bus, run the module until ``stop`` is set (SIGINT/SIGTERM), close it; the exit code."""
     try:
         bus = ResilientBus(transport)
     except Exception as exc:  # no hub, no interface: the module cannot start
