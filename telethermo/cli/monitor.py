@@ -65,6 +65,15 @@ def register(subparsers) -> None:
         "object name; repeatable, e.g. --eds 5=arm.eds",
     )
     p.add_argument(
+        "--rig-config",
+        action="append",
+        default=[],
+        metavar="RIG.toml",
+        help="an I/O rig's file (as the node's --rig-config): its CiA 401 modules are named and their PDOs "
+        "decoded by their EDS, and its controller is expected to beat at the period it lowers its "
+        "heartbeat to; repeatable (one per side)",
+    )
+    p.add_argument(
         "--sync-period",
         type=float,
         metavar="S",
@@ -99,7 +108,13 @@ def run(args: argparse.Namespace) -> int:
     _check_args(args)
     net = common.network(args)
     mon = Monitor(
-        monitor_config(net, bitrate=args.bitrate, sync_period_s=args.sync_period, extra_eds=args.eds)
+        monitor_config(
+            net,
+            bitrate=args.bitrate,
+            sync_period_s=args.sync_period,
+            extra_eds=args.eds,
+            rig_configs=args.rig_config,
+        )
     )
     scripted = args.json or args.lines
     bus = None

@@ -14,6 +14,7 @@ from canopen.objectdictionary import import_od
 from telethermo.device.eds_info import EdsError, EdsInfo
 from telethermo.device.netconfig import NetworkConfig, NetworkConfigError
 from telethermo.cli.main import UserError
+from telethermo.iomodule.rigconfig import RigConfigError, load_rig_config
 from telethermo.monitor.records import MonitorConfig, NodeInfo
 from telethermo.remote.targets import eds_info, node_targets
 
@@ -24,9 +25,12 @@ def monitor_config(
     bitrate: int | None = None,
     sync_period_s: float | None = None,
     extra_eds: list[str] | tuple[str, ...] = (),
+    rig_configs: list[str] | tuple[str, ...] = (),
 ) -> MonitorConfig:
     """The monitor's view of the network: node names, EDS dictionaries (``extra_eds``: ``NODE=FILE`` of
-    further nodes, named by the file) with the network file's
+    further nodes, named by the file; ``rig_configs``: RIG.toml files, whose I/O modules are named and
+    decoded by their EDS and whose controller beats at the period it lowers its heartbeat to) with the
+    network file's
     power-on overrides (heartbeat and consumer times, SYNC), bitrate and the nominal SYNC period
     (``sync_period_s``, else the network file's, in lockstep too: late cycles are then counted
     against the period the nodes were configured with, and the view says "lockstep")."""
@@ -47,6 +51,8 @@ def monitor_config(
                 f"whose EDS is {net.nodes[nodes[node_id].name].eds}"
             )
         nodes[node_id] = info
+    for path in rig_configs:
+        _add_rig(net, nodes, path)
     period = sync_period_s if sync_period_s is not None else net.sync.period_s
     return MonitorConfig(
         nodes=nodes,
@@ -73,6 +79,36 @@ def _extra_node(spec: str) -> tuple[int, NodeInfo]:
     except EdsError as exc:
         raise UserError(f"--eds {spec}: {exc}") from None
     return node_id, NodeInfo(eds.stem, _import_od(eds, node_id))
+
+
+def _add_rig(net: NetworkConfig, nodes: dict[int, NodeInfo], path: str) -> None:
+    """``--rig-config RIG.toml``: its modules by name and EDS; its controller's heartbeat period lowered as
+    the node lowers it (:attr:`RigConfig.heartbeat_limit_ms`), so the monitor expects what the node does."""
+    try:
+        rig = load_rig_config(path)
+    except RigConfigError as exc:
+        raise UserError(f"--rig-config: {exc}") from None
+    for name, module in rig.modules.items():
+        if module.node_id in nodes:
+            raise UserError(
+                f"--rig-config {path}: module {name} is node {module.node_id}, "
+                f"which is already {nodes[module.node_id].name}"
+            )
+        try:
+            EdsInfo(module.eds)  # the check `get` and the nodes make
+        except EdsError as exc:
+            raise UserError(f"--rig-config {path}: module {name}: {exc}") from None
+        nodes[module.node_id] = NodeInfo(name, _import_od(module.eds, module.node_id))
+    controller = net.nodes.get(rig.controller) if rig.controller else None
+    info = nodes.get(controller.node_id) if controller is not None else None
+    if info is None or info.od is None:
+        return
+    try:
+        var = info.od[0x1017]
+    except KeyError:
+        return
+    if not 0 < int(var.value or 0) <= rig.heartbeat_limit_ms:
+        var.value = rig.heartbeat_limit_ms
 
 
 def _import_od(eds: Path, node_id: int):

@@ -217,10 +217,9 @@ class IoRig:
 
     @property
     def heartbeat_limit_ms(self) -> int:
-        """The longest heartbeat period (0x1017) the controller may keep, ms: a third of the shortest time
-        its modules watch it (RIG.toml ``consumer_ms``), so that two heartbeats late or lost in a row (a
-        loaded machine) do not make a module cut the drive; the node lowers its period to this at power-on."""
-        return max(1, min(m.consumer_ms for m in self.config.modules.values()) // 3)
+        """The longest heartbeat period (0x1017) the controller may keep, ms
+        (:attr:`RigConfig.heartbeat_limit_ms`); the node lowers its period to this at power-on."""
+        return self.config.heartbeat_limit_ms
 
     @property
     def module_restarts(self) -> int:

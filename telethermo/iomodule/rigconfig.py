@@ -155,6 +155,13 @@ class RigConfig:
     """The TEM's constants (``[tem]``; None: the envelope's defaults)."""
     extra: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def heartbeat_limit_ms(self) -> int:
+        """The longest heartbeat period (0x1017) the controller may keep, ms: a third of the shortest time
+        its modules watch it (``consumer_ms``), so that two heartbeats late or lost in a row (a loaded
+        machine) do not make a module cut the drive; the node lowers its period to this at power-on."""
+        return max(1, min(m.consumer_ms for m in self.modules.values()) // 3)
+
 
 def _sign(t: Section, key: str = "sign") -> int:
     v = t.get(key, 1)

@@ -343,7 +343,10 @@ class Monitor:
                 else "PDO"
             )
             f.fields = {"mapping": None, "guess": label}
-            f.text = f"{label}? node {f.node} (no mapping known) {f.data.hex(' ')}"
+            f.text = (
+                f"{label}? node {f.node} (no mapping known: --eds NODE=FILE, or --rig-config for an I/O "
+                f"module) {f.data.hex(' ')}"
+            )
             return
         f.node = pdef.node
         values, err = decode_pdo(pdef, f.data)
