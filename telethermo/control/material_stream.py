@@ -434,7 +434,7 @@ def _classify_unit(
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last
     i, post = decide(probs)
     if job.net == "envelope":
-        answer = _envelope_answer(p, cal, i, post, est, job.late, pre_contact(inp)[0], job.x)
+        answer = _envelope_answer(p, cal, i, post, est, job.late, inp, job.x)
         if job.late:
             return None, _late_result(p, job, last, answer)
         return None, _result(p, est, *answer, n, p.early, "envelope")
@@ -460,12 +460,13 @@ def _envelope_answer(
     post: float,
     est: EffusivityEstimate | None,
     late: bool,
-    T_probe_C: float,
+    inp: FitInput,
     x: np.ndarray | None = None,
 ) -> tuple[int, float, str]:
-    """(code, posterior, why abstained) of the envelope classifier's likeliest class ``i`` for a probe resting
-    at ``T_probe_C``: abstained where the touch draws almost no heat, whatever the network says (the early
-    window has no physics fit, or the fit puts the object within :data:`ENVELOPE_MIN_DT_C` of the probe), or
+    """(code, posterior, why abstained) of the envelope classifier's likeliest class ``i`` for the touch whose
+    window is ``inp`` (the probe resting at its pre-contact mean): abstained where the touch draws almost no
+    heat, whatever the network says (the early window has no physics fit, or the fit puts the object within
+    :data:`ENVELOPE_MIN_DT_C` of the probe), or
     when the posterior is below material_physics.MIN_POSTERIOR. Not at the physics posterior's 2 °C: the
     lumped fit's object temperature is off on thin slabs and behind a contact resistance (measured on the
     envelope bench with the 24 000-touch classifier: abstaining below a fitted 1 °C and without an early fit
@@ -474,7 +475,8 @@ def _envelope_answer(
     too. The refined answer without a fit over its 1.2 s (a thin slab that has come to the probe's
     temperature) is named: the classifier needs none. A touch outside what the classifier learnt is
     "unknown" too (material_trust.envelope_novelty)."""
-    novel = envelope_novelty(cal, x, est, late)
+    novel = envelope_novelty(cal, x, est, late, inp)
+    T_probe_C = pre_contact(inp)[0]
     if novel is not None:
         return UNKNOWN_CODE, post, novel
     if est is None and not late:

@@ -110,8 +110,42 @@ def abstain_reason(
     return None
 
 
+#: the flux's peak change is looked for over the first FLUX_PEAK_S of the contact, s, and compared with its
+#: mean change over FLUX_LATER_S, s (:func:`flux_collapse`)
+FLUX_PEAK_S, FLUX_LATER_S = 0.15, (0.35, 0.45)
+#: below this peak change of the flux, W, the ratio is the sensor's noise and is not judged
+FLUX_COLLAPSE_MIN_PEAK_W = 0.3
+#: a refined answer whose flux falls by more than this factor from its peak to 0.35–0.45 s is "unknown"
+#: (``flux_collapse``): chosen on the envelope classifier's reference touches (docs/material_id.md)
+FLUX_COLLAPSE_MAX = 5.0
+
+
+def flux_collapse(inp: FitInput) -> float | None:
+    """How far the flux falls after its peak: the largest change from the pre-contact mean over the first
+    :data:`FLUX_PEAK_S` of contact over the mean change in :data:`FLUX_LATER_S` (None: the window is too
+    short, or the peak is below :data:`FLUX_COLLAPSE_MIN_PEAK_W`). A slab warms (or cools) to the probe and
+    stops drawing heat within its own time constant, ρ·c·e over the contact conductance: about 0.04 s for a
+    50 µm metal foil, ten times longer for the thinnest object of the envelope (0.3 mm); a semi-infinite
+    object's flux falls as 1/√t. A foil on an insulating back then looks like a touch of EPS to the
+    classifier, which learnt nothing thinner than 0.3 mm."""
+    n = inp.n_pre
+    i_peak = n + int(round(FLUX_PEAK_S / inp.dt_s))
+    i_lo, i_hi = (n + int(round(t / inp.dt_s)) for t in FLUX_LATER_S)
+    if inp.Q.size <= i_hi:
+        return None
+    q = inp.Q - float(np.mean(inp.Q[:n]))
+    peak = float(np.max(np.abs(q[n:i_peak])))
+    if not peak >= FLUX_COLLAPSE_MIN_PEAK_W:
+        return None
+    return peak / max(abs(float(np.mean(q[i_lo:i_hi]))), 1e-3)
+
+
 def envelope_novelty(
-    cal: Calibration, x: np.ndarray | None, est: EffusivityEstimate | None, late: bool
+    cal: Calibration,
+    x: np.ndarray | None,
+    est: EffusivityEstimate | None,
+    late: bool,
+    inp: FitInput | None = None,
 ) -> str | None:
     """Why a touch lies outside what the envelope classifier ``cal`` learnt, or None: its network input ``x``
     lies beyond the references' range by more than :data:`ENVELOPE_NOVELTY_MARGIN` in some input
@@ -120,7 +154,13 @@ def envelope_novelty(
     guess (a 60–90 °C object was named right in 7 % of early answers on the development touches). Not for
     the refined answer: over 1.2 s the classifier named half of those hot objects right, as many as the
     check would have turned away wrong ones, and the fit's object temperature strays beyond 10 °C on 4 % of
-    the touches inside the envelope (thin slabs)."""
+    the touches inside the envelope (thin slabs). For the refined answer, a flux that collapses after its
+    peak faster than on any but a few reference touches (:func:`flux_collapse` above
+    :data:`FLUX_COLLAPSE_MAX`, window ``inp``) is ``flux_collapse``: an object thinner than the envelope's."""
+    if late and inp is not None:  # first: the reason a person can act on (the object is too thin)
+        ratio = flux_collapse(inp)
+        if ratio is not None and ratio > FLUX_COLLAPSE_MAX:
+            return "flux_collapse"
     if x is not None and outside_references(cal, x, ENVELOPE_NOVELTY_MARGIN):
         return "outside_references"
     lo, hi = ENVELOPE_T_OBJECT_C
