@@ -111,18 +111,20 @@ def abstain_reason(
 
 
 #: the flux's peak change is looked for over the first FLUX_PEAK_S of the contact, s, and compared with its
-#: mean change over FLUX_LATER_S, s (:func:`flux_collapse`)
-FLUX_PEAK_S, FLUX_LATER_S = 0.15, (0.35, 0.45)
+#: mean change over a later window, s (:func:`flux_collapse`): the refined answer's and the early one's
+FLUX_PEAK_S, FLUX_LATER_S, FLUX_EARLY_LATER_S = 0.15, (0.35, 0.45), (0.20, 0.28)
 #: below this peak change of the flux, W, the ratio is the sensor's noise and is not judged
 FLUX_COLLAPSE_MIN_PEAK_W = 0.3
-#: a refined answer whose flux falls by more than this factor from its peak to 0.35–0.45 s is "unknown"
-#: (``flux_collapse``): chosen on the envelope classifier's reference touches (docs/material_id.md)
-FLUX_COLLAPSE_MAX = 5.0
+#: an answer whose flux falls by more than this factor from its peak to the later window is "unknown"
+#: (``flux_collapse``), the refined answer's and the early one's: chosen on the envelope classifier's
+#: reference touches and development touches beyond the envelope (``python -m bench.material_flux_collapse``,
+#: docs/material_id.md)
+FLUX_COLLAPSE_MAX, FLUX_COLLAPSE_MAX_EARLY = 5.0, 2.5
 
 
-def flux_collapse(inp: FitInput) -> float | None:
+def flux_collapse(inp: FitInput, later_s: tuple[float, float] = FLUX_LATER_S) -> float | None:
     """How far the flux falls after its peak: the largest change from the pre-contact mean over the first
-    :data:`FLUX_PEAK_S` of contact over the mean change in :data:`FLUX_LATER_S` (None: the window is too
+    :data:`FLUX_PEAK_S` of contact over the mean change in ``later_s`` after contact (None: the window is too
     short, or the peak is below :data:`FLUX_COLLAPSE_MIN_PEAK_W`). A slab warms (or cools) to the probe and
     stops drawing heat within its own time constant, ρ·c·e over the contact conductance: about 0.04 s for a
     50 µm metal foil, ten times longer for the thinnest object of the envelope (0.3 mm); a semi-infinite
@@ -130,7 +132,7 @@ def flux_collapse(inp: FitInput) -> float | None:
     classifier, which learnt nothing thinner than 0.3 mm."""
     n = inp.n_pre
     i_peak = n + int(round(FLUX_PEAK_S / inp.dt_s))
-    i_lo, i_hi = (n + int(round(t / inp.dt_s)) for t in FLUX_LATER_S)
+    i_lo, i_hi = (n + int(round(t / inp.dt_s)) for t in later_s)
     if inp.Q.size <= i_hi:
         return None
     q = inp.Q - float(np.mean(inp.Q[:n]))
@@ -156,10 +158,15 @@ def envelope_novelty(
     check would have turned away wrong ones, and the fit's object temperature strays beyond 10 °C on 4 % of
     the touches inside the envelope (thin slabs). For the refined answer, a flux that collapses after its
     peak faster than on any but a few reference touches (:func:`flux_collapse` above
-    :data:`FLUX_COLLAPSE_MAX`, window ``inp``) is ``flux_collapse``: an object thinner than the envelope's."""
-    if late and inp is not None:  # first: the reason a person can act on (the object is too thin)
-        ratio = flux_collapse(inp)
-        if ratio is not None and ratio > FLUX_COLLAPSE_MAX:
+    :data:`FLUX_COLLAPSE_MAX`, window ``inp``) is ``flux_collapse``: an object thinner than the envelope's;
+    the early answer, whose window ends at 0.3 s, compares 0.20–0.28 s (above
+    :data:`FLUX_COLLAPSE_MAX_EARLY`)."""
+    if inp is not None:  # first: the reason a person can act on (the object is too thin)
+        later_s, most = (
+            (FLUX_LATER_S, FLUX_COLLAPSE_MAX) if late else (FLUX_EARLY_LATER_S, FLUX_COLLAPSE_MAX_EARLY)
+        )
+        ratio = flux_collapse(inp, later_s)
+        if ratio is not None and ratio > most:
             return "flux_collapse"
     if x is not None and outside_references(cal, x, ENVELOPE_NOVELTY_MARGIN):
         return "outside_references"

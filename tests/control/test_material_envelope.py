@@ -23,7 +23,12 @@ from telethermo.control.material_calib import (
 )
 from telethermo.control.material_stream import UNKNOWN_CODE, default_classes, default_envelope
 from telethermo.control.material_train import TrainSettings
-from telethermo.control.material_trust import FLUX_COLLAPSE_MAX, flux_collapse
+from telethermo.control.material_trust import (
+    FLUX_COLLAPSE_MAX,
+    FLUX_COLLAPSE_MAX_EARLY,
+    FLUX_EARLY_LATER_S,
+    flux_collapse,
+)
 from telethermo.offline.material_envelope_calibration import build
 from telethermo.offline.material_touches import SIM_TO_TABLE, finger_natural_C, noise_of, simulate_touch
 from telethermo.sim.tem import load_rig_params
@@ -203,8 +208,8 @@ def test_a_foil_is_unknown_not_named_eps():
     """A 50 µm aluminium foil (the envelope's objects are ≥ 0.3 mm) at 10 °C, 5 N: it comes to the probe's
     temperature within a few hundredths of a second and then draws no heat, which the classifier reads as
     EPS. Its flux falls from its peak by far more than on any but 0.015 % of the reference touches
-    (material_trust.flux_collapse), so the refined answer is "unknown"; a 0.3 mm stainless-steel slab, the
-    thinnest the envelope holds, touched alike, is judged and not turned away."""
+    (material_trust.flux_collapse), so the refined and the early answer are "unknown"; a 0.3 mm
+    stainless-steel slab, the thinnest the envelope holds, touched alike, is judged and not turned away."""
     rest = finger_natural_C(PARAMS, 25.0)
     runs = {}
     for name, material, thick in (("foil", "aluminium", 50e-6), ("slab", "stainless_steel", 0.3e-3)):
@@ -212,11 +217,16 @@ def test_a_foil_is_unknown_not_named_eps():
             PARAMS, material, thick, 10.0, 5.0, rest, seed=942_001, t_on_s=0.2043, post_s=1.6
         )
         inp = mi.fit_input(T, Q, i0, DT, replace(mi.ProbeParams(), window_s=1.2))
-        assert inp is not None and est is not None and est.stage == "late", est
+        early = mi.fit_input(T, Q, i0, DT, replace(mi.ProbeParams(), window_s=0.3))
+        assert inp is not None and early is not None and est is not None and est.stage == "late", est
         runs[name] = (flux_collapse(inp), est)
+        early_ratio = flux_collapse(early, FLUX_EARLY_LATER_S)
+        assert early_ratio is not None
+        assert (early_ratio > FLUX_COLLAPSE_MAX_EARLY) == (name == "foil"), (name, early_ratio)
     ratio, est = runs["foil"]
     assert ratio is not None and ratio > 2 * FLUX_COLLAPSE_MAX, ratio
     assert est.code == UNKNOWN_CODE and est.abstained == "flux_collapse", est
+    assert est.early_code == UNKNOWN_CODE, est  # the early answer's own check (0.20-0.28 s) saw it too
     ratio, est = runs["slab"]
     assert ratio is not None and ratio < 0.75 * FLUX_COLLAPSE_MAX, ratio
     assert est.abstained != "flux_collapse", est
