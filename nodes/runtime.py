@@ -37,6 +37,7 @@ from telethermo.device.storage import default_store_path
 from telethermo.device.netconfig import NetworkConfig
 from telethermo.device.sync import SyncProducer
 from telethermo.control.types import Mode, Role
+from telethermo.iomodule.rigconfig import RigConfig
 from telethermo.recording.journal import CsvRecorder
 from telethermo.transport.bus import TransportSettings
 from telethermo.transport.resilient import ResilientBus
@@ -242,13 +243,15 @@ class NodeRuntime:
     def _fit_heartbeat_to_modules(self) -> None:
         """``--rig io``: the I/O modules watch this node's heartbeat and cut the drive when it stops
         (RIG.toml ``consumer_ms``). A period (network.toml's ``producer_ms``, or a stored 0x1017) longer than
-        the rig's ``heartbeat_limit_ms`` (a third of the shortest watch) is lowered to it: with the packaged
+        the rig's ``heartbeat_limit_ms`` (a third of the shortest watch) is lowered to it
+        (:meth:`RigConfig.controller_heartbeat_ms`): with the packaged
         100 ms and 150 ms, one heartbeat 50 ms late was a module's loss."""
-        limit = getattr(self.parts.rig, "heartbeat_limit_ms", None)
-        if not isinstance(limit, int):
+        config = getattr(self.parts.rig, "config", None)
+        if not isinstance(config, RigConfig):
             return
         period = int(self.device.read(0x1017))
-        if 0 < period <= limit:
+        limit = config.controller_heartbeat_ms(period)
+        if limit == period:
             return
         self.device.write(0x1017, limit)
         log.info(

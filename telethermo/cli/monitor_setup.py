@@ -74,11 +74,7 @@ def _extra_node(spec: str) -> tuple[int, NodeInfo]:
     eds = Path(path)
     if not eds.is_file():
         raise UserError(f"--eds {spec}: {eds}: no such EDS file")
-    try:
-        EdsInfo(eds)  # the check `get` and the nodes make
-    except EdsError as exc:
-        raise UserError(f"--eds {spec}: {exc}") from None
-    return node_id, NodeInfo(eds.stem, _import_od(eds, node_id))
+    return node_id, NodeInfo(eds.stem, _checked_od(eds, node_id, f"--eds {spec}"))
 
 
 def _add_rig(net: NetworkConfig, nodes: dict[int, NodeInfo], path: str) -> None:
@@ -94,11 +90,8 @@ def _add_rig(net: NetworkConfig, nodes: dict[int, NodeInfo], path: str) -> None:
                 f"--rig-config {path}: module {name} is node {module.node_id}, "
                 f"which is already {nodes[module.node_id].name}"
             )
-        try:
-            EdsInfo(module.eds)  # the check `get` and the nodes make
-        except EdsError as exc:
-            raise UserError(f"--rig-config {path}: module {name}: {exc}") from None
-        nodes[module.node_id] = NodeInfo(name, _import_od(module.eds, module.node_id))
+        where = f"--rig-config {path}: module {name}"
+        nodes[module.node_id] = NodeInfo(name, _checked_od(module.eds, module.node_id, where))
     controller = net.nodes.get(rig.controller) if rig.controller else None
     info = nodes.get(controller.node_id) if controller is not None else None
     if info is None or info.od is None:
@@ -107,8 +100,16 @@ def _add_rig(net: NetworkConfig, nodes: dict[int, NodeInfo], path: str) -> None:
         var = info.od[0x1017]
     except KeyError:
         return
-    if not 0 < int(var.value or 0) <= rig.heartbeat_limit_ms:
-        var.value = rig.heartbeat_limit_ms
+    var.value = rig.controller_heartbeat_ms(int(var.value or 0))
+
+
+def _checked_od(eds: Path, node_id: int, where: str):
+    """canopen's dictionary of ``eds`` after the check `get` and the nodes make (UserError: ``where``)."""
+    try:
+        EdsInfo(eds)
+    except EdsError as exc:
+        raise UserError(f"{where}: {exc}") from None
+    return _import_od(eds, node_id)
 
 
 def _import_od(eds: Path, node_id: int):

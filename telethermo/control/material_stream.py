@@ -476,12 +476,11 @@ def _envelope_answer(
     temperature) is named: the classifier needs none. A touch outside what the classifier learnt is
     "unknown" too (material_trust.envelope_novelty)."""
     novel = envelope_novelty(cal, x, est, late, inp)
-    T_probe_C = pre_contact(inp)[0]
     if novel is not None:
         return UNKNOWN_CODE, post, novel
     if est is None and not late:
         return UNKNOWN_CODE, 0.0, "no_fit"
-    if est is not None and abs(T_probe_C - est.T_object0_C) < ENVELOPE_MIN_DT_C:
+    if est is not None and abs(pre_contact(inp)[0] - est.T_object0_C) < ENVELOPE_MIN_DT_C:
         return UNKNOWN_CODE, 0.0, "weak_evidence"
     if post < mp.MIN_POSTERIOR:
         return UNKNOWN_CODE, post, "low_posterior"

@@ -216,12 +216,6 @@ class IoRig:
             self.supervisor.controller_ok = controller_ok
 
     @property
-    def heartbeat_limit_ms(self) -> int:
-        """The longest heartbeat period (0x1017) the controller may keep, ms
-        (:attr:`RigConfig.heartbeat_limit_ms`); the node lowers its period to this at power-on."""
-        return self.config.heartbeat_limit_ms
-
-    @property
     def module_restarts(self) -> int:
         """NMT STARTs sent to modules that had left OPERATIONAL while the controller ran."""
         return self.supervisor.restarts if self.supervisor is not None else 0

@@ -162,6 +162,12 @@ class RigConfig:
         machine) do not make a module cut the drive; the node lowers its period to this at power-on."""
         return max(1, min(m.consumer_ms for m in self.modules.values()) // 3)
 
+    def controller_heartbeat_ms(self, period_ms: int) -> int:
+        """The controller's heartbeat period (0x1017), ms, once fitted to this rig: ``period_ms`` when it is
+        on (> 0) and within :attr:`heartbeat_limit_ms`, else the limit (what the node writes at power-on and
+        the monitor expects)."""
+        return period_ms if 0 < period_ms <= self.heartbeat_limit_ms else self.heartbeat_limit_ms
+
 
 def _sign(t: Section, key: str = "sign") -> int:
     v = t.get(key, 1)
