@@ -14,7 +14,9 @@ bench/material_id_bench.py otherwise.
 
 Figures per stratum (:data:`STRATA`; the band within :data:`NEAR_C` °C of the probe is its own stratum and is
 left out of the others, where a passive probe learns little): accuracy with abstains counted wrong, abstain
-fraction, expected calibration error of the answers (10 bins of the published posterior), confident
+fraction, expected calibration error of the answers (10 bins of the published posterior; beside the worst
+stratum's, the worst-stratum ECE a perfectly calibrated classifier shows on the same answers,
+``material_id_ece_worst_stratum_floor_calibrated``), confident
 precision (accuracy of the answers with posterior ≥ 0.9, with their count), the commonest-class baseline and,
 in the full run, the oracle of telethermo/offline/material_oracle.py (knows the simulator; object
 temperature, contact resistance and thickness profiled out) on a sample of the stratum's touches. The same
@@ -34,7 +36,14 @@ import numpy as np
 
 from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
-from bench.material_id_scores import CONFIDENT, ece, ece_floor, outside_figures, position_worst_ms
+from bench.material_id_scores import (
+    CONFIDENT,
+    ece,
+    ece_floor,
+    ece_worst_floor,
+    outside_figures,
+    position_worst_ms,
+)
 from telethermo.offline.material_oracle import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
 from telethermo.control.types import Role
@@ -268,14 +277,44 @@ def oracle(rigs: dict, t: dict, sims: list[str], rng: np.random.Generator) -> fl
     return oracle_correct(z, G, t["class"], rng, ORACLE_DRAWS)[1]
 
 
-def split(rows: list[dict]) -> dict[str, Any]:
-    """Per-stratum figures: the near-probe band alone, every other stratum without it, and all touches."""
+def strata_rows(rows: list[dict]) -> dict[str, list[dict]]:
+    """The touches of each stratum: the near-probe band alone, every other stratum without it, and all."""
     near = [r for r in rows if abs(r["T_object_C"] - r["T_probe_C"]) < NEAR_C]
     far = [r for r in rows if abs(r["T_object_C"] - r["T_probe_C"]) >= NEAR_C]
-    out = {"all_outside_near_band": stratum_figures(far), f"near_probe_lt_{NEAR_C:g}C": stratum_figures(near)}
-    for name, f in STRATA.items():
-        out[name] = stratum_figures([r for r in far if f(r)])
-    return out
+    out = {"all_outside_near_band": far, f"near_probe_lt_{NEAR_C:g}C": near}
+    return out | {name: [r for r in far if f(r)] for name, f in STRATA.items()}
+
+
+def split(rows: list[dict]) -> dict[str, Any]:
+    """Per-stratum figures (:func:`strata_rows`)."""
+    return {name: stratum_figures(rs) for name, rs in strata_rows(rows).items()}
+
+
+def ece_worst_floors(rows: list[dict]) -> tuple[float | None, float | None]:
+    """The worst-stratum ECE a perfectly calibrated classifier would show on these touches' answers, refined
+    and early (material_id_scores.ece_worst_floor over the strata :func:`worst` ranks)."""
+    groups = [rs for k, rs in strata_rows(rows).items() if not k.startswith("near")]
+    out = [
+        ece_worst_floor([np.array([r[p] for r in rs if r[a] >= 0]) for rs in groups])
+        for a, p in (("answer", "posterior"), ("answer_early", "posterior_early"))
+    ]
+    return tuple(round(v, 3) if v is not None else None for v in out)  # type: ignore[return-value]
+
+
+def _first_rows(rows: list[dict], n: int) -> dict[str, Any]:
+    """The headline figures on the first ``n`` touches (the envelope set's size before the twentieth
+    session: the same touches, so the figures compare with earlier runs)."""
+    strata = split(rows[:n])
+    w_ece, which = worst(strata, "ece", high_is_good=False)
+    return {
+        "n": min(n, len(rows)),
+        "accuracy_late": strata["all_outside_near_band"]["accuracy"],
+        "accuracy_early": strata["all_outside_near_band"]["early"]["accuracy"],
+        "worst_stratum_accuracy_late": worst(strata, "accuracy")[0],
+        "ece_worst_stratum": w_ece,
+        "ece_worst_stratum_which": which,
+        "ece_worst_stratum_floor_calibrated": ece_worst_floors(rows[:n])[0],
+    }
 
 
 def worst(strata: dict[str, Any], key: str, high_is_good: bool = True) -> tuple[float | None, str | None]:
@@ -343,6 +382,7 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     w_acc, w_acc_name = worst(strata, "accuracy")
     w_ece, w_ece_name = worst(strata, "ece", high_is_good=False)
     w_cp, w_cp_name = worst(strata, "confident_precision")
+    floor_late, floor_early = ece_worst_floors(rows)
     return {
         "material_id_envelope_n_touches": n,
         "material_id_envelope_accuracy_late": allf["accuracy"],
@@ -365,6 +405,8 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
         "material_id_ece_worst_stratum": w_ece,
         "material_id_ece_worst_stratum_which": w_ece_name,
         "material_id_ece_worst_stratum_floor": strata[w_ece_name]["ece_floor"] if w_ece_name else None,
+        "material_id_ece_worst_stratum_floor_calibrated": floor_late,
+        "material_id_ece_worst_stratum_floor_calibrated_early": floor_early,
         "material_id_ece_excess_over_floor_worst": worst(
             {
                 k: v | {"excess": round(v["ece"] - v["ece_floor"], 3)}
@@ -382,6 +424,7 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
         "material_id_outside_confident_precision": outside["all"]["late"]["confident_precision"],
         "material_id_outside": outside,
         "material_id_envelope_strata": strata,
+        "material_id_envelope_first_1000": _first_rows(rows, 1000),
         "material_id_inbox_same_keys": in_fig
         | {"draws": f"bench evaluation draws (15, 1000 + i), first {len(in_rows)}, near-probe band left out"},
         "material_id_envelope_conditions": _conditions(quick),

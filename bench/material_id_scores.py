@@ -3,41 +3,17 @@ error and its floor, the figures of the touches beyond the envelope, the fit's s
 
 from __future__ import annotations
 
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 
+# the calibration error and its floors live in the library (the tests use them too); re-exported
+from telethermo.offline.calibration_error import ECE_FLOOR_SEED, ece, ece_floor, ece_worst_floor
+
+__all__ = ["CONFIDENT", "ECE_FLOOR_SEED", "ece", "ece_floor", "ece_worst_floor", "outside_figures"]
+
 #: posterior at and above which an answer counts as confident
 CONFIDENT = 0.9
-#: the label draws of the ECE floor (a perfectly calibrated classifier at the same posteriors)
-ECE_FLOOR_SEED = 60606
-
-
-def ece_floor(post: np.ndarray, draws: int = 400, seed: int = ECE_FLOOR_SEED) -> float | None:
-    """The ECE a perfectly calibrated classifier would show on answers with posteriors ``post``: each answer
-    right with probability its posterior, the median over ``draws`` such label draws. The baseline of
-    :func:`ece` at this many answers (its sampling noise): an ECE near the floor is as calibrated as
-    ``post.size`` answers can show."""
-    if post.size == 0:
-        return None
-    rng = np.random.default_rng(seed)
-    vals = [cast(float, ece(post, rng.random(post.size) < post)) for _ in range(draws)]
-    return float(np.median(vals))
-
-
-def ece(post: np.ndarray, right: np.ndarray, bins: int = 10) -> float | None:
-    """Expected calibration error of answers with posteriors ``post`` (10 equal bins on [0, 1])."""
-    if post.size == 0:
-        return None
-    idx = np.minimum((post * bins).astype(int), bins - 1)
-    return float(
-        sum(
-            abs(post[idx == b].mean() - right[idx == b].mean()) * np.sum(idx == b)
-            for b in range(bins)
-            if np.any(idx == b)
-        )
-        / post.size
-    )
 
 
 def outside_figures(rows: list[dict]) -> dict[str, Any]:
