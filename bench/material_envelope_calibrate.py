@@ -9,7 +9,9 @@ About 13 min of simulation in 2 processes on this machine when it is quiet, 5 mi
 touches, 60 epochs; docs/material_id.md, "More references", says why); ``--refs`` keeps the
 simulated touches so that training again does not simulate again. ``--ranges-only --refs CACHE.npz`` records
 the range of the references' network inputs in the shipped classifiers (their novelty check) without
-training again.
+training again. ``--pool-only [--dev CACHE.npz]`` fits the refined answer's pool with the early classifier
+(material_calib.pooled) on the development touches (material_envelope_refs.ENV_DEVELOPMENT, 3000; about
+a minute) and records it in the shipped refined classifier.
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from __future__ import annotations
 import argparse
 import time
 
-from telethermo.offline.material_envelope_calibration import calibrate, record_ranges
+from telethermo.offline.material_envelope_calibration import calibrate, record_pool, record_ranges
 from telethermo.offline.material_envelope_refs import ENV_REFERENCES_N
 
 
@@ -37,15 +39,26 @@ def main(argv: list[str] | None = None) -> int:
         action="store_true",
         help="only record the references' input ranges in the shipped classifiers (needs --refs)",
     )
+    ap.add_argument(
+        "--pool-only",
+        action="store_true",
+        help="only fit the refined answer's pool on the development touches and record it",
+    )
+    ap.add_argument("--dev", help="keep the development touches in this .npz (read it when it exists)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
+    if args.pool_only:
+        w = record_pool(args.dev, args.jobs)
+        print(f"recorded the refined answer's pool: early {w[0]}, refined {w[1]}", end=" ")
+        print(f"({time.perf_counter() - t0:.0f} s)")
+        return 0
     if args.ranges_only:
         if not args.refs:
             ap.error("--ranges-only needs --refs (the reference touches the classifiers were trained on)")
         record_ranges(args.refs)
         print(f"recorded the references' input ranges ({time.perf_counter() - t0:.0f} s)")
         return 0
-    early, late = calibrate(args.touches, args.jobs, args.refs)
+    early, late = calibrate(args.touches, args.jobs, args.refs, dev=args.dev)
     print(f"wrote the early ({early.n_win} samples) and the refined ({late.n_win}) envelope classifiers")
     print(f"{time.perf_counter() - t0:.0f} s")
     return 0

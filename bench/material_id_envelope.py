@@ -43,11 +43,13 @@ from bench.material_id_scores import (
     ece_worst_floor,
     outside_figures,
     position_worst_ms,
+    print_envelope,
 )
 from telethermo.offline.material_oracle import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
 from telethermo.control.types import Role
 from telethermo.offline.envelope import identified_params
+from telethermo.control.material_calib import n_units
 from telethermo.control.material_stream import MaterialIdParams, UNKNOWN_CODE, fit_units, late_samples
 from telethermo.sim.materials import material
 from telethermo.sim.tem import load_rig_params
@@ -74,7 +76,7 @@ NEAR_C = 2.0
 ORACLE_EVERY, ORACLE_DRAWS = 4, 100
 #: the seed of the other TEM's identification (as tests/control/test_material_tem_swap.py's)
 IDENTIFY_SEED = 7
-#: simulated after the touch, s: the refined answer (1.2 s window + its fit) is out by 1.32 s
+#: simulated after the touch, s: the refined answer (1.2 s window, its fit, both networks) is out by 1.39 s
 POST_S = 1.45
 #: keys of material_id.json that issue 23 names for this run and the in-box run (bench/material_id_bench.py)
 #: also computes: that run writes its own as ``material_id_box_*`` (material_id_bench.box_keys)
@@ -200,8 +202,9 @@ def _fit_cycles_ms(step_s: np.ndarray, i0: int) -> tuple[float | None, float | N
     n_win = int(round(p.probe.window_s / mb.PERIOD_S))
     cyc = [range(i0 + n_win, i0 + n_win + fit_units(p, mb.PERIOD_S) + 1)]
     n_late = late_samples(p, mb.PERIOD_S)
-    if n_late:
-        cyc.append(range(i0 + n_late, i0 + n_late + 3 + noise_draws(p.probe) + 1))
+    if n_late:  # the window's signals, the two forms, the noise draws, the networks' layers (the pool's too)
+        nets = sum(n_units(c) for c in (p.envelope, p.envelope_late) if c is not None)
+        cyc.append(range(i0 + n_late, i0 + n_late + 3 + noise_draws(p.probe) + nets + 1))
     out = [[k for k in c if k < step_s.size] for c in cyc] + [[]]
     return tuple(1e3 * float(np.max(step_s[i])) if i else None for i in out[:2])
 
@@ -453,43 +456,14 @@ def _conditions(quick: bool) -> dict[str, Any]:
             if not quick
             else "not run"
         ),
-        "early_answer": "0.44 s after contact: 0.3 s window + 14 fit cycles "
-        "(network in its box, else physics)",
-        "late_answer": "1.31 s after contact: physics posterior over a 1.2 s window + 10 fit cycles",
+        "early_answer": "0.45 s after contact: 0.3 s window + 15 fit cycles "
+        "(in-box network in its box, else the early envelope classifier)",
+        "late_answer": "1.39 s after contact: the envelope classifiers pooled (the early one over 0.3 s, the "
+        "refined one over 1.2 s) + 19 fit cycles; in the box the in-box network's class stands",
         "tick": "fit_cycle_worst: per touch the slowest core step of the early fit's cycles "
         "(late_: of the refined fit's), median over touches; "
         "core_step_median: median of the touches' median steps",
     }
-
-
-def print_envelope(fig: dict[str, Any]) -> None:
-    """One line per stratum."""
-    cols = (
-        "n",
-        "accuracy",
-        "abstain_fraction",
-        "ece",
-        "ece_floor",
-        "confident_precision",
-        "confident_n",
-        "baseline_commonest_class",
-        "oracle",
-    )
-    print(f"{'stratum':24s} " + " ".join(f"{c[:12]:>12s}" for c in cols))
-    for name, v in list(fig["material_id_envelope_strata"].items()) + [
-        ("inbox", fig["material_id_inbox_same_keys"])
-    ]:
-        print(f"{name:24s} " + " ".join(f"{str(v.get(c)):>12s}" for c in cols))
-    print("beyond the envelope (unknown fraction, named accuracy, confident precision (n); refined | early)")
-    for kind, v in fig.get("material_id_outside", {}).items():
-        cells = [
-            f"{s['unknown_fraction']} {s['named_accuracy']} {s['confident_precision']} ({s['confident_n']})"
-            for s in (v["late"], v["early"])
-        ]
-        print(f"  {kind:12s} n {v['n']:4d}: " + " | ".join(cells))
-    for k, v in fig.items():
-        if not isinstance(v, dict):
-            print(f"{k}: {v}")
 
 
 def run(quick: bool) -> dict[str, Any]:

@@ -1,5 +1,6 @@
 """Scores of the material bench's envelope run (bench/material_id_envelope.py): the expected calibration
-error and its floor, the figures of the touches beyond the envelope, the fit's slowest cycle position."""
+error and its floor, the figures of the touches beyond the envelope, the fit's slowest cycle position, and
+the run's printout."""
 
 from __future__ import annotations
 
@@ -10,7 +11,16 @@ import numpy as np
 # the calibration error and its floors live in the library (the tests use them too); re-exported
 from telethermo.offline.calibration_error import ECE_FLOOR_SEED, ece, ece_floor, ece_worst_floor
 
-__all__ = ["CONFIDENT", "ECE_FLOOR_SEED", "ece", "ece_floor", "ece_worst_floor", "outside_figures"]
+__all__ = [
+    "CONFIDENT",
+    "ECE_FLOOR_SEED",
+    "ece",
+    "ece_floor",
+    "ece_worst_floor",
+    "outside_figures",
+    "position_worst_ms",
+    "print_envelope",
+]
 
 #: posterior at and above which an answer counts as confident
 CONFIDENT = 0.9
@@ -54,3 +64,33 @@ def position_worst_ms(rows: list[dict]) -> float | None:
         return None
     n = min(len(x) for x in pos)
     return float(np.max(np.median(np.array([x[:n] for x in pos]), axis=0)))
+
+
+def print_envelope(fig: dict[str, Any]) -> None:
+    """One line per stratum."""
+    cols = (
+        "n",
+        "accuracy",
+        "abstain_fraction",
+        "ece",
+        "ece_floor",
+        "confident_precision",
+        "confident_n",
+        "baseline_commonest_class",
+        "oracle",
+    )
+    print(f"{'stratum':24s} " + " ".join(f"{c[:12]:>12s}" for c in cols))
+    for name, v in list(fig["material_id_envelope_strata"].items()) + [
+        ("inbox", fig["material_id_inbox_same_keys"])
+    ]:
+        print(f"{name:24s} " + " ".join(f"{str(v.get(c)):>12s}" for c in cols))
+    print("beyond the envelope (unknown fraction, named accuracy, confident precision (n); refined | early)")
+    for kind, v in fig.get("material_id_outside", {}).items():
+        cells = [
+            f"{s['unknown_fraction']} {s['named_accuracy']} {s['confident_precision']} ({s['confident_n']})"
+            for s in (v["late"], v["early"])
+        ]
+        print(f"  {kind:12s} n {v['n']:4d}: " + " | ".join(cells))
+    for k, v in fig.items():
+        if not isinstance(v, dict):
+            print(f"{k}: {v}")

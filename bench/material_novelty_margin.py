@@ -31,10 +31,10 @@ MARGINS = (0.0, 0.25, 0.5, 1.0, 2.0, 4.0)
 T_MARGINS = (0.0, 2.0, 4.0, 6.0, 8.0, 10.0, 15.0)
 
 
-def excess(cal, T: np.ndarray, Q: np.ndarray, i0: int, window_s: float, sub: int) -> float:
+def excess(cal, T: np.ndarray, Q: np.ndarray, i0: int, window_s: float) -> float:
     """How far (references' standard deviations) the touch's input lies beyond the references' range (≤ 0:
     inside; NaN: no input)."""
-    V, ok = vectors(T[None], Q[None], i0, window_s, sub)
+    V, ok = vectors(T[None], Q[None], i0, window_s, cal.sub)
     if not ok[0]:
         return float("nan")
     x = inputs(cal.center, cal.whiten, cal.scale, V)[0]
@@ -68,8 +68,8 @@ def measure(draws: list[dict], cores: dict) -> list[tuple[str, float, float, flo
         if i0 < 0:
             out.append((t.get("kind", "inside"),) + (float("nan"),) * 4 + right)
             continue
-        e = [excess(c, T, Q, i0, w, s) for c, (w, s) in zip(cals, (EARLY, LATE))]
-        f = [fitted_T_excess(T, Q, i0, w) for w, _ in (EARLY, LATE)]
+        e = [excess(c, T, Q, i0, win.window_s) for c, win in zip(cals, (EARLY, LATE))]
+        f = [fitted_T_excess(T, Q, i0, win.window_s) for win in (EARLY, LATE)]
         out.append((t.get("kind", "inside"), e[0], e[1], f[0], f[1]) + right)
     return out
 

@@ -71,6 +71,9 @@ class Calibration:
         x_lo, x_hi: the lowest and highest value of each network input over the references it was trained
             on (None: not recorded): a touch beyond them lies outside what it learnt
             (:func:`outside_references`).
+        pool: the refined answer's log-linear pool with the early answer's classifier: (weight of the early
+            classifier's ln posterior, weight of this one's), fitted on development touches (:func:`pooled`;
+            None: this classifier alone).
     """
 
     classes: tuple[str, ...]
@@ -86,6 +89,17 @@ class Calibration:
     sub: int = 1
     x_lo: np.ndarray | None = None
     x_hi: np.ndarray | None = None
+    pool: tuple[float, float] | None = None
+
+
+def pooled(p_early: np.ndarray, p_late: np.ndarray, pool: tuple[float, float]) -> np.ndarray:
+    """The log-linear pool of two classifiers' posteriors over the same classes (pure): softmax of
+    ``pool[0]``·ln p_early + ``pool[1]``·ln p_late. The early answer's classifier sees the touch's first 0.3 s
+    at every sample, the refined one 1.2 s at every 4th: each knows what the other blurs, and the weights
+    (fitted by likelihood) say how much of their evidence is shared."""
+    ln_e = np.log(np.maximum(np.asarray(p_early, float), 1e-30))
+    ln_l = np.log(np.maximum(np.asarray(p_late, float), 1e-30))
+    return cast(np.ndarray, np.exp(log_softmax(pool[0] * ln_e + pool[1] * ln_l)))
 
 
 def with_ranges(cal: Calibration, X: np.ndarray) -> Calibration:
@@ -257,8 +271,9 @@ def _net_fields(cal: Calibration) -> dict[str, np.ndarray]:
 
 
 def _range_fields(cal: Calibration) -> dict[str, np.ndarray]:
-    """The references' input range fields (none when not recorded)."""
-    return {} if cal.x_lo is None or cal.x_hi is None else {"x_lo": cal.x_lo, "x_hi": cal.x_hi}
+    """The references' input range fields (none when not recorded), and the pool's weights (none unset)."""
+    out = {} if cal.x_lo is None or cal.x_hi is None else {"x_lo": cal.x_lo, "x_hi": cal.x_hi}
+    return out | ({"pool": np.array(cal.pool, float)} if cal.pool is not None else {})
 
 
 def save_calibration(cal: Calibration, path: str | Path) -> Path:
@@ -362,6 +377,12 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
                 raise ValueError(
                     f"{path}: field 'x_lo'/'x_hi': expected {center.size} ranges (low ≤ high) per input"
                 )
+        pool = None
+        if "pool" in data.files:
+            w = _field(path, data, "pool", 1)
+            if w.shape != (2,) or w.dtype.kind != "f" or np.any(w < 0.0):
+                raise ValueError(f"{path}: field 'pool': expected two weights >= 0, got {w!r}")
+            pool = (float(w[0]), float(w[1]))
         return Calibration(
             tuple(str(c) for c in classes),
             dt,
@@ -376,4 +397,5 @@ def load_calibration(path: str | Path | None = None) -> Calibration:
             sub,
             x_lo.astype(float) if x_lo is not None else None,
             x_hi.astype(float) if x_hi is not None else None,
+            pool,
         )

@@ -51,10 +51,17 @@ from telethermo.control.material_calib import (
     n_units,
     network_input,
     network_unit,
+    pooled,
     touch_vector,
 )
 from telethermo.control import material_physics as mp
-from telethermo.control.material_trust import CalibrationBox, abstain_reason, envelope_novelty, pre_contact
+from telethermo.control.material_trust import (
+    NOVELTY_REASONS,
+    CalibrationBox,
+    abstain_reason,
+    envelope_abstention,
+    pre_contact,
+)
 from telethermo.control.material_defaults import default_calibration, default_classes, default_envelope
 
 #: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
@@ -183,7 +190,9 @@ class FitJob:
     class alone), ``deviations`` the noise realisations' so far, ``x`` the networks' input, ``h`` and
     ``probs`` the staged classification's state, ``unit`` its next unit and ``net`` its network ("network"
     the in-box classifier, "envelope" the envelope classifier); ``late``: the refined answer's fit (the late
-    window: the physics fit, and the envelope classifier's class when the early answer was its)."""
+    window: the physics fit, and the envelope classifier's class when the early answer was its); ``x_early``
+    the early classifier's input over the same touch's first window when the refined answer pools the two
+    (material_calib.pooled), ``p_early`` its posterior once its layers have run."""
 
     rows: tuple[tuple[float, float], ...]
     n_pre: int
@@ -197,6 +206,8 @@ class FitJob:
     probs: tuple[np.ndarray, ...] = ()
     unit: int = 0
     net: str = ""
+    x_early: Any = None
+    p_early: Any = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -426,12 +437,20 @@ def _classify_unit(
             if not p.classes:
                 return None, MaterialEstimate(touch=n)
             return None, _result(p, est, *_physics(p, est, inp, p.early), n, p.early)
-        job = replace(job, x=x, chosen=(form, est), net=net)
+        job = replace(job, x=x, chosen=(form, est), net=net, x_early=_pool_input(p, job, inp, net, last))
+    if job.x_early is not None and job.p_early is None:  # the pool's early classifier first, a layer a unit
+        env = cast(Calibration, p.envelope)
+        h, probs = network_unit(env, job.x_early, job.h, job.probs, job.unit)
+        if job.unit + 1 < n_units(env):
+            return replace(job, h=h, probs=probs, unit=job.unit + 1), last
+        return replace(job, h=None, probs=(), unit=0, p_early=np.mean(probs, axis=0)), last
     cal = cast(Calibration, _net_of(p, job))
     est = cast(tuple[str, EffusivityEstimate | None], job.chosen)[1]  # set by the first unit
     h, probs = network_unit(cal, job.x, job.h, job.probs, job.unit)  # one layer
     if job.unit + 1 < n_units(cal):
         return replace(job, h=h, probs=probs, unit=job.unit + 1), last
+    if job.p_early is not None:
+        probs = (pooled(job.p_early, np.mean(probs, axis=0), cast(tuple[float, float], cal.pool)),)
     i, post = decide(probs)
     if job.net == "envelope":
         answer = _envelope_answer(p, cal, i, post, est, job.late, inp, job.x)
@@ -442,6 +461,22 @@ def _classify_unit(
     return None, _result(p, est, code, post, "", n, p.early, "network")
 
 
+def _pool_input(
+    p: MaterialIdParams, job: FitJob, inp: FitInput, net: str, last: MaterialEstimate
+) -> np.ndarray | None:
+    """The early classifier's input over the first window of a refined envelope answer that pools the two
+    (its calibration has ``pool``), else None: the same samples the early answer classified. Not when the
+    early answer found the touch outside what its classifier learnt (``last.abstained`` a novelty reason):
+    a network's posterior there is no evidence, and pooled it would make the refined answer surer."""
+    late, early = p.envelope_late, p.envelope
+    pooling = job.late and net == "envelope" and late is not None and late.pool is not None
+    if not pooling or early is None or last.abstained in NOVELTY_REASONS:
+        return None
+    k = inp.n_pre + early.n_win
+    first = replace(inp, T=inp.T[:k], Q=inp.Q[:k])  # the late window holds the early one's samples
+    return network_input(early, calibration_vector(early, first))
+
+
 def _net_of(p: MaterialIdParams, job: FitJob) -> Calibration | None:
     """The network of the job's classification."""
     if job.net == "envelope":
@@ -449,39 +484,12 @@ def _net_of(p: MaterialIdParams, job: FitJob) -> Calibration | None:
     return p.calibration
 
 
-#: the smallest fitted |probe − object| difference the envelope classifier still names, °C
-ENVELOPE_MIN_DT_C = 0.5
-
-
 def _envelope_answer(
-    p: MaterialIdParams,
-    cal: Calibration,
-    i: int,
-    post: float,
-    est: EffusivityEstimate | None,
-    late: bool,
-    inp: FitInput,
-    x: np.ndarray | None = None,
+    p: MaterialIdParams, cal: Calibration, i: int, post: float, est: Any, late: bool, inp: FitInput, x: Any
 ) -> tuple[int, float, str]:
-    """(code, posterior, why abstained) of the envelope classifier's likeliest class ``i`` for the touch whose
-    window is ``inp`` (the probe resting at its pre-contact mean): abstained where the touch draws almost no
-    heat, whatever the network says (the early window has no physics fit, or the fit puts the object within
-    :data:`ENVELOPE_MIN_DT_C` of the probe), or
-    when the posterior is below material_physics.MIN_POSTERIOR. Not at the physics posterior's 2 °C: the
-    lumped fit's object temperature is off on thin slabs and behind a contact resistance (measured on the
-    envelope bench with the 24 000-touch classifier: abstaining below a fitted 1 °C and without an early fit
-    held back 15 % of the early answers outside the 2 °C band, accuracy 0.556 -> 0.494, and still left the
-    band's confident answers 73 % right), and the classifier was trained on touches within 2 °C of the probe
-    too. The refined answer without a fit over its 1.2 s (a thin slab that has come to the probe's
-    temperature) is named: the classifier needs none. A touch outside what the classifier learnt is
-    "unknown" too (material_trust.envelope_novelty)."""
-    novel = envelope_novelty(cal, x, est, late, inp)
-    if novel is not None:
-        return UNKNOWN_CODE, post, novel
-    if est is None and not late:
-        return UNKNOWN_CODE, 0.0, "no_fit"
-    if est is not None and abs(pre_contact(inp)[0] - est.T_object0_C) < ENVELOPE_MIN_DT_C:
-        return UNKNOWN_CODE, 0.0, "weak_evidence"
-    if post < mp.MIN_POSTERIOR:
-        return UNKNOWN_CODE, post, "low_posterior"
+    """(code, posterior, why abstained) of the envelope classifier's likeliest class ``i`` at posterior
+    ``post``, fit ``est`` (material_trust.envelope_abstention says when it is "unknown")."""
+    no = envelope_abstention(cal, post, est, late, inp, x, mp.MIN_POSTERIOR)
+    if no is not None:
+        return UNKNOWN_CODE, no[1], no[0]
     return next(c for c, name, _ in p.classes if name == cal.classes[i]), post, ""

@@ -2,12 +2,13 @@
 :func:`calibrate`, run by ``python -m bench.material_envelope_calibrate``.
 
 Two classifiers, one per answer: the early one over the 0.3 s window (every sample), the refined one over
-1.2 s (every 4th sample), each a network over telethermo.control.material_calib.envelope_vector (the touch's
-shape, divided by its size and by the direction of its heat flow, then that size, the direction and the
-probe's pre-contact state), trained on :mod:`telethermo.offline.material_envelope_refs`' touches (192 000, the
-shipped probe and a family of other modules after ``identify``). The slave uses them outside the in-box
-classifier's box (telethermo.control.material_stream). Features and network size were chosen on a
-development set of other seeds (material_envelope_refs.ENV_DEVELOPMENT; docs/material_id.md).
+1.2 s (every 4th sample; its answer pools both networks' posteriors with weights fitted on development
+touches, :func:`record_pool`), each a network over telethermo.control.material_calib.envelope_vector (the
+touch's shape, divided by its size and by the direction of its heat flow, then that size, the direction
+and the probe's pre-contact state), trained on :mod:`telethermo.offline.material_envelope_refs`' touches
+(192 000, the shipped probe and a family of other modules after ``identify``). The slave uses them outside
+the in-box classifier's box (telethermo.control.material_stream). Features and network size were chosen on
+a development set of other seeds (material_envelope_refs.ENV_DEVELOPMENT; docs/material_id.md).
 
 A lab with another probe re-runs this on its own rig's model (the family is drawn around the shipped module)
 or on recorded touches of reference samples: any (T_sensor, Q) records whose contact sample is known give the
@@ -19,8 +20,10 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, replace
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
+from scipy.optimize import minimize
 
 from telethermo.control import material_id as mi
 from telethermo.control.material_calib import (
@@ -31,11 +34,14 @@ from telethermo.control.material_calib import (
     inputs,
     load_calibration,
     posterior,
+    pooled,
     save_calibration,
     with_ranges,
 )
 from telethermo.control.material_train import TrainSettings, train_network
 from telethermo.offline.material_envelope_refs import (
+    ENV_DEVELOPMENT,
+    ENV_DEVELOPMENT_N,
     ENV_REFERENCES,
     ENV_REFERENCES_N,
     KEEP_PRE,
@@ -47,8 +53,17 @@ from telethermo.offline.material_touches import PERIOD_S, SIM_TO_TABLE
 
 #: the flux's weight in the vectors, K/W (as the in-box classifier's)
 Q_WEIGHT_K_PER_W = 3.0
-#: (window s, every n-th sample) of the early and the refined answer's classifier
-EARLY, LATE = (0.3, 1), (1.2, 4)
+
+
+class Window(NamedTuple):
+    """What an envelope classifier sees: its window (s) and every ``sub``-th sample of it."""
+
+    window_s: float
+    sub: int
+
+
+#: the early and the refined answer's classifier
+EARLY, LATE = Window(0.3, 1), Window(1.2, 4)
 #: how the networks are trained (the development set's choice: 3 × 256, 60 epochs; docs/material_id.md)
 SETTINGS = TrainSettings(hidden=256, layers=3, epochs=60, batch=256, warmup=50, weight_decay=1e-4)
 
@@ -69,7 +84,12 @@ def vectors(
 
 
 def build(
-    V: np.ndarray, y: np.ndarray, window_s: float, sub: int, settings: TrainSettings, info: str
+    V: np.ndarray,
+    y: np.ndarray,
+    window_s: float,
+    sub: int,
+    settings: TrainSettings,
+    info: str,
 ) -> Calibration:
     """An envelope classifier from vectors ``V`` and class indices ``y`` (into SIM_TO_TABLE's order): each
     feature standardised over the references, one network."""
@@ -104,9 +124,11 @@ def calibrate(
     refs: str | Path | None = None,
     out: tuple[Path, Path] = (ENVELOPE_EARLY, ENVELOPE_LATE),
     settings: TrainSettings = SETTINGS,
+    dev: str | Path | None = None,
 ) -> tuple[Calibration, Calibration]:
     """Simulate ``n`` reference touches (or read them from ``refs`` when it exists; written there when it
-    does not), train the early and the refined answer's classifiers and write them to ``out`` atomically."""
+    does not), train the early and the refined answer's classifiers, fit the refined answer's pool on the
+    development touches (:func:`record_pool`, ``dev`` its cache) and write them to ``out`` atomically."""
     path = Path(refs) if refs is not None else None
     if path is not None and path.exists():
         with np.load(path) as f:
@@ -117,8 +139,8 @@ def calibrate(
             np.savez(path, **data)
     y = data["class"].astype(int)
     made = []
-    for (window_s, sub), dest in zip((EARLY, LATE), out):
-        V, ok = vectors(data["T"], data["Q"], KEEP_PRE, window_s, sub)
+    for win, dest in zip((EARLY, LATE), out):
+        V, ok = vectors(data["T"], data["Q"], KEEP_PRE, *win)
         info = json.dumps(
             {
                 "what": "envelope classifier (telethermo.offline.material_envelope_calibration)",
@@ -127,15 +149,15 @@ def calibrate(
                 "reference_touches": int(n),
                 "used": int(ok.sum()),
                 "tem_family": {"n": N_TEMS, "seed": TEM_FAMILY_SEED},
-                "window_s": window_s,
-                "sub": sub,
+                "window_s": win.window_s,
+                "sub": win.sub,
                 "settings": asdict(settings),
             }
         )
-        cal = build(V, y[ok], window_s, sub, settings, info)
+        cal = build(V, y[ok], win.window_s, win.sub, settings, info)
         save_calibration(cal, dest)
         made.append(cal)
-    return made[0], made[1]
+    return made[0], replace(made[1], pool=record_pool(dev, jobs, out))
 
 
 def record_ranges(
@@ -147,13 +169,60 @@ def record_ranges(
     with np.load(Path(refs)) as f:
         T, Q = f["T"], f["Q"]
     made = []
-    for (window_s, sub), path in zip((EARLY, LATE), paths):
+    for win, path in zip((EARLY, LATE), paths):
         cal = load_calibration(path)
-        V, _ = vectors(T, Q, KEEP_PRE, window_s, sub)
+        V, _ = vectors(T, Q, KEEP_PRE, win.window_s, cal.sub)
         cal = with_ranges(cal, inputs(cal.center, cal.whiten, cal.scale, V))
         save_calibration(cal, path)
         made.append(cal)
     return made[0], made[1]
+
+
+def fit_pool(early: Calibration, late: Calibration, data: dict[str, np.ndarray]) -> tuple[float, float]:
+    """The refined answer's pool weights (material_calib.pooled): the (early, refined) weights, both ≥ 0, that
+    maximise the likelihood of the true classes of touches ``data`` (as :func:`calibrate` keeps them; the
+    development set's, never references the networks were trained on)."""
+    y = data["class"].astype(int)
+    Ve, ok_e = vectors(data["T"], data["Q"], KEEP_PRE, early.n_win * PERIOD_S, early.sub)
+    Vl, ok_l = vectors(data["T"], data["Q"], KEEP_PRE, late.n_win * PERIOD_S, late.sub)
+    both = ok_e & ok_l
+    return pool_weights(scores(early, Ve[both[ok_e]]), scores(late, Vl[both[ok_l]]), y[both])
+
+
+def pool_weights(P_early: np.ndarray, P_late: np.ndarray, y: np.ndarray) -> tuple[float, float]:
+    """The weights (each in [0, 4]) of material_calib.pooled that maximise the likelihood of classes ``y``
+    given the two classifiers' posteriors (touches × classes), by Nelder–Mead from (0.5, 1)."""
+    y = np.asarray(y, int)
+
+    def nll(w: np.ndarray) -> float:
+        p = pooled(P_early, P_late, (float(w[0]), float(w[1])))
+        return -float(np.sum(np.log(np.maximum(p[np.arange(y.size), y], 1e-30))))
+
+    bounds = [(0.0, 4.0), (0.0, 4.0)]
+    res = minimize(nll, np.array([0.5, 1.0]), method="Nelder-Mead", bounds=bounds, options={"xatol": 1e-4})
+    return round(float(res.x[0]), 4), round(float(res.x[1]), 4)
+
+
+def record_pool(
+    dev: str | Path | None = None,
+    jobs: int = 1,
+    paths: tuple[Path, Path] = (ENVELOPE_EARLY, ENVELOPE_LATE),
+) -> tuple[float, float]:
+    """Fit the refined answer's pool (:func:`fit_pool`) on the development touches (material_envelope_refs.
+    ENV_DEVELOPMENT; read from ``dev`` when it exists, kept there when it does not) and record it in the
+    refined classifier at ``paths[1]`` (the networks unchanged; written atomically)."""
+    path = Path(dev) if dev is not None else None
+    if path is not None and path.exists():
+        with np.load(path) as f:
+            data = {k: f[k] for k in f.files}
+    else:
+        data = reference_set(ENV_DEVELOPMENT_N, ENV_DEVELOPMENT, jobs=jobs)
+        if path is not None:
+            np.savez(path, **data)
+    early, late = load_calibration(paths[0]), load_calibration(paths[1])
+    w = fit_pool(early, late, data)
+    save_calibration(replace(late, pool=w), paths[1])
+    return w
 
 
 def _progress(k: int, n: int) -> None:

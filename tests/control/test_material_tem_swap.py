@@ -23,7 +23,7 @@ SWAP = {"seebeck_x": 1.8, "R_x": 2.2, "plate_C_x": 1.5}
 #: the identification's seed (telethermo identify's PRBS seed on the swapped probe's free pad)
 IDENTIFY_SEED = 7
 TOLERANCE = 0.03
-#: after contact, s: the refined answer (1.2 s window and its fit) is out by 1.32 s
+#: after contact, s: the refined answer (1.2 s window, its fit, both networks) is out by 1.39 s
 POST_S = 1.45
 CODES = {name: code for code, name, _ in default_classes()}
 pytestmark = pytest.mark.slow  # 800 simulated touches and one identification: about a minute here
@@ -82,7 +82,8 @@ def test_the_test_set_is_disjoint_from_every_calibration_and_evaluation():
     reason=(
         "measured (400 paired in-box touches, seeds 2727/1500000, module Seebeck x1.8, R x2.2, plate C x1.5, "
         "identified with seed 7: rho 0.748): shipped 0.888/0.915 (first/refined), swapped after identify "
-        "0.818/0.880, difference 0.07/0.035 (paired SE 0.015/0.014). The in-box network learnt the shipped "
+        "0.818/0.898, difference 0.07/0.017 (paired SE 0.015/0.010): the refined answer (the two envelope "
+        "classifiers pooled) is within 0.03, the first is not. The in-box network learnt the shipped "
         "module's closed loop, so on another module the node's box says 'another_tem' and the envelope "
         "classifier answers (trained on the shipped probe and a family of twelve other modules after "
         "identify; "
@@ -101,7 +102,7 @@ def test_a_swapped_tem_after_identify_keeps_the_accuracy_within_0_03():
     Statistics: the two runs are paired (same touch, same noise), so the difference's standard error is
     √(discordant fraction / N): 0.011 with 5 % discordant touches, and each accuracy's own binomial SE is
     √(0.83·0.17/400) = 0.019; 0.03 is then about 2.7 SE of the difference. Measured today the difference is
-    0.07/0.035 with a paired SE of 0.015/0.014 (the xfail reason)."""
+    0.07/0.017 with a paired SE of 0.015/0.010 (the xfail reason)."""
     ship = load_rig_params()
     other = swapped_rig()
     cp, fit = identified_params(Role.SLAVE, other, mt.AMBIENT_C, mt.PERIOD_S, IDENTIFY_SEED)
