@@ -190,9 +190,8 @@ class FitJob:
     class alone), ``deviations`` the noise realisations' so far, ``x`` the networks' input, ``h`` and
     ``probs`` the staged classification's state, ``unit`` its next unit and ``net`` its network ("network"
     the in-box classifier, "envelope" the envelope classifier); ``late``: the refined answer's fit (the late
-    window: the physics fit, and the envelope classifier's class when the early answer was its); ``x_early``
-    the early classifier's input over the same touch's first window when the refined answer pools the two
-    (material_calib.pooled), ``p_early`` its posterior once its layers have run."""
+    window: the physics fit, and the envelope classifier's class when the early answer was its); ``x_early``,
+    ``p_early``: the early classifier's input and posterior when the refined answer pools the two."""
 
     rows: tuple[tuple[float, float], ...]
     n_pre: int
@@ -464,10 +463,9 @@ def _classify_unit(
 def _pool_input(
     p: MaterialIdParams, job: FitJob, inp: FitInput, net: str, last: MaterialEstimate
 ) -> np.ndarray | None:
-    """The early classifier's input over the first window of a refined envelope answer that pools the two
-    (its calibration has ``pool``), else None: the same samples the early answer classified. Not when the
-    early answer found the touch outside what its classifier learnt (``last.abstained`` a novelty reason):
-    a network's posterior there is no evidence, and pooled it would make the refined answer surer."""
+    """The early classifier's input (the early answer's samples) when a refined envelope answer pools the two
+    (``pool`` set), else None; not when the early answer found the touch novel (``last.abstained``): a
+    network's posterior on an input it does not know is no evidence, pooled it makes the answer surer."""
     late, early = p.envelope_late, p.envelope
     pooling = job.late and net == "envelope" and late is not None and late.pool is not None
     if not pooling or early is None or last.abstained in NOVELTY_REASONS:
@@ -485,7 +483,14 @@ def _net_of(p: MaterialIdParams, job: FitJob) -> Calibration | None:
 
 
 def _envelope_answer(
-    p: MaterialIdParams, cal: Calibration, i: int, post: float, est: Any, late: bool, inp: FitInput, x: Any
+    p: MaterialIdParams,
+    cal: Calibration,
+    i: int,
+    post: float,
+    est: EffusivityEstimate | None,
+    late: bool,
+    inp: FitInput,
+    x: np.ndarray | None,
 ) -> tuple[int, float, str]:
     """(code, posterior, why abstained) of the envelope classifier's likeliest class ``i`` at posterior
     ``post``, fit ``est`` (material_trust.envelope_abstention says when it is "unknown")."""

@@ -20,7 +20,7 @@ from __future__ import annotations
 import json
 from dataclasses import asdict, replace
 from pathlib import Path
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 from scipy.optimize import minimize
@@ -129,14 +129,7 @@ def calibrate(
     """Simulate ``n`` reference touches (or read them from ``refs`` when it exists; written there when it
     does not), train the early and the refined answer's classifiers, fit the refined answer's pool on the
     development touches (:func:`record_pool`, ``dev`` its cache) and write them to ``out`` atomically."""
-    path = Path(refs) if refs is not None else None
-    if path is not None and path.exists():
-        with np.load(path) as f:
-            data = {k: f[k] for k in f.files}
-    else:
-        data = reference_set(n, ENV_REFERENCES, jobs=jobs, progress=_progress)
-        if path is not None:
-            np.savez(path, **data)
+    data = _touches(refs, n, ENV_REFERENCES, jobs, _progress)
     y = data["class"].astype(int)
     made = []
     for win, dest in zip((EARLY, LATE), out):
@@ -154,10 +147,27 @@ def calibrate(
                 "settings": asdict(settings),
             }
         )
-        cal = build(V, y[ok], win.window_s, win.sub, settings, info)
+        made.append(build(V, y[ok], win.window_s, win.sub, settings, info))
+    dev_data = _touches(dev, ENV_DEVELOPMENT_N, ENV_DEVELOPMENT, jobs)
+    early, late = made[0], replace(made[1], pool=fit_pool(made[0], made[1], dev_data))
+    for cal, dest in zip((early, late), out):
         save_calibration(cal, dest)
-        made.append(cal)
-    return made[0], replace(made[1], pool=record_pool(dev, jobs, out))
+    return early, late
+
+
+def _touches(
+    cache: str | Path | None, n: int, seeds: tuple[int, int], jobs: int, progress: Any = None
+) -> dict[str, np.ndarray]:
+    """``n`` simulated touches of ``seeds`` (material_envelope_refs.reference_set), read from ``cache`` when
+    it exists, kept there when it does not."""
+    path = Path(cache) if cache is not None else None
+    if path is not None and path.exists():
+        with np.load(path) as f:
+            return {k: f[k] for k in f.files}
+    data = reference_set(n, seeds, jobs=jobs, progress=progress)
+    if path is not None:
+        np.savez(path, **data)
+    return data
 
 
 def record_ranges(
@@ -211,14 +221,7 @@ def record_pool(
     """Fit the refined answer's pool (:func:`fit_pool`) on the development touches (material_envelope_refs.
     ENV_DEVELOPMENT; read from ``dev`` when it exists, kept there when it does not) and record it in the
     refined classifier at ``paths[1]`` (the networks unchanged; written atomically)."""
-    path = Path(dev) if dev is not None else None
-    if path is not None and path.exists():
-        with np.load(path) as f:
-            data = {k: f[k] for k in f.files}
-    else:
-        data = reference_set(ENV_DEVELOPMENT_N, ENV_DEVELOPMENT, jobs=jobs)
-        if path is not None:
-            np.savez(path, **data)
+    data = _touches(dev, ENV_DEVELOPMENT_N, ENV_DEVELOPMENT, jobs)
     early, late = load_calibration(paths[0]), load_calibration(paths[1])
     w = fit_pool(early, late, data)
     save_calibration(replace(late, pool=w), paths[1])
