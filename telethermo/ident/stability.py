@@ -9,10 +9,20 @@ Two tests, both must pass:
    clock rates, so slow and fast switching are both tried) stays finite and within ``bound_C`` of the
    reference temperature. A time-varying current can destabilise a model whose frozen-current poles are
    all stable; this catches it.
+
+The free run's bound is the larger of 60 °C, 5× the training record's excursion and **twice the model's own
+largest steady-state excursion over the current range**. A first-order model stable under switching stays
+inside the hull of its steady states (each step is a convex combination of the last temperature and the
+steady state of the current held), so a free run beyond twice that hull grows by itself. The last term is
+physics, not leniency: a module whose Peltier heat α·I·T outgrows its conductance K at heating currents
+(Seebeck ×2.2, R ×4, K ×0.5 in the envelope of issue 22) has a steady state of hundreds of °C at +1 A in
+free air, and the simulated plant itself leaves 60 °C on the check's 1 s PRBS (74–89 °C): a fixed 60 °C bound
+refused the faithful models of two such modules after three attempts, and their nodes ran the shipped gains.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -65,7 +75,8 @@ def check_stability(
         holds: PRBS clock dividers (samples per bit) tried.
         seed: PRBS seed.
         bound_C: allowed |T - T_ref| in the free run, °C. Default: max(60 °C, 5 x the largest deviation
-            of the training temperatures from T_ref).
+            of the training temperatures from T_ref, 2 x the largest steady-state |T - T_ref| over the
+            current grid (computed once the poles pass)).
     """
     lo, hi = model.current_range_A
     grid = np.linspace(lo, hi, n_grid)
@@ -73,10 +84,7 @@ def check_stability(
     mod = np.abs(poles).max(axis=-1)
     k = int(np.argmax(mod))
     max_mod, worst_I = float(mod[k]), float(grid[k])
-    if bound_C is None:
-        dev = max(abs(model.T_range_C[0] - model.T_ref_C), abs(model.T_range_C[1] - model.T_ref_C))
-        bound_C = max(60.0, 5.0 * dev)
-    details = {
+    details: dict[str, Any] = {
         "n_grid": n_grid,
         "pole_margin": pole_margin,
         "prbs_holds": list(holds),
@@ -90,9 +98,12 @@ def check_stability(
             max_mod,
             worst_I,
             float("nan"),
-            bound_C,
+            math.nan if bound_C is None else bound_C,
             details,
         )
+    if bound_C is None:
+        bound_C = _default_bound_C(model, grid)
+        details["steady_state_max_dev_C"] = float(np.max(np.abs(model.steady_state_C(grid) - model.T_ref_C)))
     amp = max(abs(lo), abs(hi))
     worst_dev = 0.0
     for idx, hold in enumerate(holds):
@@ -121,3 +132,12 @@ def check_stability(
                 details,
             )
     return StabilityReport(True, "", max_mod, worst_I, worst_dev, bound_C, details)
+
+
+def _default_bound_C(model: NarmaModel, grid: np.ndarray) -> float:
+    """The free run's default bound, °C (module docstring): max(60, 5 x the training excursion, 2 x the
+    largest steady-state excursion over ``grid``, A). Only for a model whose poles passed (finite steady
+    states)."""
+    dev = max(abs(model.T_range_C[0] - model.T_ref_C), abs(model.T_range_C[1] - model.T_ref_C))
+    steady = float(np.max(np.abs(model.steady_state_C(grid) - model.T_ref_C)))
+    return max(60.0, 5.0 * dev, 2.0 * steady)

@@ -17,7 +17,9 @@ from telethermo.control.gain_rule import (
     margins,
     reference_plant,
 )
+from telethermo import sim
 from telethermo.control.types import Role
+from telethermo.ident.prbs import prbs
 from telethermo.offline.envelope import base_condition, condition_scene, identified_params
 
 
@@ -79,3 +81,33 @@ def test_a_swapped_tem_after_identify_meets_the_margins(seebeck, R, K, plate):
     # plate ×2 even with the shipped gains: skin 0.26 °C, current 0.70 A RMS in band); the envelope benchmark
     # measures it (bench/results/envelope.json, envelope_oscillating_conditions) and the rule does not yet fix
     # it.
+
+
+def test_a_module_that_runs_away_in_free_air_is_identified_and_slowed_down():
+    """Envelope condition 120's display module (Seebeck ×2.23, R ×3.98, K ×0.52, plate ×0.64, 2.16 A drive,
+    sink 0.90 K/W): its Peltier heat α·I·T outgrows K at heating currents, so the free pad itself leaves 60 °C
+    on the stability check's 1 s PRBS. The check's bound follows the model's own steady states, so identify
+    accepts the faithful model at the first attempt (a fixed 60 °C bound refused all three, and the node ran
+    the shipped gains: a ±1 A ring, oscillation ratio 7.9) and the rule slows the loop down."""
+    c = dataclasses.replace(
+        base_condition(),
+        ambient_C=31.57,
+        m_seebeck_x=2.23,
+        m_R_x=3.98,
+        m_K_x=0.52,
+        m_plate_C_x=0.64,
+        m_I_max_A=2.16,
+        m_sink_R_K_W=0.90,
+    )
+    sc, _ = condition_scene(c)
+    rig = sim.free_pad_rig(period_s=sc.period_s, ambient_C=c.ambient_C, seed=1, params=sc.rig_params)
+    u = prbs(20_000, amplitude_A=(0.0, 1.0), hold_samples=100, seed=12_347)  # the check's hold-100 drive
+    worst = 0.0
+    for current in u:
+        rig.apply_current(float(current))
+        rig.advance(sc.period_s)
+        worst = max(worst, abs(rig.truth().T_pad_C - c.ambient_C))
+    assert worst > 70.0  # the plant, not a model: 88.8 °C here
+    _, fit = identified_params(Role.MASTER, sc.rig_params, c.ambient_C, sc.period_s, 7297)
+    assert fit["identify_attempts"] == 1 and not fit.get("identify_refused", False)
+    assert fit["meets_minimum"] and fit["rho"] < 0.5, fit  # ≈ 0.31: the plant pumps ≈ 3× the shipped °C/A
