@@ -279,6 +279,7 @@ def render_only(workers: int) -> dict[str, Any]:
     # the matrix's keys keep the commit they were measured on
     old["matrix_provenance"] = old.pop("matrix_provenance", None) or old.pop("provenance", None)
     old.pop("provenance", None)
+    old.pop("render_provenance", None)  # the render sweep is this commit's (``provenance``)
     out = {**old, **render_sweep.summarise(render), "render_touches": render}
     write_results("envelope", out)
     print(

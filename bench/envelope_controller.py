@@ -6,7 +6,8 @@ candidate's figures next to the shipped ones, the shipped file untouched.
 What depends on the controller is re-run for every condition of the existing envelope.json and the base
 scene, on the same draws: each side's identification and gains, the telepresence session with them and its
 figures, and the shipped gains' session on the same draw (the before-figure). What does not is kept as
-measured, with the commit it was measured on (``matrix_provenance``): the three constant pads of each
+measured, with the commit it was measured on (``pads_bounds_provenance``, ``render_provenance``,
+``timing_provenance``): the three constant pads of each
 condition (held skins against the direct touch: no controller in them), the optimal-current bounds of the
 bound subset (the same), the render sweep (render mode: the telepresence changes this mode is run for do
 not reach it; the bench's ``--render-only`` measures it again) and the 1-vs-2-worker timing. The summary
@@ -80,12 +81,21 @@ def main(argv: list[str] | None = None) -> int:
         | {"provenance": old.get("provenance") or old.get("matrix_provenance")},
         "controller_wall_s": time.perf_counter() - t0,
         "controller_rerun": "identified and shipped sessions of every condition re-run on this commit; pads, "
-        "bounds, render sweep and worker timing kept from matrix_provenance (controller-independent)",
+        "bounds, render sweep and worker timing kept from the commits their *_provenance keys name",
         "base": base,
         "conditions": rows,
     }
-    out["matrix_provenance"] = old.get("matrix_provenance") or old.get("provenance")
-    out.pop("provenance", None)
+    # the sessions are this commit's (``provenance``, written by write_results); the render sweep and the
+    # worker timing keep the commit they were measured on (bench/report.py reads them per key)
+    out["render_provenance"] = old.get("render_provenance") or old.get("provenance")
+    out["timing_provenance"] = (
+        old.get("timing_provenance") or old.get("matrix_provenance") or old.get("provenance")
+    )
+    out["pads_bounds_provenance"] = (
+        old.get("pads_bounds_provenance") or old.get("matrix_provenance") or old.get("provenance")
+    )
+    for k in ("matrix_provenance", "provenance"):
+        out.pop(k, None)
     write_results(a.out, out)
     plot([r for r in rows if "error" not in r], str(current_results_dir() / f"{a.out}.png"))
     for k in COMPARED:

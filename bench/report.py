@@ -311,6 +311,19 @@ def _fmt(v) -> str:
     return str(v)
 
 
+def _provenance_of(data: dict, key: str) -> dict:
+    """The provenance of ``key``'s figure in a results file. The envelope's parts can be measured on
+    different commits: ``python -m bench.envelope_bench --render-only`` keeps the matrix's commit
+    (``matrix_provenance``); ``python -m bench.envelope_controller`` re-runs the sessions and keeps the
+    render sweep's and the worker timing's (``render_provenance``, ``timing_provenance``)."""
+    prov = data.get("provenance", {})
+    if key.startswith("render_"):
+        return data.get("render_provenance") or prov
+    if key.startswith("workers_"):
+        return data.get("timing_provenance") or data.get("matrix_provenance") or prov
+    return data.get("matrix_provenance") or prov
+
+
 def table(results_dir: Path) -> str:
     rows = ["| benchmark | figure | value | target | commit | date |", "|---|---|---|---|---|---|"]
     for name, key, what, target in HEADLINE:
@@ -319,9 +332,7 @@ def table(results_dir: Path) -> str:
             rows.append(f"| {name} | {what} (`{key}`) | not run | {target} | | |")
             continue
         data = json.loads(f.read_text())
-        prov = data.get("provenance", {})
-        if not key.startswith("render_") and data.get("matrix_provenance"):
-            prov = data["matrix_provenance"]  # envelope --render-only: the matrix keeps its own commit
+        prov = _provenance_of(data, key)
         rows.append(
             f"| {name} | {what} (`{key}`) | {_fmt(data.get(key))} | {target} | "
             f"{str(prov.get('commit', ''))[:8]} | {str(prov.get('date', ''))[:10]} |"
