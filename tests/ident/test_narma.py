@@ -5,6 +5,7 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, example, given, settings, strategies as st
 
 from telethermo.ident.narma import NarmaModel, NarmaOrders, UnstableModelError, narma_regressors
 from telethermo.ident.narma_fit import fit_narma
@@ -243,3 +244,38 @@ def test_predictor_snapshot_and_restore_replay_exactly(true_model):
     ).predictor(25.0)
     with pytest.raises(ValueError, match="other orders"):
         other.restore(snap)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    a0=st.floats(0.5, 0.9995),
+    a1=st.floats(-0.3, 0.3),
+    b0=st.floats(0.001, 0.5),
+    hold=st.sampled_from([1, 10, 100]),
+    seed=st.integers(0, 1000),
+)
+@example(a0=0.9995, a1=0.0, b0=0.5, hold=100, seed=1)  # steady states of ±1000 °C
+@example(a0=0.9, a1=0.0999, b0=0.05, hold=100, seed=2)  # the pole nears 1 only at heating currents
+def test_a_first_order_free_run_stays_in_the_hull_of_its_steady_states(a0, a1, b0, hold, seed):
+    """The stability check's bound (2 x the largest steady-state excursion): with the pole a(I) = a0 + a1·I in
+    [0, 1) over the current range, each step is a convex combination of the last temperature and the held
+    current's steady state, so a free run on any drive stays in the hull of the steady states, and a model
+    with steady states of hundreds of °C (a module that runs away in free air) is accepted."""
+    a_edge = max(a0 + a1, a0 - a1)
+    assume(0.0 <= min(a0 + a1, a0 - a1) and a_edge <= 1.0 - 2e-6)
+    m = NarmaModel(
+        orders=NarmaOrders(n=1, m=1, p=1, q=0),
+        theta=np.array([a0, a1, b0]),
+        period_s=0.01,
+        T_ref_C=25.0,
+        current_range_A=(-1.0, 1.0),
+        T_range_C=(20.0, 30.0),
+    )
+    steady = m.steady_state_C(np.linspace(-1.0, 1.0, 4001)) - 25.0
+    u = prbs(5000, amplitude_A=(0.0, 1.0), hold_samples=hold, seed=seed)
+    dev = m.free_run(current_A=u, T0_C=25.0) - 25.0
+    span = float(steady.max() - steady.min())
+    assert steady.min() - 1e-3 * span <= dev.min() and dev.max() <= steady.max() + 1e-3 * span
+    rep = check_stability(m)
+    assert rep.stable, rep.reason
+    assert rep.bound_C >= 2.0 * float(np.max(np.abs(steady))) * 0.999
