@@ -102,8 +102,9 @@ def check_stability(
             details,
         )
     if bound_C is None:
-        bound_C = _default_bound_C(model, grid)
-        details["steady_state_max_dev_C"] = float(np.max(np.abs(model.steady_state_C(grid) - model.T_ref_C)))
+        steady = float(np.max(np.abs(model.steady_state_C(grid) - model.T_ref_C)))
+        details["steady_state_max_dev_C"] = steady
+        bound_C = _default_bound_C(model, steady)
     amp = max(abs(lo), abs(hi))
     worst_dev = 0.0
     for idx, hold in enumerate(holds):
@@ -134,10 +135,9 @@ def check_stability(
     return StabilityReport(True, "", max_mod, worst_I, worst_dev, bound_C, details)
 
 
-def _default_bound_C(model: NarmaModel, grid: np.ndarray) -> float:
-    """The free run's default bound, °C (module docstring): max(60, 5 x the training excursion, 2 x the
-    largest steady-state excursion over ``grid``, A). Only for a model whose poles passed (finite steady
-    states)."""
+def _default_bound_C(model: NarmaModel, steady_max_dev_C: float) -> float:
+    """The free run's default bound, °C (module docstring): max(60, 5 x the training excursion, 2 x
+    ``steady_max_dev_C``, the largest steady-state |T - T_ref| over the current grid, finite once the poles
+    passed)."""
     dev = max(abs(model.T_range_C[0] - model.T_ref_C), abs(model.T_range_C[1] - model.T_ref_C))
-    steady = float(np.max(np.abs(model.steady_state_C(grid) - model.T_ref_C)))
-    return max(60.0, 5.0 * dev, 2.0 * steady)
+    return max(60.0, 5.0 * dev, 2.0 * steady_max_dev_C)

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
+from telethermo import sim
 from telethermo.control.gain_rule import (
     MIN_GAIN_MARGIN_DB,
     MIN_PHASE_MARGIN_DEG,
@@ -17,7 +18,6 @@ from telethermo.control.gain_rule import (
     margins,
     reference_plant,
 )
-from telethermo import sim
 from telethermo.control.types import Role
 from telethermo.ident.prbs import prbs
 from telethermo.offline.envelope import base_condition, condition_scene, identified_params
