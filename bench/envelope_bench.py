@@ -32,6 +32,7 @@ from telethermo.offline.bound import causal_bound  # noqa: F401  (bench.transpar
 from bench.common import current_results_dir, write_results
 from bench.transparency_bench import reference_track, run_bound
 from telethermo.offline import render_sweep
+from telethermo.offline.finger_betas import simulated_user_table
 from telethermo.offline.envelope import (
     Condition,
     base_condition,
@@ -274,13 +275,15 @@ def render_only(workers: int) -> dict[str, Any]:
     path = current_results_dir() / "envelope.json"
     old = json.loads(path.read_text(encoding="utf-8"))
     grid = [(m, T) for m in render_sweep.MATERIALS for T in render_sweep.OBJECT_T_C]
+    table = simulated_user_table()
     with ProcessPoolExecutor(max_workers=workers) as ex:
-        render = [f.result() for f in [ex.submit(render_sweep.render_touch, m, T) for m, T in grid]]
+        futs = [ex.submit(render_sweep.render_touch_both, m, T, table) for m, T in grid]
+        render = [f.result() for f in futs]
     # the matrix's keys keep the commit they were measured on
     old["matrix_provenance"] = old.pop("matrix_provenance", None) or old.pop("provenance", None)
     old.pop("provenance", None)
     old.pop("render_provenance", None)  # the render sweep is this commit's (``provenance``)
-    out = {**old, **render_sweep.summarise(render), "render_touches": render}
+    out = {**old, **render_sweep.summarise(render), "render_table": table, "render_touches": render}
     write_results("envelope", out)
     print(
         f"render_early_rms_worst_C {out['render_early_rms_worst_C']:.4g}; "
@@ -312,13 +315,14 @@ def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> di
     )
 
     grid = [(m, T) for m in render_sweep.MATERIALS for T in render_sweep.OBJECT_T_C]
+    table = simulated_user_table()  # the simulated operator's own β (as a lab's calibrate-render-table)
     if a.quick:
         grid = [("aluminium", 10.0), ("oak", 25.0), ("copper", 45.0)]
 
     def matrix(ex: Executor) -> tuple[list[dict[str, Any]], dict[str, Any], list[dict[str, Any]], list[Any]]:
         fut_base = ex.submit(score, base_condition())
         fut_bounds = [ex.submit(bound_of, c) for c in bound_set]
-        fut_render = [ex.submit(render_sweep.render_touch, m, T) for m, T in grid]
+        fut_render = [ex.submit(render_sweep.render_touch_both, m, T, table) for m, T in grid]
         rows = run_all(ex, conds)
         return rows, fut_base.result(), [f.result() for f in fut_bounds], [f.result() for f in fut_render]
 
@@ -338,6 +342,7 @@ def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> di
         **bound_summary(ok, bounds, base),
         **speed,
         **render_sweep.summarise(render),
+        "render_table": table,
         "render_touches": render,
         "matrix_wall_s": time.perf_counter() - t0,
         "workers": a.workers,

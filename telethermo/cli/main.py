@@ -64,6 +64,10 @@ COMMANDS: dict[str, Command] = {
     "save": Command("store", "store a node's parameters (CiA 301 0x1010): restored at each start"),
     "restore-defaults": Command("store", "a node's default parameters from its next reset or start (0x1011)"),
     "calibrate-finger": Command("calibrate", "per-user finger calibration (yamamoto): β_pad and T_finger0"),
+    "calibrate-render-table": Command(
+        "calibrate_render",
+        "this operator's rendering table: each material's β from direct touches of samples",
+    ),
     "calibrate-material": Command(
         "calibrate_material",
         "calibrate the material identification's physics fit of this probe from recorded reference touches",

@@ -44,3 +44,41 @@ def material_name(code: int, path: str | Path | None = None) -> str:
         return "unknown"
     names = _names(Path(path) if path is not None else DEFAULT_RENDER_TABLE)
     return names[code - 1] if 1 <= code <= len(names) else "none"
+
+
+def user_render_table_text(betas: dict[str, float], how: str, base: str | Path | None = None) -> str:
+    """A rendering table for one operator: ``base``'s materials in ``base``'s order (so their codes stay),
+    each measured material's β replaced by ``betas[name]`` (its source says ``how``), the others kept with
+    their source. Returns the TOML text; ValueError if ``betas`` names a material ``base`` lacks or gives a
+    β that is not a finite positive number."""
+    path = Path(base) if base is not None else DEFAULT_RENDER_TABLE
+    top = Section(path, "", load_toml(path, what="a rendering table (TOML)"))
+    unknown = sorted(set(betas) - set(top.raw))
+    if unknown:
+        raise ValueError(f"{path}: no material {', '.join(unknown)} (known: {', '.join(top.raw)})")
+    lines = [
+        f"# Rendering table of one operator: β measured from this finger's direct touches ({how});",
+        f"# materials, order (= object-dictionary codes) and unmeasured entries from {path.name}.",
+        "",
+    ]
+    for name, raw in top.raw.items():
+        entry = dict(raw)
+        if name in betas:
+            b = float(betas[name])
+            if not (b > 0.0 and b < float("inf")):
+                raise ValueError(f"{name}: β must be a finite positive number, got {b!r}")
+            entry["beta"] = b
+            entry["source"] = f"measured ({how}); was {float(raw['beta']):.4g}: {raw.get('source', '')}"
+        lines.append(f"[{name}]")
+        for key in ("effusivity", "beta", "source"):
+            if key in entry:
+                v = entry[key]
+                lines.append(f"{key} = {_toml_value(v)}")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def _toml_value(v: object) -> str:
+    if isinstance(v, str):
+        return '"' + v.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return repr(float(v))  # type: ignore[arg-type]

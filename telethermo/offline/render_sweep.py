@@ -41,14 +41,23 @@ BAND_MARGIN_C = 0.5
 UNCLAMPED_C = (5.0, 50.0)
 
 
-def render_touch(material: str, T_object_C: float) -> dict[str, Any]:
-    """One rendered touch of ``material`` at ``T_object_C`` (see the module docstring)."""
-    row = _touch(material, T_object_C, research=False)
+def render_touch(material: str, T_object_C: float, table: dict[str, float] | None = None) -> dict[str, Any]:
+    """One rendered touch of ``material`` at ``T_object_C`` (see the module docstring) with the rendering
+    table ``table`` (material -> β; default the shipped one)."""
+    row = _touch(material, T_object_C, research=False, table=table)
     if "preset_clamp" in row["limited_by"]:
-        wide = _touch(material, T_object_C, research=True)
+        wide = _touch(material, T_object_C, research=True, table=table)
         row["early_rms_unclamped_C"] = wide["early_rms_C"]
         row["preset_unclamped_C"] = wide["preset_asked_C"]
         row["skin_extreme_unclamped_C"] = wide["skin_extreme_C"]
+    return row
+
+
+def render_touch_both(material: str, T_object_C: float, table: dict[str, float]) -> dict[str, Any]:
+    """:func:`render_touch` with the operator's ``table``, and beside it (``early_rms_shipped_table_C``) the
+    same touch rendered with the shipped table (the baseline the operator's calibration must beat)."""
+    row = render_touch(material, T_object_C, table)
+    row["early_rms_shipped_table_C"] = _touch(material, T_object_C, research=False, table=None)["early_rms_C"]
     return row
 
 
@@ -59,14 +68,20 @@ def _research_params(period_s: float) -> CoreParams:
     return dataclasses.replace(p, safety=dataclasses.replace(p.safety, T_min_C=lo, T_max_C=hi, research=True))
 
 
-def _touch(material: str, T_object_C: float, *, research: bool) -> dict[str, Any]:
+def _touch(
+    material: str, T_object_C: float, *, research: bool, table: dict[str, float] | None
+) -> dict[str, Any]:
     sc0 = sim.load_scene(SCENE)
     obj = dataclasses.replace(
         sc0.objects["brass"], name="o", material=material, T0_C=T_object_C, thickness_m=0.02
     )
     touch = dataclasses.replace(sc0.master_contacts[0], render="o", start_s=T_ON_S, end_s=T_OFF_S)
     sc = dataclasses.replace(sc0, objects={"o": obj}, master_contacts=(touch,), duration_s=T_OFF_S)
-    res = run_offline_session(sc, master_params=_research_params(sc.period_s) if research else None)
+    res = run_offline_session(
+        sc,
+        master_params=_research_params(sc.period_s) if research else None,
+        render_options={"table": table} if table is not None else None,
+    )
     rec = res.recording
     t, skin, ref = rec.col("t_s"), rec.col("m_true_surface_C"), rec.col("ref_T_contact_C")
     sp, cur = rec.col("m_setpoint_C"), rec.col("m_current_A")
@@ -138,9 +153,23 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
             if r["early_rms_C"] > 0.5
         ],
         **_clamp_cost(inside),
+        **_shipped_table(inside),
         "render_beyond_band_skin_to_clamp_worst_C": float(max(near)) if near else math.nan,
         "render_beyond_band_at_clamp_within_0p5": int(sum(d <= 0.5 for d in near)),
         "render_beyond_band": len(outside),
+    }
+
+
+def _shipped_table(inside: list[dict[str, Any]]) -> dict[str, Any]:
+    """The shipped table's figures on the same touches (where the sweep ran it: :func:`render_touch_both`)."""
+    both = [r for r in inside if "early_rms_shipped_table_C" in r]
+    if not both:
+        return {}
+    rms = [r["early_rms_shipped_table_C"] for r in both]
+    free = [r["early_rms_shipped_table_C"] for r in both if "early_rms_unclamped_C" not in r]
+    return {
+        "render_early_rms_median_shipped_table_C": float(np.median(rms)),
+        "render_early_rms_worst_not_clamped_shipped_table_C": max(free, default=math.nan),
     }
 
 

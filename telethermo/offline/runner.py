@@ -89,7 +89,7 @@ def run_offline_session(
     ``rounding``: "none" or "real32" (exchanged values rounded as REAL32 PDOs carry them).
     ``mode``: "telepresence" or "render" (default: render for a "virtual" scene).
     ``render_options``: ``beta_pad`` (the calibrated pad β), ``T_finger0_C``, ``finger_thermometer``,
-    ``thermometer_lead_s``, ``later_model`` (see :func:`_run_render`).
+    ``thermometer_lead_s``, ``later_model``, ``table`` (see :func:`_run_render`).
     ``peer_loss_s``: (telepresence) a scripted link loss (start, end), s: the samples of cycles at
     start <= t < end see their peer lost (the last values received, not fresh, not alive), as a node does
     once its heartbeat consumer or the PDO-miss limit declares the peer lost.
@@ -267,6 +267,7 @@ def _run_render(
     thermometer_lead_s: float = 1.0,
     calibration_presets_C: list[float] | None = None,
     later_model: str = DEFAULT_LATER_MODEL.value,
+    table: dict[str, float] | None = None,
 ) -> SessionResult:
     """Master alone renders each touch's virtual material (settings from the scene's touches).
 
@@ -275,7 +276,8 @@ def _run_render(
     ``calibration_presets_C``: calibration session instead: touch i pre-sets the pad at
     ``calibration_presets_C[i]`` and holds the current during the touch (see session.calibration).
     ``later_model``: the later-phase model (telethermo.control.later_phase: semi_infinite, rc, conduction;
-    default conduction).
+    default conduction). ``table``: material -> β (default: the shipped rendering table; e.g. the operator's
+    own, telethermo.offline.finger_betas).
     """
     script = RenderScript(
         sc,
@@ -285,6 +287,7 @@ def _run_render(
         thermometer_lead_s=thermometer_lead_s,
         calibration_presets_C=calibration_presets_C,
         later_model=later_model,
+        table=table,
     )
     base = params or default_params(Role.MASTER, period_s=period, mode=Mode.RENDER, render=script.first)
     base = _with_rig_limits(base, rig_m)
