@@ -255,6 +255,13 @@ HEADLINE = [
         "eq. 1 contact lies in the clamps' band, °C",
         "≤ 0.5",
     ),
+    (
+        "envelope",
+        "render_early_rms_worst_not_clamped_C",
+        "the same, touches whose eq. 7 pre-set the skin clamp does not stop, with the simulated operator's "
+        "own β (shipped table, same run: `render_early_rms_worst_not_clamped_shipped_table_C` 0.759)",
+        "≤ 0.5",
+    ),
     ("envelope", "workers_2_speedup", "the first conditions on 2 workers vs 1, same run", "≥ 1.7"),
     (
         "envelope_probe_flux",
