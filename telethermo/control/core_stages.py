@@ -21,6 +21,7 @@ from telethermo.control.later_phase import later_setpoint, later_start
 from telethermo.control.link_fallback import LinkState, fallback_gains, link_step
 from telethermo.control.pi import PIComponents, PIState, bumpless, pi_step
 from telethermo.control.types import Mode, PeerValues, Role
+from telethermo.control.virtual_finger import VirtualFinger, vf_start, vf_step
 from telethermo.ident.plan import guarded_current
 from telethermo.rig import RigSample
 
@@ -117,7 +118,15 @@ def _telepresence_request(
                 gains, fg = NO_GAINS, params._air_gains
     else:
         req = math.nan
-    return Request(req, ff, eQ, gains, fg, state.render_phase, False, None, (params.mode, phase_t))
+    vf_st = None
+    vf = params.virtual_finger
+    if vf is not None and peer_usable and cst.contact:  # the probe renders a finger to the object
+        prev = state.render_later
+        same = prev is not None and isinstance(prev[0], VirtualFinger) and prev[0].b == vf.b
+        x = prev[1] if same else vf_start(vf, cast(PeerValues, peer).estimate_C)
+        x, req = vf_step(vf, x, Q)
+        vf_st, ff, eQ, fg, phase_t = (vf, x), 0.0, 0.0, None, "virtual_finger"
+    return Request(req, ff, eQ, gains, fg, state.render_phase, False, vf_st, (params.mode, phase_t))
 
 
 def _render_request(sample: RigSample, params: CoreParams, state: CoreState, e: Estimates) -> Request:

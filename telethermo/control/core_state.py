@@ -57,7 +57,8 @@ class CoreState:
             the finger is lifted, air rendering holds neutral instead (before any finger it renders air,
             and both pads rest at ambient).
         render_later: RENDER in contact: (the render's ``LaterPhase``, its model state); restarted at each
-            touch and whenever the rendered object changes.
+            touch and whenever the rendered object changes. TELEPRESENCE on a slave with a virtual finger, in
+            contact: (its ``VirtualFinger``, the skin's cells), restarted at each touch.
         material: (slave) the material identification's collector and last result.
         link: (master, telepresence) the graceful link loss's memory
             (:mod:`telethermo.control.link_fallback`).

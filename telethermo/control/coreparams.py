@@ -17,6 +17,7 @@ from telethermo.control.material_stream import MaterialIdParams
 from telethermo.control.pi import FluxPIGains, PIGains
 from telethermo.control.rendering import contact_temperature, pad_preset_temperature
 from telethermo.control.types import Mode, Role
+from telethermo.control.virtual_finger import VF_AREA_M2, VirtualFinger, vf_model
 from telethermo.ident.plan import IdentifyPlan
 
 
@@ -146,6 +147,9 @@ class CoreParams:
         osc_guard_C: (slave, telepresence) the oscillation guard's threshold, °C: when successive half-cycles
             of the finger estimate received (its 0.3-5 Hz band) peak at or above it in settled contact, they
             set the probe's kp in contact to a quarter; 0: off (:mod:`telethermo.control.osc_guard`).
+        virtual_finger_b: (slave, telepresence; an experiment, 0 = off) in contact the probe's setpoint is a
+            virtual finger of this effusivity, W·s^½/(m²·K), started at the master's finger estimate and
+            losing the heat the probe's sensor measures (:mod:`telethermo.control.virtual_finger`).
     """
 
     role: Role
@@ -175,9 +179,11 @@ class CoreParams:
     material_id: MaterialIdParams | None = field(default_factory=MaterialIdParams)
     link_loss_render_s: float = CORE["link_loss_render_s"]
     osc_guard_C: float = CORE["osc_guard_C"]
+    virtual_finger_b: float = CORE["virtual_finger_b"]
     _gains: Any = field(default=None, init=False, repr=False, compare=False)
     _flux_gains: Any = field(default=None, init=False, repr=False, compare=False)
     _air_gains: Any = field(default=None, init=False, repr=False, compare=False)
+    _vf: Any = field(default=None, init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         o = "CoreParams"
@@ -204,6 +210,7 @@ class CoreParams:
         _finite_number(o, "T_air_C", self.T_air_C, lo=-20.0, hi=60.0)
         _finite_number(o, "link_loss_render_s", self.link_loss_render_s, lo=0.0, hi=60.0)
         _finite_number(o, "osc_guard_C", self.osc_guard_C, lo=0.0, hi=10.0)
+        _finite_number(o, "virtual_finger_b", self.virtual_finger_b, lo=0.0, hi=1.0e5)
         if not isinstance(self.air_rendering, bool):
             raise ValueError(f"{o}.air_rendering: expected True or False, got {self.air_rendering!r}")
         if not isinstance(self.identify, IdentifyPlan):
@@ -223,6 +230,8 @@ class CoreParams:
         )
         object.__setattr__(self, "_flux_gains", fg)
         object.__setattr__(self, "_air_gains", FluxPIGains(self.air_kpQ_A_per_W, self.air_kiQ_A_per_W_s))
+        if self.virtual_finger_b > 0 and self.role is Role.SLAVE:
+            object.__setattr__(self, "_vf", vf_model(self.virtual_finger_b, VF_AREA_M2, self.period_s))
 
     @property
     def gains(self) -> PIGains:
@@ -233,6 +242,11 @@ class CoreParams:
     def flux_gains(self) -> FluxPIGains | None:
         """Heat-flux loop gains (kp in A/W, ki in A/(W·s)), None when off."""
         return cast("FluxPIGains | None", self._flux_gains)
+
+    @property
+    def virtual_finger(self) -> VirtualFinger | None:
+        """The probe's virtual finger (slave with ``virtual_finger_b`` > 0), None when off."""
+        return cast("VirtualFinger | None", self._vf)
 
 
 # ---------------------------------------------------------------------------------------------

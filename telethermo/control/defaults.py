@@ -43,6 +43,7 @@ CORE: dict[str, float] = dict(
     T_air_C=25.0,
     link_loss_render_s=5.0,  # graceful link loss: render locally this long, s
     osc_guard_C=0.0,  # the slave's oscillation guard off (GAINS turn it on for the slave)
+    virtual_finger_b=0.0,  # the probe's virtual finger off (an experiment: docs/control.md)
 )
 
 #: role -> parameters at the reference period of 10 ms (telepresence), tuned on probe_touches_al_steel_wood

@@ -1,0 +1,110 @@
+"""An experiment for issue 22, not a shipped controller: the envelope matrix with a virtual finger on the
+probe.
+
+``python -m bench.envelope_virtual_finger [--b W·s^½/(m²·K)] [--kp A/°C] [--ramp °C/s] [--workers N]
+[--only I,J]`` writes ``bench/results/envelope_virtual_finger.json``.
+
+docs/control.md traces most of the matrix's losses to the best constant pad to the probe following the finger
+estimate of a display held back by its current and ramp limits: on a cold object the probe gives the object
+4–5× a finger's heat, on a hot thin plate (condition 85) it drains it at −3.3 A, 6× the finger's flux. The
+candidate: in contact, the probe's setpoint is a virtual finger (:mod:`telethermo.control.virtual_finger`,
+``CoreParams.virtual_finger_b``) started at the master's finger estimate and losing the heat the probe's own
+sensor measures, with no flux feed-forward; its kp (``--kp`` at the shipped module, scaled like the shipped kp
+by the gain rule's ratio) and a probe ramp limit of ``--ramp`` °C/s (the probe has no skin; at 5 °C/s its
+setpoint cannot follow the virtual finger's first second). Same conditions as bench/results/envelope.json
+(parameters read from it), identified gains, scored against the shipped run's figures in that file (the best
+pads do not depend on the controller), plus the base scene (issue 22 keeps its headline <= 1.255 °C).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+from bench.common import RESULTS_DIR, write_results
+from bench.envelope_probe_flux import summary
+from telethermo.control.defaults import GAINS
+from telethermo.control.types import Role
+from telethermo.offline import envelope
+
+SHIPPED_SLAVE_KP = GAINS[Role.SLAVE]["kp_A_per_C"]  # 0.43 A/°C
+_identified = envelope.identified_params
+BASE_KEYS = ("headline_C", "early_C", "late_C", "pre_contact_C")
+_CANDIDATE: dict[str, float] = {"b": 1100.0, "kp": 1.0, "ramp": 50.0}
+
+
+def _slave_params(role, *args, **kwargs):
+    p, fit = _identified(role, *args, **kwargs)
+    if role is Role.SLAVE:
+        s = p.kp_A_per_C / SHIPPED_SLAVE_KP  # the gain rule's ratio for this module (1 on the shipped one)
+        ramp = _CANDIDATE["ramp"]
+        p = dataclasses.replace(
+            p,
+            virtual_finger_b=_CANDIDATE["b"],
+            kp_A_per_C=_CANDIDATE["kp"] * s,
+            safety=dataclasses.replace(p.safety, ramp_up_C_per_s=ramp, ramp_down_C_per_s=ramp),
+        )
+    return p, fit
+
+
+def _run(job: tuple[dict[str, Any], dict[str, float]]) -> dict[str, Any]:
+    cond, candidate = job
+    _CANDIDATE.update(candidate)
+    envelope.identified_params = _slave_params
+    c = envelope.Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
+    r = envelope.run_condition(c, with_pads=False)
+    keep = (
+        "headline_C",
+        "pre_contact_C",
+        "early_C",
+        "late_C",
+        "oscillation_ratio",
+        "oscillating",
+        "cue_order_kept",
+        "session_long_cut",
+    )
+    return {"index": c.index, **{k: r[k] for k in keep}, "trips": len(r["trips"])}
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        prog="python -m bench.envelope_virtual_finger", description=__doc__.split("\n\n")[0]
+    )
+    ap.add_argument("--b", type=float, default=1100.0, help="the virtual finger's effusivity, W·s^½/(m²·K)")
+    ap.add_argument("--kp", type=float, default=1.0, help="the probe's kp at the shipped module, A/°C")
+    ap.add_argument("--ramp", type=float, default=50.0, help="the probe's setpoint ramp limit, °C/s")
+    ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
+    ap.add_argument("--shipped", default=str(RESULTS_DIR / "envelope.json"), help="the shipped run's results")
+    ap.add_argument("--only", help="comma-separated condition indices (default: the whole matrix)")
+    a = ap.parse_args(argv)
+    with open(a.shipped, encoding="utf-8") as f:
+        shipped_run = json.load(f)
+    shipped = [c for c in shipped_run["conditions"] if "headline_C" in c]
+    if a.only:
+        want = {int(i) for i in a.only.split(",")}
+        shipped = [c for c in shipped if c["condition"]["index"] in want]
+    candidate = {"b": a.b, "kp": a.kp, "ramp": a.ramp}
+    jobs = [(c["condition"], candidate) for c in shipped]
+    jobs.append((dataclasses.asdict(envelope.base_condition()), candidate))
+    with ProcessPoolExecutor(max_workers=a.workers) as ex:
+        rows = list(ex.map(_run, jobs))
+    base = next(r for r in rows if r["index"] == -1)
+    rows = [r for r in rows if r["index"] != -1]
+    data = {
+        "candidate": candidate,
+        **summary(shipped, rows),
+        "base": base,
+        "shipped_base": {k: shipped_run["base"][k] for k in BASE_KEYS},
+        "conditions": rows,
+    }
+    path = write_results("envelope_virtual_finger", data)
+    print(json.dumps({k: v for k, v in data.items() if k != "conditions"}, indent=1))
+    print(f"written {path}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
