@@ -276,6 +276,19 @@ HEADLINE = [
         "shipped 25",
     ),
     (
+        "envelope_virtual_finger",
+        "candidate_beats_best_pad_fraction",
+        "experiment, not shipped: a virtual finger on the probe (the base scene regresses: docs/control.md); "
+        "beats the best pad",
+        "shipped 0.495",
+    ),
+    (
+        "envelope_virtual_finger",
+        "candidate_oscillating_conditions",
+        "the same experiment: oscillating conditions",
+        "shipped 24",
+    ),
+    (
         "material_lab",
         "material_lab_touches_needed",
         "lab calibration of the material physics fit: reference touches needed (a 0.7 mm sensor probe)",
