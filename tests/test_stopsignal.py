@@ -11,6 +11,8 @@ import sys
 import textwrap
 import threading
 
+import pytest
+
 from telethermo.stopsignal import StopOnSignal
 
 #: the main thread holds the event's internal lock (``Event._cond``, as inside ``Event.wait``) when the
@@ -51,6 +53,7 @@ def run(template: str, timeout_s: float) -> subprocess.CompletedProcess | None:
         return None
 
 
+@pytest.mark.slow  # a process of its own
 def test_sigterm_while_the_main_thread_holds_the_event_lock_stops_the_loop():
     res = run(OURS, timeout_s=60)
     assert res is not None, "the process did not exit"
@@ -58,6 +61,7 @@ def test_sigterm_while_the_main_thread_holds_the_event_lock_stops_the_loop():
     assert res.stdout.split() == ["stopped", "SIGTERM"]
 
 
+@pytest.mark.slow  # a process of its own
 def test_the_handler_that_sets_the_event_itself_hangs_at_that_moment():
     """The control: the same moment with ``event.set()`` in the handler deadlocks (killed after 5 s)."""
     assert run(OLD, timeout_s=5) is None
