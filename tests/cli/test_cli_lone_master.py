@@ -58,6 +58,7 @@ def load_model_by_sdo(bus: str, model_file: Path) -> int:
     nw = canopen.Network(open_bus(parse_bus_string(bus))).connect()
     try:
         node = nw.add_node(cfg.node_id, str(cfg.eds))
+        node.sdo.RESPONSE_TIMEOUT = 5.0  # a loaded machine answers late; this is no timing assertion
         for e in entries:
             (node.sdo[e.index][e.sub] if e.sub else node.sdo[e.index]).raw = e.value
         node.sdo["model_command"].raw = odmodel.CMD_LOAD
