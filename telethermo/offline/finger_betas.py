@@ -17,13 +17,12 @@ mean of the direct touch's skin in yamamoto's early window (0.1–1 s, as ``cali
 
 from __future__ import annotations
 
-import dataclasses
-
 import numpy as np
 
 from telethermo import sim
 from telethermo.control.rendering import relative_effusivity_from_contact
 from telethermo.control.render_table import load_render_table
+from telethermo.offline.one_touch import one_touch_scene
 
 SCENE = "virtual_materials"
 #: calibration object temperatures, °C (off the render sweep's 5 °C grid; one each side of the finger)
@@ -38,12 +37,7 @@ T_ON_S, T_OFF_S = 3.0, 4.5
 def direct_touch_beta(material: str, T_object_C: float, *, scene: str = SCENE) -> float:
     """β of ``material`` (a simulator material) relative to ``scene``'s finger from one direct touch of a
     20 mm slab at ``T_object_C``: (T_f0 − T_c)/(T_c − T_o), T_f0 the skin just before the touch, °C."""
-    sc0 = sim.load_scene(scene)
-    obj = dataclasses.replace(
-        next(iter(sc0.objects.values())), name="o", material=material, T0_C=T_object_C, thickness_m=0.02
-    )
-    touch = dataclasses.replace(sc0.master_contacts[0], render="o", start_s=T_ON_S, end_s=T_OFF_S)
-    sc = dataclasses.replace(sc0, objects={"o": obj}, master_contacts=(touch,), duration_s=T_OFF_S)
+    sc = one_touch_scene(scene, material, T_object_C, T_ON_S, T_OFF_S)
     ref = sim.build_reference(sc)
     dt = float(sc.period_s)
     t, skin = [], []

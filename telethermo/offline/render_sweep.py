@@ -25,10 +25,10 @@ from typing import Any
 
 import numpy as np
 
-from telethermo import sim
 from telethermo.control.coreparams import CoreParams
 from telethermo.control.params import default_params
 from telethermo.control.types import Role
+from telethermo.offline.one_touch import one_touch_scene
 from telethermo.offline.runner import run_offline_session
 from telethermo.sim.materials import materials
 
@@ -71,12 +71,7 @@ def _research_params(period_s: float) -> CoreParams:
 def _touch(
     material: str, T_object_C: float, *, research: bool, table: dict[str, float] | None
 ) -> dict[str, Any]:
-    sc0 = sim.load_scene(SCENE)
-    obj = dataclasses.replace(
-        sc0.objects["brass"], name="o", material=material, T0_C=T_object_C, thickness_m=0.02
-    )
-    touch = dataclasses.replace(sc0.master_contacts[0], render="o", start_s=T_ON_S, end_s=T_OFF_S)
-    sc = dataclasses.replace(sc0, objects={"o": obj}, master_contacts=(touch,), duration_s=T_OFF_S)
+    sc = one_touch_scene(SCENE, material, T_object_C, T_ON_S, T_OFF_S)
     res = run_offline_session(
         sc,
         master_params=_research_params(sc.period_s) if research else None,
