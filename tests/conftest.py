@@ -11,6 +11,10 @@ ask for); see tests/support/results.py (fixture ``results_writer``).
 Every test's node programs and in-process nodes keep their CiA 301 parameter store (0x1010, default
 ``$XDG_STATE_HOME/telethermo/node<ID>.json``) in a folder of this test run, never in the user's: settings a
 developer saved must not change what the tests see. Set at import, before any fixture starts a process.
+
+Every canopen SDO client the tests build waits :data:`SDO_RESPONSE_TIMEOUT_S` for an answer unless the test
+sets its own (canopen's default, 0.3 s, is shorter than a node process on a loaded machine can take: two CI
+runs beside CPU hogs failed on it). No test asserts a time with it; the tests that check a timeout set theirs.
 """
 
 from __future__ import annotations
@@ -20,11 +24,15 @@ import os
 import subprocess
 import tempfile
 
+import canopen.sdo.client
 import pytest
 
 from tests.support.results import ResultsWriter
 
 os.environ["XDG_STATE_HOME"] = tempfile.mkdtemp(prefix="telethermo-test-state-")
+
+SDO_RESPONSE_TIMEOUT_S = 3.0
+canopen.sdo.client.SdoClient.RESPONSE_TIMEOUT = SDO_RESPONSE_TIMEOUT_S
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
