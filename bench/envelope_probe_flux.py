@@ -35,6 +35,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from bench.common import RESULTS_DIR, write_results
+from bench.envelope_candidate import add_matrix_args, condition_row, load_shipped, only
 from telethermo.control import core_stages
 from telethermo.control.flux_bound import flux_gain_bound
 from telethermo.control.gain_rule import linear_plant, reference_plant
@@ -107,10 +108,7 @@ def _run(job: tuple[dict[str, Any], dict[str, Any]]) -> dict[str, Any]:
     envelope.identified_params = _slave_params
     envelope.fit_gains = _recording_fit_gains
     core_stages._telepresence_request = _deadband_request
-    c = envelope.Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
-    r = envelope.run_condition(c, with_pads=False)
-    keep = ("headline_C", "early_C", "oscillation_ratio", "oscillating", "cue_order_kept", "session_long_cut")
-    row = {"index": c.index, **{k: r[k] for k in keep}, "trips": len(r["trips"])}
+    row = condition_row(cond, ("headline_C", "early_C", "oscillation_ratio", "oscillating", "cue_order_kept"))
     if _CANDIDATE["bound"] != "none":
         row["slave_flux_gains"] = dict(_USED)
     return row
@@ -204,9 +202,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--kpQ", type=float, default=0.258, help="slave flux loop kp at the shipped kp, A/W")
     ap.add_argument("--kiQ", type=float, default=0.43, help="slave flux loop ki at the shipped kp, A/(W·s)")
     ap.add_argument("--deadband", type=float, default=2.0, help="flux error the loop ignores, W")
-    ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
-    ap.add_argument("--shipped", default=str(RESULTS_DIR / "envelope.json"), help="the shipped run's results")
-    ap.add_argument("--only", help="comma-separated condition indices, or 'check' (see check_groups)")
+    add_matrix_args(ap, "comma-separated condition indices, or 'check' (see check_groups)")
     ap.add_argument(
         "--bound",
         choices=("none", "delay", "delay-kp", "zero"),
@@ -217,8 +213,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--settle", type=float, default=0.0, help="contact time before the flux integral acts, s")
     ap.add_argument("--candidate-run", default=str(RESULTS_DIR / "envelope_probe_flux.json"))
     a = ap.parse_args(argv)
-    with open(a.shipped, encoding="utf-8") as f:
-        shipped = [c for c in json.load(f)["conditions"] if "headline_C" in c]
+    _, shipped = load_shipped(a.shipped)
     groups = None
     if a.only == "check":
         with open(a.candidate_run, encoding="utf-8") as f:
@@ -228,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
     elif a.only:
         want = {int(i) for i in a.only.split(",")}
     if a.only:
-        shipped = [c for c in shipped if c["condition"]["index"] in want]
+        shipped = only(shipped, want)
     candidate = {"kpQ": a.kpQ, "kiQ": a.kiQ, "deadband": a.deadband}
     if a.bound != "none":
         candidate["bound"] = a.bound

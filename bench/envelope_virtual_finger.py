@@ -24,7 +24,8 @@ import json
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
-from bench.common import RESULTS_DIR, write_results
+from bench.common import write_results
+from bench.envelope_candidate import add_matrix_args, condition_row, load_shipped, only
 from bench.envelope_probe_flux import summary
 from telethermo.control.defaults import GAINS
 from telethermo.control.types import Role
@@ -54,19 +55,7 @@ def _run(job: tuple[dict[str, Any], dict[str, float]]) -> dict[str, Any]:
     cond, candidate = job
     _CANDIDATE.update(candidate)
     envelope.identified_params = _slave_params
-    c = envelope.Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
-    r = envelope.run_condition(c, with_pads=False)
-    keep = (
-        "headline_C",
-        "pre_contact_C",
-        "early_C",
-        "late_C",
-        "oscillation_ratio",
-        "oscillating",
-        "cue_order_kept",
-        "session_long_cut",
-    )
-    return {"index": c.index, **{k: r[k] for k in keep}, "trips": len(r["trips"])}
+    return condition_row(cond)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -76,16 +65,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--b", type=float, default=1100.0, help="the virtual finger's effusivity, W·s^½/(m²·K)")
     ap.add_argument("--kp", type=float, default=1.0, help="the probe's kp at the shipped module, A/°C")
     ap.add_argument("--ramp", type=float, default=50.0, help="the probe's setpoint ramp limit, °C/s")
-    ap.add_argument("--workers", type=int, default=2, help="processes (default 2)")
-    ap.add_argument("--shipped", default=str(RESULTS_DIR / "envelope.json"), help="the shipped run's results")
-    ap.add_argument("--only", help="comma-separated condition indices (default: the whole matrix)")
+    add_matrix_args(ap)
     a = ap.parse_args(argv)
-    with open(a.shipped, encoding="utf-8") as f:
-        shipped_run = json.load(f)
-    shipped = [c for c in shipped_run["conditions"] if "headline_C" in c]
+    shipped_run, shipped = load_shipped(a.shipped)
     if a.only:
-        want = {int(i) for i in a.only.split(",")}
-        shipped = [c for c in shipped if c["condition"]["index"] in want]
+        shipped = only(shipped, {int(i) for i in a.only.split(",")})
     candidate = {"b": a.b, "kp": a.kp, "ramp": a.ramp}
     jobs = [(c["condition"], candidate) for c in shipped]
     jobs.append((dataclasses.asdict(envelope.base_condition()), candidate))
