@@ -27,6 +27,7 @@ from typing import Any
 from bench.common import write_results
 from bench.envelope_candidate import add_matrix_args, condition_row, load_shipped, only
 from bench.envelope_probe_flux import summary
+from telethermo.control import core_stages
 from telethermo.control.defaults import GAINS
 from telethermo.control.types import Role
 from telethermo.offline import envelope
@@ -34,7 +35,8 @@ from telethermo.offline import envelope
 SHIPPED_SLAVE_KP = GAINS[Role.SLAVE]["kp_A_per_C"]  # 0.43 A/°C
 _identified = envelope.identified_params
 BASE_KEYS = ("headline_C", "early_C", "late_C", "pre_contact_C")
-_CANDIDATE: dict[str, float] = {"b": 1100.0, "kp": 1.0, "ramp": 50.0}
+_CANDIDATE: dict[str, float] = {"b": 1100.0, "kp": 1.0, "ramp": 50.0, "master_flux": 1.0, "air_kiQ_x": 1.0}
+_request = core_stages._telepresence_request
 
 
 def _slave_params(role, *args, **kwargs):
@@ -48,13 +50,24 @@ def _slave_params(role, *args, **kwargs):
             kp_A_per_C=_CANDIDATE["kp"] * s,
             safety=dataclasses.replace(p.safety, ramp_up_C_per_s=ramp, ramp_down_C_per_s=ramp),
         )
+    elif _CANDIDATE["air_kiQ_x"] != 1.0:
+        p = dataclasses.replace(p, air_kiQ_A_per_W_s=p.air_kiQ_A_per_W_s * _CANDIDATE["air_kiQ_x"])
     return p, fit
+
+
+def _master_request(sample, peer, params, state, e, usable):
+    """``master_flux`` 0: in contact the display tracks the probe's temperature alone (no flux mirror)."""
+    r = _request(sample, peer, params, state, e, usable)
+    if not _CANDIDATE["master_flux"] and params.role is Role.MASTER and usable and r.source[1] == "contact":
+        r = dataclasses.replace(r, ff=0.0, eQ=0.0, fg=None)
+    return r
 
 
 def _run(job: tuple[dict[str, Any], dict[str, float]]) -> dict[str, Any]:
     cond, candidate = job
     _CANDIDATE.update(candidate)
     envelope.identified_params = _slave_params
+    core_stages._telepresence_request = _master_request
     return condition_row(cond)
 
 
@@ -65,12 +78,23 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--b", type=float, default=1100.0, help="the virtual finger's effusivity, W·s^½/(m²·K)")
     ap.add_argument("--kp", type=float, default=1.0, help="the probe's kp at the shipped module, A/°C")
     ap.add_argument("--ramp", type=float, default=50.0, help="the probe's setpoint ramp limit, °C/s")
+    ap.add_argument(
+        "--no-master-flux", action="store_true", help="in contact the display tracks temperature alone"
+    )
+    ap.add_argument("--air-kiQ-x", type=float, default=1.0, help="the display's air flux ki, × identified")
+    ap.add_argument("--out", default="envelope_virtual_finger", help="results name (bench/results/NAME.json)")
     add_matrix_args(ap)
     a = ap.parse_args(argv)
     shipped_run, shipped = load_shipped(a.shipped)
     if a.only:
         shipped = only(shipped, {int(i) for i in a.only.split(",")})
-    candidate = {"b": a.b, "kp": a.kp, "ramp": a.ramp}
+    candidate = {
+        "b": a.b,
+        "kp": a.kp,
+        "ramp": a.ramp,
+        "master_flux": 0.0 if a.no_master_flux else 1.0,
+        "air_kiQ_x": a.air_kiQ_x,
+    }
     jobs = [(c["condition"], candidate) for c in shipped]
     jobs.append((dataclasses.asdict(envelope.base_condition()), candidate))
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
@@ -84,7 +108,7 @@ def main(argv: list[str] | None = None) -> int:
         "shipped_base": {k: shipped_run["base"][k] for k in BASE_KEYS},
         "conditions": rows,
     }
-    path = write_results("envelope_virtual_finger", data)
+    path = write_results(a.out, data)
     print(json.dumps({k: v for k, v in data.items() if k != "conditions"}, indent=1))
     print(f"written {path}")
     return 0
