@@ -66,10 +66,13 @@ def _finite_mean(v: list[float]) -> float:
 def _at(t: np.ndarray, y: np.ndarray, ts: float) -> float:
     """y at the last sample at or before ``ts`` (NaN outside the record: before its first sample, or more
     than one period after its last, as for a touch a shortened session never reached)."""
-    k = int(np.searchsorted(t, ts + 1e-9, side="right")) - 1
-    period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
-    if len(t) == 0 or ts > t[-1] + period + 1e-9:
+    if len(t) == 0:
         return math.nan
+    if ts > t[-1]:  # the period only matters past the record's end (a median over the whole record)
+        period = float(np.median(np.diff(t))) if len(t) > 1 else 0.0
+        if ts > t[-1] + period + 1e-9:
+            return math.nan
+    k = int(np.searchsorted(t, ts + 1e-9, side="right")) - 1
     return float(y[k]) if 0 <= k < len(y) else math.nan
 
 
