@@ -250,10 +250,10 @@ def run(args: argparse.Namespace) -> int:
     _check(args)
     try:
         scene = sim.load_scene(args.scene)
+        _check_duration(args.duration, scene)  # before the tuning scenes are built: a refusal costs nothing
         scenes = tn.tuning_scenes(scene, perturbed=not args.no_perturbed, envelope=max(0, args.envelope))
     except ValueError as exc:  # SceneError names the file and the field; a virtual scene is refused
         raise UserError(str(exc)) from None
-    _check_duration(args.duration, scene)
     x0 = _start_gains(args.start)
     weights = _weights(args)
 
