@@ -21,6 +21,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import math
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
@@ -29,19 +30,32 @@ from bench.envelope_candidate import add_matrix_args, condition_row, load_shippe
 from bench.envelope_probe_flux import summary
 from telethermo.control import core_stages
 from telethermo.control.defaults import GAINS
+from telethermo.control.safety_limits import DEFAULT_T_MAX_C, DEFAULT_T_MIN_C
 from telethermo.control.types import Role
 from telethermo.offline import envelope
 
 SHIPPED_SLAVE_KP = GAINS[Role.SLAVE]["kp_A_per_C"]  # 0.43 A/°C
 _identified = envelope.identified_params
 BASE_KEYS = ("headline_C", "early_C", "late_C", "pre_contact_C")
-_CANDIDATE: dict[str, float] = {"b": 1100.0, "kp": 1.0, "ramp": 50.0, "master_flux": 1.0, "air_kiQ_x": 1.0}
+_CANDIDATE: dict[str, float] = {
+    "b": 1100.0,
+    "kp": 1.0,
+    "ramp": 50.0,
+    "master_flux": 1.0,
+    "air_kiQ_x": 1.0,
+    "gate_C": math.nan,
+}
 _request = core_stages._telepresence_request
+_envelope = core_stages.envelope
+_GATE: dict[str, Any] = {"latched": False, "params": None, "shipped": None, "fast": None}
 
 
 def _slave_params(role, *args, **kwargs):
     p, fit = _identified(role, *args, **kwargs)
-    if role is Role.SLAVE:
+    if role is Role.SLAVE and math.isfinite(_CANDIDATE["gate_C"]):  # shipped gains; the ramp: _gated_envelope
+        p = dataclasses.replace(p, virtual_finger_b=_CANDIDATE["b"])
+        _GATE.update(latched=False, params=None)
+    elif role is Role.SLAVE:
         s = p.kp_A_per_C / SHIPPED_SLAVE_KP  # the gain rule's ratio for this module (1 on the shipped one)
         ramp = _CANDIDATE["ramp"]
         p = dataclasses.replace(
@@ -60,14 +74,54 @@ def _master_request(sample, peer, params, state, e, usable):
     r = _request(sample, peer, params, state, e, usable)
     if not _CANDIDATE["master_flux"] and params.role is Role.MASTER and usable and r.source[1] == "contact":
         r = dataclasses.replace(r, ff=0.0, eQ=0.0, fg=None)
+    if r.source[1] == "virtual_finger" and math.isfinite(_CANDIDATE["gate_C"]):
+        return _gated(sample, peer, _gate_params(params), state, e, usable, r)
     return r
+
+
+def _gate_params(params):
+    """The slave's parameters as the session runs them, and their shipped and fast-ramp variants (once)."""
+    if _GATE["params"] is not params:
+        ramp = _CANDIDATE["ramp"]
+        _GATE.update(
+            params=params,
+            shipped=dataclasses.replace(params, virtual_finger_b=0.0),
+            fast=dataclasses.replace(
+                params,
+                safety=dataclasses.replace(params.safety, ramp_up_C_per_s=ramp, ramp_down_C_per_s=ramp),
+            ),
+        )
+    return params
+
+
+def _gated(sample, peer, params, state, e, usable, r):
+    """``gate_C``: the virtual finger only once the probe's own estimate has left the master's skin clamps
+    shrunk by gate_C (latched until the touch ends: there the display saturates and cannot convey what the
+    probe does); before, the shipped exchange (its gains object kept, so the oscillation guard acts)."""
+    if e.cst.since_s <= 1.5 * params.period_s:  # a new touch
+        _GATE["latched"] = False
+    lo, hi = DEFAULT_T_MIN_C + _CANDIDATE["gate_C"], DEFAULT_T_MAX_C - _CANDIDATE["gate_C"]
+    _GATE["latched"] = _GATE["latched"] or not lo <= e.est <= hi
+    if _GATE["latched"]:
+        return r
+    r0 = _request(sample, peer, _GATE["shipped"], state, e, usable)
+    return dataclasses.replace(r0, later_st=r.later_st, gains=params.gains)
+
+
+def _gated_envelope(params, state, sample, e, T_pred, peer_state, r, fallback):
+    """The probe's ramp is ``ramp`` while the gated virtual finger acts, the shipped one otherwise."""
+    if r.source[1] == "virtual_finger" and math.isfinite(_CANDIDATE["gate_C"]):
+        _gate_params(params)
+        params = _GATE["fast"]
+    return _envelope(params, state, sample, e, T_pred, peer_state, r, fallback)
 
 
 def _run(job: tuple[dict[str, Any], dict[str, float]]) -> dict[str, Any]:
     cond, candidate = job
-    _CANDIDATE.update(candidate)
+    _CANDIDATE.update({"gate_C": math.nan, **candidate})
     envelope.identified_params = _slave_params
     core_stages._telepresence_request = _master_request
+    core_stages.envelope = _gated_envelope
     return condition_row(cond)
 
 
@@ -82,6 +136,12 @@ def main(argv: list[str] | None = None) -> int:
         "--no-master-flux", action="store_true", help="in contact the display tracks temperature alone"
     )
     ap.add_argument("--air-kiQ-x", type=float, default=1.0, help="the display's air flux ki, × identified")
+    ap.add_argument(
+        "--gate",
+        type=float,
+        help="the virtual finger only beyond the master's skin clamps shrunk by this, °C (shipped probe "
+        "gains before)",
+    )
     ap.add_argument("--out", default="envelope_virtual_finger", help="results name (bench/results/NAME.json)")
     add_matrix_args(ap)
     a = ap.parse_args(argv)
@@ -95,6 +155,8 @@ def main(argv: list[str] | None = None) -> int:
         "master_flux": 0.0 if a.no_master_flux else 1.0,
         "air_kiQ_x": a.air_kiQ_x,
     }
+    if a.gate is not None:
+        candidate["gate_C"] = a.gate
     jobs = [(c["condition"], candidate) for c in shipped]
     jobs.append((dataclasses.asdict(envelope.base_condition()), candidate))
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
