@@ -114,5 +114,9 @@ def test_random_currents_stay_finite_bounded_and_deterministic(scene, role, curr
     _, again = run(scene, role, currents)
     assert np.array_equal(np.array(out, dtype=float), np.array(again, dtype=float), equal_nan=True)
     bal = rig.energy_balance()
-    scale = max(abs(bal["E_in_J"]), abs(bal["E_out_J"]), abs(bal["dE_stored_J"]), 1e-6)
-    assert abs(bal["residual_J"]) <= 1e-3 * scale
+    scale = max(abs(bal["E_in_J"]), abs(bal["E_out_J"]), abs(bal["dE_stored_J"]))
+    # + 1e-7 J: the float rounding of the balance itself. The stored heat is ~1e3 J (a 40 J/K sink at 34 °C),
+    # so each step's difference rounds at ~1e-13 J; hypothesis found a run with 1e-6 J of flows (0 A, the room
+    # at the finger's temperature) and a 1.1e-9 J residual. A real leak of 0.1 % in a run with flows above
+    # 1e-4 J still exceeds the floor.
+    assert abs(bal["residual_J"]) <= 1e-3 * scale + 1e-7
