@@ -54,7 +54,6 @@ def _slave_params(role, *args, **kwargs):
     p, fit = _identified(role, *args, **kwargs)
     if role is Role.SLAVE and math.isfinite(_CANDIDATE["gate_C"]):  # shipped gains; the ramp: _gated_envelope
         p = dataclasses.replace(p, virtual_finger_b=_CANDIDATE["b"])
-        _GATE.update(latched=False, params=None)
     elif role is Role.SLAVE:
         s = p.kp_A_per_C / SHIPPED_SLAVE_KP  # the gain rule's ratio for this module (1 on the shipped one)
         ramp = _CANDIDATE["ramp"]
@@ -75,12 +74,13 @@ def _master_request(sample, peer, params, state, e, usable):
     if not _CANDIDATE["master_flux"] and params.role is Role.MASTER and usable and r.source[1] == "contact":
         r = dataclasses.replace(r, ff=0.0, eQ=0.0, fg=None)
     if r.source[1] == "virtual_finger" and math.isfinite(_CANDIDATE["gate_C"]):
-        return _gated(sample, peer, _gate_params(params), state, e, usable, r)
+        return _gated(sample, peer, params, state, e, usable, r)
     return r
 
 
-def _gate_params(params):
-    """The slave's parameters as the session runs them, and their shipped and fast-ramp variants (once)."""
+def _gate_params(params) -> None:
+    """Keep the slave's parameters as the session runs them and their shipped and fast-ramp variants (built
+    once per session)."""
     if _GATE["params"] is not params:
         ramp = _CANDIDATE["ramp"]
         _GATE.update(
@@ -91,13 +91,13 @@ def _gate_params(params):
                 safety=dataclasses.replace(params.safety, ramp_up_C_per_s=ramp, ramp_down_C_per_s=ramp),
             ),
         )
-    return params
 
 
 def _gated(sample, peer, params, state, e, usable, r):
     """``gate_C``: the virtual finger only once the probe's own estimate has left the master's skin clamps
     shrunk by gate_C (latched until the touch ends: there the display saturates and cannot convey what the
     probe does); before, the shipped exchange (its gains object kept, so the oscillation guard acts)."""
+    _gate_params(params)
     if e.cst.since_s <= 1.5 * params.period_s:  # a new touch
         _GATE["latched"] = False
     lo, hi = DEFAULT_T_MIN_C + _CANDIDATE["gate_C"], DEFAULT_T_MAX_C - _CANDIDATE["gate_C"]
