@@ -8,9 +8,12 @@ import math
 
 import pytest
 
+from telethermo.control import core
+from telethermo.control.contact import ContactState
 from telethermo.control.core import init_state, step
 from telethermo.control.defaults import GAINS
-from telethermo.control.osc_guard import DETUNE
+from telethermo.control.osc_guard import DETUNE, OscGuardState
+from telethermo.control.pi import PIGains
 from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
 from telethermo.offline.envelope import Condition, base_condition, run_condition
@@ -73,6 +76,22 @@ def test_a_ring_of_the_finger_estimate_in_contact_quarters_the_probes_kp_and_not
     # lifted: the probe tracks the finger in the air with its own kp again
     r = step(_sample(5.0, False), PeerValues(34.0, 0.0), p, st)
     assert r.status.pi.p_A == pytest.approx(p.kp_A_per_C * (r.status.setpoint_C - r.status.feedback_C))
+
+
+def test_the_guard_detunes_a_request_whose_gains_equal_the_params_and_not_other_gains():
+    # the guard compares the request's gains with the parameters' by value: a request built from a copy of the
+    # parameters (dataclasses.replace, as an experiment's patched stage builds it) is still detuned; a request
+    # that brings its own gains (air rendering's, a fallback's) is left alone
+    p = default_params(Role.SLAVE, period_s=0.01)
+    st = dataclasses.replace(init_state(p, None, _sample(0.0, True)), osc=OscGuardState(scale=DETUNE))
+    cst = ContactState(contact=True, since_s=2.0)
+    r0 = core.stages.Request(33.0, 0.0, 0.0, None, None, st.render_phase, False, None, ("t", "contact"))
+    copy = dataclasses.replace(r0, gains=dataclasses.replace(p, kp_A_per_C=p.kp_A_per_C + 0.0).gains)
+    assert copy.gains is not p.gains
+    r, osc = core._osc_guarded(p, st, copy, 33.0, cst)
+    assert osc.scale == DETUNE and r.gains.kp_A_per_C == pytest.approx(DETUNE * p.kp_A_per_C)
+    own = dataclasses.replace(r0, gains=PIGains(0.7, 0.05))
+    assert core._osc_guarded(p, st, own, 33.0, cst)[0].gains == PIGains(0.7, 0.05)
 
 
 @pytest.mark.slow
