@@ -155,7 +155,7 @@ def _osc_guarded(
     osc = guard_step(
         state.osc, peer_C, cst.since_s if cst.contact else None, params.osc_guard_C, params.period_s
     )
-    if osc.scale < 1.0 and cst.contact and r.gains == params.gains:  # by value: a copy of the params is the same
+    if osc.scale < 1.0 and cst.contact and r.gains == params.gains:  # by value: a copy is the same
         r = replace(
             r,
             gains=PIGains(params.kp_A_per_C * osc.scale, params.ki_A_per_C_s),
