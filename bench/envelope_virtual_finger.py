@@ -1,8 +1,9 @@
 """An experiment for issue 22, not a shipped controller: the envelope matrix with a virtual finger on the
 probe.
 
-``python -m bench.envelope_virtual_finger [--b W·s^½/(m²·K)] [--kp A/°C] [--ramp °C/s] [--workers N]
-[--only I,J]`` writes ``bench/results/envelope_virtual_finger.json``.
+``python -m bench.envelope_virtual_finger [--b W·s^½/(m²·K)] [--kp A/°C] [--ramp °C/s] [--gate °C]
+[--vf-flux KP,KI] [--workers N] [--only I,J] [--out NAME]`` writes ``bench/results/NAME.json`` (default
+``envelope_virtual_finger``).
 
 docs/control.md traces most of the matrix's losses to the best constant pad to the probe following the finger
 estimate of a display held back by its current and ramp limits: on a cold object the probe gives the object
@@ -14,6 +15,11 @@ by the gain rule's ratio) and a probe ramp limit of ``--ramp`` °C/s (the probe 
 setpoint cannot follow the virtual finger's first second). Same conditions as bench/results/envelope.json
 (parameters read from it), identified gains, scored against the shipped run's figures in that file (the best
 pads do not depend on the controller), plus the base scene (issue 22 keeps its headline <= 1.255 °C).
+
+``--gate G``: the virtual finger only once the probe's estimate leaves the master's skin clamps shrunk by G °C
+(latched per touch; the shipped exchange before). ``--vf-flux KP,KI`` (with ``--gate``): the virtual finger in
+admittance form (:func:`telethermo.control.virtual_finger.vf_step_held`): its surface held at the probe's
+estimate of the object's surface, the heat it draws is the probe's flux target, tracked by a flux PI.
 """
 
 from __future__ import annotations
@@ -29,9 +35,12 @@ from bench.common import write_results
 from bench.envelope_candidate import add_matrix_args, condition_row, load_shipped, only
 from bench.envelope_probe_flux import summary
 from telethermo.control import core_stages
+from telethermo.control.coreparams import NO_GAINS
 from telethermo.control.defaults import GAINS
+from telethermo.control.pi import FluxPIGains
 from telethermo.control.safety_limits import DEFAULT_T_MAX_C, DEFAULT_T_MIN_C
 from telethermo.control.types import Role
+from telethermo.control.virtual_finger import VirtualFinger, vf_start, vf_step_held
 from telethermo.offline import envelope
 
 SHIPPED_SLAVE_KP = GAINS[Role.SLAVE]["kp_A_per_C"]  # 0.43 A/°C
@@ -44,6 +53,8 @@ _CANDIDATE: dict[str, float] = {
     "master_flux": 1.0,
     "air_kiQ_x": 1.0,
     "gate_C": math.nan,
+    "flux_kp": math.nan,
+    "flux_ki": math.nan,
 }
 _request = core_stages._telepresence_request
 _envelope = core_stages.envelope
@@ -102,10 +113,28 @@ def _gated(sample, peer, params, state, e, usable, r):
         _GATE["latched"] = False
     lo, hi = DEFAULT_T_MIN_C + _CANDIDATE["gate_C"], DEFAULT_T_MAX_C - _CANDIDATE["gate_C"]
     _GATE["latched"] = _GATE["latched"] or not lo <= e.est <= hi
+    if _GATE["latched"] and math.isfinite(_CANDIDATE["flux_kp"]):
+        return _admittance(sample, peer, params, state, e, r)
     if _GATE["latched"]:
         return r
     r0 = _request(sample, peer, _GATE["shipped"], state, e, usable)
     return dataclasses.replace(r0, later_st=r.later_st, gains=params.gains)
+
+
+def _admittance(sample, peer, params, state, e, r):
+    """``flux_kp``: the virtual finger in admittance form: its surface held at the probe's own estimate of the
+    object's surface, the heat it draws is the probe's flux target (a flux PI, kp and ki scaled like the
+    shipped kp by the gain rule's ratio; no temperature loop)."""
+    vf = params.virtual_finger
+    prev = state.render_later
+    same = prev is not None and isinstance(prev[0], VirtualFinger) and prev[0].b == vf.b
+    x = prev[1] if same else vf_start(vf, peer.estimate_C)
+    x, q_in = vf_step_held(vf, x, e.est)
+    s = _GATE["shipped"].kp_A_per_C / SHIPPED_SLAVE_KP
+    fg = FluxPIGains(_CANDIDATE["flux_kp"] * s, _CANDIDATE["flux_ki"] * s)
+    return dataclasses.replace(
+        r, req=e.est, ff=0.0, eQ=-q_in - sample.Q_W, gains=NO_GAINS, fg=fg, later_st=(vf, x)
+    )
 
 
 def _gated_envelope(params, state, sample, e, T_pred, peer_state, r, fallback):
@@ -142,6 +171,11 @@ def main(argv: list[str] | None = None) -> int:
         help="the virtual finger only beyond the master's skin clamps shrunk by this, °C (shipped probe "
         "gains before)",
     )
+    ap.add_argument(
+        "--vf-flux",
+        help="KP,KI: with --gate, the virtual finger in admittance form (flux PI gains at the shipped module,"
+        " A/W and A/(W·s))",
+    )
     ap.add_argument("--out", default="envelope_virtual_finger", help="results name (bench/results/NAME.json)")
     add_matrix_args(ap)
     a = ap.parse_args(argv)
@@ -157,6 +191,8 @@ def main(argv: list[str] | None = None) -> int:
     }
     if a.gate is not None:
         candidate["gate_C"] = a.gate
+    if a.vf_flux:
+        candidate["flux_kp"], candidate["flux_ki"] = (float(v) for v in a.vf_flux.split(","))
     jobs = [(c["condition"], candidate) for c in shipped]
     jobs.append((dataclasses.asdict(envelope.base_condition()), candidate))
     with ProcessPoolExecutor(max_workers=a.workers) as ex:

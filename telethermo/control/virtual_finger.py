@@ -66,3 +66,15 @@ def vf_step(model: VirtualFinger, x: np.ndarray, Q_out_W: float) -> tuple[np.nda
     s = model.slab
     x_new = s.Phi @ x + s.gam_q * q_in + s.gam_s
     return x_new, s.surface_C(x_new, q_in)
+
+
+def vf_step_held(model: VirtualFinger, x: np.ndarray, T_surface_C: float) -> tuple[np.ndarray, float]:
+    """One period with the skin's surface held at ``T_surface_C`` (°C; the admittance form: the probe's face
+    temperature in, the finger's heat out): the new cells and the heat that entered the skin over the period,
+    W (> 0 when the object heats the finger). A non-finite temperature counts as no heat (0 W)."""
+    s = model.slab
+    free = s.Phi @ x + s.gam_s
+    if not math.isfinite(T_surface_C):
+        return free, 0.0
+    q_in = (float(T_surface_C) - float(free[0])) / (float(s.gam_q[0]) + 1.0 / s.G_front_W_K)
+    return free + s.gam_q * q_in, q_in

@@ -10,7 +10,7 @@ import pytest
 
 from telethermo.control.core import CoreParams, init_state, step
 from telethermo.control.types import PeerValues, Role
-from telethermo.control.virtual_finger import VF_AREA_M2, vf_model, vf_start, vf_step
+from telethermo.control.virtual_finger import VF_AREA_M2, vf_model, vf_start, vf_step, vf_step_held
 from telethermo.rig import RigSample
 
 
@@ -29,6 +29,22 @@ def test_a_constant_flux_cools_the_skin_as_a_semi_infinite_body(b, t_s):
     Q = 0.5  # W leaving the skin over the probe's 15 x 15 mm
     exact = 2.0 * (Q / VF_AREA_M2) * math.sqrt(t_s) / (b * math.sqrt(math.pi))  # Carslaw & Jaeger 2.9
     assert _constant_flux_drop(b, Q, t_s) == pytest.approx(exact, rel=0.03)
+
+
+@pytest.mark.parametrize("b", [600.0, 1100.0, 2000.0])
+@pytest.mark.parametrize("t_s", [0.1, 0.5, 3.0])
+def test_a_surface_held_at_a_step_draws_the_semi_infinite_bodys_heat(b, t_s):
+    # the admittance form: the surface held 10 °C above the skin's start draws q = b·A·ΔT/√(π·t) (Carslaw &
+    # Jaeger 2.5), the heat over each period evaluated at its middle
+    m = vf_model(b, VF_AREA_M2, 0.01)
+    x = vf_start(m, 33.0)
+    n = int(round(t_s / 0.01))
+    for _ in range(n):
+        x, q = vf_step_held(m, x, 43.0)
+    exact = b * VF_AREA_M2 * 10.0 / math.sqrt(math.pi * (n - 0.5) * 0.01)
+    assert q == pytest.approx(exact, rel=0.04)
+    assert vf_step_held(m, vf_start(m, 33.0), 33.0)[1] == pytest.approx(0.0, abs=1e-12)  # no step, no heat
+    assert vf_step_held(m, x, math.nan)[1] == 0.0  # a bad reading counts as no heat
 
 
 def test_no_flux_no_change_and_a_bad_flux_counts_as_none():
