@@ -16,6 +16,7 @@ MODULES = [
     "telethermo.offline.oscillation",
     "telethermo.control.gain_rule",
     "telethermo.control.osc_guard",
+    "telethermo.control.passive_bound",
     "telethermo.units",
 ]
 

@@ -49,6 +49,7 @@ from telethermo.control.coreparams import CoreParams, Feedback, RenderPhase, Ren
 from telethermo.control.estimators import estimate_flux
 from telethermo.control.material_stream import MaterialState, material_step
 from telethermo.control.osc_guard import OscGuardState, guard_step
+from telethermo.control.passive_bound import PassiveBoundState, bound_step, bounded_target
 from telethermo.control.pi import PIGains
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.rig import RigSample
@@ -88,6 +89,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     # 3c. the slave's oscillation guard: kp detuned in contact once the exchange loop rang (osc_guard.py)
     peer_C = cast(PeerValues, peer).estimate_C if peer_alive and peer_ok else math.nan
     r, osc = _osc_guarded(params, state, r, peer_C, cst)
+    # 3d. the master's passive bound: the contact target stays where a passive object could take the skin
+    r, passive = _passively_bounded(params, state, r, peer, peer_alive and peer_ok, est)
     # 4. envelope on setpoint (no peer needed while the link-loss fallback renders); bumpless re-seed of the
     # ramp at the render contact switch
     peer_state = (peer_alive, peer_ok)
@@ -124,6 +127,7 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
         material=mat,
         link=link,
         osc=osc,
+        passive=passive,
     )
     status = StepStatus(
         safety=sf.summarize(env, new_trips, active),
@@ -162,6 +166,23 @@ def _osc_guarded(
             source=r.source + (osc.scale,),
         )
     return r, osc
+
+
+def _passively_bounded(
+    params: CoreParams, state: CoreState, r: stages.Request, peer: PeerValues | None, usable: bool, est: float
+) -> tuple[stages.Request, PassiveBoundState]:
+    """Stage 3d (:mod:`telethermo.control.passive_bound`; master, telepresence, ``passive_bound``): the
+    touch's memory from the probe's contact flag and flux while the peer is usable (kept as it is while
+    not), and the contact request's setpoint bounded on the object's side of the touch's start."""
+    if not (params.passive_bound and params.role is Role.MASTER and params.mode is Mode.TELEPRESENCE):
+        return r, state.passive
+    if not usable:
+        return r, state.passive
+    p = cast(PeerValues, peer)
+    st = bound_step(state.passive, bool(p.contact), est, p.flux_W, params.period_s)
+    if r.source[1:2] == ("contact",):
+        r = replace(r, req=bounded_target(st, r.req, params.safety.neutral_C))
+    return r, st
 
 
 def _outgoing(

@@ -20,6 +20,7 @@ from telethermo.control.estimators import Estimator, SnapshotPredictor, Temperat
 from telethermo.control.link_fallback import LinkState
 from telethermo.control.material_stream import MaterialState, prepare
 from telethermo.control.osc_guard import OscGuardState
+from telethermo.control.passive_bound import PassiveBoundState
 from telethermo.control.pi import PIState
 from telethermo.control.types import Role
 from telethermo.rig import RigSample
@@ -63,6 +64,7 @@ class CoreState:
         link: (master, telepresence) the graceful link loss's memory
             (:mod:`telethermo.control.link_fallback`).
         osc: (slave) the oscillation guard's memory and kp scale (:mod:`telethermo.control.osc_guard`).
+        passive: (master, telepresence) the touch's passive bound (:mod:`telethermo.control.passive_bound`).
     """
 
     k: int
@@ -84,6 +86,7 @@ class CoreState:
     material: MaterialState = field(default_factory=MaterialState)
     link: LinkState = field(default_factory=LinkState)
     osc: OscGuardState = field(default_factory=OscGuardState)
+    passive: PassiveBoundState = field(default_factory=PassiveBoundState)
 
 
 def init_state(params: CoreParams, predictor_or_model: Any, first_sample: RigSample) -> CoreState:

@@ -129,6 +129,9 @@ class CoreParams:
         echo_peer_when_free: (slave, telepresence) while no contact is detected, send back the
             peer's estimate instead of the own (an object estimate in air means nothing): the
             display then only mirrors the probe's flux, and the finger rests as in air.
+        passive_bound: (master, telepresence) in contact, the target stays on the object's side of the
+            finger's temperature when the touch began (no nearer the object than ``safety.neutral_C``): a
+            passive object cannot push the skin past it (:mod:`telethermo.control.passive_bound`).
         air_rendering: (master, telepresence) render *air* while the probe touches nothing (the
             peer's contact flag is False): no temperature tracking, the flux loop
             (``air_kpQ_A_per_W``, ``air_kiQ_A_per_W_s``) draws from the finger only what air would,
@@ -172,6 +175,7 @@ class CoreParams:
     identify: IdentifyPlan = field(default_factory=IdentifyPlan)
     echo_peer_when_free: bool = False
     air_rendering: bool = False
+    passive_bound: bool = False
     air_kpQ_A_per_W: float = CORE["air_kpQ_A_per_W"]
     air_kiQ_A_per_W_s: float = CORE["air_kiQ_A_per_W_s"]
     G_air_W_per_K: float = CORE["G_air_W_per_K"]
@@ -211,6 +215,8 @@ class CoreParams:
         _finite_number(o, "link_loss_render_s", self.link_loss_render_s, lo=0.0, hi=60.0)
         _finite_number(o, "osc_guard_C", self.osc_guard_C, lo=0.0, hi=10.0)
         _finite_number(o, "virtual_finger_b", self.virtual_finger_b, lo=0.0, hi=1.0e5)
+        if not isinstance(self.passive_bound, bool):
+            raise ValueError(f"{o}.passive_bound: expected True or False, got {self.passive_bound!r}")
         if not isinstance(self.air_rendering, bool):
             raise ValueError(f"{o}.air_rendering: expected True or False, got {self.air_rendering!r}")
         if not isinstance(self.identify, IdentifyPlan):

@@ -64,6 +64,7 @@ GAINS: dict[Role, dict[str, Any]] = {
         air_rendering=True,
         air_kpQ_A_per_W=0.16,
         air_kiQ_A_per_W_s=2.1,
+        passive_bound=True,  # the contact target stays where a passive object could take the skin
     ),
     Role.SLAVE: dict(
         kp_A_per_C=0.43,
