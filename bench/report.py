@@ -289,6 +289,20 @@ HEADLINE = [
         "shipped 24",
     ),
     (
+        "envelope_oscillation_rounds",
+        "oscillation_rounds_flagged_touches_round_2",
+        "the conditions envelope.json flags as oscillating, re-run: flagged touches in the schedule's second "
+        "round (`_round_1`: 25; all 22 flags are first-round excursions)",
+        "a limit cycle recurs",
+    ),
+    (
+        "envelope_oscillation_rounds_shipped_gains",
+        "oscillation_rounds_flagged_touches_round_2",
+        "the control: the shipped gains on 15 conditions where they ring; flagged touches in round 2 (13 of "
+        "15 conditions recur)",
+        "the count sees a cycle",
+    ),
+    (
         "material_lab",
         "material_lab_touches_needed",
         "lab calibration of the material physics fit: reference touches needed (a 0.7 mm sensor probe)",

@@ -15,7 +15,8 @@ guiatni §5.3 schedule (three materials, twice each) with the project's controll
 - headline, pre-contact, early and late errors against the direct touch (telethermo.offline.transparency);
 - the best constant pad: a display that ignores the probe and holds the ambient, the objects' temperature or
   the neutral 32 °C (each clamped to the skin's [15, 43] °C), the best of the three;
-- the oscillation figure (telethermo.offline.oscillation), trips and cut time per side, the cue order and
+- the oscillation figure (telethermo.offline.oscillation; per touch in ``oscillation_touches``), trips and
+  cut time per side, the cue order and
   whether the direct touch's cues differ enough (≥ 20 %) for the order to be a fair question.
 
 Pure of I/O: the benchmark (bench/envelope_bench.py) submits conditions to an executor and writes the results.
@@ -327,6 +328,10 @@ def run_condition(
     out["oscillating"] = bool(osc["oscillating"])
     out["skin_band_rms_max_C"] = osc["skin_band_rms_max_C"]
     out["current_band_rms_max_A"] = osc["current_band_rms_max_A"]
+    out["oscillation_touches"] = [
+        {k: t[k] for k in ("object", "t_on_s", "ratio", "current_band_rms_A", "oscillating")}
+        for t in osc["per_touch"]
+    ]
     sfy = fig["safety"]
     out["trips"] = [{"side": x["side"], "trip": x["trip"], "t_s": x["t_s"]} for x in sfy["trips"]]
     out["time_cut_s"] = sfy["time_cut_s"]

@@ -120,3 +120,8 @@ def test_a_big_probe_on_a_cold_metal_block_saturates_below_the_flux_trip():
     )
     r = run_condition(Condition(**base), with_pads=False)
     assert r["trips"] == [] and not r["session_long_cut"], r["trips"]
+    # the per-touch oscillation the session's flag and worst ratio are made of: the schedule's six touches
+    touches = r["oscillation_touches"]
+    assert len(touches) == 6 and {t["object"] for t in touches} == {"a", "b", "c"}, touches
+    assert any(t["oscillating"] for t in touches) == r["oscillating"]
+    assert max(t["ratio"] for t in touches) == r["oscillation_ratio"]
