@@ -49,7 +49,7 @@ from telethermo.control.coreparams import CoreParams, Feedback, RenderPhase, Ren
 from telethermo.control.estimators import estimate_flux
 from telethermo.control.material_stream import MaterialState, material_step
 from telethermo.control.osc_guard import OscGuardState, guard_step
-from telethermo.control.passive_bound import PassiveBoundState, bound_step, bounded_target
+from telethermo.control.passive_bound import PassiveBoundState, bound_step, held_target, passive_flux_W
 from telethermo.control.pi import PIGains
 from telethermo.control.types import Mode, Outgoing, PeerValues, Role
 from telethermo.rig import RigSample
@@ -90,6 +90,8 @@ def step(sample: RigSample, peer: PeerValues | None, params: CoreParams, state: 
     peer_C = cast(PeerValues, peer).estimate_C if peer_alive and peer_ok else math.nan
     r, osc = _osc_guarded(params, state, r, peer_C, cst)
     # 3d. the master's passive bound: the contact target stays where a passive object could take the skin
+    # (on the object's side of the touch's start, near the furthest it went towards the object) and the
+    # flux it mirrors flows the way a passive object's does
     r, passive = _passively_bounded(params, state, r, peer, peer_alive and peer_ok, est)
     # 4. envelope on setpoint (no peer needed while the link-loss fallback renders); bumpless re-seed of the
     # ramp at the render contact switch
@@ -173,15 +175,19 @@ def _passively_bounded(
 ) -> tuple[stages.Request, PassiveBoundState]:
     """Stage 3d (:mod:`telethermo.control.passive_bound`; master, telepresence, ``passive_bound``): the
     touch's memory from the probe's contact flag and flux while the peer is usable (kept as it is while
-    not), and the contact request's setpoint bounded on the object's side of the touch's start."""
-    if not (params.passive_bound and params.role is Role.MASTER and params.mode is Mode.TELEPRESENCE):
-        return r, state.passive
-    if not usable:
+    not), and the contact request's setpoint bounded on the object's side of the touch's start and held
+    near the furthest it went towards the object (``held_target``), its mirrored flux kept on the touch's
+    side (``passive_flux_W``)."""
+    on = params.passive_bound and params.role is Role.MASTER and params.mode is Mode.TELEPRESENCE
+    if not (on and usable):
         return r, state.passive
     p = cast(PeerValues, peer)
     st = bound_step(state.passive, bool(p.contact), est, p.flux_W, params.period_s)
     if r.source[1:2] == ("contact",):
-        r = replace(r, req=bounded_target(st, r.req, params.safety.neutral_C))
+        req, st = held_target(st, r.req, params.safety.neutral_C)
+        # the mirrored flux on the touch's side: the request's ff = -kQ·flux and eQ = -flux - Q (core_stages)
+        turned_W = p.flux_W - passive_flux_W(st, p.flux_W) if math.isfinite(p.flux_W) else 0.0
+        r = replace(r, req=req, ff=r.ff + params.kQ_A_per_W * turned_W, eQ=r.eQ + turned_W)
     return r, st
 
 

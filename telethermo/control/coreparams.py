@@ -131,7 +131,8 @@ class CoreParams:
             display then only mirrors the probe's flux, and the finger rests as in air.
         passive_bound: (master, telepresence) in contact, the target stays on the object's side of the
             finger's temperature when the touch began (no nearer the object than ``safety.neutral_C``): a
-            passive object cannot push the skin past it (:mod:`telethermo.control.passive_bound`).
+            passive object cannot push the skin past it; and it comes back at most ``RETURN_C`` (1.5 °C)
+            from the furthest it went towards the object (:mod:`telethermo.control.passive_bound`).
         air_rendering: (master, telepresence) render *air* while the probe touches nothing (the
             peer's contact flag is False): no temperature tracking, the flux loop
             (``air_kpQ_A_per_W``, ``air_kiQ_A_per_W_s``) draws from the finger only what air would,
