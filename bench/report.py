@@ -292,7 +292,7 @@ HEADLINE = [
         "envelope_oscillation_rounds",
         "oscillation_rounds_flagged_touches_round_2",
         "the conditions envelope.json flags as oscillating, re-run: flagged touches in the schedule's second "
-        "round (`_round_1`: 25; all 22 flags are first-round excursions)",
+        "round (`_round_1`: 21; all 21 flags are first-round excursions)",
         "a limit cycle recurs",
     ),
     (
