@@ -298,8 +298,8 @@ HEADLINE = [
     (
         "envelope_oscillation_rounds_shipped_gains",
         "oscillation_rounds_flagged_touches_round_2",
-        "the control: the shipped gains on 15 conditions where they ring; flagged touches in round 2 (13 of "
-        "15 conditions recur)",
+        "the control: the shipped gains on 15 conditions where they ring; flagged touches in round 2 (12 of "
+        "15 conditions have one: `oscillation_rounds_round_2_flagged_conditions`)",
         "the count sees a cycle",
     ),
     (
