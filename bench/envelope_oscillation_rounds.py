@@ -48,12 +48,14 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """Flagged touches per round; the conditions whose flag comes back on the same material in round 2 (or
     appears there first), and, the stricter count, every condition with any flagged touch in round 2."""
     flagged = [t for r in rows for t in r["touches"] if t["oscillating"]]
-    again = []
+    again, any2 = [], []
     for r in rows:
         first = {t["object"] for t in r["touches"] if t["oscillating"] and t["round"] == 1}
         second = {t["object"] for t in r["touches"] if t["oscillating"] and t["round"] >= 2}
         if first & second or (second and not first):
             again.append(r["index"])
+        if second:
+            any2.append(r["index"])
     worst2 = [
         max(
             (t["ratio"] for t in r["touches"] if t["round"] >= 2 and math.isfinite(t["ratio"])),
@@ -67,9 +69,7 @@ def summarise(rows: list[dict[str, Any]]) -> dict[str, Any]:
         "oscillation_rounds_flagged_touches_round_1": sum(t["round"] == 1 for t in flagged),
         "oscillation_rounds_flagged_touches_round_2": sum(t["round"] >= 2 for t in flagged),
         "oscillation_rounds_recurring_conditions": again,
-        "oscillation_rounds_round_2_flagged_conditions": [
-            r["index"] for r in rows if any(t["oscillating"] and t["round"] >= 2 for t in r["touches"])
-        ],
+        "oscillation_rounds_round_2_flagged_conditions": any2,
         "oscillation_rounds_round_2_worst_ratio": max((w for w in worst2 if math.isfinite(w)), default=None),
     }
 
