@@ -29,9 +29,7 @@ import numpy as np
 
 from bench.common import RESULTS_DIR, write_results
 from bench.transparency_bench import reference_track
-from telethermo.control.types import Role
-from telethermo.offline.envelope import SKIN_CLAMP_C, Condition, condition_scene, identified_params
-from telethermo.offline.runner import run_offline_session
+from telethermo.offline.envelope import SKIN_CLAMP_C, Condition, condition_scene, condition_session
 from telethermo.offline.transparency import transparency_figures
 from telethermo.recording.rows import scene_contacts
 
@@ -68,19 +66,7 @@ def display_skin(cond: dict[str, Any]) -> dict[str, Any]:
     RATE_WINDOW_S (°C/s; beyond the 5 °C/s setpoint ramp, a ramp-limited ideal display would not bound
     it). Run on the subset's conditions where the nominal clamps bind."""
     c = Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
-    sc, rig_s = condition_scene(c)
-    pm, _ = identified_params(Role.MASTER, sc.rig_params, c.ambient_C, sc.period_s, c.seed % 9973)
-    ps, _ = identified_params(Role.SLAVE, rig_s, c.ambient_C, sc.period_s, c.seed % 9973 + 1)
-    delay = int(round(c.delay_ms / (1000.0 * sc.period_s)))
-    res = run_offline_session(
-        sc,
-        master_params=pm,
-        slave_params=ps,
-        slave_rig_params=rig_s,
-        delay_cycles=delay,
-        delay_jitter_cycles=2 if delay else 0,
-        seed=c.seed % 100000,
-    )
+    sc, res, _fits = condition_session(c)
     skin = res.recording.col("m_true_surface_C")
     n = max(int(round(RATE_WINDOW_S / sc.period_s)), 1)
     return {

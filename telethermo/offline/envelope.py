@@ -273,13 +273,9 @@ def identified_params(
     }
 
 
-def run_condition(
-    c: Condition, *, with_pads: bool = True, gains: str = "identified", with_shipped: bool = False
-) -> dict[str, Any]:
-    """Run condition ``c`` and score it (see the module docstring). JSON-safe. ``gains``: "identified" (each
-    side identifies its rig and derives its gains) or "shipped" (the shipped gains whatever the rig);
-    ``with_shipped``: also the shipped gains' headline and oscillation, as the before-figure of the same
-    draw."""
+def condition_session(c: Condition, gains: str = "identified") -> tuple[Any, Any, dict[str, Any]]:
+    """The session of condition ``c`` as :func:`run_condition` runs it, unscored: (scene, the offline
+    session's result, the gain rule's fits per side; empty with ``gains="shipped"``)."""
     sc, rig_s = condition_scene(c)
     delay = int(round(c.delay_ms / (1000.0 * sc.period_s)))
     pm = ps = None
@@ -298,6 +294,17 @@ def run_condition(
         delay_jitter_cycles=2 if delay else 0,
         seed=c.seed % 100000,
     )
+    return sc, res, fits
+
+
+def run_condition(
+    c: Condition, *, with_pads: bool = True, gains: str = "identified", with_shipped: bool = False
+) -> dict[str, Any]:
+    """Run condition ``c`` and score it (see the module docstring). JSON-safe. ``gains``: "identified" (each
+    side identifies its rig and derives its gains) or "shipped" (the shipped gains whatever the rig);
+    ``with_shipped``: also the shipped gains' headline and oscillation, as the before-figure of the same
+    draw."""
+    sc, res, fits = condition_session(c, gains)
     rec, fig = res.recording, res.figures
     t, ref = rec.col("t_s"), rec.col("ref_T_contact_C")
     contacts = contacts_of(rec)
