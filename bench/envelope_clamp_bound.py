@@ -10,8 +10,10 @@ ramp: the ramp bounds the setpoint, not the skin, and a display's skin outruns i
 contact (``display_skin_where_clamps_bind``: up to 21 °C/s over 50 ms). Its error is the part of the direct
 touch no display inside the clamps can render, scored with the headline's own windows
 (telethermo.offline.transparency). Every display whose skin stays within them does at least as badly as
-both bounds, so on the bound subset ``max(optimal-current bound, clamped ideal display)`` is a bound as
-well, and the ratio to it says how much of the gap the clamps account for.
+the clamped ideal display, whatever its finger's state; the optimal-current bound assumes the finger matched
+to the direct touch's at each window's start, and under that same assumption
+``max(optimal-current bound, clamped ideal display)`` bounds the subset's conditions too: the ratio to it says
+how much of the gap the clamps account for.
 
 Per condition, against the best constant pad of the same condition (the trivial baseline, from
 envelope.json's matrix): ``clamp_bound_beats_best_pad_fraction`` is the share of conditions in which a
