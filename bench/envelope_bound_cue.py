@@ -33,7 +33,7 @@ from telethermo.offline.transparency import cue_discrimination
 
 def bound_cues(cond: dict[str, Any]) -> dict[str, Any]:
     """The bound's and the direct touch's cue per touch of one condition, and whether the order is kept."""
-    c = Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
+    c = Condition.from_json(cond)
     sc, _ = condition_scene(c)
     t_ref, skin_ref, q_ref, cells = reference_track(sc)
     b = run_bound(sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0, q_ref=q_ref)

@@ -36,7 +36,7 @@ def only(shipped: list[dict[str, Any]], want: set[int]) -> list[dict[str, Any]]:
 def condition_row(cond: dict[str, Any], keep: tuple[str, ...] = envelope.SHIPPED_KEYS) -> dict[str, Any]:
     """One condition (its parameters as in envelope.json) run without the pads: its index, the figures
     ``keep``, whether a cut lasted the session, and the number of trips."""
-    c = envelope.Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
+    c = envelope.Condition.from_json(cond)
     r = envelope.run_condition(c, with_pads=False)
     return {
         "index": c.index,

@@ -43,8 +43,9 @@ RATE_WINDOW_S = 0.05
 
 
 def clamp_bound(cond: dict[str, Any]) -> dict[str, Any]:
-    """The clamped ideal display's headline, pre-contact and early error of one condition, °C."""
-    c = Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
+    """The clamped ideal display's headline and early error of one condition (°C; the nominal clamps'
+    headline beside), and the direct touch's skin range."""
+    c = Condition.from_json(cond)
     sc, _ = condition_scene(c)
     t, skin_ref, q_ref, _cells = reference_track(sc)
     lo, hi = SKIN_CLAMP_C[0] - SKIN_MARGIN_C, SKIN_CLAMP_C[1] + SKIN_MARGIN_C
@@ -67,7 +68,7 @@ def display_skin(cond: dict[str, Any]) -> dict[str, Any]:
     extremes (°C; inside the clamps, the clamped ideal display bounds it) and its fastest change over
     RATE_WINDOW_S (°C/s; beyond the 5 °C/s setpoint ramp, a ramp-limited ideal display would not bound
     it). Run on the subset's conditions where the nominal clamps bind."""
-    c = Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
+    c = Condition.from_json(cond)
     sc, res, _fits = condition_session(c)
     skin = res.recording.col("m_true_surface_C")
     n = max(int(round(RATE_WINDOW_S / sc.period_s)), 1)
@@ -92,6 +93,7 @@ def subset(env: dict[str, Any], by: dict[int, dict[str, Any]]) -> dict[str, Any]
                 "headline_C": ours,
                 "bound_headline_C": b["bound_headline_C"],
                 "clamp_bound_headline_C": cb,
+                "clamp_bound_nominal_headline_C": by[b["index"]]["clamp_bound_nominal_headline_C"],
                 "safe_bound_headline_C": safe,
                 "ratio_to_bound": ours / b["bound_headline_C"],
                 "ratio_to_safe_bound": ours / safe,
@@ -107,9 +109,7 @@ def subset(env: dict[str, Any], by: dict[int, dict[str, Any]]) -> dict[str, Any]
             p["index"] for p in per if p["clamp_bound_headline_C"] > p["bound_headline_C"]
         ],
         "subset_clamps_bind_nominal": [
-            b["index"]
-            for b in env["bound_conditions"]
-            if by[b["index"]]["clamp_bound_nominal_headline_C"] > b["bound_headline_C"]
+            p["index"] for p in per if p["clamp_bound_nominal_headline_C"] > p["bound_headline_C"]
         ],
         "subset": per,
     }
@@ -127,7 +127,10 @@ def main(argv: list[str] | None = None) -> int:
     rows = [r for r in env["conditions"] if "headline_C" in r] + [env["base"]]
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
         out = list(ex.map(clamp_bound, [r["condition"] for r in rows], chunksize=4))
-    by = {o["index"]: o for o in out}
+        by = {o["index"]: o for o in out}
+        sub = subset(env, by)
+        cond = {r["condition"]["index"]: r["condition"] for r in rows}
+        skins = list(ex.map(display_skin, [cond[i] for i in sub["subset_clamps_bind_nominal"]]))
     scored = [(r, by[r["condition"]["index"]]) for r in rows if r["condition"]["index"] >= 0]
     beats = [o["clamp_bound_headline_C"] < r["best_pad_headline_C"] for r, o in scored]
     hb = np.array([o["clamp_bound_headline_C"] for _, o in scored])
@@ -140,14 +143,10 @@ def main(argv: list[str] | None = None) -> int:
         "clamp_bound_worst_C": float(hb[worst]),
         "clamp_bound_worst_condition": scored[worst][0]["condition"],
         "clamp_bound_nonzero_conditions": int(np.sum(hb > 1e-9)),
-        **subset(env, by),
+        **sub,
+        "display_skin_where_clamps_bind": skins,
         "conditions": [{"index": r["condition"]["index"], **o} for r, o in scored],
     }
-    sub = {r["condition"]["index"]: r["condition"] for r in rows}
-    with ProcessPoolExecutor(max_workers=a.workers) as ex:
-        data["display_skin_where_clamps_bind"] = list(
-            ex.map(display_skin, [sub[i] for i in data["subset_clamps_bind_nominal"]])
-        )
     path = write_results("envelope_clamp_bound", data)
     print(json.dumps({k: v for k, v in data.items() if k not in ("conditions", "subset")}, indent=1))
     print(f"written {path}")

@@ -33,7 +33,7 @@ ROUND_TOUCHES = 3
 def touches_by_round(cond: dict[str, Any], gains: str = "identified") -> dict[str, Any]:
     """Run one condition (its parameters as in envelope.json) with ``gains`` ("identified" or "shipped") and
     return its touches with their round."""
-    c = envelope.Condition(**{k: tuple(v) if isinstance(v, list) else v for k, v in cond.items()})
+    c = envelope.Condition.from_json(cond)
     r = envelope.run_condition(c, with_pads=False, gains=gains)
     touches = sorted(r["oscillation_touches"], key=lambda t: t["t_on_s"])
     return {

@@ -120,6 +120,12 @@ class Condition:
     delay_ms: float = 0.0
     seed: int = 0
 
+    @classmethod
+    def from_json(cls, d: dict[str, Any]) -> Condition:
+        """The condition of a results row (``dataclasses.asdict`` through JSON: its tuples came back as
+        lists)."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in d.items()})
+
 
 def base_condition() -> Condition:
     """guiatni §5.3 as shipped: aluminium, steel, oak at the 25 °C room, 8 N, the shipped TEM on both
