@@ -1,9 +1,9 @@
 """Where the refined and the early answer turn a collapsing flux into "unknown" (issue 23): the measurement
 behind telethermo.control.material_trust.FLUX_COLLAPSE_MAX and FLUX_COLLAPSE_MAX_EARLY.
 
-``python -m bench.material_flux_collapse [--refs CACHE.npz] [--references N] [--touches N]`` computes
-:func:`~telethermo.control.material_trust.flux_collapse` (the flux's peak change over its mean change at
-0.35–0.45 s for the refined answer, 0.20–0.28 s for the early one) on the envelope classifier's reference
+``python -m bench.material_flux_collapse [--refs CACHE.npz] [--references N] [--touches N] [--jobs N]``
+computes :func:`~telethermo.control.material_trust.flux_collapse` (the flux's peak change over its mean change
+at 0.35–0.45 s for the refined answer, 0.20–0.28 s for the early one) on the envelope classifier's reference
 touches (read from ``--refs``, the cache ``python -m bench.material_envelope_calibrate --refs`` keeps, else
 the first ``--references`` simulated again) and on N (400) development touches beyond the envelope
 (material_touches.OUTSIDE_DEVELOPMENT, 80 per kind), and prints per threshold how many references exceed it
@@ -55,11 +55,13 @@ def ratios(T: np.ndarray, Q: np.ndarray, window_s: float, later_s: tuple[float, 
     return out
 
 
-def references(refs: Path | None, n: int) -> dict[str, np.ndarray]:
+def references(refs: Path | None, n: int, jobs: int = 2) -> dict[str, np.ndarray]:
+    """The first ``n`` reference touches: from the cache ``refs``, else simulated in ``jobs`` processes
+    (the same touches whatever ``jobs``)."""
     if refs is not None:
         with np.load(refs) as f:
             return {k: f[k][:n] for k in ("T", "Q", "thickness_m")}
-    return mer.reference_set(n, mer.ENV_REFERENCES, jobs=2)
+    return mer.reference_set(n, mer.ENV_REFERENCES, jobs=jobs)
 
 
 def outside(n: int) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -117,8 +119,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--refs", type=Path, help="the reference touches' cache (.npz)")
     ap.add_argument("--references", type=int, default=mer.ENV_REFERENCES_N)
     ap.add_argument("--touches", type=int, default=400)
+    ap.add_argument("--jobs", type=int, default=2, help="simulating processes without --refs (default 2)")
     args = ap.parse_args(argv)
-    ref = references(args.refs, args.references)
+    if args.jobs < 1:
+        ap.error(f"--jobs: expected a whole number >= 1, got {args.jobs}")
+    ref = references(args.refs, args.references, args.jobs)
     beyond = outside(args.touches)
     out = {
         "references_n": int(len(ref["T"])),
