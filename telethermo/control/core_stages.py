@@ -40,7 +40,8 @@ __all__ = [
 
 @dataclass(frozen=True, slots=True)
 class Estimates:
-    """Stage 2: the estimates (°C), the credible surface band (°C) and the contact detector's state."""
+    """Stage 2: the estimates (°C), the credible surface band (°C), the contact detector's state and the pad
+    stack's band (``k_hi``, ``k_lo``: the sensor, both its faces and the estimate, °C)."""
 
     est: float
     e_flux: float
@@ -48,6 +49,8 @@ class Estimates:
     s_hi: float
     s_lo: float
     cst: ContactState
+    k_hi: float = math.nan
+    k_lo: float = math.nan
 
 
 @dataclass(frozen=True, slots=True)
@@ -80,12 +83,14 @@ def estimates(sample: RigSample, params: CoreParams, state: CoreState, T_pred: f
     cst = contact_step(params.contact, state.contact, Q, sample.contact, params.period_s, Ts)
     # credible band: the pad stack (both sensor faces); with a finger on the display, the skin's bound (docs)
     skin = params.safety.protects == "skin" and cst.contact and bool(sample.contact)  # both see a finger
-    cands = (Ts, e_flux, est) if skin else (Ts, e_flux, Ts + 0.5 * Q * params.R_sensor_K_per_W, est)
-    if all(math.isfinite(c) for c in cands):
+    stack = (Ts, e_flux, Ts + 0.5 * Q * params.R_sensor_K_per_W, est)
+    cands = (Ts, e_flux, est) if skin else stack
+    if all(math.isfinite(c) for c in stack):
         s_hi, s_lo = max(cands), min(cands)
+        k_hi, k_lo = max(stack), min(stack)
     else:
-        s_hi = s_lo = math.nan
-    return Estimates(est, e_flux, e_model, s_hi, s_lo, cst)
+        s_hi = s_lo = k_hi = k_lo = math.nan
+    return Estimates(est, e_flux, e_model, s_hi, s_lo, cst, k_hi, k_lo)
 
 
 def _telepresence_request(
@@ -262,6 +267,8 @@ def envelope(
         peer_alive,
         peer_ok,
         fallback,
+        e.k_hi,
+        e.k_lo,
     )
     switched = r.source != state.source
     env0 = seeded_envelope(params, state, r, e.est, switched)

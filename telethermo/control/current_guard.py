@@ -11,7 +11,27 @@ from telethermo.control.envelope_state import EnvelopeState
 from telethermo.control.safety_limits import SafetyLimits
 from telethermo.control.trips import CUT_TRIPS, PEER_TRIPS
 
-__all__ = ["FLUX_GUARD_START", "FLUX_GUARD_STOP", "slewing", "limit_current"]
+__all__ = ["FLUX_GUARD_START", "FLUX_GUARD_STOP", "RATE_FILTER_S", "slewing", "limit_current", "stack_rates"]
+
+#: the time constant of the first-order filter on the pad stack's rate (:func:`stack_rates`), s: three periods
+#: at 10 ms, so one sample's noise moves the guard's lead by a quarter of its one-step slope
+RATE_FILTER_S = 0.03
+
+
+def stack_rates(state: EnvelopeState, hi_C: float, lo_C: float, dt_s: float) -> tuple[float, float]:
+    """The filtered rates (hi, lo) of the pad stack's band, °C/s, from the previous step's band in
+    ``state`` (0 where either step is not finite or ``dt_s`` is 0: no lead without a slope).
+
+    >>> st = EnvelopeState(stack_prev_C=(40.0, 39.0), stack_rate_C_per_s=(0.0, 0.0))
+    >>> [round(r, 6) for r in stack_rates(st, 40.4, 39.0, 0.01)]  # 40 °C/s: a quarter of it after one step
+    [10.0, 0.0]
+    """
+    a = dt_s / (dt_s + RATE_FILTER_S) if dt_s > 0.0 else 0.0
+    out = []
+    for prev, now, r in zip(state.stack_prev_C, (hi_C, lo_C), state.stack_rate_C_per_s):
+        ok = a > 0.0 and math.isfinite(prev) and math.isfinite(now)
+        out.append(r + a * ((now - prev) / dt_s - r) if ok else 0.0)
+    return out[0], out[1]
 
 
 def _outward_cap(limits: SafetyLimits, room_C: float) -> float:
@@ -56,7 +76,10 @@ def limit_current(
 
     NaN/inf requests give 0 A. Cut -> 0 A. Within ``guard_C`` of T_max_C only cooling (I <= 0) passes,
     within ``guard_C`` of T_min_C only heating (I >= 0); over the ``taper_C`` band before that the
-    outward current is capped linearly (full at the band's inner edge). Then |I| <= I_limit_A, and a
+    outward current is capped linearly (full at the band's inner edge). The surface band is first moved
+    ``guard_lead_s`` ahead along the pad stack's rate towards the clamp it approaches
+    (``state.stack_rate_C_per_s``, :func:`stack_rates`): the heat already between the plate and the skin
+    arrives after the current has stopped. Then |I| <= I_limit_A, and a
     cooling current (I < 0) |I| <= I_cool_limit_A (the TEM's maximum-cooling current, where known).
     The flux guard ("guard"): with ``Q_W`` (the measured flux out of the pad, W) beyond
     :data:`FLUX_GUARD_START`·Q_abs_max_W, the current pushing it further (heating while Q_W > 0, cooling
@@ -77,6 +100,9 @@ def limit_current(
         return 0.0, ("cut",)
     active: list[str] = []
     lim, cool = limits.I_limit_A, limits.I_cool_limit_A
+    r_hi, r_lo = state.stack_rate_C_per_s
+    surface_hi_C += limits.guard_lead_s * max(r_hi, 0.0)
+    surface_lo_C += limits.guard_lead_s * min(r_lo, 0.0)
     hi_cap = min(
         lim, _outward_cap(limits, limits.T_max_C - limits.guard_C - surface_hi_C), _flux_cap(limits, Q_W)
     )

@@ -36,6 +36,10 @@ class EnvelopeState:
         cut: current cut (latched with the trips that caused it).
         link_fallback: the master's link-loss fallback rendered in this step
             (``EnvelopeInput.link_fallback``), for :func:`telethermo.control.current_guard.slewing`.
+        stack_prev_C: the pad stack's band (hi, lo) of the previous step, °C (NaN before the first;
+            ``EnvelopeInput.stack_hi_C``).
+        stack_rate_C_per_s: its filtered rates (hi, lo), °C/s, for the guard's lead
+            (:func:`telethermo.control.current_guard.stack_rates`).
     """
 
     setpoint_C: float | None = None
@@ -47,6 +51,8 @@ class EnvelopeState:
     detach_time_s: float = 0.0
     sensor_avg_C: float = math.nan
     link_fallback: bool = False
+    stack_prev_C: tuple[float, float] = (math.nan, math.nan)
+    stack_rate_C_per_s: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True, slots=True)

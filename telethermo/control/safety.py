@@ -45,7 +45,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 
-from telethermo.control.current_guard import FLUX_GUARD_START, FLUX_GUARD_STOP, limit_current, slewing
+from telethermo.control.current_guard import (
+    FLUX_GUARD_START,
+    FLUX_GUARD_STOP,
+    limit_current,
+    slewing,
+    stack_rates,
+)
 from telethermo.control.detach import detach_excess, detach_timer, sensor_average
 from telethermo.control.envelope_state import EnvelopeState, EnvelopeStatus, SafetyState, summarize
 from telethermo.control.safety_limits import (
@@ -175,6 +181,9 @@ class EnvelopeInput:
         link_fallback: the master renders locally because the slave is lost (issue 15's graceful link loss):
             the same trip slew and lead bound as under a peer trip apply (its start replaces telepresence's
             feed-forward and flux terms in one step, as a peer trip does).
+        stack_hi_C, stack_lo_C: highest and lowest temperature of the pad stack (the sensor, both its faces
+            and the estimates), °C, whose rate gives the guard its lead (``SafetyLimits.guard_lead_s``); NaN:
+            the surface band's.
     """
 
     T_sensor_C: float
@@ -188,6 +197,8 @@ class EnvelopeInput:
     peer_alive: bool
     peer_ok: bool
     link_fallback: bool = False
+    stack_hi_C: float = math.nan
+    stack_lo_C: float = math.nan
 
 
 def _judge_sample(
@@ -303,6 +314,11 @@ def envelope_step(
         sp = _lead_bound(limits, prev, sp, inp)
 
     cut = state.cut or bool(trips & CUT_TRIPS)
+    stack = (
+        (inp.stack_hi_C, inp.stack_lo_C)
+        if math.isfinite(inp.stack_hi_C) and math.isfinite(inp.stack_lo_C)
+        else (inp.surface_hi_C, inp.surface_lo_C)
+    )
     if peer_trip and not cut:
         if abs(sp - limits.neutral_C) <= limits.neutral_tol_C or neutral_time >= limits.neutral_timeout_s:
             cut = True
@@ -318,6 +334,8 @@ def envelope_step(
         link_fallback=inp.link_fallback,
         detach_time_s=detach_time,
         sensor_avg_C=sensor_average(state.sensor_avg_C, inp.T_sensor_C, dt_s),
+        stack_prev_C=stack,
+        stack_rate_C_per_s=stack_rates(state, stack[0], stack[1], dt_s),
     )
     return sp, new_state, tuple(active), new_trips
 

@@ -38,6 +38,10 @@ class SafetyLimits:
         guard_C: band inside each clamp in which the current may only push the surface back, °C.
         taper_C: below the guard band the current driving outwards is tapered linearly to 0 over
             this band, °C (the plate stores heat: a pad heated at full current overshoots a hard stop).
+        guard_lead_s: the guard and the taper see the surface this far ahead, s: while the pad stack (both
+            sensor faces) moves towards a clamp the surface counts as ``rate·guard_lead_s`` nearer to it (the
+            rate filtered over :data:`~telethermo.control.current_guard.RATE_FILTER_S`), so that the heat
+            already on its way from a plate driven hard does not carry the skin past the clamp (0: no lead).
         surface_trip_margin_C: surface beyond a clamp by more than this trips (current cut), °C.
         sink_trip_C: heat-sink trip, °C.
         sensor_min_C, sensor_max_C: plausible thermocouple range, °C; open_tc_C: reading at or
@@ -75,6 +79,7 @@ class SafetyLimits:
     hot_time_limit_s: float = 30.0
     guard_C: float = 0.5
     taper_C: float = 2.0
+    guard_lead_s: float = 0.03
     surface_trip_margin_C: float = 2.0
     sink_trip_C: float = 55.0
     sensor_min_C: float = -20.0
@@ -142,6 +147,7 @@ class SafetyLimits:
             "detach_excess_A",
             "detach_rel",
             "detach_slope_C_per_s",
+            "guard_lead_s",
         ):
             if getattr(self, name) < 0:
                 raise ValueError(f"SafetyLimits.{name}: expected >= 0, got {getattr(self, name)!r}")
