@@ -5,6 +5,7 @@ The shipped network file is used throughout, so the file always says lockstep.""
 from __future__ import annotations
 
 import time
+import warnings
 
 import can
 import canopen
@@ -18,6 +19,11 @@ from telethermo.monitor.view import ViewState, render_lines
 
 def sync(t: float, k: int) -> can.Message:
     return can.Message(timestamp=t, arbitration_id=0x080, data=bytes([k % 240 + 1]), is_extended_id=False)
+
+
+def sdo(frames: list[str]) -> list[str]:
+    """The SDO frames (COB-ID 0x580/0x600 + node) of ``"ID:hex"`` strings."""
+    return [f for f in frames if f[0] in "56"]
 
 
 def shipped_monitor() -> Monitor:
@@ -81,11 +87,22 @@ def test_a_nodes_own_lockstep_object_read_by_canopens_client_decides():
         for k in range(30):  # SYNC timing alone would say the other mode
             mon.feed(sync(100.0 + (0.010 if value else 0.003) * k, k))
         assert mon.timing.verdict(mon.stats.sync_intervals_s, 0.010)[0] is (not value)
-        t_end = time.monotonic() + 5.0
-        while time.monotonic() < t_end and not mon.timing.by_node:
-            m = listener.recv(0.1)
-            if m is not None:
-                mon.feed(m)
+        seen: list[str] = []
+        # the first read once went unseen beside two CPU hogs in the full suite (not reproduced alone): each
+        # read is a new chance, and one that needed another says so in the test's warnings with what was seen
+        for attempt in range(3):
+            if attempt:
+                warnings.warn(f"lockstep upload not seen by the monitor; SDO frames so far: {sdo(seen)}")
+                assert node.sdo["lockstep"].raw == value
+            t_end = time.monotonic() + 5.0
+            while time.monotonic() < t_end and not mon.timing.by_node:
+                m = listener.recv(0.1)
+                if m is not None:
+                    seen.append(f"{m.arbitration_id:03X}:{m.data.hex()}")
+                    mon.feed(m)
+            if mon.timing.by_node:
+                break
+        assert mon.timing.by_node, f"the monitor never saw the lockstep upload; SDO frames seen: {sdo(seen)}"
         snap = mon.snapshot()
         assert snap["sync_lockstep"] is bool(value)
         assert snap["sync_timing_evidence"] == (
