@@ -33,6 +33,7 @@ SUITE = [
     "rendering",
     "monitor",
     "envelope",
+    "envelope_heldout",
 ]
 
 

@@ -122,6 +122,8 @@ def failures(r: dict[str, Any]) -> list[str]:
         )
     if r["cue_fair"] and not r["cue_order_kept"]:
         why.append("cue order lost")
+    if r.get("skin_past_clamp_C", 0.0) > 0.0:
+        why.append(f"skin {r['skin_min_C']:.2f}..{r['skin_max_C']:.2f} °C, past its clamp")
     return why
 
 
@@ -163,6 +165,29 @@ def bound_summary(
     }
 
 
+def skin_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The operator's skin past its clamps: the worst condition's excursion, °C, and the conditions past."""
+    past = [r.get("skin_past_clamp_C", float("nan")) for r in rows]
+    known = [p for p in past if np.isfinite(p)]
+    return {
+        "envelope_skin_past_clamp_worst_C": max(known) if known else None,
+        "envelope_skin_past_clamp_conditions": [
+            r["condition"]["index"] for r, p in zip(rows, past) if np.isfinite(p) and p > 0.0
+        ],
+    }
+
+
+def shipped_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """The shipped gains on the same draws (the before-figure)."""
+    return {
+        "oscillating_conditions": sum(r["shipped"]["oscillating"] for r in rows),
+        "headline_median_C": float(np.median([r["shipped"]["headline_C"] for r in rows])),
+        "headline_worst_C": float(np.max([r["shipped"]["headline_C"] for r in rows])),
+        "session_long_cuts": sum(r["shipped"]["session_long_cut"] for r in rows),
+        "conditions_with_trips": sum(r["shipped"]["trips"] > 0 for r in rows),
+    }
+
+
 def summarise(all_rows: list[dict[str, Any]], base: dict[str, Any]) -> dict[str, Any]:
     rows = [r for r in all_rows if "error" not in r]
     errors = [r for r in all_rows if "error" in r]
@@ -193,13 +218,8 @@ def summarise(all_rows: list[dict[str, Any]], base: dict[str, Any]) -> dict[str,
         if fair
         else None,
         "envelope_cue_fair_conditions": len(fair),
-        "shipped_gains": {
-            "oscillating_conditions": sum(r["shipped"]["oscillating"] for r in rows),
-            "headline_median_C": float(np.median([r["shipped"]["headline_C"] for r in rows])),
-            "headline_worst_C": float(np.max([r["shipped"]["headline_C"] for r in rows])),
-            "session_long_cuts": sum(r["shipped"]["session_long_cut"] for r in rows),
-            "conditions_with_trips": sum(r["shipped"]["trips"] > 0 for r in rows),
-        },
+        **skin_summary(rows),
+        **({"shipped_gains": shipped_summary(rows)} if all("shipped" in r for r in rows) else {}),
         "base_headline_C": base["headline_C"],
         "base_pre_contact_C": base["pre_contact_C"],
         "base_oscillation_ratio": base["oscillation_ratio"],

@@ -264,6 +264,32 @@ HEADLINE = [
     ),
     ("envelope", "workers_2_speedup", "the first conditions on 2 workers vs 1, same run", "≥ 1.7"),
     (
+        "envelope",
+        "envelope_skin_past_clamp_worst_C",
+        "the operator's skin past its [15, 43] °C clamps, worst condition of the matrix, °C",
+        "0",
+    ),
+    (
+        "envelope_heldout",
+        "envelope_session_long_cuts",
+        "a held-out draw of the envelope (seed 30_2026, 100 conditions nothing was chosen on): long cuts",
+        "0",
+    ),
+    ("envelope_heldout", "envelope_unexpected_trips", "the held-out draw: conditions with any trip", "0"),
+    (
+        "envelope_heldout",
+        "envelope_skin_past_clamp_worst_C",
+        "the held-out draw: the skin past its clamps, worst condition, °C",
+        "0",
+    ),
+    ("envelope_heldout", "envelope_oscillating_conditions", "the held-out draw: oscillating conditions", "0"),
+    (
+        "envelope_heldout",
+        "envelope_beats_best_pad_fraction",
+        "the held-out draw: share beating the best constant pad",
+        "≥ 0.9",
+    ),
+    (
         "envelope_probe_flux",
         "candidate_beats_best_pad_fraction",
         "experiment, not shipped: the matrix with the probe's flux loop (2 W deadband); beats the best pad",

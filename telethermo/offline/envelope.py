@@ -16,7 +16,7 @@ guiatni §5.3 schedule (three materials, twice each) with the project's controll
 - the best constant pad: a display that ignores the probe and holds the ambient, the objects' temperature or
   the neutral 32 °C (each clamped to the skin's [15, 43] °C), the best of the three;
 - the oscillation figure (telethermo.offline.oscillation; per touch in ``oscillation_touches``), trips and
-  cut time per side, the cue order and
+  cut time per side, the skin's extremes and how far past its clamps it went, the cue order and
   whether the direct touch's cues differ enough (≥ 20 %) for the order to be a fair question.
 
 Pure of I/O: the benchmark (bench/envelope_bench.py) submits conditions to an executor and writes the results.
@@ -350,11 +350,27 @@ def run_condition(
     out["time_cut_s"] = sfy["time_cut_s"]
     out["session_long_cut"] = any(v >= SESSION_LONG_CUT_S for v in sfy["time_cut_s"].values())
     out["time_at_limit_s"] = sfy["time_at_limit_s"]
+    out.update(skin_extremes(rec.col("m_true_surface_C")))
     if with_shipped and gains != "shipped":
         out["shipped"] = _shipped(c)
     if with_pads:
         out.update(_best_pad(c, sc, t, ref, rec.col("ref_Q_into_finger_W"), contacts, out["headline_C"]))
     return out
+
+
+def skin_extremes(skin_C: np.ndarray) -> dict[str, float]:
+    """The operator's skin over the session (``m_true_surface_C``): its highest and lowest temperature, °C,
+    and how far it went past the skin's clamps :data:`SKIN_CLAMP_C` (0 inside them), °C.
+
+    >>> skin_extremes(np.array([30.0, 43.2, np.nan, 14.9]))["skin_past_clamp_C"]
+    0.2
+    """
+    s = skin_C[np.isfinite(skin_C)]
+    if not s.size:
+        return {"skin_max_C": math.nan, "skin_min_C": math.nan, "skin_past_clamp_C": math.nan}
+    hi, lo = float(s.max()), float(s.min())
+    past = max(hi - SKIN_CLAMP_C[1], SKIN_CLAMP_C[0] - lo, 0.0)
+    return {"skin_max_C": hi, "skin_min_C": lo, "skin_past_clamp_C": round(past, 6)}
 
 
 def _fit_summary(v: dict[str, Any]) -> dict[str, Any]:
