@@ -14,6 +14,7 @@ MODULES = [
     "telethermo.control.estimators",
     "telethermo.cia301",
     "telethermo.offline.oscillation",
+    "telethermo.offline.envelope",
     "telethermo.control.gain_rule",
     "telethermo.control.osc_guard",
     "telethermo.control.passive_bound",

@@ -362,8 +362,10 @@ def skin_extremes(skin_C: np.ndarray) -> dict[str, float]:
     """The operator's skin over the session (``m_true_surface_C``): its highest and lowest temperature, °C,
     and how far it went past the skin's clamps :data:`SKIN_CLAMP_C` (0 inside them), °C.
 
-    >>> skin_extremes(np.array([30.0, 43.2, np.nan, 14.9]))["skin_past_clamp_C"]
+    >>> skin_extremes(np.array([30.0, 43.2, np.nan, 14.9]))["skin_past_clamp_C"]  # the worse side
     0.2
+    >>> skin_extremes(np.array([14.7, 42.9]))["skin_past_clamp_C"], skin_extremes(np.array([15.0, 43.0]))
+    (0.3, {'skin_max_C': 43.0, 'skin_min_C': 15.0, 'skin_past_clamp_C': 0.0})
     """
     s = skin_C[np.isfinite(skin_C)]
     if not s.size:
