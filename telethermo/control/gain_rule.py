@@ -52,6 +52,11 @@ MIN_PHASE_MARGIN_DEG = 40.0
 # 0.26 °C, current 0.70 A RMS in band; tests/control/test_gain_rule.py found it). Lowering is what the
 # free-pad model can vouch for.
 RHO_MIN, RHO_MAX = 0.2, 1.0
+#: the envelope's taper band (SafetyLimits.taper_C) is widened by ρ**-TAPER_RHO_EXPONENT on a module stronger
+#: than the shipped one: its plate holds more heat past the sensor when the taper stops the current. Chosen
+#: on a fresh draw's hot and cold conditions (exponent 0 / 0.5 / 1: skin peak 43.10 / 42.72 / 42.23 °C,
+#: headline worst +0 / +0.12 / +0.42 °C; docs/control.md, "The taper on a stronger module")
+TAPER_RHO_EXPONENT = 0.5
 #: the current gains of CoreParams the rule scales (A per °C or W, and their integral gains)
 SCALED_FIELDS = (
     "kp_A_per_C",
@@ -185,8 +190,12 @@ def fitted_params(params: Any, fit: dict[str, Any]) -> Any:
     """``params`` (a CoreParams) for the rig of ``fit`` (:func:`fit_gains`): the gains scaled by ρ, the
     cooling current held at the TEM's maximum-cooling current (``max_cooling_A``, None: unknown), and, on
     another module than the shipped one (:func:`same_module`), the material classifier's box told so: its
-    network was trained on the shipped module's touches, so the physics posterior names them instead."""
+    network was trained on the shipped module's touches, so the physics posterior names them instead. The
+    envelope's taper band is widened by ρ**-:data:`TAPER_RHO_EXPONENT` (ρ < 1: a stronger module)."""
     p = scaled_params(params, fit["rho"])
+    if fit["rho"] < 1.0:
+        taper = p.safety.taper_C * fit["rho"] ** -TAPER_RHO_EXPONENT
+        p = dataclasses.replace(p, safety=dataclasses.replace(p.safety, taper_C=taper))
     mid = getattr(p, "material_id", None)
     if mid is not None and mid.box is not None and not same_module(fit):
         p = dataclasses.replace(
