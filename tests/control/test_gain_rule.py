@@ -13,11 +13,14 @@ from telethermo import sim
 from telethermo.control.gain_rule import (
     MIN_GAIN_MARGIN_DB,
     MIN_PHASE_MARGIN_DEG,
+    TAPER_RHO_EXPONENT,
     LinearPlant,
+    fitted_params,
     gain_scale,
     margins,
     reference_plant,
 )
+from telethermo.control.params import default_params
 from telethermo.control.types import Role
 from telethermo.ident.prbs import prbs
 from telethermo.offline.envelope import base_condition, condition_scene, identified_params
@@ -40,6 +43,20 @@ def test_a_weaker_plant_keeps_the_shipped_gains():
     ref = reference_plant()
     weak = LinearPlant(b=ref.b * 0.5, alpha=ref.alpha, period_s=ref.period_s)
     assert gain_scale(weak, ref, 1.66, 0.04)["rho"] == 1.0
+
+
+@pytest.mark.parametrize("role", [Role.MASTER, Role.SLAVE])
+def test_a_stronger_module_gets_a_wider_taper_and_the_shipped_one_keeps_its_own(role):
+    """The envelope's taper band widens by ρ**-0.5 on a module ρ⁻¹ times the shipped one's gain (the plate
+    holds more heat past the sensor when the taper stops the current); ρ = 1 changes nothing."""
+    p = default_params(role, period_s=0.01)
+    assert TAPER_RHO_EXPONENT == 0.5
+    same = fitted_params(p, {"rho": 1.0})
+    assert same.safety.taper_C == p.safety.taper_C == 2.0
+    strong = fitted_params(p, {"rho": 0.25, "plant_gain_ratio": 4.0})
+    assert strong.safety.taper_C == pytest.approx(4.0)  # 2 °C / sqrt(0.25)
+    assert strong.kp_A_per_C == pytest.approx(0.25 * p.kp_A_per_C)
+    assert strong.safety.guard_C == p.safety.guard_C and strong.safety.T_max_C == p.safety.T_max_C
 
 
 def test_a_plant_with_more_lag_is_backed_off_until_the_margins_hold():
