@@ -55,10 +55,11 @@ def score(c: Condition) -> dict[str, Any]:
     return run_condition(c, gains="identified", with_shipped=True)
 
 
-def safe_score(c: Condition) -> dict[str, Any]:
-    """:func:`score`, or a row that says why the condition could not be scored (counted as failing)."""
+def safe_score(c: Condition, with_shipped: bool = True) -> dict[str, Any]:
+    """:func:`score` (``with_shipped=False``: without the shipped gains' before-figure), or a row that says
+    why the condition could not be scored (counted as failing)."""
     try:
-        return score(c)
+        return run_condition(c, gains="identified", with_shipped=with_shipped)
     except Exception as exc:  # one broken condition must not lose the matrix; it is listed, never hidden
         return {"condition": dataclasses.asdict(c), "error": f"{type(exc).__name__}: {exc}"}
 

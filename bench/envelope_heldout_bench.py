@@ -13,15 +13,15 @@ file (``matrix``). Nothing may be tuned on this seed: a change chosen by what it
 from __future__ import annotations
 
 import argparse
-import dataclasses
+import functools
 import json
 import time
 from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from bench.common import current_results_dir, write_results
-from bench.envelope_bench import summarise
-from telethermo.offline.envelope import Condition, base_condition, draw_conditions, run_condition
+from bench.envelope_bench import safe_score, summarise
+from telethermo.offline.envelope import base_condition, draw_conditions
 
 #: the held-out draw's seed: used for nothing else (the matrix 22_2026, the tuner 7, the guard's lead 4242)
 HELDOUT_SEED = 30_2026
@@ -38,19 +38,12 @@ COMPARED = (
 )
 
 
-def score(c: Condition) -> dict[str, Any]:
-    """One held-out condition: the identified gains' session and the constant pads; an error is a row."""
-    try:
-        return run_condition(c, gains="identified")
-    except Exception as exc:  # one broken condition must not lose the draw; it is listed, never hidden
-        return {"condition": dataclasses.asdict(c), "error": f"{type(exc).__name__}: {exc}"}
-
-
 def run(*, quick: bool = False, workers: int = 2) -> dict[str, Any]:
     """Score the held-out draw and write envelope_heldout.json beside envelope.json."""
     t0 = time.perf_counter()
     conds = draw_conditions(HELDOUT_N_QUICK if quick else HELDOUT_N, HELDOUT_SEED, corners=False)
     with ProcessPoolExecutor(max_workers=workers) as ex:
+        score = functools.partial(safe_score, with_shipped=False)  # the constant pads, not the before-figure
         fut_base = ex.submit(score, base_condition())
         rows = list(ex.map(score, conds))
         base = fut_base.result()
