@@ -10,7 +10,11 @@ plate, the display follows the plate up, and the operator's skin climbs to 37.5 
 sits at 30–32 °C (docs/control.md, "The passive bound").
 
 The bound: a touch's side is decided by the heat the probe gave the object in its first :data:`DECIDE_S`
-(> 0: the object is colder than the probe that follows the finger); from then until the probe lifts, the
+(> 0: the object is colder than the probe that follows the finger), and turned if the touch's heat later goes
+:data:`FLIP_J` past zero the other way (a probe left hot by the previous touch cools in its first moments
+on an insulator, and its flux estimate can read that as heat from the object: held-out condition 48 decided
+EPS at 13.7 °C "hotter", and the display and probe climbed together to 39 °C). From then until the probe
+lifts, the
 display's contact target stays at or below the finger's temperature when the touch began (at or above it for
 a hotter object). That start is taken no nearer the object than the skin's neutral temperature, because a
 skin cooled by the previous touch rewarms in contact (perfusion) as the direct finger does.
@@ -52,6 +56,9 @@ DECIDE_S = 0.1
 #: how far the contact target may come back from the furthest it has gone towards the object in a touch, °C
 #: (the base scene's return is 0.92 °C; on the matrix 1.5 and 2.5 were measured, docs/control.md)
 RETURN_C = 1.5
+#: how far past zero the touch's heat must go the other way before its side turns, J (the median touch gives
+#: 0.037 J in its first DECIDE_S; a fast-cooling probe's flux estimate can be that far off, docs/control.md)
+FLIP_J = 0.03
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,6 +88,10 @@ def bound_step(
     ...     st = bound_step(st, True, 33.6, 0.8, 0.01)   # the probe gives a cold object 0.8 W
     >>> st.side, st.start_C
     (1, 33.6)
+    >>> for _ in range(40):
+    ...     st = bound_step(st, True, 33.6, -0.3, 0.01)  # then takes 0.12 J back: the object is hotter
+    >>> st.side, round(st.heat_J, 3)
+    (-1, -0.04)
     >>> bound_step(st, False, 30.0, 0.0, 0.01).touching
     False
     """
@@ -90,10 +101,12 @@ def bound_step(
         st = PassiveBoundState(touching=True, start_C=float(finger_C))
     heat = st.heat_J + (float(probe_flux_W) * dt_s if math.isfinite(probe_flux_W) else 0.0)
     elapsed = st.elapsed_s + dt_s
-    side = st.side
+    side, ext = st.side, st.extreme_C
     if side == 0 and elapsed >= DECIDE_S - 1e-9 and heat != 0.0:
         side = 1 if heat > 0.0 else -1
-    return PassiveBoundState(True, st.start_C, heat, elapsed, side, st.extreme_C)
+    elif side != 0 and heat * side < -FLIP_J:
+        side, ext = -side, math.nan  # the touch's heat has turned: the other side, its extreme afresh
+    return PassiveBoundState(True, st.start_C, heat, elapsed, side, ext)
 
 
 def bounded_target(st: PassiveBoundState, req_C: float, neutral_C: float) -> float:

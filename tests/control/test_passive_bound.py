@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
+import numpy as np
 import pytest
 
 from telethermo.control.core import init_state, step
@@ -22,7 +23,8 @@ from telethermo.control.passive_bound import (
     held_target,
 )
 from telethermo.control.types import PeerValues, Role
-from telethermo.offline.envelope import Condition, base_condition, run_condition
+from telethermo.control import passive_bound
+from telethermo.offline.envelope import Condition, base_condition, condition_session, run_condition
 from telethermo.rig import RigSample
 
 #: envelope condition 160 of bench/results/envelope.json: 0.48 mm alumina, brass and copper at 27.7 °C in a
@@ -53,6 +55,37 @@ THIN_PLATE = Condition(
     s_sink_R_K_W=1.0824528111898761,
     delay_ms=55.59324326917135,
     seed=22203266238,
+)
+
+#: condition 48 of bench/results/envelope_heldout.json: copper, EPS and carbon steel at 13.7 °C in a 15.7 °C
+#: room, a weak display (Seebeck x0.62, R x3.9). The copper touch leaves the probe at 38.5 °C; on the EPS it
+#: cools, and its flux estimate reads the first 0.1 s as heat from the object (-0.016 J): "hotter"
+PROBE_LEFT_HOT = Condition(
+    index=48,
+    design="lhs",
+    materials=("copper", "eps", "carbon_steel"),
+    ambient_C=15.70975571548734,
+    object_T_C=13.652990642698054,
+    thickness_mm=17.555374679951903,
+    probe_force_N=4.045008334822994,
+    finger_force_N=0.9434087392659823,
+    finger_layers_x=1.0714973001783483,
+    perfusion_x=1.246390092130522,
+    noise_x=1.3110299752620356,
+    m_seebeck_x=0.6175511431008884,
+    m_R_x=3.924566363096038,
+    m_K_x=0.7684185974333726,
+    m_I_max_A=5.265186181635105,
+    m_plate_C_x=1.0755252779612092,
+    m_sink_R_K_W=0.6504054734485807,
+    s_seebeck_x=1.3117958801977014,
+    s_R_x=3.8012208569243517,
+    s_K_x=0.9835229224126033,
+    s_I_max_A=4.951395880266797,
+    s_plate_C_x=0.7879152879292025,
+    s_sink_R_K_W=0.7665452723615562,
+    delay_ms=3.621084247339338,
+    seed=30203506126,
 )
 
 
@@ -159,3 +192,23 @@ def test_the_thin_plate_drift_is_cut_and_the_base_scene_stays_within_its_target(
     # target's return from its lowest (0.92 °C) just under RETURN_C
     assert base_on["headline_C"] <= 1.255 and base_on["pre_contact_C"] <= 0.3
     assert abs(base_on["headline_C"] - base_off["headline_C"]) < 0.005
+
+
+def _skin_max_and_headline(c: Condition) -> tuple[float, float]:
+    _, res, _ = condition_session(c)
+    skin = res.recording.col("m_true_surface_C")
+    return float(np.nanmax(skin)), float(res.figures["transparency"]["headline_error_C"])
+
+
+@pytest.mark.slow
+def test_a_side_misread_from_a_cooling_probe_turns_when_the_heat_does(monkeypatch):
+    """Held-out condition 48: the EPS touch is first decided "hotter"; its heat then runs the other way (the
+    probe gives the cold EPS 0.4 W), and the side turns. Without the turn the "hotter" floor ratchets the
+    display and the probe up together; the direct touch's skin sits at 20-24 °C."""
+    on = _skin_max_and_headline(PROBE_LEFT_HOT)
+    monkeypatch.setattr(passive_bound, "FLIP_J", math.inf)
+    off = _skin_max_and_headline(PROBE_LEFT_HOT)
+    # measured: skin peak 39.02 -> 32.74 °C, headline 13.76 -> 10.93 °C (the best constant pad: 13.31 °C; this
+    # display cannot cool the skin below 26 °C)
+    assert off[0] > 37.5 and on[0] < 33.5, (on, off)
+    assert off[1] > 13.0 and on[1] < 12.0, (on, off)
