@@ -9,15 +9,15 @@ and alumina in a 29 °C room, 56 ms delay): the probe, following the display's f
 plate, the display follows the plate up, and the operator's skin climbs to 37.5 °C while the direct touch
 sits at 30–32 °C (docs/control.md, "The passive bound").
 
-The bound: a touch's side is decided by the heat the probe gave the object in its first :data:`DECIDE_S`
-(> 0: the object is colder than the probe that follows the finger), and turned if the touch's heat later goes
-:data:`FLIP_J` past zero the other way (a probe left hot by the previous touch cools in its first moments
-on an insulator, and its flux estimate can read that as heat from the object: held-out condition 48 decided
-EPS at 13.7 °C "hotter", and the display and probe climbed together to 39 °C). From then until the probe
-lifts, the
-display's contact target stays at or below the finger's temperature when the touch began (at or above it for
-a hotter object). That start is taken no nearer the object than the skin's neutral temperature, because a
-skin cooled by the previous touch rewarms in contact (perfusion) as the direct finger does.
+The bound: a touch's side is decided by the heat the probe gave the object in its first :data:`DECIDE_S` (> 0:
+the object is colder than the probe that follows the finger), and turned, once, if it was decided on less than
+:data:`FLIP_J` and the touch's heat later goes :data:`FLIP_J` past zero the other way (a probe left hot by the
+previous touch cools in its first moments on an insulator, and its flux estimate can read that as heat from
+the object: held-out condition 48 decided EPS at 13.7 °C "hotter", and the display and probe climbed together
+to 39 °C). From then until the probe lifts, the display's contact target stays at or below the finger's
+temperature when the touch began (at or above it for a hotter object). That start is taken no nearer the
+object than the skin's neutral temperature, because a skin cooled by the previous touch rewarms in contact
+(perfusion) as the direct finger does.
 
 The return: from the side's decision on, the target comes back at most :data:`RETURN_C` from the furthest it
 has gone towards the object in the touch. After its first moments the probe's object estimate carries the
@@ -66,7 +66,8 @@ class PassiveBoundState:
     """One touch's memory: whether the probe touches, the finger estimate when it began (°C), the heat the
     probe has given the object since (J), the time since (s), the side (+1: the object is colder, it took
     heat; -1: hotter; 0: not decided yet) and the furthest the bounded target has gone towards the object
-    since the side was decided (°C; its lowest for a colder object, its highest for a hotter one)."""
+    since the side was decided (°C; its lowest for a colder object, its highest for a hotter one), and the
+    heat the side was decided on (J)."""
 
     touching: bool = False
     start_C: float = math.nan
@@ -74,6 +75,7 @@ class PassiveBoundState:
     elapsed_s: float = 0.0
     side: int = 0
     extreme_C: float = math.nan
+    decided_J: float = 0.0
 
 
 def bound_step(
@@ -88,10 +90,13 @@ def bound_step(
     ...     st = bound_step(st, True, 33.6, 0.8, 0.01)   # the probe gives a cold object 0.8 W
     >>> st.side, st.start_C
     (1, 33.6)
-    >>> for _ in range(40):
-    ...     st = bound_step(st, True, 33.6, -0.3, 0.01)  # then takes 0.12 J back: the object is hotter
-    >>> st.side, round(st.heat_J, 3)
-    (-1, -0.04)
+    >>> weak = PassiveBoundState()
+    >>> for _ in range(10):
+    ...     weak = bound_step(weak, True, 27.4, -0.16, 0.01)  # a probe cooling on EPS: -0.016 J, "hotter"
+    >>> for _ in range(20):
+    ...     weak = bound_step(weak, True, 27.4, 0.4, 0.01)    # then it gives the object 0.4 W
+    >>> weak.side, round(weak.heat_J, 3)
+    (1, 0.064)
     >>> bound_step(st, False, 30.0, 0.0, 0.01).touching
     False
     """
@@ -101,12 +106,14 @@ def bound_step(
         st = PassiveBoundState(touching=True, start_C=float(finger_C))
     heat = st.heat_J + (float(probe_flux_W) * dt_s if math.isfinite(probe_flux_W) else 0.0)
     elapsed = st.elapsed_s + dt_s
-    side, ext = st.side, st.extreme_C
+    side, ext, decided = st.side, st.extreme_C, st.decided_J
     if side == 0 and elapsed >= DECIDE_S - 1e-9 and heat != 0.0:
-        side = 1 if heat > 0.0 else -1
-    elif side != 0 and heat * side < -FLIP_J:
-        side, ext = -side, math.nan  # the touch's heat has turned: the other side, its extreme afresh
-    return PassiveBoundState(True, st.start_C, heat, elapsed, side, ext)
+        side, decided = (1 if heat > 0.0 else -1), heat
+    elif side != 0 and abs(decided) < FLIP_J and heat * side < -FLIP_J:
+        # a side decided on less heat than FLIP_J, and the touch's heat has since run FLIP_J the other way:
+        # the other side, its extreme afresh; decided on FLIP_J, it does not turn again
+        side, ext, decided = -side, math.nan, heat
+    return PassiveBoundState(True, st.start_C, heat, elapsed, side, ext, decided)
 
 
 def bounded_target(st: PassiveBoundState, req_C: float, neutral_C: float) -> float:

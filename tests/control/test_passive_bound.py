@@ -104,6 +104,28 @@ def test_the_side_is_decided_by_the_first_heat_and_forgotten_when_the_probe_lift
     assert math.isnan(bounded_target(cold, math.nan, 32.0))
 
 
+def test_a_side_decided_on_little_heat_turns_once_and_a_side_decided_on_much_never():
+    """Held-out condition 48's EPS touch (-0.016 J in the first 0.1 s, then +0.4 W) turns to "colder" and no
+    further; matrix condition 69's thin hot ceramic (-0.35 J, then drained by the probe at +1.8 W) stays
+    "hotter" (turned, the display's target fell from 41.8 to 34.6 °C while the direct touch's skin sat at
+    38.3 °C)."""
+    weak = strong = PassiveBoundState()
+    n = int(round(DECIDE_S / 0.01))
+    for _ in range(n):
+        weak = bound_step(weak, True, 27.4, -0.16, 0.01)
+        strong = bound_step(strong, True, 34.6, -3.5, 0.01)
+    assert weak.side == -1 and strong.side == -1
+    flips = []
+    for k in range(300):
+        flux = 0.4 if k < 100 else -0.4  # the weak touch's heat runs +0.4 J, then back to -0.4 J
+        weak = bound_step(weak, True, 27.4, flux, 0.01)
+        flips.append(weak.side)
+        strong = bound_step(strong, True, 34.6, 1.8, 0.01)
+    assert flips[0] == -1 and flips[99] == 1 and flips[-1] == 1 and weak.heat_J < -0.3
+    assert flips.index(1) == 11  # -0.016 J + 12 periods of 0.004 J: past +0.03 J, FLIP_J
+    assert strong.side == -1 and strong.heat_J > 5.0
+
+
 def _sample(t_s: float, T_C: float) -> RigSample:
     return RigSample(t_s=t_s, T_sensor_C=T_C, Q_W=0.0, current_A=0.0, contact=True, T_sink_C=25.0)
 
