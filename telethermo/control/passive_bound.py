@@ -56,8 +56,9 @@ DECIDE_S = 0.1
 #: how far the contact target may come back from the furthest it has gone towards the object in a touch, °C
 #: (the base scene's return is 0.92 °C; on the matrix 1.5 and 2.5 were measured, docs/control.md)
 RETURN_C = 1.5
-#: how far past zero the touch's heat must go the other way before its side turns, J (the median touch gives
-#: 0.037 J in its first DECIDE_S; a fast-cooling probe's flux estimate can be that far off, docs/control.md)
+#: a side decided on less heat than this turns, once, when the touch's heat runs this far past zero the other
+#: way, J; a side decided on more never turns (the median touch gives 0.037 J in its first DECIDE_S; a
+#: fast-cooling probe's flux estimate can be that far off, docs/control.md)
 FLIP_J = 0.03
 
 
