@@ -50,14 +50,9 @@ FIGURES = ("headline_C", "pre_contact_C", "early_C", "late_C", "oscillation_rati
 BOUND_EVERY = 10  # the bound subset: every 10th Latin-hypercube condition (20 of 200) and the base scene
 
 
-def score(c: Condition) -> dict[str, Any]:
-    """One condition: identified gains (scored), the shipped gains on the same draw (before), the pads."""
-    return run_condition(c, gains="identified", with_shipped=True)
-
-
 def safe_score(c: Condition, with_shipped: bool = True) -> dict[str, Any]:
-    """:func:`score` (``with_shipped=False``: without the shipped gains' before-figure), or a row that says
-    why the condition could not be scored (counted as failing)."""
+    """One condition: identified gains (scored), the shipped gains on the same draw (the before-figure; not
+    with ``with_shipped=False``) and the pads; or a row that says why it could not be scored (failing)."""
     try:
         return run_condition(c, gains="identified", with_shipped=with_shipped)
     except Exception as exc:  # one broken condition must not lose the matrix; it is listed, never hidden
@@ -341,7 +336,7 @@ def run(*, quick: bool = False, workers: int = 2, dask: str | None = None) -> di
         grid = [("aluminium", 10.0), ("oak", 25.0), ("copper", 45.0)]
 
     def matrix(ex: Executor) -> tuple[list[dict[str, Any]], dict[str, Any], list[dict[str, Any]], list[Any]]:
-        fut_base = ex.submit(score, base_condition())
+        fut_base = ex.submit(run_condition, base_condition(), gains="identified", with_shipped=True)
         fut_bounds = [ex.submit(bound_of, c) for c in bound_set]
         fut_render = [ex.submit(render_sweep.render_touch_both, m, T, table) for m, T in grid]
         rows = run_all(ex, conds)
