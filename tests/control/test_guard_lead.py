@@ -13,6 +13,8 @@ from telethermo.control.envelope_state import EnvelopeState
 from telethermo.control.safety_limits import SafetyLimits
 from telethermo.offline.envelope import Condition, condition_session
 
+from tests.support.conditions import pinned_condition
+
 L = SafetyLimits(I_max_A=4.0)  # I_limit 3.2 A; guard from 42.5 °C, taper from 40.5 °C (15.5 and 17.5 below)
 
 
@@ -67,28 +69,10 @@ def test_the_lead_only_ever_holds_the_current_back(req, hi, span, r_hi, r_lo):
     assert min(0.0, without) <= with_lead <= max(0.0, without)
 
 
-#: a condition of a fresh draw of the envelope (draw_conditions(400, seed=4242), index 35; not in the matrix):
-#: a strong display module (Seebeck x2.05, R x3.5, a light plate) mirroring a 47.7 °C metal. Without the lead
-#: the flux mirror's 2.7 A pulse carried the sensor to 45.2 °C after the current had reversed: surface_high,
-#: and the master stayed cut for the rest of the session (the skin at 44.1 °C)
-STRONG_DISPLAY_HOT_METAL = Condition(
-    index=35, design="lhs", materials=("aluminium", "copper", "glass"), ambient_C=21.5475,
-    object_T_C=47.6888, thickness_mm=8.2913, probe_force_N=2.5896, finger_force_N=8.3479,
-    finger_layers_x=0.796, perfusion_x=0.8944, noise_x=1.6243, m_seebeck_x=2.0535, m_R_x=3.5158,
-    m_K_x=0.5155, m_I_max_A=5.5619, m_plate_C_x=0.6507, m_sink_R_K_W=0.3477, s_seebeck_x=1.2117,
-    s_R_x=1.7767, s_K_x=1.0132, s_I_max_A=5.7709, s_plate_C_x=0.5818, s_sink_R_K_W=0.9189,
-    delay_ms=84.1643, seed=424212761,
-)  # fmt: skip
-#: envelope.json's condition 30 (a 47.2 °C aluminium, steel and oak in a 30.4 °C room): the skin reached
-#: 43.15 °C without the lead
-MATRIX_30 = Condition(
-    index=30, design="lhs", materials=("aluminium", "carbon_steel", "oak"), ambient_C=30.4183,
-    object_T_C=47.1562, thickness_mm=1.9003, probe_force_N=5.4656, finger_force_N=7.6985,
-    finger_layers_x=1.0131, perfusion_x=0.7426, noise_x=2.0947, m_seebeck_x=1.8675, m_R_x=1.0153,
-    m_K_x=0.5716, m_I_max_A=4.3707, m_plate_C_x=1.0474, m_sink_R_K_W=1.071, s_seebeck_x=1.7933,
-    s_R_x=2.4091, s_K_x=0.8912, s_I_max_A=4.4678, s_plate_C_x=0.6023, s_sink_R_K_W=0.9345,
-    delay_ms=20.0228, seed=22203266108,
-)  # fmt: skip
+#: a fresh draw's strong display mirroring a 47.7 °C metal: surface_high and a session-long cut before
+STRONG_DISPLAY_HOT_METAL = pinned_condition("strong_display_hot_metal")
+#: envelope condition 30: a 47.2 °C metal in a 30.4 °C room, the skin at 43.15 °C before the lead
+MATRIX_30 = pinned_condition("matrix_30")
 
 
 def _skin_and_cut(c: Condition) -> tuple[float, float]:

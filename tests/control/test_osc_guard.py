@@ -16,41 +16,14 @@ from telethermo.control.osc_guard import DETUNE, OscGuardState
 from telethermo.control.pi import PIGains
 from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
-from telethermo.offline.envelope import Condition, base_condition, run_condition
+from telethermo.offline.envelope import base_condition, run_condition
 from telethermo.offline.oscillation import OSCILLATION_LIMIT
 from telethermo.rig import RigSample
 
-#: envelope condition 28 of bench/results/envelope.json (seed 222026): a 16 N probe on oak, steel and brass
-#: 6.7 mm thick at 10 °C in an 18 °C room, 26 ms delay. Before the guard: worst touch ratio 5.1, the
-#: display's current swinging 0.23 A RMS in band (one of the diagnostic set; the guard's threshold and
-#: detune were chosen on that set)
-HIGH_FORCE = Condition(
-    index=28,
-    design="lhs",
-    materials=("oak", "carbon_steel", "brass"),
-    ambient_C=18.089510076229317,
-    object_T_C=10.215305766247042,
-    thickness_mm=6.651303472065421,
-    probe_force_N=16.2972457112395,
-    finger_force_N=17.500718447999027,
-    finger_layers_x=1.2717633615656139,
-    perfusion_x=0.9977774292920261,
-    noise_x=1.0469789579330424,
-    m_seebeck_x=1.3598348274865057,
-    m_R_x=1.6541811358168437,
-    m_K_x=1.641316603064413,
-    m_I_max_A=4.080508844140297,
-    m_plate_C_x=0.8703330782329771,
-    m_sink_R_K_W=0.38857470063621524,
-    s_seebeck_x=2.2683767375380777,
-    s_R_x=0.6576527590094491,
-    s_K_x=1.5309233725257558,
-    s_I_max_A=3.9343954493919098,
-    s_plate_C_x=1.3460171198479176,
-    s_sink_R_K_W=0.3301462749430264,
-    delay_ms=26.053222331372712,
-    seed=22203266106,
-)
+from tests.support.conditions import pinned_condition
+
+#: envelope condition 28: a 16 N probe on a 10 °C block, worst touch ratio 5.1 before the guard
+HIGH_FORCE = pinned_condition("high_force")
 
 
 def _sample(t_s: float, contact: bool) -> RigSample:

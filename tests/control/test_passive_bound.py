@@ -27,66 +27,13 @@ from telethermo.control import passive_bound
 from telethermo.offline.envelope import Condition, base_condition, condition_session, run_condition
 from telethermo.rig import RigSample
 
-#: envelope condition 160 of bench/results/envelope.json: 0.48 mm alumina, brass and copper at 27.7 °C in a
-#: 29.2 °C room, 56 ms delay; without the bound the operator's skin drifts to 37.5 °C (headline 4.82 °C)
-THIN_PLATE = Condition(
-    index=160,
-    design="lhs",
-    materials=("alumina", "brass", "copper"),
-    ambient_C=29.220105914102632,
-    object_T_C=27.67278049384513,
-    thickness_mm=0.4773084478899656,
-    probe_force_N=8.440604080024226,
-    finger_force_N=16.790555463234977,
-    finger_layers_x=0.9519405334859161,
-    perfusion_x=0.8067285662918935,
-    noise_x=1.224220469644217,
-    m_seebeck_x=1.4204794159496017,
-    m_R_x=1.3372010016274873,
-    m_K_x=1.419624308158418,
-    m_I_max_A=2.5402276824156265,
-    m_plate_C_x=0.5629888724622114,
-    m_sink_R_K_W=0.5132985360478957,
-    s_seebeck_x=1.1628240114962067,
-    s_R_x=1.0122401044106428,
-    s_K_x=0.5439518781554361,
-    s_I_max_A=4.88564049946182,
-    s_plate_C_x=0.8826765293613352,
-    s_sink_R_K_W=1.0824528111898761,
-    delay_ms=55.59324326917135,
-    seed=22203266238,
-)
+from tests.support.conditions import pinned_condition
 
-#: condition 48 of bench/results/envelope_heldout.json: copper, EPS and carbon steel at 13.7 °C in a 15.7 °C
-#: room, a weak display (Seebeck x0.62, R x3.9). The copper touch leaves the probe at 38.5 °C; on the EPS it
-#: cools, and its flux estimate reads the first 0.1 s as heat from the object (-0.016 J): "hotter"
-PROBE_LEFT_HOT = Condition(
-    index=48,
-    design="lhs",
-    materials=("copper", "eps", "carbon_steel"),
-    ambient_C=15.70975571548734,
-    object_T_C=13.652990642698054,
-    thickness_mm=17.555374679951903,
-    probe_force_N=4.045008334822994,
-    finger_force_N=0.9434087392659823,
-    finger_layers_x=1.0714973001783483,
-    perfusion_x=1.246390092130522,
-    noise_x=1.3110299752620356,
-    m_seebeck_x=0.6175511431008884,
-    m_R_x=3.924566363096038,
-    m_K_x=0.7684185974333726,
-    m_I_max_A=5.265186181635105,
-    m_plate_C_x=1.0755252779612092,
-    m_sink_R_K_W=0.6504054734485807,
-    s_seebeck_x=1.3117958801977014,
-    s_R_x=3.8012208569243517,
-    s_K_x=0.9835229224126033,
-    s_I_max_A=4.951395880266797,
-    s_plate_C_x=0.7879152879292025,
-    s_sink_R_K_W=0.7665452723615562,
-    delay_ms=3.621084247339338,
-    seed=30203506126,
-)
+#: envelope condition 160: 0.48 mm plates, the skin drifting to 37.5 °C without the bound
+THIN_PLATE = pinned_condition("thin_plate")
+
+#: held-out condition 48: a probe left hot by copper decides EPS 'hotter' on -0.016 J
+PROBE_LEFT_HOT = pinned_condition("probe_left_hot")
 
 
 def test_the_side_is_decided_by_the_first_heat_and_forgotten_when_the_probe_lifts():
