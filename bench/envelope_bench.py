@@ -34,6 +34,7 @@ from bench.transparency_bench import reference_track, run_bound
 from telethermo.offline import render_sweep
 from telethermo.offline.finger_betas import simulated_user_table
 from telethermo.offline.envelope import (
+    CLAMP_REACH_C,
     Condition,
     base_condition,
     condition_scene,
@@ -118,6 +119,11 @@ def failures(r: dict[str, Any]) -> list[str]:
         )
     if r["cue_fair"] and not r["cue_order_kept"]:
         why.append("cue order lost")
+    if (r.get("clamp_short_C") or 0.0) > CLAMP_REACH_C:
+        why.append(
+            f"skin {r['clamp_short_C']:.2f} °C short of the clamp the direct touch passes"
+            f" (a pad held at it: {r['clamp_short_pad_C']:.2f})"
+        )
     if r.get("skin_past_clamp_C", 0.0) > 0.0:
         why.append(f"skin {r['skin_min_C']:.2f}..{r['skin_max_C']:.2f} °C, past its clamp")
     return why
@@ -173,6 +179,38 @@ def skin_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+def clamp_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
+    """Where the direct touch's skin passes a clamp: the share of conditions whose display skin comes within
+    CLAMP_REACH_C of it (issue 22, item 4), how far short it stays, and the same for a pad held at that clamp
+    in the same run (as near as a pad that may not pass the clamp brings the skin)."""
+    crossed = [r for r in rows if r.get("clamp_short_C") is not None]
+    if not crossed:
+        return {"envelope_clamp_crossed_conditions": 0, "envelope_clamp_reached_fraction": None}
+    short = np.array([r["clamp_short_C"] for r in crossed])
+    pad = np.array([r["clamp_short_pad_C"] for r in crossed])
+    return {
+        "envelope_clamp_crossed_conditions": len(crossed),
+        "envelope_clamp_reached_fraction": float(np.mean(short <= CLAMP_REACH_C)),
+        "envelope_clamp_reached_fraction_pad": float(np.mean(pad <= CLAMP_REACH_C)),
+        "envelope_clamp_short_median_C": float(np.median(short)),
+        "envelope_clamp_short_worst_C": float(short.max()),
+        "envelope_clamp_short_pad_median_C": float(np.median(pad)),
+        "envelope_clamp_short_pad_worst_C": float(pad.max()),
+        "envelope_clamp_short_beyond_pad_worst_C": float((short - pad).max()),
+        "envelope_clamp_short_conditions": [
+            {
+                "index": r["condition"]["index"],
+                "short_C": r["clamp_short_C"],
+                "pad_short_C": r["clamp_short_pad_C"],
+                "finger_force_N": r["condition"]["finger_force_N"],
+                "object_T_C": r["condition"]["object_T_C"],
+            }
+            for r in crossed
+            if r["clamp_short_C"] > CLAMP_REACH_C
+        ],
+    }
+
+
 def shipped_summary(rows: list[dict[str, Any]]) -> dict[str, Any]:
     """The shipped gains on the same draws (the before-figure)."""
     return {
@@ -215,6 +253,7 @@ def summarise(all_rows: list[dict[str, Any]], base: dict[str, Any]) -> dict[str,
         else None,
         "envelope_cue_fair_conditions": len(fair),
         **skin_summary(rows),
+        **clamp_summary(rows),
         **({"shipped_gains": shipped_summary(rows)} if all("shipped" in r for r in rows) else {}),
         "base_headline_C": base["headline_C"],
         "base_pre_contact_C": base["pre_contact_C"],

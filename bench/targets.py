@@ -121,9 +121,23 @@ TARGETS: list[Target] = [
     T("envelope", "render_early_rms_worst_C", "<=", 0.5, "render mode, early RMS error, worst object, °C"),
     T("envelope", "workers_2_speedup", ">=", 1.7, "the matrix on two workers / on one"),
     T("envelope", "envelope_skin_past_clamp_worst_C", "<=", 0.0, "the skin past its clamps, worst, °C"),
+    T(
+        "envelope",
+        "envelope_clamp_reached_fraction",
+        ">=",
+        1.0,
+        "skin within 0.5 °C of a clamp the direct touch passes",
+    ),
     T("envelope_heldout", "envelope_session_long_cuts", "==", 0, "held-out draw: sessions with a long cut"),
     T("envelope_heldout", "envelope_unexpected_trips", "==", 0, "held-out draw: an unexpected trip"),
     T("envelope_heldout", "envelope_skin_past_clamp_worst_C", "<=", 0.0, "held-out: skin past clamps, °C"),
+    T(
+        "envelope_heldout",
+        "envelope_clamp_reached_fraction",
+        ">=",
+        1.0,
+        "held-out: skin within 0.5 °C of a passed clamp",
+    ),
     # issue 23: material identification across the envelope (bench/material_id_bench.py --envelope)
     T("material_id", "material_id_envelope_n_touches", ">=", 1000, "touches drawn across the envelope"),
     T(

@@ -17,7 +17,9 @@ guiatni §5.3 schedule (three materials, twice each) with the project's controll
   the neutral 32 °C (each clamped to the skin's [15, 43] °C), the best of the three;
 - the oscillation figure (telethermo.offline.oscillation; per touch in ``oscillation_touches``), trips and
   cut time per side, the skin's extremes and how far past its clamps it went, the cue order and
-  whether the direct touch's cues differ enough (≥ 20 %) for the order to be a fair question.
+  whether the direct touch's cues differ enough (≥ 20 %) for the order to be a fair question;
+- where the direct touch's skin passes a clamp, how far short of it the display's skin stays, beside a pad
+  held at that clamp (:func:`clamp_figures`).
 
 Pure of I/O: the benchmark (bench/envelope_bench.py) submits conditions to an executor and writes the results.
 """
@@ -88,6 +90,8 @@ SKIN_CLAMP_C = (15.0, 43.0)
 NEUTRAL_C = 32.0
 CUE_DIFFERENCE_MIN = 0.20
 SESSION_LONG_CUT_S = 5.0
+#: the skin within this much of a clamp the direct touch passes has reached it (issue 22, item 4), °C
+CLAMP_REACH_C = 0.5
 
 
 @dataclass(frozen=True)
@@ -351,6 +355,7 @@ def run_condition(
     out["session_long_cut"] = any(v >= SESSION_LONG_CUT_S for v in sfy["time_cut_s"].values())
     out["time_at_limit_s"] = sfy["time_at_limit_s"]
     out.update(skin_extremes(rec.col("m_true_surface_C")))
+    out.update(clamp_figures(sc, rec.col("m_true_surface_C"), ref))
     if with_shipped and gains != "shipped":
         out["shipped"] = _shipped(c)
     if with_pads:
@@ -373,6 +378,41 @@ def skin_extremes(skin_C: np.ndarray) -> dict[str, float]:
     hi, lo = float(s.max()), float(s.min())
     past = max(hi - SKIN_CLAMP_C[1], SKIN_CLAMP_C[0] - lo, 0.0)
     return {"skin_max_C": hi, "skin_min_C": lo, "skin_past_clamp_C": round(past, 6)}
+
+
+def clamp_short(skin_C: np.ndarray, direct_C: np.ndarray) -> float | None:
+    """Where the direct touch's skin ``direct_C`` goes past a skin clamp (:data:`SKIN_CLAMP_C`), how far short
+    of that clamp the display's skin ``skin_C`` stays at its closest, °C (0 if it reaches or passes it; the
+    worse clamp when both are passed); None when the direct touch stays inside both.
+
+    >>> clamp_short(np.array([30.0, 16.2]), np.array([33.0, 12.0]))
+    1.2
+    >>> clamp_short(np.array([16.0]), np.array([16.0])) is None  # the direct touch stays inside the clamps
+    True
+    >>> clamp_short(np.array([14.9, 42.0]), np.array([12.0, 44.0]))  # the low clamp reached, the high one not
+    1.0
+    """
+    d, s = direct_C[np.isfinite(direct_C)], skin_C[np.isfinite(skin_C)]
+    if not d.size or not s.size:
+        return None
+    lo, hi = SKIN_CLAMP_C
+    short = ([round(max(float(s.min()) - lo, 0.0), 6)] if d.min() < lo else []) + (
+        [round(max(hi - float(s.max()), 0.0), 6)] if d.max() > hi else []
+    )
+    return max(short) if short else None
+
+
+def clamp_figures(sc: Any, skin_C: np.ndarray, direct_C: np.ndarray) -> dict[str, Any]:
+    """:func:`clamp_short` of the display's skin, and its baseline in the same run: a pad held at the clamp
+    the direct touch passes (the low one if both) for the whole session, which is as near as a display whose
+    pad may not pass the clamp brings the skin in settled contact (the finger's contact resistance and
+    perfusion keep the skin off the pad: 3.96 °C at 0.54 N in the matrix's condition 23)."""
+    short = clamp_short(skin_C, direct_C)
+    if short is None:
+        return {"clamp_short_C": None, "clamp_short_pad_C": None}
+    lo, hi = SKIN_CLAMP_C
+    T = lo if np.nanmin(direct_C) < lo else hi
+    return {"clamp_short_C": short, "clamp_short_pad_C": clamp_short(hold_skin(sc, T), direct_C)}
 
 
 def _fit_summary(v: dict[str, Any]) -> dict[str, Any]:
