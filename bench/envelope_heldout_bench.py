@@ -33,6 +33,7 @@ COMPARED = (
     "envelope_session_long_cuts",
     "envelope_unexpected_trips",
     "envelope_skin_past_clamp_worst_C",
+    "envelope_clamp_reached_fraction",
     "envelope_beats_best_pad_fraction",
     "envelope_cue_order_kept_fraction",
 )

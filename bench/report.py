@@ -270,6 +270,15 @@ HEADLINE = [
         "0",
     ),
     (
+        "envelope",
+        "envelope_clamp_reached_fraction",
+        "where the direct touch's skin passes a clamp (`envelope_clamp_crossed_conditions`), the share whose "
+        "skin comes within 0.5 °C of it (a pad held at that clamp, same run: "
+        "`envelope_clamp_reached_fraction_pad`; short by `envelope_clamp_short_median_C` against "
+        "`envelope_clamp_short_pad_median_C`)",
+        "1",
+    ),
+    (
         "envelope_heldout",
         "envelope_session_long_cuts",
         "a held-out draw of the envelope (seed 30_2026, 100 conditions nothing was chosen on): long cuts",
@@ -282,6 +291,7 @@ HEADLINE = [
         "the held-out draw: the skin past its clamps, worst condition, °C",
         "0",
     ),
+    ("envelope_heldout", "envelope_clamp_reached_fraction", "the held-out draw: the same share", "1"),
     ("envelope_heldout", "envelope_oscillating_conditions", "the held-out draw: oscillating conditions", "0"),
     (
         "envelope_heldout",
