@@ -404,9 +404,9 @@ def clamp_short(skin_C: np.ndarray, direct_C: np.ndarray) -> float | None:
 
 def clamp_figures(sc: Any, skin_C: np.ndarray, direct_C: np.ndarray) -> dict[str, Any]:
     """:func:`clamp_short` of the display's skin, and its baseline in the same run: a pad held at the clamp
-    the direct touch passes (the low one if both) for the whole session, which is as near as a display whose
-    pad may not pass the clamp brings the skin in settled contact (the finger's contact resistance and
-    perfusion keep the skin off the pad: 3.96 °C at 0.54 N in the matrix's condition 23)."""
+    the direct touch passes (the low one if both) for the whole session by the node's own envelope (what
+    keeps its skin off the clamp: the guard and taper, about 0.9 °C at any force, and at low finger force the
+    contact resistance as well: 3.96 °C at 0.54 N in the matrix's condition 23)."""
     short = clamp_short(skin_C, direct_C)
     if short is None:
         return {"clamp_short_C": None, "clamp_short_pad_C": None}
