@@ -91,9 +91,12 @@ def main(argv: list[str] | None = None) -> int:
     out["timing_provenance"] = (
         old.get("timing_provenance") or old.get("matrix_provenance") or old.get("provenance")
     )
-    out["pads_bounds_provenance"] = (
-        old.get("pads_bounds_provenance") or old.get("matrix_provenance") or old.get("provenance")
-    )
+    if "pads_provenance" in old:  # pads re-measured by bench.envelope_pads: theirs, and the bounds', kept
+        out.pop("controller_provenance", None)  # the sessions are this run's now
+    else:
+        out["pads_bounds_provenance"] = (
+            old.get("pads_bounds_provenance") or old.get("matrix_provenance") or old.get("provenance")
+        )
     for k in ("matrix_provenance", "provenance"):
         out.pop(k, None)
     write_results(a.out, out)
