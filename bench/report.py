@@ -383,15 +383,17 @@ def _fmt(v) -> str:
 
 def _provenance_of(data: dict, key: str) -> dict:
     """The provenance of ``key``'s figure in a results file. The envelope's parts can be measured on
-    different commits: ``python -m bench.envelope_bench --render-only`` keeps the matrix's commit
-    (``matrix_provenance``); ``python -m bench.envelope_controller`` re-runs the sessions and keeps the
-    render sweep's and the worker timing's (``render_provenance``, ``timing_provenance``)."""
+    different commits: ``--render-only`` keeps the matrix's (``matrix_provenance``); bench.envelope_controller
+    keeps the render sweep's and worker timing's (``render_provenance``, ``timing_provenance``);
+    bench.envelope_pads keeps the sessions' (``controller_provenance``; figures against a pad: its own)."""
     prov = data.get("provenance", {})
     if key.startswith("render_"):
         return data.get("render_provenance") or prov
     if key.startswith("workers_"):
         return data.get("timing_provenance") or data.get("matrix_provenance") or prov
-    return data.get("matrix_provenance") or prov
+    if "pad" in key or "captured" in key:
+        return data.get("pads_provenance") or data.get("matrix_provenance") or prov
+    return data.get("matrix_provenance") or data.get("controller_provenance") or prov
 
 
 def table(results_dir: Path) -> str:
