@@ -34,8 +34,9 @@ SCENE = Path(__file__).resolve().parents[2] / "sim" / "scenes" / "probe_touches_
 CYCLES = 100
 SLOW_CONSUMER_MS = 3000
 SLOW_SDO_MS = 20000
-#: the whole session (the modules' boot included), s: well inside vcan-run's budget
-BUDGET_S = 600.0
+#: the whole session (the modules' boot included), s: a hang guard, inside vcan-run's 3600 s; beside two CPU
+#: hogs in the emulated VM the master ran 447 s of its 100 lockstep cycles without finishing (600 s budget)
+BUDGET_S = 1500.0
 
 
 def slow_rig_configs(tmp_path: Path) -> dict[str, Path]:
