@@ -12,7 +12,8 @@ from telethermo.sim.bodies import Segment, sensor_segment
 from telethermo.sim.materials import material
 from telethermo.sim.measurement import Channel, NoiseParams
 from telethermo.sim.plant import Body, Config, GridSettings
-from telethermo.sim.tem import KELVIN, RigParams
+from telethermo.sim.tem import RigParams
+from telethermo.units import KELVIN
 from telethermo.rig import RigSample
 
 _SNAP_S = 1e-9

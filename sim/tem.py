@@ -20,8 +20,8 @@ from pathlib import Path
 
 from telethermo.inputfile import ABSENT, Section, load_toml
 from telethermo.sim.errors import SceneError
+from telethermo.units import KELVIN
 
-KELVIN = 273.15
 DATA_DIR = Path(__file__).resolve().parent / "data"
 TEM_FILE = DATA_DIR / "tem_15x15.toml"
 
@@ -70,6 +70,16 @@ class TEMParams:
     def Qmax_W(self, Th_C: float) -> float:
         """Cooling capacity at ΔT = 0 and I = Imax implied by the derived parameters, W."""
         return self.alpha_V_K * (Th_C + KELVIN) * self.I_max_A - 0.5 * self.R_ohm * self.I_max_A**2
+
+    def peak_cooling_current_A(self, T_cold_C: float) -> float:
+        """The current at which the module cools its cold plate at ``T_cold_C`` (°C) the most, A:
+        I* = α·T_c/R (guiatni eq. 5, the Peltier term against half the Joule term); more cooling current
+        only heats.
+
+        >>> round(TEMParams(0.05, 2.0, 0.5, 0.0, 0.62, 6.0).peak_cooling_current_A(15.0), 3)
+        7.204
+        """
+        return float(self.alpha_V_K * (T_cold_C + KELVIN) / self.R_ohm)
 
     def plate_heat_W(self, I_A: float, T_s_C: float, T_p_C: float) -> tuple[float, float]:
         """Electrical heat (Peltier + Joule + Thomson) delivered to the (sink, pad) plates, W."""

@@ -19,6 +19,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+#: 0 °C in K: a Celsius temperature plus this is absolute (the Peltier term α·T wants kelvin)
+KELVIN = 273.15
+
 
 @dataclass(frozen=True)
 class Unit:

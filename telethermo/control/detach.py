@@ -39,7 +39,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
-KELVIN = 273.15
+from telethermo.units import KELVIN
 
 
 def datasheet_constants(

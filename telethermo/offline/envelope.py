@@ -47,7 +47,6 @@ from telethermo.ident import UnstableModelError
 from telethermo.ident.experiment import identify_rig
 
 BASE_SCENE = "probe_touches_al_steel_wood"
-KELVIN = 273.15
 #: the table's materials a probe may touch, EPS to copper
 MATERIALS = (
     "eps",
@@ -237,29 +236,17 @@ def condition_scene(c: Condition) -> tuple[Any, Any]:
     return scene, _rig(base, "s", c)
 
 
-def max_cooling_current_A(tem: Any, T_cold_C: float) -> float:
-    """The current at which a TEM with parameters ``tem`` (its ``alpha_V_K``, V/K, and ``R_ohm``, Ω) cools its
-    cold face at ``T_cold_C`` (°C) the most, A: I* = α·T_c/R (guiatni eq. 5, the Peltier term against half
-    the Joule term); more cooling current only heats.
-
-    >>> from types import SimpleNamespace
-    >>> round(max_cooling_current_A(SimpleNamespace(alpha_V_K=0.05, R_ohm=2.0), 15.0), 3)
-    7.204
-    """
-    return float(tem.alpha_V_K * (T_cold_C + KELVIN) / tem.R_ohm)
-
-
 def hold_skin(sc: Any, T_hold_C: float) -> np.ndarray:
     """The finger's skin on a display that ignores the probe and holds its pad at ``T_hold_C`` (°C, per
     step). The holder knows its module: its cooling current stops at the module's true maximum-cooling
-    current at the skin's low clamp (:func:`max_cooling_current_A`), as the telepresence node's does at its
-    identified one; without that a weak module's pad runs away hot (the matrix's condition 88: skin 44.8 °C
-    while held at 15 °C)."""
+    current at the skin's low clamp (``TEMParams.peak_cooling_current_A``), as the telepresence node's does
+    at its identified one; without that a weak module's pad runs away hot (the matrix's condition 88: skin
+    44.8 °C while held at 15 °C)."""
     rig = sim.build_rig(sc, "master")
     dt = rig.period_s
     n = int(round(sc.duration_s / dt))
     p = dataclasses.replace(default_params(Role.MASTER, period_s=dt, **HOLD_GAINS), air_rendering=False)
-    cool = max_cooling_current_A(sc.rig_params.tem, SKIN_CLAMP_C[0])
+    cool = sc.rig_params.tem.peak_cooling_current_A(SKIN_CLAMP_C[0])
     safety = dataclasses.replace(p.safety, I_max_A=rig.I_max_A, cooling_limit_A=cool)
     p = dataclasses.replace(p, safety=safety)
     st = init_state(p, None, rig.read())

@@ -21,14 +21,9 @@ from telethermo.control.types import Role
 from telethermo.ident.experiment import identify_rig
 from telethermo.offline.envelope import Condition, base_condition, condition_scene, run_condition
 
-KELVIN = 273.15
 # a module with 3.9x the resistance and 0.8x the Seebeck coefficient of the shipped one, behind a 5.9 A drive
 # (envelope condition 12 of the matrix that found it): I* = alpha*T/R is about 0.8 A, the drive's limit 4.7 A
 HIGH_R = dict(m_seebeck_x=0.8, m_R_x=3.87, m_I_max_A=5.91, m_K_x=1.0, m_sink_R_K_W=0.81)
-
-
-def _physical_i_star(tem, T_C: float) -> float:
-    return float(tem.alpha_V_K * (T_C + KELVIN) / tem.R_ohm)
 
 
 @pytest.mark.parametrize("seebeck_x,R_x", [(0.8, 3.87), (0.6, 2.2), (1.0, 1.0), (2.0, 0.5)])
@@ -46,7 +41,7 @@ def test_the_identified_maximum_cooling_current_matches_the_physics(seebeck_x, R
     rig = sim.free_pad_rig(period_s=sc.period_s, ambient_C=25.0, seed=3, params=rp)
     model, _ = identify_rig(rig, seed=3)
     est = max_cooling_current_A(model)
-    phys = _physical_i_star(tem, 25.0)
+    phys = tem.peak_cooling_current_A(25.0)
     if phys > 8.0:  # far beyond any drive of the envelope (6 A): a finding is welcome, not required
         assert est > 3.0
     else:

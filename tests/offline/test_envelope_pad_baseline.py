@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from telethermo.offline.envelope import SKIN_CLAMP_C, condition_scene, hold_skin, max_cooling_current_A
+from telethermo.offline.envelope import SKIN_CLAMP_C, condition_scene, hold_skin
 from telethermo.sim.tem import guiatni_capacities_W, load_rig_params
 from tests.support.conditions import pinned_condition
 
@@ -20,7 +20,7 @@ def test_a_weak_module_held_cold_cools_at_its_best_and_never_heats_the_skin():
     c = pinned_condition("weak_display_warm_room")
     sc = condition_scene(c)[0]
     tem = sc.rig_params.tem
-    i_star = max_cooling_current_A(tem, SKIN_CLAMP_C[0])
+    i_star = tem.peak_cooling_current_A(SKIN_CLAMP_C[0])
     assert i_star < 0.2 * tem.I_max_A  # the module's cooling peaks far below its drive's limit
     skin = hold_skin(sc, SKIN_CLAMP_C[0])
     # measured 35.4 °C at most (the room is 30.5 °C, the finger perfused at 37 °C); 44.8 °C before the stop
@@ -35,7 +35,7 @@ def test_the_stop_is_where_the_module_cools_most(T_cold_C):
     """guiatni eq. 5 (the simulator's steady cooling capacity, no temperature difference across the module):
     the cooling capacity peaks at the stop, within a 1 mA grid."""
     tem = load_rig_params().tem
-    i_star = max_cooling_current_A(tem, T_cold_C)
+    i_star = tem.peak_cooling_current_A(T_cold_C)
     grid = np.arange(0.001, 3.0 * i_star, 0.001)
     pc = [guiatni_capacities_W(tem, -i, T_cold_C, T_cold_C)[1] for i in grid]
     assert grid[int(np.argmax(pc))] == pytest.approx(i_star, abs=0.001)
