@@ -19,28 +19,13 @@ kept under ``previous_controller``, so the change is read in one file.
 from __future__ import annotations
 
 import argparse
-import json
-import time
-from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from bench.common import current_results_dir, write_results
-from bench.envelope_bench import bound_summary, plot, summarise
+from bench.envelope_bench import plot
+from bench.envelope_rerun import COMPARED, print_change, rerun_matrix
 from telethermo.offline.envelope import Condition, run_condition
 
-#: the summary keys compared against the run they replace
-COMPARED = (
-    "envelope_oscillating_conditions",
-    "envelope_session_long_cuts",
-    "envelope_unexpected_trips",
-    "envelope_beats_best_pad_fraction",
-    "envelope_cue_order_kept_fraction",
-    "envelope_median_ratio_to_bound",
-    "envelope_captured_fraction_median",
-    "base_headline_C",
-    "base_pre_contact_C",
-    "base_oscillation_ratio",
-)
 #: what a row keeps from the previous run: controller-independent (the constant pads)
 KEPT = ("pads", "best_pad", "best_pad_headline_C")
 
@@ -62,27 +47,17 @@ def main(argv: list[str] | None = None) -> int:
         "--out", default="envelope", help="result name: bench/results/NAME.json and .png (default envelope)"
     )
     a = ap.parse_args(argv)
-    path = current_results_dir() / "envelope.json"
-    old = json.loads(path.read_text(encoding="utf-8"))
-    t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=a.workers) as ex:
-        fut_base = ex.submit(rerun, old["base"])
-        rows = list(ex.map(rerun, [r for r in old["conditions"] if "error" not in r]))
-        base = fut_base.result()
-    rows += [r for r in old["conditions"] if "error" in r]  # listed again, never dropped
-    bounds = [
-        {k: b[k] for k in ("index", "bound_headline_C", "replay_max_diff_C")} for b in old["bound_conditions"]
-    ]
-    new = {**summarise(rows, base), **bound_summary([r for r in rows if "error" not in r], bounds, base)}
+    run = rerun_matrix(rerun, a.workers)
+    old, rows = run.old, run.rows
     out = {
         **old,
-        **new,
+        **run.summary,
         "previous_controller": {k: old.get(k) for k in COMPARED}
         | {"provenance": old.get("provenance") or old.get("matrix_provenance")},
-        "controller_wall_s": time.perf_counter() - t0,
+        "controller_wall_s": run.wall_s,
         "controller_rerun": "identified and shipped sessions of every condition re-run on this commit; pads, "
         "bounds, render sweep and worker timing kept from the commits their *_provenance keys name",
-        "base": base,
+        "base": run.base,
         "conditions": rows,
     }
     # the sessions are this commit's (``provenance``, written by write_results); the render sweep and the
@@ -100,9 +75,8 @@ def main(argv: list[str] | None = None) -> int:
     for k in ("matrix_provenance", "provenance"):
         out.pop(k, None)
     write_results(a.out, out)
-    plot([r for r in rows if "error" not in r], str(current_results_dir() / f"{a.out}.png"))
-    for k in COMPARED:
-        print(f"{k:40s} {old.get(k)!s:>22.22} -> {out[k]!s:.22}")
+    plot(run.scored, str(current_results_dir() / f"{a.out}.png"))
+    print_change(old, out)
     print(
         f"failing conditions: {len(out['failing_conditions'])} of {len(rows)}; "
         f"wall {out['controller_wall_s']:.0f} s"

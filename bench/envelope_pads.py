@@ -15,14 +15,11 @@ best pad moved, so the change is read in one file. Provenance: ``pads_provenance
 from __future__ import annotations
 
 import argparse
-import json
-import time
-from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from bench.common import current_results_dir, write_results
-from bench.envelope_bench import bound_summary, plot, summarise
-from bench.envelope_controller import COMPARED
+from bench.envelope_bench import plot
+from bench.envelope_rerun import COMPARED, print_change, rerun_matrix
 from telethermo.offline.envelope import Condition, run_condition
 from telethermo.provenance import provenance
 
@@ -60,36 +57,26 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="python -m bench.envelope_pads", description=__doc__.split("\n")[0])
     ap.add_argument("--workers", type=int, default=2, help="processes on this machine (default 2)")
     a = ap.parse_args(argv)
-    path = current_results_dir() / "envelope.json"
-    old = json.loads(path.read_text(encoding="utf-8"))
-    scored = [r for r in old["conditions"] if "error" not in r]
-    t0 = time.perf_counter()
-    with ProcessPoolExecutor(max_workers=a.workers) as ex:
-        fut_base = ex.submit(repad, old["base"])
-        rows = list(ex.map(repad, scored))
-        base = fut_base.result()
-    bounds = [
-        {k: b[k] for k in ("index", "bound_headline_C", "replay_max_diff_C")} for b in old["bound_conditions"]
-    ]
+    run = rerun_matrix(repad, a.workers)
+    old = run.old
     out = {
         **old,
-        **summarise(rows + [r for r in old["conditions"] if "error" in r], base),
-        **bound_summary(rows, bounds, base),
-        "previous_pads": {k: old.get(k) for k in COMPARED} | {"moved": moved(scored, rows)},
-        "pads_wall_s": time.perf_counter() - t0,
-        "base": base,
-        "conditions": rows + [r for r in old["conditions"] if "error" in r],
+        **run.summary,
+        "previous_pads": {k: old.get(k) for k in COMPARED}
+        | {"moved": moved([r for r in old["conditions"] if "error" not in r], run.scored)},
+        "pads_wall_s": run.wall_s,
+        "base": run.base,
+        "conditions": run.rows,
     }
     out["bounds_provenance"] = old.get("pads_bounds_provenance") or old.get("bounds_provenance")
     out["controller_provenance"] = old.get("controller_provenance") or old.get("provenance")
     out["pads_provenance"] = provenance()
     out.pop("pads_bounds_provenance", None)
     write_results("envelope", out)
-    plot(rows, str(current_results_dir() / "envelope.png"))
-    for k in COMPARED:
-        print(f"{k:40s} {old.get(k)!s:>22.22} -> {out[k]!s:.22}")
+    plot(run.scored, str(current_results_dir() / "envelope.png"))
+    print_change(old, out)
     n_moved = len(out["previous_pads"]["moved"])
-    print(f"best pad moved in {n_moved} of {len(rows)}; wall {out['pads_wall_s']:.0f} s")
+    print(f"best pad moved in {n_moved} of {len(run.scored)}; wall {run.wall_s:.0f} s")
     return 0
 
 
