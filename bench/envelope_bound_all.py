@@ -169,8 +169,12 @@ def main(argv: list[str] | None = None) -> int:
         **summary(rows, env),
         "wall_s": time.perf_counter() - t0,
         "workers": a.workers,
-        "matrix_provenance": env.get("controller_provenance") or env.get("provenance"),
-        "pads_provenance": env.get("pads_provenance"),
+        # what the bounds are compared with was measured earlier: the sessions' and the pads' commits (the
+        # table names this run's, the bounds')
+        "inputs_provenance": {
+            "sessions": env.get("controller_provenance") or env.get("provenance"),
+            "pads": env.get("pads_provenance"),
+        },
         "conditions": rows,
     }
     write_results("envelope_bound_all", data)
