@@ -19,7 +19,8 @@ matrix in which *any* display of that module could beat the pad is a measured fi
 - the ratio to the bound and the captured share over the whole matrix, beside the subset's, so the subset's
   figures can be checked for being representative.
 
-The subset's bounds in envelope.json are reused (same code, ``bounds_provenance``); the rest are computed.
+The subset's bounds in envelope.json are reused (same code; their commit under ``inputs_provenance``); the
+rest are computed.
 Each finished bound is appended to ``envelope_bound_all.partial.jsonl`` beside the results and a re-run skips
 what it holds, so a crash loses at most one bound per worker; the file is removed when the JSON is written.
 """
@@ -37,6 +38,7 @@ import numpy as np
 
 from bench.common import current_results_dir, write_results
 from bench.envelope_bench import bound_of
+from bench.envelope_clamp_bound import against_bounds
 from telethermo.offline.envelope import Condition
 
 PARTIAL = "envelope_bound_all.partial.jsonl"
@@ -86,9 +88,9 @@ def bounds(env: dict[str, Any], workers: int, folder: Path) -> dict[int, dict[st
 
 def row(r: dict[str, Any], b: dict[str, Any], clamp: dict[str, Any]) -> dict[str, Any]:
     """One condition: ours, the best pad, the bound, the clamped ideal display and the safe bound, °C."""
-    safe = max(b["bound_headline_C"], clamp["clamp_bound_headline_C"])
     pad, ours = r["best_pad_headline_C"], r["headline_C"]
     c = r["condition"]
+    vs = against_bounds(ours, pad, b["bound_headline_C"], clamp["clamp_bound_headline_C"])
     return {
         "index": c["index"],
         "headline_C": ours,
@@ -96,13 +98,10 @@ def row(r: dict[str, Any], b: dict[str, Any], clamp: dict[str, Any]) -> dict[str
         "best_pad": r["best_pad"],
         "bound_headline_C": b["bound_headline_C"],
         "clamp_bound_headline_C": clamp["clamp_bound_headline_C"],
-        "safe_bound_headline_C": safe,
-        "ratio_to_bound": ours / b["bound_headline_C"],
-        "ratio_to_safe_bound": ours / safe,
-        "captured_fraction_safe": (pad - ours) / (pad - safe) if pad > safe else None,
+        **vs,
         "beats_best_pad": bool(r["beats_best_pad"]),
         "bound_beats_best_pad": bool(b["bound_headline_C"] < pad),
-        "safe_bound_beats_best_pad": bool(safe < pad),
+        "safe_bound_beats_best_pad": bool(vs["safe_bound_headline_C"] < pad),
         "master_max_cooling_A": r["gain_fit"]["master"].get("max_cooling_A"),
         **{k: c[k] for k in LISTED},
         "bound_source": b.get("source", ""),
@@ -174,6 +173,7 @@ def main(argv: list[str] | None = None) -> int:
         "inputs_provenance": {
             "sessions": env.get("controller_provenance") or env.get("provenance"),
             "pads": env.get("pads_provenance"),
+            "subset_bounds": env.get("bounds_provenance"),
         },
         "conditions": rows,
     }

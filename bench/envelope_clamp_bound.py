@@ -80,24 +80,32 @@ def display_skin(cond: dict[str, Any]) -> dict[str, Any]:
     }
 
 
+def against_bounds(ours_C: float, pad_C: float, bound_C: float, clamp_bound_C: float) -> dict[str, Any]:
+    """A headline (°C) against the optimal-current bound and the safe bound, max(it, the clamped ideal
+    display): the ratios and the captured share of what the safe bound gains over the best pad (None where
+    it gains nothing)."""
+    safe = max(bound_C, clamp_bound_C)
+    return {
+        "safe_bound_headline_C": safe,
+        "ratio_to_bound": ours_C / bound_C,
+        "ratio_to_safe_bound": ours_C / safe,
+        "captured_fraction_safe": (pad_C - ours_C) / (pad_C - safe) if pad_C > safe else None,
+    }
+
+
 def subset(env: dict[str, Any], by: dict[int, dict[str, Any]]) -> dict[str, Any]:
     """The bound subset: the ratio to the optimal-current bound and to max(it, the clamped ideal display)."""
     per = []
     for b in env["bound_conditions"]:
         cb = by[b["index"]]["clamp_bound_headline_C"]
-        safe = max(b["bound_headline_C"], cb)
-        pad, ours = b["best_pad_headline_C"], b["headline_C"]
         per.append(
             {
                 "index": b["index"],
-                "headline_C": ours,
+                "headline_C": b["headline_C"],
                 "bound_headline_C": b["bound_headline_C"],
                 "clamp_bound_headline_C": cb,
                 "clamp_bound_nominal_headline_C": by[b["index"]]["clamp_bound_nominal_headline_C"],
-                "safe_bound_headline_C": safe,
-                "ratio_to_bound": ours / b["bound_headline_C"],
-                "ratio_to_safe_bound": ours / safe,
-                "captured_fraction_safe": (pad - ours) / (pad - safe) if pad > safe else None,
+                **against_bounds(b["headline_C"], b["best_pad_headline_C"], b["bound_headline_C"], cb),
             }
         )
     cap = [p["captured_fraction_safe"] for p in per if p["captured_fraction_safe"] is not None]

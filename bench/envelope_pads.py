@@ -62,8 +62,7 @@ def main(argv: list[str] | None = None) -> int:
     out = {
         **old,
         **run.summary,
-        "previous_pads": {k: old.get(k) for k in COMPARED}
-        | {"moved": moved([r for r in old["conditions"] if "error" not in r], run.scored)},
+        "previous_pads": {k: old.get(k) for k in COMPARED} | {"moved": moved(run.old_scored, run.scored)},
         "pads_wall_s": run.wall_s,
         "base": run.base,
         "conditions": run.rows,

@@ -49,6 +49,11 @@ class Rerun:
     wall_s: float
 
     @property
+    def old_scored(self) -> list[Row]:
+        """The replaced file's scored rows, in the order of ``scored``."""
+        return [r for r in self.old["conditions"] if "error" not in r]
+
+    @property
     def rows(self) -> list[Row]:
         """Every row of the new file: the scored ones, then the unscored ones."""
         return self.scored + self.errors
