@@ -28,9 +28,9 @@ from typing import Any, Iterable
 
 import numpy as np
 
-from telethermo.offline.bound import causal_bound  # noqa: F401  (bench.transparency_bench.run_bound uses it)
 from bench.common import current_results_dir, write_results
-from bench.transparency_bench import reference_track, run_bound
+from bench.bound_run import run_bound
+from bench.transparency_bench import reference_track
 from telethermo.offline import render_sweep
 from telethermo.offline.finger_betas import simulated_user_table
 from telethermo.offline.envelope import (
@@ -60,17 +60,22 @@ def safe_score(c: Condition, with_shipped: bool = True) -> dict[str, Any]:
         return {"condition": dataclasses.asdict(c), "error": f"{type(exc).__name__}: {exc}"}
 
 
-def bound_of(c: Condition) -> dict[str, Any]:
+def bound_of(c: Condition, clamp_C: tuple[float, float] | None = None) -> dict[str, Any]:
     """The optimal-current bound of condition ``c`` (telethermo.offline.bound: exact master plant, finger
-    matched before each touch, no foreknowledge), mean of the touches' window errors, °C."""
+    matched before each touch, no foreknowledge), mean of the touches' window errors, °C. With ``clamp_C``
+    (lo, hi), °C, the clamped bound, and the skin's largest excursion beyond the clamps
+    (``clamp_excess_max_C``)."""
     sc, _ = condition_scene(c)
     t_ref, skin_ref, _q, cells = reference_track(sc)
-    b = run_bound(sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0)
-    return {
+    b = run_bound(sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0, clamp_C=clamp_C)
+    out = {
         "index": c.index,
         "bound_headline_C": float(np.mean([p["window_C"] for p in b["per_touch"]])),
         "replay_max_diff_C": float(max(p["replay_max_diff_C"] for p in b["per_touch"])),
     }
+    if clamp_C is not None:
+        out["clamp_excess_max_C"] = float(max(p["clamp_excess_C"] for p in b["per_touch"]))
+    return out
 
 
 def run_all(executor: Executor, conds: Iterable[Condition]) -> list[dict[str, Any]]:

@@ -50,8 +50,9 @@ def _bound(cond: dict[str, Any]) -> dict[str, Any]:
     return bound_of(Condition.from_json(cond))
 
 
-def _partial(folder: Path) -> dict[int, dict[str, Any]]:
-    path = folder / PARTIAL
+def read_journal(folder: Path, name: str = PARTIAL) -> dict[int, dict[str, Any]]:
+    """index -> bound of the journal ``name`` in ``folder`` (a line cut by a crash is skipped)."""
+    path = folder / name
     if not path.exists():
         return {}
     out = {}
@@ -68,7 +69,7 @@ def bounds(env: dict[str, Any], workers: int, folder: Path) -> dict[int, dict[st
     """index -> bound of every scored condition (the subset's reused, the finished ones of a crashed run
     read back, the rest computed on ``workers`` processes)."""
     have = {b["index"]: {**b, "source": "envelope.json bound subset"} for b in env["bound_conditions"]}
-    have.update({i: b for i, b in _partial(folder).items() if i not in have})
+    have.update({i: b for i, b in read_journal(folder).items() if i not in have})
     todo = [
         r["condition"] for r in env["conditions"] if "headline_C" in r and r["condition"]["index"] not in have
     ]

@@ -6,7 +6,7 @@ shipped controller lost instead (``envelope_bound_cue_lost.json``).
 touch's order of the material cue (heat drawn out of the finger in the first second of each touch) on every
 pair, over the conditions where the direct cues differ by ≥ 20 %. This runs the optimal-current bound of
 the envelope's bound subset (the same conditions as ``bound_conditions`` in bench/results/envelope.json:
-every 10th Latin-hypercube draw and the base scene; ``bench.transparency_bench.run_bound``: the exact master
+every 10th Latin-hypercube draw and the base scene; ``bench.bound_run.run_bound``: the exact master
 plant, the finger matched before each touch, no foreknowledge) and scores the *bound's* cues the same way:
 if the current that tracks the direct touch's skin best cannot keep the order, no controller can, and the
 target is out of reach there. The bound minimises the skin's error, not the cue's, so it is a bound on the
@@ -26,7 +26,8 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 from bench.common import RESULTS_DIR, write_results
-from bench.transparency_bench import reference_track, run_bound
+from bench.bound_run import run_bound
+from bench.transparency_bench import reference_track
 from telethermo.offline.envelope import Condition, condition_scene
 from telethermo.offline.transparency import cue_discrimination
 

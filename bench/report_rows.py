@@ -253,6 +253,21 @@ HEADLINE = [
         "≥ 0.7",
     ),
     (
+        "envelope_bound_clamped",
+        "clamped_bound_beats_best_pad_fraction",
+        "the physics' share with the skin kept inside the clamps at every sample: the clamped "
+        "optimal-current bound beats the best pad, all 216 conditions (the ceiling of "
+        "`envelope_beats_best_pad_fraction` for a display that keeps the finger natural until a touch "
+        "and the skin inside [14.5, 43.5] °C)",
+        "≥ 0.9 for the target to be reachable",
+    ),
+    (
+        "envelope_bound_clamped",
+        "median_ratio_to_clamped_bound",
+        "headline / clamped bound, median over all 216 conditions",
+        "≤ 1.25",
+    ),
+    (
         "envelope",
         "envelope_cue_order_kept_fraction",
         "material cue order kept, conditions whose direct cues differ ≥ 20 %",

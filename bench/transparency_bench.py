@@ -26,15 +26,7 @@ from typing import Any
 import numpy as np
 
 from telethermo import sim
-from telethermo.offline.bound import (
-    BatchedPlant,
-    Window,
-    causal_bound,
-    foresight_bound,
-    matched_start,
-    replay,
-    window_errors,
-)
+from bench.bound_run import PRE_N, run_bound
 from bench.common import current_results_dir, print_table, write_results
 from telethermo.sim.compile import finger_natural_C
 from telethermo.atomic import write_bytes_atomic
@@ -44,10 +36,9 @@ from telethermo.control.params import default_params
 from telethermo.control.types import PeerValues, Role
 from telethermo.offline.figures import contacts_of
 from telethermo.offline.runner import run_offline_session
-from telethermo.offline.transparency import DSKIN_AT_S, cue_discrimination, transparency_figures
+from telethermo.offline.transparency import cue_discrimination, transparency_figures
 
 SCENE = "probe_touches_al_steel_wood"
-PRE_N, EARLY_N = 50, 100  # samples at 10 ms: 0.5 s before, 1 s after each touch
 
 
 def honest(rec) -> dict[str, Any]:
@@ -117,64 +108,6 @@ def null_display(sc, kind: str, T_hold_C: float | None = None) -> dict[str, Any]
 
 def _contacts(sc) -> list[dict[str, Any]]:
     return [{"t_on_s": c.start_s, "t_off_s": c.end_s, "object": c.body} for c in sc.slave_contacts]
-
-
-def run_bound(
-    sc, t_ref, skin_ref, cells, *, maxiter: int, front_weights: tuple, front_touches: int, q_ref=None
-) -> dict[str, Any]:
-    """The causal bound per touch, its replay check, and the foreknowledge front. With ``q_ref`` (the direct
-    touch's heat into the finger, W, per period: :func:`reference_track`) each touch also carries the direct
-    touch's cue over the same samples as the bound's (``direct_cue_J``)."""
-    mk = lambda: sim.build_rig(sc, "master", noise=False)  # noqa: E731
-    rig = mk()
-    plant = BatchedPlant(rig, sc.period_s)
-    per, traj, front = [], [], []
-    for i, c in enumerate(sc.slave_contacts):
-        k0 = int(round(c.start_s / sc.period_s)) - PRE_N
-        n_early = min(EARLY_N, int(round((c.end_s - c.start_s) / sc.period_s)))
-        w = Window(
-            t0_s=k0 * sc.period_s,
-            n_pre=PRE_N,
-            n_early=n_early,
-            x0=matched_start(rig, cells[k0]),
-            ref_C=skin_ref[k0 : k0 + PRE_N + n_early],
-        )
-        t0 = time.perf_counter()
-        u = causal_bound(plant, w, maxiter=maxiter)
-        heat: list = []
-        skin = plant.run(w.x0, u[:-1, None], heat)[:, 0]
-        q = np.array(heat)[:, 0]
-        cue_J = -float(np.sum(q[PRE_N : PRE_N + n_early]) * sc.period_s)
-        k1 = k0 + PRE_N  # the direct touch's cue over the bound's samples (with q_ref)
-        direct = (
-            {} if q_ref is None else {"direct_cue_J": -float(np.sum(q_ref[k1 : k1 + n_early]) * sc.period_s)}
-        )
-        replayed = replay(mk, w, u, sc.period_s)
-        err = window_errors(skin, w)
-        per.append(
-            {
-                "object": c.body,
-                **err,
-                "cue_J": cue_J,
-                **direct,
-                "replay_max_diff_C": float(np.max(np.abs(skin - replayed))),
-                "optimise_s": time.perf_counter() - t0,
-                "dskin_at": {
-                    f"{d:g}s": float(
-                        skin[min(PRE_N + int(round(d / sc.period_s)), len(skin) - 1)] - skin[PRE_N - 1]
-                    )
-                    for d in DSKIN_AT_S
-                    if d <= 1.0
-                },
-            }
-        )
-        traj.append({"t_s": (k0 + np.arange(len(skin))) * sc.period_s, "skin_C": skin, "current_A": u})
-        if i < front_touches:
-            for wp in front_weights:
-                uf = foresight_bound(plant, w, wp, maxiter=maxiter)
-                ef = window_errors(plant.run(w.x0, uf[:-1, None])[:, 0], w)
-                front.append({"object": c.body, "touch": i, "weight_pre": wp, **ef})
-    return {"per_touch": per, "trajectories": traj, "front": front}
 
 
 def drift_after_scene(quick: bool) -> dict[str, Any]:

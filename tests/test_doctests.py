@@ -15,6 +15,7 @@ MODULES = [
     "telethermo.cia301",
     "telethermo.offline.oscillation",
     "telethermo.offline.envelope",
+    "telethermo.offline.bound",
     "telethermo.control.gain_rule",
     "telethermo.control.osc_guard",
     "telethermo.control.passive_bound",

@@ -16,6 +16,13 @@ plate temperatures), batched over columns so that a forward-difference gradient 
 one batched run; :func:`replay` re-runs a current sequence through ``SimRig`` itself (the bound is checked
 against it to 1e-9 °C; the plate solve is sim.rig.plate_heats itself, on arrays). L-BFGS-B (scipy) does the
 search; the smooth |e| ≈ √(e² + ε²), ε = 0.01 °C.
+
+With ``clamp_C=(lo, hi)`` the skin must also stay inside [lo, hi] °C at every sample the currents reach (the
+*clamped* bound: what a display that keeps the skin envelope of DESIGN.md §6 could at best do): a penalty
+:data:`CLAMP_WEIGHT`·(distance beyond the clamp)² per sample is added to the error; the skin's largest
+excursion beyond the clamp is small (checked by the caller: :func:`clamp_excess`), not exactly 0. The error
+of the penalised optimum is still a lower bound on any display inside the clamps (such a display pays no
+penalty, so its error is at least the optimum's objective), as long as the optimiser finds the optimum.
 """
 
 from __future__ import annotations
@@ -29,6 +36,10 @@ from telethermo.sim.rig import SimRig, plate_heats
 
 EPS_C = 0.01
 FD_STEP_A = 1e-5
+#: the clamped bound's penalty per sample, per °C² beyond the clamp: 0.1 °C beyond costs as much as 1 °C of
+#: error on one sample (1e4 stalls L-BFGS-B's line search at its first step on a hot object: a full-current
+#: step overshoots the clamp by degrees)
+CLAMP_WEIGHT = 1e2
 
 
 @dataclass
@@ -88,6 +99,16 @@ def _smooth_abs(e: np.ndarray) -> np.ndarray:
     return np.sqrt(e * e + EPS_C * EPS_C)
 
 
+def clamp_excess(skin_C: np.ndarray, clamp_C: tuple[float, float]) -> np.ndarray:
+    """How far each skin sample lies beyond [lo, hi], °C (0 inside).
+
+    >>> clamp_excess(np.array([14.0, 30.0, 43.2]), (15.0, 43.0)).round(3).tolist()
+    [1.0, 0.0, 0.2]
+    """
+    lo, hi = clamp_C
+    return np.maximum(skin_C - hi, 0.0) + np.maximum(lo - skin_C, 0.0)
+
+
 def _optimise(
     plant: BatchedPlant,
     x0: np.ndarray,
@@ -97,9 +118,11 @@ def _optimise(
     weights: np.ndarray,
     u_init: float,
     maxiter: int,
+    clamp_C: tuple[float, float] | None = None,
 ) -> np.ndarray:
     """Currents after ``fixed`` (n_free of them) minimising Σ weights·|skin − ref| over the samples
-    len(fixed)+1 .. len(fixed)+n_free (sample j depends on the currents before it)."""
+    len(fixed)+1 .. len(fixed)+n_free (sample j depends on the currents before it); with ``clamp_C`` plus the
+    clamp's penalty on each of those samples."""
     nf = len(fixed)
     K = nf + n_free
 
@@ -112,6 +135,8 @@ def _optimise(
         U[nf + np.arange(n_free), 1 + np.arange(n_free)] += FD_STEP_A
         S = skins(U)
         E = (_smooth_abs(S - ref[1 : K + 1, None]) * weights[1 : K + 1, None]).sum(axis=0)
+        if clamp_C is not None:
+            E = E + CLAMP_WEIGHT * (clamp_excess(S[nf:], clamp_C) ** 2).sum(axis=0)
         return float(E[0]), (E[1:] - E[0]) / FD_STEP_A
 
     lim = plant.I_lim
@@ -126,16 +151,21 @@ def _optimise(
     return np.clip(res.x, -lim, lim)
 
 
-def causal_bound(plant: BatchedPlant, w: Window, *, maxiter: int = 200) -> np.ndarray:
-    """Currents of the causal bound (see module docstring): n_pre + n_early values, A."""
+def causal_bound(
+    plant: BatchedPlant, w: Window, *, maxiter: int = 200, clamp_C: tuple[float, float] | None = None
+) -> np.ndarray:
+    """Currents of the causal bound (see module docstring): n_pre + n_early values, A; with ``clamp_C``
+    (lo, hi), °C, the clamped bound."""
     n_pre, n_all = w.n_pre, w.n_pre + w.n_early
     wt = np.zeros(n_all + 1)
     wt[1:n_pre] = 1.0  # samples before the touch (the touch is at sample n_pre)
-    u_pre = _optimise(plant, w.x0, np.zeros(0), n_pre - 1, _pad(w.ref_C), wt, 0.0, maxiter)
+    u_pre = _optimise(plant, w.x0, np.zeros(0), n_pre - 1, _pad(w.ref_C), wt, 0.0, maxiter, clamp_C)
     u_pre = np.append(u_pre, u_pre[-1])  # the last pre current: held (it only acts at the touch)
     wt = np.zeros(n_all + 1)
     wt[n_pre:n_all] = 1.0  # the early samples (the first one is fixed by the past)
-    u_early = _optimise(plant, w.x0, u_pre, w.n_early - 1, _pad(w.ref_C), wt, float(u_pre[-1]), maxiter)
+    u_early = _optimise(
+        plant, w.x0, u_pre, w.n_early - 1, _pad(w.ref_C), wt, float(u_pre[-1]), maxiter, clamp_C
+    )
     return np.concatenate([u_pre, u_early, u_early[-1:]])[:n_all]
 
 

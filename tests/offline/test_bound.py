@@ -1,12 +1,20 @@
 """The optimal-current bound (telethermo/offline/bound.py; bench/transparency_bench.py runs it): its batched
 plant is the simulator (a replay through sim.SimRig agrees to 1e-9 °C), the matched start is the direct-touch
-finger, and optimising helps."""
+finger, and optimising helps; the clamped bound keeps the skin inside its clamps and pays for it."""
 
 import numpy as np
 import pytest
 
 from telethermo import sim
-from telethermo.offline.bound import BatchedPlant, Window, causal_bound, matched_start, replay, window_errors
+from telethermo.offline.bound import (
+    BatchedPlant,
+    Window,
+    causal_bound,
+    clamp_excess,
+    matched_start,
+    replay,
+    window_errors,
+)
 
 PERIOD = 0.01
 
@@ -64,3 +72,23 @@ def test_causal_bound_beats_doing_nothing_and_replays(setup):
     zero = window_errors(plant.run(w.x0, np.zeros((149, 1)))[:, 0], w)
     assert e["pre_C"] <= 0.05  # before the touch it keeps the finger matched
     assert e["early_C"] < zero["early_C"] - 0.5  # on aluminium it cools far better than no current
+
+
+def test_clamped_bound_keeps_the_skin_inside_and_costs_what_the_clamp_costs(setup):
+    _, _, plant, w = setup
+    free = plant.run(w.x0, causal_bound(plant, w, maxiter=30)[:-1, None])[:, 0]
+    lo = float(np.min(free)) + 1.5  # the free bound cools the skin 1.5 °C past this
+    clamp = (lo, 43.0)
+    u = causal_bound(plant, w, maxiter=30, clamp_C=clamp)
+    assert np.all(np.abs(u) <= plant.I_lim + 1e-12)
+    skin = plant.run(w.x0, u[:-1, None])[:, 0]
+    assert np.max(clamp_excess(free, clamp)) > 1.4
+    assert np.max(clamp_excess(skin, clamp)) <= 0.05  # the penalty holds it (0.1 °C costs 1 °C·sample)
+    e, e_free = window_errors(skin, w), window_errors(free, w)
+    # a skin inside the clamps is at least as far from the direct touch as the clipped direct touch is
+    ideal = window_errors(np.clip(w.ref_C, *clamp), w)
+    assert e["early_C"] >= ideal["early_C"] - 0.02
+    assert e["early_C"] > e_free["early_C"] + 0.1  # the clamp binds, so the bound costs more
+    # and it still drives the skin down to the clamp at full current, far better than no current
+    zero = window_errors(plant.run(w.x0, np.zeros((149, 1)))[:, 0], w)
+    assert e["early_C"] < zero["early_C"] - 0.3
