@@ -36,16 +36,23 @@ def run_bound(
     front_touches: int,
     q_ref=None,
     clamp_C: tuple[float, float] | None = None,
+    starts: list[np.ndarray] | None = None,
 ) -> dict[str, Any]:
     """The causal bound per touch, its replay check, and the foreknowledge front. With ``q_ref`` (the direct
     touch's heat into the finger, W, per period: :func:`reference_track`) each touch also carries the direct
     touch's cue over the same samples as the bound's (``direct_cue_J``). With ``clamp_C`` (lo, hi), °C, the
     clamped bound (telethermo.offline.bound), and each touch carries the skin's largest excursion beyond it
-    (``clamp_excess_C``)."""
+    (``clamp_excess_C``). ``starts``: the master rig's state at each window's start, in the order of the
+    touches, instead of the matched (direct-touch) finger."""
     mk = lambda: sim.build_rig(sc, "master", noise=False)  # noqa: E731
     rig = mk()
     plant = BatchedPlant(rig, sc.period_s)
     per, traj, front = [], [], []
+    x0s = starts
+    if x0s is None:  # the direct-touch finger (clipped to the clamps: no display inside them leaves it there)
+        k0s = [int(round(c.start_s / sc.period_s)) - PRE_N for c in sc.slave_contacts]
+        fingers = [cells[k] if clamp_C is None else np.clip(cells[k], *clamp_C) for k in k0s]
+        x0s = [matched_start(rig, f) for f in fingers]
     for i, c in enumerate(sc.slave_contacts):
         k0 = int(round(c.start_s / sc.period_s)) - PRE_N
         n_early = min(EARLY_N, int(round((c.end_s - c.start_s) / sc.period_s)))
@@ -53,7 +60,7 @@ def run_bound(
             t0_s=k0 * sc.period_s,
             n_pre=PRE_N,
             n_early=n_early,
-            x0=matched_start(rig, cells[k0] if clamp_C is None else np.clip(cells[k0], *clamp_C)),
+            x0=x0s[i],
             ref_C=skin_ref[k0 : k0 + PRE_N + n_early],
         )
         t0 = time.perf_counter()

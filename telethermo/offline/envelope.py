@@ -288,9 +288,12 @@ def identified_params(
     }
 
 
-def condition_session(c: Condition, gains: str = "identified") -> tuple[Any, Any, dict[str, Any]]:
+def condition_session(
+    c: Condition, gains: str = "identified", rig_path: Any = None
+) -> tuple[Any, Any, dict[str, Any]]:
     """The session of condition ``c`` as :func:`run_condition` runs it, unscored: (scene, the offline
-    session's result, the gain rule's fits per side; empty with ``gains="shipped"``)."""
+    session's result, the gain rule's fits per side; empty with ``gains="shipped"``). ``rig_path``: passed
+    to :func:`~telethermo.offline.runner.run_offline_session` (what each controller drives)."""
     sc, rig_s = condition_scene(c)
     delay = int(round(c.delay_ms / (1000.0 * sc.period_s)))
     pm = ps = None
@@ -308,6 +311,7 @@ def condition_session(c: Condition, gains: str = "identified") -> tuple[Any, Any
         delay_cycles=delay,
         delay_jitter_cycles=2 if delay else 0,
         seed=c.seed % 100000,
+        rig_path=rig_path,
     )
     return sc, res, fits
 
