@@ -37,13 +37,15 @@ def run_bound(
     q_ref=None,
     clamp_C: tuple[float, float] | None = None,
     starts: list[np.ndarray] | None = None,
+    restarts_A: tuple[float, ...] = (),
 ) -> dict[str, Any]:
     """The causal bound per touch, its replay check, and the foreknowledge front. With ``q_ref`` (the direct
     touch's heat into the finger, W, per period: :func:`reference_track`) each touch also carries the direct
     touch's cue over the same samples as the bound's (``direct_cue_J``). With ``clamp_C`` (lo, hi), °C, the
     clamped bound (telethermo.offline.bound), and each touch carries the skin's largest excursion beyond it
     (``clamp_excess_C``). ``starts``: the master rig's state at each window's start, in the order of the
-    touches, instead of the matched (direct-touch) finger."""
+    touches, instead of the matched (direct-touch) finger. ``restarts_A``: further starting currents of the
+    search (telethermo.offline.bound.causal_bound)."""
     mk = lambda: sim.build_rig(sc, "master", noise=False)  # noqa: E731
     rig = mk()
     plant = BatchedPlant(rig, sc.period_s)
@@ -64,7 +66,7 @@ def run_bound(
             ref_C=skin_ref[k0 : k0 + PRE_N + n_early],
         )
         t0 = time.perf_counter()
-        u = causal_bound(plant, w, maxiter=maxiter, clamp_C=clamp_C)
+        u = causal_bound(plant, w, maxiter=maxiter, clamp_C=clamp_C, restarts_A=restarts_A)
         heat: list = []
         skin = plant.run(w.x0, u[:-1, None], heat)[:, 0]
         excess = {} if clamp_C is None else {"clamp_excess_C": float(np.max(clamp_excess(skin, clamp_C)))}

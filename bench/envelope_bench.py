@@ -60,14 +60,26 @@ def safe_score(c: Condition, with_shipped: bool = True) -> dict[str, Any]:
         return {"condition": dataclasses.asdict(c), "error": f"{type(exc).__name__}: {exc}"}
 
 
-def bound_of(c: Condition, clamp_C: tuple[float, float] | None = None) -> dict[str, Any]:
+def bound_of(
+    c: Condition, clamp_C: tuple[float, float] | None = None, restarts_A: tuple[float, ...] = ()
+) -> dict[str, Any]:
     """The optimal-current bound of condition ``c`` (telethermo.offline.bound: exact master plant, finger
     matched before each touch, no foreknowledge), mean of the touches' window errors, °C. With ``clamp_C``
     (lo, hi), °C, the clamped bound, and the skin's largest excursion beyond the clamps
-    (``clamp_excess_max_C``)."""
+    (``clamp_excess_max_C``). ``restarts_A``: further starting currents of the search (A)."""
     sc, _ = condition_scene(c)
     t_ref, skin_ref, _q, cells = reference_track(sc)
-    b = run_bound(sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0, clamp_C=clamp_C)
+    b = run_bound(
+        sc,
+        t_ref,
+        skin_ref,
+        cells,
+        maxiter=150,
+        front_weights=(),
+        front_touches=0,
+        clamp_C=clamp_C,
+        restarts_A=restarts_A,
+    )
     out = {
         "index": c.index,
         "bound_headline_C": float(np.mean([p["window_C"] for p in b["per_touch"]])),

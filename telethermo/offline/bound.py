@@ -95,6 +95,16 @@ class BatchedPlant:
         return out
 
 
+def cooling_peak_A(alpha_V_per_K: float, R_ohm: float, T_cold_C: float = 0.0) -> float:
+    """The current of greatest Peltier cooling at a cold plate at T_cold_C, αT/R, A (more current
+    warms; the lowest plausible plate temperature gives the smallest peak).
+
+    >>> round(cooling_peak_A(0.05, 3.9, 0.0), 2)
+    3.5
+    """
+    return alpha_V_per_K * (T_cold_C + 273.15) / R_ohm
+
+
 def _smooth_abs(e: np.ndarray) -> np.ndarray:
     return np.sqrt(e * e + EPS_C * EPS_C)
 
@@ -119,10 +129,12 @@ def _optimise(
     u_init: float,
     maxiter: int,
     clamp_C: tuple[float, float] | None = None,
+    restarts_A: tuple[float, ...] = (),
 ) -> np.ndarray:
     """Currents after ``fixed`` (n_free of them) minimising Σ weights·|skin − ref| over the samples
     len(fixed)+1 .. len(fixed)+n_free (sample j depends on the currents before it); with ``clamp_C`` plus the
-    clamp's penalty on each of those samples."""
+    clamp's penalty on each of those samples. The search starts from ``u_init`` and from each current of
+    ``restarts_A`` (A, held over the free samples); the lowest objective wins."""
     nf = len(fixed)
     K = nf + n_free
 
@@ -140,31 +152,46 @@ def _optimise(
         return float(E[0]), (E[1:] - E[0]) / FD_STEP_A
 
     lim = plant.I_lim
-    res = minimize(
-        f_and_g,
-        np.full(n_free, u_init),
-        jac=True,
-        method="L-BFGS-B",
-        bounds=[(-lim, lim)] * n_free,
-        options={"maxiter": maxiter, "ftol": 1e-12, "gtol": 1e-9},
-    )
-    return np.clip(res.x, -lim, lim)
+    best = None
+    for u0 in (u_init, *restarts_A):
+        res = minimize(
+            f_and_g,
+            np.full(n_free, float(np.clip(u0, -lim, lim))),
+            jac=True,
+            method="L-BFGS-B",
+            bounds=[(-lim, lim)] * n_free,
+            options={"maxiter": maxiter, "ftol": 1e-12, "gtol": 1e-9},
+        )
+        if best is None or res.fun < best.fun:
+            best = res
+    return np.clip(best.x, -lim, lim)
 
 
 def causal_bound(
-    plant: BatchedPlant, w: Window, *, maxiter: int = 200, clamp_C: tuple[float, float] | None = None
+    plant: BatchedPlant,
+    w: Window,
+    *,
+    maxiter: int = 200,
+    clamp_C: tuple[float, float] | None = None,
+    restarts_A: tuple[float, ...] = (),
 ) -> np.ndarray:
     """Currents of the causal bound (see module docstring): n_pre + n_early values, A; with ``clamp_C``
-    (lo, hi), °C, the clamped bound."""
+    (lo, hi), °C, the clamped bound. ``restarts_A``: further starting currents of each stage's search (the
+    early stage otherwise starts from the last pre-touch current). Heat into the pad, αIT − ½I²R, is concave
+    in the current: past the maximum-cooling current αT/R more cooling current warms, so where αT/R lies
+    inside the limit a search started past it can stop at a local optimum on the limit
+    (:func:`cooling_peak_A`)."""
     n_pre, n_all = w.n_pre, w.n_pre + w.n_early
     wt = np.zeros(n_all + 1)
     wt[1:n_pre] = 1.0  # samples before the touch (the touch is at sample n_pre)
-    u_pre = _optimise(plant, w.x0, np.zeros(0), n_pre - 1, _pad(w.ref_C), wt, 0.0, maxiter, clamp_C)
+    u_pre = _optimise(
+        plant, w.x0, np.zeros(0), n_pre - 1, _pad(w.ref_C), wt, 0.0, maxiter, clamp_C, restarts_A
+    )
     u_pre = np.append(u_pre, u_pre[-1])  # the last pre current: held (it only acts at the touch)
     wt = np.zeros(n_all + 1)
     wt[n_pre:n_all] = 1.0  # the early samples (the first one is fixed by the past)
     u_early = _optimise(
-        plant, w.x0, u_pre, w.n_early - 1, _pad(w.ref_C), wt, float(u_pre[-1]), maxiter, clamp_C
+        plant, w.x0, u_pre, w.n_early - 1, _pad(w.ref_C), wt, float(u_pre[-1]), maxiter, clamp_C, restarts_A
     )
     return np.concatenate([u_pre, u_early, u_early[-1:]])[:n_all]
 

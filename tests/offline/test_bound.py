@@ -2,6 +2,8 @@
 plant is the simulator (a replay through sim.SimRig agrees to 1e-9 °C), the matched start is the direct-touch
 finger, and optimising helps; the clamped bound keeps the skin inside its clamps and pays for it."""
 
+import copy
+
 import numpy as np
 import pytest
 
@@ -9,8 +11,10 @@ from telethermo import sim
 from telethermo.offline.bound import (
     BatchedPlant,
     Window,
+    _optimise,
     causal_bound,
     clamp_excess,
+    cooling_peak_A,
     matched_start,
     replay,
     window_errors,
@@ -92,3 +96,26 @@ def test_clamped_bound_keeps_the_skin_inside_and_costs_what_the_clamp_costs(setu
     # and it still drives the skin down to the clamp at full current, far better than no current
     zero = window_errors(plant.run(w.x0, np.zeros((149, 1)))[:, 0], w)
     assert e["early_C"] < zero["early_C"] - 0.3
+
+
+def test_a_search_started_past_the_cooling_peak_needs_the_restart(setup):
+    _, _, plant, w = setup
+    weak = copy.copy(plant)
+    weak.R = 4.0 * plant.R  # a high-resistance module: more cooling current warms past αT/R
+    peak = cooling_peak_A(float(np.max(weak.alpha)), float(np.max(weak.R)), 40.0)
+    assert peak < 0.5 * weak.I_lim  # the peak lies well inside the limit, at any plate temperature ≤ 40 °C
+    n = 99
+    ref = np.append(w.ref_C[0] + 2.0 * np.ones(n + 1), 0.0)  # the skin should warm by 2 °C
+    wt = np.ones(n + 2)
+    wt[0] = 0.0
+
+    def err(u):
+        return float(np.abs(weak.run(w.x0, u[:, None])[1:, 0] - ref[1 : n + 1]).mean())
+
+    stuck = _optimise(weak, w.x0, np.zeros(0), n, ref, wt, -weak.I_lim, 30)
+    both = _optimise(weak, w.x0, np.zeros(0), n, ref, wt, -weak.I_lim, 30, restarts_A=(0.0,))
+    # from the cooling limit, the search warms by Joule heat only and stops there
+    assert np.all(stuck < -peak)
+    # the restart from 0 A heats with the Peltier term, the way that reaches the target
+    assert np.median(both) > 0.0
+    assert err(both) < err(stuck) - 0.3
