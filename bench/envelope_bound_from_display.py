@@ -27,6 +27,7 @@ on a module whose cooling peak lies inside its limit one start can stop at a loc
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import time
 from concurrent.futures import ProcessPoolExecutor
@@ -49,7 +50,8 @@ class _Snapshots:
     """The master rig, its state kept at the samples ``ks`` (``states``: sample -> the rig's state)."""
 
     def __init__(self, rig: Any, ks: set[int]) -> None:
-        self._rig, self._ks, self.states = rig, ks, {}
+        self._rig, self._ks = rig, ks
+        self.states: dict[int, np.ndarray] = {}
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._rig, name)
@@ -64,7 +66,7 @@ class _Snapshots:
 
 def _means(per: list[dict[str, Any]]) -> dict[str, Any]:
     first, later = per[:1], per[1:]
-    out = {k: float(np.mean([p[k] for p in per])) for k in KEYS}
+    out: dict[str, float | None] = {k: float(np.mean([p[k] for p in per])) for k in KEYS}
     out["first_window_C"] = float(first[0]["window_C"]) if first else None
     out["later_window_C"] = float(np.mean([p["window_C"] for p in later])) if later else None
     return out
@@ -97,29 +99,11 @@ def from_display(cond: dict[str, Any], restarts_A: tuple[float, ...] = ()) -> di
     t_ref, skin_ref, _q, cells = reference_track(sc)
     states = box["m"].states
     starts = [states[int(round(t.start_s / sc.period_s)) - PRE_N] for t in sc.slave_contacts]
-    ours_b = run_bound(
-        sc,
-        t_ref,
-        skin_ref,
-        cells,
-        maxiter=150,
-        front_weights=(),
-        front_touches=0,
-        clamp_C=CLAMP_C,
-        starts=starts,
-        restarts_A=restarts_A,
+    bound = functools.partial(
+        run_bound, sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0
     )
-    matched = run_bound(
-        sc,
-        t_ref,
-        skin_ref,
-        cells,
-        maxiter=150,
-        front_weights=(),
-        front_touches=0,
-        clamp_C=CLAMP_C,
-        restarts_A=restarts_A,
-    )
+    ours_b = bound(clamp_C=CLAMP_C, starts=starts, restarts_A=restarts_A)
+    matched = bound(clamp_C=CLAMP_C, restarts_A=restarts_A)
     ours = [{k: p[k] for k in KEYS} for p in tf["per_touch"]]
     fb = [{k: p[k] for k in (*KEYS, "clamp_excess_C")} for p in ours_b["per_touch"]]
     mb = [{k: p[k] for k in KEYS} for p in matched["per_touch"]]
