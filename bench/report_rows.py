@@ -268,6 +268,14 @@ HEADLINE = [
         "≤ 1.25",
     ),
     (
+        "envelope_bound_from_display",
+        "from_display_beats_best_pad_fraction",
+        "of the conditions the controller loses and the clamped bound wins, the share the clamped bound "
+        "still wins from our display's own state 0.5 s before each touch (what control inside the window "
+        "alone could win)",
+        "—",
+    ),
+    (
         "envelope",
         "envelope_cue_order_kept_fraction",
         "material cue order kept, conditions whose direct cues differ ≥ 20 %",

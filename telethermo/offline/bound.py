@@ -152,9 +152,8 @@ def _optimise(
         return float(E[0]), (E[1:] - E[0]) / FD_STEP_A
 
     lim = plant.I_lim
-    best = None
-    for u0 in (u_init, *restarts_A):
-        res = minimize(
+    runs = [
+        minimize(
             f_and_g,
             np.full(n_free, float(np.clip(u0, -lim, lim))),
             jac=True,
@@ -162,8 +161,9 @@ def _optimise(
             bounds=[(-lim, lim)] * n_free,
             options={"maxiter": maxiter, "ftol": 1e-12, "gtol": 1e-9},
         )
-        if best is None or res.fun < best.fun:
-            best = res
+        for u0 in (u_init, *restarts_A)
+    ]
+    best = min(runs, key=lambda r: r.fun)  # the first of equals: without restarts, the one run
     return np.clip(best.x, -lim, lim)
 
 
