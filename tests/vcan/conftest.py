@@ -60,6 +60,8 @@ def vcan_channel() -> str:
     return name
 
 
+#: candump's socket receive buffer, bytes (``-r``)
+RCVBUF_BYTES = 8 * 1024 * 1024
 #: the 29-bit ID of the test's marker frames to candump: no CANopen service (our devices count it as an
 #: unknown frame, canopen's clients ignore it), left out of :meth:`Candump.stop`'s frames
 MARKER_ID = 0x1FFFFFF0
@@ -82,10 +84,14 @@ class Candump:
         # pipe while the test runs, and a full pipe (64 kB) would block candump and make it lose frames. A
         # named file, not an unlinked temporary one: in ../shared/tools/vcan-run the file system is the host's
         # over 9p, where an open file that has no name can be lost under memory pressure (ENOENT on read).
-        # stdbuf -oL: a line in the file per frame as it comes (the markers are read while it runs)
+        # stdbuf -oL: a line in the file per frame as it comes (the markers are read while it runs). -r: an
+        # 8 MB socket receive buffer (SO_RCVBUFFORCE as root, else capped by rmem_max; a line about it in
+        # the log is not a frame): with the default one, candump starved by two CPU hogs lost 9 % of a
+        # 2700-frame identification
         self.channel, self.log_path, self.markers = channel, log_path, 0
         self.log = open(log_path, "w+", encoding="utf-8")
-        self.proc = subprocess.Popen(["stdbuf", "-oL", exe, "-L", channel], stdout=self.log, text=True)
+        cmd = ["stdbuf", "-oL", exe, "-L", "-r", str(RCVBUF_BYTES), channel]
+        self.proc = subprocess.Popen(cmd, stdout=self.log, text=True)
         self.mark()
 
     def mark(self, timeout_s: float = 120.0) -> None:
