@@ -38,10 +38,8 @@ import numpy as np
 from bench.bound_run import PRE_N, run_bound
 from bench.common import current_results_dir, write_results
 from bench.envelope_bound_clamped import CLAMP_C
-from bench.transparency_bench import reference_track
+from bench.transparency_bench import honest, reference_track
 from telethermo.offline.envelope import Condition, condition_scene, condition_session
-from telethermo.offline.figures import contacts_of
-from telethermo.offline.transparency import transparency_figures
 
 KEYS = ("window_C", "pre_C", "early_C")
 
@@ -87,15 +85,7 @@ def from_display(cond: dict[str, Any], restarts_A: tuple[float, ...] = ()) -> di
         return box["m"]
 
     sc, res, _fits = condition_session(c, rig_path=path)
-    rec = res.recording
-    tf = transparency_figures(
-        rec.col("t_s"),
-        rec.col("m_true_surface_C"),
-        rec.col("ref_T_contact_C"),
-        rec.col("m_true_Q_into_body_W"),
-        rec.col("ref_Q_into_finger_W"),
-        contacts_of(rec),
-    )
+    tf = honest(res.recording)
     t_ref, skin_ref, _q, cells = reference_track(sc)
     states = box["m"].states
     starts = [states[int(round(t.start_s / sc.period_s)) - PRE_N] for t in sc.slave_contacts]
