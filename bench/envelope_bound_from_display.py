@@ -19,9 +19,9 @@ stood*.
   starts where the direct touch does, so the start matters on the later ones only.
 
 It runs on the conditions the clamped bound wins and the controller loses (envelope_bound_clamped.json's
-``reachable_not_won_clamped``). ``--restart`` also starts each search from 0 A (bench.envelope_bound_restart:
-on a module whose cooling peak lies inside its limit one start can stop at a local optimum) and writes
-``envelope_bound_from_display_restart.json``.
+``reachable_not_won_clamped``). Its bounds search from one start (bench.envelope_bound_restart: on a module
+whose cooling peak lies inside its limit one start can stop at a local optimum; a restart only lowers a
+bound, so the beats-pad share is a floor).
 """
 
 from __future__ import annotations
@@ -70,9 +70,8 @@ def _means(per: list[dict[str, Any]]) -> dict[str, Any]:
     return out
 
 
-def from_display(cond: dict[str, Any], restarts_A: tuple[float, ...] = ()) -> dict[str, Any]:
-    """Ours, the clamped bound from our state and the matched-start clamped bound, per touch and mean, °C.
-    ``restarts_A``: further starting currents of the bounds' search (bench.envelope_bound_restart)."""
+def from_display(cond: dict[str, Any]) -> dict[str, Any]:
+    """Ours, the clamped bound from our state and the matched-start clamped bound, per touch and mean, °C."""
     c = Condition.from_json(cond)
     sc0, _ = condition_scene(c)
     ks = {int(round(t.start_s / sc0.period_s)) - PRE_N for t in sc0.slave_contacts}
@@ -90,10 +89,10 @@ def from_display(cond: dict[str, Any], restarts_A: tuple[float, ...] = ()) -> di
     states = box["m"].states
     starts = [states[int(round(t.start_s / sc.period_s)) - PRE_N] for t in sc.slave_contacts]
     bound = functools.partial(
-        run_bound, sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0
+        run_bound, sc, t_ref, skin_ref, cells, maxiter=150, front_weights=(), front_touches=0, clamp_C=CLAMP_C
     )
-    ours_b = bound(clamp_C=CLAMP_C, starts=starts, restarts_A=restarts_A)
-    matched = bound(clamp_C=CLAMP_C, restarts_A=restarts_A)
+    ours_b = bound(starts=starts)
+    matched = bound()
     ours = [{k: p[k] for k in KEYS} for p in tf["per_touch"]]
     fb = [{k: p[k] for k in (*KEYS, "clamp_excess_C")} for p in ours_b["per_touch"]]
     mb = [{k: p[k] for k in KEYS} for p in matched["per_touch"]]
@@ -141,11 +140,6 @@ def main(argv: list[str] | None = None) -> int:
     )
     ap.add_argument("--workers", type=int, default=2, help="processes on this machine (default 2)")
     ap.add_argument("--only", type=int, nargs="*", help="these condition indices (default: all it runs on)")
-    ap.add_argument(
-        "--restart",
-        action="store_true",
-        help="also start each search from 0 A; writes envelope_bound_from_display_restart.json",
-    )
     a = ap.parse_args(argv)
     folder = current_results_dir()
     env = json.loads((folder / "envelope.json").read_text(encoding="utf-8"))
@@ -155,7 +149,7 @@ def main(argv: list[str] | None = None) -> int:
     conds = [r["condition"] for r in env["conditions"] if r["condition"]["index"] in set(idx)]
     t0 = time.perf_counter()
     with ProcessPoolExecutor(max_workers=a.workers) as ex:
-        got = list(ex.map(from_display, conds, [(0.0,) if a.restart else ()] * len(conds)))
+        got = list(ex.map(from_display, conds))
     keep = ("headline_C", "best_pad_headline_C", "clamped_bound_headline_C", "object_T_C", "ambient_C")
     rows = [{**{k: by[g["index"]][k] for k in keep}, **g} for g in got]
     data = {
@@ -165,7 +159,7 @@ def main(argv: list[str] | None = None) -> int:
         "workers": a.workers,
         "conditions": rows,
     }
-    write_results("envelope_bound_from_display" + ("_restart" if a.restart else ""), data)
+    write_results("envelope_bound_from_display", data)
     print(json.dumps({k: v for k, v in data.items() if k != "conditions"}, indent=1))
     return 0
 
