@@ -98,7 +98,7 @@ class BatchedPlant:
 def cooling_peak_A(alpha_V_per_K: float, R_ohm: float, T_cold_C: float = 0.0) -> float:
     """The current of greatest Peltier cooling at a cold plate at T_cold_C, αT/R, A (more current
     warms; the lowest plausible plate temperature gives the smallest peak). From the plant's own α and R:
-    a node finds it from its identified model instead (telethermo.control.cooling_limit)
+    a node finds it from its identified model instead (telethermo.control.cooling_limit).
 
     >>> round(cooling_peak_A(0.05, 3.9, 0.0), 2)
     3.5
