@@ -3,15 +3,16 @@
 ``python -m bench.material_envelope_calibrate [--touches 192000] [--jobs 2] [--refs CACHE.npz]``
 
 The procedure (reference touches on the shipped probe and a family of other modules after ``identify``, the
-envelope vectors, one network per answer) is telethermo/offline/material_envelope_calibration.py's
-:func:`calibrate`; it writes telethermo/data/material_envelope_early.npz and material_envelope_late.npz.
-About 13 min of simulation in 2 processes on this machine when it is quiet, 5 min of training (192 000
+envelope vectors, three networks: the early answer's, the one the refined answer pools with, the refined
+answer's) is telethermo/offline/material_envelope_calibration.py's :func:`calibrate`; it writes
+telethermo/data/material_envelope_early.npz, material_envelope_pool.npz and material_envelope_late.npz.
+About 13 min of simulation in 2 processes on this machine when it is quiet, 7 min of training (192 000
 touches, 60 epochs; docs/material_id.md, "More references", says why); ``--refs`` keeps the
 simulated touches so that training again does not simulate again. ``--ranges-only --refs CACHE.npz`` records
 the range of the references' network inputs in the shipped classifiers (their novelty check) without
-training again. ``--pool-only [--dev CACHE.npz]`` fits the refined answer's pool with the early classifier
-(material_calib.pooled) on the development touches (material_envelope_refs.ENV_DEVELOPMENT, 3000; about
-a minute) and records it in the shipped refined classifier.
+training again. ``--pool-only [--dev CACHE.npz]`` fits the refined answer's pool with the pool's early
+classifier (material_calib.pooled) on the development touches (material_envelope_refs.ENV_DEVELOPMENT,
+3000; about a minute) and records it in the shipped refined classifier.
 """
 
 from __future__ import annotations
@@ -58,8 +59,11 @@ def main(argv: list[str] | None = None) -> int:
         record_ranges(args.refs)
         print(f"recorded the references' input ranges ({time.perf_counter() - t0:.0f} s)")
         return 0
-    early, late = calibrate(args.touches, args.jobs, args.refs, dev=args.dev)
-    print(f"wrote the early ({early.n_win} samples) and the refined ({late.n_win}) envelope classifiers")
+    early, partner, late = calibrate(args.touches, args.jobs, args.refs, dev=args.dev)
+    print(
+        f"wrote the early ({early.n_win} samples), the pool's early ({partner.n_win}) and the refined "
+        f"({late.n_win}) envelope classifiers"
+    )
     print(f"{time.perf_counter() - t0:.0f} s")
     return 0
 

@@ -32,12 +32,14 @@ from telethermo.control.material_trust import (
 )
 from telethermo.offline import material_envelope_refs as mer
 from telethermo.offline import material_touches as mt
-from telethermo.offline.material_envelope_calibration import EARLY, LATE
+from telethermo.offline.material_envelope_calibration import LATE
 
+#: the early window the slave checks a collapse on: the physics fit's, s (the early classifier's is longer)
+EARLY_S = mi.ProbeParams().window_s
 #: (answer, its window s, the later window s, the shipped threshold, the thresholds measured)
 ANSWERS = (
     ("refined", LATE[0], FLUX_LATER_S, FLUX_COLLAPSE_MAX, (3.0, 4.0, 5.0, 6.0, 8.0, 10.0)),
-    ("early", EARLY[0], FLUX_EARLY_LATER_S, FLUX_COLLAPSE_MAX_EARLY, (2.0, 2.2, 2.5, 2.8, 3.0)),
+    ("early", EARLY_S, FLUX_EARLY_LATER_S, FLUX_COLLAPSE_MAX_EARLY, (2.0, 2.2, 2.5, 2.8, 3.0)),
 )
 RESULT = Path(__file__).resolve().parent / "results" / "material_flux_collapse.json"
 

@@ -47,6 +47,8 @@ DEFAULT_CALIBRATION = Path(__file__).resolve().parent.parent / "data" / "materia
 #: (telethermo.offline.material_envelope_calibration)
 ENVELOPE_EARLY = DEFAULT_CALIBRATION.with_name("material_envelope_early.npz")
 ENVELOPE_LATE = DEFAULT_CALIBRATION.with_name("material_envelope_late.npz")
+#: the early classifier the refined answer pools with (0.3 s; the pool's weights are fitted with it)
+ENVELOPE_POOL = DEFAULT_CALIBRATION.with_name("material_envelope_pool.npz")
 FORMAT = "telethermo-material-classifier-2"
 
 

@@ -18,7 +18,7 @@ def default_calibration() -> Calibration | None:
     return load_calibration() if DEFAULT_CALIBRATION.exists() else None
 
 
-@functools.lru_cache(maxsize=2)
+@functools.lru_cache(maxsize=3)
 def default_envelope(path: Path) -> Calibration | None:
     """A shipped envelope classifier (loaded once per process; None while it is not shipped)."""
     return load_calibration(path) if path.exists() else None

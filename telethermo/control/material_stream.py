@@ -9,12 +9,10 @@ realisations of the confidence, then the classification: with a calibration
 (telethermo.control.material_calib, default the shipped one) its networks' posterior, else the nearest table
 effusivity. The networks run one layer per cycle. The result (the physics fit's effusivity and standard error
 of ln b, the class and its posterior) is published :func:`fit_units` cycles after the window is complete (15
-with the defaults and the shipped network of four layers: 0.15 s at 100 Hz; when neither form of the physics
-fit gives an effusivity, the calibrated class alone, effusivity NaN, without the noise realisations' cycles)
-and held until the next touch's fit completes (a release clears nothing: the operator may ask
-what was touched last; a fit under way finishes even if the finger leaves). The staged fit equals the
-batch one exactly (:func:`telethermo.control.material_id.estimate_effusivity`,
-:func:`telethermo.control.material_calib.classify_vector`). Pure: the state is an immutable value.
+with the defaults and networks of four layers: 0.15 s at 100 Hz; without an effusivity from either form of the
+physics fit, the class alone, without the noise realisations' cycles) and held until the next touch's fit
+completes (a release clears nothing; a fit under way finishes). The staged fit equals the batch one exactly
+(material_id.estimate_effusivity, material_calib.classify_vector). Pure: the state is an immutable value.
 """
 
 from __future__ import annotations
@@ -45,6 +43,7 @@ from telethermo.control.material_id import (
 from telethermo.control.material_calib import (
     ENVELOPE_EARLY,
     ENVELOPE_LATE,
+    ENVELOPE_POOL,
     Calibration,
     calibration_vector,
     decide,
@@ -86,9 +85,9 @@ class MaterialEstimate:
         T_object0_C: the object's initial temperature the same fit gives, °C (NaN without an estimate).
         abstained: why the answer is "unknown" (code :data:`UNKNOWN_CODE`; telethermo.control.material_physics
             .decide), "" when it named a material.
-        early_code, early_posterior: the first answer (0.3 s window; the network in its box, else the physics
-            posterior), kept when the refined one (``stage`` "late", the physics fit over 1.2 s) replaces
-            ``code`` and ``posterior``.
+        early_code, early_posterior: the first answer (0.3 s window, the envelope classifier's 0.34 s; the
+            network in its box, else the physics posterior), kept when the refined one (``stage`` "late", the
+            physics fit over 1.2 s) replaces ``code`` and ``posterior``.
         stage: "early" or "late" (the answer in ``code``), "" without an answer.
         by: "network" (the calibrated classifier in its box: the refined answer keeps its class and posterior,
             the late fit refines the effusivity only) or "physics" (telethermo.control.material_physics).
@@ -130,7 +129,8 @@ class MaterialIdParams:
         envelope, envelope_late: the envelope classifiers of the early and the refined answer (default: the
             shipped files, telethermo/data/material_envelope_*.npz; telethermo.offline.material_envelope_refs
             says what they were trained on): they name a touch outside ``box`` in place of the physics
-            posterior, where they apply (:func:`applies`); None: the physics posterior.
+            posterior, where they apply (:func:`applies`); None: the physics posterior. ``envelope_pool``:
+            the early classifier (0.3 s) the refined answer pools with (its pool was fitted with it).
     """
 
     probe: ProbeParams = field(default_factory=ProbeParams)
@@ -141,6 +141,7 @@ class MaterialIdParams:
     late: mp.PhysicsCalibration | None = mp.LATE
     envelope: Calibration | None = field(default_factory=lambda: default_envelope(ENVELOPE_EARLY))
     envelope_late: Calibration | None = field(default_factory=lambda: default_envelope(ENVELOPE_LATE))
+    envelope_pool: Calibration | None = field(default_factory=lambda: default_envelope(ENVELOPE_POOL))
 
     @property
     def late_window_s(self) -> float:
@@ -159,20 +160,27 @@ class MaterialIdParams:
 
 def applies(cal: Calibration | None, window_s: float, dt_s: float) -> bool:
     """Whether classifier ``cal`` was measured at period ``dt_s`` over a window of ``window_s``."""
-    return (
-        cal is not None
-        and abs(cal.dt_s - dt_s) <= 1e-9
-        and window_s > 0.0
-        and cal.n_win == int(round(window_s / dt_s))
-    )
+    n = int(round(window_s / dt_s))
+    return cal is not None and abs(cal.dt_s - dt_s) <= 1e-9 and window_s > 0.0 and cal.n_win == n
 
 
 def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
     """Whether the calibration applies at period ``dt_s`` (measured with the same period and window)."""
-    cal = p.calibration
-    return (
-        cal is not None and abs(cal.dt_s - dt_s) <= 1e-9 and cal.n_win == int(round(p.probe.window_s / dt_s))
-    )
+    return applies(p.calibration, p.probe.window_s, dt_s)
+
+
+def early_samples(p: MaterialIdParams, dt_s: float) -> int:
+    """Samples after the touch the early answer waits for: the physics fit's window, or the early envelope
+    classifier's when longer (0.34 s against 0.3 s: docs/material_id.md), not beyond the refined one's."""
+    n, env, n_late = int(round(p.probe.window_s / dt_s)), p.envelope, late_samples(p, dt_s)
+    if env is None or abs(env.dt_s - dt_s) > 1e-9 or not n <= env.n_win <= max(n_late, n):
+        return n
+    return env.n_win
+
+
+def early_envelope(p: MaterialIdParams, dt_s: float) -> bool:
+    """Whether the early envelope classifier applies at period ``dt_s`` (its window is the early answer's)."""
+    return applies(p.envelope, early_samples(p, dt_s) * dt_s, dt_s)
 
 
 def fit_units(p: MaterialIdParams, dt_s: float) -> int:
@@ -233,9 +241,8 @@ def late_samples(p: MaterialIdParams, dt_s: float) -> int:
 
 def prepare(p: MaterialIdParams, dt_s: float) -> None:
     """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release,
-    the noise realisations)
-    now, so that the first touch's fit does not build them inside a control cycle (core.init_state calls
-    it)."""
+    the noise realisations) now, so that the first touch's fit does not build them inside a control cycle
+    (core.init_state calls it)."""
     pr = p.probe
     n_pre = pre_samples(pr, dt_s)
     for n_win in (int(round(pr.window_s / dt_s)), late_samples(p, dt_s)):
@@ -259,7 +266,7 @@ def material_step(
     if job is not None:
         job, last = _fit_unit(p, job, last, dt_s)
     n_pre = pre_samples(p.probe, dt_s)
-    n_win = int(round(p.probe.window_s / dt_s))
+    n_win = early_samples(p, dt_s)
     n_late = late_samples(p, dt_s)
     x = (float(T_sensor_C), float(Q_W))
     if not contact:
@@ -306,16 +313,7 @@ def _result(
 ) -> MaterialEstimate:
     """The early answer of touch ``n``; its se_ln_b the calibrated interval's (``cal``)."""
     if est is None:
-        return MaterialEstimate(
-            code=code,
-            posterior=post,
-            touch=n,
-            abstained=why,
-            early_code=code,
-            early_posterior=post,
-            stage="early",
-            by=by,
-        )
+        return MaterialEstimate(math.nan, math.nan, code, post, n, math.nan, why, code, post, "early", by)
     est = cast(EffusivityEstimate, cal.corrected(est))  # a lab's correction (material_lab), with its interval
     return MaterialEstimate(
         est.b, cal.sigma_ci(est.se_ln_b), code, post, n, est.T_object0_C, why, code, post, "early", by
@@ -384,7 +382,7 @@ def _fit_unit(
         if chosen is None:  # no effusivity; the classifiers need none
             if job.late and not _late_envelope(p, last, dt_s):
                 return None, _late_result(p, replace(job, chosen=None), last)
-            networks = calibrated(p, dt_s) or applies(p.envelope, p.probe.window_s, dt_s)
+            networks = calibrated(p, dt_s) or early_envelope(p, dt_s)
             if not job.late and (not networks or not p.classes):
                 return None, _result(p, None, UNKNOWN_CODE, 0.0, "no_fit", n, p.early)
             chosen = (None, None)
@@ -415,9 +413,11 @@ def _first_input(
     cal = cast(Calibration, p.calibration)  # not None when calibrated
     x = network_input(cal, touch_vector(inp, cal.q_weight_K_per_W)) if calibrated(p, dt_s) else None
     outside = x is None or (p.box is not None and abstain_reason(p.box, inp, est, x) is not None)
-    if outside and applies(p.envelope, p.probe.window_s, dt_s):
+    if outside and early_envelope(p, dt_s):
         env = cast(Calibration, p.envelope)
-        return network_input(env, calibration_vector(env, inp)), "envelope"
+        rows = np.array(job.rows, dtype=float).reshape(-1, 2)[job.n_pre - inp.n_pre : job.n_pre + env.n_win]
+        own = replace(inp, T=rows[:, 0], Q=rows[:, 1])  # its own window (the fit's may be shorter)
+        return network_input(env, calibration_vector(env, own)), "envelope"
     return (None, "") if outside else (x, "network")
 
 
@@ -438,7 +438,7 @@ def _classify_unit(
             return None, _result(p, est, *_physics(p, est, inp, p.early), n, p.early)
         job = replace(job, x=x, chosen=(form, est), net=net, x_early=_pool_input(p, job, inp, net, last))
     if job.x_early is not None and job.p_early is None:  # the pool's early classifier first, a layer a unit
-        env = cast(Calibration, p.envelope)
+        env = cast(Calibration, p.envelope_pool)
         h, probs = network_unit(env, job.x_early, job.h, job.probs, job.unit)
         if job.unit + 1 < n_units(env):
             return replace(job, h=h, probs=probs, unit=job.unit + 1), last
@@ -463,10 +463,10 @@ def _classify_unit(
 def _pool_input(
     p: MaterialIdParams, job: FitJob, inp: FitInput, net: str, last: MaterialEstimate
 ) -> np.ndarray | None:
-    """The early classifier's input (the early answer's samples) when a refined envelope answer pools the two
-    (``pool`` set), else None; not when the early answer found the touch novel (``last.abstained``): a
-    network's posterior on an input it does not know is no evidence, pooled it makes the answer surer."""
-    late, early = p.envelope_late, p.envelope
+    """The pool's early classifier's input (its first samples of the late window) when a refined envelope
+    answer pools the two (``pool`` set), else None; not when the early answer found the touch novel
+    (``last.abstained``): a posterior on an input the network does not know is no evidence."""
+    late, early = p.envelope_late, p.envelope_pool
     pooling = job.late and net == "envelope" and late is not None and late.pool is not None
     if not pooling or early is None or last.abstained in NOVELTY_REASONS:
         return None

@@ -1,11 +1,11 @@
 """The slave's envelope classifiers (issue 23), trained on reference touches across the operating envelope:
 :func:`calibrate`, run by ``python -m bench.material_envelope_calibrate``.
 
-Two classifiers, one per answer: the early one over the 0.3 s window (every sample), the refined one over
-1.2 s (every 4th sample; its answer pools both networks' posteriors with weights fitted on development
-touches, :func:`record_pool`), each a network over telethermo.control.material_calib.envelope_vector (the
-touch's shape, divided by its size and by the direction of its heat flow, then that size, the direction
-and the probe's pre-contact state), trained on :mod:`telethermo.offline.material_envelope_refs`' touches
+Three classifiers: the early answer's over 0.34 s (every sample), the refined answer's over 1.2 s (every 4th
+sample), and the one the refined answer pools with over 0.3 s (every sample; the pool's weights fitted on
+development touches, :func:`record_pool`), each a network over material_calib.envelope_vector (the touch's
+shape, divided by its size and by the direction of its heat flow, then that size, the direction and the
+probe's pre-contact state), trained on :mod:`telethermo.offline.material_envelope_refs`' touches
 (192 000, the shipped probe and a family of other modules after ``identify``). The slave uses them outside
 the in-box classifier's box (telethermo.control.material_stream). Features and network size were chosen on
 a development set of other seeds (material_envelope_refs.ENV_DEVELOPMENT; docs/material_id.md).
@@ -29,6 +29,7 @@ from telethermo.control import material_id as mi
 from telethermo.control.material_calib import (
     ENVELOPE_EARLY,
     ENVELOPE_LATE,
+    ENVELOPE_POOL,
     Calibration,
     envelope_vector,
     inputs,
@@ -62,8 +63,11 @@ class Window(NamedTuple):
     sub: int
 
 
-#: the early and the refined answer's classifier
-EARLY, LATE = Window(0.3, 1), Window(1.2, 4)
+#: the early answer's classifier, the one the refined answer pools with and the refined answer's (the early
+#: answer's 0.34 s: the development set's choice over the 0.3 s the pool keeps, docs/material_id.md)
+EARLY, POOL, LATE = Window(0.34, 1), Window(0.3, 1), Window(1.2, 4)
+#: where :func:`calibrate` writes them
+OUT = (ENVELOPE_EARLY, ENVELOPE_POOL, ENVELOPE_LATE)
 #: how the networks are trained (the development set's choice: 3 × 256, 60 epochs; docs/material_id.md)
 SETTINGS = TrainSettings(hidden=256, layers=3, epochs=60, batch=256, warmup=50, weight_decay=1e-4)
 
@@ -122,17 +126,18 @@ def calibrate(
     n: int = ENV_REFERENCES_N,
     jobs: int = 1,
     refs: str | Path | None = None,
-    out: tuple[Path, Path] = (ENVELOPE_EARLY, ENVELOPE_LATE),
+    out: tuple[Path, Path, Path] = OUT,
     settings: TrainSettings = SETTINGS,
     dev: str | Path | None = None,
-) -> tuple[Calibration, Calibration]:
+) -> tuple[Calibration, Calibration, Calibration]:
     """Simulate ``n`` reference touches (or read them from ``refs`` when it exists; written there when it
-    does not), train the early and the refined answer's classifiers, fit the refined answer's pool on the
-    development touches (:func:`record_pool`, ``dev`` its cache) and write them to ``out`` atomically."""
+    does not), train the three classifiers (:data:`EARLY`, :data:`POOL`, :data:`LATE`), fit the refined
+    answer's pool on the development touches (:func:`record_pool`, ``dev`` its cache) and write them to
+    ``out`` atomically."""
     data = _touches(refs, n, ENV_REFERENCES, jobs, _progress)
     y = data["class"].astype(int)
     made = []
-    for win, dest in zip((EARLY, LATE), out):
+    for win in (EARLY, POOL, LATE):
         V, ok = vectors(data["T"], data["Q"], KEEP_PRE, *win)
         info = json.dumps(
             {
@@ -149,10 +154,10 @@ def calibrate(
         )
         made.append(build(V, y[ok], win.window_s, win.sub, settings, info))
     dev_data = _touches(dev, ENV_DEVELOPMENT_N, ENV_DEVELOPMENT, jobs)
-    early, late = made[0], replace(made[1], pool=fit_pool(made[0], made[1], dev_data))
-    for cal, dest in zip((early, late), out):
+    early, partner, late = made[0], made[1], replace(made[2], pool=fit_pool(made[1], made[2], dev_data))
+    for cal, dest in zip((early, partner, late), out):
         save_calibration(cal, dest)
-    return early, late
+    return early, partner, late
 
 
 def _touches(
@@ -170,22 +175,20 @@ def _touches(
     return data
 
 
-def record_ranges(
-    refs: str | Path, paths: tuple[Path, Path] = (ENVELOPE_EARLY, ENVELOPE_LATE)
-) -> tuple[Calibration, Calibration]:
+def record_ranges(refs: str | Path, paths: tuple[Path, Path, Path] = OUT) -> tuple[Calibration, ...]:
     """Record the range of the references' network inputs (material_calib.with_ranges) in the classifiers at
-    ``paths`` (early, refined) from the reference touches they were trained on (``refs``, as
+    ``paths`` (as :data:`OUT`) from the reference touches they were trained on (``refs``, as
     :func:`calibrate` keeps them), the networks unchanged; written atomically."""
     with np.load(Path(refs)) as f:
         T, Q = f["T"], f["Q"]
     made = []
-    for win, path in zip((EARLY, LATE), paths):
+    for win, path in zip((EARLY, POOL, LATE), paths):
         cal = load_calibration(path)
         V, _ = vectors(T, Q, KEEP_PRE, win.window_s, cal.sub)
         cal = with_ranges(cal, inputs(cal.center, cal.whiten, cal.scale, V))
         save_calibration(cal, path)
         made.append(cal)
-    return made[0], made[1]
+    return tuple(made)
 
 
 def fit_pool(early: Calibration, late: Calibration, data: dict[str, np.ndarray]) -> tuple[float, float]:
@@ -216,7 +219,7 @@ def pool_weights(P_early: np.ndarray, P_late: np.ndarray, y: np.ndarray) -> tupl
 def record_pool(
     dev: str | Path | None = None,
     jobs: int = 1,
-    paths: tuple[Path, Path] = (ENVELOPE_EARLY, ENVELOPE_LATE),
+    paths: tuple[Path, Path] = (ENVELOPE_POOL, ENVELOPE_LATE),
 ) -> tuple[float, float]:
     """Fit the refined answer's pool (:func:`fit_pool`) on the development touches (material_envelope_refs.
     ENV_DEVELOPMENT; read from ``dev`` when it exists, kept there when it does not) and record it in the

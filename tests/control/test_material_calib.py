@@ -38,6 +38,7 @@ from telethermo.control.material_stream import (
     MaterialState,
     calibrated,
     default_classes,
+    early_samples,
     fit_units,
     material_step,
 )
@@ -147,7 +148,7 @@ def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
     assert (
         calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 3 + mi.noise_draws(p.probe) + n_units(CAL) == 15
     )
-    n_win, units = int(round(p.probe.window_s / PERIOD_S)), fit_units(p, PERIOD_S)
+    n_win, units = early_samples(p, PERIOD_S), fit_units(p, PERIOD_S)  # the longer window: 0.34 s
     st = MaterialState()
     k_pub = i0 + n_win - 1 + units  # the window completes at i0 + n_win - 1
     for k in range(k_pub):
