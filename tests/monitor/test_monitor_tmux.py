@@ -65,13 +65,19 @@ def keys(sock: str, *names: str) -> None:
 
 
 def _wait_screen(sock: str, text: str, timeout_s: float = 20.0) -> str:
+    """The screen once ``text`` is on it and the terminal has finished drawing: two captures 0.1 s apart
+    agree (curses sends a redraw in pieces; under load a capture between them showed half a title line).
+    A screen that keeps changing until the deadline is returned as last seen with ``text`` on it."""
     deadline = time.monotonic() + timeout_s
-    screen = ""
+    screen, prev = "", None
     while time.monotonic() < deadline:
         screen = _capture(sock)
-        if text in screen:
+        if text in screen and screen == prev:
             return screen
+        prev = screen if text in screen else None
         time.sleep(0.1)
+    if text in screen:
+        return screen
     raise AssertionError(f"{text!r} never appeared on the screen:\n{screen}")
 
 
@@ -160,7 +166,7 @@ def test_damaged_log_keeps_the_decoded_screen_and_says_where(tmp_path):
         env=env,
     )
     try:
-        screen = _wait_screen(sock, "LOG DAMAGED")
+        screen = _wait_screen(sock, f"LOG DAMAGED, replay stopped: {log}:33: damaged row")
         assert f"{log}:33: damaged row" in screen and "[END OF LOG]" not in screen
         assert "1 master   OPERATIONAL" in screen and "#29" in screen  # what was decoded stays
         keys(sock, "q")
