@@ -415,7 +415,7 @@ def _first_input(
     outside = x is None or (p.box is not None and abstain_reason(p.box, inp, est, x) is not None)
     if outside and early_envelope(p, dt_s):
         env = cast(Calibration, p.envelope)
-        rows = np.array(job.rows, dtype=float).reshape(-1, 2)[job.n_pre - inp.n_pre : job.n_pre + env.n_win]
+        rows = np.array(job.rows[job.n_pre - inp.n_pre : job.n_pre + env.n_win], dtype=float).reshape(-1, 2)
         own = replace(inp, T=rows[:, 0], Q=rows[:, 1])  # its own window (the fit's may be shorter)
         return network_input(env, calibration_vector(env, own)), "envelope"
     return (None, "") if outside else (x, "network")
