@@ -19,8 +19,9 @@ stratum's, the worst-stratum ECE a perfectly calibrated classifier shows on the 
 ``material_id_ece_worst_stratum_floor_calibrated``), confident
 precision (accuracy of the answers with posterior ≥ 0.9, with their count), the commonest-class baseline and,
 in the full run, the oracle of telethermo/offline/material_oracle.py (knows the simulator; object
-temperature, contact resistance and thickness profiled out) on a sample of the stratum's touches. The same
-keys on in-box touches (the bench's evaluation draws) for comparison.
+temperature, contact resistance and thickness profiled out) over each answer's own window on a sample of the
+stratum's touches (bench/material_envelope_oracle.py), and the accuracy with the pairs that oracle cannot
+tell apart merged, beside. The same keys on in-box touches (the bench's evaluation draws) for comparison.
 """
 
 from __future__ import annotations
@@ -36,6 +37,7 @@ import numpy as np
 
 from bench import material_id_bench as mb
 from bench.common import current_results_dir, write_results
+from bench.material_envelope_oracle import add_oracle, merged_keys, oracle_note, oracle_sampled
 from bench.material_id_scores import (
     CONFIDENT,
     ece,
@@ -45,7 +47,6 @@ from bench.material_id_scores import (
     position_worst_ms,
     print_envelope,
 )
-from telethermo.offline.material_oracle import noise_scale, oracle_correct, touch_candidates
 from telethermo.control.material_id import noise_draws
 from telethermo.control.types import Role
 from telethermo.offline.envelope import identified_params
@@ -73,7 +74,6 @@ INBOX_N, INBOX_QUICK_N = 300, 100
 #: touches with one condition beyond the envelope (material_touches.outside_draws), full and quick run
 OUTSIDE_N, OUTSIDE_QUICK_N = 200, 50
 NEAR_C = 2.0
-ORACLE_EVERY, ORACLE_DRAWS = 4, 100
 #: the seed of the other TEM's identification (as tests/control/test_material_tem_swap.py's)
 IDENTIFY_SEED = 7
 #: simulated after the touch, s: the refined answer (1.2 s window, its fit, both networks) is out by 1.39 s
@@ -218,19 +218,28 @@ def _fit_positions_ms(step_s: np.ndarray, i0: int) -> list[float]:
     return [1e3 * float(v) for v in step_s[k0 : k0 + fit_units(p, mb.PERIOD_S) + 1]]
 
 
+#: the early answer's figures per stratum
+EARLY_KEYS = (
+    "accuracy",
+    "abstain_fraction",
+    "ece",
+    "ece_floor",
+    "confident_n",
+    "confident_precision",
+    "oracle",
+)
+
+
 def stratum_figures(rows: list[dict]) -> dict[str, Any]:
     """The refined answer's accuracy (abstains wrong), abstain fraction, ECE, confident precision, baseline,
     oracle of ``rows``, and the early answer's (``early``)."""
     if not rows:
         return {"n": 0}
-    early = [r | {"answer": r["answer_early"], "posterior": r["posterior_early"]} for r in rows]
-    return _figures(rows) | {
-        "early": {
-            k: v
-            for k, v in _figures(early).items()
-            if k in ("accuracy", "abstain_fraction", "ece", "ece_floor", "confident_n", "confident_precision")
-        }
-    }
+    early = [
+        r | {"answer": r["answer_early"], "posterior": r["posterior_early"], "oracle": r.get("oracle_early")}
+        for r in rows
+    ]
+    return _figures(rows) | {"early": {k: v for k, v in _figures(early).items() if k in EARLY_KEYS}}
 
 
 def _figures(rows: list[dict]) -> dict[str, Any]:
@@ -271,20 +280,15 @@ def after_identify(params) -> Any:
     return cp
 
 
-def oracle(rigs: dict, t: dict, sims: list[str], rng: np.random.Generator) -> float:
-    """The unknown-nuisance oracle's accuracy on touch ``t`` (telethermo/offline/material_oracle.py, its
-    noise × noise_x)."""
-    params = rigs[t["other_tem"]]
-    sigma = noise_scale(noise_of(t["noise_x"]), int(round(0.3 / mb.PERIOD_S)))
-    z, G = touch_candidates(params, sims, t, t["T_probe_C"], mb.PERIOD_S, t["ambient_C"], sigma)
-    return oracle_correct(z, G, t["class"], rng, ORACLE_DRAWS)[1]
+def near(r: dict) -> bool:
+    """Whether touch ``r``'s object lies within NEAR_C of the probe (the near band: its own stratum)."""
+    return abs(r["T_object_C"] - r["T_probe_C"]) < NEAR_C
 
 
 def strata_rows(rows: list[dict]) -> dict[str, list[dict]]:
     """The touches of each stratum: the near-probe band alone, every other stratum without it, and all."""
-    near = [r for r in rows if abs(r["T_object_C"] - r["T_probe_C"]) < NEAR_C]
-    far = [r for r in rows if abs(r["T_object_C"] - r["T_probe_C"]) >= NEAR_C]
-    out = {"all_outside_near_band": far, f"near_probe_lt_{NEAR_C:g}C": near}
+    far = [r for r in rows if not near(r)]
+    out = {"all_outside_near_band": far, f"near_probe_lt_{NEAR_C:g}C": [r for r in rows if near(r)]}
     return out | {name: [r for r in far if f(r)] for name, f in STRATA.items()}
 
 
@@ -372,15 +376,13 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
     rows = [run_touch(rigs, t, sims, names, cores) for t in envelope_draws(n, ENVELOPE)]
     in_rows = _inbox_rows(rigs, sims, names, quick)
     if not quick:
-        rng = np.random.default_rng(2323)
-        for i, r in enumerate(rows):
-            if i % ORACLE_EVERY == 0 or abs(r["T_object_C"] - r["T_probe_C"]) < NEAR_C:
-                r["oracle"] = oracle(rigs, r, sims, rng)
+        sample = [r for i, r in enumerate(rows) if oracle_sampled(i, len(sims)) or near(r)]
+        add_oracle(sample, rigs, cores, sims, seed=2323)
     n_out = OUTSIDE_QUICK_N if quick else OUTSIDE_N
     check_seeds(p, n_out, OUTSIDE)
     outside = outside_figures([run_touch(rigs, t, sims, names, cores) for t in outside_draws(n_out, OUTSIDE)])
     strata = split(rows)
-    in_fig = stratum_figures([r for r in in_rows if abs(r["T_object_C"] - r["T_probe_C"]) >= NEAR_C])
+    in_fig = stratum_figures([r for r in in_rows if not near(r)])
     allf = strata["all_outside_near_band"]
     w_acc, w_acc_name = worst(strata, "accuracy")
     w_ece, w_ece_name = worst(strata, "ece", high_is_good=False)
@@ -427,6 +429,7 @@ def envelope_figures(quick: bool) -> dict[str, Any]:
         "material_id_outside_confident_precision": outside["all"]["late"]["confident_precision"],
         "material_id_outside": outside,
         "material_id_envelope_strata": strata,
+        **merged_keys([r for r in rows if not near(r)], names),
         "material_id_envelope_first_1000": _first_rows(rows, 1000),
         "material_id_inbox_same_keys": in_fig
         | {"draws": f"bench evaluation draws (15, 1000 + i), first {len(in_rows)}, near-probe band left out"},
@@ -451,11 +454,7 @@ def _conditions(quick: bool) -> dict[str, Any]:
         ),
         "near_band_C": NEAR_C,
         "confident_posterior": CONFIDENT,
-        "oracle": (
-            f"every {ORACLE_EVERY}th touch and all of the near band, {ORACLE_DRAWS} noise draws"
-            if not quick
-            else "not run"
-        ),
+        "oracle": oracle_note() if not quick else "not run",
         "early_answer": "0.49 s after contact: the early envelope classifier's 0.34 s window (the "
         "physics fit over its first 0.3 s) + 15 fit cycles (in-box network in its box, else the early "
         "envelope classifier)",

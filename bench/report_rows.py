@@ -149,6 +149,36 @@ HEADLINE = [
         "report",
     ),
     (
+        "material_id",
+        "material_id_envelope_accuracy_late",
+        "refined answer (1.39 s), 2739 touches across the envelope, outside the 2 °C band (abstain = wrong)",
+        "≥ 0.98",
+    ),
+    (
+        "material_id",
+        "material_id_envelope_oracle_late",
+        "the same touches (every 4th): local oracle over the refined answer's 1.2 s (knows the simulator)",
+        "report",
+    ),
+    (
+        "material_id",
+        "material_id_envelope_accuracy_early",
+        "early answer (0.49 s), the same touches (abstain = wrong)",
+        "≥ 0.90",
+    ),
+    (
+        "material_id",
+        "material_id_envelope_oracle_early",
+        "the same touches: local oracle over the early answer's 0.34 s",
+        "report",
+    ),
+    (
+        "material_id",
+        "material_id_envelope_accuracy_late_merged",
+        "refined answer with the pairs its oracle confuses ≥ 20 % merged (second figure)",
+        "report",
+    ),
+    (
         "monitor",
         "decode_frames_per_s",
         "`Monitor.feed` on a 1 ms-cycle mix of the pair (EDS-decoded), frames/s",

@@ -56,8 +56,11 @@ def true_traces(
     t_on_s: float,
     period_s: float,
     ambient_C: float,
+    window_s: float = WINDOW_S,
+    core_params=None,
 ) -> np.ndarray:
-    """[T_sensor_true (°C) ..., Q_true (W) ...] over the window after the first contact sample, noise off."""
+    """[T_sensor_true (°C) ..., Q_true (W) ...] over the ``window_s`` (s) after the first contact sample,
+    noise off; the slave's core runs ``core_params`` (None: its defaults, before ``telethermo identify``)."""
     grid = GridSettings(t_min_s=period_s)
     spec = BodySpec("object", material=mat, thickness_m=thickness_m, T0_C=T_object_C)
     body = Body(spec, params.area_m2, ambient_C, params.h_air_W_m2K, grid)
@@ -72,11 +75,11 @@ def true_traces(
         grid=grid,
         start=T_probe_C,
     )
-    cp = replace(default_params(Role.SLAVE, period_s=period_s), material_id=None)
+    cp = replace(core_params or default_params(Role.SLAVE, period_s=period_s), material_id=None)
     s = rig.read()
     st = init_state(cp, None, s)
     peer = PeerValues(estimate_C=T_probe_C, flux_W=0.0)
-    n_win = int(round(WINDOW_S / period_s))
+    n_win = int(round(window_s / period_s))
     T, Q = [], []
     while len(T) < n_win:
         s = rig.read()
@@ -106,16 +109,22 @@ def touch_candidates(
     period_s: float,
     ambient_C: float,
     sigma: np.ndarray,
+    window_s: float = WINDOW_S,
+    core_params=None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Whitened traces z (k, 2n) of each candidate at the touch's nuisance values and their nuisance
-    sensitivities G (k, 2n, 3): object temperature, contact resistance (via force), thickness."""
+    sensitivities G (k, 2n, 3): object temperature, contact resistance (via force), thickness; over
+    ``window_s`` (s, ``sigma`` of that many samples), the slave's core running ``core_params``."""
     f, T_o, d, t_on = touch["force_N"], touch["T_object_C"], touch["thickness_m"], touch["t_on_s"]
     f_pert = FORCE_PERFECT_N - 1.0 if f >= FORCE_PERFECT_N else 0.9 * f
     z, G = [], []
     for mat in sims:
 
         def tr(mm=mat, dd=d, TT=T_o, ff=f):
-            return true_traces(params, mm, dd, TT, ff, T_probe_C, t_on, period_s, ambient_C) / sigma
+            out = true_traces(
+                params, mm, dd, TT, ff, T_probe_C, t_on, period_s, ambient_C, window_s, core_params
+            )
+            return out / sigma
 
         base = tr()
         z.append(base)
@@ -142,6 +151,15 @@ def oracle_correct(
     z: np.ndarray, G: np.ndarray, truth: int, rng: np.random.Generator, draws: int = DRAWS
 ) -> tuple[float, float]:
     """(fraction of draws the known-nuisance ML oracle is right, the same for the unknown-nuisance GLRT)."""
+    known, prof = oracle_answers(z, G, truth, rng, draws)
+    return float(np.mean(known == truth)), float(np.mean(prof == truth))
+
+
+def oracle_answers(
+    z: np.ndarray, G: np.ndarray, truth: int, rng: np.random.Generator, draws: int = DRAWS
+) -> tuple[np.ndarray, np.ndarray]:
+    """The class each oracle names in each of ``draws`` noise draws of candidate ``truth``: (known-nuisance
+    ML, unknown-nuisance GLRT), each an int array of ``draws`` (its histogram: the oracle's confusion row)."""
     k, m = z.shape
     W = rng.standard_normal((draws, m))
     obs = z[truth] + W  # (draws, m)
@@ -149,9 +167,7 @@ def oracle_correct(
     d_prof = np.stack(
         [np.sum(((obs - z[j]) @ residual_projector(G[j])) ** 2, axis=1) for j in range(k)], axis=1
     )
-    return float(np.mean(np.argmin(d_known, axis=1) == truth)), float(
-        np.mean(np.argmin(d_prof, axis=1) == truth)
-    )
+    return np.argmin(d_known, axis=1), np.argmin(d_prof, axis=1)
 
 
 def bound_figures(
