@@ -161,7 +161,10 @@ EMCY_SENSOR_DETACHED = 0x5014
 def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
     """The master's module's sensor head comes off the pad at 5 s (``telethermo-iomodule --fault detach:5``):
     the master, which sees only the module's codes, sends EMCY 0x5014 and drives 0 A from then on (its RPDO to
-    the module), as the test's own listener sees on the bus; the slave does not trip."""
+    the module), as the test's own listener sees on the bus; the slave does not trip. The pair's heartbeat
+    consumers are 3 s (:func:`fast_heartbeat_network`): under two CPU hogs the slave once stalled 300 ms, the
+    master tripped ``peer_lost`` at 250 ms, and the ramp to neutral that followed delayed the detachment's
+    trip past the run's end; the link's loss is another test's subject."""
     scene = Path(__file__).resolve().parents[2] / "sim" / "scenes" / f"{SCENE}.toml"
     with HubThread() as hub:
         bus = f"socketcand://127.0.0.1:{hub.port}/vcan0"
@@ -187,6 +190,7 @@ def test_a_detached_sensor_behind_the_module_trips_on_the_bus(tmp_path):
                 cycles=DETACH_CYCLES,
                 seed=0,
                 io_faults={"master": [f"detach:{DETACH_AT_S:g}"]},
+                network=fast_heartbeat_network(tmp_path / "network"),
             )
         )
         try:
