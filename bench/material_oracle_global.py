@@ -40,7 +40,7 @@ from bench.material_envelope_oracle import ORACLE_DRAWS, windows
 from bench.material_id_envelope import NEAR_C, STRATA, after_identify, run_touch
 from telethermo.offline.material_oracle import (
     noise_scale,
-    residual_projector,
+    profiled_distances,
     touch_candidates,
     true_traces,
 )
@@ -173,14 +173,6 @@ def global_candidates(
     return z_loc, G_loc, z, G, fits
 
 
-def _distances(z: np.ndarray, G: np.ndarray, obs: np.ndarray) -> np.ndarray:
-    """(draws, k): each draw's squared residual to each candidate, its nuisances profiled in the
-    linearisation about (z, G)."""
-    return np.stack(
-        [np.sum(((obs - z[j]) @ residual_projector(G[j])) ** 2, axis=1) for j in range(len(z))], 1
-    )
-
-
 def classify(
     z_loc: np.ndarray, G_loc: np.ndarray, z: np.ndarray, G: np.ndarray, truth: int, W: np.ndarray
 ) -> tuple[list[int], list[int]]:
@@ -188,8 +180,8 @@ def classify(
     oracle, and by the global one, which takes for each candidate the better of its two linearisations (at
     the touch's nuisances and at its pseudo-true ones), so that it is never kinder than the local one."""
     obs = z_loc[truth] + W
-    d_loc = _distances(z_loc, G_loc, obs)
-    d_glob = np.minimum(d_loc, _distances(z, G, obs))
+    d_loc = profiled_distances(z_loc, G_loc, obs)
+    d_glob = np.minimum(d_loc, profiled_distances(z, G, obs))
     k = len(z)
     return (
         np.bincount(np.argmin(d_loc, axis=1), minlength=k).tolist(),

@@ -164,10 +164,15 @@ def oracle_answers(
     W = rng.standard_normal((draws, m))
     obs = z[truth] + W  # (draws, m)
     d_known = np.stack([np.sum((obs - z[j]) ** 2, axis=1) for j in range(k)], axis=1)
-    d_prof = np.stack(
-        [np.sum(((obs - z[j]) @ residual_projector(G[j])) ** 2, axis=1) for j in range(k)], axis=1
+    return np.argmin(d_known, axis=1), np.argmin(profiled_distances(z, G, obs), axis=1)
+
+
+def profiled_distances(z: np.ndarray, G: np.ndarray, obs: np.ndarray) -> np.ndarray:
+    """(draws, k): each observation's squared residual to each candidate's trace z[j], its nuisances
+    profiled out in the linearisation G[j] (the unknown-nuisance GLRT's statistic)."""
+    return np.stack(
+        [np.sum(((obs - z[j]) @ residual_projector(G[j])) ** 2, axis=1) for j in range(len(z))], axis=1
     )
-    return np.argmin(d_known, axis=1), np.argmin(d_prof, axis=1)
 
 
 def bound_figures(
