@@ -100,7 +100,9 @@ def score_touch(t: dict) -> dict[str, Any]:
     rigs, cores, sims = _WORKER["rigs"], _WORKER["cores"], _WORKER["sims"]
     names = [mb.SIM_TO_TABLE[m] for m in sims]
     T, Q, i0, _, _ = simulate_drawn(rigs, t, sims, cores)
+    c0 = time.process_time()
     slave = run_touch(rigs, t, sims, names, cores)
+    c1 = time.process_time()
     n_full = int(round(max(windows().values()) / mb.PERIOD_S))
     out: dict[str, Any] = {k: t[k] for k in ("class", "T_object_C", "force_N", "thickness_m", "ambient_C")}
     out |= {"noise_x": t["noise_x"], "other_tem": t["other_tem"], "T_probe_C": t["T_probe_C"]}
@@ -139,6 +141,9 @@ def score_touch(t: dict) -> dict[str, Any]:
             res["profiled_known_onset"].append(best.cost)
             res["profiled"].append(free.cost)
         out[stage] = res | {"sims": sims_run}
+    # CPU of the profiled fits over that of the slave's whole touch (its control and classification), same
+    # process: what the reference would cost the node
+    out["fit_cpu_over_touch"] = (time.process_time() - c1) / max(c1 - c0, 1e-9)
     return out
 
 
@@ -209,6 +214,12 @@ def main(argv: list[str] | None = None) -> int:
         }
     res |= {
         "pseudo_true_starts": sum(1 for t in ts if t.get("pseudo")),
+        "fit_cpu_over_slave_touch_median": round(
+            float(np.median([r["fit_cpu_over_touch"] for r in rows])), 1
+        ),
+        "sims_per_touch_median": {
+            s: float(np.median([r[s]["sims"] for r in rows if r.get(s)])) for s in ("late", "early")
+        },
         "strata": summary,
         "windows_s": windows(),
         "settings": {"iters": ITERS, "onset_iters": ONSET_ITERS, "noise_pairs": NOISE_PAIRS},
