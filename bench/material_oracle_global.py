@@ -271,19 +271,30 @@ def summarise(rows: list[dict]) -> dict[str, Any]:
             loc = np.array([r[stage]["local"][r["class"]] / ORACLE_DRAWS for r in rs])
             glo = np.array([r[stage]["global"][r["class"]] / ORACLE_DRAWS for r in rs])
             ans = np.array([float(r["answer"][stage] == r["class"]) for r in rs])
-            gap = glo - ans
             return {
                 "n": len(rs),
                 "local": round(float(loc.mean()), 3),
                 "global": round(float(glo.mean()), 3),
                 "answer": round(float(ans.mean()), 3),
-                "gap_to_global": round(float(gap.mean()), 3),
-                "gap_se": round(float(gap.std(ddof=1) / math.sqrt(len(rs))), 3) if len(rs) > 1 else None,
-            }
+            } | paired_gap(glo, ans, "gap_to_global")
 
-        per = {"all_outside_near_band": rows} | {k: [r for r in rows if f(r)] for k, f in STRATA.items()}
-        out[stage] = {k: one(rs) for k, rs in per.items()}
+        out[stage] = by_stratum(rows, one)
     return out
+
+
+def paired_gap(ref: np.ndarray, ans: np.ndarray, key: str) -> dict[str, Any]:
+    """The mean of ``ref − ans`` (per touch: 1 right, 0 wrong, or an oracle's share of draws) as ``key`` and
+    its standard error as ``gap_se`` (None for one touch)."""
+    gap = np.asarray(ref, float) - np.asarray(ans, float)
+    se = round(float(gap.std(ddof=1) / math.sqrt(gap.size)), 3) if gap.size > 1 else None
+    return {key: round(float(gap.mean()), 3), "gap_se": se}
+
+
+def by_stratum(rows: list[dict], one: Any) -> dict[str, Any]:
+    """``one`` of all ``rows`` (``all_outside_near_band``) and of each envelope stratum's
+    (bench/material_id_envelope.STRATA)."""
+    per = {"all_outside_near_band": rows} | {k: [r for r in rows if f(r)] for k, f in STRATA.items()}
+    return {k: one(rs) for k, rs in per.items()}
 
 
 def main(argv: list[str] | None = None) -> int:

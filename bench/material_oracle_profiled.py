@@ -40,8 +40,8 @@ import numpy as np
 from bench import material_id_bench as mb
 from bench.common import write_results
 from bench.material_envelope_oracle import windows
-from bench.material_id_envelope import STRATA, after_identify, run_touch, simulate_drawn
-from bench.material_oracle_global import touches
+from bench.material_id_envelope import after_identify, run_touch, simulate_drawn
+from bench.material_oracle_global import by_stratum, paired_gap, touches
 from telethermo.offline.material_profile import (
     KNOWN_ONSET,
     TouchModel,
@@ -172,18 +172,13 @@ def summarise(rows: list[dict]) -> dict[str, Any]:
                 return {"n": 0}
             got = {k: np.array([float(np.argmin(r[st][k]) == r["class"]) for r in rs]) for k in KINDS}
             ans = np.array([float(r["answer"][st] == r["class"]) for r in rs])
-            gap = got["profiled"] - ans
             return (
                 {"n": len(rs), "answer": round(float(ans.mean()), 3)}
                 | {k: round(float(v.mean()), 3) for k, v in got.items()}
-                | {
-                    "gap_to_profiled": round(float(gap.mean()), 3),
-                    "gap_se": round(float(gap.std(ddof=1) / math.sqrt(len(rs))), 3) if len(rs) > 1 else None,
-                }
+                | paired_gap(got["profiled"], ans, "gap_to_profiled")
             )
 
-        per = {"all_outside_near_band": ok} | {k: [r for r in ok if f(r)] for k, f in STRATA.items()}
-        out[stage] = {k: one(rs) for k, rs in per.items()}
+        out[stage] = by_stratum(ok, one)
     return out
 
 
