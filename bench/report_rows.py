@@ -179,6 +179,25 @@ HEADLINE = [
         "report",
     ),
     (
+        "material_oracle_profiled",
+        "material_oracle_profiled_late",
+        "134 of those touches, the slave's own records: each candidate's force, thickness, object fitted "
+        "(not linearised) on the simulator, onset free; refined window",
+        "report",
+    ),
+    (
+        "material_oracle_profiled",
+        "material_oracle_profiled_gap_late",
+        "the slave's refined answer's paired gap to it, same records (its SE in the results file)",
+        "report",
+    ),
+    (
+        "material_oracle_profiled",
+        "material_oracle_linearised_record_late",
+        "the same records: one linear projection from the touch's nuisances (the local oracle's form)",
+        "report",
+    ),
+    (
         "monitor",
         "decode_frames_per_s",
         "`Monitor.feed` on a 1 ms-cycle mix of the pair (EDS-decoded), frames/s",
