@@ -19,7 +19,11 @@ the slave's answer:
 - ``linearised``: one projection from the touch's own nuisances (the local oracle's form, on this record);
 - ``profiled_known_onset``: the fit, the touch's onset known within its sample (kind: the slave does not
   know where in the 10 ms sample the contact began);
-- ``profiled``: the same fit continued with the onset free too (within ± one sample): the reference.
+- ``profiled``: the same fit continued with the onset free too (within ± one sample): the reference;
+- ``laplace``: that fit's evidence by Laplace's approximation (telethermo/offline/material_profile.py,
+  ``laplace_log_evidence``): a wrong material that fits only on a narrow ridge of its nuisances is weighed by
+  how narrow, as the posterior marginalised over the envelope's flat prior would, which the maximum
+  likelihood does not.
 
 Each still knows the simulator (one contact law for every surface, the back condition), the probe's rig,
 its gains, its resting state and the room: a ceiling for a method that must learn the probe from examples.
@@ -45,6 +49,7 @@ from bench.material_oracle_global import by_stratum, paired_gap, touches
 from telethermo.offline.material_profile import (
     KNOWN_ONSET,
     TouchModel,
+    laplace_log_evidence,
     lm_fit,
     noise_covariance,
     record_vector,
@@ -60,7 +65,7 @@ ITERS, ONSET_ITERS = 4, 2
 #: paired noisy and noise-free touches per module for the noise covariance
 NOISE_PAIRS = 1500
 GLOBAL = Path(__file__).resolve().parent / "results" / "material_oracle_global.json"
-KINDS = ("linearised", "profiled_known_onset", "profiled")
+KINDS = ("linearised", "profiled_known_onset", "profiled", "laplace")
 
 _WORKER: dict[str, Any] = {}
 
@@ -140,6 +145,7 @@ def score_touch(t: dict) -> dict[str, Any]:
             res["linearised"].append(fits[0].linearised)
             res["profiled_known_onset"].append(best.cost)
             res["profiled"].append(free.cost)
+            res["laplace"].append(-2.0 * laplace_log_evidence(free))
         out[stage] = res | {"sims": sims_run}
     # CPU of the profiled fits over that of the slave's whole touch (its control and classification), same
     # process: what the reference would cost the node
@@ -206,6 +212,7 @@ def main(argv: list[str] | None = None) -> int:
             f"material_oracle_linearised_record_{s}": top[s]["linearised"],
             f"material_oracle_profiled_answer_{s}": top[s]["answer"],
             f"material_oracle_profiled_gap_{s}": top[s]["gap_to_profiled"],
+            f"material_oracle_laplace_{s}": top[s]["laplace"],
         }
     res |= {
         "pseudo_true_starts": sum(1 for t in ts if t.get("pseudo")),

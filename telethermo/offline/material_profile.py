@@ -109,12 +109,16 @@ class TouchModel:
 @dataclass(frozen=True)
 class Fit:
     """One candidate's profiled fit: ``cost`` the whitened squared residual at ``theta``; ``linearised`` the
-    residual of one linear projection from the start (the local oracle's form); ``sims`` traces simulated."""
+    residual of one linear projection from the start (the local oracle's form); ``sims`` traces simulated;
+    ``fisher`` JᵀJ of the free parameters at the last Jacobian (the whitened trace's information about them,
+    for :func:`laplace_log_evidence`; empty when nothing was free)."""
 
     cost: float
     theta: np.ndarray
     linearised: float
     sims: int
+    fisher: np.ndarray
+    free: np.ndarray
 
 
 def lm_fit(
@@ -132,6 +136,7 @@ def lm_fit(
     cost, sims, lam = float(np.sum((x - f0) ** 2)), 1, 1e-2
     idx = np.flatnonzero(free)
     linearised = cost
+    A = np.zeros((idx.size, idx.size))
     for it in range(iters if idx.size else 0):
         J = np.empty((x.size, idx.size))
         for c, q in enumerate(idx):
@@ -155,7 +160,7 @@ def lm_fit(
                 theta, f0, cost, lam = cand, f1, c1, lam / 3.0
                 break
             lam *= 10.0
-    return Fit(cost, theta, linearised, sims)
+    return Fit(cost, theta, linearised, sims, A, idx)
 
 
 def noise_covariance(
@@ -207,3 +212,22 @@ def with_onset_free(free: np.ndarray) -> np.ndarray:
 
 
 KNOWN_ONSET = np.array([True, True, True, False])
+
+
+def laplace_log_evidence(fit: Fit) -> float:
+    """ln p(record | material) up to a constant shared by every candidate, by Laplace's approximation about
+    the fit: −cost/2 plus, along each eigen-direction of the free parameters' information, the log of the
+    width the record leaves it (√(2π/λ)), capped at the envelope's extent along that direction (the prior,
+    uniform in ln F, ln d, T_o and the onset over :data:`LOWER`–:data:`UPPER`, is flat; its volume is shared).
+    A wrong material that fits only on a narrow ridge of its nuisances is weighed by how narrow, which the
+    maximum likelihood (``cost`` alone) does not."""
+    out = -0.5 * fit.cost
+    if fit.free.size == 0:
+        return out
+    lam, vec = np.linalg.eigh(0.5 * (fit.fisher + fit.fisher.T))
+    span = (UPPER - LOWER)[fit.free]
+    for k in range(lam.size):
+        extent = 1.0 / max(float(np.max(np.abs(vec[:, k]) / span)), 1e-12)
+        width = math.sqrt(2.0 * math.pi / lam[k]) if lam[k] > 0.0 else extent
+        out += math.log(min(width, extent) / extent)
+    return out

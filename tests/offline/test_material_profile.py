@@ -10,7 +10,9 @@ import numpy as np
 from telethermo.offline.material_profile import (
     KNOWN_ONSET,
     PRE,
+    Fit,
     TouchModel,
+    laplace_log_evidence,
     lm_fit,
     record_vector,
     window_block,
@@ -98,3 +100,21 @@ def test_onset_within_the_sample_moves_the_trace():
     assert np.allclose(model.trace("brass", th), v)
     sigma_T = NoiseParams().T_sigma_C
     assert float(np.max(np.abs(moved[:N_WIN] - v[:N_WIN]))) > 10 * sigma_T
+
+
+def _fit(cost: float, fisher: np.ndarray, free: list[int]) -> Fit:
+    return Fit(cost, np.zeros(4), cost, 1, fisher, np.array(free))
+
+
+def test_the_evidence_weighs_a_narrow_fit_below_a_broad_one():
+    """Two candidates fit the record equally well; the one whose nuisances are pinned to a narrow ridge (high
+    information) has the lower Laplace evidence, by ½·ln of the information ratio per pinned direction; a
+    direction the record does not inform (a thick slab's thickness) costs nothing; with nothing free the
+    evidence is −cost/2."""
+    broad = laplace_log_evidence(_fit(300.0, np.diag([1e2, 0.0, 1e2]), [0, 1, 2]))
+    narrow = laplace_log_evidence(_fit(300.0, np.diag([1e6, 0.0, 1e2]), [0, 1, 2]))
+    assert narrow < broad
+    assert math.isclose(broad - narrow, 0.5 * math.log(1e6 / 1e2), rel_tol=1e-9)
+    blind = laplace_log_evidence(_fit(300.0, np.diag([1e2, 1e2]), [0, 2]))
+    assert math.isclose(blind, broad, rel_tol=1e-12)
+    assert laplace_log_evidence(_fit(300.0, np.zeros((0, 0)), [])) == -150.0
