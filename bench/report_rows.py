@@ -193,6 +193,12 @@ HEADLINE = [
     ),
     (
         "material_oracle_profiled",
+        "material_oracle_laplace_late",
+        "the same fits weighed by Laplace's evidence (near the posterior marginalised over the nuisances)",
+        "report",
+    ),
+    (
+        "material_oracle_profiled",
         "material_oracle_linearised_record_late",
         "the same records: one linear projection from the touch's nuisances (the local oracle's form)",
         "report",
