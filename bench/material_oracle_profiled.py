@@ -76,14 +76,13 @@ def _rigs() -> tuple[dict, dict]:
     return rigs, {False: None, True: after_identify(rigs[True])}
 
 
-def _cov(other: bool) -> np.ndarray:
-    rigs, cores = _rigs()
+def _cov(rig: tuple[Any, Any]) -> np.ndarray:
+    params, core = rig
     n_full = int(round(max(windows().values()) / mb.PERIOD_S))
-    return noise_covariance(rigs[other], cores[other], list(SIM_TO_TABLE), NOISE_PAIRS, n_full, seed=77)
+    return noise_covariance(params, core, list(SIM_TO_TABLE), NOISE_PAIRS, n_full, seed=77)
 
 
-def _init(covs: dict) -> None:
-    rigs, cores = _rigs()
+def _init(rigs: dict, cores: dict, covs: dict) -> None:
     _WORKER.update(rigs=rigs, cores=cores, covs=covs, sims=list(SIM_TO_TABLE))
 
 
@@ -198,9 +197,10 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     ts = touches(a.n)
     _pseudo(ts)
+    rigs, cores = _rigs()  # the other module identified once, for every process
     with ProcessPoolExecutor(a.workers) as ex:
-        covs = dict(zip((False, True), ex.map(_cov, (False, True))))
-    with ProcessPoolExecutor(a.workers, initializer=_init, initargs=(covs,)) as ex:
+        covs = dict(zip((False, True), ex.map(_cov, [(rigs[k], cores[k]) for k in (False, True)])))
+    with ProcessPoolExecutor(a.workers, initializer=_init, initargs=(rigs, cores, covs)) as ex:
         rows = list(ex.map(score_touch, ts))
     summary = summarise(rows)
     top = {s: summary[s]["all_outside_near_band"] for s in summary}
