@@ -204,6 +204,30 @@ HEADLINE = [
         "report",
     ),
     (
+        "material_early_abstention",
+        "early_accuracy_shipped",
+        "early answer on 2000 development touches of the envelope (the slave as shipped; abstains wrong)",
+        "report",
+    ),
+    (
+        "material_early_abstention",
+        "early_accuracy_name_no_fit",
+        "the same touches with the early `no_fit` abstentions named by the classifier (not shipped)",
+        "report",
+    ),
+    (
+        "material_early_abstention",
+        "outside_confident_precision_early_shipped",
+        "400 touches beyond the envelope: early answers at posterior ≥ 0.9 that are right, as shipped",
+        "report",
+    ),
+    (
+        "material_early_abstention",
+        "outside_confident_precision_early_name_no_fit",
+        "the same with `no_fit` named: what naming them costs beyond the envelope",
+        "report",
+    ),
+    (
         "monitor",
         "decode_frames_per_s",
         "`Monitor.feed` on a 1 ms-cycle mix of the pair (EDS-decoded), frames/s",
