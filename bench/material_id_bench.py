@@ -49,6 +49,7 @@ from telethermo.control.material_stream import (
     MaterialIdParams,
     calibrated,
     default_classes,
+    early_samples,
     fit_units,
 )
 
@@ -113,7 +114,7 @@ def tick_figures(step_s: list[np.ndarray], fit_cycles: list[slice], batch_s: lis
         "material_id_fit_cycle_worst_over_step_median": round(worst_fit / med, 1),
         "material_id_batch_fit_over_step_median": round(batch / med, 1),
         "material_id_tick_note": (
-            "the fit runs spread over fit_units cycles after the window (3 + noise_draws "
+            "the fit runs spread over fit_units cycles after the early window (3 + noise_draws "
             "+ one per network layer, telethermo.control.material_stream); "
             "fit_cycle_worst: per touch the slowest "
             "of those cycles' core steps, median over touches; batch_fit: the physics fit in "
@@ -349,7 +350,7 @@ def _run_touches(
     step_s: list[np.ndarray] = []
     batch_s: list[float] = []
     fit_cycles: list[slice] = []
-    n_win, units = int(round(mi.ProbeParams().window_s / PERIOD_S)), fit_units(MaterialIdParams(), PERIOD_S)
+    n_win, units = early_samples(MaterialIdParams(), PERIOD_S), fit_units(MaterialIdParams(), PERIOD_S)
     for dr in draws(n_touches, EVALUATION):
         j, force, T_obj, d, t_on = (
             dr["class"],

@@ -40,6 +40,7 @@ from bench.common import current_results_dir, write_results
 from bench.material_envelope_oracle import add_oracle, merged_keys, oracle_note, oracle_sampled
 from bench.material_id_scores import (
     CONFIDENT,
+    answer_timing,
     ece,
     ece_floor,
     ece_worst_floor,
@@ -51,7 +52,13 @@ from telethermo.control.material_id import noise_draws
 from telethermo.control.types import Role
 from telethermo.offline.envelope import identified_params
 from telethermo.control.material_calib import n_units
-from telethermo.control.material_stream import MaterialIdParams, UNKNOWN_CODE, fit_units, late_samples
+from telethermo.control.material_stream import (
+    MaterialIdParams,
+    UNKNOWN_CODE,
+    early_samples,
+    fit_units,
+    late_samples,
+)
 from telethermo.sim.materials import material
 from telethermo.sim.tem import load_rig_params
 
@@ -76,7 +83,7 @@ OUTSIDE_N, OUTSIDE_QUICK_N = 200, 50
 NEAR_C = 2.0
 #: the seed of the other TEM's identification (as tests/control/test_material_tem_swap.py's)
 IDENTIFY_SEED = 7
-#: simulated after the touch, s: the refined answer (1.2 s window, its fit, both networks) is out by 1.39 s
+#: simulated after the touch, s: the refined answer (1.2 s window, its fit, both networks) is out by 1.27 s
 POST_S = 1.45
 #: keys of material_id.json that issue 23 names for this run and the in-box run (bench/material_id_bench.py)
 #: also computes: that run writes its own as ``material_id_box_*`` (material_id_bench.box_keys)
@@ -199,12 +206,13 @@ def _fit_cycles_ms(step_s: np.ndarray, i0: int) -> tuple[float | None, float | N
     if i0 < 0:
         return None, None
     p = MaterialIdParams()
-    n_win = int(round(p.probe.window_s / mb.PERIOD_S))
+    n_win = early_samples(p, mb.PERIOD_S)
     cyc = [range(i0 + n_win, i0 + n_win + fit_units(p, mb.PERIOD_S) + 1)]
     n_late = late_samples(p, mb.PERIOD_S)
     if n_late:  # the window's signals, the two forms, the noise draws, the networks' layers (the pool's too)
         nets = sum(n_units(c) for c in (p.envelope, p.envelope_late) if c is not None)
-        cyc.append(range(i0 + n_late, i0 + n_late + 3 + noise_draws(p.probe) + nets + 1))
+        late_cycles = -(-(3 + noise_draws(p.probe) + nets) // p.units_per_cycle)
+        cyc.append(range(i0 + n_late, i0 + n_late + late_cycles + 1))
     out = [[k for k in c if k < step_s.size] for c in cyc] + [[]]
     return tuple(1e3 * float(np.max(step_s[i])) if i else None for i in out[:2])
 
@@ -214,7 +222,7 @@ def _fit_positions_ms(step_s: np.ndarray, i0: int) -> list[float]:
     if i0 < 0:
         return []
     p = MaterialIdParams()
-    k0 = i0 + int(round(p.probe.window_s / mb.PERIOD_S))
+    k0 = i0 + early_samples(p, mb.PERIOD_S)
     return [1e3 * float(v) for v in step_s[k0 : k0 + fit_units(p, mb.PERIOD_S) + 1]]
 
 
@@ -455,11 +463,8 @@ def _conditions(quick: bool) -> dict[str, Any]:
         "near_band_C": NEAR_C,
         "confident_posterior": CONFIDENT,
         "oracle": oracle_note() if not quick else "not run",
-        "early_answer": "0.49 s after contact: the early envelope classifier's 0.34 s window (the "
-        "physics fit over its first 0.3 s) + 15 fit cycles (in-box network in its box, else the early "
-        "envelope classifier)",
-        "late_answer": "1.39 s after contact: the envelope classifiers pooled (the early one over 0.34 s, "
-        "the refined one over 1.2 s) + 19 fit cycles; in the box the in-box network's class stands",
+        "early_answer": answer_timing(early=True),
+        "late_answer": answer_timing(early=False),
         "tick": "fit_cycle_worst: per touch the slowest core step of the early fit's cycles "
         "(late_: of the refined fit's), median over touches; "
         "core_step_median: median of the touches' median steps",

@@ -1,6 +1,6 @@
 """Scores of the material bench's envelope run (bench/material_id_envelope.py): the expected calibration
 error and its floor, the figures of the touches beyond the envelope, the fit's slowest cycle position, and
-the run's printout."""
+the run's printout, and when each answer is out."""
 
 from __future__ import annotations
 
@@ -8,11 +8,17 @@ from typing import Any
 
 import numpy as np
 
+from telethermo.control.material_calib import n_units
+from telethermo.control.material_id import noise_draws
+from telethermo.control.material_stream import MaterialIdParams, early_samples, fit_units, late_samples
+
 # the calibration error and its floors live in the library (the tests use them too); re-exported
 from telethermo.offline.calibration_error import ECE_FLOOR_SEED, ece, ece_floor, ece_worst_floor
+from telethermo.offline.material_touches import PERIOD_S
 
 __all__ = [
     "CONFIDENT",
+    "answer_timing",
     "ECE_FLOOR_SEED",
     "ece",
     "ece_floor",
@@ -94,3 +100,23 @@ def print_envelope(fig: dict[str, Any]) -> None:
     for k, v in fig.items():
         if not isinstance(v, dict):
             print(f"{k}: {v}")
+
+
+def answer_timing(early: bool) -> str:
+    """When the early (``early``) or the refined answer is out after the contact, and what it is made of."""
+    p, dt = MaterialIdParams(), PERIOD_S
+    per = p.units_per_cycle
+    if early:
+        n, cycles = early_samples(p, dt), fit_units(p, dt)
+        return (
+            f"{(n + cycles) * dt:.2f} s after contact: the early envelope classifier's {n * dt:.2f} s window "
+            f"(the physics fit over its first {p.probe.window_s:g} s) + {cycles} fit cycles of {per} units "
+            "(in-box network in its box, else the early envelope classifier)"
+        )
+    nets = sum(n_units(c) for c in (p.envelope_pool, p.envelope_late) if c is not None)
+    n, cycles = late_samples(p, dt), -(-(3 + noise_draws(p.probe) + nets) // per)
+    return (
+        f"{(n + cycles) * dt:.2f} s after contact: the envelope classifiers pooled (the pool's over 0.3 s, "
+        f"the refined one over {n * dt:.2f} s) + {cycles} fit cycles of {per} units; in the box the in-box "
+        "network's class stands"
+    )

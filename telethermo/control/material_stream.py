@@ -3,16 +3,17 @@
 The slave's core calls :func:`material_step` every cycle with the sample and its contact decision. While
 nothing touches, the last ``pre_s`` of samples are kept; from the first contact sample on, ``window_s`` of
 samples are collected. The fit (:func:`telethermo.control.material_id.estimate_effusivity`'s stages) then
-runs spread over the following cycles, one unit of work per cycle so that no control cycle carries the
-whole fit: the window's signals, the energy form, the flux form, each of the ``noise_draws`` noise
-realisations of the confidence, then the classification: with a calibration
+runs spread over the following cycles, a few units of work per cycle (``units_per_cycle``) so that no
+control cycle carries the whole fit: the window's signals, the energy form, the flux form, each of the
+``noise_draws`` noise realisations of the confidence, then the classification: with a calibration
 (telethermo.control.material_calib, default the shipped one) its networks' posterior, else the nearest table
-effusivity. The networks run one layer per cycle. The result (the physics fit's effusivity and standard error
+effusivity. The networks run one layer per unit. The result (the physics fit's effusivity and standard error
 of ln b, the class and its posterior) is published :func:`fit_units` cycles after the window is complete (15
-with the defaults and networks of four layers: 0.15 s at 100 Hz; without an effusivity from either form of the
-physics fit, the class alone, without the noise realisations' cycles) and held until the next touch's fit
-completes (a release clears nothing; a fit under way finishes). The staged fit equals the batch one exactly
-(material_id.estimate_effusivity, material_calib.classify_vector). Pure: the state is an immutable value.
+units with the defaults and networks of four layers, three a cycle: 0.05 s at 100 Hz; without an effusivity
+from either form of the physics fit, the class alone, without the noise realisations' units) and held until
+the next touch's fit completes (a release clears nothing; a fit under way finishes). The staged fit equals the
+batch one exactly (material_id.estimate_effusivity, material_calib.classify_vector). Pure: the state is an
+immutable value.
 """
 
 from __future__ import annotations
@@ -41,9 +42,6 @@ from telethermo.control.material_id import (
     with_noise_spread,
 )
 from telethermo.control.material_calib import (
-    ENVELOPE_EARLY,
-    ENVELOPE_LATE,
-    ENVELOPE_POOL,
     Calibration,
     calibration_vector,
     decide,
@@ -56,139 +54,47 @@ from telethermo.control.material_calib import (
 from telethermo.control import material_physics as mp
 from telethermo.control.material_trust import (
     NOVELTY_REASONS,
-    CalibrationBox,
     abstain_reason,
     envelope_abstention,
     pre_contact,
 )
+from telethermo.control.material_params import (
+    B_SKIN_REF,
+    UNITS_PER_CYCLE,
+    UNKNOWN_CODE,
+    MaterialEstimate,
+    MaterialIdParams,
+    applies,
+    calibrated,
+    early_envelope,
+    early_samples,
+    fit_units,
+    fit_work_units,
+    late_samples,
+)
+
+# re-exported: the node, the benches and the tests import them from here
+__all__ = [
+    "B_SKIN_REF",
+    "UNITS_PER_CYCLE",
+    "UNKNOWN_CODE",
+    "MaterialEstimate",
+    "MaterialIdParams",
+    "MaterialState",
+    "applies",
+    "calibrated",
+    "default_calibration",
+    "default_classes",
+    "default_envelope",
+    "early_envelope",
+    "early_samples",
+    "fit_units",
+    "fit_work_units",
+    "late_samples",
+    "material_step",
+    "prepare",
+]
 from telethermo.control.material_defaults import default_calibration, default_classes, default_envelope
-
-#: the finger reference of the rendering table's β = b/b_skin for the simulator's materials, W·s^½/(m²·K)
-#: (sim/data/materials.toml [materials.skin]: √(0.21 · 1200 · 3590); telethermo/data/render_materials.toml)
-B_SKIN_REF = 951.15
-#: the published code of an abstention ("unknown"): the touch lies outside what the classifier was
-#: calibrated on, or its evidence is weak; the effusivity and object temperature the physics fit measured
-#: are still published
-UNKNOWN_CODE = 255
-
-
-@dataclass(frozen=True, slots=True)
-class MaterialEstimate:
-    """The last identified material.
-
-    Attributes:
-        effusivity: W·s^½/(m²·K) (NaN: no estimate: too few or non-finite samples, no information).
-        se_ln_b: standard error of ln b (≈ relative error of the effusivity; NaN without an estimate).
-        code: the material's position in the rendering table (1-based, the OD's material code), 0: none.
-        posterior: the class's posterior probability (0 without an estimate).
-        touch: how many touches have been evaluated (counts also those without an estimate).
-        T_object0_C: the object's initial temperature the same fit gives, °C (NaN without an estimate).
-        abstained: why the answer is "unknown" (code :data:`UNKNOWN_CODE`; telethermo.control.material_physics
-            .decide), "" when it named a material.
-        early_code, early_posterior: the first answer (0.3 s window, the envelope classifier's 0.34 s; the
-            network in its box, else the physics posterior), kept when the refined one (``stage`` "late", the
-            physics fit over 1.2 s) replaces ``code`` and ``posterior``.
-        stage: "early" or "late" (the answer in ``code``), "" without an answer.
-        by: "network" (the calibrated classifier in its box: the refined answer keeps its class and posterior,
-            the late fit refines the effusivity only) or "physics" (telethermo.control.material_physics).
-    """
-
-    effusivity: float = math.nan
-    se_ln_b: float = math.nan
-    code: int = 0
-    posterior: float = 0.0
-    touch: int = 0
-    T_object0_C: float = math.nan
-    abstained: str = ""
-    early_code: int = 0
-    early_posterior: float = 0.0
-    stage: str = ""
-    by: str = ""
-
-    @property
-    def beta(self) -> float:
-        """Relative effusivity b/b_skin (the rendering table's and the OD's material_beta scale)."""
-        return self.effusivity / B_SKIN_REF
-
-
-@dataclass(frozen=True, slots=True)
-class MaterialIdParams:
-    """Settings of the identification.
-
-    Attributes:
-        probe: the estimator's probe model (:class:`ProbeParams`).
-        classes: (code, name, effusivity) of the rendering table's entries with an effusivity.
-        calibration: the calibrated classifier (default: the shipped file,
-            telethermo/data/material_classifier.npz, loaded once); None: the nearest table effusivity of the
-            physics fit. Used only when its period and window are the core's (:func:`calibrated`); its
-            materials must be among ``classes``.
-        box: what the calibration was measured on; a touch outside it is named by the physics posterior
-            (telethermo.control.material_physics) instead of the network; None: the network always names it.
-        early, late: the physics posterior's calibration of the early (0.3 s) and refined answer (1.2 s of
-            contact; ``late`` None: no refined answer).
-        envelope, envelope_late: the envelope classifiers of the early and the refined answer (default: the
-            shipped files, telethermo/data/material_envelope_*.npz; telethermo.offline.material_envelope_refs
-            says what they were trained on): they name a touch outside ``box`` in place of the physics
-            posterior, where they apply (:func:`applies`); None: the physics posterior. ``envelope_pool``:
-            the early classifier (0.3 s) the refined answer pools with (its pool was fitted with it).
-    """
-
-    probe: ProbeParams = field(default_factory=ProbeParams)
-    classes: tuple[tuple[int, str, float], ...] = field(default_factory=lambda: default_classes())
-    calibration: Calibration | None = field(default_factory=lambda: default_calibration())
-    box: CalibrationBox | None = field(default_factory=CalibrationBox)
-    early: mp.PhysicsCalibration = mp.EARLY
-    late: mp.PhysicsCalibration | None = mp.LATE
-    envelope: Calibration | None = field(default_factory=lambda: default_envelope(ENVELOPE_EARLY))
-    envelope_late: Calibration | None = field(default_factory=lambda: default_envelope(ENVELOPE_LATE))
-    envelope_pool: Calibration | None = field(default_factory=lambda: default_envelope(ENVELOPE_POOL))
-
-    @property
-    def late_window_s(self) -> float:
-        """The refined answer's window, s (0: none)."""
-        return self.late.window_s if self.late is not None else 0.0
-
-    def __post_init__(self) -> None:
-        if self.calibration is not None:
-            names = {n for _, n, _ in self.classes}
-            missing = [c for c in self.calibration.classes if c not in names]
-            if missing:
-                raise ValueError(
-                    f"material classifier names {missing} that the rendering table has no effusivity for"
-                )
-
-
-def applies(cal: Calibration | None, window_s: float, dt_s: float) -> bool:
-    """Whether classifier ``cal`` was measured at period ``dt_s`` over a window of ``window_s``."""
-    n = int(round(window_s / dt_s))
-    return cal is not None and abs(cal.dt_s - dt_s) <= 1e-9 and window_s > 0.0 and cal.n_win == n
-
-
-def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
-    """Whether the calibration applies at period ``dt_s`` (measured with the same period and window)."""
-    return applies(p.calibration, p.probe.window_s, dt_s)
-
-
-def early_samples(p: MaterialIdParams, dt_s: float) -> int:
-    """Samples after the touch the early answer waits for: the physics fit's window, or the early envelope
-    classifier's when longer (0.34 s against 0.3 s: docs/material_id.md), not beyond the refined one's."""
-    n, env, n_late = int(round(p.probe.window_s / dt_s)), p.envelope, late_samples(p, dt_s)
-    if env is None or abs(env.dt_s - dt_s) > 1e-9 or not n <= env.n_win <= max(n_late, n):
-        return n
-    return env.n_win
-
-
-def early_envelope(p: MaterialIdParams, dt_s: float) -> bool:
-    """Whether the early envelope classifier applies at period ``dt_s`` (its window is the early answer's)."""
-    return applies(p.envelope, early_samples(p, dt_s) * dt_s, dt_s)
-
-
-def fit_units(p: MaterialIdParams, dt_s: float) -> int:
-    """Cycles from the window's completion to the published result (one unit of work each: the window's
-    signals, the energy form, the flux form, each noise realisation, then the classification: one layer of the
-    calibrated networks per cycle, or the nearest effusivity in one)."""
-    cal = cast(Calibration, p.calibration)  # not None when calibrated
-    return 1 + len(FORMS) + noise_draws(p.probe) + (n_units(cal) if calibrated(p, dt_s) else 1)
 
 
 @dataclass(frozen=True, slots=True)
@@ -231,14 +137,6 @@ class MaterialState:
     late: bool = False
 
 
-def late_samples(p: MaterialIdParams, dt_s: float) -> int:
-    """Samples after the touch the refined answer's fit uses (0: no refined answer)."""
-    if p.late is None:
-        return 0
-    n = int(round(p.late.window_s / dt_s))
-    return n if n > int(round(p.probe.window_s / dt_s)) else 0
-
-
 def prepare(p: MaterialIdParams, dt_s: float) -> None:
     """Build the fit's cached constants for period ``dt_s`` (the half-integral matrix, the filter's release,
     the noise realisations) now, so that the first touch's fit does not build them inside a control cycle
@@ -258,12 +156,15 @@ def prepare(p: MaterialIdParams, dt_s: float) -> None:
 def material_step(
     p: MaterialIdParams, st: MaterialState, T_sensor_C: float, Q_W: float, contact: bool, dt_s: float
 ) -> MaterialState:
-    """Advance the collector by one sample and the fit under way by one unit of work (pure). The early
+    """Advance the collector by one sample and the fit under way by ``p.units_per_cycle`` units of work
+    (pure). The early
     window's fit starts when its ``window_s`` is collected; while the contact lasts the samples go on being
     collected and the refined answer's fit starts when :func:`late_samples` are (and the early fit is
     done)."""
     job, last = st.job, st.last
-    if job is not None:
+    for _ in range(p.units_per_cycle):
+        if job is None:
+            break
         job, last = _fit_unit(p, job, last, dt_s)
     n_pre = pre_samples(p.probe, dt_s)
     n_win = early_samples(p, dt_s)

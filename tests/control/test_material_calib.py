@@ -33,6 +33,7 @@ from telethermo.control.material_calib import (
     whitener,
 )
 from telethermo.control.material_stream import (
+    UNITS_PER_CYCLE,
     UNKNOWN_CODE,
     MaterialIdParams,
     MaterialState,
@@ -40,6 +41,7 @@ from telethermo.control.material_stream import (
     default_classes,
     early_samples,
     fit_units,
+    fit_work_units,
     material_step,
 )
 from telethermo.control.material_train import TrainSettings
@@ -137,18 +139,20 @@ def test_classifier_names_thick_slabs_at_a_large_temperature_difference():
     assert right >= 9, right
 
 
-def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
-    """The staged fit (the physics fit's units, then one network layer per cycle) equals the batch one."""
+@pytest.mark.parametrize("per_cycle", [1, UNITS_PER_CYCLE])
+def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles(per_cycle):
+    """The staged fit (the physics fit's units, then one network layer per unit, ``per_cycle`` units a cycle)
+    equals the batch one, published exactly fit_units cycles after the window."""
     T_probe = finger_natural_C(PARAMS)
     T, Q, i0, _, _ = simulate_touch(
         PARAMS, "glass", 0.02, T_probe - 12.0, 6.0, T_probe, seed=900_100, t_on_s=0.205
     )
     assert T.size > i0 + 30 + 20
-    p = MaterialIdParams()
-    assert (
-        calibrated(p, PERIOD_S) and fit_units(p, PERIOD_S) == 3 + mi.noise_draws(p.probe) + n_units(CAL) == 15
-    )
-    n_win, units = early_samples(p, PERIOD_S), fit_units(p, PERIOD_S)  # the longer window: 0.34 s
+    p = MaterialIdParams(units_per_cycle=per_cycle)
+    work = fit_work_units(p, PERIOD_S)
+    assert calibrated(p, PERIOD_S) and work == 3 + mi.noise_draws(p.probe) + n_units(CAL) == 15
+    assert fit_units(p, PERIOD_S) == -(-work // per_cycle)
+    n_win, units = early_samples(p, PERIOD_S), fit_units(p, PERIOD_S)  # the envelope classifier's window
     st = MaterialState()
     k_pub = i0 + n_win - 1 + units  # the window completes at i0 + n_win - 1
     for k in range(k_pub):
@@ -164,7 +168,8 @@ def test_the_core_publishes_the_calibrated_class_after_fit_units_cycles():
 
 def test_another_period_falls_back_to_the_physics_classification():
     p = MaterialIdParams()
-    assert not calibrated(p, 0.001) and fit_units(p, 0.001) == 4 + mi.noise_draws(p.probe)
+    assert not calibrated(p, 0.001) and fit_work_units(p, 0.001) == 4 + mi.noise_draws(p.probe)
+    assert fit_units(p, 0.001) == -(-fit_work_units(p, 0.001) // p.units_per_cycle)
 
 
 def test_whitener_maps_the_floored_noise_covariance_to_the_identity():
