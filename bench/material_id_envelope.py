@@ -48,15 +48,14 @@ from bench.material_id_scores import (
     position_worst_ms,
     print_envelope,
 )
-from telethermo.control.material_id import noise_draws
 from telethermo.control.types import Role
 from telethermo.offline.envelope import identified_params
-from telethermo.control.material_calib import n_units
 from telethermo.control.material_stream import (
     MaterialIdParams,
     UNKNOWN_CODE,
     early_samples,
     fit_units,
+    late_fit_units,
     late_samples,
 )
 from telethermo.sim.materials import material
@@ -210,9 +209,7 @@ def _fit_cycles_ms(step_s: np.ndarray, i0: int) -> tuple[float | None, float | N
     cyc = [range(i0 + n_win, i0 + n_win + fit_units(p, mb.PERIOD_S) + 1)]
     n_late = late_samples(p, mb.PERIOD_S)
     if n_late:  # the window's signals, the two forms, the noise draws, the networks' layers (the pool's too)
-        nets = sum(n_units(c) for c in (p.envelope, p.envelope_late) if c is not None)
-        late_cycles = -(-(3 + noise_draws(p.probe) + nets) // p.units_per_cycle)
-        cyc.append(range(i0 + n_late, i0 + n_late + late_cycles + 1))
+        cyc.append(range(i0 + n_late, i0 + n_late + late_fit_units(p) + 1))
     out = [[k for k in c if k < step_s.size] for c in cyc] + [[]]
     return tuple(1e3 * float(np.max(step_s[i])) if i else None for i in out[:2])
 

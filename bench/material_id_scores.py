@@ -8,9 +8,13 @@ from typing import Any
 
 import numpy as np
 
-from telethermo.control.material_calib import n_units
-from telethermo.control.material_id import noise_draws
-from telethermo.control.material_stream import MaterialIdParams, early_samples, fit_units, late_samples
+from telethermo.control.material_stream import (
+    MaterialIdParams,
+    early_samples,
+    fit_units,
+    late_fit_units,
+    late_samples,
+)
 
 # the calibration error and its floors live in the library (the tests use them too); re-exported
 from telethermo.offline.calibration_error import ECE_FLOOR_SEED, ece, ece_floor, ece_worst_floor
@@ -113,8 +117,7 @@ def answer_timing(early: bool) -> str:
             f"(the physics fit over its first {p.probe.window_s:g} s) + {cycles} fit cycles of {per} units "
             "(in-box network in its box, else the early envelope classifier)"
         )
-    nets = sum(n_units(c) for c in (p.envelope_pool, p.envelope_late) if c is not None)
-    n, cycles = late_samples(p, dt), -(-(3 + noise_draws(p.probe) + nets) // per)
+    n, cycles = late_samples(p, dt), late_fit_units(p)
     return (
         f"{(n + cycles) * dt:.2f} s after contact: the envelope classifiers pooled (the pool's over 0.3 s, "
         f"the refined one over {n * dt:.2f} s) + {cycles} fit cycles of {per} units; in the box the in-box "

@@ -27,10 +27,11 @@ B_SKIN_REF = 951.15
 #: calibrated on, or its evidence is weak; the effusivity and object temperature the physics fit measured
 #: are still published
 UNKNOWN_CODE = 255
-#: units of the fit's work run per control cycle: three put the early answer 5 cycles after its window
-#: (15 units), so that window can be 0.44 s and the answer still come 0.49 s after the contact (the early
-#: envelope classifier gains with every sample: docs/material_id.md); three units are about 0.2 ms here,
-#: under the 0.51 ms of fit work per cycle issue 23 allows
+#: units of the physics fit run per control cycle (the window's signals, the two forms, the noise
+#: realisations: about 0.08 ms each here); a network layer ends its cycle (in the vcan VM's software
+#: emulation one layer takes up to 6 ms of a 10 ms cycle). Three put the early answer 7 cycles after its
+#: window, not 15, so that window can be 0.42 s and the answer still come 0.49 s after the contact (the early
+#: envelope classifier gains with every sample: docs/material_id.md)
 UNITS_PER_CYCLE = 3
 
 
@@ -88,7 +89,8 @@ class MaterialIdParams:
             (telethermo.control.material_physics) instead of the network; None: the network always names it.
         early, late: the physics posterior's calibration of the early (0.3 s) and refined answer (1.2 s of
             contact; ``late`` None: no refined answer).
-        units_per_cycle: units of the fit's work run in one control cycle (:data:`UNITS_PER_CYCLE`).
+        units_per_cycle: units of the physics fit run in one control cycle (:data:`UNITS_PER_CYCLE`; a network
+            layer ends its cycle).
         envelope, envelope_late: the envelope classifiers of the early and the refined answer (default: the
             shipped files, telethermo/data/material_envelope_*.npz; telethermo.offline.material_envelope_refs
             says what they were trained on): they name a touch outside ``box`` in place of the physics
@@ -158,9 +160,28 @@ def fit_work_units(p: MaterialIdParams, dt_s: float) -> int:
 
 
 def fit_units(p: MaterialIdParams, dt_s: float) -> int:
-    """Cycles from the window's completion to the published result: :func:`fit_work_units`,
-    ``units_per_cycle`` of them a cycle."""
-    return -(-fit_work_units(p, dt_s) // p.units_per_cycle)
+    """Cycles from the window's completion to the published result: the physics fit's units
+    ``units_per_cycle`` a cycle, the first network layer (or the nearest effusivity) in the cycle of the last
+    of them when there is room, each further layer in a cycle of its own."""
+    return _cycles(physics_units(p), fit_work_units(p, dt_s) - physics_units(p), p.units_per_cycle)
+
+
+def late_fit_units(p: MaterialIdParams) -> int:
+    """Cycles from the refined window's completion to the refined answer when the envelope classifiers give
+    it: the physics fit's units, then the pool's early network and the refined one, layer by layer."""
+    nets = sum(n_units(c) for c in (p.envelope_pool, p.envelope_late) if c is not None)
+    return _cycles(physics_units(p), max(nets, 1), p.units_per_cycle)
+
+
+def _cycles(physics: int, nets: int, per_cycle: int) -> int:
+    """Cycles of ``physics`` units ``per_cycle`` a cycle, then ``nets`` network layers, the first in the last
+    physics cycle when there is room, the others one a cycle."""
+    return -(-(physics + 1) // per_cycle) + nets - 1
+
+
+def physics_units(p: MaterialIdParams) -> int:
+    """Units of the physics fit: the window's signals, the two forms, the noise realisations."""
+    return 1 + len(FORMS) + noise_draws(p.probe)
 
 
 def late_samples(p: MaterialIdParams, dt_s: float) -> int:

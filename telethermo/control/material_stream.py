@@ -3,17 +3,16 @@
 The slave's core calls :func:`material_step` every cycle with the sample and its contact decision. While
 nothing touches, the last ``pre_s`` of samples are kept; from the first contact sample on, ``window_s`` of
 samples are collected. The fit (:func:`telethermo.control.material_id.estimate_effusivity`'s stages) then
-runs spread over the following cycles, a few units of work per cycle (``units_per_cycle``) so that no
-control cycle carries the whole fit: the window's signals, the energy form, the flux form, each of the
-``noise_draws`` noise realisations of the confidence, then the classification: with a calibration
-(telethermo.control.material_calib, default the shipped one) its networks' posterior, else the nearest table
-effusivity. The networks run one layer per unit. The result (the physics fit's effusivity and standard error
-of ln b, the class and its posterior) is published :func:`fit_units` cycles after the window is complete (15
-units with the defaults and networks of four layers, three a cycle: 0.05 s at 100 Hz; without an effusivity
-from either form of the physics fit, the class alone, without the noise realisations' units) and held until
-the next touch's fit completes (a release clears nothing; a fit under way finishes). The staged fit equals the
-batch one exactly (material_id.estimate_effusivity, material_calib.classify_vector). Pure: the state is an
-immutable value.
+runs spread over the following cycles so that no control cycle carries the whole fit: the window's signals,
+the energy form, the flux form, each of the ``noise_draws`` noise realisations of the confidence
+(``units_per_cycle`` of these units a cycle), then the classification: with a calibration
+(telethermo.control.material_calib, default the shipped one) its networks' posterior, one layer a cycle,
+else the nearest table effusivity. The result (the physics fit's effusivity and standard error of ln b, the
+class and its posterior) is published :func:`fit_units` cycles after the window is complete (7 with the
+defaults and networks of four layers: 0.07 s at 100 Hz; without an effusivity from either form of the
+physics fit, the class alone, without the noise realisations' units) and held until the next touch's fit
+completes (a release clears nothing; a fit under way finishes). The staged fit equals the batch one exactly
+(material_id.estimate_effusivity, material_calib.classify_vector). Pure: the state is an immutable value.
 """
 
 from __future__ import annotations
@@ -70,6 +69,7 @@ from telethermo.control.material_params import (
     early_samples,
     fit_units,
     fit_work_units,
+    late_fit_units,
     late_samples,
 )
 
@@ -90,6 +90,7 @@ __all__ = [
     "early_samples",
     "fit_units",
     "fit_work_units",
+    "late_fit_units",
     "late_samples",
     "material_step",
     "prepare",
@@ -162,10 +163,12 @@ def material_step(
     collected and the refined answer's fit starts when :func:`late_samples` are (and the early fit is
     done)."""
     job, last = st.job, st.last
-    for _ in range(p.units_per_cycle):
+    for _ in range(p.units_per_cycle):  # a network layer (the job's input set) ends the cycle
         if job is None:
             break
         job, last = _fit_unit(p, job, last, dt_s)
+        if job is not None and job.x is not None:
+            break
     n_pre = pre_samples(p.probe, dt_s)
     n_win = early_samples(p, dt_s)
     n_late = late_samples(p, dt_s)

@@ -64,10 +64,10 @@ class Window(NamedTuple):
 
 
 #: the early answer's classifier, the one the refined answer pools with and the refined answer's (the early
-#: answer's 0.44 s: as long as the answer 0.49 s after the contact allows with three units of the fit a cycle
-#: (material_stream.UNITS_PER_CYCLE); the development set's choice over 0.34 and the 0.3 s the pool keeps,
-#: docs/material_id.md)
-EARLY, POOL, LATE = Window(0.44, 1), Window(0.3, 1), Window(1.2, 4)
+#: answer's 0.42 s: as long as the answer 0.49 s after the contact allows with three units of the physics fit
+#: a cycle (material_stream.UNITS_PER_CYCLE); the development set's choice over 0.34 s and the 0.3 s the pool
+#: keeps, docs/material_id.md)
+EARLY, POOL, LATE = Window(0.42, 1), Window(0.3, 1), Window(1.2, 4)
 #: where :func:`calibrate` writes them
 OUT = (ENVELOPE_EARLY, ENVELOPE_POOL, ENVELOPE_LATE)
 #: how the networks are trained (the development set's choice: 3 × 256, 60 epochs; docs/material_id.md)

@@ -27,7 +27,18 @@ from telethermo.control.material_calib import (
     posterior,
     save_calibration,
 )
-from telethermo.control.material_stream import UNKNOWN_CODE, default_classes, default_envelope
+from telethermo.control.material_stream import (
+    UNKNOWN_CODE,
+    MaterialIdParams,
+    MaterialState,
+    default_classes,
+    default_envelope,
+    early_samples,
+    fit_units,
+    late_fit_units,
+    late_samples,
+    material_step,
+)
 from telethermo.control.material_train import TrainSettings
 from telethermo.control.material_trust import (
     FLUX_COLLAPSE_MAX,
@@ -307,3 +318,28 @@ def test_the_refined_answer_pools_both_classifiers():
     assert est.posterior == pytest.approx(float(np.max(p)), rel=1e-5)
     assert est.code == UNKNOWN_CODE or NAMES[est.code] == late_cal.classes[int(np.argmax(p))]
     assert float(np.max(p)) != pytest.approx(float(np.max(ps[1])), rel=1e-3)  # the pool changed it
+
+
+@shipped
+def test_the_envelope_answers_come_when_the_schedule_says():
+    """A 45 °C steel block (outside the in-box classifier's box: the envelope classifiers answer), the core's
+    material_step run sample by sample: the early answer is out exactly fit_units cycles after its window
+    (three physics units a cycle, one network layer a cycle), within 0.5 s of the contact, and the refined
+    one late_fit_units cycles after its window."""
+    rest = finger_natural_C(PARAMS, 25.0)
+    T, Q, i0, est, _ = simulate_touch(
+        PARAMS, "carbon_steel", 0.01, 45.0, 5.0, rest, seed=942_101, t_on_s=0.2043, post_s=1.45
+    )
+    p = MaterialIdParams()
+    assert est is not None and est.by == "envelope" and est.stage == "late", est
+    st, early_at, late_at = MaterialState(), None, None
+    for k in range(T.size):
+        st = material_step(p, st, T[k], Q[k], k >= i0, DT)
+        if early_at is None and st.last.touch == 1:
+            early_at = k
+        if late_at is None and st.last.stage == "late":
+            late_at = k
+    assert early_at == i0 + early_samples(p, DT) - 1 + fit_units(p, DT), (early_at, i0)
+    assert (early_at - i0 + 1) * DT <= 0.5
+    assert late_at == i0 + late_samples(p, DT) - 1 + late_fit_units(p), (late_at, i0)
+    assert (st.last.code, st.last.early_code) == (est.code, est.early_code)
