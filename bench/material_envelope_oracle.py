@@ -4,7 +4,7 @@ the touch from what each answer sees, and the pairs no method can tell apart in 
 The oracle is telethermo/offline/material_oracle.py's unknown-nuisance one (it knows the simulator; the
 object's temperature, the contact resistance and the thickness are profiled out per candidate; the probe's
 core runs the gains the slave runs, after ``identify`` on another module), run over each answer's own
-window: the early answer's (:func:`windows`: the early classifier's 0.34 s) and the refined answer's
+window: the early answer's (:func:`windows`: the early classifier's 0.42 s) and the refined answer's
 (1.2 s). Until the thirty-ninth session one 0.3 s oracle stood beside both answers, which understated what
 the refined answer leaves on the table.
 

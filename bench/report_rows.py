@@ -151,7 +151,7 @@ HEADLINE = [
     (
         "material_id",
         "material_id_envelope_accuracy_late",
-        "refined answer (1.39 s), 2739 touches across the envelope, outside the 2 °C band (abstain = wrong)",
+        "refined answer (1.31 s), 2739 touches across the envelope, outside the 2 °C band (abstain = wrong)",
         "≥ 0.98",
     ),
     (
@@ -169,7 +169,7 @@ HEADLINE = [
     (
         "material_id",
         "material_id_envelope_oracle_early",
-        "the same touches: local oracle over the early answer's 0.34 s",
+        "the same touches: local oracle over the early answer's 0.42 s",
         "report",
     ),
     (

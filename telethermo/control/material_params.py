@@ -48,7 +48,7 @@ class MaterialEstimate:
         T_object0_C: the object's initial temperature the same fit gives, °C (NaN without an estimate).
         abstained: why the answer is "unknown" (code :data:`UNKNOWN_CODE`; telethermo.control.material_physics
             .decide), "" when it named a material.
-        early_code, early_posterior: the first answer (0.3 s window, the envelope classifier's 0.34 s; the
+        early_code, early_posterior: the first answer (0.3 s window, the envelope classifier's 0.42 s; the
             network in its box, else the physics posterior), kept when the refined one (``stage`` "late", the
             physics fit over 1.2 s) replaces ``code`` and ``posterior``.
         stage: "early" or "late" (the answer in ``code``), "" without an answer.

@@ -1,7 +1,7 @@
 """The slave's envelope classifiers (issue 23), trained on reference touches across the operating envelope:
 :func:`calibrate`, run by ``python -m bench.material_envelope_calibrate``.
 
-Three classifiers: the early answer's over 0.34 s (every sample), the refined answer's over 1.2 s (every 4th
+Three classifiers: the early answer's over 0.42 s (every sample), the refined answer's over 1.2 s (every 4th
 sample), and the one the refined answer pools with over 0.3 s (every sample; the pool's weights fitted on
 development touches, :func:`record_pool`), each a network over material_calib.envelope_vector (the touch's
 shape, divided by its size and by the direction of its heat flow, then that size, the direction and the

@@ -172,7 +172,7 @@ def test_the_staged_answer_is_the_batch_classification():
     )
     assert est.by == "envelope" and est.stage == "early", est
     env = default_envelope(ENVELOPE_EARLY)
-    assert env is not None and env.n_win == 34  # its own window: 0.34 s (the physics fit's 0.3 s)
+    assert env is not None and env.n_win == 42  # its own window: 0.42 s (the physics fit's 0.3 s)
     inp = mi.fit_input(T, Q, i0, DT, replace(mi.ProbeParams(), window_s=env.n_win * DT))
     i, post = classify_vector(env, calibration_vector(env, inp))
     assert est.posterior == pytest.approx(post, rel=1e-6)
@@ -296,12 +296,12 @@ def test_a_malformed_pool_names_its_field(tmp_path):
 def test_the_refined_answer_pools_both_classifiers():
     """A probe resting at the 18 °C room's rest (outside the in-box classifier's box): by 1.5 s of contact the
     slave's refined answer is the pool of the pool's early classifier over the first 0.3 s (not the early
-    answer's, over 0.34 s) and the refined one over 1.2 s, the same class and posterior as the batch
+    answer's, over 0.42 s) and the refined one over 1.2 s, the same class and posterior as the batch
     computation, with the shipped weights."""
     late_cal = default_envelope(ENVELOPE_LATE)
     early_cal = default_envelope(ENVELOPE_POOL)
     assert late_cal is not None and early_cal is not None and late_cal.pool is not None
-    assert early_cal.n_win == 30 and default_envelope(ENVELOPE_EARLY).n_win == 34
+    assert early_cal.n_win == 30 and default_envelope(ENVELOPE_EARLY).n_win == 42
     rest = finger_natural_C(PARAMS, 18.0)
     T, Q, i0, est, _ = simulate_touch(
         PARAMS, "ceramic", 0.003, 20.0, 1.0, rest, seed=943_001, t_on_s=0.2043, ambient_C=18.0, post_s=1.5

@@ -165,7 +165,7 @@ def test_nan_input_gives_no_estimate():
     assert mi.estimate_effusivity(T[: i0 + 10], Q[: i0 + 10], i0, DT) is None  # window incomplete
     assert mi.estimate_effusivity(T, Q, 0, DT) is None  # nothing before the touch
     p, st = MaterialIdParams(), MaterialState()
-    for k in range(i0 + 35):
+    for k in range(i0 + early_samples(p, DT) + 1):  # the window, then its first unit: nothing to fit
         st = material_step(p, st, T[k], Q[k], k >= i0, DT)
     assert st.last.touch == 1 and st.last.code in (0, UNKNOWN_CODE) and math.isnan(st.last.effusivity)
 
@@ -204,7 +204,7 @@ def test_fit_is_spread_over_cycles_and_equals_the_batch_fit():
     samples, _, _ = touch("ceramic", noise=True, seed=5)
     T, Q, i0 = arrays(samples)
     p = MaterialIdParams()
-    n_win = early_samples(p, DT)  # the early envelope classifier's window (0.34 s), the fit's 0.3 s inside it
+    n_win = early_samples(p, DT)  # the early envelope classifier's window (0.42 s), the fit's 0.3 s inside it
     units = fit_units(p, DT)
     st = MaterialState()
     seen = []
@@ -221,12 +221,12 @@ def test_fit_is_spread_over_cycles_and_equals_the_batch_fit():
 
 
 def test_the_early_answer_waits_for_the_longer_of_its_two_windows():
-    """The physics fit's window is 0.3 s, the shipped early envelope classifier's 0.34 s: the early job starts
-    when the longer is collected (the answer 0.34 s + fit_units cycles after the touch: 0.49 s at 100 Hz);
+    """The physics fit's window is 0.3 s, the shipped early envelope classifier's 0.42 s: the early job starts
+    when the longer is collected (the answer 0.42 s + fit_units cycles after the touch: 0.49 s at 100 Hz);
     without an envelope classifier, or with one measured at another period, the fit's own window."""
     p = MaterialIdParams()
-    assert int(round(p.probe.window_s / DT)) == 30 and p.envelope is not None and p.envelope.n_win == 34
-    assert early_samples(p, DT) == 34 and (early_samples(p, DT) + fit_units(p, DT)) * DT <= 0.5
+    assert int(round(p.probe.window_s / DT)) == 30 and p.envelope is not None and p.envelope.n_win == 42
+    assert early_samples(p, DT) == 42 and (early_samples(p, DT) + fit_units(p, DT)) * DT <= 0.5
     assert early_samples(replace(p, envelope=None), DT) == 30
     assert early_samples(p, 2 * DT) == int(round(p.probe.window_s / (2 * DT)))
 
@@ -236,7 +236,7 @@ def test_a_new_touch_during_a_fit_does_not_lose_the_held_result():
     samples, _, _ = touch("glass", noise=True, seed=6)
     T, Q, i0 = arrays(samples)
     p = MaterialIdParams()
-    n_win = early_samples(p, DT)  # the early envelope classifier's window (0.34 s), the fit's 0.3 s inside it
+    n_win = early_samples(p, DT)  # the early envelope classifier's window (0.42 s), the fit's 0.3 s inside it
     st = MaterialState()
     for k in range(i0 + n_win + 2):
         st = material_step(p, st, T[k], Q[k], k >= i0, DT)
