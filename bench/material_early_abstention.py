@@ -16,14 +16,14 @@ answers), and the early figures are recomputed for rules that name some of them:
 - ``shipped``: as the slave publishes;
 - ``name_no_fit``: ``no_fit`` touches named when the posterior reaches material_physics.MIN_POSTERIOR;
 - ``name_no_fit_drawing_heat``: the same, only where the flux's change in the first 0.15 s of contact
-  reaches material_trust.FLUX_COLLAPSE_MIN_PEAK_W (a touch that draws heat at all);
+  reaches material_trust.FLUX_COLLAPSE_MIN_PEAK_W (material_trust.flux_peak_W: a touch that draws heat);
 - ``name_every_abstention``: every abstention named (the most the lever can give).
 
 Each is scored on the envelope's development touches (material_touches.DEVELOPMENT, seeds disjoint from the
 evaluation's) and on touches beyond the envelope (material_touches.OUTSIDE_DEVELOPMENT): a rule that names
 more inside must not name confidently outside what the classifier never learnt, so the second set's
 confident precision sits beside the first's accuracy, with how many of its new confident wrong names the
-refined answer (1.39 s) gives anyway.
+refined answer (1.31 s) gives anyway.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from telethermo.control.material_calib import Calibration, calibration_vector, c
 from telethermo.control.material_id import fit_input, pre_samples
 from telethermo.control.material_physics import MIN_POSTERIOR
 from telethermo.control.material_stream import UNKNOWN_CODE, MaterialIdParams
-from telethermo.control.material_trust import FLUX_COLLAPSE_MIN_PEAK_W, FLUX_PEAK_S
+from telethermo.control.material_trust import FLUX_COLLAPSE_MIN_PEAK_W, flux_peak_W
 from telethermo.offline.material_touches import (
     DEVELOPMENT,
     OUTSIDE_DEVELOPMENT,
@@ -88,13 +88,6 @@ def withheld(T: np.ndarray, Q: np.ndarray, i0: int, p: MaterialIdParams) -> tupl
     return classify_vector(env, calibration_vector(env, own))
 
 
-def flux_peak_W(Q: np.ndarray, i0: int, p: MaterialIdParams, dt_s: float) -> float:
-    """The largest change of the flux from its pre-contact mean in the first FLUX_PEAK_S of contact, W."""
-    n_pre = pre_samples(p.probe, dt_s)
-    q = Q[i0 : i0 + int(round(FLUX_PEAK_S / dt_s))] - float(np.mean(Q[i0 - n_pre : i0]))
-    return float(np.max(np.abs(q)))
-
-
 def score(t: dict) -> dict:
     """One touch: what the slave publishes (early and refined), the early answer's reason, and the class
     its envelope classifier withheld."""
@@ -102,14 +95,16 @@ def score(t: dict) -> dict:
     row = run_touch(c["rigs"], t, c["sims"], c["names"], c["cores"])
     T, Q, i0, est, _ = simulate_drawn(c["rigs"], t, c["sims"], c["cores"], post_s=EARLY_POST_S)
     env = cast(Calibration, c["p"].envelope)
-    w = withheld(np.asarray(T, float), np.asarray(Q, float), int(i0), c["p"]) if i0 >= 0 else None
+    T, Q = np.asarray(T, float), np.asarray(Q, float)
+    inp = fit_input(T, Q, int(i0), env.dt_s, c["p"].probe) if i0 >= 0 else None
+    w = withheld(T, Q, int(i0), c["p"]) if inp is not None else None
     named = env.classes[w[0]] if w is not None else None
     return {k: v for k, v in row.items() if k not in ("fit_positions_ms", "fit_step_ms")} | {
         "early_reason": est.abstained if est is not None and est.early_code == UNKNOWN_CODE else "",
         "early_by": est.by if est is not None else "",
         "withheld": c["names"].index(named) if named in c["names"] else -1,
         "withheld_posterior": w[1] if w is not None else 0.0,
-        "flux_peak_W": flux_peak_W(np.asarray(Q, float), int(i0), c["p"], env.dt_s) if i0 >= 0 else 0.0,
+        "flux_peak_W": flux_peak_W(inp) if inp is not None else 0.0,
     }
 
 

@@ -115,7 +115,8 @@ def tick_figures(step_s: list[np.ndarray], fit_cycles: list[slice], batch_s: lis
         "material_id_batch_fit_over_step_median": round(batch / med, 1),
         "material_id_tick_note": (
             "the fit runs spread over fit_units cycles after the early window (3 + noise_draws "
-            "+ one per network layer, telethermo.control.material_stream); "
+            "units of the physics fit, UNITS_PER_CYCLE a cycle, then one network layer a cycle, "
+            "telethermo.control.material_stream); "
             "fit_cycle_worst: per touch the slowest "
             "of those cycles' core steps, median over touches; batch_fit: the physics fit in "
             "one call (estimate_effusivity, without the classification); core_step_max: the slowest step of "

@@ -139,7 +139,7 @@ def calibrated(p: MaterialIdParams, dt_s: float) -> bool:
 
 def early_samples(p: MaterialIdParams, dt_s: float) -> int:
     """Samples after the touch the early answer waits for: the physics fit's window, or the early envelope
-    classifier's when longer (0.34 s against 0.3 s: docs/material_id.md), not beyond the refined one's."""
+    classifier's when longer (0.42 s against 0.3 s: docs/material_id.md), not beyond the refined one's."""
     n, env, n_late = int(round(p.probe.window_s / dt_s)), p.envelope, late_samples(p, dt_s)
     if env is None or abs(env.dt_s - dt_s) > 1e-9 or not n <= env.n_win <= max(n_late, n):
         return n
@@ -156,7 +156,7 @@ def fit_work_units(p: MaterialIdParams, dt_s: float) -> int:
     realisation, then the classification: one layer of the calibrated networks per unit, or the nearest
     effusivity in one."""
     cal = cast(Calibration, p.calibration)  # not None when calibrated
-    return 1 + len(FORMS) + noise_draws(p.probe) + (n_units(cal) if calibrated(p, dt_s) else 1)
+    return physics_units(p) + (n_units(cal) if calibrated(p, dt_s) else 1)
 
 
 def fit_units(p: MaterialIdParams, dt_s: float) -> int:

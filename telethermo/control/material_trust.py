@@ -131,15 +131,30 @@ def flux_collapse(inp: FitInput, later_s: tuple[float, float] = FLUX_LATER_S) ->
     object's flux falls as 1/√t. A foil on an insulating back then looks like a touch of EPS to the
     classifier, which learnt nothing thinner than 0.3 mm."""
     n = inp.n_pre
-    i_peak = n + int(round(FLUX_PEAK_S / inp.dt_s))
     i_lo, i_hi = (n + int(round(t / inp.dt_s)) for t in later_s)
     if inp.Q.size <= i_hi:
         return None
-    q = inp.Q - float(np.mean(inp.Q[:n]))
-    peak = float(np.max(np.abs(q[n:i_peak])))
+    q = _flux_change(inp)
+    peak = _peak_W(inp, q)
     if not peak >= FLUX_COLLAPSE_MIN_PEAK_W:
         return None
     return peak / max(abs(float(np.mean(q[i_lo:i_hi]))), 1e-3)
+
+
+def flux_peak_W(inp: FitInput) -> float:
+    """The largest change of the flux from its pre-contact mean over the first :data:`FLUX_PEAK_S` of
+    contact, W (what :func:`flux_collapse` compares with :data:`FLUX_COLLAPSE_MIN_PEAK_W`)."""
+    return _peak_W(inp, _flux_change(inp))
+
+
+def _flux_change(inp: FitInput) -> np.ndarray:
+    """The window's flux less its pre-contact mean, W."""
+    return inp.Q - float(np.mean(inp.Q[: inp.n_pre]))
+
+
+def _peak_W(inp: FitInput, q: np.ndarray) -> float:
+    """The largest |q| over the first FLUX_PEAK_S of contact, W."""
+    return float(np.max(np.abs(q[inp.n_pre : inp.n_pre + int(round(FLUX_PEAK_S / inp.dt_s))])))
 
 
 #: the reasons :func:`envelope_novelty` gives: the touch lies outside what the classifier learnt
